@@ -1,0 +1,1 @@
+"""Signal processing on arrays: spectra, harmonics, FRF, modal identification, EM-vs-FEM comparison, plots."""

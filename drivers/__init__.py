@@ -1,0 +1,1 @@
+"""Hardware contracts and backends: NI-DAQmx, VISA signal source, simulated rig."""

@@ -1,0 +1,57 @@
+"""The ``rig`` command line.
+
+Each sub-command lives in its own module under :mod:`rigtools.commands` and exposes
+``register(subparsers)``; modules are discovered, so adding a command never touches this file.
+Errors a user can cause (:class:`rigtools.errors.UserError`) end in one line on stderr and a
+non-zero exit status; programming errors still raise.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import pkgutil
+import sys
+
+from rigtools import commands
+from rigtools.errors import UserError
+
+DESCRIPTION = """\
+Shrouded-blade vibro-impact rig toolkit.
+
+Acquire on the NI rig or on the simulated rig, store runs as HDF5, simulate the same experiment
+with the FE model, and compare. Every command uses the calibrated default rig unless --rig FILE
+is given. Units are SI; lengths and other quantities may be given as strings like "0.5 mm".
+"""
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="rig", description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for info in sorted(pkgutil.iter_modules(commands.__path__), key=lambda m: m.name):
+        module = importlib.import_module(f"rigtools.commands.{info.name}")
+        if hasattr(module, "register"):
+            module.register(sub)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if not getattr(args, "func", None):
+        parser.print_help()
+        return 2
+    try:
+        return int(args.func(args) or 0)
+    except UserError as exc:
+        print(f"rig {args.command}: error: {exc}", file=sys.stderr)
+        return exc.exit_code
+    except KeyboardInterrupt:
+        print(f"rig {args.command}: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())
