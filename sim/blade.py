@@ -1,0 +1,215 @@
+"""One blade as a finite-element model: mesh, assembly, lumped masses, root, free DOFs.
+
+A blade is a uniform rectangular beam along x from the root (x = 0) to the shroud (x = length),
+meshed with two-node 3D beam elements (:mod:`sim.beam_element`). Lumped masses (the shroud at the
+tip, the force sensor at mid-span) sit on nodes: the mesh puts a node exactly at each mass, keeping
+the requested number of elements (elements are uniform between masses). The root is clamped
+(its six DOFs are removed) or held by translational and rotational springs on all six DOFs.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+
+from sim.beam_element import element_matrices, rectangular_section
+from sim.params import BladeParams, LumpedMass, RootParams
+
+N_DOF_NODE = 6
+COMPONENTS = ("ux", "uy", "uz", "rx", "ry", "rz")
+
+
+@dataclass
+class BladeModel:
+    """Finite-element model of one blade, reduced to its free DOFs.
+
+    Attributes
+    ----------
+    name
+        ``"active"`` or ``"passive"`` (any label).
+    params
+        Geometry and material.
+    node_x
+        Node positions from the root, m.
+    mass, stiffness
+        Free-DOF matrices (clamped DOFs removed), symmetric positive-definite.
+    free_dofs
+        Full DOF number ``node * 6 + component`` of each free DOF.
+    tip_node
+        Node carrying the shroud (last node).
+    sensor_node
+        Node carrying the force sensor, or ``None``.
+    masses
+        The lumped masses on this blade (positions as given).
+    root
+        The root support.
+    rotary_inertia
+        Whether the distributed rotary inertia of the section is in ``mass``.
+    """
+
+    name: str
+    params: BladeParams
+    node_x: np.ndarray
+    mass: sp.csr_matrix
+    stiffness: sp.csr_matrix
+    free_dofs: np.ndarray
+    tip_node: int
+    sensor_node: int | None
+    masses: tuple[LumpedMass, ...] = ()
+    root: RootParams = field(default_factory=RootParams)
+    rotary_inertia: bool = True
+    _free_index: np.ndarray = field(default=None, repr=False, compare=False)
+    _cache: dict = field(default_factory=dict, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        index = np.full(len(self.node_x) * N_DOF_NODE, -1, dtype=np.int64)
+        index[self.free_dofs] = np.arange(len(self.free_dofs))
+        self._free_index = index
+
+    @property
+    def n_dofs(self) -> int:
+        return len(self.free_dofs)
+
+    def dof(self, node: int, component: int) -> int:
+        """Index in the free system of ``component`` (0..5 = ux, uy, uz, rx, ry, rz) at ``node``.
+
+        Raises
+        ------
+        KeyError
+            If that DOF is clamped or does not exist.
+        """
+        if not 0 <= component < N_DOF_NODE or not 0 <= node < len(self.node_x):
+            raise KeyError((node, component))
+        i = int(self._free_index[node * N_DOF_NODE + component])
+        if i < 0:
+            raise KeyError((node, component))
+        return i
+
+    def node_at(self, x: float) -> int:
+        """The node nearest to position ``x`` (m from the root)."""
+        return int(np.argmin(np.abs(self.node_x - x)))
+
+    @property
+    def components(self) -> np.ndarray:
+        """Component (0..5) of each free DOF."""
+        return self.free_dofs % N_DOF_NODE
+
+
+def mesh_nodes(length: float, n_elements: int, breakpoints: list[float]) -> np.ndarray:
+    """Node positions with ``n_elements`` elements and a node at every breakpoint.
+
+    Elements are shared between the segments in proportion to their lengths (largest remainder,
+    at least one per segment) and are uniform within a segment.
+    """
+    cuts = sorted({0.0, length, *[b for b in breakpoints if 0.0 < b < length]})
+    seg = np.diff(cuts)
+    if n_elements < len(seg):
+        raise ValueError(f"{n_elements} elements cannot put a node at each of {len(seg) - 1} masses")
+    share = seg / length * n_elements
+    counts = np.maximum(np.floor(share).astype(int), 1)
+    while counts.sum() < n_elements:
+        counts[np.argmax(share - counts)] += 1
+    while counts.sum() > n_elements:
+        counts[np.argmax(counts - share)] -= 1
+    parts = [np.linspace(a, b, n + 1)[:-1] for a, b, n in zip(cuts[:-1], cuts[1:], counts)]
+    return np.concatenate([*parts, [length]])
+
+
+def build_blade(
+    name: str,
+    params: BladeParams,
+    masses: list[LumpedMass] | tuple[LumpedMass, ...],
+    root: RootParams,
+    sensor: LumpedMass | None = None,
+    rotary_inertia: bool = True,
+) -> BladeModel:
+    """Assemble one blade.
+
+    Parameters
+    ----------
+    name
+        Label of the blade.
+    params
+        Geometry and material; ``params.elements`` elements, ``params.theory`` beam theory.
+    masses
+        Lumped masses (mass on ux, uy, uz; rotary inertia on rx, ry, rz) at their positions;
+        each lands on a node of its own.
+    root
+        Clamped, or springs on every root DOF.
+    sensor
+        The lumped mass that is the force sensor (one of ``masses``), to set ``sensor_node``.
+    rotary_inertia
+        Include the distributed rotary inertia of the section (switch off to compare with
+        Euler-Bernoulli closed forms).
+
+    Returns
+    -------
+    BladeModel
+    """
+    for m in masses:
+        if not 0.0 < m.position <= params.length * (1 + 1e-12):
+            raise ValueError(f"lumped mass at x = {m.position} m is not on the blade (0, {params.length}]")
+    x = mesh_nodes(params.length, params.elements, [m.position for m in masses])
+    n_nodes = len(x)
+    n_full = n_nodes * N_DOF_NODE
+    section = rectangular_section(params.width, params.thickness, params.youngs_modulus, params.density, params.poisson)
+
+    lengths = np.diff(x)
+    rows, cols, kv, mv = [], [], [], []
+    cache: dict[float, tuple[np.ndarray, np.ndarray]] = {}
+    local = np.arange(12)
+    for e, le in enumerate(lengths):
+        key = round(float(le), 15)
+        if key not in cache:
+            cache[key] = element_matrices(le, section, params.theory, rotary_inertia)
+        ke, me = cache[key]
+        dofs = e * N_DOF_NODE + local
+        rows.append(np.repeat(dofs, 12))
+        cols.append(np.tile(dofs, 12))
+        kv.append(ke.ravel())
+        mv.append(me.ravel())
+
+    lump_rows, lump_m = [], []
+    for m in masses:
+        node = int(np.argmin(np.abs(x - m.position)))
+        lump_rows.append(node * N_DOF_NODE + np.arange(6))
+        lump_m.append(np.array([m.mass] * 3 + [m.rotary_inertia] * 3))
+    spring_rows, spring_k = [], []
+    if root.kind == "springs":
+        spring_rows.append(np.arange(6))
+        spring_k.append(np.array([root.translational_stiffness] * 3 + [root.rotational_stiffness] * 3))
+    elif root.kind != "clamped":
+        raise ValueError(f"unknown root kind {root.kind!r}")
+
+    r = np.concatenate(rows + lump_rows + spring_rows)
+    c = np.concatenate(cols + lump_rows + spring_rows)
+    n_lump = sum(len(a) for a in lump_rows)
+    n_spring = sum(len(a) for a in spring_rows)
+    K = sp.coo_matrix(
+        (np.concatenate(kv + [np.zeros(n_lump)] + spring_k), (r, c)), shape=(n_full, n_full)
+    ).tocsr()
+    M = sp.coo_matrix(
+        (np.concatenate(mv + lump_m + [np.zeros(n_spring)]), (r, c)), shape=(n_full, n_full)
+    ).tocsr()
+
+    free = np.arange(n_full) if root.kind == "springs" else np.arange(N_DOF_NODE, n_full)
+    K = K[free][:, free].tocsr()
+    M = M[free][:, free].tocsr()
+    K.eliminate_zeros()
+    M.eliminate_zeros()
+    sensor_node = None if sensor is None else int(np.argmin(np.abs(x - sensor.position)))
+    return BladeModel(
+        name=name,
+        params=params,
+        node_x=x,
+        mass=M,
+        stiffness=K,
+        free_dofs=free,
+        tip_node=n_nodes - 1,
+        sensor_node=sensor_node,
+        masses=tuple(masses),
+        root=root,
+        rotary_inertia=rotary_inertia,
+    )

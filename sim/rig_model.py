@@ -1,0 +1,147 @@
+"""The two-blade rig: both blade models side by side, with damping and the DOFs that matter.
+
+The blades are coupled only by the shroud contact, so the rig matrices are block-diagonal
+``[active, passive]``: global index = blade-local free index, plus the active blade's DOF count
+for the passive blade.
+
+Contact convention (used by the vibro-impact code): relative closure
+``g = u_active_tip_y - u_passive_tip_y - gap``; the contact force acts when ``g > 0``: ``+f`` on
+the passive tip (pushes it +y), ``-f`` on the active tip.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+import scipy.sparse as sp
+
+from sim.blade import BladeModel, build_blade
+from sim.modal import _all_modes
+from sim.params import DampingParams, LumpedMass, RigParams
+
+__all__ = ["BladeModel", "RigModel", "build_rig_model", "blade_damping", "blade_masses"]
+
+UY = 1
+
+
+@dataclass
+class RigModel:
+    """FE model of the rig (both blades), free DOFs only.
+
+    Attributes
+    ----------
+    params
+        The rig parameters it was built from.
+    active, passive
+        The blade models.
+    mass, stiffness, damping
+        Block-diagonal ``[active, passive]`` sparse matrices.
+    force_dof
+        Global index of uy at the active blade's force-sensor node (the shaker force acts here).
+    active_tip_dof, passive_tip_dof
+        Global index of uy at each shroud node.
+    """
+
+    params: RigParams
+    active: BladeModel
+    passive: BladeModel
+    mass: sp.csr_matrix
+    stiffness: sp.csr_matrix
+    damping: sp.csr_matrix
+    force_dof: int
+    active_tip_dof: int
+    passive_tip_dof: int
+
+    @property
+    def n_dofs(self) -> int:
+        return self.active.n_dofs + self.passive.n_dofs
+
+    def blade(self, name: str) -> BladeModel:
+        """The blade called ``"active"`` or ``"passive"``."""
+        if name == "active":
+            return self.active
+        if name == "passive":
+            return self.passive
+        raise KeyError(name)
+
+    def offset(self, blade: str) -> int:
+        """Global index of the first DOF of a blade."""
+        if blade == "active":
+            return 0
+        if blade == "passive":
+            return self.active.n_dofs
+        raise KeyError(blade)
+
+    def dof(self, blade: str, node: int, component: int) -> int:
+        """Global index of ``component`` (0..5 = ux, uy, uz, rx, ry, rz) at ``node`` of a blade.
+
+        Raises
+        ------
+        KeyError
+            Unknown blade, or a clamped/nonexistent DOF.
+        """
+        return self.offset(blade) + self.blade(blade).dof(node, component)
+
+
+def blade_masses(params: RigParams, blade: str) -> list[LumpedMass]:
+    """Lumped masses on a blade: the shroud at its tip, plus the force sensor on the active blade."""
+    bp = params.active if blade == "active" else params.passive
+    shroud = replace(params.shroud, position=bp.length)
+    if blade == "active":
+        # a massless sensor still gets its node: the shaker force acts there
+        return [params.force_sensor, shroud]
+    return [shroud]
+
+
+def blade_damping(blade: BladeModel, damping: DampingParams) -> sp.csr_matrix:
+    """Damping matrix of one blade.
+
+    Modal ratio ``zeta`` on every mode: ``C = M Phi diag(2 zeta w) Phi^T M`` (Phi mass-normalised,
+    all modes), so each mode has exactly ``zeta``. Otherwise Rayleigh ``C = alpha M + beta K``.
+    """
+    if damping.ratio is not None:
+        modes = _all_modes(blade)
+        mphi = blade.mass @ modes.shapes
+        c = (mphi * (2.0 * damping.ratio * modes.omegas)) @ mphi.T
+        c = 0.5 * (c + c.T)
+        return sp.csr_matrix(c)
+    return (damping.alpha * blade.mass + damping.beta * blade.stiffness).tocsr()
+
+
+def build_rig_model(params: RigParams, rotary_inertia: bool = True) -> RigModel:
+    """Build the FE model of both blades from the rig parameters.
+
+    Parameters
+    ----------
+    params
+        Rig parameters (SI).
+    rotary_inertia
+        Include the distributed rotary inertia of the blade sections.
+
+    Returns
+    -------
+    RigModel
+    """
+    active = build_blade(
+        "active", params.active, blade_masses(params, "active"), params.root, params.force_sensor, rotary_inertia
+    )
+    passive_root = params.passive_root if params.passive_root is not None else params.root
+    passive = build_blade("passive", params.passive, blade_masses(params, "passive"), passive_root, None, rotary_inertia)
+    mass = sp.block_diag([active.mass, passive.mass], format="csr")
+    stiffness = sp.block_diag([active.stiffness, passive.stiffness], format="csr")
+    damping = sp.block_diag(
+        [blade_damping(active, params.damping), blade_damping(passive, params.damping)], format="csr"
+    )
+    n_a = active.n_dofs
+    return RigModel(
+        params=params,
+        active=active,
+        passive=passive,
+        mass=mass,
+        stiffness=stiffness,
+        damping=damping,
+        force_dof=active.dof(active.sensor_node, UY),
+        active_tip_dof=active.dof(active.tip_node, UY),
+        passive_tip_dof=n_a + passive.dof(passive.tip_node, UY),
+    )
