@@ -13,7 +13,16 @@ from importlib import resources
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError, model_validator
+from pydantic import (
+    BaseModel,
+    BeforeValidator,
+    ConfigDict,
+    Field,
+    ValidationError,
+    ValidationInfo,
+    field_validator,
+    model_validator,
+)
 
 from rigtools.errors import ConfigError
 from rigtools.units import parse_quantity
@@ -114,6 +123,155 @@ class DampingConfig(_Section):
         return self
 
 
+# ----------------------------------------------------------------- acquisition and safety
+# [daq], [signal_source], [safety]: the measurement chain (owner: drivers). Values SI.
+
+Frequency = Annotated[float, _quantity("frequency")]
+Time = Annotated[float, _quantity("time")]
+Voltage = Annotated[float, _quantity("voltage")]
+
+_SENSITIVITY_DIMENSION = {"accel": "sensitivity_accel", "force": "sensitivity_force", "voltage": None}
+# plausible sensor sensitivities, SI (V per m/s^2, V per N, V per V): 0.05 mV/g..10 V/g, 0.05 mV/N..1 V/N
+_SENSITIVITY_RANGE = {"accel": (5e-6, 1.02), "force": (5e-5, 1.0), "voltage": (1e-6, 1e3)}
+
+
+def _current(value: Any) -> float:
+    """Amps from a number (A) or a string in A or mA (``"4 mA"``)."""
+    if isinstance(value, str):
+        text = value.strip().lower().replace(" ", "")
+        for unit, factor in (("ma", 1e-3), ("a", 1.0)):
+            if text.endswith(unit):
+                return float(text[: -len(unit)]) * factor
+        return float(text)
+    return value
+
+
+class DaqChannelConfig(_Section):
+    """One analog input: physical channel, sensor kind, sensitivity, IEPE excitation, range."""
+
+    physical_channel: str = Field(min_length=1)
+    kind: Literal["accel", "force", "voltage"]
+    sensitivity: float | str    # SI (V/(m/s^2), V/N, V/V) or "10 mV/g", "11.24 mV/N"
+    excitation_current: Annotated[float, BeforeValidator(_current)] = Field(default=0.004, ge=0, le=0.025)
+    range: Annotated[float, BeforeValidator(parse_quantity)] = Field(gt=0)  # +- in SI (m/s^2, N, V)
+    location: str = ""
+
+    @field_validator("sensitivity", mode="after")
+    @classmethod
+    def _units_suit_kind(cls, value: float | str, info: ValidationInfo) -> float:
+        kind = info.data.get("kind")
+        if kind is None:
+            raise ValueError("needs a valid kind")
+        sens = parse_quantity(value, _SENSITIVITY_DIMENSION[kind])
+        low, high = _SENSITIVITY_RANGE[kind]
+        if not low <= sens <= high:
+            raise ValueError(f"implausible for kind {kind!r}; write it with units, e.g. "
+                             "'10 mV/g' or '11.24 mV/N'")
+        return float(f"{sens:.12g}")   # stored SI
+
+
+def _default_daq_channels() -> dict[str, DaqChannelConfig]:
+    return {
+        "force": DaqChannelConfig(physical_channel="Dev1/ai0", kind="force", sensitivity="11.24 mV/N",
+                                  range=200.0, location="active blade, force sensor at mid-span"),
+        "active_shroud_accel": DaqChannelConfig(
+            physical_channel="Dev1/ai1", kind="accel", sensitivity="10 mV/g", range=4900.0,
+            location="active blade shroud (tip)"),
+        "passive_shroud_accel": DaqChannelConfig(
+            physical_channel="Dev1/ai2", kind="accel", sensitivity="10 mV/g", range=4900.0,
+            location="passive blade shroud (tip)"),
+    }
+
+
+class DaqConfig(_Section):
+    """The acquisition device: shared sample clock, inputs by name, the drive output."""
+
+    device: str = "Dev1"
+    sample_rate: Frequency = Field(default=51200.0, gt=0, le=1e7)
+    block_duration: Time = Field(default=0.1, gt=0, le=10.0)
+    drive_channel: str = "Dev1/ao0"
+    drive_range: Voltage = Field(default=10.0, gt=0, le=100.0)     # AO range, +- V
+    channels: dict[str, DaqChannelConfig] = Field(default_factory=_default_daq_channels, min_length=1)
+
+    def input_specs(self) -> list:
+        """The inputs as :class:`drivers.contracts.InputChannelSpec`, in file order."""
+        from drivers.contracts import STANDARD_GRAVITY, InputChannelSpec
+
+        specs = []
+        for name, ch in self.channels.items():
+            if ch.kind == "accel":
+                sens, units = float(f"{ch.sensitivity * 1e3 * STANDARD_GRAVITY:.12g}"), "mV/g"
+            elif ch.kind == "force":
+                sens, units = float(f"{ch.sensitivity * 1e3:.12g}"), "mV/N"
+            else:
+                sens, units = ch.sensitivity, "V/V"
+            specs.append(InputChannelSpec(
+                name=name, physical_channel=ch.physical_channel, kind=ch.kind, sensitivity=sens,
+                sensitivity_units=units, excitation_current=ch.excitation_current,
+                min_value=-ch.range, max_value=ch.range, location=ch.location))
+        return specs
+
+    def output_spec(self):
+        """The drive as :class:`drivers.contracts.OutputChannelSpec`."""
+        from drivers.contracts import OutputChannelSpec
+
+        return OutputChannelSpec("drive", self.drive_channel, -self.drive_range, self.drive_range)
+
+    def block_size(self) -> int:
+        """Samples per channel per block (``block_duration`` at ``sample_rate``, at least 1)."""
+        return max(1, round(self.block_duration * self.sample_rate))
+
+
+class SignalSourceConfig(_Section):
+    """A VISA waveform generator feeding the shaker amplifier (optional)."""
+
+    resource: str = ""                                     # e.g. "TCPIP0::192.168.1.20::inst0::INSTR"
+    frequency_min: Frequency = Field(default=1.0, gt=0)
+    frequency_max: Frequency = Field(default=5000.0, gt=0, le=3e7)
+    max_amplitude: Voltage = Field(default=2.0, gt=0, le=20.0)   # Vpp into the amplifier
+    timeout: Time = Field(default=2.0, gt=0, le=60.0)
+
+    @model_validator(mode="after")
+    def _range(self) -> "SignalSourceConfig":
+        if self.frequency_min >= self.frequency_max:
+            raise ValueError(f"frequency_min {self.frequency_min} Hz must be below frequency_max "
+                             f"{self.frequency_max} Hz")
+        return self
+
+
+class ChannelLimitConfig(_Section):
+    """Warning and abort limits on |value| in the channel's SI units (N, m/s^2, V)."""
+
+    warning: Annotated[float, BeforeValidator(parse_quantity)] = Field(gt=0)
+    abort: Annotated[float, BeforeValidator(parse_quantity)] = Field(gt=0)
+
+    @field_validator("abort", mode="after")
+    @classmethod
+    def _ordered(cls, abort: float, info: ValidationInfo) -> float:
+        warning = info.data.get("warning")
+        if warning is not None and not warning < abort:
+            raise ValueError(f"must be above the warning limit {warning}")
+        return abort
+
+
+def _default_limits() -> dict[str, ChannelLimitConfig]:
+    return {
+        "force": ChannelLimitConfig(warning=40.0, abort=60.0),
+        "active_shroud_accel": ChannelLimitConfig(warning=2500.0, abort=4000.0),
+        "passive_shroud_accel": ChannelLimitConfig(warning=2500.0, abort=4000.0),
+        "drive": ChannelLimitConfig(warning=4.5, abort=5.5),
+    }
+
+
+class SafetyConfig(_Section):
+    """Limits checked on every block, the maximum drive and the drive ramps."""
+
+    max_drive: Voltage = Field(default=5.0, gt=0, le=100.0)        # peak V at the drive output
+    ramp_time: Time = Field(default=0.5, gt=0, le=60.0)            # normal ramp up/down
+    abort_ramp_time: Time = Field(default=0.05, gt=0, le=0.1)      # ramp down on abort
+    limits: dict[str, ChannelLimitConfig] = Field(default_factory=_default_limits)
+
+
 class RigConfig(_Section):
     """The validated rig file."""
 
@@ -125,6 +283,9 @@ class RigConfig(_Section):
     force_sensor: ForceSensorConfig
     contact: ContactConfig
     damping: DampingConfig = DampingConfig(ratio=0.01)
+    daq: DaqConfig = DaqConfig()
+    signal_source: SignalSourceConfig = SignalSourceConfig()
+    safety: SafetyConfig = SafetyConfig()
 
     @model_validator(mode="after")
     def _sensor_on_blade(self) -> "RigConfig":
@@ -133,6 +294,24 @@ class RigConfig(_Section):
                 f"force_sensor.position = {self.force_sensor.position} m is beyond the blade "
                 f"(must be between 0 and blade.length = {self.blade.length} m)"
             )
+        return self
+
+    @model_validator(mode="after")
+    def _safety_names_known_channels(self) -> "RigConfig":
+        known = set(self.daq.channels) | {"drive"}
+        if "limits" not in self.safety.model_fields_set:   # defaults follow the channels given
+            limits = {k: v for k, v in self.safety.limits.items() if k in known}
+            object.__setattr__(self.safety, "limits", limits)
+        for name in self.safety.limits:
+            if name not in known:
+                raise ValueError(f"safety.limits.{name}: no such channel (known: {', '.join(sorted(known))})")
+        drive = self.safety.limits.get("drive")
+        if drive is not None and self.safety.max_drive > drive.abort:
+            raise ValueError(f"safety.max_drive = {self.safety.max_drive} V is above the drive abort "
+                             f"limit {drive.abort} V")
+        if self.safety.max_drive > self.daq.drive_range:
+            raise ValueError(f"safety.max_drive = {self.safety.max_drive} V is beyond daq.drive_range "
+                             f"{self.daq.drive_range} V")
         return self
 
     def passive_blade_config(self) -> BladeConfig:
