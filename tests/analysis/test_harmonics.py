@@ -1,0 +1,56 @@
+"""Harmonic fit against exactly known synthetic signals (tolerances: round-off, 1e-9 relative)."""
+
+import numpy as np
+import pytest
+
+from analysis.harmonics import harmonic_amplitudes
+
+
+def _signal(t, fe, amps, phases, offset=0.0):
+    x = np.full_like(t, offset)
+    for k, (a, p) in enumerate(zip(amps, phases), start=1):
+        x += a * np.cos(2 * np.pi * k * fe * t + p)
+    return x
+
+
+@pytest.mark.parametrize("n, whole", [(5000, True), (4321, False)])
+def test_exact_amplitudes_and_phases(n, whole):
+    """Whole periods (DFT path) and a record ending mid-period (least squares): both exact."""
+    rng = np.random.default_rng(1)
+    fs, fe, kmax = 10000.0, 50.0, 30
+    amps = rng.uniform(0.1, 2.0, kmax)
+    phases = rng.uniform(-np.pi, np.pi, kmax)
+    t = np.arange(n) / fs
+    fit = harmonic_amplitudes(_signal(t, fe, amps, phases, offset=0.7), fs, fe, kmax)
+    np.testing.assert_allclose(fit.amplitude, amps, rtol=1e-9)
+    np.testing.assert_allclose(np.angle(np.exp(1j * (fit.phase - phases))), 0, atol=1e-9)
+    np.testing.assert_array_equal(fit.k, np.arange(1, kmax + 1))
+    np.testing.assert_allclose(fit.frequency_hz, fe * fit.k)
+    assert fit.offset == pytest.approx(0.7, rel=1e-9)
+    assert fit.residual_rms < 1e-8
+
+
+def test_sine_convention_and_residual():
+    """sin(wt) = cos(wt - pi/2); an off-harmonic tone shows up in the residual, not the fit."""
+    fs, fe = 2000.0, 20.0
+    t = np.arange(2000) / fs
+    fit = harmonic_amplitudes(3 * np.sin(2 * np.pi * fe * t), fs, fe, 5)
+    assert fit.at(1) == pytest.approx(3.0, rel=1e-12)
+    assert fit.phase[0] == pytest.approx(-np.pi / 2, abs=1e-12)
+    tone = 0.5 * np.sin(2 * np.pi * 30.0 * t)     # 1.5 fe, orthogonal over whole periods
+    fit2 = harmonic_amplitudes(3 * np.sin(2 * np.pi * fe * t) + tone, fs, fe, 5)
+    assert fit2.at(1) == pytest.approx(3.0, rel=1e-12)
+    assert fit2.residual_rms == pytest.approx(0.5 / np.sqrt(2), rel=1e-9)
+
+
+def test_records_are_plain_numbers():
+    fs, fe = 1000.0, 10.0
+    t = np.arange(1000) / fs
+    rec = harmonic_amplitudes(np.cos(2 * np.pi * fe * t), fs, fe, 3).to_records()
+    assert rec[0] == {"k": 1, "frequency_hz": 10.0, "amplitude": pytest.approx(1.0), "phase": pytest.approx(0.0, abs=1e-12)}
+    assert all(type(r["k"]) is int and type(r["amplitude"]) is float for r in rec)
+
+
+def test_refuses_harmonics_above_nyquist():
+    with pytest.raises(ValueError, match="Nyquist"):
+        harmonic_amplitudes(np.zeros(1000), 1000.0, 20.0, 30)
