@@ -272,6 +272,54 @@ class SafetyConfig(_Section):
     limits: dict[str, ChannelLimitConfig] = Field(default_factory=_default_limits)
 
 
+# ----------------------------------------------------------- simulated rig (owner: simrig)
+# [shaker]: the power amplifier and electrodynamic shaker; [test_article]: how the simulated rig's
+# blades deviate from the nominal model above, and its measurement chain. Values SI.
+
+Force = Annotated[float, _quantity("force")]
+Acceleration = Annotated[float, _quantity("acceleration")]
+
+
+class ShakerConfig(_Section):
+    """Voltage amplifier and electrodynamic shaker driving the active blade through the force sensor."""
+
+    armature_mass: Mass = Field(default=0.1, gt=0, le=10.0)                       # kg
+    suspension_stiffness: Stiffness = Field(default=2.0e4, ge=0, le=1e8)          # N/m
+    suspension_damping: Damping = Field(default=5.0, ge=0, le=1e5)                # N*s/m
+    force_factor: float = Field(default=10.0, gt=0, le=1e3)                       # Bl, N/A
+    coil_resistance: float = Field(default=2.5, gt=0, le=1e3)                     # ohm
+    coil_inductance: float = Field(default=5e-4, ge=0, le=1.0)                    # H
+    amplifier_gain: float = Field(default=4.0, gt=0, le=1e3)                      # V/V
+
+    def to_params(self):
+        """As :class:`drivers.shaker.ShakerParams`."""
+        from drivers.shaker import ShakerParams
+
+        return ShakerParams(**self.model_dump())
+
+
+class TestArticleConfig(_Section):
+    """The simulated rig's real blades: a bolted root (springs, softer than the clamp), their own
+    damping, small mass deviations of shroud and sensor; and its sensor noise and coupling."""
+
+    root_rotational_stiffness: RotStiffness = Field(default=1.2e4, gt=0)         # N*m/rad
+    root_translational_stiffness: Stiffness = Field(default=3e8, gt=0)            # N/m
+    damping_ratio: float = Field(default=0.012, gt=0, lt=1)                       # modal
+    shroud_mass_deviation: float = Field(default=0.01, ge=-0.2, le=0.2)           # fraction of nominal
+    sensor_mass_deviation: float = Field(default=-0.01, ge=-0.2, le=0.2)          # fraction of nominal
+    force_noise: Force = Field(default=0.005, ge=0, le=100.0)                     # N rms
+    accel_noise: Acceleration = Field(default=0.02, ge=0, le=1e3)                 # m/s^2 rms
+    adc_noise: Voltage = Field(default=2e-5, ge=0, le=1.0)                        # V rms
+    iepe_highpass: Frequency = Field(default=0.5, ge=0, le=100.0)                 # Hz, 0 = DC
+    input_to_output_delay: Time = Field(default=8e-4, ge=0, le=1.0)               # s
+
+    def to_params(self):
+        """As :class:`drivers.simulated.TestArticle`."""
+        from drivers.simulated import TestArticle
+
+        return TestArticle(**self.model_dump())
+
+
 class RigConfig(_Section):
     """The validated rig file."""
 
@@ -286,6 +334,8 @@ class RigConfig(_Section):
     daq: DaqConfig = DaqConfig()
     signal_source: SignalSourceConfig = SignalSourceConfig()
     safety: SafetyConfig = SafetyConfig()
+    shaker: ShakerConfig = ShakerConfig()
+    test_article: TestArticleConfig = TestArticleConfig()
 
     @model_validator(mode="after")
     def _sensor_on_blade(self) -> "RigConfig":
