@@ -1,0 +1,386 @@
+"""NI-DAQmx backend of :class:`drivers.contracts.AcquisitionDevice`.
+
+Two tasks on one sample clock rate:
+
+* ``ai``: IEPE accelerometers (``add_ai_accel_chan``, mV/g, internal excitation current, read in
+  m/s^2), the IEPE force sensor (``add_ai_force_iepe_chan``, mV/N, read in N), plain voltages;
+  continuous, read in blocks (~0.1 s) with :class:`AnalogMultiChannelReader` into a freshly
+  allocated float64 array (no copies);
+* ``ao``: the drive voltage to the shaker amplifier, continuous and non-regenerating, written with
+  :class:`AnalogSingleChannelWriter` (``auto_start=False``), started on the AI start trigger so
+  output sample *k* and input sample *k* share the same clock tick.
+
+Start order: the caller writes the first drive block(s), :meth:`NiDaqDevice.start` starts ``ao``
+(armed, waiting for the trigger) and then ``ai`` (which fires the trigger). The actual coerced
+sample rate is read back from ``ai.timing.samp_clk_rate`` and the output is timed at that rate.
+
+DAQmx errors are turned into :mod:`drivers.contracts` faults (one line, the DAQmx code kept in
+``.code``); on any fault the drive is zeroed and both tasks are stopped before the error
+propagates. Without the NI-DAQmx driver, :class:`~drivers.contracts.DriverUnavailable` says so and
+points at the simulated rig.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Sequence
+
+import nidaqmx
+import numpy as np
+from nidaqmx.constants import (
+    AccelSensitivityUnits,
+    AccelUnits,
+    AcquisitionType,
+    AOIdleOutputBehavior,
+    Coupling,
+    DigitalWidthUnits,
+    ExcitationSource,
+    ForceIEPESensorSensitivityUnits,
+    ForceUnits,
+    RegenerationMode,
+    VoltageUnits,
+)
+from nidaqmx.errors import DaqError, DaqNotFoundError, DaqNotSupportedError
+from nidaqmx.stream_readers import AnalogMultiChannelReader
+from nidaqmx.stream_writers import AnalogSingleChannelWriter
+
+from drivers.contracts import (
+    AcquisitionDevice,
+    ConfigurationError,
+    DaqFault,
+    DeviceInfo,
+    DriverError,
+    DriverUnavailable,
+    InputChannelSpec,
+    InputOverflow,
+    InvalidSamples,
+    LimitExceeded,
+    OutputChannelSpec,
+    OutputUnderflow,
+    ReadTimeout,
+    SamplesNoLongerAvailable,
+    SensorOverload,
+)
+
+NO_DRIVER_MESSAGE = ("NI-DAQmx driver not found on this machine; use --simulated to run on the "
+                     "simulated rig")
+NOT_SUPPORTED_MESSAGE = ("NI-DAQmx is not supported on this platform; use --simulated to run on the "
+                         "simulated rig")
+
+# DAQmx error code -> fault class (codes from nidaqmx.error_codes.DAQmxErrors)
+FAULT_BY_CODE: dict[int, type[DaqFault]] = {
+    -200279: SamplesNoLongerAvailable,   # SAMPLES_NO_LONGER_AVAILABLE: software buffer wrapped
+    -200010: InputOverflow,              # INPUT_FIFO_OVERFLOW
+    -200361: InputOverflow,              # INPUT_FIFO_OVERFLOW_2 (onboard memory)
+    -200019: InputOverflow,              # ADC_OVERRUN
+    -200016: OutputUnderflow,            # OUTPUT_FIFO_UNDERFLOW
+    -200621: OutputUnderflow,            # OUTPUT_FIFO_UNDERFLOW_2
+    -200018: OutputUnderflow,            # DAC_UNDERFLOW
+    -200290: OutputUnderflow,            # GEN_STOPPED_TO_PREVENT_REGEN_OF_OLD_SAMPLES
+    -200284: ReadTimeout,                # SAMPLES_NOT_YET_AVAILABLE (read timed out)
+    -200474: ReadTimeout,                # OPERATION_TIMED_OUT
+}
+
+BUFFER_SECONDS = 2.0          # host buffer for AI and AO, in seconds of samples
+DEFAULT_BLOCK_SECONDS = 0.1
+
+
+def _first_line(text: str) -> str:
+    return next((line.strip() for line in str(text).splitlines() if line.strip()), "")
+
+
+def map_daq_error(exc: DaqError, partial: np.ndarray | None = None) -> DaqFault:
+    """The contract fault for a DAQmx error: a known class, or a generic :class:`DaqFault`.
+
+    The message is the first line of the DAQmx text plus the code, so it stays one line.
+    """
+    code = int(exc.error_code)
+    cls = FAULT_BY_CODE.get(code, DaqFault)
+    return cls(f"{_first_line(str(exc))} (DAQmx {code})", partial=partial, code=code)
+
+
+def _unavailable(exc: Exception) -> DriverUnavailable:
+    if isinstance(exc, DaqNotSupportedError):
+        return DriverUnavailable(NOT_SUPPORTED_MESSAGE)
+    return DriverUnavailable(NO_DRIVER_MESSAGE)
+
+
+class NiDaqDevice(AcquisitionDevice):
+    """Force, accelerations and the shaker drive on NI-DAQmx hardware (e.g. a DSA module).
+
+    Examples
+    --------
+    >>> with NiDaqDevice() as daq:                                  # doctest: +SKIP
+    ...     rate = daq.configure(cfg.daq.input_specs(), cfg.daq.output_spec(), 51200.0)
+    ...     daq.write(first); daq.write(second); daq.start()
+    ...     block = daq.read()
+    """
+
+    backend = "nidaqmx"
+
+    def __init__(self) -> None:
+        self._ai = None
+        self._ao = None
+        self._reader: AnalogMultiChannelReader | None = None
+        self._writer: AnalogSingleChannelWriter | None = None
+        self._inputs: tuple[InputChannelSpec, ...] = ()
+        self._output: OutputChannelSpec | None = None
+        self._rate = math.nan
+        self._requested_rate = math.nan
+        self._block = 0
+        self._running = False
+        self._written = 0
+        self._idle_is_zero = False
+        self._delay = 0.0
+
+    # ------------------------------------------------------------------ configuration
+
+    def configure(self, inputs: Sequence[InputChannelSpec], output: OutputChannelSpec,
+                  sample_rate: float, block_size: int | None = None) -> float:
+        if self._ai is not None:
+            raise ConfigurationError("device already configured; close it first")
+        inputs = tuple(inputs)
+        if not inputs:
+            raise ConfigurationError("no input channels given")
+        if len({s.name for s in inputs}) != len(inputs):
+            raise ConfigurationError("input channel names must be unique")
+        if not (sample_rate > 0 and math.isfinite(sample_rate)):
+            raise ConfigurationError(f"sample rate {sample_rate!r} S/s must be > 0")
+        for spec in inputs:
+            if spec.kind == "voltage" and spec.iepe:
+                raise ConfigurationError(
+                    f"channel {spec.name!r}: a voltage channel takes no excitation current")
+        try:
+            self._ai = nidaqmx.Task()
+            self._ao = nidaqmx.Task()
+        except (DaqNotFoundError, DaqNotSupportedError) as exc:
+            self._close_tasks()
+            raise _unavailable(exc) from None
+        self._inputs, self._output = inputs, output
+        self._requested_rate = float(sample_rate)
+        try:
+            for spec in inputs:
+                self._add_input(spec)
+            ao_chan = self._ao.ao_channels.add_ao_voltage_chan(
+                output.physical_channel, name_to_assign_to_channel=output.name,
+                min_val=output.min_voltage, max_val=output.max_voltage, units=VoltageUnits.VOLTS)
+            try:
+                ao_chan.ao_idle_output_behavior = AOIdleOutputBehavior.ZERO_VOLTS
+                self._idle_is_zero = True
+            except DaqError:            # not every device has it; close() then writes 0 V
+                self._idle_is_zero = False
+
+            buffer = max(int(BUFFER_SECONDS * sample_rate), 2 * (block_size or 1))
+            self._ai.timing.cfg_samp_clk_timing(
+                sample_rate, sample_mode=AcquisitionType.CONTINUOUS, samps_per_chan=buffer)
+            self._rate = float(self._ai.timing.samp_clk_rate)      # the coerced, actual rate
+            self._ao.timing.cfg_samp_clk_timing(
+                self._rate, sample_mode=AcquisitionType.CONTINUOUS, samps_per_chan=buffer)
+            ao_rate = float(self._ao.timing.samp_clk_rate)
+            if not math.isclose(ao_rate, self._rate, rel_tol=1e-9):
+                raise ConfigurationError(
+                    f"input and output clocks coerced to different rates ({self._rate} and "
+                    f"{ao_rate} S/s); choose a rate both support")
+            # AO waits for the AI start trigger: both start on the same clock edge
+            self._ao.triggers.start_trigger.cfg_dig_edge_start_trig(
+                self._ai.triggers.start_trigger.term)
+            self._ao.out_stream.regen_mode = RegenerationMode.DONT_ALLOW_REGENERATION
+
+            self._reader = AnalogMultiChannelReader(self._ai.in_stream)
+            self._writer = AnalogSingleChannelWriter(self._ao.out_stream, auto_start=False)
+            self._block = int(block_size) if block_size else max(
+                1, round(DEFAULT_BLOCK_SECONDS * self._rate))
+            self._delay = self._read_delay()
+        except DaqError as exc:
+            self._close_tasks()
+            raise ConfigurationError(
+                f"NI-DAQmx refused the configuration: {_first_line(str(exc))} "
+                f"(DAQmx {exc.error_code})") from exc
+        except DriverError:
+            self._close_tasks()
+            raise
+        return self._rate
+
+    def _add_input(self, spec: InputChannelSpec) -> None:
+        excitation = ExcitationSource.INTERNAL if spec.iepe else ExcitationSource.NONE
+        chans = self._ai.ai_channels
+        if spec.kind == "accel":
+            chan = chans.add_ai_accel_chan(
+                spec.physical_channel, name_to_assign_to_channel=spec.name,
+                min_val=spec.min_value, max_val=spec.max_value,
+                units=AccelUnits.METERS_PER_SECOND_SQUARED, sensitivity=spec.sensitivity,
+                sensitivity_units=AccelSensitivityUnits.MILLIVOLTS_PER_G,
+                current_excit_source=excitation, current_excit_val=spec.excitation_current)
+        elif spec.kind == "force":
+            chan = chans.add_ai_force_iepe_chan(
+                spec.physical_channel, name_to_assign_to_channel=spec.name,
+                min_val=spec.min_value, max_val=spec.max_value, units=ForceUnits.NEWTONS,
+                sensitivity=spec.sensitivity,
+                sensitivity_units=ForceIEPESensorSensitivityUnits.MILLIVOLTS_PER_NEWTON,
+                current_excit_source=excitation, current_excit_val=spec.excitation_current)
+        else:
+            chan = chans.add_ai_voltage_chan(
+                spec.physical_channel, name_to_assign_to_channel=spec.name,
+                min_val=spec.min_value, max_val=spec.max_value, units=VoltageUnits.VOLTS)
+        if spec.iepe:
+            chan.ai_coupling = Coupling.AC     # IEPE: the sensor's bias voltage is blocked
+
+    def _read_delay(self) -> float:
+        """AI plus AO filter delay in seconds; 0 where the device does not report one."""
+        total = 0.0
+        for chan, value, units in (
+            (self._ai.ai_channels.all, "ai_filter_delay", "ai_filter_delay_units"),
+            (self._ao.ao_channels.all, "ao_filter_delay", "ao_filter_delay_units"),
+        ):
+            try:
+                delay = float(getattr(chan, value))
+                unit = getattr(chan, units)
+            except (DaqError, TypeError, ValueError):
+                continue
+            if unit == DigitalWidthUnits.SAMPLE_CLOCK_PERIODS:
+                total += delay / self._rate
+            elif unit == DigitalWidthUnits.SECONDS:
+                total += delay
+        return total
+
+    # ------------------------------------------------------------------------ properties
+
+    @property
+    def sample_rate(self) -> float:
+        return self._rate
+
+    @property
+    def block_size(self) -> int:
+        return self._block
+
+    @property
+    def input_channels(self) -> tuple[InputChannelSpec, ...]:
+        return self._inputs
+
+    @property
+    def running(self) -> bool:
+        return self._running
+
+    def input_to_output_delay(self) -> float:
+        return self._delay
+
+    def info(self) -> DeviceInfo:
+        details: dict[str, str] = {}
+        try:
+            details["devices"] = ", ".join(
+                f"{d.name} ({d.product_type}, s/n {d.serial_num:X})" for d in self._ai.devices)
+        except Exception:   # informational only; never fail a run for it
+            pass
+        details["drive_idle_zero_volts"] = str(self._idle_is_zero)
+        return DeviceInfo(self.backend, self._rate, self._requested_rate, self._block,
+                          self._delay, details)
+
+    # ----------------------------------------------------------------------- streaming
+
+    def _require_configured(self) -> None:
+        if self._ai is None or self._writer is None or self._reader is None:
+            raise ConfigurationError("device not configured; call configure() first")
+
+    def write(self, drive: np.ndarray) -> None:
+        self._require_configured()
+        data = np.ascontiguousarray(drive, dtype=np.float64)
+        if data.ndim != 1 or data.size == 0:
+            raise LimitExceeded(f"drive block must be 1-D and non-empty, got shape {data.shape}")
+        if not np.all(np.isfinite(data)):
+            raise LimitExceeded("drive block holds NaN or inf; nothing written")
+        low, high = self._output.min_voltage, self._output.max_voltage
+        if data.min() < low or data.max() > high:
+            raise LimitExceeded(
+                f"drive {data.min():.4g}..{data.max():.4g} V is outside the output range "
+                f"{low}..{high} V; nothing written")
+        try:
+            self._writer.write_many_sample(data, timeout=10.0)
+        except DaqError as exc:
+            self._fail(map_daq_error(exc))
+        self._written += data.size
+
+    def start(self) -> None:
+        self._require_configured()
+        if self._running:
+            return
+        if self._written == 0:
+            raise ConfigurationError("write at least one drive block before start()")
+        try:
+            self._ao.start()        # armed: waits for the AI start trigger
+            self._running = True
+            self._ai.start()        # fires the trigger: AO and AI start on the same edge
+        except DaqError as exc:
+            self._fail(map_daq_error(exc))
+
+    def read(self, n_samples: int | None = None, timeout: float = 10.0) -> np.ndarray:
+        self._require_configured()
+        n = int(n_samples or self._block)
+        data = np.empty((len(self._inputs), n), dtype=np.float64)
+        try:
+            self._reader.read_many_sample(data, number_of_samples_per_channel=n, timeout=timeout)
+        except DaqError as exc:
+            got = int(getattr(exc, "samps_per_chan_read", 0) or 0)
+            self._fail(map_daq_error(exc, partial=data[:, :got].copy() if got else None))
+        if not np.all(np.isfinite(data)):
+            bad = [s.name for s, row in zip(self._inputs, data) if not np.all(np.isfinite(row))]
+            self._fail(InvalidSamples(f"non-finite samples on {', '.join(bad)}", partial=data))
+        try:
+            overloaded = self._ai.in_stream.overloaded_chans_exist
+            names = list(self._ai.in_stream.overloaded_chans) if overloaded else []
+        except DaqError:        # devices without overload detection
+            names = []
+        if names:
+            self._fail(SensorOverload(f"input overload on {', '.join(names)}", partial=data))
+        return data
+
+    def _fail(self, fault: DaqFault) -> None:
+        """Zero the drive, stop both tasks, then raise ``fault``."""
+        self.stop()
+        raise fault
+
+    # ------------------------------------------------------------------------- shutdown
+
+    def stop(self) -> None:
+        """Append zeros, stop output then input, and leave the output at 0 V. Never raises."""
+        if self._ao is None:
+            return
+        if self._running and self._writer is not None:
+            try:
+                self._writer.write_many_sample(np.zeros(max(self._block, 1)), timeout=0.0)
+            except DaqError:
+                pass            # buffer full or already failed: stopping is what matters
+        for task in (self._ao, self._ai):
+            try:
+                task.stop()
+            except DaqError:
+                pass
+        was_running, self._running = self._running, False
+        if was_running and not self._idle_is_zero:
+            self._write_zero_on_demand()
+
+    def _write_zero_on_demand(self) -> None:
+        """A stopped AO task holds its last value; on such devices, set 0 V with a fresh task."""
+        try:
+            with nidaqmx.Task() as zero:
+                zero.ao_channels.add_ao_voltage_chan(
+                    self._output.physical_channel, min_val=self._output.min_voltage,
+                    max_val=self._output.max_voltage, units=VoltageUnits.VOLTS)
+                zero.write(0.0, auto_start=True)
+                zero.stop()
+        except (DaqError, DaqNotFoundError, DaqNotSupportedError):
+            pass
+
+    def _close_tasks(self) -> None:
+        for task in (self._ao, self._ai):
+            if task is not None:
+                try:
+                    task.close()
+                except DaqError:
+                    pass
+        self._ai = self._ao = None
+        self._reader = self._writer = None
+
+    def close(self) -> None:
+        if self._ao is not None:
+            self.stop()
+        self._close_tasks()
