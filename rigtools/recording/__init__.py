@@ -1,0 +1,27 @@
+"""HDF5 recordings of rig runs (schema v1): streaming writer, lazy reader, validation.
+
+See ``docs/recording-format.md`` for the file layout.
+
+>>> from rigtools.recording import RecordingWriter, ChannelSpec, open_recording, RecordingError
+"""
+
+from rigtools.recording.reader import Channel, Point, Recording, open_recording
+from rigtools.recording.schema import SCHEMA_NAME, SCHEMA_VERSION, ChannelSpec, RecordingError
+from rigtools.recording.validate import CheckResult, Problem, check_recording
+from rigtools.recording.writer import PointWriter, RecordingWriter
+
+__all__ = [
+    "SCHEMA_NAME",
+    "SCHEMA_VERSION",
+    "Channel",
+    "ChannelSpec",
+    "CheckResult",
+    "Point",
+    "PointWriter",
+    "Problem",
+    "Recording",
+    "RecordingError",
+    "RecordingWriter",
+    "check_recording",
+    "open_recording",
+]

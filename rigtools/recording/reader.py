@@ -1,0 +1,374 @@
+"""Reading recordings: :func:`open_recording` and the lazy objects it returns.
+
+Samples stay on disk until asked for: a :class:`Channel` behaves like a read-only 1-D numpy array
+(``len``, slicing, ``np.asarray(channel)``) and reads only what is sliced. Files whose writer was
+killed open too (through HDF5's SWMR-read mode, or with the consistency flags cleared in memory
+when the writer died while adding structure) and report ``complete == False``.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import h5py
+import numpy as np
+
+from rigtools.recording.schema import (
+    POINTS_GROUP,
+    STATUS_COMPLETE,
+    RecordingError,
+    point_index,
+    python_value,
+)
+from rigtools.recording.superblock import FlagClearedFile, consistency_flags
+from rigtools.recording.validate import find_problems
+
+_H5_REASON = re.compile(r"\((.*)\)\s*$", re.S)
+
+
+def _reason(exc: BaseException) -> str:
+    text = " ".join(str(exc).split())
+    match = _H5_REASON.search(text)
+    return match.group(1) if match else text
+
+
+def open_h5(path: str | os.PathLike) -> tuple[h5py.File, str]:
+    """Open any HDF5 file read-only, also one whose writer is running or was killed.
+
+    Returns
+    -------
+    file : h5py.File
+    opened_as : str
+        ``"clean"`` (closed normally), ``"swmr"`` (SWMR writer running or killed) or
+        ``"flags-cleared"`` (writer killed outside SWMR mode; see :mod:`.superblock`).
+
+    Raises
+    ------
+    RecordingError
+        One line if the file is missing or is not readable HDF5 (e.g. truncated).
+    """
+    p = Path(path)
+    if not p.exists():
+        raise RecordingError(f"{p}: no such file")
+    if not p.is_file():
+        raise RecordingError(f"{p}: not a file")
+    last: OSError | None = None
+    for attempt in range(4):
+        try:
+            return h5py.File(p, "r"), "clean"
+        except OSError as exc:
+            last = exc
+        if "unable to lock file" in str(last):
+            try:
+                return h5py.File(p, "r", locking=False), "clean"
+            except OSError as exc:
+                last = exc
+        if "already open for write" not in str(last):
+            break
+        try:
+            return h5py.File(p, "r", swmr=True), "swmr"
+        except OSError as exc:
+            last = exc
+        # A live writer adds a point for a few ms in plain write mode: wait, then assume it died.
+        time.sleep(0.05 * (attempt + 1))
+    if "already open for write" in str(last) or "not already open for SWMR" in str(last):
+        try:
+            if consistency_flags(p):
+                return h5py.File(FlagClearedFile(p), "r"), "flags-cleared"
+        except OSError as exc:
+            last = exc
+    if isinstance(last, PermissionError):
+        raise RecordingError(f"{p}: permission denied") from None
+    reason = _reason(last) if last else "unknown error"
+    if "signature not found" in reason:
+        raise RecordingError(f"{p}: not an HDF5 file (no HDF5 signature)") from None
+    raise RecordingError(f"{p}: unreadable HDF5 file ({reason})") from None
+
+
+def _attr(obj: h5py.HLObject, name: str, default: Any = None) -> Any:
+    return python_value(obj.attrs[name]) if name in obj.attrs else default
+
+
+class Channel:
+    """One channel of one point: a lazily read 1-D float array with its metadata.
+
+    Attributes
+    ----------
+    name, units, quantity : str
+    sample_rate : float
+        Hz.
+    t0 : float
+        Time of the first sample, s from the start of the point.
+    sensitivity : float or None
+        In ``sensitivity_units``; ``physical_channel`` and ``location`` likewise None if not set.
+    """
+
+    def __init__(self, dataset: h5py.Dataset, path: str):
+        self._dataset = dataset
+        self._path = path
+        self.name = dataset.name.rsplit("/", 1)[-1]
+        self.attrs = {key: python_value(value) for key, value in dataset.attrs.items()}
+        self.units: str = self.attrs["units"]
+        self.quantity: str = self.attrs["quantity"]
+        self.sample_rate = float(self.attrs["sample_rate"])
+        self.t0 = float(self.attrs["t0"])
+        self.sensitivity: float | None = self.attrs.get("sensitivity")
+        self.sensitivity_units: str | None = self.attrs.get("sensitivity_units")
+        self.physical_channel: str | None = self.attrs.get("physical_channel")
+        self.location: str | None = self.attrs.get("location")
+
+    def __repr__(self) -> str:
+        return (f"<Channel {self.name!r}: {len(self)} samples of {self.quantity} in {self.units} "
+                f"at {self.sample_rate:g} Hz>")
+
+    @property
+    def shape(self) -> tuple[int]:
+        return self._dataset.shape
+
+    @property
+    def dtype(self) -> np.dtype:
+        return self._dataset.dtype
+
+    ndim = 1
+
+    @property
+    def size(self) -> int:
+        return self._dataset.shape[0]
+
+    def __len__(self) -> int:
+        return self._dataset.shape[0]
+
+    @property
+    def duration(self) -> float:
+        """Recorded length in seconds (``len / sample_rate``)."""
+        return len(self) / self.sample_rate
+
+    def __getitem__(self, key: Any) -> np.ndarray:
+        try:
+            return self._dataset[key]
+        except (OSError, RuntimeError) as exc:
+            raise RecordingError(f"{self._path}: cannot read {self._dataset.name} "
+                                 f"({_reason(exc)})") from None
+
+    def read(self) -> np.ndarray:
+        """All samples as a numpy array."""
+        return self[()] if len(self) else np.empty(0, dtype=self.dtype)
+
+    def __array__(self, dtype: Any = None, copy: Any = None) -> np.ndarray:
+        data = self.read()
+        return data if dtype is None else data.astype(dtype)
+
+    def time(self) -> np.ndarray:
+        """Sample times in s from the start of the point: ``t0 + i / sample_rate``."""
+        return self.t0 + np.arange(len(self)) / self.sample_rate
+
+    def refresh(self) -> None:
+        """Pick up samples a live SWMR writer appended since the file was opened."""
+        if self._dataset.file.swmr_mode:
+            self._dataset.refresh()
+
+
+class Point:
+    """One steady-state point: ``params`` (dict) and ``channels`` (name -> :class:`Channel`)."""
+
+    def __init__(self, group: h5py.Group, path: str):
+        self.name = group.name.rsplit("/", 1)[-1]
+        self.index = int(self.name)
+        attrs = {key: python_value(value) for key, value in group.attrs.items()}
+        self.start_time: str = attrs.pop("start_time")
+        self.end_time: str = attrs.pop("end_time")
+        self.params: dict[str, Any] = attrs
+        self.channels: dict[str, Channel] = {name: Channel(group[name], path) for name in group}
+
+    def __repr__(self) -> str:
+        return f"<Point {self.name}: {self.params} channels={list(self.channels)}>"
+
+    def __getitem__(self, name: str) -> Channel:
+        return self.channels[name]
+
+    @property
+    def ended(self) -> bool:
+        """True if the writer ended this point normally (its end-of-point parameters are set)."""
+        return bool(self.end_time)
+
+    @property
+    def n_samples(self) -> int:
+        """Samples per channel (the shortest channel, if a killed writer left them uneven)."""
+        return min((len(c) for c in self.channels.values()), default=0)
+
+    @property
+    def sample_rate(self) -> float | None:
+        rates = {c.sample_rate for c in self.channels.values()}
+        return rates.pop() if len(rates) == 1 else None
+
+    @property
+    def duration(self) -> float:
+        """Recorded seconds (``n_samples / sample_rate``; 0 for an empty point)."""
+        if not self.channels:
+            return 0.0
+        return self.n_samples / next(iter(self.channels.values())).sample_rate
+
+    def to_dataframe(self):
+        """Wide table: index ``time`` (s), one column per channel (trimmed to ``n_samples``)."""
+        import pandas as pd
+
+        n = self.n_samples
+        first = next(iter(self.channels.values()), None)
+        time_s = first.time()[:n] if first is not None else np.empty(0)
+        frame = pd.DataFrame({name: c[:n] if n else np.empty(0) for name, c in self.channels.items()},
+                             index=pd.Index(time_s, name="time"))
+        return frame
+
+
+class Recording:
+    """An open recording; use as a context manager or call :meth:`close`.
+
+    Attributes
+    ----------
+    status : str
+        ``"recording"`` (writer running or killed), ``"complete"`` or ``"aborted"``.
+    complete : bool
+        ``status == "complete"``; ``incomplete`` is its negation.
+    abort_reason, backend, created, ended, software_version : str
+    schema_version : int
+    rig : str
+        The rig description text (TOML or JSON).
+    experiment : dict
+    points : list of Point
+    opened_as : str
+        How HDF5 had to open the file: ``"clean"``, ``"swmr"`` or ``"flags-cleared"``.
+    """
+
+    def __init__(self, f: h5py.File, path: str, opened_as: str):
+        self._file = f
+        self.path = path
+        self.opened_as = opened_as
+        attrs = {key: python_value(value) for key, value in f.attrs.items()}
+        self.attrs = attrs
+        self.schema_version: int = attrs["schema_version"]
+        self.status: str = attrs["status"]
+        self.abort_reason: str = attrs["abort_reason"]
+        self.backend: str = attrs["backend"]
+        self.created: str = attrs["created"]
+        self.ended: str = attrs["ended"]
+        self.software_version: str = attrs["software_version"]
+        self.rig: str = attrs["rig"]
+        self.experiment: dict[str, Any] = json.loads(attrs["experiment"])
+        group = f[POINTS_GROUP]
+        names = sorted((n for n in group if point_index(n) is not None), key=int)
+        self.points: list[Point] = [Point(group[n], path) for n in names]
+
+    def __repr__(self) -> str:
+        return (f"<Recording {self.path}: {self.status}, backend {self.backend}, "
+                f"{len(self.points)} points>")
+
+    def __enter__(self) -> Recording:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def close(self) -> None:
+        self._file.close()
+
+    def __iter__(self) -> Iterator[Point]:
+        return iter(self.points)
+
+    @property
+    def complete(self) -> bool:
+        return self.status == STATUS_COMPLETE
+
+    @property
+    def incomplete(self) -> bool:
+        return not self.complete
+
+    def rig_config(self):
+        """The rig description validated into a :class:`rigtools.config.RigConfig`."""
+        import tomllib
+
+        from rigtools.config import parse_rig
+
+        try:
+            data = json.loads(self.rig)
+        except ValueError:
+            try:
+                data = tomllib.loads(self.rig)
+            except tomllib.TOMLDecodeError as exc:
+                raise RecordingError(f"{self.path}: rig attribute is neither JSON nor TOML "
+                                     f"({exc})") from None
+        return parse_rig(data, source=f"{self.path} rig")
+
+    def to_dataframe(self, per: str = "sample"):
+        """The recording as a pandas DataFrame.
+
+        Parameters
+        ----------
+        per : {"sample", "point"}
+            ``"sample"``: tidy long table, one row per sample and channel, columns ``point``
+            (int), ``channel`` (categorical), ``time`` (s from the point's start), ``value``
+            (in the channel's units). ``"point"``: one row per point, columns ``point``,
+            ``start_time``, ``end_time``, ``n_samples``, ``duration`` (s), then the parameters.
+        """
+        import pandas as pd
+
+        if per == "point":
+            rows = [{"point": p.index, "start_time": p.start_time, "end_time": p.end_time,
+                     "n_samples": p.n_samples, "duration": p.duration, **p.params}
+                    for p in self.points]
+            return pd.DataFrame(rows)
+        if per != "sample":
+            raise ValueError(f"per={per!r}: use 'sample' or 'point'")
+        names = list(dict.fromkeys(c for p in self.points for c in p.channels))
+        parts = {"point": [], "channel": [], "time": [], "value": []}
+        for p in self.points:
+            for name, channel in p.channels.items():
+                n = len(channel)
+                parts["point"].append(np.full(n, p.index, dtype=np.int64))
+                parts["channel"].append(np.full(n, names.index(name), dtype=np.int32))
+                parts["time"].append(channel.time())
+                parts["value"].append(channel.read())
+        cat = lambda key, dtype: np.concatenate(parts[key]) if parts[key] else np.empty(0, dtype)  # noqa: E731
+        return pd.DataFrame({
+            "point": cat("point", np.int64),
+            "channel": pd.Categorical.from_codes(cat("channel", np.int32), categories=names),
+            "time": cat("time", np.float64),
+            "value": cat("value", np.float64),
+        })
+
+
+def open_recording(path: str | os.PathLike) -> Recording:
+    """Open a recording (schema v1) for reading.
+
+    Returns
+    -------
+    Recording
+        With ``status``, ``rig``, ``experiment``, ``points`` (parameters and lazily read
+        channels) and ``to_dataframe()``. Files of killed writers open with ``complete False``.
+
+    Raises
+    ------
+    RecordingError
+        One line: missing or unreadable file (truncated, not HDF5), another schema, a newer
+        ``schema_version``, or a missing/invalid required attribute.
+    """
+    f, opened_as = open_h5(path)
+    try:
+        problems = find_problems(f)
+        fatal = [p for p in problems if p.fatal]
+        if fatal:
+            where = "" if fatal[0].where == "/" else f"{fatal[0].where}: "
+            more = f" (and {len(fatal) - 1} more; run: rig check {path})" if len(fatal) > 1 else ""
+            raise RecordingError(f"{path}: {where}{fatal[0].message}{more}")
+        return Recording(f, str(path), opened_as)
+    except RecordingError:
+        f.close()
+        raise
+    except (OSError, RuntimeError, KeyError, ValueError) as exc:
+        f.close()
+        raise RecordingError(f"{path}: damaged HDF5 structure ({_reason(exc)})") from None

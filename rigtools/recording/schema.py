@@ -1,0 +1,216 @@
+"""Recording schema v1: the names, types and rules every recording follows.
+
+The layout is documented for humans in ``docs/recording-format.md``; this module is the same
+description for code (writer, reader and validator all take their names from here).
+
+::
+
+    /                         root attributes: ROOT_ATTRS
+    /points/0000              one group per steady-state point; attributes: POINT_ATTRS + parameters
+    /points/0000/<channel>    one 1-D float64 dataset per channel; attributes: CHANNEL_ATTRS
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+from datetime import datetime, timezone
+from numbers import Integral, Real
+from typing import Any
+
+import numpy as np
+
+from rigtools.errors import UserError
+
+SCHEMA_NAME = "rigtools.recording"
+SCHEMA_VERSION = 1
+
+STATUS_RECORDING = "recording"
+STATUS_COMPLETE = "complete"
+STATUS_ABORTED = "aborted"
+STATUSES = (STATUS_RECORDING, STATUS_COMPLETE, STATUS_ABORTED)
+
+KNOWN_BACKENDS = ("nidaqmx", "simulated", "fem")   # others are allowed: the name of an import source
+
+POINTS_GROUP = "points"
+
+# name -> (kind, meaning). kind: "text" (UTF-8 string), "int", "float".
+ROOT_ATTRS: dict[str, tuple[str, str]] = {
+    "schema": ("text", f'always "{SCHEMA_NAME}"'),
+    "schema_version": ("int", f"format version; this software writes {SCHEMA_VERSION}"),
+    "created": ("text", "ISO 8601 UTC time the file was created"),
+    "software_version": ("text", "rigtools version that wrote the file"),
+    "backend": ("text", 'where the data came from: "nidaqmx", "simulated", "fem" or an import source'),
+    "status": ("text", '"recording" while written, then "complete" or "aborted"'),
+    "abort_reason": ("text", 'one line saying why the run stopped early; "" otherwise'),
+    "ended": ("text", 'ISO 8601 UTC time the writer finished; "" while recording'),
+    "rig": ("text", "the full rig description (TOML or JSON text)"),
+    "experiment": ("text", "the experiment description (JSON object text)"),
+}
+
+POINT_ATTRS: dict[str, tuple[str, str]] = {
+    "start_time": ("text", "ISO 8601 UTC time the point started"),
+    "end_time": ("text", 'ISO 8601 UTC time the point ended; "" if it never ended (writer killed)'),
+}
+
+# Well-known point parameters (SI). Any other text/number/bool parameter may be added.
+STANDARD_PARAMETERS: dict[str, str] = {
+    "fe": "excitation frequency, Hz",
+    "force_amplitude": "commanded (or simulated) force amplitude F0, N",
+    "gap": "shroud gap, m",
+    "measured_force_amplitude": "force amplitude measured at the sensor, N",
+    "settled": "true if the response was steady when recorded",
+    "drive_amplitude": "drive voltage amplitude, V",
+}
+
+CHANNEL_ATTRS: dict[str, tuple[str, str]] = {
+    "units": ("text", 'SI units of the samples, e.g. "N", "m/s^2", "m", "V"'),
+    "quantity": ("text", '"force", "acceleration", "displacement", "velocity", "voltage", ...'),
+    "sample_rate": ("float", "samples per second, Hz"),
+    "t0": ("float", "time of the first sample, s from the start of the point"),
+}
+# For measured channels (all optional in the file; written when known).
+MEASURED_CHANNEL_ATTRS: dict[str, tuple[str, str]] = {
+    "sensitivity": ("float", "sensor sensitivity in sensitivity_units"),
+    "sensitivity_units": ("text", 'units of sensitivity, e.g. "mV/g", "mV/N"'),
+    "physical_channel": ("text", 'DAQ channel, e.g. "Dev1/ai0"'),
+    "location": ("text", 'where the sensor sits, e.g. "active blade, x=0.180 m"'),
+}
+
+RESERVED_POINT_NAMES = frozenset(POINT_ATTRS)
+_POINT_NAME = re.compile(r"^\d{4,}$")
+_CHANNEL_NAME = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_.\-]*$")
+
+
+class RecordingError(UserError):
+    """A recording file that cannot be created, opened or trusted; the message is one line."""
+
+
+def point_name(index: int) -> str:
+    """Group name of point ``index``: ``"0000"``, ``"0001"``, ... (at least four digits)."""
+    return f"{index:04d}"
+
+
+def point_index(name: str) -> int | None:
+    """Index encoded in a point group name, or ``None`` if the name is not a point name."""
+    return int(name) if _POINT_NAME.match(name) else None
+
+
+def utc_now() -> str:
+    """The current time as ISO 8601 text in UTC, e.g. ``2026-11-01T05:31:07.123456+00:00``."""
+    return datetime.now(timezone.utc).isoformat(timespec="microseconds")
+
+
+def parse_utc(text: str) -> datetime:
+    """Parse ISO 8601 text written by :func:`utc_now`; raises ValueError unless it carries UTC."""
+    value = datetime.fromisoformat(text)
+    if value.utcoffset() is None or value.utcoffset().total_seconds() != 0:
+        raise ValueError(f"{text!r} is not UTC")
+    return value
+
+
+@dataclass(frozen=True)
+class ChannelSpec:
+    """What one recorded channel holds.
+
+    Parameters
+    ----------
+    name : str
+        Dataset name inside the point group (letters, digits, ``_ . -``), e.g. ``"force"``.
+    units : str
+        SI units of the samples as stored, e.g. ``"N"``, ``"m/s^2"``.
+    quantity : str
+        ``"force"``, ``"acceleration"``, ``"displacement"``, ``"velocity"``, ``"voltage"``, ...
+    sample_rate : float
+        Samples per second, Hz (> 0). All channels of a point share it.
+    t0 : float
+        Time of the first sample in seconds from the start of the point.
+    sensitivity, sensitivity_units, physical_channel, location
+        For measured channels: the sensor's sensitivity (e.g. ``10.0`` with ``"mV/g"``), the DAQ
+        channel (``"Dev1/ai1"``) and where the sensor sits (``"active blade, x=0.180 m"``).
+    """
+
+    name: str
+    units: str
+    quantity: str
+    sample_rate: float
+    t0: float = 0.0
+    sensitivity: float | None = None
+    sensitivity_units: str | None = None
+    physical_channel: str | None = None
+    location: str | None = None
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.name, str) or not _CHANNEL_NAME.match(self.name):
+            raise ValueError(f"channel name {self.name!r}: use letters, digits, '_', '.', '-'")
+        for key in ("units", "quantity"):
+            if not isinstance(getattr(self, key), str):
+                raise ValueError(f"channel {self.name!r}: {key} must be text")
+        if not (isinstance(self.sample_rate, Real) and math.isfinite(self.sample_rate)
+                and self.sample_rate > 0):
+            raise ValueError(f"channel {self.name!r}: sample_rate {self.sample_rate!r} must be > 0 Hz")
+        if not (isinstance(self.t0, Real) and math.isfinite(self.t0)):
+            raise ValueError(f"channel {self.name!r}: t0 {self.t0!r} must be a finite number of s")
+        if self.sensitivity is not None and not (
+                isinstance(self.sensitivity, Real) and math.isfinite(self.sensitivity)
+                and self.sensitivity != 0):
+            raise ValueError(f"channel {self.name!r}: sensitivity {self.sensitivity!r} must be a "
+                             "finite non-zero number")
+        for key in ("sensitivity_units", "physical_channel", "location"):
+            value = getattr(self, key)
+            if value is not None and not isinstance(value, str):
+                raise ValueError(f"channel {self.name!r}: {key} must be text")
+
+    def attrs(self) -> dict[str, Any]:
+        """The dataset attributes of this channel (optional ones only when set)."""
+        out: dict[str, Any] = {"units": self.units, "quantity": self.quantity,
+                               "sample_rate": float(self.sample_rate), "t0": float(self.t0)}
+        if self.sensitivity is not None:
+            out["sensitivity"] = float(self.sensitivity)
+        for key in ("sensitivity_units", "physical_channel", "location"):
+            value = getattr(self, key)
+            if value is not None:
+                out[key] = value
+        return out
+
+
+def parameter_value(name: str, value: Any) -> Any:
+    """Check a point parameter and return it as stored: text, bool, int64, float64 or a 1-D array.
+
+    Raises
+    ------
+    ValueError
+        For reserved names, empty names, or values that are not text, numbers or bools.
+    """
+    if not isinstance(name, str) or not name or "/" in name:
+        raise ValueError(f"parameter name {name!r} must be non-empty text without '/'")
+    if name in RESERVED_POINT_NAMES:
+        raise ValueError(f"parameter name {name!r} is reserved (set by the writer)")
+    if isinstance(value, (bool, np.bool_)):
+        return np.bool_(value)
+    if isinstance(value, str):
+        return value
+    if isinstance(value, Integral):
+        return np.int64(value)
+    if isinstance(value, Real):
+        return np.float64(value)
+    if isinstance(value, (list, tuple, np.ndarray)):
+        arr = np.asarray(value)
+        if arr.ndim == 1 and arr.dtype.kind in "iuf":
+            return arr.astype(np.float64 if arr.dtype.kind == "f" else np.int64)
+    raise ValueError(f"parameter {name!r} = {value!r}: store text, numbers, bools or 1-D numeric "
+                     "lists only")
+
+
+def python_value(value: Any) -> Any:
+    """An attribute value as read by h5py turned into plain Python (str, bool, int, float, list)."""
+    if isinstance(value, bytes):
+        return value.decode("utf-8", "replace")
+    if isinstance(value, np.ndarray):
+        if value.ndim == 0:
+            return python_value(value[()])
+        return [python_value(v) for v in value]
+    if isinstance(value, np.generic):
+        return value.item()
+    return value

@@ -1,0 +1,117 @@
+"""Read a file whose writer died outside SWMR mode, without modifying it.
+
+HDF5 1.10+ files record in their superblock that a writer has the file open ("file consistency
+flags"). A writer killed while it held the file in plain write mode (the few milliseconds in
+which :class:`~rigtools.recording.RecordingWriter` adds a point or sets the final status) leaves
+the flag set, and HDF5 then refuses to open the file ("file is already open for write"); the
+HDF5 tool ``h5clear -s FILE`` clears it in place. The reader instead opens the file through
+:class:`FlagClearedFile`, a read-only file object that presents the superblock with the flags
+cleared and its checksum recomputed (superblock version 2/3 layout and Jenkins lookup3 checksum,
+as in the HDF5 file format specification, sections II.A and "checksum").
+"""
+
+from __future__ import annotations
+
+import io
+import os
+import struct
+
+SIGNATURE = b"\x89HDF\r\n\x1a\n"
+_FLAGS_OFFSET = 11
+_MASK = 0xFFFFFFFF
+
+
+def _rot(x: int, k: int) -> int:
+    return ((x << k) | (x >> (32 - k))) & _MASK
+
+
+def lookup3(data: bytes, initval: int = 0) -> int:
+    """Bob Jenkins' lookup3 ``hashlittle`` of ``data``, the checksum HDF5 uses for metadata."""
+    length = len(data)
+    a = b = c = (0xDEADBEEF + length + initval) & _MASK
+    offset = 0
+    while length > 12:
+        x, y, z = struct.unpack_from("<3I", data, offset)
+        a, b, c = (a + x) & _MASK, (b + y) & _MASK, (c + z) & _MASK
+        a = (a - c) & _MASK; a ^= _rot(c, 4); c = (c + b) & _MASK
+        b = (b - a) & _MASK; b ^= _rot(a, 6); a = (a + c) & _MASK
+        c = (c - b) & _MASK; c ^= _rot(b, 8); b = (b + a) & _MASK
+        a = (a - c) & _MASK; a ^= _rot(c, 16); c = (c + b) & _MASK
+        b = (b - a) & _MASK; b ^= _rot(a, 19); a = (a + c) & _MASK
+        c = (c - b) & _MASK; c ^= _rot(b, 4); b = (b + a) & _MASK
+        length -= 12
+        offset += 12
+    if length == 0:
+        return c
+    x, y, z = struct.unpack("<3I", data[offset:offset + length].ljust(12, b"\0"))
+    a, b, c = (a + x) & _MASK, (b + y) & _MASK, (c + z) & _MASK
+    c ^= b; c = (c - _rot(b, 14)) & _MASK
+    a ^= c; a = (a - _rot(c, 11)) & _MASK
+    b ^= a; b = (b - _rot(a, 25)) & _MASK
+    c ^= b; c = (c - _rot(b, 16)) & _MASK
+    a ^= c; a = (a - _rot(c, 4)) & _MASK
+    b ^= a; b = (b - _rot(a, 14)) & _MASK
+    c ^= b; c = (c - _rot(b, 24)) & _MASK
+    return c
+
+
+def superblock_size(head: bytes) -> int | None:
+    """Length of a version 2/3 superblock at the start of ``head`` (incl. checksum), else None."""
+    if len(head) < 12 or not head.startswith(SIGNATURE) or head[8] not in (2, 3):
+        return None
+    size_of_offsets = head[9]
+    return 12 + 4 * size_of_offsets + 4
+
+
+def consistency_flags(path: str | os.PathLike) -> int | None:
+    """The superblock's file consistency flags (0 = closed cleanly), or None if not v2/v3."""
+    with open(path, "rb") as fh:
+        head = fh.read(64)
+    return head[_FLAGS_OFFSET] if superblock_size(head) else None
+
+
+class FlagClearedFile(io.RawIOBase):
+    """Read-only view of an HDF5 file whose superblock consistency flags read as cleared."""
+
+    def __init__(self, path: str | os.PathLike):
+        super().__init__()
+        self._fh = open(path, "rb")
+        head = self._fh.read(64)
+        size = superblock_size(head)
+        if size is None or len(head) < size:
+            self._fh.close()
+            raise OSError("no version 2/3 HDF5 superblock at the start of the file")
+        patched = bytearray(head[:size])
+        patched[_FLAGS_OFFSET] = 0
+        patched[-4:] = struct.pack("<I", lookup3(bytes(patched[:-4])))
+        self._head = bytes(patched)
+        self._pos = 0
+        self._fh.seek(0)
+
+    def readable(self) -> bool:
+        return True
+
+    def seekable(self) -> bool:
+        return True
+
+    def seek(self, offset: int, whence: int = io.SEEK_SET) -> int:
+        self._pos = self._fh.seek(offset, whence)
+        return self._pos
+
+    def tell(self) -> int:
+        return self._pos
+
+    def readinto(self, buffer) -> int:
+        view = memoryview(buffer).cast("B")
+        self._fh.seek(self._pos)
+        n = self._fh.readinto(view)
+        if n and self._pos < len(self._head):
+            stop = min(len(self._head), self._pos + n)
+            view[: stop - self._pos] = self._head[self._pos:stop]
+        self._pos += n or 0
+        return n
+
+    def close(self) -> None:
+        if not self.closed:
+            self._fh.close()
+        super().close()

@@ -1,0 +1,321 @@
+"""Validation of recordings against schema v1: what ``rig check`` reports.
+
+:func:`find_problems` inspects an open HDF5 file (attributes, names, shapes; no sample data) and
+returns :class:`Problem` lines. Problems marked ``fatal`` stop :func:`~rigtools.recording.open_recording`
+(wrong schema, newer version, missing required attributes); the others (inconsistent lengths or
+rates, a gap in the point numbering) are reported by ``rig check`` but the file still opens.
+:func:`check_recording` opens a path, runs the inspection and, optionally, reads every sample.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from dataclasses import asdict, dataclass, field
+from numbers import Real
+from typing import Any
+
+import h5py
+import numpy as np
+
+import rigtools
+from rigtools.recording.schema import (
+    CHANNEL_ATTRS,
+    MEASURED_CHANNEL_ATTRS,
+    POINT_ATTRS,
+    POINTS_GROUP,
+    ROOT_ATTRS,
+    SCHEMA_NAME,
+    SCHEMA_VERSION,
+    STATUS_ABORTED,
+    STATUS_COMPLETE,
+    STATUSES,
+    RecordingError,
+    parse_utc,
+    point_index,
+    python_value,
+)
+
+ERROR = "error"
+NOTE = "note"
+
+
+@dataclass(frozen=True)
+class Problem:
+    """One finding: ``where`` (HDF5 path), ``message``, ``severity`` ("error"/"note"), ``fatal``."""
+
+    where: str
+    message: str
+    severity: str = ERROR
+    fatal: bool = False
+
+    def line(self) -> str:
+        return f"{self.where}: {self.message}"
+
+
+def _is_text(value: Any) -> bool:
+    return isinstance(value, (str, bytes))
+
+
+def _is_number(value: Any) -> bool:
+    return isinstance(value, (Real, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_))
+
+
+def _scalar(value: Any) -> Any:
+    if isinstance(value, np.ndarray) and value.shape == ():
+        return value[()]
+    return value
+
+
+def _check_attr(obj: h5py.HLObject, name: str, kind: str, where: str, out: list[Problem],
+                required: bool = True) -> Any:
+    """Append a problem if attribute ``name`` is missing or not of ``kind``; return its value."""
+    try:
+        if name not in obj.attrs:
+            if required:
+                out.append(Problem(where, f"missing attribute '{name}'", fatal=True))
+            return None
+        value = _scalar(obj.attrs[name])
+    except (OSError, TypeError, ValueError, KeyError) as exc:
+        out.append(Problem(where, f"attribute '{name}' cannot be read ({exc})", fatal=True))
+        return None
+    ok = {"text": _is_text, "int": lambda v: isinstance(v, (int, np.integer)) and not isinstance(
+        v, (bool, np.bool_)), "float": _is_number}[kind](value)
+    if not ok:
+        out.append(Problem(where, f"attribute '{name}' = {python_value(value)!r} is not {kind}",
+                           fatal=True))
+        return None
+    return python_value(value)
+
+
+def find_problems(f: h5py.File) -> list[Problem]:
+    """Everything wrong with an open file as a schema v1 recording (metadata only).
+
+    The first problems are the fatal ones about the root (wrong schema, newer version), so
+    their message is what a reader reports.
+    """
+    out: list[Problem] = []
+    schema = _check_attr(f, "schema", "text", "/", [])
+    if schema is None:
+        return [Problem("/", f"not a rigtools recording: no text attribute 'schema' "
+                             f"(expected '{SCHEMA_NAME}')", fatal=True)]
+    if schema != SCHEMA_NAME:
+        return [Problem("/", f"not a rigtools recording: schema is '{schema}' "
+                             f"(expected '{SCHEMA_NAME}')", fatal=True)]
+    version = _check_attr(f, "schema_version", "int", "/", out)
+    if version is None:
+        return out
+    if version > SCHEMA_VERSION:
+        return [Problem("/", f"schema_version {version} is newer than this rigtools "
+                             f"{rigtools.__version__} reads (up to {SCHEMA_VERSION}); upgrade rigtools",
+                        fatal=True)]
+    if version < 1:
+        return [Problem("/", f"schema_version {version} is not a valid version", fatal=True)]
+
+    root = {name: _check_attr(f, name, kind, "/", out) for name, (kind, _) in ROOT_ATTRS.items()
+            if name not in ("schema", "schema_version")}
+    status = root.get("status")
+    if status is not None and status not in STATUSES:
+        out.append(Problem("/", f"status '{status}' is not one of {', '.join(STATUSES)}", fatal=True))
+    if status == STATUS_ABORTED and not root.get("abort_reason"):
+        out.append(Problem("/", "status is 'aborted' but abort_reason is empty"))
+    for key in ("created", "ended"):
+        text = root.get(key)
+        if text:
+            try:
+                parse_utc(text)
+            except ValueError:
+                out.append(Problem("/", f"{key} = {text!r} is not ISO 8601 UTC time"))
+    if status == STATUS_COMPLETE and root.get("ended") == "":
+        out.append(Problem("/", "status is 'complete' but 'ended' is empty"))
+    if root.get("backend") == "":
+        out.append(Problem("/", "backend is empty"))
+    if root.get("experiment") is not None:
+        try:
+            if not isinstance(json.loads(root["experiment"]), dict):
+                raise ValueError
+        except ValueError:
+            out.append(Problem("/", "attribute 'experiment' is not a JSON object", fatal=True))
+
+    if POINTS_GROUP not in f:
+        out.append(Problem("/", f"missing group '/{POINTS_GROUP}'", fatal=True))
+        return out
+    points = f[POINTS_GROUP]
+    if not isinstance(points, h5py.Group):
+        out.append(Problem(f"/{POINTS_GROUP}", "is not a group", fatal=True))
+        return out
+    indices = []
+    for name in points:
+        idx = point_index(name)
+        if idx is None:
+            out.append(Problem(f"/{POINTS_GROUP}/{name}", "unexpected object (point groups are "
+                                                          "named 0000, 0001, ...)"))
+            continue
+        indices.append(idx)
+        out.extend(_point_problems(points[name], f"/{POINTS_GROUP}/{name}", status))
+    indices.sort()
+    if indices != list(range(len(indices))):
+        out.append(Problem(f"/{POINTS_GROUP}", f"points are not numbered 0..{len(indices) - 1} "
+                                               f"without gaps: {indices}"))
+    if status not in (None, STATUS_COMPLETE):
+        out.append(Problem("/", f"incomplete: status is '{status}'"
+                           + (" (the writer was killed or is still running)"
+                              if status == "recording" else f": {root.get('abort_reason')}"),
+                           severity=NOTE))
+    return out
+
+
+def _point_problems(group: Any, where: str, status: str | None) -> list[Problem]:
+    out: list[Problem] = []
+    if not isinstance(group, h5py.Group):
+        return [Problem(where, "is not a group", fatal=True)]
+    for name, (kind, _) in POINT_ATTRS.items():
+        text = _check_attr(group, name, kind, where, out)
+        if text:
+            try:
+                parse_utc(text)
+            except ValueError:
+                out.append(Problem(where, f"{name} = {text!r} is not ISO 8601 UTC time"))
+    if "end_time" in group.attrs and _scalar(group.attrs["end_time"]) in ("", b"") \
+            and status == STATUS_COMPLETE:
+        out.append(Problem(where, "the point never ended (end_time is empty) in a complete file"))
+    for key in group.attrs:
+        if key in POINT_ATTRS:
+            continue
+        try:
+            value = group.attrs[key]
+        except (OSError, TypeError, ValueError):
+            out.append(Problem(where, f"parameter '{key}' cannot be read (not text or numbers)"))
+            continue
+        if not (isinstance(value, (str, bytes, np.generic, int, float))
+                or (isinstance(value, np.ndarray) and value.dtype.kind in "biufSUO"
+                    and value.ndim <= 1)):
+            out.append(Problem(where, f"parameter '{key}' is not text, a number or a bool"))
+    lengths: dict[str, int] = {}
+    rates: dict[str, float] = {}
+    if len(group) == 0:
+        out.append(Problem(where, "point has no channels"))
+    for name in group:
+        dataset = group[name]
+        cwhere = f"{where}/{name}"
+        if not isinstance(dataset, h5py.Dataset):
+            out.append(Problem(cwhere, "is not a dataset (channels are 1-D datasets)", fatal=True))
+            continue
+        if dataset.ndim != 1 or dataset.dtype.kind not in "iuf":
+            out.append(Problem(cwhere, f"is not a 1-D numeric dataset (shape {dataset.shape}, "
+                                       f"dtype {dataset.dtype})", fatal=True))
+            continue
+        lengths[name] = dataset.shape[0]
+        values = {key: _check_attr(dataset, key, kind, cwhere, out)
+                  for key, (kind, _) in CHANNEL_ATTRS.items()}
+        rate = values.get("sample_rate")
+        if rate is not None:
+            if not (math.isfinite(rate) and rate > 0):
+                out.append(Problem(cwhere, f"sample_rate {rate!r} is not a positive number of Hz",
+                                   fatal=True))
+            else:
+                rates[name] = float(rate)
+        t0 = values.get("t0")
+        if t0 is not None and not math.isfinite(t0):
+            out.append(Problem(cwhere, f"t0 {t0!r} is not finite", fatal=True))
+        for key, (kind, _) in MEASURED_CHANNEL_ATTRS.items():
+            _check_attr(dataset, key, kind, cwhere, out, required=False)
+        if "sensitivity" in dataset.attrs and "sensitivity_units" not in dataset.attrs:
+            out.append(Problem(cwhere, "has 'sensitivity' but no 'sensitivity_units'"))
+    if len(set(lengths.values())) > 1:
+        detail = ", ".join(f"{k}={v}" for k, v in lengths.items())
+        if status == STATUS_COMPLETE:
+            out.append(Problem(where, f"channels differ in length: {detail}"))
+        else:
+            out.append(Problem(where, f"channels differ in length (writer stopped mid-block): "
+                                      f"{detail}", severity=NOTE))
+    if len(set(rates.values())) > 1:
+        detail = ", ".join(f"{k}={v:g} Hz" for k, v in rates.items())
+        out.append(Problem(where, f"channels differ in sample_rate: {detail}"))
+    return out
+
+
+@dataclass
+class CheckResult:
+    """Outcome of :func:`check_recording`; ``valid`` is True when no problem has severity error."""
+
+    path: str
+    problems: list[Problem] = field(default_factory=list)
+    status: str | None = None
+    n_points: int = 0
+    n_channels: int = 0
+    opened_as: str = ""
+
+    @property
+    def valid(self) -> bool:
+        return not any(p.severity == ERROR for p in self.problems)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"path": self.path, "valid": self.valid, "status": self.status,
+                "points": self.n_points, "channels": self.n_channels, "opened_as": self.opened_as,
+                "problems": [asdict(p) for p in self.problems]}
+
+
+def check_recording(path: str | os.PathLike, read_data: bool = True) -> CheckResult:
+    """Validate a file: schema, version, attributes, channel lengths and rates, and (with
+    ``read_data``) that every sample can be read.
+
+    Raises
+    ------
+    RecordingError
+        If the file cannot be opened as HDF5 at all (missing, truncated, not HDF5).
+    """
+    from rigtools.recording.reader import open_h5   # the reader's tolerant opener
+
+    f, opened_as = open_h5(path)
+    result = CheckResult(str(path), opened_as=opened_as)
+    try:
+        try:
+            result.problems = find_problems(f)
+        except (OSError, RuntimeError, KeyError, ValueError) as exc:
+            raise RecordingError(f"{path}: damaged HDF5 structure ({' '.join(str(exc).split())})") \
+                from None
+        if opened_as == "flags-cleared":
+            result.problems.append(Problem("/", "the writer was killed while adding structure "
+                                                "(HDF5 consistency flags set; h5clear -s clears "
+                                                "them for other tools)", severity=NOTE))
+        if "status" in f.attrs:
+            result.status = python_value(_scalar(f.attrs["status"]))
+        points = f.get(POINTS_GROUP)
+        if isinstance(points, h5py.Group):
+            names = [n for n in points if point_index(n) is not None]
+            result.n_points = len(names)
+            channels: set[str] = set()
+            for name in names:
+                group = points[name]
+                if isinstance(group, h5py.Group):
+                    channels.update(group)
+                    if read_data:
+                        result.problems.extend(_data_problems(group, f"/{POINTS_GROUP}/{name}"))
+            result.n_channels = len(channels)
+    finally:
+        f.close()
+    return result
+
+
+def _data_problems(group: h5py.Group, where: str, block: int = 1 << 20) -> list[Problem]:
+    out = []
+    for name in group:
+        dataset = group[name]
+        if not isinstance(dataset, h5py.Dataset) or dataset.ndim != 1:
+            continue
+        n_bad = 0
+        try:
+            for start in range(0, dataset.shape[0], block):
+                values = dataset[start:start + block]
+                if values.dtype.kind == "f":
+                    n_bad += int(np.count_nonzero(~np.isfinite(values)))
+        except (OSError, ValueError, RuntimeError) as exc:
+            out.append(Problem(f"{where}/{name}", f"samples cannot be read from index {start} "
+                                                  f"({' '.join(str(exc).split())})"))
+            continue
+        if n_bad:
+            out.append(Problem(f"{where}/{name}", f"{n_bad} samples are NaN or infinite "
+                                                  "(unflushed tail or injected fault)", severity=NOTE))
+    return out

@@ -1,0 +1,406 @@
+"""Streaming writer for recordings (schema v1), crash-safe through HDF5 SWMR.
+
+HDF5's single-writer/multiple-reader (SWMR) mode lets readers follow a file while it grows and
+keeps the file readable if the writer dies, but a file in SWMR-write mode cannot get new groups,
+datasets or attributes. The writer therefore works in phases:
+
+1. structure (plain write mode): the file, or a new point's group, datasets and attributes, are
+   created and flushed;
+2. streaming (SWMR mode): blocks are appended to the point's datasets; the file is flushed at
+   least every ``flush_interval`` seconds of wall time (checked on every append), and on
+   :meth:`PointWriter.end`;
+3. at the end of a point and of the run the file is closed and reopened in plain write mode for
+   a few milliseconds to set end-of-point parameters and the final ``status``, then left in SWMR
+   mode again until the next point.
+
+So the file rests in SWMR mode whenever no structure is being added. A killed writer leaves a
+file that HDF5 opens in SWMR-read mode (``h5py.File(path, "r", swmr=True)``;
+:func:`rigtools.recording.open_recording` does this by itself) with everything up to the last
+flush intact. The writer opens files without HDF5 file locking so that a reader holding the file
+open never blocks the reopen between points; it refuses to replace an existing file unless
+``overwrite=True``.
+
+Files use the HDF5 1.10 object format (``libver=("v110", "v110")``), which SWMR needs; HDF5 1.10
+or newer reads them (h5dump 1.10+, MATLAB R2021b+).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import time
+import warnings
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import h5py
+import numpy as np
+
+import rigtools
+from rigtools.recording.schema import (
+    POINTS_GROUP,
+    SCHEMA_NAME,
+    SCHEMA_VERSION,
+    STATUS_ABORTED,
+    STATUS_COMPLETE,
+    STATUS_RECORDING,
+    ChannelSpec,
+    RecordingError,
+    parameter_value,
+    point_name,
+    utc_now,
+)
+
+LIBVER = ("v110", "v110")
+DEFAULT_CHUNK_SAMPLES = 16384        # 128 KiB of float64 per chunk: ~0.3 s at 51.2 kS/s
+COMPRESSIONS = ("gzip", "none")
+
+
+def _json_default(value: Any) -> Any:
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, Path):
+        return str(value)
+    raise TypeError(f"experiment value {value!r} of type {type(value).__name__} is not JSON")
+
+
+def _rig_text(rig: Any) -> str:
+    if isinstance(rig, str):
+        return rig
+    if hasattr(rig, "to_json"):
+        return rig.to_json()
+    if isinstance(rig, Mapping):
+        return json.dumps(rig, indent=1, default=_json_default, allow_nan=False)
+    raise TypeError("rig must be TOML or JSON text (or an object with to_json())")
+
+
+def one_line(exc: BaseException, limit: int = 500) -> str:
+    """``"TypeName: message"`` of an exception on one line, at most ``limit`` characters."""
+    if isinstance(exc, KeyboardInterrupt):
+        return "KeyboardInterrupt: interrupted by the user"
+    text = f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
+    text = " ".join(text.split())
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+class PointWriter:
+    """One steady-state point being recorded; made by :meth:`RecordingWriter.begin_point`.
+
+    Attributes
+    ----------
+    index : int
+        Point number (group ``/points/{index:04d}``).
+    channels : tuple of ChannelSpec
+        Channel order of the blocks given to :meth:`append`.
+    n_samples : int
+        Samples per channel appended so far.
+    flushed_samples : int
+        Samples per channel known to be on disk (as of the last flush).
+    """
+
+    def __init__(self, writer: RecordingWriter, index: int, channels: tuple[ChannelSpec, ...],
+                 datasets: list[h5py.Dataset]):
+        self._writer = writer
+        self.index = index
+        self.name = point_name(index)
+        self.channels = channels
+        self._datasets = datasets
+        self._pending: dict[str, Any] = {}
+        self.n_samples = 0
+        self.flushed_samples = 0
+        self.ended = False
+
+    def __enter__(self) -> PointWriter:
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> bool:
+        if not self.ended and exc_type is None:
+            self.end()
+        return False
+
+    def append(self, block: np.ndarray | Sequence) -> None:
+        """Append a block of samples.
+
+        Parameters
+        ----------
+        block : array_like, shape (n_channels, n_samples)
+            Samples in the order of :attr:`channels`, any number of samples (a whole simulated
+            run at once is fine). A 1-D array is accepted when the point has one channel.
+        """
+        if self.ended:
+            raise RuntimeError(f"point {self.name} has ended; begin a new point")
+        data = np.asarray(block, dtype=np.float64)
+        if data.ndim == 1 and len(self.channels) == 1:
+            data = data[np.newaxis, :]
+        if data.ndim != 2 or data.shape[0] != len(self.channels):
+            raise ValueError(f"block of shape {data.shape}: expected ({len(self.channels)}, n_samples)"
+                             f" for channels {[c.name for c in self.channels]}")
+        n = data.shape[1]
+        if n == 0:
+            return
+        start, stop = self.n_samples, self.n_samples + n
+        memspace = h5py.h5s.create_simple((n,))
+        for dataset, row in zip(self._datasets, data):
+            dataset.resize((stop,))
+            filespace = dataset.id.get_space()
+            filespace.select_hyperslab((start,), (n,))
+            dataset.id.write(memspace, filespace, np.ascontiguousarray(row))
+        self.n_samples = stop
+        self._writer._maybe_flush()
+
+    def set_attrs(self, **params: Any) -> None:
+        """Set point parameters known only at the end (``settled=True``, ``measured_force_amplitude=14.8``).
+
+        They are written when the point ends (SWMR mode allows no new attributes while
+        streaming), so they are lost if the writer is killed before :meth:`end`.
+        """
+        if self.ended:
+            raise RuntimeError(f"point {self.name} has ended")
+        for key, value in params.items():
+            self._pending[key] = parameter_value(key, value)
+
+    def end(self) -> None:
+        """Flush the samples, write pending parameters and the end time; the point is then closed."""
+        if self.ended:
+            return
+        self._writer._end_point(self)
+
+
+class RecordingWriter:
+    """Write one recording (schema v1), streaming blocks point by point.
+
+    Parameters
+    ----------
+    path : str or Path
+        File to create. Its directory must exist.
+    backend : str
+        ``"nidaqmx"``, ``"simulated"``, ``"fem"`` or the name of an import source.
+    rig : str
+        The full rig description, TOML or JSON text (a ``RigConfig`` is turned into JSON).
+    experiment : dict, optional
+        JSON-able description of the experiment (procedure, sweep, operator, notes...).
+    overwrite : bool
+        Replace an existing file. Without it an existing file raises :class:`RecordingError`.
+    compression : {"gzip", "none"}
+        ``"gzip"`` (default): HDF5's shuffle + deflate filters, which every HDF5 build has.
+        ``"none"``: chunked but uncompressed, the fastest (see ``benchmarks/bench_recording_writer.py``).
+    compression_level : int
+        Deflate level 1..9 (default 1: fastest; higher levels gain little on sensor noise).
+    chunk_samples : int
+        Samples per HDF5 chunk of each channel.
+    flush_interval : float
+        Flush to disk when at least this many seconds passed since the last flush (checked on
+        every append; default 0.5 s, so data older than about 0.5 s plus one block is on disk).
+
+    Examples
+    --------
+    >>> with RecordingWriter("run.h5", backend="simulated", rig=rig_text,
+    ...                      experiment={"procedure": "dwell"}) as rec:        # doctest: +SKIP
+    ...     point = rec.begin_point(params={"fe": 60.0, "force_amplitude": 15.0, "gap": 5e-4},
+    ...                             channels=[ChannelSpec("force", "N", "force", 51200.0)])
+    ...     for block in blocks:
+    ...         point.append(block)
+    ...     point.set_attrs(settled=True)
+    ...     point.end()
+    """
+
+    def __init__(self, path: str | os.PathLike, backend: str, rig: Any,
+                 experiment: Mapping[str, Any] | None = None, *, overwrite: bool = False,
+                 compression: str = "gzip", compression_level: int = 1,
+                 chunk_samples: int = DEFAULT_CHUNK_SAMPLES, flush_interval: float = 0.5):
+        if not isinstance(backend, str) or not backend.strip():
+            raise ValueError("backend must be non-empty text, e.g. 'simulated'")
+        if compression not in COMPRESSIONS:
+            raise ValueError(f"compression {compression!r}: use one of {COMPRESSIONS}")
+        if not 1 <= int(compression_level) <= 9:
+            raise ValueError(f"compression_level {compression_level}: use 1..9")
+        if int(chunk_samples) < 1:
+            raise ValueError("chunk_samples must be >= 1")
+        if not (math.isfinite(flush_interval) and flush_interval >= 0):
+            raise ValueError("flush_interval must be >= 0 s")
+        rig_text = _rig_text(rig)
+        experiment_text = json.dumps(dict(experiment or {}), default=_json_default, allow_nan=False)
+        self.path = Path(path)
+        self.backend = backend
+        self.status = STATUS_RECORDING
+        self._compression = compression
+        self._level = int(compression_level)
+        self._chunk = int(chunk_samples)
+        self._flush_interval = float(flush_interval)
+        self._point: PointWriter | None = None
+        self._n_points = 0
+        self._closed = False
+
+        if self.path.exists() and not overwrite:
+            raise RecordingError(f"{self.path} exists; pass overwrite=True (rig: --overwrite) to "
+                                 "replace it")
+        if not self.path.parent.is_dir():
+            raise RecordingError(f"cannot create {self.path}: directory {self.path.parent} does "
+                                 "not exist")
+        try:
+            self._file = h5py.File(self.path, "w" if overwrite else "w-", libver=LIBVER,
+                                   locking=False)
+        except (FileExistsError, OSError) as exc:
+            raise RecordingError(f"cannot create {self.path}: {exc}") from None
+        attrs = self._file.attrs
+        attrs["schema"] = SCHEMA_NAME
+        attrs["schema_version"] = np.int64(SCHEMA_VERSION)
+        attrs["created"] = utc_now()
+        attrs["software_version"] = rigtools.__version__
+        attrs["backend"] = backend
+        attrs["status"] = STATUS_RECORDING
+        attrs["abort_reason"] = ""
+        attrs["ended"] = ""
+        attrs["rig"] = rig_text
+        attrs["experiment"] = experiment_text
+        self._file.create_group(POINTS_GROUP, track_order=True)
+        self._start_swmr()
+
+    # -- context manager ---------------------------------------------------------------------
+    def __enter__(self) -> RecordingWriter:
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> bool:
+        if exc is None:
+            self.close()
+        else:
+            try:
+                self.abort(one_line(exc))
+            except Exception as secondary:  # never hide the original exception
+                warnings.warn(f"could not mark {self.path} as aborted: {one_line(secondary)}",
+                              RuntimeWarning, stacklevel=2)
+        return False
+
+    # -- points ------------------------------------------------------------------------------
+    @property
+    def n_points(self) -> int:
+        """Number of points begun so far."""
+        return self._n_points
+
+    def begin_point(self, params: Mapping[str, Any] | None = None,
+                    channels: Sequence[ChannelSpec] = ()) -> PointWriter:
+        """Start point ``/points/NNNN`` with its parameters and channels; returns its writer.
+
+        Parameters
+        ----------
+        params : dict
+            Point parameters, SI: ``fe`` (Hz), ``force_amplitude`` (N), ``gap`` (m), ... Values
+            are text, numbers, bools or 1-D numeric lists.
+        channels : sequence of ChannelSpec
+            The channels in block order; unique names, one common sample rate.
+        """
+        self._check_open()
+        if self._point is not None and not self._point.ended:
+            raise RuntimeError(f"point {self._point.name} is still open; call its end() first")
+        channels = tuple(channels)
+        if not channels:
+            raise ValueError("a point needs at least one ChannelSpec")
+        for spec in channels:
+            if not isinstance(spec, ChannelSpec):
+                raise TypeError(f"channels must be ChannelSpec objects, got {type(spec).__name__}")
+        names = [c.name for c in channels]
+        if len(set(names)) != len(names):
+            raise ValueError(f"channel names repeat: {names}")
+        rates = {float(c.sample_rate) for c in channels}
+        if len(rates) != 1:
+            raise ValueError(f"all channels of a point share one sample rate, got {sorted(rates)}")
+        values = {key: parameter_value(key, value) for key, value in dict(params or {}).items()}
+
+        index = self._n_points
+        self._reopen_plain()
+        group = self._file[POINTS_GROUP].create_group(point_name(index), track_order=True)
+        group.attrs["start_time"] = utc_now()
+        group.attrs["end_time"] = ""
+        for key, value in values.items():
+            group.attrs[key] = value
+        filters: dict[str, Any] = {}
+        if self._compression == "gzip":
+            filters = {"compression": "gzip", "compression_opts": self._level, "shuffle": True}
+        datasets = []
+        for spec in channels:
+            dataset = group.create_dataset(spec.name, shape=(0,), maxshape=(None,), dtype="<f8",
+                                           chunks=(self._chunk,), fillvalue=np.nan, **filters)
+            for key, value in spec.attrs().items():
+                dataset.attrs[key] = value
+            datasets.append(dataset)
+        self._start_swmr()
+        self._n_points += 1
+        self._point = PointWriter(self, index, channels, datasets)
+        return self._point
+
+    def _end_point(self, point: PointWriter) -> None:
+        self._file.flush()
+        point.flushed_samples = point.n_samples
+        self._reopen_plain()
+        group = self._file[POINTS_GROUP][point.name]
+        for key, value in point._pending.items():
+            group.attrs[key] = value
+        group.attrs["end_time"] = utc_now()
+        self._start_swmr()
+        point.ended = True
+        point._datasets = []
+
+    # -- flushing ------------------------------------------------------------------------------
+    def flush(self) -> None:
+        """Write everything appended so far to disk (HDF5 flush; survives a killed process)."""
+        self._check_open()
+        self._file.flush()
+        self._last_flush = time.monotonic()
+        if self._point is not None:
+            self._point.flushed_samples = self._point.n_samples
+
+    def _maybe_flush(self) -> None:
+        if time.monotonic() - self._last_flush >= self._flush_interval:
+            self.flush()
+
+    # -- ending --------------------------------------------------------------------------------
+    def close(self) -> None:
+        """End the open point (if any), mark the file ``complete`` and close it."""
+        if self._closed:
+            return
+        if self._point is not None and not self._point.ended:
+            self._point.end()
+        self._finish(STATUS_COMPLETE, "")
+
+    def abort(self, reason: str) -> None:
+        """Keep what was written, mark the file ``aborted`` with a one-line ``reason``, close it."""
+        if self._closed:
+            return
+        reason = " ".join(str(reason).split()) or "aborted"
+        try:
+            if self._point is not None and not self._point.ended:
+                self._point.end()
+        finally:
+            self._finish(STATUS_ABORTED, reason)
+
+    def _finish(self, status: str, reason: str) -> None:
+        try:
+            self._reopen_plain()
+            self._file.attrs["status"] = status
+            self._file.attrs["abort_reason"] = reason
+            self._file.attrs["ended"] = utc_now()
+        finally:
+            self._closed = True
+            self.status = status
+            self._file.close()
+
+    # -- file modes ----------------------------------------------------------------------------
+    def _check_open(self) -> None:
+        if self._closed:
+            raise RuntimeError(f"recording {self.path} is closed")
+
+    def _start_swmr(self) -> None:
+        self._file.flush()
+        self._file.swmr_mode = True
+        self._last_flush = time.monotonic()
+
+    def _reopen_plain(self) -> None:
+        """Close the SWMR-mode file and reopen it for structural changes (new objects/attributes)."""
+        if not self._file.swmr_mode:
+            return
+        self._file.close()
+        self._file = h5py.File(self.path, "r+", libver=LIBVER, locking=False)
