@@ -30,6 +30,7 @@ from rigtools.recording.superblock import FlagClearedFile, consistency_flags
 from rigtools.recording.validate import find_problems
 
 _H5_REASON = re.compile(r"\((.*)\)\s*$", re.S)
+_TRUNCATED = re.compile(r"truncated file: eof = (\d+),.*stored_eof = (\d+)")
 
 
 def _reason(exc: BaseException) -> str:
@@ -88,6 +89,10 @@ def open_h5(path: str | os.PathLike) -> tuple[h5py.File, str]:
     reason = _reason(last) if last else "unknown error"
     if "signature not found" in reason:
         raise RecordingError(f"{p}: not an HDF5 file (no HDF5 signature)") from None
+    truncated = _TRUNCATED.search(reason)
+    if truncated:
+        raise RecordingError(f"{p}: truncated HDF5 file ({truncated.group(1)} of "
+                             f"{truncated.group(2)} bytes present)") from None
     raise RecordingError(f"{p}: unreadable HDF5 file ({reason})") from None
 
 

@@ -1,0 +1,64 @@
+"""``rig check FILE``: validate a recording against the HDF5 schema (v1)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+from rigtools.recording import RecordingError, check_recording
+
+HELP = """\
+Check that FILE is a valid rigtools recording (docs/recording-format.md): schema name and
+version, root/point/channel attributes, point numbering, equal channel lengths and sample rates
+within each point, and (unless --quick) that every sample can be read.
+
+Exit status: 0 valid (notes such as "incomplete: status is 'recording'" may be printed),
+1 invalid (one line per problem), 2 unreadable (missing, truncated, not HDF5).
+
+examples:
+  rig check recordings/run.h5
+  rig check --json recordings/run.h5
+"""
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    parser = subparsers.add_parser(
+        "check", help="validate a recording file (exit 0 valid, 1 invalid, 2 unreadable)",
+        description=HELP, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("file", metavar="FILE", help="recording (.h5) to check")
+    parser.add_argument("--quick", action="store_true",
+                        help="check metadata only; do not read the samples")
+    parser.add_argument("--json", action="store_true",
+                        help='print {"path", "valid", "readable", "status", "points", "channels", '
+                             '"problems": [{"where", "message", "severity", "fatal"}]}')
+    parser.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    try:
+        result = check_recording(args.file, read_data=not args.quick)
+    except RecordingError as exc:
+        if args.json:
+            print(json.dumps({"path": args.file, "valid": False, "readable": False,
+                              "problems": [{"where": "/", "message": str(exc),
+                                            "severity": "error", "fatal": True}]}, indent=1))
+            return 2
+        raise
+    if args.json:
+        print(json.dumps({**result.to_dict(), "readable": True}, indent=1))
+        return 0 if result.valid else 1
+    errors = [p for p in result.problems if p.severity == "error"]
+    notes = [p for p in result.problems if p.severity != "error"]
+    if errors:
+        print(f"{args.file}: INVALID recording ({len(errors)} problem{'s' * (len(errors) != 1)})")
+        for problem in errors:
+            print(f"  error: {problem.line()}")
+    else:
+        print(f"{args.file}: valid rigtools recording (status {result.status}, "
+              f"{result.n_points} point{'s' * (result.n_points != 1)}, "
+              f"{result.n_channels} channel{'s' * (result.n_channels != 1)})")
+    for problem in notes:
+        print(f"  note: {problem.line()}")
+    sys.stdout.flush()
+    return 1 if errors else 0
