@@ -1,0 +1,143 @@
+"""``rig harmonic``: linear amplitude-frequency curves, FEM and AM side by side (paper's Figure 7)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import numpy as np
+
+from rigtools.config import load_rig
+from rigtools.errors import UserError
+from rigtools.units import parse_quantity
+from sim.harmonic import LOCATIONS, HarmonicResponse, harmonic_curves
+from sim.rig_model import build_rig_model
+
+HELP = "linear amplitude-frequency curves (no contact), FEM and AM, written as CSV or JSON plus a PNG plot"
+EPILOG = """\
+A force F0 sin(2 pi f t) acts at the force-sensor position. The gap stays open (linear response),
+so each blade is driven on its own: the active blade through its force sensor, the passive blade
+(no sensor) at the same position. Curves: displacement (m) and acceleration (m/s^2) amplitudes at
+each shroud and each excitation point, FEM (all-mode superposition) and AM (assumed modes), with
+the rig's damping.
+
+Columns of the CSV: frequency_hz, then <model>_<location>_displacement_m and
+<model>_<location>_acceleration_m_s2 for model in fem, am and location in active_shroud,
+active_force_point, passive_shroud, passive_force_point. The PNG is written next to the output
+(same name, .png).
+
+examples:
+  rig harmonic --out fig7.csv
+  rig harmonic --force "10 N" --fmin 20 --fmax "2 kHz" --points 4000 --out curves.json
+"""
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    p = subparsers.add_parser(
+        "harmonic", help=HELP, description=HELP + ".", epilog=EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("--rig", metavar="FILE", help="rig file (TOML); default: the calibrated default rig")
+    p.add_argument("--force", default="15 N", help='force amplitude F0 (default "15 N"; a plain number is newtons)')
+    p.add_argument("--fmin", default="10 Hz", help='lowest frequency (default "10 Hz")')
+    p.add_argument("--fmax", default="1500 Hz", help='highest frequency (default "1500 Hz")')
+    p.add_argument("--points", type=int, default=2000, help="frequencies, evenly spaced (default 2000)")
+    p.add_argument("--out", required=True, metavar="FILE", help="output file, .csv or .json; the plot goes to FILE.png")
+    p.set_defaults(func=run)
+
+
+def _quantity(text: str, dimension: str, option: str) -> float:
+    try:
+        return parse_quantity(text, dimension)
+    except ValueError as exc:
+        raise UserError(f"{option} = {text!r}: {exc}") from None
+
+
+def _columns(fem: HarmonicResponse, am: HarmonicResponse) -> dict[str, np.ndarray]:
+    cols = {"frequency_hz": fem.frequencies_hz}
+    for res in (fem, am):
+        for loc in LOCATIONS:
+            cols[f"{res.model}_{loc}_displacement_m"] = res.displacement_amplitude(loc)
+            cols[f"{res.model}_{loc}_acceleration_m_s2"] = res.acceleration_amplitude(loc)
+    return cols
+
+
+def write_curves(path: Path, fem: HarmonicResponse, am: HarmonicResponse, rig_name: str) -> None:
+    """Write the curves as CSV (one column per curve) or JSON (nested by model and location)."""
+    if path.suffix.lower() == ".csv":
+        cols = _columns(fem, am)
+        np.savetxt(path, np.column_stack(list(cols.values())), delimiter=",", header=",".join(cols),
+                   comments="", fmt="%.9g")
+        return
+    doc = {
+        "rig": rig_name,
+        "force_amplitude_n": fem.force_amplitude,
+        "frequency_hz": fem.frequencies_hz.tolist(),
+    }
+    for res in (fem, am):
+        doc[res.model] = {
+            loc: {
+                "displacement_m": res.displacement_amplitude(loc).tolist(),
+                "acceleration_m_s2": res.acceleration_amplitude(loc).tolist(),
+            }
+            for loc in LOCATIONS
+        }
+    path.write_text(json.dumps(doc), encoding="utf-8")
+
+
+def plot_curves(path: Path, fem: HarmonicResponse, am: HarmonicResponse, title: str) -> None:
+    """Two rows (displacement, acceleration) by two columns (active, passive blade), FEM vs AM."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(2, 2, figsize=(12, 8), sharex=True)
+    f = fem.frequencies_hz
+    for col, blade in enumerate(("active", "passive")):
+        for row, (getter, label) in enumerate(
+            (("displacement_amplitude", "displacement amplitude (m)"),
+             ("acceleration_amplitude", "acceleration amplitude (m/s²)"))
+        ):
+            ax = axes[row, col]
+            for loc, color in ((f"{blade}_shroud", "C0"), (f"{blade}_force_point", "C1")):
+                where = "shroud" if loc.endswith("shroud") else "excitation point"
+                ax.semilogy(f, getattr(fem, getter)(loc), color=color, lw=1.4, label=f"FEM, {where}")
+                ax.semilogy(f, getattr(am, getter)(loc), color="k", ls="--", lw=0.9, label=f"AM, {where}")
+            ax.set_ylabel(label)
+            ax.grid(True, which="both", alpha=0.3)
+            if row == 0:
+                ax.set_title(f"{blade} blade" + (" (with force sensor)" if blade == "active" else " (no sensor)"))
+            else:
+                ax.set_xlabel("frequency (Hz)")
+            ax.legend(fontsize=8)
+    fig.suptitle(f"{title}: linear response to F0 = {fem.force_amplitude:g} N")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def run(args: argparse.Namespace) -> int:
+    out = Path(args.out)
+    if out.suffix.lower() not in (".csv", ".json"):
+        raise UserError(f"--out = {args.out!r}: the file name must end in .csv or .json")
+    if not out.parent.exists():
+        raise UserError(f"--out = {args.out!r}: folder {str(out.parent)!r} does not exist")
+    force = _quantity(args.force, "force", "--force")
+    fmin = _quantity(args.fmin, "frequency", "--fmin")
+    fmax = _quantity(args.fmax, "frequency", "--fmax")
+    if force <= 0:
+        raise UserError(f"--force = {args.force!r}: must be > 0")
+    if not 0 <= fmin < fmax:
+        raise UserError(f"--fmin = {args.fmin!r}, --fmax = {args.fmax!r}: need 0 <= fmin < fmax")
+    if not 2 <= args.points <= 200_000:
+        raise UserError(f"--points = {args.points}: must be between 2 and 200000")
+    rig_config = load_rig(args.rig)
+    rig = build_rig_model(rig_config.to_params())
+    fem, am = harmonic_curves(rig, np.linspace(fmin, fmax, args.points), force)
+    write_curves(out, fem, am, rig_config.name)
+    png = out.with_suffix(".png")
+    plot_curves(png, fem, am, rig_config.name)
+    print(f"wrote {out} and {png} ({args.points} frequencies {fmin:g}-{fmax:g} Hz, F0 = {force:g} N, FEM and AM)")
+    return 0

@@ -1,0 +1,94 @@
+"""``rig modal``: natural frequencies of both blades, FEM versus the analytical model (AM)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+import numpy as np
+
+from rigtools.config import load_rig
+from rigtools.errors import UserError
+from sim.analytical import exact_flexural_frequencies
+from sim.modal import blade_modes
+from sim.rig_model import blade_masses, build_rig_model
+
+HELP = "natural frequencies of both blades: FEM vs analytical model (AM), differences in %"
+EPILOG = """\
+The FEM lists the lowest N modes of each blade with their kind: flexural (bending in the thin,
+impact direction y), edgewise (bending in the chord direction z), torsional or axial. The AM is
+the exact Euler-Bernoulli solution of the blade with its shroud (and, on the active blade, the
+force sensor); it has flexural modes only, and the table sets the k-th AM mode beside the k-th
+FEM flexural mode: diff % = (FEM - AM) / AM * 100.
+
+examples:
+  rig modal                        # the calibrated default rig
+  rig modal --rig my_rig.toml --modes 10
+  rig modal --json > modes.json    # {"fem": {"active": [...], "passive": [...]}, "am": {...}}
+"""
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    p = subparsers.add_parser(
+        "modal", help=HELP, description=HELP + ".", epilog=EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("--rig", metavar="FILE", help="rig file (TOML); default: the calibrated default rig")
+    p.add_argument("--modes", metavar="N", type=int, default=8,
+                   help="FEM modes listed per blade, lowest first (default 8); the AM lists its N lowest flexural modes")
+    p.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    p.set_defaults(func=run)
+
+
+def modal_results(rig_config, n_modes: int) -> dict:
+    """FEM and AM modes of both blades as the ``--json`` mapping."""
+    params = rig_config.to_params()
+    rig = build_rig_model(params)
+    roots = {"active": params.root, "passive": params.passive_root or params.root}
+    out: dict = {"fem": {}, "am": {}}
+    for name in ("active", "passive"):
+        modes = blade_modes(rig.blade(name), n_modes)
+        out["fem"][name] = [
+            {"mode": i + 1, "frequency_hz": float(f), "kind": k}
+            for i, (f, k) in enumerate(zip(modes.frequencies_hz, modes.kinds))
+        ]
+        bp = params.active if name == "active" else params.passive
+        am = exact_flexural_frequencies(bp, blade_masses(params, name), n_modes, roots[name])
+        out["am"][name] = [{"mode": i + 1, "frequency_hz": float(f), "kind": "flexural"} for i, f in enumerate(am)]
+    return out
+
+
+def _print_table(results: dict, rig_name: str) -> None:
+    from rich.console import Console
+    from rich.table import Table
+
+    console = Console()
+    for name in ("active", "passive"):
+        table = Table(title=f"{rig_name}: {name} blade" + (" (with force sensor)" if name == "active" else ""))
+        for col in ("mode", "kind", "FEM (Hz)", "flexural #", "AM (Hz)", "diff %"):
+            table.add_column(col, justify="left" if col == "kind" else "right")
+        am = results["am"][name]
+        k = 0
+        for entry in results["fem"][name]:
+            cells = [str(entry["mode"]), entry["kind"], f"{entry['frequency_hz']:.2f}"]
+            if entry["kind"] == "flexural" and k < len(am):
+                f_am = am[k]["frequency_hz"]
+                k += 1
+                diff = (entry["frequency_hz"] - f_am) / f_am * 100.0
+                cells += [str(k), f"{f_am:.2f}", f"{diff:+.3f}"]
+            else:
+                cells += ["", "", ""]
+            table.add_row(*cells)
+        console.print(table)
+
+
+def run(args: argparse.Namespace) -> int:
+    if args.modes < 1 or args.modes > 200:
+        raise UserError(f"--modes = {args.modes}: must be between 1 and 200")
+    rig_config = load_rig(args.rig)
+    results = modal_results(rig_config, args.modes)
+    if args.json:
+        print(json.dumps(results, indent=1))
+    else:
+        _print_table(results, rig_config.name)
+    return 0
