@@ -4,6 +4,9 @@ Each sub-command lives in its own module under :mod:`rigtools.commands` and expo
 ``register(subparsers)``; modules are discovered, so adding a command never touches this file.
 Errors a user can cause (:class:`rigtools.errors.UserError`) end in one line on stderr and a
 non-zero exit status; programming errors still raise.
+
+Exit status: 0 success, 1 a check found problems, 2 bad input (rig file, arguments, recording
+file), 3 hardware or its driver not available, 4 a hardware fault stopped the run, 130 Ctrl-C.
 """
 
 from __future__ import annotations
@@ -13,6 +16,7 @@ import importlib
 import pkgutil
 import sys
 
+from drivers.contracts import DriverError, DriverUnavailable
 from rigtools import commands
 from rigtools.errors import UserError
 
@@ -48,6 +52,13 @@ def main(argv: list[str] | None = None) -> int:
     except UserError as exc:
         print(f"rig {args.command}: error: {exc}", file=sys.stderr)
         return exc.exit_code
+    except DriverUnavailable as exc:
+        print(f"rig {args.command}: error: {exc}", file=sys.stderr)
+        return 3
+    except DriverError as exc:
+        # A hardware fault that stopped the run; the drive was ramped to zero by the driver.
+        print(f"rig {args.command}: error: {exc}", file=sys.stderr)
+        return 4
     except KeyboardInterrupt:
         print(f"rig {args.command}: interrupted", file=sys.stderr)
         return 130

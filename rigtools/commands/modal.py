@@ -13,7 +13,7 @@ from sim.analytical import exact_flexural_frequencies
 from sim.modal import blade_modes
 from sim.rig_model import blade_masses, build_rig_model
 
-HELP = "natural frequencies of both blades: FEM vs analytical model (AM), differences in %"
+HELP = "natural frequencies of both blades: FEM vs analytical model (AM), differences in %%"
 EPILOG = """\
 The FEM lists the lowest N modes of each blade with their kind: flexural (bending in the thin,
 impact direction y), edgewise (bending in the chord direction z), torsional or axial. The AM is
