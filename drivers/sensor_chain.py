@@ -112,17 +112,20 @@ class SensorChain:
         ]
         self._zi = [np.zeros(1) for _ in range(n)]
         self.overloaded = np.zeros(n, dtype=bool)
+        self.first_overload = -1   # sample index of the first overload in the last block, or -1
 
     def reset(self) -> None:
         """Coupling filters back to rest, overload flags cleared."""
         for z in self._zi:
             z[:] = 0.0
         self.overloaded[:] = False
+        self.first_overload = -1
 
     def to_volts(self, physical: np.ndarray) -> np.ndarray:
         """Quantised ADC voltages ``(n_channels, n)`` of physical values ``(n_channels, n)`` (SI).
 
-        Sets :attr:`overloaded` per channel when the block clipped at full scale.
+        Sets :attr:`overloaded` per channel when the block clipped at full scale, and
+        :attr:`first_overload` to the first clipped sample (-1 if none).
         """
         x = np.asarray(physical, dtype=float)
         if x.ndim != 2 or x.shape[0] != len(self.sensors):
@@ -136,7 +139,10 @@ class SensorChain:
         if self._any_noise:
             v = v + self._adc_noise * self._rng.standard_normal(x.shape)
         # NaN compares False: it passes through as NaN (the device flags it separately)
-        self.overloaded = np.any(np.abs(v) > self._fs_volts, axis=1)
+        over = np.abs(v) > self._fs_volts
+        self.overloaded = over.any(axis=1)
+        hit = over.any(axis=0)
+        self.first_overload = int(np.argmax(hit)) if hit.any() else -1
         codes = np.clip(np.rint(v / self._lsb), -self._code_max - 1, self._code_max)
         return codes * self._lsb
 

@@ -1,0 +1,409 @@
+"""The block loop every experiment procedure stands on: stream a drive, read blocks, stay safe.
+
+:class:`BlockStream` drives an :class:`~drivers.contracts.AcquisitionDevice` that is already
+configured (channels, sample rate):
+
+* it primes the non-regenerating output with two drive blocks, starts the device, and then for
+  every block reads the inputs and writes the next drive block (staying two blocks ahead);
+* every block is appended to a *sink* (a recording point, see
+  :class:`rigtools.recording.RecordingWriter`, or anything with ``append(block)``) and then
+  checked by the :class:`~drivers.safety.SafetyMonitor` together with the drive block that was
+  played while it was measured;
+* on ANY error (a device fault, a safety abort, a sink error, Ctrl-C) it stops the device at
+  once: per the device contract, :meth:`~drivers.contracts.AcquisitionDevice.stop` ramps the
+  drive to zero (the simulated rig within its ``abort_ramp_time`` <= 0.1 s). What was read
+  before the error stays in the sink, including the partial block a fault carries. The error is
+  re-raised as :class:`AcquisitionAborted` (one line naming the fault, when, and what was kept);
+  Ctrl-C is re-raised as it is, after the safe stop;
+* :meth:`BlockStream.finish` ramps the drive down normally (the drive's own ramp), reads the
+  blocks that carry the ramp (and the device's input-to-output delay), and stops.
+
+Drives are objects with ``next_block(n)`` and ``stop_block()`` (and ``settled``):
+:class:`drivers.safety.SineDrive` for sines, :class:`RandomDrive` here for (burst) random. The
+drive ramps its own amplitude, so no step ever reaches the shaker.
+
+Procedures (dwell, stepped sine, sweep, burst random) are loops over :meth:`BlockStream.read`
+that change the drive (``set_target``, ``set_frequency``) and switch the sink between recording
+points; :func:`acquire` is the simplest one: a fixed duration at one drive setting.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import dataclass, field
+from typing import Callable, Protocol
+
+import numpy as np
+from scipy import signal
+
+from drivers.contracts import AcquisitionDevice, DaqFault, DriverError
+from rigtools.errors import UserError
+
+try:  # the safety monitor and the sine drive live with the drivers
+    from drivers.safety import SafetyMonitor, SafetyWarning, raised_cosine
+except ImportError:  # pragma: no cover - drivers.safety lands with the drivers issue
+    SafetyMonitor = SafetyWarning = None  # type: ignore[assignment,misc]
+
+    def raised_cosine(n: int) -> np.ndarray:
+        k = np.arange(1, n + 1, dtype=float)
+        return 0.5 * (1.0 - np.cos(np.pi * k / n))
+
+
+class Drive(Protocol):
+    """What the loop needs from a drive signal (volts at the device's sample rate)."""
+
+    def next_block(self, n: int) -> np.ndarray: ...
+
+    def stop_block(self) -> np.ndarray: ...
+
+
+class Sink(Protocol):
+    def append(self, block: np.ndarray) -> None: ...
+
+
+class AcquisitionAborted(UserError):
+    """An acquisition stopped on an error, with the drive brought to zero.
+
+    Attributes
+    ----------
+    fault
+        The fault's name (e.g. ``"input overflow"``, ``"safety abort"``), or the exception type.
+    cause
+        The original exception.
+    samples_kept
+        Samples per channel that reached the sink before the error.
+    time
+        Time of the error from the start of the stream, s.
+    """
+
+    exit_code = 1
+
+    def __init__(self, message: str, *, fault: str, cause: BaseException, samples_kept: int,
+                 time: float) -> None:
+        super().__init__(message)
+        self.fault = fault
+        self.cause = cause
+        self.samples_kept = samples_kept
+        self.time = time
+
+
+@dataclass
+class StreamStats:
+    """What a stream did."""
+
+    sample_rate: float
+    blocks: int = 0
+    samples: int = 0                 # per channel, read and passed to the sink
+    warnings: list = field(default_factory=list)   # SafetyWarning, in order
+
+    @property
+    def duration(self) -> float:
+        return self.samples / self.sample_rate
+
+
+def _one_line(exc: BaseException) -> str:
+    text = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+    return text
+
+
+class BlockStream:
+    """Stream ``drive`` to a configured ``device`` block by block (see the module docstring).
+
+    Parameters
+    ----------
+    device
+        A configured acquisition device (not started).
+    drive
+        The drive signal source.
+    sink
+        Receives every block read (``(n_channels[+1], n)`` float64); ``None`` to keep nothing.
+    safety
+        Checked on every block with the drive played during it; ``None`` for no limits.
+    record_drive
+        Append the played drive as an extra last row of each block passed to the sink.
+    on_block
+        Called as ``on_block(block, stats)`` after each block is stored and checked.
+
+    Examples
+    --------
+    >>> with BlockStream(device, drive, sink=point, safety=monitor) as stream:   # doctest: +SKIP
+    ...     while stream.stats.duration < 2.0:
+    ...         stream.read()
+    ...     stream.finish()
+    """
+
+    def __init__(self, device: AcquisitionDevice, drive: Drive, *, sink: Sink | None = None,
+                 safety: "SafetyMonitor | None" = None, record_drive: bool = False,
+                 on_block: Callable[[np.ndarray, StreamStats], None] | None = None) -> None:
+        self.device = device
+        self.drive = drive
+        self.sink = sink
+        self.safety = safety
+        self.record_drive = record_drive
+        self.on_block = on_block
+        self.n = int(device.block_size)
+        self.stats = StreamStats(device.sample_rate)
+        self._played: deque[np.ndarray] = deque()   # drive blocks written, not yet read
+        self._pending: deque[np.ndarray] = deque()  # drive samples queued by finish()
+        self._started = False
+        self._finished = False
+
+    # ------------------------------------------------------------------ life cycle
+
+    def __enter__(self) -> "BlockStream":
+        self.start()
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> bool:
+        if exc is not None:
+            if not isinstance(exc, AcquisitionAborted):
+                self._abort(exc)        # raises AcquisitionAborted, or re-raises Ctrl-C
+            return False
+        if not self._finished:
+            self.finish()
+        return False
+
+    def start(self) -> None:
+        """Prime two drive blocks and start the device."""
+        if self._started:
+            return
+        try:
+            self._write(self._next_drive())
+            self._write(self._next_drive())
+            self.device.start()
+        except BaseException as exc:
+            self._abort(exc)
+        self._started = True
+
+    def _next_drive(self) -> np.ndarray:
+        if self._pending:
+            return self._pending.popleft()
+        block = np.asarray(self.drive.next_block(self.n), dtype=float)
+        if block.size != self.n:
+            raise ValueError(f"drive returned {block.size} samples, expected {self.n}")
+        return block
+
+    def _write(self, block: np.ndarray) -> None:
+        self.device.write(block)
+        self._played.append(block)
+
+    def read(self) -> np.ndarray:
+        """Read one block, store it, check it, write the next drive block; returns the block.
+
+        Raises
+        ------
+        AcquisitionAborted
+            On any error, after the device has stopped (drive at zero).
+        """
+        if not self._started:
+            self.start()
+        try:
+            block = self.device.read(self.n)
+        except BaseException as exc:
+            self._abort(exc, from_device=True)
+        try:
+            played = self._played.popleft()
+            self._store(block, played)
+            if self.safety is not None:
+                self.stats.warnings.extend(self.safety.check(block, played))
+            self._write(self._next_drive())
+            if self.on_block is not None:
+                self.on_block(block, self.stats)
+        except BaseException as exc:
+            self._abort(exc)
+        return block
+
+    def _store(self, block: np.ndarray, played: np.ndarray) -> None:
+        if self.sink is not None and block.shape[1]:
+            out = np.vstack([block, played[None, : block.shape[1]]]) if self.record_drive else block
+            self.sink.append(out)
+        self.stats.blocks += 1
+        self.stats.samples += block.shape[1]
+
+    def finish(self) -> StreamStats:
+        """Ramp the drive down normally, read the blocks that carry the ramp, stop the device."""
+        if self._finished:
+            return self.stats
+        ramp = np.asarray(self.drive.stop_block(), dtype=float)
+        delay = self.device.input_to_output_delay() * self.device.sample_rate
+        # the ramp, then zeros: the two blocks already queued + the ramp + the delay, whole blocks
+        tail = np.concatenate([ramp, np.zeros(int(math.ceil(delay)))])
+        n_blocks = int(math.ceil(tail.size / self.n))
+        tail = np.concatenate([tail, np.zeros(n_blocks * self.n - tail.size)])
+        self._pending.extend(tail.reshape(n_blocks, self.n))
+        # after the tail, zeros keep the output fed until the last read
+        for _ in range(2 + n_blocks):
+            if not self._pending:
+                self._pending.append(np.zeros(self.n))
+            self.read()
+        self._finished = True
+        self.device.stop()
+        return self.stats
+
+    def _abort(self, exc: BaseException, from_device: bool = False) -> None:
+        """Stop the device (drive to zero), keep what was read, re-raise as AcquisitionAborted.
+
+        A fault raised by the device's read carries the samples of the failed block read before
+        it (``partial``); they are stored too.
+        """
+        self._finished = True
+        try:
+            self.device.stop()
+        finally:
+            if (from_device and isinstance(exc, DaqFault) and exc.partial is not None
+                    and self.sink is not None):
+                partial = np.asarray(exc.partial)
+                if partial.ndim == 2 and partial.shape[1]:
+                    played = self._played[0] if self._played else np.zeros(partial.shape[1])
+                    self._store(partial, played)
+        if not isinstance(exc, Exception):        # Ctrl-C, SystemExit: stopped safely, pass on
+            raise exc
+        if isinstance(exc, AcquisitionAborted):
+            raise exc
+        fault = exc.fault if isinstance(exc, DriverError) else type(exc).__name__
+        t = self.stats.samples / self.stats.sample_rate
+        raise AcquisitionAborted(
+            f"acquisition aborted at t = {t:.3f} s: {_one_line(exc)}; drive brought to zero; "
+            f"{self.stats.samples} samples per channel ({t:.3f} s) kept",
+            fault=fault, cause=exc, samples_kept=self.stats.samples, time=t) from exc
+
+
+def acquire(device: AcquisitionDevice, drive: Drive, duration: float, *, sink: Sink | None = None,
+            safety: "SafetyMonitor | None" = None, record_drive: bool = False,
+            on_block: Callable[[np.ndarray, StreamStats], None] | None = None) -> StreamStats:
+    """Stream ``drive`` for ``duration`` seconds (whole blocks), then ramp down and stop.
+
+    The drive's amplitude ramps are its own (set its target before calling). Returns the
+    stream's statistics; the data went to ``sink``.
+    """
+    if not duration > 0:
+        raise ValueError(f"duration {duration!r} s must be > 0")
+    n_blocks = max(1, int(math.ceil(duration * device.sample_rate / device.block_size - 1e-9)))
+    with BlockStream(device, drive, sink=sink, safety=safety, record_drive=record_drive,
+                     on_block=on_block) as stream:
+        for _ in range(n_blocks):
+            stream.read()
+        return stream.finish()
+
+
+class BlockCollector:
+    """A sink that keeps blocks in memory: ``.data`` is ``(n_channels, n_samples)``."""
+
+    def __init__(self) -> None:
+        self.blocks: list[np.ndarray] = []
+
+    def append(self, block: np.ndarray) -> None:
+        self.blocks.append(np.array(block, dtype=float, copy=True))
+
+    @property
+    def data(self) -> np.ndarray:
+        return np.concatenate(self.blocks, axis=1) if self.blocks else np.zeros((0, 0))
+
+
+class RandomDrive:
+    """Band-limited Gaussian random drive, continuous or in bursts, with ramped amplitude.
+
+    White Gaussian noise through a Butterworth band-pass (state carried across blocks), scaled
+    to ``rms`` volts and clipped at ``max_drive``. Amplitude changes follow a raised-cosine ramp
+    of ``ramp_time``. With ``burst_period``, the noise is on for ``burst_fraction`` of every
+    period (starting at each period), its edges tapered over ``edge_time``, and off for the rest:
+    burst random, where each period holds the whole response (no leakage with a rectangular
+    window when the response has decayed by the period's end).
+
+    Parameters
+    ----------
+    sample_rate
+        S/s.
+    rms
+        Target RMS of the continuous noise (within bursts), V.
+    band
+        ``(f_low, f_high)`` Hz of the band-pass (4th order).
+    max_drive
+        Peak never exceeded, V (samples beyond are clipped).
+    ramp_time
+        Amplitude ramp, s.
+    burst_period, burst_fraction, edge_time
+        Burst random timing, s / fraction / s; ``burst_period=None`` for continuous random.
+    seed
+        Noise seed.
+    """
+
+    def __init__(self, sample_rate: float, rms: float, band: tuple[float, float], *, max_drive: float,
+                 ramp_time: float = 0.5, burst_period: float | None = None,
+                 burst_fraction: float = 0.5, edge_time: float = 0.005, seed: int | None = None) -> None:
+        lo, hi = band
+        if not 0 < lo < hi < sample_rate / 2:
+            raise ValueError(f"band {band} Hz must satisfy 0 < low < high < {sample_rate / 2:g}")
+        if not 0 < rms <= max_drive:
+            raise ValueError(f"rms {rms} V must be in (0, max_drive = {max_drive}]")
+        if burst_period is not None and not (0 < burst_fraction <= 1 and burst_period > 0):
+            raise ValueError("burst_period must be > 0 and burst_fraction in (0, 1]")
+        self.sample_rate = float(sample_rate)
+        self.max_drive = float(max_drive)
+        self.ramp_time = float(ramp_time)
+        self._sos = signal.butter(4, [lo, hi], btype="bandpass", fs=sample_rate, output="sos")
+        self._zi = np.zeros((self._sos.shape[0], 2))
+        impulse = np.zeros(int(20 * sample_rate / lo))
+        impulse[0] = 1.0
+        self._gain = 1.0 / math.sqrt(float(np.sum(signal.sosfilt(self._sos, impulse) ** 2)))
+        self._rng = np.random.default_rng(seed)
+        self._target = 0.0
+        self._amp = 0.0
+        self._ramp = np.empty(0)
+        self._rms = float(rms)
+        self._k = 0
+        if burst_period is None:
+            self._gate = None
+        else:
+            period = int(round(burst_period * sample_rate))
+            on = int(round(burst_fraction * period))
+            edge = min(max(1, int(round(edge_time * sample_rate))), on // 2)
+            rise = raised_cosine(edge)                 # ends at exactly 1
+            gate = np.zeros(period)
+            gate[:on] = 1.0
+            gate[:edge] = rise
+            if on < period:
+                gate[on - edge:on] = 1.0 - rise        # ends at exactly 0
+            self._gate = gate
+        self.set_target(rms)
+
+    @property
+    def settled(self) -> bool:
+        return self._ramp.size == 0
+
+    @property
+    def burst_samples(self) -> int | None:
+        """Samples per burst period, or ``None`` for continuous random."""
+        return None if self._gate is None else self._gate.size
+
+    def set_target(self, rms: float, ramp_time: float | None = None) -> None:
+        """Ramp the RMS to ``rms`` V (raised cosine over ``ramp_time``)."""
+        if not 0 <= rms <= self.max_drive:
+            raise ValueError(f"rms {rms} V outside 0..{self.max_drive} V")
+        n = max(1, int(math.ceil((self.ramp_time if ramp_time is None else ramp_time) * self.sample_rate)))
+        self._target = float(rms)
+        self._ramp = self._amp + (rms - self._amp) * raised_cosine(n) if rms != self._amp else np.empty(0)
+
+    def next_block(self, n: int) -> np.ndarray:
+        """The next ``n`` samples, V."""
+        amps = np.full(n, self._target)
+        m = min(n, self._ramp.size)
+        amps[:m] = self._ramp[:m]
+        self._ramp = self._ramp[m:]
+        if n:
+            self._amp = float(amps[-1])
+        noise, self._zi = signal.sosfilt(self._sos, self._rng.standard_normal(n), zi=self._zi)
+        out = amps * self._gain * noise
+        if self._gate is not None:
+            out *= self._gate[(self._k + np.arange(n)) % self._gate.size]
+        self._k += n
+        return np.clip(out, -self.max_drive, self.max_drive)
+
+    def stop_block(self) -> np.ndarray:
+        """A normal ramp to zero (``ramp_time``), ending at exactly 0 V."""
+        n = max(1, int(math.ceil(self.ramp_time * self.sample_rate)))
+        self.set_target(0.0)
+        block = self.next_block(n)
+        block[-1] = 0.0
+        return block
