@@ -1,0 +1,749 @@
+"""A simulated rig behind the :class:`drivers.contracts.AcquisitionDevice` contract.
+
+What happens to each block of drive samples (volts, as written by the procedure):
+
+1. a DAQ delay line of ``input_to_output_delay`` (whole samples), reported by
+   :meth:`SimulatedRig.input_to_output_delay`;
+2. the voltage amplifier (gain ``G``) puts ``G * drive`` across the shaker coil;
+3. the physics: the electrodynamic shaker (coil ``R``, ``L``, force factor ``Bl``, armature mass
+   on its suspension) rigidly coupled through the force sensor to the active blade, and the
+   vibro-impact FE model of both blades of the *test article*, integrated with its state carried
+   from block to block. Near a resonance of the blade the back-EMF and the armature take up the
+   coil's force, so the sensor force dips as on a real rig;
+4. each input channel's measurement chain (:mod:`drivers.sensor_chain`): sensitivity, sensor and
+   ADC noise, IEPE high-pass, 24-bit quantisation over the channel range; the reading is scaled
+   back to SI units as DAQmx does.
+
+The *test article* (:class:`TestArticle`) is not the nominal model: a bolted root (springs
+instead of the clamp, so the flexural frequencies come out 1-3 % low), its own damping ratio,
+small mass deviations of the shroud and the force sensor, all set in the rig file's
+``[test_article]`` section.
+
+Physics backends (``model=``):
+
+``"vibro-impact"``
+    :class:`sim.vibro_impact.VibroImpactStepper` on a reduced model of the test article, with
+    the shroud contact and the shaker coupling (the default when it is available).
+``"linear"``
+    :class:`LinearModalPhysics`: exact discrete-time propagation (zero-order hold) of the active
+    blade's modes coupled to the shaker, without contact (the passive blade stays at rest). Used
+    to cross-check the vibro-impact path with impacts off.
+
+It runs as fast as it can by default; ``pace=True`` sleeps so that blocks arrive in wall-clock
+time like a real device's. Faults can be injected (:class:`Fault`); on a fault, on
+:meth:`~SimulatedRig.stop` and on :meth:`~SimulatedRig.close` the drive that reaches the
+amplifier is ramped to zero over ``abort_ramp_time`` (<= 0.1 s) with the physics still running,
+then the device stops; :attr:`SimulatedRig.drive_log` holds every drive sample the amplifier got.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import time
+from collections import deque
+from dataclasses import dataclass, replace
+from typing import Sequence
+
+import numba
+import numpy as np
+import scipy.linalg
+
+from drivers.contracts import (
+    AcquisitionDevice,
+    AmplifierTimeout,
+    ConfigurationError,
+    DaqFault,
+    DeviceInfo,
+    InputChannelSpec,
+    InputOverflow,
+    InvalidSamples,
+    LimitExceeded,
+    OutputChannelSpec,
+    OutputUnderflow,
+    SensorOverload,
+)
+from drivers.sensor_chain import SensorChain, SensorModel
+from drivers.shaker import ShakerParams
+from sim.params import DampingParams, RigParams, RootParams
+
+# what the physics provides, per time step
+SIGNALS = (
+    "force",               # N, force through the sensor into the active blade
+    "active_tip_accel",    # m/s^2, active shroud, y
+    "passive_tip_accel",   # m/s^2, passive shroud, y
+    "force_point_accel",   # m/s^2, active blade at the force sensor, y
+    "coil_voltage",        # V, amplifier output
+    "coil_current",        # A
+    "contact_force",       # N, between the shrouds (>= 0)
+)
+_INDEX = {name: i for i, name in enumerate(SIGNALS)}
+
+
+# ------------------------------------------------------------------------------ test article
+
+
+@dataclass(frozen=True)
+class TestArticle:
+    """How the simulated rig's blades and sensors differ from the nominal rig (SI).
+
+    Parameters
+    ----------
+    root_rotational_stiffness, root_translational_stiffness
+        The bolted root of both blades, as springs on every root DOF (N*m/rad, N/m).
+    damping_ratio
+        Modal damping ratio of every mode of the test article.
+    shroud_mass_deviation, sensor_mass_deviation
+        Relative deviations of the shroud and force-sensor masses (and rotary inertias) from
+        nominal, e.g. 0.01 for +1 %.
+    force_noise, accel_noise
+        Sensor noise, rms over the full band, N and m/s^2.
+    adc_noise
+        ADC input noise, V rms.
+    iepe_highpass
+        Corner of the IEPE coupling high-pass, Hz (0: DC coupled).
+    input_to_output_delay
+        Delay of the simulated DAQ between drive and inputs, s (rounded to whole samples).
+    """
+
+    __test__ = False  # not a pytest class
+
+    root_rotational_stiffness: float = 1.2e4
+    root_translational_stiffness: float = 3e8
+    damping_ratio: float = 0.012
+    shroud_mass_deviation: float = 0.01
+    sensor_mass_deviation: float = -0.01
+    force_noise: float = 0.005
+    accel_noise: float = 0.02
+    adc_noise: float = 2e-5
+    iepe_highpass: float = 0.5
+    input_to_output_delay: float = 8e-4
+
+    def apply(self, nominal: RigParams) -> RigParams:
+        """The test article's parameters: ``nominal`` with this root, damping and masses."""
+        root = RootParams("springs", self.root_rotational_stiffness, self.root_translational_stiffness)
+        s, m = 1.0 + self.shroud_mass_deviation, 1.0 + self.sensor_mass_deviation
+        shroud = replace(nominal.shroud, mass=nominal.shroud.mass * s,
+                         rotary_inertia=nominal.shroud.rotary_inertia * s)
+        sensor = replace(nominal.force_sensor, mass=nominal.force_sensor.mass * m,
+                         rotary_inertia=nominal.force_sensor.rotary_inertia * m)
+        return replace(nominal, root=root, passive_root=None, shroud=shroud, force_sensor=sensor,
+                       damping=DampingParams(ratio=self.damping_ratio))
+
+    def ideal(self) -> "TestArticle":
+        """The same deviations with a noise-free, DC-coupled, delay-free measurement chain."""
+        return replace(self, force_noise=0.0, accel_noise=0.0, adc_noise=0.0, iepe_highpass=0.0,
+                       input_to_output_delay=0.0)
+
+
+# ------------------------------------------------------------------------------------ faults
+
+_FAULTS: dict[str, type[DaqFault]] = {
+    "input_overflow": InputOverflow,
+    "amplifier_timeout": AmplifierTimeout,
+    "sensor_overload": SensorOverload,
+    "nan_samples": InvalidSamples,
+}
+FAULT_KINDS = tuple(_FAULTS)
+
+
+@dataclass(frozen=True)
+class Fault:
+    """A fault to inject, in the middle of block ``at_block`` (0-based) or at time ``at_time`` (s).
+
+    ``kind`` is one of :data:`FAULT_KINDS`; ``channel`` names the input that overloads or turns to
+    NaN (default: the first input).
+    """
+
+    kind: str
+    at_block: int | None = None
+    at_time: float | None = None
+    channel: str | None = None
+
+    def __post_init__(self) -> None:
+        kind = self.kind.replace("-", "_").lower()
+        if kind not in _FAULTS:
+            raise ConfigurationError(f"unknown fault {self.kind!r} (known: {', '.join(FAULT_KINDS)})")
+        object.__setattr__(self, "kind", kind)
+        if (self.at_block is None) == (self.at_time is None):
+            raise ConfigurationError(f"fault {kind}: give exactly one of at_block or at_time")
+        if (self.at_block is not None and self.at_block < 0) or (self.at_time is not None and self.at_time < 0):
+            raise ConfigurationError(f"fault {kind}: the moment must be >= 0")
+
+    @classmethod
+    def parse(cls, text: str) -> "Fault":
+        """``"KIND@N"`` (block N) or ``"KIND@T s"`` (time), optionally ``":CHANNEL"`` at the end,
+        e.g. ``"input-overflow@3"``, ``"nan-samples@0.25s:force"``."""
+        match = re.fullmatch(r"\s*([\w-]+)@([0-9.eE+-]+)\s*(s?)\s*(?::\s*(\w+))?\s*", text)
+        if not match:
+            raise ConfigurationError(f"cannot read fault {text!r}: write KIND@BLOCK or KIND@SECONDSs[:CHANNEL]")
+        kind, at, seconds, channel = match.groups()
+        if seconds:
+            return cls(kind, at_time=float(at), channel=channel)
+        return cls(kind, at_block=int(float(at)), channel=channel)
+
+    def sample(self, block_size: int, sample_rate: float) -> int:
+        """Index of the first sample the fault spoils."""
+        if self.at_block is not None:
+            return self.at_block * block_size + block_size // 2
+        return int(round(self.at_time * sample_rate))
+
+
+# ----------------------------------------------------------------------------------- physics
+
+
+class LinearModalPhysics:
+    """Exact propagation of the linear active blade coupled to the shaker (no contact).
+
+    The active blade's modes below ``f_max`` that move the force point or the tip (mass-normalised
+    shapes ``Phi`` of the FE model, damping ``Phi^T C Phi``) and the shaker form one linear
+    state-space system ``x' = A x + B e`` in ``x = [q, q', i]`` (``i`` the coil current; without
+    inductance ``i`` is algebraic). ``A`` is diagonalised once; each step is then, per
+    eigen-coordinate, ``z1 = exp(lambda dt) z0 + g0 e0 + g1 e1``, exact for a coil voltage varying
+    linearly over the step (first-order hold). As in :class:`sim.vibro_impact.VibroImpactStepper`,
+    ``e[k]`` is the input at the end of step ``k`` and output ``k`` is taken at the same instant
+    (the input before the first call is 0). The passive blade stays at rest.
+
+    Parameters
+    ----------
+    model
+        The rig model (:class:`sim.rig_model.RigModel`) of the test article.
+    shaker
+        Shaker parameters (the amplifier gain is applied before :meth:`step`).
+    dt
+        Time step, s.
+    f_max
+        Highest modal frequency kept, Hz (default 20 kHz; the propagation is exact for any mode).
+    """
+
+    def __init__(self, model, shaker: ShakerParams, dt: float, f_max: float | None = None) -> None:
+        from sim.modal import blade_modes
+
+        blade = model.active
+        n_a = blade.n_dofs
+        modes = blade_modes(blade)
+        f_max = f_max if f_max is not None else 2e4
+        phi_all = modes.shapes
+        pf_all, pt_all = phi_all[model.force_dof], phi_all[model.active_tip_dof]
+        scale = max(np.max(np.abs(pf_all)), np.max(np.abs(pt_all)))
+        keep = (modes.frequencies_hz < f_max) & ((np.abs(pf_all) > 1e-6 * scale) | (np.abs(pt_all) > 1e-6 * scale))
+        phi = phi_all[:, keep]
+        self.frequencies_hz = modes.frequencies_hz[keep]
+        n = phi.shape[1]
+        pf, pt = phi[model.force_dof], phi[model.active_tip_dof]
+        c_modal = phi.T @ (model.damping[:n_a, :n_a] @ phi)
+        s = shaker
+        ff = np.outer(pf, pf)
+        minv = np.linalg.inv(np.eye(n) + s.armature_mass * ff)
+        k = np.diag((2 * np.pi * self.frequencies_hz) ** 2) + s.suspension_stiffness * ff
+        c = c_modal + s.suspension_damping * ff
+        bl, r, ell = s.force_factor, s.coil_resistance, s.coil_inductance
+        z = np.zeros((n, n))
+        if ell > 0:
+            ns = 2 * n + 1
+            qdd = np.hstack([-minv @ k, -minv @ c, (minv @ pf * bl)[:, None]])      # q'' = qdd @ x
+            a = np.vstack([np.hstack([z, np.eye(n), np.zeros((n, 1))]), qdd,
+                           np.concatenate([np.zeros(n), -bl * pf / ell, [-r / ell]])[None, :]])
+            b = np.zeros(ns)
+            b[-1] = 1.0 / ell
+            qdd_d = np.zeros(n)
+            cur, cur_d = np.zeros(ns), 0.0
+            cur[-1] = 1.0
+        else:  # i = (e - Bl v_f) / R
+            ns = 2 * n
+            c_eff = c + bl**2 / r * ff
+            qdd = np.hstack([-minv @ k, -minv @ c_eff])
+            a = np.vstack([np.hstack([z, np.eye(n)]), qdd])
+            qdd_d = minv @ pf * bl / r
+            b = np.concatenate([np.zeros(n), qdd_d])
+            cur = np.concatenate([np.zeros(n), -bl * pf / r])
+            cur_d = 1.0 / r
+        disp_f = np.concatenate([pf, np.zeros(ns - n)])
+        vel_f = np.concatenate([np.zeros(n), pf, np.zeros(ns - 2 * n)])
+        acc_f, acc_f_d = pf @ qdd, pf @ qdd_d
+        out = np.zeros((len(SIGNALS), ns))
+        d = np.zeros(len(SIGNALS))
+        out[_INDEX["force_point_accel"]], d[_INDEX["force_point_accel"]] = acc_f, acc_f_d
+        out[_INDEX["active_tip_accel"]], d[_INDEX["active_tip_accel"]] = pt @ qdd, pt @ qdd_d
+        out[_INDEX["coil_current"]], d[_INDEX["coil_current"]] = cur, cur_d
+        out[_INDEX["force"]] = bl * cur - s.armature_mass * acc_f - s.suspension_stiffness * disp_f \
+            - s.suspension_damping * vel_f
+        d[_INDEX["force"]] = bl * cur_d - s.armature_mass * acc_f_d
+        d[_INDEX["coil_voltage"]] = 1.0
+        lam, vec = scipy.linalg.eig(a)
+        b_modal = np.linalg.solve(vec, b)
+        # a real system's eigenvalues come in conjugate pairs: keep one of each, weight 2
+        upper = lam.imag > 1e-9 * np.abs(lam)
+        real = np.abs(lam.imag) <= 1e-9 * np.abs(lam)
+        sel = upper | real
+        weight = np.where(upper, 2.0, 1.0)[sel]
+        lam, vec, b_modal = lam[sel], vec[:, sel], b_modal[sel]
+        h = lam * dt
+        self._mu = np.exp(h)
+        gamma1 = np.expm1(h) / lam * b_modal                      # int_0^dt e^{lam (dt - s)} ds
+        gamma2 = (np.expm1(h) - h) / (lam * h) * b_modal          # same, weighted by s / dt
+        self._g0, self._g1 = gamma1 - gamma2, gamma2
+        self._cz = (out @ vec) * weight
+        self._d = d
+        self._z = np.zeros(lam.size, dtype=complex)
+        self._e_last = np.zeros(1)
+        self.dt = dt
+
+    def reset(self) -> None:
+        """Back to rest."""
+        self._z[:] = 0.0
+        self._e_last[:] = 0.0
+
+    def step(self, coil_voltage: np.ndarray) -> np.ndarray:
+        """Advance over ``coil_voltage`` (one value per step, V); returns ``(len(SIGNALS), n)``."""
+        e = np.ascontiguousarray(coil_voltage, dtype=float)
+        y = np.empty((len(SIGNALS), e.size))
+        _propagate(self._mu, self._g0, self._g1, self._cz, self._d, self._z, self._e_last, e, y)
+        return y
+
+
+@numba.njit(cache=True)
+def _propagate(mu, g0, g1, cz, d, z, e_last, e, y):  # pragma: no cover - compiled
+    """Per step k: z <- mu z + g0 e[k-1] + g1 e[k]; y[:, k] = Re(cz @ z) + d e[k] (z, e_last in place)."""
+    n_out, n_z = cz.shape
+    czr, czi = cz.real.copy(), cz.imag.copy()
+    zr, zi = z.real.copy(), z.imag.copy()
+    mur, mui = mu.real, mu.imag
+    e0 = e_last[0]
+    for k in range(e.size):
+        e1 = e[k]
+        for j in range(n_z):
+            br = g0[j].real * e0 + g1[j].real * e1
+            bi = g0[j].imag * e0 + g1[j].imag * e1
+            r = mur[j] * zr[j] - mui[j] * zi[j] + br
+            zi[j] = mur[j] * zi[j] + mui[j] * zr[j] + bi
+            zr[j] = r
+        for o in range(n_out):
+            acc = d[o] * e1
+            for j in range(n_z):
+                acc += czr[o, j] * zr[j] - czi[o, j] * zi[j]
+            y[o, k] = acc
+        e0 = e1
+    e_last[0] = e0
+    for j in range(n_z):
+        z[j] = zr[j] + 1j * zi[j]
+
+
+class VibroImpactPhysics:
+    """The vibro-impact stepper (:class:`sim.vibro_impact.VibroImpactStepper`) on the reduced
+    test-article model (:func:`sim.reduction.reduce_rig_model`: modes plus static correction),
+    with the shroud contact and the shaker coupling.
+
+    Parameters
+    ----------
+    model
+        Rig model of the test article.
+    shaker
+        Shaker parameters (the amplifier gain is applied before :meth:`step`).
+    dt
+        Time step, s (the sample period); it must resolve the contact period.
+
+    Raises
+    ------
+    ConfigurationError
+        If the step is too coarse for the contact stiffness (one line from the stepper).
+    """
+
+    def __init__(self, model, shaker: ShakerParams, dt: float) -> None:
+        from sim.reduction import reduce_rig_model
+        from sim.vibro_impact import SimulationInputError, VibroImpactStepper
+
+        self.system = reduce_rig_model(model)
+        try:
+            self._stepper = VibroImpactStepper(self.system, dt, shaker=shaker.coupling())
+        except SimulationInputError as exc:
+            raise ConfigurationError(f"sample rate {1 / dt:g} S/s: {exc}") from None
+        self._columns = None
+        self.dt = dt
+
+    def reset(self) -> None:
+        """Back to rest."""
+        self._stepper.reset()
+
+    def step(self, coil_voltage: np.ndarray) -> np.ndarray:
+        """Advance over ``coil_voltage`` (V, at the end of each step); ``(len(SIGNALS), n)`` out."""
+        from sim.vibro_impact import OUT_COLUMNS
+
+        e = np.ascontiguousarray(coil_voltage, dtype=float)
+        data = self._stepper.step(e).data
+        if self._columns is None:
+            col = {
+                "force": "excitation_force", "active_tip_accel": "active_tip_acceleration",
+                "passive_tip_accel": "passive_tip_acceleration",
+                "force_point_accel": "force_point_acceleration", "coil_current": "coil_current",
+                "contact_force": "contact_force",
+            }
+            self._columns = [(_INDEX[k], OUT_COLUMNS.index(v)) for k, v in col.items()]
+        y = np.empty((len(SIGNALS), e.size))
+        for row, c in self._columns:
+            y[row] = data[:, c]
+        y[_INDEX["coil_voltage"]] = e
+        return y
+
+
+def vibro_impact_available() -> bool:
+    """True when :mod:`sim.vibro_impact` provides the block stepper."""
+    try:
+        from sim.reduction import reduce_rig_model  # noqa: F401
+        from sim.vibro_impact import VibroImpactStepper  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+# ------------------------------------------------------------------------------ the device
+
+
+def default_signal(spec: InputChannelSpec) -> str:
+    """Which physical signal an input measures, from its kind and name.
+
+    force -> ``force``; voltage -> ``coil_voltage`` (amplifier monitor); accel -> ``passive_tip_accel``
+    if the name says passive, ``force_point_accel`` if it says force/drive point, else
+    ``active_tip_accel``.
+    """
+    name = spec.name.lower()
+    if spec.kind == "force":
+        return "force"
+    if spec.kind == "voltage":
+        return "coil_current" if "current" in name else "coil_voltage"
+    if "passive" in name:
+        return "passive_tip_accel"
+    if "point" in name or "sensor" in name or "drive" in name:
+        return "force_point_accel"
+    return "active_tip_accel"
+
+
+class SimulatedRig(AcquisitionDevice):
+    """The rig simulated by the FE model, behind the acquisition-device contract.
+
+    Parameters
+    ----------
+    params
+        The *nominal* rig (:class:`sim.params.RigParams`); the simulated test article is
+        ``test_article.apply(params)``.
+    shaker
+        Amplifier and shaker.
+    test_article
+        Deviations of the test article and its measurement chain.
+    model
+        ``"vibro-impact"``, ``"linear"`` or ``"auto"`` (vibro-impact when available).
+    pace
+        Sleep so that blocks arrive in wall-clock time.
+    faults
+        Faults to inject (:class:`Fault` or their text form, see :meth:`Fault.parse`).
+    abort_ramp_time
+        Ramp of the drive to zero on stop, close and faults, s (<= 0.1).
+    signal_map
+        Input channel name -> one of :data:`SIGNALS`, overriding :func:`default_signal`.
+    seed
+        Noise seed.
+    keep_truth
+        Keep the physical signals of every block (before the sensors) in :attr:`truth_log`.
+    """
+
+    backend = "simulated"
+
+    def __init__(self, params: RigParams, shaker: ShakerParams | None = None,
+                 test_article: TestArticle | None = None, *, model: str = "auto",
+                 pace: bool = False, faults: Sequence[Fault | str] = (),
+                 abort_ramp_time: float = 0.05, signal_map: dict[str, str] | None = None,
+                 seed: int | None = None, keep_truth: bool = False) -> None:
+        if not 0 < abort_ramp_time <= 0.1:
+            raise ConfigurationError(f"abort_ramp_time = {abort_ramp_time} s must be in (0, 0.1]")
+        if model not in ("auto", "vibro-impact", "linear"):
+            raise ConfigurationError(f"model {model!r} is not one of auto, vibro-impact, linear")
+        if model == "auto":
+            model = "vibro-impact" if vibro_impact_available() else "linear"
+        self.nominal = params
+        self.shaker = shaker or ShakerParams()
+        self.test_article = test_article or TestArticle()
+        self.article_params = self.test_article.apply(params)
+        self.model_kind = model
+        self.pace = pace
+        self.faults = tuple(f if isinstance(f, Fault) else Fault.parse(f) for f in faults)
+        self.abort_ramp_time = abort_ramp_time
+        self.signal_map = dict(signal_map or {})
+        self.seed = seed
+        self.keep_truth = keep_truth
+        self._rig_model = None
+        self._physics = None
+        self._physics_dt = None
+        self._inputs: tuple[InputChannelSpec, ...] = ()
+        self._output: OutputChannelSpec | None = None
+        self._rate = 0.0
+        self._block = 0
+        self._running = False
+        self._closed = False
+        self._queue: deque[np.ndarray] = deque()
+        self._queued = 0
+        self._written = 0
+        self._delay_line = np.zeros(0)
+        self._last_drive = 0.0
+        self._read_samples = 0
+        self._blocks_read = 0
+        self._wall0 = 0.0
+        self._chain: SensorChain | None = None
+        self._rows = np.zeros(0, dtype=int)
+        self._drive_log: list[np.ndarray] = []
+        self.truth_log: list[np.ndarray] = []
+        self.fault_sample: int | None = None
+
+    @classmethod
+    def from_config(cls, config, **kwargs) -> "SimulatedRig":
+        """From a validated rig file (:class:`rigtools.config.RigConfig`, duck-typed)."""
+        kwargs.setdefault("abort_ramp_time", config.safety.abort_ramp_time)
+        return cls(config.to_params(), config.shaker.to_params(), config.test_article.to_params(), **kwargs)
+
+    # ------------------------------------------------------------------ configuration
+
+    def rig_model(self):
+        """FE model (:class:`sim.rig_model.RigModel`) of the test article (built once)."""
+        if self._rig_model is None:
+            from sim.rig_model import build_rig_model
+
+            self._rig_model = build_rig_model(self.article_params)
+        return self._rig_model
+
+    def configure(self, inputs: Sequence[InputChannelSpec], output: OutputChannelSpec,
+                  sample_rate: float, block_size: int | None = None) -> float:
+        if self._running:
+            raise ConfigurationError("stop the device before configuring it again")
+        if not (sample_rate > 0 and math.isfinite(sample_rate)):
+            raise ConfigurationError(f"sample rate {sample_rate!r} S/s must be > 0")
+        if not inputs:
+            raise ConfigurationError("configure at least one input channel")
+        names = [s.name for s in inputs]
+        if len(set(names)) != len(names):
+            raise ConfigurationError(f"duplicate input channel names in {names}")
+        rows = []
+        for spec in inputs:
+            sig = self.signal_map.get(spec.name, default_signal(spec))
+            if sig not in _INDEX:
+                raise ConfigurationError(
+                    f"channel {spec.name!r}: signal {sig!r} unknown (known: {', '.join(SIGNALS)})")
+            rows.append(_INDEX[sig])
+        for fault in self.faults:
+            if fault.channel is not None and fault.channel not in names:
+                raise ConfigurationError(f"fault {fault.kind}: no input channel {fault.channel!r}")
+        self._inputs, self._output, self._rows = tuple(inputs), output, np.array(rows)
+        self._rate = float(sample_rate)
+        self._block = int(block_size) if block_size else max(1, round(0.1 * self._rate))
+        ta = self.test_article
+        noise = {"force": ta.force_noise, "accel": ta.accel_noise, "voltage": 0.0}
+        sensors = [SensorModel(
+            volts_per_unit=s.volts_per_unit,
+            full_scale_volts=max(abs(s.min_value), abs(s.max_value)) * s.volts_per_unit,
+            noise_rms=noise[s.kind], adc_noise_rms=ta.adc_noise,
+            highpass_hz=ta.iepe_highpass if s.iepe else 0.0) for s in inputs]
+        self._chain = SensorChain(sensors, self._rate, seed=self.seed)
+        dt = 1.0 / self._rate
+        if self._physics is None or self._physics_dt != dt:
+            if self.model_kind == "linear":
+                self._physics = LinearModalPhysics(self.rig_model(), self.shaker, dt)
+            else:
+                self._physics = VibroImpactPhysics(self.rig_model(), self.shaker, dt)
+            self._physics_dt = dt
+        self._reset_stream()
+        return self._rate
+
+    def _reset_stream(self) -> None:
+        self._physics.reset()
+        self._chain.reset()
+        self._queue.clear()
+        self._queued = self._written = self._read_samples = self._blocks_read = 0
+        self._delay_line = np.zeros(int(round(self.test_article.input_to_output_delay * self._rate)))
+        self._last_drive = 0.0
+        self._drive_log, self.truth_log = [], []
+        self.fault_sample = None
+        self._closed = False
+
+    def _require_configured(self) -> None:
+        if self._chain is None or self._output is None:
+            raise ConfigurationError("device not configured; call configure() first")
+
+    @property
+    def sample_rate(self) -> float:
+        return self._rate
+
+    @property
+    def block_size(self) -> int:
+        return self._block
+
+    @property
+    def input_channels(self) -> tuple[InputChannelSpec, ...]:
+        return self._inputs
+
+    @property
+    def running(self) -> bool:
+        return self._running
+
+    def input_to_output_delay(self) -> float:
+        """The simulated DAQ's delay line, whole samples, in s."""
+        return self._delay_line.size / self._rate if self._rate else 0.0
+
+    def info(self) -> DeviceInfo:
+        details = {"model": self.model_kind, "pace": str(self.pace),
+                   "test_article": repr(self.test_article), "shaker": repr(self.shaker)}
+        return DeviceInfo(self.backend, self._rate, self._rate, self._block,
+                          self.input_to_output_delay(), details)
+
+    @property
+    def drive_log(self) -> np.ndarray:
+        """Every drive sample that reached the amplifier (after the delay line), V, including the
+        ramp to zero after a stop or a fault."""
+        return np.concatenate(self._drive_log) if self._drive_log else np.zeros(0)
+
+    @property
+    def samples_read(self) -> int:
+        """Samples per channel returned by :meth:`read` so far."""
+        return self._read_samples
+
+    # ------------------------------------------------------------------ streaming
+
+    def write(self, drive: np.ndarray) -> None:
+        self._require_configured()
+        data = np.array(drive, dtype=np.float64, copy=True)
+        if data.ndim != 1 or data.size == 0:
+            raise LimitExceeded(f"drive block must be 1-D and non-empty, got shape {data.shape}")
+        if not np.all(np.isfinite(data)):
+            raise LimitExceeded("drive block holds NaN or inf; nothing written")
+        low, high = self._output.min_voltage, self._output.max_voltage
+        if data.min() < low or data.max() > high:
+            raise LimitExceeded(f"drive {data.min():.4g}..{data.max():.4g} V is outside the output "
+                                f"range {low}..{high} V; nothing written")
+        self._queue.append(data)
+        self._queued += data.size
+        self._written += data.size
+
+    def start(self) -> None:
+        self._require_configured()
+        if self._running:
+            return
+        if self._written == 0:
+            raise ConfigurationError("write at least one drive block before start()")
+        self._running = True
+        self._wall0 = time.perf_counter()
+
+    def _take(self, n: int) -> np.ndarray:
+        """The next ``n`` queued drive samples (held at the last value if the queue runs dry)."""
+        out = np.empty(n)
+        i = 0
+        while i < n and self._queue:
+            head = self._queue[0]
+            m = min(n - i, head.size)
+            out[i:i + m] = head[:m]
+            if m == head.size:
+                self._queue.popleft()
+            else:
+                self._queue[0] = head[m:]
+            i += m
+        self._queued -= i
+        if i < n:
+            out[i:] = out[i - 1] if i else self._last_drive
+        return out
+
+    def _advance(self, drive: np.ndarray) -> np.ndarray:
+        """Run the drive through delay line, amplifier and physics; physical signals out."""
+        d = self._delay_line.size
+        if d:
+            joined = np.concatenate([self._delay_line, drive])
+            applied, self._delay_line = joined[:drive.size], joined[drive.size:]
+        else:
+            applied = drive
+        self._drive_log.append(applied)
+        if drive.size:
+            self._last_drive = float(drive[-1])
+        return self._physics.step(self.shaker.amplifier_gain * applied)
+
+    def read(self, n_samples: int | None = None, timeout: float = 10.0) -> np.ndarray:
+        self._require_configured()
+        if not self._running:
+            raise ConfigurationError("device not started; call start() first")
+        n = int(n_samples or self._block)
+        if self._queued < n:
+            self._fail(OutputUnderflow(
+                f"drive ran out after {self._read_samples + self._queued} samples "
+                f"({n - self._queued} missing): write one block ahead"), m=self._queued)
+        k0 = self._read_samples
+        fault = self._due_fault(k0, n)
+        m = n if fault is None else fault[1]
+        physical = self._advance(self._take(m))[self._rows]
+        if m < n:  # a fault cuts the block: pad so the noise stream matches an undisturbed run
+            padded = np.zeros((physical.shape[0], n))
+            padded[:, :m] = physical
+            data = self._chain.to_volts(padded)[:, :m]
+        else:
+            data = self._chain.to_volts(physical)
+        first = self._chain.first_overload
+        if first >= 0:
+            names = [s.name for s, o in zip(self._inputs, self._chain.overloaded) if o]
+            self._fail(SensorOverload(
+                f"{', '.join(names)} beyond its range at t = {(k0 + first) / self._rate:.4f} s",
+                partial=self._chain.to_units(data[:, :first])), m=first, k0=k0)
+        values = self._chain.to_units(data)
+        if self.keep_truth:
+            self.truth_log.append(physical)
+        if fault is not None:
+            self._inject(fault[0], values, k0, m)
+        self._read_samples += n
+        self._blocks_read += 1
+        if self.pace:
+            lag = self._wall0 + self._read_samples / self._rate - time.perf_counter()
+            if lag > 0:
+                time.sleep(lag)
+        return values
+
+    def _due_fault(self, k0: int, n: int) -> tuple[Fault, int] | None:
+        for fault in self.faults:
+            k = fault.sample(self._block, self._rate)
+            if k0 <= k < k0 + n:
+                return fault, k - k0
+        return None
+
+    def _inject(self, fault: Fault, before: np.ndarray, k0: int, m: int) -> None:
+        t = (k0 + m) / self._rate
+        channel = fault.channel or self._inputs[0].name
+        cls = _FAULTS[fault.kind]
+        text = {
+            "input_overflow": f"injected at t = {t:.4f} s (block {self._blocks_read}): the host did not read in time",
+            "amplifier_timeout": f"injected at t = {t:.4f} s (block {self._blocks_read}): the amplifier stopped answering",
+            "sensor_overload": f"injected on {channel} at t = {t:.4f} s (block {self._blocks_read}): beyond its range",
+            "nan_samples": f"NaN samples on {channel} at t = {t:.4f} s (block {self._blocks_read}, injected)",
+        }[fault.kind]
+        self._fail(cls(text, partial=before), m=m, k0=k0)
+
+    def _fail(self, fault: DaqFault, m: int = 0, k0: int | None = None) -> None:
+        """Ramp the drive to zero, stop, raise ``fault``."""
+        self.fault_sample = (self._read_samples if k0 is None else k0) + m
+        self.stop()
+        raise fault
+
+    def _ramp_down(self) -> None:
+        """Ramp the drive amplitude to zero over ``abort_ramp_time`` with the physics running.
+
+        The queued drive continues under a half-cosine taper from 1 to 0, then zeros for the
+        delay line to drain.
+        """
+        r = max(1, int(round(self.abort_ramp_time * self._rate)))
+        drive = self._take(r)
+        taper = 0.5 * (1.0 + np.cos(np.pi * (np.arange(r) + 1) / r))
+        tail = np.zeros(self._delay_line.size)
+        self._advance(np.concatenate([drive * taper, tail]))
+        self._last_drive = 0.0
+
+    def stop(self) -> None:
+        """Ramp the drive to zero (``abort_ramp_time``), stop, discard queued drive. Idempotent."""
+        if self._running:
+            self._running = False
+            self._ramp_down()
+        self._queue.clear()
+        self._queued = 0
+
+    def close(self) -> None:
+        self.stop()
+        self._closed = True
