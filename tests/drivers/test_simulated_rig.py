@@ -288,3 +288,21 @@ def test_too_coarse_sample_rate_is_one_line(cfg):
     rig = SimulatedRig.from_config(cfg)
     with pytest.raises(ConfigurationError, match="too coarse for the contact stiffness"):
         rig.configure(cfg.daq.input_specs(), OutputChannelSpec(), 2000.0)
+
+
+def test_shaker_and_test_article_sections_validate_in_one_line(cfg):
+    import copy
+    import tomllib
+
+    from rigtools.config import ConfigError, default_rig_text, parse_rig
+
+    data = tomllib.loads(default_rig_text())
+    assert parse_rig(data).test_article.to_params() == TestArticle()   # shipped file = defaults
+    bad = copy.deepcopy(data)
+    bad["test_article"]["damping_ratio"] = 1.5
+    with pytest.raises(ConfigError, match=r"test_article.damping_ratio = 1.5"):
+        parse_rig(bad)
+    bad = copy.deepcopy(data)
+    bad["shaker"]["armature_mass"] = "-5 g"
+    with pytest.raises(ConfigError, match=r"shaker.armature_mass"):
+        parse_rig(bad)
