@@ -42,8 +42,9 @@ class IdentifiedMode:
     damping_ratio
         Viscous damping ratio from the fit (half-power estimate if the fit failed).
     residue
-        Modal constant ``A`` of the fitted receptance-form term (units of H times s**-k... per the
-        kind); its sign/phase gives the mode shape component at the response point.
+        Modal constant ``A`` of the fitted term ``(i w)**k A / (wn**2 - w**2 + 2 i zeta wn w)``
+        (for a receptance in m/N, ``A`` is in 1/kg: ``phi_in * phi_out`` of mass-normalised
+        shapes); its sign gives the relative phase of the mode at the two points.
     peak_frequency_hz
         The grid frequency of the picked peak (before refinement).
     fit_error
@@ -187,8 +188,7 @@ def fit_sdof(
         lo, hi = max(lo, limits[0]), min(hi, limits[1])
     sel = slice(lo, hi + 1)
     w, hb = 2.0 * np.pi * f[sel], h[sel]
-    # equal relative weight near and away from the peak would let the skirts dominate;
-    # uniform absolute weight (the peak dominates) is what the SDOF assumption supports best
+    # uniform absolute weights: the bins near the peak, where one mode dominates, count most
     weight = np.ones(hb.size)
     scale = np.max(np.abs(hb))
 
