@@ -306,3 +306,20 @@ def test_shaker_and_test_article_sections_validate_in_one_line(cfg):
     bad["shaker"]["armature_mass"] = "-5 g"
     with pytest.raises(ConfigError, match=r"shaker.armature_mass"):
         parse_rig(bad)
+
+
+def test_safety_abort_in_the_loop_ramps_the_drive_down_within_0_1_s(rig, cfg):
+    """The loop's own abort (force above its limit) stops the rig; the rig ramps the drive still
+    queued to zero within abort_ramp_time (<= 0.1 s) with no step."""
+    from drivers.safety import ChannelLimit, SafetyMonitor
+
+    fs = _configure(rig, cfg)
+    monitor = SafetyMonitor([ChannelLimit("force", 4.0, 6.0)], rig.input_channels, max_drive=5.0)
+    drive = SineDrive(fs, 60.0, max_drive=5.0, ramp_time=0.3)
+    drive.set_target(1.0)                                          # ~15 N once ramped up
+    with pytest.raises(AcquisitionAborted, match="safety abort: force peak") as info:
+        acquire(rig, drive, 2.0, safety=monitor)
+    log = rig.drive_log
+    after = log[info.value.samples_kept:]
+    assert not rig.running and 0 < after.size <= int(0.1 * fs) and after[-1] == 0.0
+    assert np.max(np.abs(np.diff(log[-int(0.2 * fs):]))) <= 2 * np.pi * 60 / fs * 1.0001
