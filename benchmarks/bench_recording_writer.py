@@ -77,7 +77,7 @@ def run_plain(path: Path, blocks: list[np.ndarray], n_blocks: int, compression: 
         n = 0
         for i in range(n_blocks):
             block = blocks[i % len(blocks)]
-            for dataset, row in zip(datasets, block):
+            for dataset, row in zip(datasets, block, strict=True):
                 dataset.resize((n + BLOCK,))
                 dataset[n:n + BLOCK] = row
             n += BLOCK

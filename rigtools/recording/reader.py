@@ -27,7 +27,7 @@ from rigtools.recording.schema import (
     python_value,
 )
 from rigtools.recording.superblock import FlagClearedFile, consistency_flags
-from rigtools.recording.validate import find_problems
+from rigtools.recording.validate import AttrCache, Unreadable, find_problems
 
 _H5_REASON = re.compile(r"\((.*)\)\s*$", re.S)
 _TRUNCATED = re.compile(r"truncated file: eof = (\d+),.*stored_eof = (\d+)")
@@ -96,8 +96,10 @@ def open_h5(path: str | os.PathLike) -> tuple[h5py.File, str]:
     raise RecordingError(f"{p}: unreadable HDF5 file ({reason})") from None
 
 
-def _attr(obj: h5py.HLObject, name: str, default: Any = None) -> Any:
-    return python_value(obj.attrs[name]) if name in obj.attrs else default
+def _attrs(obj: h5py.HLObject, cache: AttrCache | None) -> dict[str, Any]:
+    raw = (cache if cache is not None else AttrCache()).of(obj)
+    return {key: python_value(value) for key, value in raw.items()
+            if not isinstance(value, Unreadable)}
 
 
 class Channel:
@@ -114,11 +116,11 @@ class Channel:
         In ``sensitivity_units``; ``physical_channel`` and ``location`` likewise None if not set.
     """
 
-    def __init__(self, dataset: h5py.Dataset, path: str):
+    def __init__(self, dataset: h5py.Dataset, path: str, cache: AttrCache | None = None):
         self._dataset = dataset
         self._path = path
         self.name = dataset.name.rsplit("/", 1)[-1]
-        self.attrs = {key: python_value(value) for key, value in dataset.attrs.items()}
+        self.attrs = _attrs(dataset, cache)
         self.units: str = self.attrs["units"]
         self.quantity: str = self.attrs["quantity"]
         self.sample_rate = float(self.attrs["sample_rate"])
@@ -182,14 +184,15 @@ class Channel:
 class Point:
     """One steady-state point: ``params`` (dict) and ``channels`` (name -> :class:`Channel`)."""
 
-    def __init__(self, group: h5py.Group, path: str):
+    def __init__(self, group: h5py.Group, path: str, cache: AttrCache | None = None):
         self.name = group.name.rsplit("/", 1)[-1]
         self.index = int(self.name)
-        attrs = {key: python_value(value) for key, value in group.attrs.items()}
+        attrs = _attrs(group, cache)
         self.start_time: str = attrs.pop("start_time")
         self.end_time: str = attrs.pop("end_time")
         self.params: dict[str, Any] = attrs
-        self.channels: dict[str, Channel] = {name: Channel(group[name], path) for name in group}
+        self.channels: dict[str, Channel] = {name: Channel(group[name], path, cache)
+                                             for name in group}
 
     def __repr__(self) -> str:
         return f"<Point {self.name}: {self.params} channels={list(self.channels)}>"
@@ -250,11 +253,11 @@ class Recording:
         How HDF5 had to open the file: ``"clean"``, ``"swmr"`` or ``"flags-cleared"``.
     """
 
-    def __init__(self, f: h5py.File, path: str, opened_as: str):
+    def __init__(self, f: h5py.File, path: str, opened_as: str, cache: AttrCache | None = None):
         self._file = f
         self.path = path
         self.opened_as = opened_as
-        attrs = {key: python_value(value) for key, value in f.attrs.items()}
+        attrs = _attrs(f, cache)
         self.attrs = attrs
         self.schema_version: int = attrs["schema_version"]
         self.status: str = attrs["status"]
@@ -267,7 +270,7 @@ class Recording:
         self.experiment: dict[str, Any] = json.loads(attrs["experiment"])
         group = f[POINTS_GROUP]
         names = sorted((n for n in group if point_index(n) is not None), key=int)
-        self.points: list[Point] = [Point(group[n], path) for n in names]
+        self.points: list[Point] = [Point(group[n], path, cache) for n in names]
 
     def __repr__(self) -> str:
         return (f"<Recording {self.path}: {self.status}, backend {self.backend}, "
@@ -364,13 +367,14 @@ def open_recording(path: str | os.PathLike) -> Recording:
     """
     f, opened_as = open_h5(path)
     try:
-        problems = find_problems(f)
+        cache = AttrCache()
+        problems = find_problems(f, cache)
         fatal = [p for p in problems if p.fatal]
         if fatal:
             where = "" if fatal[0].where == "/" else f"{fatal[0].where}: "
             more = f" (and {len(fatal) - 1} more; run: rig check {path})" if len(fatal) > 1 else ""
             raise RecordingError(f"{path}: {where}{fatal[0].message}{more}")
-        return Recording(f, str(path), opened_as)
+        return Recording(f, str(path), opened_as, cache)
     except RecordingError:
         f.close()
         raise

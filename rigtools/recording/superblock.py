@@ -25,6 +25,25 @@ def _rot(x: int, k: int) -> int:
     return ((x << k) | (x >> (32 - k))) & _MASK
 
 
+def _mix(a: int, b: int, c: int) -> tuple[int, int, int]:
+    for r1, r2, r3 in ((4, 6, 8), (16, 19, 4)):
+        a = ((a - c) & _MASK) ^ _rot(c, r1)
+        c = (c + b) & _MASK
+        b = ((b - a) & _MASK) ^ _rot(a, r2)
+        a = (a + c) & _MASK
+        c = ((c - b) & _MASK) ^ _rot(b, r3)
+        b = (b + a) & _MASK
+    return a, b, c
+
+
+def _final(a: int, b: int, c: int) -> int:
+    v = [a, b, c]
+    for target, source, shift in ((2, 1, 14), (0, 2, 11), (1, 0, 25), (2, 1, 16), (0, 2, 4),
+                                  (1, 0, 14), (2, 1, 24)):
+        v[target] = ((v[target] ^ v[source]) - _rot(v[source], shift)) & _MASK
+    return v[2]
+
+
 def lookup3(data: bytes, initval: int = 0) -> int:
     """Bob Jenkins' lookup3 ``hashlittle`` of ``data``, the checksum HDF5 uses for metadata."""
     length = len(data)
@@ -32,27 +51,13 @@ def lookup3(data: bytes, initval: int = 0) -> int:
     offset = 0
     while length > 12:
         x, y, z = struct.unpack_from("<3I", data, offset)
-        a, b, c = (a + x) & _MASK, (b + y) & _MASK, (c + z) & _MASK
-        a = (a - c) & _MASK; a ^= _rot(c, 4); c = (c + b) & _MASK
-        b = (b - a) & _MASK; b ^= _rot(a, 6); a = (a + c) & _MASK
-        c = (c - b) & _MASK; c ^= _rot(b, 8); b = (b + a) & _MASK
-        a = (a - c) & _MASK; a ^= _rot(c, 16); c = (c + b) & _MASK
-        b = (b - a) & _MASK; b ^= _rot(a, 19); a = (a + c) & _MASK
-        c = (c - b) & _MASK; c ^= _rot(b, 4); b = (b + a) & _MASK
+        a, b, c = _mix((a + x) & _MASK, (b + y) & _MASK, (c + z) & _MASK)
         length -= 12
         offset += 12
     if length == 0:
         return c
     x, y, z = struct.unpack("<3I", data[offset:offset + length].ljust(12, b"\0"))
-    a, b, c = (a + x) & _MASK, (b + y) & _MASK, (c + z) & _MASK
-    c ^= b; c = (c - _rot(b, 14)) & _MASK
-    a ^= c; a = (a - _rot(c, 11)) & _MASK
-    b ^= a; b = (b - _rot(a, 25)) & _MASK
-    c ^= b; c = (c - _rot(b, 16)) & _MASK
-    a ^= c; a = (a - _rot(c, 4)) & _MASK
-    b ^= a; b = (b - _rot(a, 14)) & _MASK
-    c ^= b; c = (c - _rot(b, 24)) & _MASK
-    return c
+    return _final((a + x) & _MASK, (b + y) & _MASK, (c + z) & _MASK)
 
 
 def superblock_size(head: bytes) -> int | None:

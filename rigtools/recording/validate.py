@@ -68,17 +68,39 @@ def _scalar(value: Any) -> Any:
     return value
 
 
-def _check_attr(obj: h5py.HLObject, name: str, kind: str, where: str, out: list[Problem],
+class Unreadable:
+    """Stands for an attribute HDF5 cannot read (e.g. a type h5py does not map)."""
+
+    def __init__(self, reason: str):
+        self.reason = reason
+
+
+class AttrCache(dict):
+    """Attributes of HDF5 objects by object name, each read once (validation and reader share it)."""
+
+    def of(self, obj: h5py.HLObject) -> dict[str, Any]:
+        key = obj.name
+        if key not in self:
+            values: dict[str, Any] = {}
+            for name in obj.attrs:
+                try:
+                    values[name] = _scalar(obj.attrs[name])
+                except (OSError, TypeError, ValueError, KeyError) as exc:
+                    values[name] = Unreadable(" ".join(str(exc).split()))
+            self[key] = values
+        return self[key]
+
+
+def _check_attr(attrs: dict[str, Any], name: str, kind: str, where: str, out: list[Problem],
                 required: bool = True) -> Any:
     """Append a problem if attribute ``name`` is missing or not of ``kind``; return its value."""
-    try:
-        if name not in obj.attrs:
-            if required:
-                out.append(Problem(where, f"missing attribute '{name}'", fatal=True))
-            return None
-        value = _scalar(obj.attrs[name])
-    except (OSError, TypeError, ValueError, KeyError) as exc:
-        out.append(Problem(where, f"attribute '{name}' cannot be read ({exc})", fatal=True))
+    if name not in attrs:
+        if required:
+            out.append(Problem(where, f"missing attribute '{name}'", fatal=True))
+        return None
+    value = attrs[name]
+    if isinstance(value, Unreadable):
+        out.append(Problem(where, f"attribute '{name}' cannot be read ({value.reason})", fatal=True))
         return None
     ok = {"text": _is_text, "int": lambda v: isinstance(v, (int, np.integer)) and not isinstance(
         v, (bool, np.bool_)), "float": _is_number}[kind](value)
@@ -89,21 +111,23 @@ def _check_attr(obj: h5py.HLObject, name: str, kind: str, where: str, out: list[
     return python_value(value)
 
 
-def find_problems(f: h5py.File) -> list[Problem]:
+def find_problems(f: h5py.File, cache: AttrCache | None = None) -> list[Problem]:
     """Everything wrong with an open file as a schema v1 recording (metadata only).
 
     The first problems are the fatal ones about the root (wrong schema, newer version), so
-    their message is what a reader reports.
+    their message is what a reader reports. ``cache`` keeps the attributes read.
     """
+    cache = AttrCache() if cache is None else cache
     out: list[Problem] = []
-    schema = _check_attr(f, "schema", "text", "/", [])
+    attrs = cache.of(f)
+    schema = _check_attr(attrs, "schema", "text", "/", [])
     if schema is None:
         return [Problem("/", f"not a rigtools recording: no text attribute 'schema' "
                              f"(expected '{SCHEMA_NAME}')", fatal=True)]
     if schema != SCHEMA_NAME:
         return [Problem("/", f"not a rigtools recording: schema is '{schema}' "
                              f"(expected '{SCHEMA_NAME}')", fatal=True)]
-    version = _check_attr(f, "schema_version", "int", "/", out)
+    version = _check_attr(attrs, "schema_version", "int", "/", out)
     if version is None:
         return out
     if version > SCHEMA_VERSION:
@@ -113,7 +137,7 @@ def find_problems(f: h5py.File) -> list[Problem]:
     if version < 1:
         return [Problem("/", f"schema_version {version} is not a valid version", fatal=True)]
 
-    root = {name: _check_attr(f, name, kind, "/", out) for name, (kind, _) in ROOT_ATTRS.items()
+    root = {name: _check_attr(attrs, name, kind, "/", out) for name, (kind, _) in ROOT_ATTRS.items()
             if name not in ("schema", "schema_version")}
     status = root.get("status")
     if status is not None and status not in STATUSES:
@@ -153,7 +177,7 @@ def find_problems(f: h5py.File) -> list[Problem]:
                                                           "named 0000, 0001, ...)"))
             continue
         indices.append(idx)
-        out.extend(_point_problems(points[name], f"/{POINTS_GROUP}/{name}", status))
+        out.extend(_point_problems(points[name], f"/{POINTS_GROUP}/{name}", status, cache))
     indices.sort()
     if indices != list(range(len(indices))):
         out.append(Problem(f"/{POINTS_GROUP}", f"points are not numbered 0..{len(indices) - 1} "
@@ -166,27 +190,25 @@ def find_problems(f: h5py.File) -> list[Problem]:
     return out
 
 
-def _point_problems(group: Any, where: str, status: str | None) -> list[Problem]:
+def _point_problems(group: Any, where: str, status: str | None, cache: AttrCache) -> list[Problem]:
     out: list[Problem] = []
     if not isinstance(group, h5py.Group):
         return [Problem(where, "is not a group", fatal=True)]
+    attrs = cache.of(group)
     for name, (kind, _) in POINT_ATTRS.items():
-        text = _check_attr(group, name, kind, where, out)
+        text = _check_attr(attrs, name, kind, where, out)
         if text:
             try:
                 parse_utc(text)
             except ValueError:
                 out.append(Problem(where, f"{name} = {text!r} is not ISO 8601 UTC time"))
-    if "end_time" in group.attrs and _scalar(group.attrs["end_time"]) in ("", b"") \
-            and status == STATUS_COMPLETE:
+    if attrs.get("end_time") in ("", b"") and status == STATUS_COMPLETE:
         out.append(Problem(where, "the point never ended (end_time is empty) in a complete file"))
-    for key in group.attrs:
+    for key, value in attrs.items():
         if key in POINT_ATTRS:
             continue
-        try:
-            value = group.attrs[key]
-        except (OSError, TypeError, ValueError):
-            out.append(Problem(where, f"parameter '{key}' cannot be read (not text or numbers)"))
+        if isinstance(value, Unreadable):
+            out.append(Problem(where, f"parameter '{key}' cannot be read ({value.reason})"))
             continue
         if not (isinstance(value, (str, bytes, np.generic, int, float))
                 or (isinstance(value, np.ndarray) and value.dtype.kind in "biufSUO"
@@ -207,7 +229,8 @@ def _point_problems(group: Any, where: str, status: str | None) -> list[Problem]
                                        f"dtype {dataset.dtype})", fatal=True))
             continue
         lengths[name] = dataset.shape[0]
-        values = {key: _check_attr(dataset, key, kind, cwhere, out)
+        dattrs = cache.of(dataset)
+        values = {key: _check_attr(dattrs, key, kind, cwhere, out)
                   for key, (kind, _) in CHANNEL_ATTRS.items()}
         rate = values.get("sample_rate")
         if rate is not None:
@@ -220,8 +243,8 @@ def _point_problems(group: Any, where: str, status: str | None) -> list[Problem]
         if t0 is not None and not math.isfinite(t0):
             out.append(Problem(cwhere, f"t0 {t0!r} is not finite", fatal=True))
         for key, (kind, _) in MEASURED_CHANNEL_ATTRS.items():
-            _check_attr(dataset, key, kind, cwhere, out, required=False)
-        if "sensitivity" in dataset.attrs and "sensitivity_units" not in dataset.attrs:
+            _check_attr(dattrs, key, kind, cwhere, out, required=False)
+        if "sensitivity" in dattrs and "sensitivity_units" not in dattrs:
             out.append(Problem(cwhere, "has 'sensitivity' but no 'sensitivity_units'"))
     if len(set(lengths.values())) > 1:
         detail = ", ".join(f"{k}={v}" for k, v in lengths.items())

@@ -144,7 +144,7 @@ class PointWriter:
             return
         start, stop = self.n_samples, self.n_samples + n
         memspace = h5py.h5s.create_simple((n,))
-        for dataset, row in zip(self._datasets, data):
+        for dataset, row in zip(self._datasets, data, strict=True):
             dataset.resize((stop,))
             filespace = dataset.id.get_space()
             filespace.select_hyperslab((start,), (n,))

@@ -95,11 +95,11 @@ def test_sigkill_at_random_moments_keeps_everything_flushed(tmp_path):
             path = tmp_path / f"killed_{k:02d}.h5"
             proc = _start(path, seed=k)
             batch.append((k, path, proc))
-        for k, path, proc in batch:
+        for _, _, proc in batch:
             _wait_started(proc)
         started = time.time()
         kills = {}
-        for k, path, proc in sorted(batch, key=lambda item: delays[item[0]]):
+        for k, _, proc in sorted(batch, key=lambda item: delays[item[0]]):
             time.sleep(max(0.0, started + delays[k] - time.time()))
             kills[k] = time.time()
             os.kill(proc.pid, signal.SIGKILL)

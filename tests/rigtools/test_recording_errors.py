@@ -182,3 +182,13 @@ def test_cli_subprocess_prints_no_traceback(tmp_path):
                          capture_output=True, text=True)
     assert run.returncode == 2 and "Traceback" not in run.stderr
     assert len(run.stderr.strip().splitlines()) == 1
+
+
+def test_lookup3_matches_published_vectors():
+    """Bob Jenkins' lookup3.c driver5 values: hashlittle("", 0) = 0xdeadbeef,
+    hashlittle("Four score and seven years ago", 0) = 0x17770551, with initval 1 = 0xcd628161."""
+    from rigtools.recording.superblock import lookup3
+
+    assert lookup3(b"") == 0xDEADBEEF
+    assert lookup3(b"Four score and seven years ago") == 0x17770551
+    assert lookup3(b"Four score and seven years ago", 1) == 0xCD628161
