@@ -123,7 +123,7 @@ def fem_harmonic_response(rig: RigModel, frequencies_hz: np.ndarray, force_ampli
 
 
 def am_harmonic_response(
-    params: RigParams, frequencies_hz: np.ndarray, force_amplitude: float, n_terms: int = 12
+    params: RigParams, frequencies_hz: np.ndarray, force_amplitude: float, n_terms: int = 40
 ) -> HarmonicResponse:
     """Linear harmonic response of the analytical (assumed-modes) model.
 
@@ -160,7 +160,7 @@ def am_harmonic_response(
 
 
 def harmonic_curves(
-    rig: RigModel, frequencies_hz: np.ndarray, force_amplitude: float, n_terms: int = 12
+    rig: RigModel, frequencies_hz: np.ndarray, force_amplitude: float, n_terms: int = 40
 ) -> tuple[HarmonicResponse, HarmonicResponse]:
     """FEM and AM amplitude-frequency curves on the same grid (the paper's Figure 7)."""
     return (
