@@ -30,7 +30,7 @@ examples:
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
-        "modal", help=HELP, description=HELP + ".", epilog=EPILOG,
+        "modal", help=HELP, description=HELP.replace("%%", "%") + ".", epilog=EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("--rig", metavar="FILE", help="rig file (TOML); default: the calibrated default rig")
