@@ -134,7 +134,13 @@ def run(args: argparse.Namespace) -> int:
     if not 2 <= args.points <= 200_000:
         raise UserError(f"--points = {args.points}: must be between 2 and 200000")
     rig_config = load_rig(args.rig)
-    rig = build_rig_model(rig_config.to_params())
+    params = rig_config.to_params()
+    if params.force_sensor.position >= params.passive.length:
+        raise UserError(
+            f"force_sensor.position = {params.force_sensor.position} m is beyond the passive blade "
+            f"(length {params.passive.length} m), which is driven at the same position"
+        )
+    rig = build_rig_model(params)
     fem, am = harmonic_curves(rig, np.linspace(fmin, fmax, args.points), force)
     write_curves(out, fem, am, rig_config.name)
     png = out.with_suffix(".png")
