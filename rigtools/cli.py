@@ -11,6 +11,12 @@ file), 3 hardware or its driver not available, 4 a hardware fault stopped the ru
 
 from __future__ import annotations
 
+import os
+
+# The FE eigen-solves are small dense problems: threaded BLAS only adds overhead. Set before numpy loads.
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
 import argparse
 import importlib
 import pkgutil
