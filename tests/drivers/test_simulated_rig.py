@@ -119,13 +119,10 @@ def test_force_dips_at_the_active_blade_resonances(rig, cfg):
             assert h == pytest.approx(abs(_closed_form_force_per_volt(rig, f)[0]), rel=0.01)
 
 
-@pytest.mark.xfail(strict=False, reason=(
-    "sim.reduction.ReducedSystem.with_attached gives every shaker-coupled mode the blade's damping "
-    "ratio again instead of projecting the blade damping, so the blade looks 13-27 % more damped "
-    "through the force sensor (force at resonance 11-27 % above the closed form)"))
 def test_force_at_resonance_matches_closed_form(rig, cfg):
     """At the resonances (where damping rules): measured force per volt within 2 % of the closed
-    form with the test article's damping ratio."""
+    form with the test article's damping ratio (the shaker's armature adds no blade damping; the
+    reduced model keeps the diagonal of the projected blade damping, hence 2 %, measured 1.1 %)."""
     for f in flexural_frequencies(rig.rig_model().active, 2):
         assert abs(_force_per_volt(rig, cfg, f)) == pytest.approx(
             abs(_closed_form_force_per_volt(rig, f)[0]), rel=0.02)
