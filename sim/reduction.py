@@ -1,0 +1,269 @@
+"""Reduced (modal) model of the two-blade rig for fast vibro-impact time stepping.
+
+Per blade, the Ritz basis is the low normal modes that move the load points (flexural modes
+below ``cutoff_hz``) plus the residual static shapes of the load DOFs (shroud uy, and the
+force-sensor uy on the active blade): ``r = K^-1 e - Phi Omega^-2 Phi^T e`` (the static
+correction / residual flexibility of MacNeal-Rubin). The residual shapes are M- and
+K-orthogonal to the kept modes; re-diagonalising them gives a few high "pseudo-modes", so the
+reduced model is a set of decoupled oscillators whose static flexibility at the load DOFs equals
+the full model's exactly. Blades are coupled only by the contact force at their tip DOFs.
+
+Only three rows of the basis are needed to step it: the y displacement per unit modal coordinate
+at the active tip, the passive tip and the force point (:data:`ROWS`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+import scipy.linalg
+import scipy.sparse.linalg as spla
+
+from sim.params import ContactParams, DampingParams
+
+ROWS = ("active_tip", "passive_tip", "force_point")
+ACTIVE, PASSIVE = 0, 1
+DEFAULT_CUTOFF_HZ = 6000.0
+
+
+@dataclass(frozen=True)
+class ReducedSystem:
+    """Decoupled modal oscillators of both blades, coupled only by the shroud contact.
+
+    Attributes
+    ----------
+    omega
+        (n,) circular natural frequencies, rad/s (kept modes and pseudo-modes).
+    zeta
+        (n,) modal damping ratios.
+    shapes
+        (3, n) y displacement per unit (mass-normalised) modal coordinate at
+        ``ROWS = (active_tip, passive_tip, force_point)``.
+    blade
+        (n,) 0 for an active-blade mode, 1 for a passive-blade mode.
+    contact
+        Contact law, stiffness, damping and gap.
+    damping
+        The damping description the ratios came from (for re-derivation after a change).
+    source
+        ``"fem"`` or ``"am"``.
+    pseudo
+        (n,) True for the static-correction pseudo-modes.
+    bases
+        Optional full-DOF Ritz vectors per blade, ``{"active": (n_dofs_a, n_a), "passive": ...}``,
+        in the column order of the modes of that blade (for mapping to the full model).
+    """
+
+    omega: np.ndarray
+    zeta: np.ndarray
+    shapes: np.ndarray
+    blade: np.ndarray
+    contact: ContactParams
+    damping: DampingParams
+    source: str = "fem"
+    pseudo: np.ndarray | None = None
+    bases: dict | None = field(default=None, repr=False, compare=False)
+
+    @property
+    def n_modes(self) -> int:
+        return int(self.omega.size)
+
+    @property
+    def frequencies_hz(self) -> np.ndarray:
+        return self.omega / (2.0 * np.pi)
+
+    def tip_masses(self) -> tuple[float, float]:
+        """Apparent mass of each shroud to an impulse: ``1 / sum_j phi_tip,j**2`` per blade, kg
+        (``inf`` for a blade without modes: a rigid stop)."""
+        a = float(np.sum(self.shapes[0, self.blade == ACTIVE] ** 2))
+        p = float(np.sum(self.shapes[1, self.blade == PASSIVE] ** 2))
+        return (1.0 / a if a > 0 else np.inf), (1.0 / p if p > 0 else np.inf)
+
+    def contact_effective_mass(self) -> float:
+        """The two shroud apparent masses in series, kg (sets the contact period)."""
+        ma, mp = self.tip_masses()
+        if np.isinf(mp):
+            return ma
+        if np.isinf(ma):
+            return mp
+        return ma * mp / (ma + mp)
+
+    def with_contact(self, **changes) -> "ReducedSystem":
+        """The same system with contact parameters changed (``gap=...``, ``stiffness=...``)."""
+        return replace(self, contact=replace(self.contact, **changes))
+
+    def with_attached(self, mass: float, stiffness: float) -> "ReducedSystem":
+        """Add a point mass and a grounded spring at the force point (e.g. a shaker armature).
+
+        The active blade's modes are re-diagonalised in the current basis
+        (``M = I + m phi_F phi_F^T``, ``K = Omega^2 + k phi_F phi_F^T``). The blade's modal
+        damping matrix ``diag(2 zeta w)`` is projected on the new modes and its diagonal kept
+        (exact for a single mode; the attachment adds no damping). ``bases`` is dropped.
+        """
+        act = np.flatnonzero(self.blade == ACTIVE)
+        pf = self.shapes[2, act]
+        m = np.eye(act.size) + mass * np.outer(pf, pf)
+        k = np.diag(self.omega[act] ** 2) + stiffness * np.outer(pf, pf)
+        w2, t = scipy.linalg.eigh(k, m)
+        omega = self.omega.copy()
+        shapes = self.shapes.copy()
+        omega[act] = np.sqrt(np.clip(w2, 0.0, None))
+        shapes[:, act] = self.shapes[:, act] @ t
+        pseudo = None if self.pseudo is None else self.pseudo.copy()
+        if pseudo is not None:   # the highest ones remain the pseudo-modes
+            n_ps = int(self.pseudo[act].sum())
+            pseudo[act] = False
+            if n_ps:
+                pseudo[act[-n_ps:]] = True
+        # the blade's own damping is unchanged by the attachment: project it, keep the diagonal
+        c = t.T @ ((2.0 * self.zeta[act] * self.omega[act])[:, None] * t)
+        zeta = self.zeta.copy()
+        zeta[act] = np.diag(c) / (2.0 * omega[act])
+        return replace(self, omega=omega, zeta=zeta, shapes=shapes, pseudo=pseudo, bases=None)
+
+
+def damping_ratios(omega: np.ndarray, damping: DampingParams) -> np.ndarray:
+    """Modal damping ratios: the given ratio for every mode, or Rayleigh ``alpha/2w + beta w/2``."""
+    omega = np.asarray(omega, dtype=float)
+    if damping.ratio is not None:
+        return np.full(omega.shape, float(damping.ratio))
+    return damping.alpha / (2.0 * omega) + damping.beta * omega / 2.0
+
+
+def _blade_ritz(mass, stiffness, damping, modes_omega, modes_shapes, load_dofs, cutoff_hz,
+                static_correction: bool):
+    """Ritz basis of one blade: kept modes + re-diagonalised residual static shapes.
+
+    Returns (omega, zeta, basis (n_dofs, n), pseudo flags).
+    """
+    rows = modes_shapes[load_dofs, :]
+    scale = np.abs(rows).max()
+    moves = np.abs(rows).max(axis=0) > 1e-9 * scale      # modes the loads can excite / we can see
+    keep = moves & (modes_omega < 2.0 * np.pi * cutoff_hz)
+    phi = modes_shapes[:, keep]
+    om = modes_omega[keep]
+    basis, omegas, pseudo = [phi], [om], [np.zeros(om.size, bool)]
+    if static_correction:
+        e = np.zeros((mass.shape[0], len(load_dofs)))
+        e[load_dofs, np.arange(len(load_dofs))] = 1.0
+        static = spla.splu(stiffness.tocsc()).solve(e)
+        resid = static - phi @ ((phi[load_dofs, :] / om**2).T)
+        mr = resid.T @ (mass @ resid)
+        kr = resid.T @ (stiffness @ resid)
+        # drop directions with no residual flexibility left (all relevant modes already kept)
+        flex = np.diag(resid[load_dofs, :])
+        ok = flex > 1e-9 * np.abs(np.diag(static[load_dofs, :]))
+        if ok.any():
+            w2, t = scipy.linalg.eigh(kr[np.ix_(ok, ok)], mr[np.ix_(ok, ok)])
+            basis.append(resid[:, ok] @ t)
+            omegas.append(np.sqrt(w2))
+            pseudo.append(np.ones(w2.size, bool))
+    basis = np.hstack(basis)
+    omega = np.concatenate(omegas)
+    if damping is None:
+        zeta = None
+    else:
+        c = basis.T @ (damping @ basis)
+        zeta = np.diag(c) / (2.0 * omega)
+    return omega, zeta, basis, np.concatenate(pseudo)
+
+
+def reduce_rig_model(model, cutoff_hz: float = DEFAULT_CUTOFF_HZ, static_correction: bool = True,
+                     keep_bases: bool = False) -> ReducedSystem:
+    """Reduce the FE rig model (:class:`sim.rig_model.RigModel`) to decoupled modal oscillators.
+
+    Parameters
+    ----------
+    model
+        The FE model of both blades.
+    cutoff_hz
+        Keep the normal modes below this frequency that move a load DOF (about 3x the highest
+        harmonic of interest; the default covers 30 x 60 Hz with margin).
+    static_correction
+        Add the residual static shapes of the load DOFs (recommended; without it the contact
+        flexibility of the truncated modes is missing).
+    keep_bases
+        Keep the full-DOF Ritz vectors (for mapping states to the full model).
+
+    Returns
+    -------
+    ReducedSystem
+        Damping ratios are the diagonal of the projected FE damping matrix (exact for modal-ratio
+        and Rayleigh damping on kept modes).
+    """
+    from sim.modal import blade_modes
+
+    n_a = model.active.n_dofs
+    parts = []
+    for name, off in (("active", 0), ("passive", n_a)):
+        blade = model.blade(name)
+        modes = blade_modes(blade)
+        tip = blade.dof(blade.tip_node, 1)
+        loads = [tip] if blade.sensor_node is None else [tip, blade.dof(blade.sensor_node, 1)]
+        c = model.damping[off:off + blade.n_dofs, off:off + blade.n_dofs]
+        om, z, basis, ps = _blade_ritz(blade.mass, blade.stiffness, c, modes.omegas, modes.shapes,
+                                       loads, cutoff_hz, static_correction)
+        parts.append((om, z, basis, ps, tip, loads))
+    (om_a, z_a, b_a, ps_a, tip_a, loads_a), (om_p, z_p, b_p, ps_p, tip_p, _) = parts
+    n1, n2 = om_a.size, om_p.size
+    shapes = np.zeros((3, n1 + n2))
+    shapes[0, :n1] = b_a[tip_a]
+    shapes[1, n1:] = b_p[tip_p]
+    shapes[2, :n1] = b_a[loads_a[1]]
+    return ReducedSystem(
+        omega=np.concatenate([om_a, om_p]),
+        zeta=np.concatenate([z_a, z_p]),
+        shapes=shapes,
+        blade=np.r_[np.zeros(n1, int), np.ones(n2, int)],
+        contact=model.params.contact,
+        damping=model.params.damping,
+        source="fem",
+        pseudo=np.concatenate([ps_a, ps_p]),
+        bases={"active": b_a, "passive": b_p} if keep_bases else None,
+    )
+
+
+def reduce_assumed_modes(active, passive, params, force_position: float | None = None,
+                         cutoff_hz: float | None = None) -> ReducedSystem:
+    """Reduced system from two assumed-modes blades (:class:`sim.analytical.AssumedModesBlade`).
+
+    Each blade's generalised ``mass``/``stiffness`` is diagonalised; the rows are the mode
+    shapes evaluated by ``shape(x)`` at the tips (blade length) and at the force sensor.
+
+    Parameters
+    ----------
+    active, passive
+        Assumed-modes models of the two blades (with their lumped masses).
+    params
+        :class:`sim.params.RigParams` (lengths, sensor position, contact, damping).
+    force_position
+        Where the force acts on the active blade, m (default: the force sensor position).
+    cutoff_hz
+        Keep only modes below this frequency (default: all).
+    """
+    xf = params.force_sensor.position if force_position is None else force_position
+    omegas, rows, blades = [], [], []
+    for idx, (am, length) in enumerate(((active, params.active.length), (passive, params.passive.length))):
+        w2, t = scipy.linalg.eigh(np.asarray(am.stiffness, float), np.asarray(am.mass, float))
+        om = np.sqrt(np.clip(w2, 0.0, None))
+        keep = np.ones(om.size, bool) if cutoff_hz is None else om < 2 * np.pi * cutoff_hz
+        t, om = t[:, keep], om[keep]
+        r = np.zeros((3, om.size))
+        r[idx] = np.asarray(am.shape(length)) @ t
+        if idx == ACTIVE:
+            r[2] = np.asarray(am.shape(xf)) @ t
+        omegas.append(om)
+        rows.append(r)
+        blades.append(np.full(om.size, idx))
+    omega = np.concatenate(omegas)
+    return ReducedSystem(
+        omega=omega,
+        zeta=damping_ratios(omega, params.damping),
+        shapes=np.hstack(rows),
+        blade=np.concatenate(blades),
+        contact=params.contact,
+        damping=params.damping,
+        source="am",
+        pseudo=np.zeros(omega.size, bool),
+    )

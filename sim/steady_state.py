@@ -1,0 +1,91 @@
+"""Detect a periodic steady state by comparing consecutive excitation periods.
+
+A response is steady with period ``m*T`` (``T = 1/fe``) when, for each monitored signal, the last
+``n_compare`` periods match the ones ``m`` periods earlier sample by sample to a relative
+tolerance (relative to the signal's peak-to-peak over the compared window). ``m = 1`` is the
+ordinary periodic response; ``m > 1`` a subharmonic one (period doubling and so on).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+SUBHARMONIC_DISTINCT = 1e-2   # period-1 mismatch above which a lag-m match counts as period m
+
+
+@dataclass(frozen=True)
+class Periodicity:
+    """Outcome of :func:`check_periodic`.
+
+    Attributes
+    ----------
+    steady
+        True when some ``m <= max_multiple`` meets the tolerance.
+    period_multiple
+        That ``m`` (1 = period of the excitation); 0 when not steady.
+    mismatch
+        Relative mismatch for ``m = period_multiple`` (or the smallest found when not steady).
+    """
+
+    steady: bool
+    period_multiple: int
+    mismatch: float
+
+
+def period_mismatch(signals: np.ndarray, samples_per_period: int, lag: int = 1,
+                    n_compare: int = 3) -> float:
+    """Largest relative difference between the last ``n_compare`` periods and those ``lag``
+    periods earlier.
+
+    Parameters
+    ----------
+    signals
+        (n_signals, n_samples) or (n_samples,), uniformly sampled, ``samples_per_period`` samples
+        per excitation period.
+    samples_per_period
+        Integer samples per excitation period.
+    lag
+        Compare with ``lag`` periods earlier.
+    n_compare
+        Number of trailing periods compared.
+
+    Returns
+    -------
+    float
+        ``max |x(t) - x(t - lag T)| / ptp(x)`` over the window, worst signal; ``inf`` if the
+        record is too short.
+    """
+    x = np.atleast_2d(np.asarray(signals, dtype=float))
+    n = int(samples_per_period)
+    w = n * n_compare
+    if x.shape[1] < w + lag * n:
+        return float("inf")
+    now = x[:, -w:]
+    before = x[:, -w - lag * n: x.shape[1] - lag * n]
+    span = np.ptp(now, axis=1)
+    span = np.where(span > 0, span, 1.0)
+    return float(np.max(np.max(np.abs(now - before), axis=1) / span))
+
+
+def check_periodic(signals: np.ndarray, samples_per_period: int, tol: float = 1e-5,
+                   n_compare: int = 3, max_multiple: int = 4) -> Periodicity:
+    """Is the tail of ``signals`` periodic with a period of ``m`` excitation periods?
+
+    Tries ``m = 1 .. max_multiple`` in that order and returns the first that matches within
+    ``tol`` (see :func:`period_mismatch`).
+    """
+    best = float("inf")
+    first = float("inf")
+    for m in range(1, max_multiple + 1):
+        mis = period_mismatch(signals, samples_per_period, m, n_compare)
+        if m == 1:
+            first = mis
+        # a subharmonic must differ clearly from period 1: a decaying transient whose own
+        # frequency is nearly commensurate with m*fe can otherwise pass the lag-m test first
+        if mis <= tol and (m == 1 or first > SUBHARMONIC_DISTINCT):
+            return Periodicity(True, m, mis)
+        best = min(best, mis)
+    return Periodicity(False, 0, best)
