@@ -123,3 +123,20 @@ def harmonic_amplitudes(
     phase = np.arctan2(-b, a)   # a cos + b sin = A cos(wt + phase)
     return HarmonicFit(k=k, frequency_hz=k * float(fe), amplitude=amplitude, phase=phase,
                        offset=float(offset), residual_rms=residual_rms)
+
+
+def derivative_harmonics(fit: HarmonicFit, order: int = 1) -> HarmonicFit:
+    """Harmonics of the ``order``-th time derivative of the fitted signal.
+
+    For a periodic signal the k-th Fourier coefficient of the derivative is exactly
+    ``(i k w)`` times the signal's: amplitudes scale by ``(2 pi k fe)**order`` and phases advance
+    by ``order * pi/2``. Useful to get acceleration harmonics from a sampled velocity (or
+    displacement): when the acceleration jumps (impacts with damping) its point samples converge
+    only to first order in the sampling step, while the continuous velocity's converge to second.
+    The residual is not transformed (set to NaN).
+    """
+    order = int(order)
+    w = 2.0 * np.pi * fit.frequency_hz
+    phase = np.angle(np.exp(1j * (fit.phase + order * np.pi / 2)))
+    return HarmonicFit(k=fit.k, frequency_hz=fit.frequency_hz, amplitude=fit.amplitude * w**order,
+                       phase=phase, offset=0.0, residual_rms=float("nan"))
