@@ -267,3 +267,37 @@ def reduce_assumed_modes(active, passive, params, force_position: float | None =
         source="am",
         pseudo=np.zeros(omega.size, bool),
     )
+
+
+def reduced_system(params, model: str = "fem", cutoff_hz: float = DEFAULT_CUTOFF_HZ,
+                   n_terms: int = 12, rig_model=None) -> ReducedSystem:
+    """The reduced system of a rig, from the FE model (``"fem"``) or the assumed-modes model
+    (``"am"``, all of its ``n_terms`` shapes per blade).
+
+    Parameters
+    ----------
+    params
+        :class:`sim.params.RigParams`.
+    model
+        ``"fem"`` or ``"am"``.
+    cutoff_hz
+        Highest normal mode kept (FEM).
+    n_terms
+        Assumed modes per blade (AM only).
+    rig_model
+        An already built :class:`sim.rig_model.RigModel` of ``params`` (FEM only).
+    """
+    if model == "fem":
+        from sim.rig_model import build_rig_model
+
+        return reduce_rig_model(rig_model if rig_model is not None else build_rig_model(params), cutoff_hz)
+    if model == "am":
+        from sim.analytical import assumed_modes_blade
+        from sim.rig_model import blade_masses
+
+        passive_root = params.passive_root if params.passive_root is not None else params.root
+        act = assumed_modes_blade(params.active, blade_masses(params, "active"), params.root, n_terms)
+        pas = assumed_modes_blade(params.passive, blade_masses(params, "passive"), passive_root, n_terms)
+        # all shapes are kept: the AM has no static correction, its higher shapes supply it
+        return reduce_assumed_modes(act, pas, params)
+    raise ValueError(f"model must be 'fem' or 'am', got {model!r}")

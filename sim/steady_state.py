@@ -36,7 +36,7 @@ class Periodicity:
 
 
 def period_mismatch(signals: np.ndarray, samples_per_period: int, lag: int = 1,
-                    n_compare: int = 3) -> float:
+                    n_compare: int = 3, scale: np.ndarray | None = None) -> float:
     """Largest relative difference between the last ``n_compare`` periods and those ``lag``
     periods earlier.
 
@@ -51,6 +51,10 @@ def period_mismatch(signals: np.ndarray, samples_per_period: int, lag: int = 1,
         Compare with ``lag`` periods earlier.
     n_compare
         Number of trailing periods compared.
+    scale
+        Per-signal reference magnitude (default: each signal's peak-to-peak over the window).
+        Give a common scale to signals of one kind so that one that barely moves (a blade the
+        other no longer hits) is not judged on its own round-off-sized residue.
 
     Returns
     -------
@@ -65,22 +69,23 @@ def period_mismatch(signals: np.ndarray, samples_per_period: int, lag: int = 1,
         return float("inf")
     now = x[:, -w:]
     before = x[:, -w - lag * n: x.shape[1] - lag * n]
-    span = np.ptp(now, axis=1)
+    span = np.ptp(now, axis=1) if scale is None else np.asarray(scale, dtype=float)
     span = np.where(span > 0, span, 1.0)
     return float(np.max(np.max(np.abs(now - before), axis=1) / span))
 
 
 def check_periodic(signals: np.ndarray, samples_per_period: int, tol: float = 1e-5,
-                   n_compare: int = 3, max_multiple: int = 4) -> Periodicity:
+                   n_compare: int = 3, max_multiple: int = 4,
+                   scale: np.ndarray | None = None) -> Periodicity:
     """Is the tail of ``signals`` periodic with a period of ``m`` excitation periods?
 
     Tries ``m = 1 .. max_multiple`` in that order and returns the first that matches within
-    ``tol`` (see :func:`period_mismatch`).
+    ``tol`` (see :func:`period_mismatch`, which also explains ``scale``).
     """
     best = float("inf")
     first = float("inf")
     for m in range(1, max_multiple + 1):
-        mis = period_mismatch(signals, samples_per_period, m, n_compare)
+        mis = period_mismatch(signals, samples_per_period, m, n_compare, scale)
         if m == 1:
             first = mis
         # a subharmonic must differ clearly from period 1: a decaying transient whose own
