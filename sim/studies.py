@@ -88,7 +88,8 @@ def sweep_order(values: Iterable[float], direction: Direction) -> list[tuple[flo
 def run_study(system: ReducedSystem, kind: StudyKind, values: Iterable[float], *,
               fe: float | None = None, force: float | None = None, gap: float | None = None,
               direction: Direction = "up", carry_state: bool = True,
-              progress: Progress | None = None, **run_options) -> Study:
+              progress: Progress | None = None, record_duration: float | None = None,
+              **run_options) -> Study:
     """Run a gap, force or frequency study.
 
     Parameters
@@ -107,6 +108,8 @@ def run_study(system: ReducedSystem, kind: StudyKind, values: Iterable[float], *
         Start each point from the previous one's final state (default) or from rest.
     progress
         ``progress(done, total, text)`` after each point.
+    record_duration
+        Recorded time per point, s (whole periods, at least one); overrides ``record_periods``.
     **run_options
         Passed to :func:`sim.vibro_impact.run_harmonic` (``record_periods``, ``tol``, ...).
 
@@ -132,7 +135,10 @@ def run_study(system: ReducedSystem, kind: StudyKind, values: Iterable[float], *
         p = dict(fixed)
         p[{"gap": "gap", "force": "force", "frequency": "fe"}[kind]] = v
         sysp = system.with_contact(gap=p["gap"])
-        run = run_harmonic(sysp, p["fe"], p["force"], initial=state if carry_state else None, **run_options)
+        opts = dict(run_options)
+        if record_duration is not None:
+            opts["record_periods"] = max(1, int(round(record_duration * p["fe"])))
+        run = run_harmonic(sysp, p["fe"], p["force"], initial=state if carry_state else None, **opts)
         state = run.final_state
         study.points.append(StudyPoint(value=v, direction=d, run=run))
         if progress is not None:
