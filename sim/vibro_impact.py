@@ -307,9 +307,13 @@ def _kernel(P, omega, zeta, phiA, phiP, phiF, q, v, s, u, out, dt,
                     gB += d[j] * q1[j]
                     gdB += d[j] * v1[j]
                 # zero of kc*g + cc*gd on the Hermite interpolant (g alone without damping)
-                if cc > 0.0 and code == 0:
-                    y0 = kc * g_old + cc * gd_old
-                    y1 = kc * gB + cc * gdB
+                if cc > 0.0:
+                    if code == 0:
+                        y0 = kc * g_old + cc * gd_old
+                        y1 = kc * gB + cc * gdB
+                    else:
+                        y0 = kc * max(g_old, 0.0) ** pexp + cc * gd_old
+                        y1 = kc * max(gB, 0.0) ** pexp + cc * gdB
                     theta = y0 / (y0 - y1) if y0 > 0.0 and y1 < 0.0 else 1.0
                 else:
                     theta = _hermite_root(g_old, gd_old * dt, gB, gdB * dt) if gB < 0.0 else 1.0
