@@ -656,7 +656,8 @@ def run_harmonic(system: ReducedSystem, fe: float, force_amplitude: float, *,
         Whole excitation periods recorded after settling (>= 1).
     steps_per_period
         Integer steps per period (default: :func:`steps_per_period_for`). Refused with
-        :class:`SimulationInputError` if the step does not resolve the contact.
+        :class:`SimulationInputError` if the step does not resolve the contact (for a Hertz
+        contact, its tangent stiffness at ``max(100 N, 10 F0)``).
     max_settle_time
         Give up settling after this much simulated time, s (``steady_state`` is then False and
         the record follows anyway).
@@ -680,9 +681,12 @@ def run_harmonic(system: ReducedSystem, fe: float, force_amplitude: float, *,
     record_periods = int(record_periods)
     if record_periods < 1:
         raise SimulationInputError("the record must hold at least one excitation period")
-    n = steps_per_period_for(system, fe) if steps_per_period is None else int(steps_per_period)
+    # a Hertz contact stiffens with the force: size the step for a generous peak force
+    force_scale = max(100.0, 10.0 * force_amplitude)
+    n = (steps_per_period_for(system, fe, force_scale=force_scale) if steps_per_period is None
+         else int(steps_per_period))
     dt = 1.0 / (fe * n)
-    stepper = VibroImpactStepper(system, dt)
+    stepper = VibroImpactStepper(system, dt, force_scale=force_scale)
     if initial is not None:
         stepper.state = initial.stepper.copy()
         phase0 = initial.phase
