@@ -15,14 +15,33 @@ Start order: the caller writes the first drive block(s), :meth:`NiDaqDevice.star
 sample rate is read back from ``ai.timing.samp_clk_rate`` and the output is timed at that rate.
 
 DAQmx errors are turned into :mod:`drivers.contracts` faults (one line, the DAQmx code kept in
-``.code``); on any fault the drive is zeroed and both tasks are stopped before the error
+``.code``); on any fault the drive is brought to zero and both tasks are stopped before the error
 propagates. Without the NI-DAQmx driver, :class:`~drivers.contracts.DriverUnavailable` says so and
 points at the simulated rig.
+
+Bringing the drive to zero (:meth:`NiDaqDevice.stop`, also on :meth:`~NiDaqDevice.close`, on a
+fault and on Ctrl-C through ``with``): the output is non-regenerating, so samples already queued
+cannot be rewritten; they play out. While the AO task is still generating, ``stop`` appends a
+raised-cosine ramp from the last written sample to exactly 0 V over ``abort_ramp_time``
+(<= 0.1 s) and a few zeros, waits until the device has generated every written sample
+(``out_stream.total_samp_per_chan_generated``, bounded wait), then stops AO and then AI. If the
+AO task has already failed (output underflow), it has stopped by itself: the output then sits at
+0 V through ``ao_idle_output_behavior = ZERO_VOLTS`` where the device supports it, else a
+one-sample on-demand task writes 0 V.
+
+Worst-case time from a fault to 0 V: the samples written but not yet generated plus the ramp,
+``(written - generated) / rate + abort_ramp_time``. The queue is kept short: the AO host buffer
+holds :data:`AO_BUFFER_SECONDS` (at least :data:`AO_BUFFER_BLOCKS` blocks), so a writer can
+never be further ahead than that (writes wait for room); the loop in
+:class:`rigtools.acquisition.BlockStream` stays two blocks ahead, i.e. about 0.2 s at 0.1 s blocks,
+giving about 0.25 s to 0 V with a 50 ms ramp, plus the device's onboard output FIFO (a few
+thousand samples on DSA boards).
 """
 
 from __future__ import annotations
 
 import math
+import time
 from typing import Sequence
 
 import nidaqmx
@@ -61,6 +80,7 @@ from drivers.contracts import (
     SamplesNoLongerAvailable,
     SensorOverload,
 )
+from drivers.safety import MAX_ABORT_RAMP, raised_cosine
 
 NO_DRIVER_MESSAGE = ("NI-DAQmx driver not found on this machine; use --simulated to run on the "
                      "simulated rig")
@@ -81,8 +101,17 @@ FAULT_BY_CODE: dict[int, type[DaqFault]] = {
     -200474: ReadTimeout,                # OPERATION_TIMED_OUT
 }
 
-BUFFER_SECONDS = 2.0          # host buffer for AI and AO, in seconds of samples
+BUFFER_SECONDS = 2.0          # AI host buffer, in seconds of samples
+AO_BUFFER_SECONDS = 0.5       # AO host buffer: bounds how far ahead the drive can be queued
+AO_BUFFER_BLOCKS = 4          # ... but at least this many blocks
 DEFAULT_BLOCK_SECONDS = 0.1
+ZERO_TAIL_SECONDS = 0.01      # zeros after the stop ramp, so the output rests at 0 V when AO stops
+WAIT_MARGIN_SECONDS = 0.5     # extra time allowed for the queued drive and the ramp to play out
+POLL_SECONDS = 0.005          # polling interval while waiting for the ramp to be generated
+
+# indirections so tests can run the stop sequence without waiting
+_sleep = time.sleep
+_clock = time.monotonic
 
 
 def _first_line(text: str) -> str:
@@ -118,7 +147,18 @@ class NiDaqDevice(AcquisitionDevice):
 
     backend = "nidaqmx"
 
-    def __init__(self) -> None:
+    def __init__(self, abort_ramp_time: float = 0.05) -> None:
+        """
+        Parameters
+        ----------
+        abort_ramp_time
+            Duration of the ramp to 0 V appended on :meth:`stop` (normal end, fault, Ctrl-C), s,
+            in (0, 0.1]; the rig file's ``[safety] abort_ramp_time``.
+        """
+        if not 0 < abort_ramp_time <= MAX_ABORT_RAMP:
+            raise ConfigurationError(
+                f"abort ramp time {abort_ramp_time!r} s must be in (0, {MAX_ABORT_RAMP}] s")
+        self.abort_ramp_time = float(abort_ramp_time)
         self._ai = None
         self._ao = None
         self._reader: AnalogMultiChannelReader | None = None
@@ -128,8 +168,11 @@ class NiDaqDevice(AcquisitionDevice):
         self._rate = math.nan
         self._requested_rate = math.nan
         self._block = 0
+        self._ao_buffer = 0
         self._running = False
         self._written = 0
+        self._last_value = 0.0      # last drive sample written, V
+        self._ao_failed = False     # the AO task stopped on an error (underflow): no ramp possible
         self._idle_is_zero = False
         self._delay = 0.0
 
@@ -174,8 +217,11 @@ class NiDaqDevice(AcquisitionDevice):
             self._ai.timing.cfg_samp_clk_timing(
                 sample_rate, sample_mode=AcquisitionType.CONTINUOUS, samps_per_chan=buffer)
             self._rate = float(self._ai.timing.samp_clk_rate)      # the coerced, actual rate
+            self._block = int(block_size) if block_size else max(
+                1, round(DEFAULT_BLOCK_SECONDS * self._rate))
+            self._ao_buffer = max(int(AO_BUFFER_SECONDS * self._rate), AO_BUFFER_BLOCKS * self._block)
             self._ao.timing.cfg_samp_clk_timing(
-                self._rate, sample_mode=AcquisitionType.CONTINUOUS, samps_per_chan=buffer)
+                self._rate, sample_mode=AcquisitionType.CONTINUOUS, samps_per_chan=self._ao_buffer)
             ao_rate = float(self._ao.timing.samp_clk_rate)
             if not math.isclose(ao_rate, self._rate, rel_tol=1e-9):
                 raise ConfigurationError(
@@ -188,8 +234,6 @@ class NiDaqDevice(AcquisitionDevice):
 
             self._reader = AnalogMultiChannelReader(self._ai.in_stream)
             self._writer = AnalogSingleChannelWriter(self._ao.out_stream, auto_start=False)
-            self._block = int(block_size) if block_size else max(
-                1, round(DEFAULT_BLOCK_SECONDS * self._rate))
             self._delay = self._read_delay()
         except DaqError as exc:
             self._close_tasks()
@@ -264,6 +308,11 @@ class NiDaqDevice(AcquisitionDevice):
     def input_to_output_delay(self) -> float:
         return self._delay
 
+    def max_time_to_zero(self) -> float:
+        """Worst case from a fault to 0 V at the output, s: a full AO host buffer still to play,
+        then the ramp (the device's onboard FIFO, not included, adds its own depth)."""
+        return (self._ao_buffer + self.ramp_samples) / self._rate
+
     def info(self) -> DeviceInfo:
         details: dict[str, str] = {}
         try:
@@ -272,6 +321,8 @@ class NiDaqDevice(AcquisitionDevice):
         except Exception:   # informational only; never fail a run for it
             pass
         details["drive_idle_zero_volts"] = str(self._idle_is_zero)
+        details["abort_ramp_time_s"] = f"{self.ramp_samples / self._rate:g}"
+        details["max_time_to_zero_s"] = f"{self.max_time_to_zero():.3g}"
         return DeviceInfo(self.backend, self._rate, self._requested_rate, self._block,
                           self._delay, details)
 
@@ -298,6 +349,7 @@ class NiDaqDevice(AcquisitionDevice):
         except DaqError as exc:
             self._fail(map_daq_error(exc))
         self._written += data.size
+        self._last_value = float(data[-1])
 
     def start(self) -> None:
         self._require_configured()
@@ -334,29 +386,74 @@ class NiDaqDevice(AcquisitionDevice):
         return data
 
     def _fail(self, fault: DaqFault) -> None:
-        """Zero the drive, stop both tasks, then raise ``fault``."""
+        """Bring the drive to zero, stop both tasks, then raise ``fault``."""
+        if isinstance(fault, OutputUnderflow):
+            self._ao_failed = True      # DAQmx has stopped the AO task: nothing more can be written
         self.stop()
         raise fault
 
     # ------------------------------------------------------------------------- shutdown
 
+    @property
+    def ramp_samples(self) -> int:
+        """Samples of the stop ramp: ``abort_ramp_time * rate``, rounded down (never longer)."""
+        return max(1, int(math.floor(self.abort_ramp_time * self._rate + 1e-9)))
+
+    def stop_ramp(self) -> np.ndarray:
+        """The samples :meth:`stop` appends: a raised-cosine ramp from the last written sample to
+        exactly 0 V over :attr:`ramp_samples`, then ``ZERO_TAIL_SECONDS`` of zeros."""
+        ramp = self._last_value * (1.0 - raised_cosine(self.ramp_samples))
+        ramp[-1] = 0.0
+        zeros = np.zeros(max(1, round(ZERO_TAIL_SECONDS * self._rate)))
+        return np.concatenate([ramp, zeros])
+
     def stop(self) -> None:
-        """Append zeros, stop output then input, and leave the output at 0 V. Never raises."""
+        """Ramp the drive to 0 V, stop output then input, leave the output at 0 V. Never raises
+        a DAQmx error; idempotent. See the module docstring for the sequence and its timing.
+
+        Ctrl-C during the wait cuts it short: the tasks are still stopped (the output then takes
+        its idle 0 V, or the on-demand 0 V) before the interrupt propagates.
+        """
         if self._ao is None:
             return
-        if self._running and self._writer is not None:
+        try:
+            if self._running and not self._ao_failed and self._writer is not None:
+                self._ramp_to_zero()
+        finally:
+            for task in (self._ao, self._ai):
+                try:
+                    task.stop()
+                except DaqError:
+                    pass
+            was_running, self._running = self._running, False
+            if was_running and not self._idle_is_zero:
+                self._write_zero_on_demand()
+
+    def _ramp_to_zero(self) -> None:
+        """Append the stop ramp and wait (bounded) until the device has generated all of it."""
+        tail = self.stop_ramp()
+        try:
+            queued = self._written - int(self._ao.out_stream.total_samp_per_chan_generated)
+        except DaqError:                # the task failed since the last write: it has stopped
+            self._ao_failed = True
+            return
+        budget = (max(queued, 0) + tail.size) / self._rate + WAIT_MARGIN_SECONDS
+        try:
+            self._writer.write_many_sample(tail, timeout=budget)
+        except DaqError:
+            self._ao_failed = True      # underflowed meanwhile or no room: it stops as it is
+            return
+        self._written += tail.size
+        self._last_value = 0.0
+        deadline = _clock() + budget
+        while True:
             try:
-                self._writer.write_many_sample(np.zeros(max(self._block, 1)), timeout=0.0)
-            except DaqError:
-                pass            # buffer full or already failed: stopping is what matters
-        for task in (self._ao, self._ai):
-            try:
-                task.stop()
-            except DaqError:
-                pass
-        was_running, self._running = self._running, False
-        if was_running and not self._idle_is_zero:
-            self._write_zero_on_demand()
+                generated = int(self._ao.out_stream.total_samp_per_chan_generated)
+            except DaqError:            # underflow after the zeros: everything was generated
+                return
+            if generated >= self._written or _clock() > deadline:
+                return
+            _sleep(min(POLL_SECONDS, (self._written - generated) / self._rate))
 
     def _write_zero_on_demand(self) -> None:
         """A stopped AO task holds its last value; on such devices, set 0 V with a fresh task."""

@@ -81,7 +81,13 @@ def make_task(rate: float) -> mock.NonCallableMagicMock:
 
 
 class Rig:
-    """The patched world: tasks in creation order (ai, ao, then any on-demand zero task)."""
+    """The patched world: tasks in creation order (ai, ao, then any on-demand zero task).
+
+    The AO task's ``out_stream.total_samp_per_chan_generated`` is a property mock on the
+    timeline (``"generated"``): by default the device has generated everything written; a test
+    can give it a sequence. ``nidaq._sleep``/``nidaq._clock`` are a fake clock: sleeping only
+    advances it (``sleeps`` lists the requests), so no test waits.
+    """
 
     def __init__(self, monkeypatch, ai_rate=51200.0, ao_rate=None, idle_zero_supported=True):
         self.ai = make_task(ai_rate)
@@ -108,6 +114,13 @@ class Rig:
         self.timeline.attach_mock(self.ai.close, "ai_close")
         self.timeline.attach_mock(self.ao.close, "ao_close")
         self.timeline.attach_mock(self.writer.write_many_sample, "write")
+        self.generated = mock.PropertyMock(side_effect=lambda: sum(w.size for w in self.written))
+        type(self.ao.out_stream).total_samp_per_chan_generated = self.generated
+        self.timeline.attach_mock(self.generated, "generated")
+        self.now = 0.0
+        self.sleeps: list[float] = []
+        monkeypatch.setattr(nidaq, "_clock", lambda: self.now)
+        monkeypatch.setattr(nidaq, "_sleep", self._sleep)
         monkeypatch.setattr(nidaq.nidaqmx, "Task", self.task_cls)
         monkeypatch.setattr(nidaq, "AnalogMultiChannelReader", self.reader_cls)
         monkeypatch.setattr(nidaq, "AnalogSingleChannelWriter", self.writer_cls)
@@ -115,6 +128,10 @@ class Rig:
     def _record_write(self, data, timeout=10.0):
         self.written.append(np.array(data, copy=True))
         return len(data)
+
+    def _sleep(self, seconds: float) -> None:
+        self.sleeps.append(seconds)
+        self.now += seconds
 
     def order(self) -> list[str]:
         return [name for name, _, _ in self.timeline.mock_calls]
@@ -188,8 +205,9 @@ def test_shared_rate_is_the_coerced_ai_rate_and_ao_starts_on_the_ai_trigger(monk
     assert actual == coerced and dev.sample_rate == coerced
     rig.ai.timing.cfg_samp_clk_timing.assert_called_once_with(
         51200.0, sample_mode=AcquisitionType.CONTINUOUS, samps_per_chan=102400)
+    # AO host buffer kept short (0.5 s): the drive can never be queued further ahead than that
     rig.ao.timing.cfg_samp_clk_timing.assert_called_once_with(
-        coerced, sample_mode=AcquisitionType.CONTINUOUS, samps_per_chan=102400)
+        coerced, sample_mode=AcquisitionType.CONTINUOUS, samps_per_chan=25602)
     rig.ao.triggers.start_trigger.cfg_dig_edge_start_trig.assert_called_once_with(AI_TRIGGER)
     rig.ai.triggers.start_trigger.cfg_dig_edge_start_trig.assert_not_called()   # AI is the master
     assert rig.ao.out_stream.regen_mode == RegenerationMode.DONT_ALLOW_REGENERATION
@@ -245,16 +263,32 @@ def test_read_fills_a_preallocated_float64_block_in_channel_order(monkeypatch, s
         mock.ANY, number_of_samples_per_channel=100, timeout=2.0)
 
 
+RAMP = 2560        # 50 ms (the default rig's abort_ramp_time) at 51.2 kS/s
+ZEROS = 512        # 10 ms of zeros after the ramp
+
+
+def check_stop_ramp(tail: np.ndarray, last: float, n_ramp: int = RAMP) -> None:
+    """A stop tail: ``n_ramp`` samples from ``last`` down to exactly 0 V (raised cosine, monotone,
+    never overshooting), then zeros. Reference: the ramp's first sample is the last written one
+    times (1 + cos(pi / n)) / 2, i.e. within pi^2 / (4 n^2) of it."""
+    assert tail.size == n_ramp + ZEROS
+    ramp = tail[:n_ramp]
+    assert ramp[0] == pytest.approx(last, rel=np.pi**2 / (4 * n_ramp**2) * 1.01, abs=1e-15)
+    assert ramp[-1] == 0.0 and np.all(tail[n_ramp:] == 0.0)
+    mag = ramp * np.sign(last) if last else ramp          # |drive|, same sign throughout
+    assert np.all(np.diff(mag) <= 0.0) and np.all(mag >= 0.0)
+    # no step: the largest change per sample is the raised cosine's steepest, pi/2 |last| / n
+    assert np.max(np.abs(np.diff(np.concatenate([[last], ramp])))) <= np.pi / 2 * abs(last) / n_ramp * 1.0001
+
+
 @pytest.mark.parametrize("code, fault", [
     (-200279, SamplesNoLongerAvailable),
     (-200010, InputOverflow),
-    (-200016, OutputUnderflow),
-    (-200621, OutputUnderflow),
-    (-200290, OutputUnderflow),
     (-200284, ReadTimeout),
     (-200999, DaqFault),
 ])
-def test_daqmx_read_errors_map_to_named_faults_and_stop_safely(monkeypatch, specs, code, fault):
+def test_input_faults_ramp_the_still_running_drive_to_zero_then_stop(monkeypatch, specs, code, fault):
+    """AI faults leave AO generating: the stop ramp is appended, waited for, then AO and AI stop."""
     rig, dev = configured(monkeypatch, specs, idle_zero_supported=False)
     rig.reader.read_many_sample.side_effect = DaqReadError(
         "Attempted to read samples that are no longer available.\nMore text", code,
@@ -268,12 +302,10 @@ def test_daqmx_read_errors_map_to_named_faults_and_stop_safely(monkeypatch, spec
     assert "\n" not in str(err) and f"DAQmx {code}" in str(err) and err.code == code
     assert str(err).startswith(fault.fault)
     assert err.partial.shape == (3, 7)                     # samples read before the fault kept
-    # safe stop: zeros appended, AO stopped before AI, then 0 V set by an on-demand task
-    np.testing.assert_array_equal(rig.written[-1], np.zeros(5120))
+    check_stop_ramp(rig.written[-1], 0.3)
     order = rig.order()
-    assert order[order.index("ai_start") + 1:] == ["write", "ao_stop", "ai_stop"]
-    rig.zero.ao_channels.add_ao_voltage_chan.assert_called_once_with(
-        "Dev1/ao0", min_val=-10.0, max_val=10.0, units=VoltageUnits.VOLTS)
+    assert order[order.index("ai_start") + 1:] == ["generated", "write", "generated", "ao_stop", "ai_stop"]
+    # the device stops on its own 0 V sample; the on-demand task still confirms 0 V
     rig.zero.write.assert_called_once_with(0.0, auto_start=True)
     assert not dev.running
     dev.close()
@@ -282,7 +314,27 @@ def test_daqmx_read_errors_map_to_named_faults_and_stop_safely(monkeypatch, spec
     assert rig.task_cls.call_count == 3                    # no second zero task on close
 
 
-def test_write_underflow_is_mapped(monkeypatch, specs):
+@pytest.mark.parametrize("code", [-200016, -200621, -200018, -200290])
+def test_underflow_on_read_means_ao_stopped_so_no_ramp_and_zero_on_demand(monkeypatch, specs, code):
+    rig, dev = configured(monkeypatch, specs, idle_zero_supported=False)
+    rig.reader.read_many_sample.side_effect = DaqReadError("Output underflow", code,
+                                                           samps_per_chan_read=0)
+    dev.write(np.full(5120, 0.3))
+    dev.start()
+    with pytest.raises(OutputUnderflow, match=f"DAQmx {code}") as info:
+        dev.read()
+    assert info.value.partial is None
+    order = rig.order()
+    assert order[order.index("ai_start") + 1:] == ["ao_stop", "ai_stop"]
+    assert len(rig.written) == 1                           # nothing written to a failed task
+    rig.zero.ao_channels.add_ao_voltage_chan.assert_called_once_with(
+        "Dev1/ao0", min_val=-10.0, max_val=10.0, units=VoltageUnits.VOLTS)
+    rig.zero.write.assert_called_once_with(0.0, auto_start=True)
+    dev.close()
+    assert rig.order()[-2:] == ["ao_close", "ai_close"] and rig.task_cls.call_count == 3
+
+
+def test_write_underflow_is_mapped_and_relies_on_idle_zero_volts(monkeypatch, specs):
     rig, dev = configured(monkeypatch, specs)
     dev.write(np.zeros(5120))
     dev.start()
@@ -292,6 +344,91 @@ def test_write_underflow_is_mapped(monkeypatch, specs):
         dev.write(np.zeros(5120))
     rig.ao.stop.assert_called_once_with()
     rig.ai.stop.assert_called_once_with()
+    assert rig.writer.write_many_sample.call_count == 2    # the failed write only; no ramp after it
+    assert rig.task_cls.call_count == 2                    # idle behaviour is 0 V: no zero task
+
+
+def test_stop_appends_the_ramp_from_the_last_sample_waits_for_it_then_stops_ao_then_ai(monkeypatch, specs):
+    """Normal stop in mid-sine: the tail starts at the last written sample (-0.73 V), 2560
+    samples (0.05 s x 51.2 kS/s) to exactly 0 V, 512 zeros; the device reports the samples
+    generated so far three times before all of them are out; the sleeps ask for no more than the
+    5 ms poll and never more than what is left to play."""
+    rig, dev = configured(monkeypatch, specs)
+    block = 0.8 * np.sin(2 * np.pi * 60 * np.arange(5120) / 51200.0 + 2.0)
+    block[-1] = -0.73
+    dev.write(block)
+    dev.write(block)
+    dev.start()
+    written = 2 * 5120 + RAMP + ZEROS
+    rig.generated.side_effect = [6000, 7000, 9000, written - 100, written]
+    dev.stop()
+    assert len(rig.written) == 3
+    write = rig.writer.write_many_sample.call_args_list[-1]
+    check_stop_ramp(write.args[0], -0.73)
+    # timeout: what was queued (10240 - 6000) plus the tail, in s, plus the 0.5 s margin
+    assert write.kwargs["timeout"] == pytest.approx((10240 - 6000 + RAMP + ZEROS) / 51200 + 0.5)
+    assert rig.order()[-8:] == ["generated", "write", "generated", "generated", "generated",
+                                "generated", "ao_stop", "ai_stop"]
+    assert rig.sleeps == [0.005, 0.005, pytest.approx(100 / 51200.0)]
+    assert not dev.running
+    dev.stop()                                             # idempotent: nothing more written
+    assert len(rig.written) == 3
+    assert dev.max_time_to_zero() == pytest.approx((25600 + RAMP) / 51200.0)
+
+
+def test_ramp_time_is_configurable_up_to_a_tenth_of_a_second(monkeypatch, specs):
+    rig = Rig(monkeypatch)
+    dev = NiDaqDevice(abort_ramp_time=0.1)
+    dev.configure(specs[0], specs[1], 51200.0)
+    dev.write(np.full(5120, 2.0))
+    dev.start()
+    dev.stop()
+    check_stop_ramp(rig.written[-1], 2.0, n_ramp=5120)
+    for bad in (0.0, 0.11, -0.05):
+        with pytest.raises(ConfigurationError, match="abort ramp time"):
+            NiDaqDevice(abort_ramp_time=bad)
+
+
+def test_wait_for_the_ramp_is_bounded(monkeypatch, specs):
+    """A device whose generated count stalls: the wait gives up after the queued samples plus
+    the tail plus the 0.5 s margin, and AO/AI are stopped anyway."""
+    rig, dev = configured(monkeypatch, specs)
+    dev.write(np.full(5120, 1.0))
+    dev.start()
+    rig.generated.side_effect = None
+    rig.generated.return_value = 100
+    dev.stop()
+    budget = (5120 - 100 + RAMP + ZEROS) / 51200.0 + 0.5
+    assert budget < sum(rig.sleeps) <= budget + 0.0051
+    assert rig.order()[-2:] == ["ao_stop", "ai_stop"]
+
+
+def test_ctrl_c_during_the_wait_still_stops_both_tasks_and_zeroes(monkeypatch, specs):
+    rig, dev = configured(monkeypatch, specs, idle_zero_supported=False)
+    dev.write(np.full(5120, 1.0))
+    dev.start()
+    rig.generated.side_effect = [0, 10, 20]
+
+    def interrupted(seconds):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(nidaq, "_sleep", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        dev.stop()
+    assert rig.order()[-2:] == ["ao_stop", "ai_stop"]
+    rig.zero.write.assert_called_once_with(0.0, auto_start=True)
+    assert not dev.running
+
+
+def test_task_failing_at_the_ramp_write_is_stopped_without_waiting(monkeypatch, specs):
+    rig, dev = configured(monkeypatch, specs)
+    dev.write(np.full(5120, 1.0))
+    dev.start()
+    rig.writer.write_many_sample.side_effect = DaqWriteError("Output underflow", -200290,
+                                                             samps_per_chan_written=0)
+    dev.stop()
+    assert rig.order()[-4:] == ["generated", "write", "ao_stop", "ai_stop"]
+    assert rig.sleeps == []
 
 
 def test_non_finite_samples_and_overload_are_faults_with_the_block_kept(monkeypatch, specs):
@@ -351,9 +488,9 @@ def test_context_manager_zeroes_stops_and_closes_on_every_exit_path(monkeypatch,
     else:
         with pytest.raises((RuntimeError, KeyboardInterrupt)):
             run()
-    assert rig.order() == ["write", "ao_start", "ai_start", "write", "ao_stop", "ai_stop",
-                           "ao_close", "ai_close"]
-    np.testing.assert_array_equal(rig.written[-1], np.zeros(5120))
+    assert rig.order() == ["write", "ao_start", "ai_start", "generated", "write", "generated",
+                           "ao_stop", "ai_stop", "ao_close", "ai_close"]
+    check_stop_ramp(rig.written[-1], 1.0)
     assert rig.task_cls.call_count == 2     # idle behaviour = 0 V: no on-demand zero task needed
 
 
