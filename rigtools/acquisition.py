@@ -77,7 +77,7 @@ class AcquisitionAborted(UserError):
         Time of the error from the start of the stream, s.
     """
 
-    exit_code = 1
+    exit_code = 4       # rig CLI: a fault stopped the run (like drivers.DriverError)
 
     def __init__(self, message: str, *, fault: str, cause: BaseException, samples_kept: int,
                  time: float) -> None:

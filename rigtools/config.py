@@ -278,6 +278,9 @@ class SafetyConfig(_Section):
 
 Force = Annotated[float, _quantity("force")]
 Acceleration = Annotated[float, _quantity("acceleration")]
+ForceFactor = Annotated[float, _quantity("force_factor")]
+Resistance = Annotated[float, _quantity("resistance")]
+Inductance = Annotated[float, _quantity("inductance")]
 
 
 class ShakerConfig(_Section):
@@ -286,9 +289,9 @@ class ShakerConfig(_Section):
     armature_mass: Mass = Field(default=0.1, gt=0, le=10.0)                       # kg
     suspension_stiffness: Stiffness = Field(default=2.0e4, ge=0, le=1e8)          # N/m
     suspension_damping: Damping = Field(default=5.0, ge=0, le=1e5)                # N*s/m
-    force_factor: float = Field(default=10.0, gt=0, le=1e3)                       # Bl, N/A
-    coil_resistance: float = Field(default=2.5, gt=0, le=1e3)                     # ohm
-    coil_inductance: float = Field(default=5e-4, ge=0, le=1.0)                    # H
+    force_factor: ForceFactor = Field(default=10.0, gt=0, le=1e3)                 # Bl, N/A
+    coil_resistance: Resistance = Field(default=2.5, gt=0, le=1e3)                # ohm
+    coil_inductance: Inductance = Field(default=5e-4, ge=0, le=1.0)               # H
     amplifier_gain: float = Field(default=4.0, gt=0, le=1e3)                      # V/V
 
     def to_params(self):

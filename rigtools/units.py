@@ -27,6 +27,12 @@ _UNITS: dict[str, tuple[float, str]] = {
     "kg*m^2": (1.0, "inertia"), "kg*m2": (1.0, "inertia"), "g*mm^2": (1e-9, "inertia"),
     "kg*mm^2": (1e-6, "inertia"), "g*cm^2": (1e-7, "inertia"),
     "v": (1.0, "voltage"), "mv": (1e-3, "voltage"), "vpp": (1.0, "voltage"),
+    "uv": (1e-6, "voltage"), "µv": (1e-6, "voltage"),
+    "mn": (1e-3, "force"),
+    "ohm": (1.0, "resistance"), "ω": (1.0, "resistance"),     # "Ω" (either code point), lower-cased
+    "h": (1.0, "inductance"), "mh": (1e-3, "inductance"), "uh": (1e-6, "inductance"),
+    "µh": (1e-6, "inductance"),
+    "n/a": (1.0, "force_factor"),                               # Bl of a shaker, N/A = V*s/m
     "m/s^2": (1.0, "acceleration"), "g0": (9.80665, "acceleration"),
     "mv/g": (1e-3 / 9.80665, "sensitivity_accel"), "mv/n": (1e-3, "sensitivity_force"),
     "v/n": (1.0, "sensitivity_force"),
@@ -65,7 +71,8 @@ def parse_quantity(value: float | int | str, dimension: str | None = None) -> fl
     number, unit = float(match.group(1)), match.group(2)
     if unit is None:
         return number
-    key = unit.replace(" ", "").replace("·", "*").lower()
+    # "μ" (Greek mu) and "µ" (micro sign) are both written for micro
+    key = unit.replace(" ", "").replace("·", "*").replace("μ", "µ").lower()
     if key not in _UNITS:
         raise ValueError(f"unknown unit {unit!r} in {value!r}")
     factor, dim = _UNITS[key]
