@@ -326,25 +326,31 @@ class AcquisitionDevice(abc.ABC):
             The actual sample rate the device coerced the request to (record this one).
         """
 
+    # Backends keep their configured state in these four attributes; the properties are shared.
+    _rate: float = 0.0
+    _block: int = 0
+    _inputs: tuple[InputChannelSpec, ...] = ()
+    _running: bool = False
+
     @property
-    @abc.abstractmethod
     def sample_rate(self) -> float:
         """Actual sample rate in S/s (valid after :meth:`configure`)."""
+        return self._rate
 
     @property
-    @abc.abstractmethod
     def block_size(self) -> int:
         """Default samples per channel per :meth:`read`."""
+        return self._block
 
     @property
-    @abc.abstractmethod
     def input_channels(self) -> tuple[InputChannelSpec, ...]:
         """The configured inputs in block row order."""
+        return self._inputs
 
     @property
-    @abc.abstractmethod
     def running(self) -> bool:
         """True between :meth:`start` and :meth:`stop`."""
+        return self._running
 
     @abc.abstractmethod
     def write(self, drive: np.ndarray) -> None:

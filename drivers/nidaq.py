@@ -289,22 +289,6 @@ class NiDaqDevice(AcquisitionDevice):
 
     # ------------------------------------------------------------------------ properties
 
-    @property
-    def sample_rate(self) -> float:
-        return self._rate
-
-    @property
-    def block_size(self) -> int:
-        return self._block
-
-    @property
-    def input_channels(self) -> tuple[InputChannelSpec, ...]:
-        return self._inputs
-
-    @property
-    def running(self) -> bool:
-        return self._running
-
     def input_to_output_delay(self) -> float:
         return self._delay
 

@@ -566,22 +566,6 @@ class SimulatedRig(AcquisitionDevice):
         if self._chain is None or self._output is None:
             raise ConfigurationError("device not configured; call configure() first")
 
-    @property
-    def sample_rate(self) -> float:
-        return self._rate
-
-    @property
-    def block_size(self) -> int:
-        return self._block
-
-    @property
-    def input_channels(self) -> tuple[InputChannelSpec, ...]:
-        return self._inputs
-
-    @property
-    def running(self) -> bool:
-        return self._running
-
     def input_to_output_delay(self) -> float:
         """The simulated DAQ's delay line, whole samples, in s."""
         return self._delay_line.size / self._rate if self._rate else 0.0
