@@ -74,10 +74,11 @@ class StepOutput:
     data: np.ndarray = field(repr=False)   # (n_steps, N_OUT) in OUT_COLUMNS order
 
     def __getattr__(self, name: str) -> np.ndarray:
-        try:
-            return self.__dict__["data"][:, OUT_COLUMNS.index(name)]
-        except ValueError:
-            raise AttributeError(name) from None
+        # only called for names that are not attributes; during copy/unpickling ``data`` is not
+        # set yet and lookups such as ``__setstate__`` must end in AttributeError
+        if name in OUT_COLUMNS:
+            return self.data[:, OUT_COLUMNS.index(name)]
+        raise AttributeError(name)
 
     def as_dict(self) -> dict[str, np.ndarray]:
         return {name: self.data[:, i] for i, name in enumerate(OUT_COLUMNS)}

@@ -252,3 +252,17 @@ def test_too_coarse_step_is_refused_with_one_line():
         VibroImpactStepper(sysm, tc / 10)
     assert "\n" not in str(err.value)
     VibroImpactStepper(sysm, tc / 25)
+
+
+def test_step_output_columns_copy_and_pickle():
+    """Columns by name; copy and pickle work (the column lookup must not break them)."""
+    import copy
+    import pickle
+
+    sysm = _system([(0.2, 50.0, 0.01)], ContactParams(gap=1e-4, stiffness=2e6))
+    out = VibroImpactStepper(sysm, 1e-5).step(np.ones(4))
+    assert np.array_equal(out.contact_force, out.data[:, 9])
+    for twin in (copy.copy(out), pickle.loads(pickle.dumps(out))):
+        np.testing.assert_array_equal(twin.active_tip_displacement, out.active_tip_displacement)
+    with pytest.raises(AttributeError):
+        out.no_such_column
