@@ -431,10 +431,12 @@ def check_time_step(system: ReducedSystem, dt: float, force_scale: float = 100.0
     """Refuse a step that does not resolve the contact period with ``min_steps`` steps.
 
     Returns the contact period (s). ``force_scale`` (N) sets the tangent stiffness of a Hertz
-    contact. Raises :class:`SimulationInputError` with one line otherwise.
+    contact. Raises :class:`SimulationInputError` with one line otherwise, or for an invalid
+    contact (:func:`validate_contact`).
     """
     if not (dt > 0 and math.isfinite(dt)):
         raise SimulationInputError(f"time step must be > 0, got {dt}")
+    validate_contact(system)    # before the contact period, which needs a positive stiffness
     tc = contact_period(system.contact_effective_mass(), system.contact, force_scale)
     if dt > tc / min_steps:
         raise SimulationInputError(
@@ -464,7 +466,6 @@ class VibroImpactStepper:
     def __init__(self, system: ReducedSystem, dt: float, shaker: ShakerCoupling | None = None,
                  force_scale: float = 100.0):
         self.contact_period = check_time_step(system, dt, force_scale)
-        validate_contact(system)
         if shaker is not None:
             system = system.with_attached(shaker.armature_mass, shaker.suspension_stiffness)
         self.system = system
@@ -580,9 +581,13 @@ class VibroImpactRun:
 
     @property
     def impacts_per_period(self) -> float:
-        """Contact onsets per excitation period over the record."""
+        """Contact onsets per excitation period over the record.
+
+        The record holds whole periods of a periodic response, so it wraps around: a contact
+        that starts on the first sample is counted (its previous sample is the last one).
+        """
         closed = self.outputs["contact_force"] > 0
-        onsets = int(np.count_nonzero(closed[1:] & ~closed[:-1]))
+        onsets = int(np.count_nonzero(closed & ~np.roll(closed, 1)))
         return onsets / self.record_periods
 
     @property
@@ -679,6 +684,7 @@ def run_harmonic(system: ReducedSystem, fe: float, force_amplitude: float, *,
     from sim.steady_state import check_periodic
 
     validate_harmonic_input(fe, force_amplitude, system.contact.gap)
+    validate_contact(system)
     record_periods = int(record_periods)
     if record_periods < 1:
         raise SimulationInputError("the record must hold at least one excitation period")

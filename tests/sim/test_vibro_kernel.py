@@ -18,7 +18,8 @@ from scipy.optimize import brentq
 from sim.params import ContactParams, DampingParams
 from sim.reduction import ReducedSystem
 from sim.vibro_impact import (
-    ShakerCoupling, SimulationInputError, VibroImpactStepper, _props, foh_propagators,
+    OUT_COLUMNS, ShakerCoupling, SimulationInputError, VibroImpactRun, VibroImpactStepper, _props,
+    foh_propagators, run_harmonic,
 )
 
 
@@ -266,3 +267,29 @@ def test_step_output_columns_copy_and_pickle():
         np.testing.assert_array_equal(twin.active_tip_displacement, out.active_tip_displacement)
     with pytest.raises(AttributeError):
         out.no_such_column
+
+
+@pytest.mark.parametrize("stiffness", [0.0, -2e6])
+def test_non_positive_contact_stiffness_is_refused_with_one_line(stiffness):
+    sysm = _system([(0.2, 50.0, 0.01)], ContactParams(gap=1e-4, stiffness=stiffness))
+    for start in (lambda: VibroImpactStepper(sysm, 1e-6), lambda: run_harmonic(sysm, 60.0, 1.0)):
+        with pytest.raises(SimulationInputError, match="contact stiffness must be > 0") as err:
+            start()
+        assert "\n" not in str(err.value)
+
+
+def test_impacts_per_period_counts_a_contact_starting_on_the_first_sample():
+    """Exactly one contact per period, starting at the record's first sample: 1.0 per period
+    (the record holds whole periods, so the count wraps around)."""
+    n, periods = 100, 20
+    one = np.zeros(n)
+    one[:10] = 5.0
+    outputs = {name: np.zeros(n * periods) for name in OUT_COLUMNS}
+    outputs["contact_force"] = np.tile(one, periods)
+    run = VibroImpactRun(fe=60.0, force_amplitude=1.0, gap=1e-4, dt=1 / (60.0 * n), steps_per_period=n,
+                         record_periods=periods, time=np.arange(n * periods) / (60.0 * n), outputs=outputs,
+                         steady_state=True, period_multiple=1, mismatch=0.0, settle_time=0.0,
+                         contact_period=1e-3, final_state=None)
+    assert run.impacts_per_period == 1.0
+    outputs["contact_force"] = np.roll(outputs["contact_force"], 37)    # onset inside the period
+    assert run.impacts_per_period == 1.0
