@@ -314,6 +314,10 @@ def run_full_order(model, fe: float, force_amplitude: float, duration: float, dt
         raise SimulationInputError("1/(fe*dt) must be an integer number of steps per period")
     n = int(round(n))
     periods = int(math.ceil(duration * fe))
+    if periods < record_periods + 1:    # the record starts at the end of a whole period
+        raise SimulationInputError(
+            f"duration {duration:g} s holds {periods} excitation periods; recording {record_periods} "
+            f"needs at least {record_periods + 1}")
     integ = FullOrderIntegrator(model, dt, alpha, contact=contact)
     w = 2 * np.pi * fe
     one = force_amplitude * np.sin(w * dt * np.arange(1, n + 1))

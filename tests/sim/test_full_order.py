@@ -60,3 +60,6 @@ def test_bad_alpha_and_coarse_step_are_refused(model):
         FullOrderIntegrator(model, 1e-5, alpha=0.5)
     with pytest.raises(SimulationInputError, match="too coarse"):
         FullOrderIntegrator(model, 1e-3)
+    # 3 periods cannot hold a record of 5 that starts at the end of a whole period
+    with pytest.raises(SimulationInputError, match="needs at least 6"):
+        run_full_order(model, 60.0, 1.0, 3 / 60.0, 1 / (60.0 * 600), record_periods=5)
