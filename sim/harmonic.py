@@ -26,7 +26,8 @@ import numpy as np
 from sim.analytical import assumed_modes_blade
 from sim.blade import BladeModel, build_blade
 from sim.modal import blade_modes
-from sim.params import DampingParams, LumpedMass, RigParams
+from sim.params import LumpedMass, RigParams
+from sim.reduction import damping_ratios
 from sim.rig_model import RigModel, blade_masses
 
 LOCATIONS = ("active_shroud", "active_force_point", "passive_shroud", "passive_force_point")
@@ -62,14 +63,6 @@ class HarmonicResponse:
         """``w^2 |X|`` at a location, m/s^2."""
         w = 2.0 * np.pi * self.frequencies_hz
         return w**2 * np.abs(self.displacement[location])
-
-
-def modal_ratios(omegas: np.ndarray, damping: DampingParams) -> np.ndarray:
-    """Damping ratio of each mode: the modal ratio, or Rayleigh ``alpha/(2 w) + beta w / 2``."""
-    if damping.ratio is not None:
-        return np.full_like(omegas, damping.ratio)
-    safe = np.where(omegas > 0, omegas, np.inf)
-    return damping.alpha / (2.0 * safe) + damping.beta * omegas / 2.0
 
 
 def _superpose(omegas, zetas, out_shapes, in_shape, frequencies_hz, force) -> np.ndarray:
@@ -115,7 +108,7 @@ def fem_harmonic_response(rig: RigModel, frequencies_hz: np.ndarray, force_ampli
         drive_node = blade.sensor_node if name == "active" else blade.node_at(position)
         tip = modes.shapes[blade.dof(blade.tip_node, UY)]
         drive = modes.shapes[blade.dof(drive_node, UY)]
-        x = _superpose(omegas, modal_ratios(omegas, params.damping), np.vstack([tip, drive]), drive,
+        x = _superpose(omegas, damping_ratios(omegas, params.damping), np.vstack([tip, drive]), drive,
                        out.frequencies_hz, force_amplitude)
         out.displacement[f"{name}_shroud"] = x[:, 0]
         out.displacement[f"{name}_force_point"] = x[:, 1]
@@ -152,7 +145,7 @@ def am_harmonic_response(
         omegas = 2.0 * np.pi * f
         tip = am.shape(bp.length) @ vec
         drive = am.shape(position) @ vec
-        x = _superpose(omegas, modal_ratios(omegas, params.damping), np.vstack([tip, drive]), drive,
+        x = _superpose(omegas, damping_ratios(omegas, params.damping), np.vstack([tip, drive]), drive,
                        out.frequencies_hz, force_amplitude)
         out.displacement[f"{name}_shroud"] = x[:, 0]
         out.displacement[f"{name}_force_point"] = x[:, 1]

@@ -124,11 +124,13 @@ class ReducedSystem:
 
 
 def damping_ratios(omega: np.ndarray, damping: DampingParams) -> np.ndarray:
-    """Modal damping ratios: the given ratio for every mode, or Rayleigh ``alpha/2w + beta w/2``."""
+    """Modal damping ratios: the given ratio for every mode, or Rayleigh ``alpha/2w + beta w/2``
+    (a rigid-body mode, ``w = 0``, gets no mass-proportional part)."""
     omega = np.asarray(omega, dtype=float)
     if damping.ratio is not None:
         return np.full(omega.shape, float(damping.ratio))
-    return damping.alpha / (2.0 * omega) + damping.beta * omega / 2.0
+    safe = np.where(omega > 0, omega, np.inf)
+    return damping.alpha / (2.0 * safe) + damping.beta * omega / 2.0
 
 
 def _blade_ritz(mass, stiffness, damping, modes_omega, modes_shapes, load_dofs, cutoff_hz,
