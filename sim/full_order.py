@@ -34,6 +34,8 @@ import scipy.sparse as sp
 from numba import njit
 
 from sim.contact import law_code, solve_contact
+from sim.params import ContactParams
+from sim.rig_model import RigModel
 from sim.vibro_impact import OUT_COLUMNS, N_OUT, SimulationInputError, check_time_step
 
 # outputs: the same columns as the fast stepper (coil current always zero)
@@ -60,7 +62,7 @@ class FullOrderSystem:
         return ma * mp / (ma + mp)
 
 
-def full_modal_system(model) -> FullOrderSystem:
+def full_modal_system(model: RigModel) -> FullOrderSystem:
     """All modes of both blades that move a load DOF (exact modal form of the full model)."""
     from sim.modal import blade_modes
 
@@ -197,7 +199,8 @@ class FullOrderIntegrator:
     ``(n, N_OUT)`` with the columns of :data:`sim.vibro_impact.OUT_COLUMNS`.
     """
 
-    def __init__(self, model, dt: float, alpha: float = 0.0, solver: str = "modal", contact=None):
+    def __init__(self, model: RigModel, dt: float, alpha: float = 0.0, solver: str = "modal",
+                 contact: ContactParams | None = None):
         if not 0.0 <= alpha <= 1.0 / 3.0:
             raise SimulationInputError(f"HHT alpha must be in [0, 1/3], got {alpha}")
         self.model = model
@@ -294,7 +297,7 @@ class FullOrderIntegrator:
 class _ContactView:
     """Just enough of a ReducedSystem for :func:`sim.vibro_impact.check_time_step`."""
 
-    def __init__(self, meff: float, contact):
+    def __init__(self, meff: float, contact: ContactParams):
         self._meff = meff
         self.contact = contact
 
@@ -302,8 +305,9 @@ class _ContactView:
         return self._meff
 
 
-def run_full_order(model, fe: float, force_amplitude: float, duration: float, dt: float,
-                   alpha: float = 0.0, record_periods: int = 10, contact=None) -> dict[str, np.ndarray]:
+def run_full_order(model: RigModel, fe: float, force_amplitude: float, duration: float, dt: float,
+                   alpha: float = 0.0, record_periods: int = 10,
+                   contact: ContactParams | None = None) -> dict[str, np.ndarray]:
     """Force ``F0 sin(2 pi fe t)`` from rest for ``duration`` s; return the last
     ``record_periods`` periods of the outputs (keys of ``OUT_COLUMNS``), sampled every step.
 

@@ -15,12 +15,17 @@ at the active tip, the passive tip and the force point (:data:`ROWS`).
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 import scipy.linalg
 import scipy.sparse.linalg as spla
 
-from sim.params import ContactParams, DampingParams
+from sim.params import ContactParams, DampingParams, RigParams
+
+if TYPE_CHECKING:   # imported lazily at run time: these build on the FE and AM modules
+    from sim.analytical import AssumedModesBlade
+    from sim.rig_model import RigModel
 
 ROWS = ("active_tip", "passive_tip", "force_point")
 ACTIVE, PASSIVE = 0, 1
@@ -171,7 +176,7 @@ def _blade_ritz(mass, stiffness, damping, modes_omega, modes_shapes, load_dofs, 
     return omega, zeta, basis, np.concatenate(pseudo)
 
 
-def reduce_rig_model(model, cutoff_hz: float = DEFAULT_CUTOFF_HZ, static_correction: bool = True,
+def reduce_rig_model(model: RigModel, cutoff_hz: float = DEFAULT_CUTOFF_HZ, static_correction: bool = True,
                      keep_bases: bool = False) -> ReducedSystem:
     """Reduce the FE rig model (:class:`sim.rig_model.RigModel`) to decoupled modal oscillators.
 
@@ -226,7 +231,8 @@ def reduce_rig_model(model, cutoff_hz: float = DEFAULT_CUTOFF_HZ, static_correct
     )
 
 
-def reduce_assumed_modes(active, passive, params, force_position: float | None = None,
+def reduce_assumed_modes(active: AssumedModesBlade, passive: AssumedModesBlade, params: RigParams,
+                         force_position: float | None = None,
                          cutoff_hz: float | None = None) -> ReducedSystem:
     """Reduced system from two assumed-modes blades (:class:`sim.analytical.AssumedModesBlade`).
 
@@ -271,8 +277,8 @@ def reduce_assumed_modes(active, passive, params, force_position: float | None =
     )
 
 
-def reduced_system(params, model: str = "fem", cutoff_hz: float = DEFAULT_CUTOFF_HZ,
-                   n_terms: int = 12, rig_model=None) -> ReducedSystem:
+def reduced_system(params: RigParams, model: str = "fem", cutoff_hz: float = DEFAULT_CUTOFF_HZ,
+                   n_terms: int = 12, rig_model: RigModel | None = None) -> ReducedSystem:
     """The reduced system of a rig, from the FE model (``"fem"``) or the assumed-modes model
     (``"am"``, all of its ``n_terms`` shapes per blade).
 

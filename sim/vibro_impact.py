@@ -97,7 +97,7 @@ class StepperState:
         return StepperState(self.q.copy(), self.v.copy(), self.scalars.copy(), self.time)
 
 
-def foh_propagators(omega: np.ndarray, zeta: np.ndarray, dt: float):
+def foh_propagators(omega: np.ndarray, zeta: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Exact one-step propagators of ``q'' + 2 zeta w q' + w^2 q = p`` for piecewise-linear ``p``.
 
     Returns ``E (n,2,2), G0 (n,2), G1 (n,2)`` with ``x1 = E x0 + G0 p0 + G1 p1``, ``x = (q, q')``
