@@ -4,8 +4,8 @@ A least-squares fit of cos/sin at the exact frequencies k*fe is exact for a sign
 only those frequencies, whatever the record length (no leakage, unlike picking FFT bins).
 
 Convention: ``x(t) = offset + sum_k amplitude_k * cos(2*pi*k*fe*(t - t0) + phase_k)``, where
-``t0`` is the time of the first sample unless given; amplitudes are peak values in the units of
-``x``; phases are in radians in (-pi, pi].
+``t0`` is the time of the first sample; amplitudes are peak values in the units of ``x``; phases
+are in radians in (-pi, pi].
 """
 
 from __future__ import annotations
