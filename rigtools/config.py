@@ -135,15 +135,18 @@ _SENSITIVITY_DIMENSION = {"accel": "sensitivity_accel", "force": "sensitivity_fo
 _SENSITIVITY_RANGE = {"accel": (5e-6, 1.02), "force": (5e-5, 1.0), "voltage": (1e-6, 1e3)}
 
 
-def _current(value: Any) -> float:
-    """Amps from a number (A) or a string in A or mA (``"4 mA"``)."""
-    if isinstance(value, str):
-        text = value.strip().lower().replace(" ", "")
-        for unit, factor in (("ma", 1e-3), ("a", 1.0)):
-            if text.endswith(unit):
-                return float(text[: -len(unit)]) * factor
-        return float(text)
-    return value
+# the SI quantity a channel reads, for its range and its safety limits
+_KIND_DIMENSION = {"accel": "acceleration", "force": "force", "voltage": "voltage"}
+IEPE_EXCITATION = 0.004     # A, default for accel and force channels (voltage channels: none)
+
+
+def _channel_quantity(value: Any, kind: str) -> float:
+    """``value`` in the SI units of a channel of ``kind`` (m/s^2, N, V); other units refused."""
+    try:
+        return parse_quantity(value, _KIND_DIMENSION[kind])
+    except ValueError as exc:
+        hint = " (standard gravity is written g0, e.g. '500 g0')" if kind == "accel" else ""
+        raise ValueError(f"{exc}{hint}") from None
 
 
 class DaqChannelConfig(_Section):
@@ -152,9 +155,34 @@ class DaqChannelConfig(_Section):
     physical_channel: str = Field(min_length=1)
     kind: Literal["accel", "force", "voltage"]
     sensitivity: float | str    # SI (V/(m/s^2), V/N, V/V) or "10 mV/g", "11.24 mV/N"
-    excitation_current: Annotated[float, BeforeValidator(_current)] = Field(default=0.004, ge=0, le=0.025)
-    range: Annotated[float, BeforeValidator(parse_quantity)] = Field(gt=0)  # +- in SI (m/s^2, N, V)
+    # A; default IEPE_EXCITATION for accel/force, 0 for voltage ("4 mA" or 0.004)
+    excitation_current: Annotated[float, _quantity("current")] = Field(ge=0, le=0.025)
+    range: float | str          # +- in the channel's SI units (m/s^2, N, V) or "4900 m/s^2", "200 N"
     location: str = ""
+
+    @model_validator(mode="before")
+    @classmethod
+    def _default_excitation(cls, data: Any) -> Any:
+        if isinstance(data, dict) and "excitation_current" not in data:
+            data = {**data, "excitation_current": 0.0 if data.get("kind") == "voltage" else IEPE_EXCITATION}
+        return data
+
+    @field_validator("range", mode="after")
+    @classmethod
+    def _range_in_channel_units(cls, value: float | str, info: ValidationInfo) -> float:
+        kind = info.data.get("kind")
+        if kind is None:
+            raise ValueError("needs a valid kind")
+        full_scale = _channel_quantity(value, kind)
+        if not full_scale > 0:
+            raise ValueError("must be > 0")
+        return full_scale
+
+    @model_validator(mode="after")
+    def _voltage_is_not_iepe(self) -> "DaqChannelConfig":
+        if self.kind == "voltage" and self.excitation_current > 0:
+            raise ValueError("a voltage channel takes no excitation current (give 0 or leave it out)")
+        return self
 
     @field_validator("sensitivity", mode="after")
     @classmethod
@@ -192,6 +220,17 @@ class DaqConfig(_Section):
     drive_channel: str = "Dev1/ao0"
     drive_range: Voltage = Field(default=10.0, gt=0, le=100.0)     # AO range, +- V
     channels: dict[str, DaqChannelConfig] = Field(default_factory=_default_daq_channels, min_length=1)
+
+    @model_validator(mode="after")
+    def _terminals_used_once(self) -> "DaqConfig":
+        seen: dict[str, str] = {self.drive_channel.strip().lower(): "drive_channel"}
+        for name, ch in self.channels.items():
+            terminal = ch.physical_channel.strip().lower()
+            if terminal in seen:
+                raise ValueError(f"channels.{name}.physical_channel = {ch.physical_channel!r} is "
+                                 f"already used by {seen[terminal]}")
+            seen[terminal] = f"channels.{name}"
+        return self
 
     def input_specs(self) -> list:
         """The inputs as :class:`drivers.contracts.InputChannelSpec`, in file order."""
@@ -340,6 +379,35 @@ class RigConfig(_Section):
     shaker: ShakerConfig = ShakerConfig()
     test_article: TestArticleConfig = TestArticleConfig()
 
+    @model_validator(mode="before")
+    @classmethod
+    def _limits_in_channel_units(cls, data: Any) -> Any:
+        """Limits written with units must be in their channel's units (N, m/s^2, V): checked on
+        the raw file, since a limit alone does not know its channel."""
+        if not isinstance(data, dict):
+            return data
+        safety = data.get("safety")
+        limits = safety.get("limits") if isinstance(safety, dict) else None
+        if not isinstance(limits, dict):
+            return data
+        daq = data.get("daq") if isinstance(data.get("daq"), dict) else {}
+        channels = daq.get("channels")
+        if isinstance(channels, dict):
+            kinds = {n: c.get("kind") for n, c in channels.items() if isinstance(c, dict)}
+        else:
+            kinds = {n: c.kind for n, c in _default_daq_channels().items()}
+        kinds["drive"] = "voltage"
+        for name, limit in limits.items():
+            if kinds.get(name) not in _KIND_DIMENSION or not isinstance(limit, dict):
+                continue        # unknown channels and kinds are reported by the validation
+            for key in ("warning", "abort"):
+                if isinstance(limit.get(key), str):
+                    try:
+                        _channel_quantity(limit[key], kinds[name])
+                    except ValueError as exc:
+                        raise ValueError(f"safety.limits.{name}.{key} = {limit[key]!r}: {exc}") from None
+        return data
+
     @model_validator(mode="after")
     def _sensor_on_blade(self) -> "RigConfig":
         if self.force_sensor.position >= self.blade.length:
@@ -413,6 +481,8 @@ def _describe(error: dict[str, Any], data: dict[str, Any]) -> str:
     message = error["msg"].removeprefix("Value error, ")
     if not loc:
         return message
+    if isinstance(value, dict):     # a check of a whole table: its message names the keys
+        return f"{key}: {message}"
     return f"{key} = {value!r}: {message}"
 
 

@@ -32,6 +32,7 @@ _UNITS: dict[str, tuple[float, str]] = {
     "ohm": (1.0, "resistance"), "ω": (1.0, "resistance"),     # "Ω" (either code point), lower-cased
     "h": (1.0, "inductance"), "mh": (1e-3, "inductance"), "uh": (1e-6, "inductance"),
     "µh": (1e-6, "inductance"),
+    "a": (1.0, "current"), "ma": (1e-3, "current"),              # IEPE excitation current
     "n/a": (1.0, "force_factor"),                               # Bl of a shaker, N/A = V*s/m
     "m/s^2": (1.0, "acceleration"), "g0": (9.80665, "acceleration"),
     "mv/g": (1e-3 / 9.80665, "sensitivity_accel"), "mv/n": (1e-3, "sensitivity_force"),
