@@ -167,6 +167,8 @@ class NiDaqDevice(AcquisitionDevice):
         self._output: OutputChannelSpec | None = None
         self._rate = math.nan
         self._requested_rate = math.nan
+        self._volts_scale = np.ones((0, 1))
+        self._scaled = False
         self._block = 0
         self._ao_buffer = 0
         self._running = False
@@ -200,6 +202,11 @@ class NiDaqDevice(AcquisitionDevice):
             self._close_tasks()
             raise _unavailable(exc) from None
         self._inputs, self._output = inputs, output
+        # DAQmx scales accel and force channels itself; voltage channels are divided here by
+        # their V/V sensitivity (e.g. an amplifier monitor at 0.1 V/V), as the simulated rig does
+        self._volts_scale = np.array([1.0 / s.sensitivity if s.kind == "voltage" else 1.0
+                                      for s in inputs])[:, None]
+        self._scaled = bool(np.any(self._volts_scale != 1.0))
         self._requested_rate = float(sample_rate)
         try:
             for spec in inputs:
@@ -262,10 +269,11 @@ class NiDaqDevice(AcquisitionDevice):
                 sensitivity=spec.sensitivity,
                 sensitivity_units=ForceIEPESensorSensitivityUnits.MILLIVOLTS_PER_NEWTON,
                 current_excit_source=excitation, current_excit_val=spec.excitation_current)
-        else:
+        else:   # DAQmx reads the terminal's volts: its range is the sensor's times the sensitivity
             chan = chans.add_ai_voltage_chan(
                 spec.physical_channel, name_to_assign_to_channel=spec.name,
-                min_val=spec.min_value, max_val=spec.max_value, units=VoltageUnits.VOLTS)
+                min_val=spec.min_value * spec.sensitivity, max_val=spec.max_value * spec.sensitivity,
+                units=VoltageUnits.VOLTS)
         if spec.iepe:
             chan.ai_coupling = Coupling.AC     # IEPE: the sensor's bias voltage is blocked
 
@@ -356,7 +364,9 @@ class NiDaqDevice(AcquisitionDevice):
             self._reader.read_many_sample(data, number_of_samples_per_channel=n, timeout=timeout)
         except DaqError as exc:
             got = int(getattr(exc, "samps_per_chan_read", 0) or 0)
-            self._fail(map_daq_error(exc, partial=data[:, :got].copy() if got else None))
+            self._fail(map_daq_error(exc, partial=data[:, :got] * self._volts_scale if got else None))
+        if self._scaled:
+            data *= self._volts_scale
         if not np.all(np.isfinite(data)):
             bad = [s.name for s, row in zip(self._inputs, data) if not np.all(np.isfinite(row))]
             self._fail(InvalidSamples(f"non-finite samples on {', '.join(bad)}", partial=data))

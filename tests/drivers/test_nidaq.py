@@ -196,6 +196,22 @@ def test_voltage_channel_without_excitation(monkeypatch):
             OutputChannelSpec(), 51200.0)
 
 
+def test_voltage_channel_sensitivity_scales_range_and_readings_like_the_simulated_rig(monkeypatch):
+    # an amplifier monitor at 0.1 V/V reading a +-50 V coil voltage: the terminal sees +-5 V, and
+    # a terminal reading of 1.2 V is 12 V at the coil (drivers.sensor_chain divides the same way)
+    rig = Rig(monkeypatch)
+    dev = NiDaqDevice()
+    dev.configure([InputChannelSpec("coil_monitor", "Dev1/ai3", "voltage", 0.1, "V/V", 0.0, -50, 50)],
+                  OutputChannelSpec(), 51200.0)
+    rig.ai.ai_channels.add_ai_voltage_chan.assert_called_once_with(
+        "Dev1/ai3", name_to_assign_to_channel="coil_monitor", min_val=-5.0, max_val=5.0,
+        units=VoltageUnits.VOLTS)
+    rig.reader.read_many_sample.side_effect = lambda data, **kw: data.fill(1.2)
+    dev.write(np.zeros(16))
+    dev.start()
+    np.testing.assert_allclose(dev.read(16), 12.0, rtol=1e-15)
+
+
 def test_shared_rate_is_the_coerced_ai_rate_and_ao_starts_on_the_ai_trigger(monkeypatch, specs):
     # the device coerces 51.2 kS/s to 51.2e3 * 1.0001 (made up): AO must be timed at that rate
     coerced = 51205.12
