@@ -63,6 +63,7 @@ from drivers.contracts import (
     OutputUnderflow,
     SensorOverload,
 )
+from drivers.safety import raised_cosine
 from drivers.sensor_chain import SensorChain, SensorModel
 from drivers.shaker import ShakerParams
 from sim.params import DampingParams, RigParams, RootParams
@@ -715,7 +716,7 @@ class SimulatedRig(AcquisitionDevice):
         """
         r = max(1, int(round(self.abort_ramp_time * self._rate)))
         drive = self._take(r)
-        taper = 0.5 * (1.0 + np.cos(np.pi * (np.arange(r) + 1) / r))
+        taper = 1.0 - raised_cosine(r)
         tail = np.zeros(self._delay_line.size)
         self._advance(np.concatenate([drive * taper, tail]))
         self._last_drive = 0.0

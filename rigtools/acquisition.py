@@ -38,16 +38,8 @@ import numpy as np
 from scipy import signal
 
 from drivers.contracts import AcquisitionDevice, DaqFault, DriverError
+from drivers.safety import SafetyMonitor, raised_cosine
 from rigtools.errors import UserError
-
-try:  # the safety monitor and the sine drive live with the drivers
-    from drivers.safety import SafetyMonitor, SafetyWarning, raised_cosine
-except ImportError:  # pragma: no cover - drivers.safety lands with the drivers issue
-    SafetyMonitor = SafetyWarning = None  # type: ignore[assignment,misc]
-
-    def raised_cosine(n: int) -> np.ndarray:
-        k = np.arange(1, n + 1, dtype=float)
-        return 0.5 * (1.0 - np.cos(np.pi * k / n))
 
 
 class Drive(Protocol):
@@ -134,7 +126,7 @@ class BlockStream:
     """
 
     def __init__(self, device: AcquisitionDevice, drive: Drive, *, sink: Sink | None = None,
-                 safety: "SafetyMonitor | None" = None, record_drive: bool = False,
+                 safety: SafetyMonitor | None = None, record_drive: bool = False,
                  on_block: Callable[[np.ndarray, StreamStats], None] | None = None) -> None:
         self.device = device
         self.drive = drive
@@ -270,7 +262,7 @@ class BlockStream:
 
 
 def acquire(device: AcquisitionDevice, drive: Drive, duration: float, *, sink: Sink | None = None,
-            safety: "SafetyMonitor | None" = None, record_drive: bool = False,
+            safety: SafetyMonitor | None = None, record_drive: bool = False,
             on_block: Callable[[np.ndarray, StreamStats], None] | None = None) -> StreamStats:
     """Stream ``drive`` for ``duration`` seconds (whole blocks), then ramp down and stop.
 
