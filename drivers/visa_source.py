@@ -73,8 +73,10 @@ def open_resource_manager(backend: str = "") -> pyvisa.ResourceManager:
     """
     try:
         return pyvisa.ResourceManager(backend)
-    except (ValueError, OSError) as exc:
+    except Exception as exc:    # backends raise what they like (pyvisa-sim: yaml errors)
         first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        # pyvisa-sim puts the repr of a whole traceback after its own sentence: keep the sentence
+        first = first.split(" 'Traceback")[0].strip()
         raise DriverUnavailable(
             f"no VISA library available ({first}); install NI-VISA or pyvisa-py, or use "
             "--simulated") from None

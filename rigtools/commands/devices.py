@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+from pathlib import Path
 from typing import Any
 
 import nidaqmx.system
@@ -112,6 +113,9 @@ def run(args: argparse.Namespace) -> int:
                                   or args.visa_backend.endswith("@sim")):
         raise UserError(f"--visa-backend {args.visa_backend!r}: expected '', '@py', '@ivi', "
                         "'FILE.yaml@sim' or 'simulated'")
+    description = args.visa_backend.removesuffix("@sim")
+    if args.visa_backend.endswith("@sim") and description and not Path(description).is_file():
+        raise UserError(f"--visa-backend {args.visa_backend!r}: no such file {description!r}")
     ni = list_ni_devices()
     visa = list_visa_resources(args.visa_backend)
     code = 0 if (ni["available"] or visa["available"]) else 3

@@ -87,6 +87,17 @@ def test_bad_backend_is_one_line_exit_2(capsys):
     assert len(err) == 1 and err[0].startswith("rig devices: error: --visa-backend 'nonsense'")
 
 
+def test_missing_or_malformed_simulator_file_is_one_line(tmp_path, capsys):
+    assert main(["devices", "--visa-backend", f"{tmp_path / 'nope.yaml'}@sim"]) == 2
+    err = capsys.readouterr().err
+    assert "no such file" in err and err.count("\n") == 1
+    bad = tmp_path / "bad.yaml"
+    bad.write_text('spec: "1.1"\ndevices: [\n')          # pyvisa-sim raises a yaml error
+    main(["devices", "--json", "--visa-backend", f"{bad}@sim"])
+    reason = json.loads(capsys.readouterr().out)["visa"]["reason"]
+    assert "Could not parse definitions file" in reason and "Traceback" not in reason
+
+
 def test_help_documents_exit_codes(capsys):
     with pytest.raises(SystemExit):
         main(["devices", "--help"])
