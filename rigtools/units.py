@@ -21,14 +21,12 @@ _UNITS: dict[str, tuple[float, str]] = {
     "kg/m^3": (1.0, "density"), "kg/m3": (1.0, "density"), "g/cm^3": (1e3, "density"),
     "g/cm3": (1e3, "density"),
     "n/m": (1.0, "stiffness"), "n/mm": (1e3, "stiffness"), "kn/mm": (1e6, "stiffness"),
-    "mn/m": (1e6, "stiffness"),
     "n*m/rad": (1.0, "rotational_stiffness"), "nm/rad": (1.0, "rotational_stiffness"),
     "n*s/m": (1.0, "damping"), "ns/m": (1.0, "damping"),
     "kg*m^2": (1.0, "inertia"), "kg*m2": (1.0, "inertia"), "g*mm^2": (1e-9, "inertia"),
     "kg*mm^2": (1e-6, "inertia"), "g*cm^2": (1e-7, "inertia"),
     "v": (1.0, "voltage"), "mv": (1e-3, "voltage"), "vpp": (1.0, "voltage"),
     "uv": (1e-6, "voltage"), "µv": (1e-6, "voltage"),
-    "mn": (1e-3, "force"),
     "ohm": (1.0, "resistance"), "ω": (1.0, "resistance"),     # "Ω" (either code point), lower-cased
     "h": (1.0, "inductance"), "mh": (1e-3, "inductance"), "uh": (1e-6, "inductance"),
     "µh": (1e-6, "inductance"),
@@ -38,6 +36,13 @@ _UNITS: dict[str, tuple[float, str]] = {
     "mv/g": (1e-3 / 9.80665, "sensitivity_accel"), "mv/n": (1e-3, "sensitivity_force"),
     "v/n": (1.0, "sensitivity_force"),
 }
+
+# Units whose case carries the prefix (milli vs mega): matched exactly, never lower-cased.
+_CASE_SENSITIVE: dict[str, tuple[float, str]] = {
+    "mN": (1e-3, "force"), "MN": (1e6, "force"),
+    "mN/m": (1e-3, "stiffness"), "MN/m": (1e6, "stiffness"),
+}
+_AMBIGUOUS = {key.lower() for key in _CASE_SENSITIVE}
 
 _PATTERN = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*([^\s].*?)?\s*$")
 
@@ -73,10 +78,16 @@ def parse_quantity(value: float | int | str, dimension: str | None = None) -> fl
     if unit is None:
         return number
     # "μ" (Greek mu) and "µ" (micro sign) are both written for micro
-    key = unit.replace(" ", "").replace("·", "*").replace("μ", "µ").lower()
-    if key not in _UNITS:
+    exact = unit.replace(" ", "").replace("·", "*").replace("μ", "µ")
+    key = exact.lower()
+    if exact in _CASE_SENSITIVE:
+        factor, dim = _CASE_SENSITIVE[exact]
+    elif key in _AMBIGUOUS:
+        raise ValueError(f"unit {unit!r} in {value!r} is ambiguous: write mN (milli) or MN (mega)")
+    elif key in _UNITS:
+        factor, dim = _UNITS[key]
+    else:
         raise ValueError(f"unknown unit {unit!r} in {value!r}")
-    factor, dim = _UNITS[key]
     if dimension is not None and dim != dimension:
         raise ValueError(f"{value!r} is a {dim}, expected a {dimension}")
     return number * factor

@@ -68,3 +68,15 @@ def test_bad_rig_is_one_clear_line(edit, expected):
 def test_missing_file(tmp_path):
     with pytest.raises(ConfigError, match="cannot read rig file"):
         load_rig(tmp_path / "nope.toml")
+
+
+@pytest.mark.parametrize(
+    "text, si", [("2 mN", 2e-3), ("2 MN/m", 2e6), ("3 mN/m", 3e-3), ("1 MPa", 1e6)]
+)
+def test_milli_and_mega_prefixes_keep_their_case(text, si):
+    assert parse_quantity(text) == pytest.approx(si, rel=1e-12)
+
+
+def test_prefix_in_the_wrong_case_is_refused_not_guessed():
+    with pytest.raises(ValueError, match="ambiguous"):
+        parse_quantity("2 mn/m")
