@@ -1,13 +1,15 @@
 """Safety on every block: channel limits, the maximum drive, and drive amplitude ramps.
 
-Pure numpy; no hardware. Two pieces:
+Pure numpy; no hardware. The pieces:
 
 * :class:`SafetyMonitor` -- per-channel warning and abort limits on the peak |value| of each
   block (force in N, accelerations in m/s^2, the drive in V). ``check`` returns the warnings and
   raises :class:`~drivers.contracts.SafetyAbort` naming the channel, the value and the limit.
 * :class:`SineDrive` -- the phase-continuous sine that goes to the shaker amplifier. Its
-  amplitude never steps: every change follows a raised-cosine ramp (``ramp_time``), an abort
-  ramps down within ``abort_ramp_time`` (at most 0.1 s), and it never exceeds ``max_drive``.
+  amplitude never steps: every change follows a raised-cosine ramp (``ramp_time``) of its
+  :class:`AmplitudeEnvelope`, the one owner of drive-amplitude ramps (the random drive uses it
+  too), and it never exceeds ``max_drive``. The ramp to zero on an abort is the device's own
+  (``stop()``, within ``abort_ramp_time`` <= 0.1 s).
 
 A raised-cosine ramp from ``a0`` to ``a1`` over ``T`` is ``a0 + (a1 - a0) (1 - cos(pi t / T)) / 2``:
 continuous in value and slope at both ends, so the shaker sees no step and no kink.
@@ -17,7 +19,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Iterable, Sequence
+from typing import Callable, Iterable, Sequence
 
 import numpy as np
 
@@ -181,6 +183,106 @@ def raised_cosine(n: int) -> np.ndarray:
     return 0.5 * (1.0 - np.cos(np.pi * k / n))
 
 
+class AmplitudeEnvelope:
+    """A drive amplitude that never steps: every change follows a raised-cosine ramp.
+
+    The one owner of drive-amplitude ramps: :class:`SineDrive` and
+    :class:`rigtools.acquisition.RandomDrive` multiply their unit signal by :meth:`take`.
+
+    Parameters
+    ----------
+    sample_rate
+        Samples per second of the drive.
+    ramp_time
+        Duration of every change unless :meth:`set_target` is given another, s (> 0).
+    max_value
+        Targets above it are refused, V.
+    what
+        Name of the amplitude in error messages (``"drive amplitude"``, ``"rms"``).
+
+    Raises
+    ------
+    ConfigurationError
+        If ``ramp_time`` or ``max_value`` is not > 0.
+    """
+
+    def __init__(self, sample_rate: float, ramp_time: float, max_value: float,
+                 what: str = "drive amplitude") -> None:
+        if not ramp_time > 0:
+            raise ConfigurationError(f"ramp time {ramp_time!r} s must be > 0")
+        if not max_value > 0:
+            raise ConfigurationError(f"max drive {max_value!r} V must be > 0")
+        self.sample_rate = float(sample_rate)
+        self.ramp_time = float(ramp_time)
+        self.max_value = float(max_value)
+        self.what = what
+        self._amp = 0.0                      # amplitude of the last sample taken
+        self._ramp = np.empty(0)             # amplitudes still to come on the current ramp
+        self._target = 0.0
+
+    @property
+    def amplitude(self) -> float:
+        """Amplitude of the last sample taken."""
+        return self._amp
+
+    @property
+    def target(self) -> float:
+        return self._target
+
+    @property
+    def settled(self) -> bool:
+        """True when the amplitude has reached its target (no ramp in progress)."""
+        return self._ramp.size == 0
+
+    def set_target(self, value: float, ramp_time: float | None = None) -> int:
+        """Ramp from the present amplitude to ``value`` over ``ramp_time`` (default the envelope's).
+
+        A new target during a ramp starts a new ramp from the present amplitude.
+
+        Returns
+        -------
+        int
+            Samples of the ramp: ``ceil(ramp_time * sample_rate)``, at least 1.
+
+        Raises
+        ------
+        LimitExceeded
+            If ``value`` is negative, not finite or above ``max_value``.
+        """
+        if not (math.isfinite(value) and 0.0 <= value <= self.max_value):
+            raise LimitExceeded(f"{self.what} {value!r} V is outside 0..{self.max_value:g} V "
+                                "(maximum drive)")
+        duration = self.ramp_time if ramp_time is None else float(ramp_time)
+        n = max(1, math.ceil(duration * self.sample_rate))
+        self._target = float(value)
+        if value == self._amp:
+            self._ramp = np.empty(0)
+        else:
+            self._ramp = self._amp + (value - self._amp) * raised_cosine(n)
+        return n
+
+    def take(self, n: int) -> np.ndarray:
+        """The amplitudes of the next ``n`` samples, continuing the ramp in progress."""
+        amps = np.full(int(n), self._target)
+        m = min(amps.size, self._ramp.size)
+        amps[:m] = self._ramp[:m]
+        self._ramp = self._ramp[m:]
+        if amps.size:
+            self._amp = float(amps[-1])
+        return amps
+
+    def stop_block(self, next_block: Callable[[int], np.ndarray]) -> np.ndarray:
+        """A normal ramp to zero (``ramp_time``) as one block of ``next_block``; ends at 0 V.
+
+        ``next_block(n)`` is the drive's, taking its amplitudes from this envelope. The ramp's
+        last amplitude is exactly 0 (:func:`raised_cosine` ends at exactly 1); the last sample is
+        set to +0.0 all the same (sign, clipping).
+        """
+        block = next_block(self.set_target(0.0))
+        block[-1] = 0.0
+        return block
+
+
 class SineDrive:
     """Phase-continuous sine drive ``a(t) sin(2 pi f t + phi)`` with ramped amplitude ``a(t)``.
 
@@ -195,14 +297,15 @@ class SineDrive:
     ramp_time
         Duration of every amplitude change (raised cosine), s.
     abort_ramp_time
-        Duration of the ramp to zero on abort, s (at most 0.1 s).
+        The rig's ramp to zero on abort, s (at most 0.1 s); checked here, but the ramp itself is
+        the device's: :meth:`~drivers.contracts.AcquisitionDevice.stop` does it.
 
     Examples
     --------
     >>> drive = SineDrive(51200.0, 60.0, max_drive=5.0, ramp_time=0.5)
     >>> drive.set_target(2.0)                  # ramps up over 0.5 s from the next sample
     >>> block = drive.next_block(5120)
-    >>> tail = drive.abort_block()             # <= 0.1 s of samples ending at 0 V
+    >>> tail = drive.stop_block()              # 0.5 s of samples ending at 0 V
     """
 
     def __init__(self, sample_rate: float, frequency: float, max_drive: float, ramp_time: float,
@@ -212,10 +315,7 @@ class SineDrive:
         if not 0 < abort_ramp_time <= MAX_ABORT_RAMP:
             raise ConfigurationError(
                 f"abort ramp time {abort_ramp_time!r} s must be in (0, {MAX_ABORT_RAMP}] s")
-        if not ramp_time > 0:
-            raise ConfigurationError(f"ramp time {ramp_time!r} s must be > 0")
-        if not max_drive > 0:
-            raise ConfigurationError(f"max drive {max_drive!r} V must be > 0")
+        self._envelope = AmplitudeEnvelope(sample_rate, ramp_time, max_drive)
         self.sample_rate = float(sample_rate)
         self.max_drive = float(max_drive)
         self.ramp_time = float(ramp_time)
@@ -223,19 +323,16 @@ class SineDrive:
         self._phase = float(phase)           # phase of the next sample, rad
         self._omega = 0.0
         self.set_frequency(frequency)
-        self._amp = 0.0                      # amplitude of the last sample written
-        self._ramp = np.empty(0)             # amplitudes still to come on the current ramp
-        self._target = 0.0
         self.samples_written = 0
 
     @property
     def amplitude(self) -> float:
         """Amplitude (V peak) of the last sample produced."""
-        return self._amp
+        return self._envelope.amplitude
 
     @property
     def target(self) -> float:
-        return self._target
+        return self._envelope.target
 
     @property
     def frequency(self) -> float:
@@ -244,7 +341,7 @@ class SineDrive:
     @property
     def settled(self) -> bool:
         """True when the amplitude has reached its target (no ramp in progress)."""
-        return self._ramp.size == 0
+        return self._envelope.settled
 
     def set_frequency(self, frequency: float) -> None:
         """Change the frequency; the phase stays continuous."""
@@ -263,52 +360,17 @@ class SineDrive:
         LimitExceeded
             If ``amplitude`` is negative, not finite or above ``max_drive``.
         """
-        if not (math.isfinite(amplitude) and 0.0 <= amplitude <= self.max_drive):
-            raise LimitExceeded(f"drive amplitude {amplitude!r} V is outside 0..{self.max_drive:g} V "
-                                "(maximum drive)")
-        duration = self.ramp_time if ramp_time is None else float(ramp_time)
-        n = max(1, math.ceil(duration * self.sample_rate))
-        self._target = float(amplitude)
-        if amplitude == self._amp:
-            self._ramp = np.empty(0)
-        else:
-            self._ramp = self._amp + (amplitude - self._amp) * raised_cosine(n)
-
-    def ramp_down(self) -> None:
-        """Start a normal ramp to zero (``ramp_time``)."""
-        self.set_target(0.0)
+        self._envelope.set_target(amplitude, ramp_time)
 
     def next_block(self, n: int) -> np.ndarray:
         """The next ``n`` drive samples (V), continuing phase and ramp."""
         n = int(n)
-        amps = np.empty(n)
-        m = min(n, self._ramp.size)
-        amps[:m] = self._ramp[:m]
-        amps[m:] = self._target
-        self._ramp = self._ramp[m:]
-        if n:
-            self._amp = float(amps[-1])
+        amps = self._envelope.take(n)
         phases = self._phase + self._omega * np.arange(n)
         self._phase = float((self._phase + self._omega * n) % (2 * math.pi))
         self.samples_written += n
         return amps * np.sin(phases)
 
-    def abort_block(self) -> np.ndarray:
-        """Samples that bring the drive to exactly 0 V within ``abort_ramp_time`` (<= 0.1 s).
-
-        The ramp starts from the present amplitude; the last sample is 0 V. Afterwards the
-        target is 0 and :meth:`next_block` produces zeros.
-        """
-        n = max(1, math.ceil(self.abort_ramp_time * self.sample_rate))
-        self.set_target(0.0, ramp_time=n / self.sample_rate)
-        block = self.next_block(n)
-        block[-1] = 0.0     # raised_cosine ends at exactly 1, so the amplitude is 0: make it exact
-        return block
-
     def stop_block(self) -> np.ndarray:
         """A normal ramp to zero (``ramp_time``) as one block; the last sample is 0 V."""
-        n = max(1, math.ceil(self.ramp_time * self.sample_rate))
-        self.set_target(0.0)
-        block = self.next_block(n)
-        block[-1] = 0.0
-        return block
+        return self._envelope.stop_block(self.next_block)

@@ -38,7 +38,7 @@ import numpy as np
 from scipy import signal
 
 from drivers.contracts import AcquisitionDevice, DaqFault, DriverError
-from drivers.safety import SafetyMonitor, raised_cosine
+from drivers.safety import AmplitudeEnvelope, SafetyMonitor, raised_cosine
 from rigtools.errors import UserError
 
 
@@ -298,8 +298,9 @@ class RandomDrive:
 
     White Gaussian noise through a Butterworth band-pass (state carried across blocks), scaled
     to ``rms`` volts and clipped at ``max_drive``. Amplitude changes follow a raised-cosine ramp
-    of ``ramp_time``. With ``burst_period``, the noise is on for ``burst_fraction`` of every
-    period (starting at each period), its edges tapered over ``edge_time``, and off for the rest:
+    of ``ramp_time`` (a :class:`~drivers.safety.AmplitudeEnvelope`, as for the sine drive). With
+    ``burst_period``, the noise is on for ``burst_fraction`` of every period (starting at each
+    period), its edges tapered over ``edge_time``, and off for the rest:
     burst random, where each period holds the whole response (no leakage with a rectangular
     window when the response has decayed by the period's end).
 
@@ -314,7 +315,7 @@ class RandomDrive:
     max_drive
         Peak never exceeded, V (samples beyond are clipped).
     ramp_time
-        Amplitude ramp, s.
+        Amplitude ramp, s (> 0).
     burst_period, burst_fraction, edge_time
         Burst random timing, s / fraction / s; ``burst_period=None`` for continuous random.
     seed
@@ -331,6 +332,7 @@ class RandomDrive:
             raise ValueError(f"rms {rms} V must be in (0, max_drive = {max_drive}]")
         if burst_period is not None and not (0 < burst_fraction <= 1 and burst_period > 0):
             raise ValueError("burst_period must be > 0 and burst_fraction in (0, 1]")
+        self._envelope = AmplitudeEnvelope(sample_rate, ramp_time, max_drive, what="rms")
         self.sample_rate = float(sample_rate)
         self.max_drive = float(max_drive)
         self.ramp_time = float(ramp_time)
@@ -340,10 +342,6 @@ class RandomDrive:
         impulse[0] = 1.0
         self._gain = 1.0 / math.sqrt(float(np.sum(signal.sosfilt(self._sos, impulse) ** 2)))
         self._rng = np.random.default_rng(seed)
-        self._target = 0.0
-        self._amp = 0.0
-        self._ramp = np.empty(0)
-        self._rms = float(rms)
         self._k = 0
         if burst_period is None:
             self._gate = None
@@ -362,7 +360,7 @@ class RandomDrive:
 
     @property
     def settled(self) -> bool:
-        return self._ramp.size == 0
+        return self._envelope.settled
 
     @property
     def burst_samples(self) -> int | None:
@@ -370,21 +368,18 @@ class RandomDrive:
         return None if self._gate is None else self._gate.size
 
     def set_target(self, rms: float, ramp_time: float | None = None) -> None:
-        """Ramp the RMS to ``rms`` V (raised cosine over ``ramp_time``)."""
-        if not 0 <= rms <= self.max_drive:
-            raise ValueError(f"rms {rms} V outside 0..{self.max_drive} V")
-        n = max(1, int(math.ceil((self.ramp_time if ramp_time is None else ramp_time) * self.sample_rate)))
-        self._target = float(rms)
-        self._ramp = self._amp + (rms - self._amp) * raised_cosine(n) if rms != self._amp else np.empty(0)
+        """Ramp the RMS to ``rms`` V (raised cosine over ``ramp_time``).
+
+        Raises
+        ------
+        LimitExceeded
+            (a ``ValueError``) if ``rms`` is negative, not finite or above ``max_drive``.
+        """
+        self._envelope.set_target(rms, ramp_time)
 
     def next_block(self, n: int) -> np.ndarray:
         """The next ``n`` samples, V."""
-        amps = np.full(n, self._target)
-        m = min(n, self._ramp.size)
-        amps[:m] = self._ramp[:m]
-        self._ramp = self._ramp[m:]
-        if n:
-            self._amp = float(amps[-1])
+        amps = self._envelope.take(n)
         noise, self._zi = signal.sosfilt(self._sos, self._rng.standard_normal(n), zi=self._zi)
         out = amps * self._gain * noise
         if self._gate is not None:
@@ -394,8 +389,4 @@ class RandomDrive:
 
     def stop_block(self) -> np.ndarray:
         """A normal ramp to zero (``ramp_time``), ending at exactly 0 V."""
-        n = max(1, int(math.ceil(self.ramp_time * self.sample_rate)))
-        self.set_target(0.0)
-        block = self.next_block(n)
-        block[-1] = 0.0
-        return block
+        return self._envelope.stop_block(self.next_block)

@@ -2,7 +2,8 @@
 
 The drive is checked sample by sample against a(t) sin(2 pi f t) written out independently:
 a(t) = A (1 - cos(pi k / n)) / 2 on a ramp of n samples (k = 1..n). Tolerances: 1e-12 absolute
-(double-precision round-off of the phase accumulation over < 1e5 samples).
+(double-precision round-off of the phase accumulation over < 1e5 samples); 1e-15 for the bare
+envelope (a few ulps of values <= 2).
 """
 
 from __future__ import annotations
@@ -13,7 +14,7 @@ import numpy as np
 import pytest
 
 from drivers.contracts import ConfigurationError, InputChannelSpec, LimitExceeded, SafetyAbort
-from drivers.safety import ChannelLimit, SafetyMonitor, SineDrive, raised_cosine
+from drivers.safety import AmplitudeEnvelope, ChannelLimit, SafetyMonitor, SineDrive, raised_cosine
 from rigtools.config import load_rig
 
 FS = 51200.0
@@ -54,21 +55,21 @@ def test_no_step_onto_the_shaker():
     out.append(drive.next_block(8000))
     drive.set_target(1.0)                       # mid-course change starts a new ramp
     out.append(drive.next_block(3000))
-    out.append(drive.abort_block())
+    out.append(drive.stop_block())
     x = np.concatenate(out)
     bound = (amp * 2 * np.pi * f + np.pi * amp / (2 * ramp)) / FS
     assert np.max(np.abs(np.diff(x))) <= bound * 1.001
     assert x[-1] == 0.0
 
 
-@pytest.mark.parametrize("abort_time", [0.01, 0.05, 0.1])
-def test_abort_reaches_zero_within_the_abort_ramp(abort_time):
-    drive = SineDrive(FS, 60.0, max_drive=5.0, ramp_time=0.5, abort_ramp_time=abort_time)
+@pytest.mark.parametrize("ramp", [0.01, 0.05, 0.5])
+def test_stop_ramps_down_along_the_raised_cosine_to_exactly_zero(ramp):
+    drive = SineDrive(FS, 60.0, max_drive=5.0, ramp_time=ramp)
     drive.set_target(3.0)
-    before = drive.next_block(40000)            # fully ramped up (0.5 s = 25600 samples)
-    tail = drive.abort_block()
-    assert tail.size == math.ceil(abort_time * FS) and tail.size <= 0.1 * FS
-    assert tail[-1] == 0.0 and drive.amplitude == 0.0
+    before = drive.next_block(40000)            # fully ramped up (<= 0.5 s = 25600 samples)
+    tail = drive.stop_block()
+    assert tail.size == math.ceil(ramp * FS)
+    assert tail[-1] == 0.0 and drive.amplitude == 0.0 and drive.settled
     # the envelope of the tail is a raised cosine from 3 V down to 0
     n = tail.size
     k = np.arange(1, n + 1)
@@ -77,6 +78,24 @@ def test_abort_reaches_zero_within_the_abort_ramp(abort_time):
                                atol=1e-12)
     assert np.all(drive.next_block(100) == 0.0)
     assert np.max(np.abs(before[-100:])) > 2.9
+
+
+def test_retarget_mid_ramp_starts_from_the_present_amplitude():
+    """Closed form: 0 -> 2 V over n1 samples, cut after m; then a -> 0.5 V over n2 samples."""
+    env = AmplitudeEnvelope(1000.0, 0.1, 5.0)
+    assert env.set_target(2.0) == 100
+    first = env.take(30)
+    a = 2.0 * 0.5 * (1 - np.cos(np.pi * 30 / 100))
+    assert env.amplitude == pytest.approx(a, abs=1e-15) and not env.settled
+    assert env.set_target(0.5, ramp_time=0.02) == 20
+    second = np.concatenate([env.take(7), env.take(0), env.take(20)])
+    k1, k2 = np.arange(1, 31), np.arange(1, 21)
+    np.testing.assert_allclose(first, 2.0 * 0.5 * (1 - np.cos(np.pi * k1 / 100)), atol=1e-15)
+    np.testing.assert_allclose(second[:20], a + (0.5 - a) * 0.5 * (1 - np.cos(np.pi * k2 / 20)),
+                               atol=1e-15)
+    assert np.all(second[20:] == 0.5) and env.settled and env.target == 0.5
+    with pytest.raises(ConfigurationError, match="ramp time"):
+        AmplitudeEnvelope(1000.0, 0.0, 5.0)
 
 
 def test_drive_targets_are_limited():

@@ -193,3 +193,19 @@ def test_random_drive_rms_band_and_bursts():
     assert np.all(y[:, 1200:] == 0.0) and np.std(y[1:, 50:1150]) > 0.8
     assert np.max(np.abs(y)) <= 2.5
     assert burst.stop_block()[-1] == 0.0
+
+
+def test_random_drive_ramp_is_the_raised_cosine_envelope():
+    """Same seed, same filter: the ramped noise divided by the (1-sample ramp) full-level noise is
+    the raised cosine a(k) = (1 - cos(pi k / n)) / 2, k = 1..n, then 1; to 1e-12 (round-off)."""
+    fs, n = 4000.0, 400
+    ramped = RandomDrive(fs, 0.5, (50.0, 500.0), max_drive=50.0, ramp_time=n / fs, seed=11)
+    full = RandomDrive(fs, 0.5, (50.0, 500.0), max_drive=50.0, ramp_time=1 / fs, seed=11)
+    x = np.concatenate([ramped.next_block(s) for s in (150, 1, 449)])
+    y = full.next_block(600)
+    k = np.arange(1, 601)
+    envelope = np.where(k <= n, 0.5 * (1 - np.cos(np.pi * k / n)), 1.0)
+    np.testing.assert_allclose(x, envelope * y, rtol=1e-12, atol=1e-15)
+    assert ramped.settled and full.settled
+    with pytest.raises(ValueError, match="rms 9.0 V is outside 0..2.5 V"):
+        RandomDrive(fs, 0.5, (50.0, 500.0), max_drive=2.5).set_target(9.0)
