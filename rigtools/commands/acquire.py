@@ -7,7 +7,7 @@ import json
 import math
 import re
 import sys
-from dataclasses import asdict
+from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
@@ -53,7 +53,12 @@ the last whole periods within 1 s of the record; amplitudes and "peak" are peak 
 channel's units. --json prints {"file", "backend", "fe", "drive_amplitude_v", "sample_rate",
 "duration_s", "measured_force_amplitude_n", "settled", "warnings",
 "channels": {name: {"units", "peak", "harmonics": [{"k", "frequency_hz", "amplitude"}, ...]}},
-"status": "complete"}.
+"status": "complete", "plot": PNG path or null}.
+
+Plot: FILE.png beside FILE.h5 (same name; --no-plot skips it), written after the drive has
+stopped: per channel its last 5 periods (time from the start of the drive) and its amplitude
+spectrum (flattop window, peak values in the channel's units, k*fe marked) over the analysed
+record (the last whole periods within 1 s). Not written when a fault stops the run.
 
 Quantities take units: --fe "60 Hz", --drive "1 V" (peak; "500 mV", "2 Vpp" = 1 V peak),
 --duration "2 s", --settle "500 ms"; a plain number is SI (Hz, V, s).
@@ -102,6 +107,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--out", required=True, metavar="FILE", help="HDF5 file to write (.h5)")
     p.add_argument("--overwrite", action="store_true", help="replace FILE if it exists")
     p.add_argument("--json", action="store_true", help="print the results as JSON on stdout")
+    p.add_argument("--no-plot", action="store_true", help="do not write the PNG plot beside FILE")
     p.set_defaults(func=run)
 
 
@@ -313,7 +319,8 @@ def run(args: argparse.Namespace) -> int:
         rate = configure(device, cfg)
         if opts.fe >= rate / 2:
             raise UserError(f"--fe = {args.fe!r}: must be below half the sample rate ({rate / 2:g} Hz)")
-        result = dwell(args, cfg, opts, device, rate, out)
+        result, analysed = dwell(args, cfg, opts, device, rate, out)
+    result["plot"] = None if args.no_plot else str(write_plot(out, analysed, opts.fe, result["backend"]))
     if args.json:
         print(json.dumps(result))
     else:
@@ -321,8 +328,30 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def dwell(args: argparse.Namespace, cfg: RigConfig, opts: Options, device, rate: float, out: Path) -> dict:
-    """Ramp up, settle, record, ramp down; the summary document."""
+@dataclass(frozen=True)
+class AnalysedRecord:
+    """The samples the summary was computed from (for the plot)."""
+
+    names: list[str]
+    units: list[str]
+    samples: np.ndarray      # (channels, n): the last whole periods within ANALYSIS_MAX_SECONDS
+    sample_rate: float
+    t0: float                # time of the first sample from the start of the drive, s
+
+
+def write_plot(out: Path, rec: AnalysedRecord, fe: float, backend: str) -> Path:
+    """:func:`analysis.plots.time_and_spectrum_figure` of the analysed record, beside ``out``."""
+    from rigtools.figures import plot_path, save_figure
+    from analysis.plots import time_and_spectrum_figure
+
+    fig = time_and_spectrum_figure(dict(zip(rec.names, rec.samples)), dict(zip(rec.names, rec.units)),
+                                   rec.sample_rate, fe, t0=rec.t0, k_max=K_MAX, title=f"{out.name} ({backend})")
+    return save_figure(fig, plot_path(out))
+
+
+def dwell(args: argparse.Namespace, cfg: RigConfig, opts: Options, device, rate: float,
+          out: Path) -> tuple[dict, AnalysedRecord]:
+    """Ramp up, settle, record, ramp down; the summary document and the analysed samples."""
     from drivers.safety import SineDrive
     from rigtools.recording import RecordingWriter
 
@@ -367,6 +396,9 @@ def dwell(args: argparse.Namespace, cfg: RigConfig, opts: Options, device, rate:
             attrs["measured_force_amplitude"] = summary["measured_force_amplitude"]
         point.set_attrs(**attrs)
         point.end()
+    tail = sink.tail()
+    tail = tail[:, tail.shape[1] - whole_periods(tail.shape[1], rate, opts.fe):]
+    analysed = AnalysedRecord(names, units, tail, rate, (start + sink.recorded - tail.shape[1]) / rate)
     return {
         "file": str(out), "backend": device.backend, "fe": opts.fe, "drive_amplitude_v": opts.drive,
         "sample_rate": rate, "duration_s": sink.recorded / rate,
@@ -374,7 +406,7 @@ def dwell(args: argparse.Namespace, cfg: RigConfig, opts: Options, device, rate:
         "settled": summary["settled"],
         "warnings": sorted({str(w.channel) for w in stats.warnings}),
         "channels": summary["channels"], "status": "complete",
-    }
+    }, analysed
 
 
 def _cause_line(exc: AcquisitionAborted) -> str:
@@ -441,4 +473,5 @@ def print_summary(doc: dict, out: Path) -> None:
     force = doc["measured_force_amplitude_n"]
     force_text = f"force amplitude {force:.4g} N, " if force is not None else ""
     warn = f"; safety warnings on {', '.join(doc['warnings'])}" if doc["warnings"] else ""
-    console.print(f"{force_text}settled: {'yes' if doc['settled'] else 'NO'}{warn}; wrote {out}")
+    plot = f" and {doc['plot']}" if doc.get("plot") else ""
+    console.print(f"{force_text}settled: {'yes' if doc['settled'] else 'NO'}{warn}; wrote {out}{plot}")

@@ -86,36 +86,19 @@ def write_curves(path: Path, fem: HarmonicResponse, am: HarmonicResponse, rig_na
     path.write_text(json.dumps(doc), encoding="utf-8")
 
 
-def plot_curves(path: Path, fem: HarmonicResponse, am: HarmonicResponse, title: str) -> None:
-    """Two rows (displacement, acceleration) by two columns (active, passive blade), FEM vs AM."""
-    import matplotlib
+def curves_figure(fem: HarmonicResponse, am: HarmonicResponse, title: str):
+    """The FEM and AM curves as :func:`analysis.plots.amplitude_frequency_figure`."""
+    from analysis.plots import amplitude_frequency_figure
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, axes = plt.subplots(2, 2, figsize=(12, 8), sharex=True)
-    f = fem.frequencies_hz
-    for col, blade in enumerate(("active", "passive")):
-        for row, (getter, label) in enumerate(
-            (("displacement_amplitude", "displacement amplitude (m)"),
-             ("acceleration_amplitude", "acceleration amplitude (m/s²)"))
-        ):
-            ax = axes[row, col]
-            for loc, color in ((f"{blade}_shroud", "C0"), (f"{blade}_force_point", "C1")):
-                where = "shroud" if loc.endswith("shroud") else "excitation point"
-                ax.semilogy(f, getattr(fem, getter)(loc), color=color, lw=1.4, label=f"FEM, {where}")
-                ax.semilogy(f, getattr(am, getter)(loc), color="k", ls="--", lw=0.9, label=f"AM, {where}")
-            ax.set_ylabel(label)
-            ax.grid(True, which="both", alpha=0.3)
-            if row == 0:
-                ax.set_title(f"{blade} blade" + (" (with force sensor)" if blade == "active" else " (no sensor)"))
-            else:
-                ax.set_xlabel("frequency (Hz)")
-            ax.legend(fontsize=8)
-    fig.suptitle(f"{title}: linear response to F0 = {fem.force_amplitude:g} N")
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    curves = {
+        label: {
+            "displacement": {loc: res.displacement_amplitude(loc) for loc in LOCATIONS},
+            "acceleration": {loc: res.acceleration_amplitude(loc) for loc in LOCATIONS},
+        }
+        for label, res in (("FEM", fem), ("AM", am))
+    }
+    return amplitude_frequency_figure(fem.frequencies_hz, curves, force_amplitude=fem.force_amplitude,
+                                      title=title)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -143,7 +126,8 @@ def run(args: argparse.Namespace) -> int:
     rig = build_rig_model(params)
     fem, am = harmonic_curves(rig, np.linspace(fmin, fmax, args.points), force)
     write_curves(out, fem, am, rig_config.name)
-    png = out.with_suffix(".png")
-    plot_curves(png, fem, am, rig_config.name)
+    from rigtools.figures import plot_path, save_figure
+
+    png = save_figure(curves_figure(fem, am, rig_config.name), plot_path(out), dpi=120)
     print(f"wrote {out} and {png} ({args.points} frequencies {fmin:g}-{fmax:g} Hz, F0 = {force:g} N, FEM and AM)")
     return 0

@@ -26,9 +26,15 @@ force_point_disp (m), active_shroud_vel, passive_shroud_vel, force_point_vel (m/
 force_point_accel (m/s^2), contact_force (N).
 
 --json prints {"harmonics": {channel: [{"k", "frequency_hz", "amplitude"}, ...]},
-"contact": {"peak_force_n", "impacts_per_period"}, "steady_state": true|false} for k = 1..30 of
-active_shroud_accel, passive_shroud_accel, force and contact_force (peak amplitudes; the
-acceleration harmonics come from the velocity, k w |V_k|, exact for a periodic response).
+"contact": {"peak_force_n", "impacts_per_period"}, "steady_state": true|false, "plot": PNG
+path or null} for k = 1..30 of active_shroud_accel, passive_shroud_accel, force and
+contact_force (peak amplitudes; the acceleration harmonics come from the velocity, k w |V_k|,
+exact for a periodic response).
+
+Plot: FILE.png beside FILE.h5 (same name; --no-plot skips it): the shroud displacements (mm)
+and the contact force (N) over the last 3 periods, and the amplitude spectra (m/s^2) of both
+shroud accelerations with k*fe and the blades' flexural natural frequencies marked (as the
+paper's Figure 9).
 
 Quantities take units: "0.5 mm", "15 N", "60 Hz", "2 s"; a plain number is SI (m, N, Hz, s).
 
@@ -83,6 +89,7 @@ def add_model_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", required=True, metavar="FILE", help="HDF5 file to write (.h5)")
     p.add_argument("--overwrite", action="store_true", help="replace FILE if it exists")
     p.add_argument("--json", action="store_true", help="print the results as JSON on stdout")
+    p.add_argument("--no-plot", action="store_true", help="do not write the PNG plot beside FILE")
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -191,6 +198,37 @@ def summary(run) -> dict:
     }
 
 
+def natural_frequencies(system) -> dict[str, np.ndarray]:
+    """The kept (not static-correction) mode frequencies of each blade of a reduced system, Hz:
+    its flexural natural frequencies."""
+    from sim.reduction import ACTIVE, PASSIVE
+
+    real = np.ones(system.n_modes, bool) if system.pseudo is None else ~np.asarray(system.pseudo, bool)
+    f = system.frequencies_hz
+    return {"active": np.sort(f[real & (system.blade == ACTIVE)]),
+            "passive": np.sort(f[real & (system.blade == PASSIVE)])}
+
+
+def run_figure(run, system, title: str):
+    """:func:`analysis.plots.vibro_impact_figure` of one settled run."""
+    from analysis.plots import vibro_impact_figure
+
+    o = run.outputs
+    return vibro_impact_figure(run.time, o["active_tip_displacement"], o["passive_tip_displacement"],
+                               o["contact_force"], o["active_tip_acceleration"], o["passive_tip_acceleration"],
+                               run.fe, k_max=K_MAX, gap=run.gap, natural_frequencies_hz=natural_frequencies(system),
+                               title=title)
+
+
+def write_plot(args: argparse.Namespace, out: Path, make_figure) -> Path | None:
+    """``make_figure()`` saved beside ``out`` (same name, .png), unless ``--no-plot``."""
+    if args.no_plot:
+        return None
+    from rigtools.figures import plot_path, save_figure
+
+    return save_figure(make_figure(), plot_path(out))
+
+
 def run(args: argparse.Namespace) -> int:
     from rigtools.recording import RecordingWriter
 
@@ -224,6 +262,8 @@ def run(args: argparse.Namespace) -> int:
         point.set_attrs(**end_attrs(result))
         point.end()
     doc = summary(result)
+    png = write_plot(args, out, lambda: run_figure(result, system, f"{cfg.name} ({args.model.upper()})"))
+    doc["plot"] = None if png is None else str(png)
     if args.json:
         print(json.dumps(doc))
     else:
@@ -250,4 +290,5 @@ def print_summary(doc: dict, result, out: Path) -> None:
     c = doc["contact"]
     console.print(f"peak contact force {c['peak_force_n']:.4g} N, {c['impacts_per_period']:g} impacts per period, "
                   f"steady state: {'yes' if doc['steady_state'] else 'NO'} "
-                  f"(after {result.settle_time:.3g} s simulated); wrote {out}")
+                  f"(after {result.settle_time:.3g} s simulated); wrote {out}"
+                  + (f" and {doc['plot']}" if doc.get("plot") else ""))

@@ -9,7 +9,7 @@ import numpy as np
 
 from rigtools.commands.simulate import (
     add_model_options, channel_block, channel_specs, check_out, end_attrs, harmonics_of,
-    load_system, point_params, quantity, run_options,
+    load_system, point_params, quantity, run_options, write_plot,
 )
 from rigtools.errors import UserError
 
@@ -29,7 +29,11 @@ impacts_per_period, period_multiple.
 
 --json prints {"kind", "fixed", "points": [{"value", "direction", "fe", "force_amplitude",
 "gap", "steady_state", "peak_contact_force_n", "impacts_per_period", "harmonics": {channel:
-[{"k", "frequency_hz", "amplitude"}, ...]}}, ...]}.
+[{"k", "frequency_hz", "amplitude"}, ...]}}, ...], "plot": PNG path or null}.
+
+Plot: FILE.png beside FILE.h5 (same name; --no-plot skips it): peak contact force (N) versus
+the swept value, up and down sweeps marked apart, and heat maps of the harmonics k = 1..30
+(m/s^2, log colour) of both shroud accelerations per point in run order.
 
 examples:
   rig study gap --values "0.3 mm:0.9 mm:0.1 mm" --out gap.h5
@@ -143,14 +147,29 @@ def run(args: argparse.Namespace) -> int:
                 "gap": r.gap, "steady_state": bool(r.steady_state), "peak_contact_force_n": r.peak_contact_force,
                 "impacts_per_period": r.impacts_per_period, "harmonics": harmonics_of(r),
             })
+    png = write_plot(args, out, lambda: study_plot(args.kind, study.fixed, doc_points,
+                                                   f"{cfg.name} ({args.model.upper()})"))
     if args.json:
-        print(json.dumps({"kind": args.kind, "fixed": study.fixed, "points": doc_points}))
+        print(json.dumps({"kind": args.kind, "fixed": study.fixed, "points": doc_points,
+                          "plot": None if png is None else str(png)}))
     else:
-        print_table(args.kind, doc_points, out)
+        print_table(args.kind, doc_points, out, png)
     return 0
 
 
-def print_table(kind: str, points: list[dict], out) -> None:
+def study_plot(kind: str, fixed: dict, points: list[dict], title: str):
+    """:func:`analysis.plots.study_figure` of the --json points (shroud acceleration harmonics)."""
+    from analysis.plots import study_figure
+
+    harmonics = {
+        label: np.array([[r["amplitude"] for r in p["harmonics"][channel]] for p in points])
+        for label, channel in (("active shroud", "active_shroud_accel"), ("passive shroud", "passive_shroud_accel"))
+    }
+    return study_figure(kind, [p["value"] for p in points], [p["direction"] for p in points],
+                        [p["peak_contact_force_n"] for p in points], harmonics, fixed=fixed, title=title)
+
+
+def print_table(kind: str, points: list[dict], out, png=None) -> None:
     from rich.console import Console
     from rich.table import Table
 
@@ -168,4 +187,4 @@ def print_table(kind: str, points: list[dict], out) -> None:
                       f"{h['passive_shroud_accel'][7]['amplitude']:.4g}")
     console = Console()
     console.print(table)
-    console.print(f"wrote {out} ({len(points)} points)")
+    console.print(f"wrote {out} ({len(points)} points)" + (f" and {png}" if png else ""))

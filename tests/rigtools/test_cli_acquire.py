@@ -67,6 +67,17 @@ def test_dwell_writes_a_complete_recording(dwell):
         assert np.all(np.isfinite(force)) and np.max(np.abs(force)) == pytest.approx(doc["channels"]["force"]["peak"])
 
 
+def test_dwell_writes_the_plot_beside_the_file(dwell):
+    """Four channel rows: 12 x (2.4 x 4 + 1) in at 100 dpi (rigtools.figures.DPI)."""
+    from matplotlib.image import imread
+
+    _, doc, _, path = dwell
+    png = path.with_suffix(".png")
+    assert doc["plot"] == str(png)
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert imread(png).shape[:2] == (1060, 1200)
+
+
 def test_dwell_json_shape(dwell):
     _, doc, _, path = dwell
     assert {"file", "backend", "fe", "measured_force_amplitude_n", "channels", "status"} <= set(doc)
@@ -117,9 +128,10 @@ def test_measured_force_matches_the_shaker_closed_form_without_impacts(tmp_path)
     rig = _linear_rig(tmp_path)
     code, text, err = run_cli(["acquire", "--rig", str(rig), "--simulated", "--seed", "2", "--fe", "60",
                                "--drive", "0.5 V", "--duration", "1", "--settle", "0.5",
-                               "--out", str(tmp_path / "linear.h5"), "--json"])
+                               "--out", str(tmp_path / "linear.h5"), "--json", "--no-plot"])
     assert code == 0, err
     doc = json.loads(text)
+    assert doc["plot"] is None and not (tmp_path / "linear.png").exists()
     expected = _closed_form_force(load_rig(rig), 60.0, 0.5)
     assert doc["measured_force_amplitude_n"] == pytest.approx(expected, rel=0.005)
     assert doc["settled"] is True
@@ -154,6 +166,7 @@ def test_injected_fault_exits_4_names_it_and_keeps_the_data_before_it(dwell, tmp
     assert f"{kept / RATE:.3f} s recorded" in err
     with open_recording(out) as rec, open_recording(clean_path) as clean:
         assert rec.status == "aborted" and "input overflow" in rec.abort_reason
+        assert not out.with_suffix(".png").exists()        # no plot of an aborted run
         p = rec.points[0]
         assert p.n_samples == kept
         for name in ("force", "active_shroud_accel", "passive_shroud_accel", "drive"):

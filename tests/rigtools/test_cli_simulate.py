@@ -13,6 +13,14 @@ from rigtools.recording import open_recording
 FAST = ["--duration", "0.1 s", "--max-settle", "4 s"]
 
 
+def assert_png(path, width, height):
+    """A non-empty PNG (signature bytes) that decodes to width x height pixels."""
+    from matplotlib.image import imread
+
+    assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert imread(path).shape[:2] == (height, width)
+
+
 @pytest.fixture(scope="module")
 def simulated(tmp_path_factory):
     """One default run (fe 60 Hz, 15 N, gap 0.5 mm) with --json, and its file."""
@@ -29,7 +37,7 @@ def simulated(tmp_path_factory):
 def test_simulate_json_shape(simulated):
     code, doc, _ = simulated
     assert code == 0
-    assert set(doc) == {"harmonics", "contact", "steady_state"}
+    assert set(doc) == {"harmonics", "contact", "steady_state", "plot"}
     assert doc["steady_state"] is True
     assert set(doc["contact"]) == {"peak_force_n", "impacts_per_period"}
     assert doc["contact"]["peak_force_n"] > 10 and doc["contact"]["impacts_per_period"] == 1
@@ -39,6 +47,13 @@ def test_simulate_json_shape(simulated):
         assert all(set(r) == {"k", "frequency_hz", "amplitude"} for r in rows)
         assert rows[5]["frequency_hz"] == pytest.approx(360.0)
     assert doc["harmonics"]["force"][0]["amplitude"] == pytest.approx(15.0, rel=1e-9)
+
+
+def test_simulate_writes_the_plot_beside_the_file(simulated):
+    """12 x 9 in at 100 dpi (rigtools.figures.DPI)."""
+    _, doc, out = simulated
+    assert doc["plot"] == str(out.with_suffix(".png"))
+    assert_png(out.with_suffix(".png"), 1200, 900)
 
 
 def test_simulate_file_holds_the_run(simulated):
@@ -95,13 +110,16 @@ def test_study_writes_one_point_per_value(tmp_path, capsys):
         assert rec.experiment["procedure"] == "gap study"
         assert [pt["peak_contact_force_n"] for pt in doc["points"]] == pytest.approx(
             [float(np.max(p["contact_force"][:])) for p in rec.points])
+    assert doc["plot"] == str(tmp_path / "gap.png")
+    assert_png(tmp_path / "gap.png", 1100, 1000)     # 11 x (3.6 + 2 x 3.2) in at 100 dpi
 
 
 def test_study_both_directions_and_bad_values(tmp_path, capsys):
     out = tmp_path / "f.h5"
     assert main(["study", "frequency", "--values", "60 Hz,75 Hz", "--direction", "both", "--out", str(out),
-                 "--json", *FAST]) == 0
+                 "--json", "--no-plot", *FAST]) == 0
     doc = json.loads(capsys.readouterr().out)
+    assert doc["plot"] is None and not (tmp_path / "f.png").exists()
     assert [(p["value"], p["direction"]) for p in doc["points"]] == [(60.0, "up"), (75.0, "up"), (60.0, "down")]
     assert main(["study", "gap", "--values", "0.3,0.5", "--out", str(tmp_path / "g.h5")]) == 2
     assert "units" in capsys.readouterr().err

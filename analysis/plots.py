@@ -1,0 +1,372 @@
+"""Figures of the rig's results, built from arrays: each function returns a
+:class:`matplotlib.figure.Figure` and never shows or saves it (the caller does, e.g.
+``fig.savefig("run.png")``).
+
+Figures are made with :class:`matplotlib.figure.Figure` directly, not through pyplot, so they need
+no GUI backend and leave pyplot's figure list alone. Every axis label carries its units;
+displacements are plotted in mm, forces in N, accelerations in m/s², frequencies in Hz, times in s.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+from matplotlib.colors import LogNorm
+from matplotlib.figure import Figure
+from matplotlib.ticker import MaxNLocator
+
+from analysis.spectra import amplitude_spectrum
+
+BLADES = ("active", "passive")
+SPECTRUM_FLOOR = 1e-5        # spectra on a log axis: show down to this fraction of the largest peak
+STUDY_UNITS = {              # swept parameter -> (display unit, factor from SI)
+    "gap": ("mm", 1e3),
+    "force": ("N", 1.0),
+    "frequency": ("Hz", 1.0),
+}
+
+
+def _last_periods(n: int, sample_rate: float, fe: float, periods: float) -> slice:
+    """The last ``periods`` excitation periods of an ``n``-sample record (all of it if shorter)."""
+    m = int(round(periods * sample_rate / fe))
+    return slice(max(n - m, 0), n)
+
+
+def _spectrum_axes(ax, freqs: np.ndarray, amplitude: np.ndarray, fe: float, k_max: int, f_max: float,
+                   natural_hz: np.ndarray | None, ylabel: str, color: str = "C0") -> None:
+    """A log-amplitude spectrum with k*fe marked by ticks along the top edge and natural
+    frequencies by labelled dashed lines."""
+    keep = freqs <= f_max
+    ax.semilogy(freqs[keep], amplitude[keep], color=color, lw=0.9, label="spectrum")
+    top = float(np.max(amplitude[keep][1:])) if np.count_nonzero(keep) > 1 else 1.0
+    top = top if top > 0 else 1.0
+    ax.set_ylim(top * SPECTRUM_FLOOR, top * 3.0)
+    ax.set_xlim(0.0, f_max)
+    harmonics = fe * np.arange(1, k_max + 1)
+    harmonics = harmonics[harmonics <= f_max]
+    ax.plot(harmonics, np.ones_like(harmonics), ls="none", marker="v", ms=4, color="0.35",
+            transform=ax.get_xaxis_transform(), clip_on=False, label=f"k·fe (fe = {fe:g} Hz)")
+    if natural_hz is not None:
+        shown = [f for f in np.asarray(natural_hz, dtype=float) if 0 < f <= f_max]
+        for i, f in enumerate(shown):
+            ax.axvline(f, color="C3", ls="--", lw=0.8, alpha=0.8,
+                       label="flexural natural frequencies" if i == 0 else None)
+            ax.text(f, 0.93, f" {f:.0f} Hz", color="C3", fontsize=7, rotation=90, va="top", ha="right",
+                    transform=ax.get_xaxis_transform())
+    ax.set_xlabel("frequency (Hz)")
+    ax.set_ylabel(ylabel)
+    ax.grid(True, which="major", alpha=0.3)
+    ax.legend(fontsize=7, loc="lower left")
+
+
+def amplitude_frequency_figure(
+    frequency_hz: np.ndarray,
+    curves: Mapping[str, Mapping[str, Mapping[str, np.ndarray]]],
+    *,
+    force_amplitude: float | None = None,
+    title: str = "",
+) -> Figure:
+    """Linear amplitude-frequency curves of both blades (the paper's Figure 7).
+
+    Parameters
+    ----------
+    frequency_hz
+        (n,) excitation frequencies, Hz.
+    curves
+        ``curves[model][quantity][location]`` -> (n,) peak amplitude, with ``model`` a label such
+        as ``"FEM"`` or ``"AM"`` (the first model is drawn in colour, the others dashed black),
+        ``quantity`` ``"displacement"`` (m) or ``"acceleration"`` (m/s²) and ``location`` one of
+        ``"<blade>_shroud"``, ``"<blade>_force_point"`` for blade ``"active"``, ``"passive"``.
+    force_amplitude
+        F0, N, for the title.
+    title
+        Prefix of the figure title (e.g. the rig's name).
+
+    Returns
+    -------
+    Figure
+        2 x 2 axes: rows displacement (m), acceleration (m/s²); columns active, passive blade;
+        log amplitude axes. Line order per axes: for each location (shroud, excitation point),
+        each model in ``curves`` order.
+    """
+    fig = Figure(figsize=(12, 8), layout="constrained")
+    axes = fig.subplots(2, 2, sharex=True)
+    f = np.asarray(frequency_hz, dtype=float)
+    models = list(curves)
+    rows = (("displacement", "displacement amplitude (m)"), ("acceleration", "acceleration amplitude (m/s²)"))
+    for col, blade in enumerate(BLADES):
+        for row, (quantity, ylabel) in enumerate(rows):
+            ax = axes[row, col]
+            for loc, color in ((f"{blade}_shroud", "C0"), (f"{blade}_force_point", "C1")):
+                where = "shroud" if loc.endswith("shroud") else "excitation point"
+                for i, model in enumerate(models):
+                    style = dict(color=color, lw=1.4) if i == 0 else dict(color="k", ls="--", lw=0.9)
+                    ax.semilogy(f, curves[model][quantity][loc], label=f"{model}, {where}", **style)
+            ax.set_ylabel(ylabel)
+            ax.grid(True, which="both", alpha=0.3)
+            if row == 0:
+                ax.set_title(f"{blade} blade" + (" (with force sensor)" if blade == "active" else " (no sensor)"))
+            else:
+                ax.set_xlabel("frequency (Hz)")
+            ax.legend(fontsize=8)
+    head = f"{title}: " if title else ""
+    force = f" to F0 = {force_amplitude:g} N" if force_amplitude is not None else ""
+    fig.suptitle(f"{head}linear response{force}")
+    return fig
+
+
+def vibro_impact_figure(
+    time: np.ndarray,
+    active_displacement: np.ndarray,
+    passive_displacement: np.ndarray,
+    contact_force: np.ndarray,
+    active_acceleration: np.ndarray,
+    passive_acceleration: np.ndarray,
+    fe: float,
+    *,
+    periods: float = 3.0,
+    k_max: int = 30,
+    gap: float | None = None,
+    natural_frequencies_hz: Mapping[str, np.ndarray] | np.ndarray | None = None,
+    window: str = "boxcar",
+    title: str = "",
+) -> Figure:
+    """One vibro-impact run in the style of the paper's Figure 9.
+
+    Parameters
+    ----------
+    time
+        (n,) uniformly spaced sample times, s.
+    active_displacement, passive_displacement
+        (n,) shroud displacements in the impact direction, m (plotted in mm).
+    contact_force
+        (n,) contact force between the shrouds, N.
+    active_acceleration, passive_acceleration
+        (n,) shroud accelerations, m/s²; their spectra use the whole record.
+    fe
+        Excitation frequency, Hz.
+    periods
+        How many of the last excitation periods the time histories show.
+    k_max
+        Harmonics ``k*fe``, k = 1..k_max, are marked; the spectra extend to ``(k_max + 1) * fe``
+        (or the Nyquist frequency if lower).
+    gap
+        Shroud gap, m: drawn as the level the relative displacement must exceed, and in the title.
+    natural_frequencies_hz
+        Flexural natural frequencies (Hz) to mark: one array for both spectra, or
+        ``{"active": ..., "passive": ...}`` per blade.
+    window
+        Spectrum window (:func:`analysis.spectra.amplitude_spectrum`); ``"boxcar"`` is exact for a
+        record of whole periods of a periodic response, use ``"flattop"`` otherwise.
+    title
+        Prefix of the figure title.
+
+    Returns
+    -------
+    Figure
+        Four axes, in ``fig.axes`` order: displacements (lines: active, passive, mm), contact
+        force (N), active shroud acceleration spectrum, passive shroud acceleration spectrum
+        (m/s², peak amplitude).
+    """
+    t = np.asarray(time, dtype=float)
+    if t.size < 2:
+        raise ValueError("need at least 2 samples")
+    rate = 1.0 / float(t[1] - t[0])
+    win = _last_periods(t.size, rate, fe, periods)
+    fig = Figure(figsize=(12, 9), layout="constrained")
+    grid = fig.add_gridspec(3, 2)
+    ax_u = fig.add_subplot(grid[0, :])
+    ax_f = fig.add_subplot(grid[1, :], sharex=ax_u)
+    ax_sa = fig.add_subplot(grid[2, 0])
+    ax_sp = fig.add_subplot(grid[2, 1], sharey=None)
+
+    ax_u.plot(t[win], np.asarray(active_displacement)[win] * 1e3, color="C0", lw=1.2, label="active shroud")
+    ax_u.plot(t[win], np.asarray(passive_displacement)[win] * 1e3, color="C1", lw=1.2, label="passive shroud")
+    if gap is not None:
+        # contact when u_active - u_passive > gap: show the active shroud's contact level
+        # relative to the passive shroud
+        ax_u.plot(t[win], (np.asarray(passive_displacement)[win] + gap) * 1e3, color="0.5", lw=0.8, ls=":",
+                  label="passive shroud + gap (contact above)")
+    ax_u.set_ylabel("displacement (mm)")
+    ax_u.set_title("shroud displacements (impact direction)")
+    ax_u.grid(True, alpha=0.3)
+    ax_u.legend(fontsize=8, loc="upper right")
+    ax_u.tick_params(labelbottom=False)
+
+    ax_f.plot(t[win], np.asarray(contact_force)[win], color="C3", lw=1.2)
+    ax_f.set_ylabel("contact force (N)")
+    ax_f.set_xlabel("time (s)")
+    ax_f.set_title("contact force")
+    ax_f.grid(True, alpha=0.3)
+
+    f_max = min((k_max + 1) * fe, rate / 2)
+    freqs, amp = amplitude_spectrum(np.vstack([active_acceleration, passive_acceleration]), rate, window)
+    for ax, blade, row, color in ((ax_sa, "active", 0, "C0"), (ax_sp, "passive", 1, "C1")):
+        natural = natural_frequencies_hz
+        if isinstance(natural, Mapping):
+            natural = natural.get(blade)
+        _spectrum_axes(ax, freqs, amp[row], fe, k_max, f_max, natural, "acceleration amplitude (m/s²)", color)
+        ax.set_title(f"{blade} shroud acceleration spectrum")
+
+    head = f"{title}: " if title else ""
+    gap_text = f", gap {gap * 1e3:g} mm" if gap is not None else ""
+    fig.suptitle(f"{head}vibro-impact response, fe = {fe:g} Hz{gap_text}")
+    return fig
+
+
+def study_figure(
+    kind: str,
+    values: Sequence[float] | np.ndarray,
+    directions: Sequence[str],
+    peak_contact_force: Sequence[float] | np.ndarray,
+    harmonics: Mapping[str, np.ndarray],
+    *,
+    fixed: Mapping[str, float] | None = None,
+    title: str = "",
+) -> Figure:
+    """A gap, force or frequency study: peak contact force and shroud acceleration harmonics.
+
+    Parameters
+    ----------
+    kind
+        The swept parameter: ``"gap"`` (values in m, plotted in mm), ``"force"`` (N) or
+        ``"frequency"`` (Hz).
+    values, directions
+        (p,) swept value (SI) and sweep direction (``"up"`` / ``"down"``) of each point, in run order.
+    peak_contact_force
+        (p,) peak contact force per point, N.
+    harmonics
+        ``{label: (p, k_max) array}``: peak amplitude of harmonic k = 1..k_max per point, m/s²
+        (e.g. ``{"active shroud": ..., "passive shroud": ...}``), one heat map each.
+    fixed
+        The fixed parameters (``fe`` Hz, ``force`` N, ``gap`` m) for the title.
+    title
+        Prefix of the figure title.
+
+    Returns
+    -------
+    Figure
+        ``fig.axes``: the peak contact force axes first (one line per direction present, up then
+        down, x in display units), then per ``harmonics`` entry its heat map (x: point in run
+        order, y: k, colour: log amplitude) followed by its colour bar.
+    """
+    if kind not in STUDY_UNITS:
+        raise ValueError(f"kind must be one of {', '.join(STUDY_UNITS)}, got {kind!r}")
+    unit, scale = STUDY_UNITS[kind]
+    x = np.asarray(values, dtype=float) * scale
+    force = np.asarray(peak_contact_force, dtype=float)
+    dirs = np.asarray(directions)
+    n_maps = len(harmonics)
+    fig = Figure(figsize=(11, 3.6 + 3.2 * n_maps), layout="constrained")
+    grid = fig.add_gridspec(1 + n_maps, 1, height_ratios=[1.1] + [1.0] * n_maps)
+    ax = fig.add_subplot(grid[0])
+    for direction, style in (("up", dict(marker="o", ls="-", color="C0")),
+                             ("down", dict(marker="s", ls="--", color="C3", mfc="none"))):
+        sel = dirs == direction
+        if np.any(sel):
+            arrow = "↑" if direction == "up" else "↓"
+            ax.plot(x[sel], force[sel], label=f"sweep {direction} {arrow}", ms=5, **style)
+    ax.set_xlabel(f"{kind} ({unit})")
+    ax.set_ylabel("peak contact force (N)")
+    ax.set_title(f"peak contact force versus {kind}")
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8)
+
+    point_labels = [f"{v:.4g}{'↑' if d == 'up' else '↓'}" for v, d in zip(x, dirs)]
+    for i, (label, amp) in enumerate(harmonics.items()):
+        amp = np.asarray(amp, dtype=float)
+        k = np.arange(1, amp.shape[1] + 1)
+        positive = amp[amp > 0]
+        vmax = float(positive.max()) if positive.size else 1.0
+        vmin = max(float(positive.min()) if positive.size else vmax, vmax * 1e-4)
+        hm = fig.add_subplot(grid[1 + i])
+        mesh = hm.pcolormesh(np.arange(len(x) + 1) - 0.5, np.append(k, k[-1] + 1) - 0.5,
+                             np.clip(amp.T, vmin, None), norm=LogNorm(vmin=vmin, vmax=vmax),
+                             cmap="viridis", shading="flat")
+        hm.set_ylabel("harmonic k (× fe)")
+        hm.set_title(f"{label} acceleration harmonics")
+        hm.yaxis.set_major_locator(MaxNLocator(integer=True, nbins=8))
+        ticks = np.unique(np.linspace(0, len(x) - 1, min(len(x), 16)).round().astype(int))
+        hm.set_xticks(ticks, [point_labels[j] for j in ticks], fontsize=8,
+                      rotation=45 if len(ticks) > 8 else 0)
+        hm.set_xlabel(f"{kind} ({unit}) in run order (↑ up, ↓ down sweep)")
+        fig.colorbar(mesh, ax=hm, label="amplitude (m/s²)", pad=0.01)
+    fixed_text = ""
+    if fixed:
+        parts = {"fe": lambda v: f"fe = {v:g} Hz", "force": lambda v: f"F0 = {v:g} N",
+                 "gap": lambda v: f"gap = {v * 1e3:g} mm"}
+        fixed_text = " (" + ", ".join(parts[k](v) for k, v in fixed.items() if k in parts) + ")"
+    head = f"{title}: " if title else ""
+    fig.suptitle(f"{head}{kind} study{fixed_text}")
+    return fig
+
+
+def time_and_spectrum_figure(
+    channels: Mapping[str, np.ndarray],
+    units: Mapping[str, str],
+    sample_rate: float,
+    fe: float,
+    *,
+    t0: float = 0.0,
+    periods: float = 5.0,
+    k_max: int = 30,
+    window: str = "flattop",
+    title: str = "",
+) -> Figure:
+    """A measured dwell: each channel's time history (last periods) and amplitude spectrum.
+
+    Parameters
+    ----------
+    channels
+        ``{name: (n,) samples}`` in the channel's units, all at ``sample_rate``.
+    units
+        ``{name: units}``, e.g. ``"N"``, ``"m/s^2"``, ``"V"`` (``^2`` is shown as ²).
+    sample_rate
+        Samples per second, Hz.
+    fe
+        Excitation frequency, Hz: the time histories show the last ``periods`` periods, the
+        spectra (whole record) mark ``k*fe`` and extend to ``(k_max + 1) * fe`` (at most Nyquist).
+    t0
+        Time of the first sample, s (e.g. its position in the recording).
+    window
+        Spectrum window (:func:`analysis.spectra.amplitude_spectrum`).
+    title
+        Prefix of the figure title.
+
+    Returns
+    -------
+    Figure
+        One row per channel: ``fig.axes[2 * i]`` its time history (one line, samples unscaled),
+        ``fig.axes[2 * i + 1]`` its peak-amplitude spectrum (log axis).
+    """
+    names = list(channels)
+    if not names:
+        raise ValueError("need at least one channel")
+    fig = Figure(figsize=(12, 2.4 * len(names) + 1.0), layout="constrained")
+    axes = fig.subplots(len(names), 2, squeeze=False, width_ratios=[1.0, 1.2])
+    f_max = min((k_max + 1) * fe, sample_rate / 2)
+    for i, name in enumerate(names):
+        x = np.asarray(channels[name], dtype=float)
+        unit = units[name].replace("^2", "²")
+        t = t0 + np.arange(x.size) / sample_rate
+        win = _last_periods(x.size, sample_rate, fe, periods)
+        ax_t, ax_s = axes[i]
+        ax_t.plot(t[win], x[win], color=f"C{i}", lw=1.0)
+        ax_t.set_ylabel(f"{name} ({unit})")
+        ax_t.grid(True, alpha=0.3)
+        freqs, amp = amplitude_spectrum(x, sample_rate, window)
+        _spectrum_axes(ax_s, freqs, amp, fe, k_max, f_max, None, f"amplitude ({unit})", f"C{i}")
+        ax_s.set_title(name, fontsize=9)
+        if i > 0:
+            ax_s.get_legend().remove()
+        if i < len(names) - 1:
+            ax_t.tick_params(labelbottom=False)
+            ax_s.set_xlabel("")
+            ax_s.tick_params(labelbottom=False)
+        else:
+            ax_t.set_xlabel("time (s)")
+    axes[0, 0].set_title(f"last {periods:g} periods", fontsize=9)
+    head = f"{title}: " if title else ""
+    fig.suptitle(f"{head}sine dwell, fe = {fe:g} Hz ({x.size / sample_rate:g} s analysed)")
+    return fig
