@@ -14,7 +14,6 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 from matplotlib.colors import LogNorm
 from matplotlib.figure import Figure
-from matplotlib.ticker import MaxNLocator
 
 from analysis.spectra import amplitude_spectrum
 
@@ -286,7 +285,7 @@ def study_figure(
                              cmap="viridis", shading="flat")
         hm.set_ylabel("harmonic k (× fe)")
         hm.set_title(f"{label} acceleration harmonics")
-        hm.yaxis.set_major_locator(MaxNLocator(integer=True, nbins=8))
+        hm.set_yticks([1, *range(5, k[-1] + 1, 5)] if k[-1] >= 10 else list(k))
         ticks = np.unique(np.linspace(0, len(x) - 1, min(len(x), 16)).round().astype(int))
         hm.set_xticks(ticks, [point_labels[j] for j in ticks], fontsize=8,
                       rotation=45 if len(ticks) > 8 else 0)
