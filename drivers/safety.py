@@ -296,9 +296,6 @@ class SineDrive:
         Peak voltage never exceeded: targets above it are refused.
     ramp_time
         Duration of every amplitude change (raised cosine), s.
-    abort_ramp_time
-        The rig's ramp to zero on abort, s (at most 0.1 s); checked here, but the ramp itself is
-        the device's: :meth:`~drivers.contracts.AcquisitionDevice.stop` does it.
 
     Examples
     --------
@@ -309,17 +306,13 @@ class SineDrive:
     """
 
     def __init__(self, sample_rate: float, frequency: float, max_drive: float, ramp_time: float,
-                 abort_ramp_time: float = 0.05, phase: float = 0.0) -> None:
+                 phase: float = 0.0) -> None:
         if not (sample_rate > 0 and math.isfinite(sample_rate)):
             raise ConfigurationError(f"sample rate {sample_rate!r} must be > 0")
-        if not 0 < abort_ramp_time <= MAX_ABORT_RAMP:
-            raise ConfigurationError(
-                f"abort ramp time {abort_ramp_time!r} s must be in (0, {MAX_ABORT_RAMP}] s")
         self._envelope = AmplitudeEnvelope(sample_rate, ramp_time, max_drive)
         self.sample_rate = float(sample_rate)
         self.max_drive = float(max_drive)
         self.ramp_time = float(ramp_time)
-        self.abort_ramp_time = float(abort_ramp_time)
         self._phase = float(phase)           # phase of the next sample, rad
         self._omega = 0.0
         self.set_frequency(frequency)

@@ -355,8 +355,7 @@ def dwell(args: argparse.Namespace, cfg: RigConfig, opts: Options, device, rate:
     from drivers.safety import SineDrive
     from rigtools.recording import RecordingWriter
 
-    drive = SineDrive(rate, opts.fe, max_drive=cfg.safety.max_drive, ramp_time=cfg.safety.ramp_time,
-                      abort_ramp_time=cfg.safety.abort_ramp_time)
+    drive = SineDrive(rate, opts.fe, max_drive=cfg.safety.max_drive, ramp_time=cfg.safety.ramp_time)
     drive.set_target(opts.drive)
     delay = device.input_to_output_delay()
     start = math.ceil((cfg.safety.ramp_time + opts.settle + delay) * rate - 1e-9)
