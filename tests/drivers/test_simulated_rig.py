@@ -177,7 +177,7 @@ def test_injected_fault_ramps_drive_to_zero_names_it_and_keeps_the_data(rig, cfg
     def run(path, faults):
         rig.faults = tuple(faults)
         fs = _configure(rig, cfg)
-        drive = SineDrive(fs, 60.0, max_drive=5.0, ramp_time=0.2, abort_ramp_time=cfg.safety.abort_ramp_time)
+        drive = SineDrive(fs, 60.0, max_drive=5.0, ramp_time=0.2)
         drive.set_target(1.0)
         with RecordingWriter(path, backend="simulated", rig=cfg.to_json(), experiment={"procedure": "dwell"}) as rec:
             point = rec.begin_point(params={"fe": 60.0}, channels=channels)

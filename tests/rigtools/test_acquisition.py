@@ -92,7 +92,7 @@ def _device(**kw):
 
 
 def _sine(amplitude=1.0):
-    drive = SineDrive(FS, 37.0, max_drive=5.0, ramp_time=0.2, abort_ramp_time=0.05)
+    drive = SineDrive(FS, 37.0, max_drive=5.0, ramp_time=0.2)
     drive.set_target(amplitude)
     return drive
 
