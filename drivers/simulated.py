@@ -2,15 +2,21 @@
 
 What happens to each block of drive samples (volts, as written by the procedure):
 
-1. a DAQ delay line of ``input_to_output_delay`` (whole samples), reported by
-   :meth:`SimulatedRig.input_to_output_delay`;
+1. a DAQ delay line of whole samples (with the half sample of step 4, nearest to the test
+   article's ``input_to_output_delay``);
 2. the voltage amplifier (gain ``G``) puts ``G * drive`` across the shaker coil;
 3. the physics: the electrodynamic shaker (coil ``R``, ``L``, force factor ``Bl``, armature mass
    on its suspension) rigidly coupled through the force sensor to the active blade, and the
    vibro-impact FE model of both blades of the *test article*, integrated with its state carried
    from block to block. Near a resonance of the blade the back-EMF and the armature take up the
    coil's force, so the sensor force dips as on a real rig;
-4. each input channel's measurement chain (:mod:`drivers.sensor_chain`): sensitivity, sensor and
+4. the DAQ's anti-alias filter, modelled as an integrating sampler: each sample is the mean of
+   the signal over its sample interval (:func:`interval_means`), not its value at an instant.
+   The contact makes the accelerations jump at every impact; point samples would fold that
+   broadband content down between the harmonics. The boxcar adds half a sample of group delay
+   on every channel; :meth:`SimulatedRig.input_to_output_delay` reports the delay line plus
+   that half sample;
+5. each input channel's measurement chain (:mod:`drivers.sensor_chain`): sensitivity, sensor and
    ADC noise, IEPE high-pass, 24-bit quantisation over the channel range; the reading is scaled
    back to SI units as DAQmx does.
 
@@ -104,7 +110,9 @@ class TestArticle:
     iepe_highpass
         Corner of the IEPE coupling high-pass, Hz (0: DC coupled).
     input_to_output_delay
-        Delay of the simulated DAQ between drive and inputs, s (rounded to whole samples).
+        Delay of the simulated DAQ between drive and inputs, s: a delay line of whole samples
+        plus the integrating sampler's half sample, the line chosen so that the sum comes
+        nearest to this value (at least half a sample).
     """
 
     __test__ = False  # not a pytest class
@@ -132,7 +140,8 @@ class TestArticle:
                        damping=DampingParams(ratio=self.damping_ratio))
 
     def ideal(self) -> "TestArticle":
-        """The same deviations with a noise-free, DC-coupled, delay-free measurement chain."""
+        """The same deviations with a noise-free, DC-coupled measurement chain without delay line
+        (the integrating sampler's half sample remains)."""
         return replace(self, force_noise=0.0, accel_noise=0.0, adc_noise=0.0, iepe_highpass=0.0,
                        input_to_output_delay=0.0)
 
@@ -202,8 +211,10 @@ class LinearModalPhysics:
     inductance ``i`` is algebraic). ``A`` is diagonalised once; each step is then, per
     eigen-coordinate, ``z1 = exp(lambda dt) z0 + g0 e0 + g1 e1``, exact for a coil voltage varying
     linearly over the step (first-order hold). As in :class:`sim.vibro_impact.VibroImpactStepper`,
-    ``e[k]`` is the input at the end of step ``k`` and output ``k`` is taken at the same instant
-    (the input before the first call is 0). The passive blade stays at rest.
+    ``e[k]`` is the input at the end of step ``k`` (the input before the first call is 0);
+    output ``k`` is the mean over step ``k``, exact from ``z' = lambda z + b e``:
+    ``mean z = (z1 - z0 - b (e0 + e1) dt / 2) / (lambda dt)`` (what the integrating sampler of
+    :func:`interval_means` reports). The passive blade stays at rest.
 
     Parameters
     ----------
@@ -284,6 +295,8 @@ class LinearModalPhysics:
         gamma1 = np.expm1(h) / lam * b_modal                      # int_0^dt e^{lam (dt - s)} ds
         gamma2 = (np.expm1(h) - h) / (lam * h) * b_modal          # same, weighted by s / dt
         self._g0, self._g1 = gamma1 - gamma2, gamma2
+        self._hb = 0.5 * dt * b_modal       # mean z = (z1 - z0 - hb (e0 + e1)) * ih
+        self._ih = 1.0 / h
         self._cz = (out @ vec) * weight
         self._d = d
         self._z = np.zeros(lam.size, dtype=complex)
@@ -299,30 +312,39 @@ class LinearModalPhysics:
         """Advance over ``coil_voltage`` (one value per step, V); returns ``(len(SIGNALS), n)``."""
         e = np.ascontiguousarray(coil_voltage, dtype=float)
         y = np.empty((len(SIGNALS), e.size))
-        _propagate(self._mu, self._g0, self._g1, self._cz, self._d, self._z, self._e_last, e, y)
+        _propagate(self._mu, self._g0, self._g1, self._hb, self._ih, self._cz, self._d, self._z,
+                   self._e_last, e, y)
         return y
 
 
 @numba.njit(cache=True)
-def _propagate(mu, g0, g1, cz, d, z, e_last, e, y):  # pragma: no cover - compiled
-    """Per step k: z <- mu z + g0 e[k-1] + g1 e[k]; y[:, k] = Re(cz @ z) + d e[k] (z, e_last in place)."""
+def _propagate(mu, g0, g1, hb, ih, cz, d, z, e_last, e, y):  # pragma: no cover - compiled
+    """Per step k: z <- mu z + g0 e[k-1] + g1 e[k]; y[:, k] = Re(cz @ mean z) + d (e[k-1] + e[k]) / 2
+    with mean z = (z_new - z_old - hb (e[k-1] + e[k])) * ih (z, e_last in place)."""
     n_out, n_z = cz.shape
     czr, czi = cz.real.copy(), cz.imag.copy()
     zr, zi = z.real.copy(), z.imag.copy()
+    mr, mi = np.empty(n_z), np.empty(n_z)
     mur, mui = mu.real, mu.imag
     e0 = e_last[0]
     for k in range(e.size):
         e1 = e[k]
+        es = e0 + e1
         for j in range(n_z):
             br = g0[j].real * e0 + g1[j].real * e1
             bi = g0[j].imag * e0 + g1[j].imag * e1
             r = mur[j] * zr[j] - mui[j] * zi[j] + br
-            zi[j] = mur[j] * zi[j] + mui[j] * zr[j] + bi
+            i = mur[j] * zi[j] + mui[j] * zr[j] + bi
+            dr = r - zr[j] - hb[j].real * es
+            di = i - zi[j] - hb[j].imag * es
+            mr[j] = dr * ih[j].real - di * ih[j].imag
+            mi[j] = dr * ih[j].imag + di * ih[j].real
             zr[j] = r
+            zi[j] = i
         for o in range(n_out):
-            acc = d[o] * e1
+            acc = 0.5 * d[o] * es
             for j in range(n_z):
-                acc += czr[o, j] * zr[j] - czi[o, j] * zi[j]
+                acc += czr[o, j] * mr[j] - czi[o, j] * mi[j]
             y[o, k] = acc
         e0 = e1
     e_last[0] = e0
@@ -352,39 +374,84 @@ class VibroImpactPhysics:
 
     def __init__(self, model, shaker: ShakerParams, dt: float) -> None:
         from sim.reduction import reduce_rig_model
-        from sim.vibro_impact import SimulationInputError, VibroImpactStepper
+        from sim.vibro_impact import OUT_COLUMNS, SimulationInputError, VibroImpactStepper
 
         self.system = reduce_rig_model(model)
         try:
             self._stepper = VibroImpactStepper(self.system, dt, shaker=shaker.coupling())
         except SimulationInputError as exc:
             raise ConfigurationError(f"sample rate {1 / dt:g} S/s: {exc}") from None
-        self._columns = None
+        self._cols = [OUT_COLUMNS.index(c) for c in (
+            "active_tip_velocity", "passive_tip_velocity", "force_point_velocity",
+            "force_point_displacement", "contact_force", "coil_current")]
+        self._shaker = shaker.coupling()
+        self._last = np.zeros(7)       # the end values of the previous step (at rest: zero)
         self.dt = dt
 
     def reset(self) -> None:
         """Back to rest."""
         self._stepper.reset()
+        self._last[:] = 0.0
 
     def step(self, coil_voltage: np.ndarray) -> np.ndarray:
-        """Advance over ``coil_voltage`` (V, at the end of each step); ``(len(SIGNALS), n)`` out."""
-        from sim.vibro_impact import OUT_COLUMNS
-
+        """Advance over ``coil_voltage`` (V, at the end of each step); ``(len(SIGNALS), n)`` out,
+        each value the mean of the signal over its step (:func:`interval_means`)."""
         e = np.ascontiguousarray(coil_voltage, dtype=float)
         data = self._stepper.step(e).data
-        if self._columns is None:
-            col = {
-                "force": "excitation_force", "active_tip_accel": "active_tip_acceleration",
-                "passive_tip_accel": "passive_tip_acceleration",
-                "force_point_accel": "force_point_acceleration", "coil_current": "coil_current",
-                "contact_force": "contact_force",
-            }
-            self._columns = [(_INDEX[k], OUT_COLUMNS.index(v)) for k, v in col.items()]
-        y = np.empty((len(SIGNALS), e.size))
-        for row, c in self._columns:
-            y[row] = data[:, c]
-        y[_INDEX["coil_voltage"]] = e
-        return y
+        ends = np.empty((7, e.size + 1))
+        ends[:, 0] = self._last
+        for row, c in enumerate(self._cols):
+            ends[row, 1:] = data[:, c]
+        ends[6, 1:] = e
+        self._last = ends[:, -1].copy()
+        return interval_means(ends, self.dt, self._shaker)
+
+
+def interval_means(ends: np.ndarray, dt: float, shaker) -> np.ndarray:
+    """What an integrating sampler reports: the mean of each signal over each sample interval.
+
+    A delta-sigma DSA input has an anti-alias filter; a point sample of the model would fold the
+    broadband content of the contact (the accelerations jump at each impact) down between the
+    harmonics. The interval mean (a boxcar of one sample period) has zeros at every multiple of
+    the sample rate, exactly where that content would fold from, and a group delay of half a
+    sample on every channel alike (reported in :meth:`SimulatedRig.input_to_output_delay`).
+
+    Parameters
+    ----------
+    ends
+        ``(7, n + 1)`` values at the step ends, the previous block's last step first; rows:
+        velocities of the active tip, passive tip and force point, force-point displacement,
+        contact force, coil current, coil voltage.
+    dt
+        Step, s.
+    shaker
+        The shaker (:class:`sim.vibro_impact.ShakerCoupling`).
+
+    Returns
+    -------
+    ``(len(SIGNALS), n)``. Exact means from the end values wherever a signal is the derivative of
+    one carried: accelerations ``(v[k] - v[k-1]) / dt``; force-point velocity ``dx / dt``; coil
+    current from the mean of ``L di/dt + R i + Bl v = e`` (the voltage is a first-order hold: its
+    mean is the trapezoid); sensor force ``Bl i - c_s v - m_a a - k_s x`` from these (``x`` by the
+    cubic Hermite rule from its velocity). The contact force by the trapezoid.
+    """
+    a0, a1 = ends[:, :-1], ends[:, 1:]
+    d = (a1 - a0) / dt
+    trap = 0.5 * (a0 + a1)
+    s = shaker
+    y = np.empty((len(SIGNALS), a0.shape[1]))
+    y[_INDEX["active_tip_accel"]] = d[0]
+    y[_INDEX["passive_tip_accel"]] = d[1]
+    y[_INDEX["force_point_accel"]] = d[2]
+    x_mean = trap[3] - d[2] * (dt * dt / 12.0)
+    e_mean = trap[6]
+    i_mean = (e_mean - s.force_factor * d[3] - s.coil_inductance * d[5]) / s.coil_resistance
+    y[_INDEX["force"]] = (s.force_factor * i_mean - s.suspension_damping * d[3]
+                          - s.armature_mass * d[2] - s.suspension_stiffness * x_mean)
+    y[_INDEX["contact_force"]] = trap[4]
+    y[_INDEX["coil_current"]] = i_mean
+    y[_INDEX["coil_voltage"]] = e_mean
+    return y
 
 
 def vibro_impact_available() -> bool:
@@ -444,7 +511,8 @@ class SimulatedRig(AcquisitionDevice):
     seed
         Noise seed.
     keep_truth
-        Keep the physical signals of every block (before the sensors) in :attr:`truth_log`.
+        Keep the physical signals of every block (interval means as the sampler sees them,
+        before the sensors) in :attr:`truth_log`.
     """
 
     backend = "simulated"
@@ -557,7 +625,9 @@ class SimulatedRig(AcquisitionDevice):
         self._chain.reset()
         self._queue.clear()
         self._queued = self._written = self._read_samples = self._blocks_read = 0
-        self._delay_line = np.zeros(int(round(self.test_article.input_to_output_delay * self._rate)))
+        # the sampler adds half a sample: the whole-sample line that brings the sum nearest
+        line = round(self.test_article.input_to_output_delay * self._rate - 0.5)
+        self._delay_line = np.zeros(max(0, int(line)))
         self._last_drive = 0.0
         self._drive_log, self.truth_log = [], []
         self.fault_sample = None
@@ -568,8 +638,9 @@ class SimulatedRig(AcquisitionDevice):
             raise ConfigurationError("device not configured; call configure() first")
 
     def input_to_output_delay(self) -> float:
-        """The simulated DAQ's delay line, whole samples, in s."""
-        return self._delay_line.size / self._rate if self._rate else 0.0
+        """The simulated DAQ's delay line (whole samples) plus the integrating sampler's half
+        sample of group delay, s."""
+        return (self._delay_line.size + 0.5) / self._rate if self._rate else 0.0
 
     def info(self) -> DeviceInfo:
         details = {"model": self.model_kind, "pace": str(self.pace),
