@@ -22,6 +22,13 @@ open never blocks the reopen between points; it refuses to replace an existing f
 
 Files use the HDF5 1.10 object format (``libver=("v110", "v110")``), which SWMR needs; HDF5 1.10
 or newer reads them (h5dump 1.10+, MATLAB R2021b+).
+
+Compressed channels (the default) keep HDF5's standard shuffle + deflate filters in the file, but
+HDF5 would run them on the caller's thread, one chunk after another. The writer instead
+shuffles and deflates full chunks itself on a small thread pool (zlib releases the GIL) and
+stores the finished bytes with ``write_direct_chunk``; any HDF5 reader decompresses them with
+its own filters. Only the partial last chunk of a channel goes through HDF5's own write, at each
+flush and at the end of a point; the full chunk written later replaces it.
 """
 
 from __future__ import annotations
@@ -31,7 +38,10 @@ import math
 import os
 import time
 import warnings
+import zlib
+from collections import deque
 from collections.abc import Mapping, Sequence
+from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
 
@@ -56,6 +66,8 @@ from rigtools.recording.schema import (
 LIBVER = ("v110", "v110")
 DEFAULT_CHUNK_SAMPLES = 16384        # 128 KiB of float64 per chunk: ~0.3 s at 51.2 kS/s
 COMPRESSIONS = ("gzip", "none")
+DEFLATE_THREADS = 2
+MAX_PENDING_CHUNKS = 8               # full chunks (all channels) queued before append waits
 
 
 def _json_default(value: Any) -> Any:
@@ -87,6 +99,74 @@ def one_line(exc: BaseException, limit: int = 500) -> str:
     return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
+def _shuffle_deflate(chunk: np.ndarray, level: int) -> bytes:
+    """One full float64 chunk as HDF5's shuffle + deflate filters store it.
+
+    Shuffle with an 8-byte element is the chunk's bytes transposed from (n, 8) to (8, n);
+    deflate stores a zlib stream. Runs on a worker thread (zlib releases the GIL).
+    """
+    shuffled = chunk.astype("<f8", copy=False).view(np.uint8).reshape(-1, 8).T.tobytes()
+    return zlib.compress(shuffled, level)
+
+
+class _DeflatedChunks:
+    """Full chunks of a point's channels compressed off the caller's thread, written directly.
+
+    Samples collect in ``tail`` (one chunk per channel); a full tail is handed to the thread pool
+    and its compressed bytes are written with ``write_direct_chunk`` in order, as they become
+    ready, at most ``MAX_PENDING_CHUNKS`` behind. :meth:`sync` writes everything appended,
+    the partial tail through HDF5's own (filtered) write.
+    """
+
+    def __init__(self, datasets: list[h5py.Dataset], chunk: int, level: int,
+                 pool: ThreadPoolExecutor):
+        self._datasets = datasets
+        self._chunk = chunk
+        self._level = level
+        self._pool = pool
+        self._tail = np.empty((len(datasets), chunk))
+        self._tail_start = 0          # sample index of tail[:, 0]; a multiple of chunk
+        self._tail_n = 0              # samples in the tail
+        self._pending: deque[tuple[int, list[Future]]] = deque()
+
+    def add(self, data: np.ndarray) -> None:
+        pos, n = 0, data.shape[1]
+        while pos < n:
+            take = min(self._chunk - self._tail_n, n - pos)
+            self._tail[:, self._tail_n:self._tail_n + take] = data[:, pos:pos + take]
+            self._tail_n += take
+            pos += take
+            if self._tail_n == self._chunk:
+                futures = [self._pool.submit(_shuffle_deflate, row, self._level)
+                           for row in self._tail]
+                self._pending.append((self._tail_start, futures))
+                self._tail = np.empty_like(self._tail)
+                self._tail_start += self._chunk
+                self._tail_n = 0
+        self._write_ready(wait=False)
+
+    def _write_ready(self, wait: bool) -> None:
+        """Write compressed chunks from the head of the queue: the finished ones, or all if ``wait``."""
+        while self._pending:
+            offset, futures = self._pending[0]
+            if not (wait or len(self._pending) > MAX_PENDING_CHUNKS
+                    or all(f.done() for f in futures)):
+                return
+            self._pending.popleft()
+            for dataset, future in zip(self._datasets, futures, strict=True):
+                dataset.id.write_direct_chunk((offset,), future.result(), filter_mask=0)
+
+    def sync(self) -> None:
+        """Write every sample appended so far into the file (before an HDF5 flush)."""
+        self._write_ready(wait=True)
+        if self._tail_n:
+            memspace = h5py.h5s.create_simple((self._tail_n,))
+            for dataset, row in zip(self._datasets, self._tail, strict=True):
+                filespace = dataset.id.get_space()
+                filespace.select_hyperslab((self._tail_start,), (self._tail_n,))
+                dataset.id.write(memspace, filespace, np.ascontiguousarray(row[:self._tail_n]))
+
+
 class PointWriter:
     """One steady-state point being recorded; made by :meth:`RecordingWriter.begin_point`.
 
@@ -103,12 +183,13 @@ class PointWriter:
     """
 
     def __init__(self, writer: RecordingWriter, index: int, channels: tuple[ChannelSpec, ...],
-                 datasets: list[h5py.Dataset]):
+                 datasets: list[h5py.Dataset], deflated: _DeflatedChunks | None = None):
         self._writer = writer
         self.index = index
         self.name = point_name(index)
         self.channels = channels
         self._datasets = datasets
+        self._deflated = deflated
         self._pending: dict[str, Any] = {}
         self.n_samples = 0
         self.flushed_samples = 0
@@ -143,12 +224,16 @@ class PointWriter:
         if n == 0:
             return
         start, stop = self.n_samples, self.n_samples + n
-        memspace = h5py.h5s.create_simple((n,))
-        for dataset, row in zip(self._datasets, data, strict=True):
+        for dataset in self._datasets:
             dataset.resize((stop,))
-            filespace = dataset.id.get_space()
-            filespace.select_hyperslab((start,), (n,))
-            dataset.id.write(memspace, filespace, np.ascontiguousarray(row))
+        if self._deflated is not None:
+            self._deflated.add(data)
+        else:
+            memspace = h5py.h5s.create_simple((n,))
+            for dataset, row in zip(self._datasets, data, strict=True):
+                filespace = dataset.id.get_space()
+                filespace.select_hyperslab((start,), (n,))
+                dataset.id.write(memspace, filespace, np.ascontiguousarray(row))
         self.n_samples = stop
         self._writer._maybe_flush()
 
@@ -168,6 +253,10 @@ class PointWriter:
         if self.ended:
             return
         self._writer._end_point(self)
+
+    def _sync(self) -> None:
+        if self._deflated is not None:
+            self._deflated.sync()
 
 
 class RecordingWriter:
@@ -234,6 +323,7 @@ class RecordingWriter:
         self._point: PointWriter | None = None
         self._n_points = 0
         self._closed = False
+        self._pool: ThreadPoolExecutor | None = None
 
         if self.path.exists() and not overwrite:
             raise RecordingError(f"{self.path} exists; pass overwrite=True (rig: --overwrite) to "
@@ -328,11 +418,17 @@ class RecordingWriter:
                 dataset.attrs[key] = value
             datasets.append(dataset)
         self._start_swmr()
+        deflated = None
+        if self._compression == "gzip":
+            if self._pool is None:
+                self._pool = ThreadPoolExecutor(DEFLATE_THREADS, thread_name_prefix="rigtools-deflate")
+            deflated = _DeflatedChunks(datasets, self._chunk, self._level, self._pool)
         self._n_points += 1
-        self._point = PointWriter(self, index, channels, datasets)
+        self._point = PointWriter(self, index, channels, datasets, deflated)
         return self._point
 
     def _end_point(self, point: PointWriter) -> None:
+        point._sync()
         self._file.flush()
         point.flushed_samples = point.n_samples
         self._reopen_plain()
@@ -348,6 +444,8 @@ class RecordingWriter:
     def flush(self) -> None:
         """Write everything appended so far to disk (HDF5 flush; survives a killed process)."""
         self._check_open()
+        if self._point is not None and not self._point.ended:
+            self._point._sync()
         self._file.flush()
         self._last_flush = time.monotonic()
         if self._point is not None:
@@ -387,6 +485,8 @@ class RecordingWriter:
             self._closed = True
             self.status = status
             self._file.close()
+            if self._pool is not None:
+                self._pool.shutdown(cancel_futures=True)
 
     # -- file modes ----------------------------------------------------------------------------
     def _check_open(self) -> None:
