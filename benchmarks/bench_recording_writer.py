@@ -69,14 +69,19 @@ def run_writer(path: Path, blocks: list[np.ndarray], n_blocks: int, compression:
     return time.perf_counter() - start
 
 
-def run_plain(path: Path, blocks: list[np.ndarray], n_blocks: int, compression: str) -> float:
+def plain_datasets(f: h5py.File, compression: str) -> list[h5py.Dataset]:
+    """The baseline's resizable channel datasets, chunked and filtered like the writer's."""
     filters = {"compression": "gzip", "compression_opts": 1, "shuffle": True} \
         if compression == "gzip" else {}
+    return [f.create_dataset(f"ch{i}", shape=(0,), maxshape=(None,), dtype="f8",
+                             chunks=(DEFAULT_CHUNK_SAMPLES,), **filters)
+            for i in range(N_CHANNELS)]
+
+
+def run_plain(path: Path, blocks: list[np.ndarray], n_blocks: int, compression: str) -> float:
     start = time.perf_counter()
     with h5py.File(path, "w", libver=LIBVER) as f:
-        datasets = [f.create_dataset(f"ch{i}", shape=(0,), maxshape=(None,), dtype="f8",
-                                     chunks=(DEFAULT_CHUNK_SAMPLES,), **filters)
-                    for i in range(N_CHANNELS)]
+        datasets = plain_datasets(f, compression)
         n = 0
         for i in range(n_blocks):
             block = blocks[i % len(blocks)]
@@ -89,13 +94,9 @@ def run_plain(path: Path, blocks: list[np.ndarray], n_blocks: int, compression: 
 
 def run_plain_direct(path: Path, blocks: list[np.ndarray], n_blocks: int, compression: str) -> float:
     """Plain h5py with the writer's own low-level write calls: isolates SWMR + flush overhead."""
-    filters = {"compression": "gzip", "compression_opts": 1, "shuffle": True} \
-        if compression == "gzip" else {}
     start = time.perf_counter()
     with h5py.File(path, "w", libver=LIBVER) as f:
-        datasets = [f.create_dataset(f"ch{i}", shape=(0,), maxshape=(None,), dtype="f8",
-                                     chunks=(DEFAULT_CHUNK_SAMPLES,), **filters)
-                    for i in range(N_CHANNELS)]
+        datasets = plain_datasets(f, compression)
         memspace = h5py.h5s.create_simple((BLOCK,))
         n = 0
         for i in range(n_blocks):
