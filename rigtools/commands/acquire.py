@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from rigtools.acquisition import AcquisitionAborted, BlockStream, StreamStats
-from rigtools.commands.simulate import check_out, quantity
+from rigtools.options import check_out, quantity
 from rigtools.config import RigConfig, load_rig
 from rigtools.errors import UserError
 

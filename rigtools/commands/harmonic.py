@@ -10,7 +10,7 @@ import numpy as np
 
 from rigtools.config import load_rig
 from rigtools.errors import UserError
-from rigtools.units import parse_quantity
+from rigtools.options import quantity
 from sim.harmonic import LOCATIONS, HarmonicResponse, harmonic_curves
 from sim.rig_model import build_rig_model
 
@@ -45,13 +45,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--points", type=int, default=2000, help="frequencies, evenly spaced (default 2000)")
     p.add_argument("--out", required=True, metavar="FILE", help="output file, .csv or .json; the plot goes to FILE.png")
     p.set_defaults(func=run)
-
-
-def _quantity(text: str, dimension: str, option: str) -> float:
-    try:
-        return parse_quantity(text, dimension)
-    except ValueError as exc:
-        raise UserError(f"{option} = {text!r}: {exc}") from None
 
 
 def _columns(fem: HarmonicResponse, am: HarmonicResponse) -> dict[str, np.ndarray]:
@@ -107,9 +100,9 @@ def run(args: argparse.Namespace) -> int:
         raise UserError(f"--out = {args.out!r}: the file name must end in .csv or .json")
     if not out.parent.exists():
         raise UserError(f"--out = {args.out!r}: folder {str(out.parent)!r} does not exist")
-    force = _quantity(args.force, "force", "--force")
-    fmin = _quantity(args.fmin, "frequency", "--fmin")
-    fmax = _quantity(args.fmax, "frequency", "--fmax")
+    force = quantity(args.force, "force", "--force")
+    fmin = quantity(args.fmin, "frequency", "--fmin")
+    fmax = quantity(args.fmax, "frequency", "--fmax")
     if force <= 0:
         raise UserError(f"--force = {args.force!r}: must be > 0")
     if not 0 <= fmin < fmax:

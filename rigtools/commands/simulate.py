@@ -10,7 +10,7 @@ import numpy as np
 
 from rigtools.config import load_rig
 from rigtools.errors import UserError
-from rigtools.units import parse_quantity
+from rigtools.options import check_out, quantity
 
 HELP = "simulate the vibro-impact response (FE or assumed-modes model) and record it as HDF5"
 EPILOG = """\
@@ -68,14 +68,6 @@ HARMONIC_CHANNELS = {
 K_MAX = 30
 
 
-def quantity(text: str, dimension: str, option: str) -> float:
-    """Parse a CLI quantity or raise a one-line UserError naming the option."""
-    try:
-        return parse_quantity(text, dimension)
-    except ValueError as exc:
-        raise UserError(f"{option} = {text!r}: {exc}") from None
-
-
 def add_model_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--rig", metavar="FILE", help="rig file (TOML); default: the calibrated default rig")
     p.add_argument("--model", choices=("fem", "am"), default="fem",
@@ -100,15 +92,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--gap", default=None, help='shroud gap (default: the rig file\'s, e.g. "0.5 mm")')
     add_model_options(p)
     p.set_defaults(func=run)
-
-
-def check_out(args: argparse.Namespace) -> Path:
-    out = Path(args.out)
-    if not out.parent.exists():
-        raise UserError(f"--out = {args.out!r}: folder {str(out.parent)!r} does not exist")
-    if out.exists() and not args.overwrite:
-        raise UserError(f"--out = {args.out!r} exists; give --overwrite to replace it")
-    return out
 
 
 def load_system(args: argparse.Namespace):

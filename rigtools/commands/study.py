@@ -8,9 +8,10 @@ import json
 import numpy as np
 
 from rigtools.commands.simulate import (
-    add_model_options, channel_block, channel_specs, check_out, end_attrs, harmonics_of,
-    load_system, point_params, quantity, run_options, write_plot,
+    add_model_options, channel_block, channel_specs, end_attrs, harmonics_of,
+    load_system, point_params, run_options, write_plot,
 )
+from rigtools.options import check_out, quantity
 from rigtools.errors import UserError
 
 HELP = "run a gap, force or frequency study of the vibro-impact model and record every point"
