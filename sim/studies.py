@@ -15,7 +15,7 @@ Progress is reported through an optional callback ``progress(done, total, text)`
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Callable, Iterable, Literal
+from typing import Callable, Iterable, Iterator, Literal
 
 import numpy as np
 
@@ -70,6 +70,90 @@ class Study:
         return np.array([p.run.peak_contact_force for p in self.points if direction in (None, p.direction)])
 
 
+SWEPT = {"gap": "gap", "force": "force", "frequency": "fe"}   # study kind -> swept parameter
+
+
+@dataclass(frozen=True)
+class PlannedPoint:
+    """One point of a study plan: its place in run order and every parameter it runs at (SI)."""
+
+    index: int           # run order, from 0
+    value: float         # the swept value
+    direction: str       # "up" or "down"
+    fe: float            # Hz
+    force: float         # force amplitude F0, N
+    gap: float           # m
+
+
+@dataclass(frozen=True)
+class StudyPlan:
+    """What a study runs, in which order, and whether state carries from point to point.
+
+    Shared by model studies (:func:`iter_study`) and rig studies (``rigtools.procedures``), so both
+    sweep the same values in the same order.
+
+    Parameters
+    ----------
+    kind
+        ``"gap"`` (values in m), ``"force"`` (N) or ``"frequency"`` (Hz).
+    values
+        The swept values (any order; run order comes from ``direction``).
+    direction
+        ``"up"``, ``"down"`` or ``"both"`` (up, then back down without repeating the top value).
+    fe, force, gap
+        The fixed parameters; ``None`` takes the paper's (:data:`DEFAULTS`). The swept one is ignored.
+    carry_state
+        Each point starts from the previous point's final state (a slow sweep, as on the rig);
+        ``False``: every point starts from rest.
+    """
+
+    kind: str
+    values: tuple[float, ...]
+    direction: str = "up"
+    fe: float | None = None
+    force: float | None = None
+    gap: float | None = None
+    carry_state: bool = True
+
+    def __post_init__(self) -> None:
+        if self.kind not in DEFAULTS:
+            raise SimulationInputError(f"study kind must be gap, force or frequency, got {self.kind!r}")
+        object.__setattr__(self, "values", tuple(float(v) for v in self.values))
+        defaults = DEFAULTS[self.kind]
+        for key in ("fe", "force", "gap"):
+            if getattr(self, key) is None and key in defaults:
+                object.__setattr__(self, key, float(defaults[key]))
+        what = {"gap": "gap", "force": "force amplitude", "frequency": "frequency"}[self.kind]
+        for v in self.values:
+            if not np.isfinite(v) or v < 0 or (self.kind == "frequency" and v <= 0):
+                raise SimulationInputError(
+                    f"{what} values must be {'> 0' if self.kind == 'frequency' else '>= 0'}, got {v:g}")
+        sweep_order(self.values, self.direction)          # checks direction and emptiness
+
+    @property
+    def fixed(self) -> dict[str, float]:
+        """The fixed parameters (``fe``, ``force``, ``gap`` without the swept one), SI."""
+        return {k: getattr(self, k) for k in ("fe", "force", "gap") if k != SWEPT[self.kind]}
+
+    def points(self) -> list[PlannedPoint]:
+        """Every point in run order."""
+        out = []
+        for i, (v, d) in enumerate(sweep_order(self.values, self.direction)):
+            p = {"fe": self.fe, "force": self.force, "gap": self.gap, SWEPT[self.kind]: v}
+            out.append(PlannedPoint(index=i, value=v, direction=d, fe=p["fe"], force=p["force"], gap=p["gap"]))
+        return out
+
+    def chains(self) -> list[list[PlannedPoint]]:
+        """Independent chains of points: the whole sweep when state carries, else one per point."""
+        pts = self.points()
+        return [pts] if self.carry_state else [[p] for p in pts]
+
+    def to_dict(self) -> dict:
+        """JSON-able description (for a recording's experiment attribute)."""
+        return {"kind": self.kind, "values": list(self.values), "direction": self.direction,
+                "fixed": self.fixed, "carry_state": self.carry_state}
+
+
 def sweep_order(values: Iterable[float], direction: Direction) -> list[tuple[float, str]]:
     """The values in run order with their direction: ``up`` ascending, ``down`` descending,
     ``both`` ascending then descending (the turning value is not repeated)."""
@@ -85,12 +169,47 @@ def sweep_order(values: Iterable[float], direction: Direction) -> list[tuple[flo
     raise SimulationInputError(f"direction must be up, down or both, got {direction!r}")
 
 
+def iter_study(system: ReducedSystem, plan: StudyPlan, *, start: int = 0,
+               initial: RunState | None = None, record_duration: float | None = None,
+               **run_options) -> Iterator[tuple[PlannedPoint, VibroImpactRun]]:
+    """Run a study plan point by point, yielding ``(planned point, settled run)`` as each finishes.
+
+    Nothing is kept between points but the carried state, so memory does not grow with the
+    number of points; the caller writes each point as it comes.
+
+    Parameters
+    ----------
+    system
+        Reduced rig (its contact stiffness/law are used; the gap is set per point).
+    plan
+        The study.
+    start
+        Index of the first point to run (resuming: earlier points are skipped).
+    initial
+        State to start from (resuming a carried-state sweep); ``None`` from rest.
+    record_duration
+        Recorded time per point, s (whole periods, at least one); overrides ``record_periods``.
+    **run_options
+        Passed to :func:`sim.vibro_impact.run_harmonic` (``record_periods``, ``tol``, ...).
+    """
+    state = initial
+    for point in plan.points()[start:]:
+        sysp = system.with_contact(gap=point.gap)
+        opts = dict(run_options)
+        if record_duration is not None:
+            opts["record_periods"] = max(1, int(round(record_duration * point.fe)))
+        run = run_harmonic(sysp, point.fe, point.force, initial=state if plan.carry_state else None, **opts)
+        state = run.final_state
+        yield point, run
+
+
 def run_study(system: ReducedSystem, kind: StudyKind, values: Iterable[float], *,
               fe: float | None = None, force: float | None = None, gap: float | None = None,
               direction: Direction = "up", carry_state: bool = True,
               progress: Progress | None = None, record_duration: float | None = None,
               **run_options) -> Study:
-    """Run a gap, force or frequency study.
+    """Run a gap, force or frequency study and keep every point in memory (see :func:`iter_study`
+    to stream points instead).
 
     Parameters
     ----------
@@ -117,30 +236,11 @@ def run_study(system: ReducedSystem, kind: StudyKind, values: Iterable[float], *
     -------
     Study
     """
-    if kind not in DEFAULTS:
-        raise SimulationInputError(f"study kind must be gap, force or frequency, got {kind!r}")
-    fixed = {"fe": fe, "force": force, "gap": gap}
-    for key, val in DEFAULTS[kind].items():
-        if fixed[key] is None:
-            fixed[key] = val
-    fixed.pop({"gap": "gap", "force": "force", "frequency": "fe"}[kind])
-    order = sweep_order(values, direction)
-    for v, _ in order:
-        if not np.isfinite(v) or v < 0 or (kind == "frequency" and v <= 0):
-            what = {"gap": "gap", "force": "force amplitude", "frequency": "frequency"}[kind]
-            raise SimulationInputError(f"{what} values must be {'> 0' if kind == 'frequency' else '>= 0'}, got {v:g}")
-    study = Study(kind=kind, fixed=dict(fixed))
-    state: RunState | None = None
-    for i, (v, d) in enumerate(order):
-        p = dict(fixed)
-        p[{"gap": "gap", "force": "force", "frequency": "fe"}[kind]] = v
-        sysp = system.with_contact(gap=p["gap"])
-        opts = dict(run_options)
-        if record_duration is not None:
-            opts["record_periods"] = max(1, int(round(record_duration * p["fe"])))
-        run = run_harmonic(sysp, p["fe"], p["force"], initial=state if carry_state else None, **opts)
-        state = run.final_state
-        study.points.append(StudyPoint(value=v, direction=d, run=run))
+    plan = StudyPlan(kind, tuple(values), direction, fe=fe, force=force, gap=gap, carry_state=carry_state)
+    study = Study(kind=kind, fixed=plan.fixed)
+    total = len(plan.points())
+    for point, run in iter_study(system, plan, record_duration=record_duration, **run_options):
+        study.points.append(StudyPoint(value=point.value, direction=point.direction, run=run))
         if progress is not None:
-            progress(i + 1, len(order), f"{kind} {v:g} {UNITS[kind]} ({d})")
+            progress(point.index + 1, total, f"{kind} {point.value:g} {UNITS[kind]} ({point.direction})")
     return study
