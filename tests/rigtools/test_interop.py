@@ -1,0 +1,164 @@
+"""UFF 58 export, TDMS import and SEP005 dicts: round trips through the real libraries (pyuff,
+npTDMS) equal to the source; malformed inputs give one line and exit 2."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import pyuff
+from nptdms import ChannelObject, GroupObject, RootObject, TdmsWriter
+
+from analysis.frf import estimate_frf
+from analysis.spectra import amplitude_spectrum
+from rigtools.cli import main
+from rigtools.config import load_rig
+from rigtools.interop.sep005 import to_sep005
+from rigtools.interop.tdms import G, LBF
+from rigtools.recording import ChannelSpec, RecordingWriter, open_recording
+
+FS = 2048.0
+N = 8192
+
+
+def _signals():
+    rng = np.random.default_rng(7)
+    force = rng.standard_normal(N)
+    # a known linear response: a 2-tap filter of the force (FRF 0.5 + 0.25 e^{-iw/fs})
+    accel = 0.5 * force + 0.25 * np.concatenate([[0.0], force[:-1]]) + 1e-3 * rng.standard_normal(N)
+    return force, accel
+
+
+@pytest.fixture(scope="module")
+def recording(tmp_path_factory):
+    path = tmp_path_factory.mktemp("uff") / "frf.h5"
+    force, accel = _signals()
+    with RecordingWriter(path, backend="simulated", rig=load_rig(None).to_json(),
+                         experiment={"procedure": "frf"}) as rec:
+        p = rec.begin_point(params={"fe": 0.0}, channels=[
+            ChannelSpec("force", "N", "force", FS), ChannelSpec("active_shroud_accel", "m/s^2", "acceleration", FS)])
+        p.append(np.vstack([force, accel]))
+        p.end()
+    return path
+
+
+def _read(path):
+    sets = pyuff.UFF(str(path)).read_sets()
+    return sets if isinstance(sets, list) else [sets]
+
+
+def test_uff_round_trip_equals_source(recording, tmp_path, capsys):
+    out = tmp_path / "frf.uff"
+    assert main(["export", "uff", str(recording), str(out), "--resolution", "8 Hz"]) == 0
+    sets = _read(out)
+    assert sets[0]["type"] == 164 and sets[0]["units_code"] == 1          # SI
+    f58 = [s for s in sets if s["type"] == 58]
+    force, accel = _signals()
+    by = {(s["func_type"], s["rsp_node"]): s for s in f58}
+    # time records: values bit for bit, abscissa to the format's E13.5 increment
+    t_force, t_acc = by[(1, 1)], by[(1, 2)]
+    np.testing.assert_array_equal(t_force["data"], force)
+    np.testing.assert_array_equal(t_acc["data"], accel)
+    assert t_acc["abscissa_inc"] == pytest.approx(1 / FS, rel=1e-5)
+    assert (t_force["ordinate_spec_data_type"], t_force["ordinate_force_unit_exp"]) == (13, 1)
+    assert (t_acc["ordinate_spec_data_type"], t_acc["ordinate_len_unit_exp"]) == (12, 1)
+    assert t_acc["abscissa_spec_data_type"] == 17 and t_acc["rsp_dir"] == 2
+    # spectra equal the analysis layer's
+    f, amp = amplitude_spectrum(accel, FS)
+    spec = by[(2, 2)]
+    np.testing.assert_allclose(spec["data"], amp ** 2 / 2, rtol=1e-15, atol=0)
+    assert spec["ordinate_len_unit_exp"] == 2                 # (m/s^2)^2
+    # FRF and coherence: reference node 1 (force), numerator acceleration, denominator force
+    frf, coh = by[(4, 2)], by[(6, 2)]
+    est = estimate_frf(force, accel, FS, nperseg=256)
+    np.testing.assert_allclose(frf["data"], est.h1, rtol=1e-15, atol=0)
+    np.testing.assert_allclose(coh["data"], est.coherence, rtol=1e-15, atol=0)
+    assert (frf["ref_node"], frf["orddenom_spec_data_type"], frf["orddenom_force_unit_exp"]) == (1, 13, 1)
+    assert frf["abscissa_spec_data_type"] == 18
+    # and the physics: the known FRF 0.5 + 0.25 exp(-i w / fs) where coherent
+    w = 2 * np.pi * est.frequency_hz / FS
+    np.testing.assert_allclose(est.h1[1:-1], (0.5 + 0.25 * np.exp(-1j * w))[1:-1], atol=2e-3)
+    assert "1 frf" in capsys.readouterr().out
+
+
+def test_sep005_dicts(recording):
+    force, accel = _signals()
+    with open_recording(recording) as rec:
+        chans = to_sep005(rec, point=0)
+    assert [c["name"] for c in chans] == ["force", "active_shroud_accel"]
+    assert all(c["fs"] == FS for c in chans)
+    assert [c["unit_str"] for c in chans] == ["N", "m/s^2"]
+    np.testing.assert_array_equal(chans[1]["data"], accel)
+
+
+def _write_tdms(path, *, units=("g", "Newtons"), increment=1 / FS, extra=None):
+    rng = np.random.default_rng(3)
+    a, f = rng.standard_normal(1000), rng.standard_normal(1000)
+    props = lambda u: {k: v for k, v in {"unit_string": u, "wf_increment": increment,  # noqa: E731
+                                         "wf_start_offset": 0.0}.items() if v is not None}
+    with TdmsWriter(str(path)) as w:
+        objs = [RootObject({"name": "log"}), GroupObject("Task"),
+                ChannelObject("Task", "Dev1/ai1", a, properties=props(units[0])),
+                ChannelObject("Task", "Dev1/ai0", f, properties=props(units[1]))]
+        if extra:
+            objs += extra
+        w.write_segment(objs)
+    return a, f
+
+
+def test_tdms_import_round_trip(tmp_path):
+    src, out = tmp_path / "log.tdms", tmp_path / "log.h5"
+    a, f = _write_tdms(src, units=("g", "lbf"))
+    assert main(["import", "tdms", str(src), str(out), "--rename", "Dev1/ai0=force"]) == 0
+    with open_recording(out) as rec:
+        assert rec.backend == "tdms" and rec.complete
+        p = rec.points[0]
+        assert set(p.channels) == {"Dev1_ai1", "force"}
+        acc = p.channels["Dev1_ai1"]
+        assert (acc.units, acc.quantity, acc.sample_rate) == ("m/s^2", "acceleration", FS)
+        np.testing.assert_allclose(acc.read(), a * G, rtol=1e-15)
+        np.testing.assert_allclose(p.channels["force"].read(), f * LBF, rtol=1e-15)
+        assert p.channels["force"].units == "N"
+
+
+@pytest.mark.parametrize("case", ["not_tdms", "no_units", "no_timing", "bad_units", "exists"])
+def test_malformed_inputs_one_line_exit_2(tmp_path, capsys, case):
+    src, out = tmp_path / "in.tdms", tmp_path / "out.h5"
+    if case == "not_tdms":
+        src.write_bytes(b"this is not a TDMS file at all" * 10)
+    elif case == "no_units":
+        _write_tdms(src, units=(None, "N"))
+    elif case == "no_timing":
+        _write_tdms(src, increment=None)
+    elif case == "bad_units":
+        _write_tdms(src, units=("furlongs", "N"))
+    else:
+        _write_tdms(src)
+        out.write_bytes(b"keep me")
+    assert main(["import", "tdms", str(src), str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("rig import: error:"), err
+    if case == "exists":
+        assert out.read_bytes() == b"keep me"
+    else:
+        assert not out.exists()
+
+
+@pytest.mark.parametrize("case", ["not_h5", "exists", "self", "bad_what"])
+def test_export_bad_input(tmp_path, recording, capsys, case):
+    src, out = recording, tmp_path / "x.uff"
+    args = []
+    if case == "not_h5":
+        src = tmp_path / "no.h5"
+        src.write_text("plain text")
+    elif case == "exists":
+        out.write_text("keep")
+    elif case == "self":
+        out = recording
+        args = ["--overwrite"]
+    else:
+        args = ["--what", "modes"]
+    before = recording.read_bytes()
+    assert main(["export", "uff", str(src), str(out), *args]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("rig export: error:"), err
+    assert recording.read_bytes() == before
