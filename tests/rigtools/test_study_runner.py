@@ -1,0 +1,89 @@
+"""The study runner: one code path in-process and on a real Dask LocalCluster, results in point
+order and bit-identical whatever the number of workers; a worker that dies loses no point."""
+
+from __future__ import annotations
+
+import functools
+import os
+import sys
+from pathlib import Path
+
+import cloudpickle
+import numpy as np
+import pytest
+
+from rigtools.config import load_rig
+from rigtools.study_runner import RunOptions, StudyRunner, map_chains, run_point
+from sim.reduction import reduced_system
+
+OPTIONS = RunOptions(record_duration=0.1, max_settle_time=3.0)
+CHAINS = map_chains([0.3e-3, 0.5e-3, 0.7e-3], [10.0, 15.0, 20.0], [58.0, 60.0, 62.0])
+cloudpickle.register_pickle_by_value(sys.modules[__name__])   # workers cannot import tests/
+
+
+@pytest.fixture(scope="module")
+def system():
+    return reduced_system(load_rig(None).to_params(), "fem")
+
+
+@pytest.fixture(scope="module")
+def in_process(system):
+    return [(p, r) for p, r in StudyRunner().run(system, CHAINS, OPTIONS)]
+
+
+def _same(a, b):
+    assert [p.index for p, _ in a] == [p.index for p, _ in b] == list(range(27))
+    for (pa, ra), (pb, rb) in zip(a, b):
+        assert pa == pb
+        for key, value in ra.outputs.items():
+            assert np.array_equal(value, rb.outputs[key]), (pa.index, key)
+
+
+def test_map_chains_cover_the_grid_in_row_major_order():
+    points = [p for chain in CHAINS for p in chain]
+    assert len(CHAINS) == 9 and all(len(c) == 3 for c in CHAINS)
+    assert [p.index for p in points] == list(range(27))
+    assert (points[0].gap, points[0].force, points[0].fe) == (0.3e-3, 10.0, 58.0)
+    assert (points[5].gap, points[5].force, points[5].fe) == (0.3e-3, 15.0, 62.0)
+    assert (points[26].gap, points[26].force, points[26].fe) == (0.7e-3, 20.0, 62.0)
+
+
+def test_in_process_carries_state_like_a_plain_loop(system, in_process):
+    # chain 0 by hand: each point starts from the previous one's final state
+    previous = None
+    for point in CHAINS[0]:
+        previous = run_point(system, point, OPTIONS, previous)
+        got = in_process[point.index][1]
+        assert np.array_equal(got.outputs["contact_force"], previous.outputs["contact_force"])
+
+
+def test_two_worker_cluster_is_bit_identical(system, in_process):
+    with StudyRunner(workers=2) as runner:
+        assert runner.n_workers == 2
+        got = list(runner.run(system, CHAINS, OPTIONS))
+    _same(in_process, got)
+    assert runner.report.retried == []
+
+
+def _dies_once(marker: str, index: int, system, point, options, previous):
+    """run_point, except that the worker running point ``index`` dies the first time."""
+    if point.index == index and not os.path.exists(marker):
+        Path(marker).write_text(str(os.getpid()))
+        os._exit(1)
+    return run_point(system, point, options, previous)
+
+
+def test_killed_worker_loses_no_point(system, in_process, tmp_path):
+    marker = str(tmp_path / "killed")
+    with StudyRunner(workers=2) as runner:
+        got = list(runner.run(system, CHAINS, OPTIONS, point_fn=functools.partial(_dies_once, marker, 13)))
+    assert Path(marker).exists()                       # the worker really died
+    assert [i for i, _ in runner.report.retried] == [13]
+    _same(in_process, got)
+
+
+def test_workers_and_scheduler_exclude_each_other():
+    from rigtools.errors import UserError
+
+    with pytest.raises(UserError, match="exclude"):
+        StudyRunner(workers=2, scheduler="tcp://127.0.0.1:1")
