@@ -14,6 +14,8 @@ import math
 import tomllib
 from importlib import resources
 from pathlib import Path
+import types
+import typing
 from typing import Annotated, Any, Literal
 
 from pydantic import (
@@ -41,7 +43,11 @@ from sim.params import (
 
 
 def _quantity(dimension: str):
-    return BeforeValidator(lambda v: parse_quantity(v, dimension))
+    def parse(value: Any) -> float:
+        return parse_quantity(value, dimension)
+
+    parse.dimension = dimension      # for the SI unit in range messages
+    return BeforeValidator(parse)
 
 
 Length = Annotated[float, _quantity("length")]
@@ -329,6 +335,12 @@ class SignalSourceConfig(_Section):
     max_amplitude: VoltageAmplitude = Field(default=1.0, gt=0, le=10.0)
     timeout: Time = Field(default=2.0, gt=0, le=60.0)
 
+    @property
+    def max_amplitude_vpp(self) -> float:
+        """``max_amplitude`` in peak-to-peak volts (the 33500's VOLT unit), for
+        :class:`drivers.visa_source` limits."""
+        return 2.0 * self.max_amplitude
+
     @model_validator(mode="after")
     def _range(self) -> "SignalSourceConfig":
         if self.frequency_min >= self.frequency_max:
@@ -551,6 +563,64 @@ def _raw_value(data: Any, loc: list[str], fallback: Any) -> Any:
     return data
 
 
+_SI_UNIT = {
+    "length": "m", "mass": "kg", "time": "s", "frequency": "Hz", "force": "N", "pressure": "Pa",
+    "density": "kg/m^3", "stiffness": "N/m", "rotational_stiffness": "N*m/rad", "damping": "N*s/m",
+    "inertia": "kg*m^2", "voltage": "V", "voltage_amplitude": "V peak", "current": "A",
+    "resistance": "ohm", "inductance": "H", "force_factor": "N/A", "acceleration": "m/s^2",
+}
+_RANGE_ERRORS = ("greater_than", "greater_than_equal", "less_than", "less_than_equal")
+
+
+def _field_metadata(loc: list[str]) -> list[Any]:
+    """The validation metadata (bounds, unit parser) of the field at ``loc``, [] if not found."""
+    cls: Any = RigConfig
+    items: list[Any] = []
+    for part in loc:
+        fields = getattr(cls, "model_fields", None)
+        if not fields or part not in fields:
+            return []
+        field = fields[part]
+        items, cls = list(field.metadata), None
+        stack = [field.annotation]
+        while stack:
+            ann = stack.pop()
+            origin = typing.get_origin(ann)
+            if origin is Annotated:
+                stack.append(typing.get_args(ann)[0])
+                for meta in ann.__metadata__:
+                    items.extend(getattr(meta, "metadata", None) or [meta])
+            elif origin in (typing.Union, types.UnionType):
+                stack.extend(typing.get_args(ann))
+            elif isinstance(ann, type) and issubclass(ann, BaseModel):
+                cls = ann
+    return items
+
+
+def _allowed_range(loc: list[str]) -> tuple[str, str] | None:
+    """(``"[1e-05, 0.5]"``, ``"m"``) for the field at ``loc`` (SI), or None if it has no bounds."""
+    low = high = None
+    low_open = high_open = False
+    unit = ""
+    for meta in _field_metadata(loc):
+        for attr, is_low, is_open in (("gt", True, True), ("ge", True, False), ("lt", False, True),
+                                      ("le", False, False)):
+            bound = getattr(meta, attr, None)
+            if isinstance(bound, (int, float)):
+                if is_low:
+                    low, low_open = bound, is_open
+                else:
+                    high, high_open = bound, is_open
+        dimension = getattr(getattr(meta, "func", None), "dimension", None)
+        if dimension:
+            unit = _SI_UNIT.get(dimension, "")
+    if low is None and high is None:
+        return None
+    left = "-inf" if low is None else f"{low:g}"
+    right = "inf" if high is None else f"{high:g}"
+    return f"{'(' if low_open or low is None else '['}{left}, {right}{')' if high_open or high is None else ']'}", unit
+
+
 def _describe(error: dict[str, Any], data: dict[str, Any]) -> str:
     loc = [str(p) for p in error["loc"]]
     key = ".".join(loc) if loc else "(file)"
@@ -560,6 +630,19 @@ def _describe(error: dict[str, Any], data: dict[str, Any]) -> str:
         return f"missing key '{key}'"
     value = _raw_value(data, loc, error.get("input"))
     message = error["msg"].removeprefix("Value error, ")
+    if error["type"] in _RANGE_ERRORS:
+        found = _allowed_range(loc)
+        if found:
+            allowed, unit = found
+            si = error.get("input")
+            if isinstance(value, str) and isinstance(si, (int, float)):
+                note = f" (= {si:g} {unit})".replace(" )", ")")
+            elif unit and isinstance(value, (int, float)):
+                note = f" (a plain number is in {unit}; write units, e.g. '0.5 mm')" if unit == "m" \
+                    else f" (a plain number is in {unit})"
+            else:
+                note = ""
+            message = f"outside the allowed range {allowed} {unit}".rstrip() + note
     if not loc:
         return message
     if isinstance(value, dict):     # a check of a whole table: its message names the keys
