@@ -597,11 +597,12 @@ def _field_metadata(loc: list[str]) -> list[Any]:
     return items
 
 
-def _allowed_range(loc: list[str]) -> tuple[str, str] | None:
-    """(``"[1e-05, 0.5]"``, ``"m"``) for the field at ``loc`` (SI), or None if it has no bounds."""
+def _allowed_range(loc: list[str]) -> tuple[str, str, str | None] | None:
+    """(``"[1e-05, 0.5]"``, ``"m"``, ``"length"``) for the field at ``loc`` (SI), or None if it
+    has no bounds."""
     low = high = None
     low_open = high_open = False
-    unit = ""
+    unit, dimension = "", None
     for meta in _field_metadata(loc):
         for attr, is_low, is_open in (("gt", True, True), ("ge", True, False), ("lt", False, True),
                                       ("le", False, False)):
@@ -611,14 +612,14 @@ def _allowed_range(loc: list[str]) -> tuple[str, str] | None:
                     low, low_open = bound, is_open
                 else:
                     high, high_open = bound, is_open
-        dimension = getattr(getattr(meta, "func", None), "dimension", None)
-        if dimension:
+        if getattr(getattr(meta, "func", None), "dimension", None):
+            dimension = meta.func.dimension
             unit = _SI_UNIT.get(dimension, "")
     if low is None and high is None:
         return None
     left = "-inf" if low is None else f"{low:g}"
     right = "inf" if high is None else f"{high:g}"
-    return f"{'(' if low_open or low is None else '['}{left}, {right}{')' if high_open or high is None else ']'}", unit
+    return f"{'(' if low_open or low is None else '['}{left}, {right}{')' if high_open or high is None else ']'}", unit, dimension
 
 
 def _describe(error: dict[str, Any], data: dict[str, Any]) -> str:
@@ -633,8 +634,10 @@ def _describe(error: dict[str, Any], data: dict[str, Any]) -> str:
     if error["type"] in _RANGE_ERRORS:
         found = _allowed_range(loc)
         if found:
-            allowed, unit = found
+            allowed, unit, dimension = found
             si = error.get("input")
+            if isinstance(si, str) and dimension:     # an optional field reports the raw text
+                si = parse_quantity(si, dimension)
             if isinstance(value, str) and isinstance(si, (int, float)):
                 note = f" (= {si:g} {unit})".replace(" )", ")")
             elif unit and isinstance(value, (int, float)):
