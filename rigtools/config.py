@@ -191,10 +191,10 @@ class DaqChannelConfig(_Section):
 
     physical_channel: str = Field(min_length=1)
     kind: Literal["accel", "force", "voltage"]
-    sensitivity: float | str    # SI (V/(m/s^2), V/N, V/V) or "10 mV/g", "11.24 mV/N"
+    sensitivity: float          # SI (V/(m/s^2), V/N, V/V) or "10 mV/g", "11.24 mV/N"
     # A; default IEPE_EXCITATION for accel/force, 0 for voltage ("4 mA" or 0.004)
     excitation_current: Annotated[float, _quantity("current")] = Field(ge=0, le=0.025)
-    range: float | str          # +- in the channel's SI units (m/s^2, N, V) or "4900 m/s^2", "200 N"
+    range: float                # +- in the channel's SI units (m/s^2, N, V) or "4900 m/s^2", "200 N"
     location: str = ""
 
     @model_validator(mode="before")
@@ -204,9 +204,9 @@ class DaqChannelConfig(_Section):
             data = {**data, "excitation_current": 0.0 if data.get("kind") == "voltage" else IEPE_EXCITATION}
         return data
 
-    @field_validator("range", mode="after")
+    @field_validator("range", mode="before")
     @classmethod
-    def _range_in_channel_units(cls, value: float | str, info: ValidationInfo) -> float:
+    def _range_in_channel_units(cls, value: Any, info: ValidationInfo) -> float:
         kind = info.data.get("kind")
         if kind is None:
             raise ValueError("needs a valid kind")
@@ -221,9 +221,9 @@ class DaqChannelConfig(_Section):
             raise ValueError("a voltage channel takes no excitation current (give 0 or leave it out)")
         return self
 
-    @field_validator("sensitivity", mode="after")
+    @field_validator("sensitivity", mode="before")
     @classmethod
-    def _units_suit_kind(cls, value: float | str, info: ValidationInfo) -> float:
+    def _units_suit_kind(cls, value: Any, info: ValidationInfo) -> float:
         kind = info.data.get("kind")
         if kind is None:
             raise ValueError("needs a valid kind")

@@ -276,3 +276,21 @@ def test_shaker_bounds_hold_in_config_and_params(name, where):
 def test_shaker_coupling_is_built_from_the_params():
     coupling = ShakerParams(armature_mass=0.2).coupling()
     assert coupling.armature_mass == 0.2 and coupling.coil_resistance == SHAKER_BOUNDS["coil_resistance"].default
+
+
+@pytest.mark.parametrize("path, value", [
+    ("daq.channels.force.sensitivity", math.inf), ("daq.channels.force.range", math.nan),
+    ("daq.channels.active_shroud_accel.range", "1e400 m/s^2"), ("safety.limits.force.warning", math.inf),
+    ("safety.limits.drive.abort", math.nan), ("daq.block_duration", "1e400 s"), ("blade.elements", math.inf),
+    ("force_sensor.position", -math.inf), ("shroud.rotary_inertia", math.nan),
+    ("daq.channels.force.excitation_current", math.inf),
+])
+def test_non_finite_values_in_nested_tables_name_the_key(path, value):
+    data = copy.deepcopy(DEFAULT)
+    *head, last = path.split(".")
+    table = data
+    for part in head:
+        table = table[part]
+    table[last] = value
+    message = _one_line(data)
+    assert f"{path} = {value!r}" in message and "finite number" in message and "(and" not in message
