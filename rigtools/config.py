@@ -12,10 +12,10 @@ from __future__ import annotations
 import json
 import math
 import tomllib
-from importlib import resources
-from pathlib import Path
 import types
 import typing
+from importlib import resources
+from pathlib import Path
 from typing import Annotated, Any, Literal
 
 from pydantic import (
@@ -101,8 +101,10 @@ class PassiveBladeConfig(_Section):
     theory: Theory | None = None
 
 
-# Root springs: beyond ~1e6 times the blade's own stiffness the stiffness matrix is so badly
-# conditioned that the lowest natural frequencies come out as 0 Hz; a clamp is then the right model.
+# Root springs: far stiffer than the blade the stiffness matrix is so badly conditioned that the
+# reduced model goes wrong (default rig, FEM reduction: 1e9 N*m/rad with 1e13 N/m still gives the
+# clamped 53.2 Hz; 1e12 with 1e16 adds spurious 77 Hz modes; 1e18 with 1e24 gives 0 Hz). The
+# limits keep a factor 100 below the first failure; stiffer than them, a clamp is the right model.
 MAX_ROOT_ROTATIONAL_STIFFNESS = 1e7      # N*m/rad (the default blade's EI/L is ~140 N*m/rad)
 MAX_ROOT_TRANSLATIONAL_STIFFNESS = 1e11  # N/m (its 3EI/L^3 is ~1.8e4 N/m; axially EA/L ~ 1.7e8 N/m)
 
@@ -131,8 +133,9 @@ class ForceSensorConfig(_Section):
 
 
 # Contact damping above this multiple of the critical damping of the shroud on the contact
-# spring, 2*sqrt(stiffness*shroud mass), is refused: it no longer changes the physics (the shroud
-# sticks), and the time step chosen from the contact period cannot integrate it (all-NaN results).
+# spring, 2*sqrt(stiffness*shroud mass), is refused: an over-damped contact has no rebound left to
+# model, and the step chosen from the contact period does not resolve the damper's time constant
+# (default rig at 60 Hz, 15 N: 1e5 N*s/m gives no contact force at all; the issue saw all-NaN).
 MAX_CONTACT_DAMPING_RATIO = 2.0
 
 
