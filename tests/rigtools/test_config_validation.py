@@ -294,3 +294,18 @@ def test_non_finite_values_in_nested_tables_name_the_key(path, value):
     table[last] = value
     message = _one_line(data)
     assert f"{path} = {value!r}" in message and "finite number" in message and "(and" not in message
+
+
+def test_root_springs_at_their_limits_still_model_a_clamp():
+    """The largest root springs accepted give the clamped rig's natural frequencies (the reference:
+    the clamped model) within 0.01 %: the limits sit inside the range the model handles."""
+    from rigtools.config import MAX_ROOT_ROTATIONAL_STIFFNESS, MAX_ROOT_TRANSLATIONAL_STIFFNESS
+    from sim.reduction import reduced_system
+
+    clamped = parse_rig(DEFAULT)
+    springs = parse_rig(_edited("root", kind="springs", rotational_stiffness=MAX_ROOT_ROTATIONAL_STIFFNESS,
+                                translational_stiffness=MAX_ROOT_TRANSLATIONAL_STIFFNESS))
+    f_clamped = np.sort(reduced_system(clamped.to_params(), "fem").frequencies_hz)[:4]
+    f_springs = np.sort(reduced_system(springs.to_params(), "fem").frequencies_hz)[:4]
+    assert f_clamped[0] == pytest.approx(53.2, abs=0.05)
+    np.testing.assert_allclose(f_springs, f_clamped, rtol=1e-4)
