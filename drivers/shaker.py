@@ -13,9 +13,46 @@ dynamics take up the coil's force, and the sensor force dips, as on a real rig.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import math
+from numbers import Real
+from dataclasses import dataclass, fields
 
 import numpy as np
+
+
+@dataclass(frozen=True)
+class ParamBound:
+    """Default and allowed range of one shaker parameter (SI), the one definition used by
+    :class:`ShakerParams` and by the rig file's ``[shaker]`` (:class:`rigtools.config.ShakerConfig`)."""
+
+    default: float
+    low: float
+    high: float
+    low_open: bool      # True: low itself is refused (> low); False: >= low
+    unit: str
+    dimension: str      # for :func:`rigtools.units.parse_quantity`; "" for a plain ratio
+
+    def check(self, name: str, value: float) -> None:
+        """Raise ``ValueError`` (one line naming ``name`` and ``value``) if out of range."""
+        ok = (isinstance(value, Real) and not isinstance(value, bool) and math.isfinite(value)
+              and (value > self.low if self.low_open else value >= self.low) and value <= self.high)
+        if not ok:
+            low = "(" if self.low_open else "["
+            raise ValueError(f"shaker {name} = {value!r} {self.unit}: must be a finite number in "
+                             f"{low}{self.low:g}, {self.high:g}] {self.unit}")
+
+
+# Physically sensible ranges for a lab shaker and its amplifier, from a 10 N modal exciter to a
+# large electrodynamic shaker.
+SHAKER_BOUNDS: dict[str, ParamBound] = {
+    "armature_mass": ParamBound(0.1, 0.0, 10.0, True, "kg", "mass"),
+    "suspension_stiffness": ParamBound(2.0e4, 0.0, 1e8, False, "N/m", "stiffness"),
+    "suspension_damping": ParamBound(5.0, 0.0, 1e5, False, "N*s/m", "damping"),
+    "force_factor": ParamBound(10.0, 0.0, 1e3, True, "N/A", "force_factor"),
+    "coil_resistance": ParamBound(2.5, 0.0, 1e3, True, "ohm", "resistance"),
+    "coil_inductance": ParamBound(5e-4, 0.0, 1.0, False, "H", "inductance"),
+    "amplifier_gain": ParamBound(4.0, 0.0, 1e3, True, "V/V", ""),
+}
 
 
 @dataclass(frozen=True)
@@ -40,21 +77,17 @@ class ShakerParams:
         Voltage gain of the power amplifier, V at the coil per V of drive.
     """
 
-    armature_mass: float = 0.1
-    suspension_stiffness: float = 2.0e4
-    suspension_damping: float = 5.0
-    force_factor: float = 10.0
-    coil_resistance: float = 2.5
-    coil_inductance: float = 5e-4
-    amplifier_gain: float = 4.0
+    armature_mass: float = SHAKER_BOUNDS["armature_mass"].default
+    suspension_stiffness: float = SHAKER_BOUNDS["suspension_stiffness"].default
+    suspension_damping: float = SHAKER_BOUNDS["suspension_damping"].default
+    force_factor: float = SHAKER_BOUNDS["force_factor"].default
+    coil_resistance: float = SHAKER_BOUNDS["coil_resistance"].default
+    coil_inductance: float = SHAKER_BOUNDS["coil_inductance"].default
+    amplifier_gain: float = SHAKER_BOUNDS["amplifier_gain"].default
 
     def __post_init__(self) -> None:
-        for name in ("armature_mass", "force_factor", "coil_resistance", "amplifier_gain"):
-            if not getattr(self, name) > 0:
-                raise ValueError(f"shaker {name} = {getattr(self, name)!r} must be > 0")
-        for name in ("suspension_stiffness", "suspension_damping", "coil_inductance"):
-            if not getattr(self, name) >= 0:
-                raise ValueError(f"shaker {name} = {getattr(self, name)!r} must be >= 0")
+        for f in fields(self):
+            SHAKER_BOUNDS[f.name].check(f.name, getattr(self, f.name))
 
     def coupling(self):
         """The shaker as :class:`sim.vibro_impact.ShakerCoupling` (the amplifier gain is applied

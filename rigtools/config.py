@@ -1,14 +1,19 @@
 """The rig description: a TOML file validated into typed objects.
 
-Quantities are SI numbers or strings such as ``"0.5 mm"``. Unknown keys and out-of-range values
-raise :class:`rigtools.errors.ConfigError` with one line naming the key, the value and what is
-allowed. The calibrated default rig ships as ``rigtools/data/default_rig.toml``.
+Quantities are SI numbers or strings such as ``"0.5 mm"`` (the rules: :mod:`rigtools.units`).
+Unknown keys, non-finite numbers and out-of-range values raise
+:class:`rigtools.errors.ConfigError` with one line naming the key, the value and what is allowed;
+so does a file that is not UTF-8 TOML text. The calibrated default rig ships as
+``rigtools/data/default_rig.toml``.
 """
 
 from __future__ import annotations
 
 import json
+import math
 import tomllib
+import types
+import typing
 from importlib import resources
 from pathlib import Path
 from typing import Annotated, Any, Literal
@@ -24,8 +29,9 @@ from pydantic import (
     model_validator,
 )
 
+from drivers.shaker import SHAKER_BOUNDS
 from rigtools.errors import ConfigError
-from rigtools.units import parse_quantity
+from rigtools.units import MAX_GAP, parse_quantity
 from sim.params import (
     BladeParams,
     ContactParams,
@@ -37,7 +43,11 @@ from sim.params import (
 
 
 def _quantity(dimension: str):
-    return BeforeValidator(lambda v: parse_quantity(v, dimension))
+    def parse(value: Any) -> float:
+        return parse_quantity(value, dimension)
+
+    parse.dimension = dimension      # for the SI unit in range messages
+    return BeforeValidator(parse)
 
 
 Length = Annotated[float, _quantity("length")]
@@ -51,37 +61,58 @@ Inertia = Annotated[float, _quantity("inertia")]
 
 
 class _Section(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    # allow_inf_nan=False: TOML's inf/nan (and 1e400, read as inf) are refused in every section
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+
+
+# A blade: physically sensible ranges for a lab test blade (a steel or titanium strip of a few
+# cm to a metre; rubber to diamond), shared by [blade] and [passive_blade].
+BladeLength = Annotated[Length, Field(ge=1e-3, le=5.0)]
+BladeWidth = Annotated[Length, Field(ge=1e-4, le=1.0)]
+BladeThickness = Annotated[Length, Field(ge=1e-5, le=0.5)]
+Elements = Annotated[int, Field(ge=2, le=2000)]
+YoungsModulus = Annotated[Pressure, Field(ge=1e6, le=1.5e12)]
+BladeDensity = Annotated[Density, Field(ge=100.0, le=3e4)]
+Poisson = Annotated[float, Field(ge=0.0, lt=0.5)]
+Theory = Literal["euler-bernoulli", "timoshenko"]
 
 
 class BladeConfig(_Section):
-    length: Length = Field(gt=0, le=5.0)
-    width: Length = Field(gt=0, le=1.0)
-    thickness: Length = Field(gt=0, le=0.5)
-    elements: int = Field(default=100, ge=2, le=2000)
-    youngs_modulus: Pressure = Field(gt=1e6, le=1e13)
-    density: Density = Field(gt=1.0, le=1e5)
-    poisson: float = Field(default=0.3, ge=0.0, lt=0.5)
-    theory: Literal["euler-bernoulli", "timoshenko"] = "euler-bernoulli"
+    length: BladeLength
+    width: BladeWidth
+    thickness: BladeThickness
+    elements: Elements = 100
+    youngs_modulus: YoungsModulus
+    density: BladeDensity
+    poisson: Poisson = 0.3
+    theory: Theory = "euler-bernoulli"
 
 
 class PassiveBladeConfig(_Section):
-    """Overrides for the passive blade; what is not given is taken from [blade]."""
+    """Overrides for the passive blade; what is not given is taken from [blade]. Same ranges."""
 
-    length: Length | None = None
-    width: Length | None = None
-    thickness: Length | None = None
-    elements: int | None = None
-    youngs_modulus: Pressure | None = None
-    density: Density | None = None
-    poisson: float | None = None
-    theory: Literal["euler-bernoulli", "timoshenko"] | None = None
+    length: BladeLength | None = None
+    width: BladeWidth | None = None
+    thickness: BladeThickness | None = None
+    elements: Elements | None = None
+    youngs_modulus: YoungsModulus | None = None
+    density: BladeDensity | None = None
+    poisson: Poisson | None = None
+    theory: Theory | None = None
+
+
+# Root springs: far stiffer than the blade the stiffness matrix is so badly conditioned that the
+# reduced model goes wrong (default rig, FEM reduction: 1e9 N*m/rad with 1e13 N/m still gives the
+# clamped 53.2 Hz; 1e12 with 1e16 adds spurious 77 Hz modes; 1e18 with 1e24 gives 0 Hz). The
+# limits keep a factor 100 below the first failure; stiffer than them, a clamp is the right model.
+MAX_ROOT_ROTATIONAL_STIFFNESS = 1e7      # N*m/rad (the default blade's EI/L is ~140 N*m/rad)
+MAX_ROOT_TRANSLATIONAL_STIFFNESS = 1e11  # N/m (its 3EI/L^3 is ~1.8e4 N/m; axially EA/L ~ 1.7e8 N/m)
 
 
 class RootConfig(_Section):
     kind: Literal["clamped", "springs"] = "clamped"
-    rotational_stiffness: RotStiffness = Field(default=0.0, ge=0)
-    translational_stiffness: Stiffness = Field(default=0.0, ge=0)
+    rotational_stiffness: RotStiffness = Field(default=0.0, ge=0, le=MAX_ROOT_ROTATIONAL_STIFFNESS)
+    translational_stiffness: Stiffness = Field(default=0.0, ge=0, le=MAX_ROOT_TRANSLATIONAL_STIFFNESS)
 
     @model_validator(mode="after")
     def _springs_need_stiffness(self) -> "RootConfig":
@@ -101,8 +132,15 @@ class ForceSensorConfig(_Section):
     position: Length = Field(gt=0)
 
 
+# Contact damping above this multiple of the critical damping of the shroud on the contact
+# spring, 2*sqrt(stiffness*shroud mass), is refused: an over-damped contact has no rebound left to
+# model, and the step chosen from the contact period does not resolve the damper's time constant
+# (default rig at 60 Hz, 15 N: 1e5 N*s/m gives no contact force at all; the issue saw all-NaN).
+MAX_CONTACT_DAMPING_RATIO = 2.0
+
+
 class ContactConfig(_Section):
-    gap: Length = Field(ge=0, le=0.05)
+    gap: Length = Field(ge=0, le=MAX_GAP)
     stiffness: Stiffness = Field(gt=0, le=1e12)
     damping: Damping = Field(default=0.0, ge=0)
     law: Literal["linear", "hertz"] = "linear"
@@ -110,8 +148,8 @@ class ContactConfig(_Section):
 
 class DampingConfig(_Section):
     ratio: float | None = Field(default=None, gt=0, lt=1)
-    alpha: float = Field(default=0.0, ge=0)
-    beta: float = Field(default=0.0, ge=0)
+    alpha: float = Field(default=0.0, ge=0, le=1e4)      # 1/s; 2*zeta*omega, zeta = 1 at 800 Hz
+    beta: float = Field(default=0.0, ge=0, le=1e-2)      # s; 2*zeta/omega, zeta = 1 at 32 Hz
 
     @model_validator(mode="after")
     def _one_kind(self) -> "DampingConfig":
@@ -129,6 +167,7 @@ class DampingConfig(_Section):
 Frequency = Annotated[float, _quantity("frequency")]
 Time = Annotated[float, _quantity("time")]
 Voltage = Annotated[float, _quantity("voltage")]
+VoltageAmplitude = Annotated[float, _quantity("voltage_amplitude")]    # peak V; "2 Vpp" = 1 V
 
 _SENSITIVITY_DIMENSION = {"accel": "sensitivity_accel", "force": "sensitivity_force", "voltage": None}
 # plausible sensor sensitivities, SI (V per m/s^2, V per N, V per V): 0.05 mV/g..10 V/g, 0.05 mV/N..1 V/N
@@ -136,7 +175,8 @@ _SENSITIVITY_RANGE = {"accel": (5e-6, 1.02), "force": (5e-5, 1.0), "voltage": (1
 
 
 # the SI quantity a channel reads, for its range and its safety limits
-_KIND_DIMENSION = {"accel": "acceleration", "force": "force", "voltage": "voltage"}
+# (a voltage channel's range and limits are peak values: "2 Vpp" is 1 V)
+_KIND_DIMENSION = {"accel": "acceleration", "force": "force", "voltage": "voltage_amplitude"}
 IEPE_EXCITATION = 0.004     # A, default for accel and force channels (voltage channels: none)
 
 
@@ -154,10 +194,10 @@ class DaqChannelConfig(_Section):
 
     physical_channel: str = Field(min_length=1)
     kind: Literal["accel", "force", "voltage"]
-    sensitivity: float | str    # SI (V/(m/s^2), V/N, V/V) or "10 mV/g", "11.24 mV/N"
+    sensitivity: float          # SI (V/(m/s^2), V/N, V/V) or "10 mV/g", "11.24 mV/N"
     # A; default IEPE_EXCITATION for accel/force, 0 for voltage ("4 mA" or 0.004)
     excitation_current: Annotated[float, _quantity("current")] = Field(ge=0, le=0.025)
-    range: float | str          # +- in the channel's SI units (m/s^2, N, V) or "4900 m/s^2", "200 N"
+    range: float                # +- in the channel's SI units (m/s^2, N, V) or "4900 m/s^2", "200 N"
     location: str = ""
 
     @model_validator(mode="before")
@@ -167,9 +207,9 @@ class DaqChannelConfig(_Section):
             data = {**data, "excitation_current": 0.0 if data.get("kind") == "voltage" else IEPE_EXCITATION}
         return data
 
-    @field_validator("range", mode="after")
+    @field_validator("range", mode="before")
     @classmethod
-    def _range_in_channel_units(cls, value: float | str, info: ValidationInfo) -> float:
+    def _range_in_channel_units(cls, value: Any, info: ValidationInfo) -> float:
         kind = info.data.get("kind")
         if kind is None:
             raise ValueError("needs a valid kind")
@@ -184,9 +224,9 @@ class DaqChannelConfig(_Section):
             raise ValueError("a voltage channel takes no excitation current (give 0 or leave it out)")
         return self
 
-    @field_validator("sensitivity", mode="after")
+    @field_validator("sensitivity", mode="before")
     @classmethod
-    def _units_suit_kind(cls, value: float | str, info: ValidationInfo) -> float:
+    def _units_suit_kind(cls, value: Any, info: ValidationInfo) -> float:
         kind = info.data.get("kind")
         if kind is None:
             raise ValueError("needs a valid kind")
@@ -196,6 +236,24 @@ class DaqChannelConfig(_Section):
             raise ValueError(f"implausible for kind {kind!r}; write it with units, e.g. "
                              "'10 mV/g' or '11.24 mV/N'")
         return float(f"{sens:.12g}")   # stored SI
+
+
+# names of channels the toolkit records itself beside the inputs (the drive output)
+RESERVED_CHANNEL_NAMES = frozenset({"drive"})
+
+
+def channel_name_problem(name: str) -> str | None:
+    """Why ``name`` cannot be an input channel's name (``None`` if it can): the recording schema's
+    dataset-name rule (:mod:`rigtools.recording.schema`) and the reserved names (``drive``)."""
+    from rigtools.recording.schema import ChannelSpec
+
+    if name.casefold() in RESERVED_CHANNEL_NAMES:
+        return f"reserved ({', '.join(sorted(RESERVED_CHANNEL_NAMES))} is recorded by the toolkit itself)"
+    try:
+        ChannelSpec(name=name, units="V", quantity="voltage", sample_rate=1.0)
+    except ValueError:
+        return "a recording cannot store it: use letters, digits, '_', '.', '-', not starting with '.' or '-'"
+    return None
 
 
 def _default_daq_channels() -> dict[str, DaqChannelConfig]:
@@ -218,8 +276,17 @@ class DaqConfig(_Section):
     sample_rate: Frequency = Field(default=51200.0, gt=0, le=1e7)
     block_duration: Time = Field(default=0.1, gt=0, le=10.0)
     drive_channel: str = "Dev1/ao0"
-    drive_range: Voltage = Field(default=10.0, gt=0, le=100.0)     # AO range, +- V
+    drive_range: VoltageAmplitude = Field(default=10.0, gt=0, le=100.0)     # AO range, +- V
     channels: dict[str, DaqChannelConfig] = Field(default_factory=_default_daq_channels, min_length=1)
+
+    @field_validator("channels", mode="after")
+    @classmethod
+    def _names_storable(cls, channels: dict[str, DaqChannelConfig]) -> dict[str, DaqChannelConfig]:
+        for name in channels:
+            problem = channel_name_problem(name)
+            if problem:
+                raise ValueError(f"channel name {name!r}: {problem}")
+        return channels
 
     @model_validator(mode="after")
     def _terminals_used_once(self) -> "DaqConfig":
@@ -267,8 +334,15 @@ class SignalSourceConfig(_Section):
     resource: str = ""                                     # e.g. "TCPIP0::192.168.1.20::inst0::INSTR"
     frequency_min: Frequency = Field(default=1.0, gt=0)
     frequency_max: Frequency = Field(default=5000.0, gt=0, le=3e7)
-    max_amplitude: Voltage = Field(default=2.0, gt=0, le=20.0)   # Vpp into the amplifier
+    # peak V into the amplifier ("2 Vpp" is 1 V peak, see rigtools.units)
+    max_amplitude: VoltageAmplitude = Field(default=1.0, gt=0, le=10.0)
     timeout: Time = Field(default=2.0, gt=0, le=60.0)
+
+    @property
+    def max_amplitude_vpp(self) -> float:
+        """``max_amplitude`` in peak-to-peak volts (the 33500's VOLT unit), for
+        :class:`drivers.visa_source` limits."""
+        return 2.0 * self.max_amplitude
 
     @model_validator(mode="after")
     def _range(self) -> "SignalSourceConfig":
@@ -305,7 +379,7 @@ def _default_limits() -> dict[str, ChannelLimitConfig]:
 class SafetyConfig(_Section):
     """Limits checked on every block, the maximum drive and the drive ramps."""
 
-    max_drive: Voltage = Field(default=5.0, gt=0, le=100.0)        # peak V at the drive output
+    max_drive: VoltageAmplitude = Field(default=5.0, gt=0, le=100.0)   # peak V at the drive output
     ramp_time: Time = Field(default=0.5, gt=0, le=60.0)            # normal ramp up/down
     abort_ramp_time: Time = Field(default=0.05, gt=0, le=0.1)      # ramp down on abort
     limits: dict[str, ChannelLimitConfig] = Field(default_factory=_default_limits)
@@ -322,16 +396,25 @@ Resistance = Annotated[float, _quantity("resistance")]
 Inductance = Annotated[float, _quantity("inductance")]
 
 
-class ShakerConfig(_Section):
-    """Voltage amplifier and electrodynamic shaker driving the active blade through the force sensor."""
+def _shaker_field(name: str) -> Any:
+    """Default and range of a [shaker] key: from :data:`drivers.shaker.SHAKER_BOUNDS`, their one
+    definition."""
+    bound = SHAKER_BOUNDS[name]
+    low = {"gt": bound.low} if bound.low_open else {"ge": bound.low}
+    return Field(default=bound.default, le=bound.high, **low)
 
-    armature_mass: Mass = Field(default=0.1, gt=0, le=10.0)                       # kg
-    suspension_stiffness: Stiffness = Field(default=2.0e4, ge=0, le=1e8)          # N/m
-    suspension_damping: Damping = Field(default=5.0, ge=0, le=1e5)                # N*s/m
-    force_factor: ForceFactor = Field(default=10.0, gt=0, le=1e3)                 # Bl, N/A
-    coil_resistance: Resistance = Field(default=2.5, gt=0, le=1e3)                # ohm
-    coil_inductance: Inductance = Field(default=5e-4, ge=0, le=1.0)               # H
-    amplifier_gain: float = Field(default=4.0, gt=0, le=1e3)                      # V/V
+
+class ShakerConfig(_Section):
+    """Voltage amplifier and electrodynamic shaker driving the active blade through the force sensor.
+    Defaults and ranges: :data:`drivers.shaker.SHAKER_BOUNDS`."""
+
+    armature_mass: Mass = _shaker_field("armature_mass")                       # kg
+    suspension_stiffness: Stiffness = _shaker_field("suspension_stiffness")    # N/m
+    suspension_damping: Damping = _shaker_field("suspension_damping")          # N*s/m
+    force_factor: ForceFactor = _shaker_field("force_factor")                  # Bl, N/A
+    coil_resistance: Resistance = _shaker_field("coil_resistance")             # ohm
+    coil_inductance: Inductance = _shaker_field("coil_inductance")             # H
+    amplifier_gain: float = _shaker_field("amplifier_gain")                    # V/V
 
     def to_params(self):
         """As :class:`drivers.shaker.ShakerParams`."""
@@ -344,8 +427,10 @@ class TestArticleConfig(_Section):
     """The simulated rig's real blades: a bolted root (springs, softer than the clamp), their own
     damping, small mass deviations of shroud and sensor; and its sensor noise and coupling."""
 
-    root_rotational_stiffness: RotStiffness = Field(default=1.2e4, gt=0)         # N*m/rad
-    root_translational_stiffness: Stiffness = Field(default=3e8, gt=0)            # N/m
+    root_rotational_stiffness: RotStiffness = Field(default=1.2e4, gt=0,
+                                                    le=MAX_ROOT_ROTATIONAL_STIFFNESS)  # N*m/rad
+    root_translational_stiffness: Stiffness = Field(default=3e8, gt=0,
+                                                    le=MAX_ROOT_TRANSLATIONAL_STIFFNESS)  # N/m
     damping_ratio: float = Field(default=0.012, gt=0, lt=1)                       # modal
     shroud_mass_deviation: float = Field(default=0.01, ge=-0.2, le=0.2)           # fraction of nominal
     sensor_mass_deviation: float = Field(default=-0.01, ge=-0.2, le=0.2)          # fraction of nominal
@@ -418,6 +503,17 @@ class RigConfig(_Section):
         return self
 
     @model_validator(mode="after")
+    def _contact_damping_integrable(self) -> "RigConfig":
+        c = self.contact
+        if c.law == "linear" and c.damping > 0:
+            critical = 2.0 * math.sqrt(c.stiffness * self.shroud.mass)
+            if c.damping > MAX_CONTACT_DAMPING_RATIO * critical:
+                raise ValueError(
+                    f"contact.damping = {c.damping:g} N*s/m: at most {MAX_CONTACT_DAMPING_RATIO:g} x the "
+                    f"critical damping 2*sqrt(stiffness*shroud.mass) = {critical:.4g} N*s/m")
+        return self
+
+    @model_validator(mode="after")
     def _safety_names_known_channels(self) -> "RigConfig":
         known = set(self.daq.channels) | {"drive"}
         if "limits" not in self.safety.model_fields_set:   # defaults follow the channels given
@@ -470,6 +566,65 @@ def _raw_value(data: Any, loc: list[str], fallback: Any) -> Any:
     return data
 
 
+_SI_UNIT = {
+    "length": "m", "mass": "kg", "time": "s", "frequency": "Hz", "force": "N", "pressure": "Pa",
+    "density": "kg/m^3", "stiffness": "N/m", "rotational_stiffness": "N*m/rad", "damping": "N*s/m",
+    "inertia": "kg*m^2", "voltage": "V", "voltage_amplitude": "V peak", "current": "A",
+    "resistance": "ohm", "inductance": "H", "force_factor": "N/A", "acceleration": "m/s^2",
+}
+_RANGE_ERRORS = ("greater_than", "greater_than_equal", "less_than", "less_than_equal")
+
+
+def _field_metadata(loc: list[str]) -> list[Any]:
+    """The validation metadata (bounds, unit parser) of the field at ``loc``, [] if not found."""
+    cls: Any = RigConfig
+    items: list[Any] = []
+    for part in loc:
+        fields = getattr(cls, "model_fields", None)
+        if not fields or part not in fields:
+            return []
+        field = fields[part]
+        items, cls = list(field.metadata), None
+        stack = [field.annotation]
+        while stack:
+            ann = stack.pop()
+            origin = typing.get_origin(ann)
+            if origin is Annotated:
+                stack.append(typing.get_args(ann)[0])
+                for meta in ann.__metadata__:
+                    items.extend(getattr(meta, "metadata", None) or [meta])
+            elif origin in (typing.Union, types.UnionType):
+                stack.extend(typing.get_args(ann))
+            elif isinstance(ann, type) and issubclass(ann, BaseModel):
+                cls = ann
+    return items
+
+
+def _allowed_range(loc: list[str]) -> tuple[str, str, str | None] | None:
+    """(``"[1e-05, 0.5]"``, ``"m"``, ``"length"``) for the field at ``loc`` (SI), or None if it
+    has no bounds."""
+    low = high = None
+    low_open = high_open = False
+    unit, dimension = "", None
+    for meta in _field_metadata(loc):
+        for attr, is_low, is_open in (("gt", True, True), ("ge", True, False), ("lt", False, True),
+                                      ("le", False, False)):
+            bound = getattr(meta, attr, None)
+            if isinstance(bound, (int, float)):
+                if is_low:
+                    low, low_open = bound, is_open
+                else:
+                    high, high_open = bound, is_open
+        if getattr(getattr(meta, "func", None), "dimension", None):
+            dimension = meta.func.dimension
+            unit = _SI_UNIT.get(dimension, "")
+    if low is None and high is None:
+        return None
+    left = "-inf" if low is None else f"{low:g}"
+    right = "inf" if high is None else f"{high:g}"
+    return f"{'(' if low_open or low is None else '['}{left}, {right}{')' if high_open or high is None else ']'}", unit, dimension
+
+
 def _describe(error: dict[str, Any], data: dict[str, Any]) -> str:
     loc = [str(p) for p in error["loc"]]
     key = ".".join(loc) if loc else "(file)"
@@ -479,6 +634,21 @@ def _describe(error: dict[str, Any], data: dict[str, Any]) -> str:
         return f"missing key '{key}'"
     value = _raw_value(data, loc, error.get("input"))
     message = error["msg"].removeprefix("Value error, ")
+    if error["type"] in _RANGE_ERRORS:
+        found = _allowed_range(loc)
+        if found:
+            allowed, unit, dimension = found
+            si = error.get("input")
+            if isinstance(si, str) and dimension:     # an optional field reports the raw text
+                si = parse_quantity(si, dimension)
+            if isinstance(value, str) and isinstance(si, (int, float)):
+                note = f" (= {si:g} {unit})".replace(" )", ")")
+            elif unit and isinstance(value, (int, float)):
+                note = f" (a plain number is in {unit}; write units, e.g. '0.5 mm')" if unit == "m" \
+                    else f" (a plain number is in {unit})"
+            else:
+                note = ""
+            message = f"outside the allowed range {allowed} {unit}".rstrip() + note
     if not loc:
         return message
     if isinstance(value, dict):     # a check of a whole table: its message names the keys
@@ -518,12 +688,52 @@ def load_rig(path: str | Path | None = None) -> RigConfig:
     if path is None:
         return parse_rig(tomllib.loads(default_rig_text()), "default rig")
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise ConfigError(f"cannot read rig file {path}: {exc.strerror}") from None
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"rig file {path} is not valid TOML: {exc}") from None
+    data = tomllib.loads(read_rig_text(path))
     return parse_rig(data, f"rig file {path}")
+
+
+MAX_RIG_FILE_BYTES = 1_000_000
+_HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
+
+
+def read_rig_text(path: str | Path) -> str:
+    """The text of a rig file, checked to be UTF-8 TOML.
+
+    Raises
+    ------
+    ConfigError
+        One line if the file is missing, a directory, unreadable, empty, too large, binary (an HDF5
+        recording, for one), UTF-16, starts with a byte-order mark, is not UTF-8, or is not TOML.
+    """
+    path = Path(path)
+    where = f"rig file {str(path)!r}"
+    if path.is_dir():
+        raise ConfigError(f"{where} is a directory; give a .toml file")
+    try:
+        with path.open("rb") as fh:
+            raw = fh.read(MAX_RIG_FILE_BYTES + 1)
+    except OSError as exc:
+        raise ConfigError(f"cannot read {where}: {exc.strerror or exc}") from None
+    if len(raw) > MAX_RIG_FILE_BYTES:
+        raise ConfigError(f"{where} is larger than {MAX_RIG_FILE_BYTES // 1000} kB: not a rig file")
+    if not raw.strip():
+        raise ConfigError(f"{where} is empty; start from a copy of the default rig, rigtools/data/default_rig.toml")
+    if raw.startswith(_HDF5_SIGNATURE) or _HDF5_SIGNATURE in raw[:2056]:
+        raise ConfigError(f"{where} is an HDF5 file (a recording?), not a TOML rig file")
+    if raw.startswith((b"\xff\xfe", b"\xfe\xff")):
+        raise ConfigError(f"{where} is UTF-16 text; save it as UTF-8 (without BOM)")
+    if raw.startswith(b"\xef\xbb\xbf"):
+        raise ConfigError(f"{where} starts with a byte-order mark (BOM); save it as UTF-8 without BOM")
+    if b"\x00" in raw:
+        raise ConfigError(f"{where} is a binary file, not TOML text")
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = raw[:exc.start].count(b"\n") + 1
+        raise ConfigError(f"{where} is not UTF-8 text (byte 0x{raw[exc.start]:02x} on line {line}); "
+                          "save it as UTF-8") from None
+    try:
+        tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{where} is not valid TOML: {exc}") from None
+    return text

@@ -1,30 +1,243 @@
-"""Command-line option helpers shared by every ``rig`` sub-command: quantities with units and
-output paths. Light on purpose (no scipy, h5py, numba): command modules import it at the top."""
+"""Command-line option helpers shared by every ``rig`` sub-command: quantities with units, gaps,
+durations, counts, seeds, output paths and a memory check. Each refuses bad input with one
+:class:`~rigtools.errors.UserError` line naming the option and the value (exit 2).
+
+Light on purpose (stdlib and rigtools.units only; no scipy, h5py, numba, pydantic): command
+modules import it at the top. The unit rules (a plain number is SI, case-sensitive prefixes, Vpp)
+are those of :mod:`rigtools.units`, the same as in a rig file.
+"""
 
 from __future__ import annotations
 
 import argparse
+import math
+import os
+import re
+from collections.abc import Iterable
 from pathlib import Path
 
 from rigtools.errors import UserError
-from rigtools.units import parse_quantity
+from rigtools.units import MAX_GAP, parse_quantity, voltage_amplitude
 
 
 def quantity(text: str, dimension: str, option: str) -> float:
     """Parse a CLI quantity (``"0.5 mm"``, ``"15 N"``; a plain number is SI) or raise a one-line
-    :class:`UserError` naming the option."""
+    :class:`UserError` naming the option. Non-finite values are refused."""
     try:
         return parse_quantity(text, dimension)
     except ValueError as exc:
         raise UserError(f"{option} = {text!r}: {exc}") from None
 
 
-def check_out(args: argparse.Namespace) -> Path:
-    """``args.out`` as a Path, refused with one line if its folder is missing or it exists without
-    ``args.overwrite``."""
-    out = Path(args.out)
-    if not out.parent.exists():
-        raise UserError(f"--out = {args.out!r}: folder {str(out.parent)!r} does not exist")
-    if out.exists() and not getattr(args, "overwrite", False):
-        raise UserError(f"--out = {args.out!r} exists; give --overwrite to replace it")
+def positive_finite(text: str, dimension: str, option: str, *, allow_zero: bool = False,
+                    maximum: float | None = None, unit: str = "") -> float:
+    """A quantity that must be > 0 (``>= 0`` with ``allow_zero``), finite and at most ``maximum``.
+
+    Parameters
+    ----------
+    text
+        The option's text, e.g. ``"2 s"``.
+    dimension
+        As for :func:`rigtools.units.parse_quantity`.
+    option
+        The option's name for the message, e.g. ``"--duration"``.
+    allow_zero
+        Accept 0.
+    maximum
+        Largest value accepted (SI), or ``None``.
+    unit
+        SI unit shown in the message (``"s"``, ``"N"``).
+
+    Returns
+    -------
+    float
+        The value in SI units.
+    """
+    value = quantity(text, dimension, option)
+    low_ok = value >= 0 if allow_zero else value > 0
+    if not low_ok:
+        raise UserError(f"{option} = {text!r}: must be {'>= 0' if allow_zero else '> 0'}")
+    if maximum is not None and value > maximum:
+        raise UserError(f"{option} = {text!r}: must be at most {maximum:g} {unit}".rstrip())
+    return value
+
+
+def duration(text: str, option: str = "--duration", *, maximum: float | None = None,
+             allow_zero: bool = False) -> float:
+    """A time in seconds (``"2 s"``, ``"500 ms"``, ``"1 min"``; a plain number is seconds), > 0
+    (or >= 0 with ``allow_zero``) and at most ``maximum`` s."""
+    return positive_finite(text, "time", option, allow_zero=allow_zero, maximum=maximum, unit="s")
+
+
+def gap(text: str, option: str = "--gap") -> float:
+    """A shroud gap in metres, ``0 <= gap <= MAX_GAP`` (the same limit as the rig file's
+    ``[contact] gap``). A plain number is metres: ``--gap 0.5`` is refused, write ``"0.5 mm"``."""
+    value = quantity(text, "length", option)
+    if not 0.0 <= value <= MAX_GAP:
+        hint = "; a plain number is metres, write e.g. '0.5 mm'" if value > MAX_GAP else ""
+        raise UserError(f"{option} = {text!r}: a gap must be between 0 and {MAX_GAP * 1e3:g} mm{hint}")
+    return value
+
+
+def drive_amplitude(text: str, option: str = "--drive") -> float:
+    """A drive voltage amplitude in peak volts: ``"1 V"``, ``"500 mV"``, ``1`` (peak) or
+    ``"2 Vpp"`` (= 1 V peak), > 0; as ``[signal_source] max_amplitude`` and ``[safety] max_drive``
+    read it."""
+    try:
+        value = voltage_amplitude(text)
+    except ValueError as exc:
+        raise UserError(f"{option} = {text!r}: {exc}") from None
+    if not value > 0:
+        raise UserError(f"{option} = {text!r}: must be > 0 V")
+    return value
+
+
+_INTEGER = re.compile(r"^\s*[-+]?\d+\s*$")
+
+
+def count(text: str | int, option: str, *, minimum: int = 1, maximum: int | None = None) -> int:
+    """A whole number (steps, points, elements) in ``[minimum, maximum]``."""
+    if isinstance(text, bool) or not (isinstance(text, int) or _INTEGER.match(str(text))):
+        raise UserError(f"{option} = {text!r}: expected a whole number")
+    value = int(text)
+    if value < minimum or (maximum is not None and value > maximum):
+        allowed = f">= {minimum}" if maximum is None else f"between {minimum} and {maximum}"
+        raise UserError(f"{option} = {text!r}: must be {allowed}")
+    return value
+
+
+MAX_SEED = 2**63 - 1
+
+
+def seed(value: str | int | None, option: str = "--seed") -> int | None:
+    """A random seed: a whole number ``0 <= seed < 2**63``; ``None`` passes through (no seed)."""
+    if value is None:
+        return None
+    if isinstance(value, bool) or not (isinstance(value, int) or _INTEGER.match(str(value))):
+        raise UserError(f"{option} = {value!r}: a seed is a whole number >= 0")
+    number = int(value)
+    if not 0 <= number <= MAX_SEED:
+        raise UserError(f"{option} = {value!r}: a seed is a whole number between 0 and 2**63 - 1")
+    return number
+
+
+def output_path(text: str, overwrite: bool = False, option: str = "--out", *,
+                suffixes: Iterable[str] | None = None, inputs: Iterable[str | Path] = ()) -> Path:
+    """Check an output file before any work is done.
+
+    Parameters
+    ----------
+    text
+        The path given on the command line.
+    overwrite
+        Whether an existing file may be replaced (``--overwrite``).
+    option
+        The option's name for the message.
+    suffixes
+        Allowed suffixes, e.g. ``(".h5", ".hdf5")``, compared case-insensitively; ``None``: any.
+    inputs
+        Files this command reads (a recording, a rig file): the output may never be one of them,
+        ``--overwrite`` or not.
+
+    Returns
+    -------
+    Path
+        The output path.
+
+    Raises
+    ------
+    UserError
+        One line if the path is empty or a directory, its folder is missing, not a folder or not
+        writable, it exists without ``overwrite`` or is read-only, has a suffix not in ``suffixes``,
+        or is one of ``inputs``.
+    """
+    if not str(text).strip():
+        raise UserError(f"{option}: give a file name")
+    out = Path(text)
+    where = f"{option} = {str(text)!r}"
+    if out.is_dir() or str(text).endswith(("/", os.sep)):
+        raise UserError(f"{where} is a directory; give a file name")
+    if suffixes is not None:
+        allowed = tuple(s.lower() for s in suffixes)
+        if out.suffix.lower() not in allowed:
+            raise UserError(f"{where}: the file name must end in {' or '.join(allowed)}")
+    folder = out.parent
+    if not folder.exists():
+        raise UserError(f"{where}: folder {str(folder)!r} does not exist")
+    if not folder.is_dir():
+        raise UserError(f"{where}: {str(folder)!r} is not a folder")
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise UserError(f"{where}: folder {str(folder)!r} is not writable")
+    for source in inputs:
+        source = Path(source)
+        if out.exists() and source.exists() and os.path.samefile(out, source) \
+                or out.resolve() == source.resolve():
+            raise UserError(f"{where} is an input of this command ({str(source)!r}); "
+                            "give another file name")
+    if out.exists():
+        if not overwrite:
+            raise UserError(f"{where} exists; give --overwrite to replace it")
+        if not os.access(out, os.W_OK):
+            raise UserError(f"{where} exists and is read-only")
     return out
+
+
+def check_out(args: argparse.Namespace, *, suffixes: Iterable[str] | None = None) -> Path:
+    """``args.out`` checked by :func:`output_path` (``args.overwrite`` if the command has it)."""
+    return output_path(args.out, getattr(args, "overwrite", False), "--out", suffixes=suffixes)
+
+
+def total_memory() -> int | None:
+    """This machine's physical memory in bytes (``/proc/meminfo`` MemTotal, else ``os.sysconf``),
+    or ``None`` if it cannot be read."""
+    try:
+        with open("/proc/meminfo", encoding="ascii") as fh:
+            for line in fh:
+                if line.startswith("MemTotal:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        pages, size = os.sysconf("SC_PHYS_PAGES"), os.sysconf("SC_PAGE_SIZE")
+    except (AttributeError, ValueError, OSError):
+        return None
+    return pages * size if pages > 0 and size > 0 else None
+
+
+def memory_estimate_check(n_samples_total: float, n_channels: int, what: str, *,
+                          bytes_per_sample: int = 8, limit: int | None = None) -> float:
+    """Refuse work whose samples would not fit in this machine's memory.
+
+    Parameters
+    ----------
+    n_samples_total
+        Samples per channel the work holds in memory at once (e.g. duration x sample rate x
+        points kept).
+    n_channels
+        Channels held.
+    what
+        What is estimated, for the message, e.g. ``"--duration '10 h' at 51.2 kHz"``.
+    bytes_per_sample
+        8 for float64.
+    limit
+        Bytes allowed; default: the machine's total memory (:func:`total_memory`; no check if it
+        cannot be read).
+
+    Returns
+    -------
+    float
+        The estimate in bytes.
+
+    Raises
+    ------
+    UserError
+        One line with the estimate and the limit in GB if the estimate is larger than the limit.
+    """
+    estimate = float(n_samples_total) * float(n_channels) * float(bytes_per_sample)
+    if not math.isfinite(estimate):
+        raise UserError(f"{what}: too large to hold in memory")
+    limit = total_memory() if limit is None else limit
+    if limit is not None and estimate > limit:
+        raise UserError(f"{what} would need about {estimate / 1e9:.3g} GB of memory, more than this "
+                        f"machine's {limit / 1e9:.3g} GB; shorten it")
+    return estimate

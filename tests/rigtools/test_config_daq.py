@@ -37,12 +37,12 @@ def test_ranges_and_limits_take_their_channels_units():
 @pytest.mark.parametrize("edit, expected", [
     # "500 g" is grams: read as a mass it would have become a 0.5 m/s^2 range
     (lambda d: d["daq"]["channels"]["active_shroud_accel"].update(range="500 g"),
-     "daq.channels.active_shroud_accel.range = '500 g': '500 g' is a mass, expected a acceleration"),
+     "daq.channels.active_shroud_accel.range = '500 g': '500 g' is a mass, expected an acceleration"),
     (lambda d: d["daq"]["channels"]["force"].update(range="200 m/s^2"),
      "daq.channels.force.range = '200 m/s^2'"),
     (lambda d: d["daq"]["channels"]["force"].update(range="-5 N"), "must be > 0"),
     (lambda d: d["safety"]["limits"]["force"].update(warning="40 m/s^2"),
-     "safety.limits.force.warning = '40 m/s^2': '40 m/s^2' is a acceleration, expected a force"),
+     "safety.limits.force.warning = '40 m/s^2': '40 m/s^2' is an acceleration, expected a force"),
     (lambda d: d["safety"]["limits"]["passive_shroud_accel"].update(abort="400 g"),
      "safety.limits.passive_shroud_accel.abort = '400 g'"),
     (lambda d: d["safety"]["limits"]["drive"].update(abort="6 N"), "safety.limits.drive.abort = '6 N'"),

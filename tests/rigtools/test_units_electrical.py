@@ -27,7 +27,7 @@ def test_units(text, dimension, si):
 
 
 def test_wrong_dimension_is_refused():
-    with pytest.raises(ValueError, match="is a inductance, expected a resistance"):
+    with pytest.raises(ValueError, match="is an inductance, expected a resistance"):
         parse_quantity("2 mH", "resistance")
 
 
