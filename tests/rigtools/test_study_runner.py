@@ -78,7 +78,9 @@ def test_killed_worker_loses_no_point(system, in_process, tmp_path):
     with StudyRunner(workers=2) as runner:
         got = list(runner.run(system, CHAINS, OPTIONS, point_fn=functools.partial(_dies_once, marker, 13)))
     assert Path(marker).exists()                       # the worker really died
-    assert [i for i, _ in runner.report.retried] == [13]
+    retried = [i for i, _ in runner.report.retried]
+    # point 13 killed its worker; points queued on the same worker were lost with it: each rerun once
+    assert 13 in retried and len(set(retried)) == len(retried)
     _same(in_process, got)
 
 
