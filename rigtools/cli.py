@@ -168,6 +168,7 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
         formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--version", action="version", version=_version())
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=RigArgumentParser)
+    parser.rig_commands = sub   # type: ignore[attr-defined]
     from rigtools import commands
 
     modules = sorted(m.name for m in pkgutil.iter_modules(commands.__path__)
@@ -225,9 +226,15 @@ def _run(argv: list[str]) -> int:
             _say(f"rig {chosen or ''}: error: cannot load this command: {exc}".replace("  ", " "))
             return errors.EXIT_HARDWARE
         try:
-            args = parser.parse_args(argv)
-        except SystemExit as exc:    # --help, --version, argument errors (one line, exit 2)
-            return exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 2)
+            args, extra = parser.parse_known_args(argv)
+            if extra:   # say it as the sub-command's error, not the top level's
+                sub = getattr(parser, "rig_commands", None)
+                owner = sub.choices.get(getattr(args, "command", None) or "", parser) if sub else parser
+                owner.error(f"unrecognized arguments: {' '.join(extra)}")
+        except SystemExit as exc:    # argument errors (one line, exit 2), --help, --version
+            if exc.code in (0, None):
+                raise                # --help/--version end as argparse ends them: SystemExit(0)
+            return exc.code if isinstance(exc.code, int) else errors.EXIT_USAGE
         if not getattr(args, "func", None):
             parser.print_help()
             return errors.EXIT_USAGE
@@ -252,6 +259,9 @@ def _run(argv: list[str]) -> int:
 def main(argv: list[str] | None = None) -> int:
     """Run ``rig`` with ``argv`` (default ``sys.argv[1:]``); returns the exit status.
 
+    ``--help`` and ``--version`` raise ``SystemExit(0)`` after printing, as argparse does;
+    argument errors return 2 after one line and a hint.
+
     SIGINT, SIGTERM and SIGHUP are turned into :class:`rigtools.errors.Interrupted` for the
     whole run (start-up included) and the previous handlers restored after; stdout and stderr
     print any character; a closed stdout pipe ends quietly with status 141.
@@ -274,6 +284,12 @@ def main(argv: list[str] | None = None) -> int:
             if isinstance(exc.__context__, BrokenPipeError):
                 silence_stdout()
                 return errors.EXIT_SIGPIPE
+            if exc.code in (0, None):
+                try:
+                    sys.stdout.flush()
+                except BrokenPipeError:
+                    silence_stdout()
+                    return errors.EXIT_SIGPIPE
             raise
     except KeyboardInterrupt as exc:  # before the handlers were installed, or after _run
         text = str(exc) if isinstance(exc, errors.Interrupted) else "interrupted (Ctrl-C)"
