@@ -82,13 +82,25 @@ def test_summaries_come_from_constants_and_docstrings():
 _PROBE = """
 import contextlib, io, json, sys
 from rigtools.cli import main
-with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
-    try:
-        code = main(sys.argv[1:])
-    except SystemExit as exc:      # --help
-        code = exc.code
-print(json.dumps([code, sorted(m for m in sys.modules)]))
+out = []
+for argv in json.loads(sys.argv[1]):
+    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+        try:
+            code = main(argv)
+        except SystemExit as exc:      # --help
+            code = exc.code
+    out.append([code, sorted(sys.modules)])
+print(json.dumps(out))
 """
+
+
+def _probe(*argvs: tuple[str, ...], **popen) -> subprocess.Popen:
+    """A process running ``main(argv)`` for each argv in turn, printing the exit status and the
+    modules loaded after each (cumulative)."""
+    return subprocess.Popen([sys.executable, "-c", _PROBE, json.dumps([list(a) for a in argvs])],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=_env(),
+                            **popen)
+
 
 # Command modules that import a heavy package at their top (the coordinator fixes them at merge;
 # the tests turn into passes then, and strict xfail makes them say so).
@@ -115,17 +127,19 @@ def _probe_cases():
 
 @pytest.fixture(scope="module")
 def probes():
-    """Every start-up case run at once, in parallel subprocesses: argv -> (code, modules)."""
-    argvs = [p.values[0] for p in _probe_cases()]
-    procs = {argv: subprocess.Popen([sys.executable, "-c", _PROBE, *argv], stdout=subprocess.PIPE,
-                                    stderr=subprocess.PIPE, text=True, env=_env())
-             for argv in argvs}
+    """Every start-up case, one process per command (its --help, then a bad option) and all
+    processes at once: argv -> (code, modules loaded so far)."""
+    groups: dict[str, list[tuple[str, ...]]] = {}
+    for p in _probe_cases():
+        argv = p.values[0]
+        groups.setdefault(argv[0], []).append(argv)
+    procs = {tuple(argvs): _probe(*argvs) for argvs in groups.values()}
     out = {}
-    for argv, proc in procs.items():
-        stdout, stderr = proc.communicate(timeout=120)
+    for argvs, proc in procs.items():
+        stdout, stderr = proc.communicate(timeout=180)
         assert proc.returncode == 0, stderr
-        code, modules = json.loads(stdout.strip().splitlines()[-1])
-        out[argv] = code, modules
+        for argv, (code, modules) in zip(argvs, json.loads(stdout.strip().splitlines()[-1])):
+            out[argv] = code, modules
     return out
 
 
@@ -139,9 +153,8 @@ def test_help_and_argument_errors_do_not_import_heavy_packages(probes, argv):
 
 def test_rig_info_does_not_import_scipy_signal(tmp_path):
     path = small_recording(tmp_path / "run.h5")
-    proc = subprocess.run([sys.executable, "-c", _PROBE, "info", str(path)], capture_output=True,
-                          text=True, env=_env(), timeout=120)
-    code, modules = json.loads(proc.stdout.strip().splitlines()[-1])
+    stdout, stderr = _probe(("info", str(path))).communicate(timeout=120)
+    [[code, modules]] = json.loads(stdout.strip().splitlines()[-1])
     assert code == 0
     assert "scipy.signal" not in modules
     assert "matplotlib" not in modules
@@ -210,23 +223,47 @@ def _file_has_samples(path: Path, n: int) -> bool:
         return False
 
 
-@pytest.mark.parametrize("sig, code", [(signal.SIGINT, 130), (signal.SIGTERM, 143),
-                                       (signal.SIGHUP, 129)])
-def test_signal_during_simulated_acquisition_aborts_cleanly(tmp_path, sig, code):
-    out = tmp_path / "run.h5"
-    proc = _rig("acquire", "--simulated", "--pace", "--fe", "60 Hz", "--drive", "0.5 V",
-                "--duration", "30 s", "--out", str(out), "--json", "--no-plot",
-                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=_env())
+SIGNAL_CASES = [(signal.SIGINT, 130), (signal.SIGTERM, 143), (signal.SIGHUP, 129)]
+
+
+@pytest.fixture(scope="module")
+def stopped_acquisitions(tmp_path_factory):
+    """Three paced 30 s simulated acquisitions run at once; each gets its signal once 0.1 s of
+    data is in its file. signal -> (exit status, stderr, file)."""
+    tmp = tmp_path_factory.mktemp("signals")
+    runs = {}
+    for sig, _ in SIGNAL_CASES:
+        out = tmp / f"{signal.Signals(sig).name}.h5"
+        runs[sig] = out, _rig("acquire", "--simulated", "--pace", "--fe", "60 Hz", "--drive",
+                              "0.5 V", "--duration", "30 s", "--out", str(out), "--json",
+                              "--no-plot", stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                              text=True, env=_env())
+    results = {}
     try:
-        _wait_for(lambda: proc.poll() is not None or _file_has_samples(out, 5120))
-        time.sleep(0.3)
-        proc.send_signal(sig)
-        stdout, stderr = proc.communicate(timeout=60)
+        pending = dict(runs)
+        end = time.monotonic() + 120
+        while pending and time.monotonic() < end:
+            for sig, (out, proc) in list(pending.items()):
+                if proc.poll() is not None or _file_has_samples(out, 5120):
+                    time.sleep(0.2)
+                    proc.send_signal(sig)
+                    del pending[sig]
+            time.sleep(0.05)
+        for sig, (out, proc) in runs.items():
+            _, stderr = proc.communicate(timeout=60)
+            results[sig] = proc.returncode, stderr, out
     finally:
-        if proc.poll() is None:
-            proc.kill()
+        for _, proc in runs.values():
+            if proc.poll() is None:
+                proc.kill()
+    return results
+
+
+@pytest.mark.parametrize("sig, code", SIGNAL_CASES)
+def test_signal_during_simulated_acquisition_aborts_cleanly(stopped_acquisitions, sig, code):
+    returncode, stderr, out = stopped_acquisitions[sig]
     name = signal.Signals(sig).name
-    assert proc.returncode == code, stderr
+    assert returncode == code, stderr
     _stderr_ok(stderr)
     assert name in stderr
     with h5py.File(out, "r") as f:
@@ -387,16 +424,16 @@ def test_read_only_install_caches_kernels_per_user(tmp_path, monkeypatch):
 
 
 def test_first_run_says_it_compiles_the_kernels_then_not(tmp_path):
-    """A fresh numba cache: the line once, then the kernels load from the cache silently."""
-    code = ("import sys; from rigtools.runtime import ensure_kernels_compiled, kernels_cached\n"
-            "print(ensure_kernels_compiled(), kernels_cached())")
+    """A fresh numba cache: the line once; then the kernels are cached and nothing is said."""
+    code = ("import contextlib, io\n"
+            "from rigtools.runtime import ensure_kernels_compiled, kernels_cached\n"
+            "first = ensure_kernels_compiled()\n"
+            "said = io.StringIO()\n"
+            "print(first, kernels_cached(), ensure_kernels_compiled(said), repr(said.getvalue()))")
     env = _env(NUMBA_CACHE_DIR=str(tmp_path / "numba"))
-    first = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env,
-                           timeout=300)
-    assert first.returncode == 0, first.stderr
-    assert first.stdout.split() == ["True", "True"]
-    assert first.stderr.startswith("compiling the simulation kernels (first run only, ~")
-    again = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env,
-                           timeout=300)
-    assert again.stdout.split() == ["False", "True"]
-    assert again.stderr == ""
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env,
+                          timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.split() == ["True", "True", "False", "''"]
+    assert proc.stderr.startswith("compiling the simulation kernels (first run only, ~")
+    assert len(proc.stderr.splitlines()) == 1
