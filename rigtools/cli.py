@@ -2,28 +2,35 @@
 
 Each sub-command lives in its own module under :mod:`rigtools.commands` and exposes
 ``register(subparsers)``; modules are discovered, so adding a command never touches this file.
+Discovery does not import them: the command list of ``rig --help`` is read from their source
+(the ``help=`` of ``add_parser`` in ``register``, else the first docstring line), and only the
+module of the command being run is imported. ``rig --help``, ``rig CMD --help`` and argument
+errors therefore stay fast as long as command modules keep heavy imports inside functions.
+
 Errors a user can cause (:class:`rigtools.errors.UserError`) end in one line on stderr and a
 non-zero exit status; programming errors still raise.
 
 Exit status: 0 success, 1 a check found problems, 2 bad input (rig file, arguments, recording
-file), 3 hardware or its driver not available, 4 a hardware fault stopped the run, 130 Ctrl-C.
+file), 3 hardware or its driver not available, 4 a hardware fault, safety abort or write error
+stopped the run, 129 SIGHUP (terminal closed), 130 Ctrl-C (SIGINT), 141 stdout closed by its
+reader (``rig ... | head``), 143 SIGTERM (``kill``, ``timeout``, a job scheduler). On every
+signal the drive ramps to zero and a recording being written ends with status ``aborted`` and
+the signal in its ``abort_reason``.
 """
 
 from __future__ import annotations
 
-import os
-
-# The FE eigen-solves are small dense problems: threaded BLAS only adds overhead. Set before numpy loads.
-for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS"):
-    os.environ.setdefault(_var, "1")
-
+# Keep the top of this module to the standard library and rigtools.errors/runtime: `rig` imports
+# it before anything can handle Ctrl-C.
 import argparse
+import ast
 import importlib
 import pkgutil
 import sys
+from pathlib import Path
+from typing import Sequence
 
-from drivers.contracts import DriverError, DriverUnavailable
-from rigtools import commands
+from rigtools import errors
 from rigtools.errors import UserError
 
 DESCRIPTION = """\
@@ -34,41 +41,260 @@ with the FE model, and compare. Every command uses the calibrated default rig un
 is given. Units are SI; lengths and other quantities may be given as strings like "0.5 mm".
 """
 
+EPILOG = """\
+exit status:
+  0    success
+  1    a check found problems (rig check)
+  2    bad input: arguments, rig file, recording file
+  3    hardware or its driver not available
+  4    a hardware fault, safety abort or write error stopped the run
+  129  SIGHUP (terminal closed)   130  Ctrl-C (SIGINT)   143  SIGTERM (kill, timeout, scheduler)
+  141  stdout closed by its reader (rig ... | head)
+  On a signal the drive ramps to zero and a recording ends with status "aborted", the signal
+  named in its abort_reason; everything recorded before is kept.
 
-def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
-        prog="rig", description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter
-    )
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+examples:
+  rig devices
+  rig simulate --gap "0.5 mm" --force "15 N" --fe "60 Hz" --out sim.h5
+  rig acquire --simulated --fe "60 Hz" --drive "0.5 V" --duration "2 s" --out run.h5
+  rig info recordings/run.h5
+  rig COMMAND --help
+"""
+
+
+class RigArgumentParser(argparse.ArgumentParser):
+    """An argparse parser whose errors are one line plus a hint to ``--help`` (exit 2)."""
+
+    def error(self, message: str) -> None:  # type: ignore[override]
+        text = " ".join(str(message).split())
+        self.exit(errors.EXIT_USAGE, f"{self.prog}: error: {text}\n"
+                                     f"(see '{self.prog} --help')\n")
+
+
+# -- command discovery without imports ---------------------------------------------------------
+def _module_source(name: str) -> str | None:
+    from rigtools import commands
+
+    for folder in commands.__path__:
+        path = Path(folder) / f"{name}.py"
+        if path.is_file():
+            try:
+                return path.read_text(encoding="utf-8")
+            except (OSError, UnicodeDecodeError):
+                return None
+    return None
+
+
+def _string_value(node: ast.AST | None, names: dict[str, str]) -> str | None:
+    if isinstance(node, ast.Constant) and isinstance(node.value, str):
+        return node.value
+    if isinstance(node, ast.Name):
+        return names.get(node.id)
+    if isinstance(node, ast.BinOp) and isinstance(node.op, ast.Add):
+        left, right = _string_value(node.left, names), _string_value(node.right, names)
+        return left + right if left is not None and right is not None else None
+    return None
+
+
+def command_summaries(module: str, source: str | None) -> list[tuple[str, str]]:
+    """``(command name, one-line help)`` pairs a command module registers, read from its source.
+
+    Looks for ``add_parser("NAME", help=...)`` calls inside ``register`` (help as a string
+    literal or a module-level string constant); falls back to the module name and the first line
+    of the module docstring. Never imports the module.
+    """
+    found: list[tuple[str, str]] = []
+    doc = ""
+    if source is not None:
+        try:
+            tree = ast.parse(source)
+        except SyntaxError:
+            tree = None
+        if tree is not None:
+            doc = (ast.get_docstring(tree) or "").strip().splitlines()[0:1]
+            doc = doc[0] if doc else ""
+            names: dict[str, str] = {}
+            for stmt in tree.body:
+                if isinstance(stmt, ast.Assign) and len(stmt.targets) == 1 \
+                        and isinstance(stmt.targets[0], ast.Name):
+                    value = _string_value(stmt.value, names)
+                    if value is not None:
+                        names[stmt.targets[0].id] = value
+            for stmt in tree.body:
+                if isinstance(stmt, ast.FunctionDef) and stmt.name == "register":
+                    for node in ast.walk(stmt):
+                        if (isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute)
+                                and node.func.attr == "add_parser" and node.args):
+                            name = _string_value(node.args[0], names)
+                            if name is None:
+                                continue
+                            helps = [k.value for k in node.keywords if k.arg == "help"]
+                            text = _string_value(helps[0], names) if helps else None
+                            found.append((name, text if text is not None else doc))
+    if not found:
+        found.append((module, doc))
+    return [(name, " ".join(text.split()) if text else "") for name, text in found]
+
+
+def discover_commands() -> dict[str, str]:
+    """Command name -> module name of every ``rigtools.commands`` module, without importing it."""
+    from rigtools import commands
+
+    table: dict[str, str] = {}
     for info in sorted(pkgutil.iter_modules(commands.__path__), key=lambda m: m.name):
-        module = importlib.import_module(f"rigtools.commands.{info.name}")
-        if hasattr(module, "register"):
-            module.register(sub)
+        if info.name.startswith("_"):
+            continue
+        for name, _ in command_summaries(info.name, _module_source(info.name)):
+            table.setdefault(name, info.name)
+    return table
+
+
+def _chosen_command(argv: Sequence[str], known: dict[str, str]) -> str | None:
+    """The sub-command named on the command line (first non-option word), if it is known."""
+    for arg in argv:
+        if arg == "--":
+            return None
+        if not arg.startswith("-"):
+            return arg if arg in known else None
+    return None
+
+
+def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
+    """The ``rig`` parser. Only the module of the command named in ``argv`` is imported and
+    registers its full parser; the others appear in the command list with their help line.
+    ``argv=None`` imports and registers every command (for documentation and tests)."""
+    parser = RigArgumentParser(
+        prog="rig", description=DESCRIPTION, epilog=EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--version", action="version", version=_version())
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=RigArgumentParser)
+    parser.rig_commands = sub   # type: ignore[attr-defined]
+    from rigtools import commands
+
+    modules = sorted(m.name for m in pkgutil.iter_modules(commands.__path__)
+                     if not m.name.startswith("_"))
+    table = discover_commands()
+    chosen = _chosen_command(argv, table) if argv is not None else None
+    for module_name in modules:
+        if argv is None or (chosen is not None and table[chosen] == module_name):
+            module = importlib.import_module(f"rigtools.commands.{module_name}")
+            if hasattr(module, "register"):
+                module.register(sub)
+            continue
+        for name, text in command_summaries(module_name, _module_source(module_name)):
+            sub.add_parser(name, help=text, add_help=False)
     return parser
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    if not getattr(args, "func", None):
-        parser.print_help()
-        return 2
+def _version() -> str:
+    from rigtools import __version__
+
+    return f"rig {__version__}"
+
+
+# -- running a command -------------------------------------------------------------------------
+def _say(line: str) -> None:
     try:
+        print(line, file=sys.stderr, flush=True)
+    except (OSError, ValueError):   # stderr gone (closed terminal): the exit status still tells
+        pass
+
+
+def _driver_error_code(exc: BaseException) -> int | None:
+    """3 for drivers.DriverUnavailable, 4 for another drivers.DriverError, None otherwise.
+    drivers.contracts is only consulted if something already imported it."""
+    contracts = sys.modules.get("drivers.contracts")
+    if contracts is None:
+        return None
+    if isinstance(exc, contracts.DriverUnavailable):
+        return errors.EXIT_HARDWARE
+    if isinstance(exc, contracts.DriverError):
+        return errors.EXIT_FAULT
+    return None
+
+
+def _run(argv: list[str]) -> int:
+    command = "rig"
+    try:
+        from rigtools.runtime import configure_process
+
+        configure_process()     # before any command module can load numpy
+        try:
+            parser = build_parser(argv)
+        except ImportError as exc:   # a command module's top-level import of a missing package
+            chosen = _chosen_command(argv, discover_commands())
+            _say(f"rig {chosen or ''}: error: cannot load this command: {exc}".replace("  ", " "))
+            return errors.EXIT_HARDWARE
+        try:
+            args, extra = parser.parse_known_args(argv)
+            if extra:   # say it as the sub-command's error, not the top level's
+                sub = getattr(parser, "rig_commands", None)
+                owner = sub.choices.get(getattr(args, "command", None) or "", parser) if sub else parser
+                owner.error(f"unrecognized arguments: {' '.join(extra)}")
+        except SystemExit as exc:    # argument errors (one line, exit 2), --help, --version
+            if exc.code in (0, None):
+                raise                # --help/--version end as argparse ends them: SystemExit(0)
+            return exc.code if isinstance(exc.code, int) else errors.EXIT_USAGE
+        if not getattr(args, "func", None):
+            parser.print_help()
+            return errors.EXIT_USAGE
+        command = f"rig {args.command}"
         return int(args.func(args) or 0)
     except UserError as exc:
-        print(f"rig {args.command}: error: {exc}", file=sys.stderr)
+        _say(f"{command}: error: {' '.join(str(exc).split())}")
         return exc.exit_code
-    except DriverUnavailable as exc:
-        print(f"rig {args.command}: error: {exc}", file=sys.stderr)
-        return 3
-    except DriverError as exc:
-        # A hardware fault that stopped the run; the drive was ramped to zero by the driver.
-        print(f"rig {args.command}: error: {exc}", file=sys.stderr)
-        return 4
-    except KeyboardInterrupt:
-        print(f"rig {args.command}: interrupted", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as exc:
+        text = str(exc) if isinstance(exc, errors.Interrupted) else "interrupted (Ctrl-C)"
+        _say(f"{command}: {text}")
+        return getattr(exc, "exit_code", errors.EXIT_SIGINT)
+    except Exception as exc:
+        code = _driver_error_code(exc)
+        if code is None:
+            raise
+        # A DriverError is a hardware fault that stopped the run; the driver ramped the drive to 0.
+        _say(f"{command}: error: {' '.join(str(exc).split())}")
+        return code
 
+
+def main(argv: list[str] | None = None) -> int:
+    """Run ``rig`` with ``argv`` (default ``sys.argv[1:]``); returns the exit status.
+
+    ``--help`` and ``--version`` raise ``SystemExit(0)`` after printing, as argparse does;
+    argument errors return 2 after one line and a hint.
+
+    SIGINT, SIGTERM and SIGHUP are turned into :class:`rigtools.errors.Interrupted` for the
+    whole run (start-up included) and the previous handlers restored after; stdout and stderr
+    print any character; a closed stdout pipe ends quietly with status 141.
+    """
+    try:
+        from rigtools.runtime import configure_console, handle_stop_signals, silence_stdout
+
+        argv = list(sys.argv[1:] if argv is None else argv)
+        configure_console()
+        try:
+            with handle_stop_signals():
+                code = _run(argv)
+                sys.stdout.flush()
+            return code
+        except BrokenPipeError:
+            silence_stdout()
+            return errors.EXIT_SIGPIPE
+        except SystemExit as exc:
+            # rich handles a closed stdout itself: stdout to devnull, then SystemExit(1)
+            if isinstance(exc.__context__, BrokenPipeError):
+                silence_stdout()
+                return errors.EXIT_SIGPIPE
+            if exc.code in (0, None):
+                try:
+                    sys.stdout.flush()
+                except BrokenPipeError:
+                    silence_stdout()
+                    return errors.EXIT_SIGPIPE
+            raise
+    except KeyboardInterrupt as exc:  # before the handlers were installed, or after _run
+        text = str(exc) if isinstance(exc, errors.Interrupted) else "interrupted (Ctrl-C)"
+        _say(f"rig: {text}")
+        return getattr(exc, "exit_code", errors.EXIT_SIGINT)
 
 if __name__ == "__main__":
     sys.exit(main())

@@ -1,10 +1,25 @@
-"""Errors a user can cause. The CLI turns them into one line and an exit status."""
+"""Errors a user can cause, and the exit statuses of ``rig``. The CLI turns them into one line."""
+
+from __future__ import annotations
+
+import signal as _signal
+
+#: Exit statuses of ``rig`` (also in ``rig --help``).
+EXIT_OK = 0
+EXIT_PROBLEMS = 1          # a check found problems
+EXIT_USAGE = 2             # bad input: arguments, rig file, recording file
+EXIT_HARDWARE = 3          # hardware or its driver not available
+EXIT_FAULT = 4             # a hardware fault, safety abort or write error stopped the run
+EXIT_SIGHUP = 128 + 1      # 129: terminal closed (SIGHUP)
+EXIT_SIGINT = 128 + 2      # 130: Ctrl-C (SIGINT)
+EXIT_SIGPIPE = 128 + 13    # 141: the reader of stdout went away (`rig ... | head`)
+EXIT_SIGTERM = 128 + 15    # 143: terminated (SIGTERM: kill, timeout, a job scheduler)
 
 
 class UserError(Exception):
     """Bad input from the user (config, command line, file). Exit status 2 by default."""
 
-    exit_code = 2
+    exit_code = EXIT_USAGE
 
 
 class ConfigError(UserError):
@@ -14,4 +29,36 @@ class ConfigError(UserError):
 class HardwareUnavailable(UserError):
     """Hardware or its driver is not present on this machine."""
 
-    exit_code = 3
+    exit_code = EXIT_HARDWARE
+
+
+_SIGNAL_TEXT = {
+    "SIGINT": "interrupted (Ctrl-C)",
+    "SIGTERM": "terminated (kill, timeout or a job scheduler)",
+    "SIGHUP": "hung up (terminal closed)",
+}
+
+
+class Interrupted(KeyboardInterrupt):
+    """A stop request by a signal (SIGINT, SIGTERM, SIGHUP), raised in the main thread.
+
+    A :class:`KeyboardInterrupt`, so every path that handles Ctrl-C (drive ramped to zero,
+    recording marked ``aborted``, everything finished kept) handles SIGTERM and SIGHUP alike.
+    ``str(exc)`` is the one line for the user and a recording's ``abort_reason``, naming the
+    signal; :attr:`exit_code` is 128 + the signal number.
+
+    Parameters
+    ----------
+    signum
+        The signal number.
+    """
+
+    def __init__(self, signum: int) -> None:
+        self.signum = int(signum)
+        try:
+            self.signal_name = _signal.Signals(self.signum).name
+        except ValueError:
+            self.signal_name = f"signal {self.signum}"
+        self.exit_code = 128 + self.signum
+        text = _SIGNAL_TEXT.get(self.signal_name, f"stopped by {self.signal_name}")
+        super().__init__(f"{self.signal_name}: {text}")

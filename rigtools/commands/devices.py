@@ -7,11 +7,6 @@ import json
 from pathlib import Path
 from typing import Any
 
-import nidaqmx.system
-from nidaqmx.errors import DaqError, DaqNotFoundError, DaqNotSupportedError
-
-from drivers.contracts import DriverUnavailable
-from drivers.visa_source import open_resource_manager, simulator_backend
 from rigtools.errors import UserError
 
 SIMULATED_HINT = "use --simulated to run on the simulated rig (no hardware needed)"
@@ -58,6 +53,12 @@ def _first_line(exc: BaseException) -> str:
 
 def list_ni_devices() -> dict[str, Any]:
     """NI-DAQmx devices as plain data; ``reason`` says why there are none to list."""
+    try:    # here, not at the top: `rig --help` must not load nidaqmx
+        import nidaqmx.system
+        from nidaqmx.errors import DaqError, DaqNotFoundError, DaqNotSupportedError
+    except ImportError as exc:
+        return {"available": False, "driver_version": None, "devices": [],
+                "reason": f"the nidaqmx Python package is not installed ({_first_line(exc)})"}
     try:
         system = nidaqmx.system.System.local()
         version = system.driver_version
@@ -86,6 +87,12 @@ def list_ni_devices() -> dict[str, Any]:
 
 def list_visa_resources(backend: str = "") -> dict[str, Any]:
     """VISA resources as plain data; ``reason`` says why there are none to list."""
+    try:    # here, not at the top: `rig --help` must not load pyvisa
+        from drivers.contracts import DriverUnavailable
+        from drivers.visa_source import open_resource_manager, simulator_backend
+    except ImportError as exc:
+        return {"available": False, "backend": backend or "default", "resources": [],
+                "reason": f"the pyvisa Python package is not installed ({_first_line(exc)})"}
     if backend == "simulated":
         backend = simulator_backend()
     try:

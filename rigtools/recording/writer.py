@@ -92,8 +92,8 @@ def _rig_text(rig: Any) -> str:
 
 def one_line(exc: BaseException, limit: int = 500) -> str:
     """``"TypeName: message"`` of an exception on one line, at most ``limit`` characters."""
-    if isinstance(exc, KeyboardInterrupt):
-        return "KeyboardInterrupt: interrupted by the user"
+    if isinstance(exc, KeyboardInterrupt):   # rigtools.errors.Interrupted names its signal
+        return " ".join(str(exc).split()) or "KeyboardInterrupt: interrupted by the user"
     text = f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
     text = " ".join(text.split())
     return text if len(text) <= limit else text[: limit - 3] + "..."

@@ -1,0 +1,336 @@
+"""Process-level settings: signals, console encoding, BLAS threads, the numba cache.
+
+Nothing here happens on import. ``rig`` calls these where its process starts work; library users
+and worker processes call :func:`configure_process` themselves (it is cheap and idempotent).
+
+* :func:`handle_stop_signals` turns SIGINT, SIGTERM and SIGHUP into :class:`rigtools.errors.Interrupted`
+  (a :class:`KeyboardInterrupt`) in the main thread, so every Ctrl-C path (drive ramped to zero,
+  recording ``aborted`` with the signal as its reason) covers ``kill``, ``timeout``, a job
+  scheduler and a closed terminal too.
+* :func:`configure_console` lets stdout/stderr print any text on any console ("m/s²" on an
+  ASCII or cp1252 console becomes ``m/s\\xb2`` instead of a UnicodeEncodeError).
+* :func:`configure_process` sets the BLAS thread count (small dense problems: threads only add
+  overhead) and a writable numba cache directory.
+* :func:`ensure_kernels_compiled` says "compiling the simulation kernels" on the first run
+  instead of showing a frozen progress bar, and compiles them.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import signal
+import sys
+import threading
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable, Iterator, TextIO
+
+from rigtools.errors import Interrupted
+
+#: Signals handled like Ctrl-C (those this platform has).
+STOP_SIGNALS: tuple[int, ...] = tuple(
+    getattr(signal, name) for name in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, name))
+
+#: A repeated stop signal within this many seconds of the first is ignored, so the drive's ramp
+#: to zero and the recording's close are not cut short by an impatient second Ctrl-C.
+REPEAT_GRACE_S = 5.0
+
+BLAS_THREAD_VARS = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
+
+APP_NAME = "shrouded-blade-rig"
+
+
+# -- signals ---------------------------------------------------------------------------------
+class _StopHandler:
+    """Raise :class:`Interrupted` on the first stop signal; ignore repeats for a grace time."""
+
+    def __init__(self) -> None:
+        self.first: float | None = None
+
+    def __call__(self, signum: int, frame: Any) -> None:
+        now = time.monotonic()
+        if self.first is not None and now - self.first < REPEAT_GRACE_S:
+            return
+        self.first = now
+        raise Interrupted(signum)
+
+
+@contextlib.contextmanager
+def handle_stop_signals(signals: tuple[int, ...] = STOP_SIGNALS) -> Iterator[None]:
+    """Within the block, SIGINT/SIGTERM/SIGHUP raise :class:`rigtools.errors.Interrupted`.
+
+    The exception is raised in the main thread between two Python byte codes (a compiled
+    kernel finishes its block first). A second signal within :data:`REPEAT_GRACE_S` of the first
+    is ignored so clean-up (drive to zero, file closed) completes; SIGKILL still ends anything.
+    The previous handlers are restored on exit. Outside the main thread this does nothing.
+
+    Examples
+    --------
+    >>> with handle_stop_signals():          # doctest: +SKIP
+    ...     run_long_acquisition()
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    handler = _StopHandler()
+    previous: dict[int, Any] = {}
+    try:
+        for sig in signals:
+            previous[sig] = signal.signal(sig, handler)
+        yield
+    finally:
+        for sig, old in previous.items():
+            with contextlib.suppress(Exception):
+                signal.signal(sig, old if old is not None else signal.SIG_DFL)
+
+
+# -- console ---------------------------------------------------------------------------------
+def configure_console(*streams: TextIO) -> None:
+    """Let ``streams`` (default stdout and stderr) print any character.
+
+    Characters the console's encoding cannot show are written as ``\\xb2``-style escapes
+    (``errors="backslashreplace"``) instead of raising :class:`UnicodeEncodeError`. Streams
+    without ``reconfigure`` (captured or replaced streams) are left alone.
+    """
+    for stream in streams or (sys.stdout, sys.stderr):
+        reconfigure = getattr(stream, "reconfigure", None)
+        if reconfigure is None or getattr(stream, "errors", None) not in ("strict", None):
+            continue
+        with contextlib.suppress(Exception):
+            reconfigure(errors="backslashreplace")
+
+
+def silence_stdout() -> None:
+    """After a closed pipe: point stdout at the null device so the exit flush cannot fail."""
+    with contextlib.suppress(Exception):
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
+
+
+# -- BLAS threads and numba cache --------------------------------------------------------------
+@dataclass(frozen=True)
+class ProcessSettings:
+    """What :func:`configure_process` set (for logs and tests).
+
+    Attributes
+    ----------
+    blas_threads
+        The BLAS/OpenMP thread limit in force (None: left to the user's environment).
+    blas_limited_live
+        True when the limit was applied to already loaded BLAS libraries (threadpoolctl).
+    numba_cache_dir
+        The numba cache directory; None = numba's default beside the package sources.
+    """
+
+    blas_threads: int | None
+    blas_limited_live: bool
+    numba_cache_dir: str | None
+
+
+_user_set_threads = {var for var in BLAS_THREAD_VARS if var in os.environ}
+
+
+def user_cache_dir() -> Path:
+    """The per-user cache directory of this toolkit (platform convention)."""
+    if sys.platform == "win32":
+        base = Path(os.environ.get("LOCALAPPDATA") or Path.home() / "AppData" / "Local")
+    elif sys.platform == "darwin":
+        base = Path.home() / "Library" / "Caches"
+    else:
+        base = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
+    return base / APP_NAME
+
+
+def _writable_dir(path: Path) -> bool:
+    return path.is_dir() and os.access(path, os.W_OK | os.X_OK)
+
+
+def numba_cache_dir() -> Path | None:
+    """Where the numba kernels are cached.
+
+    ``NUMBA_CACHE_DIR`` if the user set it; None (numba's default ``__pycache__`` beside the
+    sources) if that is writable; otherwise ``<user cache>/numba`` (a read-only install, e.g.
+    site-packages owned by root or a container image).
+    """
+    if os.environ.get("NUMBA_CACHE_DIR"):
+        return Path(os.environ["NUMBA_CACHE_DIR"])
+    import sim    # light: a package docstring
+
+    pkg = Path(sim.__file__).resolve().parent
+    pycache = pkg / "__pycache__"
+    if _writable_dir(pycache) or (not pycache.exists() and _writable_dir(pkg)):
+        return None
+    return user_cache_dir() / "numba"
+
+
+def configure_process(blas_threads: int | None = 1, *, numba_cache: bool = True) -> ProcessSettings:
+    """Set the process-wide settings the toolkit's numerical work expects. Idempotent.
+
+    Call it where a process starts work: ``rig`` does; a script or a worker process using
+    :mod:`sim` or :mod:`rigtools` directly should too.
+
+    Parameters
+    ----------
+    blas_threads
+        BLAS/OpenMP threads (default 1: the FE problems are small and dense, and studies run
+        points in parallel processes). Sets ``OPENBLAS_NUM_THREADS``, ``OMP_NUM_THREADS`` and
+        ``MKL_NUM_THREADS`` unless the user set them; if numpy is already loaded, the limit is
+        applied to the loaded libraries with threadpoolctl. None leaves threads alone.
+    numba_cache
+        Make sure compiled kernels can be cached: if the package directory is read-only,
+        ``NUMBA_CACHE_DIR`` is set to a per-user cache directory (numba's config too, if numba
+        is already loaded).
+
+    Returns
+    -------
+    ProcessSettings
+    """
+    live = False
+    if blas_threads is not None and not _user_set_threads:
+        value = str(int(blas_threads))
+        for var in BLAS_THREAD_VARS:
+            os.environ[var] = value
+        if "numpy" in sys.modules:
+            try:
+                from threadpoolctl import threadpool_limits
+            except ImportError:
+                pass
+            else:
+                threadpool_limits(limits=int(blas_threads), user_api="blas")
+                live = True
+    elif _user_set_threads:
+        blas_threads = None
+    cache: Path | None = None
+    if numba_cache:
+        cache = numba_cache_dir()
+        if cache is not None:
+            with contextlib.suppress(OSError):
+                cache.mkdir(parents=True, exist_ok=True)
+            os.environ["NUMBA_CACHE_DIR"] = str(cache)
+            numba_config = sys.modules.get("numba.core.config")
+            if numba_config is not None:
+                numba_config.CACHE_DIR = str(cache)
+    return ProcessSettings(blas_threads, live, str(cache) if cache is not None else None)
+
+
+# -- first-run kernel compilation --------------------------------------------------------------
+def _dispatchers(module: Any) -> list[Any]:
+    from numba.core.dispatcher import Dispatcher
+
+    return [obj for obj in vars(module).values()
+            if isinstance(obj, Dispatcher) and getattr(obj, "_cache", None) is not None
+            and obj.__module__ == module.__name__]
+
+
+def _is_cached(dispatcher: Any) -> bool:
+    """True if numba's cache index of ``dispatcher`` is fresh and has an entry."""
+    try:
+        return bool(dispatcher._cache._cache_file._load_index())
+    except Exception:       # numba internals changed: say "not cached" (only costs a message)
+        return False
+
+
+def _index_exists(dispatcher: Any) -> bool:
+    try:
+        return os.path.exists(dispatcher._cache._cache_file._index_path)
+    except Exception:
+        return False
+
+
+def kernels_cached(module_name: str = "sim.vibro_impact") -> bool:
+    """True if the numba kernels of ``module_name`` are in numba's on-disk cache.
+
+    A kernel counts once an index file exists for it that matches the current source (numba
+    drops an index whose source file changed). Kernels never compiled through that module's
+    entry points have no index and are not counted; at least one must be cached.
+    """
+    import importlib
+
+    module = importlib.import_module(module_name)
+    found = [d for d in _dispatchers(module) if _index_exists(d)]
+    return bool(found) and all(_is_cached(d) for d in found)
+
+
+def _warm_up_vibro_impact() -> None:
+    """Run the vibro-impact kernels once on a two-mode system: compiles (and caches) them with
+    the argument types every caller uses (float64 arrays, float scalars, int law code)."""
+    import numpy as np
+
+    from sim.params import ContactParams, DampingParams
+    from sim.reduction import ReducedSystem
+    from sim.vibro_impact import VibroImpactStepper
+
+    omega = 2 * np.pi * np.array([50.0, 55.0])
+    system = ReducedSystem(omega=omega, zeta=np.array([0.01, 0.01]),
+                           shapes=np.array([[1.0, 0.0], [0.0, 1.0], [0.5, 0.0]]),
+                           blade=np.array([0, 1]),
+                           contact=ContactParams(gap=1e-4, stiffness=1e6, damping=1.0),
+                           damping=DampingParams())
+    u = 10.0 * np.sin(2 * np.pi * 50.0 * 1e-4 * np.arange(1, 201))
+    VibroImpactStepper(system, 1e-4).step(u)
+
+
+def _warm_up_simulated_rig() -> None:
+    """Run the simulated rig's shaker/test-article propagator once on a two-state system, with
+    the argument types :class:`drivers.simulated.SimulatedRig` passes (complex128 modal data)."""
+    import numpy as np
+
+    from drivers import simulated
+
+    n, m = 2, len(simulated.SIGNALS)
+    c = np.full(n, 0.5 + 0.1j)
+    simulated._propagate(c.copy(), c.copy(), c.copy(), c.copy(), c.copy(),
+                         np.ones((m, n), dtype=complex), np.zeros(m), np.zeros(n, dtype=complex),
+                         np.zeros(1), np.ones(8), np.empty((m, 8)))
+
+
+#: Module -> (what compiles its kernels, first-run compile time in s measured on the 2-core CI
+#: machine under load: 4 s and 3.5 s).
+KERNELS: dict[str, tuple[Callable[[], None], float]] = {
+    "sim.vibro_impact": (_warm_up_vibro_impact, 5.0),
+    "drivers.simulated": (_warm_up_simulated_rig, 4.0),
+}
+
+
+def ensure_kernels_compiled(console: Any = None,
+                            modules: tuple[str, ...] = ("sim.vibro_impact",)) -> bool:
+    """Compile the numba kernels of ``modules`` now if numba has not cached them, saying so.
+
+    Call it before a progress bar starts on work that runs compiled kernels, so the first run
+    prints "compiling the simulation kernels (first run only, ~5 s)" instead of a frozen bar:
+    ``rig simulate`` and ``rig study`` with the default; ``rig acquire --simulated`` with
+    ``modules=("sim.vibro_impact", "drivers.simulated")``.
+
+    Parameters
+    ----------
+    console
+        A :class:`rich.console.Console` (``.print``), or a text stream (``.write``); default
+        ``sys.stderr``. Nothing is printed when the kernels are cached.
+    modules
+        Modules of :data:`KERNELS` whose kernels are needed.
+
+    Returns
+    -------
+    bool
+        True if kernels were compiled now, False if all were already cached.
+    """
+    configure_process(blas_threads=None)
+    missing = [name for name in modules if not kernels_cached(name)]
+    if not missing:
+        return False
+    seconds = sum(KERNELS[name][1] for name in missing)
+    line = f"compiling the simulation kernels (first run only, ~{seconds:.0f} s)"
+    if console is None:
+        console = sys.stderr
+    if hasattr(console, "print") and not hasattr(console, "write"):
+        console.print(line)
+    else:
+        with contextlib.suppress(OSError, ValueError):
+            console.write(line + "\n")
+            console.flush()
+    for name in missing:
+        KERNELS[name][0]()
+    return True

@@ -1,0 +1,439 @@
+"""``rig`` as a process: signals, start-up weight, argparse errors, closed pipes, consoles.
+
+Real subprocesses and real signals: a simulated acquisition is stopped by SIGINT, SIGTERM and
+SIGHUP and its file must say ``aborted`` with the signal in ``abort_reason``, the drive ramped to
+zero in the record and the data before the signal intact.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+
+from rigtools import cli
+from rigtools.errors import EXIT_SIGHUP, EXIT_SIGINT, EXIT_SIGPIPE, EXIT_SIGTERM, Interrupted
+from rigtools.recording import ChannelSpec, RecordingWriter
+from rigtools import runtime
+
+COMMANDS = ["acquire", "check", "devices", "harmonic", "info", "modal", "simulate", "study"]
+HEAVY = ["scipy", "numba", "h5py", "nidaqmx", "pyvisa", "matplotlib"]
+LINUX = pytest.mark.skipif(not Path("/proc/self/maps").exists(), reason="needs /proc (Linux)")
+
+
+def _env(**extra: str) -> dict[str, str]:
+    env = dict(os.environ)
+    env.pop("PYTHONIOENCODING", None)
+    env.update(extra)
+    return env
+
+
+def _rig(*args: str, **popen) -> subprocess.Popen:
+    return subprocess.Popen([sys.executable, "-c", "import sys; from rigtools.cli import main; "
+                             "sys.exit(main())", *args], **popen)
+
+
+def _stderr_ok(text: str, max_lines: int = 2) -> None:
+    lines = [line for line in text.splitlines() if line.strip()]
+    assert "Traceback" not in text, text
+    assert len(lines) <= max_lines, text
+
+
+def small_recording(path: Path, units: str = "m/s^2") -> Path:
+    """A complete two-channel, one-point recording (0.1 s at 10 kHz)."""
+    t = np.arange(1000) / 1e4
+    with RecordingWriter(path, backend="simulated", rig="{}") as rec:
+        point = rec.begin_point({"fe": 60.0}, [ChannelSpec("force", "N", "force", 1e4),
+                                              ChannelSpec("active_shroud_accel", units,
+                                                          "acceleration", 1e4)])
+        point.append(np.vstack([15 * np.sin(2 * np.pi * 60 * t), 400 * np.sin(2 * np.pi * 60 * t)]))
+        point.end()
+    return path
+
+
+# -- discovery and start-up weight -------------------------------------------------------------
+def test_help_lists_every_command_without_importing_it(monkeypatch):
+    """The command list read from the sources equals the one the imported modules register."""
+    lazy = cli.build_parser(["--help"]).format_help()
+    full = cli.build_parser(None).format_help()
+    assert lazy == full
+    assert sorted(cli.discover_commands()) == COMMANDS
+    for word in ("130", "143", "129", "141", "exit status"):
+        assert word in lazy
+
+
+def test_summaries_come_from_constants_and_docstrings():
+    source = ('"""``rig x``: do x."""\nHELP = "first" + " part"\n'
+              'def register(sub):\n    sub.add_parser("x", help=HELP)\n'
+              '    sub.add_parser("y", help=f"{HELP}")\n')
+    assert cli.command_summaries("x", source) == [("x", "first part"), ("y", "``rig x``: do x.")]
+    assert cli.command_summaries("z", None) == [("z", "")]
+
+
+_PROBE = """
+import contextlib, io, json, sys
+from rigtools.cli import main
+out = []
+for argv in json.loads(sys.argv[1]):
+    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+        try:
+            code = main(argv)
+        except SystemExit as exc:      # --help
+            code = exc.code
+    out.append([code, sorted(sys.modules)])
+print(json.dumps(out))
+"""
+
+
+def _probe(*argvs: tuple[str, ...], **popen) -> subprocess.Popen:
+    """A process running ``main(argv)`` for each argv in turn, printing the exit status and the
+    modules loaded after each (cumulative)."""
+    return subprocess.Popen([sys.executable, "-c", _PROBE, json.dumps([list(a) for a in argvs])],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=_env(),
+                            **popen)
+
+
+# Command modules that import a heavy package at their top (the coordinator fixes them at merge;
+# the tests turn into passes then, and strict xfail makes them say so).
+OFFENDERS = {
+    "acquire": "rigtools.acquisition imports scipy.signal at its top (rigtools/commands/acquire.py)",
+    "check": "rigtools.recording imports h5py at its top (rigtools/commands/check.py)",
+    "info": "rigtools.recording imports h5py at its top (rigtools/commands/info.py)",
+    "harmonic": "sim.harmonic / sim.rig_model import scipy at the top of rigtools/commands/harmonic.py",
+    "modal": "sim.analytical / sim.modal import scipy at the top of rigtools/commands/modal.py",
+}
+
+
+def _probe_cases():
+    cases = [pytest.param(("--help",), id="rig--help"),
+             pytest.param(("no-such-command",), id="rig-bad-command")]
+    for name in COMMANDS:
+        marks = ([pytest.mark.xfail(strict=True, reason=OFFENDERS[name])]
+                 if name in OFFENDERS else [])
+        cases.append(pytest.param((name, "--help"), id=f"{name}--help", marks=marks))
+        cases.append(pytest.param((name, "--no-such-option"), id=f"{name}-bad-option",
+                                  marks=marks))
+    return cases
+
+
+@pytest.fixture(scope="module")
+def probes():
+    """Every start-up case, one process per command (its --help, then a bad option) and all
+    processes at once: argv -> (code, modules loaded so far)."""
+    groups: dict[str, list[tuple[str, ...]]] = {}
+    for p in _probe_cases():
+        argv = p.values[0]
+        groups.setdefault(argv[0], []).append(argv)
+    procs = {tuple(argvs): _probe(*argvs) for argvs in groups.values()}
+    out = {}
+    for argvs, proc in procs.items():
+        stdout, stderr = proc.communicate(timeout=180)
+        assert proc.returncode == 0, stderr
+        for argv, (code, modules) in zip(argvs, json.loads(stdout.strip().splitlines()[-1])):
+            out[argv] = code, modules
+    return out
+
+
+@pytest.mark.parametrize("argv", _probe_cases())
+def test_help_and_argument_errors_do_not_import_heavy_packages(probes, argv):
+    code, modules = probes[argv]
+    assert code == (0 if argv[-1] == "--help" else 2)
+    heavy = sorted({m.split(".")[0] for m in modules} & set(HEAVY))
+    assert heavy == [], f"rig {' '.join(argv)} imported {heavy}"
+
+
+def test_rig_info_does_not_import_scipy_signal(tmp_path):
+    path = small_recording(tmp_path / "run.h5")
+    stdout, stderr = _probe(("info", str(path))).communicate(timeout=120)
+    [[code, modules]] = json.loads(stdout.strip().splitlines()[-1])
+    assert code == 0
+    assert "scipy.signal" not in modules
+    assert "matplotlib" not in modules
+
+
+# -- argparse errors -------------------------------------------------------------------------
+@pytest.mark.parametrize("argv, prog", [
+    (["--no-such-option"], "rig"),
+    (["no-such-command"], "rig"),
+    *[([name, "--no-such-option"], f"rig {name}") for name in COMMANDS],
+    (["simulate", "--gap"], "rig simulate"),                 # an option without its value
+    (["acquire", "--simulated"], "rig acquire"),             # required options missing
+    (["info"], "rig info"),                                  # required positional missing
+])
+def test_argparse_errors_are_one_line_and_a_hint(capsys, argv, prog):
+    assert cli.main(argv) == 2
+    err = capsys.readouterr().err
+    _stderr_ok(err)
+    lines = err.strip().splitlines()
+    assert lines[0].startswith(f"{prog}: error: ")
+    assert lines[1] == f"(see '{prog} --help')"
+
+
+def test_no_command_prints_help_and_exits_2(capsys):
+    assert cli.main([]) == 2
+    assert "COMMAND" in capsys.readouterr().out
+
+
+# -- signals ---------------------------------------------------------------------------------
+def test_interrupted_names_its_signal_and_exit_code():
+    exc = Interrupted(signal.SIGTERM)
+    assert isinstance(exc, KeyboardInterrupt)
+    assert exc.exit_code == 143 == EXIT_SIGTERM
+    assert str(exc).startswith("SIGTERM: ")
+    assert Interrupted(signal.SIGINT).exit_code == EXIT_SIGINT == 130
+    assert Interrupted(signal.SIGHUP).exit_code == EXIT_SIGHUP == 129
+
+
+def test_handler_raises_once_ignores_repeats_and_restores():
+    before = signal.getsignal(signal.SIGTERM)
+    with pytest.raises(Interrupted) as info:
+        with runtime.handle_stop_signals():
+            try:
+                os.kill(os.getpid(), signal.SIGTERM)
+                time.sleep(1)                    # the handler raises here
+            finally:
+                os.kill(os.getpid(), signal.SIGTERM)   # a repeat during clean-up: ignored
+                time.sleep(0.05)
+    assert info.value.signal_name == "SIGTERM"
+    assert signal.getsignal(signal.SIGTERM) == before
+
+
+def _wait_for(predicate, timeout: float = 60.0) -> None:
+    end = time.monotonic() + timeout
+    while not predicate():
+        if time.monotonic() > end:
+            raise AssertionError("timed out waiting for the subprocess")
+        time.sleep(0.05)
+
+
+def _file_has_samples(path: Path, n: int) -> bool:
+    try:
+        with h5py.File(path, "r", swmr=True, locking=False) as f:
+            return "points/0000/force" in f and f["points/0000/force"].shape[0] >= n
+    except (OSError, KeyError):
+        return False
+
+
+SIGNAL_CASES = [(signal.SIGINT, 130), (signal.SIGTERM, 143), (signal.SIGHUP, 129)]
+
+
+@pytest.fixture(scope="module")
+def stopped_acquisitions(tmp_path_factory):
+    """Three paced 30 s simulated acquisitions run at once; each gets its signal once 0.1 s of
+    data is in its file. signal -> (exit status, stderr, file)."""
+    tmp = tmp_path_factory.mktemp("signals")
+    runs = {}
+    for sig, _ in SIGNAL_CASES:
+        out = tmp / f"{signal.Signals(sig).name}.h5"
+        runs[sig] = out, _rig("acquire", "--simulated", "--pace", "--fe", "60 Hz", "--drive",
+                              "0.5 V", "--duration", "30 s", "--out", str(out), "--json",
+                              "--no-plot", stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                              text=True, env=_env())
+    results = {}
+    try:
+        pending = dict(runs)
+        end = time.monotonic() + 120
+        while pending and time.monotonic() < end:
+            for sig, (out, proc) in list(pending.items()):
+                if proc.poll() is not None or _file_has_samples(out, 5120):
+                    time.sleep(0.2)
+                    proc.send_signal(sig)
+                    del pending[sig]
+            time.sleep(0.05)
+        for sig, (out, proc) in runs.items():
+            _, stderr = proc.communicate(timeout=60)
+            results[sig] = proc.returncode, stderr, out
+    finally:
+        for _, proc in runs.values():
+            if proc.poll() is None:
+                proc.kill()
+    return results
+
+
+@pytest.mark.parametrize("sig, code", SIGNAL_CASES)
+def test_signal_during_simulated_acquisition_aborts_cleanly(stopped_acquisitions, sig, code):
+    returncode, stderr, out = stopped_acquisitions[sig]
+    name = signal.Signals(sig).name
+    assert returncode == code, stderr
+    _stderr_ok(stderr)
+    assert name in stderr
+    with h5py.File(out, "r") as f:
+        assert f.attrs["status"] == "aborted"
+        assert name in f.attrs["abort_reason"]
+        force = f["points/0000/force"][:]
+        drive = f["points/0000/drive"][:]
+    assert force.size >= 5120 and np.all(np.isfinite(force))
+    assert np.max(np.abs(drive)) == pytest.approx(0.5, rel=1e-6)      # the dwell was running
+    tail = np.abs(drive[-20:])                                        # ... and ramped to zero
+    assert tail[-1] < 0.01 * 0.5 and np.all(np.diff(tail) < 0)
+
+
+@LINUX
+def test_sigterm_during_simulation(tmp_path):
+    proc = _rig("simulate", "--max-settle", "600", "--out", str(tmp_path / "sim.h5"), "--json",
+                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=_env())
+    maps = Path(f"/proc/{proc.pid}/maps")
+    try:
+        _wait_for(lambda: proc.poll() is not None or "numba" in maps.read_text())
+        time.sleep(1.0)
+        proc.send_signal(signal.SIGTERM)
+        _, stderr = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == EXIT_SIGTERM, stderr
+    _stderr_ok(stderr)
+    assert "SIGTERM" in stderr
+
+
+@LINUX
+def test_ctrl_c_during_start_up_is_one_line(tmp_path):
+    """While command modules import (numpy mapped, the command not yet running)."""
+    proc = _rig("simulate", "--out", str(tmp_path / "sim.h5"),
+                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=_env())
+    maps = Path(f"/proc/{proc.pid}/maps")
+    try:
+        _wait_for(lambda: proc.poll() is not None or "numpy" in maps.read_text())
+        proc.send_signal(signal.SIGINT)
+        _, stderr = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == EXIT_SIGINT, stderr
+    _stderr_ok(stderr, max_lines=1)
+    assert "interrupted" in stderr
+
+
+@LINUX
+def test_ctrl_c_while_loading_the_rig_file_is_one_line(tmp_path):
+    """The rig file is a FIFO nobody writes: `rig` blocks loading it until Ctrl-C."""
+    fifo = tmp_path / "rig.toml"
+    os.mkfifo(fifo)
+    proc = _rig("simulate", "--rig", str(fifo), "--out", str(tmp_path / "sim.h5"),
+                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=_env())
+
+    writer: list[int] = []
+
+    def reader_waiting() -> bool:    # a non-blocking open for writing succeeds once rig reads
+        try:
+            writer.append(os.open(fifo, os.O_WRONLY | os.O_NONBLOCK))
+            return True
+        except OSError:
+            return False
+
+    try:
+        _wait_for(lambda: proc.poll() is not None or reader_waiting())
+        time.sleep(0.2)               # rig is now blocked reading the (empty, open) FIFO
+        proc.send_signal(signal.SIGINT)
+        _, stderr = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+        for fd in writer:
+            os.close(fd)
+    assert proc.returncode == EXIT_SIGINT, stderr
+    _stderr_ok(stderr, max_lines=1)
+    assert stderr.startswith("rig simulate: SIGINT: interrupted")
+
+
+# -- closed pipe, consoles -------------------------------------------------------------------
+@pytest.mark.parametrize("args", [("--help",), ("info", "--json", "FILE"), ("info", "FILE"),
+                                  ("check", "FILE")])
+def test_closed_stdout_ends_quietly(tmp_path, args):
+    path = small_recording(tmp_path / "run.h5")
+    read, write = os.pipe()
+    os.close(read)                           # the reader is gone before rig writes anything
+    try:
+        proc = _rig(*[str(path) if a == "FILE" else a for a in args], stdout=write,
+                    stderr=subprocess.PIPE, text=True, env=_env())
+    finally:
+        os.close(write)
+    _, stderr = proc.communicate(timeout=120)
+    # argparse itself ignores a failed write of --help (exit 0); everything else says 141
+    assert proc.returncode in ((0, EXIT_SIGPIPE) if args == ("--help",) else (EXIT_SIGPIPE,))
+    assert stderr == ""
+
+
+@pytest.mark.parametrize("encoding", ["ascii", "cp1252"])
+def test_console_that_cannot_print_the_text(tmp_path, encoding):
+    """A recording named and labelled with characters the console lacks ("m/s²", "≥")."""
+    path = small_recording(tmp_path / "run ≥ 0.5 mm.h5", units="m/s²")
+    proc = subprocess.run([sys.executable, "-c", "import sys; from rigtools.cli import main; "
+                           "sys.exit(main())", "info", str(path)], capture_output=True,
+                          env=_env(PYTHONIOENCODING=encoding), timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    assert b"Traceback" not in proc.stderr
+    text = proc.stdout.decode(encoding)
+    assert "\\u2265 0.5 mm" in text                      # "≥" escaped, the rest intact
+
+
+def test_configure_console_escapes_what_the_encoding_lacks():
+    raw = io.BytesIO()
+    stream = io.TextIOWrapper(raw, encoding="ascii", errors="strict")
+    runtime.configure_console(stream)
+    stream.write("a = 3 m/s²\n")
+    stream.flush()
+    assert raw.getvalue() == b"a = 3 m/s\\xb2\n"
+
+
+# -- process settings --------------------------------------------------------------------------
+def test_configure_process_sets_blas_threads_even_after_numpy_loaded():
+    env = _env()
+    for var in runtime.BLAS_THREAD_VARS:
+        env.pop(var, None)
+    code = ("import numpy, scipy.linalg, json, os\n"
+            "from threadpoolctl import threadpool_info\n"
+            "from rigtools.runtime import configure_process\n"
+            "s = configure_process()\n"
+            "print(json.dumps([s.blas_threads, s.blas_limited_live, os.environ['OPENBLAS_NUM_THREADS'],"
+            " sorted({i['num_threads'] for i in threadpool_info() if i['user_api'] == 'blas'})]))")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env,
+                          timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    assert json.loads(proc.stdout) == [1, True, "1", [1]]
+
+
+def test_importing_the_cli_changes_no_environment():
+    env = _env()
+    for var in runtime.BLAS_THREAD_VARS:
+        env.pop(var, None)
+    code = ("import os, rigtools.cli; "
+            "print(any(v in os.environ for v in ('OPENBLAS_NUM_THREADS', 'OMP_NUM_THREADS')))")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env,
+                          timeout=60)
+    assert proc.stdout.strip() == "False"
+
+
+def test_read_only_install_caches_kernels_per_user(tmp_path, monkeypatch):
+    monkeypatch.delenv("NUMBA_CACHE_DIR", raising=False)
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    monkeypatch.setattr(sys, "platform", "linux")
+    monkeypatch.setattr(runtime, "_writable_dir", lambda path: False)
+    assert runtime.numba_cache_dir() == tmp_path / "shrouded-blade-rig" / "numba"
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path / "mine"))
+    assert runtime.numba_cache_dir() == tmp_path / "mine"
+
+
+def test_first_run_says_it_compiles_the_kernels_then_not(tmp_path):
+    """A fresh numba cache: the line once; then the kernels are cached and nothing is said."""
+    code = ("import contextlib, io\n"
+            "from rigtools.runtime import ensure_kernels_compiled, kernels_cached\n"
+            "first = ensure_kernels_compiled()\n"
+            "said = io.StringIO()\n"
+            "print(first, kernels_cached(), ensure_kernels_compiled(said), repr(said.getvalue()))")
+    env = _env(NUMBA_CACHE_DIR=str(tmp_path / "numba"))
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env,
+                          timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.split() == ["True", "True", "False", "''"]
+    assert proc.stderr.startswith("compiling the simulation kernels (first run only, ~")
+    assert len(proc.stderr.splitlines()) == 1
