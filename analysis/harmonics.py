@@ -125,6 +125,19 @@ def harmonic_amplitudes(
                        offset=float(offset), residual_rms=residual_rms)
 
 
+def relative_phases(fit: HarmonicFit, reference: HarmonicFit | float) -> np.ndarray:
+    """Phases of ``fit`` relative to a reference fundamental, radians in (-pi, pi].
+
+    ``phase_k - k * phase_ref`` where ``phase_ref`` is the reference's k = 1 phase (e.g. of the
+    force): the phase each harmonic would have if the time origin were moved to where the
+    reference fundamental is ``cos(2 pi fe t)``. Both fits must share ``fe`` and their first
+    sample. This makes phases comparable between records that start at different instants
+    (EM versus FEM).
+    """
+    ref = float(reference.phase[0]) if isinstance(reference, HarmonicFit) else float(reference)
+    return np.angle(np.exp(1j * (fit.phase - fit.k * ref)))
+
+
 def derivative_harmonics(fit: HarmonicFit, order: int = 1) -> HarmonicFit:
     """Harmonics of the ``order``-th time derivative of the fitted signal.
 
