@@ -667,6 +667,9 @@ def overlay_figure(
         ax_t.set_ylabel(f"{ch.replace('_', ' ')} ({unit})")
         ax_s.set_ylabel(f"peak amplitude ({unit})")
         ax_s.set_xlim(0, f_max)
+        top = max(float(np.max(line.get_ydata()[1:])) for line in ax_s.lines)
+        if top > 0:
+            ax_s.set_ylim(top * SPECTRUM_FLOOR, top * 3.0)
         for ax in (ax_t, ax_s):
             ax.grid(True, alpha=0.3)
             ax.legend(fontsize=7, loc="upper right")
