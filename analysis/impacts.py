@@ -12,8 +12,9 @@ Method (:func:`detect_impacts`):
    4th-order Butterworth high-pass at ``highpass_hz`` (default ``min(30 fe, sample_rate / 8)``):
    a contact of duration ``tau`` has its energy up to about ``1 / tau``, above the cut-off.
 2. **Detection**: peaks of its magnitude above ``threshold`` robust standard deviations (median
-   absolute deviation / 0.6745) of the impulsive part; a response with no impacts (or only
-   noise) gives none. Each detection is moved to the largest sample-to-sample step of the
+   absolute deviation / 0.6745) of the impulsive part (and at least 1e-3 of the signal's peak),
+   ignoring the first and last 4 cut-off periods (filter start-up); a response with no impacts
+   (or only noise) gives none. Each detection is moved to the largest sample-to-sample step of the
    unfiltered signal within 0.6 cut-off periods (the zero-phase filter rings on both sides).
 3. **Grouping, onset and contact duration**: detections closer than ``min_separation`` (default
    ``1 / (8 fe)``) belong to one impact (the zero-phase filter rings on both sides of a pulse).
@@ -208,7 +209,13 @@ def detect_impacts(
     mag = np.abs(hp)
     sigma = _robust_sigma(hp)
     sep = float(min_separation) if min_separation is not None else 1.0 / (8.0 * fe)
-    found, _ = signal.find_peaks(mag, height=threshold * sigma if sigma > 0 else np.inf)
+    # level: threshold robust sigmas, and at least 1e-3 of the signal's peak (a noise-free smooth
+    # record has a vanishing sigma); detections within 4 cut-off periods of either end are the
+    # filter's start-up transients, not impacts
+    level = max(threshold * sigma, 1e-3 * float(np.max(np.abs(base))))
+    found, _ = signal.find_peaks(mag, height=level if level > 0 else np.inf)
+    edge = int(np.ceil(4.0 * sample_rate / fc))
+    found = found[(found >= edge) & (found < mag.size - edge)]
     groups: list[list[int]] = []
     for i in found:
         if groups and (i - groups[-1][-1]) < sep * sample_rate:
