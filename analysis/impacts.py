@@ -20,12 +20,16 @@ Method (:func:`detect_impacts`):
    ``1 / (8 fe)``) belong to one impact (the zero-phase filter rings on both sides of a pulse).
    The impact is timed at the first sample-to-sample step of the unfiltered signal inside its
    group that is at least half the largest: a contact force with damping jumps where the
-   contact closes. The contact duration runs
-   to the last later step of at least ``release_fraction`` of that one (the force jumping back to
-   zero where a damped contact opens). A contact that opens smoothly (force decaying to zero, as
-   in the simulated rig's contact law) has no such step: its duration reads NaN, and
-   ``contact_duration`` is the median over the impacts that have one (``None`` if none do).
-   Chattering contacts closer than ``min_separation`` count as one impact.
+   contact closes. The contact duration runs to the last later step of at least
+   ``release_fraction`` of that one (the force jumping back to zero where a damped contact
+   opens). A contact that opens smoothly (force decaying to zero, as in the simulated rig's
+   contact law) has no such step; then, if the record is periodic (step 4), the relative
+   displacement is rebuilt from the relative acceleration by integrating it twice over whole
+   periods (:func:`periodic_double_integral`, exact up to a constant for a periodic record),
+   and the contact lasts until it falls back below its level at the closing instant (the gap).
+   Otherwise the impact's duration is NaN. ``contact_duration`` is the median over impacts
+   (``None`` if none has one). Chattering contacts closer than ``min_separation`` count as one.
+   Only meaningful with both shroud accelerations (relative motion).
 4. **Periodicity**: the smallest ``m`` (1..``max_multiple``) such that every impact at ``t`` has a
    partner at ``t + m / fe`` (and ``t - m / fe``) within ``time_tolerance``, inside the record:
    the response is then period-``m``; none found means not periodic (quasi-periodic or chaotic)
@@ -114,6 +118,40 @@ def impulsive_part(x: np.ndarray, sample_rate: float, highpass_hz: float) -> np.
 
 def _robust_sigma(x: np.ndarray) -> float:
     return float(np.median(np.abs(x - np.median(x))) / 0.6745)
+
+
+def periodic_double_integral(x: np.ndarray, sample_rate: float, base_hz: float) -> np.ndarray:
+    """Zero-mean double time integral of a periodic record (acceleration -> displacement).
+
+    The record is cut to the largest whole number of periods of ``base_hz`` (to the nearest
+    sample) and integrated in the frequency domain, ``U = -A / (2 pi f)**2`` with the mean
+    dropped; the result is that period-periodic displacement over the whole record (repeated
+    past the cut). Exact for a periodic record of whole periods; otherwise leakage of the cut."""
+    x = np.asarray(x, dtype=float)
+    n_per = int(np.floor(x.size * base_hz / sample_rate))
+    if n_per < 1:
+        raise ValueError("record shorter than one period")
+    n = int(round(n_per * sample_rate / base_hz))
+    n = min(n, x.size)
+    spec = np.fft.rfft(x[:n])
+    f = np.fft.rfftfreq(n, 1.0 / sample_rate)
+    spec[0] = 0.0
+    spec[1:] /= -(2 * np.pi * f[1:]) ** 2
+    u = np.fft.irfft(spec, n=n)
+    return np.resize(u, x.size)
+
+
+def _opening_time(u: np.ndarray, i: int) -> float:
+    """Samples from the contact closing (between samples ``i - 1`` and ``i``) to where the relative
+    displacement ``u`` falls back below its level there, linearly interpolated; NaN if it does
+    not within the record."""
+    level = 0.5 * (u[i - 1] + u[i])
+    below = np.flatnonzero(u[i + 1:] < level)
+    if below.size == 0:
+        return float("nan")
+    j = i + 1 + int(below[0])
+    frac = (u[j - 1] - level) / (u[j - 1] - u[j])
+    return (j - 1 + frac) - (i - 0.5)
 
 
 def period_multiple(times: np.ndarray, fe: float, duration: float, *, max_multiple: int = 8,
@@ -240,9 +278,15 @@ def detect_impacts(
     durations = np.array(durations)
     duration = a.size / sample_rate
     times = peaks / sample_rate
-    contact = float(np.nanmedian(durations)) if np.any(np.isfinite(durations)) else None
     tol = float(time_tolerance) if time_tolerance is not None else max(3.0 / sample_rate, 0.01 / fe)
     m = period_multiple(times, fe, duration, max_multiple=max_multiple, time_tolerance=tol)
+    if m is not None and np.any(~np.isfinite(durations)):
+        durations = durations.copy()
+        u = periodic_double_integral(base, sample_rate, fe / m)
+        for j, i in enumerate(peaks):
+            if not np.isfinite(durations[j]) and 1 <= i < u.size - 1:
+                durations[j] = _opening_time(u, int(i)) / sample_rate
+    contact = float(np.nanmedian(durations)) if np.any(np.isfinite(durations)) else None
     impulse_levels = {}
     for name, x in channels.items():
         if peaks.size:
