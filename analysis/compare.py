@@ -326,3 +326,43 @@ def explain_large_differences(
         out.append((row.channel, explain_harmonic_difference(int(row.k), fe, float(row.ratio), float(fns[j]),
                                                              zeta, model)))
     return out
+
+
+def pair_points(
+    em: Sequence[Mapping[str, float]],
+    model: Sequence[Mapping[str, float]],
+    *,
+    keys: Sequence[str] = ("fe", "gap", "force_amplitude_target"),
+    rtol: float = 0.02,
+) -> list[tuple[int, int]]:
+    """Pair EM and model points by their parameters (by meaning, not by index).
+
+    Each EM point is paired with the model point whose ``keys`` all agree within ``rtol``
+    (relative; absolute ``rtol`` for zeros) and whose summed relative distance is smallest; each
+    model point is used once. Keys missing on either side are not compared. Returns
+    ``[(em_index, model_index), ...]`` in EM order; unpaired EM points are left out.
+    """
+    used: set[int] = set()
+    pairs = []
+    for i, p in enumerate(em):
+        best, best_d = None, np.inf
+        for j, q in enumerate(model):
+            if j in used:
+                continue
+            d, ok = 0.0, True
+            for key in keys:
+                if key not in p or key not in q:
+                    continue
+                a, b = float(p[key]), float(q[key])
+                scale = max(abs(a), abs(b))
+                rel = abs(a - b) / scale if scale > 0 else 0.0
+                if rel > rtol:
+                    ok = False
+                    break
+                d += rel
+            if ok and d < best_d:
+                best, best_d = j, d
+        if best is not None:
+            used.add(best)
+            pairs.append((i, best))
+    return pairs

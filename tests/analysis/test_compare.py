@@ -92,3 +92,13 @@ def test_frequency_offset_explains_a_super_harmonic_difference():
     out = explain_large_differences(harmonic_table(em, fem, fe), fe, {"active": [60.5, fn, 1000.0]}, zeta)
     assert len(out) == 1 and out[0][0] == "active_acceleration" and out[0][1].k == 6
     assert out[0][1].offset_pct_needed == pytest.approx(1.7, abs=1e-6)
+
+
+def test_pair_points_by_parameters():
+    from analysis.compare import pair_points
+    em = [{"fe": 60.0, "gap": 0.5e-3, "force_amplitude_target": 15.0},
+          {"fe": 60.0, "gap": 0.7e-3, "force_amplitude_target": 15.0},
+          {"fe": 80.0, "gap": 0.7e-3, "force_amplitude_target": 15.0}]
+    model = [{"fe": 60.0, "gap": 0.7e-3, "force_amplitude_target": 15.1},
+             {"fe": 60.0, "gap": 0.5e-3, "force_amplitude_target": 14.9}]
+    assert pair_points(em, model) == [(0, 1), (1, 0)]
