@@ -226,6 +226,10 @@ def identify_modes(
 
     Returns the modes ascending in frequency. Each local fit stays between the minima of ``|h|``
     that separate its peak from the neighbouring peaks.
+
+    This does not check that the data can carry modes: on the FRF of a sine dwell it returns
+    peaks of noise over leakage. For measured data use :func:`identify`, which checks the
+    excitation and coherence first and says why it reports nothing.
     """
     f = np.asarray(frequency_hz, dtype=float)
     h = np.asarray(h, dtype=complex)
