@@ -366,3 +366,49 @@ def pair_points(
             used.add(best)
             pairs.append((i, best))
     return pairs
+
+
+TREND_HARMONICS = {"active_shroud_accel": (6,), "passive_shroud_accel": (8, 22)}
+
+
+def trend_series(
+    points: Sequence,
+    *,
+    force: str = "force",
+    shrouds: Sequence[str] = ("active_shroud_accel", "passive_shroud_accel"),
+    harmonics: Mapping[str, Sequence[int]] = TREND_HARMONICS,
+) -> dict[str, np.ndarray]:
+    """Trend quantities of a study, one value per point, from :class:`analysis.point.DwellAnalysis`
+    results (in the study's order): the peak force-sensor signal, the peak of each shroud
+    acceleration, and the chosen harmonic amplitudes (peak; default 6·fe of the active shroud,
+    8·fe and 22·fe of the passive, the paper's amplified harmonics). Keys are labels such as
+    ``"peak force-sensor signal"``, ``"active shroud accel peak"``,
+    ``"passive shroud accel 22·fe amplitude"``; missing channels or harmonics read NaN.
+    Feed EM's and FEM's series to :func:`analysis.plots.trend_figure`."""
+    def label(ch):
+        return ch.replace("_", " ")
+
+    out: dict[str, list[float]] = {"peak force-sensor signal": []}
+    for ch in shrouds:
+        out[f"{label(ch)} peak"] = []
+    for ch, ks in harmonics.items():
+        for k in ks:
+            out[f"{label(ch)} {k}·fe amplitude"] = []
+    for p in points:
+        out["peak force-sensor signal"].append(p.peak_levels.get(force, np.nan))
+        for ch in shrouds:
+            out[f"{label(ch)} peak"].append(p.peak_levels.get(ch, np.nan))
+        for ch, ks in harmonics.items():
+            fit = p.harmonics.get(ch)
+            for k in ks:
+                val = fit.at(k) if fit is not None and k <= fit.k[-1] else np.nan
+                out[f"{label(ch)} {k}·fe amplitude"].append(val)
+    return {key: np.asarray(v, dtype=float) for key, v in out.items()}
+
+
+def point_agreement(em, model, *, channels: Sequence[str] | None = None, k_max: int | None = None) -> Agreement:
+    """:func:`agreement_score` of two :class:`analysis.point.DwellAnalysis` results over the
+    channels both have (or ``channels``), from their harmonic amplitudes."""
+    names = [c for c in (channels or em.harmonics) if c in em.harmonics and c in model.harmonics]
+    return agreement_score({c: em.harmonics[c].amplitude for c in names},
+                           {c: model.harmonics[c].amplitude for c in names}, k_max=k_max)

@@ -102,3 +102,26 @@ def test_pair_points_by_parameters():
     model = [{"fe": 60.0, "gap": 0.7e-3, "force_amplitude_target": 15.1},
              {"fe": 60.0, "gap": 0.5e-3, "force_amplitude_target": 14.9}]
     assert pair_points(em, model) == [(0, 1), (1, 0)]
+
+
+def test_trend_series_and_point_agreement_from_dwell_analyses():
+    from analysis.compare import point_agreement, trend_series
+    from analysis.point import analyze_dwell
+    fs, fe = 10240.0, 60.0
+    t = np.arange(int(fs)) / fs
+    w = 2 * np.pi * fe
+    pts = []
+    for scale in (1.0, 2.0):
+        ch = {"force": 15 * np.sin(w * t),
+              "active_shroud_accel": scale * (100 * np.sin(w * t) + 34 * np.sin(6 * w * t)),
+              "passive_shroud_accel": scale * (50 * np.sin(w * t) + 7 * np.sin(8 * w * t) + 3 * np.sin(22 * w * t))}
+        pts.append(analyze_dwell(ch, fs, fe))
+    s = trend_series(pts)
+    np.testing.assert_allclose(s["active shroud accel 6·fe amplitude"], [34.0, 68.0], rtol=1e-9)
+    np.testing.assert_allclose(s["passive shroud accel 22·fe amplitude"], [3.0, 6.0], rtol=1e-9)
+    np.testing.assert_allclose(s["peak force-sensor signal"], [15.0, 15.0], rtol=1e-3)
+    # the force channel agrees exactly, the shrouds differ by x2 everywhere: error = (0 + 2 log10 2) / 3
+    # (to 1e-4: the absent harmonics sit on the 1e-3 floor on both sides, ratio 1, weight ~1e-5)
+    a = point_agreement(pts[0], pts[1])
+    assert a.score == pytest.approx(10 ** (-2 * np.log10(2) / 3), rel=1e-4)
+    assert a.per_channel["force"] == pytest.approx(0.0, abs=1e-9)
