@@ -41,7 +41,6 @@ def test_burst_random_on_the_simulated_rig_finds_the_test_articles_frequencies()
     em = np.array([m.frequency_hz for m in ident.modes])
     truth = flexural_frequencies(rig.rig_model().active, 3)
     assert em.size == 3, ident.notes
-    print("EM (LSCF)", em, "test article FEM", truth, "zeta", [m.damping_ratio for m in ident.modes])
     np.testing.assert_allclose(em, truth, rtol=5e-3)
     nominal = flexural_frequencies(build_rig_model(cfg.to_params()).active, 3)
     table = natural_frequency_table({"active": nominal}, em={"active": em})
