@@ -13,9 +13,28 @@ Conventions (the same as :func:`scipy.signal.csd`):
 - FRF kinds: receptance ``X/F`` (m/N), mobility ``V/F = i w X/F`` (m/s/N),
   accelerance ``A/F = -w**2 X/F`` (m/s^2/N).
 
-Random excitation needs a window (Hann by default), overlap and several averages; the coherence of a
-single average is identically 1 and meaningless, so :func:`estimate_frf` refuses fewer than two.
-Periodic (stepped-sine) excitation is best fitted at its exact frequency, see :func:`sine_frf`.
+- ``Hv = H1 / sqrt(coherence)``: for one input, the geometric mean ``sqrt(|H1| |H2|)`` with the
+  phase of H1 (H1 and H2 share their phase); the total-least-squares estimate, unbiased when the
+  input and output noise-to-signal ratios are equal, and always between H1 and H2.
+
+Excitation types and their settings (:data:`EXCITATIONS`, :func:`excitation_settings`):
+
+- ``"random"`` (continuous random): Hann window, 50 % overlap, many averages.
+- ``"burst"`` (burst random): one segment per burst period, rectangular window, no overlap. The
+  response must have decayed before the period ends, then a segment holds the whole transient
+  and there is no leakage.
+- ``"periodic"`` (periodic chirp, periodic random, pseudo-random): one segment per excitation
+  period (whole periods), no window, no overlap, averages over periods; the response must be in
+  its periodic steady state. Leakage-free at the bins ``k / period``.
+
+The coherence of a single average is identically 1 and meaningless, so :func:`estimate_frf`
+refuses fewer than two. Periodic (stepped-sine) excitation is best fitted at its exact frequency,
+see :func:`sine_frf`.
+
+Long records: :class:`SpectraAccumulator` takes the record block by block (any block sizes, any
+number of channels) and accumulates the auto and cross spectra segment by segment, so memory is
+bounded by one block plus one segment; :func:`frf_from_blocks` wraps it. It gives the same numbers
+as :func:`scipy.signal.csd` / :func:`scipy.signal.welch` with the same settings (test: 1e-10).
 """
 
 from __future__ import annotations
@@ -39,14 +58,15 @@ class FRFEstimate:
     frequency_hz
         (n_freq,) frequencies, Hz (0 .. sample_rate / 2).
     h1, h2
-        (n_freq,) complex FRF estimates, response units per excitation unit.
+        (n_freq,) complex FRF estimates, response units per excitation unit; (n_responses, n_freq)
+        from :func:`frf_from_blocks` with several responses.
     coherence
-        (n_freq,) ordinary coherence, 0..1.
+        Ordinary coherence, 0..1, shaped like ``h1``.
     n_averages
         Number of (overlapping) segments averaged.
     sxx, syy, sxy
         Auto spectra of excitation and response and the cross spectrum csd(x, y), as
-        densities (units**2 / Hz).
+        densities (units**2 / Hz); ``sxx`` is (n_freq,), ``syy`` and ``sxy`` shaped like ``h1``.
     """
 
     frequency_hz: np.ndarray
@@ -62,6 +82,27 @@ class FRFEstimate:
     def resolution_hz(self) -> float:
         """Spacing of the frequency grid, Hz."""
         return float(self.frequency_hz[1] - self.frequency_hz[0])
+
+    @property
+    def hv(self) -> np.ndarray:
+        """Hv = H1 / sqrt(coherence): geometric mean of |H1| and |H2|, phase of H1 (NaN where the
+        coherence is 0)."""
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return self.h1 / np.sqrt(self.coherence)
+
+    def estimator(self, name: str) -> np.ndarray:
+        """``"h1"``, ``"h2"`` or ``"hv"`` by name."""
+        if name not in ("h1", "h2", "hv"):
+            raise ValueError(f"FRF estimator must be h1, h2 or hv, got {name!r}")
+        return getattr(self, name)
+
+    def as_kind(self, measured: FRFKind, target: FRFKind) -> "FRFEstimate":
+        """The same estimate with H1 and H2 converted from ``measured`` to ``target`` (e.g. an
+        acceleration response, ``"accelerance"``, shown as ``"receptance"``); spectra and coherence
+        unchanged."""
+        f = self.frequency_hz
+        return FRFEstimate(f, convert_frf(self.h1, f, measured, target), convert_frf(self.h2, f, measured, target),
+                           self.coherence, self.n_averages, self.sxx, self.syy, self.sxy)
 
 
 def n_welch_segments(n_samples: int, nperseg: int, noverlap: int) -> int:
@@ -177,3 +218,175 @@ def sdof_frf(
     wn = 2.0 * np.pi * natural_hz
     receptance = 1.0 / (modal_mass * (wn**2 - w**2 + 2j * damping_ratio * wn * w))
     return convert_frf(receptance, frequency_hz, "receptance", kind)
+
+
+EXCITATIONS = ("random", "burst", "periodic")
+
+
+def excitation_settings(excitation: str, segment_samples: int) -> dict:
+    """Welch settings for an excitation type (see the module docstring).
+
+    Parameters
+    ----------
+    excitation
+        ``"random"``, ``"burst"`` or ``"periodic"``.
+    segment_samples
+        Samples per segment: for ``"burst"`` one burst period (burst plus decay), for
+        ``"periodic"`` one excitation period (or a whole number of them).
+
+    Returns
+    -------
+    dict
+        ``nperseg``, ``noverlap``, ``window``, ``detrend`` for :func:`estimate_frf`,
+        :class:`SpectraAccumulator` or :func:`frf_from_blocks`.
+    """
+    n = int(segment_samples)
+    if excitation == "random":
+        return dict(nperseg=n, noverlap=n // 2, window="hann", detrend="constant")
+    if excitation in ("burst", "periodic"):
+        return dict(nperseg=n, noverlap=0, window="boxcar", detrend=False)
+    raise ValueError(f"excitation must be one of {', '.join(EXCITATIONS)}, got {excitation!r}")
+
+
+class SpectraAccumulator:
+    """Welch auto and cross spectra of a multichannel record fed block by block.
+
+    Feed ``(n_channels, n)`` blocks of any length with :meth:`add`; every complete segment is
+    windowed, detrended, transformed once per channel and added to the running sums
+    ``sum |X_c|**2`` (every channel) and ``sum conj(X_ref) X_c`` (reference against every channel).
+    Samples that do not yet fill a segment are carried to the next block, so the segmentation is
+    that of one record whatever the block sizes. Memory: one block, one carried partial segment,
+    and ``2 n_channels`` spectra.
+
+    The scaling is :func:`scipy.signal.csd`'s ``scaling="density"``, one-sided (units**2 / Hz),
+    ``average="mean"``.
+
+    Parameters
+    ----------
+    sample_rate
+        Samples per second, Hz.
+    nperseg, noverlap, window, detrend
+        As :func:`estimate_frf` (``noverlap`` default half a segment; ``detrend`` ``"constant"``
+        or ``False``).
+    reference
+        Index of the reference (excitation) channel.
+    segments_per_batch
+        Segments transformed at once (bounds the work memory to about
+        ``segments_per_batch * nperseg * n_channels * 16`` bytes).
+    """
+
+    def __init__(self, sample_rate: float, *, nperseg: int, noverlap: int | None = None,
+                 window: str = "hann", detrend: str | bool = "constant", reference: int = 0,
+                 segments_per_batch: int = 64) -> None:
+        if not sample_rate > 0:
+            raise ValueError("sample_rate must be positive")
+        self.sample_rate = float(sample_rate)
+        self.nperseg = int(nperseg)
+        self.noverlap = self.nperseg // 2 if noverlap is None else int(noverlap)
+        if self.nperseg < 2 or not 0 <= self.noverlap < self.nperseg:
+            raise ValueError(f"need nperseg >= 2 and 0 <= noverlap < nperseg, got {nperseg}, {noverlap}")
+        if detrend not in ("constant", False):
+            raise ValueError(f"detrend must be 'constant' or False, got {detrend!r}")
+        self.detrend = detrend
+        self.reference = int(reference)
+        self.window = signal.get_window(window, self.nperseg)
+        self.step = self.nperseg - self.noverlap
+        self.batch = max(1, int(segments_per_batch))
+        self._tail: np.ndarray | None = None
+        self._auto: np.ndarray | None = None
+        self._cross: np.ndarray | None = None
+        self.n_segments = 0
+
+    def add(self, block: np.ndarray) -> None:
+        """Add the next ``(n_channels, n)`` samples (1-D for one channel) of the record."""
+        block = np.atleast_2d(np.asarray(block, dtype=float))
+        if self._tail is None:
+            self._tail = np.empty((block.shape[0], 0))
+        elif block.shape[0] != self._tail.shape[0]:
+            raise ValueError(f"block has {block.shape[0]} channels, earlier blocks had {self._tail.shape[0]}")
+        buf = np.concatenate([self._tail, block], axis=1) if self._tail.shape[1] else block
+        n_seg = n_welch_segments(buf.shape[1], self.nperseg, self.noverlap)
+        for first in range(0, n_seg, self.batch):
+            count = min(self.batch, n_seg - first)
+            start = first * self.step
+            stop = start + (count - 1) * self.step + self.nperseg
+            segs = np.lib.stride_tricks.sliding_window_view(buf[:, start:stop], self.nperseg, axis=1)[:, ::self.step]
+            self._accumulate(segs)
+        self._tail = buf[:, n_seg * self.step:].copy()
+
+    def _accumulate(self, segs: np.ndarray) -> None:
+        # segs: (n_channels, n_segments, nperseg)
+        if self.detrend == "constant":
+            segs = segs - segs.mean(axis=-1, keepdims=True)
+        spec = np.fft.rfft(segs * self.window, axis=-1)
+        auto = np.einsum("csf,csf->cf", spec.real, spec.real) + np.einsum("csf,csf->cf", spec.imag, spec.imag)
+        cross = np.einsum("sf,csf->cf", np.conj(spec[self.reference]), spec)
+        if self._auto is None:
+            self._auto, self._cross = auto, cross
+        else:
+            self._auto += auto
+            self._cross += cross
+        self.n_segments += segs.shape[1]
+
+    def spectra(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(frequency_hz, auto, cross)``: ``auto`` (n_channels, n_freq) real densities,
+        ``cross`` (n_channels, n_freq) = csd(reference, channel), as scipy scales them."""
+        if self.n_segments == 0:
+            raise ValueError(f"no complete segment of {self.nperseg} samples yet")
+        scale = 1.0 / (self.sample_rate * np.sum(self.window**2) * self.n_segments)
+        one_sided = np.full(self.nperseg // 2 + 1, 2.0)
+        one_sided[0] = 1.0
+        if self.nperseg % 2 == 0:
+            one_sided[-1] = 1.0
+        f = np.fft.rfftfreq(self.nperseg, 1.0 / self.sample_rate)
+        return f, self._auto * scale * one_sided, self._cross * scale * one_sided
+
+    def frf(self) -> FRFEstimate:
+        """H1, H2 and coherence of every other channel over the reference channel.
+
+        ``h1`` etc. are (n_responses, n_freq) in channel order without the reference."""
+        if self.n_segments < 2:
+            raise ValueError(
+                f"{self.n_segments} segment(s) of {self.nperseg}: need at least 2 averages "
+                "(a single average has coherence 1 by construction)")
+        f, auto, cross = self.spectra()
+        resp = [c for c in range(auto.shape[0]) if c != self.reference]
+        sxx, syy, sxy = auto[self.reference].real, auto[resp].real, cross[resp]
+        return _frf_from_spectra(f, sxx, syy, sxy, self.n_segments)
+
+
+def _frf_from_spectra(f, sxx, syy, sxy, n_avg) -> FRFEstimate:
+    with np.errstate(divide="ignore", invalid="ignore"):
+        h1 = sxy / sxx
+        h2 = syy / np.conj(sxy)
+        coh = np.abs(sxy) ** 2 / (sxx * syy)
+    return FRFEstimate(f, h1, h2, np.clip(np.nan_to_num(coh), 0.0, 1.0), n_avg, sxx, syy, sxy)
+
+
+def frf_from_blocks(
+    blocks, sample_rate: float, *, nperseg: int, noverlap: int | None = None, window: str = "hann",
+    detrend: str | bool = "constant", reference: int = 0,
+) -> FRFEstimate:
+    """H1, H2, coherence (and :attr:`FRFEstimate.hv`) of a long record given block by block.
+
+    Parameters
+    ----------
+    blocks
+        Iterable of ``(n_channels, n)`` arrays in time order (e.g. chunks read from a recording);
+        channel ``reference`` is the excitation (force), the others responses.
+    sample_rate, nperseg, noverlap, window, detrend
+        As :func:`estimate_frf`; :func:`excitation_settings` gives them per excitation type.
+    reference
+        Index of the excitation channel.
+
+    Returns
+    -------
+    FRFEstimate
+        ``h1``, ``h2``, ``coherence``, ``syy``, ``sxy`` of shape (n_responses, n_freq), responses in
+        channel order without the reference.
+    """
+    acc = SpectraAccumulator(sample_rate, nperseg=nperseg, noverlap=noverlap, window=window,
+                             detrend=detrend, reference=reference)
+    for block in blocks:
+        acc.add(block)
+    return acc.frf()

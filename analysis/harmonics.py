@@ -125,6 +125,19 @@ def harmonic_amplitudes(
                        offset=float(offset), residual_rms=residual_rms)
 
 
+def relative_phases(fit: HarmonicFit, reference: HarmonicFit | float) -> np.ndarray:
+    """Phases of ``fit`` relative to a reference fundamental, radians in (-pi, pi].
+
+    ``phase_k - k * phase_ref`` where ``phase_ref`` is the reference's k = 1 phase (e.g. of the
+    force): the phase each harmonic would have if the time origin were moved to where the
+    reference fundamental is ``cos(2 pi fe t)``. Both fits must share ``fe`` and their first
+    sample. This makes phases comparable between records that start at different instants
+    (EM versus FEM).
+    """
+    ref = float(reference.phase[0]) if isinstance(reference, HarmonicFit) else float(reference)
+    return np.angle(np.exp(1j * (fit.phase - fit.k * ref)))
+
+
 def derivative_harmonics(fit: HarmonicFit, order: int = 1) -> HarmonicFit:
     """Harmonics of the ``order``-th time derivative of the fitted signal.
 
@@ -140,3 +153,76 @@ def derivative_harmonics(fit: HarmonicFit, order: int = 1) -> HarmonicFit:
     phase = np.angle(np.exp(1j * (fit.phase + order * np.pi / 2)))
     return HarmonicFit(k=fit.k, frequency_hz=fit.frequency_hz, amplitude=fit.amplitude * w**order,
                        phase=phase, offset=0.0, residual_rms=float("nan"))
+
+
+class HarmonicAccumulator:
+    """Harmonic least squares of long multichannel records fed block by block (bounded memory).
+
+    Accumulates the normal equations of the fit of :func:`harmonic_amplitudes`,
+    ``(D^T D) c = D^T x`` with ``D = [1, cos(2 pi k fe t), sin(2 pi k fe t)]``, block by block, with
+    ``t`` counted from the first sample of the first block; :meth:`result` solves them. The same
+    numbers as :func:`harmonic_amplitudes` on the whole record (to round-off; the columns are
+    nearly orthogonal over many periods, so the normal equations are well conditioned). Memory:
+    one block times ``2 k_max + 1`` columns.
+
+    Parameters
+    ----------
+    sample_rate, fe, k_max
+        As :func:`harmonic_amplitudes`.
+    """
+
+    def __init__(self, sample_rate: float, fe: float, k_max: int = 30) -> None:
+        if not (sample_rate > 0 and fe > 0):
+            raise ValueError("sample_rate and fe must be positive")
+        if k_max * fe >= sample_rate / 2:
+            raise ValueError(
+                f"harmonic {k_max}*fe = {k_max * fe:g} Hz is not below the Nyquist frequency "
+                f"{sample_rate / 2:g} Hz")
+        self.sample_rate, self.fe, self.k_max = float(sample_rate), float(fe), int(k_max)
+        self.k = np.arange(1, self.k_max + 1)
+        m = 2 * self.k_max + 1
+        self._dtd = np.zeros((m, m))
+        self._dtx: np.ndarray | None = None
+        self._xtx: np.ndarray | None = None
+        self.n = 0
+
+    def add(self, block: np.ndarray, max_rows: int = 65536) -> None:
+        """Add the next ``(n_channels, n)`` (or ``(n,)``) samples."""
+        x = np.atleast_2d(np.asarray(block, dtype=float))
+        if self._dtx is None:
+            self._dtx = np.zeros((2 * self.k_max + 1, x.shape[0]))
+            self._xtx = np.zeros(x.shape[0])
+        for start in range(0, x.shape[1], max_rows):
+            xs = x[:, start:start + max_rows]
+            idx = self.n + np.arange(xs.shape[1])
+            # phase of the fundamental reduced modulo one period in exact integer arithmetic
+            # where possible, so far-off samples keep full precision
+            arg = 2.0 * np.pi * np.outer(np.mod(idx * self.fe / self.sample_rate, 1.0), self.k)
+            d = np.hstack([np.ones((idx.size, 1)), np.cos(arg), np.sin(arg)])
+            self._dtd += d.T @ d
+            self._dtx += d.T @ xs.T
+            self._xtx += np.einsum("cn,cn->c", xs, xs)
+            self.n += idx.size
+
+    def result(self) -> list[HarmonicFit]:
+        """One :class:`HarmonicFit` per channel."""
+        if self.n < 2 * self.k_max + 1:
+            raise ValueError(f"need at least {2 * self.k_max + 1} samples to fit {self.k_max} harmonics, got {self.n}")
+        sol = np.linalg.solve(self._dtd, self._dtx)
+        fits = []
+        for c in range(sol.shape[1]):
+            coef = sol[:, c]
+            offset, a, b = coef[0], coef[1:self.k_max + 1], coef[self.k_max + 1:]
+            resid = self._xtx[c] - 2 * coef @ self._dtx[:, c] + coef @ self._dtd @ coef
+            fits.append(HarmonicFit(k=self.k, frequency_hz=self.k * self.fe, amplitude=np.hypot(a, b),
+                                    phase=np.arctan2(-b, a), offset=float(offset),
+                                    residual_rms=float(np.sqrt(max(resid, 0.0) / self.n))))
+        return fits
+
+
+def harmonics_from_blocks(blocks, sample_rate: float, fe: float, k_max: int = 30) -> list[HarmonicFit]:
+    """:class:`HarmonicAccumulator` over an iterable of ``(n_channels, n)`` blocks in time order."""
+    acc = HarmonicAccumulator(sample_rate, fe, k_max)
+    for block in blocks:
+        acc.add(block)
+    return acc.result()

@@ -226,6 +226,10 @@ def identify_modes(
 
     Returns the modes ascending in frequency. Each local fit stays between the minima of ``|h|``
     that separate its peak from the neighbouring peaks.
+
+    This does not check that the data can carry modes: on the FRF of a sine dwell it returns
+    peaks of noise over leakage. For measured data use :func:`identify`, which checks the
+    excitation and coherence first and says why it reports nothing.
     """
     f = np.asarray(frequency_hz, dtype=float)
     h = np.asarray(h, dtype=complex)
@@ -237,3 +241,304 @@ def identify_modes(
         hi = p + int(np.argmin(mag[p : peaks[j + 1] + 1])) if j + 1 < peaks.size else f.size - 1
         modes.append(fit_sdof(f, h, int(p), kind=kind, bandwidths=bandwidths, limits=(lo, hi)))
     return modes
+
+
+# ---------------------------------------------------------------------------------------------
+# Identification with a data check and a stabilisation chart (LSCF poles, LSFD constants)
+# ---------------------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class ExcitationSupport:
+    """Whether an FRF estimate can carry modal identification in a band.
+
+    A bin is *supported* when the excitation auto spectrum there is within ``dynamic_range_db``
+    of its largest value in the band and the coherence is at least ``min_coherence``. A sine dwell
+    (or any narrow-band force) supports a handful of bins around ``fe`` only: the FRF elsewhere is
+    the ratio of noise to leakage, and peaks in it are not modes.
+
+    Attributes
+    ----------
+    fraction
+        Supported bins / bins in the band.
+    supported
+        (n_freq,) bool mask over the whole grid.
+    ok
+        ``fraction >= min_fraction``.
+    reason
+        Empty if ``ok``; otherwise one sentence saying why identification was refused.
+    """
+
+    fraction: float
+    supported: np.ndarray
+    ok: bool
+    reason: str
+
+
+def excitation_support(
+    frequency_hz: np.ndarray,
+    excitation_psd: np.ndarray,
+    coherence: np.ndarray | None = None,
+    *,
+    f_min: float | None = None,
+    f_max: float | None = None,
+    dynamic_range_db: float = 40.0,
+    min_coherence: float = 0.5,
+    min_fraction: float = 0.5,
+) -> ExcitationSupport:
+    """Check that the excitation is broadband and coherent in ``[f_min, f_max]``.
+
+    Parameters
+    ----------
+    frequency_hz, excitation_psd
+        The grid and the force auto spectrum ``Sxx`` of the estimate (any scaling).
+    coherence
+        Ordinary coherence on the same grid (optional; without it only ``Sxx`` is judged).
+    f_min, f_max
+        Band, Hz (default the whole grid above 0 Hz).
+    dynamic_range_db, min_coherence, min_fraction
+        Thresholds, see :class:`ExcitationSupport`.
+    """
+    f = np.asarray(frequency_hz, dtype=float)
+    sxx = np.abs(np.asarray(excitation_psd, dtype=float))
+    band = (f > 0 if f_min is None else f >= f_min) & (np.ones_like(f, bool) if f_max is None else f <= f_max)
+    if not np.any(band):
+        return ExcitationSupport(0.0, np.zeros_like(f, bool), False, "no frequency bins in the band")
+    top = float(np.max(sxx[band]))
+    mask = band & (sxx >= top * 10 ** (-dynamic_range_db / 10.0)) & (top > 0)
+    if coherence is not None:
+        mask &= np.asarray(coherence, dtype=float) >= min_coherence
+    fraction = float(np.count_nonzero(mask) / np.count_nonzero(band))
+    ok = fraction >= min_fraction
+    reason = "" if ok else (
+        f"the excitation covers {fraction:.1%} of the {f[band][0]:g}-{f[band][-1]:g} Hz band "
+        f"(force spectrum within {dynamic_range_db:g} dB of its peak"
+        + (f" and coherence >= {min_coherence:g}" if coherence is not None else "")
+        + f", need {min_fraction:.0%}): a sine dwell or narrow-band force does not determine modes")
+    return ExcitationSupport(fraction, mask, ok, reason)
+
+
+@dataclass(frozen=True)
+class StabilisationChart:
+    """Poles of the LSCF estimator at increasing model order, classified.
+
+    Attributes
+    ----------
+    orders
+        (n_poles,) model order of each pole.
+    frequency_hz, damping_ratio
+        (n_poles,) pole natural frequency and damping ratio.
+    stable
+        (n_poles,) True when a pole of the previous order lies within ``freq_tol`` (relative) in
+        frequency and ``damping_tol`` (relative) in damping: "s" in a stabilisation chart.
+    """
+
+    orders: np.ndarray
+    frequency_hz: np.ndarray
+    damping_ratio: np.ndarray
+    stable: np.ndarray
+
+
+@dataclass(frozen=True)
+class ModalIdentification:
+    """Result of :func:`identify`.
+
+    Attributes
+    ----------
+    modes
+        The modes the data support, ascending in frequency (possibly empty).
+    method
+        ``"lscf"`` (sdypy-EMA LSCF poles, stabilisation check, LSFD constants) or ``"peak"``
+        (peak picking, half-power damping refined by a local SDOF fit).
+    notes
+        Sentences saying why nothing or less was reported (empty when everything found was kept).
+    chart
+        The stabilisation chart (LSCF only).
+    reconstruction
+        (n_freq,) FRF rebuilt from the modes (LSCF: with LSFD lower/upper residuals), or None.
+    """
+
+    modes: list[IdentifiedMode]
+    method: str
+    notes: list[str]
+    chart: StabilisationChart | None = None
+    reconstruction: np.ndarray | None = None
+
+
+def lscf_stabilisation(
+    frequency_hz: np.ndarray,
+    h: np.ndarray,
+    *,
+    kind: FRFKind,
+    f_min: float,
+    f_max: float,
+    max_order: int = 40,
+    freq_tol: float = 0.005,
+    damping_tol: float = 0.05,
+    max_damping: float = 0.2,
+):
+    """LSCF poles of ``h`` at orders 2..2*max_order (sdypy-EMA) and their stabilisation chart.
+
+    Returns ``(model, chart)``: the :class:`sdypy.EMA.Model` (for LSFD) and a
+    :class:`StabilisationChart` of the poles inside ``[f_min, f_max]`` with
+    ``0 < zeta < max_damping``.
+    """
+    from sdypy import EMA   # imported here: it loads matplotlib.pyplot and tqdm
+
+    f = np.asarray(frequency_hz, dtype=float)
+    h = np.atleast_2d(np.asarray(h, dtype=complex))
+    model = EMA.Model(frf=h, freq=f, lower=f_min, upper=f_max, pol_order_high=int(max_order),
+                      frf_form=kind)
+    model.get_poles(method="lscf", show_progress=False)
+    orders, fr, xi, stable = [], [], [], []
+    prev_f = prev_x = np.array([])
+    for j, (pf, px) in enumerate(zip(model.pole_freq, model.pole_xi)):
+        pf, px = np.asarray(pf, float), np.asarray(px, float)
+        keep = np.isfinite(pf) & (pf >= f_min) & (pf <= f_max) & (px > 0) & (px < max_damping)
+        pf, px = pf[keep], px[keep]
+        for a, b in zip(pf, px):
+            near = (np.abs(prev_f - a) <= freq_tol * a) & (np.abs(prev_x - b) <= damping_tol * b)
+            orders.append(2 * (j + 1))
+            fr.append(a)
+            xi.append(b)
+            stable.append(bool(np.any(near)))
+        prev_f, prev_x = pf, px
+    chart = StabilisationChart(np.array(orders, int), np.array(fr), np.array(xi), np.array(stable, bool))
+    return model, chart
+
+
+def _stable_clusters(chart: StabilisationChart, freq_tol: float, min_stable: int) -> list[np.ndarray]:
+    """Groups of stable poles within ``freq_tol`` of each other, with at least ``min_stable``
+    members at distinct orders."""
+    idx = np.flatnonzero(chart.stable)
+    idx = idx[np.argsort(chart.frequency_hz[idx])]
+    clusters, current = [], []
+    for i in idx:
+        if current and chart.frequency_hz[i] > chart.frequency_hz[current[0]] * (1 + 2 * freq_tol):
+            clusters.append(np.array(current))
+            current = []
+        current.append(i)
+    if current:
+        clusters.append(np.array(current))
+    return [c for c in clusters if np.unique(chart.orders[c]).size >= min_stable]
+
+
+def identify(
+    frequency_hz: np.ndarray,
+    h: np.ndarray,
+    *,
+    kind: FRFKind = "accelerance",
+    excitation_psd: np.ndarray | None = None,
+    coherence: np.ndarray | None = None,
+    f_min: float | None = None,
+    f_max: float | None = None,
+    method: str = "lscf",
+    n_modes: int | None = None,
+    max_order: int = 40,
+    min_stable: int = 5,
+    freq_tol: float = 0.005,
+    damping_tol: float = 0.05,
+    min_coherence: float = 0.5,
+    dynamic_range_db: float = 40.0,
+) -> ModalIdentification:
+    """Natural frequencies and damping ratios the data support, with the reason for what is not.
+
+    Steps:
+
+    1. **Data check** (when ``excitation_psd`` is given, as it should be for measured FRFs):
+       :func:`excitation_support`. A dwell or other narrow-band force returns no mode and a note.
+    2. ``method="lscf"``: poles of sdypy-EMA's LSCF at orders 2..2*max_order;
+       a pole is *stable* when the previous order has one within ``freq_tol`` in frequency and
+       ``damping_tol`` in damping; a *mode* is a group of stable poles (within 2 ``freq_tol``) at
+       ``min_stable`` or more orders; its frequency and damping are the medians over the group.
+       LSFD (sdypy-EMA) then gives the modal constants and a reconstruction with residual terms.
+       ``method="peak"``: :func:`identify_modes` (quick; no stabilisation).
+    3. **Per-mode check**: a mode whose half-power band (``f (1 +- zeta)``) holds no supported bin
+       (see :func:`excitation_support`) is dropped with a note.
+
+    Parameters
+    ----------
+    frequency_hz, h
+        One-sided grid (uniform, starting at 0 Hz or above) and complex FRF (e.g.
+        :attr:`analysis.frf.FRFEstimate.h1`).
+    kind
+        What ``h`` is (receptance, mobility, accelerance).
+    excitation_psd, coherence
+        ``FRFEstimate.sxx`` and ``.coherence`` of the estimate.
+    f_min, f_max
+        Band, Hz (default: the grid without 0 Hz).
+    n_modes
+        Keep at most this many (the most strongly stable for LSCF, the most prominent peaks
+        otherwise).
+
+    Returns
+    -------
+    ModalIdentification
+    """
+    f = np.asarray(frequency_hz, dtype=float)
+    h = np.asarray(h, dtype=complex)
+    f_lo = float(f[f > 0][0]) if f_min is None else float(f_min)
+    f_hi = float(f[-1]) if f_max is None else float(f_max)
+    notes: list[str] = []
+    support = None
+    if excitation_psd is not None:
+        support = excitation_support(f, excitation_psd, coherence, f_min=f_lo, f_max=f_hi,
+                                     dynamic_range_db=dynamic_range_db, min_coherence=min_coherence)
+        if not support.ok:
+            return ModalIdentification([], method, [f"no modes identified: {support.reason}"])
+    if method == "peak":
+        modes = identify_modes(f, h, kind=kind, f_min=f_lo, f_max=f_hi, n_modes=n_modes)
+        chart, rec = None, None
+    elif method == "lscf":
+        model, chart = lscf_stabilisation(f, h, kind=kind, f_min=f_lo, f_max=f_hi, max_order=max_order,
+                                          freq_tol=freq_tol, damping_tol=damping_tol)
+        clusters = _stable_clusters(chart, freq_tol, min_stable)
+        if n_modes is not None and len(clusters) > n_modes:
+            clusters = sorted(sorted(clusters, key=len, reverse=True)[:n_modes],
+                              key=lambda c: chart.frequency_hz[c[0]])
+        modes, rec = _lsfd(model, chart, clusters, f, h, kind, f_lo, f_hi)
+        if not clusters:
+            notes.append(f"no pole stable over {min_stable} model orders between {f_lo:g} and {f_hi:g} Hz")
+    else:
+        raise ValueError(f"method must be 'lscf' or 'peak', got {method!r}")
+    if support is not None:
+        kept = []
+        for m in modes:
+            half = max(m.damping_ratio * m.frequency_hz, 0.5 * float(f[1] - f[0]))
+            near = (f >= m.frequency_hz - half) & (f <= m.frequency_hz + half)
+            if np.any(support.supported & near):
+                kept.append(m)
+            else:
+                notes.append(f"dropped {m.frequency_hz:.4g} Hz: no bin of its half-power band has "
+                             f"coherent excitation")
+        modes = kept
+    return ModalIdentification(modes, method, notes, chart, rec)
+
+
+def _lsfd(model, chart, clusters, f, h, kind, f_lo, f_hi):
+    """Modal constants of the chosen poles by sdypy-EMA's LSFD; one IdentifiedMode per cluster."""
+    if not clusters:
+        return [], None
+    pole_ind, medians = [], []
+    for c in clusters:
+        fn = float(np.median(chart.frequency_hz[c]))
+        zeta = float(np.median(chart.damping_ratio[c]))
+        medians.append((fn, zeta))
+        top = int(chart.orders[c].max())
+        j = top // 2 - 1
+        pf = np.asarray(model.pole_freq[j])
+        i = int(np.nanargmin(np.abs(pf - chart.frequency_hz[c][chart.orders[c] == top][0])))
+        pole_ind.append([j, i])
+    model.pole_ind = np.asarray(pole_ind, dtype=int)
+    rec, consts = model.get_constants(method="lsfd", f_lower=f_lo, f_upper=min(f_hi, float(model.freq[-1])))
+    rec = np.asarray(rec)[0]
+    band = (f >= f_lo) & (f <= f_hi)
+    n = min(rec.size, f.size)
+    err = float(np.linalg.norm(rec[:n][band[:n]] - h[:n][band[:n]]) / np.linalg.norm(h[:n][band[:n]]))
+    modes = []
+    for (fn, zeta), (j, i), a in zip(medians, pole_ind, np.asarray(consts)[0]):
+        pole = model.all_poles[j][i]
+        wd = abs(pole.imag)
+        # sdypy's term A / (i w - s) + conj: the single-mode form (i w)^k R / (wn^2 - w^2 + 2 i zeta wn w)
+        # has R = 2 i w_d A
+        modes.append(IdentifiedMode(fn, zeta, complex(2j * wd * a), float(fn), err, "lscf"))
+    return modes, rec

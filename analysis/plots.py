@@ -369,3 +369,315 @@ def time_and_spectrum_figure(
     head = f"{title}: " if title else ""
     fig.suptitle(f"{head}sine dwell, fe = {fe:g} Hz ({x.size / sample_rate:g} s analysed)")
     return fig
+
+
+# ---------------------------------------------------------------------------------------------
+# Report figures: FRF, stabilisation chart, EM-vs-FEM harmonic bars, trends and overlays
+# ---------------------------------------------------------------------------------------------
+
+FRF_UNITS = {"receptance": "m/N", "mobility": "(m/s)/N", "accelerance": "(m/s²)/N"}
+SOURCE_STYLES = {          # EM solid with filled markers, FEM dashed with open markers, AM dotted
+    "EM": dict(color="C0", ls="-", marker="o", mfc="C0"),
+    "FEM": dict(color="C3", ls="--", marker="s", mfc="none"),
+    "AM": dict(color="C2", ls=":", marker="^", mfc="none"),
+}
+
+
+def _style(label: str, i: int) -> dict:
+    return dict(SOURCE_STYLES.get(label, dict(color=f"C{i + 4}", ls="-.", marker="d", mfc="none")))
+
+
+def frf_figure(
+    frequency_hz: np.ndarray,
+    frfs: Mapping[str, np.ndarray],
+    *,
+    coherence: Mapping[str, np.ndarray] | None = None,
+    kind: str = "accelerance",
+    natural_frequencies_hz: Sequence[float] | None = None,
+    title: str = "",
+) -> Figure:
+    """FRF magnitude and phase, with the coherence below.
+
+    Parameters
+    ----------
+    frequency_hz
+        (n,) grid, Hz.
+    frfs
+        ``{label: (n,) complex FRF}`` in ``kind`` units, e.g. ``{"H1": ..., "H2": ...}`` or
+        ``{"EM": ..., "FEM": ...}``; one line each, in order.
+    coherence
+        ``{label: (n,) coherence}`` (0..1), drawn in the bottom axes.
+    kind
+        ``"receptance"`` (m/N), ``"mobility"`` ((m/s)/N) or ``"accelerance"`` ((m/s²)/N).
+    natural_frequencies_hz
+        Identified natural frequencies to mark (dashed vertical lines).
+    title
+        Figure title.
+
+    Returns
+    -------
+    Figure
+        ``fig.axes``: magnitude (log), phase (degrees), coherence (if given); x shared.
+    """
+    if kind not in FRF_UNITS:
+        raise ValueError(f"kind must be one of {', '.join(FRF_UNITS)}, got {kind!r}")
+    f = np.asarray(frequency_hz, dtype=float)
+    rows = 3 if coherence else 2
+    fig = Figure(figsize=(11, 3.0 * rows + 0.8), layout="constrained")
+    axes = fig.subplots(rows, 1, sharex=True, height_ratios=[2.0, 1.2, 1.0][:rows])
+    ax_m, ax_p = axes[0], axes[1]
+    styles = ("-", "--", ":", "-.")
+    for i, (label, h) in enumerate(frfs.items()):
+        h = np.asarray(h)
+        ls = styles[i % len(styles)]
+        ax_m.semilogy(f, np.abs(h), ls=ls, lw=1.1, color=f"C{i}", label=label)
+        ax_p.plot(f, np.degrees(np.angle(h)), ls=ls, lw=1.0, color=f"C{i}", label=label)
+    ax_m.set_ylabel(f"{kind} magnitude ({FRF_UNITS[kind]})")
+    ax_p.set_ylabel("phase (degrees)")
+    ax_p.set_ylim(-180, 180)
+    ax_p.set_yticks([-180, -90, 0, 90, 180])
+    for ax in axes:
+        ax.grid(True, which="both", alpha=0.3)
+    if natural_frequencies_hz is not None:
+        for j, fn in enumerate(natural_frequencies_hz):
+            for ax in axes:
+                ax.axvline(fn, color="0.4", ls="--", lw=0.8,
+                           label=("identified natural frequencies" if j == 0 and ax is ax_m else None))
+            ax_m.text(fn, 0.98, f" {fn:.1f} Hz", rotation=90, va="top", ha="right", fontsize=7,
+                      transform=ax_m.get_xaxis_transform())
+    ax_m.legend(fontsize=8)
+    if coherence:
+        ax_c = axes[2]
+        for i, (label, c) in enumerate(coherence.items()):
+            ax_c.plot(f, np.asarray(c), lw=1.0, color=f"C{i}", ls=styles[i % len(styles)], label=f"coherence {label}")
+        ax_c.set_ylim(0, 1.05)
+        ax_c.set_ylabel("coherence (-)")
+        ax_c.legend(fontsize=8)
+    axes[-1].set_xlabel("frequency (Hz)")
+    fig.suptitle(title or f"frequency response ({kind})")
+    return fig
+
+
+def stabilisation_figure(chart, frequency_hz: np.ndarray, h: np.ndarray, *,
+                         natural_frequencies_hz: Sequence[float] | None = None, title: str = "") -> Figure:
+    """Stabilisation chart: LSCF poles per model order (stable filled, others open) over |H|.
+
+    ``chart`` is an :class:`analysis.modal_id.StabilisationChart`. ``fig.axes[0]`` holds the
+    poles (left axis: model order), ``fig.axes[1]`` the FRF magnitude (right axis, log).
+    """
+    fig = Figure(figsize=(11, 5), layout="constrained")
+    ax = fig.add_subplot()
+    st = np.asarray(chart.stable, bool)
+    ax.plot(chart.frequency_hz[~st], chart.orders[~st], "o", ms=3, mfc="none", color="0.6", label="pole")
+    ax.plot(chart.frequency_hz[st], chart.orders[st], "o", ms=4, color="C0",
+            label="stable pole (frequency and damping)")
+    ax.set_xlabel("frequency (Hz)")
+    ax.set_ylabel("model order (-)")
+    ax2 = ax.twinx()
+    ax2.semilogy(frequency_hz, np.abs(h), color="k", lw=0.8, label="|H|")
+    ax2.set_ylabel("FRF magnitude (FRF units)")
+    if natural_frequencies_hz is not None:
+        for j, fn in enumerate(natural_frequencies_hz):
+            ax.axvline(fn, color="C3", ls="--", lw=0.9, label="identified mode" if j == 0 else None)
+    ax.legend(fontsize=8, loc="upper left")
+    fig.suptitle(title or "stabilisation chart (LSCF)")
+    return fig
+
+
+def harmonic_bars_figure(
+    em: Mapping[str, np.ndarray],
+    fem: Mapping[str, np.ndarray],
+    units: Mapping[str, str],
+    fe: float,
+    *,
+    k_max: int = 30,
+    model_label: str = "FEM",
+    title: str = "",
+) -> Figure:
+    """Harmonic amplitudes EM versus a model as grouped bars, one axes per channel.
+
+    Parameters
+    ----------
+    em, fem
+        ``{channel: (K,) peak amplitudes of k = 1..K}``; channels in ``em`` order, those in both.
+    units
+        ``{channel: unit}`` (``"N"``, ``"m/s^2"``).
+    fe
+        Excitation frequency, Hz (for the title and the secondary labels).
+    k_max
+        Harmonics shown.
+    model_label
+        Legend label of the model bars.
+
+    Returns
+    -------
+    Figure
+        One axes per channel: ``patches`` hold EM's bars first (k = 1..K) then the model's.
+    """
+    channels = [c for c in em if c in fem]
+    if not channels:
+        raise ValueError("no channel present in both em and fem")
+    fig = Figure(figsize=(12, 2.8 * len(channels) + 0.8), layout="constrained")
+    axes = fig.subplots(len(channels), 1, squeeze=False)[:, 0]
+    for ax, ch in zip(axes, channels):
+        a = np.asarray(em[ch], dtype=float)[:k_max]
+        b = np.asarray(fem[ch], dtype=float)[:k_max]
+        n = min(a.size, b.size)
+        k = np.arange(1, n + 1)
+        ax.bar(k - 0.2, a[:n], width=0.4, color="C0", label="EM (experiment)")
+        ax.bar(k + 0.2, b[:n], width=0.4, color="C3", alpha=0.8, label=model_label, hatch="//", edgecolor="C3")
+        ax.set_yscale("log")
+        unit = units.get(ch, "").replace("^2", "²")
+        ax.set_ylabel(f"peak amplitude ({unit})")
+        ax.set_title(ch.replace("_", " "), fontsize=9)
+        ax.set_xticks(k[:: max(1, n // 15)] if n > 15 else k)
+        ax.grid(True, axis="y", which="both", alpha=0.3)
+        ax.legend(fontsize=8)
+    axes[-1].set_xlabel(f"harmonic order k (frequency k·fe, fe = {fe:g} Hz)")
+    fig.suptitle(title or f"harmonic amplitudes, EM versus {model_label}")
+    return fig
+
+
+def trend_figure(
+    kind: str,
+    quantities: Mapping[str, Mapping[str, tuple[np.ndarray, np.ndarray]]],
+    units: Mapping[str, str],
+    *,
+    title: str = "",
+) -> Figure:
+    """Trends of a study with EM and the models on the same axes (one axes per quantity).
+
+    Parameters
+    ----------
+    kind
+        Swept parameter: ``"gap"`` (m, shown in mm), ``"force"`` (N) or ``"frequency"`` (Hz).
+    quantities
+        ``{quantity label: {source: (values, y)}}`` with ``source`` ``"EM"``, ``"FEM"``, ``"AM"``
+        (or any label) and ``values`` the swept value (SI) of each point, e.g.
+        ``{"peak force-sensor signal": {"EM": (gaps, f_em), "FEM": (gaps, f_fem)},
+        "active shroud 6·fe": {...}}``. Quantities are peak values.
+    units
+        ``{quantity label: unit}``.
+
+    Returns
+    -------
+    Figure
+        One axes per quantity, one line per source in the given order, x in display units.
+    """
+    if kind not in STUDY_UNITS:
+        raise ValueError(f"kind must be one of {', '.join(STUDY_UNITS)}, got {kind!r}")
+    unit_x, scale = STUDY_UNITS[kind]
+    names = list(quantities)
+    cols = 2 if len(names) > 1 else 1
+    rows = int(np.ceil(len(names) / cols))
+    fig = Figure(figsize=(6.0 * cols, 3.2 * rows + 0.8), layout="constrained")
+    axes = np.atleast_1d(fig.subplots(rows, cols, squeeze=False).ravel())
+    for ax, name in zip(axes, names):
+        for i, (src, (x, y)) in enumerate(quantities[name].items()):
+            x = np.asarray(x, dtype=float) * scale
+            order = np.argsort(x, kind="stable")
+            ax.plot(x[order], np.asarray(y, dtype=float)[order], ms=5, lw=1.2, label=src, **_style(src, i))
+        unit = units.get(name, "").replace("^2", "²")
+        ax.set_ylabel(f"{name}, peak ({unit})")
+        ax.set_xlabel(f"{kind} ({unit_x})")
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=8)
+    for ax in axes[len(names):]:
+        ax.set_visible(False)
+    fig.suptitle(title or f"{kind} study: experiment (EM) and models")
+    return fig
+
+
+def force_zero_crossing_time(force: np.ndarray, sample_rate: float, fe: float, t0: float = 0.0) -> float:
+    """Time (s, on the record's clock starting at ``t0``) of the first upward zero crossing of the
+    force's fundamental at or after ``t0``: the common time origin of waveform overlays."""
+    from analysis.harmonics import harmonic_amplitudes
+
+    fit = harmonic_amplitudes(np.asarray(force, dtype=float), sample_rate, fe, 1)
+    # F1 cos(w (t - t0) + phi): upward zero crossing where w (t - t0) + phi = -pi/2 (mod 2 pi)
+    return t0 + float(np.mod(-np.pi / 2 - fit.phase[0], 2 * np.pi)) / (2 * np.pi * fe)
+
+
+def overlay_figure(
+    em: Mapping[str, np.ndarray],
+    fem: Mapping[str, np.ndarray],
+    units: Mapping[str, str],
+    fe: float,
+    *,
+    em_rate: float,
+    fem_rate: float,
+    periods: float = 3.0,
+    k_max: int = 30,
+    force_channel: str = "force",
+    window: str = "flattop",
+    model_label: str = "FEM",
+    title: str = "",
+) -> Figure:
+    """EM and model waveforms and spectra overlaid, in the layout of the paper's Figures 8-16.
+
+    Rows: one per channel present in both (e.g. force, active shroud acceleration, passive shroud
+    acceleration). Left: waveforms over ``periods`` periods; both sides share one time reference,
+    ``t = 0`` at an upward zero crossing of each side's own force fundamental
+    (:func:`force_zero_crossing_time`), so a phase difference between EM and model shows.
+    Right: peak-amplitude spectra (``window``, whole record) on a log axis with ``k fe`` marked.
+
+    Parameters
+    ----------
+    em, fem
+        ``{channel: (n,) samples}``; each side must hold ``force_channel``.
+    units
+        ``{channel: unit}``.
+    fe
+        Excitation frequency, Hz.
+    em_rate, fem_rate
+        Sample rates of the two sides, Hz (they may differ).
+
+    Returns
+    -------
+    Figure
+        ``fig.axes[2 i]`` waveform axes of channel ``i`` (lines: EM, model),
+        ``fig.axes[2 i + 1]`` its spectrum axes (lines: EM, model).
+    """
+    channels = [c for c in em if c in fem]
+    if force_channel not in em or force_channel not in fem:
+        raise ValueError(f"both sides need the {force_channel!r} channel for the common time reference")
+    fig = Figure(figsize=(13, 2.8 * len(channels) + 1.0), layout="constrained")
+    axes = fig.subplots(len(channels), 2, squeeze=False, width_ratios=[1.0, 1.2])
+    f_max = min((k_max + 1) * fe, em_rate / 2, fem_rate / 2)
+    window_s = periods / fe
+    sides = []
+    for label, data, rate, style in (("EM", em, em_rate, dict(color="C0", lw=1.2, ls="-")),
+                                      (model_label, fem, fem_rate, dict(color="C3", lw=1.1, ls="--"))):
+        n = np.asarray(data[force_channel]).size
+        # reference in the last part of the record (settled), leaving room for the window
+        start = max(n - int(np.ceil((periods + 1) * rate / fe)), 0)
+        t_ref = force_zero_crossing_time(np.asarray(data[force_channel])[start:], rate, fe, start / rate)
+        sides.append((label, data, rate, style, t_ref))
+    for i, ch in enumerate(channels):
+        ax_t, ax_s = axes[i]
+        unit = units.get(ch, "").replace("^2", "²")
+        for label, data, rate, style, t_ref in sides:
+            x = np.asarray(data[ch], dtype=float)
+            t = np.arange(x.size) / rate - t_ref
+            sel = (t >= 0) & (t <= window_s)
+            ax_t.plot(t[sel] * 1e3, x[sel], label=label, **style)
+            freqs, amp = amplitude_spectrum(x, rate, window)
+            keep = freqs <= f_max
+            ax_s.semilogy(freqs[keep], amp[keep], label=label, **{**style, "lw": 0.9})
+        ax_t.set_ylabel(f"{ch.replace('_', ' ')} ({unit})")
+        ax_s.set_ylabel(f"peak amplitude ({unit})")
+        ax_s.set_xlim(0, f_max)
+        top = max(float(np.max(line.get_ydata()[1:])) for line in ax_s.lines)
+        if top > 0:
+            ax_s.set_ylim(top * SPECTRUM_FLOOR, top * 3.0)
+        for ax in (ax_t, ax_s):
+            ax.grid(True, alpha=0.3)
+            ax.legend(fontsize=7, loc="upper right")
+        harmonics = fe * np.arange(1, k_max + 1)
+        harmonics = harmonics[harmonics <= f_max]
+        ax_s.plot(harmonics, np.ones_like(harmonics), ls="none", marker="v", ms=3, color="0.35",
+                  transform=ax_s.get_xaxis_transform(), clip_on=False)
+    axes[-1, 0].set_xlabel("time from the upward zero crossing of the force fundamental (ms)")
+    axes[-1, 1].set_xlabel(f"frequency (Hz); ▼ marks k·fe, fe = {fe:g} Hz")
+    fig.suptitle(title or f"EM versus {model_label}: waveforms and spectra, fe = {fe:g} Hz")
+    return fig

@@ -41,3 +41,18 @@ def test_several_channels_at_once_and_bad_window():
     assert amp[1, np.argmin(abs(freqs - 10))] == pytest.approx(3.0)
     with pytest.raises(ValueError, match="window"):
         amplitude_spectrum(x, fs, "kaiser")
+
+
+def test_rms_reading_and_labels():
+    """RMS scaling: a tone reads A / sqrt(2) (1e-12), DC still its mean."""
+    from analysis.spectra import amplitude_label
+    fs, n = 1024.0, 2048
+    t = np.arange(n) / fs
+    x = 0.25 + 2.0 * np.sin(2 * np.pi * 100.0 * t)
+    freqs, amp = amplitude_spectrum(x, fs, "boxcar", amplitude="rms")
+    assert amp[np.argmin(abs(freqs - 100.0))] == pytest.approx(2.0 / np.sqrt(2), rel=1e-12)
+    assert amp[0] == pytest.approx(0.25, rel=1e-9)
+    assert amplitude_label("acceleration", "m/s^2") == "acceleration, peak amplitude (m/s²)"
+    assert "RMS" in amplitude_label("force", "N", "rms")
+    with pytest.raises(ValueError, match="peak"):
+        amplitude_spectrum(x, fs, amplitude="pk")
