@@ -726,15 +726,14 @@ def _identifiability(jac: np.ndarray, names: list[str], specs, x: np.ndarray, v0
                 unresolved.append(f"{names[i]} <-> {names[j]}: correlation {c:+.3f}")
                 named.add(frozenset((i, j)))
     extent = np.sqrt(scale2) / np.where(s_full > 0, s_full, 1e-300)
-    influence = np.linalg.norm(jac, axis=0)       # each parameter's own effect on the residuals
     for k in range(n):
         if keep[k] and extent[k] <= MAX_STD:
             continue
+        # the parameters that move along this direction by a sizeable share (x is ~relative): a
+        # direction of mostly one parameter means that parameter is not determined, however its
+        # small effect is traded against the others
         v = vt[k]
-        # who takes part in this direction: the terms v_i J_i that cancel one another
-        share = np.abs(v) * influence
-        share = share / share.max() if share.max() > 0 else np.abs(v) / np.abs(v).max()
-        big = [int(i) for i in np.argsort(-share) if share[i] >= 0.3]
+        big = [int(i) for i in np.argsort(-np.abs(v)) if abs(v[i]) >= 0.3]
         how = "no information" if not keep[k] else f"1-sigma extent {100 * extent[k]:.0f} %"
         direction = " ".join(f"{v[i]:+.2f} {names[i]}" for i in big)
         if len(big) == 1:
