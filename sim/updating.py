@@ -649,24 +649,24 @@ class _Problem:
         return self._cache[key]
 
 
-def _forward_jacobian(fun, x: np.ndarray, hi: np.ndarray) -> np.ndarray:
-    """Forward differences of ``fun`` at ``x`` with the absolute step :data:`FD_STEP` (backward at
+def _forward_jacobian(fun, x: np.ndarray, hi: np.ndarray, step: float = FD_STEP) -> np.ndarray:
+    """Forward differences of ``fun`` at ``x`` with the absolute step ``step`` (backward at
     the upper bound). scipy's own steps are relative to ``|x|``, which is 0 at the start."""
     f0 = fun(x)
     cols = []
     for i in range(x.size):
-        h = FD_STEP if x[i] + FD_STEP <= hi[i] else -FD_STEP
+        h = step if x[i] + step <= hi[i] else -step
         xh = x.copy()
         xh[i] += h
         cols.append((fun(xh) - f0) / h)
     return np.column_stack(cols)
 
 
-def _central_jacobian(fun, x: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-    """Central differences (one-sided at a bound) of ``fun`` at ``x``, step :data:`FD_STEP`."""
+def _central_jacobian(fun, x: np.ndarray, lo: np.ndarray, hi: np.ndarray, step: float = FD_STEP) -> np.ndarray:
+    """Central differences (one-sided at a bound) of ``fun`` at ``x``, absolute step ``step``."""
     cols = []
     for i in range(x.size):
-        h = FD_STEP * max(1.0, abs(x[i]))
+        h = step
         xp, xm = x.copy(), x.copy()
         xp[i], xm[i] = min(x[i] + h, hi[i]), max(x[i] - h, lo[i])
         cols.append((fun(xp) - fun(xm)) / (xp[i] - xm[i]))
