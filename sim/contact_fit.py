@@ -173,6 +173,23 @@ class ContactFitResult:
         c = self.params.contact
         return {"contact.law": c.law, "contact.stiffness": c.stiffness, "contact.damping": c.damping}
 
+    def as_dict(self) -> dict:
+        """JSON-ready summary (plain floats, lists and strings)."""
+        ident = self.identifiability
+        return {
+            "law": self.law,
+            "parameters": {n: {"unit": u, "start": self.initial[n], "fitted": self.fitted[n],
+                               "bounds": list(self.bounds[n]), "confidence_95": list(ident.confidence[n])}
+                           for n, u in zip(self.names, self.units)},
+            "rig_file": self.rig_file_values(),
+            "cost_before": self.cost_before, "cost_after": self.cost_after,
+            "rms_log_error_after": self.rms_log_error_after, "steady": self.steady,
+            "model_evaluations": self.n_evaluations, "vibro_impact_runs": self.n_runs,
+            "wall_time_s": self.wall_time, "success": self.success, "message": self.message,
+            "identifiability": {"rank": ident.rank, "condition": ident.condition,
+                                "unresolved": list(ident.unresolved)},
+        }
+
     def report(self) -> str:
         """Plain-text report: fitted values with 95 % intervals, fit quality, identifiability."""
         ident = self.identifiability

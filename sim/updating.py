@@ -578,6 +578,32 @@ class UpdateResult:
         """Rig-file keys (``"section.key"``) and SI values to write: see :func:`rig_file_values`."""
         return rig_file_values(self.params, self.names)
 
+    def as_dict(self) -> dict:
+        """JSON-ready summary (plain floats, lists and strings)."""
+        ident = self.identifiability
+        return {
+            "parameters": {n: {"unit": u, "start": self.initial[n], "fitted": self.fitted[n],
+                               "bounds": list(self.bounds[n]), "confidence_95": list(ident.confidence[n]),
+                               "std_relative": float(ident.std_scaled[i])}
+                           for i, (n, u) in enumerate(zip(self.names, self.units))},
+            "rig_file": self.rig_file_values(),
+            "modes": [{"blade": m.target.blade, "order": m.target.order, "target_hz": m.target.frequency_hz,
+                       "before_hz": m.before_hz, "after_hz": m.after_hz, "error_before": m.error_before,
+                       "error_after": m.error_after, "damping_target": m.target.damping_ratio,
+                       "damping_before": m.damping_before, "damping_after": m.damping_after}
+                      for m in self.modes],
+            "cost_before": self.cost_before, "cost_after": self.cost_after,
+            "max_frequency_error_before": self.max_frequency_error_before,
+            "max_frequency_error_after": self.max_frequency_error_after,
+            "model_evaluations": self.n_evaluations, "wall_time_s": self.wall_time,
+            "success": self.success, "message": self.message, "covariance": self.covariance,
+            "identifiability": {"rank": ident.rank, "condition": ident.condition,
+                                "singular_values": ident.singular_values.tolist(),
+                                "correlation": [[None if not np.isfinite(c) else float(c) for c in row]
+                                                for row in ident.correlation],
+                                "unresolved": list(ident.unresolved)},
+        }
+
     def report(self) -> str:
         """A plain-text report: fitted values with 95 % intervals, modes before/after, and the
         parameters the data cannot separate."""

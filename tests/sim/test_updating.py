@@ -206,3 +206,14 @@ def test_contact_fit_recovers_known_contact(rig):
     assert res.rig_file_values() == {"contact.law": "linear", "contact.stiffness": res.fitted["contact.stiffness"],
                                      "contact.damping": res.fitted["contact.damping"]}
     assert "contact fit (linear law)" in res.report()
+
+
+def test_result_as_json(rig, targets):
+    import json
+
+    nominal, _, _ = rig
+    res = update_model(nominal, [t for t in targets if t.order == 1], [K_ROT, "shroud.mass"])
+    data = json.loads(json.dumps(res.as_dict()))
+    assert data["rig_file"]["root.kind"] == "springs"
+    assert data["identifiability"]["unresolved"][0].startswith(f"{K_ROT} <-> shroud.mass")
+    assert data["parameters"][K_ROT]["fitted"] == pytest.approx(res.fitted[K_ROT])
