@@ -39,7 +39,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from typing import Callable, Literal, Sequence
 
 import numpy as np
@@ -518,7 +518,8 @@ class UpdateResult:
     names, units
         Fitted parameters (registry names) and their units.
     initial, fitted
-        name -> start value and fitted value (SI).
+        name -> start value (within the bounds; a clamped root starts as stiff springs) and
+        fitted value (SI).
     bounds
         name -> (low, high) used.
     params
@@ -526,7 +527,8 @@ class UpdateResult:
     residual_labels
         What each residual is.
     residuals_before, residuals_after
-        Weighted residuals (in units of their stated 1-sigma) at the start and the optimum.
+        Weighted residuals (in units of their stated 1-sigma) of the rig as given (e.g. clamped)
+        and at the optimum.
     modes
         Per mode target: frequency and damping before and after.
     n_evaluations
@@ -867,7 +869,7 @@ def update_model(
              for t in targets if isinstance(t, ModeTarget)]
     return UpdateResult(
         names=names, units=[PARAMETERS[n].unit for n in names],
-        initial={n: float(PARAMETERS[n].get(params)) if n not in start else float(start[n]) for n in names},
+        initial={n: float(v) for n, v in zip(names, prob.v0)},
         fitted={n: float(vi) for n, vi in zip(names, v)}, bounds=b_all, params=prob.params_at(x),
         residual_labels=_residual_labels(targets), residuals_before=r0, residuals_after=r1, modes=modes,
         n_evaluations=prob.n_evaluations, wall_time=time.perf_counter() - t0, success=bool(sol.success),
