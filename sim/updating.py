@@ -886,3 +886,74 @@ def mode_targets(params: RigParams, n_modes: int = 3, *, damping: bool = False,
     return [ModeTarget(b, k + 1, float(pred.frequencies_hz[b][k]),
                        float(pred.damping_ratios[b][k]) if damping else None, frequency_sigma, damping_sigma)
             for b in ("active", "passive") for k in range(n_modes)]
+
+
+@dataclass
+class Pairing:
+    """Identified modes of one blade paired with the model's flexural modes.
+
+    Attributes
+    ----------
+    targets
+        One :class:`ModeTarget` per paired mode (its ``order`` is the model mode's).
+    model_hz
+        The model frequency each target was paired with.
+    unpaired
+        Identified frequencies (Hz) left out: no model mode within ``max_offset``.
+    """
+
+    targets: list[ModeTarget]
+    model_hz: list[float]
+    unpaired: list[float]
+
+
+def pair_modes(params: RigParams, blade: Blade, frequencies_hz: Sequence[float],
+               damping_ratios: Sequence[float | None] | None = None, *, max_offset: float = 0.15,
+               n_model: int = 8, frequency_sigma: float = 1e-3, damping_sigma: float = 0.1) -> Pairing:
+    """Pair identified natural frequencies of one blade with the model's flexural modes.
+
+    Each identified mode goes to one model mode (one-to-one, least total ``|ln(f_id / f_model)|``,
+    :func:`scipy.optimize.linear_sum_assignment`) and is kept if it is within ``max_offset``
+    (relative) of it, so a missed or a spurious peak does not shift the orders of the others.
+
+    Parameters
+    ----------
+    params
+        The model the pairing is made against (e.g. the nominal rig).
+    blade
+        ``"active"`` or ``"passive"``.
+    frequencies_hz, damping_ratios
+        The identified modes (damping ratios optional, ``None`` entries allowed).
+    max_offset
+        Largest relative distance to the paired model mode.
+    n_model
+        Model flexural modes considered.
+    """
+    import scipy.optimize as _opt
+
+    f_id = np.asarray(frequencies_hz, dtype=float)
+    zetas = list(damping_ratios) if damping_ratios is not None else [None] * f_id.size
+    if len(zetas) != f_id.size:
+        raise ValueError("give one damping ratio (or None) per identified frequency")
+    if f_id.size == 0:
+        return Pairing([], [], [])
+    if not np.all(f_id > 0):
+        raise ValueError("identified frequencies must be > 0 Hz")
+    f_model = predict(params, [ModeTarget(blade, n_model, 1.0)]).frequencies_hz[blade]
+    cost = np.abs(np.log(f_id[:, None] / f_model[None, :]))
+    # pairs beyond the offset are never worth taking: a fixed price of their own
+    rows, cols = _opt.linear_sum_assignment(np.where(cost <= math.log1p(max_offset), cost, 1e3))
+    targets, model_hz, unpaired = [], [], []
+    paired = {}
+    for r, c in zip(rows, cols):
+        if cost[r, c] <= math.log1p(max_offset):
+            paired[int(r)] = int(c)
+    for i, f in enumerate(f_id):
+        if i not in paired:
+            unpaired.append(float(f))
+            continue
+        c = paired[i]
+        targets.append(ModeTarget(blade, c + 1, float(f), zetas[i], frequency_sigma, damping_sigma))
+        model_hz.append(float(f_model[c]))
+    order = np.argsort([t.order for t in targets])
+    return Pairing([targets[i] for i in order], [model_hz[i] for i in order], unpaired)

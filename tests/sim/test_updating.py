@@ -217,3 +217,19 @@ def test_result_as_json(rig, targets):
     assert data["rig_file"]["root.kind"] == "springs"
     assert data["identifiability"]["unresolved"][0].startswith(f"{K_ROT} <-> shroud.mass")
     assert data["parameters"][K_ROT]["fitted"] == pytest.approx(res.fitted[K_ROT])
+
+
+def test_pair_modes_skips_missing_and_spurious_peaks(rig, targets):
+    """Identified active-blade modes with the 2nd missing and a spurious peak at 800 Hz: the 1st and
+    3rd pair with model orders 1 and 3, the spurious one is left out."""
+    from sim.updating import pair_modes
+
+    nominal, _, _ = rig
+    act = [t for t in targets if t.blade == "active"]
+    found = [act[0].frequency_hz, 800.0, act[2].frequency_hz]
+    pairing = pair_modes(nominal, "active", found, [0.012, 0.02, None])
+    assert [t.order for t in pairing.targets] == [1, 3]
+    assert [t.frequency_hz for t in pairing.targets] == [found[0], found[2]]
+    assert pairing.targets[0].damping_ratio == 0.012 and pairing.targets[1].damping_ratio is None
+    assert pairing.unpaired == [800.0]
+    assert pairing.model_hz[0] == pytest.approx(53.21, abs=0.01)     # nominal active f1
