@@ -233,3 +233,46 @@ def test_pair_modes_skips_missing_and_spurious_peaks(rig, targets):
     assert pairing.targets[0].damping_ratio == 0.012 and pairing.targets[1].damping_ratio is None
     assert pairing.unpaired == [800.0]
     assert pairing.model_hz[0] == pytest.approx(53.21, abs=0.01)     # nominal active f1
+
+
+def test_frf_test_on_the_simulated_rig_end_to_end(rig):
+    """Burst-random FRF test on the simulated rig (gap opened to 50 mm: no impacts; sensor noise,
+    shaker, DAQ), H1, modal identification, pairing, update. Only the active blade is driven, so
+    only its three flexural modes are measured. Fitting the root spring and the damping ratio:
+    k_rot comes out 9.7 % low (the +1 %/-1 % mass deviations, not fitted, are absorbed by it),
+    zeta within 1 %, the three frequencies within 0.23 %. Freeing all three masses as well, the
+    report names the pairs that active-blade data cannot separate."""
+    from analysis.frf import estimate_frf
+    from analysis.modal_id import identify_modes
+    from drivers.simulated import SimulatedRig
+    from rigtools.acquisition import BlockCollector, RandomDrive, acquire
+    from sim.updating import pair_modes
+
+    nominal, spec, _ = rig
+    cfg = load_rig(None)
+    wide = replace(nominal, contact=replace(nominal.contact, gap=0.05))
+    device = SimulatedRig(wide, cfg.shaker.to_params(), spec, seed=1, abort_ramp_time=cfg.safety.abort_ramp_time)
+    fs = device.configure(cfg.daq.input_specs(), cfg.daq.output_spec(), 25600.0)
+    period = 2.0
+    drive = RandomDrive(fs, 0.5, (10.0, 2000.0), max_drive=cfg.safety.max_drive, ramp_time=0.002,
+                        burst_period=period, burst_fraction=0.4, seed=2)
+    sink = BlockCollector()
+    acquire(device, drive, 8 * period, sink=sink)
+    n = int(8 * period * fs)
+    est = estimate_frf(sink.data[0, :n], sink.data[1, :n], fs, nperseg=int(period * fs), noverlap=0, window="boxcar")
+    modes = identify_modes(est.frequency_hz, est.h1, kind="accelerance", f_min=10, f_max=1800, n_modes=3)
+    pairing = pair_modes(nominal, "active", [m.frequency_hz for m in modes], [m.damping_ratio for m in modes])
+    assert [t.order for t in pairing.targets] == [1, 2, 3] and not pairing.unpaired
+
+    res = update_model(nominal, pairing.targets, [K_ROT, "damping.ratio"])
+    assert res.fitted[K_ROT] == pytest.approx(spec.root_rotational_stiffness, rel=0.10)
+    assert res.fitted["damping.ratio"] == pytest.approx(spec.damping_ratio, rel=0.02)
+    assert res.max_frequency_error_after < 0.003
+
+    near = np.zeros(est.frequency_hz.size, bool)
+    for m in modes:
+        near |= np.abs(est.frequency_hz / m.frequency_hz - 1) < 0.03
+    sel = near & (est.coherence > 0.99)
+    frf = FrfTarget(est.frequency_hz[sel], est.h1[sel], "active_shroud", "accelerance", sigma=0.05)
+    res = update_model(nominal, [*pairing.targets, frf], [K_ROT, "shroud.mass", "force_sensor.mass", "damping.ratio"])
+    assert any(line.startswith(f"{K_ROT} <-> shroud.mass: correlation") for line in res.identifiability.unresolved)
