@@ -58,10 +58,14 @@ FRF_LOCATIONS = ("active_shroud", "active_force_point")
 _FRF_ORDER = {"receptance": 0, "mobility": 1, "accelerance": 2}
 _UY, _RZ = 1, 5
 
-# start values when the nominal rig has a clamped root: stiff, but soft enough that the
-# frequencies feel them (a rotational spring of 1e5 N*m/rad lowers f1 by ~0.3 % on the default rig)
+# start values of a fitted spring when the nominal rig has a clamped root: stiff, but soft enough
+# that the frequencies feel them (1e5 N*m/rad lowers f1 by ~0.3 % on the default rig, 1e10 N/m by
+# ~0.003 %)
 CLAMPED_START_ROTATIONAL = 1e5      # N*m/rad
-CLAMPED_START_TRANSLATIONAL = 1e10  # N/m: as good as rigid for the flexural modes
+CLAMPED_START_TRANSLATIONAL = 1e10  # N/m
+# a clamp written as springs, for the spring that is not fitted (frequencies change < 1e-6)
+RIGID_ROTATIONAL = 1e9              # N*m/rad
+RIGID_TRANSLATIONAL = 1e12          # N/m
 
 CORRELATION_LIMIT = 0.95
 NULL_RATIO = 1e-8     # singular value / largest below which a direction carries no information
@@ -92,7 +96,8 @@ class UpdateParameter:
     relative
         Whether ``bounds`` are factors of the start value.
     get
-        ``params -> value`` (the start value: for a clamped root, a stiff spring).
+        ``params -> value`` (the start value: for a clamped root, a stiff spring; the spring
+        that is not fitted then stays rigid, :data:`RIGID_ROTATIONAL`, :data:`RIGID_TRANSLATIONAL`).
     set
         ``(params, value) -> params`` with this parameter set.
     """
@@ -116,7 +121,7 @@ def _springs(params: RigParams) -> RootParams:
     root = params.root
     if root.kind == "springs":
         return root
-    return RootParams("springs", CLAMPED_START_ROTATIONAL, CLAMPED_START_TRANSLATIONAL)
+    return RootParams("springs", RIGID_ROTATIONAL, RIGID_TRANSLATIONAL)
 
 
 def _set_root(params: RigParams, **changes: float) -> RigParams:
@@ -161,11 +166,13 @@ PARAMETERS: dict[str, UpdateParameter] = {p.name: p for p in (
     UpdateParameter(
         "root.rotational_stiffness", "N*m/rad", "root rotational springs (both blades, every axis)",
         True, (1e1, 1e9), False,
-        lambda p: _springs(p).rotational_stiffness, lambda p, v: _set_root(p, rotational_stiffness=v)),
+        lambda p: p.root.rotational_stiffness if p.root.kind == "springs" else CLAMPED_START_ROTATIONAL,
+        lambda p, v: _set_root(p, rotational_stiffness=v)),
     UpdateParameter(
         "root.translational_stiffness", "N/m", "root translational springs (both blades, every axis)",
         True, (1e4, 1e13), False,
-        lambda p: _springs(p).translational_stiffness, lambda p, v: _set_root(p, translational_stiffness=v)),
+        lambda p: p.root.translational_stiffness if p.root.kind == "springs" else CLAMPED_START_TRANSLATIONAL,
+        lambda p, v: _set_root(p, translational_stiffness=v)),
     UpdateParameter(
         "damping.ratio", "", "modal damping ratio (every mode)", True, (1e-5, 0.5), False,
         _ratio, lambda p, v: replace(p, damping=DampingParams(ratio=v))),

@@ -276,3 +276,18 @@ def test_frf_test_on_the_simulated_rig_end_to_end(rig):
     frf = FrfTarget(est.frequency_hz[sel], est.h1[sel], "active_shroud", "accelerance", sigma=0.05)
     res = update_model(nominal, [*pairing.targets, frf], [K_ROT, "shroud.mass", "force_sensor.mass", "damping.ratio"])
     assert any(line.startswith(f"{K_ROT} <-> shroud.mass: correlation") for line in res.identifiability.unresolved)
+
+
+def test_clamped_root_becomes_springs_rigid_where_not_fitted(rig):
+    """Fitting only the rotational spring of a clamped rig: the translational one is written
+    rigid (1e12 N/m), and the clamped rig's frequencies are reproduced by rigid springs."""
+    nominal, _, _ = rig
+    from sim.updating import RIGID_ROTATIONAL, RIGID_TRANSLATIONAL
+
+    clamped = predict(nominal, [ModeTarget("active", 3, 1.0)]).frequencies_hz["active"]
+    stiff = PARAMETERS[K_ROT].set(nominal, RIGID_ROTATIONAL)
+    assert stiff.root.kind == "springs" and stiff.root.translational_stiffness == RIGID_TRANSLATIONAL
+    np.testing.assert_allclose(predict(stiff, [ModeTarget("active", 3, 1.0)]).frequencies_hz["active"],
+                               clamped, rtol=1e-6)
+    assert rig_file_values(PARAMETERS[K_ROT].set(nominal, 1.2e4), [K_ROT]) == {
+        "root.kind": "springs", "root.rotational_stiffness": 1.2e4, "root.translational_stiffness": RIGID_TRANSLATIONAL}
