@@ -28,7 +28,13 @@ the covariance of ``x`` is ``s^2 (J^T J)^+`` with ``s = 1`` (the stated uncertai
 ``covariance="stated"``) or ``s^2 = SSR / (m - n)`` (``covariance="residual"``). A parameter pair
 is reported as not separable when ``|correlation| > 0.95``, and a near-null direction of ``J``
 (a singular value below ``1e-8`` of the largest, or a 1-sigma extent along it above 25 %) is
-reported with the parameters that make it up. Confidence intervals are linearised (95 %).
+reported with the parameters that make it up (those with a component >= 0.3 in it). Confidence
+intervals are linearised (95 %). The Jacobian is taken by finite differences with an absolute step
+of 1e-3 in ``x`` (forward in the optimiser, central at the optimum).
+
+:func:`pair_modes` turns a blade's identified frequencies (a missed or a spurious peak included)
+into :class:`ModeTarget` items by pairing them one-to-one with the model's flexural orders.
+:func:`rig_file_values` gives the rig-file keys (``"section.key"``) that carry the fitted values.
 
 One model evaluation builds the FE model of both blades (:func:`sim.blade.build_blade`) and solves
 the flexural DOF group (uy, rz) of each for its lowest modes only; FRFs use all flexural modes of
