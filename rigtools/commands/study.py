@@ -142,7 +142,6 @@ def run(args: argparse.Namespace) -> int:
                   "cli": "rig study"}
     unit, scale = UNIT[args.kind]
     label = lambda p: f"{args.kind} {p.value * scale:g} {unit} ({p.direction})"  # noqa: E731
-    done = []
     with StopRequests() as stops:
         with stops.protected():
             rec = RecordingWriter(out, backend="fem", rig=cfg.to_json(), experiment=experiment,
@@ -150,13 +149,14 @@ def run(args: argparse.Namespace) -> int:
         try:
             if args.json:
                 points = simu.write_study(rec, system, plan, settings, args.model,
-                                          on_point=lambda p, s: done.append(p), guard=stops.protected)
+                                          guard=stops.protected)
             else:
-                points = _with_progress(rec, system, plan, settings, args, planned, label, done, stops)
+                points = _with_progress(rec, system, plan, settings, args, planned, label, stops)
         except Stopped as exc:
+            n = rec.n_points         # every point begun was ended: writes are protected
             with stops.protected():
-                rec.abort(f"{exc.reason} after {len(done)} of {len(planned)} points")
-            print(f"rig study: {exc.reason} after {len(done)} of {len(planned)} points; {out} keeps them "
+                rec.abort(f"{exc.reason} after {n} of {len(planned)} points")
+            print(f"rig study: {exc.reason} after {n} of {len(planned)} points; {out} keeps them "
                   "(status aborted)", file=sys.stderr)
             return exc.exit_code
         except BaseException as exc:
@@ -175,7 +175,7 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _with_progress(rec, system, plan, settings, args, planned, label, done, stops) -> list[dict]:
+def _with_progress(rec, system, plan, settings, args, planned, label, stops) -> list[dict]:
     from rich.console import Console
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
@@ -186,7 +186,6 @@ def _with_progress(rec, system, plan, settings, args, planned, label, done, stop
         task = bar.add_task(f"{args.kind} study: {label(planned[0])}", total=len(planned))
 
         def on_point(p, summary) -> None:
-            done.append(p)
             nxt = planned[p.index + 1] if p.index + 1 < len(planned) else None
             bar.update(task, completed=p.index + 1,
                        description=f"{args.kind} study: " + (label(nxt) if nxt else "done"))
