@@ -103,7 +103,7 @@ def curves_figure(fem: HarmonicResponse, am: HarmonicResponse, title: str):
 
 
 def run(args: argparse.Namespace) -> int:
-    from rigtools.commands.simulate import announce_model, check_output, number
+    from rigtools.commands.simulate import announce_model, check_output, number, working
 
     out = Path(args.out)
     if out.suffix.lower() not in (".csv", ".json"):
@@ -127,12 +127,13 @@ def run(args: argparse.Namespace) -> int:
             f"force_sensor.position = {params.force_sensor.position} m is beyond the passive blade "
             f"(length {params.passive.length} m), which is driven at the same position"
         )
-    announce_model(params)
+    elements = announce_model(params)
     from sim.harmonic import harmonic_curves
     from sim.rig_model import build_rig_model
 
-    rig = build_rig_model(params)
-    fem, am = harmonic_curves(rig, np.linspace(fmin, fmax, args.points), force)
+    with working(f"FEM and AM curves at {args.points} frequencies ({elements})"):
+        rig = build_rig_model(params)
+        fem, am = harmonic_curves(rig, np.linspace(fmin, fmax, args.points), force)
     write_curves(out, fem, am, rig_config.name)
     from rigtools.figures import plot_path, save_figure
 

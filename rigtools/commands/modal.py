@@ -87,12 +87,13 @@ def _print_table(results: dict, rig_name: str) -> None:
 def run(args: argparse.Namespace) -> int:
     if args.modes < 1 or args.modes > 200:
         raise UserError(f"--modes = {args.modes}: must be between 1 and 200")
-    from rigtools.commands.simulate import announce_model
+    from rigtools.commands.simulate import announce_model, working
     from rigtools.config import load_rig
 
     rig_config = load_rig(args.rig)
-    announce_model(rig_config.to_params(), quiet=args.json)
-    results = modal_results(rig_config, args.modes)
+    elements = announce_model(rig_config.to_params(), quiet=args.json)
+    with working(f"FE and AM modes of both blades ({elements})", args.json):
+        results = modal_results(rig_config, args.modes)
     if args.json:
         print(json.dumps(results, indent=1))
     else:

@@ -10,6 +10,9 @@ import argparse
 import json
 import math
 import os
+import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 from rigtools.errors import UserError
@@ -152,16 +155,29 @@ def run_settings(args: argparse.Namespace, fe_values: list[float]):
 def announce_model(params, model: str = "fem", quiet: bool = False) -> str:
     """Refuse an FE model too large for the memory (one line with the estimate); say so when
     building it will take long. Returns ``"N + M elements"`` for status lines."""
-    from rich.console import Console
-
     from rigtools.simulation import check_memory, human_seconds, model_build_estimate
 
     seconds, peak = model_build_estimate(params, model)
     elements = f"{params.active.elements} + {params.passive.elements} elements"
     check_memory(peak, f"the FE model ({elements})", "use fewer [blade] elements")
     if seconds > 20 and not quiet:
-        Console(stderr=True).print(f"building the FE model ({elements}): about {human_seconds(seconds)}")
+        print(f"building the FE model ({elements}) takes about {human_seconds(seconds)}", file=sys.stderr)
     return elements
+
+
+@contextmanager
+def working(text: str, quiet: bool = False) -> Iterator[None]:
+    """A spinner with the elapsed time on stderr while the block runs (nothing if ``quiet``)."""
+    if quiet:
+        yield
+        return
+    from rich.console import Console
+    from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
+
+    with Progress(SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn(),
+                  console=Console(stderr=True), transient=True) as bar:
+        bar.add_task(text, total=None)
+        yield
 
 
 def load_model(args: argparse.Namespace, quiet: bool):
@@ -172,11 +188,7 @@ def load_model(args: argparse.Namespace, quiet: bool):
     cfg = load_rig(args.rig)
     params = cfg.to_params()
     elements = announce_model(params, args.model, quiet)
-    if quiet:
-        return cfg, reduced_system(params, args.model)
-    from rich.console import Console
-
-    with Console(stderr=True).status(f"building the {args.model.upper()} model ({elements})"):
+    with working(f"building the {args.model.upper()} model ({elements})", quiet):
         return cfg, reduced_system(params, args.model)
 
 
@@ -184,8 +196,6 @@ def announce_work(system, points: list[tuple[float, float]], settings, quiet: bo
     """Refuse a run that needs more memory than available; say so when the runs will take long.
 
     ``points``: (fe, force) of each run."""
-    from rich.console import Console
-
     from rigtools.simulation import (
         LONG_WORK_SECONDS, check_memory, human_seconds, run_memory_estimate, run_time_estimate,
         steps_per_period,
@@ -200,9 +210,9 @@ def announce_work(system, points: list[tuple[float, float]], settings, quiet: bo
     most = sum(run_time_estimate(system, fe, f, settings)[1] for fe, f in points)
     if most > LONG_WORK_SECONDS and not quiet:
         c = system.contact
-        Console(stderr=True).print(
+        print(
             f"this will take {human_seconds(least)} to {human_seconds(most)} (contact stiffness {c.stiffness:.3g} "
-            f"N/m: {n} steps per period; the most if settling takes all of --max-settle)")
+            f"N/m: {n} steps per period; the most if settling takes all of --max-settle)", file=sys.stderr)
 
 
 # ------------------------------------------------------------------------------ rig simulate
@@ -235,14 +245,9 @@ def run(args: argparse.Namespace) -> int:
     if gap is not None:
         system = system.with_contact(gap=gap)
     announce_work(system, [(fe, force)], settings, quiet=args.json)
-    if args.json:
+    with working(f"simulating fe = {fe:g} Hz, F0 = {force:g} N, gap = {system.contact.gap * 1e3:g} mm "
+                 f"({args.model}): settling, then {settings.record_periods(fe)} periods", args.json):
         result = simu.simulate_point(system, fe, force, settings)
-    else:
-        from rich.console import Console
-
-        with Console(stderr=True).status(f"simulating fe = {fe:g} Hz, F0 = {force:g} N, "
-                                         f"gap = {system.contact.gap * 1e3:g} mm ({args.model})"):
-            result = simu.simulate_point(system, fe, force, settings)
     experiment = {"procedure": "simulate", "model": args.model, "cli": "rig simulate"}
     with StopRequests() as stops, stops.protected():
         with RecordingWriter(out, backend="fem", rig=cfg.to_json(), experiment=experiment,
