@@ -167,8 +167,9 @@ def announce_model(params, model: str = "fem", quiet: bool = False) -> str:
 
 @contextmanager
 def working(text: str, quiet: bool = False) -> Iterator[None]:
-    """A spinner with the elapsed time on stderr while the block runs (nothing if ``quiet``)."""
-    if quiet:
+    """A spinner with the elapsed time on stderr while the block runs (nothing if ``quiet`` or
+    stderr is not a terminal)."""
+    if quiet or not sys.stderr.isatty():
         yield
         return
     from rich.console import Console

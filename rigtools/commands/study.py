@@ -147,7 +147,7 @@ def run(args: argparse.Namespace) -> int:
             rec = RecordingWriter(out, backend="fem", rig=cfg.to_json(), experiment=experiment,
                                   overwrite=args.overwrite)
         try:
-            if args.json:
+            if args.json or not sys.stderr.isatty():
                 points = simu.write_study(rec, system, plan, settings, args.model,
                                           guard=stops.protected)
             else:
