@@ -50,7 +50,8 @@ so write gaps with "mm": a gap above 50 mm is refused. Work that needs more memo
 machine has (a very stiff contact with a long --duration) is refused up front with the
 estimate; work expected to take over a minute is announced with its estimate.
 
-Exit status: 0 written, 2 bad input (options, rig file, --out), 130 Ctrl-C (nothing written).
+Exit status: 0 written, 2 bad input (options, rig file, --out), 130 Ctrl-C, 143 SIGTERM, 129 SIGHUP
+(before the run is written: nothing is written; once it is, the file is completed).
 
 examples:
   rig simulate --out run.h5
@@ -189,7 +190,7 @@ def load_model(args: argparse.Namespace, quiet: bool):
     cfg = load_rig(args.rig)
     params = cfg.to_params()
     elements = announce_model(params, args.model, quiet)
-    with working(f"building the {args.model.upper()} model ({elements})", quiet):
+    with working(f"building the {'FE' if args.model == 'fem' else 'assumed-modes'} model ({elements})", quiet):
         return cfg, reduced_system(params, args.model)
 
 
@@ -229,8 +230,20 @@ def write_plot(args: argparse.Namespace, out: Path, make_figure) -> Path | None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from rigtools.interrupts import Stopped, StopRequests
+
+    written: list[Path] = []
+    with StopRequests() as stops:
+        try:
+            return _run(args, stops, written)
+        except Stopped as exc:
+            what = f"{written[0]} is complete (no summary or plot)" if written else "nothing written"
+            print(f"rig simulate: {exc.reason}; {what}", file=sys.stderr)
+            return exc.exit_code
+
+
+def _run(args: argparse.Namespace, stops, written: list) -> int:
     from rigtools import simulation as simu
-    from rigtools.interrupts import StopRequests
     from rigtools.recording import RecordingWriter
 
     out = check_output(args)
@@ -250,10 +263,11 @@ def run(args: argparse.Namespace) -> int:
                  f"({args.model}): settling, then {settings.record_periods(fe)} periods", args.json):
         result = simu.simulate_point(system, fe, force, settings)
     experiment = {"procedure": "simulate", "model": args.model, "cli": "rig simulate"}
-    with StopRequests() as stops, stops.protected():
+    with stops.protected():       # a stop request waits until the file is complete
         with RecordingWriter(out, backend="fem", rig=cfg.to_json(), experiment=experiment,
                              overwrite=args.overwrite) as rec:
             simu.write_point(rec, result, args.model)
+        written.append(out)
     doc = {"harmonics": simu.harmonics_of(result),
            "contact": {"peak_force_n": result.peak_contact_force, "impacts_per_period": result.impacts_per_period},
            "steady_state": bool(result.steady_state)}

@@ -244,3 +244,46 @@ def test_model_commands_import_light():
             "print([m for m in ('scipy', 'numba', 'h5py', 'matplotlib', 'nidaqmx', 'pyvisa') if m in sys.modules])")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "[]"
+
+
+def test_a_diverging_simulation_writes_nothing_and_names_the_parameter(tmp_path, capsys):
+    """A contact damping of 1e5 N*s/m makes the run blow up: refused with one line, no file."""
+    import tomllib
+
+    import tomli_w
+
+    from rigtools.config import default_rig_text
+
+    data = tomllib.loads(default_rig_text())
+    data["contact"]["damping"] = "1e5 N*s/m"
+    rig = tmp_path / "rig.toml"
+    rig.write_text(tomli_w.dumps(data))
+    out = tmp_path / "d.h5"
+    assert main(["simulate", "--rig", str(rig), "--out", str(out), *FAST]) == 2
+    err = capsys.readouterr().err
+    assert "diverged" in err and "[contact] damping" in err and err.count("\n") == 1
+    assert not out.exists()
+
+
+def test_sigterm_during_simulate_writes_nothing_and_exits_143(tmp_path):
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    out = tmp_path / "t.h5"
+    proc = subprocess.Popen([sys.executable, "-m", "rigtools.cli", "simulate", "--out", str(out), "--json",
+                             "--max-settle", "30 s", "--duration", "20 s", "--fe", "40"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, cwd=tmp_path,
+                            env=dict(os.environ, PYTHONUNBUFFERED="1"))
+    time.sleep(4.0)
+    proc.send_signal(signal.SIGTERM)
+    stdout, stderr = proc.communicate(timeout=60)
+    if proc.returncode == 0:
+        pytest.skip("the run finished before the signal (a very fast machine)")
+    assert proc.returncode == 143, stderr
+    assert stderr.decode().strip().splitlines()[-1] in ("rig simulate: stopped by SIGTERM; nothing written",
+                                                        f"rig simulate: stopped by SIGTERM; {out} is complete "
+                                                        "(no summary or plot)")
+    assert "Traceback" not in stderr.decode()
