@@ -162,3 +162,32 @@ def test_study_refuses_bad_input_with_one_line(tmp_path, capsys, argv, needle):
     err = capsys.readouterr().err
     assert err.startswith("rig study: error:") and needle in err and err.count("\n") == 1, err
     assert not out.exists()
+
+
+def test_memory_does_not_grow_with_the_number_of_points(system, tmp_path):
+    """Peak traced memory of a streamed 8-point study is that of a 2-point one (within 15 %),
+    while the in-memory study holds every run (each ~ steps x 14 outputs x 8 bytes)."""
+    import tracemalloc
+
+    cfg, sys_ = system
+    settings = RunSettings(duration=0.5, max_settle_time=4.0)
+
+    def peak(n):
+        plan = StudyPlan("force", tuple(np.linspace(5.0, 20.0, n)), carry_state=False)
+        tracemalloc.start()
+        with RecordingWriter(tmp_path / f"m{n}.h5", backend="fem", rig=cfg.to_json()) as rec:
+            write_study(rec, sys_, plan, settings, "fem")
+        value = tracemalloc.get_traced_memory()[1]
+        tracemalloc.stop()
+        return value
+
+    peak(1)       # compile and warm caches outside the measurement
+    p2, p8 = peak(2), peak(8)
+    assert p8 < 1.15 * p2, (p2, p8)
+    tracemalloc.start()
+    study = run_study(sys_, "force", list(np.linspace(5.0, 20.0, 8)), carry_state=False, record_duration=0.5,
+                      max_settle_time=4.0)
+    in_memory = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    run_bytes = sum(a.nbytes for a in study.points[0].run.outputs.values())
+    assert in_memory > p8 + 4 * run_bytes, (in_memory, p8, run_bytes)     # 8 runs held vs 1 at a time
