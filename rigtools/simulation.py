@@ -107,15 +107,17 @@ def natural_frequencies(system) -> dict[str, np.ndarray]:
             "passive": np.sort(f[real & (system.blade == PASSIVE)])}
 
 
-def simulate_point(system, fe: float, force: float, settings: RunSettings, initial=None):
+def simulate_point(system, fe: float, force: float, settings: RunSettings, initial=None,
+                   progress: Callable[[float, float], None] | None = None):
     """One settled run of ``F0 sin(2 pi fe t)`` (:func:`sim.vibro_impact.run_harmonic`);
-    :class:`sim.vibro_impact.SimulationInputError` becomes a one-line :class:`UserError`."""
+    :class:`sim.vibro_impact.SimulationInputError` becomes a one-line :class:`UserError`.
+    ``progress(simulated_s, at_most_s)`` is called while settling."""
     from sim.vibro_impact import SimulationInputError, run_harmonic
 
     try:
         run = run_harmonic(system, fe, force, record_periods=settings.record_periods(fe),
                            steps_per_period=settings.steps_per_period,
-                           max_settle_time=settings.max_settle_time, initial=initial)
+                           max_settle_time=settings.max_settle_time, initial=initial, progress=progress)
     except SimulationInputError as exc:
         raise UserError(str(exc)) from None
     check_finite(run)

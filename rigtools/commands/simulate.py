@@ -182,6 +182,23 @@ def working(text: str, quiet: bool = False) -> Iterator[None]:
         yield
 
 
+@contextmanager
+def simulated_time_bar(text: str, at_most: float, quiet: bool = False) -> Iterator:
+    """A progress bar of simulated time (settling, at most --max-settle, then the record) on
+    stderr; yields the ``progress(simulated_s, at_most_s)`` callback (None if quiet / not a tty)."""
+    if quiet or not sys.stderr.isatty():
+        yield None
+        return
+    from rich.console import Console
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    with Progress(TextColumn("{task.description}"), BarColumn(),
+                  TextColumn("{task.completed:.3g}/{task.total:.3g} s"),
+                  TimeElapsedColumn(), console=Console(stderr=True), transient=True) as bar:
+        task = bar.add_task(f"settling {text}", total=at_most)
+        yield lambda done, total: bar.update(task, completed=done, total=total)
+
+
 def load_model(args: argparse.Namespace, quiet: bool):
     """``(rig config, reduced system)`` of ``--rig`` and ``--model``, announced (:func:`announce_model`)."""
     from rigtools.config import load_rig
@@ -259,9 +276,9 @@ def _run(args: argparse.Namespace, stops, written: list) -> int:
     if gap is not None:
         system = system.with_contact(gap=gap)
     announce_work(system, [(fe, force)], settings, quiet=args.json)
-    with working(f"simulating fe = {fe:g} Hz, F0 = {force:g} N, gap = {system.contact.gap * 1e3:g} mm "
-                 f"({args.model}): settling, then {settings.record_periods(fe)} periods", args.json):
-        result = simu.simulate_point(system, fe, force, settings)
+    with simulated_time_bar(f"{fe:g} Hz, {force:g} N, gap {system.contact.gap * 1e3:g} mm", (max(math.ceil(settings.max_settle_time * fe), 5)
+                                                + settings.record_periods(fe)) / fe, args.json) as progress:
+        result = simu.simulate_point(system, fe, force, settings, progress=progress)
     experiment = {"procedure": "simulate", "model": args.model, "cli": "rig simulate"}
     with stops.protected():       # a stop request waits until the file is complete
         with RecordingWriter(out, backend="fem", rig=cfg.to_json(), experiment=experiment,
