@@ -217,14 +217,16 @@ def run_figure(run, system, title: str):
 # ------------------------------------------------------------------------------ studies
 
 
-def iter_study_points(system, plan, settings: RunSettings) -> Iterator[tuple[object, object]]:
+def iter_study_points(system, plan, settings: RunSettings,
+                      progress: Callable[[float, float], None] | None = None) -> Iterator[tuple[object, object]]:
     """``(planned point, settled run)`` of a :class:`sim.studies.StudyPlan`, one at a time;
-    input errors become :class:`UserError`."""
+    input errors become :class:`UserError`. ``progress(simulated_s, at_most_s)`` while each settles."""
     from sim.studies import iter_study
     from sim.vibro_impact import SimulationInputError
 
     it = iter_study(system, plan, record_duration=settings.duration,
-                    max_settle_time=settings.max_settle_time, steps_per_period=settings.steps_per_period)
+                    max_settle_time=settings.max_settle_time, steps_per_period=settings.steps_per_period,
+                    progress=progress)
     while True:
         try:
             point, run = next(it)
@@ -238,18 +240,20 @@ def iter_study_points(system, plan, settings: RunSettings) -> Iterator[tuple[obj
 
 def write_study(rec, system, plan, settings: RunSettings, model: str,
                 on_point: Callable[[object, dict], None] | None = None,
-                guard: Callable[[], ContextManager] = nullcontext) -> list[dict]:
+                guard: Callable[[], ContextManager] = nullcontext,
+                progress: Callable[[float, float], None] | None = None) -> list[dict]:
     """Run a study and write each point to ``rec`` as soon as it settles.
 
     Only the per-point summaries (:func:`point_summary` plus ``value`` and ``direction``) are
     kept, so memory does not grow with the number of points. ``on_point(planned, summary)`` is
-    called after each point is on disk. Each point is written inside ``guard()`` (e.g.
+    called after each point is on disk; ``progress(simulated_s, at_most_s)`` while each point
+    settles. Each point is written inside ``guard()`` (e.g.
     :meth:`rigtools.interrupts.StopRequests.protected`, so a stop request waits for the write).
     Exceptions (Ctrl-C included) propagate with every finished point written; the caller ends
     the recording.
     """
     summaries = []
-    for planned, run in iter_study_points(system, plan, settings):
+    for planned, run in iter_study_points(system, plan, settings, progress):
         with guard():
             write_point(rec, run, model, direction=planned.direction, study_value=planned.value)
         summary = {"value": planned.value, "direction": planned.direction, **point_summary(run)}

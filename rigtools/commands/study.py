@@ -184,13 +184,15 @@ def _with_progress(rec, system, plan, settings, args, planned, label, stops) -> 
     with Progress(TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(),
                   TimeElapsedColumn(), console=Console(stderr=True)) as bar:
         task = bar.add_task(f"{args.kind} study: {label(planned[0])}", total=len(planned))
+        settle = bar.add_task("  settling (simulated s)", total=1.0)
 
         def on_point(p, summary) -> None:
             nxt = planned[p.index + 1] if p.index + 1 < len(planned) else None
             bar.update(task, completed=p.index + 1,
                        description=f"{args.kind} study: " + (label(nxt) if nxt else "done"))
 
-        return simu.write_study(rec, system, plan, settings, args.model, on_point=on_point, guard=stops.protected)
+        return simu.write_study(rec, system, plan, settings, args.model, on_point=on_point, guard=stops.protected,
+                                progress=lambda done, total: bar.update(settle, completed=done, total=total))
 
 
 def study_plot(kind: str, fixed: dict, points: list[dict], title: str):
