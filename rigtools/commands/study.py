@@ -124,8 +124,19 @@ def make_plan(args: argparse.Namespace, values: list[float]):
 
 
 def run(args: argparse.Namespace) -> int:
-    from rigtools import simulation as simu
     from rigtools.interrupts import Stopped, StopRequests
+
+    with StopRequests() as stops:
+        try:
+            return _run(args, stops)
+        except Stopped as exc:        # before the file was created
+            print(f"rig study: {exc.reason}; nothing written", file=sys.stderr)
+            return exc.exit_code
+
+
+def _run(args: argparse.Namespace, stops) -> int:
+    from rigtools import simulation as simu
+    from rigtools.interrupts import Stopped
     from rigtools.recording import RecordingWriter
     from rigtools.recording.writer import one_line
 
@@ -142,36 +153,43 @@ def run(args: argparse.Namespace) -> int:
                   "cli": "rig study"}
     unit, scale = UNIT[args.kind]
     label = lambda p: f"{args.kind} {p.value * scale:g} {unit} ({p.direction})"  # noqa: E731
-    with StopRequests() as stops:
+    rec = None
+    try:
         with stops.protected():
             rec = RecordingWriter(out, backend="fem", rig=cfg.to_json(), experiment=experiment,
                                   overwrite=args.overwrite)
-        try:
-            if args.json or not sys.stderr.isatty():
-                points = simu.write_study(rec, system, plan, settings, args.model,
-                                          guard=stops.protected)
-            else:
-                points = _with_progress(rec, system, plan, settings, args, planned, label, stops)
-        except Stopped as exc:
-            n = rec.n_points         # every point begun was ended: writes are protected
-            with stops.protected():
-                rec.abort(f"{exc.reason} after {n} of {len(planned)} points")
-            print(f"rig study: {exc.reason} after {n} of {len(planned)} points; {out} keeps them "
-                  "(status aborted)", file=sys.stderr)
-            return exc.exit_code
-        except BaseException as exc:
+        if args.json or not sys.stderr.isatty():
+            points = simu.write_study(rec, system, plan, settings, args.model, guard=stops.protected)
+        else:
+            points = _with_progress(rec, system, plan, settings, args, planned, label, stops)
+    except Stopped as exc:
+        if rec is None:
+            raise
+        n = rec.n_points         # every point begun was ended: writes are protected
+        with stops.protected():
+            rec.abort(f"{exc.reason} after {n} of {len(planned)} points")
+        print(f"rig study: {exc.reason} after {n} of {len(planned)} points; {out} keeps them "
+              "(status aborted)", file=sys.stderr)
+        return exc.exit_code
+    except BaseException as exc:
+        if rec is not None:
             with stops.protected():
                 rec.abort(one_line(exc))
-            raise
-        with stops.protected():
-            rec.close()
-    png = write_plot(args, out, lambda: study_plot(args.kind, plan.fixed, points,
-                                                   f"{cfg.name} ({args.model.upper()})"))
-    if args.json:
-        print(json.dumps({"kind": args.kind, "fixed": plan.fixed, "points": points,
-                          "plot": None if png is None else str(png)}))
-    else:
-        print_table(args.kind, points, out, png)
+        raise
+    with stops.protected():
+        rec.close()
+    try:
+        png = write_plot(args, out, lambda: study_plot(args.kind, plan.fixed, points,
+                                                       f"{cfg.name} ({args.model.upper()})"))
+        if args.json:
+            print(json.dumps({"kind": args.kind, "fixed": plan.fixed, "points": points,
+                              "plot": None if png is None else str(png)}))
+        else:
+            print_table(args.kind, points, out, png)
+    except Stopped as exc:
+        print(f"rig study: {exc.reason}; {out} is complete ({len(points)} points; no table or plot)",
+              file=sys.stderr)
+        return exc.exit_code
     return 0
 
 
