@@ -176,9 +176,9 @@ def _run(args: argparse.Namespace, stops) -> int:
             with stops.protected():
                 rec.abort(one_line(exc))
         raise
-    with stops.protected():
-        rec.close()
     try:
+        with stops.protected():
+            rec.close()
         png = write_plot(args, out, lambda: study_plot(args.kind, plan.fixed, points,
                                                        f"{cfg.name} ({args.model.upper()})"))
         if args.json:
