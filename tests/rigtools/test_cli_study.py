@@ -191,3 +191,20 @@ def test_memory_does_not_grow_with_the_number_of_points(system, tmp_path):
     tracemalloc.stop()
     run_bytes = sum(a.nbytes for a in study.points[0].run.outputs.values())
     assert in_memory > p8 + 4 * run_bytes, (in_memory, p8, run_bytes)     # 8 runs held vs 1 at a time
+
+
+def test_stop_requests_hold_a_signal_until_the_protected_write_is_done():
+    from rigtools.interrupts import Stopped, StopRequests
+
+    steps = []
+    before = signal.getsignal(signal.SIGTERM)
+    with pytest.raises(Stopped) as info:
+        with StopRequests() as stops:
+            with stops.protected():
+                os.kill(os.getpid(), signal.SIGTERM)
+                time.sleep(0.05)            # the handler runs here and only holds the request
+                steps.append("written")
+            steps.append("not reached")
+    assert steps == ["written"]
+    assert (info.value.exit_code, info.value.reason) == (143, "stopped by SIGTERM")
+    assert signal.getsignal(signal.SIGTERM) is before       # the previous handler is back
