@@ -11,6 +11,7 @@ import json
 import math
 import os
 import sys
+import textwrap
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -28,7 +29,7 @@ in every step, run from rest until the response repeats period after period (ste
 reported), then --duration is recorded.
 
 Written channels (one point, backend "fem", SI units, names as in rig acquire's recordings):
-{describe_channels(channel_names("fem"))}.
+{textwrap.fill(describe_channels(channel_names("fem")) + ".", 95)}
 "force" is the force into the active blade at the sensor, as on the rig.
 Point parameters: fe, force_amplitude (F0, N), gap (m), model, steps_per_period, time_step,
 settle_time; at the end settled, period_multiple, peak_contact_force (N), impacts_per_period,
