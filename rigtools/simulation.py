@@ -145,9 +145,12 @@ def channel_specs(sample_rate: float) -> list:
             for name in MODEL_OUTPUTS]
 
 
-def channel_block(run) -> np.ndarray:
-    """(channels, samples) block of a run in :func:`channel_specs` order."""
-    return np.vstack([run.outputs[src] for src in MODEL_OUTPUTS.values()])
+def channel_block(run, start: int = 0, stop: int | None = None) -> np.ndarray:
+    """(channels, samples) block of a run (samples ``start:stop``) in :func:`channel_specs` order."""
+    return np.vstack([run.outputs[src][start:stop] for src in MODEL_OUTPUTS.values()])
+
+
+APPEND_SAMPLES = 1 << 20    # samples per appended block: no full copy of a long record
 
 
 def force_fundamental(run) -> float:
@@ -175,7 +178,9 @@ def write_point(rec, run, model: str, **extra) -> None:
     params = point_params(run, model)
     params.update(extra)
     point = rec.begin_point(params=params, channels=channel_specs(run.sample_rate))
-    point.append(channel_block(run))
+    n = run.time.size
+    for start in range(0, n, APPEND_SAMPLES):
+        point.append(channel_block(run, start, min(n, start + APPEND_SAMPLES)))
     point.set_attrs(**end_attrs(run))
     point.end()
 
