@@ -208,3 +208,17 @@ def test_stop_requests_hold_a_signal_until_the_protected_write_is_done():
     assert steps == ["written"]
     assert (info.value.exit_code, info.value.reason) == (143, "stopped by SIGTERM")
     assert signal.getsignal(signal.SIGTERM) is before       # the previous handler is back
+
+
+def test_a_record_appended_in_blocks_is_the_run(system, tmp_path, monkeypatch):
+    import rigtools.simulation as simulation
+
+    cfg, sys_ = system
+    run = simulation.simulate_point(sys_, 60.0, 15.0, RunSettings(0.1, 4.0))
+    monkeypatch.setattr(simulation, "APPEND_SAMPLES", 777)        # several blocks and a partial one
+    assert run.time.size > 3 * 777 and run.time.size % 777
+    with RecordingWriter(tmp_path / "b.h5", backend="fem", rig=cfg.to_json()) as rec:
+        simulation.write_point(rec, run, "fem")
+    with open_recording(tmp_path / "b.h5") as rec:
+        for name, src in MODEL_OUTPUTS.items():
+            np.testing.assert_array_equal(rec.points[0][name][:], run.outputs[src])
