@@ -215,8 +215,8 @@ def test_a_record_appended_in_blocks_is_the_run(system, tmp_path, monkeypatch):
 
     cfg, sys_ = system
     run = simulation.simulate_point(sys_, 60.0, 15.0, RunSettings(0.1, 4.0))
-    monkeypatch.setattr(simulation, "APPEND_SAMPLES", 777)        # several blocks and a partial one
-    assert run.time.size > 3 * 777 and run.time.size % 777
+    monkeypatch.setattr(simulation, "APPEND_SAMPLES", 577)        # several blocks and a partial one
+    assert run.time.size > 3 * 577 and run.time.size % 577
     with RecordingWriter(tmp_path / "b.h5", backend="fem", rig=cfg.to_json()) as rec:
         simulation.write_point(rec, run, "fem")
     with open_recording(tmp_path / "b.h5") as rec:
