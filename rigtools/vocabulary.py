@@ -159,6 +159,12 @@ PARAMETERS: dict[str, ParameterTerm] = _table(
 V1_PARAMETER_RENAMES: dict[str, str] = {"measured_force_amplitude": "force_amplitude_measured"}
 
 
+def source_of(backend: str) -> str:
+    """``"fem"`` for model recordings (backend ``"fem"``), ``"em"`` for rig ones (``"nidaqmx"``,
+    ``"simulated"``, or an import of measured data)."""
+    return FEM if backend == "fem" else EM
+
+
 def current_parameters(params: Mapping[str, Any]) -> dict[str, Any]:
     """Point parameters with every old (schema v1, pre-vocabulary) name replaced by its current one.
 

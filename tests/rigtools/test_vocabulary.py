@@ -11,7 +11,8 @@ from rigtools.simulation import (
     MODEL_OUTPUTS, RunSettings, channel_specs, end_attrs, load_system, point_params, simulate_point, write_point,
 )
 from rigtools.vocabulary import (
-    CHANNELS, EM, FEM, PARAMETERS, V1_PARAMETER_RENAMES, channel_names, current_parameters, unknown_parameters,
+    CHANNELS, EM, FEM, PARAMETERS, V1_PARAMETER_RENAMES, channel_names, current_parameters, source_of,
+    unknown_parameters,
 )
 
 
@@ -77,3 +78,7 @@ def test_v1_fem_max_abs_force_is_the_fundamental_within_the_stated_bound(n):
     assert fund == pytest.approx(f0, rel=1e-12)
     rel = (fund - np.max(np.abs(x))) / fund
     assert 0 <= rel <= 1 - np.cos(np.pi / n) + 1e-15 and rel <= 3.5e-4
+
+
+def test_backends_map_to_sources():
+    assert [source_of(b) for b in ("fem", "simulated", "nidaqmx", "uff")] == [FEM, EM, EM, EM]
