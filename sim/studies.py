@@ -10,6 +10,10 @@ Every point is run to a detected steady state (:func:`sim.vibro_impact.run_harmo
 each point starts from the previous point's final state (``carry_state``), which is what a slow
 sweep on the rig does and settles faster; ``carry_state=False`` starts every point from rest.
 Progress is reported through an optional callback ``progress(done, total, text)``.
+
+:func:`iter_study` yields each point as it settles and keeps nothing but the carried state, so a
+caller can write every point as soon as it exists (``rig study`` does, through
+``rigtools.simulation.write_study``); :func:`run_study` keeps every run in memory on top of it.
 """
 
 from __future__ import annotations

@@ -15,6 +15,7 @@ outputs at the same instants.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -649,7 +650,8 @@ def _pair_scale(hist: np.ndarray, n: int) -> np.ndarray:
 def run_harmonic(system: ReducedSystem, fe: float, force_amplitude: float, *,
                  record_periods: int = 20, steps_per_period: int | None = None,
                  max_settle_time: float = 30.0, tol: float = 1e-5, check_every: int = 5,
-                 initial: RunState | None = None, min_settle_periods: int = 0) -> VibroImpactRun:
+                 initial: RunState | None = None, min_settle_periods: int = 0,
+                 progress: Callable[[float, float], None] | None = None) -> VibroImpactRun:
     """Force ``F0 sin(2 pi fe t)`` at the force point, run to a periodic steady state, record.
 
     Parameters
@@ -676,6 +678,8 @@ def run_harmonic(system: ReducedSystem, fe: float, force_amplitude: float, *,
         State to start from (a previous point of a sweep); default: at rest.
     min_settle_periods
         Periods to run before the first check.
+    progress
+        ``progress(simulated_s, at_most_s)`` after every ``check_every`` periods of settling.
 
     Returns
     -------
@@ -715,6 +719,8 @@ def run_harmonic(system: ReducedSystem, fe: float, force_amplitude: float, *,
     while periods_run < max_periods:
         o = stepper.step(chunk, out)
         periods_run += check_every
+        if progress is not None:
+            progress(periods_run / fe, (max_periods + record_periods) / fe)
         sig = o.data[:, [0, 1, 3, 4]].T
         hist = np.hstack([hist, sig])[:, -keep:]
         if periods_run < min_settle_periods:

@@ -8,11 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from rigtools.config import load_rig
 from rigtools.errors import UserError
-from rigtools.options import quantity
-from sim.harmonic import LOCATIONS, HarmonicResponse, harmonic_curves
-from sim.rig_model import build_rig_model
 
 HELP = "linear amplitude-frequency curves (no contact), FEM and AM, written as CSV or JSON plus a PNG plot"
 EPILOG = """\
@@ -25,12 +21,17 @@ the rig's damping.
 Columns of the CSV: frequency_hz, then <model>_<location>_displacement_m and
 <model>_<location>_acceleration_m_s2 for model in fem, am and location in active_shroud,
 active_force_point, passive_shroud, passive_force_point. The PNG is written next to the output
-(same name, .png).
+(same name, .png). An existing output is replaced only with --overwrite.
+
+Exit status: 0 written, 2 bad input (options, rig file, --out), 130 Ctrl-C.
 
 examples:
   rig harmonic --out fig7.csv
   rig harmonic --force "10 N" --fmin 20 --fmax "2 kHz" --points 4000 --out curves.json
 """
+
+
+MIN_POINTS, MAX_POINTS = 2, 200_000
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -42,12 +43,16 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--force", default="15 N", help='force amplitude F0 (default "15 N"; a plain number is newtons)')
     p.add_argument("--fmin", default="10 Hz", help='lowest frequency (default "10 Hz")')
     p.add_argument("--fmax", default="1500 Hz", help='highest frequency (default "1500 Hz")')
-    p.add_argument("--points", type=int, default=2000, help="frequencies, evenly spaced (default 2000)")
+    p.add_argument("--points", type=int, default=2000,
+                   help=f"frequencies, evenly spaced (default 2000, {MIN_POINTS} to {MAX_POINTS})")
     p.add_argument("--out", required=True, metavar="FILE", help="output file, .csv or .json; the plot goes to FILE.png")
+    p.add_argument("--overwrite", action="store_true", help="replace FILE if it exists")
     p.set_defaults(func=run)
 
 
 def _columns(fem: HarmonicResponse, am: HarmonicResponse) -> dict[str, np.ndarray]:
+    from sim.harmonic import LOCATIONS
+
     cols = {"frequency_hz": fem.frequencies_hz}
     for res in (fem, am):
         for loc in LOCATIONS:
@@ -58,6 +63,8 @@ def _columns(fem: HarmonicResponse, am: HarmonicResponse) -> dict[str, np.ndarra
 
 def write_curves(path: Path, fem: HarmonicResponse, am: HarmonicResponse, rig_name: str) -> None:
     """Write the curves as CSV (one column per curve) or JSON (nested by model and location)."""
+    from sim.harmonic import LOCATIONS
+
     if path.suffix.lower() == ".csv":
         cols = _columns(fem, am)
         np.savetxt(path, np.column_stack(list(cols.values())), delimiter=",", header=",".join(cols),
@@ -82,6 +89,7 @@ def write_curves(path: Path, fem: HarmonicResponse, am: HarmonicResponse, rig_na
 def curves_figure(fem: HarmonicResponse, am: HarmonicResponse, title: str):
     """The FEM and AM curves as :func:`analysis.plots.amplitude_frequency_figure`."""
     from analysis.plots import amplitude_frequency_figure
+    from sim.harmonic import LOCATIONS
 
     curves = {
         label: {
@@ -95,20 +103,23 @@ def curves_figure(fem: HarmonicResponse, am: HarmonicResponse, title: str):
 
 
 def run(args: argparse.Namespace) -> int:
+    from rigtools.commands.simulate import announce_model, check_output, number, working
+
     out = Path(args.out)
     if out.suffix.lower() not in (".csv", ".json"):
         raise UserError(f"--out = {args.out!r}: the file name must end in .csv or .json")
-    if not out.parent.exists():
-        raise UserError(f"--out = {args.out!r}: folder {str(out.parent)!r} does not exist")
-    force = quantity(args.force, "force", "--force")
-    fmin = quantity(args.fmin, "frequency", "--fmin")
-    fmax = quantity(args.fmax, "frequency", "--fmax")
+    out = check_output(args)
+    force = number(args.force, "force", "--force")
+    fmin = number(args.fmin, "frequency", "--fmin")
+    fmax = number(args.fmax, "frequency", "--fmax")
     if force <= 0:
         raise UserError(f"--force = {args.force!r}: must be > 0")
     if not 0 <= fmin < fmax:
         raise UserError(f"--fmin = {args.fmin!r}, --fmax = {args.fmax!r}: need 0 <= fmin < fmax")
-    if not 2 <= args.points <= 200_000:
-        raise UserError(f"--points = {args.points}: must be between 2 and 200000")
+    if not MIN_POINTS <= args.points <= MAX_POINTS:
+        raise UserError(f"--points = {args.points}: must be between {MIN_POINTS} and {MAX_POINTS}")
+    from rigtools.config import load_rig
+
     rig_config = load_rig(args.rig)
     params = rig_config.to_params()
     if params.force_sensor.position >= params.passive.length:
@@ -116,8 +127,13 @@ def run(args: argparse.Namespace) -> int:
             f"force_sensor.position = {params.force_sensor.position} m is beyond the passive blade "
             f"(length {params.passive.length} m), which is driven at the same position"
         )
-    rig = build_rig_model(params)
-    fem, am = harmonic_curves(rig, np.linspace(fmin, fmax, args.points), force)
+    elements = announce_model(params)
+    from sim.harmonic import harmonic_curves
+    from sim.rig_model import build_rig_model
+
+    with working(f"FEM and AM curves at {args.points} frequencies ({elements})"):
+        rig = build_rig_model(params)
+        fem, am = harmonic_curves(rig, np.linspace(fmin, fmax, args.points), force)
     write_curves(out, fem, am, rig_config.name)
     from rigtools.figures import plot_path, save_figure
 

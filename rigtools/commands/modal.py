@@ -7,11 +7,7 @@ import json
 
 import numpy as np
 
-from rigtools.config import load_rig
 from rigtools.errors import UserError
-from sim.analytical import exact_flexural_frequencies
-from sim.modal import blade_modes
-from sim.rig_model import blade_masses, build_rig_model
 
 HELP = "natural frequencies of both blades: FEM vs analytical model (AM), differences in %%"
 EPILOG = """\
@@ -20,6 +16,8 @@ impact direction y), edgewise (bending in the chord direction z), torsional or a
 the exact Euler-Bernoulli solution of the blade with its shroud (and, on the active blade, the
 force sensor); it has flexural modes only, and the table sets the k-th AM mode beside the k-th
 FEM flexural mode: diff % = (FEM - AM) / AM * 100.
+
+Exit status: 0 listed, 2 bad input (options, rig file), 130 Ctrl-C.
 
 examples:
   rig modal                        # the calibrated default rig
@@ -42,6 +40,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def modal_results(rig_config, n_modes: int) -> dict:
     """FEM and AM modes of both blades as the ``--json`` mapping."""
+    from sim.analytical import exact_flexural_frequencies
+    from sim.modal import blade_modes
+    from sim.rig_model import blade_masses, build_rig_model
+
     params = rig_config.to_params()
     rig = build_rig_model(params)
     roots = {"active": params.root, "passive": params.passive_root or params.root}
@@ -85,8 +87,13 @@ def _print_table(results: dict, rig_name: str) -> None:
 def run(args: argparse.Namespace) -> int:
     if args.modes < 1 or args.modes > 200:
         raise UserError(f"--modes = {args.modes}: must be between 1 and 200")
+    from rigtools.commands.simulate import announce_model, working
+    from rigtools.config import load_rig
+
     rig_config = load_rig(args.rig)
-    results = modal_results(rig_config, args.modes)
+    elements = announce_model(rig_config.to_params(), quiet=args.json)
+    with working(f"FE and AM modes of both blades ({elements})", args.json):
+        results = modal_results(rig_config, args.modes)
     if args.json:
         print(json.dumps(results, indent=1))
     else:

@@ -1,40 +1,49 @@
-"""``rig study``: gap, force-amplitude or frequency sweep of the vibro-impact model, one file."""
+"""``rig study``: gap, force-amplitude or frequency sweep of the vibro-impact model, one file,
+each point written as soon as it settles."""
 
 from __future__ import annotations
 
 import argparse
 import json
+import sys
 
 import numpy as np
 
 from rigtools.commands.simulate import (
-    add_model_options, channel_block, channel_specs, end_attrs, harmonics_of,
-    load_system, point_params, run_options, write_plot,
+    add_model_options, announce_work, check_output, gap_option, load_model, number, run_settings, write_plot,
 )
-from rigtools.options import check_out, quantity
 from rigtools.errors import UserError
 
 HELP = "run a gap, force or frequency study of the vibro-impact model and record every point"
 EPILOG = """\
 The paper's studies (Figures 10-16): each value is run to a steady state and recorded as one
-point of a single HDF5 file (backend "fem", the channels of `rig simulate`). Fixed parameters
-default to the paper's: gap study at F0 = 15 N, fe = 60 Hz; force study at gap 0.7 mm,
-fe = 60 Hz; frequency study at gap 0.7 mm, F0 = 15 N.
+point of a single HDF5 file (backend "fem", the channels and point parameters of
+`rig simulate`, plus direction and study_value). Fixed parameters default to the paper's: gap
+study at F0 = 15 N, fe = 60 Hz; force study at gap 0.7 mm, fe = 60 Hz; frequency study at
+gap 0.7 mm, F0 = 15 N.
 
 --values is a comma list ("0.3 mm,0.5 mm,0.7 mm") or start:stop:step ("0.3 mm:0.9 mm:0.1 mm",
-stop included), with units; a plain number is SI (m, N, Hz), so write gaps with "mm".
+stop included), at most 10000 points, with units; a plain number is SI (m, N, Hz), so write
+gaps with "mm" (a gap above 50 mm is refused).
 Points run in sweep order and each starts from the previous point's state (as a slow sweep on
 the rig does), so --direction both shows jumps and hysteresis; --from-rest starts each from rest.
-Point attributes: fe, force_amplitude, gap, direction, settled, peak_contact_force,
-impacts_per_period, period_multiple.
+
+Each point is written to FILE as soon as it has settled, so nothing finished is lost: on Ctrl-C,
+SIGTERM or SIGHUP the file keeps every finished point and ends with status "aborted" and the
+reason; after a crash or SIGKILL it keeps every point finished before (readable while the study
+runs, e.g. by rig info). Memory does not grow with the number of points.
 
 --json prints {"kind", "fixed", "points": [{"value", "direction", "fe", "force_amplitude",
-"gap", "steady_state", "peak_contact_force_n", "impacts_per_period", "harmonics": {channel:
-[{"k", "frequency_hz", "amplitude"}, ...]}}, ...], "plot": PNG path or null}.
+"force_amplitude_measured", "gap", "steady_state", "peak_contact_force_n", "impacts_per_period",
+"harmonics": {channel: [{"k", "frequency_hz", "amplitude"}, ...]}}, ...], "plot": PNG path or
+null}.
 
-Plot: FILE.png beside FILE.h5 (same name; --no-plot skips it): peak contact force (N) versus
-the swept value, up and down sweeps marked apart, and heat maps of the harmonics k = 1..30
-(m/s^2, log colour) of both shroud accelerations per point in run order.
+Plot: FILE.png beside FILE.h5 (--no-plot skips it): peak contact force (N) versus the swept
+value, up and down sweeps marked apart, and heat maps of the harmonics k = 1..30 (m/s^2, log
+colour) of both shroud accelerations per point in run order.
+
+Exit status: 0 written, 2 bad input (options, rig file, --out), 130 Ctrl-C, 143 SIGTERM,
+129 SIGHUP (the file keeps every finished point, status "aborted").
 
 examples:
   rig study gap --values "0.3 mm:0.9 mm:0.1 mm" --out gap.h5
@@ -43,6 +52,8 @@ examples:
 """
 
 DIMENSION = {"gap": "length", "force": "force", "frequency": "frequency"}
+UNIT = {"gap": ("mm", 1e3), "force": ("N", 1.0), "frequency": ("Hz", 1.0)}
+MAX_POINTS = 10_000
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -60,102 +71,146 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
-def parse_values(text: str, dimension: str) -> list[float]:
-    """``"a,b,c"`` or ``"start:stop:step"`` (stop included) in SI units."""
+def parse_values(text: str, kind: str) -> list[float]:
+    """``"a,b,c"`` or ``"start:stop:step"`` (stop included) in SI units, each checked."""
+    dimension = DIMENSION[kind]
+    one = (lambda p: gap_option(p, "--values")) if kind == "gap" else (lambda p: number(p, dimension, "--values"))
     text = text.strip()
     if ":" in text:
         parts = text.split(":")
         if len(parts) != 3:
             raise UserError(f"--values = {text!r}: write start:stop:step")
-        start, stop, step = (quantity(p, dimension, "--values") for p in parts)
+        start, stop, step = (one(p) for p in parts)
         if not step > 0 or stop < start:
             raise UserError(f"--values = {text!r}: need step > 0 and stop >= start")
         n = int(np.floor((stop - start) / step + 1e-9)) + 1
-        if n > 10_000:
-            raise UserError(f"--values = {text!r}: {n} points is too many (at most 10000)")
-        return [start + i * step for i in range(n)]
-    values = [quantity(p, dimension, "--values") for p in text.split(",") if p.strip()]
-    if not values:
-        raise UserError("--values: give at least one value")
+        if n > MAX_POINTS:
+            raise UserError(f"--values = {text!r}: {n} points is too many (at most {MAX_POINTS})")
+        values = [start + i * step for i in range(n)]
+    else:
+        values = [one(p) for p in text.split(",") if p.strip()]
+        if not values:
+            raise UserError("--values: give at least one value")
+        if len(values) > MAX_POINTS:
+            raise UserError(f"--values: {len(values)} points is too many (at most {MAX_POINTS})")
+    bad = [v for v in values if (v <= 0 if kind == "frequency" else v < 0)]
+    if bad:
+        what = {"gap": "gaps must be >= 0", "force": "force amplitudes must be >= 0",
+                "frequency": "frequencies must be > 0"}[kind]
+        raise UserError(f"--values = {text!r}: {what} (got {bad[0]:g})")
     return values
 
 
-def run(args: argparse.Namespace) -> int:
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
-
-    from rigtools.recording import RecordingWriter
-    from sim.studies import DEFAULTS, run_study, sweep_order
+def make_plan(args: argparse.Namespace, values: list[float]):
+    """:class:`sim.studies.StudyPlan` of the options."""
+    from sim.studies import StudyPlan
     from sim.vibro_impact import SimulationInputError
 
-    out = check_out(args)
-    values = parse_values(args.values, DIMENSION[args.kind])
-    if args.kind == "gap" and any(v > 0.05 for v in values):
-        raise UserError(f"--values = {args.values!r}: a gap above 50 mm; write gaps with units, e.g. '0.5 mm'")
-    bad = [v for v in values if (v <= 0 if args.kind == "frequency" else v < 0)]
-    if bad:
-        what = {"gap": "gaps must be >= 0", "force": "force amplitudes must be >= 0",
-                "frequency": "frequencies must be > 0"}[args.kind]
-        raise UserError(f"--values = {args.values!r}: {what} (got {bad[0]:g})")
-    fixed = dict(DEFAULTS[args.kind])
+    fixed = {}
     if args.fe is not None:
-        fixed["fe"] = quantity(args.fe, "frequency", "--fe")
+        fixed["fe"] = number(args.fe, "frequency", "--fe")
+        if not fixed["fe"] > 0:
+            raise UserError(f"--fe = {args.fe!r}: the excitation frequency must be > 0 Hz")
     if args.force is not None:
-        fixed["force"] = quantity(args.force, "force", "--force")
+        fixed["force"] = number(args.force, "force", "--force")
+        if fixed["force"] < 0:
+            raise UserError(f"--force = {args.force!r}: the force amplitude must be >= 0 N")
     if args.gap is not None:
-        fixed["gap"] = quantity(args.gap, "length", "--gap")
-    if fixed.get("fe", 1.0) <= 0 or fixed.get("force", 0.0) < 0 or fixed.get("gap", 0.0) < 0:
-        raise UserError("--fe must be > 0, --force and --gap >= 0")
-    fe_values = values if args.kind == "frequency" else [fixed["fe"]]
-    options = run_options(args, fe_values)
-    cfg, system = load_system(args)
-
-    kw = {k: v for k, v in fixed.items() if k in ("fe", "force", "gap")}
-    study_kwargs = dict(direction=args.direction, carry_state=not args.from_rest,
-                        max_settle_time=options["max_settle_time"],
-                        steps_per_period=options["steps_per_period"],
-                        record_duration=options["duration"], **kw)
+        fixed["gap"] = gap_option(args.gap)
     try:
-        if args.json:
-            study = run_study(system, args.kind, values, **study_kwargs)
-        else:
-            with Progress(TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(),
-                          TimeElapsedColumn(), transient=False) as bar:
-                task = bar.add_task(f"{args.kind} study", total=len(sweep_order(values, args.direction)))
-
-                def progress(done: int, total: int, text: str) -> None:
-                    bar.update(task, completed=done, total=total, description=f"{args.kind} study: {text}")
-
-                study = run_study(system, args.kind, values, progress=progress, **study_kwargs)
+        return StudyPlan(args.kind, tuple(values), args.direction, carry_state=not args.from_rest, **fixed)
     except SimulationInputError as exc:
         raise UserError(str(exc)) from None
 
+
+def run(args: argparse.Namespace) -> int:
+    from rigtools.interrupts import Stopped, StopRequests
+
+    with StopRequests() as stops:
+        try:
+            return _run(args, stops)
+        except Stopped as exc:        # before the file was created
+            print(f"rig study: {exc.reason}; nothing written", file=sys.stderr)
+            return exc.exit_code
+
+
+def _run(args: argparse.Namespace, stops) -> int:
+    from rigtools import simulation as simu
+    from rigtools.interrupts import Stopped
+    from rigtools.recording import RecordingWriter
+    from rigtools.recording.writer import one_line
+
+    out = check_output(args)
+    values = parse_values(args.values, args.kind)
+    plan = make_plan(args, values)
+    planned = plan.points()
+    settings = run_settings(args, sorted({p.fe for p in planned}))
+    cfg, system = load_model(args, quiet=args.json)
+    announce_work(system, [(p.fe, p.force) for p in planned], settings, quiet=args.json)
+
     experiment = {"procedure": f"{args.kind} study", "model": args.model, "direction": args.direction,
-                  "carry_state": not args.from_rest, "fixed": study.fixed, "values": values,
+                  "carry_state": not args.from_rest, "fixed": plan.fixed, "values": values,
                   "cli": "rig study"}
-    doc_points = []
-    with RecordingWriter(out, backend="fem", rig=cfg.to_json(), experiment=experiment,
-                         overwrite=args.overwrite) as rec:
-        for p in study.points:
-            r = p.run
-            params = point_params(r, args.model)
-            params.update(direction=p.direction, study_value=p.value)
-            point = rec.begin_point(params=params, channels=channel_specs(r.sample_rate))
-            point.append(channel_block(r))
-            point.set_attrs(**end_attrs(r))
-            point.end()
-            doc_points.append({
-                "value": p.value, "direction": p.direction, "fe": r.fe, "force_amplitude": r.force_amplitude,
-                "gap": r.gap, "steady_state": bool(r.steady_state), "peak_contact_force_n": r.peak_contact_force,
-                "impacts_per_period": r.impacts_per_period, "harmonics": harmonics_of(r),
-            })
-    png = write_plot(args, out, lambda: study_plot(args.kind, study.fixed, doc_points,
-                                                   f"{cfg.name} ({args.model.upper()})"))
-    if args.json:
-        print(json.dumps({"kind": args.kind, "fixed": study.fixed, "points": doc_points,
-                          "plot": None if png is None else str(png)}))
-    else:
-        print_table(args.kind, doc_points, out, png)
+    unit, scale = UNIT[args.kind]
+    label = lambda p: f"{args.kind} {p.value * scale:g} {unit} ({p.direction})"  # noqa: E731
+    rec = None
+    try:
+        with stops.protected():
+            rec = RecordingWriter(out, backend="fem", rig=cfg.to_json(), experiment=experiment,
+                                  overwrite=args.overwrite)
+        if args.json or not sys.stderr.isatty():
+            points = simu.write_study(rec, system, plan, settings, args.model, guard=stops.protected)
+        else:
+            points = _with_progress(rec, system, plan, settings, args, planned, label, stops)
+    except Stopped as exc:
+        if rec is None:
+            raise
+        n = rec.n_points         # every point begun was ended: writes are protected
+        with stops.protected():
+            rec.abort(f"{exc.reason} after {n} of {len(planned)} points")
+        print(f"rig study: {exc.reason} after {n} of {len(planned)} points; {out} keeps them "
+              "(status aborted)", file=sys.stderr)
+        return exc.exit_code
+    except BaseException as exc:
+        if rec is not None:
+            with stops.protected():
+                rec.abort(one_line(exc))
+        raise
+    try:
+        with stops.protected():
+            rec.close()
+        png = write_plot(args, out, lambda: study_plot(args.kind, plan.fixed, points,
+                                                       f"{cfg.name} ({args.model.upper()})"))
+        if args.json:
+            print(json.dumps({"kind": args.kind, "fixed": plan.fixed, "points": points,
+                              "plot": None if png is None else str(png)}))
+        else:
+            print_table(args.kind, points, out, png)
+    except Stopped as exc:
+        print(f"rig study: {exc.reason}; {out} is complete ({len(points)} points; no table or plot)",
+              file=sys.stderr)
+        return exc.exit_code
     return 0
+
+
+def _with_progress(rec, system, plan, settings, args, planned, label, stops) -> list[dict]:
+    from rich.console import Console
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from rigtools import simulation as simu
+
+    with Progress(TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(),
+                  TimeElapsedColumn(), console=Console(stderr=True)) as bar:
+        task = bar.add_task(f"{args.kind} study: {label(planned[0])}", total=len(planned))
+        settle = bar.add_task("  settling (simulated s)", total=1.0)
+
+        def on_point(p, summary) -> None:
+            nxt = planned[p.index + 1] if p.index + 1 < len(planned) else None
+            bar.update(task, completed=p.index + 1,
+                       description=f"{args.kind} study: " + (label(nxt) if nxt else "done"))
+
+        return simu.write_study(rec, system, plan, settings, args.model, on_point=on_point, guard=stops.protected,
+                                progress=lambda done, total: bar.update(settle, completed=done, total=total))
 
 
 def study_plot(kind: str, fixed: dict, points: list[dict], title: str):
@@ -174,8 +229,7 @@ def print_table(kind: str, points: list[dict], out, png=None) -> None:
     from rich.console import Console
     from rich.table import Table
 
-    unit = {"gap": "mm", "force": "N", "frequency": "Hz"}[kind]
-    scale = 1e3 if kind == "gap" else 1.0
+    unit, scale = UNIT[kind]
     table = Table(title=f"{kind} study")
     for col in (f"{kind} ({unit})", "dir", "steady", "peak contact force (N)", "impacts/period",
                 "active a(6fe) m/s²", "passive a(8fe) m/s²"):

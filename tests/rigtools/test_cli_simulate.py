@@ -125,3 +125,175 @@ def test_study_both_directions_and_bad_values(tmp_path, capsys):
     assert "units" in capsys.readouterr().err
     assert main(["study", "frequency", "--values", "-5 Hz", "--out", str(tmp_path / "g.h5")]) == 2
     assert "frequencies must be > 0" in capsys.readouterr().err
+
+
+# ------------------------------------------------------------------------------ edge validation
+
+
+def _digest(path):
+    import hashlib
+
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+@pytest.mark.parametrize("argv, needle", [
+    (["--gap", "0.5"], "--gap = '0.5' is 500 mm, wider than any blade could close"),
+    (["--gap", "1e400 mm"], "--gap = '1e400 mm': not a finite number"),
+    (["--fe", "1e400"], "--fe = '1e400': not a finite number"),
+    (["--force", "1e400 N"], "--force"),
+    (["--force", "nan"], "--force"),
+    (["--duration", "1e400"], "--duration"),
+    (["--duration", "0 s"], "--duration"),
+    (["--max-settle", "1e400 s"], "--max-settle"),
+    (["--steps-per-period", "100000000"], "--steps-per-period"),
+    (["--steps-per-period", "100"], "--steps-per-period"),
+    (["--duration", "1000 s", "--steps-per-period", "1000000"], "GB of memory"),
+])
+def test_simulate_refuses_bad_input_and_leaves_the_recording_alone(simulated, capsys, argv, needle):
+    """One line, exit 2, and an existing recording given as --out with --overwrite is untouched."""
+    _, _, out = simulated
+    before = _digest(out)
+    assert main(["simulate", "--out", str(out), "--overwrite", *argv]) == 2
+    captured = capsys.readouterr()
+    assert captured.err.startswith("rig simulate: error:") and needle in captured.err, captured.err
+    assert captured.err.count("\n") == 1 and "Traceback" not in captured.err and captured.out == ""
+    assert _digest(out) == before
+
+
+def test_output_paths_that_are_directories_are_refused(tmp_path, capsys):
+    for argv in (["simulate", "--out", str(tmp_path)], ["study", "gap", "--values", "0.5 mm", "--out", str(tmp_path)],
+                 ["harmonic", "--out", str(tmp_path / "d.csv")]):
+        if argv[0] == "harmonic":
+            (tmp_path / "d.csv").mkdir()
+        assert main(argv) == 2
+        err = capsys.readouterr().err
+        assert "is a directory" in err and err.count("\n") == 1
+
+
+@pytest.mark.skipif(not hasattr(__import__("os"), "geteuid") or __import__("os").geteuid() == 0,
+                    reason="root may write anywhere")
+def test_read_only_outputs_are_refused(tmp_path, capsys):
+    folder = tmp_path / "ro"
+    folder.mkdir()
+    folder.chmod(0o500)
+    try:
+        assert main(["simulate", "--out", str(folder / "x.h5")]) == 2
+        assert "not writable" in capsys.readouterr().err
+    finally:
+        folder.chmod(0o700)
+
+
+def test_harmonic_does_not_overwrite_without_the_option(tmp_path, capsys):
+    out = tmp_path / "c.csv"
+    argv = ["harmonic", "--out", str(out), "--points", "5"]
+    assert main(argv) == 0
+    before = _digest(out)
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "--overwrite" in err.splitlines()[-1] and _digest(out) == before
+    assert main([*argv[:3], "--points", "7", "--overwrite"]) == 0
+    assert np.loadtxt(out, delimiter=",", skiprows=1).shape == (7, 17)
+
+
+@pytest.mark.parametrize("points", ["1", "200001", "-3"])
+def test_harmonic_points_bounds(tmp_path, capsys, points):
+    assert main(["harmonic", "--out", str(tmp_path / "c.csv"), "--points", points]) == 2
+    assert "--points" in capsys.readouterr().err
+
+
+def test_long_work_is_announced_with_its_estimate(capsys):
+    """Contact stiffness 1e12 N/m: ~3.3e5 steps per period, so minutes when settling is slow;
+    the line comes before any work (nothing is run here)."""
+    from rigtools.commands.simulate import announce_work
+    from rigtools.simulation import RunSettings, load_system, run_time_estimate, steps_per_period
+
+    _, system = load_system(None, "fem")
+    stiff = system.with_contact(stiffness=1e12, gap=0.5e-3)
+    settings = RunSettings(duration=0.05, max_settle_time=30.0)
+    n = steps_per_period(stiff, 60.0, 15.0, settings)
+    assert n == pytest.approx(327_000, rel=0.01)       # 30 steps per contact period of ~1.5 us
+    least, most = run_time_estimate(stiff, 60.0, 15.0, settings)
+    assert most == pytest.approx((1800 + 3) * n * stiff.n_modes / 7.0e7, rel=1e-9) and most > 60
+    announce_work(stiff, [(60.0, 15.0)], settings, quiet=False)
+    err = capsys.readouterr().err
+    assert err.startswith("this will take") and "min" in err and err.count("\n") == 1
+    announce_work(system, [(60.0, 15.0)], RunSettings(0.1, 4.0), quiet=False)    # the default: quick, silent
+    assert capsys.readouterr().err == ""
+
+
+def test_model_build_estimate_scales_with_the_elements():
+    from dataclasses import replace
+
+    from rigtools.config import load_rig
+    from rigtools.simulation import model_build_estimate
+
+    params = load_rig().to_params()
+    big = replace(params, active=replace(params.active, elements=2000), passive=replace(params.passive, elements=2000))
+    seconds, peak = model_build_estimate(big)
+    assert seconds == pytest.approx(230.0) and peak == pytest.approx(48 * 12006**2)
+    assert model_build_estimate(params)[0] < 1.0 and model_build_estimate(big, "am") == (0.0, 0)
+
+
+def test_model_commands_import_light():
+    """`rig simulate --help` and friends: the command modules import no scipy/numba/h5py/matplotlib."""
+    import subprocess
+    import sys
+
+    code = ("import sys\nimport rigtools.commands.simulate, rigtools.commands.study, rigtools.commands.harmonic, "
+            "rigtools.commands.modal, rigtools.vocabulary\n"
+            "print([m for m in ('scipy', 'numba', 'h5py', 'matplotlib', 'nidaqmx', 'pyvisa') if m in sys.modules])")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "[]"
+
+
+def test_a_diverging_simulation_writes_nothing_and_names_the_parameter(tmp_path, capsys):
+    """A contact damping of 1e5 N*s/m makes the run blow up: refused with one line, no file."""
+    import tomllib
+
+    import tomli_w
+
+    from rigtools.config import default_rig_text
+
+    data = tomllib.loads(default_rig_text())
+    data["contact"]["damping"] = "1e5 N*s/m"
+    rig = tmp_path / "rig.toml"
+    rig.write_text(tomli_w.dumps(data))
+    out = tmp_path / "d.h5"
+    assert main(["simulate", "--rig", str(rig), "--out", str(out), *FAST]) == 2
+    err = capsys.readouterr().err
+    assert "diverged" in err and "[contact] damping" in err and err.count("\n") == 1
+    assert not out.exists()
+
+
+def test_sigterm_during_simulate_writes_nothing_and_exits_143(tmp_path):
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    out = tmp_path / "t.h5"
+    proc = subprocess.Popen([sys.executable, "-m", "rigtools.cli", "simulate", "--out", str(out), "--json",
+                             "--max-settle", "30 s", "--duration", "20 s", "--fe", "40"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, cwd=tmp_path,
+                            env=dict(os.environ, PYTHONUNBUFFERED="1"))
+    status = f"/proc/{proc.pid}/status"
+    if not os.path.exists(status):
+        proc.kill()
+        pytest.skip("needs /proc to see when the command has taken over SIGTERM")
+    t0 = time.monotonic()
+    while time.monotonic() - t0 < 120 and proc.poll() is None:    # wait for the SIGTERM handler (bit 15)
+        caught = [line for line in open(status) if line.startswith("SigCgt:")]
+        if caught and int(caught[0].split()[1], 16) >> (signal.SIGTERM - 1) & 1:
+            break
+        time.sleep(0.05)
+    time.sleep(1.0)
+    proc.send_signal(signal.SIGTERM)
+    stdout, stderr = proc.communicate(timeout=60)
+    if proc.returncode == 0:
+        pytest.skip("the run finished before the signal (a very fast machine)")
+    assert proc.returncode == 143, stderr
+    assert stderr.decode().strip().splitlines()[-1] in ("rig simulate: stopped by SIGTERM; nothing written",
+                                                        f"rig simulate: stopped by SIGTERM; {out} is complete "
+                                                        "(no summary or plot)")
+    assert "Traceback" not in stderr.decode()

@@ -1,0 +1,349 @@
+"""Model runs as recordings: the vibro-impact simulations that ``rig simulate``, ``rig study``
+and later the EM-versus-FEM comparison and the demo share.
+
+* :func:`load_system`, :func:`simulate_point`, :func:`natural_frequencies`: the reduced model of
+  a rig file and one settled run;
+* :data:`MODEL_OUTPUTS`, :func:`channel_specs`, :func:`channel_block`, :func:`point_params`,
+  :func:`end_attrs`: a run as one recording point, named by :mod:`rigtools.vocabulary`;
+* :func:`harmonics_of`, :func:`point_summary`: the small per-point results printed or plotted;
+* :func:`write_study`: a study streamed point by point into a recording (nothing finished is
+  lost on Ctrl-C, SIGTERM, a crash or SIGKILL; memory does not grow with the points);
+* :func:`run_memory_estimate`, :func:`run_time_estimate`, :func:`model_build_estimate`: what a
+  run will cost, to refuse or announce it up front.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Iterator
+from contextlib import nullcontext
+from dataclasses import dataclass
+from typing import ContextManager
+
+import numpy as np
+
+from rigtools.errors import UserError
+from rigtools.vocabulary import CHANNELS
+
+K_MAX = 30
+
+# recorded channel (vocabulary name) -> output of sim.vibro_impact.run_harmonic
+MODEL_OUTPUTS: dict[str, str] = {
+    "active_shroud_accel": "active_tip_acceleration",
+    "passive_shroud_accel": "passive_tip_acceleration",
+    "force": "excitation_force",
+    "active_shroud_disp": "active_tip_displacement",
+    "passive_shroud_disp": "passive_tip_displacement",
+    "force_point_disp": "force_point_displacement",
+    "active_shroud_vel": "active_tip_velocity",
+    "passive_shroud_vel": "passive_tip_velocity",
+    "force_point_vel": "force_point_velocity",
+    "force_point_accel": "force_point_acceleration",
+    "contact_force": "contact_force",
+}
+# harmonics reported per run: channel -> (run output, time derivatives applied to it). The
+# accelerations come from the velocity, k w |V_k|: exact for a periodic response, while the
+# point samples of an acceleration that jumps at impacts converge only to first order.
+HARMONIC_SOURCES: dict[str, tuple[str, int]] = {
+    "active_shroud_accel": ("active_tip_velocity", 1),
+    "passive_shroud_accel": ("passive_tip_velocity", 1),
+    "force": ("excitation_force", 0),
+    "contact_force": ("contact_force", 0),
+}
+
+# Cost model (measured on a 2-core machine; estimates are stated as "about").
+KERNEL_MODE_STEPS_PER_S = 7.0e7        # time steps x modes per second of the vibro-impact kernel
+RECORD_BYTES_PER_SAMPLE = 600          # peak memory per recorded time step (outputs, copies, FFT, plot)
+SETTLE_BYTES_PER_STEP = 5 * 2 * 14 * 8  # settling keeps 5 periods of 14 outputs, twice
+FE_BUILD_SECONDS_2000 = 230.0          # FE model of 2 x 2000 elements (dense eigen-solves) ...
+FE_BUILD_EXPONENT = 2.25               # ... scaling as elements**2.25 (800 elements: ~30 s)
+FE_BUILD_BYTES_PER_DOF2 = 48.0         # dense mode shapes and their copies: ~6 n^2 float64 per blade
+#                                        (1200 elements: 2.36 GB peak RSS measured, 2.49 GB estimated)
+LONG_WORK_SECONDS = 60.0               # announce work expected to take longer than this
+
+
+@dataclass(frozen=True)
+class RunSettings:
+    """How each settled run is made (SI).
+
+    Attributes
+    ----------
+    duration
+        Recorded time after the steady state, s (rounded to whole periods, at least one).
+    max_settle_time
+        Simulated time after which settling gives up (the record follows, ``settled`` False), s.
+    steps_per_period
+        Time steps per excitation period; ``None``: 30 per contact period, at least 120.
+    """
+
+    duration: float = 1.0
+    max_settle_time: float = 30.0
+    steps_per_period: int | None = None
+
+    def record_periods(self, fe: float) -> int:
+        return max(1, int(round(self.duration * fe)))
+
+
+# ------------------------------------------------------------------------------ the model
+
+
+def load_system(rig: str | None, model: str = "fem"):
+    """``(rig config, reduced system)`` of a rig file (``None``: the default rig) for ``model``
+    (``"fem"`` or ``"am"``)."""
+    from rigtools.config import load_rig
+    from sim.reduction import reduced_system
+
+    cfg = load_rig(rig)
+    return cfg, reduced_system(cfg.to_params(), model)
+
+
+def natural_frequencies(system) -> dict[str, np.ndarray]:
+    """The kept (not static-correction) mode frequencies of each blade of a reduced system, Hz:
+    its flexural natural frequencies, ``{"active": ..., "passive": ...}`` ascending."""
+    from sim.reduction import ACTIVE, PASSIVE
+
+    real = np.ones(system.n_modes, bool) if system.pseudo is None else ~np.asarray(system.pseudo, bool)
+    f = system.frequencies_hz
+    return {"active": np.sort(f[real & (system.blade == ACTIVE)]),
+            "passive": np.sort(f[real & (system.blade == PASSIVE)])}
+
+
+def simulate_point(system, fe: float, force: float, settings: RunSettings, initial=None,
+                   progress: Callable[[float, float], None] | None = None):
+    """One settled run of ``F0 sin(2 pi fe t)`` (:func:`sim.vibro_impact.run_harmonic`);
+    :class:`sim.vibro_impact.SimulationInputError` becomes a one-line :class:`UserError`.
+    ``progress(simulated_s, at_most_s)`` is called while settling."""
+    from sim.vibro_impact import SimulationInputError, run_harmonic
+
+    try:
+        run = run_harmonic(system, fe, force, record_periods=settings.record_periods(fe),
+                           steps_per_period=settings.steps_per_period,
+                           max_settle_time=settings.max_settle_time, initial=initial, progress=progress)
+    except SimulationInputError as exc:
+        raise UserError(str(exc)) from None
+    check_finite(run)
+    return run
+
+
+def check_finite(run) -> None:
+    """Refuse a run whose outputs hold NaN or inf, naming the likely parameter."""
+    bad = [name for name in MODEL_OUTPUTS.values() if not np.all(np.isfinite(run.outputs[name]))]
+    if bad:
+        raise UserError(f"the simulation diverged at fe = {run.fe:g} Hz, F0 = {run.force_amplitude:g} N, "
+                        f"gap = {run.gap * 1e3:g} mm ({bad[0]} is not finite): check the rig file's "
+                        "[contact] damping/stiffness and [damping] values")
+
+
+# ------------------------------------------------------------------------------ a run as a point
+
+
+def channel_specs(sample_rate: float) -> list:
+    """:class:`rigtools.recording.ChannelSpec` of every model channel, vocabulary order."""
+    from rigtools.recording import ChannelSpec
+
+    return [ChannelSpec(name=name, units=CHANNELS[name].units, quantity=CHANNELS[name].quantity,
+                        sample_rate=sample_rate, location=CHANNELS[name].location)
+            for name in MODEL_OUTPUTS]
+
+
+def channel_block(run, start: int = 0, stop: int | None = None) -> np.ndarray:
+    """(channels, samples) block of a run (samples ``start:stop``) in :func:`channel_specs` order."""
+    return np.vstack([run.outputs[src][start:stop] for src in MODEL_OUTPUTS.values()])
+
+
+APPEND_SAMPLES = 1 << 20    # samples per appended block: no full copy of a long record
+
+
+def force_fundamental(run) -> float:
+    """Harmonic 1 (peak) of the force channel: ``force_amplitude_measured``."""
+    from analysis.harmonics import harmonic_amplitudes
+
+    return float(harmonic_amplitudes(run.outputs["excitation_force"], run.sample_rate, run.fe, 1).at(1))
+
+
+def point_params(run, model: str) -> dict:
+    """Parameters known when the point begins (vocabulary names, SI)."""
+    return {"fe": run.fe, "force_amplitude": run.force_amplitude, "gap": run.gap, "model": model,
+            "steps_per_period": run.steps_per_period, "time_step": run.dt, "settle_time": run.settle_time}
+
+
+def end_attrs(run) -> dict:
+    """Parameters written when the point ends (vocabulary names, SI)."""
+    return {"settled": bool(run.steady_state), "period_multiple": int(run.period_multiple),
+            "peak_contact_force": run.peak_contact_force, "impacts_per_period": run.impacts_per_period,
+            "force_amplitude_measured": force_fundamental(run)}
+
+
+def write_point(rec, run, model: str, **extra) -> None:
+    """One run as the next point of an open :class:`rigtools.recording.RecordingWriter`."""
+    params = point_params(run, model)
+    params.update(extra)
+    point = rec.begin_point(params=params, channels=channel_specs(run.sample_rate))
+    n = run.time.size
+    for start in range(0, n, APPEND_SAMPLES):
+        point.append(channel_block(run, start, min(n, start + APPEND_SAMPLES)))
+    point.set_attrs(**end_attrs(run))
+    point.end()
+
+
+def harmonics_of(run) -> dict[str, list[dict]]:
+    """k = 1..30 harmonics (peak amplitudes) of the reported channels:
+    ``{channel: [{"k", "frequency_hz", "amplitude"}, ...]}``."""
+    from analysis.harmonics import derivative_harmonics, harmonic_amplitudes
+
+    out = {}
+    for name, (src, order) in HARMONIC_SOURCES.items():
+        fit = harmonic_amplitudes(run.outputs[src], run.sample_rate, run.fe, K_MAX)
+        if order:
+            fit = derivative_harmonics(fit, order)
+        out[name] = [{"k": r["k"], "frequency_hz": r["frequency_hz"], "amplitude": r["amplitude"]}
+                     for r in fit.to_records()]
+    return out
+
+
+def point_summary(run) -> dict:
+    """The small result of a run kept after its samples are written (``rig study --json`` point)."""
+    return {"fe": run.fe, "force_amplitude": run.force_amplitude, "gap": run.gap,
+            "force_amplitude_measured": force_fundamental(run), "steady_state": bool(run.steady_state),
+            "peak_contact_force_n": run.peak_contact_force, "impacts_per_period": run.impacts_per_period,
+            "harmonics": harmonics_of(run)}
+
+
+def run_figure(run, system, title: str):
+    """:func:`analysis.plots.vibro_impact_figure` of one settled run."""
+    from analysis.plots import vibro_impact_figure
+
+    o = run.outputs
+    return vibro_impact_figure(run.time, o["active_tip_displacement"], o["passive_tip_displacement"],
+                               o["contact_force"], o["active_tip_acceleration"], o["passive_tip_acceleration"],
+                               run.fe, k_max=K_MAX, gap=run.gap, natural_frequencies_hz=natural_frequencies(system),
+                               title=title)
+
+
+# ------------------------------------------------------------------------------ studies
+
+
+def iter_study_points(system, plan, settings: RunSettings,
+                      progress: Callable[[float, float], None] | None = None) -> Iterator[tuple[object, object]]:
+    """``(planned point, settled run)`` of a :class:`sim.studies.StudyPlan`, one at a time;
+    input errors become :class:`UserError`. ``progress(simulated_s, at_most_s)`` while each settles."""
+    from sim.studies import iter_study
+    from sim.vibro_impact import SimulationInputError
+
+    it = iter_study(system, plan, record_duration=settings.duration,
+                    max_settle_time=settings.max_settle_time, steps_per_period=settings.steps_per_period,
+                    progress=progress)
+    while True:
+        try:
+            point, run = next(it)
+        except StopIteration:
+            return
+        except SimulationInputError as exc:
+            raise UserError(str(exc)) from None
+        check_finite(run)
+        yield point, run
+
+
+def write_study(rec, system, plan, settings: RunSettings, model: str,
+                on_point: Callable[[object, dict], None] | None = None,
+                guard: Callable[[], ContextManager] = nullcontext,
+                progress: Callable[[float, float], None] | None = None) -> list[dict]:
+    """Run a study and write each point to ``rec`` as soon as it settles.
+
+    Only the per-point summaries (:func:`point_summary` plus ``value`` and ``direction``) are
+    kept, so memory does not grow with the number of points. ``on_point(planned, summary)`` is
+    called after each point is on disk; ``progress(simulated_s, at_most_s)`` while each point
+    settles. Each point is written inside ``guard()`` (e.g.
+    :meth:`rigtools.interrupts.StopRequests.protected`, so a stop request waits for the write).
+    Exceptions (Ctrl-C included) propagate with every finished point written; the caller ends
+    the recording.
+    """
+    summaries = []
+    for planned, run in iter_study_points(system, plan, settings, progress):
+        with guard():
+            write_point(rec, run, model, direction=planned.direction, study_value=planned.value)
+        summary = {"value": planned.value, "direction": planned.direction, **point_summary(run)}
+        del run
+        summaries.append(summary)
+        if on_point is not None:
+            on_point(planned, summary)
+    return summaries
+
+
+# ------------------------------------------------------------------------------ costs
+
+
+def steps_per_period(system, fe: float, force: float, settings: RunSettings) -> int:
+    """The steps per period a run will use (:func:`sim.vibro_impact.run_harmonic`'s rule)."""
+    from sim.vibro_impact import SimulationInputError, steps_per_period_for, validate_contact
+
+    if settings.steps_per_period is not None:
+        return int(settings.steps_per_period)
+    try:
+        validate_contact(system)
+        return steps_per_period_for(system, fe, force_scale=max(100.0, 10.0 * force))
+    except SimulationInputError as exc:
+        raise UserError(str(exc)) from None
+
+
+def run_memory_estimate(system, fe: float, force: float, settings: RunSettings) -> int:
+    """Peak bytes of one settled run with its recording, summary and plot."""
+    n = steps_per_period(system, fe, force, settings)
+    samples = n * settings.record_periods(fe)
+    return int(samples * RECORD_BYTES_PER_SAMPLE + n * SETTLE_BYTES_PER_STEP)
+
+
+def run_time_estimate(system, fe: float, force: float, settings: RunSettings) -> tuple[float, float]:
+    """(least, most) seconds of one run: settling takes between 5 periods and ``max_settle_time``."""
+    n = steps_per_period(system, fe, force, settings)
+    per_step = system.n_modes / KERNEL_MODE_STEPS_PER_S
+    record = settings.record_periods(fe) * n
+    least = (5 * n + record) * per_step
+    most = (max(5, math.ceil(settings.max_settle_time * fe)) * n + record) * per_step
+    return least, most
+
+
+def model_build_estimate(params, model: str = "fem") -> tuple[float, int]:
+    """(seconds, peak bytes) to build the FE model of both blades and their modes."""
+    if model != "fem":
+        return 0.0, 0
+    seconds, peak = 0.0, 0
+    for blade in (params.active, params.passive):
+        e = int(blade.elements)
+        seconds += 0.5 * FE_BUILD_SECONDS_2000 * (e / 2000.0) ** FE_BUILD_EXPONENT
+        peak = max(peak, int(FE_BUILD_BYTES_PER_DOF2 * (6.0 * (e + 1)) ** 2))
+    return seconds, peak
+
+
+def available_memory() -> int | None:
+    """Bytes of memory available to a new allocation (Linux MemAvailable), None if unknown."""
+    try:
+        with open("/proc/meminfo", encoding="ascii") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        import os
+
+        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (ValueError, OSError, AttributeError):
+        return None
+
+
+def check_memory(needed: int, what: str, hint: str) -> None:
+    """Refuse up front (one line with the estimate) work that needs more memory than is available."""
+    avail = available_memory()
+    if avail is not None and needed > 0.8 * avail:
+        raise UserError(f"{what} needs about {needed / 1e9:.3g} GB of memory, {avail / 1e9:.3g} GB are "
+                        f"available: {hint}")
+
+
+def human_seconds(s: float) -> str:
+    """``"45 s"``, ``"4 min"``, ``"2.5 h"``."""
+    if s < 90:
+        return f"{s:.0f} s"
+    if s < 5400:
+        return f"{s / 60:.0f} min"
+    return f"{s / 3600:.1f} h"
