@@ -62,3 +62,8 @@ class Interrupted(KeyboardInterrupt):
         self.exit_code = 128 + self.signum
         text = _SIGNAL_TEXT.get(self.signal_name, f"stopped by {self.signal_name}")
         super().__init__(f"{self.signal_name}: {text}")
+
+    @property
+    def reason(self) -> str:
+        """The one line for a recording's ``abort_reason`` and the user."""
+        return str(self)

@@ -43,47 +43,70 @@ APP_NAME = "shrouded-blade-rig"
 
 
 # -- signals ---------------------------------------------------------------------------------
-class _StopHandler:
-    """Raise :class:`Interrupted` on the first stop signal; ignore repeats for a grace time."""
+class StopRequests:
+    """Within the block, SIGINT/SIGTERM/SIGHUP raise :class:`rigtools.errors.Interrupted`.
 
-    def __init__(self) -> None:
+    The exception is raised in the main thread between two Python byte codes (a compiled
+    kernel finishes its block first). Inside :meth:`protected` a stop request is held until the
+    block is done (a point being written is never cut in half), then raised. A second signal
+    within :data:`REPEAT_GRACE_S` of the first is ignored so clean-up (drive to zero, file
+    closed) completes; SIGKILL still ends anything. The previous handlers are restored on exit.
+    Outside the main thread nothing is installed.
+
+    Examples
+    --------
+    >>> with StopRequests() as stops:          # doctest: +SKIP
+    ...     for run in runs:
+    ...         with stops.protected():
+    ...             write(run)
+    """
+
+    def __init__(self, signals: tuple[int, ...] = STOP_SIGNALS) -> None:
+        self.signals = signals
         self.first: float | None = None
+        self._previous: dict[int, Any] = {}
+        self._depth = 0
+        self._held: Interrupted | None = None
 
-    def __call__(self, signum: int, frame: Any) -> None:
+    def __enter__(self) -> "StopRequests":
+        if threading.current_thread() is threading.main_thread():
+            for sig in self.signals:
+                self._previous[sig] = signal.signal(sig, self._handler)
+        return self
+
+    def __exit__(self, *exc: Any) -> bool:
+        for sig, old in self._previous.items():
+            with contextlib.suppress(Exception):
+                signal.signal(sig, old if old is not None else signal.SIG_DFL)
+        self._previous.clear()
+        return False
+
+    def _handler(self, signum: int, frame: Any) -> None:
         now = time.monotonic()
         if self.first is not None and now - self.first < REPEAT_GRACE_S:
             return
         self.first = now
+        if self._depth:
+            self._held = self._held or Interrupted(signum)
+            return
         raise Interrupted(signum)
 
+    @contextlib.contextmanager
+    def protected(self) -> Iterator[None]:
+        """Hold stop requests until the block is done, then raise the first one."""
+        self._depth += 1
+        try:
+            yield
+        finally:
+            self._depth -= 1
+        if not self._depth and self._held is not None:
+            held, self._held = self._held, None
+            raise held
 
-@contextlib.contextmanager
-def handle_stop_signals(signals: tuple[int, ...] = STOP_SIGNALS) -> Iterator[None]:
-    """Within the block, SIGINT/SIGTERM/SIGHUP raise :class:`rigtools.errors.Interrupted`.
 
-    The exception is raised in the main thread between two Python byte codes (a compiled
-    kernel finishes its block first). A second signal within :data:`REPEAT_GRACE_S` of the first
-    is ignored so clean-up (drive to zero, file closed) completes; SIGKILL still ends anything.
-    The previous handlers are restored on exit. Outside the main thread this does nothing.
-
-    Examples
-    --------
-    >>> with handle_stop_signals():          # doctest: +SKIP
-    ...     run_long_acquisition()
-    """
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    handler = _StopHandler()
-    previous: dict[int, Any] = {}
-    try:
-        for sig in signals:
-            previous[sig] = signal.signal(sig, handler)
-        yield
-    finally:
-        for sig, old in previous.items():
-            with contextlib.suppress(Exception):
-                signal.signal(sig, old if old is not None else signal.SIG_DFL)
+def handle_stop_signals(signals: tuple[int, ...] = STOP_SIGNALS) -> StopRequests:
+    """:class:`StopRequests` for ``signals`` (what ``rig`` installs around every command)."""
+    return StopRequests(signals)
 
 
 # -- console ---------------------------------------------------------------------------------

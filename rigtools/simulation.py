@@ -254,7 +254,7 @@ def write_study(rec, system, plan, settings: RunSettings, model: str,
     kept, so memory does not grow with the number of points. ``on_point(planned, summary)`` is
     called after each point is on disk; ``progress(simulated_s, at_most_s)`` while each point
     settles. Each point is written inside ``guard()`` (e.g.
-    :meth:`rigtools.interrupts.StopRequests.protected`, so a stop request waits for the write).
+    :meth:`rigtools.runtime.StopRequests.protected`, so a stop request waits for the write).
     Exceptions (Ctrl-C included) propagate with every finished point written; the caller ends
     the recording.
     """

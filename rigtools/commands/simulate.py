@@ -248,7 +248,8 @@ def write_plot(args: argparse.Namespace, out: Path, make_figure) -> Path | None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from rigtools.interrupts import Stopped, StopRequests
+    from rigtools.errors import Interrupted as Stopped
+    from rigtools.runtime import StopRequests
 
     written: list[Path] = []
     with StopRequests() as stops:

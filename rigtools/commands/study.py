@@ -124,7 +124,8 @@ def make_plan(args: argparse.Namespace, values: list[float]):
 
 
 def run(args: argparse.Namespace) -> int:
-    from rigtools.interrupts import Stopped, StopRequests
+    from rigtools.errors import Interrupted as Stopped
+    from rigtools.runtime import StopRequests
 
     with StopRequests() as stops:
         try:
@@ -136,7 +137,7 @@ def run(args: argparse.Namespace) -> int:
 
 def _run(args: argparse.Namespace, stops) -> int:
     from rigtools import simulation as simu
-    from rigtools.interrupts import Stopped
+    from rigtools.errors import Interrupted as Stopped
     from rigtools.recording import RecordingWriter
     from rigtools.recording.writer import one_line
 

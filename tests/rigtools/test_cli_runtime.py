@@ -108,8 +108,6 @@ OFFENDERS = {
     "acquire": "rigtools.acquisition imports scipy.signal at its top (rigtools/commands/acquire.py)",
     "check": "rigtools.recording imports h5py at its top (rigtools/commands/check.py)",
     "info": "rigtools.recording imports h5py at its top (rigtools/commands/info.py)",
-    "harmonic": "sim.harmonic / sim.rig_model import scipy at the top of rigtools/commands/harmonic.py",
-    "modal": "sim.analytical / sim.modal import scipy at the top of rigtools/commands/modal.py",
 }
 
 

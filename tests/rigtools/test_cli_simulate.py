@@ -293,7 +293,8 @@ def test_sigterm_during_simulate_writes_nothing_and_exits_143(tmp_path):
     if proc.returncode == 0:
         pytest.skip("the run finished before the signal (a very fast machine)")
     assert proc.returncode == 143, stderr
-    assert stderr.decode().strip().splitlines()[-1] in ("rig simulate: stopped by SIGTERM; nothing written",
-                                                        f"rig simulate: stopped by SIGTERM; {out} is complete "
+    assert stderr.decode().strip().splitlines()[-1] in ("rig simulate: SIGTERM: terminated (kill, timeout or a job scheduler); nothing written",
+                                                        "rig simulate: SIGTERM: terminated (kill, timeout or a job scheduler); "
+                                                        f"{out} is complete "
                                                         "(no summary or plot)")
     assert "Traceback" not in stderr.decode()
