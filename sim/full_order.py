@@ -176,6 +176,12 @@ def _hht_modal(omega, cdiag, rA, rP, rF, u, v, a, s, force, out, dt, alpha,
         out[i, 12] = pd
         gd = va - vpp
         out[i, 13] = cc * gd * gd if (lam > 0.0 and cc > 0.0 and lam - cc * gd > 0.0) else 0.0
+        if code == 2:
+            g_end = xa - xp - gap
+            out[i, 13] = cc * g_end**pexp * gd * gd if (lam > 0.0 and g_end > 0.0) else 0.0
+        out[i, 14] = 1.0        # no events: the force is taken linear over every step
+        out[i, 15] = lam
+        out[i, 16] = lam
 
 
 class FullOrderIntegrator:
@@ -276,6 +282,8 @@ class FullOrderIntegrator:
             out[i, 9] = lam
             out[i, 10] = F_new
             out[i, 12] = float(v1 @ (self._C @ v1))
+            out[i, 14] = 1.0
+            out[i, 15:17] = lam
 
     # ----------------------------------------------------------------------------- stepping
     def step(self, force: np.ndarray) -> np.ndarray:

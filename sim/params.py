@@ -71,7 +71,7 @@ class ContactParams:
     gap: float
     stiffness: float
     damping: float = 0.0
-    law: Literal["linear", "hertz"] = "linear"
+    law: Literal["linear", "hertz", "hunt-crossley"] = "linear"
     hertz_exponent: float = 1.5
 
 

@@ -31,6 +31,11 @@ OUT_COLUMNS = (
     "force_point_displacement", "force_point_velocity", "force_point_acceleration",
     "contact_force", "excitation_force", "coil_current",
     "damping_power", "contact_damping_power",
+    # the contact force within each step (exact load of the scheme): linear from the previous
+    # step's force to ``contact_force_before_split`` over the fraction ``contact_split`` of the
+    # step, then linear from ``contact_force_after_split`` to ``contact_force`` (split = 1, both
+    # equal to contact_force, in a step without an event); see :func:`contact_force_harmonics`
+    "contact_split", "contact_force_before_split", "contact_force_after_split",
 )
 N_OUT = len(OUT_COLUMNS)
 MIN_STEPS_PER_CONTACT = 20
@@ -291,6 +296,7 @@ def _kernel(P, omega, zeta, phiA, phiP, phiF, q, v, s, u, out, dt,
         release = fc_old > 0.0 and fc == 0.0
         split = False
         tau1 = 0.0
+        theta = 1.0
         gdm = 0.0
         gm = 0.0
         if events and (onset or release):
@@ -308,7 +314,11 @@ def _kernel(P, omega, zeta, phiA, phiP, phiF, q, v, s, u, out, dt,
                     gB += d[j] * q1[j]
                     gdB += d[j] * v1[j]
                 # zero of kc*g + cc*gd on the Hermite interpolant (g alone without damping)
-                if cc > 0.0:
+                if code == 2:
+                    # Hunt-Crossley: the force vanishes with the closure (or where the damping
+                    # cancels the spring, 1 + alpha gd = 0, which needs a far faster release)
+                    theta = _hermite_root(g_old, gd_old * dt, gB, gdB * dt) if gB < 0.0 else 1.0
+                elif cc > 0.0:
                     if code == 0:
                         y0 = kc * g_old + cc * gd_old
                         y1 = kc * gB + cc * gdB
@@ -334,7 +344,7 @@ def _kernel(P, omega, zeta, phiA, phiP, phiF, q, v, s, u, out, dt,
                 for j in range(n):
                     gdm += d[j] * v1[j]
                     gm += d[j] * q1[j]
-                if onset and cc > 0.0:
+                if onset and cc > 0.0 and code != 2:
                     fc_start = cc * gdm if gdm > 0.0 else 0.0    # damping force at first touch
                 g0b, gd0b, vF0b = _free(P2, q1, v1, phiF, d, F_mid, fc_start, qf, vf)
                 F, fc, Fn = _end_loads(_influence(P2, phiF, d), g0b, gd0b, vF0b, u[i], i_free,
@@ -352,6 +362,13 @@ def _kernel(P, omega, zeta, phiA, phiP, phiF, q, v, s, u, out, dt,
         pd = 0.0
         if not split:
             _finish(P, qf, vf, phiF, d, F, fc, q, v)
+            out[i, 14] = 1.0
+            out[i, 15] = fc
+            out[i, 16] = fc
+        else:
+            out[i, 14] = theta
+            out[i, 15] = 0.0
+            out[i, 16] = fc_start
         for j in range(n):
             qj = q[j]
             vj = v[j]
@@ -394,7 +411,18 @@ def _kernel(P, omega, zeta, phiA, phiP, phiF, q, v, s, u, out, dt,
         # spring energy left then is lost too, and counted)
         gd = va - vp
         ce = 0.0
-        if cc > 0.0:
+        if cc > 0.0 and code == 2:
+            # Hunt-Crossley: cc g^p gd^2 by the trapezoid rule on each part in contact (zero at
+            # the touch / release instant, where g = 0)
+            g_new = xa - xp - gap
+            if split and onset:
+                ce = 0.5 * cc * (dt - tau1) * max(g_new, 0.0) ** pexp * gd * gd
+            elif split:
+                ce = 0.5 * cc * tau1 * max(g_old, 0.0) ** pexp * gd_old * gd_old
+            elif fc > 0.0 or fc_old > 0.0:
+                ce = 0.5 * cc * dt * (max(g_old, 0.0) ** pexp * gd_old * gd_old
+                                      + max(g_new, 0.0) ** pexp * gd * gd)
+        elif cc > 0.0:
             if split and onset:
                 ce = cc * (dt - tau1) * (gdm * gdm + gdm * gd + gd * gd) / 3.0
             elif split:
