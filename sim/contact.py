@@ -177,7 +177,7 @@ def hunt_crossley_restitution(alpha_v: float) -> float:
 
     # residual(0) = x - log1p(x) > 0; residual < 0 just below e = min(1, 1/x) (the root is unique)
     hi = min(1.0, (1.0 - 1e-15) / x)
-    return brentq(residual, 0.0, hi, xtol=1e-15, rtol=4e-16) if residual(hi) < 0 else hi
+    return brentq(residual, 0.0, hi, xtol=1e-15, rtol=1e-15) if residual(hi) < 0 else hi
 
 
 def hunt_crossley_damping(stiffness: float, restitution: float, impact_speed: float) -> float:
@@ -197,5 +197,34 @@ def hunt_crossley_damping(stiffness: float, restitution: float, impact_speed: fl
     hi = 1.0
     while hunt_crossley_restitution(hi) > e:
         hi *= 2.0
-    x = brentq(lambda y: hunt_crossley_restitution(y) - e, 0.0, hi, xtol=1e-14, rtol=4e-16)
+    x = brentq(lambda y: hunt_crossley_restitution(y) - e, 0.0, hi, xtol=1e-14, rtol=1e-15)
     return x / v * stiffness
+
+
+def contact_damping_ratio(contact: ContactParams, effective_mass: float) -> float:
+    """Damping ratio ``c_c / (2 sqrt(k_c m))`` of a linear contact on ``effective_mass`` (kg)."""
+    if contact.law != "linear":
+        raise ValueError(f"the damping ratio is defined for the linear law, not {contact.law!r}")
+    return contact.damping / (2.0 * math.sqrt(contact.stiffness * effective_mass))
+
+
+def linear_restitution(damping_ratio: float, clipped: bool = True) -> float:
+    """Coefficient of restitution of a linear spring-damper contact (Kelvin-Voigt), any speed.
+
+    With the damper allowed to pull (``clipped=False``) the contact lasts half a damped period:
+    ``e = exp(-pi zeta / sqrt(1 - zeta^2))``. A penalty contact never pulls (``clipped=True``,
+    what :func:`law` does): it releases where ``k g + c dg/dt`` reaches zero, still compressed,
+    at ``w_d t = pi - atan(2 zeta sqrt(1 - zeta^2) / (1 - 2 zeta^2))`` (atan2 form beyond
+    ``zeta = 1/sqrt 2``), with the release speed ``e v0 = -v(t)``,
+    ``v(t)/v0 = exp(-zeta w_n t) (cos w_d t - zeta/sqrt(1 - zeta^2) sin w_d t)`` (the free
+    flight that follows keeps it). Valid for ``0 <= zeta < 1``; speed and stiffness drop out.
+    """
+    z = float(damping_ratio)
+    if not 0 <= z < 1:
+        raise ValueError(f"damping ratio must be in [0, 1), got {damping_ratio}")
+    s = math.sqrt(1.0 - z * z)
+    if not clipped:
+        return math.exp(-math.pi * z / s)
+    phase = math.pi - math.atan2(2.0 * z * s, 1.0 - 2.0 * z * z)     # w_d t at release
+    # v(t)/v0 = e^{-z wn t} (cos(w_d t) - z/s sin(w_d t)); at release this equals -e^{-z wn t}
+    return -math.exp(-z * phase / s) * (math.cos(phase) - z / s * math.sin(phase))
