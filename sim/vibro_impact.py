@@ -22,6 +22,7 @@ import scipy.linalg
 from numba import njit
 
 from sim.contact import contact_period, law_code, solve_contact
+from sim.params import SimulationInputError, _finite
 from sim.reduction import ReducedSystem
 
 # output columns of the compiled kernel
@@ -44,8 +45,9 @@ MIN_STEPS_PER_CONTACT = 20
 _S_F, _S_FC, _S_I, _S_V, _S_VF = range(5)
 
 
-class SimulationInputError(ValueError):
-    """Physically invalid input (negative gap, too coarse a step, ...); one-line message."""
+class SimulationDivergedError(SimulationInputError):
+    """The integration produced a non-finite or absurd value; the message names the likely
+    parameters."""
 
 
 @dataclass(frozen=True)
@@ -64,11 +66,11 @@ class ShakerCoupling:
     coil_inductance: float        # H
 
     def __post_init__(self) -> None:
-        for name in ("armature_mass", "suspension_stiffness", "suspension_damping", "coil_inductance"):
-            if getattr(self, name) < 0:
-                raise SimulationInputError(f"shaker {name} must be >= 0, got {getattr(self, name)}")
-        if not self.coil_resistance > 0:
-            raise SimulationInputError(f"shaker coil_resistance must be > 0, got {self.coil_resistance}")
+        for name, unit in (("armature_mass", "kg"), ("suspension_stiffness", "N/m"),
+                           ("suspension_damping", "N*s/m"), ("coil_inductance", "H")):
+            _finite("shaker", name, getattr(self, name), ge=0, unit=unit)
+        _finite("shaker", "force_factor", self.force_factor, ge=0, unit="N/A")
+        _finite("shaker", "coil_resistance", self.coil_resistance, gt=0, unit="ohm")
 
 
 @dataclass

@@ -271,11 +271,9 @@ def test_step_output_columns_copy_and_pickle():
 
 @pytest.mark.parametrize("stiffness", [0.0, -2e6])
 def test_non_positive_contact_stiffness_is_refused_with_one_line(stiffness):
-    sysm = _system([(0.2, 50.0, 0.01)], ContactParams(gap=1e-4, stiffness=stiffness))
-    for start in (lambda: VibroImpactStepper(sysm, 1e-6), lambda: run_harmonic(sysm, 60.0, 1.0)):
-        with pytest.raises(SimulationInputError, match="contact stiffness must be > 0") as err:
-            start()
-        assert "\n" not in str(err.value)
+    with pytest.raises(SimulationInputError, match="contact.stiffness must be > 0") as err:
+        ContactParams(gap=1e-4, stiffness=stiffness)
+    assert "\n" not in str(err.value)
 
 
 def test_impacts_per_period_counts_a_contact_starting_on_the_first_sample():
