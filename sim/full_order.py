@@ -36,7 +36,10 @@ from numba import njit
 from sim.contact import law_code, solve_contact
 from sim.params import ContactParams
 from sim.rig_model import RigModel
-from sim.vibro_impact import OUT_COLUMNS, N_OUT, SimulationInputError, check_time_step
+from sim.vibro_impact import (
+    DIVERGED_DISPLACEMENT, N_OUT, OUT_COLUMNS, SimulationDivergedError, SimulationInputError,
+    check_time_step, diverged_message,
+)
 
 # outputs: the same columns as the fast stepper (coil current always zero)
 
@@ -298,6 +301,9 @@ class FullOrderIntegrator:
                        gap, kc, cc, p, code)
         else:
             self._step_physical(force, out)
+        if not (np.isfinite(out).all() and np.abs(out[:, [0, 3, 6]]).max(initial=0.0) < DIVERGED_DISPLACEMENT):
+            raise SimulationDivergedError(diverged_message(_ContactView(self.system.contact_effective_mass(),
+                                                                        self.contact), self.dt, self.time))
         self.time += self.dt * force.size
         return out
 

@@ -21,7 +21,7 @@ import numpy as np
 import scipy.linalg
 import scipy.sparse.linalg as spla
 
-from sim.params import ContactParams, DampingParams, RigParams
+from sim.params import ContactParams, DampingParams, RigParams, SimulationInputError
 
 if TYPE_CHECKING:   # imported lazily at run time: these build on the FE and AM modules
     from sim.analytical import AssumedModesBlade
@@ -30,6 +30,7 @@ if TYPE_CHECKING:   # imported lazily at run time: these build on the FE and AM 
 ROWS = ("active_tip", "passive_tip", "force_point")
 ACTIVE, PASSIVE = 0, 1
 DEFAULT_CUTOFF_HZ = 6000.0
+MAX_MODAL_DAMPING_RATIO = 1.0e3    # beyond: absurd, and exp(A dt) of such a mode over/underflows
 
 
 @dataclass(frozen=True)
@@ -69,6 +70,27 @@ class ReducedSystem:
     source: str = "fem"
     pseudo: np.ndarray | None = None
     bases: dict | None = field(default=None, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        om = np.asarray(self.omega, dtype=float)
+        ze = np.asarray(self.zeta, dtype=float)
+        which = lambda j: ("active" if int(np.asarray(self.blade)[j]) == ACTIVE else "passive")  # noqa: E731
+        bad = np.flatnonzero(~(np.isfinite(om) & (om > 0)))
+        if bad.size:
+            j = int(bad[0])
+            raise SimulationInputError(
+                f"natural frequency {om[j] / (2 * np.pi):g} Hz of {which(j)} mode {j + 1}: the eigen-solve "
+                f"failed (check the root springs, blade dimensions and material)")
+        bad = np.flatnonzero(~(np.isfinite(ze) & (ze >= 0) & (ze <= MAX_MODAL_DAMPING_RATIO)))
+        if bad.size:
+            j = int(bad[0])
+            raise SimulationInputError(
+                f"modal damping ratio {ze[j]:g} of {which(j)} mode {j + 1} ({om[j] / (2 * np.pi):.4g} Hz) is "
+                f"outside [0, {MAX_MODAL_DAMPING_RATIO:g}]: check [damping] (Rayleigh alpha = "
+                f"{self.damping.alpha:g} 1/s, beta = {self.damping.beta:g} s)")
+        if not np.isfinite(np.asarray(self.shapes, dtype=float)).all():
+            raise SimulationInputError("the mode shapes hold non-finite values: the eigen-solve failed "
+                                       "(check the root springs, blade dimensions and material)")
 
     @property
     def n_modes(self) -> int:

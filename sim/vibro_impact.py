@@ -15,7 +15,7 @@ outputs at the same instants.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import scipy.linalg
@@ -40,6 +40,11 @@ OUT_COLUMNS = (
 )
 N_OUT = len(OUT_COLUMNS)
 MIN_STEPS_PER_CONTACT = 20
+# contact damping c over the step: c dt / m_eff above 2 makes the end-of-step damping force
+# overshoot and the run diverge (1e4 N*s/m at the default 50 us step: 8.5, no steady state;
+# 1e5: 1e227 N); at <= 2 the contact-force harmonics agree with a 4x finer step to 0.01 %
+MAX_CONTACT_DAMPING_STEP = 2.0
+DIVERGED_DISPLACEMENT = 1.0e3    # m: no blade tip moves a kilometre
 # scalar state slots: last load at the force point, last contact force, coil current,
 # last coil voltage, last force-point velocity
 _S_F, _S_FC, _S_I, _S_V, _S_VF = range(5)
@@ -456,9 +461,30 @@ def _coil_coefficients(shaker: ShakerCoupling, dt: float) -> tuple[float, float,
     return e, c0, c1
 
 
+def effective_contact_damping(contact, force_scale: float = 100.0) -> float:
+    """Damping coefficient of the contact, N*s/m: ``c_c`` for the linear and Hertz laws; for
+    Hunt-Crossley ``c_c g^p`` at the penetration carrying ``force_scale`` newtons."""
+    if contact.law == "hunt-crossley":
+        return contact.damping * force_scale / contact.stiffness
+    return contact.damping
+
+
+def max_time_step(system: ReducedSystem, force_scale: float = 100.0,
+                  min_steps: int = MIN_STEPS_PER_CONTACT) -> tuple[float, str]:
+    """Largest admissible step, s, and what limits it (``"stiffness"`` or ``"damping"``):
+    ``min_steps`` steps per contact period, and ``c dt / m_eff <= 2`` for the contact damping."""
+    meff = system.contact_effective_mass()
+    tc = contact_period(meff, system.contact, force_scale)
+    dt_k = tc / min_steps
+    c = effective_contact_damping(system.contact, force_scale)
+    dt_c = MAX_CONTACT_DAMPING_STEP * meff / c if c > 0 else math.inf
+    return (dt_k, "stiffness") if dt_k <= dt_c else (dt_c, "damping")
+
+
 def check_time_step(system: ReducedSystem, dt: float, force_scale: float = 100.0,
                     min_steps: int = MIN_STEPS_PER_CONTACT) -> float:
-    """Refuse a step that does not resolve the contact period with ``min_steps`` steps.
+    """Refuse a step that does not resolve the contact period with ``min_steps`` steps, or
+    whose contact damping force would overshoot (``c dt / m_eff > 2``).
 
     Returns the contact period (s). ``force_scale`` (N) sets the tangent stiffness of a Hertz
     contact. Raises :class:`SimulationInputError` with one line otherwise, or for an invalid
@@ -467,12 +493,20 @@ def check_time_step(system: ReducedSystem, dt: float, force_scale: float = 100.0
     if not (dt > 0 and math.isfinite(dt)):
         raise SimulationInputError(f"time step must be > 0, got {dt}")
     validate_contact(system)    # before the contact period, which needs a positive stiffness
-    tc = contact_period(system.contact_effective_mass(), system.contact, force_scale)
+    meff = system.contact_effective_mass()
+    tc = contact_period(meff, system.contact, force_scale)
     if dt > tc / min_steps:
         raise SimulationInputError(
             f"time step {dt * 1e6:.3g} us is too coarse for the contact stiffness "
             f"{system.contact.stiffness:.3g}: the contact period {tc * 1e3:.3g} ms needs "
             f"dt <= {tc / min_steps * 1e6:.3g} us ({min_steps} steps per contact period)")
+    c = effective_contact_damping(system.contact, force_scale)
+    if c * dt > MAX_CONTACT_DAMPING_STEP * meff:
+        raise SimulationInputError(
+            f"time step {dt * 1e6:.3g} us is too coarse for the contact damping {c:.3g} N*s/m "
+            f"({c / (2 * math.sqrt(system.contact.stiffness * meff)):.3g} of critical on "
+            f"{meff * 1e3:.3g} g): it needs dt <= {MAX_CONTACT_DAMPING_STEP * meff / c * 1e6:.3g} us "
+            f"(c dt / m <= {MAX_CONTACT_DAMPING_STEP:g}); lower the contact damping or the step")
     return tc
 
 
@@ -545,12 +579,49 @@ class VibroImpactStepper:
             out = np.empty((u.size, N_OUT))
         st = self.state
         gap, kc, cc, p, code = self._contact
+        if not np.isfinite(u).all():
+            raise SimulationInputError(f"the input ({'coil voltage' if self.shaker else 'force'}) "
+                                       "holds a non-finite value")
         _kernel(self._P, self.system.omega, self.system.zeta,
                 self._phi[0], self._phi[1], self._phi[2], st.q, st.v, st.scalars, u, out, self.dt,
                 gap, kc, cc, p, code, self._shaker, self.events)
+        if not (np.isfinite(out).all() and np.abs(out[:, [0, 3, 6]]).max(initial=0.0) < DIVERGED_DISPLACEMENT):
+            bad = int(np.argmin(np.isfinite(out).all(axis=1) & (np.abs(out[:, [0, 3, 6]]).max(axis=1)
+                                                               < DIVERGED_DISPLACEMENT)))
+            # the values the kernel ran with (the same as system.contact unless overridden)
+            ran = _ContactSystem(self.system, replace(self.system.contact, gap=gap, stiffness=kc, damping=cc))
+            raise SimulationDivergedError(diverged_message(ran, self.dt, st.time + self.dt * (bad + 1)))
         t = st.time + self.dt * np.arange(1, u.size + 1)
         st.time = st.time + self.dt * u.size
         return StepOutput(t, out)
+
+
+class _ContactSystem:
+    """A system seen with other contact values (for :func:`diverged_message`)."""
+
+    def __init__(self, system, contact):
+        self._system = system
+        self.contact = contact
+        self.zeta = getattr(system, "zeta", np.zeros(1))
+
+    def contact_effective_mass(self) -> float:
+        return self._system.contact_effective_mass()
+
+
+def diverged_message(system, dt: float, time: float) -> str:
+    """One line naming the parameters that most likely made a run diverge at ``time``."""
+    c = system.contact
+    meff = system.contact_effective_mass()
+    zeta_c = effective_contact_damping(c) / (2 * math.sqrt(c.stiffness * meff))
+    suspects = []
+    if zeta_c > 1:
+        suspects.append(f"contact damping {c.damping:.3g} ({zeta_c:.3g} of critical)")
+    zeta = getattr(system, "zeta", np.zeros(1))
+    if np.max(zeta) > 10:
+        suspects.append(f"modal damping (ratio up to {np.max(zeta):.3g}: Rayleigh alpha/beta?)")
+    suspects.append(f"contact stiffness {c.stiffness:.3g} N/m and time step {dt * 1e6:.3g} us")
+    return (f"the simulation diverged (non-finite or > {DIVERGED_DISPLACEMENT:g} m displacement) at "
+            f"t = {time:.6g} s; likely cause: {'; '.join(suspects)}")
 
 
 def validate_contact(system: ReducedSystem) -> None:
@@ -652,10 +723,14 @@ class VibroImpactRun:
 def steps_per_period_for(system: ReducedSystem, fe: float, steps_per_contact: int = DEFAULT_STEPS_PER_CONTACT,
                          force_scale: float = 100.0, k_max: int = 30) -> int:
     """Integer steps per excitation period giving at least ``steps_per_contact`` steps per
-    contact period and a sample rate of at least ``4 * k_max * fe``."""
+    contact period, ``c dt / m_eff <= 1`` for the contact damping ``c`` and a sample rate of at
+    least ``4 * k_max * fe``."""
     tc = contact_period(system.contact_effective_mass(), system.contact, force_scale)
     n = math.ceil(steps_per_contact / (fe * tc) - 1e-9)
-    return max(n, 4 * k_max)
+    # and c dt / m_eff <= 1 for the contact damping (half the limit of check_time_step)
+    c = effective_contact_damping(system.contact, force_scale)
+    n_c = math.ceil(c / (fe * system.contact_effective_mass()) - 1e-9) if c > 0 else 0
+    return max(n, n_c, 4 * k_max)
 
 
 def validate_harmonic_input(fe: float, force_amplitude: float, gap: float | None = None) -> None:
