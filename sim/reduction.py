@@ -331,3 +331,17 @@ def reduced_system(params: RigParams, model: str = "fem", cutoff_hz: float = DEF
         # all shapes are kept: the AM has no static correction, its higher shapes supply it
         return reduce_assumed_modes(act, pas, params)
     raise ValueError(f"model must be 'fem' or 'am', got {model!r}")
+
+
+# Rough cost of building and reducing the FE model (dense eigen-solves of both blades), measured
+# on the reference machine (2 shared cores, 2026): 1.4 / 5.0 / 14.2 s at 100 / 200 / 400
+# elements per blade (issue 8 saw 230 s at 2000). Only for telling a user up front.
+_REDUCTION_SECONDS_AT_100 = 1.4
+_REDUCTION_EXPONENT = 1.7
+
+
+def estimate_reduction_seconds(params: RigParams) -> float:
+    """Rough wall time, s, of :func:`reduced_system` with the FE model for ``params``
+    (``1.4 s * (elements / 100) ** 1.7``, elements averaged over both blades)."""
+    elements = 0.5 * (params.active.elements + params.passive.elements)
+    return _REDUCTION_SECONDS_AT_100 * (elements / 100.0) ** _REDUCTION_EXPONENT
