@@ -95,3 +95,23 @@ def test_contact_force_harmonics_of_a_known_piecewise_linear_force():
         im = quad(lambda t: -g(t) * np.sin(w * t), t0, t1, points=pts, limit=200, epsabs=1e-14)[0]
         want = 2 * fe * (re + 1j * im)
         assert got[k - 1] == pytest.approx(want, rel=1e-9, abs=1e-12)
+
+
+def test_hunt_crossley_rig_run(system):
+    """The default rig with a Hunt-Crossley contact (1e8 N/m^1.5, restitution 0.36 at 0.3 m/s:
+    c_c = 8.09e8 N*s/m^2.5): exact harmonics against the passive-blade route (0.01 %), energy
+    balance over the record (0.2 %; measured 0.04 %, the contact dissipation is summed by the
+    trapezoid rule), and the same harmonics at half the step (0.05 %; measured 0.008 %)."""
+    from sim.contact import hunt_crossley_damping
+
+    cc = hunt_crossley_damping(1e8, 0.36, 0.3)
+    assert cc == pytest.approx(8.09e8, rel=1e-3)
+    sy = system.with_contact(law="hunt-crossley", stiffness=1e8, damping=cc)
+    run = run_harmonic(sy, FE, F0, tol=1e-8)
+    assert run.steady_state and run.impacts_per_period > 0
+    exact = contact_force_harmonics(run, 10)
+    ref = through_passive_blade(run, sy, 10)
+    assert np.max(np.abs(exact - ref) / np.abs(ref)) < 1e-4
+    assert abs(run.energy_balance()["imbalance"]) < 2e-3
+    half = run_harmonic(sy, FE, F0, steps_per_period=2 * run.steps_per_period, initial=run.final_state)
+    np.testing.assert_allclose(np.abs(contact_force_harmonics(half, 10)), np.abs(exact), rtol=5e-4)
