@@ -137,12 +137,63 @@ _FAST = {"reassoc", "contract", "arcp", "nsz"}   # no nnan/ninf: keep comparison
 
 
 @njit(cache=True)
+def _props_series(w, z, tau, P, j):
+    """Column ``j`` of :func:`_props` from the power series of ``M = A tau``:
+    ``exp(M) = sum M^k/k!``, ``Gamma1 = tau sum M^k/(k+1)! b``, ``Gamma2 = tau sum M^k/(k+2)! b``
+    with ``b = (0, 1)`` (constant and ramp input)."""
+    m10 = -w * w * tau
+    m11 = -2.0 * z * w * tau
+    # M^k = [[a, b], [c, d]], starting at the identity
+    a = 1.0
+    b = 0.0
+    c = 0.0
+    d = 1.0
+    e00 = 0.0
+    e01 = 0.0
+    e10 = 0.0
+    e11 = 0.0
+    g1q = 0.0
+    g1v = 0.0
+    g2q = 0.0
+    g2v = 0.0
+    fk = 1.0                  # 1 / k!
+    for k in range(25):       # the scaled norm w tau (1 + 2 zeta) < 0.5: 0.5^25 / 25! ~ 2e-33
+        f1 = fk / (k + 1)     # 1 / (k+1)!
+        f2 = f1 / (k + 2)     # 1 / (k+2)!
+        e00 += a * fk
+        e01 += b * fk
+        e10 += c * fk
+        e11 += d * fk
+        g1q += b * f1
+        g1v += d * f1
+        g2q += b * f2
+        g2v += d * f2
+        # M^(k+1) = M^k M with M = [[0, tau], [m10, m11]]
+        a, b, c, d = b * m10, a * tau + b * m11, d * m10, c * tau + d * m11
+        fk = f1
+    P[0, j] = e00
+    P[1, j] = e01
+    P[2, j] = e10
+    P[3, j] = e11
+    P[4, j] = tau * (g1q - g2q)
+    P[5, j] = tau * (g1v - g2v)
+    P[6, j] = tau * g2q
+    P[7, j] = tau * g2v
+
+
+@njit(cache=True)
 def _props(omega, zeta, tau, P):
     """Exact FOH propagators for a step ``tau`` into ``P (8, n)``: rows e00 e01 e10 e11 g0q g0v
-    g1q g1v (closed form of ``exp(A tau)`` from the eigenvalues of each oscillator)."""
+    g1q g1v (closed form of ``exp(A tau)`` from the eigenvalues of each oscillator; for a step
+    short against the oscillator, ``w tau (1 + 2 zeta) < 0.5``, the power series of ``exp``,
+    ``phi1`` and ``phi2`` instead, where the closed form cancels: at 50 ns, the step of a
+    1e12 N/m contact, it lost 0.3 % on the load terms of a 53 Hz mode)."""
     for j in range(omega.size):
         w = omega[j]
         z = zeta[j]
+        if w * tau * (1.0 + 2.0 * z) < 0.5:
+            _props_series(w, z, tau, P, j)
+            continue
         if abs(z - 1.0) < 1e-7:
             z = 1.0 + 1e-7        # the critically damped limit, nudged off the double root
         root = np.sqrt(complex(z * z - 1.0))

@@ -50,6 +50,20 @@ def test_compiled_propagators_match_matrix_exponential(zeta):
         np.testing.assert_allclose(P / scale, ref / scale, atol=1e-9)
 
 
+@pytest.mark.parametrize("zeta", [0.0, 0.01, 0.7, 3.0])
+def test_compiled_propagators_keep_their_precision_on_short_steps(zeta):
+    """Entry by entry (not against the column's largest): a 1e12 N/m contact needs 50 ns steps,
+    where the closed form lost 0.3 % on the load terms of the 53 Hz mode (series used there)."""
+    om = 2 * np.pi * np.array([53.2, 361.9, 7331.0, 17000.0])
+    ze = np.full(om.size, zeta)
+    for tau in (5e-9, 5e-8, 5e-7, 5e-6, 5e-5):
+        E, G0, G1 = foh_propagators(om, ze, tau)
+        P = np.empty((8, om.size))
+        _props(om, ze, tau, P)
+        ref = np.vstack([E[:, 0, 0], E[:, 0, 1], E[:, 1, 0], E[:, 1, 1], G0[:, 0], G0[:, 1], G1[:, 0], G1[:, 1]])
+        np.testing.assert_allclose(P, ref, rtol=1e-9, atol=1e-300)
+
+
 def test_propagators_match_closed_form():
     w, h = 2 * np.pi * 300.0, 1e-4
     E, G0, G1 = foh_propagators(np.array([w]), np.array([0.0]), h)
