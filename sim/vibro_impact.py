@@ -1003,12 +1003,15 @@ class CostEstimate:
     total_steps: int           # (settle + record) * steps_per_period
     mode_steps: int            # total_steps * n_modes: the kernel's work
     seconds: float             # rough wall time at SECONDS_PER_MODE_STEP
+    worst_case_steps: int      # if the run never settles: max_settle_time, then the record
+    worst_case_seconds: float
 
     def describe(self) -> str:
-        """One line for a user, e.g. ``'~2.1e+08 steps (3.3e+06 per period, set by the contact
-        stiffness), about 90 s'``."""
+        """One line for a user, e.g. ``'~7.5e+07 steps (3.27e+05 per period, set by the contact
+        stiffness), about 32 s (up to 4.6e+02 s if it does not settle)'``."""
         return (f"~{self.total_steps:.2g} steps ({self.steps_per_period:.3g} per period, set by the "
-                f"{self.limited_by}), about {self.seconds:.2g} s")
+                f"{self.limited_by}), about {self.seconds:.2g} s (up to {self.worst_case_seconds:.2g} s "
+                f"if it does not settle)")
 
 
 def estimate_steps(system: ReducedSystem, fe: float, force_amplitude: float = 0.0, *,
@@ -1019,7 +1022,9 @@ def estimate_steps(system: ReducedSystem, fe: float, force_amplitude: float = 0.
     Steps per period as :func:`run_harmonic` chooses them; settling time from the slowest
     decaying flexural mode, ``ln(1 / tol) / min(zeta_j w_j)`` (an upper bound in practice: the
     contact damping only speeds settling; measured on the default rig at 60 Hz: 3.1-4.3 s against
-    3.4 s estimated), capped at ``max_settle_time``, rounded up to ``check_every`` periods.
+    3.4 s estimated), capped at ``max_settle_time``, rounded up to ``check_every`` periods. A
+    run that never settles (a nearly elastic contact, e.g. 1e12 N/m with 200 N*s/m: 4e-4 of
+    critical) runs for ``max_settle_time``: ``worst_case_steps``.
     Arguments as :func:`run_harmonic`. Raises :class:`SimulationInputError` for invalid input.
     """
     validate_harmonic_input(fe, force_amplitude, system.contact.gap)
@@ -1043,6 +1048,10 @@ def estimate_steps(system: ReducedSystem, fe: float, force_amplitude: float = 0.
     periods = max(check_every, int(math.ceil(t_settle * fe / check_every)) * check_every)
     total = (periods + int(record_periods)) * n
     mode_steps = total * system.n_modes
+    max_periods = max(int(math.ceil(max_settle_time * fe)), check_every)
+    worst = (int(math.ceil(max_periods / check_every)) * check_every + int(record_periods)) * n
     return CostEstimate(steps_per_period=n, limited_by=limited, time_step=1.0 / (fe * n),
                         settle_periods=periods, record_periods=int(record_periods), total_steps=total,
-                        mode_steps=mode_steps, seconds=mode_steps * SECONDS_PER_MODE_STEP)
+                        mode_steps=mode_steps, seconds=mode_steps * SECONDS_PER_MODE_STEP,
+                        worst_case_steps=worst,
+                        worst_case_seconds=worst * system.n_modes * SECONDS_PER_MODE_STEP)

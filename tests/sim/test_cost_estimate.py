@@ -42,6 +42,9 @@ def test_stiff_contact_is_flagged_before_running(system):
     tc = 2 * math.pi * math.sqrt(system.contact_effective_mass() / 1e12)
     assert est.steps_per_period == math.ceil(30 / (60.0 * tc))
     assert est.total_steps > 5e7 and est.seconds > 10
+    # it does not settle in 30 s (measured: nearly elastic contact, 4e-4 of critical): worst case
+    assert est.worst_case_steps == (1800 + 20) * est.steps_per_period
+    assert est.worst_case_seconds > 200        # issue 8 measured 255 s
     with pytest.raises(SimulationInputError, match="frequency"):
         estimate_steps(system, -1.0)
 
