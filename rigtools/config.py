@@ -143,7 +143,7 @@ class ContactConfig(_Section):
     gap: Length = Field(ge=0, le=MAX_GAP)
     stiffness: Stiffness = Field(gt=0, le=1e12)
     damping: Damping = Field(default=0.0, ge=0)
-    law: Literal["linear", "hertz"] = "linear"
+    law: Literal["linear", "hertz", "hunt-crossley"] = "linear"
 
 
 class DampingConfig(_Section):

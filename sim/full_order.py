@@ -36,7 +36,10 @@ from numba import njit
 from sim.contact import law_code, solve_contact
 from sim.params import ContactParams
 from sim.rig_model import RigModel
-from sim.vibro_impact import OUT_COLUMNS, N_OUT, SimulationInputError, check_time_step
+from sim.vibro_impact import (
+    DIVERGED_DISPLACEMENT, N_OUT, OUT_COLUMNS, SimulationDivergedError, SimulationInputError,
+    check_time_step, diverged_message,
+)
 
 # outputs: the same columns as the fast stepper (coil current always zero)
 
@@ -176,6 +179,12 @@ def _hht_modal(omega, cdiag, rA, rP, rF, u, v, a, s, force, out, dt, alpha,
         out[i, 12] = pd
         gd = va - vpp
         out[i, 13] = cc * gd * gd if (lam > 0.0 and cc > 0.0 and lam - cc * gd > 0.0) else 0.0
+        if code == 2:
+            g_end = xa - xp - gap
+            out[i, 13] = cc * g_end**pexp * gd * gd if (lam > 0.0 and g_end > 0.0) else 0.0
+        out[i, 14] = 1.0        # no events: the force is taken linear over every step
+        out[i, 15] = lam
+        out[i, 16] = lam
 
 
 class FullOrderIntegrator:
@@ -276,6 +285,8 @@ class FullOrderIntegrator:
             out[i, 9] = lam
             out[i, 10] = F_new
             out[i, 12] = float(v1 @ (self._C @ v1))
+            out[i, 14] = 1.0
+            out[i, 15:17] = lam
 
     # ----------------------------------------------------------------------------- stepping
     def step(self, force: np.ndarray) -> np.ndarray:
@@ -290,6 +301,9 @@ class FullOrderIntegrator:
                        gap, kc, cc, p, code)
         else:
             self._step_physical(force, out)
+        if not (np.isfinite(out).all() and np.abs(out[:, [0, 3, 6]]).max(initial=0.0) < DIVERGED_DISPLACEMENT):
+            raise SimulationDivergedError(diverged_message(_ContactView(self.system.contact_effective_mass(),
+                                                                        self.contact), self.dt, self.time))
         self.time += self.dt * force.size
         return out
 

@@ -21,7 +21,7 @@ import numpy as np
 import scipy.linalg
 import scipy.sparse.linalg as spla
 
-from sim.params import ContactParams, DampingParams, RigParams
+from sim.params import ContactParams, DampingParams, RigParams, SimulationInputError
 
 if TYPE_CHECKING:   # imported lazily at run time: these build on the FE and AM modules
     from sim.analytical import AssumedModesBlade
@@ -30,6 +30,7 @@ if TYPE_CHECKING:   # imported lazily at run time: these build on the FE and AM 
 ROWS = ("active_tip", "passive_tip", "force_point")
 ACTIVE, PASSIVE = 0, 1
 DEFAULT_CUTOFF_HZ = 6000.0
+MAX_MODAL_DAMPING_RATIO = 1.0e3    # beyond: absurd, and exp(A dt) of such a mode over/underflows
 
 
 @dataclass(frozen=True)
@@ -69,6 +70,27 @@ class ReducedSystem:
     source: str = "fem"
     pseudo: np.ndarray | None = None
     bases: dict | None = field(default=None, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        om = np.asarray(self.omega, dtype=float)
+        ze = np.asarray(self.zeta, dtype=float)
+        which = lambda j: ("active" if int(np.asarray(self.blade)[j]) == ACTIVE else "passive")  # noqa: E731
+        bad = np.flatnonzero(~(np.isfinite(om) & (om > 0)))
+        if bad.size:
+            j = int(bad[0])
+            raise SimulationInputError(
+                f"natural frequency {om[j] / (2 * np.pi):g} Hz of {which(j)} mode {j + 1}: the eigen-solve "
+                f"failed (check the root springs, blade dimensions and material)")
+        bad = np.flatnonzero(~(np.isfinite(ze) & (ze >= 0) & (ze <= MAX_MODAL_DAMPING_RATIO)))
+        if bad.size:
+            j = int(bad[0])
+            raise SimulationInputError(
+                f"modal damping ratio {ze[j]:g} of {which(j)} mode {j + 1} ({om[j] / (2 * np.pi):.4g} Hz) is "
+                f"outside [0, {MAX_MODAL_DAMPING_RATIO:g}]: check [damping] (Rayleigh alpha = "
+                f"{self.damping.alpha:g} 1/s, beta = {self.damping.beta:g} s)")
+        if not np.isfinite(np.asarray(self.shapes, dtype=float)).all():
+            raise SimulationInputError("the mode shapes hold non-finite values: the eigen-solve failed "
+                                       "(check the root springs, blade dimensions and material)")
 
     @property
     def n_modes(self) -> int:
@@ -309,3 +331,17 @@ def reduced_system(params: RigParams, model: str = "fem", cutoff_hz: float = DEF
         # all shapes are kept: the AM has no static correction, its higher shapes supply it
         return reduce_assumed_modes(act, pas, params)
     raise ValueError(f"model must be 'fem' or 'am', got {model!r}")
+
+
+# Rough cost of building and reducing the FE model (dense eigen-solves of both blades), measured
+# on the reference machine (2 shared cores, 2026): 1.4 / 5.0 / 14.2 s at 100 / 200 / 400
+# elements per blade (issue 8 saw 230 s at 2000). Only for telling a user up front.
+_REDUCTION_SECONDS_AT_100 = 1.4
+_REDUCTION_EXPONENT = 1.7
+
+
+def estimate_reduction_seconds(params: RigParams) -> float:
+    """Rough wall time, s, of :func:`reduced_system` with the FE model for ``params``
+    (``1.4 s * (elements / 100) ** 1.7``, elements averaged over both blades)."""
+    elements = 0.5 * (params.active.elements + params.passive.elements)
+    return _REDUCTION_SECONDS_AT_100 * (elements / 100.0) ** _REDUCTION_EXPONENT

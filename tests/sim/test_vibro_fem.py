@@ -96,9 +96,9 @@ def test_fem_and_am_vibro_impact_agree(model, fem_run):
 ])
 def test_invalid_physical_input_is_refused_with_one_line(model, kwargs, match):
     system = reduced_system(model.params, rig_model=model)
-    if "gap" in kwargs:
-        system = system.with_contact(gap=kwargs.pop("gap"))
     args = {"fe": FE, "force_amplitude": F0, **kwargs}
     with pytest.raises(SimulationInputError, match=match) as err:
+        if "gap" in kwargs:         # refused by ContactParams itself
+            system = system.with_contact(gap=args.pop("gap"))
         run_harmonic(system, args.pop("fe"), args.pop("force_amplitude"), **args)
     assert "\n" not in str(err.value)
