@@ -201,15 +201,18 @@ def _say(line: str) -> None:
 
 
 def _driver_error_code(exc: BaseException) -> int | None:
-    """3 for drivers.DriverUnavailable, 4 for another drivers.DriverError, None otherwise.
-    drivers.contracts is only consulted if something already imported it."""
+    """3 for drivers.DriverUnavailable, 4 for another drivers.DriverError, 2 for a
+    sim.params.SimulationInputError (physics parameters a user gave, or a run they made diverge),
+    None otherwise. Those modules are only consulted if something already imported them."""
     contracts = sys.modules.get("drivers.contracts")
-    if contracts is None:
-        return None
-    if isinstance(exc, contracts.DriverUnavailable):
-        return errors.EXIT_HARDWARE
-    if isinstance(exc, contracts.DriverError):
-        return errors.EXIT_FAULT
+    if contracts is not None:
+        if isinstance(exc, contracts.DriverUnavailable):
+            return errors.EXIT_HARDWARE
+        if isinstance(exc, contracts.DriverError):
+            return errors.EXIT_FAULT
+    params = sys.modules.get("sim.params")
+    if params is not None and isinstance(exc, params.SimulationInputError):
+        return errors.EXIT_USAGE
     return None
 
 

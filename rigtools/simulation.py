@@ -190,9 +190,15 @@ def harmonics_of(run) -> dict[str, list[dict]]:
     """k = 1..30 harmonics (peak amplitudes) of the reported channels:
     ``{channel: [{"k", "frequency_hz", "amplitude"}, ...]}``."""
     from analysis.harmonics import derivative_harmonics, harmonic_amplitudes
+    from sim.vibro_impact import contact_force_harmonics
 
     out = {}
     for name, (src, order) in HARMONIC_SOURCES.items():
+        if src == "contact_force":       # exact from the per-step force (it jumps between samples)
+            c = np.abs(contact_force_harmonics(run, K_MAX))
+            out[name] = [{"k": k, "frequency_hz": k * run.fe, "amplitude": float(c[k - 1])}
+                         for k in range(1, K_MAX + 1)]
+            continue
         fit = harmonic_amplitudes(run.outputs[src], run.sample_rate, run.fe, K_MAX)
         if order:
             fit = derivative_harmonics(fit, order)
