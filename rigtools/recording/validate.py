@@ -329,6 +329,17 @@ def _check_once(path: str | os.PathLike, read_data: bool) -> CheckResult:
     from rigtools.recording.reader import open_h5   # the reader's tolerant opener
 
     f, opened_as = open_h5(path)
+    try:
+        return _check_file(f, path, opened_as, read_data)
+    except (OSError, RuntimeError, KeyError, ValueError) as exc:
+        raise RecordingError(f"{path}: damaged HDF5 structure ({' '.join(str(exc).split())})") \
+            from None
+    finally:
+        f.close()
+
+
+def _check_file(f: h5py.File, path: str | os.PathLike, opened_as: str,
+                read_data: bool) -> CheckResult:
     result = CheckResult(str(path), opened_as=opened_as)
     try:
         try:
