@@ -11,10 +11,16 @@ from rigtools.recording import RecordingError, check_recording
 HELP = """\
 Check that FILE is a valid rigtools recording (docs/recording-format.md): schema name and
 version, root/point/channel attributes, point numbering, equal channel lengths and sample rates
-within each point, and (unless --quick) that every sample can be read.
+within each point, and (unless --quick) that every sample can be read and is finite.
+
+A file being written (its writer is running) is checked as it is: "being written now" is
+noted and the open point's unflushed tail is not an error. NaN or infinite samples in a point
+its writer ended are errors; a point that never ended (writer killed, write error) is noted
+as incomplete.
 
 Exit status: 0 valid (notes such as "incomplete: status is 'recording'" may be printed),
-1 invalid (one line per problem), 2 unreadable (missing, truncated, not HDF5).
+1 invalid (one line per problem), 2 unreadable (missing, truncated, not HDF5) or written by a
+newer rigtools (schema_version above the one this version reads: upgrade rigtools).
 
 examples:
   rig check recordings/run.h5

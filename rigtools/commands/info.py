@@ -9,9 +9,10 @@ from typing import Any
 from rigtools.recording import Recording, open_recording
 
 HELP = """\
-Summarise a recording: status (complete / aborted with its reason / recording = writer running
-or killed), backend, software and schema versions, the channels (quantity, units, sample rate,
-sensor) and one row per point with its parameters, samples and duration.
+Summarise a recording: status (complete / aborted with its reason / recording = being written
+now, or its writer was killed), backend, software and schema versions, the channels (quantity,
+units, sample rate, sensor) and one row per point with its parameters, samples and duration.
+A point shown "incomplete" was cut off (writer killed or a write error): do not count it.
 
 examples:
   rig info recordings/run.h5
@@ -49,13 +50,23 @@ def summary(rec: Recording) -> dict[str, Any]:
         "abort_reason": rec.abort_reason, "backend": rec.backend, "created": rec.created,
         "ended": rec.ended, "software_version": rec.software_version,
         "schema_version": rec.schema_version, "opened_as": rec.opened_as,
-        "experiment": rec.experiment,
+        "writer": rec.writer, "experiment": rec.experiment,
         "channels": list(channels.values()),
         "points": [{"index": p.index, "params": p.params, "start_time": p.start_time,
-                    "end_time": p.end_time, "ended": p.ended, "n_samples": p.n_samples,
+                    "end_time": p.end_time, "ended": p.ended, "complete": p.complete,
+                    "state": _point_state(rec, p), "n_samples": p.n_samples,
                     "duration_s": p.duration, "channels": list(p.channels)} for p in rec.points],
         "total_duration_s": sum(p.duration for p in rec.points),
     }
+
+
+def _point_state(rec: Recording, point) -> str:
+    """``complete``, ``in progress`` (the live writer's open point) or ``incomplete``."""
+    if point.complete:
+        return "complete"
+    if rec.writer is not None and rec.points and point is rec.points[-1]:
+        return "in progress"
+    return "incomplete"
 
 
 def _format_params(params: dict[str, Any]) -> str:
@@ -88,8 +99,10 @@ def run(args: argparse.Namespace) -> int:
     status = f"[{colour}]{info['status']}[/{colour}]"
     if info["status"] == "aborted":
         status += f" ({info['abort_reason']})"
+    elif info["status"] == "recording" and info["writer"]:
+        status += f" (being written now: {info['writer']}; showing what is there)"
     elif info["status"] == "recording":
-        status += " (incomplete: writer running or killed)"
+        status += " (incomplete: the writer stopped without closing the file)"
     console.print(f"[bold]{info['path']}[/bold]  status {status}")
     console.print(f"backend {info['backend']}, created {info['created']}, "
                   f"rigtools {info['software_version']}, schema v{info['schema_version']}"
@@ -106,10 +119,11 @@ def run(args: argparse.Namespace) -> int:
     console.print(table)
 
     table = Table(title="points")
-    for column in ("point", "parameters", "samples", "duration (s)", "ended"):
+    for column in ("point", "parameters", "samples", "duration (s)", "state"):
         table.add_column(column, justify="right" if column in ("samples", "duration (s)") else "left")
     for p in info["points"]:
         table.add_row(f"{p['index']:04d}", _format_params(p["params"]), str(p["n_samples"]),
-                      f"{p['duration_s']:.3f}", "yes" if p["ended"] else "[yellow]no[/yellow]")
+                      f"{p['duration_s']:.3f}",
+                      p["state"] if p["complete"] else f"[yellow]{p['state']}[/yellow]")
     console.print(table)
     return 0

@@ -26,6 +26,7 @@ from rigtools.recording.schema import (
     point_index,
     python_value,
 )
+from rigtools.recording.lock import writer_alive
 from rigtools.recording.superblock import FlagClearedFile, consistency_flags
 from rigtools.recording.validate import AttrCache, Unreadable, find_problems
 
@@ -60,7 +61,9 @@ def open_h5(path: str | os.PathLike) -> tuple[h5py.File, str]:
     if not p.is_file():
         raise RecordingError(f"{p}: not a file")
     last: OSError | None = None
-    for attempt in range(4):
+    # A live writer (it holds the lock) adds structure for a few ms at a time: wait for it longer.
+    attempts = 40 if writer_alive(p) else 4
+    for attempt in range(attempts):
         try:
             return h5py.File(p, "r"), "clean"
         except OSError as exc:
@@ -70,14 +73,18 @@ def open_h5(path: str | os.PathLike) -> tuple[h5py.File, str]:
                 return h5py.File(p, "r", locking=False), "clean"
             except OSError as exc:
                 last = exc
-        if "already open for write" not in str(last):
+        # A writer stopped by a write error HDF5 saw leaves the file shorter than HDF5's end of
+        # allocation with its SWMR flags set; SWMR-read mode reads what is there. (Not tried on a
+        # cleanly closed file cut short: HDF5's SWMR reader can retry forever on one.)
+        truncated_open = "truncated file" in str(last) and _flags_set(p)
+        if "already open for write" not in str(last) and not truncated_open:
             break
         try:
             return h5py.File(p, "r", swmr=True), "swmr"
         except OSError as exc:
             last = exc
         # A live writer adds a point for a few ms in plain write mode: wait, then assume it died.
-        time.sleep(0.05 * (attempt + 1))
+        time.sleep(min(0.05 * (attempt + 1), 0.2))
     if "already open for write" in str(last) or "not already open for SWMR" in str(last):
         try:
             if consistency_flags(p):
@@ -94,6 +101,13 @@ def open_h5(path: str | os.PathLike) -> tuple[h5py.File, str]:
         raise RecordingError(f"{p}: truncated HDF5 file ({truncated.group(1)} of "
                              f"{truncated.group(2)} bytes present)") from None
     raise RecordingError(f"{p}: unreadable HDF5 file ({reason})") from None
+
+
+def _flags_set(path: Path) -> bool:
+    try:
+        return bool(consistency_flags(path))
+    except OSError:
+        return False
 
 
 def _attrs(obj: h5py.HLObject, cache: AttrCache | None) -> dict[str, Any]:
@@ -206,6 +220,13 @@ class Point:
         return bool(self.end_time)
 
     @property
+    def complete(self) -> bool:
+        """True if the point was ended by its writer: all its samples and end-of-point parameters
+        were written. False for a point still being written or cut off (writer killed, write
+        error); such a point must not be counted as a valid measurement."""
+        return bool(self.end_time)
+
+    @property
     def n_samples(self) -> int:
         """Samples per channel (the shortest channel, if a killed writer left them uneven)."""
         return min((len(c) for c in self.channels.values()), default=0)
@@ -251,6 +272,9 @@ class Recording:
     points : list of Point
     opened_as : str
         How HDF5 had to open the file: ``"clean"``, ``"swmr"`` or ``"flags-cleared"``.
+    writer : str or None
+        The live writer holding the file's lock (``"pid 4242 on labpc since ..."``) when the file
+        was opened, else None. ``status == "recording"`` with no writer means it was killed.
     """
 
     def __init__(self, f: h5py.File, path: str, opened_as: str, cache: AttrCache | None = None):
@@ -271,6 +295,17 @@ class Recording:
         group = f[POINTS_GROUP]
         names = sorted((n for n in group if point_index(n) is not None), key=int)
         self.points: list[Point] = [Point(group[n], path, cache) for n in names]
+        self.writer: str | None = None
+
+    @property
+    def writing(self) -> bool:
+        """True if a writer was running on the file when it was opened."""
+        return self.writer is not None
+
+    @property
+    def complete_points(self) -> list[Point]:
+        """The points their writer ended (:attr:`Point.complete`): the ones to analyse."""
+        return [p for p in self.points if p.complete]
 
     def __repr__(self) -> str:
         return (f"<Recording {self.path}: {self.status}, backend {self.backend}, "
@@ -365,6 +400,26 @@ def open_recording(path: str | os.PathLike) -> Recording:
         One line: missing or unreadable file (truncated, not HDF5), another schema, a newer
         ``schema_version``, or a missing/invalid required attribute.
     """
+    deadline = time.monotonic() + LIVE_RETRY_S
+    while True:
+        writer = writer_alive(path)
+        try:
+            rec = _open_once(path)
+        except RecordingError:
+            # A live writer between two states of the file (closing/reopening it between
+            # points) can make one look damaged for a moment: look again.
+            if writer is None or writer_alive(path) is None or time.monotonic() > deadline:
+                raise
+            time.sleep(0.05)
+            continue
+        rec.writer = writer if writer is not None else writer_alive(path)
+        return rec
+
+
+LIVE_RETRY_S = 3.0     # how long a reader retries a file its live writer is changing
+
+
+def _open_once(path: str | os.PathLike) -> Recording:
     f, opened_as = open_h5(path)
     try:
         cache = AttrCache()

@@ -87,6 +87,17 @@ class RecordingError(UserError):
     """A recording file that cannot be created, opened or trusted; the message is one line."""
 
 
+class RecordingWriteError(RecordingError):
+    """Writing a recording failed in the operating system (disk full, quota, file too large, I/O).
+
+    The message names the file and the OS error on one line. Everything flushed before stays
+    readable; the writer marked the file ``aborted`` with this message where the disk still
+    allowed it. Exit status 4 (a fault stopped the run).
+    """
+
+    exit_code = 4
+
+
 def point_name(index: int) -> str:
     """Group name of point ``index``: ``"0000"``, ``"0001"``, ... (at least four digits)."""
     return f"{index:04d}"

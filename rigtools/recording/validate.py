@@ -12,6 +12,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import time
 from dataclasses import asdict, dataclass, field
 from numbers import Real
 from typing import Any
@@ -39,6 +40,7 @@ from rigtools.recording.schema import (
 
 ERROR = "error"
 NOTE = "note"
+NEWER_PREFIX = "schema_version "      # start of the one message that means "file is newer"
 
 
 @dataclass(frozen=True)
@@ -131,7 +133,7 @@ def find_problems(f: h5py.File, cache: AttrCache | None = None) -> list[Problem]
     if version is None:
         return out
     if version > SCHEMA_VERSION:
-        return [Problem("/", f"schema_version {version} is newer than this rigtools "
+        return [Problem("/", f"{NEWER_PREFIX}{version} is newer than this rigtools "
                              f"{rigtools.__version__} reads (up to {SCHEMA_VERSION}); upgrade rigtools",
                         fatal=True)]
     if version < 1:
@@ -269,6 +271,7 @@ class CheckResult:
     n_points: int = 0
     n_channels: int = 0
     opened_as: str = ""
+    writer: str | None = None
 
     @property
     def valid(self) -> bool:
@@ -277,21 +280,66 @@ class CheckResult:
     def to_dict(self) -> dict[str, Any]:
         return {"path": self.path, "valid": self.valid, "status": self.status,
                 "points": self.n_points, "channels": self.n_channels, "opened_as": self.opened_as,
-                "problems": [asdict(p) for p in self.problems]}
+                "writer": self.writer, "problems": [asdict(p) for p in self.problems]}
 
 
 def check_recording(path: str | os.PathLike, read_data: bool = True) -> CheckResult:
     """Validate a file: schema, version, attributes, channel lengths and rates, and (with
     ``read_data``) that every sample can be read.
 
+    A file being written (its writer holds the lock) is checked as it is: the open point's
+    unflushed tail is only noted, and a check that meets the file between two of the writer's
+    states (it closes and reopens the file between points) is repeated.
+
     Raises
     ------
     RecordingError
-        If the file cannot be opened as HDF5 at all (missing, truncated, not HDF5).
+        If the file cannot be opened as HDF5 at all (missing, truncated, not HDF5), or it has a
+        newer ``schema_version`` than this rigtools reads (it cannot be checked; exit 2).
     """
+    from rigtools.recording.lock import writer_alive
+    from rigtools.recording.reader import LIVE_RETRY_S
+
+    deadline = time.monotonic() + LIVE_RETRY_S
+    while True:
+        writer = writer_alive(path)
+        try:
+            result = _check_once(path, read_data)
+        except RecordingError:
+            if writer is None or writer_alive(path) is None or time.monotonic() > deadline:
+                raise
+            time.sleep(0.05)
+            continue
+        if writer is not None and not result.valid and time.monotonic() <= deadline \
+                and writer_alive(path) is not None:
+            time.sleep(0.05)
+            continue
+        break
+    result.writer = writer
+    if result.status == "recording":
+        result.problems = [p for p in result.problems if not p.message.startswith("incomplete:")]
+        result.problems.append(Problem("/", "incomplete: status is 'recording': " + (
+            f"being written now ({writer}); showing what is there" if writer else
+            "the writer stopped without closing the file (killed, crashed or a write error)"),
+            severity=NOTE))
+    return result
+
+
+def _check_once(path: str | os.PathLike, read_data: bool) -> CheckResult:
     from rigtools.recording.reader import open_h5   # the reader's tolerant opener
 
     f, opened_as = open_h5(path)
+    try:
+        return _check_file(f, path, opened_as, read_data)
+    except (OSError, RuntimeError, KeyError, ValueError) as exc:
+        raise RecordingError(f"{path}: damaged HDF5 structure ({' '.join(str(exc).split())})") \
+            from None
+    finally:
+        f.close()
+
+
+def _check_file(f: h5py.File, path: str | os.PathLike, opened_as: str,
+                read_data: bool) -> CheckResult:
     result = CheckResult(str(path), opened_as=opened_as)
     try:
         try:
@@ -299,6 +347,9 @@ def check_recording(path: str | os.PathLike, read_data: bool = True) -> CheckRes
         except (OSError, RuntimeError, KeyError, ValueError) as exc:
             raise RecordingError(f"{path}: damaged HDF5 structure ({' '.join(str(exc).split())})") \
                 from None
+        if result.problems and result.problems[0].message.startswith(NEWER_PREFIX):
+            raise RecordingError(f"{path}: {result.problems[0].message}; this rigtools cannot "
+                                 "check it")
         if opened_as == "flags-cleared":
             result.problems.append(Problem("/", "the writer was killed while adding structure "
                                                 "(HDF5 consistency flags set; h5clear -s clears "
@@ -315,30 +366,54 @@ def check_recording(path: str | os.PathLike, read_data: bool = True) -> CheckRes
                 if isinstance(group, h5py.Group):
                     channels.update(group)
                     if read_data:
-                        result.problems.extend(_data_problems(group, f"/{POINTS_GROUP}/{name}"))
+                        ended = group.attrs.get("end_time", b"") not in ("", b"")
+                        result.problems.extend(_data_problems(group, f"/{POINTS_GROUP}/{name}",
+                                                              ended))
             result.n_channels = len(channels)
     finally:
         f.close()
     return result
 
 
-def _data_problems(group: h5py.Group, where: str, block: int = 1 << 20) -> list[Problem]:
+def _data_problems(group: h5py.Group, where: str, ended: bool = True,
+                   block: int = 1 << 20) -> list[Problem]:
+    """Unreadable and non-finite samples of a point's channels.
+
+    In a point its writer ended, every sample was written: a NaN or infinite sample is an error
+    (a simulation that blew up, a damaged file). In a point that never ended (being written,
+    writer killed, write error) the non-finite tail is the part not flushed (HDF5 fills it with
+    NaN) and is only noted; non-finite samples before that tail are still errors.
+    """
     out = []
     for name in group:
         dataset = group[name]
         if not isinstance(dataset, h5py.Dataset) or dataset.ndim != 1:
             continue
         n_bad = 0
+        last_good = -1                 # index of the last finite sample
+        start = 0
         try:
             for start in range(0, dataset.shape[0], block):
                 values = dataset[start:start + block]
                 if values.dtype.kind == "f":
-                    n_bad += int(np.count_nonzero(~np.isfinite(values)))
+                    finite = np.isfinite(values)
+                    n_bad += int(finite.size - np.count_nonzero(finite))
+                    if finite.any():
+                        last_good = start + int(np.flatnonzero(finite)[-1])
+                else:
+                    last_good = start + values.size - 1
         except (OSError, ValueError, RuntimeError) as exc:
             out.append(Problem(f"{where}/{name}", f"samples cannot be read from index {start} "
                                                   f"({' '.join(str(exc).split())})"))
             continue
-        if n_bad:
-            out.append(Problem(f"{where}/{name}", f"{n_bad} samples are NaN or infinite "
-                                                  "(unflushed tail or injected fault)", severity=NOTE))
+        tail = dataset.shape[0] - 1 - last_good if not ended else 0
+        inner = n_bad - tail
+        if inner:
+            out.append(Problem(f"{where}/{name}", f"{inner} sample{'s' * (inner != 1)} "
+                                                  "NaN or infinite" + ("" if ended else
+                                                                       " before the unflushed tail")))
+        if tail:
+            out.append(Problem(f"{where}/{name}", f"last {tail} samples are NaN: not flushed "
+                                                  "when the writer stopped (point incomplete)",
+                               severity=NOTE))
     return out

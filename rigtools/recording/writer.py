@@ -20,6 +20,20 @@ flush intact. The writer opens files without HDF5 file locking so that a reader 
 open never blocks the reopen between points; it refuses to replace an existing file unless
 ``overwrite=True``.
 
+Two writers never share a file: the writer holds an OS lock on ``.<name>.lock`` beside the
+recording for its whole life (:mod:`.lock`), taken before the file is created or truncated; a
+second writer is refused with :class:`RecordingError`, ``overwrite=True`` included.
+
+Write errors (disk full, quota, file too large) end in :class:`RecordingWriteError`. HDF5 does
+not recover from a failed write (closing such a file can crash the process), so the writer keeps
+it from meeting one: before each append and each structural change it makes sure the file has
+enough space reserved beyond HDF5's end (``posix_fallocate``; ``ftruncate`` where that does not
+exist), plus a final reserve for ending the run. When the reservation fails, HDF5 has not failed
+yet: the writer marks the file ``aborted`` with the error inside the final reserve, closes it
+normally (HDF5 trims the file to its real end) and raises. Should a write error still reach HDF5
+(e.g. a copy-on-write file system), the writer drops the file without closing it in this
+process; what was flushed before stays readable.
+
 Files use the HDF5 1.10 object format (``libver=("v110", "v110")``), which SWMR needs; HDF5 1.10
 or newer reads them (h5dump 1.10+, MATLAB R2021b+).
 
@@ -33,9 +47,12 @@ flush and at the end of a point; the full chunk written later replaces it.
 
 from __future__ import annotations
 
+import contextlib
+import errno as errno_codes
 import json
 import math
 import os
+import re
 import time
 import warnings
 import zlib
@@ -58,16 +75,48 @@ from rigtools.recording.schema import (
     STATUS_RECORDING,
     ChannelSpec,
     RecordingError,
+    RecordingWriteError,
     parameter_value,
     point_name,
     utc_now,
 )
+from rigtools.recording.lock import LockBusy, WriterLock
 
 LIBVER = ("v110", "v110")
 DEFAULT_CHUNK_SAMPLES = 16384        # 128 KiB of float64 per chunk: ~0.3 s at 51.2 kS/s
 COMPRESSIONS = ("gzip", "none")
 DEFLATE_THREADS = 2
 MAX_PENDING_CHUNKS = 8               # full chunks (all channels) queued before append waits
+RESERVE_STEP = 16 << 20              # grow the reserved space beyond HDF5's end in 16 MiB steps
+BASE_RESERVE = 1 << 20               # kept free beyond HDF5's end for metadata and the final status
+_HDF5_ERRNO = re.compile(r"errno = (\d+), error message = '([^']*)'")
+
+# h5py files that met a write error: never closed in this process (HDF5 may crash closing them).
+_ABANDONED: list[Any] = []
+
+
+def _os_error_text(exc: BaseException) -> str:
+    """The operating-system error inside an exception, e.g. ``"[Errno 28] No space left on device"``."""
+    number = getattr(exc, "errno", None)
+    if isinstance(number, int) and number:
+        return f"[Errno {number}] {os.strerror(number)}"
+    match = _HDF5_ERRNO.search(str(exc))
+    if match:
+        return f"[Errno {match.group(1)}] {match.group(2)}"
+    return one_line(exc, 200)
+
+
+def _preallocate(fd: int, offset: int, length: int) -> None:
+    """Reserve ``length`` bytes of disk at ``offset`` (the file grows), or raise OSError."""
+    if hasattr(os, "posix_fallocate"):
+        try:
+            os.posix_fallocate(fd, offset, length)
+            return
+        except OSError as exc:
+            if exc.errno not in (errno_codes.EOPNOTSUPP, errno_codes.EINVAL,
+                                 getattr(errno_codes, "ENOTSUP", errno_codes.EOPNOTSUPP)):
+                raise
+    os.ftruncate(fd, offset + length)
 
 
 def _json_default(value: Any) -> Any:
@@ -223,25 +272,31 @@ class PointWriter:
         n = data.shape[1]
         if n == 0:
             return
+        writer = self._writer
+        writer._check_open()
+        writer._ensure_space(data.nbytes, "appending samples")
         start, stop = self.n_samples, self.n_samples + n
-        for dataset in self._datasets:
-            dataset.resize((stop,))
-        if self._deflated is not None:
-            self._deflated.add(data)
-        else:
-            memspace = h5py.h5s.create_simple((n,))
-            for dataset, row in zip(self._datasets, data, strict=True):
-                filespace = dataset.id.get_space()
-                filespace.select_hyperslab((start,), (n,))
-                dataset.id.write(memspace, filespace, np.ascontiguousarray(row))
+        with writer._hdf5("appending samples"):
+            for dataset in self._datasets:
+                dataset.resize((stop,))
+            if self._deflated is not None:
+                self._deflated.add(data)
+            else:
+                memspace = h5py.h5s.create_simple((n,))
+                for dataset, row in zip(self._datasets, data, strict=True):
+                    filespace = dataset.id.get_space()
+                    filespace.select_hyperslab((start,), (n,))
+                    dataset.id.write(memspace, filespace, np.ascontiguousarray(row))
         self.n_samples = stop
-        self._writer._maybe_flush()
+        writer._unflushed += data.nbytes
+        writer._maybe_flush()
 
     def set_attrs(self, **params: Any) -> None:
         """Set point parameters known only at the end (``settled=True``, ``measured_force_amplitude=14.8``).
 
         They are written when the point ends (SWMR mode allows no new attributes while
-        streaming), so they are lost if the writer is killed before :meth:`end`.
+        streaming). If the writer is killed before :meth:`end` they are lost and the point reads
+        as incomplete (``end_time`` empty, :attr:`rigtools.recording.Point.complete` False).
         """
         if self.ended:
             raise RuntimeError(f"point {self.name} has ended")
@@ -324,18 +379,55 @@ class RecordingWriter:
         self._n_points = 0
         self._closed = False
         self._pool: ThreadPoolExecutor | None = None
+        self._fd: int | None = None
+        self._final_reserve = BASE_RESERVE
+        self._unflushed = 0             # bytes appended since the last flush (HDF5 may cache them)
+        self._lock = WriterLock(self.path)
 
-        if self.path.exists() and not overwrite:
-            raise RecordingError(f"{self.path} exists; pass overwrite=True (rig: --overwrite) to "
-                                 "replace it")
         if not self.path.parent.is_dir():
             raise RecordingError(f"cannot create {self.path}: directory {self.path.parent} does "
                                  "not exist")
+        if self.path.is_dir():
+            raise RecordingError(f"cannot create {self.path}: it is a directory")
+        try:
+            self._lock.acquire()        # before anything creates or truncates the file
+        except LockBusy as busy:
+            raise RecordingError(f"{self.path} is being written by another run ({busy.holder}); "
+                                 "two runs cannot write one file") from None
+        except OSError as exc:
+            raise RecordingError(f"cannot create {self.path}: cannot create its lock file "
+                                 f"{self._lock.path.name} ({_os_error_text(exc)})") from None
+        try:
+            self._create(overwrite, backend, rig_text, experiment_text)
+        except BaseException:
+            if self._fd is not None:
+                os.close(self._fd)
+                self._fd = None
+                with contextlib.suppress(OSError):
+                    self.path.unlink()      # a half-made file we created: not a recording
+            self._lock.release()
+            raise
+
+    def _create(self, overwrite: bool, backend: str, rig_text: str, experiment_text: str) -> None:
+        if self.path.exists() and not overwrite:
+            raise RecordingError(f"{self.path} exists; pass overwrite=True (rig: --overwrite) to "
+                                 "replace it")
         try:
             self._file = h5py.File(self.path, "w" if overwrite else "w-", libver=LIBVER,
                                    locking=False)
         except (FileExistsError, OSError) as exc:
+            number = getattr(exc, "errno", None) or 0
+            if number in (errno_codes.ENOSPC, errno_codes.EFBIG,
+                          getattr(errno_codes, "EDQUOT", -1), errno_codes.EIO):
+                raise RecordingWriteError(f"cannot create {self.path}: "
+                                          f"{_os_error_text(exc)}") from None
             raise RecordingError(f"cannot create {self.path}: {exc}") from None
+        try:
+            self._fd = os.open(self.path, os.O_RDWR)
+            self._ensure_space(0, "creating the file", fail_clean=False)
+        except BaseException:
+            self._file.close()
+            raise
         attrs = self._file.attrs
         attrs["schema"] = SCHEMA_NAME
         attrs["schema_version"] = np.int64(SCHEMA_VERSION)
@@ -348,7 +440,8 @@ class RecordingWriter:
         attrs["rig"] = rig_text
         attrs["experiment"] = experiment_text
         self._file.create_group(POINTS_GROUP, track_order=True)
-        self._start_swmr()
+        with self._hdf5("creating the file"):
+            self._start_swmr()
 
     # -- context manager ---------------------------------------------------------------------
     def __enter__(self) -> RecordingWriter:
@@ -401,23 +494,30 @@ class RecordingWriter:
         values = {key: parameter_value(key, value) for key, value in dict(params or {}).items()}
 
         index = self._n_points
-        self._reopen_plain()
-        group = self._file[POINTS_GROUP].create_group(point_name(index), track_order=True)
-        group.attrs["start_time"] = utc_now()
-        group.attrs["end_time"] = ""
-        for key, value in values.items():
-            group.attrs[key] = value
-        filters: dict[str, Any] = {}
-        if self._compression == "gzip":
-            filters = {"compression": "gzip", "compression_opts": self._level, "shuffle": True}
-        datasets = []
-        for spec in channels:
-            dataset = group.create_dataset(spec.name, shape=(0,), maxshape=(None,), dtype="<f8",
-                                           chunks=(self._chunk,), fillvalue=np.nan, **filters)
-            for key, value in spec.attrs().items():
-                dataset.attrs[key] = value
-            datasets.append(dataset)
-        self._start_swmr()
+        # the partial last chunk of every channel is rewritten at each flush
+        self._final_reserve = max(self._final_reserve,
+                                  BASE_RESERVE + 2 * len(channels) * self._chunk * 8)
+        what = f"adding point {point_name(index)}"
+        self._reopen_plain(what)
+        self._ensure_space(65536 + 16384 * len(channels), what)
+        with self._hdf5(what):
+            group = self._file[POINTS_GROUP].create_group(point_name(index), track_order=True)
+            group.attrs["start_time"] = utc_now()
+            group.attrs["end_time"] = ""
+            for key, value in values.items():
+                group.attrs[key] = value
+            filters: dict[str, Any] = {}
+            if self._compression == "gzip":
+                filters = {"compression": "gzip", "compression_opts": self._level, "shuffle": True}
+            datasets = []
+            for spec in channels:
+                dataset = group.create_dataset(spec.name, shape=(0,), maxshape=(None,),
+                                               dtype="<f8", chunks=(self._chunk,),
+                                               fillvalue=np.nan, **filters)
+                for key, value in spec.attrs().items():
+                    dataset.attrs[key] = value
+                datasets.append(dataset)
+            self._start_swmr()
         deflated = None
         if self._compression == "gzip":
             if self._pool is None:
@@ -428,15 +528,24 @@ class RecordingWriter:
         return self._point
 
     def _end_point(self, point: PointWriter) -> None:
-        point._sync()
-        self._file.flush()
+        self._check_open()
+        what = f"ending point {point.name}"
+        self._ensure_space(0, what)
+        with self._hdf5(what):
+            point._sync()
+            self._file.flush()
+        self._unflushed = 0
         point.flushed_samples = point.n_samples
-        self._reopen_plain()
-        group = self._file[POINTS_GROUP][point.name]
-        for key, value in point._pending.items():
-            group.attrs[key] = value
-        group.attrs["end_time"] = utc_now()
-        self._start_swmr()
+        self._reopen_plain(what)
+        self._ensure_space(65536, what)
+        with self._hdf5(what):
+            group = self._file[POINTS_GROUP][point.name]
+            for key, value in point._pending.items():
+                group.attrs[key] = value
+            if point._pending:
+                self._file.flush()      # parameters on disk before end_time marks the point ended
+            group.attrs["end_time"] = utc_now()
+            self._start_swmr()
         point.ended = True
         point._datasets = []
 
@@ -444,10 +553,13 @@ class RecordingWriter:
     def flush(self) -> None:
         """Write everything appended so far to disk (HDF5 flush; survives a killed process)."""
         self._check_open()
-        if self._point is not None and not self._point.ended:
-            self._point._sync()
-        self._file.flush()
+        self._ensure_space(0, "flushing")
+        with self._hdf5("flushing"):
+            if self._point is not None and not self._point.ended:
+                self._point._sync()
+            self._file.flush()
         self._last_flush = time.monotonic()
+        self._unflushed = 0
         if self._point is not None:
             self._point.flushed_samples = self._point.n_samples
 
@@ -476,17 +588,83 @@ class RecordingWriter:
             self._finish(STATUS_ABORTED, reason)
 
     def _finish(self, status: str, reason: str) -> None:
+        if self._closed:
+            return
         try:
-            self._reopen_plain()
-            self._file.attrs["status"] = status
-            self._file.attrs["abort_reason"] = reason
-            self._file.attrs["ended"] = utc_now()
+            self._reopen_plain("ending the run")
+            with self._hdf5("ending the run"):
+                self._file.attrs["status"] = status
+                self._file.attrs["abort_reason"] = reason
+                self._file.attrs["ended"] = utc_now()
         finally:
+            if not self._closed:
+                self._closed = True
+                self.status = status
+                try:
+                    self._file.close()    # HDF5 trims the reserved space here
+                finally:
+                    self._release()
+
+    def _release(self) -> None:
+        if self._pool is not None:
+            self._pool.shutdown(cancel_futures=True)
+            self._pool = None
+        if self._fd is not None:
+            os.close(self._fd)
+            self._fd = None
+        self._lock.release()
+
+    # -- write errors ----------------------------------------------------------------------------
+    @contextlib.contextmanager
+    def _hdf5(self, what: str):
+        """Turn an OS write error raised inside HDF5 into :class:`RecordingWriteError`."""
+        try:
+            yield
+        except (OSError, RuntimeError) as exc:
+            if self._closed:
+                raise
+            self._write_failed(exc, what, hdf5_failed=True)
+
+    def _ensure_space(self, nbytes: int, what: str, fail_clean: bool = True) -> None:
+        """Reserve disk beyond HDF5's end for ``nbytes`` more plus the final reserve."""
+        if self._fd is None:
+            return
+        try:
+            size = os.fstat(self._fd).st_size
+            end = max(self._file.id.get_filesize(), 0)
+            need = end + self._unflushed + int(nbytes) + self._final_reserve
+            if size < need:
+                try:
+                    _preallocate(self._fd, size, max(need - size, RESERVE_STEP))
+                except OSError:     # not a whole step left: take just what is needed
+                    _preallocate(self._fd, size, need - size)
+        except OSError as exc:
+            if not fail_clean:
+                raise RecordingWriteError(f"cannot write {self.path} ({what}): "
+                                          f"{_os_error_text(exc)}") from None
+            self._write_failed(exc, what, hdf5_failed=False)
+
+    def _write_failed(self, exc: BaseException, what: str, hdf5_failed: bool) -> None:
+        """End the run after a write error and raise :class:`RecordingWriteError`."""
+        message = (f"cannot write {self.path} ({what}): {_os_error_text(exc)}; "
+                   "everything flushed before is kept")
+        point = self._point
+        if point is not None:
+            point._datasets = []
+            point._deflated = None
+        if hdf5_failed:
+            # HDF5 does not recover from a failed write and may crash closing the file: drop it.
+            _ABANDONED.append(self._file)
             self._closed = True
-            self.status = status
-            self._file.close()
-            if self._pool is not None:
-                self._pool.shutdown(cancel_futures=True)
+            self.status = STATUS_RECORDING
+            self._release()
+        else:
+            try:
+                self._finish(STATUS_ABORTED, f"RecordingWriteError: {message}")
+            except (OSError, RuntimeError, RecordingError):
+                pass
+            message += " (marked aborted)" if self.status == STATUS_ABORTED else ""
+        raise RecordingWriteError(message) from None
 
     # -- file modes ----------------------------------------------------------------------------
     def _check_open(self) -> None:
@@ -498,9 +676,10 @@ class RecordingWriter:
         self._file.swmr_mode = True
         self._last_flush = time.monotonic()
 
-    def _reopen_plain(self) -> None:
+    def _reopen_plain(self, what: str) -> None:
         """Close the SWMR-mode file and reopen it for structural changes (new objects/attributes)."""
         if not self._file.swmr_mode:
             return
-        self._file.close()
-        self._file = h5py.File(self.path, "r+", libver=LIBVER, locking=False)
+        with self._hdf5(what):
+            self._file.close()
+            self._file = h5py.File(self.path, "r+", libver=LIBVER, locking=False)

@@ -87,9 +87,16 @@ def test_other_schema_and_newer_version(good, tmp_path, capsys):
                   lambda f: f.attrs.__setitem__("schema_version", np.int64(2)))
     message = _one_line_error(newer)
     assert "schema_version 2 is newer" in message and "upgrade rigtools" in message
-    for path in (other, foreign, newer):
+    for path in (other, foreign):
         code, out, _ = _rig_check(path, capsys)
         assert code == 1 and out.count("error:") == 1
+    # a newer file is not invalid, this rigtools cannot check it: exit 2, one line on stderr
+    code, out, err = _rig_check(newer, capsys)
+    assert code == 2 and out == "" and len(err.strip().splitlines()) == 1
+    assert "schema_version 2 is newer" in err and "cannot check it" in err
+    code, out, _ = _rig_check(newer, capsys, "--json")
+    doc = json.loads(out)
+    assert code == 2 and doc["readable"] is False and "newer" in doc["problems"][0]["message"]
 
 
 @pytest.mark.parametrize("where, name", [("/", n) for n in ROOT_ATTRS if n != "schema"]

@@ -1,0 +1,126 @@
+"""Two runs never write one file; `rig info`/`rig check` on a file being written.
+
+The first writer is a separate process (``recording_crash_writer.py``: streams 4 channels in
+0.05 s blocks, a new point every 0.4 s, until killed). A second writer on the same path, in this
+process, is refused with one line, ``overwrite=True`` included, and the first writer's file stays
+valid. The lock dies with the process: after SIGKILL a new writer may replace the file.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from rigtools.cli import main
+from rigtools.recording import (ChannelSpec, RecordingError, RecordingWriter, check_recording,
+                                open_recording, writer_alive)
+from rigtools.recording.lock import lock_path
+
+HERE = Path(__file__).parent
+POINT_BLOCKS = 8                    # 0.4 s points: checks below cross many point boundaries
+
+pytestmark = pytest.mark.skipif(not hasattr(signal, "SIGKILL"), reason="needs POSIX signals")
+
+
+@pytest.fixture
+def live(tmp_path):
+    """A recording being written by another process; yields (path, process)."""
+    path = tmp_path / "live.h5"
+    proc = subprocess.Popen([sys.executable, str(HERE / "recording_crash_writer.py"), str(path),
+                             "7", str(POINT_BLOCKS)], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    line = proc.stdout.readline()
+    assert line.startswith("S"), proc.stderr.read()
+    yield path, proc
+    if proc.poll() is None:
+        proc.kill()
+    proc.communicate(timeout=30)
+
+
+def _channels():
+    return [ChannelSpec("force", "N", "force", 1000.0)]
+
+
+def test_second_writer_is_refused_and_first_file_stays_valid(live, capsys):
+    path, proc = live
+    time.sleep(0.6)
+    size_before = path.stat().st_size
+    for overwrite in (False, True):
+        with pytest.raises(RecordingError) as info:
+            RecordingWriter(path, backend="simulated", rig="{}", overwrite=overwrite)
+        message = str(info.value)
+        assert "\n" not in message and str(path) in message
+        assert "being written by another run" in message and f"pid {proc.pid}" in message
+    assert proc.poll() is None                      # the first writer never noticed
+    assert path.stat().st_size >= size_before       # nothing truncated the file
+    time.sleep(0.5)
+    os.kill(proc.pid, signal.SIGKILL)
+    proc.wait(timeout=30)
+    with open_recording(path) as rec:
+        assert rec.status == "recording" and rec.writer is None
+        assert rec.experiment == {"procedure": "crash-test", "seed": 7}
+        assert len(rec.complete_points) >= 2
+        for point in rec.complete_points:
+            assert point.params["settled"] is True and point.n_samples == POINT_BLOCKS * 1000
+    assert check_recording(path).valid
+    # the lock died with the killed process: a new run may replace the file
+    assert writer_alive(path) is None
+    with RecordingWriter(path, backend="simulated", rig="{}", overwrite=True) as rec:
+        point = rec.begin_point({"fe": 1.0}, _channels())
+        point.append(np.arange(10.0))
+    with open_recording(path) as rec:
+        assert rec.complete and rec.points[0]["force"][:].tolist() == list(range(10))
+    assert not lock_path(path).exists()            # removed on close
+
+
+def test_two_writers_in_one_process_and_the_lock_is_released(tmp_path):
+    path = tmp_path / "one.h5"
+    first = RecordingWriter(path, backend="simulated", rig="{}")
+    with pytest.raises(RecordingError, match="being written by another run"):
+        RecordingWriter(path, backend="simulated", rig="{}", overwrite=True)
+    first.close()
+    with pytest.raises(RecordingError, match="exists; pass overwrite=True"):
+        RecordingWriter(path, backend="simulated", rig="{}")
+    RecordingWriter(path, backend="simulated", rig="{}", overwrite=True).close()
+
+
+def test_info_and_check_on_a_file_being_written(live, capsys):
+    """Repeated reads while the writer streams and crosses point boundaries: never invalid,
+    never unreadable; the live writer is named and its open point shown in progress."""
+    path, proc = live
+    time.sleep(0.3)
+    seen_points = set()
+    for _ in range(12):
+        code = main(["info", "--json", str(path)])
+        out, err = capsys.readouterr()
+        assert code == 0, err
+        info = json.loads(out)
+        assert info["status"] == "recording" and f"pid {proc.pid}" in info["writer"]
+        states = [p["state"] for p in info["points"]]
+        assert set(states[:-1]) <= {"complete"} and states[-1] in ("complete", "in progress")
+        seen_points.add(len(states))
+        code = main(["check", str(path)])
+        out, err = capsys.readouterr()
+        assert code == 0, out + err
+        assert "valid rigtools recording (status recording" in out
+        assert "being written now" in out and "Traceback" not in out + err
+        assert main(["info", str(path)]) == 0
+        assert "being written now" in capsys.readouterr().out
+        time.sleep(0.1)
+    assert len(seen_points) >= 2                    # the reads spanned point boundaries
+    os.kill(proc.pid, signal.SIGKILL)
+    proc.wait(timeout=30)
+    assert main(["info", "--json", str(path)]) == 0
+    info = json.loads(capsys.readouterr().out)
+    assert info["writer"] is None
+    assert info["points"][-1]["state"] in ("incomplete", "complete")
+    assert main(["check", str(path)]) == 0
+    assert "stopped without closing" in capsys.readouterr().out
