@@ -150,7 +150,7 @@ def test_study_json_reports_the_measured_force_fundamental(tmp_path, capsys):
     (["gap", "--values", "0.3 mm:1e400 mm:0.1 mm"], "not a finite number"),
     (["force", "--values", "1 N:1e9 N:1 N"], "too many"),
     (["force", "--values", "5 N", "--gap", "0.5"], "--gap = '0.5' is 500 mm"),
-    (["force", "--values", "5 N", "--fe", "1e400"], "--fe = '1e400': not a finite number"),
+    (["force", "--values", "5 N", "--fe", "1e400"], "--fe = '1e400': '1e400' is not a finite number"),
     (["frequency", "--values", "60 Hz", "--duration", "1e400 s"], "--duration"),
     (["frequency", "--values", "60 Hz", "--max-settle", "-1 s"], "--max-settle"),
     (["frequency", "--values", "60 Hz", "--steps-per-period", "100000000"], "--steps-per-period"),
