@@ -80,7 +80,8 @@ from drivers.contracts import (
     SamplesNoLongerAvailable,
     SensorOverload,
 )
-from drivers.safety import MAX_ABORT_RAMP, raised_cosine
+from drivers.drive_signals import raised_cosine
+from drivers.safety import MAX_ABORT_RAMP
 
 NO_DRIVER_MESSAGE = ("NI-DAQmx driver not found on this machine; use --simulated to run on the "
                      "simulated rig")

@@ -69,7 +69,7 @@ from drivers.contracts import (
     OutputUnderflow,
     SensorOverload,
 )
-from drivers.safety import raised_cosine
+from drivers.drive_signals import raised_cosine
 from drivers.sensor_chain import SensorChain, SensorModel
 from drivers.shaker import ShakerParams
 from sim.params import DampingParams, RigParams, RootParams

@@ -35,10 +35,10 @@ from dataclasses import dataclass, field
 from typing import Callable, Protocol
 
 import numpy as np
-from scipy import signal
 
 from drivers.contracts import AcquisitionDevice, DaqFault, DriverError
-from drivers.safety import AmplitudeEnvelope, SafetyMonitor, raised_cosine
+from drivers.drive_signals import RandomDrive  # noqa: F401  (kept importable from here)
+from drivers.safety import SafetyMonitor
 from rigtools.errors import UserError
 
 
@@ -291,102 +291,3 @@ class BlockCollector:
     @property
     def data(self) -> np.ndarray:
         return np.concatenate(self.blocks, axis=1) if self.blocks else np.zeros((0, 0))
-
-
-class RandomDrive:
-    """Band-limited Gaussian random drive, continuous or in bursts, with ramped amplitude.
-
-    White Gaussian noise through a Butterworth band-pass (state carried across blocks), scaled
-    to ``rms`` volts and clipped at ``max_drive``. Amplitude changes follow a raised-cosine ramp
-    of ``ramp_time`` (a :class:`~drivers.safety.AmplitudeEnvelope`, as for the sine drive). With
-    ``burst_period``, the noise is on for ``burst_fraction`` of every period (starting at each
-    period), its edges tapered over ``edge_time``, and off for the rest:
-    burst random, where each period holds the whole response (no leakage with a rectangular
-    window when the response has decayed by the period's end).
-
-    Parameters
-    ----------
-    sample_rate
-        S/s.
-    rms
-        Target RMS of the continuous noise (within bursts), V.
-    band
-        ``(f_low, f_high)`` Hz of the band-pass (4th order).
-    max_drive
-        Peak never exceeded, V (samples beyond are clipped).
-    ramp_time
-        Amplitude ramp, s (> 0).
-    burst_period, burst_fraction, edge_time
-        Burst random timing, s / fraction / s; ``burst_period=None`` for continuous random.
-    seed
-        Noise seed.
-    """
-
-    def __init__(self, sample_rate: float, rms: float, band: tuple[float, float], *, max_drive: float,
-                 ramp_time: float = 0.5, burst_period: float | None = None,
-                 burst_fraction: float = 0.5, edge_time: float = 0.005, seed: int | None = None) -> None:
-        lo, hi = band
-        if not 0 < lo < hi < sample_rate / 2:
-            raise ValueError(f"band {band} Hz must satisfy 0 < low < high < {sample_rate / 2:g}")
-        if not 0 < rms <= max_drive:
-            raise ValueError(f"rms {rms} V must be in (0, max_drive = {max_drive}]")
-        if burst_period is not None and not (0 < burst_fraction <= 1 and burst_period > 0):
-            raise ValueError("burst_period must be > 0 and burst_fraction in (0, 1]")
-        self._envelope = AmplitudeEnvelope(sample_rate, ramp_time, max_drive, what="rms")
-        self.sample_rate = float(sample_rate)
-        self.max_drive = float(max_drive)
-        self.ramp_time = float(ramp_time)
-        self._sos = signal.butter(4, [lo, hi], btype="bandpass", fs=sample_rate, output="sos")
-        self._zi = np.zeros((self._sos.shape[0], 2))
-        impulse = np.zeros(int(20 * sample_rate / lo))
-        impulse[0] = 1.0
-        self._gain = 1.0 / math.sqrt(float(np.sum(signal.sosfilt(self._sos, impulse) ** 2)))
-        self._rng = np.random.default_rng(seed)
-        self._k = 0
-        if burst_period is None:
-            self._gate = None
-        else:
-            period = int(round(burst_period * sample_rate))
-            on = int(round(burst_fraction * period))
-            edge = min(max(1, int(round(edge_time * sample_rate))), on // 2)
-            rise = raised_cosine(edge)                 # ends at exactly 1
-            gate = np.zeros(period)
-            gate[:on] = 1.0
-            gate[:edge] = rise
-            if on < period:
-                gate[on - edge:on] = 1.0 - rise        # ends at exactly 0
-            self._gate = gate
-        self.set_target(rms)
-
-    @property
-    def settled(self) -> bool:
-        return self._envelope.settled
-
-    @property
-    def burst_samples(self) -> int | None:
-        """Samples per burst period, or ``None`` for continuous random."""
-        return None if self._gate is None else self._gate.size
-
-    def set_target(self, rms: float, ramp_time: float | None = None) -> None:
-        """Ramp the RMS to ``rms`` V (raised cosine over ``ramp_time``).
-
-        Raises
-        ------
-        LimitExceeded
-            (a ``ValueError``) if ``rms`` is negative, not finite or above ``max_drive``.
-        """
-        self._envelope.set_target(rms, ramp_time)
-
-    def next_block(self, n: int) -> np.ndarray:
-        """The next ``n`` samples, V."""
-        amps = self._envelope.take(n)
-        noise, self._zi = signal.sosfilt(self._sos, self._rng.standard_normal(n), zi=self._zi)
-        out = amps * self._gain * noise
-        if self._gate is not None:
-            out *= self._gate[(self._k + np.arange(n)) % self._gate.size]
-        self._k += n
-        return np.clip(out, -self.max_drive, self.max_drive)
-
-    def stop_block(self) -> np.ndarray:
-        """A normal ramp to zero (``ramp_time``), ending at exactly 0 V."""
-        return self._envelope.stop_block(self.next_block)
