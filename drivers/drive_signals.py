@@ -125,14 +125,15 @@ class AmplitudeEnvelope:
             self._amp = float(amps[-1])
         return amps
 
-    def stop_block(self, next_block: Callable[[int], np.ndarray]) -> np.ndarray:
+    def stop_block(self, next_block: Callable[[int], np.ndarray],
+                   ramp_time: float | None = None) -> np.ndarray:
         """A normal ramp to zero (``ramp_time``) as one block of ``next_block``; ends at 0 V.
 
         ``next_block(n)`` is the drive's, taking its amplitudes from this envelope. The ramp's
         last amplitude is exactly 0 (:func:`raised_cosine` ends at exactly 1); the last sample is
         set to +0.0 all the same (sign, clipping).
         """
-        block = next_block(self.set_target(0.0))
+        block = next_block(self.set_target(0.0, ramp_time))
         block[-1] = 0.0
         return block
 
@@ -218,9 +219,9 @@ class SineDrive:
         self.samples_written += n
         return amps * np.sin(phases)
 
-    def stop_block(self) -> np.ndarray:
-        """A normal ramp to zero (``ramp_time``) as one block; the last sample is 0 V."""
-        return self._envelope.stop_block(self.next_block)
+    def stop_block(self, ramp_time: float | None = None) -> np.ndarray:
+        """A ramp to zero (default ``ramp_time``) as one block; the last sample is 0 V."""
+        return self._envelope.stop_block(self.next_block, ramp_time)
 
 
 class RandomDrive:
@@ -317,9 +318,9 @@ class RandomDrive:
         self._k += n
         return np.clip(out, -self.max_drive, self.max_drive)
 
-    def stop_block(self) -> np.ndarray:
-        """A normal ramp to zero (``ramp_time``), ending at exactly 0 V."""
-        return self._envelope.stop_block(self.next_block)
+    def stop_block(self, ramp_time: float | None = None) -> np.ndarray:
+        """A ramp to zero (default ``ramp_time``), ending at exactly 0 V."""
+        return self._envelope.stop_block(self.next_block, ramp_time)
 
 
 class PeriodicChirp:
@@ -380,6 +381,6 @@ class PeriodicChirp:
         self._k += int(n)
         return self._envelope.take(n) * self._unit[idx]
 
-    def stop_block(self) -> np.ndarray:
-        """A normal ramp to zero, ending at exactly 0 V."""
-        return self._envelope.stop_block(self.next_block)
+    def stop_block(self, ramp_time: float | None = None) -> np.ndarray:
+        """A ramp to zero (default ``ramp_time``), ending at exactly 0 V."""
+        return self._envelope.stop_block(self.next_block, ramp_time)

@@ -36,7 +36,7 @@ from typing import Callable, Protocol
 
 import numpy as np
 
-from drivers.contracts import AcquisitionDevice, DaqFault, DriverError
+from drivers.contracts import AcquisitionDevice, DaqFault, DriverError, SafetyAbort
 from drivers.drive_signals import RandomDrive  # noqa: F401  (kept importable from here)
 from drivers.safety import SafetyMonitor
 from rigtools.errors import UserError
@@ -116,6 +116,10 @@ class BlockStream:
         Append the played drive as an extra last row of each block passed to the sink.
     on_block
         Called as ``on_block(block, stats)`` after each block is stored and checked.
+    abort_ramp_time
+        On a safety abort, ramp the drive to zero over this many seconds while still reading
+        (the record keeps the ramp), then raise; ``None``: stop the device at once (its own
+        ramp, not recorded).
 
     Examples
     --------
@@ -127,8 +131,10 @@ class BlockStream:
 
     def __init__(self, device: AcquisitionDevice, drive: Drive, *, sink: Sink | None = None,
                  safety: SafetyMonitor | None = None, record_drive: bool = False,
-                 on_block: Callable[[np.ndarray, StreamStats], None] | None = None) -> None:
+                 on_block: Callable[[np.ndarray, StreamStats], None] | None = None,
+                 abort_ramp_time: float | None = None) -> None:
         self.device = device
+        self.abort_ramp_time = abort_ramp_time
         self.drive = drive
         self.sink = sink
         self.safety = safety
@@ -198,7 +204,10 @@ class BlockStream:
             played = self._played.popleft()
             self._store(block, played)
             if self.safety is not None:
-                self.stats.warnings.extend(self.safety.check(block, played))
+                try:
+                    self.stats.warnings.extend(self.safety.check(block, played))
+                except SafetyAbort as exc:
+                    self._safety_ramp(exc)
             self._write(self._next_drive())
             if self.on_block is not None:
                 self.on_block(block, self.stats)
@@ -213,11 +222,14 @@ class BlockStream:
         self.stats.blocks += 1
         self.stats.samples += block.shape[1]
 
-    def finish(self) -> StreamStats:
-        """Ramp the drive down normally, read the blocks that carry the ramp, stop the device."""
+    def finish(self, ramp_time: float | None = None) -> StreamStats:
+        """Ramp the drive down (the drive's own ramp, or over ``ramp_time`` s), read the blocks
+        that carry the ramp (they reach the sink: a recording shows the drive ending at 0 V),
+        stop the device."""
         if self._finished:
             return self.stats
-        ramp = np.asarray(self.drive.stop_block(), dtype=float)
+        ramp = np.asarray(self.drive.stop_block() if ramp_time is None
+                          else self.drive.stop_block(ramp_time), dtype=float)
         delay = self.device.input_to_output_delay() * self.device.sample_rate
         # the ramp, then zeros: the two blocks already queued + the ramp + the delay, whole blocks
         tail = np.concatenate([ramp, np.zeros(int(math.ceil(delay)))])
@@ -232,6 +244,17 @@ class BlockStream:
         self._finished = True
         self.device.stop()
         return self.stats
+
+    def _safety_ramp(self, exc: SafetyAbort) -> None:
+        """A safety limit was crossed on good samples: ramp the drive to zero over the device's
+        abort ramp while still reading, so the record shows the peak and the ramp; then raise."""
+        if self.abort_ramp_time is not None and not self._pending:
+            self.safety = None
+            try:
+                self.finish(ramp_time=self.abort_ramp_time)
+            except BaseException:       # the device failed meanwhile: _abort stops it
+                pass
+        raise exc
 
     def _abort(self, exc: BaseException, from_device: bool = False) -> None:
         """Stop the device (drive to zero), keep what was read, re-raise as AcquisitionAborted.
