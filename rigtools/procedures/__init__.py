@@ -17,6 +17,14 @@ from rigtools.procedures.base import (
     StopRequested,
 )
 from rigtools.procedures.dwell import ControlParameters, DwellParameters, SineDwell
+from rigtools.procedures.sweep import (
+    RigStudy,
+    StudyParameters,
+    SteppedSine,
+    SweepParameters,
+    detect_jumps,
+)
 
 __all__ = ["ControlParameters", "DwellParameters", "Procedure", "ProcedureFailed",
-           "ProcedureResult", "ProgressEvent", "SineDwell", "Status", "StopRequested"]
+           "ProcedureResult", "ProgressEvent", "RigStudy", "SineDwell", "Status", "SteppedSine",
+           "StopRequested", "StudyParameters", "SweepParameters", "detect_jumps"]
