@@ -83,10 +83,10 @@ from drivers.contracts import (
 from drivers.drive_signals import raised_cosine
 from drivers.safety import MAX_ABORT_RAMP
 
-NO_DRIVER_MESSAGE = ("NI-DAQmx driver not found on this machine; use --simulated to run on the "
+NO_DRIVER_MESSAGE = ("NI-DAQmx driver not found on this machine; use --backend sim to run on the "
                      "simulated rig")
-NOT_SUPPORTED_MESSAGE = ("NI-DAQmx is not supported on this platform; use --simulated to run on the "
-                         "simulated rig")
+NOT_SUPPORTED_MESSAGE = ("NI-DAQmx is not supported on this platform; use --backend sim to run on "
+                         "the simulated rig")
 
 # DAQmx error code -> fault class (codes from nidaqmx.error_codes.DAQmxErrors)
 FAULT_BY_CODE: dict[int, type[DaqFault]] = {

@@ -537,7 +537,7 @@ def test_without_driver_one_line_suggests_simulated_rig(monkeypatch, specs):
         monkeypatch.setattr(nidaq.nidaqmx, "Task", mock.Mock(side_effect=exc))
         with pytest.raises(DriverUnavailable) as info:
             NiDaqDevice().configure(specs[0], specs[1], 51200.0)
-        assert "\n" not in str(info.value) and "--simulated" in str(info.value)
+        assert "\n" not in str(info.value) and "--backend sim" in str(info.value)
 
 
 def test_on_this_machine_without_nidaqmx_the_real_call_says_unavailable(specs):
