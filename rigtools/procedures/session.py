@@ -189,7 +189,8 @@ class SineSession:
             value = complex(f[0])
             if prev is not None:
                 noise = 3 * fit.residual_rms * math.sqrt(2.0 / n)
-                if abs(value - prev) <= STEADY_TOLERANCE * abs(value) + noise:
+                # magnitudes: successive windows start at different phases of the sine
+                if abs(abs(value) - abs(prev)) <= STEADY_TOLERANCE * abs(value) + noise:
                     return value, np.max(np.abs(data), axis=1), True
                 if self.sink.total - start >= max_wait * self.rate:
                     return value, np.max(np.abs(data), axis=1), False
@@ -268,6 +269,10 @@ class SineSession:
         """Wait until the fundamental of every input agrees over two successive windows of
         ``seconds`` (whole periods) within :data:`SETTLED_TOLERANCE` (plus noise)."""
         n = whole_periods(seconds, self.rate, fe)
+        # a channel far below its limits (a passive shroud without impacts) is steady enough when
+        # it moves by less than 0.1 % of its warning level
+        floor = np.array([1e-3 * self.monitor.limits[name].warning if name in self.monitor.limits else 0.0
+                          for name in self.names[:self.n_inputs]])
         self._wait_change()
         start = self.sink.total
         prev = None
@@ -278,11 +283,11 @@ class SineSession:
             amps, noise = [], []
             for row in data:
                 p, fit = phasor(row, self.rate, fe)
-                amps.append(p[0])
+                amps.append(abs(p[0]))
                 noise.append(3 * fit.residual_rms * math.sqrt(2.0 / n))
             amps = np.array(amps)
             if prev is not None:
-                ok = np.abs(amps - prev) <= SETTLED_TOLERANCE * np.abs(amps) + np.array(noise)
+                ok = np.abs(amps - prev) <= SETTLED_TOLERANCE * amps + np.array(noise) + floor
                 if np.all(ok):
                     return True
                 if self.sink.total - start >= max_wait * self.rate:
