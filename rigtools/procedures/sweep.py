@@ -61,16 +61,24 @@ def response_channel(device, name: str | None) -> int:
     return 0
 
 
-def detect_jumps(freqs: list[float], amps: list[float], threshold: float) -> list[dict]:
-    """Jumps between neighbouring steps of one sweep direction (in run order): the response
-    changed by more than ``threshold`` (relative to the smaller of the two)."""
+def detect_jumps(freqs: list[float], amps: list[float], threshold: float,
+                 contrast: float = 3.0) -> list[dict]:
+    """Jumps between neighbouring steps of one sweep direction (in run order).
+
+    A jump is a step where the response changes by more than ``threshold`` (relative to the
+    smaller of the two) AND its change of log-amplitude is ``contrast`` times larger than the
+    steps on either side: a discontinuity, not the steep flank of a resonance.
+    """
+    a = np.log(np.maximum(np.asarray(amps, dtype=float), 1e-300))
+    d = np.abs(np.diff(a))
     out = []
     for i in range(1, len(freqs)):
         a0, a1 = amps[i - 1], amps[i]
-        small = max(min(a0, a1), 1e-300)
-        change = abs(a1 - a0) / small
-        if change > threshold:
-            out.append({"from_hz": freqs[i - 1], "to_hz": freqs[i], "frequency_hz": 0.5 * (freqs[i - 1] + freqs[i]),
+        change = abs(a1 - a0) / max(min(a0, a1), 1e-300)
+        neighbours = [d[j] for j in (i - 2, i) if 0 <= j < d.size]
+        if change > threshold and all(d[i - 1] > contrast * x for x in neighbours):
+            out.append({"from_hz": freqs[i - 1], "to_hz": freqs[i],
+                        "frequency_hz": 0.5 * (freqs[i - 1] + freqs[i]),
                         "change": change, "kind": "up" if a1 > a0 else "down"})
     return out
 
