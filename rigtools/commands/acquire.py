@@ -102,7 +102,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         if name == "sweep":
             q.add_argument("--frequencies", required=True, help='"start:stop:step" or "a,b,c", e.g. "340 Hz:380 Hz:2 Hz"')
             q.add_argument("--direction", choices=("up", "down", "both"), default="up")
-            q.add_argument("--jump-threshold", type=float, default=0.25)
+            q.add_argument("--jump-threshold", type=float, default=0.3,
+                           help="relative change of the response between neighbouring steps called a jump (default 0.3)")
         if name == "frf":
             q.add_argument("--signal", choices=("chirp", "burst"), default="chirp")
             q.add_argument("--band", required=True, help='"low:high", e.g. "20 Hz:500 Hz"')

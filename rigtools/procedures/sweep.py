@@ -33,7 +33,7 @@ class SweepParameters(BaseModel):
     direction: Literal["up", "down", "both"] = "up"
     record_periods: int = Field(30, ge=1, le=1_000_000)
     k_max: int = Field(10, ge=1, le=100)
-    jump_threshold: float = Field(0.25, gt=0, le=10,
+    jump_threshold: float = Field(0.3, gt=0, le=10,
                                   description="relative change of the response between neighbouring steps called a jump")
     response: Optional[str] = Field(None, description="response channel (default: the active shroud accelerometer)")
     control: ControlParameters = ControlParameters()
@@ -62,7 +62,7 @@ def response_channel(device, name: str | None) -> int:
 
 
 def detect_jumps(freqs: list[float], amps: list[float], threshold: float,
-                 contrast: float = 3.0) -> list[dict]:
+                 contrast: float = 2.0) -> list[dict]:
     """Jumps between neighbouring steps of one sweep direction (in run order).
 
     A jump is a step where the response changes by more than ``threshold`` (relative to the
