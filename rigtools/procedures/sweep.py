@@ -259,7 +259,7 @@ class RigStudy(SineProcedure):
             for i, point in enumerate(rec):
                 if i >= n:
                     break
-                attrs = {**point.params, "start_time": point.start_time}
+                attrs = {**point.params, "first_start_time": point.start_time}
                 channels = list(self.specs)
                 w = self.writer.begin_point(params=attrs, channels=channels)
                 data = np.vstack([point[c.name].read() for c in channels])
