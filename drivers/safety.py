@@ -32,6 +32,8 @@ from drivers.contracts import (
 from drivers.drive_signals import AmplitudeEnvelope, SineDrive, raised_cosine  # noqa: F401
 
 MAX_ABORT_RAMP = 0.1      # s; the ramp-down on abort never takes longer
+MAX_TIME_TO_ZERO = 0.1    # s; from a fault's detection to 0 V at the output, queue included
+QUEUE_MARGIN = 0.9        # the queue gets this share of what the ramp leaves of that time
 DRIVE = "drive"           # name of the drive output in limits
 
 
@@ -170,3 +172,27 @@ class SafetyMonitor:
         if peak >= lim.warning:
             return SafetyWarning(lim.channel, peak, lim.warning, lim.units)
         return None
+
+
+def output_queue_limit(sample_rate: float, abort_ramp_time: float,
+                       max_time_to_zero: float = MAX_TIME_TO_ZERO) -> int:
+    """Most drive samples a device may hold queued ahead of the inputs.
+
+    On a stop the queued drive plays out before the ramp to zero (a non-regenerating output
+    cannot be rewritten), so ``queue / rate + abort_ramp_time <= max_time_to_zero``; the queue
+    gets :data:`QUEUE_MARGIN` of the time the ramp leaves (at least 25 ms). 0.1 s with a 50 ms
+    ramp at 51.2 kS/s: 2304 samples (45 ms).
+
+    Raises
+    ------
+    ConfigurationError
+        If the ramp alone takes ``max_time_to_zero`` or longer.
+    """
+    # an abort ramp above 75 ms leaves the queue 25 ms (time to zero = ramp + 25 ms)
+    max_time_to_zero = max(max_time_to_zero, abort_ramp_time + 0.025)
+    room = (max_time_to_zero - abort_ramp_time) * QUEUE_MARGIN * sample_rate
+    if room < 2:
+        raise ConfigurationError(
+            f"abort ramp {abort_ramp_time:g} s leaves no room for queued drive within "
+            f"{max_time_to_zero:g} s to zero")
+    return int(math.floor(room))

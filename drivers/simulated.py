@@ -70,6 +70,7 @@ from drivers.contracts import (
     SensorOverload,
 )
 from drivers.drive_signals import raised_cosine
+from drivers.safety import MAX_TIME_TO_ZERO, output_queue_limit
 from drivers.sensor_chain import SensorChain, SensorModel
 from drivers.shaker import ShakerParams
 from sim.params import DampingParams, RigParams, RootParams
@@ -524,6 +525,11 @@ class SimulatedRig(AcquisitionDevice):
         before the sensors) in :attr:`truth_log` (grows with the run: tests only).
     drive_log_seconds
         How much of the amplifier's drive :attr:`drive_log` keeps (the latest), s.
+    max_time_to_zero
+        The output queue is bounded as on the NI backend
+        (:func:`drivers.safety.output_queue_limit`): at most this long from a stop or fault to
+        0 V, the queued drive playing out first; writes beyond it are refused. ``None``: no
+        bound (block-size studies).
     """
 
     backend = "simulated"
@@ -533,7 +539,8 @@ class SimulatedRig(AcquisitionDevice):
                  pace: bool = False, faults: Sequence[Fault | str] = (),
                  abort_ramp_time: float = 0.05, signal_map: dict[str, str] | None = None,
                  seed: int | None = None, keep_truth: bool = False,
-                 drive_log_seconds: float = 60.0) -> None:
+                 drive_log_seconds: float = 60.0,
+                 max_time_to_zero: float | None = MAX_TIME_TO_ZERO) -> None:
         if not 0 < abort_ramp_time <= 0.1:
             raise ConfigurationError(f"abort_ramp_time = {abort_ramp_time} s must be in (0, 0.1]")
         if model not in ("auto", "vibro-impact", "linear"):
@@ -552,6 +559,8 @@ class SimulatedRig(AcquisitionDevice):
         self.seed = seed
         self.keep_truth = keep_truth
         self.drive_log_seconds = float(drive_log_seconds)
+        self.max_time_to_zero = max_time_to_zero
+        self._queue_limit: int | None = None
         self._rig_model = None
         self._physics = None
         self._physics_dt = None
@@ -632,8 +641,15 @@ class SimulatedRig(AcquisitionDevice):
             else:
                 self._physics = VibroImpactPhysics(self.rig_model(), self.shaker, dt)
             self._physics_dt = dt
+        self._queue_limit = (None if self.max_time_to_zero is None else
+                             output_queue_limit(self._rate, self.abort_ramp_time, self.max_time_to_zero))
         self._reset_stream()
         return self._rate
+
+    @property
+    def output_queue_limit(self) -> int | None:
+        """Most drive samples queued ahead of the inputs (see ``max_time_to_zero``)."""
+        return self._queue_limit
 
     def _reset_stream(self) -> None:
         self._physics.reset()
@@ -714,6 +730,11 @@ class SimulatedRig(AcquisitionDevice):
         if data.min() < low or data.max() > high:
             raise LimitExceeded(f"drive {data.min():.4g}..{data.max():.4g} V is outside the output "
                                 f"range {low}..{high} V; nothing written")
+        if self._queue_limit is not None and self._queued + data.size > self._queue_limit:
+            raise LimitExceeded(
+                f"{self._queued + data.size} drive samples would be queued ahead of the inputs, "
+                f"above the output queue limit {self._queue_limit} "
+                f"({self._queue_limit / self._rate * 1e3:.0f} ms; write smaller blocks)")
         self._queue.append(data)
         self._queued += data.size
         self._written += data.size
@@ -827,16 +848,20 @@ class SimulatedRig(AcquisitionDevice):
         raise fault
 
     def _ramp_down(self) -> None:
-        """Ramp the drive amplitude to zero over ``abort_ramp_time`` with the physics running.
+        """Bring the drive to zero as the NI backend does, with the physics running.
 
-        The queued drive continues under a half-cosine taper from 1 to 0, then zeros for the
-        delay line to drain.
+        A non-regenerating output cannot take back what is queued: the queued drive plays out,
+        then a raised-cosine ramp from its last sample to exactly 0 V over ``abort_ramp_time``,
+        then zeros for the delay line to drain. The queue bound keeps the sum within
+        ``max_time_to_zero``.
         """
-        r = max(1, int(round(self.abort_ramp_time * self._rate)))
-        drive = self._take(r)
-        taper = 1.0 - raised_cosine(r)
+        queued = self._take(self._queued)
+        last = float(queued[-1]) if queued.size else self._last_drive
+        r = max(1, int(math.floor(self.abort_ramp_time * self._rate + 1e-9)))
+        ramp = last * (1.0 - raised_cosine(r))
+        ramp[-1] = 0.0
         tail = np.zeros(self._delay_line.size)
-        self._advance(np.concatenate([drive * taper, tail]))
+        self._advance(np.concatenate([queued, ramp, tail]))
         self._last_drive = 0.0
 
     def stop(self) -> None:

@@ -99,6 +99,17 @@ def _one_line(exc: BaseException) -> str:
     return text
 
 
+def stream_piece(device: AcquisitionDevice) -> int:
+    """Samples per read/write: the device's block, split into equal pieces so that two of them
+    (the drive kept queued ahead) fit its :attr:`~drivers.contracts.AcquisitionDevice.output_queue_limit`."""
+    block = int(device.block_size)
+    limit = getattr(device, "output_queue_limit", None)
+    if not limit or 2 * block <= limit:
+        return block
+    k = math.ceil(block / (limit // 2))
+    return max(1, math.ceil(block / k))
+
+
 class BlockStream:
     """Stream ``drive`` to a configured ``device`` block by block (see the module docstring).
 
@@ -140,7 +151,7 @@ class BlockStream:
         self.safety = safety
         self.record_drive = record_drive
         self.on_block = on_block
-        self.n = int(device.block_size)
+        self.n = stream_piece(device)
         self.stats = StreamStats(device.sample_rate)
         self._played: deque[np.ndarray] = deque()   # drive blocks written, not yet read
         self._pending: deque[np.ndarray] = deque()  # drive samples queued by finish()
@@ -294,7 +305,7 @@ def acquire(device: AcquisitionDevice, drive: Drive, duration: float, *, sink: S
     """
     if not duration > 0:
         raise ValueError(f"duration {duration!r} s must be > 0")
-    n_blocks = max(1, int(math.ceil(duration * device.sample_rate / device.block_size - 1e-9)))
+    n_blocks = max(1, int(math.ceil(duration * device.sample_rate / stream_piece(device) - 1e-9)))
     with BlockStream(device, drive, sink=sink, safety=safety, record_drive=record_drive,
                      on_block=on_block) as stream:
         for _ in range(n_blocks):
