@@ -187,15 +187,32 @@ def run(args: argparse.Namespace) -> int:
     proc = build(args, cfg, out, kwargs)
     from rigtools.procedures.base import Status
 
-    with Display(args) as display:
-        proc._progress = display.event
-        result = proc.run()
+    try:
+        with Display(args) as display:
+            proc._progress = display.event
+            result = proc.run()
+    except KeyboardInterrupt:
+        _exit_interrupted(proc)
     doc = report(args, proc, result)
     if args.json:
         print(json.dumps(doc))
     else:
         print_summary(args, doc)
     return 0 if result.status is Status.FINISHED else 130
+
+
+def _exit_interrupted(proc) -> None:
+    """Ctrl-C or a signal: the drive is at zero and the recording closed with status aborted.
+    Say so in one line and leave at once (exit 130): the interpreter's own teardown of the
+    numeric libraries takes about a second on a loaded machine, and nothing is left to do."""
+    import os
+
+    reason = proc.result.reason if proc.result is not None else "interrupted"
+    print(f"rig acquire: interrupted ({reason}); drive ramped to zero; {proc.out} kept with status "
+          "aborted", file=sys.stderr)
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(130)
 
 
 def _resume_out(args):
