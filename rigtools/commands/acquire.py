@@ -338,7 +338,7 @@ def report(args, proc, result) -> dict:
     elif args.procedure == "frf" and result.status.value == "finished":
         from rigtools.procedures.frf import quick_check
 
-        doc["check"] = quick_check(proc.out)
+        doc["check"] = quick_check(proc.out, proc.params.response)
     return doc
 
 

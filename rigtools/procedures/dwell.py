@@ -77,7 +77,6 @@ class SineProcedure(Procedure):
 
     def startup(self) -> None:
         from rigtools.procedures import rig
-        from rigtools.recording import RecordingWriter
 
         if self.device is None:
             self.device = rig.open_device(self.cfg, self.backend, **self._device_opts)

@@ -20,7 +20,6 @@ from rigtools.errors import UserError
 from rigtools.procedures.base import StopRequested, validate
 from rigtools.procedures.dwell import MAX_GAP, SineProcedure
 from rigtools.procedures.session import PointSink
-from rigtools.procedures.sweep import response_channel
 
 
 class FrfParameters(BaseModel):

@@ -230,11 +230,12 @@ class RigStudy(SineProcedure):
         backup = out.with_name(out.name + ".resume-source")
         if not out.exists() and not backup.exists():
             raise UserError(f"--resume: {out} does not exist; run without --resume to start the study")
-        if out.exists() and (not backup.exists() or complete_points(out) >= complete_points(backup)):
+        use_out = out.exists() and (not backup.exists() or complete_points(out) >= complete_points(backup))
+        self._check_same_study(out if use_out else backup, experiment)      # before touching files
+        if use_out:
             os.replace(out, backup)
         elif out.exists():
             out.unlink()                # a copy cut short: the backup holds every point it had
-        self._check_same_study(backup, experiment)
         self.start_index = complete_points(backup)
         if self.start_index >= len(self.points_planned):
             self.start_index = len(self.points_planned)
@@ -246,8 +247,11 @@ class RigStudy(SineProcedure):
     def _check_same_study(self, path: Path, experiment: dict) -> None:
         from rigtools.recording import open_recording
 
-        with open_recording(path) as rec:
-            old = rec.experiment
+        try:
+            with open_recording(path) as rec:
+                old = rec.experiment
+        except Exception as exc:       # noqa: BLE001 - one line for the user
+            raise UserError(f"--resume: cannot read {path}: {exc}") from None
         if old.get("parameters", {}).get("plan") != experiment["parameters"]["plan"]:
             raise UserError(f"--resume: {self.out} holds a different study (plan "
                             f"{old.get('parameters', {}).get('plan')}); give the same options")

@@ -190,3 +190,50 @@ def test_help_teaches_units_examples_and_exit_codes(capsys, proc):
     text = capsys.readouterr().out
     for needle in ("examples:", "Exit status", "3 NI-DAQmx", "--backend sim", "abort_ramp_time", '"15 N"'):
         assert needle in text
+
+
+def test_frf_prints_the_h1_peaks_with_their_coherence(tmp_path):
+    """Periodic chirp 20-500 Hz, gap 5 mm (no impacts): the H1 peaks of the active shroud over
+    the force lie at the test article's first two flexural frequencies (FE with the
+    [test_article] deviations: 52.0 and 355.6 Hz) within one 2 Hz line, coherence > 0.99."""
+    from sim.modal import blade_modes
+    from sim.rig_model import build_rig_model
+
+    out = tmp_path / "frf.h5"
+    code, text, err = run_cli(["acquire", "frf", "--backend", "sim", "--seed", "1", "--signal", "chirp",
+                               "--band", "20 Hz:500 Hz", "--level", "0.3 V", "--frame", "0.5 s",
+                               "--averages", "4", "--gap", "5 mm", "--out", str(out), "--json"])
+    assert code == 0, err
+    doc = json.loads(text)
+    assert doc["status"] == "finished" and check_recording(out).valid
+    cfg = load_rig()
+    ta = cfg.test_article.to_params()
+    modes = blade_modes(build_rig_model(ta.apply(cfg.to_params())).active, 6)
+    flex = modes.frequencies_hz[np.array(modes.kinds) == "flexural"][:2]
+    peaks = sorted(doc["check"]["peaks"], key=lambda p: -p["h1"])[:2]
+    for f, pk in zip(flex, sorted(peaks, key=lambda p: p["frequency_hz"])):
+        assert abs(pk["frequency_hz"] - f) <= 2.0 and pk["coherence"] > 0.99
+    with open_recording(out) as rec:
+        p = rec.points[0]
+        assert p.params["frame_samples"] == round(0.5 * RATE) and p.params["averages"] == 4
+        assert np.asarray(p["drive"])[-1] == 0.0
+
+
+def test_sweep_json_and_resume_refusals(tmp_path):
+    out = tmp_path / "sw.h5"
+    code, text, err = run_cli(["acquire", "sweep", "--backend", "sim", "--seed", "1", "--frequencies",
+                               "100 Hz:104 Hz:2 Hz", "--force", "2 N", "--gap", "5 mm", "--periods", "20",
+                               "--out", str(out), "--json"])
+    assert code == 0, err
+    doc = json.loads(text)
+    assert [p["fe"] for p in doc["points"]] == [100.0, 102.0, 104.0]
+    assert all(abs(p["force_amplitude_measured"] / 2.0 - 1) <= 0.01 for p in doc["points"])
+    assert doc["jumps"] == {"up": []}
+    code, _, err = run_cli(["acquire", "study", "gap", "--backend", "sim", "--values", "0.3 mm,0.5 mm",
+                            "--out", str(tmp_path / "none.h5"), "--resume"])
+    assert code == 2 and err.count("\n") == 1 and "does not exist" in err
+    code, _, err = run_cli(["acquire", "study", "gap", "--backend", "sim", "--values", "0.3 mm,0.5 mm",
+                            "--out", str(out), "--resume", "--yes"])
+    assert code == 2 and err.count("\n") == 1 and "different study" in err
+    with open_recording(out) as rec:                   # the sweep's file is untouched
+        assert rec.status == "complete" and len(rec.points) == 3
