@@ -49,11 +49,12 @@ def test_force_control_with_impacts_at_60_hz(cfg, tmp_path):
 
 
 def test_force_control_at_the_measured_first_resonance(cfg, tmp_path):
-    """The first resonance measured by a periodic-chirp FRF test (1 Hz lines, peak refined by a
-    parabola) lies within 0.5 % of the article's FE first flexural frequency; a dwell there
-    with the gap wide open holds 2 N within 1 % (force drop-out: ~1 N/V instead of ~11 N/V at
-    60 Hz) in at most 10 updates without a warning. 15 N is out of reach there: it needs about
-    4.7 V, above the drive warning (4.5 V) -- the controller stops below it and says so."""
+    """The first resonance measured by a periodic-chirp FRF test (1 Hz lines: 52.0 Hz; the
+    article's FE first flexural frequency is 52.01 Hz) -- a dwell there with the gap wide open
+    holds 2 N within 1 % (measured 2.00005 N; force drop-out: 2.2 N/V instead of ~15 N/V at
+    60 Hz) in at most 10 updates (4) without a warning. 15 N is out of reach there: the force
+    per volt falls to ~3.2 N/V and 15 N would need ~4.7 V, above the drive warning (4.5 V),
+    with a ~16 mm tip amplitude -- the controller stops at 0.98 x 4.5 V (14.15 N) and says so."""
     FrfTest(cfg, {"signal": "chirp", "band": (20.0, 200.0), "level": 0.2, "frame": 1.0, "averages": 3,
                   "gap": WIDE}, tmp_path / "frf.h5", backend="sim", seed=1).run()
     chk = quick_check(tmp_path / "frf.h5")
