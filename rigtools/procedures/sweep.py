@@ -279,9 +279,12 @@ class RigStudy(SineProcedure):
             i = planned.index
             text = f"{p.kind} {planned.value:g} ({planned.direction})"
             self.emit("point", point=i + 1, n_points=n, text=text)
-            if not hasattr(self.device, "set_gap") and planned.gap != last_gap:
-                self._hand_gap(planned.gap, i)
-            gap = self.set_gap(planned.gap, i)
+            if hasattr(self.device, "set_gap"):
+                gap = self.set_gap(planned.gap, i)
+            else:                       # the operator sets it; the point records what was asked
+                if planned.gap != last_gap:
+                    self._hand_gap(planned.gap, i)
+                gap = planned.gap
             last_gap = planned.gap
             self.begin_point({"fe": planned.fe, "force_amplitude": planned.force, "gap": gap,
                               "direction": planned.direction, "study_value": planned.value,

@@ -195,3 +195,48 @@ def test_fault_mid_study_fails_with_the_reason_and_keeps_the_points_before(cfg, 
             assert p.params["force_amplitude_measured"] == pytest.approx(15.0, rel=0.01)
             assert np.all(np.isfinite(np.asarray(p["force"])))
         assert not bool(rec.points[len(done)].params["point_complete"])
+
+
+class _HandGapRig:
+    """The simulated rig seen as the real one: no ``set_gap``; the 'operator' sets it."""
+
+    def __init__(self, rig):
+        self._rig = rig
+
+    def __getattr__(self, name):
+        if name == "set_gap":
+            raise AttributeError(name)
+        return getattr(self._rig, name)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self._rig.close()
+
+
+def test_real_rig_gap_study_asks_the_operator_with_the_drive_at_zero(cfg, tmp_path):
+    """Without set_gap (the NI rig) the study ramps the drive to zero, asks for each gap (the
+    callback, the CLI's prompt) and stores the gap asked for; the drive is at 0 V whenever the
+    operator is asked, and each point still reaches its force."""
+    from drivers.simulated import SimulatedRig
+
+    sim = SimulatedRig.from_config(cfg, seed=1)
+    asked = []
+
+    def operator(gap, index):
+        asked.append((index, gap, sim.running))
+        sim.set_gap(gap)
+
+    out = tmp_path / "hand.h5"
+    r = RigStudy(cfg, {"kind": "gap", "values": [4e-4, 8e-4], "force": 15.0, "fe": 60.0, "record_periods": 12},
+                 out, device=_HandGapRig(sim), confirm_gap=operator).run()
+    assert r.status is Status.FINISHED
+    assert [(i, g) for i, g, _ in asked] == [(0, 4e-4), (1, 8e-4)]
+    assert all(not running for _, _, running in asked)          # asked with the stream stopped
+    with open_recording(out) as rec:
+        assert [p.params["gap"] for p in rec.points] == [4e-4, 8e-4]
+        for p in rec.points:
+            assert p.params["force_amplitude_measured"] == pytest.approx(15.0, rel=0.01)
+            drive = np.asarray(p["drive"])
+            assert abs(drive[0]) < 1e-6                          # each point starts from rest
