@@ -168,7 +168,7 @@ class SineDwell(SineProcedure):
         self.emit("point", point=1, n_points=1, text=f"{p.fe:g} Hz, {p.force:g} N")
         self.begin_point({"fe": p.fe, "force_amplitude": p.force, "gap": gap})
         res = self.session.run_point(p.fe, p.force, record_periods=p.record_periods, k_max=p.k_max,
-                                     **p.control.model_dump())
+                                     point=1, n_points=1, **p.control.model_dump())
         res["gap"] = gap
         self.session.finish()                 # the ramp to zero goes into the point
         self.end_point(point_attrs(res))

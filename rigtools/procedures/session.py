@@ -358,6 +358,7 @@ class SineSession:
     def run_point(self, fe: float, force: float, *, record_periods: int, k_max: int = 10,
                   point: int = 0, n_points: int = 1, **control) -> dict:
         """Hold ``force`` at ``fe``, settle, record; the point's parameters and analysis."""
+        warnings0 = len(self.stream.stats.warnings)
         if abs(self.fe - fe) > 1e-12 * fe:
             self.set_frequency(fe)
         ctl = self.hold_force(fe, force, point=point, n_points=n_points, **control)
@@ -371,7 +372,8 @@ class SineSession:
                 "force_amplitude_measured": rec["force_amplitude_measured"],
                 "drive_amplitude": float(self.drive.target), "control_updates": ctl.updates,
                 "settled": settled, "control_converged": ctl.converged,
-                "control_limited_by": ctl.limited_by, "safety_warnings": ctl.warnings,
+                "control_limited_by": ctl.limited_by, "control_warnings": ctl.warnings,
+                "safety_warnings": len(self.stream.stats.warnings) - warnings0,
                 "record_start": rec["record_start"], "record_samples": rec["record_samples"],
                 "harmonics": rec["harmonics"], "peaks": dict(zip(self.names, rec["peaks"])),
                 "control_history": ctl.history}
@@ -382,6 +384,7 @@ def point_attrs(result: dict) -> dict:
     attrs = {k: result[k] for k in ("force_amplitude_measured", "drive_amplitude", "control_updates",
                                     "settled", "record_start", "record_samples")}
     attrs["control_limited_by"] = result["control_limited_by"]
+    attrs["safety_warnings"] = result["safety_warnings"]
     for name, h in result["harmonics"].items():
         attrs[f"{name}_harmonic_amplitude"] = h["amplitude"]
         attrs[f"{name}_harmonic_phase"] = h["phase"]

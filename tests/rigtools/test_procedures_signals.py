@@ -74,20 +74,21 @@ def test_study_killed_after_two_points_resumes_with_every_point_once(tmp_path):
     assert check.returncode == 0, check.stdout + check.stderr
 
 
-def test_sigint_during_a_dwell_ramps_down_and_keeps_the_data(tmp_path):
+@pytest.mark.parametrize("sig", ["SIGINT", "SIGTERM", "SIGHUP"])
+def test_signal_during_a_dwell_ramps_down_and_keeps_the_data(tmp_path, sig):
     out = tmp_path / "d.h5"
     child = _rig(["acquire", "dwell", "--backend", "sim", "--seed", "1", "--fe", "60", "--force", "15 N",
                   "--gap", "0.5 mm", "--periods", "6000", "--out", str(out)])
     # wait until the dwell is recording (past the ramp and the force control): > 3 s on disk
     assert _wait_for(lambda: _samples(out) > 3.0 * RATE, child)
     at = _samples(out)
-    child.send_signal(signal.SIGINT)
+    child.send_signal(getattr(signal, sig))
     stdout, stderr = child.communicate()
     assert child.returncode == 130
     assert stderr.count("\n") == 1 and "interrupted" in stderr
     with open_recording(out) as rec:
         assert rec.status == "aborted" and rec.attrs["end_status"] == "aborted"
-        assert rec.abort_reason.startswith("aborted: signal SIGINT")
+        assert rec.abort_reason.startswith(f"aborted: signal {sig}")
         p = rec.points[0]
         drive = np.asarray(p["drive"])
         assert p.n_samples >= at and drive[-1] == 0.0
