@@ -352,6 +352,14 @@ class AcquisitionDevice(abc.ABC):
         """True between :meth:`start` and :meth:`stop`."""
         return self._running
 
+    @property
+    def output_queue_limit(self) -> int | None:
+        """Most drive samples that may be written ahead of the samples read (``None``: no
+        bound). Written drive plays out before a stop's ramp, so this bounds the time from a
+        fault to 0 V; :class:`rigtools.acquisition.BlockStream` streams in pieces that keep
+        two of them within it."""
+        return None
+
     @abc.abstractmethod
     def write(self, drive: np.ndarray) -> None:
         """Append drive samples (1-D, volts) to the output stream.

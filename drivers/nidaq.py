@@ -30,12 +30,14 @@ AO task has already failed (output underflow), it has stopped by itself: the out
 one-sample on-demand task writes 0 V.
 
 Worst-case time from a fault to 0 V: the samples written but not yet generated plus the ramp,
-``(written - generated) / rate + abort_ramp_time``. The queue is kept short: the AO host buffer
-holds :data:`AO_BUFFER_SECONDS` (at least :data:`AO_BUFFER_BLOCKS` blocks), so a writer can
-never be further ahead than that (writes wait for room); the loop in
-:class:`rigtools.acquisition.BlockStream` stays two blocks ahead, i.e. about 0.2 s at 0.1 s blocks,
-giving about 0.25 s to 0 V with a 50 ms ramp, plus the device's onboard output FIFO (a few
-thousand samples on DSA boards).
+``(written - generated) / rate + abort_ramp_time``. The queue is bounded so that this stays
+within ``max_time_to_zero`` (0.1 s): the AO host buffer holds exactly
+:func:`drivers.safety.output_queue_limit` samples (0.1 s with a 50 ms ramp: 45 ms, 2304 samples
+at 51.2 kS/s), so no writer can be further ahead (writes wait for room), and
+:attr:`NiDaqDevice.output_queue_limit` tells :class:`rigtools.acquisition.BlockStream` to
+stream in pieces (0.1 s blocks read as five 20 ms pieces) of which two fit. The onboard output
+FIFO is asked to stay small too (``output_onbrd_buf_size`` set to one piece and data transfer
+requested when it is half full or less, where the device allows).
 """
 
 from __future__ import annotations
@@ -54,6 +56,7 @@ from nidaqmx.constants import (
     Coupling,
     DigitalWidthUnits,
     ExcitationSource,
+    OutputDataTransferCondition,
     ForceIEPESensorSensitivityUnits,
     ForceUnits,
     RegenerationMode,
@@ -80,12 +83,13 @@ from drivers.contracts import (
     SamplesNoLongerAvailable,
     SensorOverload,
 )
-from drivers.safety import MAX_ABORT_RAMP, raised_cosine
+from drivers.drive_signals import raised_cosine
+from drivers.safety import MAX_ABORT_RAMP, MAX_TIME_TO_ZERO, output_queue_limit
 
-NO_DRIVER_MESSAGE = ("NI-DAQmx driver not found on this machine; use --simulated to run on the "
+NO_DRIVER_MESSAGE = ("NI-DAQmx driver not found on this machine; use --backend sim to run on the "
                      "simulated rig")
-NOT_SUPPORTED_MESSAGE = ("NI-DAQmx is not supported on this platform; use --simulated to run on the "
-                         "simulated rig")
+NOT_SUPPORTED_MESSAGE = ("NI-DAQmx is not supported on this platform; use --backend sim to run on "
+                         "the simulated rig")
 
 # DAQmx error code -> fault class (codes from nidaqmx.error_codes.DAQmxErrors)
 FAULT_BY_CODE: dict[int, type[DaqFault]] = {
@@ -102,8 +106,6 @@ FAULT_BY_CODE: dict[int, type[DaqFault]] = {
 }
 
 BUFFER_SECONDS = 2.0          # AI host buffer, in seconds of samples
-AO_BUFFER_SECONDS = 0.5       # AO host buffer: bounds how far ahead the drive can be queued
-AO_BUFFER_BLOCKS = 4          # ... but at least this many blocks
 DEFAULT_BLOCK_SECONDS = 0.1
 ZERO_TAIL_SECONDS = 0.01      # zeros after the stop ramp, so the output rests at 0 V when AO stops
 WAIT_MARGIN_SECONDS = 0.5     # extra time allowed for the queued drive and the ramp to play out
@@ -147,18 +149,22 @@ class NiDaqDevice(AcquisitionDevice):
 
     backend = "nidaqmx"
 
-    def __init__(self, abort_ramp_time: float = 0.05) -> None:
+    def __init__(self, abort_ramp_time: float = 0.05, max_time_to_zero: float = MAX_TIME_TO_ZERO) -> None:
         """
         Parameters
         ----------
         abort_ramp_time
             Duration of the ramp to 0 V appended on :meth:`stop` (normal end, fault, Ctrl-C), s,
             in (0, 0.1]; the rig file's ``[safety] abort_ramp_time``.
+        max_time_to_zero
+            Bound on the time from a stop or fault to 0 V, the queued drive included, s: sets
+            the AO buffer (:func:`drivers.safety.output_queue_limit`).
         """
         if not 0 < abort_ramp_time <= MAX_ABORT_RAMP:
             raise ConfigurationError(
                 f"abort ramp time {abort_ramp_time!r} s must be in (0, {MAX_ABORT_RAMP}] s")
         self.abort_ramp_time = float(abort_ramp_time)
+        self.max_time_to_zero = float(max_time_to_zero)
         self._ai = None
         self._ao = None
         self._reader: AnalogMultiChannelReader | None = None
@@ -226,9 +232,10 @@ class NiDaqDevice(AcquisitionDevice):
             self._rate = float(self._ai.timing.samp_clk_rate)      # the coerced, actual rate
             self._block = int(block_size) if block_size else max(
                 1, round(DEFAULT_BLOCK_SECONDS * self._rate))
-            self._ao_buffer = max(int(AO_BUFFER_SECONDS * self._rate), AO_BUFFER_BLOCKS * self._block)
+            self._ao_buffer = output_queue_limit(self._rate, self.abort_ramp_time, self.max_time_to_zero)
             self._ao.timing.cfg_samp_clk_timing(
                 self._rate, sample_mode=AcquisitionType.CONTINUOUS, samps_per_chan=self._ao_buffer)
+            self._limit_onboard_fifo(ao_chan)
             ao_rate = float(self._ao.timing.samp_clk_rate)
             if not math.isclose(ao_rate, self._rate, rel_tol=1e-9):
                 raise ConfigurationError(
@@ -251,6 +258,22 @@ class NiDaqDevice(AcquisitionDevice):
             self._close_tasks()
             raise
         return self._rate
+
+    def _limit_onboard_fifo(self, ao_chan) -> None:
+        """Keep the onboard output FIFO short where the device allows (best effort)."""
+        try:
+            ao_chan.ao_data_xfer_req_cond = OutputDataTransferCondition.ON_BOARD_MEMORY_HALF_FULL_OR_LESS
+        except (DaqError, AttributeError, TypeError):
+            pass
+        try:
+            self._ao.out_stream.output_onbrd_buf_size = max(2, self._ao_buffer // 2)
+        except (DaqError, AttributeError, TypeError):
+            pass
+
+    @property
+    def output_queue_limit(self) -> int | None:
+        """The AO host buffer: the most drive samples queued ahead (see the module docstring)."""
+        return self._ao_buffer or None
 
     def _add_input(self, spec: InputChannelSpec) -> None:
         excitation = ExcitationSource.INTERNAL if spec.iepe else ExcitationSource.NONE
@@ -300,9 +323,10 @@ class NiDaqDevice(AcquisitionDevice):
     def input_to_output_delay(self) -> float:
         return self._delay
 
-    def max_time_to_zero(self) -> float:
+    def time_to_zero(self) -> float:
         """Worst case from a fault to 0 V at the output, s: a full AO host buffer still to play,
-        then the ramp (the device's onboard FIFO, not included, adds its own depth)."""
+        then the ramp (the onboard FIFO, kept to half a piece where the device allows, adds its
+        depth)."""
         return (self._ao_buffer + self.ramp_samples) / self._rate
 
     def info(self) -> DeviceInfo:
@@ -314,7 +338,7 @@ class NiDaqDevice(AcquisitionDevice):
             pass
         details["drive_idle_zero_volts"] = str(self._idle_is_zero)
         details["abort_ramp_time_s"] = f"{self.ramp_samples / self._rate:g}"
-        details["max_time_to_zero_s"] = f"{self.max_time_to_zero():.3g}"
+        details["max_time_to_zero_s"] = f"{self.time_to_zero():.3g}"
         return DeviceInfo(self.backend, self._rate, self._requested_rate, self._block,
                           self._delay, details)
 

@@ -19,18 +19,21 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Callable, Iterable, Sequence
+from typing import Iterable, Sequence
 
 import numpy as np
 
 from drivers.contracts import (
     ConfigurationError,
     InputChannelSpec,
-    LimitExceeded,
     SafetyAbort,
 )
+# the drive generators live in drivers.drive_signals; kept importable from here
+from drivers.drive_signals import AmplitudeEnvelope, SineDrive, raised_cosine  # noqa: F401
 
 MAX_ABORT_RAMP = 0.1      # s; the ramp-down on abort never takes longer
+MAX_TIME_TO_ZERO = 0.1    # s; from a fault's detection to 0 V at the output, queue included
+QUEUE_MARGIN = 0.9        # the queue gets this share of what the ramp leaves of that time
 DRIVE = "drive"           # name of the drive output in limits
 
 
@@ -171,199 +174,25 @@ class SafetyMonitor:
         return None
 
 
-def raised_cosine(n: int) -> np.ndarray:
-    """``n`` samples of a 0 -> 1 raised-cosine ramp, excluding 0 and including 1.
+def output_queue_limit(sample_rate: float, abort_ramp_time: float,
+                       max_time_to_zero: float = MAX_TIME_TO_ZERO) -> int:
+    """Most drive samples a device may hold queued ahead of the inputs.
 
-    Sample ``k`` (1-based) is ``(1 - cos(pi k / n)) / 2``, so a ramp written after a sample at
-    the start value ends exactly at the end value.
-    """
-    if n <= 0:
-        return np.empty(0)
-    k = np.arange(1, n + 1, dtype=float)
-    return 0.5 * (1.0 - np.cos(np.pi * k / n))
-
-
-class AmplitudeEnvelope:
-    """A drive amplitude that never steps: every change follows a raised-cosine ramp.
-
-    The one owner of drive-amplitude ramps: :class:`SineDrive` and
-    :class:`rigtools.acquisition.RandomDrive` multiply their unit signal by :meth:`take`.
-
-    Parameters
-    ----------
-    sample_rate
-        Samples per second of the drive.
-    ramp_time
-        Duration of every change unless :meth:`set_target` is given another, s (> 0).
-    max_value
-        Targets above it are refused, V.
-    what
-        Name of the amplitude in error messages (``"drive amplitude"``, ``"rms"``).
+    On a stop the queued drive plays out before the ramp to zero (a non-regenerating output
+    cannot be rewritten), so ``queue / rate + abort_ramp_time <= max_time_to_zero``; the queue
+    gets :data:`QUEUE_MARGIN` of the time the ramp leaves (at least 25 ms). 0.1 s with a 50 ms
+    ramp at 51.2 kS/s: 2304 samples (45 ms).
 
     Raises
     ------
     ConfigurationError
-        If ``ramp_time`` or ``max_value`` is not > 0.
+        If the ramp alone takes ``max_time_to_zero`` or longer.
     """
-
-    def __init__(self, sample_rate: float, ramp_time: float, max_value: float,
-                 what: str = "drive amplitude") -> None:
-        if not ramp_time > 0:
-            raise ConfigurationError(f"ramp time {ramp_time!r} s must be > 0")
-        if not max_value > 0:
-            raise ConfigurationError(f"max drive {max_value!r} V must be > 0")
-        self.sample_rate = float(sample_rate)
-        self.ramp_time = float(ramp_time)
-        self.max_value = float(max_value)
-        self.what = what
-        self._amp = 0.0                      # amplitude of the last sample taken
-        self._ramp = np.empty(0)             # amplitudes still to come on the current ramp
-        self._target = 0.0
-
-    @property
-    def amplitude(self) -> float:
-        """Amplitude of the last sample taken."""
-        return self._amp
-
-    @property
-    def target(self) -> float:
-        return self._target
-
-    @property
-    def settled(self) -> bool:
-        """True when the amplitude has reached its target (no ramp in progress)."""
-        return self._ramp.size == 0
-
-    def set_target(self, value: float, ramp_time: float | None = None) -> int:
-        """Ramp from the present amplitude to ``value`` over ``ramp_time`` (default the envelope's).
-
-        A new target during a ramp starts a new ramp from the present amplitude.
-
-        Returns
-        -------
-        int
-            Samples of the ramp: ``ceil(ramp_time * sample_rate)``, at least 1.
-
-        Raises
-        ------
-        LimitExceeded
-            If ``value`` is negative, not finite or above ``max_value``.
-        """
-        if not (math.isfinite(value) and 0.0 <= value <= self.max_value):
-            raise LimitExceeded(f"{self.what} {value!r} V is outside 0..{self.max_value:g} V "
-                                "(maximum drive)")
-        duration = self.ramp_time if ramp_time is None else float(ramp_time)
-        n = max(1, math.ceil(duration * self.sample_rate))
-        self._target = float(value)
-        if value == self._amp:
-            self._ramp = np.empty(0)
-        else:
-            self._ramp = self._amp + (value - self._amp) * raised_cosine(n)
-        return n
-
-    def take(self, n: int) -> np.ndarray:
-        """The amplitudes of the next ``n`` samples, continuing the ramp in progress."""
-        amps = np.full(int(n), self._target)
-        m = min(amps.size, self._ramp.size)
-        amps[:m] = self._ramp[:m]
-        self._ramp = self._ramp[m:]
-        if amps.size:
-            self._amp = float(amps[-1])
-        return amps
-
-    def stop_block(self, next_block: Callable[[int], np.ndarray]) -> np.ndarray:
-        """A normal ramp to zero (``ramp_time``) as one block of ``next_block``; ends at 0 V.
-
-        ``next_block(n)`` is the drive's, taking its amplitudes from this envelope. The ramp's
-        last amplitude is exactly 0 (:func:`raised_cosine` ends at exactly 1); the last sample is
-        set to +0.0 all the same (sign, clipping).
-        """
-        block = next_block(self.set_target(0.0))
-        block[-1] = 0.0
-        return block
-
-
-class SineDrive:
-    """Phase-continuous sine drive ``a(t) sin(2 pi f t + phi)`` with ramped amplitude ``a(t)``.
-
-    Parameters
-    ----------
-    sample_rate
-        Drive sample rate, S/s (use the device's actual rate).
-    frequency
-        Sine frequency, Hz.
-    max_drive
-        Peak voltage never exceeded: targets above it are refused.
-    ramp_time
-        Duration of every amplitude change (raised cosine), s.
-
-    Examples
-    --------
-    >>> drive = SineDrive(51200.0, 60.0, max_drive=5.0, ramp_time=0.5)
-    >>> drive.set_target(2.0)                  # ramps up over 0.5 s from the next sample
-    >>> block = drive.next_block(5120)
-    >>> tail = drive.stop_block()              # 0.5 s of samples ending at 0 V
-    """
-
-    def __init__(self, sample_rate: float, frequency: float, max_drive: float, ramp_time: float,
-                 phase: float = 0.0) -> None:
-        if not (sample_rate > 0 and math.isfinite(sample_rate)):
-            raise ConfigurationError(f"sample rate {sample_rate!r} must be > 0")
-        self._envelope = AmplitudeEnvelope(sample_rate, ramp_time, max_drive)
-        self.sample_rate = float(sample_rate)
-        self.max_drive = float(max_drive)
-        self.ramp_time = float(ramp_time)
-        self._phase = float(phase)           # phase of the next sample, rad
-        self._omega = 0.0
-        self.set_frequency(frequency)
-        self.samples_written = 0
-
-    @property
-    def amplitude(self) -> float:
-        """Amplitude (V peak) of the last sample produced."""
-        return self._envelope.amplitude
-
-    @property
-    def target(self) -> float:
-        return self._envelope.target
-
-    @property
-    def frequency(self) -> float:
-        return self._omega * self.sample_rate / (2 * math.pi)
-
-    @property
-    def settled(self) -> bool:
-        """True when the amplitude has reached its target (no ramp in progress)."""
-        return self._envelope.settled
-
-    def set_frequency(self, frequency: float) -> None:
-        """Change the frequency; the phase stays continuous."""
-        if not (frequency > 0 and frequency < self.sample_rate / 2):
-            raise LimitExceeded(f"drive frequency {frequency!r} Hz must be in (0, "
-                                f"{self.sample_rate / 2:g}) Hz (below Nyquist)")
-        self._omega = 2 * math.pi * frequency / self.sample_rate
-
-    def set_target(self, amplitude: float, ramp_time: float | None = None) -> None:
-        """Move the amplitude to ``amplitude`` (V peak) along a raised-cosine ramp.
-
-        A new target during a ramp starts a new ramp from the present amplitude.
-
-        Raises
-        ------
-        LimitExceeded
-            If ``amplitude`` is negative, not finite or above ``max_drive``.
-        """
-        self._envelope.set_target(amplitude, ramp_time)
-
-    def next_block(self, n: int) -> np.ndarray:
-        """The next ``n`` drive samples (V), continuing phase and ramp."""
-        n = int(n)
-        amps = self._envelope.take(n)
-        phases = self._phase + self._omega * np.arange(n)
-        self._phase = float((self._phase + self._omega * n) % (2 * math.pi))
-        self.samples_written += n
-        return amps * np.sin(phases)
-
-    def stop_block(self) -> np.ndarray:
-        """A normal ramp to zero (``ramp_time``) as one block; the last sample is 0 V."""
-        return self._envelope.stop_block(self.next_block)
+    # an abort ramp above 75 ms leaves the queue 25 ms (time to zero = ramp + 25 ms)
+    max_time_to_zero = max(max_time_to_zero, abort_ramp_time + 0.025)
+    room = (max_time_to_zero - abort_ramp_time) * QUEUE_MARGIN * sample_rate
+    if room < 2:
+        raise ConfigurationError(
+            f"abort ramp {abort_ramp_time:g} s leaves no room for queued drive within "
+            f"{max_time_to_zero:g} s to zero")
+    return int(math.floor(room))

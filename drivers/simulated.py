@@ -69,7 +69,8 @@ from drivers.contracts import (
     OutputUnderflow,
     SensorOverload,
 )
-from drivers.safety import raised_cosine
+from drivers.drive_signals import raised_cosine
+from drivers.safety import MAX_TIME_TO_ZERO, output_queue_limit
 from drivers.sensor_chain import SensorChain, SensorModel
 from drivers.shaker import ShakerParams
 from sim.params import DampingParams, RigParams, RootParams
@@ -393,6 +394,15 @@ class VibroImpactPhysics:
         self._stepper.reset()
         self._last[:] = 0.0
 
+    @property
+    def gap(self) -> float:
+        """The shroud gap in use, m."""
+        return self._stepper._contact[0]
+
+    def set_gap(self, gap: float) -> None:
+        """Change the shroud gap between steps (the state carries on), m."""
+        self._stepper._contact = (float(gap),) + tuple(self._stepper._contact[1:])
+
     def step(self, coil_voltage: np.ndarray) -> np.ndarray:
         """Advance over ``coil_voltage`` (V, at the end of each step); ``(len(SIGNALS), n)`` out,
         each value the mean of the signal over its step (:func:`interval_means`)."""
@@ -512,7 +522,14 @@ class SimulatedRig(AcquisitionDevice):
         Noise seed.
     keep_truth
         Keep the physical signals of every block (interval means as the sampler sees them,
-        before the sensors) in :attr:`truth_log`.
+        before the sensors) in :attr:`truth_log` (grows with the run: tests only).
+    drive_log_seconds
+        How much of the amplifier's drive :attr:`drive_log` keeps (the latest), s.
+    max_time_to_zero
+        The output queue is bounded as on the NI backend
+        (:func:`drivers.safety.output_queue_limit`): at most this long from a stop or fault to
+        0 V, the queued drive playing out first; writes beyond it are refused. ``None``: no
+        bound (block-size studies).
     """
 
     backend = "simulated"
@@ -521,7 +538,9 @@ class SimulatedRig(AcquisitionDevice):
                  test_article: TestArticle | None = None, *, model: str = "auto",
                  pace: bool = False, faults: Sequence[Fault | str] = (),
                  abort_ramp_time: float = 0.05, signal_map: dict[str, str] | None = None,
-                 seed: int | None = None, keep_truth: bool = False) -> None:
+                 seed: int | None = None, keep_truth: bool = False,
+                 drive_log_seconds: float = 60.0,
+                 max_time_to_zero: float | None = MAX_TIME_TO_ZERO) -> None:
         if not 0 < abort_ramp_time <= 0.1:
             raise ConfigurationError(f"abort_ramp_time = {abort_ramp_time} s must be in (0, 0.1]")
         if model not in ("auto", "vibro-impact", "linear"):
@@ -539,6 +558,9 @@ class SimulatedRig(AcquisitionDevice):
         self.signal_map = dict(signal_map or {})
         self.seed = seed
         self.keep_truth = keep_truth
+        self.drive_log_seconds = float(drive_log_seconds)
+        self.max_time_to_zero = max_time_to_zero
+        self._queue_limit: int | None = None
         self._rig_model = None
         self._physics = None
         self._physics_dt = None
@@ -558,7 +580,9 @@ class SimulatedRig(AcquisitionDevice):
         self._wall0 = 0.0
         self._chain: SensorChain | None = None
         self._rows = np.zeros(0, dtype=int)
-        self._drive_log: list[np.ndarray] = []
+        self._drive_log: deque[np.ndarray] = deque()
+        self._drive_log_n = 0           # samples held in _drive_log
+        self.drive_samples = 0          # drive samples that reached the amplifier since configure
         self.truth_log: list[np.ndarray] = []
         self.fault_sample: int | None = None
 
@@ -617,8 +641,15 @@ class SimulatedRig(AcquisitionDevice):
             else:
                 self._physics = VibroImpactPhysics(self.rig_model(), self.shaker, dt)
             self._physics_dt = dt
+        self._queue_limit = (None if self.max_time_to_zero is None else
+                             output_queue_limit(self._rate, self.abort_ramp_time, self.max_time_to_zero))
         self._reset_stream()
         return self._rate
+
+    @property
+    def output_queue_limit(self) -> int | None:
+        """Most drive samples queued ahead of the inputs (see ``max_time_to_zero``)."""
+        return self._queue_limit
 
     def _reset_stream(self) -> None:
         self._physics.reset()
@@ -629,7 +660,8 @@ class SimulatedRig(AcquisitionDevice):
         line = round(self.test_article.input_to_output_delay * self._rate - 0.5)
         self._delay_line = np.zeros(max(0, int(line)))
         self._last_drive = 0.0
-        self._drive_log, self.truth_log = [], []
+        self._drive_log, self.truth_log = deque(), []
+        self._drive_log_n = self.drive_samples = 0
         self.fault_sample = None
         self._closed = False
 
@@ -650,9 +682,35 @@ class SimulatedRig(AcquisitionDevice):
 
     @property
     def drive_log(self) -> np.ndarray:
-        """Every drive sample that reached the amplifier (after the delay line), V, including the
-        ramp to zero after a stop or a fault."""
+        """The drive samples that reached the amplifier (after the delay line), V, including the
+        ramp to zero after a stop or a fault: the last :attr:`drive_log_seconds` of them (memory
+        stays bounded over long runs; sample 0 of the array is amplifier sample
+        ``drive_samples - drive_log.size``)."""
         return np.concatenate(self._drive_log) if self._drive_log else np.zeros(0)
+
+    @property
+    def gap(self) -> float:
+        """The test article's shroud gap in use, m (set by hand on the real rig)."""
+        if self._physics is not None and hasattr(self._physics, "gap"):
+            return self._physics.gap
+        return self.article_params.contact.gap
+
+    def set_gap(self, gap: float) -> None:
+        """Set the shroud gap directly, m (on the real rig the operator sets it by hand).
+
+        The running state carries on: what a very slow hand adjustment would do. The linear
+        model has no contact and ignores it.
+        """
+        if not (math.isfinite(gap) and gap >= 0):
+            raise ConfigurationError(f"gap {gap!r} m must be >= 0")
+        if self._physics is None:
+            self.article_params = replace(self.article_params,
+                                          contact=replace(self.article_params.contact, gap=float(gap)))
+            self._rig_model = None
+        elif hasattr(self._physics, "set_gap"):
+            self._physics.set_gap(gap)
+        self.article_params = replace(self.article_params,
+                                      contact=replace(self.article_params.contact, gap=float(gap)))
 
     @property
     def samples_read(self) -> int:
@@ -672,6 +730,11 @@ class SimulatedRig(AcquisitionDevice):
         if data.min() < low or data.max() > high:
             raise LimitExceeded(f"drive {data.min():.4g}..{data.max():.4g} V is outside the output "
                                 f"range {low}..{high} V; nothing written")
+        if self._queue_limit is not None and self._queued + data.size > self._queue_limit:
+            raise LimitExceeded(
+                f"{self._queued + data.size} drive samples would be queued ahead of the inputs, "
+                f"above the output queue limit {self._queue_limit} "
+                f"({self._queue_limit / self._rate * 1e3:.0f} ms; write smaller blocks)")
         self._queue.append(data)
         self._queued += data.size
         self._written += data.size
@@ -712,6 +775,11 @@ class SimulatedRig(AcquisitionDevice):
         else:
             applied = drive
         self._drive_log.append(applied)
+        self._drive_log_n += applied.size
+        self.drive_samples += applied.size
+        keep = int(self.drive_log_seconds * self._rate)
+        while self._drive_log and self._drive_log_n - self._drive_log[0].size >= keep:
+            self._drive_log_n -= self._drive_log.popleft().size
         if drive.size:
             self._last_drive = float(drive[-1])
         return self._physics.step(self.shaker.amplifier_gain * applied)
@@ -780,16 +848,20 @@ class SimulatedRig(AcquisitionDevice):
         raise fault
 
     def _ramp_down(self) -> None:
-        """Ramp the drive amplitude to zero over ``abort_ramp_time`` with the physics running.
+        """Bring the drive to zero as the NI backend does, with the physics running.
 
-        The queued drive continues under a half-cosine taper from 1 to 0, then zeros for the
-        delay line to drain.
+        A non-regenerating output cannot take back what is queued: the queued drive plays out,
+        then a raised-cosine ramp from its last sample to exactly 0 V over ``abort_ramp_time``,
+        then zeros for the delay line to drain. The queue bound keeps the sum within
+        ``max_time_to_zero``.
         """
-        r = max(1, int(round(self.abort_ramp_time * self._rate)))
-        drive = self._take(r)
-        taper = 1.0 - raised_cosine(r)
+        queued = self._take(self._queued)
+        last = float(queued[-1]) if queued.size else self._last_drive
+        r = max(1, int(math.floor(self.abort_ramp_time * self._rate + 1e-9)))
+        ramp = last * (1.0 - raised_cosine(r))
+        ramp[-1] = 0.0
         tail = np.zeros(self._delay_line.size)
-        self._advance(np.concatenate([drive * taper, tail]))
+        self._advance(np.concatenate([queued, ramp, tail]))
         self._last_drive = 0.0
 
     def stop(self) -> None:

@@ -35,10 +35,10 @@ from dataclasses import dataclass, field
 from typing import Callable, Protocol
 
 import numpy as np
-from scipy import signal
 
-from drivers.contracts import AcquisitionDevice, DaqFault, DriverError
-from drivers.safety import AmplitudeEnvelope, SafetyMonitor, raised_cosine
+from drivers.contracts import AcquisitionDevice, DaqFault, DriverError, SafetyAbort
+from drivers.drive_signals import RandomDrive  # noqa: F401  (kept importable from here)
+from drivers.safety import SafetyMonitor
 from rigtools.errors import UserError
 
 
@@ -99,6 +99,17 @@ def _one_line(exc: BaseException) -> str:
     return text
 
 
+def stream_piece(device: AcquisitionDevice) -> int:
+    """Samples per read/write: the device's block, split into equal pieces so that two of them
+    (the drive kept queued ahead) fit its :attr:`~drivers.contracts.AcquisitionDevice.output_queue_limit`."""
+    block = int(device.block_size)
+    limit = getattr(device, "output_queue_limit", None)
+    if not limit or 2 * block <= limit:
+        return block
+    k = math.ceil(block / (limit // 2))
+    return max(1, math.ceil(block / k))
+
+
 class BlockStream:
     """Stream ``drive`` to a configured ``device`` block by block (see the module docstring).
 
@@ -116,6 +127,10 @@ class BlockStream:
         Append the played drive as an extra last row of each block passed to the sink.
     on_block
         Called as ``on_block(block, stats)`` after each block is stored and checked.
+    abort_ramp_time
+        On a safety abort, ramp the drive to zero over this many seconds while still reading
+        (the record keeps the ramp), then raise; ``None``: stop the device at once (its own
+        ramp, not recorded).
 
     Examples
     --------
@@ -127,14 +142,16 @@ class BlockStream:
 
     def __init__(self, device: AcquisitionDevice, drive: Drive, *, sink: Sink | None = None,
                  safety: SafetyMonitor | None = None, record_drive: bool = False,
-                 on_block: Callable[[np.ndarray, StreamStats], None] | None = None) -> None:
+                 on_block: Callable[[np.ndarray, StreamStats], None] | None = None,
+                 abort_ramp_time: float | None = None) -> None:
         self.device = device
+        self.abort_ramp_time = abort_ramp_time
         self.drive = drive
         self.sink = sink
         self.safety = safety
         self.record_drive = record_drive
         self.on_block = on_block
-        self.n = int(device.block_size)
+        self.n = stream_piece(device)
         self.stats = StreamStats(device.sample_rate)
         self._played: deque[np.ndarray] = deque()   # drive blocks written, not yet read
         self._pending: deque[np.ndarray] = deque()  # drive samples queued by finish()
@@ -198,7 +215,10 @@ class BlockStream:
             played = self._played.popleft()
             self._store(block, played)
             if self.safety is not None:
-                self.stats.warnings.extend(self.safety.check(block, played))
+                try:
+                    self.stats.warnings.extend(self.safety.check(block, played))
+                except SafetyAbort as exc:
+                    self._safety_ramp(exc)
             self._write(self._next_drive())
             if self.on_block is not None:
                 self.on_block(block, self.stats)
@@ -213,11 +233,14 @@ class BlockStream:
         self.stats.blocks += 1
         self.stats.samples += block.shape[1]
 
-    def finish(self) -> StreamStats:
-        """Ramp the drive down normally, read the blocks that carry the ramp, stop the device."""
+    def finish(self, ramp_time: float | None = None) -> StreamStats:
+        """Ramp the drive down (the drive's own ramp, or over ``ramp_time`` s), read the blocks
+        that carry the ramp (they reach the sink: a recording shows the drive ending at 0 V),
+        stop the device."""
         if self._finished:
             return self.stats
-        ramp = np.asarray(self.drive.stop_block(), dtype=float)
+        ramp = np.asarray(self.drive.stop_block() if ramp_time is None
+                          else self.drive.stop_block(ramp_time), dtype=float)
         delay = self.device.input_to_output_delay() * self.device.sample_rate
         # the ramp, then zeros: the two blocks already queued + the ramp + the delay, whole blocks
         tail = np.concatenate([ramp, np.zeros(int(math.ceil(delay)))])
@@ -232,6 +255,17 @@ class BlockStream:
         self._finished = True
         self.device.stop()
         return self.stats
+
+    def _safety_ramp(self, exc: SafetyAbort) -> None:
+        """A safety limit was crossed on good samples: ramp the drive to zero over the device's
+        abort ramp while still reading, so the record shows the peak and the ramp; then raise."""
+        if self.abort_ramp_time is not None and not self._pending:
+            self.safety = None
+            try:
+                self.finish(ramp_time=self.abort_ramp_time)
+            except BaseException:       # the device failed meanwhile: _abort stops it
+                pass
+        raise exc
 
     def _abort(self, exc: BaseException, from_device: bool = False) -> None:
         """Stop the device (drive to zero), keep what was read, re-raise as AcquisitionAborted.
@@ -271,7 +305,7 @@ def acquire(device: AcquisitionDevice, drive: Drive, duration: float, *, sink: S
     """
     if not duration > 0:
         raise ValueError(f"duration {duration!r} s must be > 0")
-    n_blocks = max(1, int(math.ceil(duration * device.sample_rate / device.block_size - 1e-9)))
+    n_blocks = max(1, int(math.ceil(duration * device.sample_rate / stream_piece(device) - 1e-9)))
     with BlockStream(device, drive, sink=sink, safety=safety, record_drive=record_drive,
                      on_block=on_block) as stream:
         for _ in range(n_blocks):
@@ -291,102 +325,3 @@ class BlockCollector:
     @property
     def data(self) -> np.ndarray:
         return np.concatenate(self.blocks, axis=1) if self.blocks else np.zeros((0, 0))
-
-
-class RandomDrive:
-    """Band-limited Gaussian random drive, continuous or in bursts, with ramped amplitude.
-
-    White Gaussian noise through a Butterworth band-pass (state carried across blocks), scaled
-    to ``rms`` volts and clipped at ``max_drive``. Amplitude changes follow a raised-cosine ramp
-    of ``ramp_time`` (a :class:`~drivers.safety.AmplitudeEnvelope`, as for the sine drive). With
-    ``burst_period``, the noise is on for ``burst_fraction`` of every period (starting at each
-    period), its edges tapered over ``edge_time``, and off for the rest:
-    burst random, where each period holds the whole response (no leakage with a rectangular
-    window when the response has decayed by the period's end).
-
-    Parameters
-    ----------
-    sample_rate
-        S/s.
-    rms
-        Target RMS of the continuous noise (within bursts), V.
-    band
-        ``(f_low, f_high)`` Hz of the band-pass (4th order).
-    max_drive
-        Peak never exceeded, V (samples beyond are clipped).
-    ramp_time
-        Amplitude ramp, s (> 0).
-    burst_period, burst_fraction, edge_time
-        Burst random timing, s / fraction / s; ``burst_period=None`` for continuous random.
-    seed
-        Noise seed.
-    """
-
-    def __init__(self, sample_rate: float, rms: float, band: tuple[float, float], *, max_drive: float,
-                 ramp_time: float = 0.5, burst_period: float | None = None,
-                 burst_fraction: float = 0.5, edge_time: float = 0.005, seed: int | None = None) -> None:
-        lo, hi = band
-        if not 0 < lo < hi < sample_rate / 2:
-            raise ValueError(f"band {band} Hz must satisfy 0 < low < high < {sample_rate / 2:g}")
-        if not 0 < rms <= max_drive:
-            raise ValueError(f"rms {rms} V must be in (0, max_drive = {max_drive}]")
-        if burst_period is not None and not (0 < burst_fraction <= 1 and burst_period > 0):
-            raise ValueError("burst_period must be > 0 and burst_fraction in (0, 1]")
-        self._envelope = AmplitudeEnvelope(sample_rate, ramp_time, max_drive, what="rms")
-        self.sample_rate = float(sample_rate)
-        self.max_drive = float(max_drive)
-        self.ramp_time = float(ramp_time)
-        self._sos = signal.butter(4, [lo, hi], btype="bandpass", fs=sample_rate, output="sos")
-        self._zi = np.zeros((self._sos.shape[0], 2))
-        impulse = np.zeros(int(20 * sample_rate / lo))
-        impulse[0] = 1.0
-        self._gain = 1.0 / math.sqrt(float(np.sum(signal.sosfilt(self._sos, impulse) ** 2)))
-        self._rng = np.random.default_rng(seed)
-        self._k = 0
-        if burst_period is None:
-            self._gate = None
-        else:
-            period = int(round(burst_period * sample_rate))
-            on = int(round(burst_fraction * period))
-            edge = min(max(1, int(round(edge_time * sample_rate))), on // 2)
-            rise = raised_cosine(edge)                 # ends at exactly 1
-            gate = np.zeros(period)
-            gate[:on] = 1.0
-            gate[:edge] = rise
-            if on < period:
-                gate[on - edge:on] = 1.0 - rise        # ends at exactly 0
-            self._gate = gate
-        self.set_target(rms)
-
-    @property
-    def settled(self) -> bool:
-        return self._envelope.settled
-
-    @property
-    def burst_samples(self) -> int | None:
-        """Samples per burst period, or ``None`` for continuous random."""
-        return None if self._gate is None else self._gate.size
-
-    def set_target(self, rms: float, ramp_time: float | None = None) -> None:
-        """Ramp the RMS to ``rms`` V (raised cosine over ``ramp_time``).
-
-        Raises
-        ------
-        LimitExceeded
-            (a ``ValueError``) if ``rms`` is negative, not finite or above ``max_drive``.
-        """
-        self._envelope.set_target(rms, ramp_time)
-
-    def next_block(self, n: int) -> np.ndarray:
-        """The next ``n`` samples, V."""
-        amps = self._envelope.take(n)
-        noise, self._zi = signal.sosfilt(self._sos, self._rng.standard_normal(n), zi=self._zi)
-        out = amps * self._gain * noise
-        if self._gate is not None:
-            out *= self._gate[(self._k + np.arange(n)) % self._gate.size]
-        self._k += n
-        return np.clip(out, -self.max_drive, self.max_drive)
-
-    def stop_block(self) -> np.ndarray:
-        """A normal ramp to zero (``ramp_time``), ending at exactly 0 V."""
-        return self._envelope.stop_block(self.next_block)

@@ -221,9 +221,10 @@ def test_shared_rate_is_the_coerced_ai_rate_and_ao_starts_on_the_ai_trigger(monk
     assert actual == coerced and dev.sample_rate == coerced
     rig.ai.timing.cfg_samp_clk_timing.assert_called_once_with(
         51200.0, sample_mode=AcquisitionType.CONTINUOUS, samps_per_chan=102400)
-    # AO host buffer kept short (0.5 s): the drive can never be queued further ahead than that
+    # AO host buffer = the output queue limit: 0.1 s to zero with the 50 ms ramp, 90 % of the
+    # 50 ms left for queued drive at the coerced rate: floor(0.045 * 51205.12) = 2304 samples
     rig.ao.timing.cfg_samp_clk_timing.assert_called_once_with(
-        coerced, sample_mode=AcquisitionType.CONTINUOUS, samps_per_chan=25602)
+        coerced, sample_mode=AcquisitionType.CONTINUOUS, samps_per_chan=2304)
     rig.ao.triggers.start_trigger.cfg_dig_edge_start_trig.assert_called_once_with(AI_TRIGGER)
     rig.ai.triggers.start_trigger.cfg_dig_edge_start_trig.assert_not_called()   # AI is the master
     assert rig.ao.out_stream.regen_mode == RegenerationMode.DONT_ALLOW_REGENERATION
@@ -389,7 +390,9 @@ def test_stop_appends_the_ramp_from_the_last_sample_waits_for_it_then_stops_ao_t
     assert not dev.running
     dev.stop()                                             # idempotent: nothing more written
     assert len(rig.written) == 3
-    assert dev.max_time_to_zero() == pytest.approx((25600 + RAMP) / 51200.0)
+    # the AO host buffer bounds the queue: buffer + ramp within 0.1 s
+    assert dev.output_queue_limit == 2304
+    assert dev.time_to_zero() == pytest.approx((2304 + RAMP) / 51200.0) and dev.time_to_zero() <= 0.1
 
 
 def test_ramp_time_is_configurable_up_to_a_tenth_of_a_second(monkeypatch, specs):
@@ -537,7 +540,7 @@ def test_without_driver_one_line_suggests_simulated_rig(monkeypatch, specs):
         monkeypatch.setattr(nidaq.nidaqmx, "Task", mock.Mock(side_effect=exc))
         with pytest.raises(DriverUnavailable) as info:
             NiDaqDevice().configure(specs[0], specs[1], 51200.0)
-        assert "\n" not in str(info.value) and "--simulated" in str(info.value)
+        assert "\n" not in str(info.value) and "--backend sim" in str(info.value)
 
 
 def test_on_this_machine_without_nidaqmx_the_real_call_says_unavailable(specs):

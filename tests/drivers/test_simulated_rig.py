@@ -346,7 +346,8 @@ def test_readings_do_not_depend_on_the_block_size(cfg, chunk):
     samples = drive.next_block(int(0.8 * FS))
 
     def run(block):
-        rig = SimulatedRig(cfg.to_params(), cfg.shaker.to_params(), ta, keep_truth=True)
+        rig = SimulatedRig(cfg.to_params(), cfg.shaker.to_params(), ta, keep_truth=True,
+                           max_time_to_zero=None)       # whole-run blocks: no queue bound
         _configure(rig, cfg)
         assert rig.input_to_output_delay() > 0
         parts = [samples[i:i + block] for i in range(0, samples.size, block)]
@@ -380,7 +381,8 @@ def test_integrating_sampler_leaves_no_alias_lines_between_the_harmonics(cfg):
     ta = cfg.test_article.to_params().ideal()
 
     def run(fs):
-        rig = SimulatedRig(cfg.to_params(), cfg.shaker.to_params(), ta, model="vibro-impact")
+        rig = SimulatedRig(cfg.to_params(), cfg.shaker.to_params(), ta, model="vibro-impact",
+                           max_time_to_zero=None)       # one 3 s block: no queue bound
         rig.configure(cfg.daq.input_specs(), cfg.daq.output_spec(), fs)
         drive = SineDrive(fs, 60.0, max_drive=5.0, ramp_time=0.5)
         drive.set_target(1.0)

@@ -1,0 +1,223 @@
+"""The procedure life cycle: start-up -> execute -> shut-down, an end status, a stop request.
+
+A :class:`Procedure` (a dwell, a stepped sine, a study, an FRF test) runs on one configured
+device and writes one recording. :meth:`Procedure.run`:
+
+1. ``startup``: open and configure the device, open the recording;
+2. ``execute``: the procedure's own work, point by point (each point written as it completes);
+3. ``shutdown`` in ``finally``: the drive ends at zero (the stream's ramp, or the device's),
+   the device is closed, and the recording gets its end status and reason.
+
+End status (:class:`Status`), kept in the file: ``finished`` (file status ``complete``);
+``aborted`` -- a stop request from a script (:meth:`Procedure.stop`), Ctrl-C or a signal
+(SIGINT, SIGTERM, SIGHUP; any ``KeyboardInterrupt`` subclass) -- and ``failed`` -- a hardware
+fault, a safety abort, an error -- both file status ``aborted`` with ``abort_reason``
+``"aborted: ..."`` / ``"failed: ..."``. The root attribute ``end_status`` holds the word.
+
+While a procedure runs in the main thread, SIGINT/SIGTERM/SIGHUP become a stop request: the
+drive ramps to zero over ``[safety] abort_ramp_time`` while the inputs are still read, so the
+record shows the ramp. A second signal interrupts at once (the device still ramps the drive
+to zero on its own).
+"""
+
+from __future__ import annotations
+
+import enum
+import signal
+import threading
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable
+
+from rigtools.errors import UserError
+
+
+class Status(str, enum.Enum):
+    FINISHED = "finished"
+    ABORTED = "aborted"
+    FAILED = "failed"
+
+
+class StopRequested(BaseException):
+    """Raised inside a procedure after a stop request, once the drive has ramped down.
+
+    A ``BaseException`` (like Ctrl-C) so that no ``except Exception`` on the way swallows it.
+    """
+
+
+class ProcedureFailed(UserError):
+    """A procedure ended ``failed`` (exit 4): a fault, a safety abort or an error."""
+
+    exit_code = 4
+
+
+@dataclass(frozen=True)
+class ProgressEvent:
+    """What a procedure reports while it runs (the CLI shows it with rich).
+
+    ``kind``: ``"point"`` (point ``point`` of ``n_points`` starts), ``"control"`` (a force
+    control update: ``update``, ``control_error`` = measured/target - 1), ``"settling"``,
+    ``"recording"``, ``"point_done"``, ``"message"``.
+    """
+
+    kind: str
+    point: int = 0
+    n_points: int = 1
+    text: str = ""
+    update: int = 0
+    control_error: float | None = None
+    time: float = 0.0
+
+
+@dataclass
+class ProcedureResult:
+    """How a procedure ended and what it measured."""
+
+    status: Status
+    reason: str = ""
+    file: str | None = None
+    points: list[dict] = field(default_factory=list)
+    summary: dict = field(default_factory=dict)
+
+
+def validate(model: type, **values: Any):
+    """Build a pydantic parameter model; a bad value is one :class:`UserError` line naming it."""
+    from pydantic import ValidationError
+
+    try:
+        return model(**values)
+    except ValidationError as exc:
+        err = exc.errors()[0]
+        name = ".".join(str(p) for p in err["loc"]) or model.__name__
+        raise UserError(f"{name} = {err.get('input')!r}: {err['msg']}") from None
+
+
+SIGNALS = tuple(getattr(signal, n) for n in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, n))
+
+
+class Procedure:
+    """Base of every procedure. Subclasses implement :meth:`startup`, :meth:`execute` and
+    :meth:`shutdown` (``shutdown(status, reason)`` is always called, in ``finally``)."""
+
+    name = "procedure"
+
+    def __init__(self, progress: Callable[[ProgressEvent], None] | None = None) -> None:
+        self._progress = progress
+        self._stop = threading.Event()
+        self.stop_reason = ""
+        self.result: ProcedureResult | None = None
+
+    # -- for scripts ---------------------------------------------------------------------------
+    def stop(self, reason: str = "stop requested") -> None:
+        """Ask the procedure to stop: the drive ramps to zero, what was recorded is kept, the
+        status becomes ``aborted``. Safe to call from another thread or a signal handler."""
+        if not self._stop.is_set():
+            self.stop_reason = reason
+            self._stop.set()
+
+    @property
+    def stop_requested(self) -> bool:
+        return self._stop.is_set()
+
+    def emit(self, kind: str, **fields: Any) -> None:
+        if self._progress is not None:
+            self._progress(ProgressEvent(kind, **fields))
+
+    # -- life cycle ------------------------------------------------------------------------------
+    def startup(self) -> None:
+        """Open and configure the device, open the recording."""
+
+    def execute(self) -> None:
+        """The procedure's work."""
+        raise NotImplementedError
+
+    def shutdown(self, status: Status, reason: str) -> None:
+        """Drive to zero, device closed, recording ended with ``status`` and ``reason``."""
+
+    def run(self) -> ProcedureResult:
+        """Run start-up, execute and shut-down; returns the result.
+
+        Raises
+        ------
+        KeyboardInterrupt
+            After a Ctrl-C or signal (status ``aborted`` recorded first); a stop request from a
+            script returns normally with status ``aborted``.
+        ProcedureFailed, UserError, DriverError
+            When the procedure failed (status ``failed`` recorded first).
+        """
+        status, reason, error = Status.FAILED, "", None
+        previous = self._install_signal_handlers()
+        try:
+            self.startup()
+            self.execute()
+            status = Status.FINISHED
+        except StopRequested:
+            status, reason = Status.ABORTED, self.stop_reason or "stop requested"
+            if self.stop_reason.startswith("signal"):
+                error = KeyboardInterrupt(self.stop_reason)
+        except KeyboardInterrupt as exc:
+            status, reason, error = Status.ABORTED, (self.stop_reason or _interrupt_text(exc)), exc
+        except BaseException as exc:          # noqa: BLE001 - recorded, then re-raised
+            status, reason, error = Status.FAILED, _one_line(exc), exc
+        finally:
+            self._restore_signal_handlers(previous)
+            try:
+                self.shutdown(status, reason)
+            except BaseException as exc:      # noqa: BLE001
+                if error is None:
+                    status, reason, error = Status.FAILED, _one_line(exc), exc
+        result = self.result or ProcedureResult(status)
+        result.status, result.reason = status, reason
+        self.result = result
+        if error is not None:
+            raise error
+        return result
+
+    # -- signals ---------------------------------------------------------------------------------
+    def _install_signal_handlers(self) -> dict:
+        if threading.current_thread() is not threading.main_thread():
+            return {}
+        previous = {}
+
+        def handler(signum, frame):
+            name = signal.Signals(signum).name
+            if self._stop.is_set():          # a second signal: interrupt now
+                raise KeyboardInterrupt(f"{name} (second signal)")
+            self.stop(f"signal {name}" + (" (Ctrl-C)" if name == "SIGINT" else ""))
+
+        for sig in SIGNALS:
+            try:
+                previous[sig] = signal.signal(sig, handler)
+            except (ValueError, OSError):
+                pass
+        return previous
+
+    @staticmethod
+    def _restore_signal_handlers(previous: dict) -> None:
+        for sig, old in previous.items():
+            try:
+                signal.signal(sig, old)
+            except (ValueError, OSError, TypeError):
+                pass
+
+
+def _interrupt_text(exc: BaseException) -> str:
+    text = str(exc).strip()
+    return f"interrupted: {text}" if text else "interrupted (Ctrl-C)"
+
+
+def _one_line(exc: BaseException) -> str:
+    text = " ".join(str(exc).split())
+    return text or type(exc).__name__
+
+
+def mark_end_status(path: str | Path, status: Status, reason: str) -> None:
+    """Set the root attributes ``end_status`` and ``end_reason`` of a closed recording."""
+    import h5py
+
+    try:
+        with h5py.File(path, "r+", libver=("v110", "v110"), locking=False) as f:
+            f.attrs["end_status"] = status.value
+            f.attrs["end_reason"] = reason
+    except OSError:
+        pass

@@ -1,0 +1,176 @@
+"""Sine dwell with closed-loop force control, and the machinery sine procedures share:
+opening the rig and the recording (:class:`SineProcedure`)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Callable, Optional
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from rigtools.procedures.base import (
+    Procedure,
+    ProgressEvent,
+    ProcedureResult,
+    Status,
+    mark_end_status,
+    validate,
+)
+from rigtools.procedures.session import SineSession, point_attrs
+
+MAX_GAP = 0.01     # m; no blade closes a larger gap
+
+
+class ControlParameters(BaseModel):
+    """Force-control settings (SI)."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    tolerance: float = Field(0.005, gt=0, le=0.1, description="control tolerance (fraction of F0)")
+    max_updates: int = Field(10, ge=1, le=100)
+    initial_drive: float = Field(0.2, gt=0, le=10, description="first drive, V peak")
+    max_step: float = Field(4.0, gt=1, le=20)
+    margin: float = Field(0.8, gt=0, le=1, description="fraction of a warning level never planned past")
+    control_ramp: float = Field(0.05, gt=0, le=2, description="ramp of each update, s")
+
+
+class DwellParameters(BaseModel):
+    """A force-controlled sine dwell (SI: Hz, N, m)."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    fe: float = Field(gt=0, le=25000, description="excitation frequency, Hz")
+    force: float = Field(gt=0, le=1000, description="force amplitude F0 (fundamental), N")
+    gap: Optional[float] = Field(None, ge=0, le=MAX_GAP, description="shroud gap, m (None: as set)")
+    record_periods: int = Field(60, ge=1, le=1_000_000)
+    k_max: int = Field(10, ge=1, le=100)
+    control: ControlParameters = ControlParameters()
+
+
+class SineProcedure(Procedure):
+    """Opens the device, the safety monitor, the recording and a :class:`SineSession`; ends
+    them in ``shutdown`` with the status. Subclasses write ``execute``."""
+
+    name = "sine"
+
+    def __init__(self, cfg, out: str | Path, *, backend: str = "nidaq", overwrite: bool = False,
+                 device=None, pace: bool = False, faults=(), seed: int | None = None,
+                 progress: Callable[[ProgressEvent], None] | None = None,
+                 confirm_gap: Callable[[float, int], None] | None = None) -> None:
+        super().__init__(progress)
+        self.cfg, self.out, self.backend, self.overwrite = cfg, Path(out), backend, overwrite
+        self.device, self._device_opts = device, dict(pace=pace, faults=faults, seed=seed)
+        self.confirm_gap = confirm_gap
+        self.writer = None
+        self.session: SineSession | None = None
+        self.point = None
+        self.result = ProcedureResult(Status.FAILED, file=str(self.out))
+
+    def first_frequency(self) -> float:
+        raise NotImplementedError
+
+    def record_seconds(self) -> float:
+        return 2.0
+
+    def parameters_doc(self) -> dict:
+        return {}
+
+    def startup(self) -> None:
+        from rigtools.procedures import rig
+
+        if self.device is None:
+            self.device = rig.open_device(self.cfg, self.backend, **self._device_opts)
+        rate = rig.configure(self.device, self.cfg)
+        if self.first_frequency() >= rate / 2:
+            from rigtools.errors import UserError
+
+            raise UserError(f"fe = {self.first_frequency():g} Hz must be below half the sample rate "
+                            f"({rate / 2:g} Hz)")
+        monitor = rig.safety_monitor(self.cfg, self.device)
+        self.specs = rig.channel_specs(self.device, self.cfg, rate)
+        self.session = SineSession(self.device, self.cfg, monitor, self.first_frequency(), self,
+                                   rig.force_row(self.device),
+                                   ring_seconds=max(2.0, self.record_seconds() + 0.5))
+        self.open_writer(rig.experiment_metadata(self.name, self.device, self.parameters_doc()))
+
+    def open_writer(self, experiment: dict) -> None:
+        from rigtools.recording import RecordingWriter
+
+        self.writer = RecordingWriter(self.out, backend=self.device.backend, rig=self.cfg.to_json(),
+                                      experiment=experiment, overwrite=self.overwrite)
+
+    def set_gap(self, gap: float | None, index: int = 0) -> float:
+        """The gap the point runs at: set directly on the simulated rig; on the real rig the
+        operator sets it (``confirm_gap(gap, index)`` prompts and waits)."""
+        if gap is None:
+            return float(getattr(self.device, "gap", self.cfg.contact.gap))
+        if hasattr(self.device, "set_gap"):
+            self.device.set_gap(gap)
+        elif self.confirm_gap is not None:
+            self.confirm_gap(gap, index)
+        return float(gap)
+
+    def begin_point(self, params: dict):
+        self.point = self.writer.begin_point(params=params, channels=self.specs)
+        self.session.sink.begin(self.point)
+        return self.point
+
+    def end_point(self, attrs: dict) -> None:
+        self.point.set_attrs(point_complete=True, **attrs)
+        self.point.end()
+        self.session.sink.point = None
+        self.point = None
+
+    def shutdown(self, status: Status, reason: str) -> None:
+        try:
+            if self.session is not None and not self.session.stream._finished and status is Status.FINISHED:
+                self.session.finish()
+        finally:
+            try:
+                if self.device is not None:
+                    self.device.close()
+            finally:
+                if self.writer is not None:
+                    if self.point is not None and not self.point.ended:
+                        try:
+                            self.point.set_attrs(point_complete=False)
+                        except Exception:      # noqa: BLE001 - the file still gets its status
+                            pass
+                    if status is Status.FINISHED:
+                        self.writer.close()
+                    else:
+                        self.writer.abort(f"{status.value}: {reason}")
+                    mark_end_status(self.out, status, reason)
+
+
+class SineDwell(SineProcedure):
+    """Hold the force fundamental at F0 at one frequency, wait for steady state, record
+    ``record_periods`` whole periods; the drive then ramps to zero (recorded in the point)."""
+
+    name = "sine dwell"
+
+    def __init__(self, cfg, params: DwellParameters | dict, out, **kwargs) -> None:
+        super().__init__(cfg, out, **kwargs)
+        self.params = params if isinstance(params, DwellParameters) else validate(DwellParameters, **params)
+
+    def first_frequency(self) -> float:
+        return self.params.fe
+
+    def record_seconds(self) -> float:
+        return self.params.record_periods / self.params.fe
+
+    def parameters_doc(self) -> dict:
+        return self.params.model_dump()
+
+    def execute(self) -> None:
+        p = self.params
+        gap = self.set_gap(p.gap)
+        self.emit("point", point=1, n_points=1, text=f"{p.fe:g} Hz, {p.force:g} N")
+        self.begin_point({"fe": p.fe, "force_amplitude": p.force, "gap": gap})
+        res = self.session.run_point(p.fe, p.force, record_periods=p.record_periods, k_max=p.k_max,
+                                     point=1, n_points=1, **p.control.model_dump())
+        res["gap"] = gap
+        self.session.finish()                 # the ramp to zero goes into the point
+        self.end_point(point_attrs(res))
+        self.result.points.append(res)
+        self.emit("point_done", point=1, n_points=1)

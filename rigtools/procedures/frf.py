@@ -1,0 +1,164 @@
+"""FRF test: burst random or periodic chirp over a band, with averages, recorded raw.
+
+One recording point holds the whole stream (ramp, the settling frame, the averaged frames, the
+ramp down); ``record_start`` and ``frame_samples`` say where the averaged frames are. The
+quick check (:func:`quick_check`) is H1 of the response over the force with whole frames as
+segments (rectangular window: a burst has decayed and a periodic chirp is periodic in a frame),
+and the coherence at its peaks; the analysis of the raw record belongs to :mod:`analysis`.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Literal, Optional
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+from rigtools.acquisition import BlockStream
+from rigtools.errors import UserError
+from rigtools.procedures.base import StopRequested, validate
+from rigtools.procedures.dwell import MAX_GAP, SineProcedure
+from rigtools.procedures.session import PointSink
+
+
+class FrfParameters(BaseModel):
+    """An FRF test (SI)."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    signal: Literal["burst", "chirp"] = "chirp"
+    band: tuple[float, float] = Field(description="(low, high) Hz")
+    level: float = Field(gt=0, le=10, description="drive: rms within bursts, or chirp peak, V")
+    frame: float = Field(1.0, gt=0, le=100, description="frame (period) length, s: resolution 1/frame")
+    averages: int = Field(10, ge=2, le=10000)
+    burst_fraction: float = Field(0.5, gt=0, le=1)
+    gap: Optional[float] = Field(None, ge=0, le=MAX_GAP)
+    response: Optional[str] = None
+    seed: Optional[int] = Field(None, ge=0)
+
+    @model_validator(mode="after")
+    def _band(self):
+        lo, hi = self.band
+        if not (0 < lo < hi):
+            raise ValueError(f"band {self.band} Hz must satisfy 0 < low < high")
+        return self
+
+
+class FrfTest(SineProcedure):
+    """Broadband FRF test; see the module docstring."""
+
+    name = "frf test"
+
+    def __init__(self, cfg, params: FrfParameters | dict, out, **kwargs) -> None:
+        super().__init__(cfg, out, **kwargs)
+        self.params = params if isinstance(params, FrfParameters) else validate(FrfParameters, **params)
+
+    def parameters_doc(self) -> dict:
+        return self.params.model_dump()
+
+    def startup(self) -> None:
+        from drivers.drive_signals import PeriodicChirp, RandomDrive
+        from rigtools.procedures import rig
+
+        p = self.params
+        if self.device is None:
+            self.device = rig.open_device(self.cfg, self.backend, **self._device_opts)
+        rate = rig.configure(self.device, self.cfg)
+        if p.band[1] >= rate / 2:
+            raise UserError(f"band {p.band[0]:g}..{p.band[1]:g} Hz: the top must be below half the "
+                            f"sample rate ({rate / 2:g} Hz)")
+        max_drive = self.cfg.safety.max_drive
+        peak = p.level * (3.5 if p.signal == "burst" else 1.0)
+        if peak > max_drive:
+            raise UserError(f"level {p.level:g} V: the drive would reach about {peak:.3g} V, above "
+                            f"[safety] max_drive {max_drive:g} V")
+        if p.signal == "burst":
+            self.drive = RandomDrive(rate, p.level, p.band, max_drive=max_drive,
+                                     ramp_time=self.cfg.safety.ramp_time, burst_period=p.frame,
+                                     burst_fraction=p.burst_fraction, seed=p.seed)
+            self.frame_samples = self.drive.burst_samples
+        else:
+            self.drive = PeriodicChirp(rate, p.level, p.band, period=p.frame, max_drive=max_drive,
+                                       ramp_time=self.cfg.safety.ramp_time)
+            self.frame_samples = self.drive.period_samples
+        self.monitor = rig.safety_monitor(self.cfg, self.device)
+        self.specs = rig.channel_specs(self.device, self.cfg, rate)
+        self.rate = rate
+        self.sink = PointSink(len(self.specs), 1)
+        self.stream = BlockStream(self.device, self.drive, sink=self.sink, safety=self.monitor,
+                                  record_drive=True, abort_ramp_time=self.cfg.safety.abort_ramp_time)
+        self.open_writer(rig.experiment_metadata(self.name, self.device, self.parameters_doc()))
+
+    def _read(self) -> None:
+        self.stream.read()
+        if self.stop_requested:
+            self.stream.finish(ramp_time=self.cfg.safety.abort_ramp_time)
+            raise StopRequested(self.stop_reason)
+
+    def execute(self) -> None:
+        p = self.params
+        gap = self.set_gap(p.gap)
+        self.point = self.writer.begin_point(
+            params={"gap": gap, "signal": p.signal, "band_low": p.band[0], "band_high": p.band[1],
+                    "drive_level": p.level, "frame_samples": self.frame_samples, "averages": p.averages},
+            channels=self.specs)
+        self.sink.begin(self.point)
+        # the ramp, then one frame to reach the periodic state, then the averaged frames
+        ramp = int(math.ceil(self.cfg.safety.ramp_time * self.rate))
+        start = int(math.ceil((ramp + self.frame_samples) / self.frame_samples)) * self.frame_samples
+        total = start + p.averages * self.frame_samples
+        self.emit("point", point=1, n_points=1, text=f"{p.signal} {p.band[0]:g}-{p.band[1]:g} Hz")
+        while self.sink.total < total:
+            before = self.sink.total
+            self._read()
+            self.emit("recording" if before >= start else "settling", point=1, n_points=1,
+                      text=f"{max(0, before - start) / self.frame_samples:.0f}/{p.averages} frames")
+        self.stream.finish()
+        self.record_start = start
+        self.point.set_attrs(point_complete=True, record_start=start / self.rate,
+                             record_samples=p.averages * self.frame_samples)
+        self.point.end()
+        self.point = None
+        self.result.summary = {"record_start": start / self.rate, "frame_samples": self.frame_samples,
+                               "averages": p.averages}
+
+    def shutdown(self, status, reason) -> None:
+        self.session = None
+        super().shutdown(status, reason)
+
+
+def quick_check(path, response: str | None = None, n_peaks: int = 5) -> dict:
+    """H1 (response / force) over the averaged frames of an FRF test recording, its peaks in the
+    band and their coherence (:func:`analysis.frf.estimate_frf`, frames as segments, no window)."""
+    from scipy.signal import find_peaks
+
+    from analysis.frf import estimate_frf
+    from rigtools.recording import open_recording
+
+    with open_recording(path) as rec:
+        point = rec.points[0]
+        prm = point.params
+        rate = point.sample_rate
+        start = int(round(prm["record_start"] * rate))
+        n = int(prm["record_samples"])
+        frame = int(prm["frame_samples"])
+        specs = {name: ch for name, ch in point.channels.items()}
+        force_name = next(name for name, ch in specs.items() if ch.quantity == "force")
+        if response is None:
+            response = next(name for name, ch in specs.items()
+                            if ch.quantity == "acceleration" and "passive" not in name.lower())
+        x = specs[force_name][start:start + n]
+        y = specs[response][start:start + n]
+        lo, hi = float(prm["band_low"]), float(prm["band_high"])
+    est = estimate_frf(x, y, rate, nperseg=frame, noverlap=0, window="boxcar", detrend=False)
+    f = est.frequency_hz
+    band = (f >= lo) & (f <= hi)
+    mag = np.abs(est.h1)
+    idx, props = find_peaks(np.where(band, mag, 0.0), prominence=0)
+    order = idx[np.argsort(props["prominences"])[::-1][:n_peaks]]
+    peaks = [{"frequency_hz": float(f[i]), "h1": float(mag[i]), "coherence": float(est.coherence[i])}
+             for i in sorted(order)]
+    return {"response": response, "force": force_name, "averages": est.n_averages,
+            "resolution_hz": est.resolution_hz, "peaks": peaks,
+            "mean_coherence_in_band": float(np.mean(est.coherence[band]))}
