@@ -74,7 +74,6 @@ burst's rms, V.
 """,
 }
 FAULT_PATTERN = re.compile(r"^\s*([A-Za-z_-]+)\s*@\s*([^:]+?)\s*(?::\s*([\w.-]+))?\s*$")
-DIMENSION = {"gap": "length", "force": "force", "frequency": "frequency"}
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -152,12 +151,13 @@ def parse_faults(texts: list[str], backend: str) -> list:
     return faults
 
 
-def grid(text: str, dimension: str, option: str) -> list[float]:
-    """``"a,b,c"`` or ``"start:stop:step"`` with units."""
+def grid(text: str, kind: str, option: str) -> list[float]:
+    """``"a,b,c"`` or ``"start:stop:step"`` with units, of a ``kind`` of study (gap, force,
+    frequency), parsed and checked as ``rig study`` does."""
     from rigtools.commands.study import parse_values
 
     try:
-        return parse_values(text, dimension)
+        return parse_values(text, kind)
     except UserError as exc:
         raise UserError(str(exc).replace("--values", option)) from None
 
@@ -191,8 +191,8 @@ def run(args: argparse.Namespace) -> int:
         with Display(args) as display:
             proc._progress = display.event
             result = proc.run()
-    except KeyboardInterrupt:
-        _exit_interrupted(proc)
+    except KeyboardInterrupt as exc:
+        _exit_interrupted(proc, getattr(exc, "exit_code", 130))
     doc = report(args, proc, result)
     if args.json:
         print(json.dumps(doc))
@@ -201,9 +201,10 @@ def run(args: argparse.Namespace) -> int:
     return 0 if result.status is Status.FINISHED else 130
 
 
-def _exit_interrupted(proc) -> None:
+def _exit_interrupted(proc, code: int) -> None:
     """Ctrl-C or a signal: the drive is at zero and the recording closed with status aborted.
-    Say so in one line and leave at once (exit 130): the interpreter's own teardown of the
+    Say so in one line and leave at once (exit ``code``: 130 Ctrl-C, 143 SIGTERM, 129 SIGHUP):
+    the interpreter's own teardown of the
     numeric libraries takes about a second on a loaded machine, and nothing is left to do."""
     import os
 
@@ -212,7 +213,7 @@ def _exit_interrupted(proc) -> None:
           "aborted", file=sys.stderr)
     sys.stdout.flush()
     sys.stderr.flush()
-    os._exit(130)
+    os._exit(code)
 
 
 def _resume_out(args):
@@ -243,7 +244,7 @@ def build(args, cfg, out, kwargs):
             params["record_periods"] = args.periods
         return P.SteppedSine(cfg, params, out, **kwargs)
     if proc_name == "study":
-        values = grid(args.values, DIMENSION[args.kind], "--values")
+        values = grid(args.values, args.kind, "--values")
         params = {"kind": args.kind, "values": values, "direction": args.direction,
                   "fe": None if args.fe is None else quantity(args.fe, "frequency", "--fe"),
                   "force": None if args.force is None else quantity(args.force, "force", "--force"),

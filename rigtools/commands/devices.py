@@ -9,7 +9,7 @@ from typing import Any
 
 from rigtools.errors import UserError
 
-SIMULATED_HINT = "use --simulated to run on the simulated rig (no hardware needed)"
+SIMULATED_HINT = "use --backend sim to run on the simulated rig (no hardware needed)"
 
 HELP = f"""\
 List the acquisition hardware this machine can see:
@@ -99,7 +99,7 @@ def list_visa_resources(backend: str = "") -> dict[str, Any]:
         rm = open_resource_manager(backend)
     except DriverUnavailable as exc:
         return {"available": False, "backend": backend or "default", "resources": [],
-                "reason": str(exc).removesuffix(", or use --simulated")}
+                "reason": str(exc).removesuffix(", or use --backend sim")}
     try:
         resources = list(rm.list_resources())
         library = str(rm.visalib)

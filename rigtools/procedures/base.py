@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable
 
-from rigtools.errors import UserError
+from rigtools.errors import Interrupted, UserError
 
 
 class Status(str, enum.Enum):
@@ -105,6 +105,7 @@ class Procedure:
         self._progress = progress
         self._stop = threading.Event()
         self.stop_reason = ""
+        self.stop_signal: int | None = None      # the signal that asked for the stop, if any
         self.result: ProcedureResult | None = None
 
     # -- for scripts ---------------------------------------------------------------------------
@@ -153,8 +154,8 @@ class Procedure:
             status = Status.FINISHED
         except StopRequested:
             status, reason = Status.ABORTED, self.stop_reason or "stop requested"
-            if self.stop_reason.startswith("signal"):
-                error = KeyboardInterrupt(self.stop_reason)
+            if self.stop_signal is not None:
+                error = Interrupted(self.stop_signal)
         except KeyboardInterrupt as exc:
             status, reason, error = Status.ABORTED, (self.stop_reason or _interrupt_text(exc)), exc
         except BaseException as exc:          # noqa: BLE001 - recorded, then re-raised
@@ -182,7 +183,9 @@ class Procedure:
         def handler(signum, frame):
             name = signal.Signals(signum).name
             if self._stop.is_set():          # a second signal: interrupt now
-                raise KeyboardInterrupt(f"{name} (second signal)")
+                raise Interrupted(signum)
+            if not self._stop.is_set():
+                self.stop_signal = signum
             self.stop(f"signal {name}" + (" (Ctrl-C)" if name == "SIGINT" else ""))
 
         for sig in SIGNALS:

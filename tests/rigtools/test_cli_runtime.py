@@ -105,7 +105,6 @@ def _probe(*argvs: tuple[str, ...], **popen) -> subprocess.Popen:
 # Command modules that import a heavy package at their top (the coordinator fixes them at merge;
 # the tests turn into passes then, and strict xfail makes them say so).
 OFFENDERS = {
-    "acquire": "rigtools.acquisition imports scipy.signal at its top (rigtools/commands/acquire.py)",
     "check": "rigtools.recording imports h5py at its top (rigtools/commands/check.py)",
     "info": "rigtools.recording imports h5py at its top (rigtools/commands/info.py)",
 }
@@ -164,7 +163,7 @@ def test_rig_info_does_not_import_scipy_signal(tmp_path):
     (["no-such-command"], "rig"),
     *[([name, "--no-such-option"], f"rig {name}") for name in COMMANDS],
     (["simulate", "--gap"], "rig simulate"),                 # an option without its value
-    (["acquire", "--simulated"], "rig acquire"),             # required options missing
+    (["acquire", "dwell", "--backend", "sim"], "rig acquire dwell"),  # required options missing
     (["info"], "rig info"),                                  # required positional missing
 ])
 def test_argparse_errors_are_one_line_and_a_hint(capsys, argv, prog):
@@ -232,9 +231,9 @@ def stopped_acquisitions(tmp_path_factory):
     runs = {}
     for sig, _ in SIGNAL_CASES:
         out = tmp / f"{signal.Signals(sig).name}.h5"
-        runs[sig] = out, _rig("acquire", "--simulated", "--pace", "--fe", "60 Hz", "--drive",
-                              "0.5 V", "--duration", "30 s", "--out", str(out), "--json",
-                              "--no-plot", stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+        runs[sig] = out, _rig("acquire", "dwell", "--backend", "sim", "--pace", "--fe", "60 Hz",
+                              "--force", "5 N", "--gap", "5 mm", "--periods", "1800", "--out", str(out),
+                              "--json", stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                               text=True, env=_env())
     results = {}
     try:
@@ -270,9 +269,10 @@ def test_signal_during_simulated_acquisition_aborts_cleanly(stopped_acquisitions
         force = f["points/0000/force"][:]
         drive = f["points/0000/drive"][:]
     assert force.size >= 5120 and np.all(np.isfinite(force))
-    assert np.max(np.abs(drive)) == pytest.approx(0.5, rel=1e-6)      # the dwell was running
+    peak = np.max(np.abs(drive))
+    assert peak > 0.05                                                # the dwell was running
     tail = np.abs(drive[-20:])                                        # ... and ramped to zero
-    assert tail[-1] < 0.01 * 0.5 and np.all(np.diff(tail) < 0)
+    assert tail[-1] < 0.01 * peak and np.all(np.diff(tail) <= 0)
 
 
 @LINUX
