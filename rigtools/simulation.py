@@ -230,15 +230,19 @@ def run_figure(run, system, title: str):
 
 
 def iter_study_points(system, plan, settings: RunSettings,
-                      progress: Callable[[float, float], None] | None = None) -> Iterator[tuple[object, object]]:
-    """``(planned point, settled run)`` of a :class:`sim.studies.StudyPlan`, one at a time;
-    input errors become :class:`UserError`. ``progress(simulated_s, at_most_s)`` while each settles."""
-    from sim.studies import iter_study
+                      progress: Callable[[float, float], None] | None = None,
+                      runner=None) -> Iterator[tuple[object, object]]:
+    """``(planned point, settled run)`` of a :class:`sim.studies.StudyPlan` or ``MapPlan``, in
+    point order, through ``runner`` (a :class:`rigtools.study_runner.StudyRunner`; default
+    in-process); input errors become :class:`UserError`. ``progress(simulated_s, at_most_s)``
+    while each settles (in-process)."""
+    from rigtools.study_runner import RunOptions, StudyRunner
     from sim.vibro_impact import SimulationInputError
 
-    it = iter_study(system, plan, record_duration=settings.duration,
-                    max_settle_time=settings.max_settle_time, steps_per_period=settings.steps_per_period,
-                    progress=progress)
+    runner = runner if runner is not None else StudyRunner()
+    options = RunOptions(record_duration=settings.duration, steps_per_period=settings.steps_per_period,
+                         max_settle_time=settings.max_settle_time)
+    it = iter(runner.run(system, plan.chains(), options, settle_progress=progress))
     while True:
         try:
             point, run = next(it)
@@ -253,7 +257,8 @@ def iter_study_points(system, plan, settings: RunSettings,
 def write_study(rec, system, plan, settings: RunSettings, model: str,
                 on_point: Callable[[object, dict], None] | None = None,
                 guard: Callable[[], ContextManager] = nullcontext,
-                progress: Callable[[float, float], None] | None = None) -> list[dict]:
+                progress: Callable[[float, float], None] | None = None,
+                runner=None) -> list[dict]:
     """Run a study and write each point to ``rec`` as soon as it settles.
 
     Only the per-point summaries (:func:`point_summary` plus ``value`` and ``direction``) are
@@ -262,10 +267,11 @@ def write_study(rec, system, plan, settings: RunSettings, model: str,
     settles. Each point is written inside ``guard()`` (e.g.
     :meth:`rigtools.runtime.StopRequests.protected`, so a stop request waits for the write).
     Exceptions (Ctrl-C included) propagate with every finished point written; the caller ends
-    the recording.
+    the recording. ``runner`` (:class:`rigtools.study_runner.StudyRunner`) runs the points:
+    in-process by default, or on a Dask cluster; points arrive and are written in point order.
     """
     summaries = []
-    for planned, run in iter_study_points(system, plan, settings, progress):
+    for planned, run in iter_study_points(system, plan, settings, progress, runner):
         with guard():
             write_point(rec, run, model, direction=planned.direction, study_value=planned.value)
         summary = {"value": planned.value, "direction": planned.direction, **point_summary(run)}

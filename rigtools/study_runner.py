@@ -20,7 +20,6 @@ grow with the number of points.
 
 from __future__ import annotations
 
-import itertools
 import os
 import uuid
 from collections import deque
@@ -28,7 +27,7 @@ from dataclasses import dataclass, field
 from typing import Any, Callable, Iterator, Sequence
 
 from rigtools.errors import UserError
-from sim.studies import PlannedPoint, StudyPlan
+from sim.studies import MapPlan, PlannedPoint
 
 WORKER_ENV = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1",
               "NUMBA_NUM_THREADS": "1"}
@@ -50,32 +49,26 @@ class RunOptions:
     max_settle_time: float = 30.0
 
 
-def run_point(system: Any, point: PlannedPoint, options: RunOptions, previous: Any = None) -> Any:
+def run_point(system: Any, point: PlannedPoint, options: RunOptions, previous: Any = None,
+              progress: Callable[[float, float], None] | None = None) -> Any:
     """One settled point: the system at the point's gap, from ``previous.final_state`` if given.
 
-    The function every executor runs (in-process or on a Dask worker)."""
+    The function every executor runs (in-process or on a Dask worker); ``progress(simulated_s,
+    at_most_s)`` while it settles (in-process only)."""
     from sim.vibro_impact import run_harmonic
 
     return run_harmonic(system.with_contact(gap=point.gap), point.fe, point.force,
                         record_periods=max(1, int(round(options.record_duration * point.fe))),
                         steps_per_period=options.steps_per_period,
                         max_settle_time=options.max_settle_time,
-                        initial=None if previous is None else previous.final_state)
+                        initial=None if previous is None else previous.final_state,
+                        progress=progress)
 
 
 def map_chains(gaps: Sequence[float], forces: Sequence[float], fes: Sequence[float], *,
                direction: str = "up", carry_state: bool = True) -> list[list[PlannedPoint]]:
-    """The chains of a gap x F0 x fe map: one frequency sweep per (gap, F0) pair (row-major:
-    gap, then F0, then fe in sweep order), indices numbered through the whole map."""
-    chains, index = [], itertools.count()
-    for gap in gaps:
-        for force in forces:
-            plan = StudyPlan("frequency", tuple(fes), direction, force=force, gap=gap,
-                             carry_state=carry_state)
-            for chain in plan.chains():
-                chains.append([PlannedPoint(index=next(index), value=p.value, direction=p.direction,
-                                            fe=p.fe, force=p.force, gap=p.gap) for p in chain])
-    return chains
+    """The chains of a gap x F0 x fe map (:class:`sim.studies.MapPlan`)."""
+    return MapPlan(tuple(gaps), tuple(forces), tuple(fes), direction, carry_state).chains()
 
 
 @dataclass
@@ -161,8 +154,12 @@ class StudyRunner:
 
     # ------------------------------------------------------------------ running
     def run(self, system: Any, chains: list[list[PlannedPoint]], options: RunOptions,
-            progress: Progress | None = None, point_fn: Callable = run_point) -> Iterator[tuple[PlannedPoint, Any]]:
+            progress: Progress | None = None, point_fn: Callable = run_point,
+            settle_progress: Callable[[float, float], None] | None = None) -> Iterator[tuple[PlannedPoint, Any]]:
         """Yield ``(planned point, run)`` in point order as points finish.
+
+        ``progress(done, total, text)`` after each point; ``settle_progress(simulated_s,
+        at_most_s)`` while a point settles (in-process only: workers report points done).
 
         ``chains`` must be contiguous in point order (chain k holds the indices after chain
         k-1's), as :meth:`sim.studies.StudyPlan.chains` and :func:`map_chains` make them.
@@ -172,7 +169,8 @@ class StudyRunner:
             for chain in chains:
                 previous = None
                 for point in chain:
-                    previous = point_fn(system, point, options, previous)
+                    kw = {} if settle_progress is None else {"progress": settle_progress}
+                    previous = point_fn(system, point, options, previous, **kw)
                     yield from self._done(point, previous, total, progress)
             return
         yield from self._run_dask(system, chains, options, total, progress, point_fn)

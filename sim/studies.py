@@ -173,6 +173,60 @@ def sweep_order(values: Iterable[float], direction: Direction) -> list[tuple[flo
     raise SimulationInputError(f"direction must be up, down or both, got {direction!r}")
 
 
+@dataclass(frozen=True)
+class MapPlan:
+    """A gap x F0 x fe map: one frequency sweep per (gap, F0) pair.
+
+    Points are numbered row-major (gap, then F0, then fe in sweep order); each (gap, F0) pair is
+    one chain whose points carry state (``carry_state``) or, from rest, a chain per point. Shared
+    by model and rig maps like :class:`StudyPlan`.
+    """
+
+    gaps: tuple[float, ...]
+    forces: tuple[float, ...]
+    fes: tuple[float, ...]
+    direction: str = "up"
+    carry_state: bool = True
+    kind: str = "map"
+
+    def __post_init__(self) -> None:
+        for name in ("gaps", "forces", "fes"):
+            object.__setattr__(self, name, tuple(float(v) for v in getattr(self, name)))
+            if not getattr(self, name):
+                raise SimulationInputError(f"a map needs at least one value in {name}")
+        for gap in self.gaps:
+            for force in self.forces:        # validates every value and the direction
+                StudyPlan("frequency", self.fes, self.direction, force=force, gap=gap)
+
+    @property
+    def fixed(self) -> dict[str, float]:
+        return {}
+
+    def chains(self) -> list[list[PlannedPoint]]:
+        """The chains in point order (see the class docstring)."""
+        out, index = [], 0
+        for gap in self.gaps:
+            for force in self.forces:
+                plan = StudyPlan("frequency", self.fes, self.direction, force=force, gap=gap,
+                                 carry_state=self.carry_state)
+                for chain in plan.chains():
+                    renumbered = []
+                    for p in chain:
+                        renumbered.append(PlannedPoint(index=index, value=p.value, direction=p.direction,
+                                                       fe=p.fe, force=p.force, gap=p.gap))
+                        index += 1
+                    out.append(renumbered)
+        return out
+
+    def points(self) -> list[PlannedPoint]:
+        """Every point in run order."""
+        return [p for chain in self.chains() for p in chain]
+
+    def to_dict(self) -> dict:
+        return {"kind": "map", "gaps": list(self.gaps), "forces": list(self.forces), "fes": list(self.fes),
+                "direction": self.direction, "carry_state": self.carry_state}
+
+
 def iter_study(system: ReducedSystem, plan: StudyPlan, *, start: int = 0,
                initial: RunState | None = None, record_duration: float | None = None,
                **run_options) -> Iterator[tuple[PlannedPoint, VibroImpactRun]]:

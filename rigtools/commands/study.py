@@ -45,8 +45,16 @@ colour) of both shroud accelerations per point in run order.
 Exit status: 0 written, 2 bad input (options, rig file, --out), 130 Ctrl-C, 143 SIGTERM,
 129 SIGHUP (the file keeps every finished point, status "aborted").
 
+Maps and clusters: `rig study map --gap "0.3 mm:0.7 mm:0.2 mm" --force "10 N,15 N,20 N" --fe
+"58 Hz:62 Hz:2 Hz"` runs every (gap, F0) pair as a frequency sweep (no plot; rig report). Points
+run in chains (a carried-state sweep is one chain; from rest, each point is one): in-process by
+default, on --workers N local processes (a Dask LocalCluster) or on an existing Dask cluster
+(--scheduler tcp://host:port). Results are written in point order and are bit-identical
+whatever the number of workers; a point whose worker dies is rerun once and reported.
+
 examples:
   rig study gap --values "0.3 mm:0.9 mm:0.1 mm" --out gap.h5
+  rig study map --gap "0.3 mm,0.5 mm" --force "10 N,15 N" --fe "58 Hz,60 Hz" --from-rest --workers 2 --out map.h5
   rig study force --values "5 N,10 N,15 N,20 N,25 N" --out force.h5
   rig study frequency --values "60 Hz:80 Hz:1 Hz" --direction both --out sweep.h5
 """
@@ -59,11 +67,16 @@ MAX_POINTS = 10_000
 def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser("study", help=HELP, description=HELP + ".", epilog=EPILOG,
                               formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("kind", choices=("gap", "force", "frequency"), help="the swept parameter")
-    p.add_argument("--values", required=True, help='"a,b,c" or "start:stop:step", with units')
-    p.add_argument("--fe", default=None, help='fixed excitation frequency (default "60 Hz")')
-    p.add_argument("--force", default=None, help='fixed force amplitude (default "15 N")')
-    p.add_argument("--gap", default=None, help='fixed gap (default "0.7 mm"; gap study: swept)')
+    p.add_argument("kind", choices=("gap", "force", "frequency", "map"),
+                   help="the swept parameter; map: gap x F0 x fe (--gap, --force, --fe take grids)")
+    p.add_argument("--values", default=None, help='"a,b,c" or "start:stop:step", with units (not for map)')
+    p.add_argument("--fe", default=None, help='fixed excitation frequency (default "60 Hz"); map: a grid')
+    p.add_argument("--force", default=None, help='fixed force amplitude (default "15 N"); map: a grid')
+    p.add_argument("--gap", default=None, help='fixed gap (default "0.7 mm"; gap study: swept); map: a grid')
+    p.add_argument("--workers", type=int, default=None, metavar="N",
+                   help="run independent chains of points on a Dask LocalCluster of N worker processes")
+    p.add_argument("--scheduler", default=None, metavar="ADDR",
+                   help="run on an existing Dask cluster, e.g. tcp://10.0.0.5:8786 (dask-jobqueue/SLURM)")
     p.add_argument("--direction", choices=("up", "down", "both"), default="up",
                    help="sweep order: ascending, descending, or up then down (default up)")
     p.add_argument("--from-rest", action="store_true", help="start every point from rest")
@@ -99,6 +112,28 @@ def parse_values(text: str, kind: str) -> list[float]:
                 "frequency": "frequencies must be > 0"}[kind]
         raise UserError(f"--values = {text!r}: {what} (got {bad[0]:g})")
     return values
+
+
+def make_map(args: argparse.Namespace):
+    """:class:`sim.studies.MapPlan` of ``rig study map`` (--gap, --force, --fe grids)."""
+    from sim.studies import MapPlan
+    from sim.vibro_impact import SimulationInputError
+
+    missing = [o for o, v in (("--gap", args.gap), ("--force", args.force), ("--fe", args.fe)) if v is None]
+    if missing:
+        raise UserError(f"rig study map needs grids for {', '.join(missing)}, e.g. --gap \"0.3 mm:0.7 mm:0.2 mm\" "
+                        '--force "10 N,15 N,20 N" --fe "58 Hz:62 Hz:2 Hz"')
+    if args.values is not None:
+        raise UserError("--values is for gap, force and frequency studies; a map takes --gap, --force, --fe grids")
+    grids = [parse_values(args.gap, "gap"), parse_values(args.force, "force"),
+             parse_values(args.fe, "frequency")]
+    n = len(grids[0]) * len(grids[1]) * len(grids[2])
+    if n > MAX_POINTS:
+        raise UserError(f"the map has {n} points; at most {MAX_POINTS}")
+    try:
+        return MapPlan(*(tuple(g) for g in grids), direction=args.direction, carry_state=not args.from_rest)
+    except SimulationInputError as exc:
+        raise UserError(str(exc)) from None
 
 
 def make_plan(args: argparse.Namespace, values: list[float]):
@@ -141,28 +176,43 @@ def _run(args: argparse.Namespace, stops) -> int:
     from rigtools.recording import RecordingWriter
     from rigtools.recording.writer import one_line
 
+    from rigtools.study_runner import StudyRunner
+
     out = check_output(args)
-    values = parse_values(args.values, args.kind)
-    plan = make_plan(args, values)
+    if args.kind == "map":
+        plan, values = make_map(args), None
+    else:
+        if args.values is None:
+            raise UserError(f"rig study {args.kind} needs --values, e.g. --values \"0.3 mm:0.9 mm:0.1 mm\"")
+        values = parse_values(args.values, args.kind)
+        plan = make_plan(args, values)
     planned = plan.points()
+    runner = StudyRunner(workers=args.workers, scheduler=args.scheduler)
     settings = run_settings(args, sorted({p.fe for p in planned}))
     cfg, system = load_model(args, quiet=args.json)
     announce_work(system, [(p.fe, p.force) for p in planned], settings, quiet=args.json)
 
     experiment = {"procedure": f"{args.kind} study", "model": args.model, "direction": args.direction,
                   "carry_state": not args.from_rest, "fixed": plan.fixed, "values": values,
-                  "cli": "rig study"}
-    unit, scale = UNIT[args.kind]
-    label = lambda p: f"{args.kind} {p.value * scale:g} {unit} ({p.direction})"  # noqa: E731
+                  "plan": plan.to_dict(), "cli": "rig study"}
+    unit, scale = UNIT["frequency" if args.kind == "map" else args.kind]
+    if args.kind == "map":
+        label = lambda p: f"gap {p.gap * 1e3:g} mm, F0 {p.force:g} N, fe {p.fe:g} Hz"  # noqa: E731
+    else:
+        label = lambda p: f"{args.kind} {p.value * scale:g} {unit} ({p.direction})"  # noqa: E731
     rec = None
     try:
         with stops.protected():
             rec = RecordingWriter(out, backend="fem", rig=cfg.to_json(), experiment=experiment,
                                   overwrite=args.overwrite)
-        if args.json or not sys.stderr.isatty():
-            points = simu.write_study(rec, system, plan, settings, args.model, guard=stops.protected)
-        else:
-            points = _with_progress(rec, system, plan, settings, args, planned, label, stops)
+        with runner:
+            if args.json or not sys.stderr.isatty():
+                points = simu.write_study(rec, system, plan, settings, args.model, guard=stops.protected,
+                                          runner=runner)
+            else:
+                points = _with_progress(rec, system, plan, settings, args, planned, label, stops, runner)
+            for index, reason in runner.report.retried:
+                print(f"rig study: point {index + 1}: {reason}", file=sys.stderr)
     except Stopped as exc:
         if rec is None:
             raise
@@ -180,8 +230,8 @@ def _run(args: argparse.Namespace, stops) -> int:
     try:
         with stops.protected():
             rec.close()
-        png = write_plot(args, out, lambda: study_plot(args.kind, plan.fixed, points,
-                                                       f"{cfg.name} ({args.model.upper()})"))
+        png = None if args.kind == "map" else write_plot(
+            args, out, lambda: study_plot(args.kind, plan.fixed, points, f"{cfg.name} ({args.model.upper()})"))
         if args.json:
             print(json.dumps({"kind": args.kind, "fixed": plan.fixed, "points": points,
                               "plot": None if png is None else str(png)}))
@@ -194,7 +244,7 @@ def _run(args: argparse.Namespace, stops) -> int:
     return 0
 
 
-def _with_progress(rec, system, plan, settings, args, planned, label, stops) -> list[dict]:
+def _with_progress(rec, system, plan, settings, args, planned, label, stops, runner=None) -> list[dict]:
     from rich.console import Console
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
@@ -211,6 +261,7 @@ def _with_progress(rec, system, plan, settings, args, planned, label, stops) -> 
                        description=f"{args.kind} study: " + (label(nxt) if nxt else "done"))
 
         return simu.write_study(rec, system, plan, settings, args.model, on_point=on_point, guard=stops.protected,
+                                runner=runner,
                                 progress=lambda done, total: bar.update(settle, completed=done, total=total))
 
 
@@ -230,6 +281,8 @@ def print_table(kind: str, points: list[dict], out, png=None) -> None:
     from rich.console import Console
     from rich.table import Table
 
+    if kind == "map":
+        kind = "frequency"          # a map's points are fe sweeps; the gap and F0 are in the file
     unit, scale = UNIT[kind]
     table = Table(title=f"{kind} study")
     for col in (f"{kind} ({unit})", "dir", "steady", "peak contact force (N)", "impacts/period",

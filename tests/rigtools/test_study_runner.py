@@ -89,3 +89,22 @@ def test_workers_and_scheduler_exclude_each_other():
 
     with pytest.raises(UserError, match="exclude"):
         StudyRunner(workers=2, scheduler="tcp://127.0.0.1:1")
+
+
+def test_rig_study_map_same_file_on_two_workers(tmp_path):
+    """`rig study map` in-process and with --workers 2 write the same points, bit for bit."""
+    from rigtools.cli import main
+    from rigtools.recording import open_recording
+
+    argv = ["study", "map", "--gap", "0.3 mm,0.5 mm", "--force", "15 N", "--fe", "58 Hz,60 Hz",
+            "--duration", "0.1 s", "--max-settle", "3 s", "--json"]
+    assert main([*argv, "--out", str(tmp_path / "one.h5")]) == 0
+    assert main([*argv, "--workers", "2", "--out", str(tmp_path / "two.h5")]) == 0
+    with open_recording(tmp_path / "one.h5") as a, open_recording(tmp_path / "two.h5") as b:
+        assert len(a.points) == len(b.points) == 4
+        for pa, pb in zip(a.points, b.points):
+            assert (pa.params["gap"], pa.params["fe"]) == (pb.params["gap"], pb.params["fe"])
+            for name in pa.channels:
+                assert np.array_equal(pa[name].read(), pb[name].read()), name
+    assert [(p.params["gap"], p.params["fe"]) for p in open_recording(tmp_path / "one.h5").points] == [
+        (0.3e-3, 58.0), (0.3e-3, 60.0), (0.5e-3, 58.0), (0.5e-3, 60.0)]
