@@ -233,6 +233,9 @@ def announce_work(system, points: list[tuple[float, float]], settings, quiet: bo
         print(
             f"this will take {human_seconds(least)} to {human_seconds(most)} (contact stiffness {c.stiffness:.3g} "
             f"N/m: {n} steps per period; the most if settling takes all of --max-settle)", file=sys.stderr)
+    from rigtools.runtime import ensure_kernels_compiled
+
+    ensure_kernels_compiled()       # first run only: says so instead of a frozen progress bar
 
 
 # ------------------------------------------------------------------------------ rig simulate
