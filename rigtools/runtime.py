@@ -41,6 +41,9 @@ BLAS_THREAD_VARS = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"
 
 APP_NAME = "shrouded-blade-rig"
 
+#: Table width when stdout is a file or pipe (no terminal to ask).
+WIDE_OUTPUT_COLUMNS = 160
+
 
 # -- signals ---------------------------------------------------------------------------------
 class StopRequests:
@@ -123,6 +126,11 @@ def configure_console(*streams: TextIO) -> None:
             continue
         with contextlib.suppress(Exception):
             reconfigure(errors="backslashreplace")
+    # Output into a file or pipe has no terminal width; rich would wrap tables at 80 columns and
+    # cut channel names. Give it room unless the user set COLUMNS.
+    with contextlib.suppress(Exception):
+        if not sys.stdout.isatty() and "COLUMNS" not in os.environ:
+            os.environ["COLUMNS"] = str(WIDE_OUTPUT_COLUMNS)
 
 
 def silence_stdout() -> None:
