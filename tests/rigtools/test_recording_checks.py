@@ -104,8 +104,6 @@ def test_reader_and_info_do_not_import_scipy(tmp_path):
     assert "HEAVY []" in run.stdout
 
 
-@pytest.mark.xfail(reason="needs the CLI's global BrokenPipe handling (issue 8, cli owner)",
-                   strict=False)
 def test_info_json_into_a_closed_pipe_prints_no_traceback(tmp_path):
     path = tmp_path / "big.h5"
     with RecordingWriter(path, backend="simulated", rig="{}") as rec:
