@@ -70,9 +70,11 @@ _UY, _RZ = 1, 5
 # ~0.003 %)
 CLAMPED_START_ROTATIONAL = 1e5      # N*m/rad
 CLAMPED_START_TRANSLATIONAL = 1e10  # N/m
-# a clamp written as springs, for the spring that is not fitted (frequencies change < 1e-6)
-RIGID_ROTATIONAL = 1e9              # N*m/rad
-RIGID_TRANSLATIONAL = 1e12          # N/m
+# a clamp written as springs, for the spring that is not fitted: the stiffest a rig file accepts
+# (rigtools.config MAX_ROOT_*; stiffer, the reduced model goes wrong), so that the fitted rig can be
+# written and loaded; on the default rig they change the clamped frequencies by < 1e-4
+RIGID_ROTATIONAL = 1e7              # N*m/rad
+RIGID_TRANSLATIONAL = 1e11          # N/m
 
 CORRELATION_LIMIT = 0.95
 NULL_RATIO = 1e-8     # singular value / largest below which a direction carries no information
@@ -172,12 +174,12 @@ def _set_beta(params: RigParams, value: float) -> RigParams:
 PARAMETERS: dict[str, UpdateParameter] = {p.name: p for p in (
     UpdateParameter(
         "root.rotational_stiffness", "N*m/rad", "root rotational springs (both blades, every axis)",
-        True, (1e1, 1e9), False,
+        True, (1e1, RIGID_ROTATIONAL), False,
         lambda p: p.root.rotational_stiffness if p.root.kind == "springs" else CLAMPED_START_ROTATIONAL,
         lambda p, v: _set_root(p, rotational_stiffness=v)),
     UpdateParameter(
         "root.translational_stiffness", "N/m", "root translational springs (both blades, every axis)",
-        True, (1e4, 1e13), False,
+        True, (1e4, RIGID_TRANSLATIONAL), False,
         lambda p: p.root.translational_stiffness if p.root.kind == "springs" else CLAMPED_START_TRANSLATIONAL,
         lambda p, v: _set_root(p, translational_stiffness=v)),
     UpdateParameter(
