@@ -243,13 +243,45 @@ def mode_targets(params, recordings: Sequence[RecordingModes], *, max_modes: int
 
 
 def fit_linear(params, targets, names: Sequence[str], **kwargs):
-    """:func:`sim.updating.update_model`; bad names or targets become one-line :class:`UserError`."""
-    from sim.updating import update_model
+    """:func:`sim.updating.update_model` within what a rig file can hold; bad names or targets
+    become one-line :class:`UserError`.
+
+    Root springs stay at or below the rig file's limits (:data:`rigtools.config.MAX_ROOT_ROTATIONAL_STIFFNESS`,
+    ``MAX_ROOT_TRANSLATIONAL_STIFFNESS``): a clamped root whose springs are fitted becomes springs
+    at those limits first (the clamped frequencies within 1e-4), so the spring that is not fitted
+    can be written, and the fitted rig file loads with exactly the fitted model.
+    """
+    from dataclasses import replace
+
+    from rigtools.config import MAX_ROOT_ROTATIONAL_STIFFNESS as KR_MAX
+    from rigtools.config import MAX_ROOT_TRANSLATIONAL_STIFFNESS as KT_MAX
+    from sim.params import RootParams
+    from sim.updating import (
+        CLAMPED_START_ROTATIONAL,
+        CLAMPED_START_TRANSLATIONAL,
+        PARAMETERS,
+        update_model,
+    )
 
     if not targets:
         raise UserError("no identified mode pairs with a model mode: nothing to fit")
+    names = list(names)
+    start = dict(kwargs.pop("start", None) or {})
+    bounds = dict(kwargs.pop("bounds", None) or {})
+    roots = {"root.rotational_stiffness": (KR_MAX, CLAMPED_START_ROTATIONAL),
+             "root.translational_stiffness": (KT_MAX, CLAMPED_START_TRANSLATIONAL)}
+    if any(n in roots for n in names):
+        if params.root.kind != "springs":
+            params = replace(params, root=RootParams("springs", KR_MAX, KT_MAX))
+            for n in names:
+                if n in roots:
+                    start.setdefault(n, roots[n][1])
+        for n in names:
+            if n in roots:
+                lo, hi = bounds.get(n, PARAMETERS[n].default_bounds(start.get(n, PARAMETERS[n].get(params))))
+                bounds[n] = (lo, min(hi, roots[n][0]))
     try:
-        return update_model(params, targets, list(names), **kwargs)
+        return update_model(params, targets, names, start=start or None, bounds=bounds or None, **kwargs)
     except ValueError as exc:
         raise UserError(str(exc)) from None
 
@@ -457,7 +489,8 @@ def updated_rig_text(text: str, values: dict[str, float | str], comments: dict[s
     try:
         data = tomllib.loads(new)
     except tomllib.TOMLDecodeError as exc:
-        raise UserError(f"the updated rig file would not be valid TOML ({exc}); edit the rig file by hand") from None
+        raise UserError(f"the updated rig file would not be valid TOML ({exc}): is a fitted section written as an "
+                        "inline table or dotted keys? edit the rig file by hand") from None
     for full, value in values.items():
         node = data
         for part in full.split("."):

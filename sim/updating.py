@@ -70,11 +70,9 @@ _UY, _RZ = 1, 5
 # ~0.003 %)
 CLAMPED_START_ROTATIONAL = 1e5      # N*m/rad
 CLAMPED_START_TRANSLATIONAL = 1e10  # N/m
-# a clamp written as springs, for the spring that is not fitted: the stiffest a rig file accepts
-# (rigtools.config MAX_ROOT_*; stiffer, the reduced model goes wrong), so that the fitted rig can be
-# written and loaded; on the default rig they change the clamped frequencies by < 1e-4
-RIGID_ROTATIONAL = 1e7              # N*m/rad
-RIGID_TRANSLATIONAL = 1e11          # N/m
+# a clamp written as springs, for the spring that is not fitted (frequencies change < 1e-6)
+RIGID_ROTATIONAL = 1e9              # N*m/rad
+RIGID_TRANSLATIONAL = 1e12          # N/m
 
 CORRELATION_LIMIT = 0.95
 NULL_RATIO = 1e-8     # singular value / largest below which a direction carries no information
@@ -174,12 +172,12 @@ def _set_beta(params: RigParams, value: float) -> RigParams:
 PARAMETERS: dict[str, UpdateParameter] = {p.name: p for p in (
     UpdateParameter(
         "root.rotational_stiffness", "N*m/rad", "root rotational springs (both blades, every axis)",
-        True, (1e1, RIGID_ROTATIONAL), False,
+        True, (1e1, 1e9), False,
         lambda p: p.root.rotational_stiffness if p.root.kind == "springs" else CLAMPED_START_ROTATIONAL,
         lambda p, v: _set_root(p, rotational_stiffness=v)),
     UpdateParameter(
         "root.translational_stiffness", "N/m", "root translational springs (both blades, every axis)",
-        True, (1e4, RIGID_TRANSLATIONAL), False,
+        True, (1e4, 1e13), False,
         lambda p: p.root.translational_stiffness if p.root.kind == "springs" else CLAMPED_START_TRANSLATIONAL,
         lambda p, v: _set_root(p, translational_stiffness=v)),
     UpdateParameter(
@@ -793,7 +791,10 @@ def _identifiability(jac: np.ndarray, names: list[str], specs, x: np.ndarray, v0
         how = "no information" if not keep[k] else f"1-sigma extent {100 * extent[k]:.0f} %"
         direction = " ".join(f"{v[i]:+.2f} {names[i]}" for i in big)
         if len(big) == 1:
-            unresolved.append(f"{names[big[0]]}: not determined by the data ({how})")
+            # the others that move along with it, however little (in x, ~relative): what it trades against
+            with_ = [names[i] for i in np.argsort(-np.abs(v)) if i != big[0] and abs(v[i]) >= 1e-3]
+            trade = f"; trades against {', '.join(with_)}" if with_ else ""
+            unresolved.append(f"{names[big[0]]}: not determined by the data ({how}{trade})")
             continue
         for a in range(len(big)):
             for b in range(a + 1, len(big)):
