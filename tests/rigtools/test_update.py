@@ -221,7 +221,7 @@ def test_scores_nominal_to_linear_update_default_rig(scored):
     "left for the contact fit to correct. What remains (rms shroud-harmonic error ~50 %) is the force's "
     "own harmonics on the rig (shaker-blade interaction at impacts: k=5 is 40 % of F0) that a model "
     "driven by a pure sine at the measured amplitude does not have; the fit trades contact stiffness "
-    "against them (1e6 -> 7.3e5 N/m) and the score stays flat: 0.6610 -> 0.6607 (measured)"))
+    "against them (1e6 -> 7.3e5 N/m) and the score stays flat: 0.661 -> 0.660 (measured)"))
 def test_scores_contact_fit_improves_default_rig(scored):
     a = scored["default"]["agreement"]
     assert a["contact fit"][0] > a["linear update"][0]
