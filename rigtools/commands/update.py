@@ -161,7 +161,15 @@ def run(args: argparse.Namespace) -> int:
     except OSError as exc:
         raise UserError(f"cannot write {out}: {exc.strerror or exc}", ) from None
 
-    doc = {"file": str(out), "recordings": [
+    warnings = []
+    rms = (2 * res.cost_after / max(1, res.residuals_after.size)) ** 0.5
+    if rms > 2.0:
+        warnings.append(f"the fitted parameters do not explain the identified modes: rms residual {rms:.3g} x "
+                        f"their uncertainty (frequencies 0.1 %, damping 10 %), largest frequency error "
+                        f"{100 * res.max_frequency_error_after:.3f} %; the model lacks what differs on the rig "
+                        "(try the root springs or the masses)")
+    warnings += [f"not determined by the data: {line}" for line in res.identifiability.unresolved]
+    doc = {"file": str(out), "warnings": warnings, "recordings": [
         {"file": r.path, "procedure": r.procedure,
          "sets": [{"point": s.point, "blade": s.blade, "response": s.response, "frequencies_hz": s.frequencies_hz,
                    "damping_ratios": s.damping_ratios, "notes": s.notes} for s in r.sets]} for r in found],
@@ -176,6 +184,8 @@ def run(args: argparse.Namespace) -> int:
         print(json.dumps(doc, indent=1, default=float))
         return 0
     _print(args, res, paired, notes, dwells, cres, hres, scores, out)
+    if warnings and warnings[0].startswith("the fitted"):
+        _console().print(f"[yellow]warning:[/] {warnings[0]}")
     return 0
 
 

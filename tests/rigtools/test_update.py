@@ -237,3 +237,14 @@ def test_rig_text_editor_rayleigh_new_section_and_inline_tables():
     assert "# removed by rig update" in new and "alpha = 1.5   # fitted" in new
     with pytest.raises(UserError, match="inline table"):
         updated_rig_text("root = {kind = 'clamped'}\n", {"root.kind": "springs"}, {})
+
+
+def test_a_parameter_that_cannot_explain_the_modes_is_flagged(folder, frf):
+    """Young's modulus scales every frequency alike; the bolted root lowers f1 (2.3 %) more than f3
+    (1.4 %): no modulus matches all three, and the command says so instead of passing it quietly."""
+    code, js, err = run_cli(["update", frf, "--out", folder / "e.toml", "--json",
+                             "--params", "blade.youngs_modulus,damping.ratio"])
+    assert code == 0, err
+    doc = json.loads(js)
+    assert doc["fit"]["max_frequency_error_after"] > 0.004           # measured 0.47 %
+    assert doc["warnings"][0].startswith("the fitted parameters do not explain the identified modes")
