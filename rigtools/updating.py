@@ -27,7 +27,7 @@ import re
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable, Sequence
+from typing import Sequence
 
 import numpy as np
 
@@ -545,5 +545,3 @@ def check_rig_text(text: str, path: str | Path | None = None):
 
     return parse_rig(tomllib.loads(text), f"updated rig file {path}" if path else "updated rig file")
 
-
-ProgressFn = Callable[[str], None]

@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 import datetime as _dt
 import json
-import sys
 from pathlib import Path
 
 from rigtools.errors import UserError
@@ -94,12 +93,9 @@ def _console():
 
 
 def run(args: argparse.Namespace) -> int:
-    names = [n.strip() for n in args.params.split(",") if n.strip()]
-    if not names:
-        raise UserError(f"--params: give at least one parameter (known: {', '.join(PARAMETER_NAMES)})")
-    for n in names:
-        if n not in PARAMETER_NAMES:
-            raise UserError(f"--params: unknown parameter {n!r} (known: {', '.join(PARAMETER_NAMES)})")
+    from rigtools.updating import parse_names
+
+    names = parse_names(args.params, PARAMETER_NAMES)
     if not 1 <= args.modes <= 10:
         raise UserError(f"--modes = {args.modes}: use 1..10")
     f_min, f_max = _band(args.band)
@@ -222,6 +218,3 @@ def _print(args, res, paired, notes, dwells, cres, hres, scores, out) -> None:
         con.print(s)
     con.print(f"wrote {out} (check: rig modal --rig {out})")
 
-
-if __name__ == "__main__":   # pragma: no cover
-    sys.exit("run as: rig update ...")

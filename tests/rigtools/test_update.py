@@ -248,3 +248,11 @@ def test_a_parameter_that_cannot_explain_the_modes_is_flagged(folder, frf):
     doc = json.loads(js)
     assert doc["fit"]["max_frequency_error_after"] > 0.004           # measured 0.47 %
     assert doc["warnings"][0].startswith("the fitted parameters do not explain the identified modes")
+
+
+def test_help_names_every_fittable_parameter():
+    """The command's list (kept in the command module so that --help imports no scipy) is the registry's."""
+    from rigtools.commands.update import PARAMETER_NAMES
+    from sim.updating import PARAMETERS
+
+    assert sorted(PARAMETER_NAMES) == sorted(PARAMETERS)
