@@ -129,6 +129,7 @@ def identify_recording(path: str | Path, *, f_min: float | None = None, f_max: f
     name = Path(path).name
     with _open(path) as rec:
         procedure = str(rec.experiment.get("procedure", "")) if isinstance(rec.experiment, dict) else ""
+        status = rec.status
         sets: list[IdentifiedSet] = []
         band = None
         usable = 0
@@ -172,8 +173,10 @@ def identify_recording(path: str | Path, *, f_min: float | None = None, f_max: f
                                           [float(m.damping_ratio) for m in modes], list(ident.notes)))
     if usable == 0:
         what = f" (a {procedure} recording)" if procedure else ""
-        raise UserError(f"{name}{what} holds no broadband test (FRF or tap test) to identify modes from; "
-                        "record one with 'rig acquire frf'")
+        if status != "complete":
+            what = f" ({procedure + ', ' if procedure else ''}status {status})"
+        raise UserError(f"{name}{what} holds no complete broadband test (FRF or tap test) to identify modes "
+                        "from; record one with 'rig acquire frf'")
     out = RecordingModes(str(path), procedure, sets, band)
     if out.n_modes == 0:
         why = "; ".join(dict.fromkeys(n for s in sets for n in s.notes)) or "no stable poles"
