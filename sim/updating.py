@@ -791,7 +791,10 @@ def _identifiability(jac: np.ndarray, names: list[str], specs, x: np.ndarray, v0
         how = "no information" if not keep[k] else f"1-sigma extent {100 * extent[k]:.0f} %"
         direction = " ".join(f"{v[i]:+.2f} {names[i]}" for i in big)
         if len(big) == 1:
-            unresolved.append(f"{names[big[0]]}: not determined by the data ({how})")
+            # the others that move along with it, however little (in x, ~relative): what it trades against
+            with_ = [names[i] for i in np.argsort(-np.abs(v)) if i != big[0] and abs(v[i]) >= 1e-3]
+            trade = f"; trades against {', '.join(with_)}" if with_ else ""
+            unresolved.append(f"{names[big[0]]}: not determined by the data ({how}{trade})")
             continue
         for a in range(len(big)):
             for b in range(a + 1, len(big)):

@@ -1,0 +1,550 @@
+"""``rig update`` behind the command line: recordings -> targets -> fits -> an updated rig file.
+
+* :func:`identify_recording`: natural frequencies and damping ratios of every broadband point of
+  a recording (an FRF test, ``rig acquire frf``; a tap/hammer test), per blade, from the
+  accelerations over the force (:func:`analysis.point.analyze_frf_test`, LSCF).
+* :func:`mode_targets`: those modes paired with the model's flexural modes (blade, order), the
+  same mode seen by several recordings merged (mean).
+* :func:`fit_linear`: :func:`sim.updating.update_model` with the user's errors as one line.
+* :func:`read_dwell`, :func:`model_dwell`, :func:`fit_contact_to_dwells`: force-controlled dwells
+  with impacts (``rig acquire dwell``) as harmonic targets, the model's harmonics at the measured
+  force, and the contact fit (:func:`sim.contact_fit.fit_contact`, vibro-impact integrator in the
+  loop).
+* :func:`agreement`: EM-versus-FEM score of a dwell (:func:`analysis.compare.point_agreement`).
+* :func:`updated_rig_text`: the original rig-file text with the fitted keys replaced or added, each
+  commented with its origin, checked to load and to hold exactly the fitted values.
+
+Blades: a response channel whose name holds ``passive`` is the passive blade's, one holding
+``active`` the active blade's. Modes come only from points that carry a broadband test: a
+``frame_samples`` (one frame or burst period), the averaged window (``record_start`` in s,
+``record_samples``) and a force channel; a sine dwell has none.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+
+from rigtools.errors import UserError
+
+FORCE, ACTIVE, PASSIVE = "force", "active_shroud_accel", "passive_shroud_accel"
+DWELL_CHANNELS = (FORCE, ACTIVE, PASSIVE)
+K_HARMONICS = 10        # harmonics fitted and scored (k = 1..10: most of each shroud's energy at 60 Hz)
+BROADBAND_SIGNALS = {"chirp": "periodic", "periodic": "periodic", "burst": "burst", "random": "random",
+                     "tap": "burst", "hammer": "burst", "impact": "burst"}
+
+
+# ------------------------------------------------------------------------- identified modes
+
+
+@dataclass
+class IdentifiedSet:
+    """The modes one response of one recording shows.
+
+    Attributes
+    ----------
+    recording
+        File name of the recording.
+    point
+        Point index.
+    blade
+        ``"active"`` or ``"passive"``.
+    response
+        Response channel.
+    frequencies_hz, damping_ratios
+        Identified modes, ascending.
+    notes
+        Why fewer or none were identified (from :func:`analysis.modal_id.identify`).
+    """
+
+    recording: str
+    point: int
+    blade: str
+    response: str
+    frequencies_hz: list[float]
+    damping_ratios: list[float]
+    notes: list[str] = field(default_factory=list)
+
+
+@dataclass
+class RecordingModes:
+    """What :func:`identify_recording` found in one recording."""
+
+    path: str
+    procedure: str
+    sets: list[IdentifiedSet]
+    band: tuple[float, float] | None
+
+    @property
+    def n_modes(self) -> int:
+        return sum(len(s.frequencies_hz) for s in self.sets)
+
+
+def _blade_of(name: str) -> str | None:
+    low = name.lower()
+    if "passive" in low:
+        return "passive"
+    if "active" in low:
+        return "active"
+    return None
+
+
+def _open(path: str | Path):
+    from rigtools.recording import open_recording
+
+    p = Path(path)
+    if not p.exists():
+        raise UserError(f"{p}: no such recording")
+    if p.is_dir():
+        raise UserError(f"{p} is a directory, not a recording")
+    return open_recording(p)
+
+
+def identify_recording(path: str | Path, *, f_min: float | None = None, f_max: float | None = None,
+                       method: str = "lscf") -> RecordingModes:
+    """Natural frequencies and damping ratios in every broadband point of a recording.
+
+    Parameters
+    ----------
+    path
+        HDF5 recording (schema v1).
+    f_min, f_max
+        Band searched, Hz (default: the test's band from the point, else the whole grid).
+    method
+        :func:`analysis.modal_id.identify` method.
+
+    Raises
+    ------
+    UserError
+        Unreadable file, or no point holding a broadband test (a dwell, a sweep).
+    """
+    from analysis.point import analyze_frf_test
+
+    name = Path(path).name
+    with _open(path) as rec:
+        procedure = str(rec.experiment.get("procedure", "")) if isinstance(rec.experiment, dict) else ""
+        status = rec.status
+        sets: list[IdentifiedSet] = []
+        band = None
+        usable = 0
+        for point in rec.complete_points:
+            prm = point.params
+            if not {"frame_samples", "record_start", "record_samples"} <= set(prm):
+                continue
+            forces = [n for n, c in point.channels.items() if c.quantity == "force"]
+            responses = [n for n, c in point.channels.items()
+                         if c.quantity == "acceleration" and _blade_of(n) is not None]
+            if not forces or not responses or point.sample_rate is None:
+                continue
+            force = FORCE if FORCE in forces else forces[0]
+            signal = str(prm.get("signal", "burst")).lower()
+            excitation = BROADBAND_SIGNALS.get(signal, "burst")
+            rate = float(point.sample_rate)
+            start = int(round(float(prm["record_start"]) * rate))
+            n = int(prm["record_samples"])
+            frame = int(prm["frame_samples"])
+            if n < frame or frame < 8 or start + n > point.n_samples:
+                continue
+            lo = f_min if f_min is not None else prm.get("band_low")
+            hi = f_max if f_max is not None else prm.get("band_high")
+            lo = None if lo is None else float(lo)
+            hi = None if hi is None else min(float(hi), 0.45 * rate)
+            band = (lo, hi) if lo is not None and hi is not None else band
+            names = [force, *responses]
+
+            def blocks(point=point, names=names, start=start, n=n, frame=frame):
+                for i in range(start, start + n, frame):
+                    yield {c: point.channels[c][i:i + frame] for c in names}
+
+            usable += 1
+            result = analyze_frf_test(blocks(), rate, excitation=excitation, segment_samples=frame,
+                                      responses=responses, force=force, f_min=lo, f_max=hi, method=method)
+            for resp in responses:
+                ident = result.modes[resp]
+                modes = sorted(ident.modes, key=lambda m: m.frequency_hz)
+                sets.append(IdentifiedSet(name, point.index, _blade_of(resp), resp,
+                                          [float(m.frequency_hz) for m in modes],
+                                          [float(m.damping_ratio) for m in modes], list(ident.notes)))
+    if usable == 0:
+        what = f" (a {procedure} recording)" if procedure else ""
+        if status != "complete":
+            what = f" ({procedure + ', ' if procedure else ''}status {status})"
+        raise UserError(f"{name}{what} holds no complete broadband test (FRF or tap test) to identify modes "
+                        "from; record one with 'rig acquire frf'")
+    out = RecordingModes(str(path), procedure, sets, band)
+    if out.n_modes == 0:
+        why = "; ".join(dict.fromkeys(n for s in sets for n in s.notes)) or "no stable poles"
+        raise UserError(f"{name}: no usable modes identified ({why})")
+    return out
+
+
+@dataclass
+class PairedMode:
+    """One target and where it came from."""
+
+    blade: str
+    order: int
+    frequency_hz: float
+    damping_ratio: float | None
+    model_hz: float
+    sources: list[str]
+
+
+def mode_targets(params, recordings: Sequence[RecordingModes], *, max_modes: int = 3,
+                 frequency_sigma: float = 1e-3, damping_sigma: float = 0.1,
+                 damping: bool = True) -> tuple[list, list[PairedMode], list[str]]:
+    """Pair identified modes with the model's flexural modes of each blade.
+
+    Each identified set is paired on its own (:func:`sim.updating.pair_modes`); a (blade, order)
+    seen by several sets is their mean. Orders above ``max_modes`` are left out.
+
+    Returns
+    -------
+    targets, paired, notes
+        :class:`sim.updating.ModeTarget` list, the same with their sources, and lines about
+        what was left out (unpaired peaks, blades without modes).
+    """
+    from sim.updating import ModeTarget, pair_modes
+
+    seen: dict[tuple[str, int], list] = {}
+    model_hz: dict[tuple[str, int], float] = {}
+    notes: list[str] = []
+    for rec in recordings:
+        for s in rec.sets:
+            if not s.frequencies_hz:
+                continue
+            pairing = pair_modes(params, s.blade, s.frequencies_hz, s.damping_ratios)
+            for t, fm in zip(pairing.targets, pairing.model_hz):
+                if t.order > max_modes:
+                    continue
+                seen.setdefault((t.blade, t.order), []).append((t.frequency_hz, t.damping_ratio,
+                                                                f"{s.recording}:{s.response}"))
+                model_hz[(t.blade, t.order)] = fm
+            for f in pairing.unpaired:
+                notes.append(f"{s.recording} {s.response}: {f:.2f} Hz matches no {s.blade} flexural mode "
+                             "(within 15 %): left out")
+    targets, paired = [], []
+    for (blade, order) in sorted(seen):
+        vals = seen[(blade, order)]
+        f = float(np.mean([v[0] for v in vals]))
+        zs = [v[1] for v in vals if v[1] is not None]
+        z = float(np.mean(zs)) if zs and damping else None
+        targets.append(ModeTarget(blade, order, f, z, frequency_sigma, damping_sigma))
+        paired.append(PairedMode(blade, order, f, z, model_hz[(blade, order)], [v[2] for v in vals]))
+    for blade in ("active", "passive"):
+        if not any(p.blade == blade for p in paired):
+            notes.append(f"no {blade}-blade modes in the recordings: "
+                         + ("the fit sees the active blade only (add a tap test of the passive blade)"
+                            if blade == "passive" else "add an FRF test of the active blade"))
+    return targets, paired, notes
+
+
+def fit_linear(params, targets, names: Sequence[str], **kwargs):
+    """:func:`sim.updating.update_model` within what a rig file can hold; bad names or targets
+    become one-line :class:`UserError`.
+
+    Root springs stay at or below the rig file's limits (:data:`rigtools.config.MAX_ROOT_ROTATIONAL_STIFFNESS`,
+    ``MAX_ROOT_TRANSLATIONAL_STIFFNESS``): a clamped root whose springs are fitted becomes springs
+    at those limits first (the clamped frequencies within 1e-4), so the spring that is not fitted
+    can be written, and the fitted rig file loads with exactly the fitted model.
+    """
+    from dataclasses import replace
+
+    from rigtools.config import MAX_ROOT_ROTATIONAL_STIFFNESS as KR_MAX
+    from rigtools.config import MAX_ROOT_TRANSLATIONAL_STIFFNESS as KT_MAX
+    from sim.params import RootParams
+    from sim.updating import (
+        CLAMPED_START_ROTATIONAL,
+        CLAMPED_START_TRANSLATIONAL,
+        PARAMETERS,
+        update_model,
+    )
+
+    if not targets:
+        raise UserError("no identified mode pairs with a model mode: nothing to fit")
+    names = list(names)
+    start = dict(kwargs.pop("start", None) or {})
+    bounds = dict(kwargs.pop("bounds", None) or {})
+    roots = {"root.rotational_stiffness": (KR_MAX, CLAMPED_START_ROTATIONAL),
+             "root.translational_stiffness": (KT_MAX, CLAMPED_START_TRANSLATIONAL)}
+    if any(n in roots for n in names):
+        if params.root.kind != "springs":
+            params = replace(params, root=RootParams("springs", KR_MAX, KT_MAX))
+            for n in names:
+                if n in roots:
+                    start.setdefault(n, roots[n][1])
+        for n in names:
+            if n in roots:
+                lo, hi = bounds.get(n, PARAMETERS[n].default_bounds(start.get(n, PARAMETERS[n].get(params))))
+                bounds[n] = (lo, min(hi, roots[n][0]))
+    try:
+        return update_model(params, targets, names, start=start or None, bounds=bounds or None, **kwargs)
+    except ValueError as exc:
+        raise UserError(str(exc)) from None
+
+
+def parse_names(text: str, known: Sequence[str], option: str = "--params") -> list[str]:
+    """``"a,b"`` -> ``["a", "b"]``, each checked against ``known``."""
+    names = [n.strip() for n in str(text).split(",") if n.strip()]
+    if not names:
+        raise UserError(f"{option}: give at least one parameter (known: {', '.join(known)})")
+    for n in names:
+        if n not in known:
+            raise UserError(f"{option}: unknown parameter {n!r} (known: {', '.join(known)})")
+    return list(dict.fromkeys(names))
+
+
+# ------------------------------------------------------------------------------ dwells
+
+
+@dataclass
+class DwellData:
+    """A settled force-controlled dwell: what the contact fit and the scores use."""
+
+    name: str
+    fe: float
+    force_amplitude: float   # measured fundamental of the force, N (the model is driven at it)
+    gap: float
+    analysis: object         # analysis.point.DwellAnalysis of the settled window
+
+    def amplitudes(self, channel: str, k_max: int = K_HARMONICS) -> np.ndarray:
+        return np.asarray(self.analysis.harmonics[channel].amplitude[:k_max], dtype=float)
+
+
+def read_dwell(path: str | Path, *, k_max: int = 30) -> list[DwellData]:
+    """The settled windows of the force-controlled dwell points of a recording (``rig acquire
+    dwell`` / ``sweep`` / ``study``), analysed (harmonics k = 1..k_max).
+
+    Raises
+    ------
+    UserError
+        Unreadable file, or no settled dwell point with a force and a shroud channel.
+    """
+    from analysis.point import analyze_dwell
+
+    name = Path(path).name
+    out = []
+    with _open(path) as rec:
+        for point in rec.complete_points:
+            prm = point.params
+            if not {"fe", "record_start", "record_samples", "gap"} <= set(prm) or "frame_samples" in prm:
+                continue
+            if not prm.get("settled", True) or point.sample_rate is None:
+                continue
+            if FORCE not in point.channels or ACTIVE not in point.channels:
+                continue
+            rate = float(point.sample_rate)
+            start = int(round(float(prm["record_start"]) * rate))
+            n = int(prm["record_samples"])
+            chans = {c: point.channels[c][start:start + n] for c in DWELL_CHANNELS if c in point.channels}
+            ana = analyze_dwell(chans, rate, float(prm["fe"]), k_max=k_max)
+            f0 = float(prm.get("force_amplitude_measured") or ana.force_amplitude)
+            out.append(DwellData(f"{name}:{point.index}", float(prm["fe"]), f0, float(prm["gap"]), ana))
+    if not out:
+        raise UserError(f"{name} holds no settled force-controlled dwell point (record one with "
+                        "'rig acquire dwell')")
+    return out
+
+
+def model_dwell(params, dwell: DwellData, *, system=None, duration: float = 0.5):
+    """The model's settled run at a dwell's frequency, measured force amplitude and gap, as a
+    :class:`analysis.point.DwellAnalysis` (shroud accelerations from the velocity, ``k w |V_k|``;
+    the force as run)."""
+    from dataclasses import replace
+
+    from analysis.harmonics import derivative_harmonics, harmonic_amplitudes
+    from analysis.point import DwellAnalysis
+    from rigtools.simulation import RunSettings, simulate_point
+    from sim.reduction import reduced_system
+
+    system = system if system is not None else reduced_system(params, "fem")
+    system = replace(system, contact=params.contact).with_contact(gap=dwell.gap)
+    run = simulate_point(system, dwell.fe, dwell.force_amplitude, RunSettings(duration=duration))
+    k = 30
+    fits = {FORCE: harmonic_amplitudes(run.outputs["excitation_force"], run.sample_rate, run.fe, k),
+            ACTIVE: derivative_harmonics(harmonic_amplitudes(run.outputs["active_tip_velocity"],
+                                                             run.sample_rate, run.fe, k), 1),
+            PASSIVE: derivative_harmonics(harmonic_amplitudes(run.outputs["passive_tip_velocity"],
+                                                              run.sample_rate, run.fe, k), 1)}
+    return DwellAnalysis(run.fe, run.sample_rate, fits, force_amplitude=fits[FORCE].at(1))
+
+
+def agreement(dwell: DwellData, model, *, k_max: int = K_HARMONICS):
+    """EM-versus-FEM :class:`analysis.compare.Agreement` over the force and both shroud
+    accelerations, harmonics 1..k_max."""
+    from analysis.compare import point_agreement
+
+    return point_agreement(dwell.analysis, model, channels=list(DWELL_CHANNELS), k_max=k_max)
+
+
+def harmonic_targets(dwells: Sequence[DwellData], *, k_max: int = K_HARMONICS, sigma: float = 0.05,
+                     floor: float = 0.01) -> list:
+    """:class:`sim.contact_fit.HarmonicTarget` of each dwell (both shroud accelerations)."""
+    from sim.contact_fit import HarmonicTarget
+
+    return [HarmonicTarget(d.fe, d.force_amplitude, d.gap,
+                           {c: d.amplitudes(c, k_max) for c in (ACTIVE, PASSIVE) if c in d.analysis.harmonics},
+                           sigma=sigma, floor=floor)
+            for d in dwells]
+
+
+def fit_contact_to_dwells(params, dwells: Sequence[DwellData], *, law: str | None = None,
+                          names: Sequence[str] = ("contact.stiffness", "contact.damping"),
+                          k_max: int = K_HARMONICS):
+    """:func:`sim.contact_fit.fit_contact` to the dwells' shroud harmonics; one-line errors."""
+    from sim.contact_fit import fit_contact
+    from sim.params import SimulationInputError
+
+    try:
+        return fit_contact(params, harmonic_targets(dwells, k_max=k_max), list(names), law=law)
+    except (ValueError, SimulationInputError) as exc:
+        raise UserError(f"contact fit: {exc}") from None
+
+
+# ---------------------------------------------------------------------------- rig-file text
+
+
+_HEADER = re.compile(r"^\s*\[\s*([A-Za-z0-9_.\-\"']+)\s*\]\s*(#.*)?$")
+_KEY = re.compile(r"^(\s*)([A-Za-z0-9_\-]+)\s*=")
+
+
+def _toml_value(value) -> str:
+    if isinstance(value, str):
+        return '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    v = float(value)
+    if not math.isfinite(v):
+        raise UserError(f"cannot write a non-finite value ({v}) to a rig file")
+    return repr(v)
+
+
+def updated_rig_text(text: str, values: dict[str, float | str], comments: dict[str, str], *,
+                     remove: Sequence[str] = (), header: str = "") -> str:
+    """The rig-file ``text`` with ``values`` (``"section.key"`` -> SI value or text) set.
+
+    Each key is replaced in place (its old line kept as a comment) or added at the end of its
+    section (the section appended if missing), followed by ``# comments[key]``. Keys in
+    ``remove`` are commented out. ``header`` lines go on top, as comments. Only plain
+    ``[section]`` tables are edited; the result is checked to parse (``tomllib``) and to hold
+    every value given (a key written some other way, e.g. as an inline table, raises).
+    """
+    lines = text.splitlines()
+    sections: dict[str, tuple[int, int]] = {}   # name -> (header line, last line of the section)
+    current, start = "", -1
+    for i, line in enumerate(lines):
+        m = _HEADER.match(line)
+        if m:
+            sections.setdefault(current, (start, i - 1))
+            current, start = m.group(1).strip().strip('"').strip("'"), i
+    sections.setdefault(current, (start, len(lines) - 1))
+
+    edits: dict[int, list[str]] = {}    # line index -> replacement lines
+    appends: dict[str, list[str]] = {}  # section -> lines added at its end
+    new_sections: dict[str, list[str]] = {}
+    for full, value in values.items():
+        section, key = full.rsplit(".", 1)
+        line_text = f"{key} = {_toml_value(value)}"
+        note = comments.get(full, "")
+        line_text += f"   # {note}" if note else ""
+        if section in sections:
+            lo, hi = sections[section]
+            hit = None
+            for i in range(lo + 1, hi + 1):
+                m = _KEY.match(lines[i])
+                if m and m.group(2) == key:
+                    hit = i
+                    break
+            if hit is not None:
+                indent = _KEY.match(lines[hit]).group(1)
+                edits[hit] = [f"{indent}# was: {lines[hit].strip()}", indent + line_text]
+            else:
+                appends.setdefault(section, []).append(line_text)
+        else:
+            new_sections.setdefault(section, []).append(line_text)
+    for full in remove:
+        section, key = full.rsplit(".", 1)
+        if section not in sections:
+            continue
+        lo, hi = sections[section]
+        for i in range(lo + 1, hi + 1):
+            m = _KEY.match(lines[i])
+            if m and m.group(2) == key:
+                edits[i] = [f"{m.group(1)}# removed by rig update ({comments.get(full, 'replaced')}): "
+                            f"{lines[i].strip()}"]
+    out: list[str] = [f"# {h}" for h in header.splitlines()] if header else []
+    # added keys go after the last key line of their section (before trailing comments/blanks)
+    after: dict[int, list[str]] = {}
+    for section, added in appends.items():
+        lo, hi = sections[section]
+        keyed = [i for i in range(lo + 1, hi + 1) if _KEY.match(lines[i])]
+        after.setdefault(keyed[-1] if keyed else max(lo, 0), []).extend(added)
+    for i, line in enumerate(lines):
+        out.extend(edits.get(i, [line]))
+        out.extend(after.get(i, []))
+    for section, added in new_sections.items():
+        out += ["", f"[{section}]", *added]
+    new = "\n".join(out) + "\n"
+    try:
+        data = tomllib.loads(new)
+    except tomllib.TOMLDecodeError as exc:
+        raise UserError(f"the updated rig file would not be valid TOML ({exc}): is a fitted section written as an "
+                        "inline table or dotted keys? edit the rig file by hand") from None
+    for full, value in values.items():
+        node = data
+        for part in full.split("."):
+            node = node.get(part) if isinstance(node, dict) else None
+        if node != value and not (isinstance(value, float) and isinstance(node, (int, float))
+                                  and float(node) == value):
+            raise UserError(f"could not write {full} into the rig file (is it given as an inline table "
+                            "or a dotted key?); edit the rig file by hand")
+    return new
+
+
+def rig_file_update(text: str, linear=None, contact=None, *, sources: Sequence[str] = (),
+                    modes_used: str = "", contact_sources: Sequence[str] = (), when: str = "") -> str:
+    """The updated rig-file text from an :class:`sim.updating.UpdateResult` and/or a
+    :class:`sim.contact_fit.ContactFitResult`, each key commented with recording, modes and residual."""
+    values: dict[str, float | str] = {}
+    comments: dict[str, str] = {}
+    remove: list[str] = []
+    if linear is not None:
+        rms = math.sqrt(2 * linear.cost_after / max(1, linear.residuals_after.size))
+        why = (f"rig update from {', '.join(sources)} ({modes_used}); max frequency error "
+               f"{100 * linear.max_frequency_error_after:.3f} %, rms residual {rms:.3g} sigma")
+        fitted = linear.rig_file_values()
+        for key, v in fitted.items():
+            values[key] = v
+            if key in linear.names:
+                comments[key] = why
+            elif key == "root.kind":
+                comments[key] = "springs: root spring(s) fitted by rig update"
+            elif key.startswith("root."):
+                comments[key] = "not fitted: the stiffest spring a rig file accepts, standing for the clamp"
+            else:
+                comments[key] = f"follows the fitted {key.split('.')[0]}.mass (same ratio)"
+        if "damping.alpha" in fitted and "damping.ratio" not in fitted:
+            remove.append("damping.ratio")
+            comments["damping.ratio"] = "Rayleigh damping fitted instead"
+    if contact is not None:
+        why = (f"rig update contact fit ({contact.law} law) to {', '.join(contact_sources)}; "
+               f"rms harmonic error {100 * contact.rms_log_error_after:.2f} %")
+        for key, v in contact.rig_file_values().items():
+            values[key] = v
+            comments[key] = why
+    header = (f"updated by rig update{(' on ' + when) if when else ''}: fitted keys are marked; "
+              "the original lines follow them as '# was:'")
+    return updated_rig_text(text, values, comments, remove=remove, header=header)
+
+
+def check_rig_text(text: str, path: str | Path | None = None):
+    """Parse the updated text as a rig file (:func:`rigtools.config.parse_rig`); a
+    :class:`rigtools.errors.ConfigError` names what the fit produced that the rig file refuses."""
+    from rigtools.config import parse_rig
+
+    return parse_rig(tomllib.loads(text), f"updated rig file {path}" if path else "updated rig file")
+

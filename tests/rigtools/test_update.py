@@ -1,0 +1,258 @@
+"""``rig update`` end to end on the simulated rig: an FRF test recorded by ``rig acquire frf``, modes
+identified, paired and fitted, the updated rig file written and read back by ``rig modal``; dwells
+with impacts for the contact fit and the before/after agreement scores; one-line refusals.
+
+References: the simulated rig's test article ([test_article] of the default rig: bolted root
+1.2e4 N*m/rad and 3e8 N/m, damping ratio 0.012, shroud +1 %, sensor -1 %) and its exact FE
+frequencies (sim.updating.mode_targets of the article's parameters, an eigen-solve independent of
+the recording and the identification).
+"""
+
+import contextlib
+import io
+import json
+import tomllib
+
+import numpy as np
+import pytest
+
+from rigtools.cli import main
+from rigtools.config import default_rig_text, load_rig
+from rigtools.errors import UserError
+from rigtools.updating import updated_rig_text
+from sim.updating import mode_targets, predict
+
+FRF = ["acquire", "frf", "--backend", "sim", "--seed", "1", "--signal", "chirp", "--band", "20 Hz:2 kHz",
+       "--level", "0.3 V", "--frame", "1 s", "--averages", "4"]
+DWELL = ["acquire", "dwell", "--backend", "sim", "--seed", "2", "--fe", "60", "--force", "15 N",
+         "--gap", "0.5 mm"]
+K_ROT = "root.rotational_stiffness"
+
+
+def run_cli(argv):
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        code = main([str(a) for a in argv])
+    return code, out.getvalue(), err.getvalue()
+
+
+@pytest.fixture(scope="module")
+def folder(tmp_path_factory):
+    return tmp_path_factory.mktemp("update")
+
+
+@pytest.fixture(scope="module")
+def frf(folder):
+    path = folder / "frf.h5"
+    code, _, err = run_cli([*FRF, "--out", path])
+    assert code == 0, err
+    return path
+
+
+@pytest.fixture(scope="module")
+def dwell(folder):
+    path = folder / "dwell.h5"
+    code, _, err = run_cli([*DWELL, "--out", path])
+    assert code == 0, err
+    return path
+
+
+@pytest.fixture(scope="module")
+def article():
+    cfg = load_rig(None)
+    spec = cfg.test_article.to_params()
+    return spec, spec.apply(cfg.to_params())
+
+
+@pytest.fixture(scope="module")
+def updated(folder, frf):
+    out = folder / "updated.toml"
+    code, text, err = run_cli(["update", frf, "--out", out, "--json"])
+    assert code == 0, err
+    return json.loads(text), out
+
+
+def test_modes_identified_from_the_frf_test_match_the_test_article(updated, article):
+    """LSCF on the recorded H1 gives the active blade's first three flexural modes within 0.02 % (and
+    their damping within 3 %) of the article's exact FE modes; the passive blade is named missing."""
+    doc, _ = updated
+    _, art = article
+    exact = {(t.blade, t.order): t for t in mode_targets(art, 3, damping=True)}
+    got = doc["targets"]
+    assert [(t["blade"], t["order"]) for t in got] == [("active", 1), ("active", 2), ("active", 3)]
+    for t in got:
+        ref = exact[(t["blade"], t["order"])]
+        assert t["frequency_hz"] == pytest.approx(ref.frequency_hz, rel=2e-4)
+        assert t["damping_ratio"] == pytest.approx(ref.damping_ratio, rel=0.03)
+    assert any("no passive-blade modes" in n for n in doc["notes"])
+
+
+def test_fit_from_the_frf_test_recovers_root_stiffness_and_damping(updated, article):
+    """Default --params (root rotational stiffness, damping ratio): the updated model's first three
+    flexural frequencies within 0.3 % of the identified ones (measured 0.23 %), the root stiffness
+    within 10 % of 1.2e4 N*m/rad (measured 1.087e4: -9.4 %, the unfitted +-1 % mass deviations and
+    the 3e8 N/m translational spring are absorbed by it), the damping ratio within 10 % of 0.012
+    (measured 0.01205)."""
+    doc, _ = updated
+    spec, _ = article
+    fit = doc["fit"]
+    assert fit["max_frequency_error_before"] > 0.014          # the clamped nominal rig: 1.4-2.3 % high
+    assert fit["max_frequency_error_after"] < 0.003
+    assert fit["parameters"][K_ROT]["fitted"] == pytest.approx(spec.root_rotational_stiffness, rel=0.10)
+    assert fit["parameters"]["damping.ratio"]["fitted"] == pytest.approx(spec.damping_ratio, rel=0.10)
+    assert fit["identifiability"]["rank"] == 2 and fit["identifiability"]["unresolved"] == []
+
+
+def test_updated_rig_file_loads_and_rig_modal_gives_the_fitted_frequencies(updated, frf):
+    doc, out = updated
+    text = out.read_text()
+    assert '# was: kind = "clamped"' in text and "# was: ratio = 0.01" in text
+    assert "rig update from frf.h5 (active f1 52.01 Hz" in text
+    cfg = load_rig(out)
+    assert cfg.root.kind == "springs"
+    assert cfg.root.rotational_stiffness == doc["fit"]["parameters"][K_ROT]["fitted"]
+    assert cfg.damping.ratio == doc["fit"]["parameters"]["damping.ratio"]["fitted"]
+    # everything the fit did not touch is as it was
+    original = tomllib.loads(default_rig_text())
+    new = tomllib.loads(text)
+    for section in ("blade", "shroud", "force_sensor", "contact", "daq", "safety", "test_article"):
+        assert new[section] == original[section]
+    code, js, err = run_cli(["modal", "--rig", out, "--json", "--modes", "8"])
+    assert code == 0, err
+    flex = [m["frequency_hz"] for m in json.loads(js)["fem"]["active"] if m["kind"] == "flexural"][:3]
+    after = [m["after_hz"] for m in doc["fit"]["modes"]]
+    np.testing.assert_allclose(flex, after, rtol=1e-6)
+    ident = [m["target_hz"] for m in doc["fit"]["modes"]]
+    assert np.max(np.abs(np.array(flex) / ident - 1)) < 0.003
+
+
+def test_too_many_parameters_for_one_blades_modes_are_named(folder, frf, article):
+    """Root stiffness, shroud and sensor masses from the active blade's three modes: the report names
+    the pairs the data cannot separate (correlations ~ +0.999) instead of passing the values as fitted."""
+    out = folder / "four.toml"
+    code, text, err = run_cli(["update", frf, "--out", out, "--params",
+                               "root.rotational_stiffness,shroud.mass,force_sensor.mass,damping.ratio"])
+    assert code == 0, err
+    assert "root.rotational_stiffness <-> shroud.mass: correlation +0.99" in text
+    assert "the data cannot separate or determine" in text
+    assert "no passive-blade modes" in text
+    # from the first mode alone even two parameters are one too many
+    code, js, err = run_cli(["update", frf, "--out", folder / "one.toml", "--modes", "1", "--json",
+                             "--params", "root.rotational_stiffness,shroud.mass"])
+    assert code == 0, err
+    unresolved = json.loads(js)["fit"]["identifiability"]["unresolved"]
+    # f1 moves ~40x more per relative change of the shroud mass than of ln(root stiffness): the
+    # one direction the data do not see is mostly the root stiffness, traded against the mass
+    assert unresolved == ["root.rotational_stiffness: not determined by the data (no information; "
+                          "trades against shroud.mass)"], unresolved
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--params", "root.stiffness"], "--params: unknown parameter 'root.stiffness'"),
+    (["--params", "damping.ratio,damping.alpha"], "fit either damping.ratio"),
+    (["--modes", "0"], "--modes = 0"),
+    (["--band", "2 kHz:20 Hz"], "need 0 < low < high"),
+])
+def test_bad_options_are_one_line_exit_2(folder, frf, argv, message):
+    code, out, err = run_cli(["update", frf, "--out", folder / "bad.toml", *argv])
+    assert code == 2 and out == ""
+    assert err.startswith("rig update: error:") and message in err and len(err.strip().splitlines()) == 1
+    assert not (folder / "bad.toml").exists()
+
+
+def test_bad_recordings_are_one_line_exit_2(folder, frf, dwell):
+    junk = folder / "junk.h5"
+    junk.write_text("not a recording")
+    for path, message in ((folder / "missing.h5", "no such file"),
+                          (junk, "junk.h5"),
+                          (dwell, "dwell.h5 (a sine dwell recording) holds no complete broadband test")):
+        code, out, err = run_cli(["update", path, "--out", folder / "bad.toml"])
+        assert code == 2, err
+        assert message in err and len(err.strip().splitlines()) == 1 and "Traceback" not in err
+    # an FRF test given as a dwell
+    code, _, err = run_cli(["update", frf, "--contact", frf, "--out", folder / "bad.toml"])
+    assert code == 2 and "holds no settled force-controlled dwell point" in err
+    # never overwrite a recording
+    code, _, err = run_cli(["update", frf, "--out", frf, "--overwrite"])
+    assert code == 2 and frf.stat().st_size > 10000
+
+
+@pytest.fixture(scope="module")
+def scored(folder, frf, dwell):
+    """--contact with the default rig file (its contact is the simulated rig's own) and with a rig
+    file whose contact is a guess 3.3x too soft and 2.5x too little damped."""
+    out = {}
+    code, js, err = run_cli(["update", frf, "--contact", dwell, "--out", folder / "c.toml", "--json"])
+    assert code == 0, err
+    out["default"] = json.loads(js)
+    guess = folder / "guess.toml"
+    guess.write_text(default_rig_text().replace('stiffness = "1e6 N/m"', 'stiffness = "3e5 N/m"')
+                     .replace('damping = "200 N*s/m"', 'damping = "80 N*s/m"'))
+    code, js, err = run_cli(["update", frf, "--rig", guess, "--contact", dwell, "--out", folder / "g.toml",
+                             "--json"])
+    assert code == 0, err
+    out["guess"] = json.loads(js)
+    return out
+
+
+def test_scores_rise_with_each_update_from_a_guessed_contact(scored, folder):
+    """60 Hz, 15 N, gap 0.5 mm on the simulated rig, rig file with a guessed contact: nominal 0.590,
+    after the linear update 0.634, after the contact fit 0.659 (measured); each step better."""
+    a = scored["guess"]["agreement"]
+    nominal, linear, contact = a["nominal"][0], a["linear update"][0], a["contact fit"][0]
+    print(f"guessed contact: nominal {nominal:.4f}, linear update {linear:.4f}, contact fit {contact:.4f}")
+    assert nominal < linear < contact
+    c = scored["guess"]["contact_fit"]["parameters"]
+    assert c["contact.stiffness"]["fitted"] > 2 * c["contact.stiffness"]["start"]      # 3e5 -> ~6.9e5
+    new = load_rig(folder / "g.toml")
+    assert new.contact.stiffness == c["contact.stiffness"]["fitted"]
+    assert new.contact.damping == c["contact.damping"]["fitted"]
+
+
+def test_scores_nominal_to_linear_update_default_rig(scored):
+    a = scored["default"]["agreement"]
+    print(f"default rig: nominal {a['nominal'][0]:.4f}, linear update {a['linear update'][0]:.4f}, "
+          f"contact fit {a['contact fit'][0]:.4f}")
+    assert a["nominal"][0] < a["linear update"][0]          # 0.611 -> 0.661
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "the default rig file's contact already is the simulated rig's (1e6 N/m, 200 N*s/m): nothing is "
+    "left for the contact fit to correct. What remains (rms shroud-harmonic error ~50 %) is the force's "
+    "own harmonics on the rig (shaker-blade interaction at impacts: k=5 is 40 % of F0) that a model "
+    "driven by a pure sine at the measured amplitude does not have; the fit trades contact stiffness "
+    "against them (1e6 -> 7.3e5 N/m) and the score stays flat: 0.661 -> 0.660 (measured)"))
+def test_scores_contact_fit_improves_default_rig(scored):
+    a = scored["default"]["agreement"]
+    assert a["contact fit"][0] > a["linear update"][0]
+
+
+def test_rig_text_editor_rayleigh_new_section_and_inline_tables():
+    text = "name = 'x'\n\n[damping]\nratio = 0.01  # old\n\n[root]\nkind = \"clamped\"\n"
+    new = updated_rig_text(text, {"damping.alpha": 1.5, "damping.beta": 2e-6, "passive_blade.youngs_modulus": 2.1e11},
+                           {"damping.alpha": "fitted"}, remove=["damping.ratio"])
+    data = tomllib.loads(new)
+    assert data["damping"] == {"alpha": 1.5, "beta": 2e-6}
+    assert data["passive_blade"] == {"youngs_modulus": 2.1e11}
+    assert "# removed by rig update" in new and "alpha = 1.5   # fitted" in new
+    with pytest.raises(UserError, match="inline table"):
+        updated_rig_text("root = {kind = 'clamped'}\n", {"root.kind": "springs"}, {})
+
+
+def test_a_parameter_that_cannot_explain_the_modes_is_flagged(folder, frf):
+    """Young's modulus scales every frequency alike; the bolted root lowers f1 (2.3 %) more than f3
+    (1.4 %): no modulus matches all three, and the command says so instead of passing it quietly."""
+    code, js, err = run_cli(["update", frf, "--out", folder / "e.toml", "--json",
+                             "--params", "blade.youngs_modulus,damping.ratio"])
+    assert code == 0, err
+    doc = json.loads(js)
+    assert doc["fit"]["max_frequency_error_after"] > 0.004           # measured 0.47 %
+    assert doc["warnings"][0].startswith("the fitted parameters do not explain the identified modes")
+
+
+def test_help_names_every_fittable_parameter():
+    """The command's list (kept in the command module so that --help imports no scipy) is the registry's."""
+    from rigtools.commands.update import PARAMETER_NAMES
+    from sim.updating import PARAMETERS
+
+    assert sorted(PARAMETER_NAMES) == sorted(PARAMETERS)
