@@ -345,7 +345,15 @@ def analyze_broadband(point, procedure: str, *, kind: str = "accelerance", metho
     res = analyze_frf_test(blocks, rate, excitation=excitation,
                            segment_samples=seg, responses=resp, force=force, measured=measured.pop(),
                            kind=kind, f_min=lo, f_max=hi, method=method)
-    for r, m in res.modes.items():
+    band = np.ones(res.estimate.frequency_hz.size, bool)
+    if lo is not None and hi is not None:
+        band = (res.estimate.frequency_hz >= lo) & (res.estimate.frequency_hz <= hi)
+    for i, (r, m) in enumerate(res.modes.items()):
+        coh = float(np.mean(res.estimate.coherence[i][band]))
+        if coh < 0.5:
+            notes.append(f"{r}: mean coherence {coh:.2f} in the band: this response hardly follows the "
+                         "force (a blade the force does not reach, e.g. the passive blade with the gap "
+                         "open: it needs its own tap/hammer test)")
         notes.extend(f"{r}: {t}" for t in m.notes)
     return PointAnalysis(point.index, "broadband", dict(point.params), units, rate, (start, n),
                          frf=res, excitation=excitation, notes=notes)
