@@ -137,6 +137,7 @@ class RecordingAnalysis:
     points: list[PointAnalysis]
     skipped: list[str] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
+    frequency_table: list[dict] | None = None
 
     @property
     def periodic(self) -> list[PointAnalysis]:
@@ -209,7 +210,8 @@ class RecordingAnalysis:
         out = {"file": self.path, "procedure": self.procedure, "backend": self.backend,
                "source": self.source, "status": self.status, "frf_kind": self.frf_kind,
                "amplitude": "peak", "points": [p.to_dict() for p in self.points],
-               "skipped": list(self.skipped), "notes": list(self.notes)}
+               "skipped": list(self.skipped), "notes": list(self.notes),
+               "natural_frequencies": _plain(self.frequency_table)}
         curves = self.response_curves()
         if curves is not None:
             out["response_curves"] = {
@@ -427,9 +429,87 @@ def analyze_recording(path: str | Path, *, kind: str = "accelerance", method: st
                     progress(i + 1, len(points))
         except RecordingError as exc:
             raise UserError(str(exc)) from None
+    if out.broadband:
+        out.frequency_table = frequency_table(out, path)
     if not out.points and not out.skipped:
         out.notes.append("the recording holds no points")
     return out
+
+
+BLADE_OF = {"active_shroud_accel": "active", "passive_shroud_accel": "passive"}
+
+
+def identified_frequencies(analysis: RecordingAnalysis) -> dict[str, list[float]]:
+    """``{blade: natural frequencies}`` identified from the shroud responses of the broadband
+    points (the first point with modes for each blade)."""
+    em: dict[str, list[float]] = {}
+    for p in analysis.broadband:
+        for r in p.frf.responses:
+            blade = BLADE_OF.get(r)
+            modes = p.frf.modes[r].modes
+            if blade and modes and blade not in em:
+                em[blade] = sorted(m.frequency_hz for m in modes)
+    return em
+
+
+def model_frequencies(rig_config, n_modes: int = 3) -> dict[str, dict[str, list[float]]]:
+    """Flexural natural frequencies of both blades of a rig: ``{"fem": ..., "am": ...,
+    "article": ...}`` with ``{blade: [Hz, ...]}`` each. ``fem``: the reduced FE model
+    (:func:`rigtools.simulation.natural_frequencies`); ``am``: the exact Euler-Bernoulli solution
+    (:func:`sim.analytical.exact_flexural_frequencies`); ``article``: the simulated rig's test
+    article (``[test_article]`` applied to the nominal rig as :class:`drivers.simulated.SimulatedRig`
+    does, reduced as its vibro-impact physics does)."""
+    from rigtools.simulation import natural_frequencies
+    from sim.analytical import exact_flexural_frequencies
+    from sim.reduction import reduce_rig_model, reduced_system
+    from sim.rig_model import blade_masses, build_rig_model
+
+    params = rig_config.to_params()
+    fem = natural_frequencies(reduced_system(params, "fem"))
+    roots = {"active": params.root, "passive": params.passive_root or params.root}
+    am = {b: exact_flexural_frequencies(params.active if b == "active" else params.passive,
+                                        blade_masses(params, b), n_modes, roots[b]) for b in roots}
+    out = {"fem": {b: [float(x) for x in fem[b][:n_modes]] for b in fem},
+           "am": {b: [float(x) for x in am[b]] for b in am}}
+    article = getattr(rig_config, "test_article", None)
+    if article is not None:
+        art = natural_frequencies(reduce_rig_model(build_rig_model(article.to_params().apply(params))))
+        out["article"] = {b: [float(x) for x in art[b][:n_modes]] for b in art}
+    return out
+
+
+def frequency_table(analysis: RecordingAnalysis, path, n_modes: int = 3) -> list[dict] | None:
+    """The paper's Table 2 for a broadband recording: per blade and mode FEM, AM, EM (identified)
+    and their differences in % (:func:`analysis.compare.natural_frequency_table`), with the
+    simulated test article's own frequency and EM's difference from it when the recording was
+    made on the simulated rig. None if nothing was identified or the rig cannot be read."""
+    from analysis.compare import natural_frequency_table
+    from rigtools.recording import RecordingError, open_recording
+
+    em = identified_frequencies(analysis)
+    if not em:
+        return None
+    try:
+        with open_recording(path) as rec:
+            cfg = rec.rig_config()
+    except (RecordingError, UserError) as exc:
+        analysis.notes.append(f"no FEM/AM natural-frequency table: the recording's rig is unreadable ({exc})")
+        return None
+    models = model_frequencies(cfg, n_modes)
+    em_full = {b: em.get(b, []) for b in models["fem"]}
+    table = natural_frequency_table(models["fem"], em_full, models["am"], n_modes=n_modes)
+    rows = table.to_dict("records")
+    if analysis.backend == "simulated" and "article" in models:
+        for r in rows:
+            vals = models["article"].get(r["blade"], [])
+            ref = vals[r["mode"] - 1] if r["mode"] <= len(vals) else float("nan")
+            r["article_hz"] = ref
+            r["em_vs_article_pct"] = 100 * (r["em_hz"] - ref) / ref if ref == ref else float("nan")
+    for blade in models["fem"]:
+        if blade not in em:
+            analysis.notes.append(f"{blade} blade: no modes identified in this recording (its shroud "
+                                  "response did not follow the force); its EM column is empty")
+    return [{k: (float(v) if isinstance(v, (np.floating, float)) else v) for k, v in r.items()} for r in rows]
 
 
 def channel_label(name: str) -> str:

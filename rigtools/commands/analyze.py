@@ -106,6 +106,22 @@ def print_tables(analysis, console) -> None:
         console.print(table)
         for n in p.notes:
             console.print(f"note: {n}")
+    if analysis.frequency_table:
+        cols = [("blade", "blade"), ("mode", "k"), ("fem_hz", "FEM"), ("am_hz", "AM"),
+                ("em_hz", "EM"), ("fem_vs_em_pct", "FEM %"), ("am_vs_em_pct", "AM %")]
+        if "article_hz" in analysis.frequency_table[0]:
+            cols += [("article_hz", "article"), ("em_vs_article_pct", "EM-art %")]
+        table = Table(title="flexural natural frequencies, Hz (paper's Table 2)",
+                      caption="EM: identified here; FEM/AM %: (model - EM) / EM; article: the simulated "
+                              "rig's own test article, EM-art %: (EM - article) / article")
+        for _, h in cols:
+            table.add_column(h, justify="right", no_wrap=True)
+        for r in analysis.frequency_table:
+            table.add_row(*(f"{r[k]:.1f}" if isinstance(r[k], float) and k.endswith("hz") and r[k] == r[k]
+                            else f"{r[k]:+.3f}" if k == "em_vs_article_pct" and r[k] == r[k]
+                            else f"{r[k]:+.2f}" if isinstance(r[k], float) and r[k] == r[k]
+                            else "–" if isinstance(r[k], float) else str(r[k]) for k, _ in cols))
+        console.print(table)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -15,6 +15,7 @@ Every amplitude is a peak amplitude and says so.
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -24,6 +25,7 @@ import numpy as np
 from rigtools.analyze import TABLE_HARMONICS, RecordingAnalysis, point_window
 
 MAX_WAVEFORM_FIGURES = 4     # periodic points drawn as waveforms (first, last and between)
+WAVEFORM_CHANNELS = ("force", "active_shroud_accel", "passive_shroud_accel", "contact_force")
 
 
 @dataclass
@@ -68,10 +70,12 @@ def analysis_figures(analysis: RecordingAnalysis, *, max_waveforms: int = MAX_WA
     for i in _pick(len(periodic), max_waveforms):
         p = periodic[i]
         data, rate, t0, units = point_window(analysis.path, p.index)
-        data = {c: x for c, x in data.items() if c in p.units and c != "drive"} or data
-        fig = time_and_spectrum_figure(data, {c: units[c] for c in data}, rate, float(p.fe), t0=t0,
-                                       k_max=min(30, int(rate / 2 / p.fe) - 1),
-                                       title=f"{stem} point {p.index}")
+        data = {c: data[c] for c in WAVEFORM_CHANNELS if c in data and c in p.units} or data
+        with warnings.catch_warnings():     # a channel at rest (passive blade, gap open) is all zero
+            warnings.filterwarnings("ignore", "Data has no positive values")
+            fig = time_and_spectrum_figure(data, {c: units[c] for c in data}, rate, float(p.fe), t0=t0,
+                                           k_max=min(30, int(rate / 2 / p.fe) - 1),
+                                           title=f"{stem} point {p.index}")
         figs.append(NamedFigure(f"point{p.index}-waveforms", fig,
                                 f"Point {p.index}: waveforms over the last periods (time from the upward zero "
                                 f"crossing of the force fundamental) and peak-amplitude spectra (flat-top "
@@ -108,7 +112,8 @@ def analysis_figures(analysis: RecordingAnalysis, *, max_waveforms: int = MAX_WA
                 quantities[label] = {}
                 for d in dict.fromkeys(direction):
                     sel = np.array([x == d for x in direction])
-                    name = f"{analysis.source.upper()} {d}".strip() if d else analysis.source.upper()
+                    name = (f"{analysis.source.upper()} {d}" if d and len(set(direction)) > 1
+                            else analysis.source.upper())
                     quantities[label][name] = (values[sel], arr[sel, k - 1])
                     sources[name] = True
         if quantities:
@@ -158,6 +163,13 @@ def add_analysis(report, analysis: RecordingAnalysis) -> None:
     modes = analysis.mode_rows()
     if modes:
         sec.table(modes, caption="Identified modes per response (LSCF with stabilisation check, or peak picking)")
+    if analysis.frequency_table:
+        cols = {"blade": "blade", "mode": "mode", "fem_hz": "FEM (Hz)", "am_hz": "AM (Hz)", "em_hz": "EM (Hz)",
+                "fem_vs_em_pct": "FEM vs EM (%)", "am_vs_em_pct": "AM vs EM (%)",
+                "article_hz": "simulated test article (Hz)", "em_vs_article_pct": "EM vs article (%)"}
+        rows = [{t: r.get(k) for k, t in cols.items() if k in r} for r in analysis.frequency_table]
+        sec.table(rows, caption="Flexural natural frequencies, FEM, AM and EM (identified), as the paper's "
+                                "Table 2; differences 100 (model - EM) / EM", digits=6)
     for p in analysis.broadband:
         for n in p.notes:
             sec.note(f"point {p.index}: {n}")
