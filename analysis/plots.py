@@ -383,8 +383,6 @@ def time_and_spectrum_figure(
         freqs, amp = amplitude_spectrum(x, sample_rate, window)
         _spectrum_axes(ax_s, freqs, amp, fe, k_max, f_max, None, f"peak amplitude ({unit})", f"C{i}")
         ax_s.set_title(name, fontsize=9)
-        if i > 0:
-            ax_s.get_legend().remove()
         if i < len(names) - 1:
             ax_t.tick_params(labelbottom=False)
             ax_s.set_xlabel("")
@@ -472,6 +470,8 @@ def frf_figure(
             ax_m.text(fn, 0.98, f" {fn:.1f} Hz", rotation=90, va="top", ha="right", fontsize=7,
                       transform=ax_m.get_xaxis_transform())
     ax_m.legend(fontsize=8)
+    if len(frfs) > 1:
+        ax_p.legend(fontsize=7, loc="lower left")
     if coherence:
         ax_c = axes[2]
         for i, (label, c) in enumerate(coherence.items()):
