@@ -148,11 +148,11 @@ class RecordingAnalysis:
         return [p for p in self.points if p.kind == "broadband"]
 
     def response_curves(self) -> dict | None:
-        """Stepped-sine response curves over ``fe`` (None unless two or more periodic points
-        differ in ``fe``): ``{"fe": (n,), "direction": [...], "frf": {response: (n,) complex
+        """Response curves of a stepped sine or study (None unless there are two or more periodic
+        points; ``frf`` is a curve over frequency only when their ``fe`` differ): ``{"fe": (n,), "direction": [...], "frf": {response: (n,) complex
         X1/F1 in the recording's FRF kind}, "harmonics": {channel: (n, K) peak amplitudes}}``."""
         pts = [p for p in self.periodic if p.fe]
-        if len({round(float(p.fe), 9) for p in pts}) < 2:
+        if len(pts) < 2:
             return None
         fe = np.array([float(p.fe) for p in pts])
         channels = [c for c in pts[0].dwell.harmonics if all(c in p.dwell.harmonics for p in pts)]

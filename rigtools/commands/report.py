@@ -58,7 +58,7 @@ def add_comparison(report, args, say) -> dict | None:
     try:
         from rigtools.compare import compare_recordings
     except ImportError:
-        say("comparison is not available (rigtools.compare is not installed); report without it")
+        say("rig report: comparison is not available (no rigtools.compare); report without it")
         return None
     cmp = compare_recordings(args.files[0], args.fem, simulate=args.simulate, model=args.model, rig=args.rig)
     cmp.add_to_report(report)
@@ -66,6 +66,7 @@ def add_comparison(report, args, say) -> dict | None:
 
 
 def run(args: argparse.Namespace) -> int:
+    import sys
     from pathlib import Path
 
     from rich.console import Console
@@ -92,7 +93,7 @@ def run(args: argparse.Namespace) -> int:
     with console.status("building the report"):
         for a in analyses:
             add_analysis(report, a)
-        add_comparison(report, args, lambda s: console.print(s))
+        add_comparison(report, args, lambda s: print(s, file=sys.stderr))
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
