@@ -310,6 +310,31 @@ def analyze_periodic(point, *, channels: Sequence[str] | None = None, k_max: int
                          notes=notes)
 
 
+def tap_frames(point, force: str, start: int, n: int, threshold: float = 0.2) -> tuple[int, int, int]:
+    """Frames of a record of hammer taps: ``(first sample, samples, frame samples)`` with one
+    frame per hit, starting a few ms before it, as long as the shortest spacing of hits.
+
+    A hit is a peak of |force| above ``threshold`` of the largest, at least 50 ms after the
+    previous one. Raises :class:`UserError` for fewer than two hits (an FRF needs averages)."""
+    from scipy.signal import find_peaks
+
+    rate = float(point.sample_rate)
+    if n > WINDOW_SAMPLES:
+        raise UserError(f"point {point.index}: {n} samples without a recorded frame length; "
+                        f"tap records up to {WINDOW_SAMPLES} samples are supported")
+    f = np.abs(np.asarray(point.channels[force][start:start + n], dtype=float))
+    peaks, _ = find_peaks(f, height=threshold * float(f.max()) if f.size else 0.0,
+                          distance=max(1, int(0.05 * rate)))
+    if peaks.size < 2:
+        raise UserError(f"point {point.index}: {peaks.size} hit(s) of the force found; an FRF of a tap "
+                        "test needs two or more taps to average (coherence)")
+    pre = min(int(round(0.002 * rate)), int(np.min(np.diff(peaks))) // 20)
+    first = max(0, int(peaks[0]) - pre)
+    seg = int(min(np.min(np.diff(peaks)), n - (int(peaks[-1]) - pre)))
+    hits = int(peaks.size if n - (int(peaks[-1]) - pre) >= seg else peaks.size - 1)
+    return start + first, hits * seg, seg
+
+
 def analyze_broadband(point, procedure: str, *, kind: str = "accelerance", method: str = "lscf",
                       responses: Sequence[str] | None = None) -> PointAnalysis:
     """H1/H2/Hv, coherence and modes of a broadband point (FRF test, tap test, free decay)."""
@@ -335,10 +360,11 @@ def analyze_broadband(point, procedure: str, *, kind: str = "accelerance", metho
     if "frame_samples" in point.params:
         seg = int(point.params["frame_samples"])
         excitation = "periodic" if signal == "chirp" else "burst"
-    else:           # a tap test or free decay: the whole record is one frame
-        seg, excitation = n, "burst"
-        notes.append("no frame length recorded: the whole record is one frame (one average, "
-                     "coherence 1 by construction)")
+    else:           # a tap test or free decays: one frame per hit of the force
+        start, n, seg = tap_frames(point, force, start, n)
+        excitation = "burst"
+        notes.append(f"no frame length recorded: one frame of {seg} samples per hit of the force "
+                     f"({n // seg} hits, rectangular window)")
     if n < seg:
         raise UserError(f"point {point.index}: {n} samples recorded, fewer than one frame ({seg})")
     lo, hi = point.params.get("band_low"), point.params.get("band_high")

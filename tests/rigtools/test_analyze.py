@@ -201,3 +201,39 @@ def test_figures_have_units_and_legends(frf_file, study_file):
                     assert ax.get_legend() is not None, nf.name
                     styles = {(l.get_color(), l.get_linestyle(), l.get_marker()) for l in data_lines}
                     assert len(styles) == len(data_lines), nf.name
+
+
+def test_tap_test_record_without_frames_gives_the_mode(tmp_path):
+    """Four hammer taps on a known SDOF (no fe, no frame length: one frame per tap), with noise:
+    the natural frequency within 0.5 % and the damping ratio within 5 %, by LSCF and by peak."""
+    from scipy import signal
+
+    from rigtools.analyze import analyze_recording
+    from rigtools.recording import ChannelSpec, RecordingWriter
+
+    rate, n = 8192.0, 4 * 8192 + 3000
+    fn, zeta, m = 143.0, 0.01, 0.2
+    wn = 2 * np.pi * fn
+    t = np.arange(n) / rate
+    pulse = np.where(t < 2.5e-4, np.sin(np.pi * t / 2.5e-4), 0.0)
+    force = sum(a * np.roll(pulse, at) for a, at in ((50, 100), (35, 8300), (60, 16500), (42, 24700)))
+    # accelerance of m x'' + c x' + k x = F: a = s^2 / (m (s^2 + 2 zeta wn s + wn^2)) F
+    sys_a = signal.dlti(*signal.cont2discrete(([1.0, 0, 0], [m, 2 * zeta * wn * m, wn**2 * m]), 1 / rate,
+                                              method="bilinear")[:2], dt=1 / rate)
+    _, accel = signal.dlsim(sys_a, force)
+    accel = accel[:, 0] + 0.002 * np.random.default_rng(1).standard_normal(n)
+    path = tmp_path / "tap.h5"
+    with RecordingWriter(path, backend="simulated", rig="{}", experiment={"procedure": "tap test"}) as w:
+        pt = w.begin_point(params={}, channels=[ChannelSpec("force", "N", "force", rate),
+                                                 ChannelSpec("passive_shroud_accel", "m/s^2", "acceleration", rate)])
+        pt.append(np.vstack([force, accel]))
+        pt.end()
+    for method in ("lscf", "peak"):
+        a = analyze_recording(path, method=method)
+        (p,) = a.broadband
+        modes = p.frf.modes["passive_shroud_accel"].modes
+        assert len(modes) == 1, p.notes
+        # the bilinear map warps frequency by tan(w T/2) / (T/2): 0.01 % here
+        assert modes[0].frequency_hz == pytest.approx(fn, rel=0.005)
+        assert modes[0].damping_ratio == pytest.approx(zeta, rel=0.05)
+        assert any("one frame of 8200 samples per hit" in n and "(4 hits" in n for n in p.notes), p.notes
