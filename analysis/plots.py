@@ -142,6 +142,7 @@ def vibro_impact_figure(
     natural_frequencies_hz: Mapping[str, np.ndarray] | np.ndarray | None = None,
     window: str = "boxcar",
     title: str = "",
+    force: np.ndarray | None = None,
 ) -> Figure:
     """One vibro-impact run in the style of the paper's Figure 9.
 
@@ -172,6 +173,10 @@ def vibro_impact_figure(
         record of whole periods of a periodic response, use ``"flattop"`` otherwise.
     title
         Prefix of the figure title.
+    force
+        (n,) excitation force, N. When given, the time histories are drawn against the time from
+        the upward zero crossing of its fundamental in ms (the reference of every other waveform
+        plot: :func:`time_and_spectrum_figure`, :func:`overlay_figure`); otherwise against ``time``.
 
     Returns
     -------
@@ -185,6 +190,13 @@ def vibro_impact_figure(
         raise ValueError("need at least 2 samples")
     rate = 1.0 / float(t[1] - t[0])
     win = _last_periods(t.size, rate, fe, periods)
+    t_label = "time (s)"
+    if force is not None:
+        w = _last_periods(t.size, rate, fe, periods + 1)
+        t_ref = force_zero_crossing_time(np.asarray(force, dtype=float)[w], rate, fe, float(t[w.start]))
+        t = (t - t_ref) * 1e3
+        win = (t >= 0) & (t <= periods / fe * 1e3 * (1 + 1e-9))
+        t_label = "time from the upward zero crossing of the force fundamental (ms)"
     fig = Figure(figsize=(12, 9), layout="constrained")
     grid = fig.add_gridspec(3, 2)
     ax_u = fig.add_subplot(grid[0, :])
@@ -207,7 +219,7 @@ def vibro_impact_figure(
 
     ax_f.plot(t[win], np.asarray(contact_force)[win], color="C3", lw=1.2)
     ax_f.set_ylabel("contact force (N)")
-    ax_f.set_xlabel("time (s)")
+    ax_f.set_xlabel(t_label)
     ax_f.set_title("contact force")
     ax_f.grid(True, alpha=0.3)
 

@@ -181,3 +181,18 @@ def test_amplitude_frequency_figure_plots_each_curve():
         assert len(styles) == 4
         assert len({t.get_text() for t in ax.get_legend().get_texts()}) == 4
     assert fig.get_suptitle() == "rig: linear response to F0 = 15 N"
+
+
+def test_vibro_impact_figure_times_from_the_force_zero_crossing():
+    """With the force given, the time axis is the one of every other waveform plot: ms from the
+    upward zero crossing of the force fundamental (a force 0.7 rad ahead of sin(w t))."""
+    t, ua, up, fc, aa, ap = _signals()
+    force = 15.0 * np.sin(2 * np.pi * FE * t + 0.7)
+    fig = vibro_impact_figure(t, ua, up, fc, aa, ap, FE, periods=3, force=force)
+    ax_u, ax_f = fig.axes[:2]
+    x = np.asarray(ax_u.lines[0].get_xdata())
+    assert 0 <= x[0] < 1e3 / RATE and x[-1] == pytest.approx(3e3 / FE, abs=1e3 / RATE)
+    # at the time origin the force is zero and rising: ua = 1.2e-3 sin(w t) there reads 1.2 sin(-0.7) mm
+    assert ax_u.lines[0].get_ydata()[0] == pytest.approx(1.2 * np.sin(2 * np.pi * FE * x[0] * 1e-3 - 0.7),
+                                                                abs=1.2 * 2 * np.pi * FE / RATE)
+    assert ax_f.get_xlabel() == "time from the upward zero crossing of the force fundamental (ms)"
