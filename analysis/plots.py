@@ -26,6 +26,13 @@ STUDY_UNITS = {              # swept parameter -> (display unit, factor from SI)
 }
 
 
+def _suptitle(fig: Figure, text: str, width: int = 110) -> None:
+    """A figure title wrapped over lines (never cut at the figure's edge)."""
+    import textwrap
+
+    fig.suptitle("\n".join(textwrap.wrap(text, width)) or text)
+
+
 def _last_periods(n: int, sample_rate: float, fe: float, periods: float) -> slice:
     """The last ``periods`` excitation periods of an ``n``-sample record (all of it if shorter)."""
     m = int(round(periods * sample_rate / fe))
@@ -93,14 +100,19 @@ def amplitude_frequency_figure(
     axes = fig.subplots(2, 2, sharex=True)
     f = np.asarray(frequency_hz, dtype=float)
     models = list(curves)
-    rows = (("displacement", "displacement amplitude (m)"), ("acceleration", "acceleration amplitude (m/s²)"))
+    rows = (("displacement", "displacement, peak amplitude (m)"),
+            ("acceleration", "acceleration, peak amplitude (m/s²)"))
     for col, blade in enumerate(BLADES):
         for row, (quantity, ylabel) in enumerate(rows):
             ax = axes[row, col]
-            for loc, color in ((f"{blade}_shroud", "C0"), (f"{blade}_force_point", "C1")):
+            for loc, color, marker in ((f"{blade}_shroud", "C0", "o"), (f"{blade}_force_point", "C1", "s")):
                 where = "shroud" if loc.endswith("shroud") else "excitation point"
                 for i, model in enumerate(models):
-                    style = dict(color=color, lw=1.4) if i == 0 else dict(color="k", ls="--", lw=0.9)
+                    # the first model solid; the others dashed/dotted in the location's colour with
+                    # open markers, so every curve is told apart in colour, line style and marker
+                    style = (dict(color=color, lw=1.4) if i == 0 else
+                             dict(color=color, ls=("--", ":", "-.")[(i - 1) % 3], lw=1.1, marker=marker,
+                                  mfc="none", ms=4, markevery=max(1, f.size // 25)))
                     ax.semilogy(f, curves[model][quantity][loc], label=f"{model}, {where}", **style)
             ax.set_ylabel(ylabel)
             ax.grid(True, which="both", alpha=0.3)
@@ -111,7 +123,7 @@ def amplitude_frequency_figure(
             ax.legend(fontsize=8)
     head = f"{title}: " if title else ""
     force = f" to F0 = {force_amplitude:g} N" if force_amplitude is not None else ""
-    fig.suptitle(f"{head}linear response{force}")
+    _suptitle(fig, f"{head}linear response{force}")
     return fig
 
 
@@ -130,6 +142,7 @@ def vibro_impact_figure(
     natural_frequencies_hz: Mapping[str, np.ndarray] | np.ndarray | None = None,
     window: str = "boxcar",
     title: str = "",
+    force: np.ndarray | None = None,
 ) -> Figure:
     """One vibro-impact run in the style of the paper's Figure 9.
 
@@ -160,6 +173,10 @@ def vibro_impact_figure(
         record of whole periods of a periodic response, use ``"flattop"`` otherwise.
     title
         Prefix of the figure title.
+    force
+        (n,) excitation force, N. When given, the time histories are drawn against the time from
+        the upward zero crossing of its fundamental in ms (the reference of every other waveform
+        plot: :func:`time_and_spectrum_figure`, :func:`overlay_figure`); otherwise against ``time``.
 
     Returns
     -------
@@ -173,6 +190,13 @@ def vibro_impact_figure(
         raise ValueError("need at least 2 samples")
     rate = 1.0 / float(t[1] - t[0])
     win = _last_periods(t.size, rate, fe, periods)
+    t_label = "time (s)"
+    if force is not None:
+        w = _last_periods(t.size, rate, fe, periods + 1)
+        t_ref = force_zero_crossing_time(np.asarray(force, dtype=float)[w], rate, fe, float(t[w.start]))
+        t = (t - t_ref) * 1e3
+        win = (t >= 0) & (t <= periods / fe * 1e3 * (1 + 1e-9))
+        t_label = "time from the upward zero crossing of the force fundamental (ms)"
     fig = Figure(figsize=(12, 9), layout="constrained")
     grid = fig.add_gridspec(3, 2)
     ax_u = fig.add_subplot(grid[0, :])
@@ -195,7 +219,7 @@ def vibro_impact_figure(
 
     ax_f.plot(t[win], np.asarray(contact_force)[win], color="C3", lw=1.2)
     ax_f.set_ylabel("contact force (N)")
-    ax_f.set_xlabel("time (s)")
+    ax_f.set_xlabel(t_label)
     ax_f.set_title("contact force")
     ax_f.grid(True, alpha=0.3)
 
@@ -205,12 +229,12 @@ def vibro_impact_figure(
         natural = natural_frequencies_hz
         if isinstance(natural, Mapping):
             natural = natural.get(blade)
-        _spectrum_axes(ax, freqs, amp[row], fe, k_max, f_max, natural, "acceleration amplitude (m/s²)", color)
+        _spectrum_axes(ax, freqs, amp[row], fe, k_max, f_max, natural, "acceleration, peak amplitude (m/s²)", color)
         ax.set_title(f"{blade} shroud acceleration spectrum")
 
     head = f"{title}: " if title else ""
     gap_text = f", gap {gap * 1e3:g} mm" if gap is not None else ""
-    fig.suptitle(f"{head}vibro-impact response, fe = {fe:g} Hz{gap_text}")
+    _suptitle(fig, f"{head}vibro-impact response, fe = {fe:g} Hz{gap_text}")
     return fig
 
 
@@ -290,14 +314,14 @@ def study_figure(
         hm.set_xticks(ticks, [point_labels[j] for j in ticks], fontsize=8,
                       rotation=45 if len(ticks) > 8 else 0)
         hm.set_xlabel(f"{kind} ({unit}) in run order (↑ up, ↓ down sweep)")
-        fig.colorbar(mesh, ax=hm, label="amplitude (m/s²)", pad=0.01)
+        fig.colorbar(mesh, ax=hm, label="peak amplitude (m/s²)", pad=0.01)
     fixed_text = ""
     if fixed:
         parts = {"fe": lambda v: f"fe = {v:g} Hz", "force": lambda v: f"F0 = {v:g} N",
                  "gap": lambda v: f"gap = {v * 1e3:g} mm"}
         fixed_text = " (" + ", ".join(parts[k](v) for k, v in fixed.items() if k in parts) + ")"
     head = f"{title}: " if title else ""
-    fig.suptitle(f"{head}{kind} study{fixed_text}")
+    _suptitle(fig, f"{head}{kind} study{fixed_text}")
     return fig
 
 
@@ -312,6 +336,7 @@ def time_and_spectrum_figure(
     k_max: int = 30,
     window: str = "flattop",
     title: str = "",
+    force_channel: str = "force",
 ) -> Figure:
     """A measured dwell: each channel's time history (last periods) and amplitude spectrum.
 
@@ -332,6 +357,10 @@ def time_and_spectrum_figure(
         Spectrum window (:func:`analysis.spectra.amplitude_spectrum`).
     title
         Prefix of the figure title.
+    force_channel
+        When ``channels`` holds it, every time history is drawn against the time from the first
+        upward zero crossing of this channel's fundamental in the window shown, in ms (the time
+        reference of :func:`overlay_figure`); otherwise against ``t0 + i / sample_rate`` in s.
 
     Returns
     -------
@@ -345,29 +374,36 @@ def time_and_spectrum_figure(
     fig = Figure(figsize=(12, 2.4 * len(names) + 1.0), layout="constrained")
     axes = fig.subplots(len(names), 2, squeeze=False, width_ratios=[1.0, 1.2])
     f_max = min((k_max + 1) * fe, sample_rate / 2)
+    t_ref, t_scale, t_label = 0.0, 1.0, "time (s)"
+    if force_channel in channels:
+        n_f = np.asarray(channels[force_channel]).size
+        w = _last_periods(n_f, sample_rate, fe, periods + 1)
+        t_ref = force_zero_crossing_time(np.asarray(channels[force_channel], dtype=float)[w], sample_rate, fe,
+                                         t0 + w.start / sample_rate)
+        t_scale, t_label = 1e3, "time from the upward zero crossing of the force fundamental (ms)"
     for i, name in enumerate(names):
         x = np.asarray(channels[name], dtype=float)
         unit = units[name].replace("^2", "²")
-        t = t0 + np.arange(x.size) / sample_rate
+        t = (t0 + np.arange(x.size) / sample_rate - t_ref) * t_scale
         win = _last_periods(x.size, sample_rate, fe, periods)
+        if force_channel in channels:
+            win = (t >= 0) & (t <= periods / fe * t_scale * (1 + 1e-9))
         ax_t, ax_s = axes[i]
         ax_t.plot(t[win], x[win], color=f"C{i}", lw=1.0)
         ax_t.set_ylabel(f"{name} ({unit})")
         ax_t.grid(True, alpha=0.3)
         freqs, amp = amplitude_spectrum(x, sample_rate, window)
-        _spectrum_axes(ax_s, freqs, amp, fe, k_max, f_max, None, f"amplitude ({unit})", f"C{i}")
+        _spectrum_axes(ax_s, freqs, amp, fe, k_max, f_max, None, f"peak amplitude ({unit})", f"C{i}")
         ax_s.set_title(name, fontsize=9)
-        if i > 0:
-            ax_s.get_legend().remove()
         if i < len(names) - 1:
             ax_t.tick_params(labelbottom=False)
             ax_s.set_xlabel("")
             ax_s.tick_params(labelbottom=False)
         else:
-            ax_t.set_xlabel("time (s)")
+            ax_t.set_xlabel(t_label)
     axes[0, 0].set_title(f"last {periods:g} periods", fontsize=9)
     head = f"{title}: " if title else ""
-    fig.suptitle(f"{head}sine dwell, fe = {fe:g} Hz ({x.size / sample_rate:g} s analysed)")
+    _suptitle(fig, f"{head}sine dwell, fe = {fe:g} Hz ({x.size / sample_rate:g} s analysed)")
     return fig
 
 
@@ -446,6 +482,8 @@ def frf_figure(
             ax_m.text(fn, 0.98, f" {fn:.1f} Hz", rotation=90, va="top", ha="right", fontsize=7,
                       transform=ax_m.get_xaxis_transform())
     ax_m.legend(fontsize=8)
+    if len(frfs) > 1:
+        ax_p.legend(fontsize=7, loc="lower left")
     if coherence:
         ax_c = axes[2]
         for i, (label, c) in enumerate(coherence.items()):
@@ -454,7 +492,7 @@ def frf_figure(
         ax_c.set_ylabel("coherence (-)")
         ax_c.legend(fontsize=8)
     axes[-1].set_xlabel("frequency (Hz)")
-    fig.suptitle(title or f"frequency response ({kind})")
+    _suptitle(fig, title or f"frequency response ({kind})")
     return fig
 
 
@@ -480,7 +518,7 @@ def stabilisation_figure(chart, frequency_hz: np.ndarray, h: np.ndarray, *,
         for j, fn in enumerate(natural_frequencies_hz):
             ax.axvline(fn, color="C3", ls="--", lw=0.9, label="identified mode" if j == 0 else None)
     ax.legend(fontsize=8, loc="upper left")
-    fig.suptitle(title or "stabilisation chart (LSCF)")
+    _suptitle(fig, title or "stabilisation chart (LSCF)")
     return fig
 
 
@@ -534,7 +572,7 @@ def harmonic_bars_figure(
         ax.grid(True, axis="y", which="both", alpha=0.3)
         ax.legend(fontsize=8)
     axes[-1].set_xlabel(f"harmonic order k (frequency k·fe, fe = {fe:g} Hz)")
-    fig.suptitle(title or f"harmonic amplitudes, EM versus {model_label}")
+    _suptitle(fig, title or f"harmonic amplitudes, EM versus {model_label}")
     return fig
 
 
@@ -584,7 +622,7 @@ def trend_figure(
         ax.legend(fontsize=8)
     for ax in axes[len(names):]:
         ax.set_visible(False)
-    fig.suptitle(title or f"{kind} study: experiment (EM) and models")
+    _suptitle(fig, title or f"{kind} study: experiment (EM) and models")
     return fig
 
 
@@ -679,5 +717,5 @@ def overlay_figure(
                   transform=ax_s.get_xaxis_transform(), clip_on=False)
     axes[-1, 0].set_xlabel("time from the upward zero crossing of the force fundamental (ms)")
     axes[-1, 1].set_xlabel(f"frequency (Hz); ▼ marks k·fe, fe = {fe:g} Hz")
-    fig.suptitle(title or f"EM versus {model_label}: waveforms and spectra, fe = {fe:g} Hz")
+    _suptitle(fig, title or f"EM versus {model_label}: waveforms and spectra, fe = {fe:g} Hz")
     return fig

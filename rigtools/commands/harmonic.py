@@ -14,9 +14,10 @@ HELP = "linear amplitude-frequency curves (no contact), FEM and AM, written as C
 EPILOG = """\
 A force F0 sin(2 pi f t) acts at the force-sensor position. The gap stays open (linear response),
 so each blade is driven on its own: the active blade through its force sensor, the passive blade
-(no sensor) at the same position. Curves: displacement (m) and acceleration (m/s^2) amplitudes at
-each shroud and each excitation point, FEM (all-mode superposition) and AM (assumed modes), with
-the rig's damping.
+(no sensor) at the same position. Curves: displacement (m) and acceleration (m/s^2) peak
+amplitudes (RMS = peak / sqrt 2) at each shroud and each excitation point, FEM (all-mode
+superposition) and AM (assumed modes), with the rig's damping. In the plot FEM is solid, AM
+dashed with open markers (o shroud, s excitation point), each location in its own colour.
 
 Columns of the CSV: frequency_hz, then <model>_<location>_displacement_m and
 <model>_<location>_acceleration_m_s2 for model in fem, am and location in active_shroud,
@@ -45,7 +46,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--fmax", default="1500 Hz", help='highest frequency (default "1500 Hz")')
     p.add_argument("--points", type=int, default=2000,
                    help=f"frequencies, evenly spaced (default 2000, {MIN_POINTS} to {MAX_POINTS})")
-    p.add_argument("--out", required=True, metavar="FILE", help="output file, .csv or .json; the plot goes to FILE.png")
+    p.add_argument("--out", required=True, metavar="FILE", help="output file, .csv or .json (peak amplitudes); the plot goes to FILE.png")
     p.add_argument("--overwrite", action="store_true", help="replace FILE if it exists")
     p.set_defaults(func=run)
 
@@ -138,5 +139,6 @@ def run(args: argparse.Namespace) -> int:
     from rigtools.figures import plot_path, save_figure
 
     png = save_figure(curves_figure(fem, am, rig_config.name), plot_path(out), dpi=120)
-    print(f"wrote {out} and {png} ({args.points} frequencies {fmin:g}-{fmax:g} Hz, F0 = {force:g} N, FEM and AM)")
+    print(f"wrote {out} and {png} ({args.points} frequencies {fmin:g}-{fmax:g} Hz, F0 = {force:g} N peak, "
+          "FEM and AM peak amplitudes)")
     return 0

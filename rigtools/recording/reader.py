@@ -27,6 +27,7 @@ from rigtools.recording.schema import (
     python_value,
 )
 from rigtools.recording.lock import writer_alive
+from rigtools.vocabulary import current_parameters
 from rigtools.recording.superblock import FlagClearedFile, consistency_flags
 from rigtools.recording.validate import AttrCache, Unreadable, find_problems
 
@@ -204,7 +205,8 @@ class Point:
         attrs = _attrs(group, cache)
         self.start_time: str = attrs.pop("start_time")
         self.end_time: str = attrs.pop("end_time")
-        self.params: dict[str, Any] = attrs
+        # v1 files written before the vocabulary read with today's names.
+        self.params: dict[str, Any] = current_parameters(attrs)
         self.channels: dict[str, Channel] = {name: Channel(group[name], path, cache)
                                              for name in group}
 

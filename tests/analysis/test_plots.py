@@ -63,7 +63,7 @@ def test_vibro_impact_figure_plots_the_inputs_in_mm_n_and_reads_the_spectra():
     assert max(np.asarray(spec_a.get_xdata())) <= 11 * FE      # up to (k_max + 1) fe
     for ax in (ax_sa, ax_sp):
         assert ax.get_yscale() == "log"
-        assert ax.get_xlabel() == "frequency (Hz)" and ax.get_ylabel() == "acceleration amplitude (m/s²)"
+        assert ax.get_xlabel() == "frequency (Hz)" and ax.get_ylabel() == "acceleration, peak amplitude (m/s²)"
         np.testing.assert_allclose(ax.lines[1].get_xdata(), FE * np.arange(1, 11))   # k*fe markers
         assert ax.get_legend() is not None
     # natural frequencies: one dashed vertical line each, per blade
@@ -103,7 +103,7 @@ def test_study_figure_separates_sweeps_and_maps_the_harmonics():
         np.testing.assert_array_equal(np.asarray(mesh.get_array()).reshape(30, 5), amp.T)
         assert hm.get_ylabel() == "harmonic k (× fe)" and "(mm)" in hm.get_xlabel()
         assert [t.get_text() for t in hm.get_xticklabels()] == ["0.3↑", "0.5↑", "0.7↑", "0.5↓", "0.3↓"]
-    assert [cb.get_ylabel() for cb in fig.axes[2::2]] == ["amplitude (m/s²)"] * 2
+    assert [cb.get_ylabel() for cb in fig.axes[2::2]] == ["peak amplitude (m/s²)"] * 2
     assert "fe = 60 Hz" in fig.get_suptitle() and "F0 = 15 N" in fig.get_suptitle()
 
 
@@ -131,13 +131,19 @@ def test_time_and_spectrum_figure_per_channel():
                                    periods=5)
     assert len(fig.axes) == 4
     ax_ft, ax_fs, ax_at, ax_as = fig.axes
-    last = slice(n - 4000, n)                 # 5 periods of 800 samples
-    np.testing.assert_array_equal(ax_ft.lines[0].get_ydata(), force[last])
-    np.testing.assert_allclose(ax_ft.lines[0].get_xdata(), 1.5 + t[last], rtol=1e-15)
-    np.testing.assert_array_equal(ax_at.lines[0].get_ydata(), accel[last])
+    # time from the upward zero crossing of the force fundamental (ms), 5 periods: the force's
+    # fundamental 12 sin starts at 0 rising; the same reference on every channel
+    xt, yt = ax_ft.lines[0].get_xdata(), ax_ft.lines[0].get_ydata()
+    dt_ms = 1e3 / rate
+    assert 0 <= xt[0] < dt_ms and xt[-1] == pytest.approx(5e3 / fe, abs=dt_ms)
+    i0 = int(round((1.5 + xt[0] * 1e-3 - 1.5) * rate)) % 800         # sample within the period
+    np.testing.assert_allclose(yt, force[n - 4800:][(np.arange(4800) % 800 == i0).argmax():][:yt.size], atol=1e-12)
+    assert abs(yt[0] - 0.6 * np.sin(2 * np.pi * 2 * fe * xt[0] * 1e-3)) < 12 * 2 * np.pi * fe / rate and yt[1] > yt[0]
+    np.testing.assert_array_equal(ax_at.lines[0].get_xdata(), xt)
     assert ax_ft.get_ylabel() == "force (N)" and ax_at.get_ylabel() == "active_shroud_accel (m/s²)"
-    assert ax_fs.get_ylabel() == "amplitude (N)" and ax_as.get_ylabel() == "amplitude (m/s²)"
-    assert ax_at.get_xlabel() == "time (s)" and ax_as.get_xlabel() == "frequency (Hz)"
+    assert ax_fs.get_ylabel() == "peak amplitude (N)" and ax_as.get_ylabel() == "peak amplitude (m/s²)"
+    assert ax_at.get_xlabel() == "time from the upward zero crossing of the force fundamental (ms)"
+    assert ax_as.get_xlabel() == "frequency (Hz)"
     # flattop, tones on bins: the documented peak scaling (1e-9)
     assert _value_at(ax_fs.lines[0], fe) == pytest.approx(12.0, rel=1e-9)
     assert _value_at(ax_fs.lines[0], 2 * fe) == pytest.approx(0.6, rel=1e-9)
@@ -167,6 +173,26 @@ def test_amplitude_frequency_figure_plots_each_curve():
             np.testing.assert_array_equal(line.get_xdata(), f)
             np.testing.assert_array_equal(line.get_ydata(), y)
         assert ax.get_yscale() == "log" and _has_units(ax.get_ylabel())
-    assert axes[0].get_ylabel() == "displacement amplitude (m)"
-    assert axes[2].get_ylabel() == "acceleration amplitude (m/s²)" and axes[2].get_xlabel() == "frequency (Hz)"
+    assert axes[0].get_ylabel() == "displacement, peak amplitude (m)"
+    assert axes[2].get_ylabel() == "acceleration, peak amplitude (m/s²)" and axes[2].get_xlabel() == "frequency (Hz)"
+    # every curve of an axes told apart: distinct (colour, line style, marker) and legend labels
+    for ax in axes:
+        styles = {(l.get_color(), l.get_linestyle(), l.get_marker()) for l in ax.lines}
+        assert len(styles) == 4
+        assert len({t.get_text() for t in ax.get_legend().get_texts()}) == 4
     assert fig.get_suptitle() == "rig: linear response to F0 = 15 N"
+
+
+def test_vibro_impact_figure_times_from_the_force_zero_crossing():
+    """With the force given, the time axis is the one of every other waveform plot: ms from the
+    upward zero crossing of the force fundamental (a force 0.7 rad ahead of sin(w t))."""
+    t, ua, up, fc, aa, ap = _signals()
+    force = 15.0 * np.sin(2 * np.pi * FE * t + 0.7)
+    fig = vibro_impact_figure(t, ua, up, fc, aa, ap, FE, periods=3, force=force)
+    ax_u, ax_f = fig.axes[:2]
+    x = np.asarray(ax_u.lines[0].get_xdata())
+    assert 0 <= x[0] < 1e3 / RATE and x[-1] == pytest.approx(3e3 / FE, abs=1e3 / RATE)
+    # at the time origin the force is zero and rising: ua = 1.2e-3 sin(w t) there reads 1.2 sin(-0.7) mm
+    assert ax_u.lines[0].get_ydata()[0] == pytest.approx(1.2 * np.sin(2 * np.pi * FE * x[0] * 1e-3 - 0.7),
+                                                                abs=1.2 * 2 * np.pi * FE / RATE)
+    assert ax_f.get_xlabel() == "time from the upward zero crossing of the force fundamental (ms)"

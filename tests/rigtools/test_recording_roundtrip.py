@@ -83,7 +83,7 @@ def test_every_attribute_and_array_round_trips(tmp_path):
         for p, point in enumerate(rec.points):
             assert point.params == {"fe": 60.0 + p, "force_amplitude": 15.0, "gap": 5e-4,
                                     "repeat": p, "label": f"pt{p}", "harmonics": [1, 6, 8],
-                                    "settled": p % 2 == 0, "measured_force_amplitude": 14.8 + p}
+                                    "settled": p % 2 == 0, "force_amplitude_measured": 14.8 + p}  # v1 name read as today's
             assert isinstance(point.params["settled"], bool)
             assert isinstance(point.params["repeat"], int)
             assert point.ended and point.start_time <= point.end_time

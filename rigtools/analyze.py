@@ -1,0 +1,565 @@
+"""Recording-level analysis: what ``rig analyze`` and ``rig report`` show of a recording.
+
+:func:`analyze_recording` reads a recording point by point and dispatches on what each point is:
+
+- a **periodic point** (a sine dwell, a step of a stepped sine, a point of a study, a model run
+  of ``rig simulate``/``rig study``; it has ``fe``): harmonics k = 1..30 of every channel (peak
+  amplitude and phase, also relative to the force fundamental), peak levels and impacts
+  (:func:`analysis.point.analyze_dwell`). No modes: a sine excites one frequency at a time.
+- a **broadband point** (an FRF test with burst random or periodic chirp: ``frame_samples`` and
+  ``signal``; or any record without ``fe`` holding a force, such as a tap test or free decay):
+  H1, H2, Hv and coherence of every response over the force as receptance, mobility or
+  accelerance, and the modes the data support (:func:`analysis.point.analyze_frf_test`: LSCF with
+  a stabilisation check, or peak picking).
+
+A series of periodic points at different ``fe`` (a stepped sine) also gives the response curves
+over frequency: the first-harmonic FRF ``X1 / F1`` of every response and every harmonic's
+amplitude against ``fe`` (:meth:`RecordingAnalysis.response_curves`).
+
+Samples are read in blocks (:data:`BLOCK_SAMPLES`): harmonics and FRFs accumulate block by block
+(bounded memory for any record length); impacts and waveform figures use the last
+:data:`WINDOW_SAMPLES` samples of a periodic record.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from rigtools.errors import UserError
+from rigtools.vocabulary import CHANNELS
+
+BLOCK_SAMPLES = 1 << 18      # samples per channel read at a time
+WINDOW_SAMPLES = 1 << 21     # at most this many samples per channel held for impacts and plots
+K_MAX = 30
+TABLE_HARMONICS = (6, 8, 22)  # the paper's super-harmonics of interest
+KINDS = ("accelerance", "mobility", "receptance")
+METHODS = ("lscf", "peak")
+FORCE = "force"
+NO_MODES_PERIODIC = ("no modes from a sine record: a sine excites one frequency at a time, so the "
+                     "force has no broadband content to identify poles from (use rig acquire frf)")
+PROCEDURE_FRF = ("frf test",)
+
+
+@dataclass
+class PointAnalysis:
+    """One analysed point.
+
+    Attributes
+    ----------
+    index
+        Point number in the recording.
+    kind
+        ``"periodic"`` or ``"broadband"``.
+    params
+        The point's parameters (vocabulary names).
+    units
+        ``{channel: units}``.
+    window
+        ``(first sample, samples)`` analysed.
+    dwell
+        :class:`analysis.point.DwellAnalysis` (periodic points).
+    frf
+        :class:`analysis.point.FRFTestAnalysis` (broadband points).
+    excitation
+        Welch settings used for a broadband point (``"burst"``, ``"periodic"``, ``"random"``).
+    notes
+        Sentences on what was not done and why.
+    """
+
+    index: int
+    kind: str
+    params: dict[str, Any]
+    units: dict[str, str]
+    sample_rate: float
+    window: tuple[int, int]
+    dwell: Any = None
+    frf: Any = None
+    excitation: str = ""
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def fe(self) -> float | None:
+        return self.params.get("fe")
+
+    def harmonic(self, channel: str, k: int) -> float | None:
+        """Peak amplitude of harmonic ``k`` of ``channel`` (None if not analysed)."""
+        if self.dwell is None or channel not in self.dwell.harmonics:
+            return None
+        fit = self.dwell.harmonics[channel]
+        return float(fit.amplitude[k - 1]) if k <= fit.amplitude.size else None
+
+    def to_dict(self) -> dict:
+        out = {"point": self.index, "kind": self.kind, "sample_rate": self.sample_rate,
+               "window": {"start_sample": self.window[0], "samples": self.window[1]},
+               "params": _plain(self.params), "units": dict(self.units), "notes": list(self.notes)}
+        if self.dwell is not None:
+            out["dwell"] = _plain(self.dwell.to_dict())
+            out["modes"] = None
+        if self.frf is not None:
+            d = self.frf.to_dict()
+            d["excitation"] = self.excitation
+            d["mean_coherence"] = {r: float(np.mean(self.frf.estimate.coherence[i][self._band()]))
+                                   for i, r in enumerate(self.frf.responses)}
+            for r, m in d["modes"].items():
+                i = self.frf.responses.index(r)
+                for mode in m["modes"]:
+                    mode["coherence"] = self.coherence_at(i, mode["frequency_hz"])
+            out["frf"] = _plain(d)
+        return out
+
+    def _band(self) -> np.ndarray:
+        f = self.frf.estimate.frequency_hz
+        lo, hi = self.params.get("band_low", f[1] if f.size > 1 else 0.0), self.params.get("band_high", f[-1])
+        band = (f >= lo) & (f <= hi)
+        return band if band.any() else np.ones_like(f, bool)
+
+    def coherence_at(self, row: int, frequency_hz: float) -> float:
+        """Coherence of response ``row`` at the bin nearest ``frequency_hz``."""
+        f = self.frf.estimate.frequency_hz
+        return float(self.frf.estimate.coherence[row][int(np.argmin(np.abs(f - frequency_hz)))])
+
+
+@dataclass
+class RecordingAnalysis:
+    """A whole recording analysed (:func:`analyze_recording`)."""
+
+    path: str
+    procedure: str
+    backend: str
+    source: str
+    status: str
+    frf_kind: str
+    points: list[PointAnalysis]
+    skipped: list[str] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+    frequency_table: list[dict] | None = None
+
+    @property
+    def periodic(self) -> list[PointAnalysis]:
+        return [p for p in self.points if p.kind == "periodic"]
+
+    @property
+    def broadband(self) -> list[PointAnalysis]:
+        return [p for p in self.points if p.kind == "broadband"]
+
+    def response_curves(self) -> dict | None:
+        """Response curves of a stepped sine or study (None unless there are two or more periodic
+        points; ``frf`` is a curve over frequency only when their ``fe`` differ): ``{"fe": (n,), "direction": [...], "frf": {response: (n,) complex
+        X1/F1 in the recording's FRF kind}, "harmonics": {channel: (n, K) peak amplitudes}}``."""
+        pts = [p for p in self.periodic if p.fe]
+        if len(pts) < 2:
+            return None
+        fe = np.array([float(p.fe) for p in pts])
+        channels = [c for c in pts[0].dwell.harmonics if all(c in p.dwell.harmonics for p in pts)]
+        k = min(p.dwell.harmonics[c].amplitude.size for p in pts for c in channels)
+        harm = {c: np.array([p.dwell.harmonics[c].amplitude[:k] for p in pts]) for c in channels}
+        frf = {}
+        if FORCE in channels:
+            from analysis.frf import convert_frf
+
+            f1 = np.array([p.dwell.harmonics[FORCE].amplitude[0] * np.exp(1j * p.dwell.harmonics[FORCE].phase[0])
+                           for p in pts])
+            for c in channels:
+                measured = _frf_kind_of(pts[0].units.get(c, ""))
+                if c == FORCE or measured is None:
+                    continue
+                x1 = np.array([p.dwell.harmonics[c].amplitude[0] * np.exp(1j * p.dwell.harmonics[c].phase[0])
+                               for p in pts])
+                frf[c] = convert_frf(x1 / f1, fe, measured, self.frf_kind)
+        return {"fe": fe, "direction": [p.params.get("direction", "") for p in pts], "frf": frf,
+                "harmonics": harm, "units": dict(pts[0].units)}
+
+    def point_rows(self) -> list[dict]:
+        """One row per periodic point: fe, force, the 6/8/22 fe harmonics, impacts per period."""
+        rows = []
+        for p in self.periodic:
+            row = {"point": p.index, "fe (Hz)": p.fe,
+                   "F0 target, peak (N)": p.params.get("force_amplitude"),
+                   "F1 measured, peak (N)": p.dwell.force_amplitude}
+            if "gap" in p.params:
+                row["gap (mm)"] = float(p.params["gap"]) * 1e3
+            for ch, short in (("active_shroud_accel", "active"), ("passive_shroud_accel", "passive")):
+                if ch in p.dwell.harmonics:
+                    for k in TABLE_HARMONICS:
+                        row[f"{short} {k}·fe, peak (m/s²)"] = p.harmonic(ch, k)
+            imp = p.dwell.impacts
+            row["impacts/period"] = None if imp is None else float(imp.impacts_per_period)
+            row["settled"] = p.params.get("settled")
+            rows.append(row)
+        return rows
+
+    def mode_rows(self) -> list[dict]:
+        """One row per identified mode of every broadband point and response."""
+        rows = []
+        for p in self.broadband:
+            for i, r in enumerate(p.frf.responses):
+                m = p.frf.modes[r]
+                for j, mode in enumerate(m.modes):
+                    rows.append({"point": p.index, "response": r, "mode": j + 1,
+                                 "natural frequency (Hz)": mode.frequency_hz,
+                                 "damping ratio (%)": 100 * mode.damping_ratio,
+                                 "coherence": p.coherence_at(i, mode.frequency_hz), "method": m.method})
+        return rows
+
+    def to_dict(self) -> dict:
+        out = {"file": self.path, "procedure": self.procedure, "backend": self.backend,
+               "source": self.source, "status": self.status, "frf_kind": self.frf_kind,
+               "amplitude": "peak", "points": [p.to_dict() for p in self.points],
+               "skipped": list(self.skipped), "notes": list(self.notes),
+               "natural_frequencies": _plain(self.frequency_table)}
+        curves = self.response_curves()
+        if curves is not None:
+            out["response_curves"] = {
+                "fe": curves["fe"].tolist(), "direction": curves["direction"],
+                "frf": {c: {"magnitude": np.abs(h).tolist(), "phase": np.angle(h).tolist()}
+                        for c, h in curves["frf"].items()},
+                "harmonics": {c: a.tolist() for c, a in curves["harmonics"].items()}}
+        return out
+
+
+def _plain(obj: Any) -> Any:
+    """numpy scalars/arrays to plain Python for JSON; non-finite floats to None."""
+    if isinstance(obj, dict):
+        return {str(k): _plain(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_plain(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return _plain(obj.tolist())
+    if isinstance(obj, np.generic):
+        obj = obj.item()
+    if isinstance(obj, float) and not np.isfinite(obj):
+        return None
+    return obj
+
+
+def _frf_kind_of(units: str) -> str | None:
+    return {"m/s^2": "accelerance", "m/s": "mobility", "m": "receptance"}.get(units)
+
+
+def _blocks(point, names: Sequence[str], start: int, n: int, size: int = BLOCK_SAMPLES) -> Iterator[np.ndarray]:
+    """``(len(names), m)`` blocks of samples ``start .. start + n`` in time order."""
+    for a in range(start, start + n, size):
+        b = min(start + n, a + size)
+        yield np.vstack([np.asarray(point.channels[c][a:b], dtype=float) for c in names])
+
+
+def record_window(point) -> tuple[int, int]:
+    """``(first sample, samples)`` of the point's record window (``record_start`` s and
+    ``record_samples``), else the whole point."""
+    n = point.n_samples
+    rate = point.sample_rate or 1.0
+    start = int(round(float(point.params.get("record_start", 0.0) or 0.0) * rate))
+    start = min(max(start, 0), n)
+    count = int(point.params.get("record_samples", n - start) or (n - start))
+    return start, max(0, min(count, n - start))
+
+
+def force_channel(point) -> str | None:
+    """The force channel: ``force`` (vocabulary), else the only channel of quantity force."""
+    if FORCE in point.channels:
+        return FORCE
+    forces = [n for n, c in point.channels.items() if c.quantity == "force" and n != "contact_force"]
+    return forces[0] if len(forces) == 1 else None
+
+
+def response_channels(point, force: str | None) -> list[str]:
+    """Channels analysed as responses of a broadband point: the shroud accelerations (or any
+    acceleration, velocity or displacement channel), not the force, drive or contact force."""
+    out = [n for n, c in point.channels.items()
+           if n != force and _frf_kind_of(c.units) is not None and c.quantity != "force"]
+    vocab = [n for n in out if n in ("active_shroud_accel", "passive_shroud_accel")]
+    return vocab or out
+
+
+def analyze_periodic(point, *, channels: Sequence[str] | None = None, k_max: int = K_MAX) -> PointAnalysis:
+    """Harmonics (whole record window, in blocks), peak levels and impacts (last
+    :data:`WINDOW_SAMPLES`) of a point with ``fe``."""
+    from analysis.harmonics import harmonics_from_blocks, relative_phases
+    from analysis.point import analyze_dwell
+
+    fe = float(point.params["fe"])
+    rate = float(point.sample_rate)
+    names = list(channels or point.channels)
+    start, n = record_window(point)
+    notes = []
+    k = max(1, min(int(k_max), int(np.floor(rate / 2 / fe - 1e-9))))
+    if k < k_max:
+        notes.append(f"harmonics up to k = {k}: {k + 1}·fe is above the Nyquist frequency {rate / 2:g} Hz")
+    if n < 2 * k + 1:
+        raise UserError(f"point {point.index}: {n} samples in the record window, too few for {k} harmonics")
+    # impacts and peaks from the last whole periods that fit in WINDOW_SAMPLES
+    per = rate / fe
+    m = n if n <= WINDOW_SAMPLES else int(np.floor(WINDOW_SAMPLES / per) * per)
+    a = start + n - m
+    arrays = {c: np.asarray(point.channels[c][a:a + m], dtype=float) for c in names}
+    dwell = analyze_dwell(arrays, rate, fe, k_max=k, force=FORCE)
+    if m < n:      # harmonics over the whole window, block by block
+        fits = dict(zip(names, harmonics_from_blocks(_blocks(point, names, start, n), rate, fe, k)))
+        rel = {c: relative_phases(f, fits[FORCE]) for c, f in fits.items()} if FORCE in fits else {}
+        dwell = replace(dwell, harmonics=fits, phases_to_force=rel,
+                        force_amplitude=float(fits[FORCE].amplitude[0]) if FORCE in fits else None)
+        notes.append(f"impacts and peak levels from the last {m} of {n} samples; harmonics over all")
+    notes.append(NO_MODES_PERIODIC)
+    return PointAnalysis(point.index, "periodic", dict(point.params),
+                         {c: point.channels[c].units for c in names}, rate, (start, n), dwell=dwell,
+                         notes=notes)
+
+
+def tap_frames(point, force: str, start: int, n: int, threshold: float = 0.2) -> tuple[int, int, int]:
+    """Frames of a record of hammer taps: ``(first sample, samples, frame samples)`` with one
+    frame per hit, starting a few ms before it, as long as the shortest spacing of hits.
+
+    A hit is a peak of |force| above ``threshold`` of the largest, at least 50 ms after the
+    previous one. Raises :class:`UserError` for fewer than two hits (an FRF needs averages)."""
+    from scipy.signal import find_peaks
+
+    rate = float(point.sample_rate)
+    if n > WINDOW_SAMPLES:
+        raise UserError(f"point {point.index}: {n} samples without a recorded frame length; "
+                        f"tap records up to {WINDOW_SAMPLES} samples are supported")
+    f = np.abs(np.asarray(point.channels[force][start:start + n], dtype=float))
+    peaks, _ = find_peaks(f, height=threshold * float(f.max()) if f.size else 0.0,
+                          distance=max(1, int(0.05 * rate)))
+    if peaks.size < 2:
+        raise UserError(f"point {point.index}: {peaks.size} hit(s) of the force found; an FRF of a tap "
+                        "test needs two or more taps to average (coherence)")
+    pre = min(int(round(0.002 * rate)), int(np.min(np.diff(peaks))) // 20)
+    first = max(0, int(peaks[0]) - pre)
+    seg = int(min(np.min(np.diff(peaks)), n - (int(peaks[-1]) - pre)))
+    hits = int(peaks.size if n - (int(peaks[-1]) - pre) >= seg else peaks.size - 1)
+    return start + first, hits * seg, seg
+
+
+def analyze_broadband(point, procedure: str, *, kind: str = "accelerance", method: str = "lscf",
+                      responses: Sequence[str] | None = None) -> PointAnalysis:
+    """H1/H2/Hv, coherence and modes of a broadband point (FRF test, tap test, free decay)."""
+    from analysis.point import analyze_frf_test
+
+    rate = float(point.sample_rate)
+    force = force_channel(point)
+    if force is None:
+        raise UserError(f"point {point.index}: no force channel (channels: {', '.join(point.channels)}); "
+                        "an FRF needs the force into the blade")
+    resp = list(responses or response_channels(point, force))
+    if not resp:
+        raise UserError(f"point {point.index}: no response channel (acceleration, velocity or "
+                        f"displacement) beside {force}")
+    units = {c: point.channels[c].units for c in [force, *resp]}
+    measured = {_frf_kind_of(units[c]) for c in resp}
+    if len(measured) != 1:
+        raise UserError(f"point {point.index}: responses {', '.join(resp)} measure different quantities; "
+                        "analyse them one at a time (--channels)")
+    start, n = record_window(point)
+    signal = str(point.params.get("signal", ""))
+    notes = []
+    if "frame_samples" in point.params:
+        seg = int(point.params["frame_samples"])
+        excitation = "periodic" if signal == "chirp" else "burst"
+    else:           # a tap test or free decays: one frame per hit of the force
+        start, n, seg = tap_frames(point, force, start, n)
+        excitation = "burst"
+        notes.append(f"no frame length recorded: one frame of {seg} samples per hit of the force "
+                     f"({n // seg} hits, rectangular window)")
+    if n < seg:
+        raise UserError(f"point {point.index}: {n} samples recorded, fewer than one frame ({seg})")
+    lo, hi = point.params.get("band_low"), point.params.get("band_high")
+    names = [force, *resp]
+    blocks = (dict(zip(names, b)) for b in _blocks(point, names, start, n))
+    res = analyze_frf_test(blocks, rate, excitation=excitation,
+                           segment_samples=seg, responses=resp, force=force, measured=measured.pop(),
+                           kind=kind, f_min=lo, f_max=hi, method=method)
+    band = np.ones(res.estimate.frequency_hz.size, bool)
+    if lo is not None and hi is not None:
+        band = (res.estimate.frequency_hz >= lo) & (res.estimate.frequency_hz <= hi)
+    for i, (r, m) in enumerate(res.modes.items()):
+        coh = float(np.mean(res.estimate.coherence[i][band]))
+        if coh < 0.5:
+            notes.append(f"{r}: mean coherence {coh:.2f} in the band: this response hardly follows the "
+                         "force (a blade the force does not reach, e.g. the passive blade with the gap "
+                         "open: it needs its own tap/hammer test)")
+        notes.extend(f"{r}: {t}" for t in m.notes)
+    return PointAnalysis(point.index, "broadband", dict(point.params), units, rate, (start, n),
+                         frf=res, excitation=excitation, notes=notes)
+
+
+def analyze_recording(path: str | Path, *, kind: str = "accelerance", method: str = "lscf",
+                      channels: Sequence[str] | None = None,
+                      progress: Callable[[int, int], None] | None = None) -> RecordingAnalysis:
+    """Analyse every complete point of a recording (see the module docstring).
+
+    Parameters
+    ----------
+    path
+        The recording (HDF5, schema v1).
+    kind
+        FRF kind of the results: ``"accelerance"``, ``"mobility"`` or ``"receptance"``.
+    method
+        Modal identification of broadband points: ``"lscf"`` or ``"peak"``.
+    channels
+        Only these channels (the force is always kept); unknown names are a :class:`UserError`.
+    progress
+        ``progress(done, total)`` after each point.
+
+    Raises
+    ------
+    UserError
+        One line: unreadable file, unknown channel, a point that cannot be analysed.
+    """
+    from rigtools.recording import RecordingError, open_recording
+    from rigtools.vocabulary import source_of
+
+    if kind not in KINDS:
+        raise UserError(f"--kind {kind!r}: use one of {', '.join(KINDS)}")
+    if method not in METHODS:
+        raise UserError(f"--method {method!r}: use one of {', '.join(METHODS)}")
+    try:
+        rec = open_recording(path)
+    except RecordingError as exc:
+        raise UserError(str(exc)) from None
+    with rec:
+        procedure = str(rec.experiment.get("procedure", ""))
+        out = RecordingAnalysis(str(path), procedure, rec.backend, source_of(rec.backend), rec.status,
+                                kind, [])
+        if rec.incomplete:
+            out.notes.append(f"recording status {rec.status}"
+                             + (f" ({rec.abort_reason})" if rec.abort_reason else "")
+                             + ": only points its writer ended are analysed")
+        points = rec.points
+        if channels:
+            known = set().union(*(p.channels for p in points)) if points else set()
+            unknown = [c for c in channels if c not in known]
+            if unknown:
+                raise UserError(f"{path}: no channel {', '.join(unknown)} (channels: {', '.join(sorted(known))})")
+        try:
+            for i, point in enumerate(points):
+                if not point.complete:
+                    out.skipped.append(f"point {point.index}: not ended by its writer (cut off)")
+                elif point.n_samples == 0:
+                    out.skipped.append(f"point {point.index}: no samples")
+                elif point.sample_rate is None:
+                    out.skipped.append(f"point {point.index}: channels at different sample rates")
+                elif "fe" in point.params and procedure not in PROCEDURE_FRF:
+                    names = None
+                    if channels:
+                        names = list(dict.fromkeys([FORCE, *channels])) if FORCE in point.channels else list(channels)
+                    out.points.append(analyze_periodic(point, channels=names))
+                else:
+                    resp = [c for c in channels if c != force_channel(point)] if channels else None
+                    out.points.append(analyze_broadband(point, procedure, kind=kind, method=method, responses=resp))
+                if progress is not None:
+                    progress(i + 1, len(points))
+        except RecordingError as exc:
+            raise UserError(str(exc)) from None
+    if out.broadband:
+        out.frequency_table = frequency_table(out, path)
+    if not out.points and not out.skipped:
+        out.notes.append("the recording holds no points")
+    return out
+
+
+BLADE_OF = {"active_shroud_accel": "active", "passive_shroud_accel": "passive"}
+
+
+def identified_frequencies(analysis: RecordingAnalysis) -> dict[str, list[float]]:
+    """``{blade: natural frequencies}`` identified from the shroud responses of the broadband
+    points (the first point with modes for each blade)."""
+    em: dict[str, list[float]] = {}
+    for p in analysis.broadband:
+        for r in p.frf.responses:
+            blade = BLADE_OF.get(r)
+            modes = p.frf.modes[r].modes
+            if blade and modes and blade not in em:
+                em[blade] = sorted(m.frequency_hz for m in modes)
+    return em
+
+
+def model_frequencies(rig_config, n_modes: int = 3) -> dict[str, dict[str, list[float]]]:
+    """Flexural natural frequencies of both blades of a rig: ``{"fem": ..., "am": ...,
+    "article": ...}`` with ``{blade: [Hz, ...]}`` each. ``fem``: the reduced FE model
+    (:func:`rigtools.simulation.natural_frequencies`); ``am``: the exact Euler-Bernoulli solution
+    (:func:`sim.analytical.exact_flexural_frequencies`); ``article``: the simulated rig's test
+    article (``[test_article]`` applied to the nominal rig as :class:`drivers.simulated.SimulatedRig`
+    does, reduced as its vibro-impact physics does)."""
+    from rigtools.simulation import natural_frequencies
+    from sim.analytical import exact_flexural_frequencies
+    from sim.reduction import reduce_rig_model, reduced_system
+    from sim.rig_model import blade_masses, build_rig_model
+
+    params = rig_config.to_params()
+    fem = natural_frequencies(reduced_system(params, "fem"))
+    roots = {"active": params.root, "passive": params.passive_root or params.root}
+    am = {b: exact_flexural_frequencies(params.active if b == "active" else params.passive,
+                                        blade_masses(params, b), n_modes, roots[b]) for b in roots}
+    out = {"fem": {b: [float(x) for x in fem[b][:n_modes]] for b in fem},
+           "am": {b: [float(x) for x in am[b]] for b in am}}
+    article = getattr(rig_config, "test_article", None)
+    if article is not None:
+        art = natural_frequencies(reduce_rig_model(build_rig_model(article.to_params().apply(params))))
+        out["article"] = {b: [float(x) for x in art[b][:n_modes]] for b in art}
+    return out
+
+
+def frequency_table(analysis: RecordingAnalysis, path, n_modes: int = 3) -> list[dict] | None:
+    """The paper's Table 2 for a broadband recording: per blade and mode FEM, AM, EM (identified)
+    and their differences in % (:func:`analysis.compare.natural_frequency_table`), with the
+    simulated test article's own frequency and EM's difference from it when the recording was
+    made on the simulated rig. None if nothing was identified or the rig cannot be read."""
+    from analysis.compare import natural_frequency_table
+    from rigtools.recording import RecordingError, open_recording
+
+    em = identified_frequencies(analysis)
+    if not em:
+        return None
+    try:
+        with open_recording(path) as rec:
+            cfg = rec.rig_config()
+    except (RecordingError, UserError) as exc:
+        analysis.notes.append(f"no FEM/AM natural-frequency table: the recording's rig is unreadable ({exc})")
+        return None
+    models = model_frequencies(cfg, n_modes)
+    em_full = {b: em.get(b, []) for b in models["fem"]}
+    table = natural_frequency_table(models["fem"], em_full, models["am"], n_modes=n_modes)
+    rows = table.to_dict("records")
+    if analysis.backend == "simulated" and "article" in models:
+        for r in rows:
+            vals = models["article"].get(r["blade"], [])
+            ref = vals[r["mode"] - 1] if r["mode"] <= len(vals) else float("nan")
+            r["article_hz"] = ref
+            r["em_vs_article_pct"] = 100 * (r["em_hz"] - ref) / ref if ref == ref else float("nan")
+    for blade in models["fem"]:
+        if blade not in em:
+            analysis.notes.append(f"{blade} blade: no modes identified in this recording (its shroud "
+                                  "response did not follow the force); its EM column is empty")
+    return [{k: (float(v) if isinstance(v, (np.floating, float)) else v) for k, v in r.items()} for r in rows]
+
+
+def channel_label(name: str) -> str:
+    """``"active shroud accel (m/s²)"`` from the vocabulary (the name itself otherwise)."""
+    term = CHANNELS.get(name)
+    text = name.replace("_", " ")
+    return f"{text} ({term.units.replace('^2', '²')})" if term else text
+
+
+def point_window(path: str | Path, index: int, periods: float = 5.0) -> tuple[dict, float, float, dict]:
+    """The last ``periods`` periods (periodic) or the first frame (broadband) of a point, for
+    waveform figures: ``({channel: samples}, sample_rate, t0 s, units)``."""
+    from rigtools.recording import open_recording
+
+    with open_recording(path) as rec:
+        point = next(p for p in rec.points if p.index == index)
+        rate = float(point.sample_rate)
+        start, n = record_window(point)
+        if "fe" in point.params:
+            m = min(n, int(round(max(periods, 1.0) * 40 * rate / float(point.params["fe"]))), WINDOW_SAMPLES)
+        else:
+            m = min(n, int(point.params.get("frame_samples", n)), WINDOW_SAMPLES)
+        a = start + n - m if "fe" in point.params else start
+        data = {c: np.asarray(ch[a:a + m], dtype=float) for c, ch in point.channels.items()}
+        units = {c: ch.units for c, ch in point.channels.items()}
+        t0 = point.channels[next(iter(point.channels))].t0 + a / rate
+    return data, rate, t0, units

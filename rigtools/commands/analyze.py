@@ -1,0 +1,170 @@
+"""``rig analyze FILE``: harmonics, impacts, FRFs and modes of every point of a recording."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+
+from rigtools.errors import UserError
+
+HELP = "analyse a recording: harmonics and impacts per point; FRFs (H1, H2, Hv) and modes of FRF tests"
+EPILOG = """\
+Per point, by what it is:
+  periodic points (sine dwell, stepped-sine step, study point, rig simulate/study run; they have
+  fe): harmonics k = 1..30 of every channel (peak amplitude and phase, least squares over the
+  record window), peak levels, impacts from the shroud accelerations and the force (impacts per
+  period, peak level, contact duration, periodic or not). No modes: a sine excites one frequency
+  at a time. A stepped sine or study also gives the first-harmonic FRF X1/F1 and the harmonic
+  amplitudes against the swept value.
+  broadband points (rig acquire frf: burst random or periodic chirp; a tap test or free decay):
+  H1, H2, Hv and coherence of every response over the force as --kind, and natural frequencies
+  with damping ratios from --method lscf (sdypy-EMA LSCF with a stabilisation check; modes that
+  the force spectrum does not support are dropped with a note) or peak (peak picking with
+  half-power damping).
+Records are read in blocks: memory stays bounded for long recordings. Amplitudes are peak
+amplitudes (RMS = peak / sqrt 2 for a sine).
+
+--out DIR writes the figures as PNG (never over a recording or a file rigtools did not make).
+
+Exit status: 0 analysed, 2 bad input (unreadable file, unknown channel, options), 130 Ctrl-C.
+
+examples:
+  rig analyze dwell.h5
+  rig analyze frf.h5 --kind receptance --out figs/
+  rig analyze study.h5 --json > study.json
+"""
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    p = subparsers.add_parser("analyze", help=HELP, description=HELP + ".", epilog=EPILOG,
+                              formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("file", metavar="FILE", help="recording (.h5)")
+    p.add_argument("--json", action="store_true", help="print the results as JSON")
+    p.add_argument("--out", metavar="DIR", help="write figures (PNG) into DIR (made if missing)")
+    p.add_argument("--kind", choices=("accelerance", "mobility", "receptance"), default="accelerance",
+                   help="FRF kind: (m/s^2)/N, (m/s)/N or m/N (default accelerance)")
+    p.add_argument("--method", choices=("lscf", "peak"), default="lscf",
+                   help="modal identification of FRF tests (default lscf)")
+    p.add_argument("--channels", metavar="A,B", help="analyse only these channels (the force is kept)")
+    p.set_defaults(func=run)
+
+
+def _fmt(x, digits: int = 4) -> str:
+    if x is None or (isinstance(x, float) and not math.isfinite(x)):
+        return "–"
+    if isinstance(x, bool):
+        return "yes" if x else "no"
+    if isinstance(x, float):
+        return f"{x:.{digits}g}"
+    return str(x)
+
+
+def print_tables(analysis, console) -> None:
+    """The rich tables of ``rig analyze``."""
+    from rich.table import Table
+
+    console.print(f"{analysis.path}: {analysis.procedure or 'recording'} ({analysis.backend}, "
+                  f"status {analysis.status}); amplitudes are peak")
+    for note in analysis.notes + analysis.skipped:
+        console.print(f"note: {note}")
+    rows = analysis.point_rows()
+    if rows:
+        short = {"point": "pt", "fe (Hz)": "fe Hz", "F0 target, peak (N)": "F0 N", "F1 measured, peak (N)": "F1 N",
+                 "gap (mm)": "gap mm", "impacts/period": "imp/T", "settled": "settled"}
+        cols = list(rows[0])
+        harm = [c for c in cols if "·fe" in c]
+        for title, group, caption in (
+                ("periodic points", ["point"] + [c for c in cols if c not in harm and c != "point"],
+                 "F0 target and F1 measured force fundamental, peak; imp/T: impacts per period"),
+                ("shroud-acceleration harmonics, peak (m/s²)", ["point"] + harm,
+                 "A6, P22...: active/passive shroud at 6·fe, 22·fe...")):
+            if len(group) < 2:
+                continue
+            table = Table(title=title, caption=caption)
+            for c in group:
+                table.add_column(short.get(c) or c.replace("active ", "A").replace("passive ", "P").split("·")[0],
+                                 justify="right", no_wrap=True)
+            for r in rows:
+                table.add_row(*(_fmt(r.get(c), 3) for c in group))
+            console.print(table)
+        console.print("modes: none from sine points (a sine excites one frequency at a time; "
+                      "use rig acquire frf)")
+    for p in analysis.broadband:
+        est = p.frf.estimate
+        table = Table(title=f"point {p.index}: modes ({p.frf.kind}, {est.n_averages} averages, "
+                            f"{est.resolution_hz:.3g} Hz resolution, {p.excitation})")
+        for col in ("response", "mode", "f (Hz)", "ζ (%)", "coherence", "method"):
+            table.add_column(col, justify="right")
+        for i, r in enumerate(p.frf.responses):
+            m = p.frf.modes[r]
+            if not m.modes:
+                table.add_row(r, "–", "–", "–", _fmt(float(est.coherence[i][p._band()].mean())), m.method)
+            for j, mode in enumerate(m.modes):
+                table.add_row(r, str(j + 1), f"{mode.frequency_hz:.2f}", f"{100 * mode.damping_ratio:.3f}",
+                              _fmt(p.coherence_at(i, mode.frequency_hz)), m.method)
+        console.print(table)
+        for n in p.notes:
+            console.print(f"note: {n}")
+    if analysis.frequency_table:
+        cols = [("blade", "blade"), ("mode", "k"), ("fem_hz", "FEM"), ("am_hz", "AM"),
+                ("em_hz", "EM"), ("fem_vs_em_pct", "FEM %"), ("am_vs_em_pct", "AM %")]
+        if "article_hz" in analysis.frequency_table[0]:
+            cols += [("article_hz", "article"), ("em_vs_article_pct", "EM-art %")]
+        table = Table(title="flexural natural frequencies, Hz (paper's Table 2)",
+                      caption="EM: identified here; FEM/AM %: (model - EM) / EM; article: the simulated "
+                              "rig's own test article, EM-art %: (EM - article) / article")
+        for _, h in cols:
+            table.add_column(h, justify="right", no_wrap=True)
+        for r in analysis.frequency_table:
+            table.add_row(*(f"{r[k]:.1f}" if isinstance(r[k], float) and k.endswith("hz") and r[k] == r[k]
+                            else f"{r[k]:+.3f}" if k == "em_vs_article_pct" and r[k] == r[k]
+                            else f"{r[k]:+.2f}" if isinstance(r[k], float) and r[k] == r[k]
+                            else "–" if isinstance(r[k], float) else str(r[k]) for k, _ in cols))
+        console.print(table)
+
+
+def run(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from rich.console import Console
+
+    from rigtools.analyze import analyze_recording
+
+    channels = [c.strip() for c in args.channels.split(",") if c.strip()] if args.channels else None
+    out = Path(args.out) if args.out else None
+    if out is not None and out.exists() and not out.is_dir():
+        raise UserError(f"--out {out}: exists and is not a folder")
+    console = Console(stderr=args.json)
+    with console.status(f"analysing {args.file}"):
+        analysis = analyze_recording(args.file, kind=args.kind, method=args.method, channels=channels)
+    written = []
+    if out is not None:
+        written = write_figures(analysis, out)
+    if args.json:
+        doc = analysis.to_dict()
+        doc["figures"] = [str(p) for p in written]
+        print(json.dumps(doc, allow_nan=False))
+        return 0
+    print_tables(analysis, console)
+    for p in written:
+        console.print(f"wrote {p}")
+    return 0
+
+
+def write_figures(analysis, out) -> list:
+    """Save every figure of :func:`rigtools.report.sections.analysis_figures` as ``DIR/STEM-NAME.png``."""
+    from pathlib import Path
+
+    from rigtools.figures import save_figure
+    from rigtools.report.sections import analysis_figures
+
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise UserError(f"--out {out}: cannot make the folder ({exc.strerror})") from None
+    stem = Path(analysis.path).stem
+    written = []
+    for nf in analysis_figures(analysis):
+        written.append(save_figure(nf.figure, out / f"{stem}-{nf.name}.png", source=analysis.path))
+    return written

@@ -1,0 +1,104 @@
+"""``rig report FILE.h5... --out DIR``: one self-contained HTML page of the analyses."""
+
+from __future__ import annotations
+
+import argparse
+
+from rigtools.errors import UserError
+
+HELP = "one self-contained HTML page (figures embedded, works offline) of the analyses of recordings"
+EPILOG = """\
+For each recording: the tables and figures of rig analyze (periodic points: force and harmonic
+amplitudes, waveforms and spectra; stepped sines and studies: response curves; FRF tests: H1,
+H2, Hv with phase and coherence, stabilisation charts, identified modes). Every amplitude is a
+peak amplitude. With --fem FILE.h5 or --simulate, an EM-versus-FEM comparison of the first
+recording (rigtools.compare) is added when that module is installed.
+
+The page is DIR/report.html (DIR is made if missing); an existing report.html is replaced only
+if rigtools made it. Open it in any browser, no network needed.
+
+Exit status: 0 written, 2 bad input (unreadable file, --out), 130 Ctrl-C.
+
+examples:
+  rig report dwell.h5 frf.h5 --out report/
+  rig report study.h5 --simulate --out report/
+"""
+
+PAGE = "report.html"
+MARKER = "querySelectorAll('img.figure')"     # in the page script of rigtools.report.html
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    p = subparsers.add_parser("report", help=HELP, description=HELP + ".", epilog=EPILOG,
+                              formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("files", metavar="FILE", nargs="+", help="recordings (.h5)")
+    p.add_argument("--out", required=True, metavar="DIR", help="folder of the report (report.html)")
+    p.add_argument("--kind", choices=("accelerance", "mobility", "receptance"), default="accelerance",
+                   help="FRF kind (default accelerance)")
+    p.add_argument("--method", choices=("lscf", "peak"), default="lscf", help="modal identification (default lscf)")
+    p.add_argument("--fem", metavar="FILE", help="model recording to compare the first FILE with")
+    p.add_argument("--simulate", action="store_true", help="compare the first FILE with the model run at its points")
+    p.add_argument("--model", choices=("fem", "am"), default="fem", help="model for --simulate (default fem)")
+    p.add_argument("--rig", metavar="FILE", help="rig file for --simulate (default: the recording's rig)")
+    p.set_defaults(func=run)
+
+
+def _is_report(path) -> bool:
+    try:
+        with open(path, encoding="utf-8", errors="replace") as f:
+            return MARKER in f.read()[-4000:]
+    except OSError:
+        return False
+
+
+def add_comparison(report, args, say) -> dict | None:
+    """The comparison section from :mod:`rigtools.compare`, if asked for and available."""
+    if not (args.fem or args.simulate):
+        return None
+    try:
+        from rigtools.compare import compare_recordings
+    except ImportError:
+        say("rig report: comparison is not available (no rigtools.compare); report without it")
+        return None
+    cmp = compare_recordings(args.files[0], args.fem, simulate=args.simulate, model=args.model, rig=args.rig)
+    cmp.add_to_report(report)
+    return cmp.to_dict()
+
+
+def run(args: argparse.Namespace) -> int:
+    import sys
+    from pathlib import Path
+
+    from rich.console import Console
+
+    from rigtools.analyze import analyze_recording
+    from rigtools.figures import write_derived
+    from rigtools.report.html import Report
+    from rigtools.report.sections import add_analysis
+
+    if args.fem and args.simulate:
+        raise UserError("--fem and --simulate: give one")
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise UserError(f"--out {out}: exists and is not a folder")
+    if out.suffix.lower() in (".h5", ".hdf5"):
+        raise UserError(f"--out {out}: a folder for the report, not a recording name")
+    console = Console(stderr=True)
+    analyses = []
+    for i, f in enumerate(args.files):
+        with console.status(f"analysing {f} ({i + 1}/{len(args.files)})"):
+            analyses.append(analyze_recording(f, kind=args.kind, method=args.method))
+    names = ", ".join(Path(f).name for f in args.files)
+    report = Report("Shrouded-blade rig: analysis report", subtitle=names)
+    with console.status("building the report"):
+        for a in analyses:
+            add_analysis(report, a)
+        add_comparison(report, args, lambda s: print(s, file=sys.stderr))
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise UserError(f"--out {out}: cannot make the folder ({exc.strerror})") from None
+    page = write_derived(out / PAGE, lambda tmp: tmp.write_text(report.html(), encoding="utf-8"),
+                         replaceable=_is_report)
+    print(f"wrote {page} ({len(analyses)} recording(s), {report.n_figures} figures)")
+    return 0
