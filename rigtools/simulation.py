@@ -223,7 +223,7 @@ def run_figure(run, system, title: str):
     return vibro_impact_figure(run.time, o["active_tip_displacement"], o["passive_tip_displacement"],
                                o["contact_force"], o["active_tip_acceleration"], o["passive_tip_acceleration"],
                                run.fe, k_max=K_MAX, gap=run.gap, natural_frequencies_hz=natural_frequencies(system),
-                               title=title)
+                               title=title, force=o["excitation_force"])
 
 
 # ------------------------------------------------------------------------------ studies

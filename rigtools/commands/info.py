@@ -21,7 +21,7 @@ examples:
 
 # How to show well-known parameters: label, SI factor, unit.
 _DISPLAY = {"fe": ("fe", 1.0, "Hz"), "force_amplitude": ("F0", 1.0, "N"),
-            "gap": ("gap", 1e3, "mm"), "measured_force_amplitude": ("F meas", 1.0, "N"),
+            "gap": ("gap", 1e3, "mm"), "force_amplitude_measured": ("F meas", 1.0, "N"),
             "drive_amplitude": ("drive", 1.0, "V")}
 
 

@@ -59,7 +59,8 @@ STANDARD_PARAMETERS: dict[str, str] = {
     "fe": "excitation frequency, Hz",
     "force_amplitude": "commanded (or simulated) force amplitude F0, N",
     "gap": "shroud gap, m",
-    "measured_force_amplitude": "force amplitude measured at the sensor, N",
+    "force_amplitude_measured": "fundamental (peak) of the force into the blade, N (v1 files before "
+                                "this name: measured_force_amplitude)",
     "settled": "true if the response was steady when recorded",
     "drive_amplitude": "drive voltage amplitude, V",
 }

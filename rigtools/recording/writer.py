@@ -292,7 +292,7 @@ class PointWriter:
         writer._maybe_flush()
 
     def set_attrs(self, **params: Any) -> None:
-        """Set point parameters known only at the end (``settled=True``, ``measured_force_amplitude=14.8``).
+        """Set point parameters known only at the end (``settled=True``, ``force_amplitude_measured=14.8``).
 
         They are written when the point ends (SWMR mode allows no new attributes while
         streaming). If the writer is killed before :meth:`end` they are lost and the point reads
