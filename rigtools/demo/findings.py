@@ -175,7 +175,7 @@ def c6_frequency(points: list[dict], model_points: list[dict] | None = None) -> 
                    f"({_fmt(s[:last + 1], 'm/s²')}) {tail}" + _contact(model_points))
 
 
-def c7_harmonics(q: dict, fe: float, active_f2: float) -> Verdict:
+def c7_harmonics(q: dict, fe: float, active_f2: float, coupled_f2: float | None = None) -> Verdict:
     """Super-harmonics of one steady record: the largest active-shroud harmonic in 4-9 fe is 6 fe,
     the largest passive ones in 4-9 fe and 18-26 fe are 8 fe and 22 fe, the active 6 fe is the
     strongest of the three and 6 fe lies within 10 % of the active 2nd flexural frequency."""
@@ -192,6 +192,9 @@ def c7_harmonics(q: dict, fe: float, active_f2: float) -> Verdict:
     parts = [f"largest active harmonic in 4-9 fe is {ka} fe", f"passive {kp} fe and {kp2} fe (in 18-26 fe)",
              f"active 6 fe {a[5]:.3g} m/s² vs passive 8 fe {p[7]:.3g} m/s²",
              f"6 fe = {6 * fe:.0f} Hz is {(6 * fe / active_f2 - 1) * 100:+.0f} % from the active f2 {active_f2:.0f} Hz"]
+    if coupled_f2 is not None and ka != 6:
+        parts.append(f"the shaker armature riding on the force sensor puts the coupled active f2 at "
+                     f"{coupled_f2:.0f} Hz = {coupled_f2 / fe:.1f} fe, next to {ka} fe")
     return Verdict(bool(holds), "; ".join(parts))
 
 
@@ -211,7 +214,7 @@ def evaluate(data: dict) -> list[Finding]:
     c3, c7 = {}, {}
     for key, d in data["dwell"].items():
         c3[key] = c3_waveforms(d["fem"], d["am"])
-        v = c7_harmonics(d["em"], d["fe"], f2)
+        v = c7_harmonics(d["em"], d["fe"], f2, data["info"].get("coupled_f2_hz"))
         fem_v = c7_harmonics(d["fem"], d["fe"], fem["active"][1])
         v.why += f" (FEM: {'holds' if fem_v.holds else 'does not hold'}: {fem_v.why.split(';')[0]})"
         c7[key] = v

@@ -22,6 +22,19 @@ def _plt():
     return plt
 
 
+def check_labels(fig):
+    """The figure, after checking every visible axes has an x and a y label (a twin axes shares its
+    partner's x label)."""
+    for ax in fig.axes:
+        if not ax.get_visible():
+            continue
+        shared_x = any(o is not ax and o.bbox.bounds == ax.bbox.bounds for o in fig.axes)
+        below = any(o is not ax and o.get_shared_x_axes().joined(o, ax) for o in fig.axes)
+        if not ax.get_ylabel() or not (ax.get_xlabel() or shared_x or below):
+            raise ValueError(f"figure {ax.get_title() or fig.axes[0].get_title()!r}: an axis has no label")
+    return fig
+
+
 def frf_figure(modal: dict):
     plt = _plt()
     fig, ax = plt.subplots(figsize=(9, 3.6))
@@ -139,9 +152,9 @@ def build_report(data: dict, findings: list[Finding], out_dir: Path):
                          "AM (Hz)": m["am"][blade][i]["frequency_hz"], "EM identified (Hz)": em})
     s.table(rows, caption="natural frequencies (EM: FRF test on the simulated rig, gap open; the passive "
                           "blade is not driven with the gap open)")
-    s.figure(frf_figure(m), "FRF of the simulated rig's active shroud over the force, with the FEM frequencies")
+    s.figure(check_labels(frf_figure(m)), "FRF of the simulated rig's active shroud over the force, with the FEM frequencies")
     s = rep.section("Harmonic response (paper Fig. 7)")
-    s.figure(harmonic_figure(data["harmonic"]), "linear amplitude-frequency curves of the shroud accelerations")
+    s.figure(check_labels(harmonic_figure(data["harmonic"])), "linear amplitude-frequency curves of the shroud accelerations")
     for key, d in data["dwell"].items():
         s = rep.section(f"Dwell at {pts[key].label}, F0 = {d['force']:.1f} N, gap {d['gap'] * 1e3:g} mm (Figs. 8-9)")
         s.table([{"run": name, "force peak (N)": d[k]["force_peak_n"],
@@ -150,11 +163,11 @@ def build_report(data: dict, findings: list[Finding], out_dir: Path):
                   "impacts/period": d[k]["impacts_per_period"],
                   "peak contact force (N)": d[k].get("peak_contact_force_n")}
                  for k, name in (("em", "EM (simulated rig)"), ("fem", "FEM"), ("am", "AM"))])
-        s.figure(waveform_figure(d, f"waveforms at {pts[key].label}"), "force and shroud accelerations, EM vs FEM vs AM")
-        s.figure(spectrum_figure(d, f"harmonics at {pts[key].label}"), "shroud acceleration harmonics k·fe")
+        s.figure(check_labels(waveform_figure(d, f"waveforms at {pts[key].label}")), "force and shroud accelerations, EM vs FEM vs AM")
+        s.figure(check_labels(spectrum_figure(d, f"harmonics at {pts[key].label}")), "shroud acceleration harmonics k·fe")
     s = rep.section("Gap, force and frequency studies (Figs. 10-16)")
     for (kind, key), st in data["studies"].items():
-        s.figure(study_figure(st, kind, pts[key].label), f"{kind} study at {pts[key].label}: measured on the "
+        s.figure(check_labels(study_figure(st, kind, pts[key].label)), f"{kind} study at {pts[key].label}: measured on the "
                                                           "simulated rig and simulated by the FEM")
     u = data["update"]
     s = rep.section("Model updating on the identified modes")

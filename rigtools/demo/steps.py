@@ -41,6 +41,19 @@ def first_flexural(cfg) -> float:
     return float(flexural_frequencies(build_rig_model(cfg.to_params()).blade("active"), 1)[0])
 
 
+def coupled_active_f2(cfg) -> float:
+    """FEM 2nd flexural frequency of the active blade with the shaker's armature mass rigidly on
+    its force sensor (as on the rig, where the stinger carries the armature), Hz."""
+    from dataclasses import replace
+
+    from sim.modal import flexural_frequencies
+    from sim.rig_model import build_rig_model
+
+    p = cfg.to_params()
+    p = replace(p, force_sensor=replace(p.force_sensor, mass=p.force_sensor.mass + cfg.shaker.armature_mass))
+    return float(flexural_frequencies(build_rig_model(p).blade("active"), 2)[1])
+
+
 def free_amplitude(cfg, fe: float, force: float) -> float:
     """Linear (open-gap) displacement amplitude of the active shroud at ``fe``, ``force``, m."""
     from sim.harmonic import fem_harmonic_response
@@ -59,7 +72,8 @@ def operating_points(cfg) -> tuple[OperatingPoint, OperatingPoint, dict]:
     force_eq = PAPER_FORCE * x_paper / free_amplitude(cfg, fe_eq, PAPER_FORCE)
     paper = OperatingPoint("paper", f"paper's point ({PAPER_FE:g} Hz = {PAPER_FE / f1:.2f} f1)", PAPER_FE, PAPER_FORCE)
     eq = OperatingPoint("equivalent", f"equivalent point ({fe_eq:.1f} Hz = {EQUIVALENT_RATIO:g} f1)", fe_eq, force_eq)
-    return paper, eq, {"f1_hz": f1, "free_amplitude_m": x_paper, "paper_ratio": PAPER_FE / f1}
+    return paper, eq, {"f1_hz": f1, "free_amplitude_m": x_paper, "paper_ratio": PAPER_FE / f1,
+                       "coupled_f2_hz": coupled_active_f2(cfg)}
 
 
 def lab_config(cfg, force: float):
