@@ -15,7 +15,7 @@ rig), the linear harmonic response, a force-controlled dwell (60 Hz, 15 N, gap 0
 force and frequency studies measured on the rig and simulated by the FEM, and model updating on the
 identified modes; each at the paper's point (60 Hz = 1.13 f1) and at the equivalent
 impact-oscillator point (fe = 1.8 f1, F0 scaled to keep the free amplitude). Writes the recordings
-(HDF5) and report.html into --out, prints the findings C1-C7 ticked or crossed from the data, and
+(HDF5), report.html, findings.json and gap-trend.png into --out, prints the findings C1-C7 ticked or crossed from the data, and
 ends with the report's path.
 
 --quick runs the same steps at reduced resolution (under a minute); the full demo takes a few
@@ -72,8 +72,9 @@ def run(args: argparse.Namespace) -> int:
             raise err from None
     findings = result["findings"]
     if args.json:
-        print(json.dumps({"report": str(result["report"]), "files": result["data"]["files"],
-                          "findings": [f.to_dict() for f in findings]}, indent=1))
+        from rigtools.demo.run import findings_doc
+
+        print(json.dumps(findings_doc(findings, result["report"], result["data"]["files"]), indent=1))
         return 0
     from rich.table import Table
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 from typing import Callable
 
@@ -22,7 +23,7 @@ def run_demo(out_dir: str | Path, settings: DemoSettings,
     """Run the demo into ``out_dir``: recordings, ``report.html``; returns its data, the findings
     and the report's path. ``progress(text)`` is called as each step starts."""
     from rigtools.config import load_rig
-    from rigtools.demo.report import build_report
+    from rigtools.demo.report import build_report, gap_trend_figure
     from rigtools.report import write_report
 
     say = progress or (lambda text: None)
@@ -60,4 +61,20 @@ def run_demo(out_dir: str | Path, settings: DemoSettings,
                             "DAQ's ±10 V); the rig's physics is the calibrated default rig's.")}
     findings = evaluate(data)
     report = write_report(build_report(data, findings, out), out / "report.html")
+    (out / "findings.json").write_text(json.dumps(findings_doc(findings, report, files), indent=1), encoding="utf-8")
+    save_png(gap_trend_figure(data), out / "gap-trend.png")
     return {"data": data, "findings": findings, "report": report}
+
+
+def findings_doc(findings, report: Path, files: list[str]) -> dict:
+    """The ``--json`` document (also written as ``findings.json``)."""
+    return {"report": str(report), "files": files, "findings": [f.to_dict() for f in findings]}
+
+
+def save_png(fig, path: Path) -> Path:
+    """Write a figure as PNG (closed afterwards)."""
+    from rigtools.report.html import figure_png
+
+    data, _, _ = figure_png(fig)
+    path.write_bytes(data)
+    return path
