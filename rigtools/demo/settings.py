@@ -27,7 +27,7 @@ class DemoSettings:
     harmonic_points: int = 3000
     dwell_periods: int = 120
     study_periods: int = 30
-    gap_values: tuple[float, ...] = (0.3e-3, 0.5e-3, 0.7e-3, 0.9e-3)
+    gap_values: tuple[float, ...] = (0.3e-3, 0.4e-3, 0.5e-3, 0.6e-3, 0.7e-3, 0.8e-3, 0.9e-3)
     force_ratios: tuple[float, ...] = (1 / 3, 2 / 3, 1.0, 4 / 3, 5 / 3)    # of F0 (5..25 N at 15 N)
     frequency_ratios: tuple[float, ...] = field(                            # of the point's fe
         default=(1.0, 62 / 60, 64 / 60, 66 / 60, 68 / 60, 70 / 60, 72 / 60, 74 / 60, 76 / 60))
