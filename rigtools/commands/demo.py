@@ -18,6 +18,7 @@ impact-oscillator point (fe = 1.8 f1, F0 scaled to keep the free amplitude). Wri
 (HDF5), report.html, findings.json and gap-trend.png into --out, prints the findings C1-C7 ticked or crossed from the data, and
 ends with the report's path.
 
+--out must be new, empty, or a folder a previous demo wrote (its files are then replaced).
 --quick runs the same steps at reduced resolution (under a minute); the full demo takes a few
 minutes. --json prints {"report", "files", "findings": [{"id", "claim", "verdicts": {point:
 {"holds", "why"}}}]}.
@@ -41,8 +42,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _check_out(path: Path) -> None:
+    """A new or empty folder, or one a previous demo wrote (its files are replaced); never a folder
+    of other recordings."""
     if path.exists() and not path.is_dir():
         raise UserError(f"--out {path}: exists and is not a folder")
+    if path.is_dir() and any(path.iterdir()) and not (path / "findings.json").exists():
+        raise UserError(f"--out {path}: holds files that a demo did not write; give a new or empty folder")
 
 
 def run(args: argparse.Namespace) -> int:

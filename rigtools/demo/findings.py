@@ -3,10 +3,13 @@
 Every evaluator takes plain data (lists of the per-point lab quantities of
 :func:`rigtools.demo.steps.lab_quantities`, frequency lists, curves) and returns a
 :class:`Verdict`: holds or not (``None``: does not apply here) and one sentence saying why, with
-the numbers. Impact strength on the rig is the passive shroud's peak acceleration: the passive
-blade is driven by the contact alone, so its acceleration is what the impacts put into it, and
-a lab measures it; impacts per period come from the accelerations. The model's peak contact
-force is quoted beside them, never used for the verdict.
+the numbers. Impact strength on the rig is the *impact level*: the impulsive (high-passed) part
+of the passive shroud's acceleration at the impacts (:func:`analysis.impacts.detect_impacts`).
+A penalty contact closes with a force jump proportional to the impact velocity, which is what
+the impulsive part sees, so it follows the contact force; the peak acceleration instead mixes in
+the blade's forced response, which falls above resonance whatever the impacts do. Impacts per
+period come from the accelerations too. The model's peak contact force is quoted beside them,
+never used for the verdict.
 """
 
 from __future__ import annotations
@@ -16,6 +19,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 NO_IMPACT = 0.1            # impacts per period below this: no impacts
+STRENGTH = "impulse_level"  # lab measure of impact strength (m/s²)
 FEM_AM_TOL = 0.01          # C1: FEM and AM natural frequencies within 1 %
 EM_TOL = 0.05              # C1: identified (EM) frequencies within 5 % of the FEM, and lower
 HARMONIC_TOL = 0.05        # C2: median |ln(FEM/AM)| of the linear curves
@@ -68,7 +72,7 @@ def _kendall(x, y) -> float:
 
 def _series(points: list[dict]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     pts = sorted(points, key=lambda p: p["value"])
-    return (np.array([p["value"] for p in pts]), np.array([p["passive_accel_peak"] if p["impacts_per_period"] >= NO_IMPACT
+    return (np.array([p["value"] for p in pts]), np.array([p[STRENGTH] if p["impacts_per_period"] >= NO_IMPACT
                                                            else 0.0 for p in pts]),
             np.array([p["impacts_per_period"] for p in pts]))
 
@@ -143,7 +147,7 @@ def _trend(points, model_points, sign: int, what: str, unit: str, scale: float) 
     tau = _kendall(v, s)
     holds = bool(sign * tau > 0 and sign * (s[-1] - s[0]) > 0)
     word = "falls" if tau < 0 else "grows" if tau > 0 else "stays"
-    return Verdict(holds, f"passive shroud peak acceleration {word} over {what} {_fmt(v, unit, scale)}: "
+    return Verdict(holds, f"impact level {word} over {what} {_fmt(v, unit, scale)}: "
                           f"{_fmt(s, 'm/s²')}, impacts/period {_fmt(n, '', digits=2).strip()}" + _contact(model_points))
 
 
@@ -171,7 +175,7 @@ def c6_frequency(points: list[dict], model_points: list[dict] | None = None) -> 
     tail = (f"and vanish above {v[last]:.4g} Hz" if vanish else "and do not vanish by "
             f"{v[-1]:.4g} Hz")
     return Verdict(bool(weaken and vanish),
-                   f"passive shroud peak accelerations {word} over {_fmt(v[:last + 1], 'Hz', digits=4)} "
+                   f"impact levels {word} over {_fmt(v[:last + 1], 'Hz', digits=4)} "
                    f"({_fmt(s[:last + 1], 'm/s²')}) {tail}" + _contact(model_points))
 
 

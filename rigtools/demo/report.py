@@ -105,10 +105,10 @@ def study_figure(study: dict, kind: str, label: str):
     rig = sorted(study["rig"]["points"], key=lambda p: p["value"])
     fem = sorted(study["fem"]["points"], key=lambda p: p["value"])
     fig, (ax, ax2) = plt.subplots(1, 2, figsize=(10, 3.4))
-    ax.plot([p["value"] * scale for p in rig], [p["passive_accel_peak"] for p in rig], "o-", label="EM (simulated rig)")
-    ax.plot([p["value"] * scale for p in fem], [p["passive_accel_peak"] for p in fem], "s--", label="FEM")
+    ax.plot([p["value"] * scale for p in rig], [p["impulse_level"] for p in rig], "o-", label="EM (simulated rig)")
+    ax.plot([p["value"] * scale for p in fem], [p["impulse_level"] for p in fem], "s--", label="FEM")
     ax.set_xlabel(f"{kind} ({unit})")
-    ax.set_ylabel("passive shroud peak accel. (m/s²)", fontsize=9)
+    ax.set_ylabel("impact level (m/s²)", fontsize=9)
     ax.legend(fontsize=8)
     ax2.plot([p["value"] * scale for p in fem], [p["peak_contact_force_n"] for p in fem], "s--", color="C1",
              label="FEM peak contact force")
@@ -131,11 +131,11 @@ def gap_trend_figure(data: dict):
         st = data["studies"][("gap", key)]
         for src, style, name in (("rig", "o-", "EM (simulated rig)"), ("fem", "s--", "FEM")):
             pts = sorted(st[src]["points"], key=lambda p: p["value"])
-            ax.plot([p["value"] * 1e3 for p in pts], [p["passive_accel_peak"] for p in pts], style, label=name)
+            ax.plot([p["value"] * 1e3 for p in pts], [p["impulse_level"] for p in pts], style, label=name)
         pt = data["points"][key]
         ax.set_title(f"{pt.label}, F0 = {pt.force:.3g} N", fontsize=10)
         ax.set_xlabel("shroud gap (mm)")
-        ax.set_ylabel("passive shroud peak accel. (m/s²)", fontsize=9)
+        ax.set_ylabel("impact level (m/s²)", fontsize=9)
         ax.legend(fontsize=8)
     fig.tight_layout()
     return fig
@@ -153,7 +153,9 @@ def build_report(data: dict, findings: list[Finding], out_dir: Path):
     s.text("Each finding is judged at the paper's point and at the equivalent impact-oscillator point "
            f"({pts['equivalent'].label}, F0 = {pts['equivalent'].force:.1f} N keeps the paper's free amplitude) "
            "on what a lab measures: the force sensor, the shroud accelerations and impacts per period found "
-           "from them; the model's contact force is quoted beside.")
+           "from them; the model's contact force is quoted beside. Impact level: the impulsive (high-passed) "
+           "part of the passive shroud acceleration at the impacts, which follows the contact force's "
+           "jump at each impact.")
     s.table([{"finding": f.id, "claim": f.claim,
               **{f"{pts[k].label}": f"{mark(v.holds)} {v.why}" for k, v in f.verdicts.items()}}
              for f in findings])

@@ -53,7 +53,8 @@ def test_gap_finding_flips_when_the_gap_exceeds_the_free_amplitude(cfg, points):
     near = _study(cfg, "gap", (0.3e-3, 0.9e-3), fe=eq.fe, force=eq.force)
     v = findings.c4_gap(near, near)
     assert v.holds is True, v.why
-    assert near[0]["passive_accel_peak"] > near[1]["passive_accel_peak"] > 0
+    assert near[0]["impulse_level"] > near[1]["impulse_level"] > 0
+    assert near[0]["peak_contact_force_n"] > near[1]["peak_contact_force_n"]      # the model agrees
     far = _study(cfg, "gap", (5e-3, 6e-3), fe=eq.fe, force=eq.force)     # > 4x the free amplitude
     assert all(p["impacts_per_period"] == 0 for p in far)
     v = findings.c4_gap(far, far)
@@ -109,7 +110,7 @@ def test_c7_flips_with_the_force_sensor_at_a_node_of_mode_2(cfg):
 
 def test_c6_needs_weakening_and_vanishing():
     def pt(v, s, n):
-        return {"value": v, "passive_accel_peak": s, "impacts_per_period": n}
+        return {"value": v, "impulse_level": s, "impacts_per_period": n}
 
     grows = [pt(60, 700, 1), pt(64, 800, 1), pt(68, 900, 1), pt(72, 0, 0)]
     assert findings.c6_frequency(grows).holds is False
