@@ -46,7 +46,7 @@ def _check_out(path: Path) -> None:
     of other recordings."""
     if path.exists() and not path.is_dir():
         raise UserError(f"--out {path}: exists and is not a folder")
-    if path.is_dir() and any(path.iterdir()) and not (path / "findings.json").exists():
+    if path.is_dir() and any(path.iterdir()) and not (path / ".rig-demo").exists():
         raise UserError(f"--out {path}: holds files that a demo did not write; give a new or empty folder")
 
 

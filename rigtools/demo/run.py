@@ -1,4 +1,14 @@
-"""The whole demo: every step in order, the findings, the report (:func:`run_demo`)."""
+"""The whole demo: every step in order, the findings, the report (:func:`run_demo`).
+
+Swap points (each a single call below, its data shape documented in :mod:`rigtools.demo.steps`):
+
+* ``steps.recording_points`` (offline reduction of a recording to lab quantities) -> the
+  per-point analysis of ``rigtools.analyze`` when it lands;
+* the dwell's EM-vs-FEM comparison (``steps.dwell_step`` + ``report.waveform_figure`` /
+  ``spectrum_figure``) -> ``rigtools.compare.compare_recordings(...).add_to_report(section)``;
+* ``steps.update_step`` -> the ``rig update`` library call (same targets: the FRF-identified modes);
+* ``steps.modal_step``'s EM column -> add the passive blade from the passive-blade tap test.
+"""
 
 from __future__ import annotations
 
@@ -11,6 +21,7 @@ from rigtools.demo.findings import evaluate
 from rigtools.demo.settings import DemoSettings
 
 STUDIES = ("gap", "force", "frequency")
+MARKER = ".rig-demo"        # written first into a demo's folder: a later demo may replace its files
 
 
 def n_steps() -> int:
@@ -29,6 +40,7 @@ def run_demo(out_dir: str | Path, settings: DemoSettings,
     say = progress or (lambda text: None)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
+    (out / MARKER).write_text(f"written by rig demo ({settings.name})\n", encoding="utf-8")
     cfg = cfg if cfg is not None else load_rig(None)
     say("operating points")
     paper, eq, info = steps.operating_points(cfg)

@@ -92,6 +92,7 @@ def test_demo_writes_recordings_and_judges_every_finding(demo):
         with open_recording(out.parent / f) as rec:
             assert rec.points and all(p.complete for p in rec.points)
     assert (out / "report.html").exists() and doc["report"].endswith("report.html")
+    assert (out / ".rig-demo").exists() and (out / "gap-trend.png").stat().st_size > 10_000
 
 
 def test_demo_report_in_chromium_every_figure_drawn_with_labels(demo):
