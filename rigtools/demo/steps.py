@@ -238,11 +238,11 @@ _SYSTEMS: dict = {}
 
 
 def load_system_cached(cfg, model: str):
-    """:func:`rigtools.simulation.load_system` of a config object, built once per process."""
+    """``(cfg, reduced system)`` of a rig config for ``model`` ("fem" or "am"), built once per
+    process and rig (the demo runs many points on the same two systems)."""
     from sim.reduction import reduced_system
 
-    key = (cfg.to_json() if hasattr(cfg, "to_json") else id(cfg), model)
-    key = (str(key[0]), model)
+    key = (cfg.to_json(), model)
     if key not in _SYSTEMS:
         _SYSTEMS[key] = (cfg, reduced_system(cfg.to_params(), model))
     return _SYSTEMS[key]
