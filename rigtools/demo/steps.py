@@ -249,11 +249,19 @@ def load_system_cached(cfg, model: str):
 
 
 def _last_periods(force, active, passive, rate, fe, contact=None, periods: int = 3) -> dict:
-    n = min(len(force), int(round(periods * rate / fe)))
-    wave = {"time_s": np.arange(n) / rate, FORCE: np.asarray(force[-n:]), ACTIVE: np.asarray(active[-n:]),
-            PASSIVE: np.asarray(passive[-n:])}
+    """The last ``periods`` whole periods, starting at an upward zero crossing of the force's
+    fundamental (the common time origin of EM and model waveforms)."""
+    from analysis.plots import force_zero_crossing_time
+
+    n = int(round(periods * rate / fe))
+    m = min(len(force), n + int(np.ceil(rate / fe)) + 1)     # one period more to find the origin
+    lead = int(round(force_zero_crossing_time(np.asarray(force[-m:]), rate, fe) * rate))
+    lead = min(lead, m - n)
+    sl = slice(len(force) - m + lead, len(force) - m + lead + n)
+    wave = {"time_s": np.arange(n) / rate, FORCE: np.asarray(force[sl]), ACTIVE: np.asarray(active[sl]),
+            PASSIVE: np.asarray(passive[sl])}
     if contact is not None:
-        wave["contact_force"] = np.asarray(contact[-n:])
+        wave["contact_force"] = np.asarray(contact[sl])
     return wave
 
 
