@@ -1,0 +1,101 @@
+"""``rig demo``: the paper's whole study on the simulated rig, its findings judged from the data."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+from rigtools.errors import UserError
+
+HELP = "the paper's study end to end on the simulated rig: recordings, one HTML report, findings C1-C7"
+EPILOG = """\
+Runs, on the built-in simulated rig (no hardware): the modal check (FEM, AM and an FRF test on the
+rig), the linear harmonic response, a force-controlled dwell (60 Hz, 15 N, gap 0.5 mm), the gap,
+force and frequency studies measured on the rig and simulated by the FEM, and model updating on the
+identified modes; each at the paper's point (60 Hz = 1.13 f1) and at the equivalent
+impact-oscillator point (fe = 1.8 f1, F0 scaled to keep the free amplitude). Writes the recordings
+(HDF5), report.html, findings.json and gap-trend.png into --out, prints the findings C1-C7 ticked or crossed from the data, and
+ends with the report's path.
+
+--out must be new, empty, or a folder a previous demo wrote (its files are then replaced).
+--quick runs the same steps at reduced resolution (under a minute); the full demo takes a few
+minutes. --json prints {"report", "files", "findings": [{"id", "claim", "verdicts": {point:
+{"holds", "why"}}}]}.
+
+Exit status: 0 done (whatever the findings), 2 bad input (--out), 4 a write error, 130 Ctrl-C.
+
+examples:
+  rig demo --quick
+  rig demo --out demo-run
+  rig demo --quick --out /tmp/demo --json
+"""
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    p = subparsers.add_parser("demo", help=HELP, description=HELP + ".", epilog=EPILOG,
+                              formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--out", default="rig-demo", metavar="DIR", help='output folder (default "rig-demo")')
+    p.add_argument("--quick", action="store_true", help="reduced resolution, under a minute")
+    p.add_argument("--json", action="store_true", help="print the findings as JSON")
+    p.set_defaults(func=run)
+
+
+def _check_out(path: Path) -> None:
+    """A new or empty folder, or one a previous demo wrote (its files are replaced); never a folder
+    of other recordings."""
+    if path.exists() and not path.is_dir():
+        raise UserError(f"--out {path}: exists and is not a folder")
+    if path.is_dir() and any(path.iterdir()) and not (path / ".rig-demo").exists():
+        raise UserError(f"--out {path}: holds files that a demo did not write; give a new or empty folder")
+
+
+def run(args: argparse.Namespace) -> int:
+    out = Path(args.out)
+    _check_out(out)
+    from rich.console import Console
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from rigtools.demo import settings as demo_settings
+    from rigtools.demo.findings import mark
+    from rigtools.demo.run import n_steps, run_demo
+
+    console = Console(stderr=True)
+    settings = demo_settings.quick() if args.quick else demo_settings.full()
+    with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
+                  TimeElapsedColumn(), console=console, disable=args.json, transient=True) as bar:
+        task = bar.add_task("rig demo", total=n_steps())
+
+        def progress(text: str) -> None:
+            bar.update(task, advance=1, description=text)
+
+        try:
+            result = run_demo(out, settings, progress)
+        except OSError as exc:
+            err = UserError(f"cannot write into {out}: {exc}")
+            err.exit_code = 4
+            raise err from None
+    findings = result["findings"]
+    if args.json:
+        from rigtools.demo.run import findings_doc
+
+        print(json.dumps(findings_doc(findings, result["report"], result["data"]["files"]), indent=1))
+        return 0
+    from rich.table import Table
+
+    pts = result["data"]["points"]
+    table = Table(title="findings, judged from the data", show_lines=True)
+    table.add_column("finding")
+    table.add_column("claim", max_width=34)
+    for key in ("paper", "equivalent"):
+        table.add_column(pts[key].label, max_width=52)
+    for f in findings:
+        cells = []
+        for key in ("paper", "equivalent"):
+            v = f.verdicts.get(key)
+            cells.append("" if v is None else f"{mark(v.holds)} {v.why}")
+        table.add_row(f.id, f.claim, *cells)
+    Console().print(table)
+    print(f"report: {result['report']}")
+    return 0
+

@@ -1,0 +1,92 @@
+"""The whole demo: every step in order, the findings, the report (:func:`run_demo`).
+
+Swap points (each a single call below, its data shape documented in :mod:`rigtools.demo.steps`):
+
+* ``steps.recording_points`` (offline reduction of a recording to lab quantities) -> the
+  per-point analysis of ``rigtools.analyze`` when it lands;
+* the dwell's EM-vs-FEM comparison (``steps.dwell_step`` + ``report.waveform_figure`` /
+  ``spectrum_figure``) -> ``rigtools.compare.compare_recordings(...).add_to_report(section)``;
+* ``steps.update_step`` -> the ``rig update`` library call (same targets: the FRF-identified modes);
+* ``steps.modal_step``'s EM column -> add the passive blade from the passive-blade tap test.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Callable
+
+from rigtools.demo import steps
+from rigtools.demo.findings import evaluate
+from rigtools.demo.settings import DemoSettings
+
+STUDIES = ("gap", "force", "frequency")
+MARKER = ".rig-demo"        # written first into a demo's folder: a later demo may replace its files
+
+
+def n_steps() -> int:
+    """Steps :func:`run_demo` reports through ``progress`` (for a progress bar)."""
+    return 5 + 2 + 2 * len(STUDIES) + 1
+
+
+def run_demo(out_dir: str | Path, settings: DemoSettings,
+             progress: Callable[[str], None] | None = None, cfg=None) -> dict:
+    """Run the demo into ``out_dir``: recordings, ``report.html``; returns its data, the findings
+    and the report's path. ``progress(text)`` is called as each step starts."""
+    from rigtools.config import load_rig
+    from rigtools.demo.report import build_report, gap_trend_figure
+    from rigtools.report import write_report
+
+    say = progress or (lambda text: None)
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / MARKER).write_text(f"written by rig demo ({settings.name})\n", encoding="utf-8")
+    cfg = cfg if cfg is not None else load_rig(None)
+    say("operating points")
+    paper, eq, info = steps.operating_points(cfg)
+    points = {"paper": paper, "equivalent": eq}
+    say("modal check: FEM, AM and an FRF test on the simulated rig")
+    modal = steps.modal_step(cfg, out, settings)
+    say("harmonic response, FEM vs AM")
+    harmonic = steps.harmonic_step(cfg, settings)
+    say("model updating on the identified modes")
+    update = steps.update_step(cfg, [m["frequency_hz"] for m in modal["em"]["active"]])
+    files = [modal["file"]]
+    dwell = {}
+    for key, pt in points.items():
+        say(f"dwell at the {key} point ({pt.fe:.4g} Hz, {pt.force:.4g} N): rig, FEM, AM")
+        dwell[key] = steps.dwell_step(cfg, out, settings, pt)
+        files += dwell[key]["files"]
+    studies = {}
+    for key, pt in points.items():
+        for kind in STUDIES:
+            say(f"{kind} study at the {key} point: rig and FEM")
+            rig = steps.rig_study_step(cfg, out, settings, kind, pt)
+            fem = steps.model_study_step(cfg, out, settings, kind, pt)
+            studies[(kind, key)] = {"rig": rig, "fem": fem}
+            files += [rig["file"], fem["file"]]
+    say("findings and report")
+    data = {"settings": settings.name, "info": info, "points": points, "modal": modal, "harmonic": harmonic,
+            "dwell": dwell, "studies": studies, "update": update, "files": files,
+            "safety_note": (f"At the equivalent point the simulated rig runs with its [safety] limits and max "
+                            f"drive scaled by F0/15 N (max drive at most {steps.MAX_DRIVE:g} V, inside the "
+                            "DAQ's ±10 V); the rig's physics is the calibrated default rig's.")}
+    findings = evaluate(data)
+    report = write_report(build_report(data, findings, out), out / "report.html")
+    (out / "findings.json").write_text(json.dumps(findings_doc(findings, report, files), indent=1), encoding="utf-8")
+    save_png(gap_trend_figure(data), out / "gap-trend.png")
+    return {"data": data, "findings": findings, "report": report}
+
+
+def findings_doc(findings, report: Path, files: list[str]) -> dict:
+    """The ``--json`` document (also written as ``findings.json``)."""
+    return {"report": str(report), "files": files, "findings": [f.to_dict() for f in findings]}
+
+
+def save_png(fig, path: Path) -> Path:
+    """Write a figure as PNG (closed afterwards)."""
+    from rigtools.report.html import figure_png
+
+    data, _, _ = figure_png(fig)
+    path.write_bytes(data)
+    return path
