@@ -20,7 +20,7 @@ N_FIGURES = 2 + 2 * 2 + 1 + 6      # FRF, harmonic; waveforms + spectra per poin
 
 
 ROOT = Path(__file__).resolve().parents[2]
-README = ROOT / "docs" / "README-draft.md"      # the coordinator's README.md is written from it
+README = ROOT / "README.md"
 SKIP = ("python3 -m venv", "pip install", "-m pytest")     # set-up and the suite itself
 
 
