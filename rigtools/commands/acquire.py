@@ -11,7 +11,7 @@ import re
 import sys
 
 from rigtools.errors import UserError
-from rigtools.options import check_out, quantity, seed
+from rigtools.options import check_out, gap, quantity, seed
 
 HELP = "lab procedures on the rig: force-controlled dwell, stepped sine, study, FRF test"
 COMMON_EPILOG = """\
@@ -163,7 +163,7 @@ def grid(text: str, kind: str, option: str) -> list[float]:
 
 
 def _gap(args) -> float | None:
-    return None if args.gap is None else quantity(args.gap, "length", "--gap")
+    return None if args.gap is None else gap(args.gap)
 
 
 def _control(args) -> dict:

@@ -6,7 +6,7 @@ import argparse
 import json
 
 from rigtools.errors import UserError
-from rigtools.options import check_out, quantity
+from rigtools.options import output_path, quantity
 
 HELP = "import a TDMS log (NI-DAQmx configure_logging, LabVIEW) as a recording"
 EPILOG = """\
@@ -60,7 +60,8 @@ def run(args: argparse.Namespace) -> int:
         rate = quantity(args.sample_rate, "frequency", "--sample-rate")
         if not rate > 0:
             raise UserError(f"--sample-rate = {args.sample_rate!r}: must be > 0 Hz")
-    out = check_out(argparse.Namespace(out=args.out, overwrite=args.overwrite))
+    out = output_path(args.out, args.overwrite, "OUT",
+                      inputs=[args.source, *([args.rig] if args.rig else [])])
     cfg = load_rig(args.rig)
     summary = import_tdms(args.source, out, rig=cfg.to_json(), overwrite=args.overwrite,
                           rename=rename, sample_rate=rate)

@@ -74,7 +74,20 @@ def lab(tmp_path_factory) -> Path:
     _write_recording(folder / "run.png")
     _write_recording(folder / "nan.h5", nan=True)
     (folder / "rig.toml").write_text(default_rig_text(), encoding="utf-8")
+    _write_tdms(folder / "in.tdms")
     return folder
+
+
+def _write_tdms(path: Path) -> None:
+    """A small NI TDMS log: one group, a force and an acceleration channel with units and timing."""
+    from nptdms import ChannelObject, GroupObject, RootObject, TdmsWriter
+
+    rng = np.random.default_rng(3)
+    props = lambda unit: {"unit_string": unit, "wf_increment": 1 / RATE, "wf_start_offset": 0.0}  # noqa: E731
+    with TdmsWriter(str(path)) as w:
+        w.write_segment([RootObject({"name": "log"}), GroupObject("Task"),
+                         ChannelObject("Task", "Dev1/ai0", rng.standard_normal(500), properties=props("Newtons")),
+                         ChannelObject("Task", "Dev1/ai1", rng.standard_normal(500), properties=props("g"))])
 
 
 @pytest.fixture(scope="module")
@@ -198,10 +211,12 @@ RIG_FILE_CASES = [
     for s, k, v in BAD_VALUES
 ] + [
     Case("rig:unknown-section", ["modal", "--rig", "{rig}"], setup=_set("blades", "length", 0.1)),
-    Case("rig:inf-literal", ["modal", "--rig", "{rig}"],
-         setup=_replace_in_rig("[contact]", "[contact]\nstiffness_extra = inf")),
-    Case("rig:1e400-literal", ["modal", "--rig", "{rig}"],
-         setup=_replace_in_rig("[shroud]", "[shroud]\nrotary_inertia = 1e400")),
+    Case("rig:inf-literal", ["modal", "--rig", "{rig}"], expect="contact.stiffness",
+         setup=_replace_in_rig('stiffness = "1e6 N/m"', "stiffness = inf")),
+    Case("rig:1e400-literal", ["modal", "--rig", "{rig}"], expect="contact.gap",
+         setup=_replace_in_rig('gap = "0.5 mm"', "gap = 1e400")),
+    Case("rig:nan-literal", ["modal", "--rig", "{rig}"], expect="contact.damping",
+         setup=_replace_in_rig('damping = "200 N*s/m"', "damping = nan")),
     Case("rig:latin-1", ["modal", "--rig", "{rig}"],
          setup=_raw_rig(lambda: ("# réglage du banc\n" + default_rig_text()).encode("latin-1", "replace")),
          expect="not UTF-8"),
@@ -223,7 +238,7 @@ RIG_FILE_CASES = [
     Case("rig:acquire-bad-rig", ["acquire", "dwell", "--backend", "sim", "--fe", "60 Hz", "--force", "15 N",
                                  "--rig", "{rig}", "--out", "{tmp}/a.h5"],
          setup=_set("passive_blade", "youngs_modulus", "-1 GPa")),
-    Case("rig:import-bad-rig", ["import", "tdms", "{tmp}/in.tdms", "{tmp}/o.h5", "--rig", "{rig}"],
+    Case("rig:import-bad-rig", ["import", "tdms", "{lab}/in.tdms", "{tmp}/o.h5", "--rig", "{rig}"],
          setup=_set("blade", "length", "1e400 m")),
 ]
 
@@ -345,9 +360,9 @@ OPTION_CASES = [
     Case("export:resolution-zero", ["export", "uff", "{lab}/run.h5", "{tmp}/o.uff", "--resolution", "0 Hz"]),
     Case("export:resolution-seconds", ["export", "uff", "{lab}/run.h5", "{tmp}/o.uff", "--resolution", "1 s"]),
     Case("export:format-unknown", ["export", "csv", "{lab}/run.h5", "{tmp}/o.csv"]),
-    Case("import:sample-rate-negative", ["import", "tdms", "{tmp}/in.tdms", "{tmp}/o.h5",
+    Case("import:sample-rate-negative", ["import", "tdms", "{lab}/in.tdms", "{tmp}/o.h5",
                                          "--sample-rate", "-5 kHz"]),
-    Case("import:rename-bad", ["import", "tdms", "{tmp}/in.tdms", "{tmp}/o.h5", "--rename", "a==b,c"]),
+    Case("import:rename-bad", ["import", "tdms", "{lab}/in.tdms", "{tmp}/o.h5", "--rename", "a==b,c"]),
     Case("import:missing-source", ["import", "tdms", "{tmp}/in.tdms", "{tmp}/o.h5"]),
     Case("import:source-is-recording", ["import", "tdms", "{lab}/run.h5", "{tmp}/o.h5"]),
     Case("devices:unknown-option", ["devices", "--colour"]),
@@ -450,7 +465,7 @@ WRITERS = {
     "dwell": lambda out, *x: ["acquire", "dwell", "--backend", "sim", "--fe", "60 Hz", "--force", "15 N",
                               "--out", out, *x],
     "export": lambda out, *x: ["export", "uff", "{lab}/run.h5", out, *x],
-    "import": lambda out, *x: ["import", "tdms", "{tmp}/in.tdms", out, *x],
+    "import": lambda out, *x: ["import", "tdms", "{lab}/in.tdms", out, *x],
 }
 _SUFFIX = {"harmonic": ".csv", "export": ".uff"}
 
@@ -477,7 +492,12 @@ def _out_cases() -> list[Case]:
         Case("harmonic:existing-without-overwrite", ["harmonic", "--out", "{tmp}/h.csv"],
              setup=lambda tmp: (tmp / "h.csv").write_text("f,a\n1,2\n")),
         Case("export:out-is-input", ["export", "uff", "{lab}/run.h5", "{lab}/run.h5", "--overwrite"]),
-        Case("import:out-is-rig", ["import", "tdms", "{tmp}/in.tdms", "{lab}/rig.toml", "--overwrite"]),
+        Case("import:out-is-rig", ["import", "tdms", "{lab}/in.tdms", "{lab}/rig.toml", "--rig",
+                                   "{lab}/rig.toml", "--overwrite"], expect="input"),
+        Case("import:out-is-source", ["import", "tdms", "{lab}/in.tdms", "{lab}/in.tdms", "--overwrite"],
+             expect="input"),
+        Case("import:out-existing-recording", ["import", "tdms", "{lab}/in.tdms", "{lab}/run.h5"],
+             expect="--overwrite"),
     ]
     return cases
 
@@ -498,3 +518,26 @@ def test_read_only_folder(name, lab, lab_digest, tmp_path, monkeypatch):
     suffix = _SUFFIX.get(name, ".h5")
     case = Case(f"{name}:read-only", WRITERS[name]("{tmp}/ro/x" + suffix), expect="writable")
     run_case(case, lab, lab_digest, tmp_path)
+
+
+# ------------------------------------------------------------------ controls (the good inputs)
+@pytest.mark.parametrize("argv", [
+    ["check", "{lab}/run.h5"], ["info", "--json", "{lab}/run.png"],
+    ["export", "uff", "{lab}/run.h5", "{tmp}/ok.uff"],
+    ["import", "tdms", "{lab}/in.tdms", "{tmp}/ok.h5", "--rig", "{lab}/rig.toml"],
+], ids=["check", "info-png-named", "export", "import"])
+def test_the_lab_files_are_good(argv, lab, lab_digest, tmp_path):
+    """The cases above fail for the reason they name: the same commands on good input succeed."""
+    code, _, err = run_cli(_fill(argv, lab, tmp_path))
+    assert_clean_failure(code, err, 0, lab, lab_digest)
+
+
+def test_a_recording_named_png_survives_its_own_plot(lab, lab_digest, tmp_path):
+    out = tmp_path / "run.png"
+    code, _, err = run_cli(["simulate", "--out", str(out), "--duration", "0.05 s"])
+    assert_clean_failure(code, err, 0, lab, lab_digest)
+    assert check_recording(out).valid
+    plots = sorted(p.name for p in tmp_path.iterdir() if p != out)
+    assert plots and all(p.endswith(".png") for p in plots)
+    code, _, err = run_cli(["simulate", "--out", str(out), "--duration", "0.05 s", "--overwrite"])
+    assert code == 0 and check_recording(out).valid
