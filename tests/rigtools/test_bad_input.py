@@ -541,3 +541,163 @@ def test_a_recording_named_png_survives_its_own_plot(lab, lab_digest, tmp_path):
     assert plots and all(p.endswith(".png") for p in plots)
     code, _, err = run_cli(["simulate", "--out", str(out), "--duration", "0.05 s", "--overwrite"])
     assert code == 0 and check_recording(out).valid
+
+
+# --------------------------------------------------------- subprocesses: signals, pipes, console
+RIG_CMD = [sys.executable, "-m", "rigtools.cli"]
+PACED_DWELL = ["acquire", "dwell", "--backend", "sim", "--pace", "--seed", "1", "--fe", "60 Hz",
+               "--force", "15 N"]
+
+
+def _env(**extra: str) -> dict[str, str]:
+    env = dict(os.environ, OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1", COLUMNS="100")
+    env.update(extra)
+    return env
+
+
+def _spawn(argv: list[str], cwd: Path, **env: str) -> subprocess.Popen:
+    return subprocess.Popen([*RIG_CMD, *argv], cwd=cwd, env=_env(**env), stdin=subprocess.DEVNULL,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+
+def _wait_for(condition: Callable[[], bool], proc: subprocess.Popen, limit: float = 60.0) -> None:
+    """Poll until ``condition()`` (not a timing assertion: the limit only stops a hung test)."""
+    end = time.monotonic() + limit
+    while not condition():
+        assert proc.poll() is None, f"rig ended early: {proc.communicate()}"
+        assert time.monotonic() < end, "gave up waiting"
+        time.sleep(0.05)
+
+
+def _writing(path: Path) -> Callable[[], bool]:
+    """True once the recording holds at least one point with samples."""
+    def ready() -> bool:
+        if not path.exists():
+            return False
+        try:
+            with open_recording(path) as rec:
+                return bool(rec.points) and rec.points[0].n_samples > 0
+        except Exception:
+            return False
+    return ready
+
+
+def _finish(proc: subprocess.Popen) -> tuple[int, str, str]:
+    out, err = proc.communicate(timeout=120)
+    return proc.returncode, out, err
+
+
+SIGNALS = [signal.SIGINT, signal.SIGTERM, signal.SIGHUP]
+
+
+@pytest.mark.parametrize("sig", SIGNALS, ids=lambda s: s.name)
+def test_signal_during_start_up(sig, lab, lab_digest, tmp_path):
+    """A signal while ``rig`` is still importing: one line at most, its documented status (the
+    shell's 128 + n, or the signal itself if it landed before Python could take it)."""
+    proc = _spawn(["simulate", "--out", str(tmp_path / "s.h5")], tmp_path)
+    time.sleep(0.3)
+    proc.send_signal(sig)
+    code, _, err = _finish(proc)
+    assert code in (128 + sig, -sig), err
+    assert "Traceback" not in err and len(err.strip().splitlines()) <= 2, err
+    assert _digest(lab) == lab_digest
+
+
+@pytest.mark.parametrize("sig", SIGNALS, ids=lambda s: s.name)
+def test_signal_during_a_simulated_acquisition(sig, lab, lab_digest, tmp_path):
+    """The recording being written ends ``aborted`` with the signal named, samples kept, the
+    drive back at zero at its end; one line; exit 128 + n."""
+    out = tmp_path / "run.h5"
+    proc = _spawn([*PACED_DWELL, "--periods", "3000", "--out", str(out)], tmp_path)
+    _wait_for(_writing(out), proc)
+    proc.send_signal(sig)
+    code, _, err = _finish(proc)
+    assert code == 128 + sig, err
+    lines = err.strip().splitlines()
+    assert "Traceback" not in err and 1 <= len(lines) <= 2 and sig.name in lines[-1], err
+    with open_recording(out) as rec:
+        assert rec.status == "aborted" and sig.name in str(rec.attrs.get("abort_reason"))
+        point = rec.points[-1]
+        assert point.n_samples > 0
+        drive = point.channels["drive"].read()
+        assert np.all(np.isfinite(drive)) and abs(drive[-1]) < 1e-3 * np.max(np.abs(drive))
+    assert check_recording(out).valid
+    assert _digest(lab) == lab_digest
+
+
+def test_sigterm_during_a_model_study_keeps_finished_points(lab, lab_digest, tmp_path):
+    out = tmp_path / "study.h5"
+    proc = _spawn(["study", "frequency", "--values", "50 Hz:70 Hz:0.25 Hz", "--duration", "0.2 s",
+                   "--out", str(out)], tmp_path)
+    _wait_for(_writing(out), proc)
+    proc.send_signal(signal.SIGTERM)
+    code, _, err = _finish(proc)
+    assert code == 143 and "Traceback" not in err and len(err.strip().splitlines()) <= 2, err
+    with open_recording(out) as rec:
+        assert len(rec.points) >= 1 and rec.status == "aborted"
+    assert check_recording(out).valid
+
+
+def test_closed_pipe(lab, tmp_path):
+    """``rig info --json FILE | head -1``: the reader goes away; no traceback, status 0 or 141."""
+    shell = subprocess.run(f"{' '.join(RIG_CMD)} info --json {lab / 'run.h5'} | head -1; "
+                           "echo status ${PIPESTATUS[0]} >&2", shell=True, executable="/bin/bash",
+                           capture_output=True, text=True, env=_env(), timeout=120)
+    assert shell.stdout.count("\n") == 1
+    status = [line for line in shell.stderr.splitlines() if line.startswith("status")]
+    assert status in (["status 0"], ["status 141"]) and "Traceback" not in shell.stderr, shell.stderr
+    # a reader that closed before anything was written: the write fails, 141, nothing on stderr
+    proc = _spawn(["info", "--json", str(lab / "run.h5")], tmp_path)
+    proc.stdout.close()
+    err = proc.stderr.read()
+    assert proc.wait(timeout=120) == 141 and "Traceback" not in err and err.strip() == "", err
+
+
+@pytest.mark.parametrize("argv, code", [
+    (["info", "{lab}/run.h5"], 0),
+    (["modal", "--modes", "3"], 0),
+    (["simulate", "--gap", "0.5 µM", "--out", "{tmp}/s.h5"], 2),
+    (["modal", "--rig", "{tmp}/réglage.toml"], 2),
+], ids=["info-table", "modal-table", "micro-sign-error", "accented-path-error"])
+def test_ascii_only_console(argv, code, lab, lab_digest, tmp_path):
+    """A console that cannot print non-ASCII (Windows ``> log.txt``): no UnicodeEncodeError."""
+    proc = _spawn(_fill(argv, lab, tmp_path), tmp_path, PYTHONIOENCODING="ascii")
+    got, out, err = _finish(proc)
+    assert got == code and "Traceback" not in err and len(err.strip().splitlines()) <= 2, err
+    assert out.isascii() and err.isascii()
+    if code == 0:
+        assert out.strip()
+    assert _digest(lab) == lab_digest
+
+
+def test_two_writers_on_one_path(lab, lab_digest, tmp_path):
+    """While a paced acquisition writes run.h5, every other writer is refused with one line
+    (``--overwrite`` included), readers say it is being written, and the first file ends valid
+    (stopped by Ctrl-C once the others were refused, to keep the test short)."""
+    out = tmp_path / "run.h5"
+    first = _spawn([*PACED_DWELL, "--periods", "6000", "--out", str(out)], tmp_path)
+    _wait_for(_writing(out), first)
+    seconds = [
+        ["acquire", "dwell", "--backend", "sim", "--fe", "60 Hz", "--force", "15 N", "--out", str(out),
+         "--overwrite"],
+        ["simulate", "--out", str(out), "--overwrite", "--no-plot"],
+        ["study", "gap", "--values", "0.5 mm", "--out", str(out), "--overwrite"],
+        ["import", "tdms", str(lab / "in.tdms"), str(out), "--overwrite"],
+    ]
+    for argv in seconds:
+        code, _, err = run_cli(argv)
+        assert code in (2, 4) and "Traceback" not in err and len(err.strip().splitlines()) <= 2, (argv, err)
+        assert "being written" in err or "in use" in err or "another" in err, (argv, err)
+    code, info, err = run_cli(["info", str(out)])
+    assert code == 0 and "Traceback" not in err and "being written" in info + err, info + err
+    code, report, err = run_cli(["check", str(out)])
+    assert code == 0 and "Traceback" not in err, report + err
+    assert first.poll() is None, "the first run ended before the others were tried"
+    first.send_signal(signal.SIGINT)
+    code, _, err = _finish(first)
+    assert code == 130, err
+    assert check_recording(out).valid
+    with open_recording(out) as rec:
+        assert rec.status == "aborted" and rec.experiment["procedure"] == "sine dwell"
+        assert rec.points[0].n_samples > 0
+    assert _digest(lab) == lab_digest
