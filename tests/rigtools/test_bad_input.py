@@ -210,6 +210,16 @@ RIG_FILE_CASES = [
     Case(f"rig:{_value_id(s, k, v)}", ["modal", "--rig", "{rig}"], setup=_set(s, k, v))
     for s, k, v in BAD_VALUES
 ] + [
+    # root springs so soft the blade is almost free: the FEM reduction failed with a LinAlgError
+    Case("rig:root-springs-soft-rotation", ["simulate", "--rig", "{rig}", "--out", "{tmp}/s.h5"],
+         expect="root", setup=_rig_with(lambda d: d["root"].update(
+             kind="springs", rotational_stiffness=1e-4, translational_stiffness=1e3))),
+    Case("rig:root-springs-soft-translation", ["simulate", "--rig", "{rig}", "--out", "{tmp}/s.h5"],
+         expect="root", setup=_rig_with(lambda d: d["root"].update(
+             kind="springs", rotational_stiffness=1e7, translational_stiffness="1 N/m"))),
+    Case("rig:root-springs-free", ["harmonic", "--rig", "{rig}", "--out", "{tmp}/h.csv"],
+         expect="root", setup=_rig_with(lambda d: d["root"].update(
+             kind="springs", rotational_stiffness="1e-12 N*m/rad", translational_stiffness=1e-9))),
     Case("rig:unknown-section", ["modal", "--rig", "{rig}"], setup=_set("blades", "length", 0.1)),
     Case("rig:inf-literal", ["modal", "--rig", "{rig}"], expect="contact.stiffness",
          setup=_replace_in_rig('stiffness = "1e6 N/m"', "stiffness = inf")),
@@ -363,6 +373,12 @@ OPTION_CASES = [
     Case("import:sample-rate-negative", ["import", "tdms", "{lab}/in.tdms", "{tmp}/o.h5",
                                          "--sample-rate", "-5 kHz"]),
     Case("import:rename-bad", ["import", "tdms", "{lab}/in.tdms", "{tmp}/o.h5", "--rename", "a==b,c"]),
+    Case("import:rename-unknown-channel", ["import", "tdms", "{lab}/in.tdms", "{tmp}/o.h5", "--rename",
+                                           "Dev1/ai9=force"], expect="Dev1/ai9"),
+    Case("import:rename-unstorable-name", ["import", "tdms", "{lab}/in.tdms", "{tmp}/o.h5", "--rename",
+                                           "Dev1/ai0=a/b"]),
+    Case("import:rename-two-to-one", ["import", "tdms", "{lab}/in.tdms", "{tmp}/o.h5", "--rename",
+                                      "Dev1/ai0=x,Dev1/ai1=x"]),
     Case("import:missing-source", ["import", "tdms", "{tmp}/in.tdms", "{tmp}/o.h5"]),
     Case("import:source-is-recording", ["import", "tdms", "{lab}/run.h5", "{tmp}/o.h5"]),
     Case("devices:unknown-option", ["devices", "--colour"]),
