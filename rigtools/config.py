@@ -155,6 +155,25 @@ class ContactConfig(_Section):
     damping: Damping = Field(default=0.0, ge=0)
     law: Literal["linear", "hertz", "hunt-crossley"] = "linear"
 
+    @model_validator(mode="before")
+    @classmethod
+    def _units_of_the_law(cls, data: Any) -> Any:
+        # a Hertz-type law's stiffness is in N/m^1.5 (and Hunt-Crossley's damping in N*s/m^2.5):
+        # read those units here; a plain number stays SI, a linear unit is refused
+        if not isinstance(data, dict) or data.get("law") not in ("hertz", "hunt-crossley"):
+            return data
+        data = dict(data)
+        dims = {"stiffness": "hertz_stiffness"}
+        if data.get("law") == "hunt-crossley":
+            dims["damping"] = "hertz_damping"
+        for key, dimension in dims.items():
+            if isinstance(data.get(key), str):
+                try:
+                    data[key] = parse_quantity(data[key], dimension)
+                except ValueError as exc:
+                    raise ValueError(f"{key} = {data[key]!r} with law = {data['law']!r}: {exc}") from None
+        return data
+
 
 class DampingConfig(_Section):
     ratio: float | None = Field(default=None, gt=0, lt=1)

@@ -220,6 +220,11 @@ RIG_FILE_CASES = [
     Case("rig:root-springs-free", ["harmonic", "--rig", "{rig}", "--out", "{tmp}/h.csv"],
          expect="root", setup=_rig_with(lambda d: d["root"].update(
              kind="springs", rotational_stiffness="1e-12 N*m/rad", translational_stiffness=1e-9))),
+    # a Hertz law's stiffness is in N/m^1.5 (the rig file's own comment): a linear unit is refused
+    Case("rig:hertz-with-linear-unit", ["modal", "--rig", "{rig}"], expect="hertz stiffness",
+         setup=_rig_with(lambda d: d["contact"].update(law="hertz", stiffness="1e6 N/m"))),
+    Case("rig:linear-with-hertz-unit", ["modal", "--rig", "{rig}"], expect="hertz stiffness",
+         setup=_rig_with(lambda d: d["contact"].update(law="linear", stiffness="1e9 N/m^1.5"))),
     Case("rig:unknown-section", ["modal", "--rig", "{rig}"], setup=_set("blades", "length", 0.1)),
     Case("rig:inf-literal", ["modal", "--rig", "{rig}"], expect="contact.stiffness",
          setup=_replace_in_rig('stiffness = "1e6 N/m"', "stiffness = inf")),
@@ -546,6 +551,14 @@ def test_the_lab_files_are_good(argv, lab, lab_digest, tmp_path):
     """The cases above fail for the reason they name: the same commands on good input succeed."""
     code, _, err = run_cli(_fill(argv, lab, tmp_path))
     assert_clean_failure(code, err, 0, lab, lab_digest)
+
+
+def test_hertz_units_are_read(lab, lab_digest, tmp_path):
+    """``stiffness = "1e9 N/m^1.5"`` with ``law = "hertz"`` is 1e9 SI (was refused as unknown)."""
+    from rigtools.config import load_rig
+
+    _rig_with(lambda d: d["contact"].update(law="hertz", stiffness="1e3 N/mm^1.5"))(tmp_path)
+    assert load_rig(tmp_path / "rig.toml").contact.stiffness == pytest.approx(1e3 / 1e-3**1.5, rel=1e-12)
 
 
 def test_a_recording_named_png_survives_its_own_plot(lab, lab_digest, tmp_path):
