@@ -36,7 +36,7 @@ def test_without_hardware_says_why_and_suggests_the_simulated_rig(capsys):
     out = capsys.readouterr().out.splitlines()
     assert out[0] == "NI-DAQmx: cannot list devices: NI-DAQmx driver not installed on this machine"
     assert out[1].startswith("VISA: ")          # listed, or one line saying why not
-    assert "--simulated" in out[-1]
+    assert "--backend sim" in out[-1]
     assert code == (0 if out[1].startswith("VISA (") else 3)
 
 
@@ -49,7 +49,7 @@ def test_lists_ni_devices_and_simulated_visa_resources(monkeypatch, capsys):
     assert out[2].split() == ["Dev2", "NI", "9260", "s/n", "FF", "AI", "0", "AO", "2"]
     assert out[3].startswith("VISA (") and out[3].endswith("2 resources")
     assert out[4].strip() == "TCPIP0::192.168.1.20::inst0::INSTR"
-    assert not any("--simulated" in line for line in out)
+    assert not any("--backend sim" in line for line in out)
 
 
 def test_json_output(monkeypatch, capsys):
@@ -102,4 +102,4 @@ def test_help_documents_exit_codes(capsys):
     with pytest.raises(SystemExit):
         main(["devices", "--help"])
     out = capsys.readouterr().out
-    assert "Exit status: 0" in out and "3 neither" in out and "--simulated" in out
+    assert "Exit status: 0" in out and "3 neither" in out and "--backend sim" in out
