@@ -65,6 +65,14 @@ examples:
 class RigArgumentParser(argparse.ArgumentParser):
     """An argparse parser whose errors are one line plus a hint to ``--help`` (exit 2)."""
 
+    def _get_value(self, action, arg_string):  # type: ignore[override]
+        # an option's ``type=`` may be one of rigtools.options' checks (type=options.seed): its
+        # UserError becomes the parser's one-line error, as a ValueError would
+        try:
+            return super()._get_value(action, arg_string)
+        except UserError as exc:
+            raise argparse.ArgumentError(None, " ".join(str(exc).split())) from None
+
     def error(self, message: str) -> None:  # type: ignore[override]
         text = " ".join(str(message).split())
         self.exit(errors.EXIT_USAGE, f"{self.prog}: error: {text}\n"

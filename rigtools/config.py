@@ -107,6 +107,11 @@ class PassiveBladeConfig(_Section):
 # limits keep a factor 100 below the first failure; stiffer than them, a clamp is the right model.
 MAX_ROOT_ROTATIONAL_STIFFNESS = 1e7      # N*m/rad (the default blade's EI/L is ~140 N*m/rad)
 MAX_ROOT_TRANSLATIONAL_STIFFNESS = 1e11  # N/m (its 3EI/L^3 is ~1.8e4 N/m; axially EA/L ~ 1.7e8 N/m)
+# Far softer than the blade the root is almost free and the FEM reduction's static solve is
+# singular (default rig: 1e-4 N*m/rad with 1e3 N/m, or 1e7 N*m/rad with 1 N/m, end in a
+# LinAlgError or NaN frequencies); the same factor 100 is kept above those failures.
+MIN_ROOT_ROTATIONAL_STIFFNESS = 1e-2     # N*m/rad
+MIN_ROOT_TRANSLATIONAL_STIFFNESS = 1e2   # N/m
 
 
 class RootConfig(_Section):
@@ -116,8 +121,13 @@ class RootConfig(_Section):
 
     @model_validator(mode="after")
     def _springs_need_stiffness(self) -> "RootConfig":
-        if self.kind == "springs" and (self.rotational_stiffness <= 0 or self.translational_stiffness <= 0):
-            raise ValueError("kind = 'springs' needs rotational_stiffness > 0 and translational_stiffness > 0")
+        if self.kind == "springs" and (self.rotational_stiffness < MIN_ROOT_ROTATIONAL_STIFFNESS or
+                                       self.translational_stiffness < MIN_ROOT_TRANSLATIONAL_STIFFNESS):
+            raise ValueError(
+                f"kind = 'springs' needs rotational_stiffness >= {MIN_ROOT_ROTATIONAL_STIFFNESS:g} N*m/rad "
+                f"and translational_stiffness >= {MIN_ROOT_TRANSLATIONAL_STIFFNESS:g} N/m (got "
+                f"{self.rotational_stiffness:g} N*m/rad, {self.translational_stiffness:g} N/m); a softer "
+                "root leaves the blade almost free, which the FE reduction cannot solve")
         return self
 
 
@@ -144,6 +154,25 @@ class ContactConfig(_Section):
     stiffness: Stiffness = Field(gt=0, le=1e12)
     damping: Damping = Field(default=0.0, ge=0)
     law: Literal["linear", "hertz", "hunt-crossley"] = "linear"
+
+    @model_validator(mode="before")
+    @classmethod
+    def _units_of_the_law(cls, data: Any) -> Any:
+        # a Hertz-type law's stiffness is in N/m^1.5 (and Hunt-Crossley's damping in N*s/m^2.5):
+        # read those units here; a plain number stays SI, a linear unit is refused
+        if not isinstance(data, dict) or data.get("law") not in ("hertz", "hunt-crossley"):
+            return data
+        data = dict(data)
+        dims = {"stiffness": "hertz_stiffness"}
+        if data.get("law") == "hunt-crossley":
+            dims["damping"] = "hertz_damping"
+        for key, dimension in dims.items():
+            if isinstance(data.get(key), str):
+                try:
+                    data[key] = parse_quantity(data[key], dimension)
+                except ValueError as exc:
+                    raise ValueError(f"{key} = {data[key]!r} with law = {data['law']!r}: {exc}") from None
+        return data
 
 
 class DampingConfig(_Section):

@@ -84,6 +84,13 @@ def _build_table() -> dict[str, tuple[float, str]]:
                 add(f"{n}{joint}{m}/rad", fn * fm, "rotational_stiffness")
                 add(f"{n}{joint}s/{m}", fn / fm, "damping")
     add("kg/s", 1.0, "damping")
+    # Hertz / Hunt-Crossley contact laws (f = k g^1.5, damping alpha*k): their own dimensions, so
+    # "1e9 N/m^1.5" is refused where a linear stiffness is asked for, and vice versa
+    for n, fn in newtons.items():
+        for m, fm in lengths.items():
+            add(f"{n}/{m}^1.5", fn / fm**1.5, "hertz_stiffness")
+            for joint in ("*", ""):
+                add(f"{n}{joint}s/{m}^2.5", fn / fm**2.5, "hertz_damping")
     for g, fg in _prefixed("g", ("k",)).items():
         for m, fm in _prefixed("m", ("c", "m")).items():
             for power in ("^2", "2"):
@@ -118,7 +125,8 @@ _EXAMPLES = {
     "rotational_stiffness": "'1.2e4 N*m/rad'", "damping": "'200 N*s/m'", "inertia": "'1e-5 kg*m^2'",
     "voltage": "'1 V', '500 mV'", "voltage_amplitude": "'1 V' (peak), '2 Vpp'", "current": "'4 mA'",
     "resistance": "'2.5 ohm'", "inductance": "'0.5 mH'", "force_factor": "'10 N/A'",
-    "acceleration": "'4900 m/s^2', '500 g0'", "sensitivity_accel": "'10 mV/g'",
+    "acceleration": "'4900 m/s^2', '500 g0'", "hertz_stiffness": "'1e9 N/m^1.5'",
+    "hertz_damping": "'2e8 N*s/m^2.5'", "sensitivity_accel": "'10 mV/g'",
     "sensitivity_force": "'11.24 mV/N'",
 }
 

@@ -11,7 +11,7 @@ import re
 import sys
 
 from rigtools.errors import UserError
-from rigtools.options import check_out, quantity
+from rigtools.options import check_out, gap, quantity, seed
 
 HELP = "lab procedures on the rig: force-controlled dwell, stepped sine, study, FRF test"
 COMMON_EPILOG = """\
@@ -117,7 +117,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         q.add_argument("--overwrite", action="store_true", help="replace --out if it exists")
         q.add_argument("--json", action="store_true", help="print the results as JSON")
         q.add_argument("--pace", action="store_true", help="simulated rig: real time")
-        q.add_argument("--seed", type=int, default=None, help="simulated rig: noise seed")
+        q.add_argument("--seed", type=seed, default=None, help="simulated rig: noise seed")
         q.add_argument("--fault", action="append", default=[], metavar="KIND@TIME[:CHANNEL]",
                        help="simulated rig: inject a fault (repeatable)")
         q.set_defaults(func=run)
@@ -163,7 +163,7 @@ def grid(text: str, kind: str, option: str) -> list[float]:
 
 
 def _gap(args) -> float | None:
-    return None if args.gap is None else quantity(args.gap, "length", "--gap")
+    return None if args.gap is None else gap(args.gap)
 
 
 def _control(args) -> dict:

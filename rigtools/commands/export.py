@@ -6,7 +6,7 @@ import argparse
 import json
 
 from rigtools.errors import UserError
-from rigtools.options import check_out, quantity
+from rigtools.options import output_path, quantity
 
 HELP = "export a recording as UFF 58 (time records, spectra, FRFs with coherence) for modal software"
 EPILOG = """\
@@ -56,9 +56,7 @@ def run(args: argparse.Namespace) -> int:
     resolution = quantity(args.resolution, "frequency", "--resolution")
     if not resolution > 0:
         raise UserError(f"--resolution = {args.resolution!r}: must be > 0 Hz")
-    out = check_out(argparse.Namespace(out=args.out, overwrite=args.overwrite))
-    if out.resolve() == __import__("pathlib").Path(args.file).resolve():
-        raise UserError(f"OUT = {args.out!r} is the recording itself; choose another name")
+    out = output_path(args.out, args.overwrite, "OUT", inputs=[args.file])
     with open_recording(args.file) as rec:
         if not rec.points:
             raise UserError(f"{args.file}: the recording has no points to export")

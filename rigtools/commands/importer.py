@@ -6,7 +6,7 @@ import argparse
 import json
 
 from rigtools.errors import UserError
-from rigtools.options import check_out, quantity
+from rigtools.options import output_path, quantity
 
 HELP = "import a TDMS log (NI-DAQmx configure_logging, LabVIEW) as a recording"
 EPILOG = """\
@@ -50,6 +50,25 @@ def parse_rename(text: str) -> dict[str, str]:
     return out
 
 
+def check_renames(source: str, rename: dict[str, str]) -> None:
+    """Refuse ``--rename`` entries naming no channel of ``source`` (a typo would otherwise import
+    the channel under its old name without a word). A file npTDMS cannot read is left to the
+    import, which says so."""
+    if not rename:
+        return
+    try:
+        from nptdms import TdmsFile
+
+        meta = TdmsFile.read_metadata(source)
+        names = {ch.name for group in meta.groups() for ch in group.channels()}
+    except Exception:          # not readable: import_tdms gives the one-line reason
+        return
+    unknown = sorted(set(rename) - names)
+    if unknown:
+        raise UserError(f"--rename: no channel {', '.join(repr(u) for u in unknown)} in {source} "
+                        f"(channels: {', '.join(sorted(names)) or 'none'})")
+
+
 def run(args: argparse.Namespace) -> int:
     from rigtools.config import load_rig
     from rigtools.interop.tdms import import_tdms
@@ -60,8 +79,10 @@ def run(args: argparse.Namespace) -> int:
         rate = quantity(args.sample_rate, "frequency", "--sample-rate")
         if not rate > 0:
             raise UserError(f"--sample-rate = {args.sample_rate!r}: must be > 0 Hz")
-    out = check_out(argparse.Namespace(out=args.out, overwrite=args.overwrite))
+    out = output_path(args.out, args.overwrite, "OUT",
+                      inputs=[args.source, *([args.rig] if args.rig else [])])
     cfg = load_rig(args.rig)
+    check_renames(args.source, rename)
     summary = import_tdms(args.source, out, rig=cfg.to_json(), overwrite=args.overwrite,
                           rename=rename, sample_rate=rate)
     if args.json:

@@ -96,7 +96,7 @@ def check_output(args: argparse.Namespace) -> Path:
     TODO: the directory/read-only checks belong in ``rigtools.options.check_out``.
     """
     out = Path(args.out)
-    if out.is_dir():
+    if str(args.out).strip() and out.is_dir():
         raise UserError(f"--out = {args.out!r} is a directory; give a file name, e.g. {str(out / 'run.h5')!r}")
     out = check_out(args)
     folder = out.parent if str(out.parent) else Path(".")
