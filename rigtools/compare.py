@@ -82,7 +82,8 @@ class PointComparison:
     agreement
         :class:`analysis.compare.Agreement` of the shroud accelerations.
     explanations
-        ``[(channel, FrequencyOffsetExplanation)]`` for the large harmonic differences.
+        ``[(channel, FrequencyOffsetExplanation, (blade, mode, model Hz) or None)]`` for the large
+        harmonic differences (text: :meth:`explanation_lines`).
     em_wave, model_wave
         ``{channel: samples}`` of the analysed windows (for overlays); rates in
         ``em_rate``, ``model_rate``.
@@ -118,12 +119,18 @@ class PointComparison:
                               "per_channel": self.agreement.per_channel, "channels": list(SCORED)},
                 "harmonics": _records(self.table),
                 "peaks": {"em": self.em.peak_levels, "model": self.model.peak_levels},
-                "explanations": [{"channel": ch, "k": e.k, "frequency_hz": e.frequency_hz,
+                "explanations": [{"channel": ch, "k": e.k, "model_mode": None if m is None else
+                                  {"blade": m[0], "mode": m[1], "model_hz": m[2]}, "frequency_hz": e.frequency_hz,
                                   "natural_hz_em": e.natural_hz, "observed_ratio": e.observed_ratio,
                                   "ratio_for_plus_minus_1pct": list(e.ratio_per_percent),
                                   "ratio_from_model_frequency": _f(e.ratio_from_model_frequency),
-                                  "offset_pct_needed": _f(e.offset_pct_needed), "text": e.sentence()}
-                                 for ch, e in self.explanations]}
+                                  "offset_pct_needed": _f(e.offset_pct_needed),
+                                  "text": explanation_text(ch, e, m, self.model_params.get("model_label", "model"))}
+                                 for ch, e, m in self.explanations]}
+
+    def explanation_lines(self, model_label: str) -> list[str]:
+        """:func:`explanation_text` of every large harmonic difference."""
+        return [explanation_text(ch, e, m, model_label) for ch, e, m in self.explanations]
 
 
 @dataclass
@@ -265,8 +272,8 @@ class Comparison:
         for p in self.points:
             sec.table(_wide_table(p.table, self.model_label, k_show=12), caption=f"{p.label()}: harmonic "
                       "amplitudes (peak) and differences in %")
-            for ch, e in p.explanations:
-                sec.note(f"{ch}: {e.sentence()}")
+            for line in p.explanation_lines(self.model_label):
+                sec.note(line)
         import matplotlib.pyplot as plt
 
         for _, fig, caption in self.figures():
@@ -536,6 +543,39 @@ def _matched_modes(em: dict, zeta: dict, model: dict) -> tuple[dict, dict, dict]
     return fn_e, z, fn_m
 
 
+def _model_mode(fn_em: float, fn_e: dict, fn_m: dict, fn_model: dict) -> tuple[str, int, float] | None:
+    """(blade, mode number, model frequency) paired with an EM natural frequency."""
+    for blade, fs in fn_e.items():
+        hit = np.flatnonzero(np.isclose(fs, fn_em, rtol=0, atol=1e-9))
+        if hit.size:
+            fm = float(fn_m[blade][hit[0]])
+            n = int(np.argmin(np.abs(np.sort(fn_model[blade]) - fm))) + 1
+            return blade, n, fm
+    return None
+
+
+def explanation_text(channel: str, e, mode: tuple[str, int, float] | None, model_label: str) -> str:
+    """One line: the harmonic's model/EM ratio and the natural-frequency offset that explains it."""
+    short = channel.replace("_accel", "").replace("_", " ")
+    text = f"{short} {e.k}·fe = {e.frequency_hz:.1f} Hz: {model_label}/EM = x{e.observed_ratio:.2f}. "
+    if mode is not None:
+        blade, n, fm = mode
+        text += (f"It lies {100 * (e.frequency_hz / e.natural_hz - 1):+.1f} % from the EM {blade} mode {n} at "
+                 f"{e.natural_hz:.1f} Hz, which the {model_label} puts at {fm:.1f} Hz "
+                 f"({100 * (fm / e.natural_hz - 1):+.2f} %): that offset alone changes this harmonic by "
+                 f"x{e.ratio_from_model_frequency:.2f}")
+    else:
+        text += (f"It lies {100 * (e.frequency_hz / e.natural_hz - 1):+.1f} % from the model's mode at "
+                 f"{e.natural_hz:.1f} Hz (no EM modes measured)")
+    text += f"; a 1 % higher/lower natural frequency changes it by x{e.ratio_per_percent[0]:.2f}/x{e.ratio_per_percent[1]:.2f}"
+    if np.isfinite(e.offset_pct_needed):
+        text += f"; x{e.observed_ratio:.2f} needs a {e.offset_pct_needed:+.2f} % offset"
+    else:
+        text += ("; no single-mode offset gives the whole ratio: the rest comes from the forcing at this "
+                 "harmonic (compare the force rows) and the impacts")
+    return text
+
+
 def natural_table(fem: dict, am: dict | None, em: dict, n_modes: int = 3):
     """Natural-frequency table: FEM, AM and EM per blade and mode with differences in % (EM the
     reference where measured, as the paper's Tables 2 and 3; else AM vs FEM)."""
@@ -735,9 +775,12 @@ def compare_recordings(em_path: str, fem_path: str | None = None, *, simulate: b
         if em_modes:
             fn_e, z, fn_m = _matched_modes(em_modes, em_zeta, fn_model)
             expl = explain_large_differences(table, params["fe"], fn_e, z, fn_m, threshold_pct=LARGE_DIFF_PCT)
+            expl = [(ch, e, _model_mode(e.natural_hz, fn_e, fn_m, fn_model)) for ch, e in expl]
         else:
             expl = explain_large_differences(table, params["fe"], fn_em_for_explain, zeta, None,
                                              threshold_pct=LARGE_DIFF_PCT)
+            expl = [(ch, e, None) for ch, e in expl]
+        mparams["model_label"] = model.upper()
         points.append(PointComparison(idx, midx, _plain(params), _plain(mparams), ana, mana, table, agreement,
                                       expl, waves, mwaves, fs, mfs))
     return Comparison(str(em_path), source, model, excitation, kind, points, natural, notes, unpaired)
