@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import sys
 from pathlib import Path
 
 from rigtools.errors import UserError
@@ -128,15 +129,16 @@ def run(args: argparse.Namespace) -> int:
     for path, what in ((args.em, "EM.h5"), (args.fem, "FEM.h5"), (args.frf, "--frf"), (args.rig, "--rig")):
         if path is not None and not Path(path).is_file():
             raise UserError(f"{what} {path}: no such file")
-    if args.out is not None and Path(args.out).exists() and not Path(args.out).is_dir():
-        raise UserError(f"--out {args.out} exists and is not a folder")
+    if args.out is not None:
+        _check_out_dir(Path(args.out), Path(args.em).stem)
     from rich.console import Console
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
     from rigtools.compare import compare_recordings
 
     with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-                  console=Console(stderr=True), transient=True, disable=args.json) as bar:
+                  console=Console(stderr=True), transient=True,
+                  disable=args.json or not sys.stderr.isatty()) as bar:
         task = bar.add_task("comparing" + (" (model runs at the EM points)" if args.simulate else ""), total=None)
 
         def progress(done: int, total: int, text: str) -> None:
@@ -154,6 +156,20 @@ def run(args: argparse.Namespace) -> int:
         for p in written:
             print(f"wrote {p}")
     return 0
+
+
+def _check_out_dir(out: Path, stem: str) -> None:
+    """Refuse up front an --out that is a file, or that holds a figure name taken by a file
+    rigtools did not write (figures never replace a recording or a user's file)."""
+    from rigtools.figures import is_derived_plot
+
+    if out.exists() and not out.is_dir():
+        raise UserError(f"--out {out} exists and is not a folder")
+    if out.is_dir():
+        for path in sorted(out.glob(f"{stem}.compare-*.png")):
+            if not (path.is_file() and not path.is_symlink() and is_derived_plot(path)):
+                raise UserError(f"--out: {path} exists and was not made by rigtools as a derived file; "
+                                "not overwritten (move it or choose another folder)")
 
 
 def _json_default(x):
