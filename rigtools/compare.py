@@ -754,6 +754,12 @@ def compare_recordings(em_path: str, fem_path: str | None = None, *, simulate: b
         source = str(fem_path)
         excitation = None
 
+    if not pairs:
+        have = sorted({(round(it[1].get("fe", np.nan), 6), round(it[1].get("gap", np.nan) * 1e3, 6),
+                        round(it[1].get("force_amplitude", np.nan), 6)) for it in model_items})
+        raise UserError(f"no EM point of {Path(em_path).name} has a model point with the same fe, gap and "
+                        f"force target (within 2 %); the model file holds (fe Hz, gap mm, F0 N) = "
+                        f"{', '.join(str(h) for h in have[:5]) or 'no periodic point'}")
     paired_em = {i for i, _ in pairs}
     unpaired = [em_items[i][0] for i in range(len(em_items)) if i not in paired_em]
     if unpaired:

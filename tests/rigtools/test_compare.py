@@ -124,6 +124,13 @@ def test_model_recording_is_paired_by_meaning_and_scores_as_the_same_run_simulat
     print(f"score against the FEM recording {a:.4f}, against --simulate nominal {b:.4f}")
     assert from_file["model_source"].endswith("fem60.h5") and from_file["excitation"] is None
     assert a == pytest.approx(b, abs=0.01)
+    # a model point at another gap does not pair: one line, exit 2
+    other = files["dir"] / "fem60-gap09.h5"
+    code, _, err = run_cli(["simulate", "--fe", "60 Hz", "--force", "15 N", "--gap", "0.9 mm", "--duration", "0.1 s",
+                            "--out", str(other), "--no-plot"])
+    assert code == 0, err
+    code, out, err = run_cli(["compare", str(files["dwell60"]), str(other)])
+    assert code == 2 and "no EM point" in err and "(60.0, 0.9, 15.0)" in err and err.count("\n") == 1, err
 
 
 def test_a_study_without_frf_data_says_so(files):
