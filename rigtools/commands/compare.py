@@ -39,6 +39,7 @@ examples:
   rig compare em.h5 --simulate --excitation nominal --model am
   rig compare em.h5 fem.h5 --frf frf.h5 --out figs/
   rig compare em.h5 --simulate --json > cmp.json     # scores, tables, explanations
+  rig compare em.h5 --simulate --workers 2           # model points on 2 local processes
 """
 
 
@@ -56,6 +57,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--frf", metavar="FRF.h5", help="FRF recording (rig acquire frf) giving the EM natural frequencies")
     p.add_argument("--harmonics", metavar="K", default="12",
                    help="harmonics shown per point in the table, k = 1..K plus 22 (default 12; JSON has all 30)")
+    p.add_argument("--workers", metavar="N", help="--simulate: run the model points on N local worker processes "
+                   "(Dask; default in this process)")
     p.add_argument("--json", action="store_true", help="print JSON instead of tables")
     p.add_argument("--out", metavar="DIR", help="write the figures as PNG into DIR")
     p.set_defaults(func=run)
@@ -122,6 +125,7 @@ def run(args: argparse.Namespace) -> int:
     from rigtools.options import count
 
     k_show = count(args.harmonics, "--harmonics", minimum=1, maximum=30)
+    workers = None if args.workers is None else count(args.workers, "--workers", minimum=1, maximum=256)
     if args.simulate and args.fem:
         raise UserError("give FEM.h5 or --simulate, not both")
     if not args.simulate and not args.fem:
@@ -145,7 +149,8 @@ def run(args: argparse.Namespace) -> int:
             bar.update(task, completed=done, total=total, description=f"model run {text}")
 
         cmp = compare_recordings(args.em, args.fem, simulate=args.simulate, model=args.model,
-                                 excitation=args.excitation, rig=args.rig, frf=args.frf, progress=progress)
+                                 excitation=args.excitation, rig=args.rig, frf=args.frf, workers=workers,
+                                 progress=progress)
     written = cmp.save_figures(args.out) if args.out else []
     if args.json:
         out = cmp.to_dict()
