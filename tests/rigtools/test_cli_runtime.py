@@ -25,7 +25,7 @@ from rigtools.errors import EXIT_SIGHUP, EXIT_SIGINT, EXIT_SIGPIPE, EXIT_SIGTERM
 from rigtools.recording import ChannelSpec, RecordingWriter
 from rigtools import runtime
 
-COMMANDS = ["acquire", "check", "devices", "export", "harmonic", "import", "info", "modal", "simulate", "study"]
+COMMANDS = ["acquire", "check", "compare", "devices", "export", "harmonic", "import", "info", "modal", "simulate", "study"]
 HEAVY = ["scipy", "numba", "h5py", "nidaqmx", "pyvisa", "matplotlib"]
 LINUX = pytest.mark.skipif(not Path("/proc/self/maps").exists(), reason="needs /proc (Linux)")
 
