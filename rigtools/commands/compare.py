@@ -166,12 +166,15 @@ def run(args: argparse.Namespace) -> int:
 def _check_out_dir(out: Path, stem: str) -> None:
     """Refuse up front an --out that is a file, or that holds a figure name taken by a file
     rigtools did not write (figures never replace a recording or a user's file)."""
-    from rigtools.figures import is_derived_plot
-
     if out.exists() and not out.is_dir():
         raise UserError(f"--out {out} exists and is not a folder")
     if out.is_dir():
-        for path in sorted(out.glob(f"{stem}.compare-*.png")):
+        taken = sorted(out.glob(f"{stem}.compare-*.png"))
+        if not taken:
+            return
+        from rigtools.figures import is_derived_plot
+
+        for path in taken:
             if not (path.is_file() and not path.is_symlink() and is_derived_plot(path)):
                 raise UserError(f"--out: {path} exists and was not made by rigtools as a derived file; "
                                 "not overwritten (move it or choose another folder)")
