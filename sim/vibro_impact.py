@@ -807,8 +807,12 @@ def run_harmonic(system: ReducedSystem, fe: float, force_amplitude: float, *,
                  record_periods: int = 20, steps_per_period: int | None = None,
                  max_settle_time: float = 30.0, tol: float = 1e-5, check_every: int = 5,
                  initial: RunState | None = None, min_settle_periods: int = 0,
-                 progress: Callable[[float, float], None] | None = None) -> VibroImpactRun:
+                 progress: Callable[[float, float], None] | None = None,
+                 force_harmonics=None) -> VibroImpactRun:
     """Force ``F0 sin(2 pi fe t)`` at the force point, run to a periodic steady state, record.
+
+    With ``force_harmonics`` the periodic force ``sum_k A_k cos(k 2 pi fe t + phi_k)`` replaces
+    ``F0 sin`` (e.g. the harmonics of a force measured on the rig).
 
     Parameters
     ----------
@@ -836,6 +840,13 @@ def run_harmonic(system: ReducedSystem, fe: float, force_amplitude: float, *,
         Periods to run before the first check.
     progress
         ``progress(simulated_s, at_most_s)`` after every ``check_every`` periods of settling.
+    force_harmonics
+        The periodic force instead of ``F0 sin``: a sequence of ``(k, A_k, phi_k)`` (k >= 1
+        integer, peak amplitude A_k >= 0 in N, phase phi_k in rad, the convention of
+        :mod:`analysis.harmonics`) or a 1-D complex array ``c`` with ``c[k-1] = A_k exp(i phi_k)``;
+        ``F0 sin`` is ``[(1, F0, -pi/2)]``. Each ``k`` must lie below half the steps per period.
+        ``force_amplitude`` is then only recorded as the run's nominal amplitude (and sizes the
+        step with the harmonics' sum). Default ``None``: ``F0 sin``, bit-identical to before.
 
     Returns
     -------
@@ -848,8 +859,10 @@ def run_harmonic(system: ReducedSystem, fe: float, force_amplitude: float, *,
     record_periods = int(record_periods)
     if record_periods < 1:
         raise SimulationInputError("the record must hold at least one excitation period")
+    harmonics = None if force_harmonics is None else periodic_force_terms(force_harmonics)
     # a Hertz contact stiffens with the force: size the step for a generous peak force
-    force_scale = max(100.0, 10.0 * force_amplitude)
+    peak = force_amplitude if harmonics is None else max(force_amplitude, float(np.sum(harmonics[:, 1])))
+    force_scale = max(100.0, 10.0 * peak)
     n = (steps_per_period_for(system, fe, force_scale=force_scale) if steps_per_period is None
          else int(steps_per_period))
     dt = 1.0 / (fe * n)
@@ -861,9 +874,17 @@ def run_harmonic(system: ReducedSystem, fe: float, force_amplitude: float, *,
         phase0 = 0.0
     w = 2.0 * np.pi * fe
     t_start = stepper.time
-    stepper.state.scalars[_S_F] = force_amplitude * math.sin(phase0)
-    # one period of force samples at the step ends; the phase restarts each period
-    ramp = force_amplitude * np.sin(phase0 + w * dt * np.arange(1, n + 1))
+    if harmonics is None:
+        stepper.state.scalars[_S_F] = force_amplitude * math.sin(phase0)
+        # one period of force samples at the step ends; the phase restarts each period
+        ramp = force_amplitude * np.sin(phase0 + w * dt * np.arange(1, n + 1))
+    else:
+        if np.any(harmonics[:, 0] >= n / 2):
+            raise SimulationInputError(
+                f"force harmonic k = {int(harmonics[:, 0].max())} needs more than {n} steps per period "
+                f"(k < steps / 2)")
+        stepper.state.scalars[_S_F] = float(periodic_force(harmonics, np.array([phase0]))[0])
+        ramp = periodic_force(harmonics, phase0 + w * dt * np.arange(1, n + 1))
     chunk = np.tile(ramp, check_every)
     keep = max(check_every, 3 + 4) * n        # enough periods for m <= 4 with 3 compared
     hist = np.empty((4, 0))
@@ -906,6 +927,35 @@ def run_harmonic(system: ReducedSystem, fe: float, force_amplitude: float, *,
         contact_period=stepper.contact_period,
         final_state=RunState(stepper.state.copy(), phase0),
     )
+
+
+def periodic_force_terms(force_harmonics) -> np.ndarray:
+    """``(n, 3)`` array of ``(k, A_k, phi_k)`` from :func:`run_harmonic`'s ``force_harmonics``
+    (tuples or complex coefficients); refuses a non-integer or non-positive ``k``, a negative
+    or non-finite amplitude."""
+    arr = np.asarray(force_harmonics)
+    if np.iscomplexobj(arr):
+        c = arr.ravel()
+        terms = np.column_stack([np.arange(1, c.size + 1), np.abs(c), np.angle(c)])
+    else:
+        terms = np.asarray(arr, dtype=float).reshape(-1, 3) if arr.size else np.empty((0, 3))
+    if terms.shape[0] == 0:
+        raise SimulationInputError("force_harmonics holds no harmonic")
+    k, a, ph = terms.T
+    if not (np.all(np.isfinite(terms)) and np.all(k >= 1) and np.all(k == np.round(k))):
+        raise SimulationInputError("force harmonics need integer orders k >= 1 and finite values")
+    if np.any(a < 0):
+        raise SimulationInputError("force harmonic amplitudes must be >= 0 N")
+    return terms
+
+
+def periodic_force(terms: np.ndarray, phase: np.ndarray) -> np.ndarray:
+    """``sum_k A_k cos(k phase + phi_k)`` of :func:`periodic_force_terms` at phases ``phase`` (rad)."""
+    phase = np.asarray(phase, dtype=float)
+    out = np.zeros_like(phase)
+    for k, a, ph in terms:
+        out += a * np.cos(k * phase + ph)
+    return out
 
 
 # --------------------------------------------------------------------------- exact harmonics

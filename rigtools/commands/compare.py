@@ -1,0 +1,192 @@
+"""``rig compare``: an experiment (EM) recording beside a model (FEM/AM) recording or model runs."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from pathlib import Path
+
+from rigtools.errors import UserError
+
+HELP = "EM vs FEM/AM side by side: harmonic tables, agreement scores, natural frequencies, figures"
+EPILOG = """\
+Pairs the points of EM.h5 (rig acquire dwell | sweep | study) by meaning (fe, gap, force target)
+with those of a model recording FEM.h5 (rig simulate | rig study), or with --simulate runs the
+model at every EM point at the measured fe, gap and force:
+  --excitation measured  the harmonics k = 1..30 (amplitude, phase) of the force the blade felt
+                         (EM force over its settled window) drive the model
+  --excitation nominal   F0 sin(2 pi fe t), F0 the EM force fundamental
+EM points are analysed over their settled window (record_start, record_samples).
+
+Printed: the natural frequencies of FEM, AM and EM with differences in % (EM from the FRF points
+of EM.h5 or of --frf FRF.h5, rig acquire frf; without FRF data this is said), per point the
+harmonic amplitudes (peak) of force and both shroud accelerations with diff % = 100 (model - EM) /
+EM, next to each large difference (> 30 %) of a harmonic near a natural frequency the offset of
+that frequency that explains it, and one agreement score per point:
+  score = 10^-E, E = energy-weighted mean |log10(model / EM)| of the harmonics k = 1..30 of
+  active_shroud_accel and passive_shroud_accel, averaged over both (1 = identical; 1/q when
+  every harmonic is q times off). The force is the input and is not scored.
+--out DIR writes the figures (study trends with EM and the model on the same axes, per point the
+waveform/spectrum overlay in the paper's Figures 8-16 layout and harmonic bars) as
+DIR/EMSTEM.compare-*.png; never over a recording or a file rigtools did not write.
+
+Exit status: 0 compared, 2 bad input (files, options, nothing to pair), 130 Ctrl-C.
+
+examples:
+  rig compare em.h5 --simulate                       # FEM driven by the measured force
+  rig compare em.h5 --simulate --excitation nominal --model am
+  rig compare em.h5 fem.h5 --frf frf.h5 --out figs/
+  rig compare em.h5 --simulate --json > cmp.json     # scores, tables, explanations
+  rig compare em.h5 --simulate --workers 2           # model points on 2 local processes
+"""
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    p = subparsers.add_parser("compare", help=HELP, description=HELP + ".", epilog=EPILOG,
+                              formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("em", metavar="EM.h5", help="experiment recording (rig acquire ...)")
+    p.add_argument("fem", metavar="FEM.h5", nargs="?", help="model recording (rig simulate / rig study)")
+    p.add_argument("--simulate", action="store_true", help="run the model at every EM point instead of FEM.h5")
+    p.add_argument("--model", choices=("fem", "am"), default="fem",
+                   help="model run by --simulate: reduced FE model (default) or assumed-modes model")
+    p.add_argument("--excitation", choices=("measured", "nominal"), default="measured",
+                   help="--simulate drive: the recorded force waveform (default) or F0 sin")
+    p.add_argument("--rig", metavar="FILE", help="rig file for the model; default: the rig stored in EM.h5")
+    p.add_argument("--frf", metavar="FRF.h5", help="FRF recording (rig acquire frf) giving the EM natural frequencies")
+    p.add_argument("--harmonics", metavar="K", default="12",
+                   help="harmonics shown per point in the table, k = 1..K plus 22 (default 12; JSON has all 30)")
+    p.add_argument("--workers", metavar="N", help="--simulate: run the model points on N local worker processes "
+                   "(Dask; default in this process)")
+    p.add_argument("--json", action="store_true", help="print JSON instead of tables")
+    p.add_argument("--out", metavar="DIR", help="write the figures as PNG into DIR")
+    p.set_defaults(func=run)
+
+
+def _fmt(x, spec: str = ".4g") -> str:
+    try:
+        x = float(x)
+    except (TypeError, ValueError):
+        return "" if x is None else str(x)
+    return "–" if not math.isfinite(x) else format(x, spec)
+
+
+def print_comparison(cmp, k_show: int) -> None:
+    """Rich tables of a :class:`rigtools.compare.Comparison` on stdout."""
+    from rich.console import Console
+    from rich.table import Table
+
+    console = Console()
+    ml = cmp.model_label
+    how = (f"model recording {cmp.model_source}" if cmp.excitation is None
+           else f"{ml} simulated at every EM point, {cmp.excitation} excitation")
+    console.print(f"[bold]EM[/bold] {cmp.em_path}  vs  {how}")
+    if cmp.natural is not None and len(cmp.natural):
+        t = Table(title="natural frequencies, Hz (diff % = 100 (model - EM) / EM; AM vs FEM)")
+        for col in ("blade", "mode", "FEM", "AM", "EM", "FEM vs EM %", "AM vs EM %", "AM vs FEM %"):
+            t.add_column(col, justify="left" if col == "blade" else "right")
+        for r in cmp.natural.to_dict("records"):
+            t.add_row(r["blade"], str(r["mode"]), _fmt(r["fem_hz"], ".2f"), _fmt(r["am_hz"], ".2f"),
+                      _fmt(r["em_hz"], ".2f"), _fmt(r["fem_vs_em_pct"], "+.2f"), _fmt(r["am_vs_em_pct"], "+.2f"),
+                      _fmt(r["am_vs_fem_pct"], "+.3f"))
+        console.print(t)
+    for p in cmp.points:
+        t = Table(title=f"{p.label()}: harmonics (peak), score {p.score:.3f}")
+        for col in ("channel", "k", "f Hz", "EM", ml, "diff %"):
+            t.add_column(col, justify="left" if col == "channel" else "right")
+        for ch in dict.fromkeys(p.table["channel"]):
+            sub = p.table[(p.table["channel"] == ch) & ((p.table["k"] <= k_show) | (p.table["k"] == 22))]
+            for i, r in enumerate(sub.itertuples(index=False)):
+                t.add_row(ch if i == 0 else "", str(r.k), _fmt(r.frequency_hz, ".0f"), _fmt(r.em), _fmt(r.fem),
+                          _fmt(r.diff_pct, "+.1f"))
+            t.add_section()
+        console.print(t)
+        for line in p.explanation_lines(ml):
+            console.print(f"  [yellow]explained[/yellow]: {line}")
+    t = Table(title=f"agreement (10^-E over the shroud accelerations' harmonics), mean {cmp.mean_score:.3f}")
+    for col in ("EM point", "fe Hz", "gap mm", "F0 N", "F1 EM N", f"F1 {ml} N", "active E", "passive E", "score"):
+        t.add_column(col, justify="right")
+    for p in cmp.points:
+        t.add_row(str(p.em_index), _fmt(p.params["fe"]), _fmt(p.params.get("gap", math.nan) * 1e3),
+                  _fmt(p.params.get("force_amplitude")), _fmt(p.em.force_amplitude), _fmt(p.model.force_amplitude),
+                  _fmt(p.agreement.per_channel.get("active_shroud_accel"), ".3f"),
+                  _fmt(p.agreement.per_channel.get("passive_shroud_accel"), ".3f"), _fmt(p.score, ".3f"))
+    console.print(t)
+    for n in cmp.notes:
+        console.print(f"note: {n}")
+    if cmp.excitation is not None:
+        print(f"mean agreement score ({cmp.excitation} excitation, {ml}): {cmp.mean_score:.4f}")
+    else:
+        print(f"mean agreement score ({ml} recording): {cmp.mean_score:.4f}")
+
+
+def run(args: argparse.Namespace) -> int:
+    from rigtools.options import count
+
+    k_show = count(args.harmonics, "--harmonics", minimum=1, maximum=30)
+    workers = None if args.workers is None else count(args.workers, "--workers", minimum=1, maximum=256)
+    if args.simulate and args.fem:
+        raise UserError("give FEM.h5 or --simulate, not both")
+    if not args.simulate and not args.fem:
+        raise UserError("give a model recording FEM.h5 or --simulate")
+    for path, what in ((args.em, "EM.h5"), (args.fem, "FEM.h5"), (args.frf, "--frf"), (args.rig, "--rig")):
+        if path is not None and not Path(path).is_file():
+            raise UserError(f"{what} {path}: no such file")
+    if args.out is not None:
+        _check_out_dir(Path(args.out), Path(args.em).stem)
+    from rich.console import Console
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from rigtools.compare import compare_recordings
+
+    with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+                  console=Console(stderr=True), transient=True,
+                  disable=args.json or not sys.stderr.isatty()) as bar:
+        task = bar.add_task("comparing" + (" (model runs at the EM points)" if args.simulate else ""), total=None)
+
+        def progress(done: int, total: int, text: str) -> None:
+            bar.update(task, completed=done, total=total, description=f"model run {text}")
+
+        cmp = compare_recordings(args.em, args.fem, simulate=args.simulate, model=args.model,
+                                 excitation=args.excitation, rig=args.rig, frf=args.frf, workers=workers,
+                                 progress=progress)
+    written = cmp.save_figures(args.out) if args.out else []
+    if args.json:
+        out = cmp.to_dict()
+        out["figures"] = [str(p) for p in written]
+        print(json.dumps(out, indent=1, allow_nan=False, default=_json_default))
+    else:
+        print_comparison(cmp, k_show)
+        for p in written:
+            print(f"wrote {p}")
+    return 0
+
+
+def _check_out_dir(out: Path, stem: str) -> None:
+    """Refuse up front an --out that is a file, or that holds a figure name taken by a file
+    rigtools did not write (figures never replace a recording or a user's file)."""
+    if out.exists() and not out.is_dir():
+        raise UserError(f"--out {out} exists and is not a folder")
+    if out.is_dir():
+        taken = sorted(out.glob(f"{stem}.compare-*.png"))
+        if not taken:
+            return
+        from rigtools.figures import is_derived_plot
+
+        for path in taken:
+            if not (path.is_file() and not path.is_symlink() and is_derived_plot(path)):
+                raise UserError(f"--out: {path} exists and was not made by rigtools as a derived file; "
+                                "not overwritten (move it or choose another folder)")
+
+
+def _json_default(x):
+    import numpy as np
+
+    if isinstance(x, np.ndarray):
+        return [_json_default(v) if not isinstance(v, (int, float)) else v for v in x.tolist()]
+    if isinstance(x, (np.floating, np.integer)):
+        return x.item()
+    if isinstance(x, (np.bool_,)):
+        return bool(x)
+    raise TypeError(type(x).__name__)
