@@ -68,12 +68,13 @@ from drivers.contracts import (
     OutputChannelSpec,
     OutputUnderflow,
     SensorOverload,
+    SimulationDiverged,
 )
 from drivers.drive_signals import raised_cosine
 from drivers.safety import MAX_TIME_TO_ZERO, output_queue_limit
 from drivers.sensor_chain import SensorChain, SensorModel
 from drivers.shaker import ShakerParams
-from sim.params import DampingParams, RigParams, RootParams
+from sim.params import DampingParams, RigParams, RootParams, SimulationInputError
 
 # what the physics provides, per time step
 SIGNALS = (
@@ -941,7 +942,12 @@ class SimulatedRig(AcquisitionDevice):
         k0 = self._read_samples
         fault = self._due_fault(k0, n)
         m = n if fault is None else fault[1]
-        physical = self._advance(self._take(m))[self._rows]
+        try:
+            physical = self._advance(self._take(m))[self._rows]
+        except SimulationInputError as exc:    # SimulationDivergedError: the state is lost
+            self._physics.reset()
+            self._fail(SimulationDiverged(
+                f"at t = {k0 / self._rate:.4f} s: {' '.join(str(exc).split())}"), m=0, k0=k0)
         if m < n:  # a fault cuts the block: pad so the noise stream matches an undisturbed run
             padded = np.zeros((physical.shape[0], n))
             padded[:, :m] = physical

@@ -278,3 +278,39 @@ def test_real_rig_gap_study_asks_the_operator_with_the_drive_at_zero(cfg, tmp_pa
             assert p.params["force_amplitude_measured"] == pytest.approx(15.0, rel=0.01)
             drive = np.asarray(p["drive"])
             assert abs(drive[0]) < 1e-6                          # each point starts from rest
+
+
+def test_simulation_diverging_mid_acquisition_is_a_fault(cfg, tmp_path):
+    """Issue 8: sim.vibro_impact.SimulationDivergedError raised by the simulated rig's physics
+    mid-run (here the stepper is made to raise it from 0.5 s on, with the stepper's own message)
+    is a fault: status failed with the reason, the drive ramped to exactly 0 V on a model at
+    rest, everything read before kept, exit 4 (AcquisitionAborted)."""
+    from drivers.simulated import SimulatedRig
+    from sim.vibro_impact import SimulationDivergedError, diverged_message
+
+    rig = SimulatedRig.from_config(cfg, seed=1)
+    rig.configure(cfg.daq.input_specs(), cfg.daq.output_spec(), cfg.daq.sample_rate, cfg.daq.block_size())
+    stepper = rig._physics._stepper
+    real_step = stepper.step
+
+    def step(u, out=None):
+        if stepper.time > 0.5:
+            raise SimulationDivergedError(diverged_message(stepper.system, stepper.dt, stepper.time))
+        return real_step(u, out)
+
+    stepper.step = step
+    out = tmp_path / "div.h5"
+    with pytest.raises(Exception) as info:
+        SineDwell(cfg, {"fe": 60.0, "force": 15.0, "gap": 5e-4}, out, device=rig).run()
+    assert getattr(info.value, "exit_code", None) == 4
+    assert "simulation diverged" in str(info.value)
+    with open_recording(out) as rec:
+        assert rec.status == "aborted" and rec.abort_reason.startswith("failed: ")
+        assert "simulation diverged" in rec.abort_reason and rec.attrs["end_status"] == "failed"
+        p = rec.points[0]
+        assert p.n_samples / RATE == pytest.approx(0.5, abs=0.05)
+        assert np.all(np.isfinite(np.asarray(p["force"])))
+    drive = rig.drive_log
+    assert drive[-1] == 0.0 and not rig._running
+    ramp = int(cfg.safety.abort_ramp_time * RATE)
+    assert np.all(np.abs(np.diff(drive[-ramp - 50:])) < 0.01)          # a ramp, not a step
