@@ -870,11 +870,12 @@ class SimulatedRig(AcquisitionDevice):
         data = np.array(drive, dtype=np.float64, copy=True)
         if data.ndim != 1 or data.size == 0:
             raise LimitExceeded(f"drive block must be 1-D and non-empty, got shape {data.shape}")
-        if not np.all(np.isfinite(data)):
+        d_min, d_max = float(data.min()), float(data.max())      # NaN or inf shows in these
+        if not (math.isfinite(d_min) and math.isfinite(d_max)):
             raise LimitExceeded("drive block holds NaN or inf; nothing written")
         low, high = self._output.min_voltage, self._output.max_voltage
-        if data.min() < low or data.max() > high:
-            raise LimitExceeded(f"drive {data.min():.4g}..{data.max():.4g} V is outside the output "
+        if d_min < low or d_max > high:
+            raise LimitExceeded(f"drive {d_min:.4g}..{d_max:.4g} V is outside the output "
                                 f"range {low}..{high} V; nothing written")
         if self._queue_limit is not None and self._queued + data.size > self._queue_limit:
             raise LimitExceeded(
