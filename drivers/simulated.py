@@ -522,8 +522,7 @@ class VibroImpactPhysics:
         ends[6, 1:] = e
         self._last = ends[:, -1].copy()
         y = interval_means(ends, self.dt, self._shaker)
-        if impulses is not None:
-            y[_INDEX["hammer_force"]] = impulses / self.dt
+        y[_INDEX["hammer_force"]] = 0.0 if impulses is None else impulses / self.dt
         return y
 
     def _hit(self, e: np.ndarray, impulses: np.ndarray) -> np.ndarray:
@@ -589,6 +588,7 @@ def interval_means(ends: np.ndarray, dt: float, shaker) -> np.ndarray:
     y[_INDEX["contact_force"]] = trap[4]
     y[_INDEX["coil_current"]] = i_mean
     y[_INDEX["coil_voltage"]] = e_mean
+    y[_INDEX["hammer_force"]] = 0.0          # the hammer is not part of the shaker's physics
     return y
 
 

@@ -84,9 +84,9 @@ force (--trigger, default "5 N") starts a frame of --frame (default "2 s", resol
 raw; a double hit or a response that has not decayed by the frame's end is recorded, marked
 rejected and not counted. The shaker's drive stays at 0 V. Tap where modes 1-3 all move: the
 shroud sits near a node of the passive blade's third flexural mode; ~85 mm from the root (of
-155 mm) moves all three. On the NI rig the command waits up to --timeout for each hit; the
-simulated rig hits a half-sine of --pulse (default "0.5 ms") and --hit-force (default "20 N")
-peak every frame + 0.5 s. Prints the modes identified from H1 (response / hammer) over the
+155 mm) moves all three. On the NI rig the command waits up to --timeout for each accepted
+hit; the simulated rig hits a half-sine of --pulse (default "0.5 ms") and --hit-force (default
+"20 N") peak every frame + 0.5 s. Prints the modes identified from H1 (response / hammer) over the
 accepted hits (rectangular window per frame) up to --f-max.
 """,
 }
@@ -136,7 +136,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
             q.add_argument("--trigger", default="5 N", help='trigger level on the hammer force, default "5 N"')
             q.add_argument("--hammer-channel", default="hammer", help="the hammer's [daq.channels] entry")
             q.add_argument("--response", default=None, help="response channel (default: the blade's accelerometer)")
-            q.add_argument("--timeout", default="60 s", help='longest wait for one hit, default "60 s"')
+            q.add_argument("--timeout", default="60 s", help='longest wait for the next accepted hit, default "60 s"')
             q.add_argument("--hit-force", default="20 N", help='simulated rig: peak hammer force, default "20 N"')
             q.add_argument("--pulse", default="0.5 ms", help='simulated rig: hammer pulse length, default "0.5 ms"')
             q.add_argument("--f-max", default="2 kHz", help='highest frequency identified, default "2 kHz"')

@@ -18,12 +18,12 @@ What :class:`TapTest` does:
    ``hit_peak_force``, ``accepted`` and ``reject_reason``;
 3. a hit is rejected (recorded, not counted) when the hammer bounced (a second pulse over the
    trigger level after the force has stayed below half of it for ``release`` seconds) or the
-   response has not decayed by the frame's end (the last 10 % of the frame above 2 % of the
-   frame's peak: the rectangular window would leak);
+   response has not decayed by the frame's end (the last 10 % of the frame above 0.5 % of the
+   frame's peak and above the noise before the hit: the rectangular window would leak);
 4. after ``hits`` accepted hits the test ends (status ``finished``).
 
 On the NI rig the operator taps (the command says where, then waits up to ``timeout`` s for
-each hit); on the simulated rig a :class:`drivers.simulated.SimulatedHammer` hits a half-sine
+each accepted hit); on the simulated rig a :class:`drivers.simulated.SimulatedHammer` hits a half-sine
 pulse of ``pulse`` seconds and ``hit_force`` peak at ``position`` every
 ``frame + 0.5 s``.
 
@@ -48,7 +48,8 @@ from rigtools.procedures.dwell import MAX_GAP, SineProcedure
 DEFAULT_HAMMER = dict(physical_channel="Dev1/ai3", kind="force", sensitivity=2.25,
                       sensitivity_units="mV/N", excitation_current=0.004, min_value=-2200.0,
                       max_value=2200.0, location="impact hammer (simulated rig default)")
-DECAY_FRACTION = 0.02       # the last 10 % of a frame must stay below this share of its peak
+DECAY_FRACTION = 0.005      # the last 10 % of a frame must stay below this share of its peak
+NOISE_FACTOR = 6.0          # ... or below this many times the rms noise before the hit
 
 
 class TapParameters(BaseModel):
@@ -66,7 +67,7 @@ class TapParameters(BaseModel):
     gap: Optional[float] = Field(None, ge=0, le=MAX_GAP)
     hammer_channel: str = "hammer"
     response: Optional[str] = None
-    timeout: float = Field(60.0, gt=0, le=3600, description="longest wait for one hit, s")
+    timeout: float = Field(60.0, gt=0, le=3600, description="longest wait for the next accepted hit, s")
     hit_force: float = Field(20.0, gt=0, le=2000, description="simulated rig: peak hammer force, N")
     pulse: float = Field(5e-4, ge=5e-5, le=5e-3, description="simulated rig: half-sine pulse length, s")
 
@@ -243,7 +244,7 @@ class TapTest(SineProcedure):
         force = data[self.hammer_row]
         reason = double_hit(force, hit.pre, p.trigger, int(round(p.release * self.rate)))
         if not reason:
-            reason = undecayed(data[self.response_row])
+            reason = undecayed(data[self.response_row], hit.pre)
         accepted = not reason
         hit.point.set_attrs(point_complete=True, accepted=accepted, reject_reason=reason,
                             hit_peak_force=float(np.max(np.abs(force))))
@@ -263,17 +264,20 @@ class TapTest(SineProcedure):
         self.emit("message", text=f"tap the {p.blade} blade at {p.position * 1e3:g} mm from the root "
                                   f"(trigger {p.trigger:g} N on {p.hammer_channel})")
         wait_from = 0
-        seen = 0
+        accepted = 0
         while self.accepted < p.hits:
             self.stream.read()
             if self.stop_requested:
                 self.stream.finish(ramp_time=self.cfg.safety.abort_ramp_time)
                 raise StopRequested(self.stop_reason)
-            if self.hits_seen != seen:
-                seen, wait_from = self.hits_seen, self.trigger.total
+            if self.accepted != accepted:
+                accepted, wait_from = self.accepted, self.trigger.total
             if self.trigger.current is None and (self.trigger.total - wait_from) / self.rate > p.timeout:
-                raise UserError(f"no hit over {p.trigger:g} N on {p.hammer_channel} within {p.timeout:g} s "
-                                f"({self.accepted} of {p.hits} hits recorded)")
+                rejected = self.hits_seen - self.accepted
+                raise UserError(f"no accepted hit over {p.trigger:g} N on {p.hammer_channel} within "
+                                f"{p.timeout:g} s ({self.accepted} of {p.hits} hits accepted"
+                                + (f", {rejected} rejected: {self.result.points[-1]['reject_reason']}"
+                                   if rejected else "") + ")")
         self.stream.finish()
         self.result.summary = {"hits": self.hits_seen, "accepted": self.accepted,
                                "frame_samples": self.frame_samples, "response": self.response,
@@ -311,12 +315,16 @@ def double_hit(force: np.ndarray, start: int, level: float, release: int) -> str
     return ""
 
 
-def undecayed(response: np.ndarray) -> str:
-    """``""`` when the last 10 % of the frame stays below 2 % of the frame's peak response."""
-    r = np.abs(np.asarray(response, dtype=float))
+def undecayed(response: np.ndarray, pretrigger: int = 0) -> str:
+    """``""`` when the last 10 % of the frame stays below :data:`DECAY_FRACTION` of the frame's
+    peak response, or within the noise (``NOISE_FACTOR`` times the rms of the ``pretrigger``
+    samples before the hit); otherwise why not."""
+    x = np.asarray(response, dtype=float)
+    r = np.abs(x - (x[:pretrigger].mean() if pretrigger else 0.0))
     tail = r[int(0.9 * r.size):]
     peak = float(r.max()) if r.size else 0.0
-    if peak > 0 and tail.size and float(tail.max()) > DECAY_FRACTION * peak:
+    noise = NOISE_FACTOR * float(np.sqrt(np.mean(r[:pretrigger] ** 2))) if pretrigger else 0.0
+    if peak > 0 and tail.size and float(tail.max()) > max(DECAY_FRACTION * peak, noise):
         return (f"the response has not decayed by the frame's end ({tail.max() / peak * 100:.1f} % of "
                 f"its peak): lengthen --frame")
     return ""

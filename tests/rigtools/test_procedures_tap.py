@@ -129,3 +129,46 @@ def test_cli_tap_json_and_errors(tmp_path):
     assert ni.returncode == 2 and "[daq.channels.hammer]" in ni.stderr and "Traceback" not in ni.stderr
     unit = _rig("--backend", "sim", "--position", "85 N", "--out", str(tmp_path / "u.h5"))
     assert unit.returncode == 2 and "--position" in unit.stderr
+
+
+def test_the_rig_files_hammer_channel_is_used_and_checked(cfg, tmp_path):
+    """A [daq.channels.hammer] entry of the rig file is the hammer (its terminal and
+    sensitivity recorded); a hammer channel that is not a force channel is refused in one line;
+    a frame too short for the response to decay (0.5 s: mode 1 keeps 16 % of its amplitude) is
+    recorded but rejected, and the test waits for the next accepted hit (here --timeout ends it
+    after three rejected hits, status failed)."""
+    import tomllib
+
+    import tomli_w
+
+    from rigtools.config import default_rig_text
+    from rigtools.errors import UserError
+
+    data = tomllib.loads(default_rig_text())
+    data["daq"]["channels"]["hammer"] = {"physical_channel": "Dev1/ai3", "kind": "force",
+                                         "sensitivity": "2.25 mV/N", "excitation_current": "4 mA",
+                                         "range": "2200 N", "location": "impact hammer"}
+    path = tmp_path / "hammer.toml"
+    path.write_text(tomli_w.dumps(data))
+    rig = load_rig(path)
+    out = tmp_path / "h.h5"
+    r = TapTest(rig, {"position": 0.085, "hits": 1, "gap": WIDE}, out, backend="sim", seed=1).run()
+    assert r.status is Status.FINISHED
+    with open_recording(out) as rec:
+        ch = rec.points[0].channels["hammer"]
+        assert ch.physical_channel == "Dev1/ai3" and ch.sensitivity == pytest.approx(2.25)
+    data["daq"]["channels"]["hammer"]["kind"] = "accel"
+    data["daq"]["channels"]["hammer"]["sensitivity"] = "10 mV/g"
+    data["daq"]["channels"]["hammer"]["range"] = "4900 m/s^2"
+    path.write_text(tomli_w.dumps(data))
+    with pytest.raises(UserError, match=r"is kind 'accel': the hammer channel must be kind = \"force\""):
+        TapTest(load_rig(path), {"position": 0.085, "hits": 1}, tmp_path / "x.h5", backend="sim").run()
+    short = TapTest(cfg, {"position": 0.085, "hits": 1, "frame": 0.5, "timeout": 2.5, "gap": WIDE},
+                    tmp_path / "s.h5", backend="sim", seed=1)
+    with pytest.raises(UserError, match=r"no accepted hit over 5 N on hammer within 2.5 s \(0 of 1 hits "
+                                        r"accepted, \d rejected: the response has not decayed"):
+        short.run()
+    assert short.result.points[0]["accepted"] is False
+    assert "not decayed" in short.result.points[0]["reject_reason"]
+    with open_recording(tmp_path / "s.h5") as rec:
+        assert rec.attrs["end_status"] == "failed" and not rec.points[0].params["accepted"]
