@@ -147,6 +147,13 @@ class InvalidSamples(DaqFault):
     fault = "invalid samples"
 
 
+class SimulationDiverged(DaqFault):
+    """The simulated rig's physics diverged mid-run (e.g. a contact too stiff for the time step):
+    its state is lost; the drive is ramped to zero on a model at rest."""
+
+    fault = "simulation diverged"
+
+
 class SafetyAbort(DaqFault):
     """A safety limit was crossed; names the channel, the value and the limit."""
 

@@ -110,13 +110,20 @@ class SensorChain:
             highpass_coefficients(s.highpass_hz, self.sample_rate) if s.highpass_hz > 0 else None
             for s in self.sensors
         ]
-        self._zi = [np.zeros(1) for _ in range(n)]
+        # channels with the same coupling corner are filtered in one call (one lfilter call per
+        # block costs as much as thousands of samples: the simulated rig reads 20 ms pieces)
+        groups: dict[float, list[int]] = {}
+        for i, s in enumerate(self.sensors):
+            if s.highpass_hz > 0:
+                groups.setdefault(s.highpass_hz, []).append(i)
+        self._groups = [(np.array(rows), self._filters[rows[0]], np.zeros((len(rows), 1)))
+                        for rows in groups.values()]
         self.overloaded = np.zeros(n, dtype=bool)
         self.first_overload = -1   # sample index of the first overload in the last block, or -1
 
     def reset(self) -> None:
         """Coupling filters back to rest, overload flags cleared."""
-        for z in self._zi:
+        for _, _, z in self._groups:
             z[:] = 0.0
         self.overloaded[:] = False
         self.first_overload = -1
@@ -133,9 +140,8 @@ class SensorChain:
         v = x * self._gain
         if self._any_noise:
             v = v + self._noise * self._rng.standard_normal(x.shape)
-        for i, ba in enumerate(self._filters):
-            if ba is not None:
-                v[i], self._zi[i] = signal.lfilter(ba[0], ba[1], v[i], zi=self._zi[i])
+        for rows, (b, a), zi in self._groups:
+            v[rows], zi[:] = signal.lfilter(b, a, v[rows], axis=1, zi=zi)
         if self._any_noise:
             v = v + self._adc_noise * self._rng.standard_normal(x.shape)
         # NaN compares False: it passes through as NaN (the device flags it separately)

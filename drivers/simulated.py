@@ -68,12 +68,13 @@ from drivers.contracts import (
     OutputChannelSpec,
     OutputUnderflow,
     SensorOverload,
+    SimulationDiverged,
 )
 from drivers.drive_signals import raised_cosine
 from drivers.safety import MAX_TIME_TO_ZERO, output_queue_limit
 from drivers.sensor_chain import SensorChain, SensorModel
 from drivers.shaker import ShakerParams
-from sim.params import DampingParams, RigParams, RootParams
+from sim.params import DampingParams, RigParams, RootParams, SimulationInputError
 
 # what the physics provides, per time step
 SIGNALS = (
@@ -84,6 +85,7 @@ SIGNALS = (
     "coil_voltage",        # V, amplifier output
     "coil_current",        # A
     "contact_force",       # N, between the shrouds (>= 0)
+    "hammer_force",        # N, impact hammer's force (SimulatedHammer; 0 without one)
 )
 _INDEX = {name: i for i, name in enumerate(SIGNALS)}
 
@@ -198,6 +200,65 @@ class Fault:
         if self.at_block is not None:
             return self.at_block * block_size + block_size // 2
         return int(round(self.at_time * sample_rate))
+
+
+# ------------------------------------------------------------------------------------ hammer
+
+
+@dataclass(frozen=True)
+class SimulatedHammer:
+    """An operator hitting a blade with an impact hammer, at regular intervals (SI).
+
+    Each hit is a half-sine force pulse ``F(t) = peak * sin(pi t / duration)`` normal to the
+    blade (y) at ``position`` (m from the root) of ``blade``; hit ``i`` starts at
+    ``first + i * interval`` with its peak scattered by ``scatter`` (relative, uniform, seeded)
+    as a hand-held hammer's would be. ``hits`` hits in all (``None``: as long as the run lasts).
+    """
+
+    blade: str = "passive"
+    position: float = 0.085
+    peak: float = 20.0
+    duration: float = 5e-4
+    interval: float = 2.5
+    first: float = 0.3
+    scatter: float = 0.1
+    hits: int | None = None
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        if self.blade not in ("active", "passive"):
+            raise ConfigurationError(f"hammer blade {self.blade!r}: use active or passive")
+        for name in ("position", "peak", "duration", "interval", "first"):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v >= 0) or (name != "first" and v == 0):
+                raise ConfigurationError(f"hammer {name} = {v!r} must be > 0")
+        if self.duration >= self.interval:
+            raise ConfigurationError("hammer: the pulse must be shorter than the interval between hits")
+
+    def _peak(self, i: int) -> float:
+        u = np.random.default_rng([self.seed, i]).uniform(-1.0, 1.0)
+        return self.peak * (1.0 + self.scatter * u)
+
+    def impulses(self, k0: int, n: int, dt: float) -> np.ndarray:
+        """Impulse of the hammer force over each sample interval ``[k dt, (k + 1) dt)``,
+        ``k = k0 .. k0 + n - 1``, N*s (exact integrals of the half-sines)."""
+        out = np.zeros(n)
+        t0, t1 = k0 * dt, (k0 + n) * dt
+        i_lo = max(0, int(math.floor((t0 - self.first - self.duration) / self.interval)))
+        i_hi = int(math.floor((t1 - self.first) / self.interval))
+        if self.hits is not None:
+            i_hi = min(i_hi, self.hits - 1)
+        w = math.pi / self.duration
+        for i in range(i_lo, i_hi + 1):
+            ts = self.first + i * self.interval
+            a = max(k0, int(math.floor(ts / dt)))
+            b = min(k0 + n, int(math.ceil((ts + self.duration) / dt)))
+            if b <= a:
+                continue
+            edges = np.clip(np.arange(a, b + 1) * dt - ts, 0.0, self.duration)
+            # int F dt = peak / w * (cos(w s0) - cos(w s1))
+            out[a - k0:b - k0] += self._peak(i) / w * -np.diff(np.cos(w * edges))
+        return out
 
 
 # ----------------------------------------------------------------------------------- physics
@@ -377,7 +438,8 @@ class VibroImpactPhysics:
         from sim.reduction import reduce_rig_model
         from sim.vibro_impact import OUT_COLUMNS, SimulationInputError, VibroImpactStepper
 
-        self.system = reduce_rig_model(model)
+        self.system = reduce_rig_model(model, keep_bases=True)
+        self._model = model
         try:
             self._stepper = VibroImpactStepper(self.system, dt, shaker=shaker.coupling())
         except SimulationInputError as exc:
@@ -388,11 +450,51 @@ class VibroImpactPhysics:
         self._shaker = shaker.coupling()
         self._last = np.zeros(7)       # the end values of the previous step (at rest: zero)
         self.dt = dt
+        self._k = 0                    # steps since the last reset
+        self._hammer: SimulatedHammer | None = None
+        self._kick = np.zeros(0)
 
     def reset(self) -> None:
         """Back to rest."""
         self._stepper.reset()
         self._last[:] = 0.0
+        self._k = 0
+
+    def set_hammer(self, hammer: SimulatedHammer | None) -> None:
+        """Hit a blade with ``hammer`` (``None``: no hammer).
+
+        A hit's impulse over each sample interval goes into the modal velocities at the start
+        of that interval: ``dv_j = phi_j(x_h) * I`` with ``phi_j(x_h)`` the Ritz vector ``j`` of
+        the reduced model at the hit DOF (the kept normal modes and the static-correction
+        shapes of the blade; on the active blade in the basis re-diagonalised with the shaker
+        armature, :meth:`sim.reduction.ReducedSystem.with_attached`). Exact for modes with
+        periods much longer than a sample; the pulse (0.2-1 ms) spans tens of samples.
+        """
+        self._hammer = hammer
+        if hammer is None:
+            self._kick = np.zeros(0)
+            return
+        blade = self._model.blade(hammer.blade)
+        length = float(blade.node_x[-1])
+        if not 0 < hammer.position <= length:
+            raise ConfigurationError(f"hammer position {hammer.position * 1e3:g} mm is not on the "
+                                     f"{hammer.blade} blade (0 .. {length * 1e3:g} mm from the root)")
+        node = blade.node_at(hammer.position)
+        basis = self.system.bases[hammer.blade]
+        phi_h = basis[blade.dof(node, 1)]
+        attached = self._stepper.system
+        which = np.flatnonzero(attached.blade == (0 if hammer.blade == "active" else 1))
+        if hammer.blade == "active" and self._stepper.shaker is not None:
+            # the same re-diagonalisation as ReducedSystem.with_attached
+            sh = self._stepper.shaker
+            pf = self.system.shapes[2, which]
+            m = np.eye(which.size) + sh.armature_mass * np.outer(pf, pf)
+            k = np.diag(self.system.omega[which] ** 2) + sh.suspension_stiffness * np.outer(pf, pf)
+            _, t = scipy.linalg.eigh(k, m)
+            phi_h = phi_h @ t
+        self._kick = np.zeros(attached.n_modes)
+        self._kick[which] = phi_h
+        self._phi_f = np.ascontiguousarray(attached.shapes[2])
 
     @property
     def gap(self) -> float:
@@ -407,14 +509,39 @@ class VibroImpactPhysics:
         """Advance over ``coil_voltage`` (V, at the end of each step); ``(len(SIGNALS), n)`` out,
         each value the mean of the signal over its step (:func:`interval_means`)."""
         e = np.ascontiguousarray(coil_voltage, dtype=float)
-        data = self._stepper.step(e).data
+        impulses = None if self._hammer is None else self._hammer.impulses(self._k, e.size, self.dt)
+        if impulses is None or not impulses.any():
+            data = self._stepper.step(e).data
+        else:
+            data = self._hit(e, impulses)
+        self._k += e.size
         ends = np.empty((7, e.size + 1))
         ends[:, 0] = self._last
         for row, c in enumerate(self._cols):
             ends[row, 1:] = data[:, c]
         ends[6, 1:] = e
         self._last = ends[:, -1].copy()
-        return interval_means(ends, self.dt, self._shaker)
+        y = interval_means(ends, self.dt, self._shaker)
+        y[_INDEX["hammer_force"]] = 0.0 if impulses is None else impulses / self.dt
+        return y
+
+    def _hit(self, e: np.ndarray, impulses: np.ndarray) -> np.ndarray:
+        """Step over ``e`` with the hammer's impulses put in at the start of their intervals."""
+        from sim.vibro_impact import N_OUT
+
+        data = np.empty((e.size, N_OUT))
+        start = 0
+        for k in np.flatnonzero(impulses):
+            if k > start:
+                self._stepper.step(e[start:k], out=data[start:k])
+            st = self._stepper.state
+            dv = self._kick * impulses[k]
+            st.v += dv
+            if self._stepper.shaker is not None:
+                st.scalars[4] += float(self._phi_f @ dv)     # the coil sees the force point's velocity
+            start = int(k)
+        self._stepper.step(e[start:], out=data[start:])
+        return data
 
 
 def interval_means(ends: np.ndarray, dt: float, shaker) -> np.ndarray:
@@ -461,6 +588,7 @@ def interval_means(ends: np.ndarray, dt: float, shaker) -> np.ndarray:
     y[_INDEX["contact_force"]] = trap[4]
     y[_INDEX["coil_current"]] = i_mean
     y[_INDEX["coil_voltage"]] = e_mean
+    y[_INDEX["hammer_force"]] = 0.0          # the hammer is not part of the shaker's physics
     return y
 
 
@@ -480,13 +608,13 @@ def vibro_impact_available() -> bool:
 def default_signal(spec: InputChannelSpec) -> str:
     """Which physical signal an input measures, from its kind and name.
 
-    force -> ``force``; voltage -> ``coil_voltage`` (amplifier monitor); accel -> ``passive_tip_accel``
+    force -> ``force`` (``hammer_force`` if the name says hammer); voltage -> ``coil_voltage`` (amplifier monitor); accel -> ``passive_tip_accel``
     if the name says passive, ``force_point_accel`` if it says force/drive point, else
     ``active_tip_accel``.
     """
     name = spec.name.lower()
     if spec.kind == "force":
-        return "force"
+        return "hammer_force" if "hammer" in name else "force"
     if spec.kind == "voltage":
         return "coil_current" if "current" in name else "coil_voltage"
     if "passive" in name:
@@ -540,7 +668,8 @@ class SimulatedRig(AcquisitionDevice):
                  abort_ramp_time: float = 0.05, signal_map: dict[str, str] | None = None,
                  seed: int | None = None, keep_truth: bool = False,
                  drive_log_seconds: float = 60.0,
-                 max_time_to_zero: float | None = MAX_TIME_TO_ZERO) -> None:
+                 max_time_to_zero: float | None = MAX_TIME_TO_ZERO,
+                 hammer: SimulatedHammer | None = None) -> None:
         if not 0 < abort_ramp_time <= 0.1:
             raise ConfigurationError(f"abort_ramp_time = {abort_ramp_time} s must be in (0, 0.1]")
         if model not in ("auto", "vibro-impact", "linear"):
@@ -560,6 +689,7 @@ class SimulatedRig(AcquisitionDevice):
         self.keep_truth = keep_truth
         self.drive_log_seconds = float(drive_log_seconds)
         self.max_time_to_zero = max_time_to_zero
+        self.hammer = hammer
         self._queue_limit: int | None = None
         self._rig_model = None
         self._physics = None
@@ -641,10 +771,26 @@ class SimulatedRig(AcquisitionDevice):
             else:
                 self._physics = VibroImpactPhysics(self.rig_model(), self.shaker, dt)
             self._physics_dt = dt
+        self._apply_hammer()
         self._queue_limit = (None if self.max_time_to_zero is None else
                              output_queue_limit(self._rate, self.abort_ramp_time, self.max_time_to_zero))
         self._reset_stream()
         return self._rate
+
+    def set_hammer(self, hammer: SimulatedHammer | None) -> None:
+        """An operator with an impact hammer (:class:`SimulatedHammer`; ``None``: none). Its
+        hits are timed from the start of the stream; a ``hammer`` force input records them."""
+        self.hammer = hammer
+        if self._physics is not None:
+            self._apply_hammer()
+
+    def _apply_hammer(self) -> None:
+        if not hasattr(self._physics, "set_hammer"):
+            if self.hammer is not None:
+                raise ConfigurationError("the linear model holds the active blade alone: an impact "
+                                         "hammer needs the vibro-impact model")
+            return
+        self._physics.set_hammer(self.hammer)
 
     @property
     def output_queue_limit(self) -> int | None:
@@ -724,11 +870,12 @@ class SimulatedRig(AcquisitionDevice):
         data = np.array(drive, dtype=np.float64, copy=True)
         if data.ndim != 1 or data.size == 0:
             raise LimitExceeded(f"drive block must be 1-D and non-empty, got shape {data.shape}")
-        if not np.all(np.isfinite(data)):
+        d_min, d_max = float(data.min()), float(data.max())      # NaN or inf shows in these
+        if not (math.isfinite(d_min) and math.isfinite(d_max)):
             raise LimitExceeded("drive block holds NaN or inf; nothing written")
         low, high = self._output.min_voltage, self._output.max_voltage
-        if data.min() < low or data.max() > high:
-            raise LimitExceeded(f"drive {data.min():.4g}..{data.max():.4g} V is outside the output "
+        if d_min < low or d_max > high:
+            raise LimitExceeded(f"drive {d_min:.4g}..{d_max:.4g} V is outside the output "
                                 f"range {low}..{high} V; nothing written")
         if self._queue_limit is not None and self._queued + data.size > self._queue_limit:
             raise LimitExceeded(
@@ -796,7 +943,12 @@ class SimulatedRig(AcquisitionDevice):
         k0 = self._read_samples
         fault = self._due_fault(k0, n)
         m = n if fault is None else fault[1]
-        physical = self._advance(self._take(m))[self._rows]
+        try:
+            physical = self._advance(self._take(m))[self._rows]
+        except SimulationInputError as exc:    # SimulationDivergedError: the state is lost
+            self._physics.reset()
+            self._fail(SimulationDiverged(
+                f"at t = {k0 / self._rate:.4f} s: {' '.join(str(exc).split())}"), m=0, k0=k0)
         if m < n:  # a fault cuts the block: pad so the noise stream matches an undisturbed run
             padded = np.zeros((physical.shape[0], n))
             padded[:, :m] = physical

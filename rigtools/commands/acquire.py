@@ -1,4 +1,4 @@
-"""``rig acquire dwell|sweep|study|frf``: lab procedures on the rig (NI-DAQmx) or the simulated rig.
+"""``rig acquire dwell|sweep|study|frf|tap``: lab procedures on the rig (NI-DAQmx) or the simulated rig.
 
 Parse, call :mod:`rigtools.procedures`, print. Top-level imports stay light (``rig --help``).
 """
@@ -13,7 +13,7 @@ import sys
 from rigtools.errors import UserError
 from rigtools.options import check_out, gap, quantity, seed
 
-HELP = "lab procedures on the rig: force-controlled dwell, stepped sine, study, FRF test"
+HELP = "lab procedures on the rig: force-controlled dwell, stepped sine, study, FRF test, tap test"
 COMMON_EPILOG = """\
 Backends: --backend nidaq (default) drives the NI-DAQmx rig of the rig file's [daq]; --backend sim
 runs the simulated rig (the FE model of [test_article] through the [shaker] model), as fast as
@@ -72,6 +72,23 @@ Recorded raw (drive and inputs); the command prints H1 (response/force) peaks in
 their coherence over the averaged frames as a quick check. --level is the chirp's peak or the
 burst's rms, V.
 """,
+    "tap": """examples:
+  rig acquire tap --backend sim --blade passive --position "85 mm" --hits 5 --gap "5 mm" --out t.h5
+  rig acquire tap --rig lab.toml --blade passive --position "85 mm" --hits 5 --out tap.h5
+
+An impact-hammer test of one blade (the passive blade has no shaker). The hammer's force is its
+own [daq.channels] entry (kind = "force", IEPE; --hammer-channel, default "hammer"); the
+response is the blade's shroud accelerometer (--response). A software trigger on the hammer
+force (--trigger, default "5 N") starts a frame of --frame (default "2 s", resolution 1/frame),
+--pretrigger (default "10 ms") of it from before the hit; one recording point per hit, recorded
+raw; a double hit or a response that has not decayed by the frame's end is recorded, marked
+rejected and not counted. The shaker's drive stays at 0 V. Tap where modes 1-3 all move: the
+shroud sits near a node of the passive blade's third flexural mode; ~85 mm from the root (of
+155 mm) moves all three. On the NI rig the command waits up to --timeout for each accepted
+hit; the simulated rig hits a half-sine of --pulse (default "0.5 ms") and --hit-force (default
+"20 N") peak every frame + 0.5 s. Prints the modes identified from H1 (response / hammer) over the
+accepted hits (rectangular window per frame) up to --f-max.
+""",
 }
 FAULT_PATTERN = re.compile(r"^\s*([A-Za-z_-]+)\s*@\s*([^:]+?)\s*(?::\s*([\w.-]+))?\s*$")
 
@@ -83,7 +100,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     for name, text in (("dwell", "force-controlled sine dwell at one frequency"),
                        ("sweep", "force-controlled stepped sine up/down with harmonics and jumps"),
                        ("study", "force-controlled gap / force / frequency study (the paper's form)"),
-                       ("frf", "burst random or periodic chirp FRF test, recorded raw")):
+                       ("frf", "burst random or periodic chirp FRF test, recorded raw"),
+                       ("tap", "impact-hammer (tap) test of a blade, one frame per hit, recorded raw")):
         q = sub.add_parser(name, help=text, description=text + ".", epilog=EPILOGS[name] + "\n" + COMMON_EPILOG,
                            formatter_class=argparse.RawDescriptionHelpFormatter)
         if name == "study":
@@ -94,7 +112,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
             q.add_argument("--resume", action="store_true", help="continue an interrupted study in --out")
         if name in ("dwell", "study"):
             q.add_argument("--fe", required=(name == "dwell"), help='excitation frequency, e.g. "60 Hz"')
-        if name != "frf":
+        if name not in ("frf", "tap"):
             q.add_argument("--force", required=(name != "study"), help='force amplitude F0, e.g. "15 N"')
             q.add_argument("--periods", type=int, default=None, help="whole periods recorded per point")
             q.add_argument("--max-updates", type=int, default=10, help="force-control updates (default 10)")
@@ -109,6 +127,19 @@ def register(subparsers: argparse._SubParsersAction) -> None:
             q.add_argument("--level", required=True, help='chirp peak or burst rms, e.g. "0.3 V"')
             q.add_argument("--frame", default="1 s", help='frame length (resolution 1/frame), default "1 s"')
             q.add_argument("--averages", type=int, default=10)
+        if name == "tap":
+            q.add_argument("--blade", choices=("passive", "active"), default="passive")
+            q.add_argument("--position", required=True, help='hit position from the root, e.g. "85 mm"')
+            q.add_argument("--hits", type=int, default=5, help="accepted hits averaged (default 5)")
+            q.add_argument("--frame", default="2 s", help='frame per hit, default "2 s"')
+            q.add_argument("--pretrigger", default="10 ms", help='kept before the trigger, default "10 ms"')
+            q.add_argument("--trigger", default="5 N", help='trigger level on the hammer force, default "5 N"')
+            q.add_argument("--hammer-channel", default="hammer", help="the hammer's [daq.channels] entry")
+            q.add_argument("--response", default=None, help="response channel (default: the blade's accelerometer)")
+            q.add_argument("--timeout", default="60 s", help='longest wait for the next accepted hit, default "60 s"')
+            q.add_argument("--hit-force", default="20 N", help='simulated rig: peak hammer force, default "20 N"')
+            q.add_argument("--pulse", default="0.5 ms", help='simulated rig: hammer pulse length, default "0.5 ms"')
+            q.add_argument("--f-max", default="2 kHz", help='highest frequency identified, default "2 kHz"')
         q.add_argument("--gap", default=None, help='shroud gap, e.g. "0.5 mm" (default: as set / the rig file)')
         q.add_argument("--backend", choices=("nidaq", "sim"), default="nidaq",
                        help="nidaq: the NI-DAQmx rig (default); sim: the simulated rig")
@@ -254,6 +285,21 @@ def build(args, cfg, out, kwargs):
         if args.resume:
             kwargs = {**kwargs, "overwrite": False}
         return P.RigStudy(cfg, params, out, resume=args.resume, confirm_gap=_confirm(args), **kwargs)
+    if proc_name == "tap":
+        from rigtools.procedures.tap import TapTest
+
+        if not 1 <= args.hits <= 1000:
+            raise UserError(f"--hits = {args.hits}: use 1..1000")
+        params = {"blade": args.blade, "position": quantity(args.position, "length", "--position"),
+                  "hits": args.hits, "frame": quantity(args.frame, "time", "--frame"),
+                  "pretrigger": quantity(args.pretrigger, "time", "--pretrigger"),
+                  "trigger": quantity(args.trigger, "force", "--trigger"), "gap": _gap(args),
+                  "hammer_channel": args.hammer_channel, "response": args.response,
+                  "timeout": quantity(args.timeout, "time", "--timeout"),
+                  "hit_force": quantity(args.hit_force, "force", "--hit-force"),
+                  "pulse": quantity(args.pulse, "time", "--pulse")}
+        quantity(args.f_max, "frequency", "--f-max")
+        return TapTest(cfg, params, out, **kwargs)
     from rigtools.procedures.frf import FrfTest
 
     band = [quantity(t, "frequency", "--band") for t in args.band.split(":")]
@@ -340,6 +386,16 @@ def report(args, proc, result) -> dict:
         from rigtools.procedures.frf import quick_check
 
         doc["check"] = quick_check(proc.out, proc.params.response)
+    elif args.procedure == "tap":
+        doc.update(result.summary)
+        doc["hits_detail"] = result.points
+        if result.status.value == "finished":
+            from rigtools.procedures.tap import tap_analysis
+
+            f_max = min(quantity(args.f_max, "frequency", "--f-max"), 0.45 * proc.rate)
+            res = tap_analysis(proc.out, proc.response, f_min=5.0, f_max=f_max)
+            doc["modes"] = [{"frequency_hz": m.frequency_hz, "damping_ratio": m.damping_ratio}
+                            for m in res.modes[proc.response].modes]
     return doc
 
 
@@ -375,6 +431,20 @@ def print_summary(args, doc: dict) -> None:
                 console.print(f"jump {d}: {j['from_hz']:g} -> {j['to_hz']:g} Hz ({j['kind']}, {j['change'] * 100:.0f} %)")
         if "peak_hz" in doc:
             console.print(f"response peak per newton at {doc['peak_hz']:.4g} Hz")
+        console.print(f"wrote {doc['file']} ({doc['status']})")
+    elif args.procedure == "tap":
+        console.print(f"{doc.get('accepted', 0)} of {doc.get('hits', 0)} hits accepted on "
+                      f"{doc.get('response', '')} / {doc.get('hammer', '')}")
+        for h in doc.get("hits_detail", []):
+            if not h["accepted"]:
+                console.print(f"hit {h['hit']} rejected: {h['reject_reason']}")
+        if doc.get("modes"):
+            table = Table(title="modes from H1 (response / hammer force)")
+            for col in ("frequency Hz", "damping %"):
+                table.add_column(col)
+            for m in doc["modes"]:
+                table.add_row(f"{m['frequency_hz']:.2f}", f"{m['damping_ratio'] * 100:.2f}")
+            console.print(table)
         console.print(f"wrote {doc['file']} ({doc['status']})")
     elif args.procedure == "frf":
         chk = doc.get("check")

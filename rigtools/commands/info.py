@@ -47,7 +47,8 @@ def summary(rec: Recording) -> dict[str, Any]:
                 "location": ch.location})
     return {
         "path": rec.path, "status": rec.status, "complete": rec.complete,
-        "abort_reason": rec.abort_reason, "backend": rec.backend, "created": rec.created,
+        "abort_reason": rec.abort_reason, "end_status": rec.attrs.get("end_status"),
+        "end_reason": rec.attrs.get("end_reason"), "backend": rec.backend, "created": rec.created,
         "ended": rec.ended, "software_version": rec.software_version,
         "schema_version": rec.schema_version, "opened_as": rec.opened_as,
         "writer": rec.writer, "experiment": rec.experiment,
@@ -103,6 +104,9 @@ def run(args: argparse.Namespace) -> int:
         status += f" (being written now: {info['writer']}; showing what is there)"
     elif info["status"] == "recording":
         status += " (incomplete: the writer stopped without closing the file)"
+    if info["end_status"]:
+        status += f"; procedure {info['end_status']}" + (f" ({info['end_reason']})" if info["end_reason"]
+                                                          and info["status"] != "aborted" else "")
     console.print(f"[bold]{info['path']}[/bold]  status {status}")
     console.print(f"backend {info['backend']}, created {info['created']}, "
                   f"rigtools {info['software_version']}, schema v{info['schema_version']}"

@@ -1,6 +1,6 @@
 """Lab procedures on :class:`rigtools.acquisition.BlockStream`, shared by lab scripts and the CLI.
 
->>> from rigtools.procedures import SineDwell, SteppedSine, RigStudy, FrfTest      # doctest: +SKIP
+>>> from rigtools.procedures import SineDwell, SteppedSine, RigStudy, FrfTest, TapTest  # doctest: +SKIP
 >>> result = SineDwell(cfg, {"fe": 60.0, "force": 15.0, "gap": 5e-4}, "d.h5", backend="sim").run()
 
 Every procedure validates its parameters (pydantic, SI units), runs start-up -> execute ->
@@ -24,7 +24,8 @@ from rigtools.procedures.sweep import (
     SweepParameters,
     detect_jumps,
 )
+from rigtools.procedures.tap import TapParameters, TapTest
 
 __all__ = ["ControlParameters", "DwellParameters", "Procedure", "ProcedureFailed",
            "ProcedureResult", "ProgressEvent", "RigStudy", "SineDwell", "Status", "SteppedSine",
-           "StopRequested", "StudyParameters", "SweepParameters", "detect_jumps"]
+           "StopRequested", "StudyParameters", "SweepParameters", "TapParameters", "TapTest", "detect_jumps"]

@@ -49,6 +49,17 @@ ROOT_ATTRS: dict[str, tuple[str, str]] = {
     "experiment": ("text", "the experiment description (JSON object text)"),
 }
 
+# Optional root attributes: how a procedure ended (rigtools.procedures), set after the writer
+# closed the file. status "complete" <-> end_status "finished"; "aborted" <-> "aborted" (a stop
+# request, Ctrl-C, a signal) or "failed" (a fault, a safety abort, an error), abort_reason then
+# starting "aborted: " / "failed: ".
+END_FINISHED, END_ABORTED, END_FAILED = "finished", "aborted", "failed"
+END_STATUSES = (END_FINISHED, END_ABORTED, END_FAILED)
+OPTIONAL_ROOT_ATTRS: dict[str, tuple[str, str]] = {
+    "end_status": ("text", 'how the procedure ended: "finished", "aborted" or "failed"'),
+    "end_reason": ("text", 'one line: why it ended so ("" when finished)'),
+}
+
 POINT_ATTRS: dict[str, tuple[str, str]] = {
     "start_time": ("text", "ISO 8601 UTC time the point started"),
     "end_time": ("text", 'ISO 8601 UTC time the point ended; "" if it never ended (writer killed)'),

@@ -23,7 +23,10 @@ import numpy as np
 import rigtools
 from rigtools.recording.schema import (
     CHANNEL_ATTRS,
+    END_FINISHED,
+    END_STATUSES,
     MEASURED_CHANNEL_ATTRS,
+    OPTIONAL_ROOT_ATTRS,
     POINT_ATTRS,
     POINTS_GROUP,
     ROOT_ATTRS,
@@ -146,6 +149,7 @@ def find_problems(f: h5py.File, cache: AttrCache | None = None) -> list[Problem]
         out.append(Problem("/", f"status '{status}' is not one of {', '.join(STATUSES)}", fatal=True))
     if status == STATUS_ABORTED and not root.get("abort_reason"):
         out.append(Problem("/", "status is 'aborted' but abort_reason is empty"))
+    out.extend(_end_status_problems(attrs, status, root.get("abort_reason")))
     for key in ("created", "ended"):
         text = root.get(key)
         if text:
@@ -189,6 +193,31 @@ def find_problems(f: h5py.File, cache: AttrCache | None = None) -> list[Problem]
                            + (" (the writer was killed or is still running)"
                               if status == "recording" else f": {root.get('abort_reason')}"),
                            severity=NOTE))
+    return out
+
+
+def _end_status_problems(attrs: dict[str, Any], status: str | None, abort_reason: str | None) -> list[Problem]:
+    """The optional ``end_status`` / ``end_reason`` of a procedure: their types, the word, and
+    agreement with ``status`` and ``abort_reason``."""
+    out: list[Problem] = []
+    end = {name: _check_attr(attrs, name, kind, "/", out, required=False)
+           for name, (kind, _) in OPTIONAL_ROOT_ATTRS.items()}
+    word = end.get("end_status")
+    if word is None:
+        return out
+    if word not in END_STATUSES:
+        out.append(Problem("/", f"end_status '{word}' is not one of {', '.join(END_STATUSES)}"))
+        return out
+    if status == STATUS_COMPLETE and word != END_FINISHED:
+        out.append(Problem("/", f"end_status is '{word}' but status is 'complete'"))
+    elif status == STATUS_ABORTED:
+        if word == END_FINISHED:
+            out.append(Problem("/", "end_status is 'finished' but status is 'aborted'"))
+        elif abort_reason and not abort_reason.startswith(f"{word}: "):
+            out.append(Problem("/", f"end_status is '{word}' but abort_reason does not start "
+                                    f"with '{word}: ' ({abort_reason!r})"))
+    if word != END_FINISHED and end.get("end_reason") == "":
+        out.append(Problem("/", f"end_status is '{word}' but end_reason is empty"))
     return out
 
 

@@ -12,7 +12,8 @@ EXAMPLES = Path(__file__).resolve().parents[2] / "docs" / "examples"
 
 
 @pytest.mark.parametrize("script, points", [("force_controlled_dwell.py", 1), ("gap_study.py", 3),
-                                            ("stepped_sine.py", 11), ("frf_test.py", 1)])
+                                            ("stepped_sine.py", 11), ("frf_test.py", 1),
+                                            ("tap_test.py", 5)])
 def test_example_runs(tmp_path, script, points):
     out = tmp_path / "run.h5"
     done = subprocess.run([sys.executable, str(EXAMPLES / script), str(out)], capture_output=True,
@@ -25,5 +26,5 @@ def test_example_runs(tmp_path, script, points):
 
 
 def test_every_example_is_tested():
-    tested = {"force_controlled_dwell.py", "gap_study.py", "stepped_sine.py", "frf_test.py"}
+    tested = {"force_controlled_dwell.py", "gap_study.py", "stepped_sine.py", "frf_test.py", "tap_test.py"}
     assert {p.name for p in EXAMPLES.glob("*.py")} == tested
