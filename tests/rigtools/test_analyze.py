@@ -105,7 +105,9 @@ def test_cli_analyze_frf_json_and_figures(frf_file, tmp_path):
     assert all((tmp_path / "figs" / n).stat().st_size > 10_000 for n in names)
     code, out, err = run_cli(["analyze", str(frf_file)])
     assert code == 0 and "natural frequencies" in out and "active" in out
-    assert max(len(line) for line in out.splitlines()) <= 80       # rich's default width in a pipe
+    from rigtools.runtime import WIDE_OUTPUT_COLUMNS
+
+    assert max(len(line) for line in out.splitlines()) <= WIDE_OUTPUT_COLUMNS   # rig's width in a pipe
 
 
 def test_stepped_sine_curves_match_linear_fem(study_file):
