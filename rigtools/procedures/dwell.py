@@ -17,8 +17,7 @@ from rigtools.procedures.base import (
     validate,
 )
 from rigtools.procedures.session import SineSession, point_attrs
-
-MAX_GAP = 0.01     # m; no blade closes a larger gap
+from rigtools.units import MAX_GAP  # the one gap limit of rig files and every command
 
 
 class ControlParameters(BaseModel):
