@@ -43,6 +43,8 @@ FORCE = "force"
 NO_MODES_PERIODIC = ("no modes from a sine record: a sine excites one frequency at a time, so the "
                      "force has no broadband content to identify poles from (use rig acquire frf)")
 PROCEDURE_FRF = ("frf test",)
+TAP_DEFAULT_PULSE_S = 0.5e-3      # hammer pulse when the recording does not say
+TAP_F_MIN_HZ = 5.0
 
 
 @dataclass
@@ -387,6 +389,43 @@ def analyze_broadband(point, procedure: str, *, kind: str = "accelerance", metho
                          frf=res, excitation=excitation, notes=notes)
 
 
+def analyze_tap_test(points, experiment: dict, *, kind: str = "accelerance",
+                     method: str = "lscf") -> PointAnalysis:
+    """H1/H2/Hv, coherence and modes of a tap (impact-hammer) test: one frame per accepted hit,
+    each its own point (``rig acquire tap``), averaged together with the hammer as the force."""
+    from analysis.point import analyze_frf_test
+
+    hammer = str(experiment.get("hammer_channel") or "hammer")
+    accepted = [p for p in points if p.complete and p.params.get("accepted", False) and hammer in p.channels]
+    if len(accepted) < 2:
+        raise UserError(f"a tap test needs at least two accepted hits to average; this one has {len(accepted)}")
+    first = accepted[0]
+    response = experiment.get("response") or next(
+        (c for c in ("passive_shroud_accel", "active_shroud_accel")
+         if c in first.channels and c.startswith(str(first.params.get("blade", "")))), None)
+    if response is None or response not in first.channels:
+        raise UserError(f"tap test: no response channel beside {hammer} (channels: {', '.join(first.channels)})")
+    rate = float(first.sample_rate)
+    frame = int(first.params["frame_samples"])
+    units = {hammer: first.channels[hammer].units, response: first.channels[response].units}
+    blocks = ({"force": np.asarray(p.channels[hammer][:frame], dtype=float),
+               response: np.asarray(p.channels[response][:frame], dtype=float)}
+              for p in accepted if p.n_samples >= frame)
+    # a hammer pulse of duration T excites up to about 1/T: identify within that band (2 kHz for
+    # the 0.5 ms default pulse, the same band `rig acquire tap` uses)
+    pulse = float((experiment.get("parameters") or {}).get("pulse") or TAP_DEFAULT_PULSE_S)
+    f_max = min(1.0 / pulse, 0.45 * rate)
+    res = analyze_frf_test(blocks, rate, excitation="burst", segment_samples=frame, responses=(response,),
+                           force="force", measured=_frf_kind_of(units[response]), kind=kind, method=method,
+                           f_min=TAP_F_MIN_HZ, f_max=f_max)
+    notes = [f"tap test: {len(accepted)} accepted hits of {len(points)} averaged (H1 of {response} over "
+             f"{hammer}, rectangular window of {frame} samples per hit)"]
+    for r, m in res.modes.items():
+        notes.extend(f"{r}: {t}" for t in m.notes)
+    return PointAnalysis(first.index, "broadband", dict(first.params), units, rate, (0, frame),
+                         frf=res, excitation="burst", notes=notes)
+
+
 def analyze_recording(path: str | Path, *, kind: str = "accelerance", method: str = "lscf",
                       channels: Sequence[str] | None = None,
                       progress: Callable[[int, int], None] | None = None) -> RecordingAnalysis:
@@ -436,6 +475,9 @@ def analyze_recording(path: str | Path, *, kind: str = "accelerance", method: st
             if unknown:
                 raise UserError(f"{path}: no channel {', '.join(unknown)} (channels: {', '.join(sorted(known))})")
         try:
+            if procedure == "tap test":
+                out.points.append(analyze_tap_test(points, rec.experiment, kind=kind, method=method))
+                points = []
             for i, point in enumerate(points):
                 if not point.complete:
                     out.skipped.append(f"point {point.index}: not ended by its writer (cut off)")
