@@ -389,6 +389,14 @@ def analyze_broadband(point, procedure: str, *, kind: str = "accelerance", metho
                          frf=res, excitation=excitation, notes=notes)
 
 
+def is_hit_per_point_tap_test(procedure: str, points) -> bool:
+    """True for a tap test written by ``rig acquire tap``: one frame per hit, each its own point
+    (``frame_samples`` and ``accepted`` per point). A tap record holding several hits in one point
+    goes through :func:`analyze_broadband` instead."""
+    return procedure == "tap test" and any("frame_samples" in p.params and "accepted" in p.params
+                                           for p in points)
+
+
 def analyze_tap_test(points, experiment: dict, *, kind: str = "accelerance",
                      method: str = "lscf") -> PointAnalysis:
     """H1/H2/Hv, coherence and modes of a tap (impact-hammer) test: one frame per accepted hit,
@@ -475,7 +483,7 @@ def analyze_recording(path: str | Path, *, kind: str = "accelerance", method: st
             if unknown:
                 raise UserError(f"{path}: no channel {', '.join(unknown)} (channels: {', '.join(sorted(known))})")
         try:
-            if procedure == "tap test":
+            if is_hit_per_point_tap_test(procedure, points):
                 out.points.append(analyze_tap_test(points, rec.experiment, kind=kind, method=method))
                 points = []
             for i, point in enumerate(points):

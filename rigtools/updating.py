@@ -133,9 +133,10 @@ def identify_recording(path: str | Path, *, f_min: float | None = None, f_max: f
         sets: list[IdentifiedSet] = []
         band = None
         usable = 0
-        if procedure == "tap test":             # one frame per accepted hit, each its own point
-            from rigtools.analyze import analyze_tap_test
+        from rigtools.analyze import analyze_tap_test, is_hit_per_point_tap_test
 
+        tap_test = is_hit_per_point_tap_test(procedure, rec.points)
+        if tap_test:                            # one frame per accepted hit, each its own point
             tap = analyze_tap_test(rec.points, rec.experiment, method=method)
             usable = 1
             for resp, ident in tap.frf.modes.items():
@@ -143,7 +144,7 @@ def identify_recording(path: str | Path, *, f_min: float | None = None, f_max: f
                 sets.append(IdentifiedSet(name, tap.index, _blade_of(resp), resp,
                                           [float(m.frequency_hz) for m in modes],
                                           [float(m.damping_ratio) for m in modes], list(ident.notes)))
-        for point in ([] if procedure == "tap test" else rec.complete_points):
+        for point in ([] if tap_test else rec.complete_points):
             prm = point.params
             if not {"frame_samples", "record_start", "record_samples"} <= set(prm):
                 continue
