@@ -227,9 +227,10 @@ def _driver_error_code(exc: BaseException) -> int | None:
 def _run(argv: list[str]) -> int:
     command = "rig"
     try:
-        from rigtools.runtime import configure_process
+        from rigtools import runtime
 
-        configure_process()     # before any command module can load numpy
+        runtime.last_stop = None        # this run's stop requests only
+        runtime.configure_process()     # before any command module can load numpy
         try:
             parser = build_parser(argv)
         except ImportError as exc:   # a command module's top-level import of a missing package
@@ -259,6 +260,10 @@ def _run(argv: list[str]) -> int:
         _say(f"{command}: {text}")
         return getattr(exc, "exit_code", errors.EXIT_SIGINT)
     except Exception as exc:
+        stop = getattr(sys.modules.get("rigtools.runtime"), "last_stop", None)
+        if stop is not None:      # a library wrapped the signal's exception in its own (pydantic)
+            _say(f"{command}: {stop}")
+            return stop.exit_code
         code = _driver_error_code(exc)
         if code is None:
             raise

@@ -46,6 +46,12 @@ WIDE_OUTPUT_COLUMNS = 160
 
 
 # -- signals ---------------------------------------------------------------------------------
+#: The last stop request of this process (None if none came). Code that catches exceptions
+#: broadly (pydantic building a schema wraps any exception raised inside it, the signal's too)
+#: can still tell that the run was stopped by a signal.
+last_stop: Interrupted | None = None
+
+
 class StopRequests:
     """Within the block, SIGINT/SIGTERM/SIGHUP raise :class:`rigtools.errors.Interrupted`.
 
@@ -85,14 +91,16 @@ class StopRequests:
         return False
 
     def _handler(self, signum: int, frame: Any) -> None:
+        global last_stop
         now = time.monotonic()
         if self.first is not None and now - self.first < REPEAT_GRACE_S:
             return
         self.first = now
+        last_stop = Interrupted(signum)
         if self._depth:
-            self._held = self._held or Interrupted(signum)
+            self._held = self._held or last_stop
             return
-        raise Interrupted(signum)
+        raise last_stop
 
     @contextlib.contextmanager
     def protected(self) -> Iterator[None]:
