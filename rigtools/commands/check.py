@@ -6,7 +6,6 @@ import argparse
 import json
 import sys
 
-from rigtools.recording import RecordingError, check_recording
 
 HELP = """\
 Check that FILE is a valid rigtools recording (docs/recording-format.md): schema name and
@@ -42,6 +41,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from rigtools.recording import RecordingError, check_recording
+
     try:
         result = check_recording(args.file, read_data=not args.quick)
     except RecordingError as exc:

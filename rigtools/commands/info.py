@@ -4,9 +4,10 @@ from __future__ import annotations
 
 import argparse
 import json
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from rigtools.recording import Recording, open_recording
+if TYPE_CHECKING:
+    from rigtools.recording import Recording
 
 HELP = """\
 Summarise a recording: status (complete / aborted with its reason / recording = being written
@@ -86,6 +87,8 @@ def _format_params(params: dict[str, Any]) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
+    from rigtools.recording import open_recording
+
     with open_recording(args.file) as rec:
         info = summary(rec)
     if args.json:
