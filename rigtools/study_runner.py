@@ -230,10 +230,8 @@ class StudyRunner:
 
 def _configure_worker() -> None:
     """Runs once in every worker process: the CLI's process settings (single-threaded BLAS)."""
+    from rigtools.runtime import configure_process
+
     for key, value in WORKER_ENV.items():
         os.environ.setdefault(key, value)
-    try:
-        from rigtools.runtime import configure_process
-    except ImportError:          # older trees without rigtools.runtime
-        return
     configure_process()
