@@ -3,24 +3,16 @@ files), checked against independent references."""
 
 from __future__ import annotations
 
-import contextlib
-import io
 import json
 
 import numpy as np
 import pytest
 
-from rigtools.cli import main
+from cli_helpers import run_cli
 
 FRF = ["acquire", "frf", "--backend", "sim", "--signal", "burst", "--band", "20 Hz:1500 Hz",
        "--level", "0.3 V", "--frame", "0.5 s", "--averages", "6", "--seed", "3"]
 
-
-def run_cli(argv):
-    out, err = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        code = main(argv)
-    return code, out.getvalue(), err.getvalue()
 
 
 @pytest.fixture(scope="module")

@@ -3,8 +3,6 @@ force-controlled dwell's recording and JSON, the force it holds against the shak
 injected faults (exit 4, file kept, status failed), the missing NI-DAQmx driver (exit 3, one
 line offering --backend sim) and one-line refusals of bad input (exit 2)."""
 
-import contextlib
-import io
 import json
 import tomllib
 
@@ -15,17 +13,12 @@ import tomli_w
 from rigtools.cli import main
 from rigtools.config import default_rig_text, load_rig
 from rigtools.recording import check_recording, open_recording
+from cli_helpers import run_cli
 
 RATE = 51200.0                     # [daq] sample_rate of the default rig
 DWELL = ["dwell", "--backend", "sim", "--seed", "1", "--fe", "60", "--force", "15 N",
          "--gap", "0.5 mm", "--periods", "12"]
 
-
-def run_cli(argv):
-    out, err = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        code = main(argv)
-    return code, out.getvalue(), err.getvalue()
 
 
 @pytest.fixture(scope="module")

@@ -3,21 +3,13 @@ in headless Chromium: every figure laid out at its size and drawn, the tables pr
 
 from __future__ import annotations
 
-import contextlib
-import io
 import re
 import sys
 
 import pytest
 
-from rigtools.cli import main
+from cli_helpers import run_cli
 
-
-def run_cli(argv):
-    out, err = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        code = main(argv)
-    return code, out.getvalue(), err.getvalue()
 
 
 @pytest.fixture(scope="module")

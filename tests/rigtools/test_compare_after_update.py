@@ -7,17 +7,10 @@ better than nominal" at the paper's point, and issue 11's "compare again after u
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 
 import pytest
+from cli_helpers import rig
 
-
-def rig(*args, cwd):
-    proc = subprocess.run([sys.executable, "-m", "rigtools.cli", *args], cwd=cwd, capture_output=True, text=True,
-                          timeout=600)
-    assert proc.returncode == 0, proc.stderr[-2000:]
-    return proc.stdout
 
 
 @pytest.fixture(scope="module")

@@ -6,23 +6,15 @@ real rig: its 2nd active mode sits 1.7 % below the FEM's. Numbers printed by the
 measured on a 2-core machine; the comments give them.
 """
 
-import contextlib
-import io
 import json
 
 import numpy as np
 import pytest
 
-from rigtools.cli import main
+from cli_helpers import run_cli
 
 GAPS = "0.3 mm,0.6 mm,0.9 mm"
 
-
-def run_cli(argv):
-    out, err = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        code = main(argv)
-    return code, out.getvalue(), err.getvalue()
 
 
 @pytest.fixture(scope="module")

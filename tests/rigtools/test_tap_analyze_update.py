@@ -7,22 +7,15 @@ construction) and its [test_article] values."""
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 
 import pytest
+from cli_helpers import rig
 
 from rigtools.config import load_rig
 
 #: the test article's own first three flexural frequencies (FE eigen-solve of its blades)
 ARTICLE = {"active": (52.013, 355.625, 1252.944), "passive": (53.69, 471.24, 1296.76)}
 
-
-def rig(*args, cwd):
-    proc = subprocess.run([sys.executable, "-m", "rigtools.cli", *args], cwd=cwd, capture_output=True, text=True,
-                          timeout=600)
-    assert proc.returncode == 0, proc.stderr[-2000:]
-    return proc.stdout
 
 
 @pytest.fixture(scope="module")

@@ -8,19 +8,17 @@ frequencies (sim.updating.mode_targets of the article's parameters, an eigen-sol
 the recording and the identification).
 """
 
-import contextlib
-import io
 import json
 import tomllib
 
 import numpy as np
 import pytest
 
-from rigtools.cli import main
 from rigtools.config import default_rig_text, load_rig
 from rigtools.errors import UserError
 from rigtools.updating import updated_rig_text
-from sim.updating import mode_targets, predict
+from sim.updating import mode_targets
+from cli_helpers import run_cli
 
 FRF = ["acquire", "frf", "--backend", "sim", "--seed", "1", "--signal", "chirp", "--band", "20 Hz:2 kHz",
        "--level", "0.3 V", "--frame", "1 s", "--averages", "4"]
@@ -28,12 +26,6 @@ DWELL = ["acquire", "dwell", "--backend", "sim", "--seed", "2", "--fe", "60", "-
          "--gap", "0.5 mm"]
 K_ROT = "root.rotational_stiffness"
 
-
-def run_cli(argv):
-    out, err = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        code = main([str(a) for a in argv])
-    return code, out.getvalue(), err.getvalue()
 
 
 @pytest.fixture(scope="module")

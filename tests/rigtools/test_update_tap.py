@@ -13,19 +13,17 @@ With both blades' first three flexural modes the root stiffness and the shroud a
 are separable (from the active blade alone they are not: test_update.py).
 """
 
-import contextlib
-import io
 import json
 
 import numpy as np
 import pytest
 
-from rigtools.cli import main
 from rigtools.config import default_rig_text, load_rig
 from rigtools.recording import ChannelSpec, RecordingWriter
 from sim.harmonic import fem_harmonic_response
 from sim.rig_model import build_rig_model
 from sim.updating import mode_targets
+from cli_helpers import run_cli
 
 RATE = 51200.0
 FRAME = 51200          # 1 s frames: 1 Hz resolution
@@ -34,12 +32,6 @@ FRF = ["acquire", "frf", "--backend", "sim", "--seed", "1", "--signal", "chirp",
        "--level", "0.3 V", "--frame", "1 s", "--averages", "4"]
 FOUR = "root.rotational_stiffness,shroud.mass,force_sensor.mass,damping.ratio"
 
-
-def run_cli(argv):
-    out, err = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        code = main([str(a) for a in argv])
-    return code, out.getvalue(), err.getvalue()
 
 
 @pytest.fixture(scope="module")
