@@ -4,17 +4,17 @@ EM-vs-FEM comparison, plots.
 Modules (no file access, no rigtools/drivers/h5py imports: arrays or iterables of blocks in,
 arrays and small dataclasses out):
 
-- :mod:`analysis.spectra`: peak or RMS amplitude spectra (flattop/Hann/boxcar), axis labels.
-- :mod:`analysis.harmonics`: exact least-squares harmonics k*fe (any record length), phases
+- :mod:`rigtools.analysis.spectra`: peak or RMS amplitude spectra (flattop/Hann/boxcar), axis labels.
+- :mod:`rigtools.analysis.harmonics`: exact least-squares harmonics k*fe (any record length), phases
   relative to the force fundamental, block-by-block accumulation for long records.
-- :mod:`analysis.frf`: H1, H2, Hv, coherence; receptance/mobility/accelerance; settings for
+- :mod:`rigtools.analysis.frf`: H1, H2, Hv, coherence; receptance/mobility/accelerance; settings for
   random, burst random and periodic chirp; block-by-block spectra (bounded memory).
-- :mod:`analysis.modal_id`: :func:`~analysis.modal_id.identify` (data check, sdypy-EMA LSCF with a
+- :mod:`rigtools.analysis.modal_id`: :func:`~rigtools.analysis.modal_id.identify` (data check, sdypy-EMA LSCF with a
   stabilisation chart and LSFD, or peak picking with half-power damping).
-- :mod:`analysis.impacts`: impacts from shroud accelerations (count, levels, contact duration,
+- :mod:`rigtools.analysis.impacts`: impacts from shroud accelerations (count, levels, contact duration,
   period multiple).
-- :mod:`analysis.compare`: natural-frequency and harmonic tables, agreement score, the
+- :mod:`rigtools.analysis.compare`: natural-frequency and harmonic tables, agreement score, the
   natural-frequency offset that explains a harmonic difference, point pairing.
-- :mod:`analysis.point`: one call per recorded point (dwell or FRF test) for ``rig analyze``.
-- :mod:`analysis.plots`: matplotlib figures for the report.
+- :mod:`rigtools.analysis.point`: one call per recorded point (dwell or FRF test) for ``rig analyze``.
+- :mod:`rigtools.analysis.plots`: matplotlib figures for the report.
 """

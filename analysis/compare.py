@@ -6,7 +6,7 @@ Conventions:
 - Differences in percent are ``100 (X - reference) / reference``. In natural-frequency tables the
   reference is EM when it is given (the paper's Tables 2 and 3: how far each model is from the
   test), else FEM. In harmonic tables it is EM (``100 (FEM - EM) / EM``).
-- Amplitudes are peak values (:func:`analysis.harmonics.harmonic_amplitudes`).
+- Amplitudes are peak values (:func:`rigtools.analysis.harmonics.harmonic_amplitudes`).
 - Tables are :class:`pandas.DataFrame` objects (``.to_dict("records")`` for JSON,
   ``.to_html()`` for the report).
 """
@@ -378,13 +378,13 @@ def trend_series(
     shrouds: Sequence[str] = ("active_shroud_accel", "passive_shroud_accel"),
     harmonics: Mapping[str, Sequence[int]] = TREND_HARMONICS,
 ) -> dict[str, np.ndarray]:
-    """Trend quantities of a study, one value per point, from :class:`analysis.point.DwellAnalysis`
+    """Trend quantities of a study, one value per point, from :class:`rigtools.analysis.point.DwellAnalysis`
     results (in the study's order): the peak force-sensor signal, the peak of each shroud
     acceleration, and the chosen harmonic amplitudes (peak; default 6·fe of the active shroud,
     8·fe and 22·fe of the passive, the paper's amplified harmonics). Keys are labels such as
     ``"peak force-sensor signal"``, ``"active shroud accel peak"``,
     ``"passive shroud accel 22·fe amplitude"``; missing channels or harmonics read NaN.
-    Feed EM's and FEM's series to :func:`analysis.plots.trend_figure`."""
+    Feed EM's and FEM's series to :func:`rigtools.analysis.plots.trend_figure`."""
     def label(ch):
         return ch.replace("_", " ")
 
@@ -407,7 +407,7 @@ def trend_series(
 
 
 def point_agreement(em, model, *, channels: Sequence[str] | None = None, k_max: int | None = None) -> Agreement:
-    """:func:`agreement_score` of two :class:`analysis.point.DwellAnalysis` results over the
+    """:func:`agreement_score` of two :class:`rigtools.analysis.point.DwellAnalysis` results over the
     channels both have (or ``channels``), from their harmonic amplitudes."""
     names = [c for c in (channels or em.harmonics) if c in em.harmonics and c in model.harmonics]
     return agreement_score({c: em.harmonics[c].amplitude for c in names},

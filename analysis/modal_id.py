@@ -16,7 +16,7 @@ Steps for each resonance (see :func:`identify_modes`):
    by :func:`scipy.optimize.least_squares`. The fit interpolates between grid bins, so it recovers
    a natural frequency well inside the frequency resolution.
 
-The FRF convention is that of :mod:`analysis.frf` (``exp(+i w t)``).
+The FRF convention is that of :mod:`rigtools.analysis.frf` (``exp(+i w t)``).
 """
 
 from __future__ import annotations
@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import optimize, signal
 
-from analysis.frf import FRFKind
+from rigtools.analysis.frf import FRFKind
 
 _ORDER = {"receptance": 0, "mobility": 1, "accelerance": 2}
 
@@ -459,7 +459,7 @@ def identify(
     ----------
     frequency_hz, h
         One-sided grid (uniform, starting at 0 Hz or above) and complex FRF (e.g.
-        :attr:`analysis.frf.FRFEstimate.h1`).
+        :attr:`rigtools.analysis.frf.FRFEstimate.h1`).
     kind
         What ``h`` is (receptance, mobility, accelerance).
     excitation_psd, coherence

@@ -15,7 +15,7 @@ import numpy as np
 from matplotlib.colors import LogNorm
 from matplotlib.figure import Figure
 
-from analysis.spectra import amplitude_spectrum
+from rigtools.analysis.spectra import amplitude_spectrum
 
 BLADES = ("active", "passive")
 SPECTRUM_FLOOR = 1e-5        # spectra on a log axis: show down to this fraction of the largest peak
@@ -169,7 +169,7 @@ def vibro_impact_figure(
         Flexural natural frequencies (Hz) to mark: one array for both spectra, or
         ``{"active": ..., "passive": ...}`` per blade.
     window
-        Spectrum window (:func:`analysis.spectra.amplitude_spectrum`); ``"boxcar"`` is exact for a
+        Spectrum window (:func:`rigtools.analysis.spectra.amplitude_spectrum`); ``"boxcar"`` is exact for a
         record of whole periods of a periodic response, use ``"flattop"`` otherwise.
     title
         Prefix of the figure title.
@@ -354,7 +354,7 @@ def time_and_spectrum_figure(
     t0
         Time of the first sample, s (e.g. its position in the recording).
     window
-        Spectrum window (:func:`analysis.spectra.amplitude_spectrum`).
+        Spectrum window (:func:`rigtools.analysis.spectra.amplitude_spectrum`).
     title
         Prefix of the figure title.
     force_channel
@@ -500,7 +500,7 @@ def stabilisation_figure(chart, frequency_hz: np.ndarray, h: np.ndarray, *,
                          natural_frequencies_hz: Sequence[float] | None = None, title: str = "") -> Figure:
     """Stabilisation chart: LSCF poles per model order (stable filled, others open) over |H|.
 
-    ``chart`` is an :class:`analysis.modal_id.StabilisationChart`. ``fig.axes[0]`` holds the
+    ``chart`` is an :class:`rigtools.analysis.modal_id.StabilisationChart`. ``fig.axes[0]`` holds the
     poles (left axis: model order), ``fig.axes[1]`` the FRF magnitude (right axis, log).
     """
     fig = Figure(figsize=(11, 5), layout="constrained")
@@ -629,7 +629,7 @@ def trend_figure(
 def force_zero_crossing_time(force: np.ndarray, sample_rate: float, fe: float, t0: float = 0.0) -> float:
     """Time (s, on the record's clock starting at ``t0``) of the first upward zero crossing of the
     force's fundamental at or after ``t0``: the common time origin of waveform overlays."""
-    from analysis.harmonics import harmonic_amplitudes
+    from rigtools.analysis.harmonics import harmonic_amplitudes
 
     fit = harmonic_amplitudes(np.asarray(force, dtype=float), sample_rate, fe, 1)
     # F1 cos(w (t - t0) + phi): upward zero crossing where w (t - t0) + phi = -pi/2 (mod 2 pi)

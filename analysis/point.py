@@ -5,7 +5,7 @@
   fundamental), peak levels, and impacts from the shroud accelerations.
 - :func:`analyze_frf_test`: a broadband point (burst random, periodic chirp, random) given block
   by block: H1, H2, Hv and coherence of every response over the force, converted to the FRF kind
-  asked for, and the modes the data support (:func:`analysis.modal_id.identify`).
+  asked for, and the modes the data support (:func:`rigtools.analysis.modal_id.identify`).
 
 Channel names default to the rig's (``force``, ``active_shroud_accel``, ``passive_shroud_accel``)
 and can be given. Nothing here reads files: the caller passes arrays or blocks.
@@ -18,10 +18,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from analysis.frf import FRFEstimate, FRFKind, SpectraAccumulator, excitation_settings
-from analysis.harmonics import HarmonicFit, harmonic_amplitudes, relative_phases
-from analysis.impacts import ImpactAnalysis, detect_impacts
-from analysis.modal_id import ModalIdentification, identify
+from rigtools.analysis.frf import FRFEstimate, FRFKind, SpectraAccumulator, excitation_settings
+from rigtools.analysis.harmonics import HarmonicFit, harmonic_amplitudes, relative_phases
+from rigtools.analysis.impacts import ImpactAnalysis, detect_impacts
+from rigtools.analysis.modal_id import ModalIdentification, identify
 
 FORCE, ACTIVE, PASSIVE = "force", "active_shroud_accel", "passive_shroud_accel"
 
@@ -38,13 +38,13 @@ class DwellAnalysis:
         ``{channel: HarmonicFit}`` (peak amplitudes, phases from the first analysed sample).
     phases_to_force
         ``{channel: (K,) phases relative to the force fundamental}``
-        (:func:`analysis.harmonics.relative_phases`); empty without a force channel.
+        (:func:`rigtools.analysis.harmonics.relative_phases`); empty without a force channel.
     force_amplitude
         Peak amplitude of the force fundamental (N), None without a force channel.
     peak_levels
         ``{channel: max |x|}`` over the analysed samples (peak).
     impacts
-        :class:`analysis.impacts.ImpactAnalysis`, or None without an active shroud channel.
+        :class:`rigtools.analysis.impacts.ImpactAnalysis`, or None without an active shroud channel.
     """
 
     fe: float
@@ -97,7 +97,7 @@ def analyze_dwell(
         Channel names of the force into the blade and the shroud accelerations (missing ones are
         skipped).
     impact_options
-        Extra keyword arguments of :func:`analysis.impacts.detect_impacts`.
+        Extra keyword arguments of :func:`rigtools.analysis.impacts.detect_impacts`.
     """
     k_top = int(np.floor((sample_rate / 2) / fe - 1e-9))
     k = max(1, min(int(k_max), k_top))
@@ -125,7 +125,7 @@ class FRFTestAnalysis:
     responses
         Response channel names, in the order of the rows of ``estimate``.
     estimate
-        :class:`analysis.frf.FRFEstimate` in ``kind`` units, (n_responses, n_freq) arrays.
+        :class:`rigtools.analysis.frf.FRFEstimate` in ``kind`` units, (n_responses, n_freq) arrays.
     kind
         FRF kind of ``estimate``.
     modes
@@ -170,7 +170,7 @@ def analyze_frf_test(
     blocks
         Iterable of ``{channel: (n,) samples}`` in time order (any block lengths).
     excitation, segment_samples
-        See :func:`analysis.frf.excitation_settings` (``"random"``, ``"burst"``, ``"periodic"``).
+        See :func:`rigtools.analysis.frf.excitation_settings` (``"random"``, ``"burst"``, ``"periodic"``).
     responses, force
         Channel names.
     measured, kind
@@ -179,7 +179,7 @@ def analyze_frf_test(
     estimator
         ``"h1"``, ``"h2"`` or ``"hv"`` for the modal identification.
     f_min, f_max, method, n_modes
-        :func:`analysis.modal_id.identify`.
+        :func:`rigtools.analysis.modal_id.identify`.
     """
     names = [force, *responses]
     acc = SpectraAccumulator(sample_rate, reference=0, **excitation_settings(excitation, segment_samples))

@@ -9,7 +9,7 @@ tones, boxcar when the record holds whole periods of every tone. The DC bin read
 ``amplitude="peak"`` (default) reads a tone's peak value ``A``; ``amplitude="rms"`` reads its RMS
 value ``A / sqrt(2)`` (the DC bin reads the mean in both). Labels should say which
 (:func:`amplitude_label`). For the harmonics of a known ``fe`` use
-:func:`analysis.harmonics.harmonic_amplitudes` (exact least squares, no window, no scalloping).
+:func:`rigtools.analysis.harmonics.harmonic_amplitudes` (exact least squares, no window, no scalloping).
 For broadband signals use a density (:func:`scipy.signal.welch`), not an amplitude spectrum.
 """
 

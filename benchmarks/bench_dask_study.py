@@ -25,8 +25,8 @@ import numpy as np  # noqa: E402
 
 from rigtools.config import load_rig  # noqa: E402
 from rigtools.study_runner import RunOptions, StudyRunner, map_chains  # noqa: E402
-from sim.reduction import reduced_system  # noqa: E402
-from sim.studies import StudyPlan  # noqa: E402
+from rigtools.sim.reduction import reduced_system  # noqa: E402
+from rigtools.sim.studies import StudyPlan  # noqa: E402
 
 
 def nothing(system, point, options, previous):

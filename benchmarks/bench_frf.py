@@ -8,7 +8,7 @@ filters of it plus 1 % noise, generated and written block by block.
 
 * **chunked path** (the goal's subject), in a fresh subprocess so its peak RSS is its own:
   read 0.5 M samples per channel at a time with ``rigtools.recording.open_recording`` and feed
-  ``analysis.frf.SpectraAccumulator`` (Hann, 8192 samples, 50 % overlap); the time includes
+  ``rigtools.analysis.frf.SpectraAccumulator`` (Hann, 8192 samples, 50 % overlap); the time includes
   reading and decompressing the file.
 * **in-memory baseline**: the four channels read whole (not timed), then ``scipy.signal.welch``
   of the force and of each response and ``scipy.signal.csd`` of the force with each response
@@ -90,7 +90,7 @@ def write_recording(path: Path, minutes: float) -> int:
 
 def chunked(path: str) -> dict:
     """The chunked path; run in its own process (see module docstring)."""
-    from analysis.frf import SpectraAccumulator
+    from rigtools.analysis.frf import SpectraAccumulator
     from rigtools.recording import open_recording
 
     rss0 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0

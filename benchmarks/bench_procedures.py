@@ -9,7 +9,7 @@
 2. SIGINT during a simulated dwell (``rig acquire dwell`` in a child process, paced in real
    time): wall seconds from the signal to the end status in the file (drive ramped to zero,
    recording closed) and to the process exit. Goal: exit < 1 s. Baseline, same run: the exit
-   time of a child that only imports drivers.simulated (the interpreter's own teardown).
+   time of a child that only imports rigtools.drivers.simulated (the interpreter's own teardown).
 
     .venv/bin/python benchmarks/bench_procedures.py [--json]
 """
@@ -26,8 +26,8 @@ import tempfile
 import time
 from pathlib import Path
 
-from drivers.drive_signals import SineDrive
-from drivers.simulated import SimulatedRig
+from rigtools.drivers.drive_signals import SineDrive
+from rigtools.drivers.simulated import SimulatedRig
 from rigtools.acquisition import acquire
 from rigtools.config import load_rig
 from rigtools.procedures import RigStudy
@@ -57,7 +57,7 @@ def baseline(cfg, seconds: float) -> float:
 
 def teardown_baseline() -> float:
     """Wall time a child needs to exit after importing the simulated rig and doing nothing."""
-    child = subprocess.Popen([sys.executable, "-c", "import sys, drivers.simulated; print(1, flush=True); "
+    child = subprocess.Popen([sys.executable, "-c", "import sys, rigtools.drivers.simulated; print(1, flush=True); "
                               "sys.stdin.readline()"], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
     child.stdout.readline()
     t0 = time.perf_counter()
@@ -126,7 +126,7 @@ def main() -> None:
           f"study / baseline = {wall / base:.2f}")
     print(f"SIGINT during a paced dwell -> status aborted in the file (drive at 0 V): {status_at:.3f} s; "
           f"-> process exit: {latency:.3f} s; goal exit < 1 s: {'met' if latency < 1 else 'NOT met'}")
-    print(f"baseline: a child importing drivers.simulated exits in {teardown:.3f} s "
+    print(f"baseline: a child importing rigtools.drivers.simulated exits in {teardown:.3f} s "
           f"(interpreter teardown); SIGINT exit / teardown = {latency / teardown:.2f}")
 
 

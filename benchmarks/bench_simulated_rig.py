@@ -21,9 +21,9 @@ import time
 
 import numpy as np
 
-from drivers.contracts import InputChannelSpec
-from drivers.safety import ChannelLimit, SafetyMonitor, SineDrive
-from drivers.simulated import SIGNALS, SimulatedRig
+from rigtools.drivers.contracts import InputChannelSpec
+from rigtools.drivers.safety import ChannelLimit, SafetyMonitor, SineDrive
+from rigtools.drivers.simulated import SIGNALS, SimulatedRig
 from rigtools.acquisition import acquire
 from rigtools.config import load_rig
 

@@ -7,11 +7,11 @@ force_sensor.mass, damping.ratio`` free (the widest fit the rig file's deviation
 
 Same-run baselines:
 
-* one model evaluation of the fit (:func:`sim.updating.predict`: both blades built, the lowest
+* one model evaluation of the fit (:func:`rigtools.sim.updating.predict`: both blades built, the lowest
   flexural modes solved); the fit's time over it says how much the fit costs beyond its
   evaluations;
-* one evaluation the plain way (:func:`sim.rig_model.build_rig_model` and
-  :func:`sim.modal.flexural_frequencies`: every mode of every DOF group), what a fit built on the
+* one evaluation the plain way (:func:`rigtools.sim.rig_model.build_rig_model` and
+  :func:`rigtools.sim.modal.flexural_frequencies`: every mode of every DOF group), what a fit built on the
   existing modal code would pay per evaluation.
 
 Goal: the fit in < 60 s on this machine; also end to end from a recording: an FRF test of the
@@ -20,7 +20,7 @@ not timed) through ``rig update frf.h5 --out u.toml --json`` in this process (re
 identification, pairing, the fit of root rotational stiffness and damping ratio, the rig file
 written and validated): goal < 60 s.
 
-Also timed (no goal): the contact fit (:func:`sim.contact_fit.fit_contact`) of stiffness and
+Also timed (no goal): the contact fit (:func:`rigtools.sim.contact_fit.fit_contact`) of stiffness and
 damping to harmonics 1-10 of both shrouds at two dwells with impacts (60 Hz, 15 N, gaps 0.5 and
 0.3 mm; synthetic, from the known linear contact), from a contact 3x too soft; baseline one
 vibro-impact run to steady state (after the integrator's compilation). The same data fitted with
@@ -45,19 +45,19 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 from rigtools.config import load_rig  # noqa: E402
-from sim.modal import flexural_frequencies  # noqa: E402
-from sim.rig_model import build_rig_model  # noqa: E402
+from rigtools.sim.modal import flexural_frequencies  # noqa: E402
+from rigtools.sim.rig_model import build_rig_model  # noqa: E402
 from dataclasses import replace  # noqa: E402
 
-from sim.contact_fit import (  # noqa: E402
+from rigtools.sim.contact_fit import (  # noqa: E402
     HarmonicTarget,
     fit_contact,
     fit_steps_per_period,
     harmonic_amplitudes,
     targets_from_model,
 )
-from sim.reduction import reduced_system  # noqa: E402
-from sim.updating import mode_targets, predict, update_model  # noqa: E402
+from rigtools.sim.reduction import reduced_system  # noqa: E402
+from rigtools.sim.updating import mode_targets, predict, update_model  # noqa: E402
 
 NAMES = ["root.rotational_stiffness", "root.translational_stiffness", "shroud.mass", "force_sensor.mass",
          "damping.ratio"]

@@ -3,11 +3,11 @@
 Default case of issue 3: default rig, fe = 60 Hz, F0 = 15 N, gap 0.5 mm.
 
 * fast: the reduced model (modes below 6 kHz + static correction) stepped by the compiled kernel
-  (:class:`sim.vibro_impact.VibroImpactStepper`) at its default step (30 steps per contact
+  (:class:`rigtools.sim.vibro_impact.VibroImpactStepper`) at its default step (30 steps per contact
   period); wall seconds per simulated second (best of ``--repeats`` runs of ``--seconds``
   simulated seconds) and the real-time factor;
 * reference: the full-order HHT/Newmark integrator on the full FE matrices
-  (:mod:`sim.full_order`, 1760 steps per period: converged to ~0.2 %), timed in the same process
+  (:mod:`rigtools.sim.full_order`, 1760 steps per period: converged to ~0.2 %), timed in the same process
   in its exact modal form and (a few hundred steps, scaled) with the dense full-matrix solver;
   the ratios;
 * accuracy: harmonics k = 1, 6, 8 of both shroud accelerations and the peak contact force,
@@ -33,13 +33,13 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
 
-from analysis.harmonics import derivative_harmonics, harmonic_amplitudes  # noqa: E402
+from rigtools.analysis.harmonics import derivative_harmonics, harmonic_amplitudes  # noqa: E402
 from rigtools.config import load_rig  # noqa: E402
-from sim.full_order import FullOrderIntegrator, run_full_order  # noqa: E402
-from sim.reduction import reduced_system  # noqa: E402
-from sim.rig_model import build_rig_model  # noqa: E402
-from sim.studies import run_study  # noqa: E402
-from sim.vibro_impact import N_OUT, VibroImpactStepper, run_harmonic, steps_per_period_for  # noqa: E402
+from rigtools.sim.full_order import FullOrderIntegrator, run_full_order  # noqa: E402
+from rigtools.sim.reduction import reduced_system  # noqa: E402
+from rigtools.sim.rig_model import build_rig_model  # noqa: E402
+from rigtools.sim.studies import run_study  # noqa: E402
+from rigtools.sim.vibro_impact import N_OUT, VibroImpactStepper, run_harmonic, steps_per_period_for  # noqa: E402
 
 FE, F0 = 60.0, 15.0
 REF_STEPS = 1760

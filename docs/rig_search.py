@@ -47,15 +47,15 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 import numpy as np  # noqa: E402
 from scipy.optimize import brentq  # noqa: E402
 
-from analysis.harmonics import derivative_harmonics, harmonic_amplitudes  # noqa: E402
+from rigtools.analysis.harmonics import derivative_harmonics, harmonic_amplitudes  # noqa: E402
 from rigtools.config import load_rig  # noqa: E402
-from sim.analytical import assumed_modes_blade, exact_flexural_frequencies, tip_mass_lambdas  # noqa: E402
-from sim.modal import flexural_frequencies  # noqa: E402
-from sim.params import BladeParams, DampingParams, LumpedMass, RigParams  # noqa: E402
-from sim.reduction import reduced_system  # noqa: E402
-from sim.rig_model import build_rig_model  # noqa: E402
-from sim.studies import run_study  # noqa: E402
-from sim.vibro_impact import run_harmonic  # noqa: E402
+from rigtools.sim.analytical import assumed_modes_blade, exact_flexural_frequencies, tip_mass_lambdas  # noqa: E402
+from rigtools.sim.modal import flexural_frequencies  # noqa: E402
+from rigtools.sim.params import BladeParams, DampingParams, LumpedMass, RigParams  # noqa: E402
+from rigtools.sim.reduction import reduced_system  # noqa: E402
+from rigtools.sim.rig_model import build_rig_model  # noqa: E402
+from rigtools.sim.studies import run_study  # noqa: E402
+from rigtools.sim.vibro_impact import run_harmonic  # noqa: E402
 
 E, RHO = 200e9, 7850.0
 GAPS = [0.3e-3, 0.5e-3, 0.7e-3, 0.9e-3]

@@ -3,10 +3,10 @@
 Two devices stand between a procedure and the rig:
 
 * :class:`AcquisitionDevice` -- synchronised analog input (force, accelerations) and the analog
-  drive output that feeds the shaker amplifier (NI-DAQmx in :mod:`drivers.nidaq`, the simulated
-  rig in :mod:`drivers.simulated`);
+  drive output that feeds the shaker amplifier (NI-DAQmx in :mod:`rigtools.drivers.nidaq`, the simulated
+  rig in :mod:`rigtools.drivers.simulated`);
 * :class:`SignalSource` -- an instrument that makes the sine itself (a 33500-series waveform
-  generator in :mod:`drivers.visa_source`), for rigs where the DAQ only listens.
+  generator in :mod:`rigtools.drivers.visa_source`), for rigs where the DAQ only listens.
 
 Both are context managers whose exit brings the output to zero and off on every path (normal end,
 error, Ctrl-C). Everything is SI: read blocks are in m/s^2, N or V; drive blocks in V.

@@ -22,7 +22,7 @@ from typing import Callable
 import numpy as np
 from scipy import signal
 
-from drivers.contracts import ConfigurationError, LimitExceeded
+from rigtools.drivers.contracts import ConfigurationError, LimitExceeded
 
 
 def raised_cosine(n: int) -> np.ndarray:

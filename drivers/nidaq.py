@@ -1,4 +1,4 @@
-"""NI-DAQmx backend of :class:`drivers.contracts.AcquisitionDevice`.
+"""NI-DAQmx backend of :class:`rigtools.drivers.contracts.AcquisitionDevice`.
 
 Two tasks on one sample clock rate:
 
@@ -14,9 +14,9 @@ Start order: the caller writes the first drive block(s), :meth:`NiDaqDevice.star
 (armed, waiting for the trigger) and then ``ai`` (which fires the trigger). The actual coerced
 sample rate is read back from ``ai.timing.samp_clk_rate`` and the output is timed at that rate.
 
-DAQmx errors are turned into :mod:`drivers.contracts` faults (one line, the DAQmx code kept in
+DAQmx errors are turned into :mod:`rigtools.drivers.contracts` faults (one line, the DAQmx code kept in
 ``.code``); on any fault the drive is brought to zero and both tasks are stopped before the error
-propagates. Without the NI-DAQmx driver, :class:`~drivers.contracts.DriverUnavailable` says so and
+propagates. Without the NI-DAQmx driver, :class:`~rigtools.drivers.contracts.DriverUnavailable` says so and
 points at the simulated rig.
 
 Bringing the drive to zero (:meth:`NiDaqDevice.stop`, also on :meth:`~NiDaqDevice.close`, on a
@@ -32,7 +32,7 @@ one-sample on-demand task writes 0 V.
 Worst-case time from a fault to 0 V: the samples written but not yet generated plus the ramp,
 ``(written - generated) / rate + abort_ramp_time``. The queue is bounded so that this stays
 within ``max_time_to_zero`` (0.1 s): the AO host buffer holds exactly
-:func:`drivers.safety.output_queue_limit` samples (0.1 s with a 50 ms ramp: 45 ms, 2304 samples
+:func:`rigtools.drivers.safety.output_queue_limit` samples (0.1 s with a 50 ms ramp: 45 ms, 2304 samples
 at 51.2 kS/s), so no writer can be further ahead (writes wait for room), and
 :attr:`NiDaqDevice.output_queue_limit` tells :class:`rigtools.acquisition.BlockStream` to
 stream in pieces (0.1 s blocks read as five 20 ms pieces) of which two fit. The onboard output
@@ -66,7 +66,7 @@ from nidaqmx.errors import DaqError, DaqNotFoundError, DaqNotSupportedError
 from nidaqmx.stream_readers import AnalogMultiChannelReader
 from nidaqmx.stream_writers import AnalogSingleChannelWriter
 
-from drivers.contracts import (
+from rigtools.drivers.contracts import (
     AcquisitionDevice,
     ConfigurationError,
     DaqFault,
@@ -83,8 +83,8 @@ from drivers.contracts import (
     SamplesNoLongerAvailable,
     SensorOverload,
 )
-from drivers.drive_signals import raised_cosine
-from drivers.safety import MAX_ABORT_RAMP, MAX_TIME_TO_ZERO, output_queue_limit
+from rigtools.drivers.drive_signals import raised_cosine
+from rigtools.drivers.safety import MAX_ABORT_RAMP, MAX_TIME_TO_ZERO, output_queue_limit
 
 NO_DRIVER_MESSAGE = ("NI-DAQmx driver not found on this machine; use --backend sim to run on the "
                      "simulated rig")
@@ -158,7 +158,7 @@ class NiDaqDevice(AcquisitionDevice):
             in (0, 0.1]; the rig file's ``[safety] abort_ramp_time``.
         max_time_to_zero
             Bound on the time from a stop or fault to 0 V, the queued drive included, s: sets
-            the AO buffer (:func:`drivers.safety.output_queue_limit`).
+            the AO buffer (:func:`rigtools.drivers.safety.output_queue_limit`).
         """
         if not 0 < abort_ramp_time <= MAX_ABORT_RAMP:
             raise ConfigurationError(

@@ -4,7 +4,7 @@ Pure numpy; no hardware. The pieces:
 
 * :class:`SafetyMonitor` -- per-channel warning and abort limits on the peak |value| of each
   block (force in N, accelerations in m/s^2, the drive in V). ``check`` returns the warnings and
-  raises :class:`~drivers.contracts.SafetyAbort` naming the channel, the value and the limit.
+  raises :class:`~rigtools.drivers.contracts.SafetyAbort` naming the channel, the value and the limit.
 * :class:`SineDrive` -- the phase-continuous sine that goes to the shaker amplifier. Its
   amplitude never steps: every change follows a raised-cosine ramp (``ramp_time``) of its
   :class:`AmplitudeEnvelope`, the one owner of drive-amplitude ramps (the random drive uses it
@@ -23,13 +23,13 @@ from typing import Iterable, Sequence
 
 import numpy as np
 
-from drivers.contracts import (
+from rigtools.drivers.contracts import (
     ConfigurationError,
     InputChannelSpec,
     SafetyAbort,
 )
-# the drive generators live in drivers.drive_signals; kept importable from here
-from drivers.drive_signals import AmplitudeEnvelope, SineDrive, raised_cosine  # noqa: F401
+# the drive generators live in rigtools.drivers.drive_signals; kept importable from here
+from rigtools.drivers.drive_signals import AmplitudeEnvelope, SineDrive, raised_cosine  # noqa: F401
 
 MAX_ABORT_RAMP = 0.1      # s; the ramp-down on abort never takes longer
 MAX_TIME_TO_ZERO = 0.1    # s; from a fault's detection to 0 V at the output, queue included

@@ -90,9 +90,9 @@ class ShakerParams:
             SHAKER_BOUNDS[f.name].check(f.name, getattr(self, f.name))
 
     def coupling(self):
-        """The shaker as :class:`sim.vibro_impact.ShakerCoupling` (the amplifier gain is applied
+        """The shaker as :class:`rigtools.sim.vibro_impact.ShakerCoupling` (the amplifier gain is applied
         to the drive before the stepper sees it)."""
-        from sim.vibro_impact import ShakerCoupling
+        from rigtools.sim.vibro_impact import ShakerCoupling
 
         return ShakerCoupling(
             armature_mass=self.armature_mass,

@@ -1,4 +1,4 @@
-"""A simulated rig behind the :class:`drivers.contracts.AcquisitionDevice` contract.
+"""A simulated rig behind the :class:`rigtools.drivers.contracts.AcquisitionDevice` contract.
 
 What happens to each block of drive samples (volts, as written by the procedure):
 
@@ -16,7 +16,7 @@ What happens to each block of drive samples (volts, as written by the procedure)
    broadband content down between the harmonics. The boxcar adds half a sample of group delay
    on every channel; :meth:`SimulatedRig.input_to_output_delay` reports the delay line plus
    that half sample;
-5. each input channel's measurement chain (:mod:`drivers.sensor_chain`): sensitivity, sensor and
+5. each input channel's measurement chain (:mod:`rigtools.drivers.sensor_chain`): sensitivity, sensor and
    ADC noise, IEPE high-pass, 24-bit quantisation over the channel range; the reading is scaled
    back to SI units as DAQmx does.
 
@@ -28,7 +28,7 @@ small mass deviations of the shroud and the force sensor, all set in the rig fil
 Physics backends (``model=``):
 
 ``"vibro-impact"``
-    :class:`sim.vibro_impact.VibroImpactStepper` on a reduced model of the test article, with
+    :class:`rigtools.sim.vibro_impact.VibroImpactStepper` on a reduced model of the test article, with
     the shroud contact and the shaker coupling (the default when it is available).
 ``"linear"``
     :class:`LinearModalPhysics`: exact discrete-time propagation (zero-order hold) of the active
@@ -55,7 +55,7 @@ import numba
 import numpy as np
 import scipy.linalg
 
-from drivers.contracts import (
+from rigtools.drivers.contracts import (
     AcquisitionDevice,
     AmplifierTimeout,
     ConfigurationError,
@@ -70,11 +70,11 @@ from drivers.contracts import (
     SensorOverload,
     SimulationDiverged,
 )
-from drivers.drive_signals import raised_cosine
-from drivers.safety import MAX_TIME_TO_ZERO, output_queue_limit
-from drivers.sensor_chain import SensorChain, SensorModel
-from drivers.shaker import ShakerParams
-from sim.params import DampingParams, RigParams, RootParams, SimulationInputError
+from rigtools.drivers.drive_signals import raised_cosine
+from rigtools.drivers.safety import MAX_TIME_TO_ZERO, output_queue_limit
+from rigtools.drivers.sensor_chain import SensorChain, SensorModel
+from rigtools.drivers.shaker import ShakerParams
+from rigtools.sim.params import DampingParams, RigParams, RootParams, SimulationInputError
 
 # what the physics provides, per time step
 SIGNALS = (
@@ -272,7 +272,7 @@ class LinearModalPhysics:
     state-space system ``x' = A x + B e`` in ``x = [q, q', i]`` (``i`` the coil current; without
     inductance ``i`` is algebraic). ``A`` is diagonalised once; each step is then, per
     eigen-coordinate, ``z1 = exp(lambda dt) z0 + g0 e0 + g1 e1``, exact for a coil voltage varying
-    linearly over the step (first-order hold). As in :class:`sim.vibro_impact.VibroImpactStepper`,
+    linearly over the step (first-order hold). As in :class:`rigtools.sim.vibro_impact.VibroImpactStepper`,
     ``e[k]`` is the input at the end of step ``k`` (the input before the first call is 0);
     output ``k`` is the mean over step ``k``, exact from ``z' = lambda z + b e``:
     ``mean z = (z1 - z0 - b (e0 + e1) dt / 2) / (lambda dt)`` (what the integrating sampler of
@@ -281,7 +281,7 @@ class LinearModalPhysics:
     Parameters
     ----------
     model
-        The rig model (:class:`sim.rig_model.RigModel`) of the test article.
+        The rig model (:class:`rigtools.sim.rig_model.RigModel`) of the test article.
     shaker
         Shaker parameters (the amplifier gain is applied before :meth:`step`).
     dt
@@ -291,7 +291,7 @@ class LinearModalPhysics:
     """
 
     def __init__(self, model, shaker: ShakerParams, dt: float, f_max: float | None = None) -> None:
-        from sim.modal import blade_modes
+        from rigtools.sim.modal import blade_modes
 
         blade = model.active
         n_a = blade.n_dofs
@@ -415,8 +415,8 @@ def _propagate(mu, g0, g1, hb, ih, cz, d, z, e_last, e, y):  # pragma: no cover 
 
 
 class VibroImpactPhysics:
-    """The vibro-impact stepper (:class:`sim.vibro_impact.VibroImpactStepper`) on the reduced
-    test-article model (:func:`sim.reduction.reduce_rig_model`: modes plus static correction),
+    """The vibro-impact stepper (:class:`rigtools.sim.vibro_impact.VibroImpactStepper`) on the reduced
+    test-article model (:func:`rigtools.sim.reduction.reduce_rig_model`: modes plus static correction),
     with the shroud contact and the shaker coupling.
 
     Parameters
@@ -435,8 +435,8 @@ class VibroImpactPhysics:
     """
 
     def __init__(self, model, shaker: ShakerParams, dt: float) -> None:
-        from sim.reduction import reduce_rig_model
-        from sim.vibro_impact import OUT_COLUMNS, SimulationInputError, VibroImpactStepper
+        from rigtools.sim.reduction import reduce_rig_model
+        from rigtools.sim.vibro_impact import OUT_COLUMNS, SimulationInputError, VibroImpactStepper
 
         self.system = reduce_rig_model(model, keep_bases=True)
         self._model = model
@@ -467,7 +467,7 @@ class VibroImpactPhysics:
         of that interval: ``dv_j = phi_j(x_h) * I`` with ``phi_j(x_h)`` the Ritz vector ``j`` of
         the reduced model at the hit DOF (the kept normal modes and the static-correction
         shapes of the blade; on the active blade in the basis re-diagonalised with the shaker
-        armature, :meth:`sim.reduction.ReducedSystem.with_attached`). Exact for modes with
+        armature, :meth:`rigtools.sim.reduction.ReducedSystem.with_attached`). Exact for modes with
         periods much longer than a sample; the pulse (0.2-1 ms) spans tens of samples.
         """
         self._hammer = hammer
@@ -527,7 +527,7 @@ class VibroImpactPhysics:
 
     def _hit(self, e: np.ndarray, impulses: np.ndarray) -> np.ndarray:
         """Step over ``e`` with the hammer's impulses put in at the start of their intervals."""
-        from sim.vibro_impact import N_OUT
+        from rigtools.sim.vibro_impact import N_OUT
 
         data = np.empty((e.size, N_OUT))
         start = 0
@@ -562,7 +562,7 @@ def interval_means(ends: np.ndarray, dt: float, shaker) -> np.ndarray:
     dt
         Step, s.
     shaker
-        The shaker (:class:`sim.vibro_impact.ShakerCoupling`).
+        The shaker (:class:`rigtools.sim.vibro_impact.ShakerCoupling`).
 
     Returns
     -------
@@ -593,10 +593,10 @@ def interval_means(ends: np.ndarray, dt: float, shaker) -> np.ndarray:
 
 
 def vibro_impact_available() -> bool:
-    """True when :mod:`sim.vibro_impact` provides the block stepper."""
+    """True when :mod:`rigtools.sim.vibro_impact` provides the block stepper."""
     try:
-        from sim.reduction import reduce_rig_model  # noqa: F401
-        from sim.vibro_impact import VibroImpactStepper  # noqa: F401
+        from rigtools.sim.reduction import reduce_rig_model  # noqa: F401
+        from rigtools.sim.vibro_impact import VibroImpactStepper  # noqa: F401
     except ImportError:
         return False
     return True
@@ -630,7 +630,7 @@ class SimulatedRig(AcquisitionDevice):
     Parameters
     ----------
     params
-        The *nominal* rig (:class:`sim.params.RigParams`); the simulated test article is
+        The *nominal* rig (:class:`rigtools.sim.params.RigParams`); the simulated test article is
         ``test_article.apply(params)``.
     shaker
         Amplifier and shaker.
@@ -655,7 +655,7 @@ class SimulatedRig(AcquisitionDevice):
         How much of the amplifier's drive :attr:`drive_log` keeps (the latest), s.
     max_time_to_zero
         The output queue is bounded as on the NI backend
-        (:func:`drivers.safety.output_queue_limit`): at most this long from a stop or fault to
+        (:func:`rigtools.drivers.safety.output_queue_limit`): at most this long from a stop or fault to
         0 V, the queued drive playing out first; writes beyond it are refused. ``None``: no
         bound (block-size studies).
     """
@@ -725,9 +725,9 @@ class SimulatedRig(AcquisitionDevice):
     # ------------------------------------------------------------------ configuration
 
     def rig_model(self):
-        """FE model (:class:`sim.rig_model.RigModel`) of the test article (built once)."""
+        """FE model (:class:`rigtools.sim.rig_model.RigModel`) of the test article (built once)."""
         if self._rig_model is None:
-            from sim.rig_model import build_rig_model
+            from rigtools.sim.rig_model import build_rig_model
 
             self._rig_model = build_rig_model(self.article_params)
         return self._rig_model

@@ -1,4 +1,4 @@
-"""VISA backend of :class:`drivers.contracts.SignalSource`: a 33500-series waveform generator.
+"""VISA backend of :class:`rigtools.drivers.contracts.SignalSource`: a 33500-series waveform generator.
 
 The generator makes the sine that the shaker amplifier amplifies. Commands are the common
 33500-series SCPI set: ``FUNC SIN``, ``FREQ <Hz>``, ``VOLT:UNIT VPP``, ``VOLT <Vpp>``,
@@ -6,11 +6,11 @@ The generator makes the sine that the shaker amplifier amplifies. Commands are t
 
 * Terminations are explicit (``\\n`` both ways), the timeout is set at open.
 * Limits (frequency range, maximum Vpp) are enforced before anything is sent
-  (:class:`~drivers.contracts.LimitExceeded`).
+  (:class:`~rigtools.drivers.contracts.LimitExceeded`).
 * After every setting the error queue is drained; an entry other than ``+0,"No error"`` raises
-  :class:`~drivers.contracts.SignalSourceError` naming the command and the instrument's text. A
+  :class:`~rigtools.drivers.contracts.SignalSourceError` naming the command and the instrument's text. A
   reply that is an error string where a value was expected raises the same. A VISA timeout raises
-  :class:`~drivers.contracts.AmplifierTimeout`.
+  :class:`~rigtools.drivers.contracts.AmplifierTimeout`.
 * ``close()`` (and leaving ``with``) switches the output off first.
 
 A simulated instrument ships as package data (:func:`simulator_path`); open it with
@@ -27,7 +27,7 @@ from pathlib import Path
 import pyvisa
 from pyvisa.errors import VisaIOError
 
-from drivers.contracts import (
+from rigtools.drivers.contracts import (
     AmplifierTimeout,
     DriverUnavailable,
     LimitExceeded,
@@ -49,7 +49,7 @@ _SCPI_ERROR = re.compile(r'^\s*([-+]?\d+)\s*,\s*"(.*)"\s*$')
 
 def simulator_path() -> Path:
     """Path of the pyvisa-sim description of the generator shipped with the package."""
-    return Path(str(resources.files("drivers").joinpath("data/function_generator_sim.yaml")))
+    return Path(str(resources.files("rigtools.drivers").joinpath("data/function_generator_sim.yaml")))
 
 
 def simulator_backend() -> str:

@@ -1,16 +1,16 @@
 """The block loop every experiment procedure stands on: stream a drive, read blocks, stay safe.
 
-:class:`BlockStream` drives an :class:`~drivers.contracts.AcquisitionDevice` that is already
+:class:`BlockStream` drives an :class:`~rigtools.drivers.contracts.AcquisitionDevice` that is already
 configured (channels, sample rate):
 
 * it primes the non-regenerating output with two drive blocks, starts the device, and then for
   every block reads the inputs and writes the next drive block (staying two blocks ahead);
 * every block is appended to a *sink* (a recording point, see
   :class:`rigtools.recording.RecordingWriter`, or anything with ``append(block)``) and then
-  checked by the :class:`~drivers.safety.SafetyMonitor` together with the drive block that was
+  checked by the :class:`~rigtools.drivers.safety.SafetyMonitor` together with the drive block that was
   played while it was measured;
 * on ANY error (a device fault, a safety abort, a sink error, Ctrl-C) it stops the device at
-  once: per the device contract, :meth:`~drivers.contracts.AcquisitionDevice.stop` ramps the
+  once: per the device contract, :meth:`~rigtools.drivers.contracts.AcquisitionDevice.stop` ramps the
   drive to zero (the simulated rig within its ``abort_ramp_time`` <= 0.1 s). What was read
   before the error stays in the sink, including the partial block a fault carries. The error is
   re-raised as :class:`AcquisitionAborted` (one line naming the fault, when, and what was kept);
@@ -19,7 +19,7 @@ configured (channels, sample rate):
   blocks that carry the ramp (and the device's input-to-output delay), and stops.
 
 Drives are objects with ``next_block(n)`` and ``stop_block()`` (and ``settled``):
-:class:`drivers.safety.SineDrive` for sines, :class:`RandomDrive` here for (burst) random. The
+:class:`rigtools.drivers.safety.SineDrive` for sines, :class:`RandomDrive` here for (burst) random. The
 drive ramps its own amplitude, so no step ever reaches the shaker.
 
 Procedures (dwell, stepped sine, sweep, burst random) are loops over :meth:`BlockStream.read`
@@ -36,9 +36,9 @@ from typing import Callable, Protocol
 
 import numpy as np
 
-from drivers.contracts import AcquisitionDevice, DaqFault, DriverError, SafetyAbort
-from drivers.drive_signals import RandomDrive  # noqa: F401  (kept importable from here)
-from drivers.safety import SafetyMonitor
+from rigtools.drivers.contracts import AcquisitionDevice, DaqFault, DriverError, SafetyAbort
+from rigtools.drivers.drive_signals import RandomDrive  # noqa: F401  (kept importable from here)
+from rigtools.drivers.safety import SafetyMonitor
 from rigtools.errors import UserError
 
 
@@ -101,7 +101,7 @@ def _one_line(exc: BaseException) -> str:
 
 def stream_piece(device: AcquisitionDevice) -> int:
     """Samples per read/write: the device's block, split into equal pieces so that two of them
-    (the drive kept queued ahead) fit its :attr:`~drivers.contracts.AcquisitionDevice.output_queue_limit`."""
+    (the drive kept queued ahead) fit its :attr:`~rigtools.drivers.contracts.AcquisitionDevice.output_queue_limit`."""
     block = int(device.block_size)
     limit = getattr(device, "output_queue_limit", None)
     if not limit or 2 * block <= limit:

@@ -5,11 +5,11 @@
 - a **periodic point** (a sine dwell, a step of a stepped sine, a point of a study, a model run
   of ``rig simulate``/``rig study``; it has ``fe``): harmonics k = 1..30 of every channel (peak
   amplitude and phase, also relative to the force fundamental), peak levels and impacts
-  (:func:`analysis.point.analyze_dwell`). No modes: a sine excites one frequency at a time.
+  (:func:`rigtools.analysis.point.analyze_dwell`). No modes: a sine excites one frequency at a time.
 - a **broadband point** (an FRF test with burst random or periodic chirp: ``frame_samples`` and
   ``signal``; or any record without ``fe`` holding a force, such as a tap test or free decay):
   H1, H2, Hv and coherence of every response over the force as receptance, mobility or
-  accelerance, and the modes the data support (:func:`analysis.point.analyze_frf_test`: LSCF with
+  accelerance, and the modes the data support (:func:`rigtools.analysis.point.analyze_frf_test`: LSCF with
   a stabilisation check, or peak picking).
 
 A series of periodic points at different ``fe`` (a stepped sine) also gives the response curves
@@ -64,9 +64,9 @@ class PointAnalysis:
     window
         ``(first sample, samples)`` analysed.
     dwell
-        :class:`analysis.point.DwellAnalysis` (periodic points).
+        :class:`rigtools.analysis.point.DwellAnalysis` (periodic points).
     frf
-        :class:`analysis.point.FRFTestAnalysis` (broadband points).
+        :class:`rigtools.analysis.point.FRFTestAnalysis` (broadband points).
     excitation
         Welch settings used for a broadband point (``"burst"``, ``"periodic"``, ``"random"``).
     notes
@@ -162,7 +162,7 @@ class RecordingAnalysis:
         harm = {c: np.array([p.dwell.harmonics[c].amplitude[:k] for p in pts]) for c in channels}
         frf = {}
         if FORCE in channels:
-            from analysis.frf import convert_frf
+            from rigtools.analysis.frf import convert_frf
 
             f1 = np.array([p.dwell.harmonics[FORCE].amplitude[0] * np.exp(1j * p.dwell.harmonics[FORCE].phase[0])
                            for p in pts])
@@ -281,8 +281,8 @@ def response_channels(point, force: str | None) -> list[str]:
 def analyze_periodic(point, *, channels: Sequence[str] | None = None, k_max: int = K_MAX) -> PointAnalysis:
     """Harmonics (whole record window, in blocks), peak levels and impacts (last
     :data:`WINDOW_SAMPLES`) of a point with ``fe``."""
-    from analysis.harmonics import harmonics_from_blocks, relative_phases
-    from analysis.point import analyze_dwell
+    from rigtools.analysis.harmonics import harmonics_from_blocks, relative_phases
+    from rigtools.analysis.point import analyze_dwell
 
     fe = float(point.params["fe"])
     rate = float(point.sample_rate)
@@ -340,7 +340,7 @@ def tap_frames(point, force: str, start: int, n: int, threshold: float = 0.2) ->
 def analyze_broadband(point, procedure: str, *, kind: str = "accelerance", method: str = "lscf",
                       responses: Sequence[str] | None = None) -> PointAnalysis:
     """H1/H2/Hv, coherence and modes of a broadband point (FRF test, tap test, free decay)."""
-    from analysis.point import analyze_frf_test
+    from rigtools.analysis.point import analyze_frf_test
 
     rate = float(point.sample_rate)
     force = force_channel(point)
@@ -401,7 +401,7 @@ def analyze_tap_test(points, experiment: dict, *, kind: str = "accelerance",
                      method: str = "lscf") -> PointAnalysis:
     """H1/H2/Hv, coherence and modes of a tap (impact-hammer) test: one frame per accepted hit,
     each its own point (``rig acquire tap``), averaged together with the hammer as the force."""
-    from analysis.point import analyze_frf_test
+    from rigtools.analysis.point import analyze_frf_test
 
     hammer = str(experiment.get("hammer_channel") or "hammer")
     accepted = [p for p in points if p.complete and p.params.get("accepted", False) and hammer in p.channels]
@@ -532,13 +532,13 @@ def model_frequencies(rig_config, n_modes: int = 3) -> dict[str, dict[str, list[
     """Flexural natural frequencies of both blades of a rig: ``{"fem": ..., "am": ...,
     "article": ...}`` with ``{blade: [Hz, ...]}`` each. ``fem``: the reduced FE model
     (:func:`rigtools.simulation.natural_frequencies`); ``am``: the exact Euler-Bernoulli solution
-    (:func:`sim.analytical.exact_flexural_frequencies`); ``article``: the simulated rig's test
-    article (``[test_article]`` applied to the nominal rig as :class:`drivers.simulated.SimulatedRig`
+    (:func:`rigtools.sim.analytical.exact_flexural_frequencies`); ``article``: the simulated rig's test
+    article (``[test_article]`` applied to the nominal rig as :class:`rigtools.drivers.simulated.SimulatedRig`
     does, reduced as its vibro-impact physics does)."""
     from rigtools.simulation import natural_frequencies
-    from sim.analytical import exact_flexural_frequencies
-    from sim.reduction import reduce_rig_model, reduced_system
-    from sim.rig_model import blade_masses, build_rig_model
+    from rigtools.sim.analytical import exact_flexural_frequencies
+    from rigtools.sim.reduction import reduce_rig_model, reduced_system
+    from rigtools.sim.rig_model import blade_masses, build_rig_model
 
     params = rig_config.to_params()
     fem = natural_frequencies(reduced_system(params, "fem"))
@@ -556,10 +556,10 @@ def model_frequencies(rig_config, n_modes: int = 3) -> dict[str, dict[str, list[
 
 def frequency_table(analysis: RecordingAnalysis, path, n_modes: int = 3) -> list[dict] | None:
     """The paper's Table 2 for a broadband recording: per blade and mode FEM, AM, EM (identified)
-    and their differences in % (:func:`analysis.compare.natural_frequency_table`), with the
+    and their differences in % (:func:`rigtools.analysis.compare.natural_frequency_table`), with the
     simulated test article's own frequency and EM's difference from it when the recording was
     made on the simulated rig. None if nothing was identified or the rig cannot be read."""
-    from analysis.compare import natural_frequency_table
+    from rigtools.analysis.compare import natural_frequency_table
     from rigtools.recording import RecordingError, open_recording
 
     em = identified_frequencies(analysis)

@@ -210,15 +210,15 @@ def _say(line: str) -> None:
 
 def _driver_error_code(exc: BaseException) -> int | None:
     """3 for drivers.DriverUnavailable, 4 for another drivers.DriverError, 2 for a
-    sim.params.SimulationInputError (physics parameters a user gave, or a run they made diverge),
+    rigtools.sim.params.SimulationInputError (physics parameters a user gave, or a run they made diverge),
     None otherwise. Those modules are only consulted if something already imported them."""
-    contracts = sys.modules.get("drivers.contracts")
+    contracts = sys.modules.get("rigtools.drivers.contracts")
     if contracts is not None:
         if isinstance(exc, contracts.DriverUnavailable):
             return errors.EXIT_HARDWARE
         if isinstance(exc, contracts.DriverError):
             return errors.EXIT_FAULT
-    params = sys.modules.get("sim.params")
+    params = sys.modules.get("rigtools.sim.params")
     if params is not None and isinstance(exc, params.SimulationInputError):
         return errors.EXIT_USAGE
     return None

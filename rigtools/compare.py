@@ -17,14 +17,14 @@ Simulating the EM points (``simulate=True``): the model runs at each EM point's 
 the force the blade felt there:
 
 * ``excitation="measured"``: the harmonics k = 1..K (amplitude and phase) of the EM force over
-  its settled window drive the model (:func:`sim.vibro_impact.run_harmonic`'s
+  its settled window drive the model (:func:`rigtools.sim.vibro_impact.run_harmonic`'s
   ``force_harmonics``), so every harmonic the blade felt is applied;
 * ``excitation="nominal"``: ``F0 sin`` with ``F0`` the EM force fundamental.
 
 Runs go through :class:`rigtools.study_runner.StudyRunner` (in-process by default; ``workers``
 for a Dask LocalCluster), carrying the state from point to point when the EM study did.
 
-Agreement score (one per point): :func:`analysis.compare.agreement_score` of the two shroud
+Agreement score (one per point): :func:`rigtools.analysis.compare.agreement_score` of the two shroud
 accelerations' harmonics k = 1..K, ``score = 10 ** (-E)`` with ``E`` the energy-weighted mean
 ``|log10(model / EM)|`` over harmonics, averaged over the two channels; 1 is identical, ``1/q``
 when every harmonic is off by a factor ``q``. The force is the input and is left out of the
@@ -52,7 +52,7 @@ import numpy as np
 
 from rigtools.errors import UserError
 from rigtools.vocabulary import CHANNELS, current_parameters
-from sim.studies import PlannedPoint
+from rigtools.sim.studies import PlannedPoint
 
 FORCE, ACTIVE, PASSIVE = "force", "active_shroud_accel", "passive_shroud_accel"
 COMPARED = (FORCE, ACTIVE, PASSIVE)
@@ -83,11 +83,11 @@ class PointComparison:
     model_params
         fe, gap, force_amplitude (nominal F0), force_amplitude_measured, settled of the model point.
     em, model
-        :class:`analysis.point.DwellAnalysis` of both sides.
+        :class:`rigtools.analysis.point.DwellAnalysis` of both sides.
     table
-        :func:`analysis.compare.harmonic_table` of the compared channels (pandas DataFrame).
+        :func:`rigtools.analysis.compare.harmonic_table` of the compared channels (pandas DataFrame).
     agreement
-        :class:`analysis.compare.Agreement` of the shroud accelerations.
+        :class:`rigtools.analysis.compare.Agreement` of the shroud accelerations.
     explanations
         ``[(channel, FrequencyOffsetExplanation, (blade, mode, model Hz) or None)]`` for the large
         harmonic differences (text: :meth:`explanation_lines`).
@@ -157,7 +157,7 @@ class Comparison:
     points
         :class:`PointComparison` in EM order.
     natural
-        Natural-frequency table (:func:`analysis.compare.natural_frequency_table` layout with the EM
+        Natural-frequency table (:func:`rigtools.analysis.compare.natural_frequency_table` layout with the EM
         column filled where measured), or None.
     notes
         Sentences on what could not be compared and why.
@@ -198,8 +198,8 @@ class Comparison:
 
     # -------------------------------------------------------------- figures
     def trend_quantities(self) -> dict:
-        """``{label: {"EM": (values, y), model: (values, y)}}`` of :func:`analysis.compare.trend_series`."""
-        from analysis.compare import trend_series
+        """``{label: {"EM": (values, y), model: (values, y)}}`` of :func:`rigtools.analysis.compare.trend_series`."""
+        from rigtools.analysis.compare import trend_series
 
         if self.kind is None or len(self.points) < 2:
             return {}
@@ -211,7 +211,7 @@ class Comparison:
     def figures(self) -> list[tuple[str, Any, str]]:
         """``[(name, matplotlib Figure, caption)]``: the study trends (if a study) and, per point,
         the waveform/spectrum overlay and the harmonic bars."""
-        from analysis.plots import harmonic_bars_figure, overlay_figure, trend_figure
+        from rigtools.analysis.plots import harmonic_bars_figure, overlay_figure, trend_figure
 
         out = []
         q = self.trend_quantities()
@@ -368,7 +368,7 @@ def _is_frf_point(point) -> bool:
 
 def em_point_analysis(point, k_max: int = K_MAX):
     """``(DwellAnalysis, {channel: samples}, rate)`` of an EM point over its settled window."""
-    from analysis.point import analyze_dwell
+    from rigtools.analysis.point import analyze_dwell
 
     fs = point.sample_rate
     if fs is None:
@@ -381,9 +381,9 @@ def em_point_analysis(point, k_max: int = K_MAX):
 
 def _with_velocity_harmonics(analysis, velocities: dict, rate: float):
     """Replace the acceleration harmonics by ``derivative_harmonics`` of the velocity ones."""
-    from analysis.harmonics import derivative_harmonics, harmonic_amplitudes
+    from rigtools.analysis.harmonics import derivative_harmonics, harmonic_amplitudes
 
-    fits = dict(analysis.harmonics)
+    fits = dict(rigtools.analysis.harmonics)
     for ch, v in velocities.items():
         if ch in fits:
             k = int(fits[ch].k[-1])
@@ -392,8 +392,8 @@ def _with_velocity_harmonics(analysis, velocities: dict, rate: float):
 
 
 def model_run_analysis(run, k_max: int = K_MAX):
-    """``(DwellAnalysis, {channel: samples}, rate)`` of a :class:`sim.vibro_impact.VibroImpactRun`."""
-    from analysis.point import analyze_dwell
+    """``(DwellAnalysis, {channel: samples}, rate)`` of a :class:`rigtools.sim.vibro_impact.VibroImpactRun`."""
+    from rigtools.analysis.point import analyze_dwell
 
     o = run.outputs
     waves = {FORCE: o["excitation_force"], ACTIVE: o["active_tip_acceleration"],
@@ -406,7 +406,7 @@ def model_run_analysis(run, k_max: int = K_MAX):
 
 def model_point_analysis(point, k_max: int = K_MAX):
     """Same for a point of a model recording (whole record; velocities used when present)."""
-    from analysis.point import analyze_dwell
+    from rigtools.analysis.point import analyze_dwell
 
     fs = point.sample_rate
     waves = {c: np.asarray(point.channels[c][:], dtype=float) for c in COMPARED if c in point.channels}
@@ -419,7 +419,7 @@ def model_point_analysis(point, k_max: int = K_MAX):
 def em_force_harmonics(analysis) -> list[tuple[int, float, float]]:
     """``(k, A_k, phi_k)`` of the EM force, phases shifted so the fundamental is ``-pi/2`` (a sine
     from t = 0, as the nominal force): ``phi_k - k (phi_1 + pi/2)``."""
-    fit = analysis.harmonics[FORCE]
+    fit = rigtools.analysis.harmonics[FORCE]
     shift = fit.phase[0] + math.pi / 2
     return [(int(k), float(a), float(np.angle(np.exp(1j * (p - k * shift)))))
             for k, a, p in zip(fit.k, fit.amplitude, fit.phase)]
@@ -437,7 +437,7 @@ class DrivenPoint(PlannedPoint):
 
 def run_driven_point(system, point: DrivenPoint, options, previous=None):
     """:func:`rigtools.study_runner.run_point` with the point's ``force_harmonics``."""
-    from sim.vibro_impact import run_harmonic
+    from rigtools.sim.vibro_impact import run_harmonic
 
     return run_harmonic(system.with_contact(gap=point.gap), point.fe, point.force,
                         record_periods=max(1, int(round(options.record_duration * point.fe))),
@@ -452,7 +452,7 @@ def simulate_em_points(system, em_points: Sequence[tuple[dict, Any]], excitation
     """Model runs at the EM points: ``em_points`` is ``[(params, DwellAnalysis)]``; returns the runs."""
     from rigtools.simulation import check_finite
     from rigtools.study_runner import RunOptions, StudyRunner
-    from sim.vibro_impact import SimulationInputError
+    from rigtools.sim.vibro_impact import SimulationInputError
 
     planned = []
     for i, (params, ana) in enumerate(em_points):
@@ -483,9 +483,9 @@ def simulate_em_points(system, em_points: Sequence[tuple[dict, Any]], excitation
 
 def em_modes_from_frf(recording) -> tuple[dict, dict, list[str]]:
     """``({"active": fn}, {"active": zeta}, notes)`` from the FRF points of a recording
-    (:func:`analysis.point.analyze_frf_test`, LSCF with a stabilisation check); the passive blade
+    (:func:`rigtools.analysis.point.analyze_frf_test`, LSCF with a stabilisation check); the passive blade
     is not excited by the shaker, so only the active blade's modes are measured."""
-    from analysis.point import analyze_frf_test
+    from rigtools.analysis.point import analyze_frf_test
 
     notes = []
     fns: list[float] = []
@@ -671,7 +671,7 @@ def compare_recordings(em_path: str, fem_path: str | None = None, *, simulate: b
         raise UserError("give a model recording FEM.h5 or --simulate, not both")
     if not simulate and fem_path is None:
         raise UserError("give a model recording FEM.h5 to compare with, or --simulate")
-    from analysis.compare import explain_large_differences, harmonic_table, pair_points, point_agreement
+    from rigtools.analysis.compare import explain_large_differences, harmonic_table, pair_points, point_agreement
     from rigtools.simulation import load_system, natural_frequencies
 
     notes: list[str] = []
@@ -719,7 +719,7 @@ def compare_recordings(em_path: str, fem_path: str | None = None, *, simulate: b
         cfg, system = load_system(rig_cfg_text, model)
         _, other = load_system(rig_cfg_text, "am" if model == "fem" else "fem")
     else:
-        from sim.reduction import reduced_system
+        from rigtools.sim.reduction import reduced_system
 
         cfg = rig_cfg_text
         system = reduced_system(cfg.to_params(), model)

@@ -29,10 +29,10 @@ from pydantic import (
     model_validator,
 )
 
-from drivers.shaker import SHAKER_BOUNDS
+from rigtools.drivers.shaker import SHAKER_BOUNDS
 from rigtools.errors import ConfigError
 from rigtools.units import MAX_GAP, parse_quantity
-from sim.params import (
+from rigtools.sim.params import (
     BladeParams,
     ContactParams,
     DampingParams,
@@ -329,8 +329,8 @@ class DaqConfig(_Section):
         return self
 
     def input_specs(self) -> list:
-        """The inputs as :class:`drivers.contracts.InputChannelSpec`, in file order."""
-        from drivers.contracts import STANDARD_GRAVITY, InputChannelSpec
+        """The inputs as :class:`rigtools.drivers.contracts.InputChannelSpec`, in file order."""
+        from rigtools.drivers.contracts import STANDARD_GRAVITY, InputChannelSpec
 
         specs = []
         for name, ch in self.channels.items():
@@ -347,8 +347,8 @@ class DaqConfig(_Section):
         return specs
 
     def output_spec(self):
-        """The drive as :class:`drivers.contracts.OutputChannelSpec`."""
-        from drivers.contracts import OutputChannelSpec
+        """The drive as :class:`rigtools.drivers.contracts.OutputChannelSpec`."""
+        from rigtools.drivers.contracts import OutputChannelSpec
 
         return OutputChannelSpec("drive", self.drive_channel, -self.drive_range, self.drive_range)
 
@@ -370,7 +370,7 @@ class SignalSourceConfig(_Section):
     @property
     def max_amplitude_vpp(self) -> float:
         """``max_amplitude`` in peak-to-peak volts (the 33500's VOLT unit), for
-        :class:`drivers.visa_source` limits."""
+        :class:`rigtools.drivers.visa_source` limits."""
         return 2.0 * self.max_amplitude
 
     @model_validator(mode="after")
@@ -426,7 +426,7 @@ Inductance = Annotated[float, _quantity("inductance")]
 
 
 def _shaker_field(name: str) -> Any:
-    """Default and range of a [shaker] key: from :data:`drivers.shaker.SHAKER_BOUNDS`, their one
+    """Default and range of a [shaker] key: from :data:`rigtools.drivers.shaker.SHAKER_BOUNDS`, their one
     definition."""
     bound = SHAKER_BOUNDS[name]
     low = {"gt": bound.low} if bound.low_open else {"ge": bound.low}
@@ -435,7 +435,7 @@ def _shaker_field(name: str) -> Any:
 
 class ShakerConfig(_Section):
     """Voltage amplifier and electrodynamic shaker driving the active blade through the force sensor.
-    Defaults and ranges: :data:`drivers.shaker.SHAKER_BOUNDS`."""
+    Defaults and ranges: :data:`rigtools.drivers.shaker.SHAKER_BOUNDS`."""
 
     armature_mass: Mass = _shaker_field("armature_mass")                       # kg
     suspension_stiffness: Stiffness = _shaker_field("suspension_stiffness")    # N/m
@@ -446,8 +446,8 @@ class ShakerConfig(_Section):
     amplifier_gain: float = _shaker_field("amplifier_gain")                    # V/V
 
     def to_params(self):
-        """As :class:`drivers.shaker.ShakerParams`."""
-        from drivers.shaker import ShakerParams
+        """As :class:`rigtools.drivers.shaker.ShakerParams`."""
+        from rigtools.drivers.shaker import ShakerParams
 
         return ShakerParams(**self.model_dump())
 
@@ -470,8 +470,8 @@ class TestArticleConfig(_Section):
     input_to_output_delay: Time = Field(default=8e-4, ge=0, le=1.0)               # s
 
     def to_params(self):
-        """As :class:`drivers.simulated.TestArticle`."""
-        from drivers.simulated import TestArticle
+        """As :class:`rigtools.drivers.simulated.TestArticle`."""
+        from rigtools.drivers.simulated import TestArticle
 
         return TestArticle(**self.model_dump())
 
@@ -566,7 +566,7 @@ class RigConfig(_Section):
         return BladeConfig(**{**self.blade.model_dump(), **overrides})
 
     def to_params(self) -> RigParams:
-        """The physics' view of this rig (:class:`sim.params.RigParams`)."""
+        """The physics' view of this rig (:class:`rigtools.sim.params.RigParams`)."""
         active = BladeParams(**self.blade.model_dump())
         passive = BladeParams(**self.passive_blade_config().model_dump())
         return RigParams(

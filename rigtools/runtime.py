@@ -196,7 +196,7 @@ def numba_cache_dir() -> Path | None:
     """
     if os.environ.get("NUMBA_CACHE_DIR"):
         return Path(os.environ["NUMBA_CACHE_DIR"])
-    import sim    # light: a package docstring
+    import rigtools.sim as sim  # light: a package docstring
 
     pkg = Path(sim.__file__).resolve().parent
     pycache = pkg / "__pycache__"
@@ -279,7 +279,7 @@ def _index_exists(dispatcher: Any) -> bool:
         return False
 
 
-def kernels_cached(module_name: str = "sim.vibro_impact") -> bool:
+def kernels_cached(module_name: str = "rigtools.sim.vibro_impact") -> bool:
     """True if the numba kernels of ``module_name`` are in numba's on-disk cache.
 
     A kernel counts once an index file exists for it that matches the current source (numba
@@ -298,9 +298,9 @@ def _warm_up_vibro_impact() -> None:
     the argument types every caller uses (float64 arrays, float scalars, int law code)."""
     import numpy as np
 
-    from sim.params import ContactParams, DampingParams
-    from sim.reduction import ReducedSystem
-    from sim.vibro_impact import VibroImpactStepper
+    from rigtools.sim.params import ContactParams, DampingParams
+    from rigtools.sim.reduction import ReducedSystem
+    from rigtools.sim.vibro_impact import VibroImpactStepper
 
     omega = 2 * np.pi * np.array([50.0, 55.0])
     system = ReducedSystem(omega=omega, zeta=np.array([0.01, 0.01]),
@@ -314,10 +314,10 @@ def _warm_up_vibro_impact() -> None:
 
 def _warm_up_simulated_rig() -> None:
     """Run the simulated rig's shaker/test-article propagator once on a two-state system, with
-    the argument types :class:`drivers.simulated.SimulatedRig` passes (complex128 modal data)."""
+    the argument types :class:`rigtools.drivers.simulated.SimulatedRig` passes (complex128 modal data)."""
     import numpy as np
 
-    from drivers import simulated
+    from rigtools.drivers import simulated
 
     n, m = 2, len(simulated.SIGNALS)
     c = np.full(n, 0.5 + 0.1j)
@@ -329,19 +329,19 @@ def _warm_up_simulated_rig() -> None:
 #: Module -> (what compiles its kernels, first-run compile time in s measured on the 2-core CI
 #: machine under load: 4 s and 3.5 s).
 KERNELS: dict[str, tuple[Callable[[], None], float]] = {
-    "sim.vibro_impact": (_warm_up_vibro_impact, 5.0),
-    "drivers.simulated": (_warm_up_simulated_rig, 4.0),
+    "rigtools.sim.vibro_impact": (_warm_up_vibro_impact, 5.0),
+    "rigtools.drivers.simulated": (_warm_up_simulated_rig, 4.0),
 }
 
 
 def ensure_kernels_compiled(console: Any = None,
-                            modules: tuple[str, ...] = ("sim.vibro_impact",)) -> bool:
+                            modules: tuple[str, ...] = ("rigtools.sim.vibro_impact",)) -> bool:
     """Compile the numba kernels of ``modules`` now if numba has not cached them, saying so.
 
     Call it before a progress bar starts on work that runs compiled kernels, so the first run
     prints "compiling the simulation kernels (first run only, ~5 s)" instead of a frozen bar:
     ``rig simulate`` and ``rig study`` with the default; ``rig acquire --simulated`` with
-    ``modules=("sim.vibro_impact", "drivers.simulated")``.
+    ``modules=("rigtools.sim.vibro_impact", "rigtools.drivers.simulated")``.
 
     Parameters
     ----------

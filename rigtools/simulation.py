@@ -27,7 +27,7 @@ from rigtools.vocabulary import CHANNELS
 
 K_MAX = 30
 
-# recorded channel (vocabulary name) -> output of sim.vibro_impact.run_harmonic
+# recorded channel (vocabulary name) -> output of rigtools.sim.vibro_impact.run_harmonic
 MODEL_OUTPUTS: dict[str, str] = {
     "active_shroud_accel": "active_tip_acceleration",
     "passive_shroud_accel": "passive_tip_acceleration",
@@ -91,7 +91,7 @@ def load_system(rig: str | None, model: str = "fem"):
     """``(rig config, reduced system)`` of a rig file (``None``: the default rig) for ``model``
     (``"fem"`` or ``"am"``)."""
     from rigtools.config import load_rig
-    from sim.reduction import reduced_system
+    from rigtools.sim.reduction import reduced_system
 
     cfg = load_rig(rig)
     return cfg, reduced_system(cfg.to_params(), model)
@@ -100,7 +100,7 @@ def load_system(rig: str | None, model: str = "fem"):
 def natural_frequencies(system) -> dict[str, np.ndarray]:
     """The kept (not static-correction) mode frequencies of each blade of a reduced system, Hz:
     its flexural natural frequencies, ``{"active": ..., "passive": ...}`` ascending."""
-    from sim.reduction import ACTIVE, PASSIVE
+    from rigtools.sim.reduction import ACTIVE, PASSIVE
 
     real = np.ones(system.n_modes, bool) if system.pseudo is None else ~np.asarray(system.pseudo, bool)
     f = system.frequencies_hz
@@ -110,10 +110,10 @@ def natural_frequencies(system) -> dict[str, np.ndarray]:
 
 def simulate_point(system, fe: float, force: float, settings: RunSettings, initial=None,
                    progress: Callable[[float, float], None] | None = None):
-    """One settled run of ``F0 sin(2 pi fe t)`` (:func:`sim.vibro_impact.run_harmonic`);
-    :class:`sim.vibro_impact.SimulationInputError` becomes a one-line :class:`UserError`.
+    """One settled run of ``F0 sin(2 pi fe t)`` (:func:`rigtools.sim.vibro_impact.run_harmonic`);
+    :class:`rigtools.sim.vibro_impact.SimulationInputError` becomes a one-line :class:`UserError`.
     ``progress(simulated_s, at_most_s)`` is called while settling."""
-    from sim.vibro_impact import SimulationInputError, run_harmonic
+    from rigtools.sim.vibro_impact import SimulationInputError, run_harmonic
 
     try:
         run = run_harmonic(system, fe, force, record_periods=settings.record_periods(fe),
@@ -156,7 +156,7 @@ APPEND_SAMPLES = 1 << 20    # samples per appended block: no full copy of a long
 
 def force_fundamental(run) -> float:
     """Harmonic 1 (peak) of the force channel: ``force_amplitude_measured``."""
-    from analysis.harmonics import harmonic_amplitudes
+    from rigtools.analysis.harmonics import harmonic_amplitudes
 
     return float(harmonic_amplitudes(run.outputs["excitation_force"], run.sample_rate, run.fe, 1).at(1))
 
@@ -189,8 +189,8 @@ def write_point(rec, run, model: str, **extra) -> None:
 def harmonics_of(run) -> dict[str, list[dict]]:
     """k = 1..30 harmonics (peak amplitudes) of the reported channels:
     ``{channel: [{"k", "frequency_hz", "amplitude"}, ...]}``."""
-    from analysis.harmonics import derivative_harmonics, harmonic_amplitudes
-    from sim.vibro_impact import contact_force_harmonics
+    from rigtools.analysis.harmonics import derivative_harmonics, harmonic_amplitudes
+    from rigtools.sim.vibro_impact import contact_force_harmonics
 
     out = {}
     for name, (src, order) in HARMONIC_SOURCES.items():
@@ -216,8 +216,8 @@ def point_summary(run) -> dict:
 
 
 def run_figure(run, system, title: str):
-    """:func:`analysis.plots.vibro_impact_figure` of one settled run."""
-    from analysis.plots import vibro_impact_figure
+    """:func:`rigtools.analysis.plots.vibro_impact_figure` of one settled run."""
+    from rigtools.analysis.plots import vibro_impact_figure
 
     o = run.outputs
     return vibro_impact_figure(run.time, o["active_tip_displacement"], o["passive_tip_displacement"],
@@ -232,12 +232,12 @@ def run_figure(run, system, title: str):
 def iter_study_points(system, plan, settings: RunSettings,
                       progress: Callable[[float, float], None] | None = None,
                       runner=None) -> Iterator[tuple[object, object]]:
-    """``(planned point, settled run)`` of a :class:`sim.studies.StudyPlan` or ``MapPlan``, in
+    """``(planned point, settled run)`` of a :class:`rigtools.sim.studies.StudyPlan` or ``MapPlan``, in
     point order, through ``runner`` (a :class:`rigtools.study_runner.StudyRunner`; default
     in-process); input errors become :class:`UserError`. ``progress(simulated_s, at_most_s)``
     while each settles (in-process)."""
     from rigtools.study_runner import RunOptions, StudyRunner
-    from sim.vibro_impact import SimulationInputError
+    from rigtools.sim.vibro_impact import SimulationInputError
 
     runner = runner if runner is not None else StudyRunner()
     options = RunOptions(record_duration=settings.duration, steps_per_period=settings.steps_per_period,
@@ -286,8 +286,8 @@ def write_study(rec, system, plan, settings: RunSettings, model: str,
 
 
 def steps_per_period(system, fe: float, force: float, settings: RunSettings) -> int:
-    """The steps per period a run will use (:func:`sim.vibro_impact.run_harmonic`'s rule)."""
-    from sim.vibro_impact import SimulationInputError, steps_per_period_for, validate_contact
+    """The steps per period a run will use (:func:`rigtools.sim.vibro_impact.run_harmonic`'s rule)."""
+    from rigtools.sim.vibro_impact import SimulationInputError, steps_per_period_for, validate_contact
 
     if settings.steps_per_period is not None:
         return int(settings.steps_per_period)

@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 from typing import Any, Callable, Iterator, Sequence
 
 from rigtools.errors import UserError
-from sim.studies import MapPlan, PlannedPoint
+from rigtools.sim.studies import MapPlan, PlannedPoint
 
 WORKER_ENV = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1",
               "NUMBA_NUM_THREADS": "1"}
@@ -42,7 +42,7 @@ class StudyRunnerError(UserError):
 
 @dataclass(frozen=True)
 class RunOptions:
-    """How each point runs (:func:`sim.vibro_impact.run_harmonic` options, SI)."""
+    """How each point runs (:func:`rigtools.sim.vibro_impact.run_harmonic` options, SI)."""
 
     record_duration: float = 1.0
     steps_per_period: int | None = None
@@ -55,7 +55,7 @@ def run_point(system: Any, point: PlannedPoint, options: RunOptions, previous: A
 
     The function every executor runs (in-process or on a Dask worker); ``progress(simulated_s,
     at_most_s)`` while it settles (in-process only)."""
-    from sim.vibro_impact import run_harmonic
+    from rigtools.sim.vibro_impact import run_harmonic
 
     return run_harmonic(system.with_contact(gap=point.gap), point.fe, point.force,
                         record_periods=max(1, int(round(options.record_duration * point.fe))),
@@ -67,7 +67,7 @@ def run_point(system: Any, point: PlannedPoint, options: RunOptions, previous: A
 
 def map_chains(gaps: Sequence[float], forces: Sequence[float], fes: Sequence[float], *,
                direction: str = "up", carry_state: bool = True) -> list[list[PlannedPoint]]:
-    """The chains of a gap x F0 x fe map (:class:`sim.studies.MapPlan`)."""
+    """The chains of a gap x F0 x fe map (:class:`rigtools.sim.studies.MapPlan`)."""
     return MapPlan(tuple(gaps), tuple(forces), tuple(fes), direction, carry_state).chains()
 
 
@@ -162,7 +162,7 @@ class StudyRunner:
         at_most_s)`` while a point settles (in-process only: workers report points done).
 
         ``chains`` must be contiguous in point order (chain k holds the indices after chain
-        k-1's), as :meth:`sim.studies.StudyPlan.chains` and :func:`map_chains` make them.
+        k-1's), as :meth:`rigtools.sim.studies.StudyPlan.chains` and :func:`map_chains` make them.
         """
         total = sum(len(c) for c in chains)
         if self._client is None:

@@ -2,15 +2,15 @@
 
 * :func:`identify_recording`: natural frequencies and damping ratios of every broadband point of
   a recording (an FRF test, ``rig acquire frf``; a tap/hammer test), per blade, from the
-  accelerations over the force (:func:`analysis.point.analyze_frf_test`, LSCF).
+  accelerations over the force (:func:`rigtools.analysis.point.analyze_frf_test`, LSCF).
 * :func:`mode_targets`: those modes paired with the model's flexural modes (blade, order), the
   same mode seen by several recordings merged (mean).
-* :func:`fit_linear`: :func:`sim.updating.update_model` with the user's errors as one line.
+* :func:`fit_linear`: :func:`rigtools.sim.updating.update_model` with the user's errors as one line.
 * :func:`read_dwell`, :func:`model_dwell`, :func:`fit_contact_to_dwells`: force-controlled dwells
   with impacts (``rig acquire dwell``) as harmonic targets, the model's harmonics at the measured
-  force, and the contact fit (:func:`sim.contact_fit.fit_contact`, vibro-impact integrator in the
+  force, and the contact fit (:func:`rigtools.sim.contact_fit.fit_contact`, vibro-impact integrator in the
   loop).
-* :func:`agreement`: EM-versus-FEM score of a dwell (:func:`analysis.compare.point_agreement`).
+* :func:`agreement`: EM-versus-FEM score of a dwell (:func:`rigtools.analysis.compare.point_agreement`).
 * :func:`updated_rig_text`: the original rig-file text with the fitted keys replaced or added, each
   commented with its origin, checked to load and to hold exactly the fitted values.
 
@@ -60,7 +60,7 @@ class IdentifiedSet:
     frequencies_hz, damping_ratios
         Identified modes, ascending.
     notes
-        Why fewer or none were identified (from :func:`analysis.modal_id.identify`).
+        Why fewer or none were identified (from :func:`rigtools.analysis.modal_id.identify`).
     """
 
     recording: str
@@ -117,14 +117,14 @@ def identify_recording(path: str | Path, *, f_min: float | None = None, f_max: f
     f_min, f_max
         Band searched, Hz (default: the test's band from the point, else the whole grid).
     method
-        :func:`analysis.modal_id.identify` method.
+        :func:`rigtools.analysis.modal_id.identify` method.
 
     Raises
     ------
     UserError
         Unreadable file, or no point holding a broadband test (a dwell, a sweep).
     """
-    from analysis.point import analyze_frf_test
+    from rigtools.analysis.point import analyze_frf_test
 
     name = Path(path).name
     with _open(path) as rec:
@@ -212,16 +212,16 @@ def mode_targets(params, recordings: Sequence[RecordingModes], *, max_modes: int
                  damping: bool = True) -> tuple[list, list[PairedMode], list[str]]:
     """Pair identified modes with the model's flexural modes of each blade.
 
-    Each identified set is paired on its own (:func:`sim.updating.pair_modes`); a (blade, order)
+    Each identified set is paired on its own (:func:`rigtools.sim.updating.pair_modes`); a (blade, order)
     seen by several sets is their mean. Orders above ``max_modes`` are left out.
 
     Returns
     -------
     targets, paired, notes
-        :class:`sim.updating.ModeTarget` list, the same with their sources, and lines about
+        :class:`rigtools.sim.updating.ModeTarget` list, the same with their sources, and lines about
         what was left out (unpaired peaks, blades without modes).
     """
-    from sim.updating import ModeTarget, pair_modes
+    from rigtools.sim.updating import ModeTarget, pair_modes
 
     seen: dict[tuple[str, int], list] = {}
     model_hz: dict[tuple[str, int], float] = {}
@@ -257,7 +257,7 @@ def mode_targets(params, recordings: Sequence[RecordingModes], *, max_modes: int
 
 
 def fit_linear(params, targets, names: Sequence[str], **kwargs):
-    """:func:`sim.updating.update_model` within what a rig file can hold; bad names or targets
+    """:func:`rigtools.sim.updating.update_model` within what a rig file can hold; bad names or targets
     become one-line :class:`UserError`.
 
     Root springs stay at or below the rig file's limits (:data:`rigtools.config.MAX_ROOT_ROTATIONAL_STIFFNESS`,
@@ -269,8 +269,8 @@ def fit_linear(params, targets, names: Sequence[str], **kwargs):
 
     from rigtools.config import MAX_ROOT_ROTATIONAL_STIFFNESS as KR_MAX
     from rigtools.config import MAX_ROOT_TRANSLATIONAL_STIFFNESS as KT_MAX
-    from sim.params import RootParams
-    from sim.updating import (
+    from rigtools.sim.params import RootParams
+    from rigtools.sim.updating import (
         CLAMPED_START_ROTATIONAL,
         CLAMPED_START_TRANSLATIONAL,
         PARAMETERS,
@@ -322,7 +322,7 @@ class DwellData:
     fe: float
     force_amplitude: float   # measured fundamental of the force, N (the model is driven at it)
     gap: float
-    analysis: object         # analysis.point.DwellAnalysis of the settled window
+    analysis: object         # rigtools.analysis.point.DwellAnalysis of the settled window
 
     def amplitudes(self, channel: str, k_max: int = K_HARMONICS) -> np.ndarray:
         return np.asarray(self.analysis.harmonics[channel].amplitude[:k_max], dtype=float)
@@ -337,7 +337,7 @@ def read_dwell(path: str | Path, *, k_max: int = 30) -> list[DwellData]:
     UserError
         Unreadable file, or no settled dwell point with a force and a shroud channel.
     """
-    from analysis.point import analyze_dwell
+    from rigtools.analysis.point import analyze_dwell
 
     name = Path(path).name
     out = []
@@ -365,14 +365,14 @@ def read_dwell(path: str | Path, *, k_max: int = 30) -> list[DwellData]:
 
 def model_dwell(params, dwell: DwellData, *, system=None, duration: float = 0.5):
     """The model's settled run at a dwell's frequency, measured force amplitude and gap, as a
-    :class:`analysis.point.DwellAnalysis` (shroud accelerations from the velocity, ``k w |V_k|``;
+    :class:`rigtools.analysis.point.DwellAnalysis` (shroud accelerations from the velocity, ``k w |V_k|``;
     the force as run)."""
     from dataclasses import replace
 
-    from analysis.harmonics import derivative_harmonics, harmonic_amplitudes
-    from analysis.point import DwellAnalysis
+    from rigtools.analysis.harmonics import derivative_harmonics, harmonic_amplitudes
+    from rigtools.analysis.point import DwellAnalysis
     from rigtools.simulation import RunSettings, simulate_point
-    from sim.reduction import reduced_system
+    from rigtools.sim.reduction import reduced_system
 
     system = system if system is not None else reduced_system(params, "fem")
     system = replace(system, contact=params.contact).with_contact(gap=dwell.gap)
@@ -387,17 +387,17 @@ def model_dwell(params, dwell: DwellData, *, system=None, duration: float = 0.5)
 
 
 def agreement(dwell: DwellData, model, *, k_max: int = K_HARMONICS):
-    """EM-versus-FEM :class:`analysis.compare.Agreement` over the force and both shroud
+    """EM-versus-FEM :class:`rigtools.analysis.compare.Agreement` over the force and both shroud
     accelerations, harmonics 1..k_max."""
-    from analysis.compare import point_agreement
+    from rigtools.analysis.compare import point_agreement
 
     return point_agreement(dwell.analysis, model, channels=list(DWELL_CHANNELS), k_max=k_max)
 
 
 def harmonic_targets(dwells: Sequence[DwellData], *, k_max: int = K_HARMONICS, sigma: float = 0.05,
                      floor: float = 0.01) -> list:
-    """:class:`sim.contact_fit.HarmonicTarget` of each dwell (both shroud accelerations)."""
-    from sim.contact_fit import HarmonicTarget
+    """:class:`rigtools.sim.contact_fit.HarmonicTarget` of each dwell (both shroud accelerations)."""
+    from rigtools.sim.contact_fit import HarmonicTarget
 
     return [HarmonicTarget(d.fe, d.force_amplitude, d.gap,
                            {c: d.amplitudes(c, k_max) for c in (ACTIVE, PASSIVE) if c in d.analysis.harmonics},
@@ -408,9 +408,9 @@ def harmonic_targets(dwells: Sequence[DwellData], *, k_max: int = K_HARMONICS, s
 def fit_contact_to_dwells(params, dwells: Sequence[DwellData], *, law: str | None = None,
                           names: Sequence[str] = ("contact.stiffness", "contact.damping"),
                           k_max: int = K_HARMONICS):
-    """:func:`sim.contact_fit.fit_contact` to the dwells' shroud harmonics; one-line errors."""
-    from sim.contact_fit import fit_contact
-    from sim.params import SimulationInputError
+    """:func:`rigtools.sim.contact_fit.fit_contact` to the dwells' shroud harmonics; one-line errors."""
+    from rigtools.sim.contact_fit import fit_contact
+    from rigtools.sim.params import SimulationInputError
 
     try:
         return fit_contact(params, harmonic_targets(dwells, k_max=k_max), list(names), law=law)
@@ -518,8 +518,8 @@ def updated_rig_text(text: str, values: dict[str, float | str], comments: dict[s
 
 def rig_file_update(text: str, linear=None, contact=None, *, sources: Sequence[str] = (),
                     modes_used: str = "", contact_sources: Sequence[str] = (), when: str = "") -> str:
-    """The updated rig-file text from an :class:`sim.updating.UpdateResult` and/or a
-    :class:`sim.contact_fit.ContactFitResult`, each key commented with recording, modes and residual."""
+    """The updated rig-file text from an :class:`rigtools.sim.updating.UpdateResult` and/or a
+    :class:`rigtools.sim.contact_fit.ContactFitResult`, each key commented with recording, modes and residual."""
     values: dict[str, float | str] = {}
     comments: dict[str, str] = {}
     remove: list[str] = []

@@ -27,7 +27,7 @@ import numpy as np
 import scipy.linalg
 from scipy.optimize import brentq
 
-from sim.params import BladeParams, LumpedMass, RootParams
+from rigtools.sim.params import BladeParams, LumpedMass, RootParams
 
 
 def _flexural_scales(blade: BladeParams) -> tuple[float, float]:

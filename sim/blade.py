@@ -1,7 +1,7 @@
 """One blade as a finite-element model: mesh, assembly, lumped masses, root, free DOFs.
 
 A blade is a uniform rectangular beam along x from the root (x = 0) to the shroud (x = length),
-meshed with two-node 3D beam elements (:mod:`sim.beam_element`). Lumped masses (the shroud at the
+meshed with two-node 3D beam elements (:mod:`rigtools.sim.beam_element`). Lumped masses (the shroud at the
 tip, the force sensor at mid-span) sit on nodes: the mesh puts a node exactly at each mass, keeping
 the requested number of elements (elements are uniform between masses). The root is clamped
 (its six DOFs are removed) or held by translational and rotational springs on all six DOFs.
@@ -14,8 +14,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 
-from sim.beam_element import element_matrices, rectangular_section
-from sim.params import BladeParams, LumpedMass, RootParams
+from rigtools.sim.beam_element import element_matrices, rectangular_section
+from rigtools.sim.params import BladeParams, LumpedMass, RootParams
 
 N_DOF_NODE = 6
 COMPONENTS = ("ux", "uy", "uz", "rx", "ry", "rz")

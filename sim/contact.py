@@ -1,6 +1,6 @@
 """Penalty contact between the two shrouds along y.
 
-Closure (see :mod:`sim.rig_model`): ``g = u_active_tip_y - u_passive_tip_y - gap``. The contact is
+Closure (see :mod:`rigtools.sim.rig_model`): ``g = u_active_tip_y - u_passive_tip_y - gap``. The contact is
 closed when ``g > 0`` and then pushes the tips apart with
 
 * linear law: ``f = k_c * g + c_c * dg/dt``
@@ -28,7 +28,7 @@ import math
 import numpy as np
 from numba import njit
 
-from sim.params import ContactParams
+from rigtools.sim.params import ContactParams
 
 LINEAR, HERTZ, HUNT_CROSSLEY = 0, 1, 2
 LAWS = {"linear": LINEAR, "hertz": HERTZ, "hunt-crossley": HUNT_CROSSLEY}

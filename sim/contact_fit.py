@@ -3,7 +3,7 @@ force-controlled dwells (or the points of a gap study), with the vibro-impact in
 
 Each target is one dwell: excitation frequency ``fe``, force amplitude ``F0`` (the fundamental of
 the force into the blade), gap, and the measured acceleration amplitudes of the harmonics
-``k = 1..K`` at the shrouds. The model runs :func:`sim.vibro_impact.run_harmonic` on the reduced
+``k = 1..K`` at the shrouds. The model runs :func:`rigtools.sim.vibro_impact.run_harmonic` on the reduced
 system of the (linearly updated) rig with the trial contact, from rest to its periodic steady
 state, and takes the same harmonics from whole periods of the shroud velocities (``k w |V_k|``:
 the velocity is continuous at an impact, the acceleration is not).
@@ -13,7 +13,7 @@ above ``floor`` times the largest of their location (the rest is noise on a real
 :func:`scipy.optimize.least_squares` in ``ln k_c`` and ``ln c_c`` with bounds; the time step is
 fixed over the fit (sized for the stiffest contact the bounds allow), so that a trial change of the
 stiffness does not also change the discretisation. Identifiability is reported as in
-:mod:`sim.updating`. ``law="hertz"`` fits a Hertz contact instead (stiffness in N/m^p), so the two
+:mod:`rigtools.sim.updating`. ``law="hertz"`` fits a Hertz contact instead (stiffness in N/m^p), so the two
 laws can be compared by their residuals.
 """
 
@@ -27,16 +27,16 @@ from typing import Literal, Mapping, Sequence
 import numpy as np
 import scipy.optimize
 
-from sim.params import RigParams
-from sim.reduction import ReducedSystem, reduced_system
-from sim.updating import (
+from rigtools.sim.params import RigParams
+from rigtools.sim.reduction import ReducedSystem, reduced_system
+from rigtools.sim.updating import (
     Identifiability,
     UpdateParameter,
     _central_jacobian,
     _forward_jacobian,
     _identifiability,
 )
-from sim.vibro_impact import run_harmonic, steps_per_period_for
+from rigtools.sim.vibro_impact import run_harmonic, steps_per_period_for
 
 LOCATIONS = {"active_shroud_accel": "active_tip_velocity", "passive_shroud_accel": "passive_tip_velocity"}
 # penetration at which a Hertz start is made equal in force to the linear contact it replaces
@@ -130,7 +130,7 @@ def harmonic_amplitudes(system: ReducedSystem, target: HarmonicTarget, *, steps_
 
 @dataclass
 class ContactFitResult:
-    """The outcome of :func:`fit_contact` (fields as :class:`sim.updating.UpdateResult`)."""
+    """The outcome of :func:`fit_contact` (fields as :class:`rigtools.sim.updating.UpdateResult`)."""
 
     names: list[str]
     units: list[str]
@@ -230,7 +230,7 @@ def fit_contact(
     Parameters
     ----------
     params
-        The rig (its linear part updated first, e.g. by :func:`sim.updating.update_model`).
+        The rig (its linear part updated first, e.g. by :func:`rigtools.sim.updating.update_model`).
     targets
         :class:`HarmonicTarget` items (dwells, or the points of a gap study).
     names

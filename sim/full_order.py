@@ -33,10 +33,10 @@ import scipy.linalg
 import scipy.sparse as sp
 from numba import njit
 
-from sim.contact import law_code, solve_contact
-from sim.params import ContactParams
-from sim.rig_model import RigModel
-from sim.vibro_impact import (
+from rigtools.sim.contact import law_code, solve_contact
+from rigtools.sim.params import ContactParams
+from rigtools.sim.rig_model import RigModel
+from rigtools.sim.vibro_impact import (
     DIVERGED_DISPLACEMENT, N_OUT, OUT_COLUMNS, SimulationDivergedError, SimulationInputError,
     check_time_step, diverged_message,
 )
@@ -49,7 +49,7 @@ class FullOrderSystem:
     """Full modal decomposition of the rig for the modal HHT solver.
 
     ``omega``, ``cdiag`` per mode (modal damping coefficient ``phi^T C phi``), ``rows`` (3, n) at
-    ``(active_tip, passive_tip, force_point)`` like :class:`sim.reduction.ReducedSystem`.
+    ``(active_tip, passive_tip, force_point)`` like :class:`rigtools.sim.reduction.ReducedSystem`.
     """
 
     omega: np.ndarray
@@ -67,7 +67,7 @@ class FullOrderSystem:
 
 def full_modal_system(model: RigModel) -> FullOrderSystem:
     """All modes of both blades that move a load DOF (exact modal form of the full model)."""
-    from sim.modal import blade_modes
+    from rigtools.sim.modal import blade_modes
 
     omegas, cds, rows = [], [], []
     worst = 0.0
@@ -193,7 +193,7 @@ class FullOrderIntegrator:
     Parameters
     ----------
     model
-        :class:`sim.rig_model.RigModel` (its ``params.contact`` is used unless ``contact`` given).
+        :class:`rigtools.sim.rig_model.RigModel` (its ``params.contact`` is used unless ``contact`` given).
     dt
         Time step, s (must resolve the contact period with 20 steps).
     alpha
@@ -205,7 +205,7 @@ class FullOrderIntegrator:
         Override of the contact parameters (e.g. another gap).
 
     ``step(force)`` takes the force at the force DOF at the end of each step and returns an array
-    ``(n, N_OUT)`` with the columns of :data:`sim.vibro_impact.OUT_COLUMNS`.
+    ``(n, N_OUT)`` with the columns of :data:`rigtools.sim.vibro_impact.OUT_COLUMNS`.
     """
 
     def __init__(self, model: RigModel, dt: float, alpha: float = 0.0, solver: str = "modal",
@@ -309,7 +309,7 @@ class FullOrderIntegrator:
 
 
 class _ContactView:
-    """Just enough of a ReducedSystem for :func:`sim.vibro_impact.check_time_step`."""
+    """Just enough of a ReducedSystem for :func:`rigtools.sim.vibro_impact.check_time_step`."""
 
     def __init__(self, meff: float, contact: ContactParams):
         self._meff = meff

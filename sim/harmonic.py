@@ -11,10 +11,10 @@ Responses are the steady-state amplitudes at the shroud (tip) and at the excitat
 displacement (m) and acceleration (``w^2 |X|``, m/s^2).
 
 FEM: modal superposition over *all* modes of the blade, which is exact for the modal-ratio and
-Rayleigh damping of :class:`sim.params.DampingParams` (both are diagonal in the modal basis):
+Rayleigh damping of :class:`rigtools.sim.params.DampingParams` (both are diagonal in the modal basis):
 ``X_j = F0 sum_r phi_jr phi_kr / (w_r^2 - w^2 + 2 i zeta_r w_r w)``,
 ``zeta_r = zeta`` or ``alpha / (2 w_r) + beta w_r / 2``.
-AM: the same formula on the assumed-modes model's own modes (:mod:`sim.analytical`).
+AM: the same formula on the assumed-modes model's own modes (:mod:`rigtools.sim.analytical`).
 """
 
 from __future__ import annotations
@@ -23,12 +23,12 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from sim.analytical import assumed_modes_blade
-from sim.blade import BladeModel, build_blade
-from sim.modal import blade_modes
-from sim.params import LumpedMass, RigParams
-from sim.reduction import damping_ratios
-from sim.rig_model import RigModel, blade_masses
+from rigtools.sim.analytical import assumed_modes_blade
+from rigtools.sim.blade import BladeModel, build_blade
+from rigtools.sim.modal import blade_modes
+from rigtools.sim.params import LumpedMass, RigParams
+from rigtools.sim.reduction import damping_ratios
+from rigtools.sim.rig_model import RigModel, blade_masses
 
 LOCATIONS = ("active_shroud", "active_force_point", "passive_shroud", "passive_force_point")
 UY = 1

@@ -18,7 +18,7 @@ import numpy as np
 import scipy.linalg
 from scipy.sparse.csgraph import connected_components
 
-from sim.blade import BladeModel
+from rigtools.sim.blade import BladeModel
 
 KINDS = ("axial", "flexural", "edgewise", "torsional")
 # component (ux, uy, uz, rx, ry, rz) -> index into KINDS

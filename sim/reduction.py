@@ -21,11 +21,11 @@ import numpy as np
 import scipy.linalg
 import scipy.sparse.linalg as spla
 
-from sim.params import ContactParams, DampingParams, RigParams, SimulationInputError
+from rigtools.sim.params import ContactParams, DampingParams, RigParams, SimulationInputError
 
 if TYPE_CHECKING:   # imported lazily at run time: these build on the FE and AM modules
-    from sim.analytical import AssumedModesBlade
-    from sim.rig_model import RigModel
+    from rigtools.sim.analytical import AssumedModesBlade
+    from rigtools.sim.rig_model import RigModel
 
 ROWS = ("active_tip", "passive_tip", "force_point")
 ACTIVE, PASSIVE = 0, 1
@@ -200,7 +200,7 @@ def _blade_ritz(mass, stiffness, damping, modes_omega, modes_shapes, load_dofs, 
 
 def reduce_rig_model(model: RigModel, cutoff_hz: float = DEFAULT_CUTOFF_HZ, static_correction: bool = True,
                      keep_bases: bool = False) -> ReducedSystem:
-    """Reduce the FE rig model (:class:`sim.rig_model.RigModel`) to decoupled modal oscillators.
+    """Reduce the FE rig model (:class:`rigtools.sim.rig_model.RigModel`) to decoupled modal oscillators.
 
     Parameters
     ----------
@@ -221,7 +221,7 @@ def reduce_rig_model(model: RigModel, cutoff_hz: float = DEFAULT_CUTOFF_HZ, stat
         Damping ratios are the diagonal of the projected FE damping matrix (exact for modal-ratio
         and Rayleigh damping on kept modes).
     """
-    from sim.modal import blade_modes
+    from rigtools.sim.modal import blade_modes
 
     n_a = model.active.n_dofs
     parts = []
@@ -256,7 +256,7 @@ def reduce_rig_model(model: RigModel, cutoff_hz: float = DEFAULT_CUTOFF_HZ, stat
 def reduce_assumed_modes(active: AssumedModesBlade, passive: AssumedModesBlade, params: RigParams,
                          force_position: float | None = None,
                          cutoff_hz: float | None = None) -> ReducedSystem:
-    """Reduced system from two assumed-modes blades (:class:`sim.analytical.AssumedModesBlade`).
+    """Reduced system from two assumed-modes blades (:class:`rigtools.sim.analytical.AssumedModesBlade`).
 
     Each blade's generalised ``mass``/``stiffness`` is diagonalised; the rows are the mode
     shapes evaluated by ``shape(x)`` at the tips (blade length) and at the force sensor.
@@ -266,7 +266,7 @@ def reduce_assumed_modes(active: AssumedModesBlade, passive: AssumedModesBlade, 
     active, passive
         Assumed-modes models of the two blades (with their lumped masses).
     params
-        :class:`sim.params.RigParams` (lengths, sensor position, contact, damping).
+        :class:`rigtools.sim.params.RigParams` (lengths, sensor position, contact, damping).
     force_position
         Where the force acts on the active blade, m (default: the force sensor position).
     cutoff_hz
@@ -307,7 +307,7 @@ def reduced_system(params: RigParams, model: str = "fem", cutoff_hz: float = DEF
     Parameters
     ----------
     params
-        :class:`sim.params.RigParams`.
+        :class:`rigtools.sim.params.RigParams`.
     model
         ``"fem"`` or ``"am"``.
     cutoff_hz
@@ -315,15 +315,15 @@ def reduced_system(params: RigParams, model: str = "fem", cutoff_hz: float = DEF
     n_terms
         Assumed modes per blade (AM only).
     rig_model
-        An already built :class:`sim.rig_model.RigModel` of ``params`` (FEM only).
+        An already built :class:`rigtools.sim.rig_model.RigModel` of ``params`` (FEM only).
     """
     if model == "fem":
-        from sim.rig_model import build_rig_model
+        from rigtools.sim.rig_model import build_rig_model
 
         return reduce_rig_model(rig_model if rig_model is not None else build_rig_model(params), cutoff_hz)
     if model == "am":
-        from sim.analytical import assumed_modes_blade
-        from sim.rig_model import blade_masses
+        from rigtools.sim.analytical import assumed_modes_blade
+        from rigtools.sim.rig_model import blade_masses
 
         passive_root = params.passive_root if params.passive_root is not None else params.root
         act = assumed_modes_blade(params.active, blade_masses(params, "active"), params.root, n_terms)

@@ -16,9 +16,9 @@ from dataclasses import dataclass, replace
 import numpy as np
 import scipy.sparse as sp
 
-from sim.blade import BladeModel, build_blade
-from sim.modal import _all_modes
-from sim.params import DampingParams, LumpedMass, RigParams
+from rigtools.sim.blade import BladeModel, build_blade
+from rigtools.sim.modal import _all_modes
+from rigtools.sim.params import DampingParams, LumpedMass, RigParams
 
 __all__ = ["BladeModel", "RigModel", "build_rig_model", "blade_damping", "blade_masses"]
 

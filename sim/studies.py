@@ -6,7 +6,7 @@
   (up, then back down), carrying the state from point to point so that jumps and hysteresis
   between coexisting responses show.
 
-Every point is run to a detected steady state (:func:`sim.vibro_impact.run_harmonic`). By default
+Every point is run to a detected steady state (:func:`rigtools.sim.vibro_impact.run_harmonic`). By default
 each point starts from the previous point's final state (``carry_state``), which is what a slow
 sweep on the rig does and settles faster; ``carry_state=False`` starts every point from rest.
 Progress is reported through an optional callback ``progress(done, total, text)``.
@@ -23,8 +23,8 @@ from typing import Callable, Iterable, Iterator, Literal
 
 import numpy as np
 
-from sim.reduction import ReducedSystem
-from sim.vibro_impact import RunState, SimulationInputError, VibroImpactRun, run_harmonic
+from rigtools.sim.reduction import ReducedSystem
+from rigtools.sim.vibro_impact import RunState, SimulationInputError, VibroImpactRun, run_harmonic
 
 StudyKind = Literal["gap", "force", "frequency"]
 Direction = Literal["up", "down", "both"]
@@ -248,7 +248,7 @@ def iter_study(system: ReducedSystem, plan: StudyPlan, *, start: int = 0,
     record_duration
         Recorded time per point, s (whole periods, at least one); overrides ``record_periods``.
     **run_options
-        Passed to :func:`sim.vibro_impact.run_harmonic` (``record_periods``, ``tol``, ...).
+        Passed to :func:`rigtools.sim.vibro_impact.run_harmonic` (``record_periods``, ``tol``, ...).
     """
     state = initial
     for point in plan.points()[start:]:
@@ -288,7 +288,7 @@ def run_study(system: ReducedSystem, kind: StudyKind, values: Iterable[float], *
     record_duration
         Recorded time per point, s (whole periods, at least one); overrides ``record_periods``.
     **run_options
-        Passed to :func:`sim.vibro_impact.run_harmonic` (``record_periods``, ``tol``, ...).
+        Passed to :func:`rigtools.sim.vibro_impact.run_harmonic` (``record_periods``, ``tol``, ...).
 
     Returns
     -------

@@ -36,7 +36,7 @@ of 1e-3 in ``x`` (forward in the optimiser, central at the optimum).
 into :class:`ModeTarget` items by pairing them one-to-one with the model's flexural orders.
 :func:`rig_file_values` gives the rig-file keys (``"section.key"``) that carry the fitted values.
 
-One model evaluation builds the FE model of both blades (:func:`sim.blade.build_blade`) and solves
+One model evaluation builds the FE model of both blades (:func:`rigtools.sim.blade.build_blade`) and solves
 the flexural DOF group (uy, rz) of each for its lowest modes only; FRFs use all flexural modes of
 the active blade (modal superposition: exact for modal and Rayleigh damping).
 """
@@ -54,10 +54,10 @@ import scipy.optimize
 import scipy.sparse.linalg
 import scipy.stats
 
-from sim.blade import BladeModel, build_blade
-from sim.params import DampingParams, RigParams, RootParams
-from sim.reduction import damping_ratios
-from sim.rig_model import blade_masses
+from rigtools.sim.blade import BladeModel, build_blade
+from rigtools.sim.params import DampingParams, RigParams, RootParams
+from rigtools.sim.reduction import damping_ratios
+from rigtools.sim.rig_model import blade_masses
 
 Blade = Literal["active", "passive"]
 FRFKind = Literal["receptance", "mobility", "accelerance"]

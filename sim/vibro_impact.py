@@ -1,10 +1,10 @@
-"""Fast vibro-impact time stepping of a :class:`sim.reduction.ReducedSystem`.
+"""Fast vibro-impact time stepping of a :class:`rigtools.sim.reduction.ReducedSystem`.
 
 Each modal oscillator ``q'' + 2 zeta w q' + w^2 q = p(t)`` is propagated exactly over a step for
 a load that varies linearly within the step (first-order hold): ``x1 = E x0 + G0 p0 + G1 p1``
 with ``x = (q, q')``. The contact force (and, with a shaker, the armature force) at the end of the
 step are unknown; the tip closure there is affine in them, so the force is solved consistently
-in every step (closed form for the linear law, Newton for Hertz, :func:`sim.contact.solve_contact`).
+in every step (closed form for the linear law, Newton for Hertz, :func:`rigtools.sim.contact.solve_contact`).
 A step costs O(n_modes); the inner loop is compiled with numba.
 
 Time convention: ``step(u)`` takes the input at the END of each step (``u[i]`` at
@@ -22,9 +22,9 @@ import numpy as np
 import scipy.linalg
 from numba import njit
 
-from sim.contact import contact_period, law_code, solve_contact
-from sim.params import SimulationInputError, _finite
-from sim.reduction import ReducedSystem
+from rigtools.sim.contact import contact_period, law_code, solve_contact
+from rigtools.sim.params import SimulationInputError, _finite
+from rigtools.sim.reduction import ReducedSystem
 
 # output columns of the compiled kernel
 OUT_COLUMNS = (
@@ -568,8 +568,8 @@ class VibroImpactStepper:
     Parameters
     ----------
     system
-        The reduced system (from :func:`sim.reduction.reduce_rig_model` or
-        :func:`sim.reduction.reduce_assumed_modes`).
+        The reduced system (from :func:`rigtools.sim.reduction.reduce_rig_model` or
+        :func:`rigtools.sim.reduction.reduce_assumed_modes`).
     dt
         Time step, s. Must resolve the contact period with at least 20 steps.
     shaker
@@ -831,7 +831,7 @@ def run_harmonic(system: ReducedSystem, fe: float, force_amplitude: float, *,
         the record follows anyway).
     tol
         Relative period-to-period mismatch of the tip displacements and velocities accepted
-        as steady (:func:`sim.steady_state.check_periodic`).
+        as steady (:func:`rigtools.sim.steady_state.check_periodic`).
     check_every
         Periods simulated between checks.
     initial
@@ -843,7 +843,7 @@ def run_harmonic(system: ReducedSystem, fe: float, force_amplitude: float, *,
     force_harmonics
         The periodic force instead of ``F0 sin``: a sequence of ``(k, A_k, phi_k)`` (k >= 1
         integer, peak amplitude A_k >= 0 in N, phase phi_k in rad, the convention of
-        :mod:`analysis.harmonics`) or a 1-D complex array ``c`` with ``c[k-1] = A_k exp(i phi_k)``;
+        :mod:`rigtools.analysis.harmonics`) or a 1-D complex array ``c`` with ``c[k-1] = A_k exp(i phi_k)``;
         ``F0 sin`` is ``[(1, F0, -pi/2)]``. Each ``k`` must lie below half the steps per period.
         ``force_amplitude`` is then only recorded as the run's nominal amplitude (and sizes the
         step with the harmonics' sum). Default ``None``: ``F0 sin``, bit-identical to before.
@@ -852,7 +852,7 @@ def run_harmonic(system: ReducedSystem, fe: float, force_amplitude: float, *,
     -------
     VibroImpactRun
     """
-    from sim.steady_state import check_periodic
+    from rigtools.sim.steady_state import check_periodic
 
     validate_harmonic_input(fe, force_amplitude, system.contact.gap)
     validate_contact(system)

@@ -59,7 +59,7 @@ Jumps: neighbouring steps whose response fundamental differs by more than --jump
   rig acquire study gap --backend sim --values "0.3 mm:0.9 mm:0.2 mm" --force "15 N" --fe 60 --out s.h5 --resume
   rig acquire study force --backend sim --values "5 N,10 N,15 N" --gap "0.7 mm" --fe 60 --out f.h5
 
-The plan (values, order, up/down) is the model study's (sim.studies.StudyPlan). On the NI rig
+The plan (values, order, up/down) is the model study's (rigtools.sim.studies.StudyPlan). On the NI rig
 the gap is set by hand: the drive ramps to zero and the command waits for the operator (Enter;
 --yes: do not wait). --resume continues an interrupted study in --out from its last complete
 point (a point cut off is dropped and run again; none is repeated or lost).
@@ -162,8 +162,8 @@ def parse_faults(texts: list[str], backend: str) -> list:
         return []
     if backend != "sim":
         raise UserError("--fault injects faults into the simulated rig only; add --backend sim")
-    from drivers.contracts import ConfigurationError
-    from drivers.simulated import FAULT_KINDS, Fault
+    from rigtools.drivers.contracts import ConfigurationError
+    from rigtools.drivers.simulated import FAULT_KINDS, Fault
 
     faults = []
     for text in texts:

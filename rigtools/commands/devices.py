@@ -88,8 +88,8 @@ def list_ni_devices() -> dict[str, Any]:
 def list_visa_resources(backend: str = "") -> dict[str, Any]:
     """VISA resources as plain data; ``reason`` says why there are none to list."""
     try:    # here, not at the top: `rig --help` must not load pyvisa
-        from drivers.contracts import DriverUnavailable
-        from drivers.visa_source import open_resource_manager, simulator_backend
+        from rigtools.drivers.contracts import DriverUnavailable
+        from rigtools.drivers.visa_source import open_resource_manager, simulator_backend
     except ImportError as exc:
         return {"available": False, "backend": backend or "default", "resources": [],
                 "reason": f"the pyvisa Python package is not installed ({_first_line(exc)})"}

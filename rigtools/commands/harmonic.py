@@ -52,7 +52,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _columns(fem: HarmonicResponse, am: HarmonicResponse) -> dict[str, np.ndarray]:
-    from sim.harmonic import LOCATIONS
+    from rigtools.sim.harmonic import LOCATIONS
 
     cols = {"frequency_hz": fem.frequencies_hz}
     for res in (fem, am):
@@ -64,7 +64,7 @@ def _columns(fem: HarmonicResponse, am: HarmonicResponse) -> dict[str, np.ndarra
 
 def write_curves(path: Path, fem: HarmonicResponse, am: HarmonicResponse, rig_name: str) -> None:
     """Write the curves as CSV (one column per curve) or JSON (nested by model and location)."""
-    from sim.harmonic import LOCATIONS
+    from rigtools.sim.harmonic import LOCATIONS
 
     if path.suffix.lower() == ".csv":
         cols = _columns(fem, am)
@@ -88,9 +88,9 @@ def write_curves(path: Path, fem: HarmonicResponse, am: HarmonicResponse, rig_na
 
 
 def curves_figure(fem: HarmonicResponse, am: HarmonicResponse, title: str):
-    """The FEM and AM curves as :func:`analysis.plots.amplitude_frequency_figure`."""
-    from analysis.plots import amplitude_frequency_figure
-    from sim.harmonic import LOCATIONS
+    """The FEM and AM curves as :func:`rigtools.analysis.plots.amplitude_frequency_figure`."""
+    from rigtools.analysis.plots import amplitude_frequency_figure
+    from rigtools.sim.harmonic import LOCATIONS
 
     curves = {
         label: {
@@ -129,8 +129,8 @@ def run(args: argparse.Namespace) -> int:
             f"(length {params.passive.length} m), which is driven at the same position"
         )
     elements = announce_model(params)
-    from sim.harmonic import harmonic_curves
-    from sim.rig_model import build_rig_model
+    from rigtools.sim.harmonic import harmonic_curves
+    from rigtools.sim.rig_model import build_rig_model
 
     with working(f"FEM and AM curves at {args.points} frequencies ({elements})"):
         rig = build_rig_model(params)

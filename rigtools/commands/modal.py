@@ -40,9 +40,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def modal_results(rig_config, n_modes: int) -> dict:
     """FEM and AM modes of both blades as the ``--json`` mapping."""
-    from sim.analytical import exact_flexural_frequencies
-    from sim.modal import blade_modes
-    from sim.rig_model import blade_masses, build_rig_model
+    from rigtools.sim.analytical import exact_flexural_frequencies
+    from rigtools.sim.modal import blade_modes
+    from rigtools.sim.rig_model import blade_masses, build_rig_model
 
     params = rig_config.to_params()
     rig = build_rig_model(params)

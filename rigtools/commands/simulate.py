@@ -203,7 +203,7 @@ def simulated_time_bar(text: str, at_most: float, quiet: bool = False) -> Iterat
 def load_model(args: argparse.Namespace, quiet: bool):
     """``(rig config, reduced system)`` of ``--rig`` and ``--model``, announced (:func:`announce_model`)."""
     from rigtools.config import load_rig
-    from sim.reduction import reduced_system
+    from rigtools.sim.reduction import reduced_system
 
     cfg = load_rig(args.rig)
     params = cfg.to_params()

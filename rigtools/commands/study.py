@@ -115,9 +115,9 @@ def parse_values(text: str, kind: str) -> list[float]:
 
 
 def make_map(args: argparse.Namespace):
-    """:class:`sim.studies.MapPlan` of ``rig study map`` (--gap, --force, --fe grids)."""
-    from sim.studies import MapPlan
-    from sim.vibro_impact import SimulationInputError
+    """:class:`rigtools.sim.studies.MapPlan` of ``rig study map`` (--gap, --force, --fe grids)."""
+    from rigtools.sim.studies import MapPlan
+    from rigtools.sim.vibro_impact import SimulationInputError
 
     missing = [o for o, v in (("--gap", args.gap), ("--force", args.force), ("--fe", args.fe)) if v is None]
     if missing:
@@ -137,9 +137,9 @@ def make_map(args: argparse.Namespace):
 
 
 def make_plan(args: argparse.Namespace, values: list[float]):
-    """:class:`sim.studies.StudyPlan` of the options."""
-    from sim.studies import StudyPlan
-    from sim.vibro_impact import SimulationInputError
+    """:class:`rigtools.sim.studies.StudyPlan` of the options."""
+    from rigtools.sim.studies import StudyPlan
+    from rigtools.sim.vibro_impact import SimulationInputError
 
     fixed = {}
     if args.fe is not None:
@@ -266,8 +266,8 @@ def _with_progress(rec, system, plan, settings, args, planned, label, stops, run
 
 
 def study_plot(kind: str, fixed: dict, points: list[dict], title: str):
-    """:func:`analysis.plots.study_figure` of the --json points (shroud acceleration harmonics)."""
-    from analysis.plots import study_figure
+    """:func:`rigtools.analysis.plots.study_figure` of the --json points (shroud acceleration harmonics)."""
+    from rigtools.analysis.plots import study_figure
 
     harmonics = {
         label: np.array([[r["amplitude"] for r in p["harmonics"][channel]] for p in points])

@@ -27,7 +27,7 @@ Steps:
   4. --contact DWELL.h5: fit the contact stiffness and damping to the shroud acceleration
      harmonics (k = 1..10) of force-controlled dwells with impacts ('rig acquire dwell'), the
      vibro-impact integrator in the loop, and print the EM-versus-FEM agreement score
-     (analysis.compare.point_agreement, force and shroud harmonics, model driven at the measured
+     (rigtools.analysis.compare.point_agreement, force and shroud harmonics, model driven at the measured
      force) before updating, after the linear update and after the contact fit;
   5. write --out: the rig file's text with the fitted keys replaced (old line kept as '# was:')
      or added, each commented with the recordings, modes and residual it came from.
@@ -127,7 +127,7 @@ def run(args: argparse.Namespace) -> int:
 
     scores, cres, hres = {}, None, None
     if dwells:
-        from sim.reduction import reduced_system
+        from rigtools.sim.reduction import reduced_system
 
         with working("EM-versus-FEM score of the nominal model", quiet):
             scores["nominal"] = [up.agreement(d, up.model_dwell(nominal, d)).score for d in dwells]

@@ -4,7 +4,7 @@ Every evaluator takes plain data (lists of the per-point lab quantities of
 :func:`rigtools.demo.steps.lab_quantities`, frequency lists, curves) and returns a
 :class:`Verdict`: holds or not (``None``: does not apply here) and one sentence saying why, with
 the numbers. Impact strength on the rig is the *impact level*: the impulsive (high-passed) part
-of the passive shroud's acceleration at the impacts (:func:`analysis.impacts.detect_impacts`).
+of the passive shroud's acceleration at the impacts (:func:`rigtools.analysis.impacts.detect_impacts`).
 A penalty contact closes with a force jump proportional to the impact velocity, which is what
 the impulsive part sees, so it follows the contact force; the peak acceleration instead mixes in
 the blade's forced response, which falls above resonance whatever the impacts do. Impacts per

@@ -35,8 +35,8 @@ ACTIVE, PASSIVE, FORCE = "active_shroud_accel", "passive_shroud_accel", "force"
 
 def first_flexural(cfg) -> float:
     """FEM first flexural frequency of the active blade, Hz."""
-    from sim.modal import flexural_frequencies
-    from sim.rig_model import build_rig_model
+    from rigtools.sim.modal import flexural_frequencies
+    from rigtools.sim.rig_model import build_rig_model
 
     return float(flexural_frequencies(build_rig_model(cfg.to_params()).blade("active"), 1)[0])
 
@@ -46,8 +46,8 @@ def coupled_active_f2(cfg) -> float:
     its force sensor (as on the rig, where the stinger carries the armature), Hz."""
     from dataclasses import replace
 
-    from sim.modal import flexural_frequencies
-    from sim.rig_model import build_rig_model
+    from rigtools.sim.modal import flexural_frequencies
+    from rigtools.sim.rig_model import build_rig_model
 
     p = cfg.to_params()
     p = replace(p, force_sensor=replace(p.force_sensor, mass=p.force_sensor.mass + cfg.shaker.armature_mass))
@@ -56,8 +56,8 @@ def coupled_active_f2(cfg) -> float:
 
 def free_amplitude(cfg, fe: float, force: float) -> float:
     """Linear (open-gap) displacement amplitude of the active shroud at ``fe``, ``force``, m."""
-    from sim.harmonic import fem_harmonic_response
-    from sim.rig_model import build_rig_model
+    from rigtools.sim.harmonic import fem_harmonic_response
+    from rigtools.sim.rig_model import build_rig_model
 
     res = fem_harmonic_response(build_rig_model(cfg.to_params()), np.array([fe]), force)
     return float(res.displacement_amplitude("active_shroud")[0])
@@ -95,10 +95,10 @@ def lab_config(cfg, force: float):
 
 def lab_quantities(force: np.ndarray, active: np.ndarray, passive: np.ndarray, rate: float, fe: float) -> dict:
     """What a lab measures on one steady record: peaks of the force sensor and the shroud
-    accelerometers, impacts per period (from the accelerations, :func:`analysis.impacts.detect_impacts`)
+    accelerometers, impacts per period (from the accelerations, :func:`rigtools.analysis.impacts.detect_impacts`)
     and the acceleration harmonics k = 1..30 (peak, m/s²)."""
-    from analysis.harmonics import harmonic_amplitudes
-    from analysis.impacts import detect_impacts
+    from rigtools.analysis.harmonics import harmonic_amplitudes
+    from rigtools.analysis.impacts import detect_impacts
 
     imp = detect_impacts(active, rate, fe, passive_acceleration=passive, force=force)
     k_max = int(min(K_MAX, np.floor(0.45 * rate / fe)))
@@ -155,7 +155,7 @@ def run_quantities(run) -> dict:
 def modal_step(cfg, out_dir: Path, settings: DemoSettings) -> dict:
     """FEM and AM natural frequencies (``rig modal``) and the simulated rig's, identified from an
     FRF test (periodic chirp, gap wide open) on the active shroud: the paper's Tables 2-3, Fig 6."""
-    from analysis.point import analyze_frf_test
+    from rigtools.analysis.point import analyze_frf_test
     from rigtools.commands.modal import modal_results
     from rigtools.procedures.frf import FrfTest
     from rigtools.recording import open_recording
@@ -190,8 +190,8 @@ def flexural(entries: list[dict]) -> list[float]:
 
 def harmonic_step(cfg, settings: DemoSettings, force: float = PAPER_FORCE) -> dict:
     """FEM and AM linear amplitude-frequency curves (the paper's Figure 7)."""
-    from sim.harmonic import harmonic_curves
-    from sim.rig_model import build_rig_model
+    from rigtools.sim.harmonic import harmonic_curves
+    from rigtools.sim.rig_model import build_rig_model
 
     f = np.linspace(10.0, 1500.0, settings.harmonic_points)
     fem, am = harmonic_curves(build_rig_model(cfg.to_params()), f, force)
@@ -240,7 +240,7 @@ _SYSTEMS: dict = {}
 def load_system_cached(cfg, model: str):
     """``(cfg, reduced system)`` of a rig config for ``model`` ("fem" or "am"), built once per
     process and rig (the demo runs many points on the same two systems)."""
-    from sim.reduction import reduced_system
+    from rigtools.sim.reduction import reduced_system
 
     key = (cfg.to_json(), model)
     if key not in _SYSTEMS:
@@ -251,7 +251,7 @@ def load_system_cached(cfg, model: str):
 def _last_periods(force, active, passive, rate, fe, contact=None, periods: int = 3) -> dict:
     """The last ``periods`` whole periods, starting at an upward zero crossing of the force's
     fundamental (the common time origin of EM and model waveforms)."""
-    from analysis.plots import force_zero_crossing_time
+    from rigtools.analysis.plots import force_zero_crossing_time
 
     n = int(round(periods * rate / fe))
     m = min(len(force), n + int(np.ceil(rate / fe)) + 1)     # one period more to find the origin
@@ -302,7 +302,7 @@ def model_study_step(cfg, out_dir: Path, settings: DemoSettings, kind: str, poin
     written to a recording and reduced to the same lab quantities, with the contact force."""
     from rigtools.recording import RecordingWriter
     from rigtools.simulation import RunSettings, iter_study_points, write_point
-    from sim.studies import StudyPlan
+    from rigtools.sim.studies import StudyPlan
 
     prm = study_plan_values(kind, point, settings)
     plan = StudyPlan(kind, prm.pop("values"), "up", **prm)
@@ -325,7 +325,7 @@ def update_step(cfg, em_active: list[float]) -> dict:
     """Model updating on the FRF-identified modes of the active blade: the root's rotational
     stiffness (the simulated rig's root is bolted, the model's clamped) fitted to them;
     frequencies before and after."""
-    from sim.updating import pair_modes, update_model
+    from rigtools.sim.updating import pair_modes, update_model
 
     params = cfg.to_params()
     pairing = pair_modes(params, "active", em_active, frequency_sigma=5e-3)

@@ -14,7 +14,7 @@ anything else          101+  in channel order
 =====================  ====  =================================================
 
 Direction 2 (+Y) for every channel: the blades' thin (impact) direction, the axis the sensors
-measure (``sim.params``: x along the blade, y thin). A UFF file is in SI (a dataset 164 with units
+measure (``rigtools.sim.params``: x along the blade, y thin). A UFF file is in SI (a dataset 164 with units
 code 1, m/N/s/K, comes first); the exponents of each 58 record say what the ordinate is: length 1
 for displacement, velocity and acceleration (the specific data type tells which), force 1 for
 force, doubled for auto spectra (units squared); an FRF carries the response in the numerator and the force in the denominator record.
@@ -167,7 +167,7 @@ def recording_functions(recording, what: tuple[str, ...] = WHAT, *,
     what
         Any of ``"time"`` (every channel of every point), ``"spectra"`` (auto spectra, RMS² per
         bin: half the square of the flattop peak-amplitude spectrum of
-        :func:`analysis.spectra.amplitude_spectrum`, so a sine of amplitude A reads A²/2) and ``"frf"`` (H1 of every
+        :func:`rigtools.analysis.spectra.amplitude_spectrum`, so a sine of amplitude A reads A²/2) and ``"frf"`` (H1 of every
         other measured channel over ``reference`` with its coherence, Welch averaging with a Hann
         window at ``frf_resolution_hz``; only for points with a ``reference`` channel and at least
         two averages).
@@ -176,8 +176,8 @@ def recording_functions(recording, what: tuple[str, ...] = WHAT, *,
     reference
         The excitation channel of the FRFs.
     """
-    from analysis.frf import estimate_frf
-    from analysis.spectra import amplitude_spectrum
+    from rigtools.analysis.frf import estimate_frf
+    from rigtools.analysis.spectra import amplitude_spectrum
 
     functions: list[UffFunction] = []
     for point in recording.points:

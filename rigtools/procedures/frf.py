@@ -58,7 +58,7 @@ class FrfTest(SineProcedure):
         return self.params.model_dump()
 
     def startup(self) -> None:
-        from drivers.drive_signals import PeriodicChirp, RandomDrive
+        from rigtools.drivers.drive_signals import PeriodicChirp, RandomDrive
         from rigtools.procedures import rig
 
         p = self.params
@@ -130,10 +130,10 @@ class FrfTest(SineProcedure):
 
 def quick_check(path, response: str | None = None, n_peaks: int = 5) -> dict:
     """H1 (response / force) over the averaged frames of an FRF test recording, its peaks in the
-    band and their coherence (:func:`analysis.frf.estimate_frf`, frames as segments, no window)."""
+    band and their coherence (:func:`rigtools.analysis.frf.estimate_frf`, frames as segments, no window)."""
     from scipy.signal import find_peaks
 
-    from analysis.frf import estimate_frf
+    from rigtools.analysis.frf import estimate_frf
     from rigtools.recording import open_recording
 
     with open_recording(path) as rec:

@@ -32,11 +32,11 @@ def open_device(cfg, backend: str = "nidaq", *, pace: bool = False, faults: Sequ
     ------
     UserError
         Simulated-rig options with the NI backend, or an unknown backend.
-    drivers.contracts.DriverUnavailable
+    rigtools.drivers.contracts.DriverUnavailable
         (exit 3) When NI-DAQmx is not installed; raised by :func:`configure`.
     """
     if backend == "sim":
-        from drivers.simulated import SimulatedRig
+        from rigtools.drivers.simulated import SimulatedRig
 
         return SimulatedRig.from_config(cfg, pace=pace, faults=list(faults), seed=seed, model=model)
     if backend != "nidaq":
@@ -44,9 +44,9 @@ def open_device(cfg, backend: str = "nidaq", *, pace: bool = False, faults: Sequ
     if pace or faults or seed is not None:
         raise UserError("--pace, --fault and --seed apply to the simulated rig only; add --backend sim")
     try:
-        from drivers.nidaq import NiDaqDevice
+        from rigtools.drivers.nidaq import NiDaqDevice
     except ImportError:
-        from drivers.contracts import DriverUnavailable
+        from rigtools.drivers.contracts import DriverUnavailable
 
         raise DriverUnavailable("NI-DAQmx (the nidaqmx package) is not installed; "
                                 "use --backend sim to run on the simulated rig") from None
@@ -55,7 +55,7 @@ def open_device(cfg, backend: str = "nidaq", *, pace: bool = False, faults: Sequ
 
 def configure(device, cfg) -> float:
     """Channels and clock from ``[daq]``; returns the actual (coerced) sample rate."""
-    from drivers.contracts import ConfigurationError, DriverUnavailable
+    from rigtools.drivers.contracts import ConfigurationError, DriverUnavailable
 
     try:
         return device.configure(cfg.daq.input_specs(), cfg.daq.output_spec(), cfg.daq.sample_rate,
@@ -69,7 +69,7 @@ def configure(device, cfg) -> float:
 
 def safety_monitor(cfg, device):
     """The ``[safety]`` limits on the device's inputs and the drive."""
-    from drivers.safety import ChannelLimit, SafetyMonitor
+    from rigtools.drivers.safety import ChannelLimit, SafetyMonitor
 
     limits = [ChannelLimit(name, lim.warning, lim.abort) for name, lim in cfg.safety.limits.items()]
     return SafetyMonitor(limits, device.input_channels, max_drive=cfg.safety.max_drive)

@@ -2,7 +2,7 @@
 steps every sine procedure takes at a point -- hold the force, wait for steady state, record.
 
 Force control (:meth:`SineSession.hold_force`): the force sensor's fundamental ``F`` (least
-squares over whole periods, :func:`analysis.harmonics.harmonic_amplitudes`) is held at ``F0`` by
+squares over whole periods, :func:`rigtools.analysis.harmonics.harmonic_amplitudes`) is held at ``F0`` by
 adjusting the drive amplitude ``a``. Each update waits until ``F`` is steady (two successive
 windows agree), then takes a secant step on ``|F|(a)`` through the last two measurements (the
 first step scales ``a`` by ``F0/|F|``); a step up of more than 10 % aims 10 % below F0.
@@ -86,7 +86,7 @@ def whole_periods(seconds: float, rate: float, fe: float, min_periods: int = 3) 
 
 def phasor(x: np.ndarray, rate: float, fe: float, k_max: int = 1):
     """Complex amplitudes of harmonics 1..k_max of ``x`` (peak, phase of cos), and the fit."""
-    from analysis.harmonics import harmonic_amplitudes
+    from rigtools.analysis.harmonics import harmonic_amplitudes
 
     fit = harmonic_amplitudes(x, rate, fe, k_max)
     return fit.amplitude * np.exp(1j * fit.phase), fit
@@ -95,7 +95,7 @@ def phasor(x: np.ndarray, rate: float, fe: float, k_max: int = 1):
 def phasors(rows: np.ndarray, rate: float, fe: float, k_max: int) -> np.ndarray:
     """Complex amplitudes ``(n_rows, k_max)`` of harmonics 1..k_max of every row at once.
 
-    The least-squares fit of :func:`analysis.harmonics.harmonic_amplitudes` (offset plus
+    The least-squares fit of :func:`rigtools.analysis.harmonics.harmonic_amplitudes` (offset plus
     cos/sin at k fe, t from the first sample; amplitude ``|c|``, phase ``angle(c)`` of
     ``cos(2 pi k fe t + phase)``), solved for all rows with one set of normal equations:
     ~50x faster than one SVD per channel on a record of many periods, where the basis is
@@ -137,7 +137,7 @@ class SineSession:
     cfg
         The rig (its ``[safety]`` ramps and limits).
     monitor
-        :class:`drivers.safety.SafetyMonitor` of ``device``.
+        :class:`rigtools.drivers.safety.SafetyMonitor` of ``device``.
     fe
         First frequency, Hz.
     procedure
@@ -150,7 +150,7 @@ class SineSession:
 
     def __init__(self, device, cfg, monitor, fe: float, procedure, force_row: int,
                  ring_seconds: float = 2.0) -> None:
-        from drivers.drive_signals import SineDrive
+        from rigtools.drivers.drive_signals import SineDrive
 
         self.device, self.cfg, self.proc = device, cfg, procedure
         self.rate = device.sample_rate

@@ -150,7 +150,7 @@ def peak_frequency(freqs: list[float], values: list[float], k: int) -> float:
 
 
 class StudyParameters(BaseModel):
-    """A rig study over gap, F0 or fe, in the model study's plan (:class:`sim.studies.StudyPlan`)."""
+    """A rig study over gap, F0 or fe, in the model study's plan (:class:`rigtools.sim.studies.StudyPlan`)."""
 
     model_config = ConfigDict(extra="forbid", frozen=True)
 
@@ -165,8 +165,8 @@ class StudyParameters(BaseModel):
     control: ControlParameters = ControlParameters()
 
     def plan(self):
-        from sim.studies import StudyPlan
-        from sim.vibro_impact import SimulationInputError
+        from rigtools.sim.studies import StudyPlan
+        from rigtools.sim.vibro_impact import SimulationInputError
 
         try:
             return StudyPlan(self.kind, self.values, self.direction, fe=self.fe, force=self.force,

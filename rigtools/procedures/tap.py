@@ -23,13 +23,13 @@ What :class:`TapTest` does:
 4. after ``hits`` accepted hits the test ends (status ``finished``).
 
 On the NI rig the operator taps (the command says where, then waits up to ``timeout`` s for
-each accepted hit); on the simulated rig a :class:`drivers.simulated.SimulatedHammer` hits a half-sine
+each accepted hit); on the simulated rig a :class:`rigtools.drivers.simulated.SimulatedHammer` hits a half-sine
 pulse of ``pulse`` seconds and ``hit_force`` peak at ``position`` every
 ``frame + 0.5 s``.
 
 :func:`tap_analysis` is H1 of the response over the hammer force over the accepted frames
 (rectangular window per frame: a frame holds the whole hit and the decay) and
-:func:`analysis.modal_id.identify` on it (:func:`analysis.point.analyze_frf_test`).
+:func:`rigtools.analysis.modal_id.identify` on it (:func:`rigtools.analysis.point.analyze_frf_test`).
 """
 
 from __future__ import annotations
@@ -149,7 +149,7 @@ class TapTest(SineProcedure):
 
     # -- start-up --------------------------------------------------------------------------------
     def _inputs(self) -> list:
-        from drivers.contracts import InputChannelSpec
+        from rigtools.drivers.contracts import InputChannelSpec
 
         p = self.params
         inputs = list(self.cfg.daq.input_specs())
@@ -179,7 +179,7 @@ class TapTest(SineProcedure):
         return mine[0]
 
     def startup(self) -> None:
-        from drivers.contracts import ConfigurationError, DriverUnavailable
+        from rigtools.drivers.contracts import ConfigurationError, DriverUnavailable
         from rigtools.acquisition import BlockStream
         from rigtools.procedures import rig
 
@@ -212,8 +212,8 @@ class TapTest(SineProcedure):
                                                  hammer_channel=p.hammer_channel, response=self.response))
 
     def _simulated_hammer(self) -> None:
-        from drivers.contracts import ConfigurationError
-        from drivers.simulated import SimulatedHammer
+        from rigtools.drivers.contracts import ConfigurationError
+        from rigtools.drivers.simulated import SimulatedHammer
 
         p = self.params
         interval = p.frame + 0.5
@@ -337,10 +337,10 @@ def tap_analysis(path, response: str | None = None, *, f_min: float | None = Non
 
     Returns
     -------
-    analysis.point.FRFTestAnalysis
+    rigtools.analysis.point.FRFTestAnalysis
         ``.modes[response].modes`` the identified modes; ``.frf`` the estimate.
     """
-    from analysis.point import analyze_frf_test
+    from rigtools.analysis.point import analyze_frf_test
     from rigtools.recording import open_recording
 
     with open_recording(path) as rec:

@@ -62,7 +62,7 @@ def study_axis(analysis: RecordingAnalysis) -> tuple[str, np.ndarray] | None:
 
 def analysis_figures(analysis: RecordingAnalysis, *, max_waveforms: int = MAX_WAVEFORM_FIGURES) -> list[NamedFigure]:
     """The figures of one analysed recording (see the module docstring)."""
-    from analysis.plots import frf_figure, stabilisation_figure, time_and_spectrum_figure, trend_figure
+    from rigtools.analysis.plots import frf_figure, stabilisation_figure, time_and_spectrum_figure, trend_figure
 
     figs: list[NamedFigure] = []
     stem = Path(analysis.path).stem
@@ -180,6 +180,6 @@ def add_analysis(report, analysis: RecordingAnalysis) -> None:
 
 
 def frequency_table_section(report, rows: list[dict], caption: str) -> None:
-    """A natural-frequency table (``analysis.compare.natural_frequency_table`` records)."""
+    """A natural-frequency table (``rigtools.analysis.compare.natural_frequency_table`` records)."""
     sec = report.section("Natural frequencies: FEM, AM and EM")
     sec.table(rows, caption=caption)

@@ -4,7 +4,7 @@ offset that explains a harmonic difference (exact single-mode references)."""
 import numpy as np
 import pytest
 
-from analysis.compare import (
+from rigtools.analysis.compare import (
     agreement_score, explain_harmonic_difference, explain_large_differences, harmonic_table,
     natural_frequency_table, single_mode_gain,
 )
@@ -95,7 +95,7 @@ def test_frequency_offset_explains_a_super_harmonic_difference():
 
 
 def test_pair_points_by_parameters():
-    from analysis.compare import pair_points
+    from rigtools.analysis.compare import pair_points
     em = [{"fe": 60.0, "gap": 0.5e-3, "force_amplitude_target": 15.0},
           {"fe": 60.0, "gap": 0.7e-3, "force_amplitude_target": 15.0},
           {"fe": 80.0, "gap": 0.7e-3, "force_amplitude_target": 15.0}]
@@ -105,8 +105,8 @@ def test_pair_points_by_parameters():
 
 
 def test_trend_series_and_point_agreement_from_dwell_analyses():
-    from analysis.compare import point_agreement, trend_series
-    from analysis.point import analyze_dwell
+    from rigtools.analysis.compare import point_agreement, trend_series
+    from rigtools.analysis.point import analyze_dwell
     fs, fe = 10240.0, 60.0
     t = np.arange(int(fs)) / fs
     w = 2 * np.pi * fe

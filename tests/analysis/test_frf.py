@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy import signal
 
-from analysis.frf import convert_frf, estimate_frf, sdof_frf, sine_frf
+from rigtools.analysis.frf import convert_frf, estimate_frf, sdof_frf, sine_frf
 
 FS = 1000.0
 

@@ -6,7 +6,7 @@ import pytest
 from scipy import signal
 
 from _reference import periodic_response, receptance
-from analysis.frf import (
+from rigtools.analysis.frf import (
     SpectraAccumulator, estimate_frf, excitation_settings, frf_from_blocks,
 )
 

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from analysis.harmonics import harmonic_amplitudes
+from rigtools.analysis.harmonics import harmonic_amplitudes
 
 
 def _signal(t, fe, amps, phases, offset=0.0):
@@ -68,7 +68,7 @@ def test_derivative_harmonics_match_the_differentiated_signal():
     acc = np.zeros_like(t)
     for kk, a, p in zip(k, amps, phases):
         acc -= a * (2 * np.pi * fe * kk) ** 2 * np.cos(2 * np.pi * kk * fe * t + p)
-    from analysis.harmonics import derivative_harmonics
+    from rigtools.analysis.harmonics import derivative_harmonics
     d2 = derivative_harmonics(harmonic_amplitudes(x, fs, fe, kmax), order=2)
     ref = harmonic_amplitudes(acc, fs, fe, kmax)
     np.testing.assert_allclose(d2.amplitude, ref.amplitude, rtol=1e-9)
@@ -100,7 +100,7 @@ def test_multitone_with_noise_non_integer_records_within_0p1_percent():
 def test_phases_relative_to_the_force_fundamental_do_not_depend_on_the_start():
     """The same periodic response and force sampled from two different start times: absolute
     phases differ, phases relative to the force fundamental agree (1e-9)."""
-    from analysis.harmonics import relative_phases
+    from rigtools.analysis.harmonics import relative_phases
     fs, fe = 4000.0, 50.0
     amps, phases = [1.0, 0.3, 0.1], [0.2, -1.0, 2.5]
     fits = []
@@ -117,7 +117,7 @@ def test_blocks_give_the_whole_record_fit():
     """Two channels of a 30-harmonic signal with noise, 7.3 s at 5120 S/s of a 47.3 Hz
     fundamental (not whole periods), fed in blocks of 9999: amplitudes, phases, offsets and
     residuals equal the one-shot least squares (1e-9 relative / 1e-9 rad)."""
-    from analysis.harmonics import harmonics_from_blocks
+    from rigtools.analysis.harmonics import harmonics_from_blocks
     rng = np.random.default_rng(12)
     fs, fe, kmax = 5120.0, 47.3, 30
     t = np.arange(int(7.3 * fs)) / fs

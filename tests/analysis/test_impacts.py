@@ -4,7 +4,7 @@ simulated vibro-impact run whose contact force is the truth."""
 import numpy as np
 import pytest
 
-from analysis.impacts import detect_impacts, impacts_from_contact_force
+from rigtools.analysis.impacts import detect_impacts, impacts_from_contact_force
 
 FS, FE, TAU = 51200.0, 60.0, 1.0e-3
 
@@ -83,9 +83,9 @@ def test_against_a_simulated_vibro_impact_run():
     contact force's 1.52 ms (the opening is grazing, so half a sample at the closing moves the
     estimate by ~0.12 ms)."""
     from rigtools.config import load_rig
-    from sim.reduction import reduced_system
-    from sim.rig_model import build_rig_model
-    from sim.vibro_impact import run_harmonic
+    from rigtools.sim.reduction import reduced_system
+    from rigtools.sim.rig_model import build_rig_model
+    from rigtools.sim.vibro_impact import run_harmonic
 
     model = build_rig_model(load_rig().to_params())
     run = run_harmonic(reduced_system(model.params, rig_model=model), FE, 15.0)
@@ -101,7 +101,7 @@ def test_against_a_simulated_vibro_impact_run():
 def test_periodic_double_integral_is_exact_for_whole_periods():
     """a = -w^2 A cos(w t) - (3w)^2 B sin(3 w t) integrates to A cos + B sin (1e-9), also when the
     record holds extra samples past the last whole period (repeated periodic part)."""
-    from analysis.impacts import periodic_double_integral
+    from rigtools.analysis.impacts import periodic_double_integral
     fs, fe = 10000.0, 50.0
     t = np.arange(2037) / fs
     w = 2 * np.pi * fe

@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 from scipy import signal
 
-from analysis.frf import estimate_frf, sdof_frf
-from analysis.modal_id import fit_sdof, half_power_damping, identify_modes, parabolic_peak, pick_peaks
+from rigtools.analysis.frf import estimate_frf, sdof_frf
+from rigtools.analysis.modal_id import fit_sdof, half_power_damping, identify_modes, parabolic_peak, pick_peaks
 
 
 def _two_dof(f, kind="accelerance"):

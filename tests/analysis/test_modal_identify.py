@@ -6,8 +6,8 @@ import pytest
 from scipy import linalg
 
 from _reference import K, M, modes as exact_modes, periodic_response, receptance
-from analysis.frf import estimate_frf, excitation_settings
-from analysis.modal_id import excitation_support, identify, identify_modes
+from rigtools.analysis.frf import estimate_frf, excitation_settings
+from rigtools.analysis.modal_id import excitation_support, identify, identify_modes
 
 FS = 512.0
 

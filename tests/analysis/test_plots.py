@@ -1,8 +1,8 @@
-"""analysis.plots: the figures hold exactly the data they were given (scaled to the stated
+"""rigtools.analysis.plots: the figures hold exactly the data they were given (scaled to the stated
 units), label every axis with its units, and mark k*fe and natural frequencies where asked.
 
 References are the input arrays themselves and known synthetic signals: a sine of amplitude A
-on a bin of a whole-period record reads A in the boxcar and flattop spectra (analysis.spectra's
+on a bin of a whole-period record reads A in the boxcar and flattop spectra (rigtools.analysis.spectra's
 documented scaling), checked to 1e-9 relative.
 """
 
@@ -11,7 +11,7 @@ import pytest
 from matplotlib.colors import LogNorm
 from matplotlib.figure import Figure
 
-from analysis.plots import (
+from rigtools.analysis.plots import (
     amplitude_frequency_figure, study_figure, time_and_spectrum_figure, vibro_impact_figure,
 )
 

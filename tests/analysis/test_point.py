@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from _reference import modes as exact_modes, periodic_response
-from analysis.point import analyze_dwell, analyze_frf_test
+from rigtools.analysis.point import analyze_dwell, analyze_frf_test
 
 
 def test_dwell_harmonics_phases_and_no_impacts():

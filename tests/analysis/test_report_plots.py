@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 from matplotlib.figure import Figure
 
-from analysis.frf import sdof_frf
-from analysis.plots import (
+from rigtools.analysis.frf import sdof_frf
+from rigtools.analysis.plots import (
     force_zero_crossing_time, frf_figure, harmonic_bars_figure, overlay_figure, stabilisation_figure,
     trend_figure,
 )
@@ -97,7 +97,7 @@ def test_overlay_uses_each_sides_force_zero_crossing_as_time_zero():
 
 
 def test_stabilisation_figure():
-    from analysis.modal_id import StabilisationChart
+    from rigtools.analysis.modal_id import StabilisationChart
     chart = StabilisationChart(np.array([2, 4, 4]), np.array([100.0, 100.1, 150.0]), np.array([0.02, 0.02, 0.1]),
                                np.array([False, True, False]))
     f = np.linspace(1, 200, 200)

@@ -1,5 +1,5 @@
 """identify() (LSCF with the stabilisation check) on a burst-random FRF test of the simulated rig
-(impacts off), block by block through analysis.point.analyze_frf_test: the active blade's first
+(impacts off), block by block through rigtools.analysis.point.analyze_frf_test: the active blade's first
 three flexural frequencies within 0.5 % of the simulated test article's own FEM values, and the
 natural-frequency table beside the nominal FEM."""
 
@@ -8,16 +8,16 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from analysis.compare import natural_frequency_table
-from analysis.point import analyze_frf_test
+from rigtools.analysis.compare import natural_frequency_table
+from rigtools.analysis.point import analyze_frf_test
 
 
 def test_burst_random_on_the_simulated_rig_finds_the_test_articles_frequencies():
-    from drivers.simulated import SimulatedRig
+    from rigtools.drivers.simulated import SimulatedRig
     from rigtools.acquisition import BlockCollector, RandomDrive, acquire
     from rigtools.config import load_rig
-    from sim.modal import flexural_frequencies
-    from sim.rig_model import build_rig_model
+    from rigtools.sim.modal import flexural_frequencies
+    from rigtools.sim.rig_model import build_rig_model
 
     cfg = load_rig()
     p = cfg.to_params()

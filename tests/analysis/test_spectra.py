@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from analysis.spectra import amplitude_spectrum
+from rigtools.analysis.spectra import amplitude_spectrum
 
 
 @pytest.mark.parametrize("window", ["flattop", "hann", "boxcar"])
@@ -45,7 +45,7 @@ def test_several_channels_at_once_and_bad_window():
 
 def test_rms_reading_and_labels():
     """RMS scaling: a tone reads A / sqrt(2) (1e-12), DC still its mean."""
-    from analysis.spectra import amplitude_label
+    from rigtools.analysis.spectra import amplitude_label
     fs, n = 1024.0, 2048
     t = np.arange(n) / fs
     x = 0.25 + 2.0 * np.sin(2 * np.pi * 100.0 * t)

@@ -7,8 +7,8 @@ import inspect
 import numpy as np
 import pytest
 
-from drivers import contracts
-from drivers.contracts import (
+from rigtools.drivers import contracts
+from rigtools.drivers.contracts import (
     AcquisitionDevice,
     AmplifierTimeout,
     ConfigurationError,

@@ -35,8 +35,8 @@ from nidaqmx.task.channels import AIChannel, AOChannel
 from nidaqmx.task.collections import AIChannelCollection, AOChannelCollection
 from nidaqmx.task.triggering import StartTrigger, Triggers
 
-from drivers import nidaq
-from drivers.contracts import (
+from rigtools.drivers import nidaq
+from rigtools.drivers.contracts import (
     ConfigurationError,
     DaqFault,
     DriverUnavailable,
@@ -50,7 +50,7 @@ from drivers.contracts import (
     SamplesNoLongerAvailable,
     SensorOverload,
 )
-from drivers.nidaq import NiDaqDevice
+from rigtools.drivers.nidaq import NiDaqDevice
 from rigtools.config import load_rig
 
 AI_TRIGGER = "/Dev1/ai/StartTrigger"
@@ -198,7 +198,7 @@ def test_voltage_channel_without_excitation(monkeypatch):
 
 def test_voltage_channel_sensitivity_scales_range_and_readings_like_the_simulated_rig(monkeypatch):
     # an amplifier monitor at 0.1 V/V reading a +-50 V coil voltage: the terminal sees +-5 V, and
-    # a terminal reading of 1.2 V is 12 V at the coil (drivers.sensor_chain divides the same way)
+    # a terminal reading of 1.2 V is 12 V at the coil (rigtools.drivers.sensor_chain divides the same way)
     rig = Rig(monkeypatch)
     dev = NiDaqDevice()
     dev.configure([InputChannelSpec("coil_monitor", "Dev1/ai3", "voltage", 0.1, "V/V", 0.0, -50, 50)],

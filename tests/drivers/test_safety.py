@@ -13,8 +13,8 @@ import math
 import numpy as np
 import pytest
 
-from drivers.contracts import ConfigurationError, InputChannelSpec, LimitExceeded, SafetyAbort
-from drivers.safety import AmplitudeEnvelope, ChannelLimit, SafetyMonitor, SineDrive, raised_cosine
+from rigtools.drivers.contracts import ConfigurationError, InputChannelSpec, LimitExceeded, SafetyAbort
+from rigtools.drivers.safety import AmplitudeEnvelope, ChannelLimit, SafetyMonitor, SineDrive, raised_cosine
 from rigtools.config import load_rig
 
 FS = 51200.0

@@ -6,8 +6,8 @@ import math
 import numpy as np
 import pytest
 
-from drivers.contracts import ConfigurationError, InputChannelSpec
-from drivers.simulated import SimulatedHammer, SimulatedRig
+from rigtools.drivers.contracts import ConfigurationError, InputChannelSpec
+from rigtools.drivers.simulated import SimulatedHammer, SimulatedRig
 
 
 def test_impulses_integrate_the_half_sine_exactly_across_blocks():

@@ -16,16 +16,16 @@ import time
 import numpy as np
 import pytest
 
-from analysis.frf import estimate_frf, sine_frf
-from analysis.modal_id import identify_modes
-from drivers.contracts import ConfigurationError, InputChannelSpec, OutputChannelSpec, SensorOverload
-from drivers.safety import SineDrive
-from drivers.simulated import FAULT_KINDS, Fault, SimulatedRig, TestArticle
+from rigtools.analysis.frf import estimate_frf, sine_frf
+from rigtools.analysis.modal_id import identify_modes
+from rigtools.drivers.contracts import ConfigurationError, InputChannelSpec, OutputChannelSpec, SensorOverload
+from rigtools.drivers.safety import SineDrive
+from rigtools.drivers.simulated import FAULT_KINDS, Fault, SimulatedRig, TestArticle
 from rigtools.acquisition import AcquisitionAborted, BlockCollector, RandomDrive, acquire
 from rigtools.config import load_rig
 from rigtools.recording import ChannelSpec, RecordingWriter, open_recording
-from sim.modal import blade_modes, flexural_frequencies
-from sim.rig_model import build_rig_model
+from rigtools.sim.modal import blade_modes, flexural_frequencies
+from rigtools.sim.rig_model import build_rig_model
 
 FS = 25600.0   # resolves the contact period and the third flexural mode (1.25 kHz) comfortably
 
@@ -64,7 +64,7 @@ def test_burst_random_frf_finds_flexural_frequencies_1_to_3_percent_below_nomina
     """Burst random, 2 s periods (drive on 40 %, the response decays by e^-4 before the period
     ends), 8 averages, rectangular window: df = 0.5 Hz against half-power bands of 1.2-30 Hz.
     Reference 1: the nominal FEM (must be 1-3 % above the measurement). Reference 2: the test
-    article's own FEM (sim.modal), within 0.05 % (local SDOF fit between bins; the reduced
+    article's own FEM (rigtools.sim.modal), within 0.05 % (local SDOF fit between bins; the reduced
     model's static correction shifts mode 2 by ~0.01 %)."""
     fs = _configure(rig, cfg)
     period = 2.0
@@ -318,7 +318,7 @@ def test_shaker_and_test_article_sections_validate_in_one_line(cfg):
 def test_safety_abort_in_the_loop_ramps_the_drive_down_within_0_1_s(rig, cfg):
     """The loop's own abort (force above its limit) stops the rig; the rig ramps the drive still
     queued to zero within abort_ramp_time (<= 0.1 s) with no step."""
-    from drivers.safety import ChannelLimit, SafetyMonitor
+    from rigtools.drivers.safety import ChannelLimit, SafetyMonitor
 
     fs = _configure(rig, cfg)
     monitor = SafetyMonitor([ChannelLimit("force", 4.0, 6.0)], rig.input_channels, max_drive=5.0)

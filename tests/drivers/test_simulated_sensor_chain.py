@@ -4,7 +4,7 @@ first-order IEPE high-pass (gain, phase, step response) and overload flags."""
 import numpy as np
 import pytest
 
-from drivers.sensor_chain import SensorChain, SensorModel
+from rigtools.drivers.sensor_chain import SensorChain, SensorModel
 
 FS = 2000.0
 FORCE = SensorModel(volts_per_unit=11.24e-3, full_scale_volts=2.248, highpass_hz=0.0)  # 200 N range

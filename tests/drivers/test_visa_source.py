@@ -11,8 +11,8 @@ from __future__ import annotations
 import pyvisa
 import pytest
 
-from drivers.contracts import DriverUnavailable, LimitExceeded, SignalSourceError, SourceLimits
-from drivers.visa_source import (
+from rigtools.drivers.contracts import DriverUnavailable, LimitExceeded, SignalSourceError, SourceLimits
+from rigtools.drivers.visa_source import (
     SIMULATED_RESOURCE,
     WaveformGenerator,
     open_resource_manager,

@@ -6,14 +6,14 @@ import numpy as np
 import pytest
 from scipy import signal
 
-from drivers.contracts import (
+from rigtools.drivers.contracts import (
     AcquisitionDevice,
     InputChannelSpec,
     InputOverflow,
     OutputChannelSpec,
     OutputUnderflow,
 )
-from drivers.safety import ChannelLimit, SafetyMonitor, SineDrive
+from rigtools.drivers.safety import ChannelLimit, SafetyMonitor, SineDrive
 from rigtools.acquisition import (
     AcquisitionAborted,
     BlockCollector,

@@ -36,8 +36,8 @@ def study_file(tmp_path_factory):
 def article_flexural(rig_config, blade: str, n: int = 3) -> np.ndarray:
     """The simulated test article's flexural frequencies from its full FE blade model (not the
     reduced system the simulated rig integrates): the independent reference."""
-    from sim.modal import blade_modes
-    from sim.rig_model import build_rig_model
+    from rigtools.sim.modal import blade_modes
+    from rigtools.sim.rig_model import build_rig_model
 
     params = rig_config.test_article.to_params().apply(rig_config.to_params())
     rig = build_rig_model(params)
@@ -104,11 +104,11 @@ def test_cli_analyze_frf_json_and_figures(frf_file, tmp_path):
 
 def test_stepped_sine_curves_match_linear_fem(study_file):
     """First-harmonic accelerance X1/F1 of a linear FEM frequency study against the FE model's
-    modal superposition (sim.harmonic) at the same frequencies: 1 %."""
+    modal superposition (rigtools.sim.harmonic) at the same frequencies: 1 %."""
     from rigtools.analyze import analyze_recording
     from rigtools.config import load_rig
-    from sim.harmonic import fem_harmonic_response
-    from sim.rig_model import build_rig_model
+    from rigtools.sim.harmonic import fem_harmonic_response
+    from rigtools.sim.rig_model import build_rig_model
 
     a = analyze_recording(study_file)
     assert [p.kind for p in a.points] == ["periodic"] * 3

@@ -8,8 +8,8 @@ import pytest
 
 from rigtools.cli import main
 from rigtools.config import load_rig
-from sim.modal import blade_modes
-from sim.rig_model import build_rig_model
+from rigtools.sim.modal import blade_modes
+from rigtools.sim.rig_model import build_rig_model
 
 
 @pytest.fixture

@@ -52,7 +52,7 @@ def test_dwell_holds_15_newtons_and_writes_a_complete_recording(dwell):
         start, n = round(p.params["record_start"] * RATE), int(p.params["record_samples"])
         assert n == round(12 * RATE / 60)
         # the record window, refitted from the file, gives the reported fundamental
-        from analysis.harmonics import harmonic_amplitudes
+        from rigtools.analysis.harmonics import harmonic_amplitudes
 
         force = p["force"][start:start + n]
         assert harmonic_amplitudes(force, RATE, 60.0, 1).at(1) == pytest.approx(doc["force_amplitude_measured"], rel=1e-9)
@@ -89,11 +89,11 @@ def _linear_rig(tmp_path, **safety):
 
 def test_held_force_needs_the_drive_of_the_shaker_closed_form(tmp_path):
     """No impacts (gap 50 mm): the drive the controller settles on for 2 N at 60 Hz equals
-    2 N over the closed-form sensor force per volt of drivers.shaker (the shaker coupled to the
+    2 N over the closed-form sensor force per volt of rigtools.drivers.shaker (the shaker coupled to the
     test article's active blade, all FE modes, the IEPE high-pass) within 0.6 % (the 0.5 %
     control tolerance plus the simulated rig's reduced model)."""
-    from sim.modal import blade_modes
-    from sim.rig_model import build_rig_model
+    from rigtools.sim.modal import blade_modes
+    from rigtools.sim.rig_model import build_rig_model
 
     rig = _linear_rig(tmp_path)
     code, text, err = run_cli(["acquire", "dwell", "--rig", str(rig), "--backend", "sim", "--seed", "2",
@@ -189,8 +189,8 @@ def test_frf_prints_the_h1_peaks_with_their_coherence(tmp_path):
     """Periodic chirp 20-500 Hz, gap 5 mm (no impacts): the H1 peaks of the active shroud over
     the force lie at the test article's first two flexural frequencies (FE with the
     [test_article] deviations: 52.0 and 355.6 Hz) within one 2 Hz line, coherence > 0.99."""
-    from sim.modal import blade_modes
-    from sim.rig_model import build_rig_model
+    from rigtools.sim.modal import blade_modes
+    from rigtools.sim.rig_model import build_rig_model
 
     out = tmp_path / "frf.h5"
     code, text, err = run_cli(["acquire", "frf", "--backend", "sim", "--seed", "1", "--signal", "chirp",

@@ -6,7 +6,7 @@ import json
 import numpy as np
 import pytest
 
-from analysis.harmonics import harmonic_amplitudes
+from rigtools.analysis.harmonics import harmonic_amplitudes
 from rigtools.cli import main
 from rigtools.recording import open_recording
 
@@ -302,11 +302,11 @@ def test_sigterm_during_simulate_writes_nothing_and_exits_143(tmp_path):
 
 
 def test_json_contact_force_harmonics_are_the_exact_ones(tmp_path, capsys):
-    """--json contact-force harmonics come from the per-step force (sim.vibro_impact.
+    """--json contact-force harmonics come from the per-step force (rigtools.sim.vibro_impact.
     contact_force_harmonics, itself checked against quadrature and the passive blade in tests/sim),
     not from a fit of the samples, which is 2.7 % off at k = 1 for a 0.9 mm gap."""
     from rigtools.simulation import RunSettings, load_system, simulate_point
-    from sim.vibro_impact import contact_force_harmonics
+    from rigtools.sim.vibro_impact import contact_force_harmonics
 
     out = tmp_path / "c.h5"
     assert main(["simulate", "--gap", "0.9 mm", "--out", str(out), "--json", "--no-plot", *FAST]) == 0

@@ -11,11 +11,11 @@ import time
 import numpy as np
 import pytest
 
-from analysis.harmonics import harmonic_amplitudes
+from rigtools.analysis.harmonics import harmonic_amplitudes
 from rigtools.cli import main
 from rigtools.recording import RecordingWriter, open_recording
 from rigtools.simulation import MODEL_OUTPUTS, RunSettings, load_system, write_study
-from sim.studies import StudyPlan, run_study
+from rigtools.sim.studies import StudyPlan, run_study
 
 FAST = ["--duration", "0.1 s", "--max-settle", "4 s"]
 GAPS = [0.3e-3, 0.5e-3, 0.7e-3]

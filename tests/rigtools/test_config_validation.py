@@ -10,7 +10,7 @@ import h5py
 import numpy as np
 import pytest
 
-from drivers.shaker import SHAKER_BOUNDS, ShakerParams
+from rigtools.drivers.shaker import SHAKER_BOUNDS, ShakerParams
 from rigtools.config import (
     MAX_CONTACT_DAMPING_RATIO, RigConfig, ShakerConfig, default_rig_text, load_rig, parse_rig,
 )
@@ -300,7 +300,7 @@ def test_root_springs_at_their_limits_still_model_a_clamp():
     """The largest root springs accepted give the clamped rig's natural frequencies (the reference:
     the clamped model) within 0.01 %: the limits sit inside the range the model handles."""
     from rigtools.config import MAX_ROOT_ROTATIONAL_STIFFNESS, MAX_ROOT_TRANSLATIONAL_STIFFNESS
-    from sim.reduction import reduced_system
+    from rigtools.sim.reduction import reduced_system
 
     clamped = parse_rig(DEFAULT)
     springs = parse_rig(_edited("root", kind="springs", rotational_stiffness=MAX_ROOT_ROTATIONAL_STIFFNESS,

@@ -13,7 +13,7 @@ from rigtools.config import load_rig
 from rigtools.demo import findings, steps
 from rigtools.demo.settings import PAPER_FE, PAPER_FORCE
 from rigtools.simulation import RunSettings, iter_study_points, simulate_point
-from sim.studies import StudyPlan
+from rigtools.sim.studies import StudyPlan
 
 SETTINGS = RunSettings(duration=0.1, max_settle_time=5.0)
 
@@ -82,8 +82,8 @@ def _moved_sensor(cfg, position):
 
 
 def _active_f2(cfg):
-    from sim.modal import flexural_frequencies
-    from sim.rig_model import build_rig_model
+    from rigtools.sim.modal import flexural_frequencies
+    from rigtools.sim.rig_model import build_rig_model
 
     return float(flexural_frequencies(build_rig_model(cfg.to_params()).blade("active"), 2)[1])
 

@@ -8,8 +8,8 @@ import pytest
 import pyuff
 from nptdms import ChannelObject, GroupObject, RootObject, TdmsWriter
 
-from analysis.frf import estimate_frf
-from analysis.spectra import amplitude_spectrum
+from rigtools.analysis.frf import estimate_frf
+from rigtools.analysis.spectra import amplitude_spectrum
 from rigtools.cli import main
 from rigtools.config import load_rig
 from rigtools.interop.sep005 import to_sep005

@@ -24,8 +24,8 @@ def cfg():
 
 def _article_flexural(cfg, n=2):
     """The test article's own flexural frequencies (FE model with the [test_article] deviations)."""
-    from sim.modal import blade_modes
-    from sim.rig_model import build_rig_model
+    from rigtools.sim.modal import blade_modes
+    from rigtools.sim.rig_model import build_rig_model
 
     ta = cfg.test_article.to_params()
     modes = blade_modes(build_rig_model(ta.apply(cfg.to_params())).active, 6)
@@ -213,7 +213,7 @@ def test_safety_abort_during_the_ramp_keeps_the_peak_and_the_ramp(cfg, tmp_path)
 def test_fault_mid_study_fails_with_the_reason_and_keeps_the_points_before(cfg, tmp_path):
     """A gap study 0.3-0.9 mm with an amplifier timeout injected at 5 s: status failed with the
     fault named, and every point completed before it valid and intact."""
-    from drivers.simulated import Fault
+    from rigtools.drivers.simulated import Fault
 
     out = tmp_path / "fault.h5"
     proc = RigStudy(cfg, {"kind": "gap", "values": [3e-4, 5e-4, 7e-4, 9e-4], "force": 15.0, "fe": 60.0,
@@ -257,7 +257,7 @@ def test_real_rig_gap_study_asks_the_operator_with_the_drive_at_zero(cfg, tmp_pa
     """Without set_gap (the NI rig) the study ramps the drive to zero, asks for each gap (the
     callback, the CLI's prompt) and stores the gap asked for; the drive is at 0 V whenever the
     operator is asked, and each point still reaches its force."""
-    from drivers.simulated import SimulatedRig
+    from rigtools.drivers.simulated import SimulatedRig
 
     sim = SimulatedRig.from_config(cfg, seed=1)
     asked = []
@@ -281,12 +281,12 @@ def test_real_rig_gap_study_asks_the_operator_with_the_drive_at_zero(cfg, tmp_pa
 
 
 def test_simulation_diverging_mid_acquisition_is_a_fault(cfg, tmp_path):
-    """Issue 8: sim.vibro_impact.SimulationDivergedError raised by the simulated rig's physics
+    """Issue 8: rigtools.sim.vibro_impact.SimulationDivergedError raised by the simulated rig's physics
     mid-run (here the stepper is made to raise it from 0.5 s on, with the stepper's own message)
     is a fault: status failed with the reason, the drive ramped to exactly 0 V on a model at
     rest, everything read before kept, exit 4 (AcquisitionAborted)."""
-    from drivers.simulated import SimulatedRig
-    from sim.vibro_impact import SimulationDivergedError, diverged_message
+    from rigtools.drivers.simulated import SimulatedRig
+    from rigtools.sim.vibro_impact import SimulationDivergedError, diverged_message
 
     rig = SimulatedRig.from_config(cfg, seed=1)
     rig.configure(cfg.daq.input_specs(), cfg.daq.output_spec(), cfg.daq.sample_rate, cfg.daq.block_size())

@@ -1,8 +1,8 @@
 """Impact-hammer (tap) test and FRF test on the simulated rig: the first three flexural
 frequencies of BOTH blades against the simulated test article's own FE values.
 
-Reference: :func:`sim.modal.flexural_frequencies` of the FE model built from the rig file's
-``[test_article]`` (``TestArticle.apply``, as :class:`drivers.simulated.SimulatedRig` builds
+Reference: :func:`rigtools.sim.modal.flexural_frequencies` of the FE model built from the rig file's
+``[test_article]`` (``TestArticle.apply``, as :class:`rigtools.drivers.simulated.SimulatedRig` builds
 it), an eigen-solve of the full FE blade -- independent of the reduced model, the modal
 impulses of the hammer, the sensor chain, the trigger and the identification. Seed 1; the
 figures in the docstrings were measured with these settings.
@@ -29,8 +29,8 @@ def cfg():
 
 
 def _article(cfg, blade: str) -> np.ndarray:
-    from sim.modal import flexural_frequencies
-    from sim.rig_model import build_rig_model
+    from rigtools.sim.modal import flexural_frequencies
+    from rigtools.sim.rig_model import build_rig_model
 
     model = build_rig_model(cfg.test_article.to_params().apply(cfg.to_params()))
     return flexural_frequencies(model.blade(blade), 3)
@@ -67,7 +67,7 @@ def test_frf_test_gives_the_active_blades_first_three_flexural_frequencies(cfg, 
     """A periodic chirp 20-1600 Hz through the shaker (rig acquire frf), 1 s frames, 4 averages,
     gap open: the active blade's modes 1-3 from H1 (active shroud / force) within 0.5 % of the
     article's own 52.01 / 355.63 / 1252.94 Hz (measured -0.0004 / -0.005 / -0.004 %)."""
-    from analysis.point import analyze_frf_test
+    from rigtools.analysis.point import analyze_frf_test
     from rigtools.procedures.frf import FrfTest
 
     out = tmp_path / "frf.h5"

@@ -1,5 +1,5 @@
 """Fast checks of the procedure layer's pieces: parameter validation, the multi-channel
-harmonic fit against analysis.harmonics, the sample ring, the force controller's secant step."""
+harmonic fit against rigtools.analysis.harmonics, the sample ring, the force controller's secant step."""
 
 import numpy as np
 import pytest
@@ -28,7 +28,7 @@ def test_bad_parameters_are_one_line_naming_them(model, values, needle):
 
 
 def test_study_uses_the_model_study_plan():
-    from sim.studies import StudyPlan
+    from rigtools.sim.studies import StudyPlan
 
     params = validate(StudyParameters, kind="frequency", values=[60.0, 62.0, 61.0], direction="both",
                       force=15.0, gap=7e-4)
@@ -43,7 +43,7 @@ def test_study_uses_the_model_study_plan():
 def test_multichannel_fit_equals_the_least_squares_fit_of_analysis():
     """Offset, k = 1 and 3 and noise at a frequency with a non-integer number of samples per
     period and a record that is not whole periods: same complex amplitudes as
-    analysis.harmonics.harmonic_amplitudes within 1e-12 (relative to the fundamental)."""
+    rigtools.analysis.harmonics.harmonic_amplitudes within 1e-12 (relative to the fundamental)."""
     rng = np.random.default_rng(1)
     fs, fe, n = 51200.0, 61.3, 25000
     t = np.arange(n) / fs

@@ -4,7 +4,7 @@ the passive blade.
 ``rig acquire tap`` is being built elsewhere; until it lands, the passive blade's tap test here is a
 synthetic recording written with the recording writer: periodic half-sine hammer pulses at the
 passive blade's mid-span (85 mm) and the passive shroud's acceleration from the test article's FE
-model (sim.harmonic: modal superposition over all its modes, exact for a periodic force), with
+model (rigtools.sim.harmonic: modal superposition over all its modes, exact for a periodic force), with
 sensor noise as the simulated rig's. It follows the broadband-point contract ``rig update`` reads:
 ``frame_samples``, ``record_start`` (s), ``record_samples``, ``signal = "tap"``, a force channel
 and a ``passive_*`` acceleration.
@@ -20,9 +20,9 @@ import pytest
 
 from rigtools.config import default_rig_text, load_rig
 from rigtools.recording import ChannelSpec, RecordingWriter
-from sim.harmonic import fem_harmonic_response
-from sim.rig_model import build_rig_model
-from sim.updating import mode_targets
+from rigtools.sim.harmonic import fem_harmonic_response
+from rigtools.sim.rig_model import build_rig_model
+from rigtools.sim.updating import mode_targets
 from cli_helpers import run_cli
 
 RATE = 51200.0

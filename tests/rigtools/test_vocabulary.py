@@ -4,7 +4,7 @@ names map to the current ones, and force_amplitude_measured is the force's funda
 import numpy as np
 import pytest
 
-from analysis.harmonics import harmonic_amplitudes
+from rigtools.analysis.harmonics import harmonic_amplitudes
 from rigtools.config import load_rig
 from rigtools.recording import RecordingWriter, open_recording
 from rigtools.simulation import (

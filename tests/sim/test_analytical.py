@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 
 from rigtools.config import load_rig
-from sim.analytical import assumed_modes_blade, exact_flexural_frequencies, tip_mass_lambdas
-from sim.blade import build_blade
-from sim.modal import flexural_frequencies
-from sim.params import BladeParams, LumpedMass, RootParams
-from sim.rig_model import blade_masses, build_rig_model
+from rigtools.sim.analytical import assumed_modes_blade, exact_flexural_frequencies, tip_mass_lambdas
+from rigtools.sim.blade import build_blade
+from rigtools.sim.modal import flexural_frequencies
+from rigtools.sim.params import BladeParams, LumpedMass, RootParams
+from rigtools.sim.rig_model import blade_masses, build_rig_model
 
 BLADE = BladeParams(length=0.155, width=0.04, thickness=0.0032, youngs_modulus=2e11, density=7850.0)
 SCALE = np.sqrt(BLADE.youngs_modulus * BLADE.i_flexural / (BLADE.density * BLADE.area * BLADE.length**4)) / (2 * np.pi)

@@ -8,7 +8,7 @@ Euler-Bernoulli matrices are the phi = 0 case. Tolerances: 1e-12 relative (exact
 import numpy as np
 import pytest
 
-from sim.beam_element import element_matrices, planar_bending, rectangle_torsion_constant, rectangular_section
+from rigtools.sim.beam_element import element_matrices, planar_bending, rectangle_torsion_constant, rectangular_section
 
 L, E, I, RHO, A = 0.0155, 2.0e11, 1.2e-10, 7850.0, 1.28e-4
 

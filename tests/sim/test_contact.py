@@ -5,8 +5,8 @@ import math
 import numpy as np
 import pytest
 
-from sim.contact import HERTZ, LINEAR, contact_force, contact_period, law, solve_contact
-from sim.params import ContactParams
+from rigtools.sim.contact import HERTZ, LINEAR, contact_force, contact_period, law, solve_contact
+from rigtools.sim.params import ContactParams
 
 
 def test_linear_and_hertz_force_with_damping_and_clip():

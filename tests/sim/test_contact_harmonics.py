@@ -1,4 +1,4 @@
-"""Exact contact-force harmonics of a settled run (:func:`sim.vibro_impact.contact_force_harmonics`)
+"""Exact contact-force harmonics of a settled run (:func:`rigtools.sim.vibro_impact.contact_force_harmonics`)
 against an independent route through the passive blade.
 
 The passive blade is loaded only by the contact force, and the integrator propagates every mode
@@ -13,10 +13,10 @@ samples that `rig simulate --json` used is off by 2.65 % at k = 1, gap 0.9 mm (i
 import numpy as np
 import pytest
 
-from analysis.harmonics import harmonic_amplitudes
+from rigtools.analysis.harmonics import harmonic_amplitudes
 from rigtools.config import load_rig
-from sim.reduction import reduced_system
-from sim.vibro_impact import contact_force_harmonics, run_harmonic
+from rigtools.sim.reduction import reduced_system
+from rigtools.sim.vibro_impact import contact_force_harmonics, run_harmonic
 
 FE, F0, K = 60.0, 15.0, 30
 
@@ -62,7 +62,7 @@ def test_contact_force_harmonics_of_a_known_piecewise_linear_force():
     piecewise-linear force (to 1e-9)."""
     from scipy.integrate import quad
 
-    from sim.vibro_impact import VibroImpactRun
+    from rigtools.sim.vibro_impact import VibroImpactRun
 
     fe, n = 50.0, 64
     dt = 1.0 / (fe * n)
@@ -102,7 +102,7 @@ def test_hunt_crossley_rig_run(system):
     c_c = 8.09e8 N*s/m^2.5): exact harmonics against the passive-blade route (0.01 %), energy
     balance over the record (0.2 %; measured 0.04 %, the contact dissipation is summed by the
     trapezoid rule), and the same harmonics at half the step (0.05 %; measured 0.008 %)."""
-    from sim.contact import hunt_crossley_damping
+    from rigtools.sim.contact import hunt_crossley_damping
 
     cc = hunt_crossley_damping(1e8, 0.36, 0.3)
     assert cc == pytest.approx(8.09e8, rel=1e-3)

@@ -2,9 +2,9 @@
 solve (scipy solve_ivp, DOP853, rtol 1e-12, release located by an event) and against a single
 impact run through the fast kernel (a free mass on a rigid-stop contact spring).
 
-* linear law, force clipped at zero (never pulls): :func:`sim.contact.linear_restitution`;
+* linear law, force clipped at zero (never pulls): :func:`rigtools.sim.contact.linear_restitution`;
 * Hunt-Crossley ``f = k g^p (1 + alpha dg/dt)``: the exact relation
-  ``1 - e x = (1 + x) exp(-(1 + e) x)``, ``x = alpha v_in`` (:func:`sim.contact.hunt_crossley_restitution`),
+  ``1 - e x = (1 + x) exp(-(1 + e) x)``, ``x = alpha v_in`` (:func:`rigtools.sim.contact.hunt_crossley_restitution`),
   and the Lankarani-Nikravesh approximation ``alpha = 3 (1 - e^2) / (4 v_in)`` where it holds.
 """
 
@@ -14,12 +14,12 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from sim.contact import (
+from rigtools.sim.contact import (
     contact_damping_ratio, hunt_crossley_damping, hunt_crossley_restitution, linear_restitution,
 )
-from sim.params import ContactParams, DampingParams
-from sim.reduction import ReducedSystem
-from sim.vibro_impact import VibroImpactStepper
+from rigtools.sim.params import ContactParams, DampingParams
+from rigtools.sim.reduction import ReducedSystem
+from rigtools.sim.vibro_impact import VibroImpactStepper
 
 
 def ode_restitution(m, v0, force):
@@ -75,7 +75,7 @@ def test_default_contact_restitution_is_0_36_not_0_25():
     """The shipped contact (1e6 N/m, 200 N s/m on the shrouds' 59.08 g): zeta = 0.411; a damper
     allowed to pull would give 0.242, the penalty contact (force >= 0) gives 0.355."""
     from rigtools.config import load_rig
-    from sim.reduction import reduced_system
+    from rigtools.sim.reduction import reduced_system
 
     params = load_rig().to_params()
     meff = reduced_system(params).contact_effective_mass()

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from rigtools.config import load_rig
-from sim.reduction import estimate_reduction_seconds, reduced_system
-from sim.vibro_impact import SimulationInputError, estimate_steps, run_harmonic
+from rigtools.sim.reduction import estimate_reduction_seconds, reduced_system
+from rigtools.sim.vibro_impact import SimulationInputError, estimate_steps, run_harmonic
 
 
 @pytest.fixture(scope="module")

@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 from rigtools.config import load_rig
-from sim.full_order import FullOrderIntegrator, full_modal_system, run_full_order
-from sim.rig_model import build_rig_model
-from sim.vibro_impact import OUT_COLUMNS, SimulationInputError
+from rigtools.sim.full_order import FullOrderIntegrator, full_modal_system, run_full_order
+from rigtools.sim.rig_model import build_rig_model
+from rigtools.sim.vibro_impact import OUT_COLUMNS, SimulationInputError
 
 
 @pytest.fixture(scope="module")
@@ -45,7 +45,7 @@ def test_modal_form_drops_only_unexcited_modes(model):
 def test_linear_steady_state_matches_frequency_domain(model):
     """Gap never closed: steady amplitude at the active shroud equals |H(w)| F0 from all-mode
     superposition (0.1 %: Newmark period error (w dt)^2/12 ~ 1e-4 at 400 steps per period)."""
-    from sim.harmonic import fem_harmonic_response
+    from rigtools.sim.harmonic import fem_harmonic_response
 
     params = replace(model.params, contact=replace(model.params.contact, gap=1.0))
     fe = 90.0

@@ -8,8 +8,8 @@ import pytest
 import scipy.sparse.linalg as spla
 
 from rigtools.config import load_rig
-from sim.harmonic import LOCATIONS, am_harmonic_response, fem_harmonic_response, harmonic_curves
-from sim.rig_model import build_rig_model
+from rigtools.sim.harmonic import LOCATIONS, am_harmonic_response, fem_harmonic_response, harmonic_curves
+from rigtools.sim.rig_model import build_rig_model
 
 
 @pytest.fixture(scope="module")

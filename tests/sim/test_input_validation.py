@@ -1,6 +1,6 @@
 """The physics refuses invalid or absurd input with one line naming the field and its value
-(:class:`sim.params.SimulationInputError`, a ValueError), before running where it can, and a run
-that still produces a non-finite value stops with :class:`sim.vibro_impact.SimulationDivergedError`
+(:class:`rigtools.sim.params.SimulationInputError`, a ValueError), before running where it can, and a run
+that still produces a non-finite value stops with :class:`rigtools.sim.vibro_impact.SimulationDivergedError`
 (issue 8: contact damping 1e5 N*s/m, Rayleigh alpha = inf or 1e300, root springs of 1e20 gave
 NaN results or 0 Hz)."""
 
@@ -11,13 +11,13 @@ import numpy as np
 import pytest
 
 from rigtools.config import load_rig
-from sim.modal import flexural_frequencies
-from sim.params import (
+from rigtools.sim.modal import flexural_frequencies
+from rigtools.sim.params import (
     BladeParams, ContactParams, DampingParams, LumpedMass, RootParams, SimulationInputError,
 )
-from sim.reduction import reduced_system
-from sim.rig_model import build_rig_model
-from sim.vibro_impact import (
+from rigtools.sim.reduction import reduced_system
+from rigtools.sim.rig_model import build_rig_model
+from rigtools.sim.vibro_impact import (
     ShakerCoupling, SimulationDivergedError, VibroImpactStepper, contact_force_harmonics, run_harmonic,
 )
 
@@ -132,7 +132,7 @@ def test_a_diverging_run_stops_with_one_line_naming_the_suspects(system):
 
 
 def test_full_order_refuses_non_finite_hht_alpha(params):
-    from sim.full_order import FullOrderIntegrator
+    from rigtools.sim.full_order import FullOrderIntegrator
 
     model = build_rig_model(params)
     for alpha in (INF, NAN, -0.1):

@@ -16,15 +16,15 @@ import pytest
 import scipy.linalg
 from scipy.optimize import brentq
 
-from sim.blade import build_blade
-from sim.modal import blade_modes, flexural_frequencies
-from sim.params import BladeParams, LumpedMass, RootParams
+from rigtools.sim.blade import build_blade
+from rigtools.sim.modal import blade_modes, flexural_frequencies
+from rigtools.sim.params import BladeParams, LumpedMass, RootParams
 
 BLADE = BladeParams(length=0.155, width=0.04, thickness=0.0032, youngs_modulus=2e11, density=7850.0)
 
 
 def _tip_mass_lambdas(mu, j, n):
-    """Roots of the field-notes equation (divided by cosh l), independent of sim.analytical."""
+    """Roots of the field-notes equation (divided by cosh l), independent of rigtools.sim.analytical."""
 
     def f(l):
         c, s, ch, sh = np.cos(l), np.sin(l), np.cosh(l), np.sinh(l)
@@ -119,7 +119,7 @@ def test_mode_kinds_and_torsion_axial_edgewise_closed_forms():
     edge = modes.of_kind("edgewise").frequencies_hz[:2]
     L = BLADE.length
     ip = BLADE.i_flexural + BLADE.i_edgewise
-    from sim.beam_element import rectangle_torsion_constant
+    from rigtools.sim.beam_element import rectangle_torsion_constant
 
     c_t = np.sqrt(BLADE.shear_modulus * rectangle_torsion_constant(BLADE.width, BLADE.thickness) / (BLADE.density * ip))
     assert tor == pytest.approx(np.array([1, 3]) * c_t / (4 * L), rel=2e-3)  # linear elements: O(h^2)

@@ -5,9 +5,9 @@ import dataclasses
 import numpy as np
 import pytest
 
-from sim.modal import blade_modes
-from sim.params import DampingParams, LumpedMass, RigParams, RootParams, BladeParams, ContactParams
-from sim.rig_model import build_rig_model
+from rigtools.sim.modal import blade_modes
+from rigtools.sim.params import DampingParams, LumpedMass, RigParams, RootParams, BladeParams, ContactParams
+from rigtools.sim.rig_model import build_rig_model
 
 BLADE = BladeParams(length=0.155, width=0.04, thickness=0.0032, youngs_modulus=2e11, density=7850.0, elements=20)
 

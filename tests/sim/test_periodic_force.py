@@ -14,11 +14,11 @@ import math
 import numpy as np
 import pytest
 
-from analysis.harmonics import harmonic_amplitudes
+from rigtools.analysis.harmonics import harmonic_amplitudes
 from rigtools.config import load_rig
-from sim.params import SimulationInputError
-from sim.reduction import reduced_system
-from sim.vibro_impact import run_harmonic
+from rigtools.sim.params import SimulationInputError
+from rigtools.sim.reduction import reduced_system
+from rigtools.sim.vibro_impact import run_harmonic
 
 FE, N = 60.0, 240
 TWO = [(1, 10.0, 0.3), (5, 2.0, -1.1)]

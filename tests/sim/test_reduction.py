@@ -16,9 +16,9 @@ import scipy.linalg
 import scipy.sparse.linalg as spla
 
 from rigtools.config import load_rig
-from sim.params import ContactParams, DampingParams
-from sim.reduction import ReducedSystem, reduce_rig_model
-from sim.rig_model import build_rig_model
+from rigtools.sim.params import ContactParams, DampingParams
+from rigtools.sim.reduction import ReducedSystem, reduce_rig_model
+from rigtools.sim.rig_model import build_rig_model
 
 UY = 1
 

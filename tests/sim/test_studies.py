@@ -14,13 +14,13 @@ shroud's flexibility), so no 22 fe peak shows.
 import numpy as np
 import pytest
 
-from analysis.harmonics import derivative_harmonics, harmonic_amplitudes
+from rigtools.analysis.harmonics import derivative_harmonics, harmonic_amplitudes
 from rigtools.config import load_rig
-from sim.modal import flexural_frequencies
-from sim.reduction import reduced_system
-from sim.rig_model import build_rig_model
-from sim.studies import run_study, sweep_order
-from sim.vibro_impact import SimulationInputError
+from rigtools.sim.modal import flexural_frequencies
+from rigtools.sim.reduction import reduced_system
+from rigtools.sim.rig_model import build_rig_model
+from rigtools.sim.studies import run_study, sweep_order
+from rigtools.sim.vibro_impact import SimulationInputError
 
 GAPS = [0.3e-3, 0.5e-3, 0.7e-3, 0.9e-3]
 FORCES = [5.0, 10.0, 15.0, 20.0, 25.0]

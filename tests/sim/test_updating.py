@@ -1,7 +1,7 @@
-"""Model updating (sim.updating) against the simulated rig's test article, whose parameters are known.
+"""Model updating (rigtools.sim.updating) against the simulated rig's test article, whose parameters are known.
 
 The targets are the test article's own flexural frequencies and damping ratios (exact, from its FE
-model), or its FRF computed by the independent harmonic-response code (sim.harmonic).
+model), or its FRF computed by the independent harmonic-response code (rigtools.sim.harmonic).
 """
 
 from __future__ import annotations
@@ -12,11 +12,11 @@ import numpy as np
 import pytest
 
 from rigtools.config import load_rig
-from sim.harmonic import fem_harmonic_response
-from sim.modal import flexural_frequencies
-from sim.params import DampingParams
-from sim.rig_model import build_rig_model
-from sim.updating import (
+from rigtools.sim.harmonic import fem_harmonic_response
+from rigtools.sim.modal import flexural_frequencies
+from rigtools.sim.params import DampingParams
+from rigtools.sim.rig_model import build_rig_model
+from rigtools.sim.updating import (
     PARAMETERS,
     FrfTarget,
     ModeTarget,
@@ -34,7 +34,7 @@ K_TR = "root.translational_stiffness"
 def rig():
     cfg = load_rig(None)
     nominal = cfg.to_params()
-    article_spec = cfg.test_article.to_params()      # drivers.simulated.TestArticle
+    article_spec = cfg.test_article.to_params()      # rigtools.drivers.simulated.TestArticle
     return nominal, article_spec, article_spec.apply(nominal)
 
 
@@ -44,7 +44,7 @@ def targets(rig):
 
 
 def test_fast_flexural_solver_matches_modal(rig):
-    """The fit's uy/rz eigen-solver against sim.modal's full decomposition: same frequencies."""
+    """The fit's uy/rz eigen-solver against rigtools.sim.modal's full decomposition: same frequencies."""
     _, _, article = rig
     model = build_rig_model(article)
     pred = predict(article, [ModeTarget("active", 4, 1.0), ModeTarget("passive", 4, 1.0)])
@@ -53,7 +53,7 @@ def test_fast_flexural_solver_matches_modal(rig):
 
 
 def test_frf_matches_harmonic_response(rig):
-    """FRF predictions against sim.harmonic's modal superposition over all modes of the blade."""
+    """FRF predictions against rigtools.sim.harmonic's modal superposition over all modes of the blade."""
     _, _, article = rig
     f = np.array([20.0, 52.0, 200.0, 355.0, 900.0, 1250.0, 3000.0])
     ref = fem_harmonic_response(build_rig_model(article), f, 1.0)
@@ -149,7 +149,7 @@ def test_rayleigh_coefficients_from_target_ratios(rig):
 
 
 def test_root_stiffness_and_damping_from_frf(rig):
-    """FRF targets only (sim.harmonic's accelerance of the test article around its first two
+    """FRF targets only (rigtools.sim.harmonic's accelerance of the test article around its first two
     active modes): root stiffness and damping ratio recovered from a wrong start."""
     _, spec, article = rig
     f = np.concatenate([np.linspace(49, 55, 13), np.linspace(345, 365, 11)])
@@ -185,8 +185,8 @@ def test_contact_fit_recovers_known_contact(rig):
     """Synthetic dwells with impacts (60 Hz, 15 N, gaps 0.5 and 0.3 mm) from the test article with
     its known contact (1e6 N/m, 200 N*s/m): harmonics 1-10 of both shroud accelerations. From a
     contact 3x too soft and 2.5x too little damped, the fit recovers both within 2 %."""
-    from sim.contact_fit import HarmonicTarget, fit_contact, fit_steps_per_period, targets_from_model
-    from sim.reduction import reduced_system
+    from rigtools.sim.contact_fit import HarmonicTarget, fit_contact, fit_steps_per_period, targets_from_model
+    from rigtools.sim.reduction import reduced_system
 
     _, _, article = rig
     system = reduced_system(article, "fem")
@@ -222,7 +222,7 @@ def test_result_as_json(rig, targets):
 def test_pair_modes_skips_missing_and_spurious_peaks(rig, targets):
     """Identified active-blade modes with the 2nd missing and a spurious peak at 800 Hz: the 1st and
     3rd pair with model orders 1 and 3, the spurious one is left out."""
-    from sim.updating import pair_modes
+    from rigtools.sim.updating import pair_modes
 
     nominal, _, _ = rig
     act = [t for t in targets if t.blade == "active"]
@@ -242,11 +242,11 @@ def test_frf_test_on_the_simulated_rig_end_to_end(rig):
     k_rot comes out 9.7 % low (the +1 %/-1 % mass deviations, not fitted, are absorbed by it),
     zeta within 1 %, the three frequencies within 0.23 %. Freeing all three masses as well, the
     report names the pairs that active-blade data cannot separate."""
-    from analysis.frf import estimate_frf
-    from analysis.modal_id import identify_modes
-    from drivers.simulated import SimulatedRig
+    from rigtools.analysis.frf import estimate_frf
+    from rigtools.analysis.modal_id import identify_modes
+    from rigtools.drivers.simulated import SimulatedRig
     from rigtools.acquisition import BlockCollector, RandomDrive, acquire
-    from sim.updating import pair_modes
+    from rigtools.sim.updating import pair_modes
 
     nominal, spec, _ = rig
     cfg = load_rig(None)
@@ -282,7 +282,7 @@ def test_clamped_root_becomes_springs_rigid_where_not_fitted(rig):
     """Fitting only the rotational spring of a clamped rig: the translational one is written
     rigid (1e12 N/m), and the clamped rig's frequencies are reproduced by rigid springs."""
     nominal, _, _ = rig
-    from sim.updating import RIGID_ROTATIONAL, RIGID_TRANSLATIONAL
+    from rigtools.sim.updating import RIGID_ROTATIONAL, RIGID_TRANSLATIONAL
 
     clamped = predict(nominal, [ModeTarget("active", 3, 1.0)]).frequencies_hz["active"]
     stiff = PARAMETERS[K_ROT].set(nominal, RIGID_ROTATIONAL)

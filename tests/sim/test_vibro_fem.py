@@ -1,7 +1,7 @@
 """The fast reduced integrator on the default rig against the full-order reference and the
 assumed-modes model (issue 3 "must show"), at fe = 60 Hz, F0 = 15 N, gap 0.5 mm.
 
-Acceleration harmonics are taken from the sampled velocity (:func:`analysis.harmonics.
+Acceleration harmonics are taken from the sampled velocity (:func:`rigtools.analysis.harmonics.
 derivative_harmonics`): the damped contact makes the acceleration jump at each impact, so its
 point samples converge only to first order in the step, the velocity's to second.
 """
@@ -9,13 +9,13 @@ point samples converge only to first order in the step, the velocity's to second
 import numpy as np
 import pytest
 
-from analysis.harmonics import derivative_harmonics, harmonic_amplitudes
+from rigtools.analysis.harmonics import derivative_harmonics, harmonic_amplitudes
 from rigtools.config import load_rig
-from sim.full_order import run_full_order
-from sim.reduction import reduced_system
-from sim.rig_model import build_rig_model
-from sim.steady_state import check_periodic
-from sim.vibro_impact import SimulationInputError, run_harmonic
+from rigtools.sim.full_order import run_full_order
+from rigtools.sim.reduction import reduced_system
+from rigtools.sim.rig_model import build_rig_model
+from rigtools.sim.steady_state import check_periodic
+from rigtools.sim.vibro_impact import SimulationInputError, run_harmonic
 
 FE, F0 = 60.0, 15.0
 TIPS = ("active_tip", "passive_tip")

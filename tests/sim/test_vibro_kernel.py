@@ -15,9 +15,9 @@ import pytest
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
-from sim.params import ContactParams, DampingParams
-from sim.reduction import ReducedSystem
-from sim.vibro_impact import (
+from rigtools.sim.params import ContactParams, DampingParams
+from rigtools.sim.reduction import ReducedSystem
+from rigtools.sim.vibro_impact import (
     OUT_COLUMNS, ShakerCoupling, SimulationInputError, VibroImpactRun, VibroImpactStepper, _props,
     foh_propagators, run_harmonic,
 )

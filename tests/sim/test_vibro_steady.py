@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from sim.steady_state import check_periodic, period_mismatch
+from rigtools.sim.steady_state import check_periodic, period_mismatch
 
 N = 200                      # samples per excitation period
 
