@@ -24,6 +24,8 @@ out = proc.stdout + proc.stderr
 for line in out.splitlines():
     path, sep, rest = line.partition(":")
     if sep and Path(path).exists():
-        path = str(Path(path).resolve().relative_to(root)) if Path(path).resolve().is_relative_to(root) else path
+        path = (
+            str(Path(path).resolve().relative_to(root)) if Path(path).resolve().is_relative_to(root) else path
+        )
     print(path + sep + rest)
 sys.exit(proc.returncode)

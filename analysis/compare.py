@@ -55,6 +55,7 @@ def natural_frequency_table(
         differences ``fem_vs_em_pct``, ``am_vs_em_pct`` (``100 (model - EM) / EM``) when EM is
         given, otherwise ``am_vs_fem_pct`` (``100 (AM - FEM) / FEM``).
     """
+
     def get(src, blade, i):
         if src is None or blade not in src:
             return np.nan
@@ -65,8 +66,13 @@ def natural_frequency_table(
     rows = []
     for blade in blades:
         for i in range(int(n_modes)):
-            row = {"blade": blade, "mode": i + 1, "fem_hz": get(fem, blade, i), "am_hz": get(am, blade, i),
-                   "em_hz": get(em, blade, i)}
+            row = {
+                "blade": blade,
+                "mode": i + 1,
+                "fem_hz": get(fem, blade, i),
+                "am_hz": get(am, blade, i),
+                "em_hz": get(em, blade, i),
+            }
             if em is not None:
                 row["fem_vs_em_pct"] = float(_pct(row["fem_hz"], row["em_hz"]))
                 row["am_vs_em_pct"] = float(_pct(row["am_hz"], row["em_hz"]))
@@ -110,8 +116,17 @@ def harmonic_table(
         for k in range(1, n + 1):
             with np.errstate(divide="ignore", invalid="ignore"):
                 ratio = b[k - 1] / a[k - 1]
-            rows.append({"channel": ch, "k": k, "frequency_hz": k * float(fe), "em": a[k - 1], "fem": b[k - 1],
-                         "diff_pct": float(_pct(b[k - 1], a[k - 1])), "ratio": float(ratio)})
+            rows.append(
+                {
+                    "channel": ch,
+                    "k": k,
+                    "frequency_hz": k * float(fe),
+                    "em": a[k - 1],
+                    "fem": b[k - 1],
+                    "diff_pct": float(_pct(b[k - 1], a[k - 1])),
+                    "ratio": float(ratio),
+                }
+            )
     return pd.DataFrame(rows, columns=["channel", "k", "frequency_hz", "em", "fem", "diff_pct", "ratio"])
 
 
@@ -187,7 +202,9 @@ def agreement_score(
     return Agreement(score=float(10.0 ** (-err)), error_decades=err, per_channel=per)
 
 
-def single_mode_gain(frequency_hz: float | np.ndarray, natural_hz: float | np.ndarray, damping_ratio: float) -> np.ndarray:
+def single_mode_gain(
+    frequency_hz: float | np.ndarray, natural_hz: float | np.ndarray, damping_ratio: float
+) -> np.ndarray:
     """``|1 / (1 - r**2 + 2 i zeta r)|`` with ``r = f / fn``: the dynamic amplification of one mode
     at ``f``, the same for receptance, mobility and accelerance ratios at a fixed ``f``."""
     r = np.asarray(frequency_hz, dtype=float) / np.asarray(natural_hz, dtype=float)
@@ -227,14 +244,18 @@ class FrequencyOffsetExplanation:
 
     def sentence(self) -> str:
         """One line for a report."""
-        text = (f"{self.k}·fe = {self.frequency_hz:.1f} Hz lies near the {self.natural_hz:.1f} Hz mode: a 1 % "
-                f"higher/lower natural frequency changes it by x{self.ratio_per_percent[0]:.2f}/"
-                f"x{self.ratio_per_percent[1]:.2f}")
+        text = (
+            f"{self.k}·fe = {self.frequency_hz:.1f} Hz lies near the {self.natural_hz:.1f} Hz mode: a 1 % "
+            f"higher/lower natural frequency changes it by x{self.ratio_per_percent[0]:.2f}/"
+            f"x{self.ratio_per_percent[1]:.2f}"
+        )
         if np.isfinite(self.ratio_from_model_frequency):
             text += f"; the model's own frequency predicts x{self.ratio_from_model_frequency:.2f}"
         if np.isfinite(self.offset_pct_needed):
-            text += (f"; the observed x{self.observed_ratio:.2f} needs a {self.offset_pct_needed:+.2f} % "
-                     "natural-frequency offset")
+            text += (
+                f"; the observed x{self.observed_ratio:.2f} needs a {self.offset_pct_needed:+.2f} % "
+                "natural-frequency offset"
+            )
         return text
 
 
@@ -265,7 +286,9 @@ def explain_harmonic_difference(
         return float(single_mode_gain(f, natural_hz_em * (1 + offset_pct / 100.0), damping_ratio)) / g0
 
     per = (ratio(1.0), ratio(-1.0))
-    model_ratio = ratio(100.0 * (natural_hz_model / natural_hz_em - 1.0)) if natural_hz_model else float("nan")
+    model_ratio = (
+        ratio(100.0 * (natural_hz_model / natural_hz_em - 1.0)) if natural_hz_model else float("nan")
+    )
     target = np.log(observed_ratio) if observed_ratio > 0 else np.nan
     best = np.nan
     if np.isfinite(target):
@@ -276,10 +299,14 @@ def explain_harmonic_difference(
             if vals[i] == 0:
                 roots.append(grid[i])
             else:
-                roots.append(optimize.brentq(lambda x: np.log(ratio(x)) - target, grid[i], grid[i + 1], xtol=1e-12))
+                roots.append(
+                    optimize.brentq(lambda x: np.log(ratio(x)) - target, grid[i], grid[i + 1], xtol=1e-12)
+                )
         if roots:
             best = float(min(roots, key=abs))
-    return FrequencyOffsetExplanation(int(k), f, float(natural_hz_em), float(observed_ratio), per, model_ratio, best)
+    return FrequencyOffsetExplanation(
+        int(k), f, float(natural_hz_em), float(observed_ratio), per, model_ratio, best
+    )
 
 
 def explain_large_differences(
@@ -323,8 +350,12 @@ def explain_large_differences(
         if natural_hz_model is not None and blade in natural_hz_model:
             m = np.sort(np.asarray(natural_hz_model[blade], dtype=float))
             model = float(m[j]) if j < m.size else None
-        out.append((row.channel, explain_harmonic_difference(int(row.k), fe, float(row.ratio), float(fns[j]),
-                                                             zeta, model)))
+        out.append(
+            (
+                row.channel,
+                explain_harmonic_difference(int(row.k), fe, float(row.ratio), float(fns[j]), zeta, model),
+            )
+        )
     return out
 
 
@@ -385,6 +416,7 @@ def trend_series(
     ``"peak force-sensor signal"``, ``"active shroud accel peak"``,
     ``"passive shroud accel 22·fe amplitude"``; missing channels or harmonics read NaN.
     Feed EM's and FEM's series to :func:`rigtools.analysis.plots.trend_figure`."""
+
     def label(ch):
         return ch.replace("_", " ")
 
@@ -406,9 +438,14 @@ def trend_series(
     return {key: np.asarray(v, dtype=float) for key, v in out.items()}
 
 
-def point_agreement(em, model, *, channels: Sequence[str] | None = None, k_max: int | None = None) -> Agreement:
+def point_agreement(
+    em, model, *, channels: Sequence[str] | None = None, k_max: int | None = None
+) -> Agreement:
     """:func:`agreement_score` of two :class:`rigtools.analysis.point.DwellAnalysis` results over the
     channels both have (or ``channels``), from their harmonic amplitudes."""
     names = [c for c in (channels or em.harmonics) if c in em.harmonics and c in model.harmonics]
-    return agreement_score({c: em.harmonics[c].amplitude for c in names},
-                           {c: model.harmonics[c].amplitude for c in names}, k_max=k_max)
+    return agreement_score(
+        {c: em.harmonics[c].amplitude for c in names},
+        {c: model.harmonics[c].amplitude for c in names},
+        k_max=k_max,
+    )

@@ -101,8 +101,16 @@ class FRFEstimate:
         acceleration response, ``"accelerance"``, shown as ``"receptance"``); spectra and coherence
         unchanged."""
         f = self.frequency_hz
-        return FRFEstimate(f, convert_frf(self.h1, f, measured, target), convert_frf(self.h2, f, measured, target),
-                           self.coherence, self.n_averages, self.sxx, self.syy, self.sxy)
+        return FRFEstimate(
+            f,
+            convert_frf(self.h1, f, measured, target),
+            convert_frf(self.h2, f, measured, target),
+            self.coherence,
+            self.n_averages,
+            self.sxx,
+            self.syy,
+            self.sxy,
+        )
 
 
 def n_welch_segments(n_samples: int, nperseg: int, noverlap: int) -> int:
@@ -152,7 +160,9 @@ def estimate_frf(
     x = np.asarray(excitation, dtype=float)
     y = np.asarray(response, dtype=float)
     if x.ndim != 1 or x.shape != y.shape:
-        raise ValueError(f"excitation and response must be equal-length 1-D arrays, got {x.shape} and {y.shape}")
+        raise ValueError(
+            f"excitation and response must be equal-length 1-D arrays, got {x.shape} and {y.shape}"
+        )
     if noverlap is None:
         noverlap = nperseg // 2
     n_avg = n_welch_segments(x.size, nperseg, noverlap)
@@ -172,7 +182,9 @@ def estimate_frf(
     return FRFEstimate(f, h1, h2, np.clip(np.nan_to_num(coh), 0.0, 1.0), n_avg, sxx, syy, sxy)
 
 
-def sine_frf(excitation: np.ndarray, response: np.ndarray, sample_rate: float, frequency_hz: float) -> complex:
+def sine_frf(
+    excitation: np.ndarray, response: np.ndarray, sample_rate: float, frequency_hz: float
+) -> complex:
     """Complex ratio response/excitation at one frequency (stepped-sine point).
 
     Each record is fitted by least squares with ``c + a cos(w t) + b sin(w t)``; the ratio of the
@@ -275,9 +287,17 @@ class SpectraAccumulator:
         ``segments_per_batch * nperseg * n_channels * 16`` bytes).
     """
 
-    def __init__(self, sample_rate: float, *, nperseg: int, noverlap: int | None = None,
-                 window: str = "hann", detrend: str | bool = "constant", reference: int = 0,
-                 segments_per_batch: int = 64) -> None:
+    def __init__(
+        self,
+        sample_rate: float,
+        *,
+        nperseg: int,
+        noverlap: int | None = None,
+        window: str = "hann",
+        detrend: str | bool = "constant",
+        reference: int = 0,
+        segments_per_batch: int = 64,
+    ) -> None:
         if not sample_rate > 0:
             raise ValueError("sample_rate must be positive")
         self.sample_rate = float(sample_rate)
@@ -310,9 +330,11 @@ class SpectraAccumulator:
             count = min(self.batch, n_seg - first)
             start = first * self.step
             stop = start + (count - 1) * self.step + self.nperseg
-            segs = np.lib.stride_tricks.sliding_window_view(buf[:, start:stop], self.nperseg, axis=1)[:, ::self.step]
+            segs = np.lib.stride_tricks.sliding_window_view(buf[:, start:stop], self.nperseg, axis=1)[
+                :, :: self.step
+            ]
             self._accumulate(segs)
-        self._tail = buf[:, n_seg * self.step:].copy()
+        self._tail = buf[:, n_seg * self.step :].copy()
 
     def _accumulate(self, segs: np.ndarray) -> None:
         # segs: (n_channels, n_segments, nperseg)
@@ -348,7 +370,8 @@ class SpectraAccumulator:
         if self.n_segments < 2:
             raise ValueError(
                 f"{self.n_segments} segment(s) of {self.nperseg}: need at least 2 averages "
-                "(a single average has coherence 1 by construction)")
+                "(a single average has coherence 1 by construction)"
+            )
         f, auto, cross = self.spectra()
         resp = [c for c in range(auto.shape[0]) if c != self.reference]
         sxx, syy, sxy = auto[self.reference].real, auto[resp].real, cross[resp]
@@ -364,8 +387,14 @@ def _frf_from_spectra(f, sxx, syy, sxy, n_avg) -> FRFEstimate:
 
 
 def frf_from_blocks(
-    blocks, sample_rate: float, *, nperseg: int, noverlap: int | None = None, window: str = "hann",
-    detrend: str | bool = "constant", reference: int = 0,
+    blocks,
+    sample_rate: float,
+    *,
+    nperseg: int,
+    noverlap: int | None = None,
+    window: str = "hann",
+    detrend: str | bool = "constant",
+    reference: int = 0,
 ) -> FRFEstimate:
     """H1, H2, coherence (and :attr:`FRFEstimate.hv`) of a long record given block by block.
 
@@ -385,8 +414,9 @@ def frf_from_blocks(
         ``h1``, ``h2``, ``coherence``, ``syy``, ``sxy`` of shape (n_responses, n_freq), responses in
         channel order without the reference.
     """
-    acc = SpectraAccumulator(sample_rate, nperseg=nperseg, noverlap=noverlap, window=window,
-                             detrend=detrend, reference=reference)
+    acc = SpectraAccumulator(
+        sample_rate, nperseg=nperseg, noverlap=noverlap, window=window, detrend=detrend, reference=reference
+    )
     for block in blocks:
         acc.add(block)
     return acc.frf()

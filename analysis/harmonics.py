@@ -54,9 +54,7 @@ class HarmonicFit:
         ]
 
 
-def harmonic_amplitudes(
-    x: np.ndarray, sample_rate: float, fe: float, k_max: int = 30
-) -> HarmonicFit:
+def harmonic_amplitudes(x: np.ndarray, sample_rate: float, fe: float, k_max: int = 30) -> HarmonicFit:
     """Least-squares fit of ``offset + sum_k (a_k cos + b_k sin)(2 pi k fe t)`` to ``x``.
 
     Parameters
@@ -93,7 +91,8 @@ def harmonic_amplitudes(
     if k_max * fe >= sample_rate / 2:
         raise ValueError(
             f"harmonic {k_max}*fe = {k_max * fe:g} Hz is not below the Nyquist frequency "
-            f"{sample_rate / 2:g} Hz")
+            f"{sample_rate / 2:g} Hz"
+        )
     n = x.size
     if n < 2 * k_max + 1:
         raise ValueError(f"need at least {2 * k_max + 1} samples to fit {k_max} harmonics, got {n}")
@@ -101,12 +100,15 @@ def harmonic_amplitudes(
 
     samples_per_period = sample_rate / fe
     periods = n / samples_per_period
-    whole = (abs(samples_per_period - round(samples_per_period)) < 1e-9 * samples_per_period
-             and abs(periods - round(periods)) < 1e-9 * max(periods, 1.0) and round(periods) >= 1)
+    whole = (
+        abs(samples_per_period - round(samples_per_period)) < 1e-9 * samples_per_period
+        and abs(periods - round(periods)) < 1e-9 * max(periods, 1.0)
+        and round(periods) >= 1
+    )
     if whole:
         spectrum = np.fft.rfft(x)
         bins = k * int(round(periods))
-        coef = spectrum[bins] * (2.0 / n)   # a - i b for a cos + b sin
+        coef = spectrum[bins] * (2.0 / n)  # a - i b for a cos + b sin
         a, b = coef.real, -coef.imag
         offset = spectrum[0].real / n
         # Parseval: the columns are orthogonal, so the residual energy is what the fit leaves
@@ -117,12 +119,18 @@ def harmonic_amplitudes(
         arg = 2.0 * np.pi * fe * np.outer(t, k)
         design = np.hstack([np.ones((n, 1)), np.cos(arg), np.sin(arg)])
         sol, *_ = np.linalg.lstsq(design, x, rcond=None)
-        offset, a, b = sol[0], sol[1:k_max + 1], sol[k_max + 1:]
+        offset, a, b = sol[0], sol[1 : k_max + 1], sol[k_max + 1 :]
         residual_rms = float(np.sqrt(np.mean((x - design @ sol) ** 2)))
     amplitude = np.hypot(a, b)
-    phase = np.arctan2(-b, a)   # a cos + b sin = A cos(wt + phase)
-    return HarmonicFit(k=k, frequency_hz=k * float(fe), amplitude=amplitude, phase=phase,
-                       offset=float(offset), residual_rms=residual_rms)
+    phase = np.arctan2(-b, a)  # a cos + b sin = A cos(wt + phase)
+    return HarmonicFit(
+        k=k,
+        frequency_hz=k * float(fe),
+        amplitude=amplitude,
+        phase=phase,
+        offset=float(offset),
+        residual_rms=residual_rms,
+    )
 
 
 def relative_phases(fit: HarmonicFit, reference: HarmonicFit | float) -> np.ndarray:
@@ -151,8 +159,14 @@ def derivative_harmonics(fit: HarmonicFit, order: int = 1) -> HarmonicFit:
     order = int(order)
     w = 2.0 * np.pi * fit.frequency_hz
     phase = np.angle(np.exp(1j * (fit.phase + order * np.pi / 2)))
-    return HarmonicFit(k=fit.k, frequency_hz=fit.frequency_hz, amplitude=fit.amplitude * w**order,
-                       phase=phase, offset=0.0, residual_rms=float("nan"))
+    return HarmonicFit(
+        k=fit.k,
+        frequency_hz=fit.frequency_hz,
+        amplitude=fit.amplitude * w**order,
+        phase=phase,
+        offset=0.0,
+        residual_rms=float("nan"),
+    )
 
 
 class HarmonicAccumulator:
@@ -177,7 +191,8 @@ class HarmonicAccumulator:
         if k_max * fe >= sample_rate / 2:
             raise ValueError(
                 f"harmonic {k_max}*fe = {k_max * fe:g} Hz is not below the Nyquist frequency "
-                f"{sample_rate / 2:g} Hz")
+                f"{sample_rate / 2:g} Hz"
+            )
         self.sample_rate, self.fe, self.k_max = float(sample_rate), float(fe), int(k_max)
         self.k = np.arange(1, self.k_max + 1)
         m = 2 * self.k_max + 1
@@ -193,7 +208,7 @@ class HarmonicAccumulator:
             self._dtx = np.zeros((2 * self.k_max + 1, x.shape[0]))
             self._xtx = np.zeros(x.shape[0])
         for start in range(0, x.shape[1], max_rows):
-            xs = x[:, start:start + max_rows]
+            xs = x[:, start : start + max_rows]
             idx = self.n + np.arange(xs.shape[1])
             # phase of the fundamental reduced modulo one period in exact integer arithmetic
             # where possible, so far-off samples keep full precision
@@ -207,16 +222,25 @@ class HarmonicAccumulator:
     def result(self) -> list[HarmonicFit]:
         """One :class:`HarmonicFit` per channel."""
         if self.n < 2 * self.k_max + 1:
-            raise ValueError(f"need at least {2 * self.k_max + 1} samples to fit {self.k_max} harmonics, got {self.n}")
+            raise ValueError(
+                f"need at least {2 * self.k_max + 1} samples to fit {self.k_max} harmonics, got {self.n}"
+            )
         sol = np.linalg.solve(self._dtd, self._dtx)
         fits = []
         for c in range(sol.shape[1]):
             coef = sol[:, c]
-            offset, a, b = coef[0], coef[1:self.k_max + 1], coef[self.k_max + 1:]
+            offset, a, b = coef[0], coef[1 : self.k_max + 1], coef[self.k_max + 1 :]
             resid = self._xtx[c] - 2 * coef @ self._dtx[:, c] + coef @ self._dtd @ coef
-            fits.append(HarmonicFit(k=self.k, frequency_hz=self.k * self.fe, amplitude=np.hypot(a, b),
-                                    phase=np.arctan2(-b, a), offset=float(offset),
-                                    residual_rms=float(np.sqrt(max(resid, 0.0) / self.n))))
+            fits.append(
+                HarmonicFit(
+                    k=self.k,
+                    frequency_hz=self.k * self.fe,
+                    amplitude=np.hypot(a, b),
+                    phase=np.arctan2(-b, a),
+                    offset=float(offset),
+                    residual_rms=float(np.sqrt(max(resid, 0.0) / self.n)),
+                )
+            )
         return fits
 
 

@@ -49,7 +49,6 @@ import numpy as np
 from scipy import signal
 
 
-
 @dataclass(frozen=True)
 class ImpactAnalysis:
     """Impacts found in one record (see the module docstring for the method).
@@ -136,7 +135,7 @@ def periodic_double_integral(x: np.ndarray, sample_rate: float, base_hz: float) 
     spec = np.fft.rfft(x[:n])
     f = np.fft.rfftfreq(n, 1.0 / sample_rate)
     spec[0] = 0.0
-    spec[1:] /= -(2 * np.pi * f[1:]) ** 2
+    spec[1:] /= -((2 * np.pi * f[1:]) ** 2)
     u = np.fft.irfft(spec, n=n)
     return np.resize(u, x.size)
 
@@ -146,7 +145,7 @@ def _opening_time(u: np.ndarray, i: int) -> float:
     displacement ``u`` falls back below its level there, linearly interpolated; NaN if it does
     not within the record."""
     level = 0.5 * (u[i - 1] + u[i])
-    below = np.flatnonzero(u[i + 1:] < level)
+    below = np.flatnonzero(u[i + 1 :] < level)
     if below.size == 0:
         return float("nan")
     j = i + 1 + int(below[0])
@@ -154,8 +153,9 @@ def _opening_time(u: np.ndarray, i: int) -> float:
     return (j - 1 + frac) - (i - 0.5)
 
 
-def period_multiple(times: np.ndarray, fe: float, duration: float, *, max_multiple: int = 8,
-                    time_tolerance: float) -> int | None:
+def period_multiple(
+    times: np.ndarray, fe: float, duration: float, *, max_multiple: int = 8, time_tolerance: float
+) -> int | None:
     """Smallest ``m`` for which the impact times repeat after ``m / fe`` (see module docstring)."""
     t = np.sort(np.asarray(times, dtype=float))
     if t.size == 0:
@@ -270,9 +270,9 @@ def detect_impacts(
     for g in groups:
         lo, hi = max(g[0] - w, 0), min(g[-1] + w, step.size)
         seg = step[lo:hi]
-        k = int(np.flatnonzero(seg >= 0.5 * seg.max())[0])   # the first of the large steps
+        k = int(np.flatnonzero(seg >= 0.5 * seg.max())[0])  # the first of the large steps
         onsets.append(lo + k + 1)
-        after = np.flatnonzero(seg[k + 2:] >= release_fraction * seg[k])
+        after = np.flatnonzero(seg[k + 2 :] >= release_fraction * seg[k])
         durations.append((after[-1] + 1) / sample_rate + 1.0 / sample_rate if after.size else np.nan)
     peaks = np.array(onsets, dtype=int)
     durations = np.array(durations)
@@ -293,7 +293,9 @@ def detect_impacts(
             hx = np.abs(impulsive_part(x, sample_rate, fc))
             spans = [(g[0], g[-1]) for g in groups]
             half = max(2, int(round(2e-4 * sample_rate)))
-            impulse_levels[name] = float(np.mean([hx[max(lo - half, 0):hi + half + 1].max() for lo, hi in spans]))
+            impulse_levels[name] = float(
+                np.mean([hx[max(lo - half, 0) : hi + half + 1].max() for lo, hi in spans])
+            )
         else:
             impulse_levels[name] = 0.0
     return ImpactAnalysis(

@@ -247,6 +247,7 @@ def identify_modes(
 # Identification with a data check and a stabilisation chart (LSCF poles, LSFD constants)
 # ---------------------------------------------------------------------------------------------
 
+
 @dataclass(frozen=True)
 class ExcitationSupport:
     """Whether an FRF estimate can carry modal identification in a band.
@@ -309,11 +310,16 @@ def excitation_support(
         mask &= np.asarray(coherence, dtype=float) >= min_coherence
     fraction = float(np.count_nonzero(mask) / np.count_nonzero(band))
     ok = fraction >= min_fraction
-    reason = "" if ok else (
-        f"the excitation covers {fraction:.1%} of the {f[band][0]:g}-{f[band][-1]:g} Hz band "
-        f"(force spectrum within {dynamic_range_db:g} dB of its peak"
-        + (f" and coherence >= {min_coherence:g}" if coherence is not None else "")
-        + f", need {min_fraction:.0%}): a sine dwell or narrow-band force does not determine modes")
+    reason = (
+        ""
+        if ok
+        else (
+            f"the excitation covers {fraction:.1%} of the {f[band][0]:g}-{f[band][-1]:g} Hz band "
+            f"(force spectrum within {dynamic_range_db:g} dB of its peak"
+            + (f" and coherence >= {min_coherence:g}" if coherence is not None else "")
+            + f", need {min_fraction:.0%}): a sine dwell or narrow-band force does not determine modes"
+        )
+    )
     return ExcitationSupport(fraction, mask, ok, reason)
 
 
@@ -382,12 +388,11 @@ def lscf_stabilisation(
     :class:`StabilisationChart` of the poles inside ``[f_min, f_max]`` with
     ``0 < zeta < max_damping``.
     """
-    from sdypy import EMA   # imported here: it loads matplotlib.pyplot and tqdm
+    from sdypy import EMA  # imported here: it loads matplotlib.pyplot and tqdm
 
     f = np.asarray(frequency_hz, dtype=float)
     h = np.atleast_2d(np.asarray(h, dtype=complex))
-    model = EMA.Model(frf=h, freq=f, lower=f_min, upper=f_max, pol_order_high=int(max_order),
-                      frf_form=kind)
+    model = EMA.Model(frf=h, freq=f, lower=f_min, upper=f_max, pol_order_high=int(max_order), frf_form=kind)
     model.get_poles(method="lscf", show_progress=False)
     orders, fr, xi, stable = [], [], [], []
     prev_f = prev_x = np.array([])
@@ -481,20 +486,36 @@ def identify(
     notes: list[str] = []
     support = None
     if excitation_psd is not None:
-        support = excitation_support(f, excitation_psd, coherence, f_min=f_lo, f_max=f_hi,
-                                     dynamic_range_db=dynamic_range_db, min_coherence=min_coherence)
+        support = excitation_support(
+            f,
+            excitation_psd,
+            coherence,
+            f_min=f_lo,
+            f_max=f_hi,
+            dynamic_range_db=dynamic_range_db,
+            min_coherence=min_coherence,
+        )
         if not support.ok:
             return ModalIdentification([], method, [f"no modes identified: {support.reason}"])
     if method == "peak":
         modes = identify_modes(f, h, kind=kind, f_min=f_lo, f_max=f_hi, n_modes=n_modes)
         chart, rec = None, None
     elif method == "lscf":
-        model, chart = lscf_stabilisation(f, h, kind=kind, f_min=f_lo, f_max=f_hi, max_order=max_order,
-                                          freq_tol=freq_tol, damping_tol=damping_tol)
+        model, chart = lscf_stabilisation(
+            f,
+            h,
+            kind=kind,
+            f_min=f_lo,
+            f_max=f_hi,
+            max_order=max_order,
+            freq_tol=freq_tol,
+            damping_tol=damping_tol,
+        )
         clusters = _stable_clusters(chart, freq_tol, min_stable)
         if n_modes is not None and len(clusters) > n_modes:
-            clusters = sorted(sorted(clusters, key=len, reverse=True)[:n_modes],
-                              key=lambda c: chart.frequency_hz[c[0]])
+            clusters = sorted(
+                sorted(clusters, key=len, reverse=True)[:n_modes], key=lambda c: chart.frequency_hz[c[0]]
+            )
         modes, rec = _lsfd(model, chart, clusters, f, h, kind, f_lo, f_hi)
         if not clusters:
             notes.append(f"no pole stable over {min_stable} model orders between {f_lo:g} and {f_hi:g} Hz")
@@ -508,8 +529,9 @@ def identify(
             if np.any(support.supported & near):
                 kept.append(m)
             else:
-                notes.append(f"dropped {m.frequency_hz:.4g} Hz: no bin of its half-power band has "
-                             f"coherent excitation")
+                notes.append(
+                    f"dropped {m.frequency_hz:.4g} Hz: no bin of its half-power band has coherent excitation"
+                )
         modes = kept
     return ModalIdentification(modes, method, notes, chart, rec)
 

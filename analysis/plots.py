@@ -18,8 +18,8 @@ from matplotlib.figure import Figure
 from rigtools.analysis.spectra import amplitude_spectrum
 
 BLADES = ("active", "passive")
-SPECTRUM_FLOOR = 1e-5        # spectra on a log axis: show down to this fraction of the largest peak
-STUDY_UNITS = {              # swept parameter -> (display unit, factor from SI)
+SPECTRUM_FLOOR = 1e-5  # spectra on a log axis: show down to this fraction of the largest peak
+STUDY_UNITS = {  # swept parameter -> (display unit, factor from SI)
     "gap": ("mm", 1e3),
     "force": ("N", 1.0),
     "frequency": ("Hz", 1.0),
@@ -39,8 +39,17 @@ def _last_periods(n: int, sample_rate: float, fe: float, periods: float) -> slic
     return slice(max(n - m, 0), n)
 
 
-def _spectrum_axes(ax, freqs: np.ndarray, amplitude: np.ndarray, fe: float, k_max: int, f_max: float,
-                   natural_hz: np.ndarray | None, ylabel: str, color: str = "C0") -> None:
+def _spectrum_axes(
+    ax,
+    freqs: np.ndarray,
+    amplitude: np.ndarray,
+    fe: float,
+    k_max: int,
+    f_max: float,
+    natural_hz: np.ndarray | None,
+    ylabel: str,
+    color: str = "C0",
+) -> None:
     """A log-amplitude spectrum with k*fe marked by ticks along the top edge and natural
     frequencies by labelled dashed lines."""
     keep = freqs <= f_max
@@ -51,15 +60,39 @@ def _spectrum_axes(ax, freqs: np.ndarray, amplitude: np.ndarray, fe: float, k_ma
     ax.set_xlim(0.0, f_max)
     harmonics = fe * np.arange(1, k_max + 1)
     harmonics = harmonics[harmonics <= f_max]
-    ax.plot(harmonics, np.ones_like(harmonics), ls="none", marker="v", ms=4, color="0.35",
-            transform=ax.get_xaxis_transform(), clip_on=False, label=f"k·fe (fe = {fe:g} Hz)")
+    ax.plot(
+        harmonics,
+        np.ones_like(harmonics),
+        ls="none",
+        marker="v",
+        ms=4,
+        color="0.35",
+        transform=ax.get_xaxis_transform(),
+        clip_on=False,
+        label=f"k·fe (fe = {fe:g} Hz)",
+    )
     if natural_hz is not None:
         shown = [f for f in np.asarray(natural_hz, dtype=float) if 0 < f <= f_max]
         for i, f in enumerate(shown):
-            ax.axvline(f, color="C3", ls="--", lw=0.8, alpha=0.8,
-                       label="flexural natural frequencies" if i == 0 else None)
-            ax.text(f, 0.93, f" {f:.0f} Hz", color="C3", fontsize=7, rotation=90, va="top", ha="right",
-                    transform=ax.get_xaxis_transform())
+            ax.axvline(
+                f,
+                color="C3",
+                ls="--",
+                lw=0.8,
+                alpha=0.8,
+                label="flexural natural frequencies" if i == 0 else None,
+            )
+            ax.text(
+                f,
+                0.93,
+                f" {f:.0f} Hz",
+                color="C3",
+                fontsize=7,
+                rotation=90,
+                va="top",
+                ha="right",
+                transform=ax.get_xaxis_transform(),
+            )
     ax.set_xlabel("frequency (Hz)")
     ax.set_ylabel(ylabel)
     ax.grid(True, which="major", alpha=0.3)
@@ -100,8 +133,10 @@ def amplitude_frequency_figure(
     axes = fig.subplots(2, 2, sharex=True)
     f = np.asarray(frequency_hz, dtype=float)
     models = list(curves)
-    rows = (("displacement", "displacement, peak amplitude (m)"),
-            ("acceleration", "acceleration, peak amplitude (m/s²)"))
+    rows = (
+        ("displacement", "displacement, peak amplitude (m)"),
+        ("acceleration", "acceleration, peak amplitude (m/s²)"),
+    )
     for col, blade in enumerate(BLADES):
         for row, (quantity, ylabel) in enumerate(rows):
             ax = axes[row, col]
@@ -110,14 +145,26 @@ def amplitude_frequency_figure(
                 for i, model in enumerate(models):
                     # the first model solid; the others dashed/dotted in the location's colour with
                     # open markers, so every curve is told apart in colour, line style and marker
-                    style = (dict(color=color, lw=1.4) if i == 0 else
-                             dict(color=color, ls=("--", ":", "-.")[(i - 1) % 3], lw=1.1, marker=marker,
-                                  mfc="none", ms=4, markevery=max(1, f.size // 25)))
+                    style = (
+                        dict(color=color, lw=1.4)
+                        if i == 0
+                        else dict(
+                            color=color,
+                            ls=("--", ":", "-.")[(i - 1) % 3],
+                            lw=1.1,
+                            marker=marker,
+                            mfc="none",
+                            ms=4,
+                            markevery=max(1, f.size // 25),
+                        )
+                    )
                     ax.semilogy(f, curves[model][quantity][loc], label=f"{model}, {where}", **style)
             ax.set_ylabel(ylabel)
             ax.grid(True, which="both", alpha=0.3)
             if row == 0:
-                ax.set_title(f"{blade} blade" + (" (with force sensor)" if blade == "active" else " (no sensor)"))
+                ax.set_title(
+                    f"{blade} blade" + (" (with force sensor)" if blade == "active" else " (no sensor)")
+                )
             else:
                 ax.set_xlabel("frequency (Hz)")
             ax.legend(fontsize=8)
@@ -209,8 +256,14 @@ def vibro_impact_figure(
     if gap is not None:
         # contact when u_active - u_passive > gap: show the active shroud's contact level
         # relative to the passive shroud
-        ax_u.plot(t[win], (np.asarray(passive_displacement)[win] + gap) * 1e3, color="0.5", lw=0.8, ls=":",
-                  label="passive shroud + gap (contact above)")
+        ax_u.plot(
+            t[win],
+            (np.asarray(passive_displacement)[win] + gap) * 1e3,
+            color="0.5",
+            lw=0.8,
+            ls=":",
+            label="passive shroud + gap (contact above)",
+        )
     ax_u.set_ylabel("displacement (mm)")
     ax_u.set_title("shroud displacements (impact direction)")
     ax_u.grid(True, alpha=0.3)
@@ -229,7 +282,9 @@ def vibro_impact_figure(
         natural = natural_frequencies_hz
         if isinstance(natural, Mapping):
             natural = natural.get(blade)
-        _spectrum_axes(ax, freqs, amp[row], fe, k_max, f_max, natural, "acceleration, peak amplitude (m/s²)", color)
+        _spectrum_axes(
+            ax, freqs, amp[row], fe, k_max, f_max, natural, "acceleration, peak amplitude (m/s²)", color
+        )
         ax.set_title(f"{blade} shroud acceleration spectrum")
 
     head = f"{title}: " if title else ""
@@ -284,8 +339,10 @@ def study_figure(
     fig = Figure(figsize=(11, 3.6 + 3.2 * n_maps), layout="constrained")
     grid = fig.add_gridspec(1 + n_maps, 1, height_ratios=[1.1] + [1.0] * n_maps)
     ax = fig.add_subplot(grid[0])
-    for direction, style in (("up", dict(marker="o", ls="-", color="C0")),
-                             ("down", dict(marker="s", ls="--", color="C3", mfc="none"))):
+    for direction, style in (
+        ("up", dict(marker="o", ls="-", color="C0")),
+        ("down", dict(marker="s", ls="--", color="C3", mfc="none")),
+    ):
         sel = dirs == direction
         if np.any(sel):
             arrow = "↑" if direction == "up" else "↓"
@@ -304,21 +361,30 @@ def study_figure(
         vmax = float(positive.max()) if positive.size else 1.0
         vmin = max(float(positive.min()) if positive.size else vmax, vmax * 1e-4)
         hm = fig.add_subplot(grid[1 + i])
-        mesh = hm.pcolormesh(np.arange(len(x) + 1) - 0.5, np.append(k, k[-1] + 1) - 0.5,
-                             np.clip(amp.T, vmin, None), norm=LogNorm(vmin=vmin, vmax=vmax),
-                             cmap="viridis", shading="flat")
+        mesh = hm.pcolormesh(
+            np.arange(len(x) + 1) - 0.5,
+            np.append(k, k[-1] + 1) - 0.5,
+            np.clip(amp.T, vmin, None),
+            norm=LogNorm(vmin=vmin, vmax=vmax),
+            cmap="viridis",
+            shading="flat",
+        )
         hm.set_ylabel("harmonic k (× fe)")
         hm.set_title(f"{label} acceleration harmonics")
         hm.set_yticks([1, *range(5, k[-1] + 1, 5)] if k[-1] >= 10 else list(k))
         ticks = np.unique(np.linspace(0, len(x) - 1, min(len(x), 16)).round().astype(int))
-        hm.set_xticks(ticks, [point_labels[j] for j in ticks], fontsize=8,
-                      rotation=45 if len(ticks) > 8 else 0)
+        hm.set_xticks(
+            ticks, [point_labels[j] for j in ticks], fontsize=8, rotation=45 if len(ticks) > 8 else 0
+        )
         hm.set_xlabel(f"{kind} ({unit}) in run order (↑ up, ↓ down sweep)")
         fig.colorbar(mesh, ax=hm, label="peak amplitude (m/s²)", pad=0.01)
     fixed_text = ""
     if fixed:
-        parts = {"fe": lambda v: f"fe = {v:g} Hz", "force": lambda v: f"F0 = {v:g} N",
-                 "gap": lambda v: f"gap = {v * 1e3:g} mm"}
+        parts = {
+            "fe": lambda v: f"fe = {v:g} Hz",
+            "force": lambda v: f"F0 = {v:g} N",
+            "gap": lambda v: f"gap = {v * 1e3:g} mm",
+        }
         fixed_text = " (" + ", ".join(parts[k](v) for k, v in fixed.items() if k in parts) + ")"
     head = f"{title}: " if title else ""
     _suptitle(fig, f"{head}{kind} study{fixed_text}")
@@ -378,8 +444,9 @@ def time_and_spectrum_figure(
     if force_channel in channels:
         n_f = np.asarray(channels[force_channel]).size
         w = _last_periods(n_f, sample_rate, fe, periods + 1)
-        t_ref = force_zero_crossing_time(np.asarray(channels[force_channel], dtype=float)[w], sample_rate, fe,
-                                         t0 + w.start / sample_rate)
+        t_ref = force_zero_crossing_time(
+            np.asarray(channels[force_channel], dtype=float)[w], sample_rate, fe, t0 + w.start / sample_rate
+        )
         t_scale, t_label = 1e3, "time from the upward zero crossing of the force fundamental (ms)"
     for i, name in enumerate(names):
         x = np.asarray(channels[name], dtype=float)
@@ -412,7 +479,7 @@ def time_and_spectrum_figure(
 # ---------------------------------------------------------------------------------------------
 
 FRF_UNITS = {"receptance": "m/N", "mobility": "(m/s)/N", "accelerance": "(m/s²)/N"}
-SOURCE_STYLES = {          # EM solid with filled markers, FEM dashed with open markers, AM dotted
+SOURCE_STYLES = {  # EM solid with filled markers, FEM dashed with open markers, AM dotted
     "EM": dict(color="C0", ls="-", marker="o", mfc="C0"),
     "FEM": dict(color="C3", ls="--", marker="s", mfc="none"),
     "AM": dict(color="C2", ls=":", marker="^", mfc="none"),
@@ -477,17 +544,37 @@ def frf_figure(
     if natural_frequencies_hz is not None:
         for j, fn in enumerate(natural_frequencies_hz):
             for ax in axes:
-                ax.axvline(fn, color="0.4", ls="--", lw=0.8,
-                           label=("identified natural frequencies" if j == 0 and ax is ax_m else None))
-            ax_m.text(fn, 0.98, f" {fn:.1f} Hz", rotation=90, va="top", ha="right", fontsize=7,
-                      transform=ax_m.get_xaxis_transform())
+                ax.axvline(
+                    fn,
+                    color="0.4",
+                    ls="--",
+                    lw=0.8,
+                    label=("identified natural frequencies" if j == 0 and ax is ax_m else None),
+                )
+            ax_m.text(
+                fn,
+                0.98,
+                f" {fn:.1f} Hz",
+                rotation=90,
+                va="top",
+                ha="right",
+                fontsize=7,
+                transform=ax_m.get_xaxis_transform(),
+            )
     ax_m.legend(fontsize=8)
     if len(frfs) > 1:
         ax_p.legend(fontsize=7, loc="lower left")
     if coherence:
         ax_c = axes[2]
         for i, (label, c) in enumerate(coherence.items()):
-            ax_c.plot(f, np.asarray(c), lw=1.0, color=f"C{i}", ls=styles[i % len(styles)], label=f"coherence {label}")
+            ax_c.plot(
+                f,
+                np.asarray(c),
+                lw=1.0,
+                color=f"C{i}",
+                ls=styles[i % len(styles)],
+                label=f"coherence {label}",
+            )
         ax_c.set_ylim(0, 1.05)
         ax_c.set_ylabel("coherence (-)")
         ax_c.legend(fontsize=8)
@@ -496,8 +583,14 @@ def frf_figure(
     return fig
 
 
-def stabilisation_figure(chart, frequency_hz: np.ndarray, h: np.ndarray, *,
-                         natural_frequencies_hz: Sequence[float] | None = None, title: str = "") -> Figure:
+def stabilisation_figure(
+    chart,
+    frequency_hz: np.ndarray,
+    h: np.ndarray,
+    *,
+    natural_frequencies_hz: Sequence[float] | None = None,
+    title: str = "",
+) -> Figure:
     """Stabilisation chart: LSCF poles per model order (stable filled, others open) over |H|.
 
     ``chart`` is an :class:`rigtools.analysis.modal_id.StabilisationChart`. ``fig.axes[0]`` holds the
@@ -507,8 +600,14 @@ def stabilisation_figure(chart, frequency_hz: np.ndarray, h: np.ndarray, *,
     ax = fig.add_subplot()
     st = np.asarray(chart.stable, bool)
     ax.plot(chart.frequency_hz[~st], chart.orders[~st], "o", ms=3, mfc="none", color="0.6", label="pole")
-    ax.plot(chart.frequency_hz[st], chart.orders[st], "o", ms=4, color="C0",
-            label="stable pole (frequency and damping)")
+    ax.plot(
+        chart.frequency_hz[st],
+        chart.orders[st],
+        "o",
+        ms=4,
+        color="C0",
+        label="stable pole (frequency and damping)",
+    )
     ax.set_xlabel("frequency (Hz)")
     ax.set_ylabel("model order (-)")
     ax2 = ax.twinx()
@@ -563,7 +662,9 @@ def harmonic_bars_figure(
         n = min(a.size, b.size)
         k = np.arange(1, n + 1)
         ax.bar(k - 0.2, a[:n], width=0.4, color="C0", label="EM (experiment)")
-        ax.bar(k + 0.2, b[:n], width=0.4, color="C3", alpha=0.8, label=model_label, hatch="//", edgecolor="C3")
+        ax.bar(
+            k + 0.2, b[:n], width=0.4, color="C3", alpha=0.8, label=model_label, hatch="//", edgecolor="C3"
+        )
         ax.set_yscale("log")
         unit = units.get(ch, "").replace("^2", "²")
         ax.set_ylabel(f"peak amplitude ({unit})")
@@ -620,7 +721,7 @@ def trend_figure(
         ax.set_xlabel(f"{kind} ({unit_x})")
         ax.grid(True, alpha=0.3)
         ax.legend(fontsize=8)
-    for ax in axes[len(names):]:
+    for ax in axes[len(names) :]:
         ax.set_visible(False)
     _suptitle(fig, title or f"{kind} study: experiment (EM) and models")
     return fig
@@ -684,8 +785,10 @@ def overlay_figure(
     f_max = min((k_max + 1) * fe, em_rate / 2, fem_rate / 2)
     window_s = periods / fe
     sides = []
-    for label, data, rate, style in (("EM", em, em_rate, dict(color="C0", lw=1.2, ls="-")),
-                                      (model_label, fem, fem_rate, dict(color="C3", lw=1.1, ls="--"))):
+    for label, data, rate, style in (
+        ("EM", em, em_rate, dict(color="C0", lw=1.2, ls="-")),
+        (model_label, fem, fem_rate, dict(color="C3", lw=1.1, ls="--")),
+    ):
         n = np.asarray(data[force_channel]).size
         # reference in the last part of the record (settled), leaving room for the window
         start = max(n - int(np.ceil((periods + 1) * rate / fe)), 0)
@@ -713,8 +816,16 @@ def overlay_figure(
             ax.legend(fontsize=7, loc="upper right")
         harmonics = fe * np.arange(1, k_max + 1)
         harmonics = harmonics[harmonics <= f_max]
-        ax_s.plot(harmonics, np.ones_like(harmonics), ls="none", marker="v", ms=3, color="0.35",
-                  transform=ax_s.get_xaxis_transform(), clip_on=False)
+        ax_s.plot(
+            harmonics,
+            np.ones_like(harmonics),
+            ls="none",
+            marker="v",
+            ms=3,
+            color="0.35",
+            transform=ax_s.get_xaxis_transform(),
+            clip_on=False,
+        )
     axes[-1, 0].set_xlabel("time from the upward zero crossing of the force fundamental (ms)")
     axes[-1, 1].set_xlabel(f"frequency (Hz); ▼ marks k·fe, fe = {fe:g} Hz")
     _suptitle(fig, title or f"EM versus {model_label}: waveforms and spectra, fe = {fe:g} Hz")

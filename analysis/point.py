@@ -65,11 +65,20 @@ class DwellAnalysis:
             if rel is not None:
                 for r, p in zip(recs, rel):
                     r["phase_to_force"] = float(p)
-            channels[name] = {"harmonics": recs, "offset": fit.offset, "residual_rms": fit.residual_rms,
-                              "peak": self.peak_levels.get(name)}
-        return {"fe": self.fe, "sample_rate": self.sample_rate, "amplitude": "peak",
-                "force_amplitude": self.force_amplitude, "channels": channels,
-                "impacts": None if self.impacts is None else self.impacts.to_dict()}
+            channels[name] = {
+                "harmonics": recs,
+                "offset": fit.offset,
+                "residual_rms": fit.residual_rms,
+                "peak": self.peak_levels.get(name),
+            }
+        return {
+            "fe": self.fe,
+            "sample_rate": self.sample_rate,
+            "amplitude": "peak",
+            "force_amplitude": self.force_amplitude,
+            "channels": channels,
+            "impacts": None if self.impacts is None else self.impacts.to_dict(),
+        }
 
 
 def analyze_dwell(
@@ -101,17 +110,24 @@ def analyze_dwell(
     """
     k_top = int(np.floor((sample_rate / 2) / fe - 1e-9))
     k = max(1, min(int(k_max), k_top))
-    fits = {name: harmonic_amplitudes(np.asarray(x, dtype=float), sample_rate, fe, k)
-            for name, x in channels.items()}
+    fits = {
+        name: harmonic_amplitudes(np.asarray(x, dtype=float), sample_rate, fe, k)
+        for name, x in channels.items()
+    }
     rel, f_amp = {}, None
     if force in fits:
         f_amp = float(fits[force].amplitude[0])
         rel = {name: relative_phases(fit, fits[force]) for name, fit in fits.items()}
     impacts = None
     if active in channels:
-        impacts = detect_impacts(channels[active], sample_rate, fe,
-                                 passive_acceleration=channels.get(passive), force=channels.get(force),
-                                 **dict(impact_options or {}))
+        impacts = detect_impacts(
+            channels[active],
+            sample_rate,
+            fe,
+            passive_acceleration=channels.get(passive),
+            force=channels.get(force),
+            **dict(impact_options or {}),
+        )
     peaks = {name: float(np.max(np.abs(x))) for name, x in channels.items()}
     return DwellAnalysis(float(fe), float(sample_rate), fits, rel, f_amp, peaks, impacts)
 
@@ -139,12 +155,21 @@ class FRFTestAnalysis:
 
     def to_dict(self) -> dict:
         """Modes and notes per response (the FRF arrays themselves are for plots/files)."""
-        return {"kind": self.kind, "n_averages": self.estimate.n_averages,
-                "resolution_hz": self.estimate.resolution_hz,
-                "modes": {r: {"method": m.method, "notes": list(m.notes),
-                              "modes": [{"frequency_hz": x.frequency_hz, "damping_ratio": x.damping_ratio}
-                                        for x in m.modes]}
-                          for r, m in self.modes.items()}}
+        return {
+            "kind": self.kind,
+            "n_averages": self.estimate.n_averages,
+            "resolution_hz": self.estimate.resolution_hz,
+            "modes": {
+                r: {
+                    "method": m.method,
+                    "notes": list(m.notes),
+                    "modes": [
+                        {"frequency_hz": x.frequency_hz, "damping_ratio": x.damping_ratio} for x in m.modes
+                    ],
+                }
+                for r, m in self.modes.items()
+            },
+        }
 
 
 def analyze_frf_test(
@@ -189,7 +214,15 @@ def analyze_frf_test(
     h = est.estimator(estimator)
     modes = {}
     for i, name in enumerate(responses):
-        modes[name] = identify(est.frequency_hz, h[i], kind=kind, excitation_psd=est.sxx,
-                               coherence=est.coherence[i], f_min=f_min, f_max=f_max, method=method,
-                               n_modes=n_modes)
+        modes[name] = identify(
+            est.frequency_hz,
+            h[i],
+            kind=kind,
+            excitation_psd=est.sxx,
+            coherence=est.coherence[i],
+            f_min=f_min,
+            f_max=f_max,
+            method=method,
+            n_modes=n_modes,
+        )
     return FRFTestAnalysis(list(responses), est, kind, modes)

@@ -71,7 +71,7 @@ def amplitude_spectrum(
     amp = np.abs(spectrum) * (2.0 / w.sum())
     amp[..., 0] *= 0.5
     if n % 2 == 0:
-        amp[..., -1] *= 0.5   # the Nyquist bin has no mirror image either
+        amp[..., -1] *= 0.5  # the Nyquist bin has no mirror image either
     if amplitude == "rms":
         amp[..., 1:] /= np.sqrt(2.0)
     freqs = np.fft.rfftfreq(n, d=1.0 / sample_rate)

@@ -39,14 +39,21 @@ def make_recording(path: Path, seconds: float = 0.5, rate: float = 51200.0) -> P
     """A small complete recording like ``rig acquire`` writes (force, two accelerations, drive)."""
     t = np.arange(int(seconds * rate)) / rate
     rng = np.random.default_rng(0)
-    specs = [ChannelSpec("force", "N", "force", rate), ChannelSpec("active_shroud_accel", "m/s^2",
-                                                                   "acceleration", rate),
-             ChannelSpec("passive_shroud_accel", "m/s^2", "acceleration", rate),
-             ChannelSpec("drive", "V", "voltage", rate)]
-    data = np.vstack([a * np.sin(2 * np.pi * 60 * t + k) + rng.normal(0, 0.01 * a, t.size)
-                      for k, a in enumerate((15.0, 400.0, 250.0, 0.5))])
-    with RecordingWriter(path, backend="simulated", rig="{}",
-                         experiment={"procedure": "sine dwell", "cli": "bench"}) as rec:
+    specs = [
+        ChannelSpec("force", "N", "force", rate),
+        ChannelSpec("active_shroud_accel", "m/s^2", "acceleration", rate),
+        ChannelSpec("passive_shroud_accel", "m/s^2", "acceleration", rate),
+        ChannelSpec("drive", "V", "voltage", rate),
+    ]
+    data = np.vstack(
+        [
+            a * np.sin(2 * np.pi * 60 * t + k) + rng.normal(0, 0.01 * a, t.size)
+            for k, a in enumerate((15.0, 400.0, 250.0, 0.5))
+        ]
+    )
+    with RecordingWriter(
+        path, backend="simulated", rig="{}", experiment={"procedure": "sine dwell", "cli": "bench"}
+    ) as rec:
         point = rec.begin_point({"fe": 60.0, "drive_amplitude": 0.5}, specs)
         point.append(data)
         point.end()
@@ -74,7 +81,7 @@ def main() -> int:
             "rig info FILE": [sys.executable, "-c", RIG, "info", str(path)],
             "rig check FILE": [sys.executable, "-c", RIG, "check", str(path)],
         }
-        for argv in cases.values():          # warm the OS file cache and numba/pyc caches
+        for argv in cases.values():  # warm the OS file cache and numba/pyc caches
             wall(argv)
         times: dict[str, list[float]] = {name: [] for name in cases}
         for _ in range(args.repeats):
@@ -91,17 +98,29 @@ def main() -> int:
     rows = []
     for name, seconds in median.items():
         goal = GOALS.get(name)
-        rows.append({"command": name, "median_s": seconds, "ratio_to_python": seconds / base,
-                     "goal_s": goal, "met": None if goal is None else seconds <= goal})
+        rows.append(
+            {
+                "command": name,
+                "median_s": seconds,
+                "ratio_to_python": seconds / base,
+                "goal_s": goal,
+                "met": None if goal is None else seconds <= goal,
+            }
+        )
     if args.json:
         print(json.dumps({"repeats": args.repeats, "file_bytes": size, "results": rows}, indent=1))
         return 0
     print(f"rig start-up latency: median of {args.repeats} runs, small recording {size / 1e6:.2f} MB")
     for row in rows:
-        verdict = "" if row["goal_s"] is None else (
-            f"goal <= {row['goal_s']:.1f} s: {'met' if row['met'] else 'NOT met'}")
-        print(f"  {row['command']:<16} {row['median_s']:6.3f} s  {row['ratio_to_python']:5.1f}x "
-              f"python -c pass  {verdict}")
+        verdict = (
+            ""
+            if row["goal_s"] is None
+            else (f"goal <= {row['goal_s']:.1f} s: {'met' if row['met'] else 'NOT met'}")
+        )
+        print(
+            f"  {row['command']:<16} {row['median_s']:6.3f} s  {row['ratio_to_python']:5.1f}x "
+            f"python -c pass  {verdict}"
+        )
     return 0
 
 

@@ -18,7 +18,7 @@ import time
 
 from rigtools.runtime import configure_process
 
-configure_process()      # as `rig` does: one BLAS thread (else idle BLAS threads spin and the figures mislead)
+configure_process()  # as `rig` does: one BLAS thread (else idle BLAS threads spin and the figures mislead)
 
 from rigtools.config import load_rig  # noqa: E402
 from rigtools.demo import settings  # noqa: E402
@@ -49,8 +49,13 @@ def main() -> None:
             t0, c0 = time.perf_counter(), time.process_time()
             run_demo(tmp, getattr(settings, name)())
             wall, cpu = time.perf_counter() - t0, time.process_time() - c0
-        results[name] = {"wall_s": wall, "cpu_s": cpu, "ratio_to_baseline": wall / base, "goal_s": GOALS[name],
-                         "met": wall < GOALS[name]}
+        results[name] = {
+            "wall_s": wall,
+            "cpu_s": cpu,
+            "ratio_to_baseline": wall / base,
+            "goal_s": GOALS[name],
+            "met": wall < GOALS[name],
+        }
     if args.json:
         print(json.dumps(results, indent=1))
         return
@@ -58,9 +63,11 @@ def main() -> None:
     for name in ("quick", "full"):
         if name in results:
             r = results[name]
-            print(f"demo {name}: {r['wall_s']:.1f} s wall ({r['cpu_s']:.1f} s CPU) = {r['ratio_to_baseline']:.0f} x "
-                  f"baseline; goal < "
-                  f"{r['goal_s']:.0f} s wall {'met' if r['met'] else 'NOT met'}")
+            print(
+                f"demo {name}: {r['wall_s']:.1f} s wall ({r['cpu_s']:.1f} s CPU) = {r['ratio_to_baseline']:.0f} x "
+                f"baseline; goal < "
+                f"{r['goal_s']:.0f} s wall {'met' if r['met'] else 'NOT met'}"
+            )
 
 
 if __name__ == "__main__":

@@ -50,7 +50,11 @@ def _filters():
     from scipy import signal
 
     out = []
-    for modes in (((150.0, 0.02), (900.0, 0.01)), ((420.0, 0.015), (2500.0, 0.02)), ((1300.0, 0.01), (6000.0, 0.03))):
+    for modes in (
+        ((150.0, 0.02), (900.0, 0.01)),
+        ((420.0, 0.015), (2500.0, 0.02)),
+        ((1300.0, 0.01), (6000.0, 0.03)),
+    ):
         num, den = np.array([0.0]), np.array([1.0])
         for fn, z in modes:
             w = 2 * np.pi * fn
@@ -71,7 +75,8 @@ def write_recording(path: Path, minutes: float) -> int:
     states = [signal.lfilter_zi(b, a) * 0.0 for b, a in filters]
     n_total = int(minutes * 60 * SAMPLE_RATE)
     specs = [ChannelSpec("force", "N", "force", SAMPLE_RATE)] + [
-        ChannelSpec(name, "m/s^2", "acceleration", SAMPLE_RATE) for name in CHANNELS[1:]]
+        ChannelSpec(name, "m/s^2", "acceleration", SAMPLE_RATE) for name in CHANNELS[1:]
+    ]
     with RecordingWriter(path, backend="simulated", rig="{}") as rec:
         point = rec.begin_point({"fe": 0.0}, specs)
         done = 0
@@ -102,7 +107,7 @@ def chunked(path: str) -> dict:
         n = point.n_samples
         acc = SpectraAccumulator(SAMPLE_RATE, nperseg=NPERSEG, noverlap=NPERSEG // 2, window="hann")
         for i in range(0, n, READ_BLOCK):
-            acc.add(np.vstack([c[i:min(i + READ_BLOCK, n)] for c in chans]))
+            acc.add(np.vstack([c[i : min(i + READ_BLOCK, n)] for c in chans]))
         est = acc.frf()
     elapsed = time.perf_counter() - start
     _, peak = tracemalloc.get_traced_memory()
@@ -110,8 +115,12 @@ def chunked(path: str) -> dict:
     rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
     np.save(path + ".h1.npy", est.h1)
     np.save(path + ".coh.npy", est.coherence)
-    return {"time_s": elapsed, "tracemalloc_peak_mb": peak / 2**20, "rss_growth_mb": rss - rss0,
-            "n_averages": est.n_averages}
+    return {
+        "time_s": elapsed,
+        "tracemalloc_peak_mb": peak / 2**20,
+        "rss_growth_mb": rss - rss0,
+        "n_averages": est.n_averages,
+    }
 
 
 def in_memory(path: str) -> tuple[float, np.ndarray, np.ndarray]:
@@ -152,8 +161,13 @@ def main(argv: list[str] | None = None) -> int:
         t_write = time.perf_counter() - t0
         size_mb = path.stat().st_size / 2**20
         env = dict(os.environ, PYTHONPATH=str(Path(__file__).resolve().parents[1]))
-        out = subprocess.run([sys.executable, __file__, "--chunked-only", str(path)], check=True,
-                             capture_output=True, text=True, env=env).stdout
+        out = subprocess.run(
+            [sys.executable, __file__, "--chunked-only", str(path)],
+            check=True,
+            capture_output=True,
+            text=True,
+            env=env,
+        ).stdout
         res = json.loads(out.strip().splitlines()[-1])
         t_mem, h1_mem, coh_mem = in_memory(str(path))
         h1_chunk = np.load(str(path) + ".h1.npy")
@@ -165,21 +179,34 @@ def main(argv: list[str] | None = None) -> int:
     ratio = res["time_s"] / t_mem
     peak_mb = max(res["tracemalloc_peak_mb"], res["rss_growth_mb"])
     figures = {
-        "minutes": args.minutes, "samples_per_channel": n, "channels": len(CHANNELS),
-        "file_mb": size_mb, "write_s": t_write, "n_averages": res["n_averages"],
-        "chunked_s": res["time_s"], "in_memory_scipy_s": t_mem, "time_ratio": ratio,
-        "tracemalloc_peak_mb": res["tracemalloc_peak_mb"], "rss_growth_mb": res["rss_growth_mb"],
-        "max_rel_diff_h1": h1_diff, "max_abs_diff_coherence": coh_diff,
-        "memory_goal_met": peak_mb < 300.0, "time_goal_met": ratio <= 1.5,
+        "minutes": args.minutes,
+        "samples_per_channel": n,
+        "channels": len(CHANNELS),
+        "file_mb": size_mb,
+        "write_s": t_write,
+        "n_averages": res["n_averages"],
+        "chunked_s": res["time_s"],
+        "in_memory_scipy_s": t_mem,
+        "time_ratio": ratio,
+        "tracemalloc_peak_mb": res["tracemalloc_peak_mb"],
+        "rss_growth_mb": res["rss_growth_mb"],
+        "max_rel_diff_h1": h1_diff,
+        "max_abs_diff_coherence": coh_diff,
+        "memory_goal_met": peak_mb < 300.0,
+        "time_goal_met": ratio <= 1.5,
     }
     if args.json:
         print(json.dumps(figures, indent=2))
         return 0
-    print(f"recording: {args.minutes:g} min x {len(CHANNELS)} channels at {SAMPLE_RATE:g} S/s "
-          f"({n} samples per channel, {size_mb:.0f} MB on disk, written in {t_write:.1f} s)")
-    print(f"chunked (read + H1/H2/coherence, {res['n_averages']} averages): {res['time_s']:.2f} s, "
-          f"peak memory {res['tracemalloc_peak_mb']:.1f} MB (tracemalloc), "
-          f"{res['rss_growth_mb']:.1f} MB (RSS growth)")
+    print(
+        f"recording: {args.minutes:g} min x {len(CHANNELS)} channels at {SAMPLE_RATE:g} S/s "
+        f"({n} samples per channel, {size_mb:.0f} MB on disk, written in {t_write:.1f} s)"
+    )
+    print(
+        f"chunked (read + H1/H2/coherence, {res['n_averages']} averages): {res['time_s']:.2f} s, "
+        f"peak memory {res['tracemalloc_peak_mb']:.1f} MB (tracemalloc), "
+        f"{res['rss_growth_mb']:.1f} MB (RSS growth)"
+    )
     print(f"in-memory scipy.signal.welch/csd on the same arrays: {t_mem:.2f} s")
     print(f"time ratio chunked / in-memory: {ratio:.2f}")
     print(f"agreement: max |dH1|/|H1| = {h1_diff:.1e}, max |d coherence| = {coh_diff:.1e}")

@@ -37,8 +37,14 @@ GAPS = [0.3e-3, 0.45e-3, 0.6e-3, 0.75e-3, 0.9e-3]
 
 def study(cfg, out: Path) -> tuple[float, float]:
     t0 = time.perf_counter()
-    proc = RigStudy(cfg, {"kind": "gap", "values": GAPS, "force": 15.0, "fe": 60.0, "record_periods": 30},
-                    out, backend="sim", seed=1, overwrite=True)
+    proc = RigStudy(
+        cfg,
+        {"kind": "gap", "values": GAPS, "force": 15.0, "fe": 60.0, "record_periods": 30},
+        out,
+        backend="sim",
+        seed=1,
+        overwrite=True,
+    )
     proc.run()
     wall = time.perf_counter() - t0
     simulated = proc.device.drive_samples / proc.device.sample_rate
@@ -57,8 +63,16 @@ def baseline(cfg, seconds: float) -> float:
 
 def teardown_baseline() -> float:
     """Wall time a child needs to exit after importing the simulated rig and doing nothing."""
-    child = subprocess.Popen([sys.executable, "-c", "import sys, rigtools.drivers.simulated; print(1, flush=True); "
-                              "sys.stdin.readline()"], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+    child = subprocess.Popen(
+        [
+            sys.executable,
+            "-c",
+            "import sys, rigtools.drivers.simulated; print(1, flush=True); sys.stdin.readline()",
+        ],
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        text=True,
+    )
     child.stdout.readline()
     t0 = time.perf_counter()
     child.stdin.write("\n")
@@ -70,12 +84,34 @@ def teardown_baseline() -> float:
 def sigint_latency(tmp: Path) -> tuple[float, float]:
     out = tmp / "dwell.h5"
     env = {**os.environ, "OPENBLAS_NUM_THREADS": "1"}
-    child = subprocess.Popen([sys.executable, "-m", "rigtools.cli", "acquire", "dwell", "--backend", "sim",
-                              "--pace", "--fe", "60", "--force", "15 N", "--gap", "0.5 mm", "--periods", "6000",
-                              "--out", str(out)], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env)
+    child = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "rigtools.cli",
+            "acquire",
+            "dwell",
+            "--backend",
+            "sim",
+            "--pace",
+            "--fe",
+            "60",
+            "--force",
+            "15 N",
+            "--gap",
+            "0.5 mm",
+            "--periods",
+            "6000",
+            "--out",
+            str(out),
+        ],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        env=env,
+    )
     from rigtools.recording import open_recording
 
-    while child.poll() is None:                 # wait until it is streaming into the file
+    while child.poll() is None:  # wait until it is streaming into the file
         try:
             with open_recording(out) as rec:
                 if rec.points and rec.points[0].n_samples > 51200:
@@ -108,26 +144,42 @@ def main() -> None:
     cfg = load_rig()
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
-        study(cfg, tmp / "warm.h5")                     # numba caches, imports
+        study(cfg, tmp / "warm.h5")  # numba caches, imports
         wall, simulated = study(cfg, tmp / "study.h5")
         base = baseline(cfg, simulated)
         status_at, latency = sigint_latency(tmp)
         teardown = teardown_baseline()
-    doc = {"study_wall_s": wall, "simulated_s": simulated, "wall_per_simulated_s": wall / simulated,
-           "baseline_wall_s": base, "ratio_to_baseline": wall / base, "sigint_status_s": status_at,
-           "sigint_exit_s": latency, "interpreter_teardown_s": teardown,
-           "goal_study_s": 10.0, "goal_sigint_s": 1.0}
+    doc = {
+        "study_wall_s": wall,
+        "simulated_s": simulated,
+        "wall_per_simulated_s": wall / simulated,
+        "baseline_wall_s": base,
+        "ratio_to_baseline": wall / base,
+        "sigint_status_s": status_at,
+        "sigint_exit_s": latency,
+        "interpreter_teardown_s": teardown,
+        "goal_study_s": 10.0,
+        "goal_sigint_s": 1.0,
+    }
     if args.json:
         print(json.dumps(doc))
         return
-    print(f"5-point force-controlled gap study: {wall:.2f} s wall for {simulated:.2f} s simulated "
-          f"({wall / simulated:.3f} s wall per simulated s); goal < 10 s: {'met' if wall < 10 else 'NOT met'}")
-    print(f"baseline (same simulated time, fixed drive, no recording): {base:.2f} s; "
-          f"study / baseline = {wall / base:.2f}")
-    print(f"SIGINT during a paced dwell -> status aborted in the file (drive at 0 V): {status_at:.3f} s; "
-          f"-> process exit: {latency:.3f} s; goal exit < 1 s: {'met' if latency < 1 else 'NOT met'}")
-    print(f"baseline: a child importing rigtools.drivers.simulated exits in {teardown:.3f} s "
-          f"(interpreter teardown); SIGINT exit / teardown = {latency / teardown:.2f}")
+    print(
+        f"5-point force-controlled gap study: {wall:.2f} s wall for {simulated:.2f} s simulated "
+        f"({wall / simulated:.3f} s wall per simulated s); goal < 10 s: {'met' if wall < 10 else 'NOT met'}"
+    )
+    print(
+        f"baseline (same simulated time, fixed drive, no recording): {base:.2f} s; "
+        f"study / baseline = {wall / base:.2f}"
+    )
+    print(
+        f"SIGINT during a paced dwell -> status aborted in the file (drive at 0 V): {status_at:.3f} s; "
+        f"-> process exit: {latency:.3f} s; goal exit < 1 s: {'met' if latency < 1 else 'NOT met'}"
+    )
+    print(
+        f"baseline: a child importing rigtools.drivers.simulated exits in {teardown:.3f} s "
+        f"(interpreter teardown); SIGINT exit / teardown = {latency / teardown:.2f}"
+    )
 
 
 if __name__ == "__main__":

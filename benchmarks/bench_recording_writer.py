@@ -40,7 +40,7 @@ from rigtools.recording import ChannelSpec, RecordingWriter
 from rigtools.recording.writer import DEFAULT_CHUNK_SAMPLES, LIBVER
 
 SAMPLE_RATE = 51200.0
-BLOCK = 5120                 # 0.1 s
+BLOCK = 5120  # 0.1 s
 N_CHANNELS = 4
 
 
@@ -49,13 +49,13 @@ def make_blocks(n_distinct: int = 32) -> list[np.ndarray]:
     rng = np.random.default_rng(1)
     t = np.arange(n_distinct * BLOCK) / SAMPLE_RATE
     rows = []
-    for k, scale in enumerate((15.0, 400.0, 250.0, 2.0)):           # N, m/s^2, m/s^2, V
+    for k, scale in enumerate((15.0, 400.0, 250.0, 2.0)):  # N, m/s^2, m/s^2, V
         x = scale * (np.sin(2 * np.pi * 60 * t + k) + 0.2 * np.sin(2 * np.pi * 360 * t))
         x += rng.normal(0, 0.002 * scale, t.size)
         lsb = 20 * scale / 2**24
         rows.append(np.round(x / lsb) * lsb)
     data = np.vstack(rows)
-    return [np.ascontiguousarray(data[:, i * BLOCK:(i + 1) * BLOCK]) for i in range(n_distinct)]
+    return [np.ascontiguousarray(data[:, i * BLOCK : (i + 1) * BLOCK]) for i in range(n_distinct)]
 
 
 def run_writer(path: Path, blocks: list[np.ndarray], n_blocks: int, compression: str) -> float:
@@ -71,11 +71,13 @@ def run_writer(path: Path, blocks: list[np.ndarray], n_blocks: int, compression:
 
 def plain_datasets(f: h5py.File, compression: str) -> list[h5py.Dataset]:
     """The baseline's resizable channel datasets, chunked and filtered like the writer's."""
-    filters = {"compression": "gzip", "compression_opts": 1, "shuffle": True} \
-        if compression == "gzip" else {}
-    return [f.create_dataset(f"ch{i}", shape=(0,), maxshape=(None,), dtype="f8",
-                             chunks=(DEFAULT_CHUNK_SAMPLES,), **filters)
-            for i in range(N_CHANNELS)]
+    filters = {"compression": "gzip", "compression_opts": 1, "shuffle": True} if compression == "gzip" else {}
+    return [
+        f.create_dataset(
+            f"ch{i}", shape=(0,), maxshape=(None,), dtype="f8", chunks=(DEFAULT_CHUNK_SAMPLES,), **filters
+        )
+        for i in range(N_CHANNELS)
+    ]
 
 
 def run_plain(path: Path, blocks: list[np.ndarray], n_blocks: int, compression: str) -> float:
@@ -87,7 +89,7 @@ def run_plain(path: Path, blocks: list[np.ndarray], n_blocks: int, compression: 
             block = blocks[i % len(blocks)]
             for dataset, row in zip(datasets, block, strict=True):
                 dataset.resize((n + BLOCK,))
-                dataset[n:n + BLOCK] = row
+                dataset[n : n + BLOCK] = row
             n += BLOCK
     return time.perf_counter() - start
 
@@ -118,12 +120,12 @@ def measure(compression: str, n_blocks: int, repeats: int, folder: Path) -> dict
     runs = [("writer", run_writer), ("plain", run_plain), ("direct", run_plain_direct)]
     size = 0
     for r in range(repeats):
-        for name, func in runs[r % 3:] + runs[:r % 3]:
+        for name, func in runs[r % 3 :] + runs[: r % 3]:
             path = folder / f"bench_{name}.h5"
             path.unlink(missing_ok=True)
             cpu = time.process_time()
             times[name].append(func(path, blocks, n_blocks, compression))
-            if name == "writer":       # > 1 when the deflate threads found a free core
+            if name == "writer":  # > 1 when the deflate threads found a free core
                 writer_cpu.append((time.process_time() - cpu) / times[name][-1])
             if name == "writer":
                 size = path.stat().st_size
@@ -131,11 +133,19 @@ def measure(compression: str, n_blocks: int, repeats: int, folder: Path) -> dict
     writer = samples / statistics.median(times["writer"])
     plain = samples / statistics.median(times["plain"])
     direct = samples / statistics.median(times["direct"])
-    return {"compression": compression, "samples": samples, "blocks": n_blocks,
-            "writer_samples_per_s": writer, "plain_h5py_samples_per_s": plain,
-            "ratio": writer / plain, "plain_lowlevel_samples_per_s": direct,
-            "ratio_lowlevel": writer / direct, "file_mb": size / 1e6,
-            "raw_mb": samples * 8 / 1e6, "writer_cpu_per_wall": statistics.median(writer_cpu)}
+    return {
+        "compression": compression,
+        "samples": samples,
+        "blocks": n_blocks,
+        "writer_samples_per_s": writer,
+        "plain_h5py_samples_per_s": plain,
+        "ratio": writer / plain,
+        "plain_lowlevel_samples_per_s": direct,
+        "ratio_lowlevel": writer / direct,
+        "file_mb": size / 1e6,
+        "raw_mb": samples * 8 / 1e6,
+        "writer_cpu_per_wall": statistics.median(writer_cpu),
+    }
 
 
 def main() -> None:
@@ -152,18 +162,24 @@ def main() -> None:
     if args.json:
         print(json.dumps(results, indent=1))
         return
-    print(f"4 float64 channels, {SAMPLE_RATE / 1e3:g} kS/s, 0.1 s blocks, {args.blocks} blocks "
-          f"({args.blocks * BLOCK * N_CHANNELS / 1e6:.1f} M samples) per run, median of "
-          f"{args.repeats}, chunk {DEFAULT_CHUNK_SAMPLES} samples, cpus={os.cpu_count()}")
+    print(
+        f"4 float64 channels, {SAMPLE_RATE / 1e3:g} kS/s, 0.1 s blocks, {args.blocks} blocks "
+        f"({args.blocks * BLOCK * N_CHANNELS / 1e6:.1f} M samples) per run, median of "
+        f"{args.repeats}, chunk {DEFAULT_CHUNK_SAMPLES} samples, cpus={os.cpu_count()}"
+    )
     for res in results:
         ok = res["writer_samples_per_s"] >= 20e6 and res["ratio"] >= 0.8
-        print(f"compression={res['compression']:<4}  writer {res['writer_samples_per_s'] / 1e6:6.1f} "
-              f"M samples/s   plain h5py {res['plain_h5py_samples_per_s'] / 1e6:6.1f} M samples/s   "
-              f"ratio {res['ratio']:.2f}   goal (>=20 M/s, >=0.8): {'met' if ok else 'NOT met'}")
-        print(f"{'':17}plain h5py low-level writes {res['plain_lowlevel_samples_per_s'] / 1e6:6.1f} M "
-              f"samples/s (ratio {res['ratio_lowlevel']:.2f}: cost of SWMR + flushes)   file "
-              f"{res['file_mb']:.0f} MB of {res['raw_mb']:.0f} MB raw   writer CPU/wall "
-              f"{res['writer_cpu_per_wall']:.2f}")
+        print(
+            f"compression={res['compression']:<4}  writer {res['writer_samples_per_s'] / 1e6:6.1f} "
+            f"M samples/s   plain h5py {res['plain_h5py_samples_per_s'] / 1e6:6.1f} M samples/s   "
+            f"ratio {res['ratio']:.2f}   goal (>=20 M/s, >=0.8): {'met' if ok else 'NOT met'}"
+        )
+        print(
+            f"{'':17}plain h5py low-level writes {res['plain_lowlevel_samples_per_s'] / 1e6:6.1f} M "
+            f"samples/s (ratio {res['ratio_lowlevel']:.2f}: cost of SWMR + flushes)   file "
+            f"{res['file_mb']:.0f} MB of {res['raw_mb']:.0f} MB raw   writer CPU/wall "
+            f"{res['writer_cpu_per_wall']:.2f}"
+        )
 
 
 if __name__ == "__main__":

@@ -54,11 +54,12 @@ class _Count:
 def run(cfg, model: str, seconds: float):
     """A warmed-up runner ``once(duration) -> real-time factor`` for one model."""
     rig = SimulatedRig.from_config(cfg, model="linear" if model == "none" else model, seed=1)
-    inputs = cfg.daq.input_specs() + [InputChannelSpec("amplifier_monitor", "Dev1/ai3", "voltage",
-                                                       min_value=-25.0, max_value=25.0)]
+    inputs = cfg.daq.input_specs() + [
+        InputChannelSpec("amplifier_monitor", "Dev1/ai3", "voltage", min_value=-25.0, max_value=25.0)
+    ]
     fs = rig.configure(inputs, cfg.daq.output_spec(), FS)
     if model == "none":
-        rig._physics = _NoPhysics()          # same device, no model: the baseline
+        rig._physics = _NoPhysics()  # same device, no model: the baseline
     limits = [ChannelLimit(name, lim.warning, lim.abort) for name, lim in cfg.safety.limits.items()]
     monitor = SafetyMonitor(limits, inputs, max_drive=cfg.safety.max_drive)
     sink = _Count()
@@ -73,7 +74,7 @@ def run(cfg, model: str, seconds: float):
         stats = acquire(rig, drive, duration, sink=sink, safety=monitor)
         return stats.duration / (time.perf_counter() - t0)
 
-    once(0.5)                                     # warm-up: numba caches, first allocations
+    once(0.5)  # warm-up: numba caches, first allocations
     return once, sink, inputs
 
 
@@ -86,9 +87,13 @@ def measure(cfg, seconds: float, repeats: int) -> dict:
         for m, (once, sink, _) in runners.items():
             sink.samples = 0
             best[m] = max(best[m], once(seconds))
-    return {m: {"realtime_factor": best[m],
-                "peak": dict(zip([s.name for s in inputs], np.round(sink.peak, 3).tolist()))}
-            for m, (_, sink, inputs) in runners.items()}
+    return {
+        m: {
+            "realtime_factor": best[m],
+            "peak": dict(zip([s.name for s in inputs], np.round(sink.peak, 3).tolist())),
+        }
+        for m, (_, sink, inputs) in runners.items()
+    }
 
 
 def main() -> None:
@@ -101,7 +106,10 @@ def main() -> None:
     results = measure(cfg, args.seconds, args.repeats)
     vib, base = results["vibro-impact"], results["none"]
     summary = {
-        "channels": 4, "sample_rate": FS, "simulated_seconds": args.seconds, "repeats": args.repeats,
+        "channels": 4,
+        "sample_rate": FS,
+        "simulated_seconds": args.seconds,
+        "repeats": args.repeats,
         "realtime_factor_vibro_impact": round(vib["realtime_factor"], 1),
         "realtime_factor_linear": round(results["linear"]["realtime_factor"], 1),
         "realtime_factor_baseline_no_model": round(base["realtime_factor"], 1),
@@ -113,10 +121,14 @@ def main() -> None:
     if args.json:
         print(json.dumps(summary))
         return
-    print(f"simulated rig, 4 channels at {FS / 1e3:g} kS/s, {args.seconds:g} s per run, 0.1 s blocks, "
-          f"best of {args.repeats}")
-    print(f"  vibro-impact model : {summary['realtime_factor_vibro_impact']:8.1f} x real time "
-          f"(goal >= 20x: {'met' if summary['meets_goal'] else 'NOT met'})")
+    print(
+        f"simulated rig, 4 channels at {FS / 1e3:g} kS/s, {args.seconds:g} s per run, 0.1 s blocks, "
+        f"best of {args.repeats}"
+    )
+    print(
+        f"  vibro-impact model : {summary['realtime_factor_vibro_impact']:8.1f} x real time "
+        f"(goal >= 20x: {'met' if summary['meets_goal'] else 'NOT met'})"
+    )
     print(f"  linear modal model : {summary['realtime_factor_linear']:8.1f} x real time")
     print(f"  baseline, no model : {summary['realtime_factor_baseline_no_model']:8.1f} x real time")
     print(f"  ratio vibro-impact / baseline speed: {summary['ratio_to_baseline']:.3f}")

@@ -59,8 +59,13 @@ from rigtools.sim.contact_fit import (  # noqa: E402
 from rigtools.sim.reduction import reduced_system  # noqa: E402
 from rigtools.sim.updating import mode_targets, predict, update_model  # noqa: E402
 
-NAMES = ["root.rotational_stiffness", "root.translational_stiffness", "shroud.mass", "force_sensor.mass",
-         "damping.ratio"]
+NAMES = [
+    "root.rotational_stiffness",
+    "root.translational_stiffness",
+    "shroud.mass",
+    "force_sensor.mass",
+    "damping.ratio",
+]
 GOAL_S = 60.0
 
 
@@ -101,10 +106,12 @@ def main() -> None:
     probe = [HarmonicTarget(fe, f0, gap, {"active_shroud_accel": [1.0]}) for fe, f0, gap in dwells]
     steps = fit_steps_per_period(system, probe, 3e6)
     contact_targets = targets_from_model(article, dwells, 10, system=system, steps_per_period=steps)
-    t_run = best_of(args.repeats, lambda: harmonic_amplitudes(system, contact_targets[0], steps_per_period=steps[0]))
+    t_run = best_of(
+        args.repeats, lambda: harmonic_amplitudes(system, contact_targets[0], steps_per_period=steps[0])
+    )
     start = replace(article, contact=replace(article.contact, stiffness=3e5, damping=80.0))
     cres = fit_contact(start, contact_targets, system=system, steps_per_period=steps)
-    hres = fit_contact(start, contact_targets, system=system, law="hertz")   # the other law, same data
+    hres = fit_contact(start, contact_targets, system=system, law="hertz")  # the other law, same data
     out = {
         "parameters": NAMES,
         "fit_wall_s": res.wall_time,
@@ -137,25 +144,35 @@ def main() -> None:
         return
     print(res.report())
     print()
-    print(f"one model evaluation (fit's solver) {1e3 * t_eval:8.1f} ms   "
-          f"plain build_rig_model + flexural_frequencies {1e3 * t_plain:8.1f} ms   "
-          f"ratio {t_plain / t_eval:.1f}x")
-    print(f"linear fit ({len(NAMES)} parameters, 12 targets): {res.wall_time:.2f} s, "
-          f"{res.n_evaluations} model evaluations = {res.wall_time / t_eval:.0f}x one evaluation   "
-          f"goal < {GOAL_S:.0f} s: {'met' if met else 'NOT met'}")
-    print(f"contact fit (2 parameters, 2 dwells): {cres.wall_time:.2f} s, {cres.n_runs} vibro-impact runs "
-          f"(one run {1e3 * t_run:.0f} ms; ratio {cres.wall_time / t_run:.0f}x); stiffness "
-          f"{cres.fitted['contact.stiffness']:.4g} N/m (true 1e6), damping {cres.fitted['contact.damping']:.4g} "
-          f"N*s/m (true 200)")
+    print(
+        f"one model evaluation (fit's solver) {1e3 * t_eval:8.1f} ms   "
+        f"plain build_rig_model + flexural_frequencies {1e3 * t_plain:8.1f} ms   "
+        f"ratio {t_plain / t_eval:.1f}x"
+    )
+    print(
+        f"linear fit ({len(NAMES)} parameters, 12 targets): {res.wall_time:.2f} s, "
+        f"{res.n_evaluations} model evaluations = {res.wall_time / t_eval:.0f}x one evaluation   "
+        f"goal < {GOAL_S:.0f} s: {'met' if met else 'NOT met'}"
+    )
+    print(
+        f"contact fit (2 parameters, 2 dwells): {cres.wall_time:.2f} s, {cres.n_runs} vibro-impact runs "
+        f"(one run {1e3 * t_run:.0f} ms; ratio {cres.wall_time / t_run:.0f}x); stiffness "
+        f"{cres.fitted['contact.stiffness']:.4g} N/m (true 1e6), damping {cres.fitted['contact.damping']:.4g} "
+        f"N*s/m (true 200)"
+    )
     e2e_met = e2e["wall_s"] < GOAL_S
-    print(f"from a recording, end to end (rig update frf.h5, identification + fit + rig file): "
-          f"{e2e['wall_s']:.2f} s (of which identification, warm, {e2e['identify_s']:.2f} s), {e2e['model_evaluations']} "
-          f"model evaluations = {e2e['wall_s'] / t_eval:.0f}x one evaluation; root {e2e['root_rotational_stiffness']:.4g} "
-          f"N*m/rad, zeta {e2e['damping_ratio']:.4g}, max frequency error {100 * e2e['max_frequency_error']:.3f} %   "
-          f"goal < {GOAL_S:.0f} s: {'met' if e2e_met else 'NOT met'}")
-    print(f"law comparison on the same (linear-law) data: rms harmonic error linear "
-          f"{100 * cres.rms_log_error_after:.2f} %, hertz {100 * hres.rms_log_error_after:.2f} % "
-          f"(cost {cres.cost_after:.3g} vs {hres.cost_after:.3g}; hertz fit {hres.wall_time:.1f} s)")
+    print(
+        f"from a recording, end to end (rig update frf.h5, identification + fit + rig file): "
+        f"{e2e['wall_s']:.2f} s (of which identification, warm, {e2e['identify_s']:.2f} s), {e2e['model_evaluations']} "
+        f"model evaluations = {e2e['wall_s'] / t_eval:.0f}x one evaluation; root {e2e['root_rotational_stiffness']:.4g} "
+        f"N*m/rad, zeta {e2e['damping_ratio']:.4g}, max frequency error {100 * e2e['max_frequency_error']:.3f} %   "
+        f"goal < {GOAL_S:.0f} s: {'met' if e2e_met else 'NOT met'}"
+    )
+    print(
+        f"law comparison on the same (linear-law) data: rms harmonic error linear "
+        f"{100 * cres.rms_log_error_after:.2f} %, hertz {100 * hres.rms_log_error_after:.2f} % "
+        f"(cost {cres.cost_after:.3g} vs {hres.cost_after:.3g}; hertz fit {hres.wall_time:.1f} s)"
+    )
 
 
 def end_to_end() -> dict:
@@ -166,12 +183,32 @@ def end_to_end() -> dict:
     with tempfile.TemporaryDirectory() as tmp:
         frf = Path(tmp) / "frf.h5"
         with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
-            code = rig(["acquire", "frf", "--backend", "sim", "--seed", "1", "--signal", "chirp", "--band",
-                        "20 Hz:2 kHz", "--level", "0.3 V", "--frame", "1 s", "--averages", "4", "--out", str(frf)])
+            code = rig(
+                [
+                    "acquire",
+                    "frf",
+                    "--backend",
+                    "sim",
+                    "--seed",
+                    "1",
+                    "--signal",
+                    "chirp",
+                    "--band",
+                    "20 Hz:2 kHz",
+                    "--level",
+                    "0.3 V",
+                    "--frame",
+                    "1 s",
+                    "--averages",
+                    "4",
+                    "--out",
+                    str(frf),
+                ]
+            )
         if code != 0:
             raise SystemExit(f"rig acquire frf failed ({code})")
         out = io.StringIO()
-        t0 = time.perf_counter()    # first: cold (sdypy-EMA and its matplotlib imported in the timing)
+        t0 = time.perf_counter()  # first: cold (sdypy-EMA and its matplotlib imported in the timing)
         with contextlib.redirect_stdout(out), contextlib.redirect_stderr(io.StringIO()):
             code = rig(["update", str(frf), "--out", str(Path(tmp) / "u.toml"), "--json"])
         wall = time.perf_counter() - t0
@@ -181,10 +218,15 @@ def end_to_end() -> dict:
         identify_recording(frf)
         t_id = time.perf_counter() - t0
     fit = json.loads(out.getvalue())["fit"]
-    return {"wall_s": wall, "identify_s": t_id, "model_evaluations": fit["model_evaluations"],
-            "fit_wall_s": fit["wall_time_s"], "max_frequency_error": fit["max_frequency_error_after"],
-            "root_rotational_stiffness": fit["parameters"]["root.rotational_stiffness"]["fitted"],
-            "damping_ratio": fit["parameters"]["damping.ratio"]["fitted"]}
+    return {
+        "wall_s": wall,
+        "identify_s": t_id,
+        "model_evaluations": fit["model_evaluations"],
+        "fit_wall_s": fit["wall_time_s"],
+        "max_frequency_error": fit["max_frequency_error_after"],
+        "root_rotational_stiffness": fit["parameters"]["root.rotational_stiffness"]["fitted"],
+        "damping_ratio": fit["parameters"]["damping.ratio"]["fitted"],
+    }
 
 
 if __name__ == "__main__":

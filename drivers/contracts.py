@@ -95,8 +95,9 @@ class DaqFault(DriverError):
 
     fault = "acquisition fault"
 
-    def __init__(self, message: str = "", *, partial: np.ndarray | None = None,
-                 code: int | None = None) -> None:
+    def __init__(
+        self, message: str = "", *, partial: np.ndarray | None = None, code: int | None = None
+    ) -> None:
         text = message or self.fault
         if not text.lower().startswith(self.fault.lower()):
             text = f"{self.fault}: {text}"
@@ -159,8 +160,15 @@ class SafetyAbort(DaqFault):
 
     fault = "safety abort"
 
-    def __init__(self, message: str = "", *, channel: str = "", value: float = math.nan,
-                 limit: float = math.nan, partial: np.ndarray | None = None) -> None:
+    def __init__(
+        self,
+        message: str = "",
+        *,
+        channel: str = "",
+        value: float = math.nan,
+        limit: float = math.nan,
+        partial: np.ndarray | None = None,
+    ) -> None:
         super().__init__(message, partial=partial)
         self.channel = channel
         self.value = value
@@ -213,23 +221,26 @@ class InputChannelSpec:
     def __post_init__(self) -> None:
         if self.kind not in _KIND_UNITS:
             raise ConfigurationError(
-                f"channel {self.name!r}: kind {self.kind!r} is not one of accel, force, voltage")
+                f"channel {self.name!r}: kind {self.kind!r} is not one of accel, force, voltage"
+            )
         expected = _KIND_UNITS[self.kind][2]
         if self.sensitivity_units != expected:
             raise ConfigurationError(
                 f"channel {self.name!r}: sensitivity units {self.sensitivity_units!r} do not suit "
-                f"kind {self.kind!r} (expected {expected!r})")
+                f"kind {self.kind!r} (expected {expected!r})"
+            )
         if not (self.sensitivity > 0 and math.isfinite(self.sensitivity)):
-            raise ConfigurationError(
-                f"channel {self.name!r}: sensitivity {self.sensitivity!r} must be > 0")
+            raise ConfigurationError(f"channel {self.name!r}: sensitivity {self.sensitivity!r} must be > 0")
         if not (0.0 <= self.excitation_current <= 0.025):
             raise ConfigurationError(
                 f"channel {self.name!r}: excitation current {self.excitation_current!r} A is "
-                "outside 0..0.025 A")
+                "outside 0..0.025 A"
+            )
         if not self.min_value < self.max_value:
             raise ConfigurationError(
                 f"channel {self.name!r}: min_value {self.min_value!r} must be below "
-                f"max_value {self.max_value!r}")
+                f"max_value {self.max_value!r}"
+            )
 
     @property
     def units(self) -> str:
@@ -272,8 +283,8 @@ class OutputChannelSpec:
     def __post_init__(self) -> None:
         if not self.min_voltage < 0.0 < self.max_voltage:
             raise ConfigurationError(
-                f"output {self.name!r}: range {self.min_voltage}..{self.max_voltage} V must "
-                "contain 0 V")
+                f"output {self.name!r}: range {self.min_voltage}..{self.max_voltage} V must contain 0 V"
+            )
 
     @property
     def units(self) -> str:
@@ -284,12 +295,12 @@ class OutputChannelSpec:
 class DeviceInfo:
     """What a backend says about itself, for a recording's ``experiment`` description."""
 
-    backend: str                       # "nidaqmx" | "simulated" | ...
-    sample_rate: float                 # actual (coerced) rate, S/s
+    backend: str  # "nidaqmx" | "simulated" | ...
+    sample_rate: float  # actual (coerced) rate, S/s
     requested_sample_rate: float
-    block_size: int                    # samples per channel per read() by default
-    input_to_output_delay: float       # s, see AcquisitionDevice.input_to_output_delay
-    details: dict[str, str] = field(default_factory=dict)   # device names, serials, ...
+    block_size: int  # samples per channel per read() by default
+    input_to_output_delay: float  # s, see AcquisitionDevice.input_to_output_delay
+    details: dict[str, str] = field(default_factory=dict)  # device names, serials, ...
 
 
 # ---------------------------------------------------------------------------- the contracts
@@ -312,8 +323,13 @@ class AcquisitionDevice(abc.ABC):
     backend: str = "abstract"
 
     @abc.abstractmethod
-    def configure(self, inputs: Sequence[InputChannelSpec], output: OutputChannelSpec,
-                  sample_rate: float, block_size: int | None = None) -> float:
+    def configure(
+        self,
+        inputs: Sequence[InputChannelSpec],
+        output: OutputChannelSpec,
+        sample_rate: float,
+        block_size: int | None = None,
+    ) -> float:
         """Create the input channels, the drive output and their shared sample clock.
 
         Parameters
@@ -432,14 +448,16 @@ class AcquisitionDevice(abc.ABC):
 
     def info(self) -> DeviceInfo:
         """A description of the configured device for recordings."""
-        return DeviceInfo(self.backend, self.sample_rate, self.sample_rate, self.block_size,
-                          self.input_to_output_delay())
+        return DeviceInfo(
+            self.backend, self.sample_rate, self.sample_rate, self.block_size, self.input_to_output_delay()
+        )
 
     def __enter__(self) -> "AcquisitionDevice":
         return self
 
-    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
-                 tb: TracebackType | None) -> None:
+    def __exit__(
+        self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
+    ) -> None:
         self.close()
 
 
@@ -447,10 +465,10 @@ class AcquisitionDevice(abc.ABC):
 class SourceState:
     """What a signal source reports about its output."""
 
-    function: str            # e.g. "SIN"
-    frequency: float         # Hz
-    amplitude_vpp: float     # V peak-to-peak
-    offset: float            # V
+    function: str  # e.g. "SIN"
+    frequency: float  # Hz
+    amplitude_vpp: float  # V peak-to-peak
+    offset: float  # V
     output_on: bool
 
 
@@ -458,14 +476,15 @@ class SourceState:
 class SourceLimits:
     """Limits a signal source enforces before sending anything."""
 
-    frequency_min: float = 1.0        # Hz
-    frequency_max: float = 5000.0     # Hz
-    amplitude_max_vpp: float = 2.0    # V peak-to-peak into the amplifier
+    frequency_min: float = 1.0  # Hz
+    frequency_max: float = 5000.0  # Hz
+    amplitude_max_vpp: float = 2.0  # V peak-to-peak into the amplifier
 
     def __post_init__(self) -> None:
         if not 0 < self.frequency_min < self.frequency_max:
             raise ConfigurationError(
-                f"frequency limits {self.frequency_min}..{self.frequency_max} Hz are not a range")
+                f"frequency limits {self.frequency_min}..{self.frequency_max} Hz are not a range"
+            )
         if not self.amplitude_max_vpp > 0:
             raise ConfigurationError(f"amplitude limit {self.amplitude_max_vpp} Vpp must be > 0")
 
@@ -515,6 +534,7 @@ class SignalSource(abc.ABC):
     def __enter__(self) -> "SignalSource":
         return self
 
-    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
-                 tb: TracebackType | None) -> None:
+    def __exit__(
+        self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
+    ) -> None:
         self.close()

@@ -60,8 +60,9 @@ class AmplitudeEnvelope:
         If ``ramp_time`` or ``max_value`` is not > 0.
     """
 
-    def __init__(self, sample_rate: float, ramp_time: float, max_value: float,
-                 what: str = "drive amplitude") -> None:
+    def __init__(
+        self, sample_rate: float, ramp_time: float, max_value: float, what: str = "drive amplitude"
+    ) -> None:
         if not ramp_time > 0:
             raise ConfigurationError(f"ramp time {ramp_time!r} s must be > 0")
         if not max_value > 0:
@@ -70,8 +71,8 @@ class AmplitudeEnvelope:
         self.ramp_time = float(ramp_time)
         self.max_value = float(max_value)
         self.what = what
-        self._amp = 0.0                      # amplitude of the last sample taken
-        self._ramp = np.empty(0)             # amplitudes still to come on the current ramp
+        self._amp = 0.0  # amplitude of the last sample taken
+        self._ramp = np.empty(0)  # amplitudes still to come on the current ramp
         self._target = 0.0
 
     @property
@@ -104,8 +105,7 @@ class AmplitudeEnvelope:
             If ``value`` is negative, not finite or above ``max_value``.
         """
         if not (math.isfinite(value) and 0.0 <= value <= self.max_value):
-            raise LimitExceeded(f"{self.what} {value!r} V is outside 0..{self.max_value:g} V "
-                                "(maximum drive)")
+            raise LimitExceeded(f"{self.what} {value!r} V is outside 0..{self.max_value:g} V (maximum drive)")
         duration = self.ramp_time if ramp_time is None else float(ramp_time)
         n = max(1, math.ceil(duration * self.sample_rate))
         self._target = float(value)
@@ -125,8 +125,9 @@ class AmplitudeEnvelope:
             self._amp = float(amps[-1])
         return amps
 
-    def stop_block(self, next_block: Callable[[int], np.ndarray],
-                   ramp_time: float | None = None) -> np.ndarray:
+    def stop_block(
+        self, next_block: Callable[[int], np.ndarray], ramp_time: float | None = None
+    ) -> np.ndarray:
         """A normal ramp to zero (``ramp_time``) as one block of ``next_block``; ends at 0 V.
 
         ``next_block(n)`` is the drive's, taking its amplitudes from this envelope. The ramp's
@@ -160,15 +161,16 @@ class SineDrive:
     >>> tail = drive.stop_block()              # 0.5 s of samples ending at 0 V
     """
 
-    def __init__(self, sample_rate: float, frequency: float, max_drive: float, ramp_time: float,
-                 phase: float = 0.0) -> None:
+    def __init__(
+        self, sample_rate: float, frequency: float, max_drive: float, ramp_time: float, phase: float = 0.0
+    ) -> None:
         if not (sample_rate > 0 and math.isfinite(sample_rate)):
             raise ConfigurationError(f"sample rate {sample_rate!r} must be > 0")
         self._envelope = AmplitudeEnvelope(sample_rate, ramp_time, max_drive)
         self.sample_rate = float(sample_rate)
         self.max_drive = float(max_drive)
         self.ramp_time = float(ramp_time)
-        self._phase = float(phase)           # phase of the next sample, rad
+        self._phase = float(phase)  # phase of the next sample, rad
         self._omega = 0.0
         self.set_frequency(frequency)
         self.samples_written = 0
@@ -194,8 +196,10 @@ class SineDrive:
     def set_frequency(self, frequency: float) -> None:
         """Change the frequency; the phase stays continuous."""
         if not (frequency > 0 and frequency < self.sample_rate / 2):
-            raise LimitExceeded(f"drive frequency {frequency!r} Hz must be in (0, "
-                                f"{self.sample_rate / 2:g}) Hz (below Nyquist)")
+            raise LimitExceeded(
+                f"drive frequency {frequency!r} Hz must be in (0, "
+                f"{self.sample_rate / 2:g}) Hz (below Nyquist)"
+            )
         self._omega = 2 * math.pi * frequency / self.sample_rate
 
     def set_target(self, amplitude: float, ramp_time: float | None = None) -> None:
@@ -253,9 +257,19 @@ class RandomDrive:
         Noise seed.
     """
 
-    def __init__(self, sample_rate: float, rms: float, band: tuple[float, float], *, max_drive: float,
-                 ramp_time: float = 0.5, burst_period: float | None = None,
-                 burst_fraction: float = 0.5, edge_time: float = 0.005, seed: int | None = None) -> None:
+    def __init__(
+        self,
+        sample_rate: float,
+        rms: float,
+        band: tuple[float, float],
+        *,
+        max_drive: float,
+        ramp_time: float = 0.5,
+        burst_period: float | None = None,
+        burst_fraction: float = 0.5,
+        edge_time: float = 0.005,
+        seed: int | None = None,
+    ) -> None:
         lo, hi = band
         if not 0 < lo < hi < sample_rate / 2:
             raise ValueError(f"band {band} Hz must satisfy 0 < low < high < {sample_rate / 2:g}")
@@ -280,12 +294,12 @@ class RandomDrive:
             period = int(round(burst_period * sample_rate))
             on = int(round(burst_fraction * period))
             edge = min(max(1, int(round(edge_time * sample_rate))), on // 2)
-            rise = raised_cosine(edge)                 # ends at exactly 1
+            rise = raised_cosine(edge)  # ends at exactly 1
             gate = np.zeros(period)
             gate[:on] = 1.0
             gate[:edge] = rise
             if on < period:
-                gate[on - edge:on] = 1.0 - rise        # ends at exactly 0
+                gate[on - edge : on] = 1.0 - rise  # ends at exactly 0
             self._gate = gate
         self.set_target(rms)
 
@@ -345,8 +359,16 @@ class PeriodicChirp:
         As for :class:`SineDrive`.
     """
 
-    def __init__(self, sample_rate: float, amplitude: float, band: tuple[float, float], *,
-                 period: float, max_drive: float, ramp_time: float = 0.5) -> None:
+    def __init__(
+        self,
+        sample_rate: float,
+        amplitude: float,
+        band: tuple[float, float],
+        *,
+        period: float,
+        max_drive: float,
+        ramp_time: float = 0.5,
+    ) -> None:
         lo, hi = float(band[0]), float(band[1])
         if not 0 < lo < hi < sample_rate / 2:
             raise ValueError(f"band {band} Hz must satisfy 0 < low < high < {sample_rate / 2:g}")

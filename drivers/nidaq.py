@@ -86,30 +86,30 @@ from rigtools.drivers.contracts import (
 from rigtools.drivers.drive_signals import raised_cosine
 from rigtools.drivers.safety import MAX_ABORT_RAMP, MAX_TIME_TO_ZERO, output_queue_limit
 
-NO_DRIVER_MESSAGE = ("NI-DAQmx driver not found on this machine; use --backend sim to run on the "
-                     "simulated rig")
-NOT_SUPPORTED_MESSAGE = ("NI-DAQmx is not supported on this platform; use --backend sim to run on "
-                         "the simulated rig")
+NO_DRIVER_MESSAGE = "NI-DAQmx driver not found on this machine; use --backend sim to run on the simulated rig"
+NOT_SUPPORTED_MESSAGE = (
+    "NI-DAQmx is not supported on this platform; use --backend sim to run on the simulated rig"
+)
 
 # DAQmx error code -> fault class (codes from nidaqmx.error_codes.DAQmxErrors)
 FAULT_BY_CODE: dict[int, type[DaqFault]] = {
-    -200279: SamplesNoLongerAvailable,   # SAMPLES_NO_LONGER_AVAILABLE: software buffer wrapped
-    -200010: InputOverflow,              # INPUT_FIFO_OVERFLOW
-    -200361: InputOverflow,              # INPUT_FIFO_OVERFLOW_2 (onboard memory)
-    -200019: InputOverflow,              # ADC_OVERRUN
-    -200016: OutputUnderflow,            # OUTPUT_FIFO_UNDERFLOW
-    -200621: OutputUnderflow,            # OUTPUT_FIFO_UNDERFLOW_2
-    -200018: OutputUnderflow,            # DAC_UNDERFLOW
-    -200290: OutputUnderflow,            # GEN_STOPPED_TO_PREVENT_REGEN_OF_OLD_SAMPLES
-    -200284: ReadTimeout,                # SAMPLES_NOT_YET_AVAILABLE (read timed out)
-    -200474: ReadTimeout,                # OPERATION_TIMED_OUT
+    -200279: SamplesNoLongerAvailable,  # SAMPLES_NO_LONGER_AVAILABLE: software buffer wrapped
+    -200010: InputOverflow,  # INPUT_FIFO_OVERFLOW
+    -200361: InputOverflow,  # INPUT_FIFO_OVERFLOW_2 (onboard memory)
+    -200019: InputOverflow,  # ADC_OVERRUN
+    -200016: OutputUnderflow,  # OUTPUT_FIFO_UNDERFLOW
+    -200621: OutputUnderflow,  # OUTPUT_FIFO_UNDERFLOW_2
+    -200018: OutputUnderflow,  # DAC_UNDERFLOW
+    -200290: OutputUnderflow,  # GEN_STOPPED_TO_PREVENT_REGEN_OF_OLD_SAMPLES
+    -200284: ReadTimeout,  # SAMPLES_NOT_YET_AVAILABLE (read timed out)
+    -200474: ReadTimeout,  # OPERATION_TIMED_OUT
 }
 
-BUFFER_SECONDS = 2.0          # AI host buffer, in seconds of samples
+BUFFER_SECONDS = 2.0  # AI host buffer, in seconds of samples
 DEFAULT_BLOCK_SECONDS = 0.1
-ZERO_TAIL_SECONDS = 0.01      # zeros after the stop ramp, so the output rests at 0 V when AO stops
-WAIT_MARGIN_SECONDS = 0.5     # extra time allowed for the queued drive and the ramp to play out
-POLL_SECONDS = 0.005          # polling interval while waiting for the ramp to be generated
+ZERO_TAIL_SECONDS = 0.01  # zeros after the stop ramp, so the output rests at 0 V when AO stops
+WAIT_MARGIN_SECONDS = 0.5  # extra time allowed for the queued drive and the ramp to play out
+POLL_SECONDS = 0.005  # polling interval while waiting for the ramp to be generated
 
 # indirections so tests can run the stop sequence without waiting
 _sleep = time.sleep
@@ -162,7 +162,8 @@ class NiDaqDevice(AcquisitionDevice):
         """
         if not 0 < abort_ramp_time <= MAX_ABORT_RAMP:
             raise ConfigurationError(
-                f"abort ramp time {abort_ramp_time!r} s must be in (0, {MAX_ABORT_RAMP}] s")
+                f"abort ramp time {abort_ramp_time!r} s must be in (0, {MAX_ABORT_RAMP}] s"
+            )
         self.abort_ramp_time = float(abort_ramp_time)
         self.max_time_to_zero = float(max_time_to_zero)
         self._ai = None
@@ -179,15 +180,20 @@ class NiDaqDevice(AcquisitionDevice):
         self._ao_buffer = 0
         self._running = False
         self._written = 0
-        self._last_value = 0.0      # last drive sample written, V
-        self._ao_failed = False     # the AO task stopped on an error (underflow): no ramp possible
+        self._last_value = 0.0  # last drive sample written, V
+        self._ao_failed = False  # the AO task stopped on an error (underflow): no ramp possible
         self._idle_is_zero = False
         self._delay = 0.0
 
     # ------------------------------------------------------------------ configuration
 
-    def configure(self, inputs: Sequence[InputChannelSpec], output: OutputChannelSpec,
-                  sample_rate: float, block_size: int | None = None) -> float:
+    def configure(
+        self,
+        inputs: Sequence[InputChannelSpec],
+        output: OutputChannelSpec,
+        sample_rate: float,
+        block_size: int | None = None,
+    ) -> float:
         if self._ai is not None:
             raise ConfigurationError("device already configured; close it first")
         inputs = tuple(inputs)
@@ -200,7 +206,8 @@ class NiDaqDevice(AcquisitionDevice):
         for spec in inputs:
             if spec.kind == "voltage" and spec.iepe:
                 raise ConfigurationError(
-                    f"channel {spec.name!r}: a voltage channel takes no excitation current")
+                    f"channel {spec.name!r}: a voltage channel takes no excitation current"
+                )
         try:
             self._ai = nidaqmx.Task()
             self._ao = nidaqmx.Task()
@@ -210,40 +217,46 @@ class NiDaqDevice(AcquisitionDevice):
         self._inputs, self._output = inputs, output
         # DAQmx scales accel and force channels itself; voltage channels are divided here by
         # their V/V sensitivity (e.g. an amplifier monitor at 0.1 V/V), as the simulated rig does
-        self._volts_scale = np.array([1.0 / s.sensitivity if s.kind == "voltage" else 1.0
-                                      for s in inputs])[:, None]
+        self._volts_scale = np.array([1.0 / s.sensitivity if s.kind == "voltage" else 1.0 for s in inputs])[
+            :, None
+        ]
         self._scaled = bool(np.any(self._volts_scale != 1.0))
         self._requested_rate = float(sample_rate)
         try:
             for spec in inputs:
                 self._add_input(spec)
             ao_chan = self._ao.ao_channels.add_ao_voltage_chan(
-                output.physical_channel, name_to_assign_to_channel=output.name,
-                min_val=output.min_voltage, max_val=output.max_voltage, units=VoltageUnits.VOLTS)
+                output.physical_channel,
+                name_to_assign_to_channel=output.name,
+                min_val=output.min_voltage,
+                max_val=output.max_voltage,
+                units=VoltageUnits.VOLTS,
+            )
             try:
                 ao_chan.ao_idle_output_behavior = AOIdleOutputBehavior.ZERO_VOLTS
                 self._idle_is_zero = True
-            except DaqError:            # not every device has it; close() then writes 0 V
+            except DaqError:  # not every device has it; close() then writes 0 V
                 self._idle_is_zero = False
 
             buffer = max(int(BUFFER_SECONDS * sample_rate), 2 * (block_size or 1))
             self._ai.timing.cfg_samp_clk_timing(
-                sample_rate, sample_mode=AcquisitionType.CONTINUOUS, samps_per_chan=buffer)
-            self._rate = float(self._ai.timing.samp_clk_rate)      # the coerced, actual rate
-            self._block = int(block_size) if block_size else max(
-                1, round(DEFAULT_BLOCK_SECONDS * self._rate))
+                sample_rate, sample_mode=AcquisitionType.CONTINUOUS, samps_per_chan=buffer
+            )
+            self._rate = float(self._ai.timing.samp_clk_rate)  # the coerced, actual rate
+            self._block = int(block_size) if block_size else max(1, round(DEFAULT_BLOCK_SECONDS * self._rate))
             self._ao_buffer = output_queue_limit(self._rate, self.abort_ramp_time, self.max_time_to_zero)
             self._ao.timing.cfg_samp_clk_timing(
-                self._rate, sample_mode=AcquisitionType.CONTINUOUS, samps_per_chan=self._ao_buffer)
+                self._rate, sample_mode=AcquisitionType.CONTINUOUS, samps_per_chan=self._ao_buffer
+            )
             self._limit_onboard_fifo(ao_chan)
             ao_rate = float(self._ao.timing.samp_clk_rate)
             if not math.isclose(ao_rate, self._rate, rel_tol=1e-9):
                 raise ConfigurationError(
                     f"input and output clocks coerced to different rates ({self._rate} and "
-                    f"{ao_rate} S/s); choose a rate both support")
+                    f"{ao_rate} S/s); choose a rate both support"
+                )
             # AO waits for the AI start trigger: both start on the same clock edge
-            self._ao.triggers.start_trigger.cfg_dig_edge_start_trig(
-                self._ai.triggers.start_trigger.term)
+            self._ao.triggers.start_trigger.cfg_dig_edge_start_trig(self._ai.triggers.start_trigger.term)
             self._ao.out_stream.regen_mode = RegenerationMode.DONT_ALLOW_REGENERATION
 
             self._reader = AnalogMultiChannelReader(self._ai.in_stream)
@@ -252,8 +265,8 @@ class NiDaqDevice(AcquisitionDevice):
         except DaqError as exc:
             self._close_tasks()
             raise ConfigurationError(
-                f"NI-DAQmx refused the configuration: {_first_line(str(exc))} "
-                f"(DAQmx {exc.error_code})") from exc
+                f"NI-DAQmx refused the configuration: {_first_line(str(exc))} (DAQmx {exc.error_code})"
+            ) from exc
         except DriverError:
             self._close_tasks()
             raise
@@ -280,25 +293,38 @@ class NiDaqDevice(AcquisitionDevice):
         chans = self._ai.ai_channels
         if spec.kind == "accel":
             chan = chans.add_ai_accel_chan(
-                spec.physical_channel, name_to_assign_to_channel=spec.name,
-                min_val=spec.min_value, max_val=spec.max_value,
-                units=AccelUnits.METERS_PER_SECOND_SQUARED, sensitivity=spec.sensitivity,
+                spec.physical_channel,
+                name_to_assign_to_channel=spec.name,
+                min_val=spec.min_value,
+                max_val=spec.max_value,
+                units=AccelUnits.METERS_PER_SECOND_SQUARED,
+                sensitivity=spec.sensitivity,
                 sensitivity_units=AccelSensitivityUnits.MILLIVOLTS_PER_G,
-                current_excit_source=excitation, current_excit_val=spec.excitation_current)
+                current_excit_source=excitation,
+                current_excit_val=spec.excitation_current,
+            )
         elif spec.kind == "force":
             chan = chans.add_ai_force_iepe_chan(
-                spec.physical_channel, name_to_assign_to_channel=spec.name,
-                min_val=spec.min_value, max_val=spec.max_value, units=ForceUnits.NEWTONS,
+                spec.physical_channel,
+                name_to_assign_to_channel=spec.name,
+                min_val=spec.min_value,
+                max_val=spec.max_value,
+                units=ForceUnits.NEWTONS,
                 sensitivity=spec.sensitivity,
                 sensitivity_units=ForceIEPESensorSensitivityUnits.MILLIVOLTS_PER_NEWTON,
-                current_excit_source=excitation, current_excit_val=spec.excitation_current)
-        else:   # DAQmx reads the terminal's volts: its range is the sensor's times the sensitivity
+                current_excit_source=excitation,
+                current_excit_val=spec.excitation_current,
+            )
+        else:  # DAQmx reads the terminal's volts: its range is the sensor's times the sensitivity
             chan = chans.add_ai_voltage_chan(
-                spec.physical_channel, name_to_assign_to_channel=spec.name,
-                min_val=spec.min_value * spec.sensitivity, max_val=spec.max_value * spec.sensitivity,
-                units=VoltageUnits.VOLTS)
+                spec.physical_channel,
+                name_to_assign_to_channel=spec.name,
+                min_val=spec.min_value * spec.sensitivity,
+                max_val=spec.max_value * spec.sensitivity,
+                units=VoltageUnits.VOLTS,
+            )
         if spec.iepe:
-            chan.ai_coupling = Coupling.AC     # IEPE: the sensor's bias voltage is blocked
+            chan.ai_coupling = Coupling.AC  # IEPE: the sensor's bias voltage is blocked
 
     def _read_delay(self) -> float:
         """AI plus AO filter delay in seconds; 0 where the device does not report one."""
@@ -333,14 +359,14 @@ class NiDaqDevice(AcquisitionDevice):
         details: dict[str, str] = {}
         try:
             details["devices"] = ", ".join(
-                f"{d.name} ({d.product_type}, s/n {d.serial_num:X})" for d in self._ai.devices)
-        except Exception:   # informational only; never fail a run for it
+                f"{d.name} ({d.product_type}, s/n {d.serial_num:X})" for d in self._ai.devices
+            )
+        except Exception:  # informational only; never fail a run for it
             pass
         details["drive_idle_zero_volts"] = str(self._idle_is_zero)
         details["abort_ramp_time_s"] = f"{self.ramp_samples / self._rate:g}"
         details["max_time_to_zero_s"] = f"{self.time_to_zero():.3g}"
-        return DeviceInfo(self.backend, self._rate, self._requested_rate, self._block,
-                          self._delay, details)
+        return DeviceInfo(self.backend, self._rate, self._requested_rate, self._block, self._delay, details)
 
     # ----------------------------------------------------------------------- streaming
 
@@ -359,7 +385,8 @@ class NiDaqDevice(AcquisitionDevice):
         if data.min() < low or data.max() > high:
             raise LimitExceeded(
                 f"drive {data.min():.4g}..{data.max():.4g} V is outside the output range "
-                f"{low}..{high} V; nothing written")
+                f"{low}..{high} V; nothing written"
+            )
         try:
             self._writer.write_many_sample(data, timeout=10.0)
         except DaqError as exc:
@@ -374,9 +401,9 @@ class NiDaqDevice(AcquisitionDevice):
         if self._written == 0:
             raise ConfigurationError("write at least one drive block before start()")
         try:
-            self._ao.start()        # armed: waits for the AI start trigger
+            self._ao.start()  # armed: waits for the AI start trigger
             self._running = True
-            self._ai.start()        # fires the trigger: AO and AI start on the same edge
+            self._ai.start()  # fires the trigger: AO and AI start on the same edge
         except DaqError as exc:
             self._fail(map_daq_error(exc))
 
@@ -397,7 +424,7 @@ class NiDaqDevice(AcquisitionDevice):
         try:
             overloaded = self._ai.in_stream.overloaded_chans_exist
             names = list(self._ai.in_stream.overloaded_chans) if overloaded else []
-        except DaqError:        # devices without overload detection
+        except DaqError:  # devices without overload detection
             names = []
         if names:
             self._fail(SensorOverload(f"input overload on {', '.join(names)}", partial=data))
@@ -406,7 +433,7 @@ class NiDaqDevice(AcquisitionDevice):
     def _fail(self, fault: DaqFault) -> None:
         """Bring the drive to zero, stop both tasks, then raise ``fault``."""
         if isinstance(fault, OutputUnderflow):
-            self._ao_failed = True      # DAQmx has stopped the AO task: nothing more can be written
+            self._ao_failed = True  # DAQmx has stopped the AO task: nothing more can be written
         self.stop()
         raise fault
 
@@ -452,14 +479,14 @@ class NiDaqDevice(AcquisitionDevice):
         tail = self.stop_ramp()
         try:
             queued = self._written - int(self._ao.out_stream.total_samp_per_chan_generated)
-        except DaqError:                # the task failed since the last write: it has stopped
+        except DaqError:  # the task failed since the last write: it has stopped
             self._ao_failed = True
             return
         budget = (max(queued, 0) + tail.size) / self._rate + WAIT_MARGIN_SECONDS
         try:
             self._writer.write_many_sample(tail, timeout=budget)
         except DaqError:
-            self._ao_failed = True      # underflowed meanwhile or no room: it stops as it is
+            self._ao_failed = True  # underflowed meanwhile or no room: it stops as it is
             return
         self._written += tail.size
         self._last_value = 0.0
@@ -467,7 +494,7 @@ class NiDaqDevice(AcquisitionDevice):
         while True:
             try:
                 generated = int(self._ao.out_stream.total_samp_per_chan_generated)
-            except DaqError:            # underflow after the zeros: everything was generated
+            except DaqError:  # underflow after the zeros: everything was generated
                 return
             if generated >= self._written or _clock() > deadline:
                 return
@@ -478,8 +505,11 @@ class NiDaqDevice(AcquisitionDevice):
         try:
             with nidaqmx.Task() as zero:
                 zero.ao_channels.add_ao_voltage_chan(
-                    self._output.physical_channel, min_val=self._output.min_voltage,
-                    max_val=self._output.max_voltage, units=VoltageUnits.VOLTS)
+                    self._output.physical_channel,
+                    min_val=self._output.min_voltage,
+                    max_val=self._output.max_voltage,
+                    units=VoltageUnits.VOLTS,
+                )
                 zero.write(0.0, auto_start=True)
                 zero.stop()
         except (DaqError, DaqNotFoundError, DaqNotSupportedError):

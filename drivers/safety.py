@@ -28,13 +28,14 @@ from rigtools.drivers.contracts import (
     InputChannelSpec,
     SafetyAbort,
 )
+
 # the drive generators live in rigtools.drivers.drive_signals; kept importable from here
 from rigtools.drivers.drive_signals import AmplitudeEnvelope, SineDrive, raised_cosine  # noqa: F401
 
-MAX_ABORT_RAMP = 0.1      # s; the ramp-down on abort never takes longer
-MAX_TIME_TO_ZERO = 0.1    # s; from a fault's detection to 0 V at the output, queue included
-QUEUE_MARGIN = 0.9        # the queue gets this share of what the ramp leaves of that time
-DRIVE = "drive"           # name of the drive output in limits
+MAX_ABORT_RAMP = 0.1  # s; the ramp-down on abort never takes longer
+MAX_TIME_TO_ZERO = 0.1  # s; from a fault's detection to 0 V at the output, queue included
+QUEUE_MARGIN = 0.9  # the queue gets this share of what the ramp leaves of that time
+DRIVE = "drive"  # name of the drive output in limits
 
 
 @dataclass(frozen=True)
@@ -49,8 +50,8 @@ class ChannelLimit:
     def __post_init__(self) -> None:
         if not 0 < self.warning < self.abort:
             raise ConfigurationError(
-                f"limits of {self.channel!r}: need 0 < warning ({self.warning}) < abort "
-                f"({self.abort})")
+                f"limits of {self.channel!r}: need 0 < warning ({self.warning}) < abort ({self.abort})"
+            )
 
 
 @dataclass(frozen=True)
@@ -64,8 +65,7 @@ class SafetyWarning:
 
     def __str__(self) -> str:
         u = f" {self.units}" if self.units else ""
-        return (f"{self.channel} peak {self.value:.4g}{u} is above the warning limit "
-                f"{self.limit:.4g}{u}")
+        return f"{self.channel} peak {self.value:.4g}{u} is above the warning limit {self.limit:.4g}{u}"
 
 
 class SafetyMonitor:
@@ -86,9 +86,12 @@ class SafetyMonitor:
         If a limit names a channel that is not among ``channels`` (nor ``"drive"``).
     """
 
-    def __init__(self, limits: Iterable[ChannelLimit],
-                 channels: Sequence[InputChannelSpec] | Sequence[str],
-                 max_drive: float = math.inf) -> None:
+    def __init__(
+        self,
+        limits: Iterable[ChannelLimit],
+        channels: Sequence[InputChannelSpec] | Sequence[str],
+        max_drive: float = math.inf,
+    ) -> None:
         names = [c.name if isinstance(c, InputChannelSpec) else str(c) for c in channels]
         units = {c.name: c.units for c in channels if isinstance(c, InputChannelSpec)}
         self.limits: dict[str, ChannelLimit] = {}
@@ -96,10 +99,15 @@ class SafetyMonitor:
             if lim.channel not in names and lim.channel != DRIVE:
                 raise ConfigurationError(
                     f"safety limit for unknown channel {lim.channel!r} (channels: "
-                    f"{', '.join(names)}, {DRIVE})")
+                    f"{', '.join(names)}, {DRIVE})"
+                )
             if not lim.units:
-                lim = ChannelLimit(lim.channel, lim.warning, lim.abort,
-                                   "V" if lim.channel == DRIVE else units.get(lim.channel, ""))
+                lim = ChannelLimit(
+                    lim.channel,
+                    lim.warning,
+                    lim.abort,
+                    "V" if lim.channel == DRIVE else units.get(lim.channel, ""),
+                )
             self.limits[lim.channel] = lim
         if not max_drive > 0:
             raise ConfigurationError(f"max_drive {max_drive!r} V must be > 0")
@@ -130,8 +138,7 @@ class SafetyMonitor:
         """
         block = np.asarray(block)
         if block.ndim != 2 or block.shape[0] != len(self.channels):
-            raise ValueError(f"block of shape {block.shape} does not match "
-                             f"{len(self.channels)} channels")
+            raise ValueError(f"block of shape {block.shape} does not match {len(self.channels)} channels")
         warnings: list[SafetyWarning] = []
         if block.shape[1]:
             peaks = np.max(np.abs(block), axis=1)
@@ -152,7 +159,11 @@ class SafetyMonitor:
         if not math.isfinite(peak) or peak > self.max_drive * (1 + 1e-12):
             raise SafetyAbort(
                 f"drive peak {peak:.4g} V exceeds the maximum drive {self.max_drive:.4g} V",
-                channel=DRIVE, value=peak, limit=self.max_drive, partial=block)
+                channel=DRIVE,
+                value=peak,
+                limit=self.max_drive,
+                partial=block,
+            )
         lim = self.limits.get(DRIVE)
         if lim is None:
             return []
@@ -163,19 +174,29 @@ class SafetyMonitor:
     def _judge(lim: ChannelLimit, peak: float, block: np.ndarray | None) -> SafetyWarning | None:
         u = f" {lim.units}" if lim.units else ""
         if not math.isfinite(peak):
-            raise SafetyAbort(f"{lim.channel} is not finite ({peak})", channel=lim.channel,
-                              value=peak, limit=lim.abort, partial=block)
+            raise SafetyAbort(
+                f"{lim.channel} is not finite ({peak})",
+                channel=lim.channel,
+                value=peak,
+                limit=lim.abort,
+                partial=block,
+            )
         if peak >= lim.abort:
             raise SafetyAbort(
                 f"{lim.channel} peak {peak:.4g}{u} reached the abort limit {lim.abort:.4g}{u}",
-                channel=lim.channel, value=peak, limit=lim.abort, partial=block)
+                channel=lim.channel,
+                value=peak,
+                limit=lim.abort,
+                partial=block,
+            )
         if peak >= lim.warning:
             return SafetyWarning(lim.channel, peak, lim.warning, lim.units)
         return None
 
 
-def output_queue_limit(sample_rate: float, abort_ramp_time: float,
-                       max_time_to_zero: float = MAX_TIME_TO_ZERO) -> int:
+def output_queue_limit(
+    sample_rate: float, abort_ramp_time: float, max_time_to_zero: float = MAX_TIME_TO_ZERO
+) -> int:
     """Most drive samples a device may hold queued ahead of the inputs.
 
     On a stop the queued drive plays out before the ramp to zero (a non-regenerating output
@@ -194,5 +215,6 @@ def output_queue_limit(sample_rate: float, abort_ramp_time: float,
     if room < 2:
         raise ConfigurationError(
             f"abort ramp {abort_ramp_time:g} s leaves no room for queued drive within "
-            f"{max_time_to_zero:g} s to zero")
+            f"{max_time_to_zero:g} s to zero"
+        )
     return int(math.floor(room))

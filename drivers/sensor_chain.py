@@ -116,10 +116,11 @@ class SensorChain:
         for i, s in enumerate(self.sensors):
             if s.highpass_hz > 0:
                 groups.setdefault(s.highpass_hz, []).append(i)
-        self._groups = [(np.array(rows), self._filters[rows[0]], np.zeros((len(rows), 1)))
-                        for rows in groups.values()]
+        self._groups = [
+            (np.array(rows), self._filters[rows[0]], np.zeros((len(rows), 1))) for rows in groups.values()
+        ]
         self.overloaded = np.zeros(n, dtype=bool)
-        self.first_overload = -1   # sample index of the first overload in the last block, or -1
+        self.first_overload = -1  # sample index of the first overload in the last block, or -1
 
     def reset(self) -> None:
         """Coupling filters back to rest, overload flags cleared."""

@@ -28,18 +28,25 @@ class ParamBound:
     default: float
     low: float
     high: float
-    low_open: bool      # True: low itself is refused (> low); False: >= low
+    low_open: bool  # True: low itself is refused (> low); False: >= low
     unit: str
-    dimension: str      # for :func:`rigtools.units.parse_quantity`; "" for a plain ratio
+    dimension: str  # for :func:`rigtools.units.parse_quantity`; "" for a plain ratio
 
     def check(self, name: str, value: float) -> None:
         """Raise ``ValueError`` (one line naming ``name`` and ``value``) if out of range."""
-        ok = (isinstance(value, Real) and not isinstance(value, bool) and math.isfinite(value)
-              and (value > self.low if self.low_open else value >= self.low) and value <= self.high)
+        ok = (
+            isinstance(value, Real)
+            and not isinstance(value, bool)
+            and math.isfinite(value)
+            and (value > self.low if self.low_open else value >= self.low)
+            and value <= self.high
+        )
         if not ok:
             low = "(" if self.low_open else "["
-            raise ValueError(f"shaker {name} = {value!r} {self.unit}: must be a finite number in "
-                             f"{low}{self.low:g}, {self.high:g}] {self.unit}")
+            raise ValueError(
+                f"shaker {name} = {value!r} {self.unit}: must be a finite number in "
+                f"{low}{self.low:g}, {self.high:g}] {self.unit}"
+            )
 
 
 # Physically sensible ranges for a lab shaker and its amplifier, from a 10 N modal exciter to a

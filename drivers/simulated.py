@@ -78,14 +78,14 @@ from rigtools.sim.params import DampingParams, RigParams, RootParams, Simulation
 
 # what the physics provides, per time step
 SIGNALS = (
-    "force",               # N, force through the sensor into the active blade
-    "active_tip_accel",    # m/s^2, active shroud, y
-    "passive_tip_accel",   # m/s^2, passive shroud, y
-    "force_point_accel",   # m/s^2, active blade at the force sensor, y
-    "coil_voltage",        # V, amplifier output
-    "coil_current",        # A
-    "contact_force",       # N, between the shrouds (>= 0)
-    "hammer_force",        # N, impact hammer's force (SimulatedHammer; 0 without one)
+    "force",  # N, force through the sensor into the active blade
+    "active_tip_accel",  # m/s^2, active shroud, y
+    "passive_tip_accel",  # m/s^2, passive shroud, y
+    "force_point_accel",  # m/s^2, active blade at the force sensor, y
+    "coil_voltage",  # V, amplifier output
+    "coil_current",  # A
+    "contact_force",  # N, between the shrouds (>= 0)
+    "hammer_force",  # N, impact hammer's force (SimulatedHammer; 0 without one)
 )
 _INDEX = {name: i for i, name in enumerate(SIGNALS)}
 
@@ -135,18 +135,34 @@ class TestArticle:
         """The test article's parameters: ``nominal`` with this root, damping and masses."""
         root = RootParams("springs", self.root_rotational_stiffness, self.root_translational_stiffness)
         s, m = 1.0 + self.shroud_mass_deviation, 1.0 + self.sensor_mass_deviation
-        shroud = replace(nominal.shroud, mass=nominal.shroud.mass * s,
-                         rotary_inertia=nominal.shroud.rotary_inertia * s)
-        sensor = replace(nominal.force_sensor, mass=nominal.force_sensor.mass * m,
-                         rotary_inertia=nominal.force_sensor.rotary_inertia * m)
-        return replace(nominal, root=root, passive_root=None, shroud=shroud, force_sensor=sensor,
-                       damping=DampingParams(ratio=self.damping_ratio))
+        shroud = replace(
+            nominal.shroud, mass=nominal.shroud.mass * s, rotary_inertia=nominal.shroud.rotary_inertia * s
+        )
+        sensor = replace(
+            nominal.force_sensor,
+            mass=nominal.force_sensor.mass * m,
+            rotary_inertia=nominal.force_sensor.rotary_inertia * m,
+        )
+        return replace(
+            nominal,
+            root=root,
+            passive_root=None,
+            shroud=shroud,
+            force_sensor=sensor,
+            damping=DampingParams(ratio=self.damping_ratio),
+        )
 
     def ideal(self) -> "TestArticle":
         """The same deviations with a noise-free, DC-coupled measurement chain without delay line
         (the integrating sampler's half sample remains)."""
-        return replace(self, force_noise=0.0, accel_noise=0.0, adc_noise=0.0, iepe_highpass=0.0,
-                       input_to_output_delay=0.0)
+        return replace(
+            self,
+            force_noise=0.0,
+            accel_noise=0.0,
+            adc_noise=0.0,
+            iepe_highpass=0.0,
+            input_to_output_delay=0.0,
+        )
 
 
 # ------------------------------------------------------------------------------------ faults
@@ -180,7 +196,9 @@ class Fault:
         object.__setattr__(self, "kind", kind)
         if (self.at_block is None) == (self.at_time is None):
             raise ConfigurationError(f"fault {kind}: give exactly one of at_block or at_time")
-        if (self.at_block is not None and self.at_block < 0) or (self.at_time is not None and self.at_time < 0):
+        if (self.at_block is not None and self.at_block < 0) or (
+            self.at_time is not None and self.at_time < 0
+        ):
             raise ConfigurationError(f"fault {kind}: the moment must be >= 0")
 
     @classmethod
@@ -189,7 +207,9 @@ class Fault:
         e.g. ``"input-overflow@3"``, ``"nan-samples@0.25s:force"``."""
         match = re.fullmatch(r"\s*([\w-]+)@([0-9.eE+-]+)\s*(s?)\s*(?::\s*(\w+))?\s*", text)
         if not match:
-            raise ConfigurationError(f"cannot read fault {text!r}: write KIND@BLOCK or KIND@SECONDSs[:CHANNEL]")
+            raise ConfigurationError(
+                f"cannot read fault {text!r}: write KIND@BLOCK or KIND@SECONDSs[:CHANNEL]"
+            )
         kind, at, seconds, channel = match.groups()
         if seconds:
             return cls(kind, at_time=float(at), channel=channel)
@@ -257,7 +277,7 @@ class SimulatedHammer:
                 continue
             edges = np.clip(np.arange(a, b + 1) * dt - ts, 0.0, self.duration)
             # int F dt = peak / w * (cos(w s0) - cos(w s1))
-            out[a - k0:b - k0] += self._peak(i) / w * -np.diff(np.cos(w * edges))
+            out[a - k0 : b - k0] += self._peak(i) / w * -np.diff(np.cos(w * edges))
         return out
 
 
@@ -300,7 +320,9 @@ class LinearModalPhysics:
         phi_all = modes.shapes
         pf_all, pt_all = phi_all[model.force_dof], phi_all[model.active_tip_dof]
         scale = max(np.max(np.abs(pf_all)), np.max(np.abs(pt_all)))
-        keep = (modes.frequencies_hz < f_max) & ((np.abs(pf_all) > 1e-6 * scale) | (np.abs(pt_all) > 1e-6 * scale))
+        keep = (modes.frequencies_hz < f_max) & (
+            (np.abs(pf_all) > 1e-6 * scale) | (np.abs(pt_all) > 1e-6 * scale)
+        )
         phi = phi_all[:, keep]
         self.frequencies_hz = modes.frequencies_hz[keep]
         n = phi.shape[1]
@@ -315,9 +337,14 @@ class LinearModalPhysics:
         z = np.zeros((n, n))
         if ell > 0:
             ns = 2 * n + 1
-            qdd = np.hstack([-minv @ k, -minv @ c, (minv @ pf * bl)[:, None]])      # q'' = qdd @ x
-            a = np.vstack([np.hstack([z, np.eye(n), np.zeros((n, 1))]), qdd,
-                           np.concatenate([np.zeros(n), -bl * pf / ell, [-r / ell]])[None, :]])
+            qdd = np.hstack([-minv @ k, -minv @ c, (minv @ pf * bl)[:, None]])  # q'' = qdd @ x
+            a = np.vstack(
+                [
+                    np.hstack([z, np.eye(n), np.zeros((n, 1))]),
+                    qdd,
+                    np.concatenate([np.zeros(n), -bl * pf / ell, [-r / ell]])[None, :],
+                ]
+            )
             b = np.zeros(ns)
             b[-1] = 1.0 / ell
             qdd_d = np.zeros(n)
@@ -340,8 +367,12 @@ class LinearModalPhysics:
         out[_INDEX["force_point_accel"]], d[_INDEX["force_point_accel"]] = acc_f, acc_f_d
         out[_INDEX["active_tip_accel"]], d[_INDEX["active_tip_accel"]] = pt @ qdd, pt @ qdd_d
         out[_INDEX["coil_current"]], d[_INDEX["coil_current"]] = cur, cur_d
-        out[_INDEX["force"]] = bl * cur - s.armature_mass * acc_f - s.suspension_stiffness * disp_f \
+        out[_INDEX["force"]] = (
+            bl * cur
+            - s.armature_mass * acc_f
+            - s.suspension_stiffness * disp_f
             - s.suspension_damping * vel_f
+        )
         d[_INDEX["force"]] = bl * cur_d - s.armature_mass * acc_f_d
         d[_INDEX["coil_voltage"]] = 1.0
         lam, vec = scipy.linalg.eig(a)
@@ -354,10 +385,10 @@ class LinearModalPhysics:
         lam, vec, b_modal = lam[sel], vec[:, sel], b_modal[sel]
         h = lam * dt
         self._mu = np.exp(h)
-        gamma1 = np.expm1(h) / lam * b_modal                      # int_0^dt e^{lam (dt - s)} ds
-        gamma2 = (np.expm1(h) - h) / (lam * h) * b_modal          # same, weighted by s / dt
+        gamma1 = np.expm1(h) / lam * b_modal  # int_0^dt e^{lam (dt - s)} ds
+        gamma2 = (np.expm1(h) - h) / (lam * h) * b_modal  # same, weighted by s / dt
         self._g0, self._g1 = gamma1 - gamma2, gamma2
-        self._hb = 0.5 * dt * b_modal       # mean z = (z1 - z0 - hb (e0 + e1)) * ih
+        self._hb = 0.5 * dt * b_modal  # mean z = (z1 - z0 - hb (e0 + e1)) * ih
         self._ih = 1.0 / h
         self._cz = (out @ vec) * weight
         self._d = d
@@ -374,8 +405,9 @@ class LinearModalPhysics:
         """Advance over ``coil_voltage`` (one value per step, V); returns ``(len(SIGNALS), n)``."""
         e = np.ascontiguousarray(coil_voltage, dtype=float)
         y = np.empty((len(SIGNALS), e.size))
-        _propagate(self._mu, self._g0, self._g1, self._hb, self._ih, self._cz, self._d, self._z,
-                   self._e_last, e, y)
+        _propagate(
+            self._mu, self._g0, self._g1, self._hb, self._ih, self._cz, self._d, self._z, self._e_last, e, y
+        )
         return y
 
 
@@ -444,13 +476,21 @@ class VibroImpactPhysics:
             self._stepper = VibroImpactStepper(self.system, dt, shaker=shaker.coupling())
         except SimulationInputError as exc:
             raise ConfigurationError(f"sample rate {1 / dt:g} S/s: {exc}") from None
-        self._cols = [OUT_COLUMNS.index(c) for c in (
-            "active_tip_velocity", "passive_tip_velocity", "force_point_velocity",
-            "force_point_displacement", "contact_force", "coil_current")]
+        self._cols = [
+            OUT_COLUMNS.index(c)
+            for c in (
+                "active_tip_velocity",
+                "passive_tip_velocity",
+                "force_point_velocity",
+                "force_point_displacement",
+                "contact_force",
+                "coil_current",
+            )
+        ]
         self._shaker = shaker.coupling()
-        self._last = np.zeros(7)       # the end values of the previous step (at rest: zero)
+        self._last = np.zeros(7)  # the end values of the previous step (at rest: zero)
         self.dt = dt
-        self._k = 0                    # steps since the last reset
+        self._k = 0  # steps since the last reset
         self._hammer: SimulatedHammer | None = None
         self._kick = np.zeros(0)
 
@@ -477,8 +517,10 @@ class VibroImpactPhysics:
         blade = self._model.blade(hammer.blade)
         length = float(blade.node_x[-1])
         if not 0 < hammer.position <= length:
-            raise ConfigurationError(f"hammer position {hammer.position * 1e3:g} mm is not on the "
-                                     f"{hammer.blade} blade (0 .. {length * 1e3:g} mm from the root)")
+            raise ConfigurationError(
+                f"hammer position {hammer.position * 1e3:g} mm is not on the "
+                f"{hammer.blade} blade (0 .. {length * 1e3:g} mm from the root)"
+            )
         node = blade.node_at(hammer.position)
         basis = self.system.bases[hammer.blade]
         phi_h = basis[blade.dof(node, 1)]
@@ -538,7 +580,7 @@ class VibroImpactPhysics:
             dv = self._kick * impulses[k]
             st.v += dv
             if self._stepper.shaker is not None:
-                st.scalars[4] += float(self._phi_f @ dv)     # the coil sees the force point's velocity
+                st.scalars[4] += float(self._phi_f @ dv)  # the coil sees the force point's velocity
             start = int(k)
         self._stepper.step(e[start:], out=data[start:])
         return data
@@ -583,12 +625,16 @@ def interval_means(ends: np.ndarray, dt: float, shaker) -> np.ndarray:
     x_mean = trap[3] - d[2] * (dt * dt / 12.0)
     e_mean = trap[6]
     i_mean = (e_mean - s.force_factor * d[3] - s.coil_inductance * d[5]) / s.coil_resistance
-    y[_INDEX["force"]] = (s.force_factor * i_mean - s.suspension_damping * d[3]
-                          - s.armature_mass * d[2] - s.suspension_stiffness * x_mean)
+    y[_INDEX["force"]] = (
+        s.force_factor * i_mean
+        - s.suspension_damping * d[3]
+        - s.armature_mass * d[2]
+        - s.suspension_stiffness * x_mean
+    )
     y[_INDEX["contact_force"]] = trap[4]
     y[_INDEX["coil_current"]] = i_mean
     y[_INDEX["coil_voltage"]] = e_mean
-    y[_INDEX["hammer_force"]] = 0.0          # the hammer is not part of the shaker's physics
+    y[_INDEX["hammer_force"]] = 0.0  # the hammer is not part of the shaker's physics
     return y
 
 
@@ -662,14 +708,23 @@ class SimulatedRig(AcquisitionDevice):
 
     backend = "simulated"
 
-    def __init__(self, params: RigParams, shaker: ShakerParams | None = None,
-                 test_article: TestArticle | None = None, *, model: str = "auto",
-                 pace: bool = False, faults: Sequence[Fault | str] = (),
-                 abort_ramp_time: float = 0.05, signal_map: dict[str, str] | None = None,
-                 seed: int | None = None, keep_truth: bool = False,
-                 drive_log_seconds: float = 60.0,
-                 max_time_to_zero: float | None = MAX_TIME_TO_ZERO,
-                 hammer: SimulatedHammer | None = None) -> None:
+    def __init__(
+        self,
+        params: RigParams,
+        shaker: ShakerParams | None = None,
+        test_article: TestArticle | None = None,
+        *,
+        model: str = "auto",
+        pace: bool = False,
+        faults: Sequence[Fault | str] = (),
+        abort_ramp_time: float = 0.05,
+        signal_map: dict[str, str] | None = None,
+        seed: int | None = None,
+        keep_truth: bool = False,
+        drive_log_seconds: float = 60.0,
+        max_time_to_zero: float | None = MAX_TIME_TO_ZERO,
+        hammer: SimulatedHammer | None = None,
+    ) -> None:
         if not 0 < abort_ramp_time <= 0.1:
             raise ConfigurationError(f"abort_ramp_time = {abort_ramp_time} s must be in (0, 0.1]")
         if model not in ("auto", "vibro-impact", "linear"):
@@ -711,8 +766,8 @@ class SimulatedRig(AcquisitionDevice):
         self._chain: SensorChain | None = None
         self._rows = np.zeros(0, dtype=int)
         self._drive_log: deque[np.ndarray] = deque()
-        self._drive_log_n = 0           # samples held in _drive_log
-        self.drive_samples = 0          # drive samples that reached the amplifier since configure
+        self._drive_log_n = 0  # samples held in _drive_log
+        self.drive_samples = 0  # drive samples that reached the amplifier since configure
         self.truth_log: list[np.ndarray] = []
         self.fault_sample: int | None = None
 
@@ -732,8 +787,13 @@ class SimulatedRig(AcquisitionDevice):
             self._rig_model = build_rig_model(self.article_params)
         return self._rig_model
 
-    def configure(self, inputs: Sequence[InputChannelSpec], output: OutputChannelSpec,
-                  sample_rate: float, block_size: int | None = None) -> float:
+    def configure(
+        self,
+        inputs: Sequence[InputChannelSpec],
+        output: OutputChannelSpec,
+        sample_rate: float,
+        block_size: int | None = None,
+    ) -> float:
         if self._running:
             raise ConfigurationError("stop the device before configuring it again")
         if not (sample_rate > 0 and math.isfinite(sample_rate)):
@@ -748,7 +808,8 @@ class SimulatedRig(AcquisitionDevice):
             sig = self.signal_map.get(spec.name, default_signal(spec))
             if sig not in _INDEX:
                 raise ConfigurationError(
-                    f"channel {spec.name!r}: signal {sig!r} unknown (known: {', '.join(SIGNALS)})")
+                    f"channel {spec.name!r}: signal {sig!r} unknown (known: {', '.join(SIGNALS)})"
+                )
             rows.append(_INDEX[sig])
         for fault in self.faults:
             if fault.channel is not None and fault.channel not in names:
@@ -758,11 +819,16 @@ class SimulatedRig(AcquisitionDevice):
         self._block = int(block_size) if block_size else max(1, round(0.1 * self._rate))
         ta = self.test_article
         noise = {"force": ta.force_noise, "accel": ta.accel_noise, "voltage": 0.0}
-        sensors = [SensorModel(
-            volts_per_unit=s.volts_per_unit,
-            full_scale_volts=max(abs(s.min_value), abs(s.max_value)) * s.volts_per_unit,
-            noise_rms=noise[s.kind], adc_noise_rms=ta.adc_noise,
-            highpass_hz=ta.iepe_highpass if s.iepe else 0.0) for s in inputs]
+        sensors = [
+            SensorModel(
+                volts_per_unit=s.volts_per_unit,
+                full_scale_volts=max(abs(s.min_value), abs(s.max_value)) * s.volts_per_unit,
+                noise_rms=noise[s.kind],
+                adc_noise_rms=ta.adc_noise,
+                highpass_hz=ta.iepe_highpass if s.iepe else 0.0,
+            )
+            for s in inputs
+        ]
         self._chain = SensorChain(sensors, self._rate, seed=self.seed)
         dt = 1.0 / self._rate
         if self._physics is None or self._physics_dt != dt:
@@ -772,8 +838,11 @@ class SimulatedRig(AcquisitionDevice):
                 self._physics = VibroImpactPhysics(self.rig_model(), self.shaker, dt)
             self._physics_dt = dt
         self._apply_hammer()
-        self._queue_limit = (None if self.max_time_to_zero is None else
-                             output_queue_limit(self._rate, self.abort_ramp_time, self.max_time_to_zero))
+        self._queue_limit = (
+            None
+            if self.max_time_to_zero is None
+            else output_queue_limit(self._rate, self.abort_ramp_time, self.max_time_to_zero)
+        )
         self._reset_stream()
         return self._rate
 
@@ -787,8 +856,10 @@ class SimulatedRig(AcquisitionDevice):
     def _apply_hammer(self) -> None:
         if not hasattr(self._physics, "set_hammer"):
             if self.hammer is not None:
-                raise ConfigurationError("the linear model holds the active blade alone: an impact "
-                                         "hammer needs the vibro-impact model")
+                raise ConfigurationError(
+                    "the linear model holds the active blade alone: an impact "
+                    "hammer needs the vibro-impact model"
+                )
             return
         self._physics.set_hammer(self.hammer)
 
@@ -821,10 +892,15 @@ class SimulatedRig(AcquisitionDevice):
         return (self._delay_line.size + 0.5) / self._rate if self._rate else 0.0
 
     def info(self) -> DeviceInfo:
-        details = {"model": self.model_kind, "pace": str(self.pace),
-                   "test_article": repr(self.test_article), "shaker": repr(self.shaker)}
-        return DeviceInfo(self.backend, self._rate, self._rate, self._block,
-                          self.input_to_output_delay(), details)
+        details = {
+            "model": self.model_kind,
+            "pace": str(self.pace),
+            "test_article": repr(self.test_article),
+            "shaker": repr(self.shaker),
+        }
+        return DeviceInfo(
+            self.backend, self._rate, self._rate, self._block, self.input_to_output_delay(), details
+        )
 
     @property
     def drive_log(self) -> np.ndarray:
@@ -850,13 +926,15 @@ class SimulatedRig(AcquisitionDevice):
         if not (math.isfinite(gap) and gap >= 0):
             raise ConfigurationError(f"gap {gap!r} m must be >= 0")
         if self._physics is None:
-            self.article_params = replace(self.article_params,
-                                          contact=replace(self.article_params.contact, gap=float(gap)))
+            self.article_params = replace(
+                self.article_params, contact=replace(self.article_params.contact, gap=float(gap))
+            )
             self._rig_model = None
         elif hasattr(self._physics, "set_gap"):
             self._physics.set_gap(gap)
-        self.article_params = replace(self.article_params,
-                                      contact=replace(self.article_params.contact, gap=float(gap)))
+        self.article_params = replace(
+            self.article_params, contact=replace(self.article_params.contact, gap=float(gap))
+        )
 
     @property
     def samples_read(self) -> int:
@@ -870,18 +948,21 @@ class SimulatedRig(AcquisitionDevice):
         data = np.array(drive, dtype=np.float64, copy=True)
         if data.ndim != 1 or data.size == 0:
             raise LimitExceeded(f"drive block must be 1-D and non-empty, got shape {data.shape}")
-        d_min, d_max = float(data.min()), float(data.max())      # NaN or inf shows in these
+        d_min, d_max = float(data.min()), float(data.max())  # NaN or inf shows in these
         if not (math.isfinite(d_min) and math.isfinite(d_max)):
             raise LimitExceeded("drive block holds NaN or inf; nothing written")
         low, high = self._output.min_voltage, self._output.max_voltage
         if d_min < low or d_max > high:
-            raise LimitExceeded(f"drive {d_min:.4g}..{d_max:.4g} V is outside the output "
-                                f"range {low}..{high} V; nothing written")
+            raise LimitExceeded(
+                f"drive {d_min:.4g}..{d_max:.4g} V is outside the output "
+                f"range {low}..{high} V; nothing written"
+            )
         if self._queue_limit is not None and self._queued + data.size > self._queue_limit:
             raise LimitExceeded(
                 f"{self._queued + data.size} drive samples would be queued ahead of the inputs, "
                 f"above the output queue limit {self._queue_limit} "
-                f"({self._queue_limit / self._rate * 1e3:.0f} ms; write smaller blocks)")
+                f"({self._queue_limit / self._rate * 1e3:.0f} ms; write smaller blocks)"
+            )
         self._queue.append(data)
         self._queued += data.size
         self._written += data.size
@@ -902,7 +983,7 @@ class SimulatedRig(AcquisitionDevice):
         while i < n and self._queue:
             head = self._queue[0]
             m = min(n - i, head.size)
-            out[i:i + m] = head[:m]
+            out[i : i + m] = head[:m]
             if m == head.size:
                 self._queue.popleft()
             else:
@@ -918,7 +999,7 @@ class SimulatedRig(AcquisitionDevice):
         d = self._delay_line.size
         if d:
             joined = np.concatenate([self._delay_line, drive])
-            applied, self._delay_line = joined[:drive.size], joined[drive.size:]
+            applied, self._delay_line = joined[: drive.size], joined[drive.size :]
         else:
             applied = drive
         self._drive_log.append(applied)
@@ -937,18 +1018,25 @@ class SimulatedRig(AcquisitionDevice):
             raise ConfigurationError("device not started; call start() first")
         n = int(n_samples or self._block)
         if self._queued < n:
-            self._fail(OutputUnderflow(
-                f"drive ran out after {self._read_samples + self._queued} samples "
-                f"({n - self._queued} missing): write one block ahead"), m=self._queued)
+            self._fail(
+                OutputUnderflow(
+                    f"drive ran out after {self._read_samples + self._queued} samples "
+                    f"({n - self._queued} missing): write one block ahead"
+                ),
+                m=self._queued,
+            )
         k0 = self._read_samples
         fault = self._due_fault(k0, n)
         m = n if fault is None else fault[1]
         try:
             physical = self._advance(self._take(m))[self._rows]
-        except SimulationInputError as exc:    # SimulationDivergedError: the state is lost
+        except SimulationInputError as exc:  # SimulationDivergedError: the state is lost
             self._physics.reset()
-            self._fail(SimulationDiverged(
-                f"at t = {k0 / self._rate:.4f} s: {' '.join(str(exc).split())}"), m=0, k0=k0)
+            self._fail(
+                SimulationDiverged(f"at t = {k0 / self._rate:.4f} s: {' '.join(str(exc).split())}"),
+                m=0,
+                k0=k0,
+            )
         if m < n:  # a fault cuts the block: pad so the noise stream matches an undisturbed run
             padded = np.zeros((physical.shape[0], n))
             padded[:, :m] = physical
@@ -958,9 +1046,14 @@ class SimulatedRig(AcquisitionDevice):
         first = self._chain.first_overload
         if first >= 0:
             names = [s.name for s, o in zip(self._inputs, self._chain.overloaded) if o]
-            self._fail(SensorOverload(
-                f"{', '.join(names)} beyond its range at t = {(k0 + first) / self._rate:.4f} s",
-                partial=self._chain.to_units(data[:, :first])), m=first, k0=k0)
+            self._fail(
+                SensorOverload(
+                    f"{', '.join(names)} beyond its range at t = {(k0 + first) / self._rate:.4f} s",
+                    partial=self._chain.to_units(data[:, :first]),
+                ),
+                m=first,
+                k0=k0,
+            )
         values = self._chain.to_units(data)
         if self.keep_truth:
             self.truth_log.append(physical)

@@ -39,9 +39,9 @@ from rigtools.drivers.contracts import (
 
 SIMULATED_RESOURCE = "TCPIP0::192.168.1.20::inst0::INSTR"
 TERMINATION = "\n"
-MIN_AMPLITUDE_VPP = 0.001      # the 33500's smallest amplitude
-SUPPORTED_MODELS = ("335", "336")   # 33500 and 33600 series share the command set
-MAX_ERRORS_DRAINED = 32        # the instrument's queue holds at most 20
+MIN_AMPLITUDE_VPP = 0.001  # the 33500's smallest amplitude
+SUPPORTED_MODELS = ("335", "336")  # 33500 and 33600 series share the command set
+MAX_ERRORS_DRAINED = 32  # the instrument's queue holds at most 20
 
 # SCPI error queue entry: <code>,"<text>"
 _SCPI_ERROR = re.compile(r'^\s*([-+]?\d+)\s*,\s*"(.*)"\s*$')
@@ -73,13 +73,13 @@ def open_resource_manager(backend: str = "") -> pyvisa.ResourceManager:
     """
     try:
         return pyvisa.ResourceManager(backend)
-    except Exception as exc:    # backends raise what they like (pyvisa-sim: yaml errors)
+    except Exception as exc:  # backends raise what they like (pyvisa-sim: yaml errors)
         first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         # pyvisa-sim puts the repr of a whole traceback after its own sentence: keep the sentence
         first = first.split(" 'Traceback")[0].strip()
         raise DriverUnavailable(
-            f"no VISA library available ({first}); install NI-VISA or pyvisa-py, or use "
-            "--simulated") from None
+            f"no VISA library available ({first}); install NI-VISA or pyvisa-py, or use --simulated"
+        ) from None
 
 
 def _parse_scpi_error(text: str) -> tuple[int, str] | None:
@@ -114,22 +114,30 @@ class WaveformGenerator(SignalSource):
         If the instrument does not identify itself as a waveform generator.
     """
 
-    def __init__(self, resource: str, limits: SourceLimits = SourceLimits(), *, backend: str = "",
-                 resource_manager: pyvisa.ResourceManager | None = None,
-                 timeout: float = 2.0) -> None:
+    def __init__(
+        self,
+        resource: str,
+        limits: SourceLimits = SourceLimits(),
+        *,
+        backend: str = "",
+        resource_manager: pyvisa.ResourceManager | None = None,
+        timeout: float = 2.0,
+    ) -> None:
         self.limits = limits
         self.resource = resource
         self._own_rm = resource_manager is None
         self._rm = resource_manager if resource_manager is not None else open_resource_manager(backend)
         try:
             self._inst = self._rm.open_resource(
-                resource, read_termination=TERMINATION, write_termination=TERMINATION,
-                timeout=int(round(timeout * 1000)))
+                resource,
+                read_termination=TERMINATION,
+                write_termination=TERMINATION,
+                timeout=int(round(timeout * 1000)),
+            )
         except VisaIOError as exc:
             self._close_rm()
-            raise DriverUnavailable(
-                f"cannot open VISA resource {resource!r}: {exc.abbreviation}") from None
-        except ValueError as exc:   # malformed resource name
+            raise DriverUnavailable(f"cannot open VISA resource {resource!r}: {exc.abbreviation}") from None
+        except ValueError as exc:  # malformed resource name
             self._close_rm()
             raise DriverUnavailable(f"cannot open VISA resource {resource!r}: {exc}") from None
         self._closed = False
@@ -139,8 +147,9 @@ class WaveformGenerator(SignalSource):
             if len(fields) < 4 or not fields[1].upper().startswith(SUPPORTED_MODELS):
                 raise SignalSourceError(
                     f"{self._name()} is not a 33500/33600-series waveform generator "
-                    f"(*IDN? answered {self._idn!r})")
-            self.errors()          # start from an empty queue
+                    f"(*IDN? answered {self._idn!r})"
+                )
+            self.errors()  # start from an empty queue
         except BaseException:
             self.close()
             raise
@@ -161,8 +170,9 @@ class WaveformGenerator(SignalSource):
         except VisaIOError as exc:
             raise self._io_error(command, exc) from None
         parsed = _parse_scpi_error(reply)
-        if command != "SYST:ERR?" and (reply.upper().startswith("ERROR")
-                                       or (parsed is not None and parsed[0] != 0)):
+        if command != "SYST:ERR?" and (
+            reply.upper().startswith("ERROR") or (parsed is not None and parsed[0] != 0)
+        ):
             raise SignalSourceError(f"{self._name()}: {command!r} answered with an error: {reply}")
         return reply
 
@@ -171,8 +181,7 @@ class WaveformGenerator(SignalSource):
         try:
             return float(reply)
         except ValueError:
-            raise SignalSourceError(
-                f"{self._name()}: unexpected reply {reply!r} to {command!r}") from None
+            raise SignalSourceError(f"{self._name()}: unexpected reply {reply!r} to {command!r}") from None
 
     def _send(self, command: str) -> None:
         """Send a setting and check the error queue; an instrument error raises."""
@@ -232,17 +241,27 @@ class WaveformGenerator(SignalSource):
 
     def _check_frequency(self, hz: float) -> None:
         lim = self.limits
-        if not (isinstance(hz, (int, float)) and math.isfinite(hz)
-                and lim.frequency_min <= hz <= lim.frequency_max):
-            raise LimitExceeded(f"frequency {hz!r} Hz is outside the allowed "
-                                f"{lim.frequency_min:g}..{lim.frequency_max:g} Hz; not sent")
+        if not (
+            isinstance(hz, (int, float))
+            and math.isfinite(hz)
+            and lim.frequency_min <= hz <= lim.frequency_max
+        ):
+            raise LimitExceeded(
+                f"frequency {hz!r} Hz is outside the allowed "
+                f"{lim.frequency_min:g}..{lim.frequency_max:g} Hz; not sent"
+            )
 
     def _check_amplitude(self, vpp: float) -> None:
         lim = self.limits
-        if not (isinstance(vpp, (int, float)) and math.isfinite(vpp)
-                and MIN_AMPLITUDE_VPP <= vpp <= lim.amplitude_max_vpp):
-            raise LimitExceeded(f"amplitude {vpp!r} Vpp is outside the allowed "
-                                f"{MIN_AMPLITUDE_VPP:g}..{lim.amplitude_max_vpp:g} Vpp; not sent")
+        if not (
+            isinstance(vpp, (int, float))
+            and math.isfinite(vpp)
+            and MIN_AMPLITUDE_VPP <= vpp <= lim.amplitude_max_vpp
+        ):
+            raise LimitExceeded(
+                f"amplitude {vpp!r} Vpp is outside the allowed "
+                f"{MIN_AMPLITUDE_VPP:g}..{lim.amplitude_max_vpp:g} Vpp; not sent"
+            )
 
     def set_frequency(self, hz: float) -> None:
         self._check_frequency(hz)
@@ -277,7 +296,7 @@ class WaveformGenerator(SignalSource):
         self._closed = True
         try:
             self._inst.write("OUTP OFF")
-        except Exception:       # the instrument may be gone; closing must still happen
+        except Exception:  # the instrument may be gone; closing must still happen
             pass
         try:
             self._inst.close()

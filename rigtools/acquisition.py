@@ -69,10 +69,11 @@ class AcquisitionAborted(UserError):
         Time of the error from the start of the stream, s.
     """
 
-    exit_code = 4       # rig CLI: a fault stopped the run (like drivers.DriverError)
+    exit_code = 4  # rig CLI: a fault stopped the run (like drivers.DriverError)
 
-    def __init__(self, message: str, *, fault: str, cause: BaseException, samples_kept: int,
-                 time: float) -> None:
+    def __init__(
+        self, message: str, *, fault: str, cause: BaseException, samples_kept: int, time: float
+    ) -> None:
         super().__init__(message)
         self.fault = fault
         self.cause = cause
@@ -86,8 +87,8 @@ class StreamStats:
 
     sample_rate: float
     blocks: int = 0
-    samples: int = 0                 # per channel, read and passed to the sink
-    warnings: list = field(default_factory=list)   # SafetyWarning, in order
+    samples: int = 0  # per channel, read and passed to the sink
+    warnings: list = field(default_factory=list)  # SafetyWarning, in order
 
     @property
     def duration(self) -> float:
@@ -140,10 +141,17 @@ class BlockStream:
     ...     stream.finish()
     """
 
-    def __init__(self, device: AcquisitionDevice, drive: Drive, *, sink: Sink | None = None,
-                 safety: SafetyMonitor | None = None, record_drive: bool = False,
-                 on_block: Callable[[np.ndarray, StreamStats], None] | None = None,
-                 abort_ramp_time: float | None = None) -> None:
+    def __init__(
+        self,
+        device: AcquisitionDevice,
+        drive: Drive,
+        *,
+        sink: Sink | None = None,
+        safety: SafetyMonitor | None = None,
+        record_drive: bool = False,
+        on_block: Callable[[np.ndarray, StreamStats], None] | None = None,
+        abort_ramp_time: float | None = None,
+    ) -> None:
         self.device = device
         self.abort_ramp_time = abort_ramp_time
         self.drive = drive
@@ -153,7 +161,7 @@ class BlockStream:
         self.on_block = on_block
         self.n = stream_piece(device)
         self.stats = StreamStats(device.sample_rate)
-        self._played: deque[np.ndarray] = deque()   # drive blocks written, not yet read
+        self._played: deque[np.ndarray] = deque()  # drive blocks written, not yet read
         self._pending: deque[np.ndarray] = deque()  # drive samples queued by finish()
         self._started = False
         self._finished = False
@@ -167,7 +175,7 @@ class BlockStream:
     def __exit__(self, exc_type, exc, tb) -> bool:
         if exc is not None:
             if not isinstance(exc, AcquisitionAborted):
-                self._abort(exc)        # raises AcquisitionAborted, or re-raises Ctrl-C
+                self._abort(exc)  # raises AcquisitionAborted, or re-raises Ctrl-C
             return False
         if not self._finished:
             self.finish()
@@ -239,8 +247,9 @@ class BlockStream:
         stop the device."""
         if self._finished:
             return self.stats
-        ramp = np.asarray(self.drive.stop_block() if ramp_time is None
-                          else self.drive.stop_block(ramp_time), dtype=float)
+        ramp = np.asarray(
+            self.drive.stop_block() if ramp_time is None else self.drive.stop_block(ramp_time), dtype=float
+        )
         delay = self.device.input_to_output_delay() * self.device.sample_rate
         # the ramp, then zeros: the two blocks already queued + the ramp + the delay, whole blocks
         tail = np.concatenate([ramp, np.zeros(int(math.ceil(delay)))])
@@ -263,7 +272,7 @@ class BlockStream:
             self.safety = None
             try:
                 self.finish(ramp_time=self.abort_ramp_time)
-            except BaseException:       # the device failed meanwhile: _abort stops it
+            except BaseException:  # the device failed meanwhile: _abort stops it
                 pass
         raise exc
 
@@ -277,13 +286,17 @@ class BlockStream:
         try:
             self.device.stop()
         finally:
-            if (from_device and isinstance(exc, DaqFault) and exc.partial is not None
-                    and self.sink is not None):
+            if (
+                from_device
+                and isinstance(exc, DaqFault)
+                and exc.partial is not None
+                and self.sink is not None
+            ):
                 partial = np.asarray(exc.partial)
                 if partial.ndim == 2 and partial.shape[1]:
                     played = self._played[0] if self._played else np.zeros(partial.shape[1])
                     self._store(partial, played)
-        if not isinstance(exc, Exception):        # Ctrl-C, SystemExit: stopped safely, pass on
+        if not isinstance(exc, Exception):  # Ctrl-C, SystemExit: stopped safely, pass on
             raise exc
         if isinstance(exc, AcquisitionAborted):
             raise exc
@@ -292,12 +305,23 @@ class BlockStream:
         raise AcquisitionAborted(
             f"acquisition aborted at t = {t:.3f} s: {_one_line(exc)}; drive brought to zero; "
             f"{self.stats.samples} samples per channel ({t:.3f} s) kept",
-            fault=fault, cause=exc, samples_kept=self.stats.samples, time=t) from exc
+            fault=fault,
+            cause=exc,
+            samples_kept=self.stats.samples,
+            time=t,
+        ) from exc
 
 
-def acquire(device: AcquisitionDevice, drive: Drive, duration: float, *, sink: Sink | None = None,
-            safety: SafetyMonitor | None = None, record_drive: bool = False,
-            on_block: Callable[[np.ndarray, StreamStats], None] | None = None) -> StreamStats:
+def acquire(
+    device: AcquisitionDevice,
+    drive: Drive,
+    duration: float,
+    *,
+    sink: Sink | None = None,
+    safety: SafetyMonitor | None = None,
+    record_drive: bool = False,
+    on_block: Callable[[np.ndarray, StreamStats], None] | None = None,
+) -> StreamStats:
     """Stream ``drive`` for ``duration`` seconds (whole blocks), then ramp down and stop.
 
     The drive's amplitude ramps are its own (set its target before calling). Returns the
@@ -306,8 +330,9 @@ def acquire(device: AcquisitionDevice, drive: Drive, duration: float, *, sink: S
     if not duration > 0:
         raise ValueError(f"duration {duration!r} s must be > 0")
     n_blocks = max(1, int(math.ceil(duration * device.sample_rate / stream_piece(device) - 1e-9)))
-    with BlockStream(device, drive, sink=sink, safety=safety, record_drive=record_drive,
-                     on_block=on_block) as stream:
+    with BlockStream(
+        device, drive, sink=sink, safety=safety, record_drive=record_drive, on_block=on_block
+    ) as stream:
         for _ in range(n_blocks):
             stream.read()
         return stream.finish()

@@ -33,17 +33,19 @@ import numpy as np
 from rigtools.errors import UserError
 from rigtools.vocabulary import CHANNELS
 
-BLOCK_SAMPLES = 1 << 18      # samples per channel read at a time
-WINDOW_SAMPLES = 1 << 21     # at most this many samples per channel held for impacts and plots
+BLOCK_SAMPLES = 1 << 18  # samples per channel read at a time
+WINDOW_SAMPLES = 1 << 21  # at most this many samples per channel held for impacts and plots
 K_MAX = 30
 TABLE_HARMONICS = (6, 8, 22)  # the paper's super-harmonics of interest
 KINDS = ("accelerance", "mobility", "receptance")
 METHODS = ("lscf", "peak")
 FORCE = "force"
-NO_MODES_PERIODIC = ("no modes from a sine record: a sine excites one frequency at a time, so the "
-                     "force has no broadband content to identify poles from (use rig acquire frf)")
+NO_MODES_PERIODIC = (
+    "no modes from a sine record: a sine excites one frequency at a time, so the "
+    "force has no broadband content to identify poles from (use rig acquire frf)"
+)
 PROCEDURE_FRF = ("frf test",)
-TAP_DEFAULT_PULSE_S = 0.5e-3      # hammer pulse when the recording does not say
+TAP_DEFAULT_PULSE_S = 0.5e-3  # hammer pulse when the recording does not say
 TAP_F_MIN_HZ = 5.0
 
 
@@ -96,17 +98,25 @@ class PointAnalysis:
         return float(fit.amplitude[k - 1]) if k <= fit.amplitude.size else None
 
     def to_dict(self) -> dict:
-        out = {"point": self.index, "kind": self.kind, "sample_rate": self.sample_rate,
-               "window": {"start_sample": self.window[0], "samples": self.window[1]},
-               "params": _plain(self.params), "units": dict(self.units), "notes": list(self.notes)}
+        out = {
+            "point": self.index,
+            "kind": self.kind,
+            "sample_rate": self.sample_rate,
+            "window": {"start_sample": self.window[0], "samples": self.window[1]},
+            "params": _plain(self.params),
+            "units": dict(self.units),
+            "notes": list(self.notes),
+        }
         if self.dwell is not None:
             out["dwell"] = _plain(self.dwell.to_dict())
             out["modes"] = None
         if self.frf is not None:
             d = self.frf.to_dict()
             d["excitation"] = self.excitation
-            d["mean_coherence"] = {r: float(np.mean(self.frf.estimate.coherence[i][self._band()]))
-                                   for i, r in enumerate(self.frf.responses)}
+            d["mean_coherence"] = {
+                r: float(np.mean(self.frf.estimate.coherence[i][self._band()]))
+                for i, r in enumerate(self.frf.responses)
+            }
             for r, m in d["modes"].items():
                 i = self.frf.responses.index(r)
                 for mode in m["modes"]:
@@ -164,25 +174,41 @@ class RecordingAnalysis:
         if FORCE in channels:
             from rigtools.analysis.frf import convert_frf
 
-            f1 = np.array([p.dwell.harmonics[FORCE].amplitude[0] * np.exp(1j * p.dwell.harmonics[FORCE].phase[0])
-                           for p in pts])
+            f1 = np.array(
+                [
+                    p.dwell.harmonics[FORCE].amplitude[0] * np.exp(1j * p.dwell.harmonics[FORCE].phase[0])
+                    for p in pts
+                ]
+            )
             for c in channels:
                 measured = _frf_kind_of(pts[0].units.get(c, ""))
                 if c == FORCE or measured is None:
                     continue
-                x1 = np.array([p.dwell.harmonics[c].amplitude[0] * np.exp(1j * p.dwell.harmonics[c].phase[0])
-                               for p in pts])
+                x1 = np.array(
+                    [
+                        p.dwell.harmonics[c].amplitude[0] * np.exp(1j * p.dwell.harmonics[c].phase[0])
+                        for p in pts
+                    ]
+                )
                 frf[c] = convert_frf(x1 / f1, fe, measured, self.frf_kind)
-        return {"fe": fe, "direction": [p.params.get("direction", "") for p in pts], "frf": frf,
-                "harmonics": harm, "units": dict(pts[0].units)}
+        return {
+            "fe": fe,
+            "direction": [p.params.get("direction", "") for p in pts],
+            "frf": frf,
+            "harmonics": harm,
+            "units": dict(pts[0].units),
+        }
 
     def point_rows(self) -> list[dict]:
         """One row per periodic point: fe, force, the 6/8/22 fe harmonics, impacts per period."""
         rows = []
         for p in self.periodic:
-            row = {"point": p.index, "fe (Hz)": p.fe,
-                   "F0 target, peak (N)": p.params.get("force_amplitude"),
-                   "F1 measured, peak (N)": p.dwell.force_amplitude}
+            row = {
+                "point": p.index,
+                "fe (Hz)": p.fe,
+                "F0 target, peak (N)": p.params.get("force_amplitude"),
+                "F1 measured, peak (N)": p.dwell.force_amplitude,
+            }
             if "gap" in p.params:
                 row["gap (mm)"] = float(p.params["gap"]) * 1e3
             for ch, short in (("active_shroud_accel", "active"), ("passive_shroud_accel", "passive")):
@@ -202,25 +228,44 @@ class RecordingAnalysis:
             for i, r in enumerate(p.frf.responses):
                 m = p.frf.modes[r]
                 for j, mode in enumerate(m.modes):
-                    rows.append({"point": p.index, "response": r, "mode": j + 1,
-                                 "natural frequency (Hz)": mode.frequency_hz,
-                                 "damping ratio (%)": 100 * mode.damping_ratio,
-                                 "coherence": p.coherence_at(i, mode.frequency_hz), "method": m.method})
+                    rows.append(
+                        {
+                            "point": p.index,
+                            "response": r,
+                            "mode": j + 1,
+                            "natural frequency (Hz)": mode.frequency_hz,
+                            "damping ratio (%)": 100 * mode.damping_ratio,
+                            "coherence": p.coherence_at(i, mode.frequency_hz),
+                            "method": m.method,
+                        }
+                    )
         return rows
 
     def to_dict(self) -> dict:
-        out = {"file": self.path, "procedure": self.procedure, "backend": self.backend,
-               "source": self.source, "status": self.status, "frf_kind": self.frf_kind,
-               "amplitude": "peak", "points": [p.to_dict() for p in self.points],
-               "skipped": list(self.skipped), "notes": list(self.notes),
-               "natural_frequencies": _plain(self.frequency_table)}
+        out = {
+            "file": self.path,
+            "procedure": self.procedure,
+            "backend": self.backend,
+            "source": self.source,
+            "status": self.status,
+            "frf_kind": self.frf_kind,
+            "amplitude": "peak",
+            "points": [p.to_dict() for p in self.points],
+            "skipped": list(self.skipped),
+            "notes": list(self.notes),
+            "natural_frequencies": _plain(self.frequency_table),
+        }
         curves = self.response_curves()
         if curves is not None:
             out["response_curves"] = {
-                "fe": curves["fe"].tolist(), "direction": curves["direction"],
-                "frf": {c: {"magnitude": np.abs(h).tolist(), "phase": np.angle(h).tolist()}
-                        for c, h in curves["frf"].items()},
-                "harmonics": {c: a.tolist() for c, a in curves["harmonics"].items()}}
+                "fe": curves["fe"].tolist(),
+                "direction": curves["direction"],
+                "frf": {
+                    c: {"magnitude": np.abs(h).tolist(), "phase": np.angle(h).tolist()}
+                    for c, h in curves["frf"].items()
+                },
+                "harmonics": {c: a.tolist() for c, a in curves["harmonics"].items()},
+            }
         return out
 
 
@@ -243,7 +288,9 @@ def _frf_kind_of(units: str) -> str | None:
     return {"m/s^2": "accelerance", "m/s": "mobility", "m": "receptance"}.get(units)
 
 
-def _blocks(point, names: Sequence[str], start: int, n: int, size: int = BLOCK_SAMPLES) -> Iterator[np.ndarray]:
+def _blocks(
+    point, names: Sequence[str], start: int, n: int, size: int = BLOCK_SAMPLES
+) -> Iterator[np.ndarray]:
     """``(len(names), m)`` blocks of samples ``start .. start + n`` in time order."""
     for a in range(start, start + n, size):
         b = min(start + n, a + size)
@@ -272,8 +319,11 @@ def force_channel(point) -> str | None:
 def response_channels(point, force: str | None) -> list[str]:
     """Channels analysed as responses of a broadband point: the shroud accelerations (or any
     acceleration, velocity or displacement channel), not the force, drive or contact force."""
-    out = [n for n, c in point.channels.items()
-           if n != force and _frf_kind_of(c.units) is not None and c.quantity != "force"]
+    out = [
+        n
+        for n, c in point.channels.items()
+        if n != force and _frf_kind_of(c.units) is not None and c.quantity != "force"
+    ]
     vocab = [n for n in out if n in ("active_shroud_accel", "passive_shroud_accel")]
     return vocab or out
 
@@ -298,18 +348,29 @@ def analyze_periodic(point, *, channels: Sequence[str] | None = None, k_max: int
     per = rate / fe
     m = n if n <= WINDOW_SAMPLES else int(np.floor(WINDOW_SAMPLES / per) * per)
     a = start + n - m
-    arrays = {c: np.asarray(point.channels[c][a:a + m], dtype=float) for c in names}
+    arrays = {c: np.asarray(point.channels[c][a : a + m], dtype=float) for c in names}
     dwell = analyze_dwell(arrays, rate, fe, k_max=k, force=FORCE)
-    if m < n:      # harmonics over the whole window, block by block
+    if m < n:  # harmonics over the whole window, block by block
         fits = dict(zip(names, harmonics_from_blocks(_blocks(point, names, start, n), rate, fe, k)))
         rel = {c: relative_phases(f, fits[FORCE]) for c, f in fits.items()} if FORCE in fits else {}
-        dwell = replace(dwell, harmonics=fits, phases_to_force=rel,
-                        force_amplitude=float(fits[FORCE].amplitude[0]) if FORCE in fits else None)
+        dwell = replace(
+            dwell,
+            harmonics=fits,
+            phases_to_force=rel,
+            force_amplitude=float(fits[FORCE].amplitude[0]) if FORCE in fits else None,
+        )
         notes.append(f"impacts and peak levels from the last {m} of {n} samples; harmonics over all")
     notes.append(NO_MODES_PERIODIC)
-    return PointAnalysis(point.index, "periodic", dict(point.params),
-                         {c: point.channels[c].units for c in names}, rate, (start, n), dwell=dwell,
-                         notes=notes)
+    return PointAnalysis(
+        point.index,
+        "periodic",
+        dict(point.params),
+        {c: point.channels[c].units for c in names},
+        rate,
+        (start, n),
+        dwell=dwell,
+        notes=notes,
+    )
 
 
 def tap_frames(point, force: str, start: int, n: int, threshold: float = 0.2) -> tuple[int, int, int]:
@@ -322,14 +383,19 @@ def tap_frames(point, force: str, start: int, n: int, threshold: float = 0.2) ->
 
     rate = float(point.sample_rate)
     if n > WINDOW_SAMPLES:
-        raise UserError(f"point {point.index}: {n} samples without a recorded frame length; "
-                        f"tap records up to {WINDOW_SAMPLES} samples are supported")
-    f = np.abs(np.asarray(point.channels[force][start:start + n], dtype=float))
-    peaks, _ = find_peaks(f, height=threshold * float(f.max()) if f.size else 0.0,
-                          distance=max(1, int(0.05 * rate)))
+        raise UserError(
+            f"point {point.index}: {n} samples without a recorded frame length; "
+            f"tap records up to {WINDOW_SAMPLES} samples are supported"
+        )
+    f = np.abs(np.asarray(point.channels[force][start : start + n], dtype=float))
+    peaks, _ = find_peaks(
+        f, height=threshold * float(f.max()) if f.size else 0.0, distance=max(1, int(0.05 * rate))
+    )
     if peaks.size < 2:
-        raise UserError(f"point {point.index}: {peaks.size} hit(s) of the force found; an FRF of a tap "
-                        "test needs two or more taps to average (coherence)")
+        raise UserError(
+            f"point {point.index}: {peaks.size} hit(s) of the force found; an FRF of a tap "
+            "test needs two or more taps to average (coherence)"
+        )
     pre = min(int(round(0.002 * rate)), int(np.min(np.diff(peaks))) // 20)
     first = max(0, int(peaks[0]) - pre)
     seg = int(min(np.min(np.diff(peaks)), n - (int(peaks[-1]) - pre)))
@@ -337,68 +403,105 @@ def tap_frames(point, force: str, start: int, n: int, threshold: float = 0.2) ->
     return start + first, hits * seg, seg
 
 
-def analyze_broadband(point, procedure: str, *, kind: str = "accelerance", method: str = "lscf",
-                      responses: Sequence[str] | None = None) -> PointAnalysis:
+def analyze_broadband(
+    point,
+    procedure: str,
+    *,
+    kind: str = "accelerance",
+    method: str = "lscf",
+    responses: Sequence[str] | None = None,
+) -> PointAnalysis:
     """H1/H2/Hv, coherence and modes of a broadband point (FRF test, tap test, free decay)."""
     from rigtools.analysis.point import analyze_frf_test
 
     rate = float(point.sample_rate)
     force = force_channel(point)
     if force is None:
-        raise UserError(f"point {point.index}: no force channel (channels: {', '.join(point.channels)}); "
-                        "an FRF needs the force into the blade")
+        raise UserError(
+            f"point {point.index}: no force channel (channels: {', '.join(point.channels)}); "
+            "an FRF needs the force into the blade"
+        )
     resp = list(responses or response_channels(point, force))
     if not resp:
-        raise UserError(f"point {point.index}: no response channel (acceleration, velocity or "
-                        f"displacement) beside {force}")
+        raise UserError(
+            f"point {point.index}: no response channel (acceleration, velocity or "
+            f"displacement) beside {force}"
+        )
     units = {c: point.channels[c].units for c in [force, *resp]}
     measured = {_frf_kind_of(units[c]) for c in resp}
     if len(measured) != 1:
-        raise UserError(f"point {point.index}: responses {', '.join(resp)} measure different quantities; "
-                        "analyse them one at a time (--channels)")
+        raise UserError(
+            f"point {point.index}: responses {', '.join(resp)} measure different quantities; "
+            "analyse them one at a time (--channels)"
+        )
     start, n = record_window(point)
     signal = str(point.params.get("signal", ""))
     notes = []
     if "frame_samples" in point.params:
         seg = int(point.params["frame_samples"])
         excitation = "periodic" if signal == "chirp" else "burst"
-    else:           # a tap test or free decays: one frame per hit of the force
+    else:  # a tap test or free decays: one frame per hit of the force
         start, n, seg = tap_frames(point, force, start, n)
         excitation = "burst"
-        notes.append(f"no frame length recorded: one frame of {seg} samples per hit of the force "
-                     f"({n // seg} hits, rectangular window)")
+        notes.append(
+            f"no frame length recorded: one frame of {seg} samples per hit of the force "
+            f"({n // seg} hits, rectangular window)"
+        )
     if n < seg:
         raise UserError(f"point {point.index}: {n} samples recorded, fewer than one frame ({seg})")
     lo, hi = point.params.get("band_low"), point.params.get("band_high")
     names = [force, *resp]
     blocks = (dict(zip(names, b)) for b in _blocks(point, names, start, n))
-    res = analyze_frf_test(blocks, rate, excitation=excitation,
-                           segment_samples=seg, responses=resp, force=force, measured=measured.pop(),
-                           kind=kind, f_min=lo, f_max=hi, method=method)
+    res = analyze_frf_test(
+        blocks,
+        rate,
+        excitation=excitation,
+        segment_samples=seg,
+        responses=resp,
+        force=force,
+        measured=measured.pop(),
+        kind=kind,
+        f_min=lo,
+        f_max=hi,
+        method=method,
+    )
     band = np.ones(res.estimate.frequency_hz.size, bool)
     if lo is not None and hi is not None:
         band = (res.estimate.frequency_hz >= lo) & (res.estimate.frequency_hz <= hi)
     for i, (r, m) in enumerate(res.modes.items()):
         coh = float(np.mean(res.estimate.coherence[i][band]))
         if coh < 0.5:
-            notes.append(f"{r}: mean coherence {coh:.2f} in the band: this response hardly follows the "
-                         "force (a blade the force does not reach, e.g. the passive blade with the gap "
-                         "open: it needs its own tap/hammer test)")
+            notes.append(
+                f"{r}: mean coherence {coh:.2f} in the band: this response hardly follows the "
+                "force (a blade the force does not reach, e.g. the passive blade with the gap "
+                "open: it needs its own tap/hammer test)"
+            )
         notes.extend(f"{r}: {t}" for t in m.notes)
-    return PointAnalysis(point.index, "broadband", dict(point.params), units, rate, (start, n),
-                         frf=res, excitation=excitation, notes=notes)
+    return PointAnalysis(
+        point.index,
+        "broadband",
+        dict(point.params),
+        units,
+        rate,
+        (start, n),
+        frf=res,
+        excitation=excitation,
+        notes=notes,
+    )
 
 
 def is_hit_per_point_tap_test(procedure: str, points) -> bool:
     """True for a tap test written by ``rig acquire tap``: one frame per hit, each its own point
     (``frame_samples`` and ``accepted`` per point). A tap record holding several hits in one point
     goes through :func:`analyze_broadband` instead."""
-    return procedure == "tap test" and any("frame_samples" in p.params and "accepted" in p.params
-                                           for p in points)
+    return procedure == "tap test" and any(
+        "frame_samples" in p.params and "accepted" in p.params for p in points
+    )
 
 
-def analyze_tap_test(points, experiment: dict, *, kind: str = "accelerance",
-                     method: str = "lscf") -> PointAnalysis:
+def analyze_tap_test(
+    points, experiment: dict, *, kind: str = "accelerance", method: str = "lscf"
+) -> PointAnalysis:
     """H1/H2/Hv, coherence and modes of a tap (impact-hammer) test: one frame per accepted hit,
     each its own point (``rig acquire tap``), averaged together with the hammer as the force."""
     from rigtools.analysis.point import analyze_frf_test
@@ -406,37 +509,77 @@ def analyze_tap_test(points, experiment: dict, *, kind: str = "accelerance",
     hammer = str(experiment.get("hammer_channel") or "hammer")
     accepted = [p for p in points if p.complete and p.params.get("accepted", False) and hammer in p.channels]
     if len(accepted) < 2:
-        raise UserError(f"a tap test needs at least two accepted hits to average; this one has {len(accepted)}")
+        raise UserError(
+            f"a tap test needs at least two accepted hits to average; this one has {len(accepted)}"
+        )
     first = accepted[0]
     response = experiment.get("response") or next(
-        (c for c in ("passive_shroud_accel", "active_shroud_accel")
-         if c in first.channels and c.startswith(str(first.params.get("blade", "")))), None)
+        (
+            c
+            for c in ("passive_shroud_accel", "active_shroud_accel")
+            if c in first.channels and c.startswith(str(first.params.get("blade", "")))
+        ),
+        None,
+    )
     if response is None or response not in first.channels:
-        raise UserError(f"tap test: no response channel beside {hammer} (channels: {', '.join(first.channels)})")
+        raise UserError(
+            f"tap test: no response channel beside {hammer} (channels: {', '.join(first.channels)})"
+        )
     rate = float(first.sample_rate)
     frame = int(first.params["frame_samples"])
     units = {hammer: first.channels[hammer].units, response: first.channels[response].units}
-    blocks = ({"force": np.asarray(p.channels[hammer][:frame], dtype=float),
-               response: np.asarray(p.channels[response][:frame], dtype=float)}
-              for p in accepted if p.n_samples >= frame)
+    blocks = (
+        {
+            "force": np.asarray(p.channels[hammer][:frame], dtype=float),
+            response: np.asarray(p.channels[response][:frame], dtype=float),
+        }
+        for p in accepted
+        if p.n_samples >= frame
+    )
     # a hammer pulse of duration T excites up to about 1/T: identify within that band (2 kHz for
     # the 0.5 ms default pulse, the same band `rig acquire tap` uses)
     pulse = float((experiment.get("parameters") or {}).get("pulse") or TAP_DEFAULT_PULSE_S)
     f_max = min(1.0 / pulse, 0.45 * rate)
-    res = analyze_frf_test(blocks, rate, excitation="burst", segment_samples=frame, responses=(response,),
-                           force="force", measured=_frf_kind_of(units[response]), kind=kind, method=method,
-                           f_min=TAP_F_MIN_HZ, f_max=f_max)
-    notes = [f"tap test: {len(accepted)} accepted hits of {len(points)} averaged (H1 of {response} over "
-             f"{hammer}, rectangular window of {frame} samples per hit)"]
+    res = analyze_frf_test(
+        blocks,
+        rate,
+        excitation="burst",
+        segment_samples=frame,
+        responses=(response,),
+        force="force",
+        measured=_frf_kind_of(units[response]),
+        kind=kind,
+        method=method,
+        f_min=TAP_F_MIN_HZ,
+        f_max=f_max,
+    )
+    notes = [
+        f"tap test: {len(accepted)} accepted hits of {len(points)} averaged (H1 of {response} over "
+        f"{hammer}, rectangular window of {frame} samples per hit)"
+    ]
     for r, m in res.modes.items():
         notes.extend(f"{r}: {t}" for t in m.notes)
-    return PointAnalysis(first.index, "broadband", dict(first.params), units, rate, (0, frame),
-                         frf=res, excitation="burst", notes=notes)
+    return PointAnalysis(
+        first.index,
+        "broadband",
+        dict(first.params),
+        units,
+        rate,
+        (0, frame),
+        frf=res,
+        excitation="burst",
+        notes=notes,
+    )
 
 
-def analyze_recording(path: str | Path, *, kind: str = "accelerance", method: str = "lscf",
-                      channels: Sequence[str] | None = None,
-                      progress: Callable[[int, int], None] | None = None) -> RecordingAnalysis:
+def analyze_recording(
+    path: str | Path,
+    *,
+    kind: str = "accelerance",
+    method: str = "lscf",
+    channels: Sequence[str] | None = None,
+    progress: Callable[[int, int], None] | None = None,
+) -> RecordingAnalysis:
     """Analyse every complete point of a recording (see the module docstring).
 
     Parameters
@@ -470,18 +613,23 @@ def analyze_recording(path: str | Path, *, kind: str = "accelerance", method: st
         raise UserError(str(exc)) from None
     with rec:
         procedure = str(rec.experiment.get("procedure", ""))
-        out = RecordingAnalysis(str(path), procedure, rec.backend, source_of(rec.backend), rec.status,
-                                kind, [])
+        out = RecordingAnalysis(
+            str(path), procedure, rec.backend, source_of(rec.backend), rec.status, kind, []
+        )
         if rec.incomplete:
-            out.notes.append(f"recording status {rec.status}"
-                             + (f" ({rec.abort_reason})" if rec.abort_reason else "")
-                             + ": only points its writer ended are analysed")
+            out.notes.append(
+                f"recording status {rec.status}"
+                + (f" ({rec.abort_reason})" if rec.abort_reason else "")
+                + ": only points its writer ended are analysed"
+            )
         points = rec.points
         if channels:
             known = set().union(*(p.channels for p in points)) if points else set()
             unknown = [c for c in channels if c not in known]
             if unknown:
-                raise UserError(f"{path}: no channel {', '.join(unknown)} (channels: {', '.join(sorted(known))})")
+                raise UserError(
+                    f"{path}: no channel {', '.join(unknown)} (channels: {', '.join(sorted(known))})"
+                )
         try:
             if is_hit_per_point_tap_test(procedure, points):
                 out.points.append(analyze_tap_test(points, rec.experiment, kind=kind, method=method))
@@ -496,11 +644,17 @@ def analyze_recording(path: str | Path, *, kind: str = "accelerance", method: st
                 elif "fe" in point.params and procedure not in PROCEDURE_FRF:
                     names = None
                     if channels:
-                        names = list(dict.fromkeys([FORCE, *channels])) if FORCE in point.channels else list(channels)
+                        names = (
+                            list(dict.fromkeys([FORCE, *channels]))
+                            if FORCE in point.channels
+                            else list(channels)
+                        )
                     out.points.append(analyze_periodic(point, channels=names))
                 else:
                     resp = [c for c in channels if c != force_channel(point)] if channels else None
-                    out.points.append(analyze_broadband(point, procedure, kind=kind, method=method, responses=resp))
+                    out.points.append(
+                        analyze_broadband(point, procedure, kind=kind, method=method, responses=resp)
+                    )
                 if progress is not None:
                     progress(i + 1, len(points))
         except RecordingError as exc:
@@ -543,10 +697,16 @@ def model_frequencies(rig_config, n_modes: int = 3) -> dict[str, dict[str, list[
     params = rig_config.to_params()
     fem = natural_frequencies(reduced_system(params, "fem"))
     roots = {"active": params.root, "passive": params.passive_root or params.root}
-    am = {b: exact_flexural_frequencies(params.active if b == "active" else params.passive,
-                                        blade_masses(params, b), n_modes, roots[b]) for b in roots}
-    out = {"fem": {b: [float(x) for x in fem[b][:n_modes]] for b in fem},
-           "am": {b: [float(x) for x in am[b]] for b in am}}
+    am = {
+        b: exact_flexural_frequencies(
+            params.active if b == "active" else params.passive, blade_masses(params, b), n_modes, roots[b]
+        )
+        for b in roots
+    }
+    out = {
+        "fem": {b: [float(x) for x in fem[b][:n_modes]] for b in fem},
+        "am": {b: [float(x) for x in am[b]] for b in am},
+    }
     article = getattr(rig_config, "test_article", None)
     if article is not None:
         art = natural_frequencies(reduce_rig_model(build_rig_model(article.to_params().apply(params))))
@@ -583,8 +743,10 @@ def frequency_table(analysis: RecordingAnalysis, path, n_modes: int = 3) -> list
             r["em_vs_article_pct"] = 100 * (r["em_hz"] - ref) / ref if ref == ref else float("nan")
     for blade in models["fem"]:
         if blade not in em:
-            analysis.notes.append(f"{blade} blade: no modes identified in this recording (its shroud "
-                                  "response did not follow the force); its EM column is empty")
+            analysis.notes.append(
+                f"{blade} blade: no modes identified in this recording (its shroud "
+                "response did not follow the force); its EM column is empty"
+            )
     return [{k: (float(v) if isinstance(v, (np.floating, float)) else v) for k, v in r.items()} for r in rows]
 
 
@@ -609,7 +771,7 @@ def point_window(path: str | Path, index: int, periods: float = 5.0) -> tuple[di
         else:
             m = min(n, int(point.params.get("frame_samples", n)), WINDOW_SAMPLES)
         a = start + n - m if "fe" in point.params else start
-        data = {c: np.asarray(ch[a:a + m], dtype=float) for c, ch in point.channels.items()}
+        data = {c: np.asarray(ch[a : a + m], dtype=float) for c, ch in point.channels.items()}
         units = {c: ch.units for c, ch in point.channels.items()}
         t0 = point.channels[next(iter(point.channels))].t0 + a / rate
     return data, rate, t0, units

@@ -75,8 +75,7 @@ class RigArgumentParser(argparse.ArgumentParser):
 
     def error(self, message: str) -> None:  # type: ignore[override]
         text = " ".join(str(message).split())
-        self.exit(errors.EXIT_USAGE, f"{self.prog}: error: {text}\n"
-                                     f"(see '{self.prog} --help')\n")
+        self.exit(errors.EXIT_USAGE, f"{self.prog}: error: {text}\n(see '{self.prog} --help')\n")
 
 
 # -- command discovery without imports ---------------------------------------------------------
@@ -123,16 +122,23 @@ def command_summaries(module: str, source: str | None) -> list[tuple[str, str]]:
             doc = doc[0] if doc else ""
             names: dict[str, str] = {}
             for stmt in tree.body:
-                if isinstance(stmt, ast.Assign) and len(stmt.targets) == 1 \
-                        and isinstance(stmt.targets[0], ast.Name):
+                if (
+                    isinstance(stmt, ast.Assign)
+                    and len(stmt.targets) == 1
+                    and isinstance(stmt.targets[0], ast.Name)
+                ):
                     value = _string_value(stmt.value, names)
                     if value is not None:
                         names[stmt.targets[0].id] = value
             for stmt in tree.body:
                 if isinstance(stmt, ast.FunctionDef) and stmt.name == "register":
                     for node in ast.walk(stmt):
-                        if (isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute)
-                                and node.func.attr == "add_parser" and node.args):
+                        if (
+                            isinstance(node, ast.Call)
+                            and isinstance(node.func, ast.Attribute)
+                            and node.func.attr == "add_parser"
+                            and node.args
+                        ):
                             name = _string_value(node.args[0], names)
                             if name is None:
                                 continue
@@ -172,15 +178,17 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
     registers its full parser; the others appear in the command list with their help line.
     ``argv=None`` imports and registers every command (for documentation and tests)."""
     parser = RigArgumentParser(
-        prog="rig", description=DESCRIPTION, epilog=EPILOG,
-        formatter_class=argparse.RawDescriptionHelpFormatter)
+        prog="rig",
+        description=DESCRIPTION,
+        epilog=EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     parser.add_argument("--version", action="version", version=_version())
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=RigArgumentParser)
-    parser.rig_commands = sub   # type: ignore[attr-defined]
+    parser.rig_commands = sub  # type: ignore[attr-defined]
     from rigtools import commands
 
-    modules = sorted(m.name for m in pkgutil.iter_modules(commands.__path__)
-                     if not m.name.startswith("_"))
+    modules = sorted(m.name for m in pkgutil.iter_modules(commands.__path__) if not m.name.startswith("_"))
     table = discover_commands()
     chosen = _chosen_command(argv, table) if argv is not None else None
     for module_name in modules:
@@ -204,7 +212,7 @@ def _version() -> str:
 def _say(line: str) -> None:
     try:
         print(line, file=sys.stderr, flush=True)
-    except (OSError, ValueError):   # stderr gone (closed terminal): the exit status still tells
+    except (OSError, ValueError):  # stderr gone (closed terminal): the exit status still tells
         pass
 
 
@@ -229,23 +237,23 @@ def _run(argv: list[str]) -> int:
     try:
         from rigtools import runtime
 
-        runtime.last_stop = None        # this run's stop requests only
-        runtime.configure_process()     # before any command module can load numpy
+        runtime.last_stop = None  # this run's stop requests only
+        runtime.configure_process()  # before any command module can load numpy
         try:
             parser = build_parser(argv)
-        except ImportError as exc:   # a command module's top-level import of a missing package
+        except ImportError as exc:  # a command module's top-level import of a missing package
             chosen = _chosen_command(argv, discover_commands())
             _say(f"rig {chosen or ''}: error: cannot load this command: {exc}".replace("  ", " "))
             return errors.EXIT_HARDWARE
         try:
             args, extra = parser.parse_known_args(argv)
-            if extra:   # say it as the sub-command's error, not the top level's
+            if extra:  # say it as the sub-command's error, not the top level's
                 sub = getattr(parser, "rig_commands", None)
                 owner = sub.choices.get(getattr(args, "command", None) or "", parser) if sub else parser
                 owner.error(f"unrecognized arguments: {' '.join(extra)}")
-        except SystemExit as exc:    # argument errors (one line, exit 2), --help, --version
+        except SystemExit as exc:  # argument errors (one line, exit 2), --help, --version
             if exc.code in (0, None):
-                raise                # --help/--version end as argparse ends them: SystemExit(0)
+                raise  # --help/--version end as argparse ends them: SystemExit(0)
             return exc.code if isinstance(exc.code, int) else errors.EXIT_USAGE
         if not getattr(args, "func", None):
             parser.print_help()
@@ -261,7 +269,7 @@ def _run(argv: list[str]) -> int:
         return getattr(exc, "exit_code", errors.EXIT_SIGINT)
     except Exception as exc:
         stop = getattr(sys.modules.get("rigtools.runtime"), "last_stop", None)
-        if stop is not None:      # a library wrapped the signal's exception in its own (pydantic)
+        if stop is not None:  # a library wrapped the signal's exception in its own (pydantic)
             _say(f"{command}: {stop}")
             return stop.exit_code
         code = _driver_error_code(exc)
@@ -311,6 +319,7 @@ def main(argv: list[str] | None = None) -> int:
         text = str(exc) if isinstance(exc, errors.Interrupted) else "interrupted (Ctrl-C)"
         _say(f"rig: {text}")
         return getattr(exc, "exit_code", errors.EXIT_SIGINT)
+
 
 if __name__ == "__main__":
     sys.exit(main())

@@ -61,8 +61,8 @@ VELOCITY_OF = {ACTIVE: "active_shroud_vel", PASSIVE: "passive_shroud_vel"}
 K_MAX = 30
 LARGE_DIFF_PCT = 30.0
 MODEL_RECORD_PERIODS = 10
-MAX_MODE_DAMPING = 0.1        # identified "modes" more damped than this are fit artefacts
-MODE_MATCH = 0.15             # an EM mode pairs with the nearest model mode within 15 %
+MAX_MODE_DAMPING = 0.1  # identified "modes" more damped than this are fit artefacts
+MODE_MATCH = 0.15  # an EM mode pairs with the nearest model mode within 15 %
 Progress = Callable[[int, int, str], None]
 
 
@@ -116,24 +116,41 @@ class PointComparison:
 
     def label(self) -> str:
         p = self.params
-        return (f"point {self.em_index}: fe {p['fe']:g} Hz, F0 {p.get('force_amplitude', float('nan')):g} N, "
-                f"gap {p.get('gap', float('nan')) * 1e3:g} mm")
+        return (
+            f"point {self.em_index}: fe {p['fe']:g} Hz, F0 {p.get('force_amplitude', float('nan')):g} N, "
+            f"gap {p.get('gap', float('nan')) * 1e3:g} mm"
+        )
 
     def to_dict(self) -> dict:
-        return {"em_index": self.em_index, "model_index": self.model_index,
-                "params": _plain(self.params), "model_params": _plain(self.model_params),
-                "agreement": {"score": self.agreement.score, "error_decades": self.agreement.error_decades,
-                              "per_channel": self.agreement.per_channel, "channels": list(SCORED)},
-                "harmonics": _records(self.table),
-                "peaks": {"em": self.em.peak_levels, "model": self.model.peak_levels},
-                "explanations": [{"channel": ch, "k": e.k, "model_mode": None if m is None else
-                                  {"blade": m[0], "mode": m[1], "model_hz": m[2]}, "frequency_hz": e.frequency_hz,
-                                  "natural_hz_em": e.natural_hz, "observed_ratio": e.observed_ratio,
-                                  "ratio_for_plus_minus_1pct": list(e.ratio_per_percent),
-                                  "ratio_from_model_frequency": _f(e.ratio_from_model_frequency),
-                                  "offset_pct_needed": _f(e.offset_pct_needed),
-                                  "text": explanation_text(ch, e, m, self.model_params.get("model_label", "model"))}
-                                 for ch, e, m in self.explanations]}
+        return {
+            "em_index": self.em_index,
+            "model_index": self.model_index,
+            "params": _plain(self.params),
+            "model_params": _plain(self.model_params),
+            "agreement": {
+                "score": self.agreement.score,
+                "error_decades": self.agreement.error_decades,
+                "per_channel": self.agreement.per_channel,
+                "channels": list(SCORED),
+            },
+            "harmonics": _records(self.table),
+            "peaks": {"em": self.em.peak_levels, "model": self.model.peak_levels},
+            "explanations": [
+                {
+                    "channel": ch,
+                    "k": e.k,
+                    "model_mode": None if m is None else {"blade": m[0], "mode": m[1], "model_hz": m[2]},
+                    "frequency_hz": e.frequency_hz,
+                    "natural_hz_em": e.natural_hz,
+                    "observed_ratio": e.observed_ratio,
+                    "ratio_for_plus_minus_1pct": list(e.ratio_per_percent),
+                    "ratio_from_model_frequency": _f(e.ratio_from_model_frequency),
+                    "offset_pct_needed": _f(e.offset_pct_needed),
+                    "text": explanation_text(ch, e, m, self.model_params.get("model_label", "model")),
+                }
+                for ch, e, m in self.explanations
+            ],
+        }
 
     def explanation_lines(self, model_label: str) -> list[str]:
         """:func:`explanation_text` of every large harmonic difference."""
@@ -186,15 +203,24 @@ class Comparison:
 
     def to_dict(self) -> dict:
         """Plain-Python result for ``--json``."""
-        return {"em": self.em_path, "model_source": self.model_source, "model": self.model,
-                "excitation": self.excitation, "study_kind": self.kind, "amplitude": "peak",
-                "score_definition": ("10**(-E), E = energy-weighted mean |log10(model/EM)| of the harmonics "
-                                     "k = 1..K of active_shroud_accel and passive_shroud_accel, averaged "
-                                     "over both channels"),
-                "mean_score": self.mean_score,
-                "natural_frequencies": None if self.natural is None else _records(self.natural),
-                "notes": list(self.notes), "unpaired_em_points": list(self.unpaired),
-                "points": [p.to_dict() for p in self.points]}
+        return {
+            "em": self.em_path,
+            "model_source": self.model_source,
+            "model": self.model,
+            "excitation": self.excitation,
+            "study_kind": self.kind,
+            "amplitude": "peak",
+            "score_definition": (
+                "10**(-E), E = energy-weighted mean |log10(model/EM)| of the harmonics "
+                "k = 1..K of active_shroud_accel and passive_shroud_accel, averaged "
+                "over both channels"
+            ),
+            "mean_score": self.mean_score,
+            "natural_frequencies": None if self.natural is None else _records(self.natural),
+            "notes": list(self.notes),
+            "unpaired_em_points": list(self.unpaired),
+            "points": [p.to_dict() for p in self.points],
+        }
 
     # -------------------------------------------------------------- figures
     def trend_quantities(self) -> dict:
@@ -218,20 +244,43 @@ class Comparison:
         if q:
             units = {key: ("N" if key.startswith("peak force") else "m/s²") for key in q}
             fig = trend_figure(self.kind, q, units, title=f"EM vs {self.model_label}: {self.kind} study")
-            out.append(("trends", fig, f"EM and {self.model_label} against {self.kind}: peak force-sensor "
-                        "signal, peak shroud accelerations and the 6·fe, 8·fe, 22·fe amplitudes (peak)"))
+            out.append(
+                (
+                    "trends",
+                    fig,
+                    f"EM and {self.model_label} against {self.kind}: peak force-sensor "
+                    "signal, peak shroud accelerations and the 6·fe, 8·fe, 22·fe amplitudes (peak)",
+                )
+            )
         units = {c: CHANNELS[c].units.replace("^2", "²") for c in COMPARED}
         for p in self.points:
-            fig = overlay_figure({c: p.em_wave[c] for c in COMPARED if c in p.em_wave},
-                                 {c: p.model_wave[c] for c in COMPARED if c in p.model_wave}, units,
-                                 p.params["fe"], em_rate=p.em_rate, fem_rate=p.model_rate,
-                                 model_label=self.model_label, title=f"{p.label()}: EM vs {self.model_label}")
-            out.append((f"point-{p.em_index}-overlay", fig,
-                        f"{p.label()}: waveforms (t = 0 at each side's force zero crossing) and peak spectra"))
+            fig = overlay_figure(
+                {c: p.em_wave[c] for c in COMPARED if c in p.em_wave},
+                {c: p.model_wave[c] for c in COMPARED if c in p.model_wave},
+                units,
+                p.params["fe"],
+                em_rate=p.em_rate,
+                fem_rate=p.model_rate,
+                model_label=self.model_label,
+                title=f"{p.label()}: EM vs {self.model_label}",
+            )
+            out.append(
+                (
+                    f"point-{p.em_index}-overlay",
+                    fig,
+                    f"{p.label()}: waveforms (t = 0 at each side's force zero crossing) and peak spectra",
+                )
+            )
             em_h = {c: p.em.harmonics[c].amplitude for c in COMPARED if c in p.em.harmonics}
             mo_h = {c: p.model.harmonics[c].amplitude for c in COMPARED if c in p.model.harmonics}
-            fig = harmonic_bars_figure(em_h, mo_h, units, p.params["fe"], model_label=self.model_label,
-                                       title=f"{p.label()}: harmonic amplitudes (peak)")
+            fig = harmonic_bars_figure(
+                em_h,
+                mo_h,
+                units,
+                p.params["fe"],
+                model_label=self.model_label,
+                title=f"{p.label()}: harmonic amplitudes (peak)",
+            )
             out.append((f"point-{p.em_index}-harmonics", fig, f"{p.label()}: harmonic amplitudes k·fe, peak"))
         return out
 
@@ -260,25 +309,45 @@ class Comparison:
     def add_to_report(self, report) -> None:
         """Add a section (tables, explanations, figures) to a :class:`rigtools.report.Report`."""
         sec = report.section(f"EM vs {self.model_label}: {Path(self.em_path).name}")
-        how = ("model recording " + Path(self.model_source).name if self.excitation is None else
-               f"{self.model_label} simulated at every EM point, {self.excitation} excitation")
-        sec.text(f"EM {self.em_path} against {how}. Amplitudes are peak values; differences are "
-                 "100 (model - EM) / EM. Agreement score per point: 10^-E, E the energy-weighted mean "
-                 "|log10(model/EM)| of the shroud accelerations' harmonics (1 = identical).")
+        how = (
+            "model recording " + Path(self.model_source).name
+            if self.excitation is None
+            else f"{self.model_label} simulated at every EM point, {self.excitation} excitation"
+        )
+        sec.text(
+            f"EM {self.em_path} against {how}. Amplitudes are peak values; differences are "
+            "100 (model - EM) / EM. Agreement score per point: 10^-E, E the energy-weighted mean "
+            "|log10(model/EM)| of the shroud accelerations' harmonics (1 = identical)."
+        )
         for n in self.notes:
             sec.note(n)
         if self.natural is not None:
-            sec.table(self.natural, caption="Natural frequencies, Hz, and differences in % (as the paper's "
-                                            "Tables 2 and 3)")
-        sec.table([{"EM point": p.em_index, "fe Hz": p.params["fe"], "gap mm": p.params.get("gap", np.nan) * 1e3,
+            sec.table(
+                self.natural,
+                caption="Natural frequencies, Hz, and differences in % (as the paper's Tables 2 and 3)",
+            )
+        sec.table(
+            [
+                {
+                    "EM point": p.em_index,
+                    "fe Hz": p.params["fe"],
+                    "gap mm": p.params.get("gap", np.nan) * 1e3,
                     "F0 target N": p.params.get("force_amplitude"),
-                    "F1 EM N": p.em.force_amplitude, f"F1 {self.model_label} N": p.model.force_amplitude,
-                    "score": p.score, "active error (decades)": p.agreement.per_channel.get(ACTIVE),
-                    "passive error (decades)": p.agreement.per_channel.get(PASSIVE)} for p in self.points],
-                  caption=f"Agreement per point (mean {self.mean_score:.3f})")
+                    "F1 EM N": p.em.force_amplitude,
+                    f"F1 {self.model_label} N": p.model.force_amplitude,
+                    "score": p.score,
+                    "active error (decades)": p.agreement.per_channel.get(ACTIVE),
+                    "passive error (decades)": p.agreement.per_channel.get(PASSIVE),
+                }
+                for p in self.points
+            ],
+            caption=f"Agreement per point (mean {self.mean_score:.3f})",
+        )
         for p in self.points:
-            sec.table(_wide_table(p.table, self.model_label, k_show=12), caption=f"{p.label()}: harmonic "
-                      "amplitudes (peak) and differences in %")
+            sec.table(
+                _wide_table(p.table, self.model_label, k_show=12),
+                caption=f"{p.label()}: harmonic amplitudes (peak) and differences in %",
+            )
             for line in p.explanation_lines(self.model_label):
                 sec.note(line)
         import matplotlib.pyplot as plt
@@ -396,11 +465,15 @@ def model_run_analysis(run, k_max: int = K_MAX):
     from rigtools.analysis.point import analyze_dwell
 
     o = run.outputs
-    waves = {FORCE: o["excitation_force"], ACTIVE: o["active_tip_acceleration"],
-             PASSIVE: o["passive_tip_acceleration"]}
+    waves = {
+        FORCE: o["excitation_force"],
+        ACTIVE: o["active_tip_acceleration"],
+        PASSIVE: o["passive_tip_acceleration"],
+    }
     res = analyze_dwell(waves, run.sample_rate, run.fe, k_max=k_max)
-    res = _with_velocity_harmonics(res, {ACTIVE: o["active_tip_velocity"], PASSIVE: o["passive_tip_velocity"]},
-                                   run.sample_rate)
+    res = _with_velocity_harmonics(
+        res, {ACTIVE: o["active_tip_velocity"], PASSIVE: o["passive_tip_velocity"]}, run.sample_rate
+    )
     return res, waves, run.sample_rate
 
 
@@ -411,8 +484,11 @@ def model_point_analysis(point, k_max: int = K_MAX):
     fs = point.sample_rate
     waves = {c: np.asarray(point.channels[c][:], dtype=float) for c in COMPARED if c in point.channels}
     res = analyze_dwell(waves, fs, float(point.params["fe"]), k_max=k_max)
-    vel = {c: np.asarray(point.channels[v][:], dtype=float) for c, v in VELOCITY_OF.items()
-           if v in point.channels and c in waves}
+    vel = {
+        c: np.asarray(point.channels[v][:], dtype=float)
+        for c, v in VELOCITY_OF.items()
+        if v in point.channels and c in waves
+    }
     return _with_velocity_harmonics(res, vel, fs), waves, fs
 
 
@@ -421,8 +497,10 @@ def em_force_harmonics(analysis) -> list[tuple[int, float, float]]:
     from t = 0, as the nominal force): ``phi_k - k (phi_1 + pi/2)``."""
     fit = rigtools.analysis.harmonics[FORCE]
     shift = fit.phase[0] + math.pi / 2
-    return [(int(k), float(a), float(np.angle(np.exp(1j * (p - k * shift)))))
-            for k, a, p in zip(fit.k, fit.amplitude, fit.phase)]
+    return [
+        (int(k), float(a), float(np.angle(np.exp(1j * (p - k * shift)))))
+        for k, a, p in zip(fit.k, fit.amplitude, fit.phase)
+    ]
 
 
 # ------------------------------------------------------------------------------ model runs
@@ -439,16 +517,28 @@ def run_driven_point(system, point: DrivenPoint, options, previous=None):
     """:func:`rigtools.study_runner.run_point` with the point's ``force_harmonics``."""
     from rigtools.sim.vibro_impact import run_harmonic
 
-    return run_harmonic(system.with_contact(gap=point.gap), point.fe, point.force,
-                        record_periods=max(1, int(round(options.record_duration * point.fe))),
-                        steps_per_period=options.steps_per_period, max_settle_time=options.max_settle_time,
-                        initial=None if previous is None else previous.final_state,
-                        force_harmonics=point.force_harmonics)
+    return run_harmonic(
+        system.with_contact(gap=point.gap),
+        point.fe,
+        point.force,
+        record_periods=max(1, int(round(options.record_duration * point.fe))),
+        steps_per_period=options.steps_per_period,
+        max_settle_time=options.max_settle_time,
+        initial=None if previous is None else previous.final_state,
+        force_harmonics=point.force_harmonics,
+    )
 
 
-def simulate_em_points(system, em_points: Sequence[tuple[dict, Any]], excitation: str, *,
-                       carry_state: bool = True, workers: int | None = None,
-                       max_settle_time: float = 30.0, progress: Progress | None = None) -> list:
+def simulate_em_points(
+    system,
+    em_points: Sequence[tuple[dict, Any]],
+    excitation: str,
+    *,
+    carry_state: bool = True,
+    workers: int | None = None,
+    max_settle_time: float = 30.0,
+    progress: Progress | None = None,
+) -> list:
     """Model runs at the EM points: ``em_points`` is ``[(params, DwellAnalysis)]``; returns the runs."""
     from rigtools.simulation import check_finite
     from rigtools.study_runner import RunOptions, StudyRunner
@@ -461,9 +551,17 @@ def simulate_em_points(system, em_points: Sequence[tuple[dict, Any]], excitation
         gap = params.get("gap")
         if gap is None:
             raise UserError(f"EM point {i} has no gap parameter: cannot simulate it")
-        planned.append(DrivenPoint(index=i, value=float(params.get("study_value", i)),
-                                   direction=str(params.get("direction", "up")), fe=float(params["fe"]),
-                                   force=f1, gap=float(gap), force_harmonics=harm))
+        planned.append(
+            DrivenPoint(
+                index=i,
+                value=float(params.get("study_value", i)),
+                direction=str(params.get("direction", "up")),
+                fe=float(params["fe"]),
+                force=f1,
+                gap=float(gap),
+                force_harmonics=harm,
+            )
+        )
     chains = [planned] if carry_state else [[p] for p in planned]
     fe_min = min(p.fe for p in planned)
     options = RunOptions(record_duration=MODEL_RECORD_PERIODS / fe_min, max_settle_time=max_settle_time)
@@ -499,11 +597,20 @@ def em_modes_from_frf(recording) -> tuple[dict, dict, list[str]]:
 
         def blocks(a=a, b=b, point=point, names=names):
             for s in range(a, b, 1 << 16):
-                yield {n: np.asarray(point.channels[n][s:min(b, s + (1 << 16))], dtype=float) for n in names}
+                yield {
+                    n: np.asarray(point.channels[n][s : min(b, s + (1 << 16))], dtype=float) for n in names
+                }
+
         excitation = "periodic" if point.params["signal"] == "chirp" else "burst"
-        res = analyze_frf_test(blocks(), fs, excitation=excitation, segment_samples=int(point.params["frame_samples"]),
-                               responses=[ACTIVE], f_min=point.params.get("band_low"),
-                               f_max=point.params.get("band_high"))
+        res = analyze_frf_test(
+            blocks(),
+            fs,
+            excitation=excitation,
+            segment_samples=int(point.params["frame_samples"]),
+            responses=[ACTIVE],
+            f_min=point.params.get("band_low"),
+            f_max=point.params.get("band_high"),
+        )
         ident = res.modes[ACTIVE]
         notes.extend(ident.notes)
         for m in ident.modes:
@@ -511,13 +618,18 @@ def em_modes_from_frf(recording) -> tuple[dict, dict, list[str]]:
                 fns.append(m.frequency_hz)
                 zetas.append(m.damping_ratio)
             else:
-                notes.append(f"FRF point {point.index}: a fitted pole at {m.frequency_hz:.1f} Hz with damping "
-                             f"ratio {m.damping_ratio:.3f} is not taken as a mode (band edge or fit artefact)")
+                notes.append(
+                    f"FRF point {point.index}: a fitted pole at {m.frequency_hz:.1f} Hz with damping "
+                    f"ratio {m.damping_ratio:.3f} is not taken as a mode (band edge or fit artefact)"
+                )
         if fns:
             break
     order = np.argsort(fns)
-    return ({"active": np.asarray(fns)[order]} if fns else {},
-            {"active": np.asarray(zetas)[order]} if fns else {}, notes)
+    return (
+        {"active": np.asarray(fns)[order]} if fns else {},
+        {"active": np.asarray(zetas)[order]} if fns else {},
+        notes,
+    )
 
 
 def _align(em: np.ndarray, model: np.ndarray) -> np.ndarray:
@@ -567,19 +679,25 @@ def explanation_text(channel: str, e, mode: tuple[str, int, float] | None, model
     text = f"{short} {e.k}·fe = {e.frequency_hz:.1f} Hz: {model_label}/EM = x{e.observed_ratio:.2f}. "
     if mode is not None:
         blade, n, fm = mode
-        text += (f"It lies {100 * (e.frequency_hz / e.natural_hz - 1):+.1f} % from the EM {blade} mode {n} at "
-                 f"{e.natural_hz:.1f} Hz, which the {model_label} puts at {fm:.1f} Hz "
-                 f"({100 * (fm / e.natural_hz - 1):+.2f} %): that offset alone changes this harmonic by "
-                 f"x{e.ratio_from_model_frequency:.2f}")
+        text += (
+            f"It lies {100 * (e.frequency_hz / e.natural_hz - 1):+.1f} % from the EM {blade} mode {n} at "
+            f"{e.natural_hz:.1f} Hz, which the {model_label} puts at {fm:.1f} Hz "
+            f"({100 * (fm / e.natural_hz - 1):+.2f} %): that offset alone changes this harmonic by "
+            f"x{e.ratio_from_model_frequency:.2f}"
+        )
     else:
-        text += (f"It lies {100 * (e.frequency_hz / e.natural_hz - 1):+.1f} % from the model's mode at "
-                 f"{e.natural_hz:.1f} Hz (no EM modes measured)")
+        text += (
+            f"It lies {100 * (e.frequency_hz / e.natural_hz - 1):+.1f} % from the model's mode at "
+            f"{e.natural_hz:.1f} Hz (no EM modes measured)"
+        )
     text += f"; a 1 % higher/lower natural frequency changes it by x{e.ratio_per_percent[0]:.2f}/x{e.ratio_per_percent[1]:.2f}"
     if np.isfinite(e.offset_pct_needed):
         text += f"; x{e.observed_ratio:.2f} needs a {e.offset_pct_needed:+.2f} % offset"
     else:
-        text += ("; no single-mode offset gives the whole ratio: the rest comes from the forcing at this "
-                 "harmonic (compare the force rows) and the impacts")
+        text += (
+            "; no single-mode offset gives the whole ratio: the rest comes from the forcing at this "
+            "harmonic (compare the force rows) and the impacts"
+        )
     return text
 
 
@@ -595,9 +713,16 @@ def natural_table(fem: dict, am: dict | None, em: dict, n_modes: int = 3):
         e = _align(np.asarray(em.get(blade, []), dtype=float), f) if blade in em else np.full(f.size, np.nan)
         for i in range(min(n_modes, f.size)):
             fa = float(a[i]) if i < a.size else float("nan")
-            row = {"blade": blade, "mode": i + 1, "fem_hz": float(f[i]), "am_hz": fa, "em_hz": float(e[i]),
-                   "fem_vs_em_pct": 100 * (f[i] - e[i]) / e[i], "am_vs_em_pct": 100 * (fa - e[i]) / e[i],
-                   "am_vs_fem_pct": 100 * (fa - f[i]) / f[i]}
+            row = {
+                "blade": blade,
+                "mode": i + 1,
+                "fem_hz": float(f[i]),
+                "am_hz": fa,
+                "em_hz": float(e[i]),
+                "fem_vs_em_pct": 100 * (f[i] - e[i]) / e[i],
+                "am_vs_em_pct": 100 * (fa - e[i]) / e[i],
+                "am_vs_fem_pct": 100 * (fa - f[i]) / f[i],
+            }
             rows.append(row)
     return pd.DataFrame(rows)
 
@@ -633,10 +758,20 @@ def _carry_state(recording) -> bool:
     return bool((par.get("plan") or {}).get("carry_state", True))
 
 
-def compare_recordings(em_path: str, fem_path: str | None = None, *, simulate: bool = False,
-                       model: str = "fem", excitation: str = "measured", rig: str | None = None,
-                       frf: str | None = None, k_max: int = K_MAX, workers: int | None = None,
-                       max_settle_time: float = 30.0, progress: Progress | None = None) -> Comparison:
+def compare_recordings(
+    em_path: str,
+    fem_path: str | None = None,
+    *,
+    simulate: bool = False,
+    model: str = "fem",
+    excitation: str = "measured",
+    rig: str | None = None,
+    frf: str | None = None,
+    k_max: int = K_MAX,
+    workers: int | None = None,
+    max_settle_time: float = 30.0,
+    progress: Progress | None = None,
+) -> Comparison:
     """Compare an EM recording with a model recording or with model runs at its points.
 
     Parameters
@@ -671,13 +806,20 @@ def compare_recordings(em_path: str, fem_path: str | None = None, *, simulate: b
         raise UserError("give a model recording FEM.h5 or --simulate, not both")
     if not simulate and fem_path is None:
         raise UserError("give a model recording FEM.h5 to compare with, or --simulate")
-    from rigtools.analysis.compare import explain_large_differences, harmonic_table, pair_points, point_agreement
+    from rigtools.analysis.compare import (
+        explain_large_differences,
+        harmonic_table,
+        pair_points,
+        point_agreement,
+    )
     from rigtools.simulation import load_system, natural_frequencies
 
     notes: list[str] = []
     with _open(em_path, "EM recording") as rec:
         if rec.backend == "fem":
-            raise UserError(f"{em_path} is a model recording (backend fem): give the EM (rig) recording first")
+            raise UserError(
+                f"{em_path} is a model recording (backend fem): give the EM (rig) recording first"
+            )
         kind = _study_kind(rec)
         carry = _carry_state(rec)
         dwell_points = [p for p in rec.points if not _is_frf_point(p)]
@@ -701,12 +843,16 @@ def compare_recordings(em_path: str, fem_path: str | None = None, *, simulate: b
             raise UserError(f"{em_path} holds no complete periodic (dwell, sweep, study) point to compare")
         em_modes, em_zeta, mode_notes = em_modes_from_frf(rec)
         if not em_modes and frf is None:
-            notes.append(f"{Path(em_path).name} holds no FRF data: no measured (EM) natural frequencies; "
-                         "give --frf FRF.h5 (rig acquire frf) for the EM column")
+            notes.append(
+                f"{Path(em_path).name} holds no FRF data: no measured (EM) natural frequencies; "
+                "give --frf FRF.h5 (rig acquire frf) for the EM column"
+            )
         try:
             rig_cfg_text = rig if rig is not None else rec.rig_config()
-        except Exception as exc:                     # noqa: BLE001 - a damaged rig attribute
-            raise UserError(f"{em_path}: its rig description cannot be read ({exc}); give --rig FILE") from None
+        except Exception as exc:  # noqa: BLE001 - a damaged rig attribute
+            raise UserError(
+                f"{em_path}: its rig description cannot be read ({exc}); give --rig FILE"
+            ) from None
     if frf is not None:
         with _open(frf, "FRF recording") as frec:
             em_modes, em_zeta, mode_notes = em_modes_from_frf(frec)
@@ -729,26 +875,42 @@ def compare_recordings(em_path: str, fem_path: str | None = None, *, simulate: b
     fem_fn, am_fn = (fn_model, fn_other) if model == "fem" else (fn_other, fn_model)
     natural = natural_table(fem_fn, am_fn, em_modes)
 
-    model_items = []      # (index, params, analysis, waves, rate)
+    model_items = []  # (index, params, analysis, waves, rate)
     if simulate:
-        runs = simulate_em_points(system, [(it[1], it[2]) for it in em_items], excitation, carry_state=carry,
-                                  workers=workers, max_settle_time=max_settle_time, progress=progress)
+        runs = simulate_em_points(
+            system,
+            [(it[1], it[2]) for it in em_items],
+            excitation,
+            carry_state=carry,
+            workers=workers,
+            max_settle_time=max_settle_time,
+            progress=progress,
+        )
         from rigtools.simulation import force_fundamental
 
         for i, run in enumerate(runs):
             ana, waves, fs = model_run_analysis(run, k_max)
-            mp = {"fe": run.fe, "gap": run.gap, "force_amplitude": run.force_amplitude,
-                  "force_amplitude_measured": force_fundamental(run), "settled": bool(run.steady_state)}
+            mp = {
+                "fe": run.fe,
+                "gap": run.gap,
+                "force_amplitude": run.force_amplitude,
+                "force_amplitude_measured": force_fundamental(run),
+                "settled": bool(run.steady_state),
+            }
             if not run.steady_state:
-                notes.append(f"the model run at EM point {em_items[i][0]} did not settle within "
-                             f"{max_settle_time:g} s simulated")
+                notes.append(
+                    f"the model run at EM point {em_items[i][0]} did not settle within "
+                    f"{max_settle_time:g} s simulated"
+                )
             model_items.append((i, mp, ana, waves, fs))
         pairs = [(i, i) for i in range(len(em_items))]
         source = "simulated"
     else:
         with _open(fem_path, "model recording") as mrec:
             if mrec.backend != "fem":
-                notes.append(f"{Path(fem_path).name} was written by backend {mrec.backend!r}, not a model run")
+                notes.append(
+                    f"{Path(fem_path).name} was written by backend {mrec.backend!r}, not a model run"
+                )
             for p in mrec.points:
                 if not p.complete or _is_frf_point(p):
                     continue
@@ -762,38 +924,73 @@ def compare_recordings(em_path: str, fem_path: str | None = None, *, simulate: b
         excitation = None
 
     if not pairs:
-        have = sorted({(round(it[1].get("fe", np.nan), 6), round(it[1].get("gap", np.nan) * 1e3, 6),
-                        round(it[1].get("force_amplitude", np.nan), 6)) for it in model_items})
-        raise UserError(f"no EM point of {Path(em_path).name} has a model point with the same fe, gap and "
-                        f"force target (within 2 %); the model file holds (fe Hz, gap mm, F0 N) = "
-                        f"{', '.join(str(h) for h in have[:5]) or 'no periodic point'}")
+        have = sorted(
+            {
+                (
+                    round(it[1].get("fe", np.nan), 6),
+                    round(it[1].get("gap", np.nan) * 1e3, 6),
+                    round(it[1].get("force_amplitude", np.nan), 6),
+                )
+                for it in model_items
+            }
+        )
+        raise UserError(
+            f"no EM point of {Path(em_path).name} has a model point with the same fe, gap and "
+            f"force target (within 2 %); the model file holds (fe Hz, gap mm, F0 N) = "
+            f"{', '.join(str(h) for h in have[:5]) or 'no periodic point'}"
+        )
     paired_em = {i for i, _ in pairs}
     unpaired = [em_items[i][0] for i in range(len(em_items)) if i not in paired_em]
     if unpaired:
         notes.append(f"EM points {unpaired} have no model point with the same fe, gap and force target (2 %)")
     fn_em_for_explain = em_modes if em_modes else {b: v for b, v in fn_model.items()}
-    zeta = ({"active": em_zeta["active"]} if em_modes else
-            {b: np.full(v.size, float(np.median(system.zeta))) for b, v in fn_model.items()})
+    zeta = (
+        {"active": em_zeta["active"]}
+        if em_modes
+        else {b: np.full(v.size, float(np.median(system.zeta))) for b, v in fn_model.items()}
+    )
     if not em_modes:
-        notes.append("large harmonic differences are set against the model's own natural frequencies (no EM "
-                     "modes): the offset needed is stated, not the measured one")
+        notes.append(
+            "large harmonic differences are set against the model's own natural frequencies (no EM "
+            "modes): the offset needed is stated, not the measured one"
+        )
     points = []
     for i, j in pairs:
         idx, params, ana, waves, fs = em_items[i]
         midx, mparams, mana, mwaves, mfs = model_items[j]
         chans = [c for c in COMPARED if c in ana.harmonics and c in mana.harmonics]
-        table = harmonic_table({c: ana.harmonics[c].amplitude for c in chans},
-                               {c: mana.harmonics[c].amplitude for c in chans}, params["fe"], k_max=k_max)
+        table = harmonic_table(
+            {c: ana.harmonics[c].amplitude for c in chans},
+            {c: mana.harmonics[c].amplitude for c in chans},
+            params["fe"],
+            k_max=k_max,
+        )
         agreement = point_agreement(ana, mana, channels=[c for c in SCORED if c in chans], k_max=k_max)
         if em_modes:
             fn_e, z, fn_m = _matched_modes(em_modes, em_zeta, fn_model)
             expl = explain_large_differences(table, params["fe"], fn_e, z, fn_m, threshold_pct=LARGE_DIFF_PCT)
             expl = [(ch, e, _model_mode(e.natural_hz, fn_e, fn_m, fn_model)) for ch, e in expl]
         else:
-            expl = explain_large_differences(table, params["fe"], fn_em_for_explain, zeta, None,
-                                             threshold_pct=LARGE_DIFF_PCT)
+            expl = explain_large_differences(
+                table, params["fe"], fn_em_for_explain, zeta, None, threshold_pct=LARGE_DIFF_PCT
+            )
             expl = [(ch, e, None) for ch, e in expl]
         mparams["model_label"] = model.upper()
-        points.append(PointComparison(idx, midx, _plain(params), _plain(mparams), ana, mana, table, agreement,
-                                      expl, waves, mwaves, fs, mfs))
+        points.append(
+            PointComparison(
+                idx,
+                midx,
+                _plain(params),
+                _plain(mparams),
+                ana,
+                mana,
+                table,
+                agreement,
+                expl,
+                waves,
+                mwaves,
+                fs,
+                mfs,
+            )
+        )
     return Comparison(str(em_path), source, model, excitation, kind, points, natural, notes, unpaired)

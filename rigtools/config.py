@@ -46,7 +46,7 @@ def _quantity(dimension: str):
     def parse(value: Any) -> float:
         return parse_quantity(value, dimension)
 
-    parse.dimension = dimension      # for the SI unit in range messages
+    parse.dimension = dimension  # for the SI unit in range messages
     return BeforeValidator(parse)
 
 
@@ -105,13 +105,13 @@ class PassiveBladeConfig(_Section):
 # reduced model goes wrong (default rig, FEM reduction: 1e9 N*m/rad with 1e13 N/m still gives the
 # clamped 53.2 Hz; 1e12 with 1e16 adds spurious 77 Hz modes; 1e18 with 1e24 gives 0 Hz). The
 # limits keep a factor 100 below the first failure; stiffer than them, a clamp is the right model.
-MAX_ROOT_ROTATIONAL_STIFFNESS = 1e7      # N*m/rad (the default blade's EI/L is ~140 N*m/rad)
+MAX_ROOT_ROTATIONAL_STIFFNESS = 1e7  # N*m/rad (the default blade's EI/L is ~140 N*m/rad)
 MAX_ROOT_TRANSLATIONAL_STIFFNESS = 1e11  # N/m (its 3EI/L^3 is ~1.8e4 N/m; axially EA/L ~ 1.7e8 N/m)
 # Far softer than the blade the root is almost free and the FEM reduction's static solve is
 # singular (default rig: 1e-4 N*m/rad with 1e3 N/m, or 1e7 N*m/rad with 1 N/m, end in a
 # LinAlgError or NaN frequencies); the same factor 100 is kept above those failures.
-MIN_ROOT_ROTATIONAL_STIFFNESS = 1e-2     # N*m/rad
-MIN_ROOT_TRANSLATIONAL_STIFFNESS = 1e2   # N/m
+MIN_ROOT_ROTATIONAL_STIFFNESS = 1e-2  # N*m/rad
+MIN_ROOT_TRANSLATIONAL_STIFFNESS = 1e2  # N/m
 
 
 class RootConfig(_Section):
@@ -121,13 +121,16 @@ class RootConfig(_Section):
 
     @model_validator(mode="after")
     def _springs_need_stiffness(self) -> "RootConfig":
-        if self.kind == "springs" and (self.rotational_stiffness < MIN_ROOT_ROTATIONAL_STIFFNESS or
-                                       self.translational_stiffness < MIN_ROOT_TRANSLATIONAL_STIFFNESS):
+        if self.kind == "springs" and (
+            self.rotational_stiffness < MIN_ROOT_ROTATIONAL_STIFFNESS
+            or self.translational_stiffness < MIN_ROOT_TRANSLATIONAL_STIFFNESS
+        ):
             raise ValueError(
                 f"kind = 'springs' needs rotational_stiffness >= {MIN_ROOT_ROTATIONAL_STIFFNESS:g} N*m/rad "
                 f"and translational_stiffness >= {MIN_ROOT_TRANSLATIONAL_STIFFNESS:g} N/m (got "
                 f"{self.rotational_stiffness:g} N*m/rad, {self.translational_stiffness:g} N/m); a softer "
-                "root leaves the blade almost free, which the FE reduction cannot solve")
+                "root leaves the blade almost free, which the FE reduction cannot solve"
+            )
         return self
 
 
@@ -177,8 +180,8 @@ class ContactConfig(_Section):
 
 class DampingConfig(_Section):
     ratio: float | None = Field(default=None, gt=0, lt=1)
-    alpha: float = Field(default=0.0, ge=0, le=1e4)      # 1/s; 2*zeta*omega, zeta = 1 at 800 Hz
-    beta: float = Field(default=0.0, ge=0, le=1e-2)      # s; 2*zeta/omega, zeta = 1 at 32 Hz
+    alpha: float = Field(default=0.0, ge=0, le=1e4)  # 1/s; 2*zeta*omega, zeta = 1 at 800 Hz
+    beta: float = Field(default=0.0, ge=0, le=1e-2)  # s; 2*zeta/omega, zeta = 1 at 32 Hz
 
     @model_validator(mode="after")
     def _one_kind(self) -> "DampingConfig":
@@ -196,7 +199,7 @@ class DampingConfig(_Section):
 Frequency = Annotated[float, _quantity("frequency")]
 Time = Annotated[float, _quantity("time")]
 Voltage = Annotated[float, _quantity("voltage")]
-VoltageAmplitude = Annotated[float, _quantity("voltage_amplitude")]    # peak V; "2 Vpp" = 1 V
+VoltageAmplitude = Annotated[float, _quantity("voltage_amplitude")]  # peak V; "2 Vpp" = 1 V
 
 _SENSITIVITY_DIMENSION = {"accel": "sensitivity_accel", "force": "sensitivity_force", "voltage": None}
 # plausible sensor sensitivities, SI (V per m/s^2, V per N, V per V): 0.05 mV/g..10 V/g, 0.05 mV/N..1 V/N
@@ -206,7 +209,7 @@ _SENSITIVITY_RANGE = {"accel": (5e-6, 1.02), "force": (5e-5, 1.0), "voltage": (1
 # the SI quantity a channel reads, for its range and its safety limits
 # (a voltage channel's range and limits are peak values: "2 Vpp" is 1 V)
 _KIND_DIMENSION = {"accel": "acceleration", "force": "force", "voltage": "voltage_amplitude"}
-IEPE_EXCITATION = 0.004     # A, default for accel and force channels (voltage channels: none)
+IEPE_EXCITATION = 0.004  # A, default for accel and force channels (voltage channels: none)
 
 
 def _channel_quantity(value: Any, kind: str) -> float:
@@ -223,10 +226,10 @@ class DaqChannelConfig(_Section):
 
     physical_channel: str = Field(min_length=1)
     kind: Literal["accel", "force", "voltage"]
-    sensitivity: float          # SI (V/(m/s^2), V/N, V/V) or "10 mV/g", "11.24 mV/N"
+    sensitivity: float  # SI (V/(m/s^2), V/N, V/V) or "10 mV/g", "11.24 mV/N"
     # A; default IEPE_EXCITATION for accel/force, 0 for voltage ("4 mA" or 0.004)
     excitation_current: Annotated[float, _quantity("current")] = Field(ge=0, le=0.025)
-    range: float                # +- in the channel's SI units (m/s^2, N, V) or "4900 m/s^2", "200 N"
+    range: float  # +- in the channel's SI units (m/s^2, N, V) or "4900 m/s^2", "200 N"
     location: str = ""
 
     @model_validator(mode="before")
@@ -262,9 +265,10 @@ class DaqChannelConfig(_Section):
         sens = parse_quantity(value, _SENSITIVITY_DIMENSION[kind])
         low, high = _SENSITIVITY_RANGE[kind]
         if not low <= sens <= high:
-            raise ValueError(f"implausible for kind {kind!r}; write it with units, e.g. "
-                             "'10 mV/g' or '11.24 mV/N'")
-        return float(f"{sens:.12g}")   # stored SI
+            raise ValueError(
+                f"implausible for kind {kind!r}; write it with units, e.g. '10 mV/g' or '11.24 mV/N'"
+            )
+        return float(f"{sens:.12g}")  # stored SI
 
 
 # names of channels the toolkit records itself beside the inputs (the drive output)
@@ -287,14 +291,27 @@ def channel_name_problem(name: str) -> str | None:
 
 def _default_daq_channels() -> dict[str, DaqChannelConfig]:
     return {
-        "force": DaqChannelConfig(physical_channel="Dev1/ai0", kind="force", sensitivity="11.24 mV/N",
-                                  range=200.0, location="active blade, force sensor at mid-span"),
+        "force": DaqChannelConfig(
+            physical_channel="Dev1/ai0",
+            kind="force",
+            sensitivity="11.24 mV/N",
+            range=200.0,
+            location="active blade, force sensor at mid-span",
+        ),
         "active_shroud_accel": DaqChannelConfig(
-            physical_channel="Dev1/ai1", kind="accel", sensitivity="10 mV/g", range=4900.0,
-            location="active blade shroud (tip)"),
+            physical_channel="Dev1/ai1",
+            kind="accel",
+            sensitivity="10 mV/g",
+            range=4900.0,
+            location="active blade shroud (tip)",
+        ),
         "passive_shroud_accel": DaqChannelConfig(
-            physical_channel="Dev1/ai2", kind="accel", sensitivity="10 mV/g", range=4900.0,
-            location="passive blade shroud (tip)"),
+            physical_channel="Dev1/ai2",
+            kind="accel",
+            sensitivity="10 mV/g",
+            range=4900.0,
+            location="passive blade shroud (tip)",
+        ),
     }
 
 
@@ -305,7 +322,7 @@ class DaqConfig(_Section):
     sample_rate: Frequency = Field(default=51200.0, gt=0, le=1e7)
     block_duration: Time = Field(default=0.1, gt=0, le=10.0)
     drive_channel: str = "Dev1/ao0"
-    drive_range: VoltageAmplitude = Field(default=10.0, gt=0, le=100.0)     # AO range, +- V
+    drive_range: VoltageAmplitude = Field(default=10.0, gt=0, le=100.0)  # AO range, +- V
     channels: dict[str, DaqChannelConfig] = Field(default_factory=_default_daq_channels, min_length=1)
 
     @field_validator("channels", mode="after")
@@ -323,8 +340,10 @@ class DaqConfig(_Section):
         for name, ch in self.channels.items():
             terminal = ch.physical_channel.strip().lower()
             if terminal in seen:
-                raise ValueError(f"channels.{name}.physical_channel = {ch.physical_channel!r} is "
-                                 f"already used by {seen[terminal]}")
+                raise ValueError(
+                    f"channels.{name}.physical_channel = {ch.physical_channel!r} is "
+                    f"already used by {seen[terminal]}"
+                )
             seen[terminal] = f"channels.{name}"
         return self
 
@@ -340,10 +359,19 @@ class DaqConfig(_Section):
                 sens, units = float(f"{ch.sensitivity * 1e3:.12g}"), "mV/N"
             else:
                 sens, units = ch.sensitivity, "V/V"
-            specs.append(InputChannelSpec(
-                name=name, physical_channel=ch.physical_channel, kind=ch.kind, sensitivity=sens,
-                sensitivity_units=units, excitation_current=ch.excitation_current,
-                min_value=-ch.range, max_value=ch.range, location=ch.location))
+            specs.append(
+                InputChannelSpec(
+                    name=name,
+                    physical_channel=ch.physical_channel,
+                    kind=ch.kind,
+                    sensitivity=sens,
+                    sensitivity_units=units,
+                    excitation_current=ch.excitation_current,
+                    min_value=-ch.range,
+                    max_value=ch.range,
+                    location=ch.location,
+                )
+            )
         return specs
 
     def output_spec(self):
@@ -360,7 +388,7 @@ class DaqConfig(_Section):
 class SignalSourceConfig(_Section):
     """A VISA waveform generator feeding the shaker amplifier (optional)."""
 
-    resource: str = ""                                     # e.g. "TCPIP0::192.168.1.20::inst0::INSTR"
+    resource: str = ""  # e.g. "TCPIP0::192.168.1.20::inst0::INSTR"
     frequency_min: Frequency = Field(default=1.0, gt=0)
     frequency_max: Frequency = Field(default=5000.0, gt=0, le=3e7)
     # peak V into the amplifier ("2 Vpp" is 1 V peak, see rigtools.units)
@@ -376,8 +404,9 @@ class SignalSourceConfig(_Section):
     @model_validator(mode="after")
     def _range(self) -> "SignalSourceConfig":
         if self.frequency_min >= self.frequency_max:
-            raise ValueError(f"frequency_min {self.frequency_min} Hz must be below frequency_max "
-                             f"{self.frequency_max} Hz")
+            raise ValueError(
+                f"frequency_min {self.frequency_min} Hz must be below frequency_max {self.frequency_max} Hz"
+            )
         return self
 
 
@@ -408,9 +437,9 @@ def _default_limits() -> dict[str, ChannelLimitConfig]:
 class SafetyConfig(_Section):
     """Limits checked on every block, the maximum drive and the drive ramps."""
 
-    max_drive: VoltageAmplitude = Field(default=5.0, gt=0, le=100.0)   # peak V at the drive output
-    ramp_time: Time = Field(default=0.5, gt=0, le=60.0)            # normal ramp up/down
-    abort_ramp_time: Time = Field(default=0.05, gt=0, le=0.1)      # ramp down on abort
+    max_drive: VoltageAmplitude = Field(default=5.0, gt=0, le=100.0)  # peak V at the drive output
+    ramp_time: Time = Field(default=0.5, gt=0, le=60.0)  # normal ramp up/down
+    abort_ramp_time: Time = Field(default=0.05, gt=0, le=0.1)  # ramp down on abort
     limits: dict[str, ChannelLimitConfig] = Field(default_factory=_default_limits)
 
 
@@ -437,13 +466,13 @@ class ShakerConfig(_Section):
     """Voltage amplifier and electrodynamic shaker driving the active blade through the force sensor.
     Defaults and ranges: :data:`rigtools.drivers.shaker.SHAKER_BOUNDS`."""
 
-    armature_mass: Mass = _shaker_field("armature_mass")                       # kg
-    suspension_stiffness: Stiffness = _shaker_field("suspension_stiffness")    # N/m
-    suspension_damping: Damping = _shaker_field("suspension_damping")          # N*s/m
-    force_factor: ForceFactor = _shaker_field("force_factor")                  # Bl, N/A
-    coil_resistance: Resistance = _shaker_field("coil_resistance")             # ohm
-    coil_inductance: Inductance = _shaker_field("coil_inductance")             # H
-    amplifier_gain: float = _shaker_field("amplifier_gain")                    # V/V
+    armature_mass: Mass = _shaker_field("armature_mass")  # kg
+    suspension_stiffness: Stiffness = _shaker_field("suspension_stiffness")  # N/m
+    suspension_damping: Damping = _shaker_field("suspension_damping")  # N*s/m
+    force_factor: ForceFactor = _shaker_field("force_factor")  # Bl, N/A
+    coil_resistance: Resistance = _shaker_field("coil_resistance")  # ohm
+    coil_inductance: Inductance = _shaker_field("coil_inductance")  # H
+    amplifier_gain: float = _shaker_field("amplifier_gain")  # V/V
 
     def to_params(self):
         """As :class:`rigtools.drivers.shaker.ShakerParams`."""
@@ -456,18 +485,20 @@ class TestArticleConfig(_Section):
     """The simulated rig's real blades: a bolted root (springs, softer than the clamp), their own
     damping, small mass deviations of shroud and sensor; and its sensor noise and coupling."""
 
-    root_rotational_stiffness: RotStiffness = Field(default=1.2e4, gt=0,
-                                                    le=MAX_ROOT_ROTATIONAL_STIFFNESS)  # N*m/rad
-    root_translational_stiffness: Stiffness = Field(default=3e8, gt=0,
-                                                    le=MAX_ROOT_TRANSLATIONAL_STIFFNESS)  # N/m
-    damping_ratio: float = Field(default=0.012, gt=0, lt=1)                       # modal
-    shroud_mass_deviation: float = Field(default=0.01, ge=-0.2, le=0.2)           # fraction of nominal
-    sensor_mass_deviation: float = Field(default=-0.01, ge=-0.2, le=0.2)          # fraction of nominal
-    force_noise: Force = Field(default=0.005, ge=0, le=100.0)                     # N rms
-    accel_noise: Acceleration = Field(default=0.02, ge=0, le=1e3)                 # m/s^2 rms
-    adc_noise: Voltage = Field(default=2e-5, ge=0, le=1.0)                        # V rms
-    iepe_highpass: Frequency = Field(default=0.5, ge=0, le=100.0)                 # Hz, 0 = DC
-    input_to_output_delay: Time = Field(default=8e-4, ge=0, le=1.0)               # s
+    root_rotational_stiffness: RotStiffness = Field(
+        default=1.2e4, gt=0, le=MAX_ROOT_ROTATIONAL_STIFFNESS
+    )  # N*m/rad
+    root_translational_stiffness: Stiffness = Field(
+        default=3e8, gt=0, le=MAX_ROOT_TRANSLATIONAL_STIFFNESS
+    )  # N/m
+    damping_ratio: float = Field(default=0.012, gt=0, lt=1)  # modal
+    shroud_mass_deviation: float = Field(default=0.01, ge=-0.2, le=0.2)  # fraction of nominal
+    sensor_mass_deviation: float = Field(default=-0.01, ge=-0.2, le=0.2)  # fraction of nominal
+    force_noise: Force = Field(default=0.005, ge=0, le=100.0)  # N rms
+    accel_noise: Acceleration = Field(default=0.02, ge=0, le=1e3)  # m/s^2 rms
+    adc_noise: Voltage = Field(default=2e-5, ge=0, le=1.0)  # V rms
+    iepe_highpass: Frequency = Field(default=0.5, ge=0, le=100.0)  # Hz, 0 = DC
+    input_to_output_delay: Time = Field(default=8e-4, ge=0, le=1.0)  # s
 
     def to_params(self):
         """As :class:`rigtools.drivers.simulated.TestArticle`."""
@@ -513,7 +544,7 @@ class RigConfig(_Section):
         kinds["drive"] = "voltage"
         for name, limit in limits.items():
             if kinds.get(name) not in _KIND_DIMENSION or not isinstance(limit, dict):
-                continue        # unknown channels and kinds are reported by the validation
+                continue  # unknown channels and kinds are reported by the validation
             for key in ("warning", "abort"):
                 if isinstance(limit.get(key), str):
                     try:
@@ -539,13 +570,14 @@ class RigConfig(_Section):
             if c.damping > MAX_CONTACT_DAMPING_RATIO * critical:
                 raise ValueError(
                     f"contact.damping = {c.damping:g} N*s/m: at most {MAX_CONTACT_DAMPING_RATIO:g} x the "
-                    f"critical damping 2*sqrt(stiffness*shroud.mass) = {critical:.4g} N*s/m")
+                    f"critical damping 2*sqrt(stiffness*shroud.mass) = {critical:.4g} N*s/m"
+                )
         return self
 
     @model_validator(mode="after")
     def _safety_names_known_channels(self) -> "RigConfig":
         known = set(self.daq.channels) | {"drive"}
-        if "limits" not in self.safety.model_fields_set:   # defaults follow the channels given
+        if "limits" not in self.safety.model_fields_set:  # defaults follow the channels given
             limits = {k: v for k, v in self.safety.limits.items() if k in known}
             object.__setattr__(self.safety, "limits", limits)
         for name in self.safety.limits:
@@ -553,11 +585,14 @@ class RigConfig(_Section):
                 raise ValueError(f"safety.limits.{name}: no such channel (known: {', '.join(sorted(known))})")
         drive = self.safety.limits.get("drive")
         if drive is not None and self.safety.max_drive > drive.abort:
-            raise ValueError(f"safety.max_drive = {self.safety.max_drive} V is above the drive abort "
-                             f"limit {drive.abort} V")
+            raise ValueError(
+                f"safety.max_drive = {self.safety.max_drive} V is above the drive abort limit {drive.abort} V"
+            )
         if self.safety.max_drive > self.daq.drive_range:
-            raise ValueError(f"safety.max_drive = {self.safety.max_drive} V is beyond daq.drive_range "
-                             f"{self.daq.drive_range} V")
+            raise ValueError(
+                f"safety.max_drive = {self.safety.max_drive} V is beyond daq.drive_range "
+                f"{self.daq.drive_range} V"
+            )
         return self
 
     def passive_blade_config(self) -> BladeConfig:
@@ -596,10 +631,24 @@ def _raw_value(data: Any, loc: list[str], fallback: Any) -> Any:
 
 
 _SI_UNIT = {
-    "length": "m", "mass": "kg", "time": "s", "frequency": "Hz", "force": "N", "pressure": "Pa",
-    "density": "kg/m^3", "stiffness": "N/m", "rotational_stiffness": "N*m/rad", "damping": "N*s/m",
-    "inertia": "kg*m^2", "voltage": "V", "voltage_amplitude": "V peak", "current": "A",
-    "resistance": "ohm", "inductance": "H", "force_factor": "N/A", "acceleration": "m/s^2",
+    "length": "m",
+    "mass": "kg",
+    "time": "s",
+    "frequency": "Hz",
+    "force": "N",
+    "pressure": "Pa",
+    "density": "kg/m^3",
+    "stiffness": "N/m",
+    "rotational_stiffness": "N*m/rad",
+    "damping": "N*s/m",
+    "inertia": "kg*m^2",
+    "voltage": "V",
+    "voltage_amplitude": "V peak",
+    "current": "A",
+    "resistance": "ohm",
+    "inductance": "H",
+    "force_factor": "N/A",
+    "acceleration": "m/s^2",
 }
 _RANGE_ERRORS = ("greater_than", "greater_than_equal", "less_than", "less_than_equal")
 
@@ -636,8 +685,12 @@ def _allowed_range(loc: list[str]) -> tuple[str, str, str | None] | None:
     low_open = high_open = False
     unit, dimension = "", None
     for meta in _field_metadata(loc):
-        for attr, is_low, is_open in (("gt", True, True), ("ge", True, False), ("lt", False, True),
-                                      ("le", False, False)):
+        for attr, is_low, is_open in (
+            ("gt", True, True),
+            ("ge", True, False),
+            ("lt", False, True),
+            ("le", False, False),
+        ):
             bound = getattr(meta, attr, None)
             if isinstance(bound, (int, float)):
                 if is_low:
@@ -651,7 +704,11 @@ def _allowed_range(loc: list[str]) -> tuple[str, str, str | None] | None:
         return None
     left = "-inf" if low is None else f"{low:g}"
     right = "inf" if high is None else f"{high:g}"
-    return f"{'(' if low_open or low is None else '['}{left}, {right}{')' if high_open or high is None else ']'}", unit, dimension
+    return (
+        f"{'(' if low_open or low is None else '['}{left}, {right}{')' if high_open or high is None else ']'}",
+        unit,
+        dimension,
+    )
 
 
 def _describe(error: dict[str, Any], data: dict[str, Any]) -> str:
@@ -668,19 +725,22 @@ def _describe(error: dict[str, Any], data: dict[str, Any]) -> str:
         if found:
             allowed, unit, dimension = found
             si = error.get("input")
-            if isinstance(si, str) and dimension:     # an optional field reports the raw text
+            if isinstance(si, str) and dimension:  # an optional field reports the raw text
                 si = parse_quantity(si, dimension)
             if isinstance(value, str) and isinstance(si, (int, float)):
                 note = f" (= {si:g} {unit})".replace(" )", ")")
             elif unit and isinstance(value, (int, float)):
-                note = f" (a plain number is in {unit}; write units, e.g. '0.5 mm')" if unit == "m" \
+                note = (
+                    f" (a plain number is in {unit}; write units, e.g. '0.5 mm')"
+                    if unit == "m"
                     else f" (a plain number is in {unit})"
+                )
             else:
                 note = ""
             message = f"outside the allowed range {allowed} {unit}".rstrip() + note
     if not loc:
         return message
-    if isinstance(value, dict):     # a check of a whole table: its message names the keys
+    if isinstance(value, dict):  # a check of a whole table: its message names the keys
         return f"{key}: {message}"
     return f"{key} = {value!r}: {message}"
 
@@ -746,7 +806,9 @@ def read_rig_text(path: str | Path) -> str:
     if len(raw) > MAX_RIG_FILE_BYTES:
         raise ConfigError(f"{where} is larger than {MAX_RIG_FILE_BYTES // 1000} kB: not a rig file")
     if not raw.strip():
-        raise ConfigError(f"{where} is empty; start from a copy of the default rig, rigtools/data/default_rig.toml")
+        raise ConfigError(
+            f"{where} is empty; start from a copy of the default rig, rigtools/data/default_rig.toml"
+        )
     if raw.startswith(_HDF5_SIGNATURE) or _HDF5_SIGNATURE in raw[:2056]:
         raise ConfigError(f"{where} is an HDF5 file (a recording?), not a TOML rig file")
     if raw.startswith((b"\xff\xfe", b"\xfe\xff")):
@@ -758,9 +820,10 @@ def read_rig_text(path: str | Path) -> str:
     try:
         text = raw.decode("utf-8")
     except UnicodeDecodeError as exc:
-        line = raw[:exc.start].count(b"\n") + 1
-        raise ConfigError(f"{where} is not UTF-8 text (byte 0x{raw[exc.start]:02x} on line {line}); "
-                          "save it as UTF-8") from None
+        line = raw[: exc.start].count(b"\n") + 1
+        raise ConfigError(
+            f"{where} is not UTF-8 text (byte 0x{raw[exc.start]:02x} on line {line}); save it as UTF-8"
+        ) from None
     try:
         tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:

@@ -6,14 +6,14 @@ import signal as _signal
 
 #: Exit statuses of ``rig`` (also in ``rig --help``).
 EXIT_OK = 0
-EXIT_PROBLEMS = 1          # a check found problems
-EXIT_USAGE = 2             # bad input: arguments, rig file, recording file
-EXIT_HARDWARE = 3          # hardware or its driver not available
-EXIT_FAULT = 4             # a hardware fault, safety abort or write error stopped the run
-EXIT_SIGHUP = 128 + 1      # 129: terminal closed (SIGHUP)
-EXIT_SIGINT = 128 + 2      # 130: Ctrl-C (SIGINT)
-EXIT_SIGPIPE = 128 + 13    # 141: the reader of stdout went away (`rig ... | head`)
-EXIT_SIGTERM = 128 + 15    # 143: terminated (SIGTERM: kill, timeout, a job scheduler)
+EXIT_PROBLEMS = 1  # a check found problems
+EXIT_USAGE = 2  # bad input: arguments, rig file, recording file
+EXIT_HARDWARE = 3  # hardware or its driver not available
+EXIT_FAULT = 4  # a hardware fault, safety abort or write error stopped the run
+EXIT_SIGHUP = 128 + 1  # 129: terminal closed (SIGHUP)
+EXIT_SIGINT = 128 + 2  # 130: Ctrl-C (SIGINT)
+EXIT_SIGPIPE = 128 + 13  # 141: the reader of stdout went away (`rig ... | head`)
+EXIT_SIGTERM = 128 + 15  # 143: terminated (SIGTERM: kill, timeout, a job scheduler)
 
 
 class UserError(Exception):

@@ -28,7 +28,7 @@ matplotlib.use("Agg")
 
 DPI = 100
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
-SOFTWARE_PREFIXES = ("rigtools", "Matplotlib")   # whose PNGs a new plot may replace
+SOFTWARE_PREFIXES = ("rigtools", "Matplotlib")  # whose PNGs a new plot may replace
 
 
 def png_software(path: str | os.PathLike) -> str | None:
@@ -42,10 +42,10 @@ def png_software(path: str | os.PathLike) -> str | None:
         return None
     pos = len(PNG_SIGNATURE)
     while pos + 8 <= len(head):
-        length, kind = struct.unpack(">I4s", head[pos:pos + 8])
+        length, kind = struct.unpack(">I4s", head[pos : pos + 8])
         if kind == b"IDAT":
             break
-        data = head[pos + 8:pos + 8 + length]
+        data = head[pos + 8 : pos + 8 + length]
         if kind == b"tEXt" and b"\0" in data:
             key, _, value = data.partition(b"\0")
             if key == b"Software":
@@ -67,8 +67,12 @@ def _same(a: Path, b: Path) -> bool:
         return False
 
 
-def derived_path(source: str | os.PathLike, ext: str = ".png", kind: str = "plot",
-                 replaceable: Callable[[Path], bool] = is_derived_plot) -> Path:
+def derived_path(
+    source: str | os.PathLike,
+    ext: str = ".png",
+    kind: str = "plot",
+    replaceable: Callable[[Path], bool] = is_derived_plot,
+) -> Path:
     """Name of the ``kind`` file derived from ``source`` (see the module's naming rule).
 
     Parameters
@@ -107,9 +111,13 @@ def plot_path(out: str | os.PathLike) -> Path:
     return derived_path(out, ".png", "plot")
 
 
-def write_derived(path: str | os.PathLike, write: Callable[[Path], None], *,
-                  source: str | os.PathLike | None = None,
-                  replaceable: Callable[[Path], bool] = is_derived_plot) -> Path:
+def write_derived(
+    path: str | os.PathLike,
+    write: Callable[[Path], None],
+    *,
+    source: str | os.PathLike | None = None,
+    replaceable: Callable[[Path], bool] = is_derived_plot,
+) -> Path:
     """Write a derived file safely: ``write(tmp)`` fills a temporary file in the same folder,
     which then atomically takes the name ``path``.
 
@@ -120,20 +128,21 @@ def write_derived(path: str | os.PathLike, write: Callable[[Path], None], *,
         not made by rigtools): nothing is written and the existing file is untouched.
     """
     path = Path(path)
-    if source is not None and (path.name.lower() == Path(source).name.lower()
-                               and path.parent.resolve() == Path(source).parent.resolve()
-                               or _same(path, Path(source))):
+    if source is not None and (
+        path.name.lower() == Path(source).name.lower()
+        and path.parent.resolve() == Path(source).parent.resolve()
+        or _same(path, Path(source))
+    ):
         raise UserError(f"{path} is the file it is derived from; not overwritten")
     if path.exists() or path.is_symlink():
         if not (path.is_file() and not path.is_symlink() and replaceable(path)):
-            raise UserError(f"{path} exists and was not made by rigtools as a derived file; "
-                            "not overwritten")
+            raise UserError(f"{path} exists and was not made by rigtools as a derived file; not overwritten")
     fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     os.close(fd)
     tmp = Path(tmp_name)
     umask = os.umask(0)
     os.umask(umask)
-    os.chmod(tmp, 0o666 & ~umask)        # mkstemp makes it private; a plot is an ordinary file
+    os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes it private; a plot is an ordinary file
     try:
         write(tmp)
         os.replace(tmp, path)
@@ -143,13 +152,16 @@ def write_derived(path: str | os.PathLike, write: Callable[[Path], None], *,
     return path
 
 
-def save_figure(fig, path: str | os.PathLike, dpi: int = DPI,
-                source: str | os.PathLike | None = None) -> Path:
+def save_figure(
+    fig, path: str | os.PathLike, dpi: int = DPI, source: str | os.PathLike | None = None
+) -> Path:
     """Write ``fig`` (a :class:`matplotlib.figure.Figure`) as PNG to ``path`` through
     :func:`write_derived` (marked ``Software: rigtools ...``); returns ``path``."""
     import rigtools
 
     software = f"rigtools {rigtools.__version__} (matplotlib {matplotlib.__version__})"
-    return write_derived(path, lambda tmp: fig.savefig(tmp, dpi=dpi, format="png",
-                                                        metadata={"Software": software}),
-                         source=source)
+    return write_derived(
+        path,
+        lambda tmp: fig.savefig(tmp, dpi=dpi, format="png", metadata={"Software": software}),
+        source=source,
+    )

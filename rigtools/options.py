@@ -29,8 +29,15 @@ def quantity(text: str, dimension: str, option: str) -> float:
         raise UserError(f"{option} = {text!r}: {exc}") from None
 
 
-def positive_finite(text: str, dimension: str, option: str, *, allow_zero: bool = False,
-                    maximum: float | None = None, unit: str = "") -> float:
+def positive_finite(
+    text: str,
+    dimension: str,
+    option: str,
+    *,
+    allow_zero: bool = False,
+    maximum: float | None = None,
+    unit: str = "",
+) -> float:
     """A quantity that must be > 0 (``>= 0`` with ``allow_zero``), finite and at most ``maximum``.
 
     Parameters
@@ -62,8 +69,9 @@ def positive_finite(text: str, dimension: str, option: str, *, allow_zero: bool 
     return value
 
 
-def duration(text: str, option: str = "--duration", *, maximum: float | None = None,
-             allow_zero: bool = False) -> float:
+def duration(
+    text: str, option: str = "--duration", *, maximum: float | None = None, allow_zero: bool = False
+) -> float:
     """A time in seconds (``"2 s"``, ``"500 ms"``, ``"1 min"``; a plain number is seconds), > 0
     (or >= 0 with ``allow_zero``) and at most ``maximum`` s."""
     return positive_finite(text, "time", option, allow_zero=allow_zero, maximum=maximum, unit="s")
@@ -121,8 +129,14 @@ def seed(value: str | int | None, option: str = "--seed") -> int | None:
     return number
 
 
-def output_path(text: str, overwrite: bool = False, option: str = "--out", *,
-                suffixes: Iterable[str] | None = None, inputs: Iterable[str | Path] = ()) -> Path:
+def output_path(
+    text: str,
+    overwrite: bool = False,
+    option: str = "--out",
+    *,
+    suffixes: Iterable[str] | None = None,
+    inputs: Iterable[str | Path] = (),
+) -> Path:
     """Check an output file before any work is done.
 
     Parameters
@@ -170,10 +184,13 @@ def output_path(text: str, overwrite: bool = False, option: str = "--out", *,
         raise UserError(f"{where}: folder {str(folder)!r} is not writable")
     for source in inputs:
         source = Path(source)
-        if out.exists() and source.exists() and os.path.samefile(out, source) \
-                or out.resolve() == source.resolve():
-            raise UserError(f"{where} is an input of this command ({str(source)!r}); "
-                            "give another file name")
+        if (
+            out.exists()
+            and source.exists()
+            and os.path.samefile(out, source)
+            or out.resolve() == source.resolve()
+        ):
+            raise UserError(f"{where} is an input of this command ({str(source)!r}); give another file name")
     if out.exists():
         if not overwrite:
             raise UserError(f"{where} exists; give --overwrite to replace it")
@@ -204,8 +221,9 @@ def total_memory() -> int | None:
     return pages * size if pages > 0 and size > 0 else None
 
 
-def memory_estimate_check(n_samples_total: float, n_channels: int, what: str, *,
-                          bytes_per_sample: int = 8, limit: int | None = None) -> float:
+def memory_estimate_check(
+    n_samples_total: float, n_channels: int, what: str, *, bytes_per_sample: int = 8, limit: int | None = None
+) -> float:
     """Refuse work whose samples would not fit in this machine's memory.
 
     Parameters
@@ -238,6 +256,8 @@ def memory_estimate_check(n_samples_total: float, n_channels: int, what: str, *,
         raise UserError(f"{what}: too large to hold in memory")
     limit = total_memory() if limit is None else limit
     if limit is not None and estimate > limit:
-        raise UserError(f"{what} would need about {estimate / 1e9:.3g} GB of memory, more than this "
-                        f"machine's {limit / 1e9:.3g} GB; shorten it")
+        raise UserError(
+            f"{what} would need about {estimate / 1e9:.3g} GB of memory, more than this "
+            f"machine's {limit / 1e9:.3g} GB; shorten it"
+        )
     return estimate

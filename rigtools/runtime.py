@@ -31,7 +31,8 @@ from rigtools.errors import Interrupted
 
 #: Signals handled like Ctrl-C (those this platform has).
 STOP_SIGNALS: tuple[int, ...] = tuple(
-    getattr(signal, name) for name in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, name))
+    getattr(signal, name) for name in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, name)
+)
 
 #: A repeated stop signal within this many seconds of the first is ignored, so the drive's ramp
 #: to zero and the recording's close are not cut short by an impatient second Ctrl-C.
@@ -259,16 +260,20 @@ def configure_process(blas_threads: int | None = 1, *, numba_cache: bool = True)
 def _dispatchers(module: Any) -> list[Any]:
     from numba.core.dispatcher import Dispatcher
 
-    return [obj for obj in vars(module).values()
-            if isinstance(obj, Dispatcher) and getattr(obj, "_cache", None) is not None
-            and obj.__module__ == module.__name__]
+    return [
+        obj
+        for obj in vars(module).values()
+        if isinstance(obj, Dispatcher)
+        and getattr(obj, "_cache", None) is not None
+        and obj.__module__ == module.__name__
+    ]
 
 
 def _is_cached(dispatcher: Any) -> bool:
     """True if numba's cache index of ``dispatcher`` is fresh and has an entry."""
     try:
         return bool(dispatcher._cache._cache_file._load_index())
-    except Exception:       # numba internals changed: say "not cached" (only costs a message)
+    except Exception:  # numba internals changed: say "not cached" (only costs a message)
         return False
 
 
@@ -303,11 +308,14 @@ def _warm_up_vibro_impact() -> None:
     from rigtools.sim.vibro_impact import VibroImpactStepper
 
     omega = 2 * np.pi * np.array([50.0, 55.0])
-    system = ReducedSystem(omega=omega, zeta=np.array([0.01, 0.01]),
-                           shapes=np.array([[1.0, 0.0], [0.0, 1.0], [0.5, 0.0]]),
-                           blade=np.array([0, 1]),
-                           contact=ContactParams(gap=1e-4, stiffness=1e6, damping=1.0),
-                           damping=DampingParams())
+    system = ReducedSystem(
+        omega=omega,
+        zeta=np.array([0.01, 0.01]),
+        shapes=np.array([[1.0, 0.0], [0.0, 1.0], [0.5, 0.0]]),
+        blade=np.array([0, 1]),
+        contact=ContactParams(gap=1e-4, stiffness=1e6, damping=1.0),
+        damping=DampingParams(),
+    )
     u = 10.0 * np.sin(2 * np.pi * 50.0 * 1e-4 * np.arange(1, 201))
     VibroImpactStepper(system, 1e-4).step(u)
 
@@ -321,9 +329,19 @@ def _warm_up_simulated_rig() -> None:
 
     n, m = 2, len(simulated.SIGNALS)
     c = np.full(n, 0.5 + 0.1j)
-    simulated._propagate(c.copy(), c.copy(), c.copy(), c.copy(), c.copy(),
-                         np.ones((m, n), dtype=complex), np.zeros(m), np.zeros(n, dtype=complex),
-                         np.zeros(1), np.ones(8), np.empty((m, 8)))
+    simulated._propagate(
+        c.copy(),
+        c.copy(),
+        c.copy(),
+        c.copy(),
+        c.copy(),
+        np.ones((m, n), dtype=complex),
+        np.zeros(m),
+        np.zeros(n, dtype=complex),
+        np.zeros(1),
+        np.ones(8),
+        np.empty((m, 8)),
+    )
 
 
 #: Module -> (what compiles its kernels, first-run compile time in s measured on the 2-core CI
@@ -334,8 +352,9 @@ KERNELS: dict[str, tuple[Callable[[], None], float]] = {
 }
 
 
-def ensure_kernels_compiled(console: Any = None,
-                            modules: tuple[str, ...] = ("rigtools.sim.vibro_impact",)) -> bool:
+def ensure_kernels_compiled(
+    console: Any = None, modules: tuple[str, ...] = ("rigtools.sim.vibro_impact",)
+) -> bool:
     """Compile the numba kernels of ``modules`` now if numba has not cached them, saying so.
 
     Call it before a progress bar starts on work that runs compiled kernels, so the first run

@@ -52,14 +52,14 @@ HARMONIC_SOURCES: dict[str, tuple[str, int]] = {
 }
 
 # Cost model (measured on a 2-core machine; estimates are stated as "about").
-KERNEL_MODE_STEPS_PER_S = 7.0e7        # time steps x modes per second of the vibro-impact kernel
-RECORD_BYTES_PER_SAMPLE = 600          # peak memory per recorded time step (outputs, copies, FFT, plot)
+KERNEL_MODE_STEPS_PER_S = 7.0e7  # time steps x modes per second of the vibro-impact kernel
+RECORD_BYTES_PER_SAMPLE = 600  # peak memory per recorded time step (outputs, copies, FFT, plot)
 SETTLE_BYTES_PER_STEP = 5 * 2 * 14 * 8  # settling keeps 5 periods of 14 outputs, twice
-FE_BUILD_SECONDS_2000 = 230.0          # FE model of 2 x 2000 elements (dense eigen-solves) ...
-FE_BUILD_EXPONENT = 2.25               # ... scaling as elements**2.25 (800 elements: ~30 s)
-FE_BUILD_BYTES_PER_DOF2 = 48.0         # dense mode shapes and their copies: ~6 n^2 float64 per blade
+FE_BUILD_SECONDS_2000 = 230.0  # FE model of 2 x 2000 elements (dense eigen-solves) ...
+FE_BUILD_EXPONENT = 2.25  # ... scaling as elements**2.25 (800 elements: ~30 s)
+FE_BUILD_BYTES_PER_DOF2 = 48.0  # dense mode shapes and their copies: ~6 n^2 float64 per blade
 #                                        (1200 elements: 2.36 GB peak RSS measured, 2.49 GB estimated)
-LONG_WORK_SECONDS = 60.0               # announce work expected to take longer than this
+LONG_WORK_SECONDS = 60.0  # announce work expected to take longer than this
 
 
 @dataclass(frozen=True)
@@ -104,21 +104,36 @@ def natural_frequencies(system) -> dict[str, np.ndarray]:
 
     real = np.ones(system.n_modes, bool) if system.pseudo is None else ~np.asarray(system.pseudo, bool)
     f = system.frequencies_hz
-    return {"active": np.sort(f[real & (system.blade == ACTIVE)]),
-            "passive": np.sort(f[real & (system.blade == PASSIVE)])}
+    return {
+        "active": np.sort(f[real & (system.blade == ACTIVE)]),
+        "passive": np.sort(f[real & (system.blade == PASSIVE)]),
+    }
 
 
-def simulate_point(system, fe: float, force: float, settings: RunSettings, initial=None,
-                   progress: Callable[[float, float], None] | None = None):
+def simulate_point(
+    system,
+    fe: float,
+    force: float,
+    settings: RunSettings,
+    initial=None,
+    progress: Callable[[float, float], None] | None = None,
+):
     """One settled run of ``F0 sin(2 pi fe t)`` (:func:`rigtools.sim.vibro_impact.run_harmonic`);
     :class:`rigtools.sim.vibro_impact.SimulationInputError` becomes a one-line :class:`UserError`.
     ``progress(simulated_s, at_most_s)`` is called while settling."""
     from rigtools.sim.vibro_impact import SimulationInputError, run_harmonic
 
     try:
-        run = run_harmonic(system, fe, force, record_periods=settings.record_periods(fe),
-                           steps_per_period=settings.steps_per_period,
-                           max_settle_time=settings.max_settle_time, initial=initial, progress=progress)
+        run = run_harmonic(
+            system,
+            fe,
+            force,
+            record_periods=settings.record_periods(fe),
+            steps_per_period=settings.steps_per_period,
+            max_settle_time=settings.max_settle_time,
+            initial=initial,
+            progress=progress,
+        )
     except SimulationInputError as exc:
         raise UserError(str(exc)) from None
     check_finite(run)
@@ -129,9 +144,11 @@ def check_finite(run) -> None:
     """Refuse a run whose outputs hold NaN or inf, naming the likely parameter."""
     bad = [name for name in MODEL_OUTPUTS.values() if not np.all(np.isfinite(run.outputs[name]))]
     if bad:
-        raise UserError(f"the simulation diverged at fe = {run.fe:g} Hz, F0 = {run.force_amplitude:g} N, "
-                        f"gap = {run.gap * 1e3:g} mm ({bad[0]} is not finite): check the rig file's "
-                        "[contact] damping/stiffness and [damping] values")
+        raise UserError(
+            f"the simulation diverged at fe = {run.fe:g} Hz, F0 = {run.force_amplitude:g} N, "
+            f"gap = {run.gap * 1e3:g} mm ({bad[0]} is not finite): check the rig file's "
+            "[contact] damping/stiffness and [damping] values"
+        )
 
 
 # ------------------------------------------------------------------------------ a run as a point
@@ -141,9 +158,16 @@ def channel_specs(sample_rate: float) -> list:
     """:class:`rigtools.recording.ChannelSpec` of every model channel, vocabulary order."""
     from rigtools.recording import ChannelSpec
 
-    return [ChannelSpec(name=name, units=CHANNELS[name].units, quantity=CHANNELS[name].quantity,
-                        sample_rate=sample_rate, location=CHANNELS[name].location)
-            for name in MODEL_OUTPUTS]
+    return [
+        ChannelSpec(
+            name=name,
+            units=CHANNELS[name].units,
+            quantity=CHANNELS[name].quantity,
+            sample_rate=sample_rate,
+            location=CHANNELS[name].location,
+        )
+        for name in MODEL_OUTPUTS
+    ]
 
 
 def channel_block(run, start: int = 0, stop: int | None = None) -> np.ndarray:
@@ -151,7 +175,7 @@ def channel_block(run, start: int = 0, stop: int | None = None) -> np.ndarray:
     return np.vstack([run.outputs[src][start:stop] for src in MODEL_OUTPUTS.values()])
 
 
-APPEND_SAMPLES = 1 << 20    # samples per appended block: no full copy of a long record
+APPEND_SAMPLES = 1 << 20  # samples per appended block: no full copy of a long record
 
 
 def force_fundamental(run) -> float:
@@ -163,15 +187,26 @@ def force_fundamental(run) -> float:
 
 def point_params(run, model: str) -> dict:
     """Parameters known when the point begins (vocabulary names, SI)."""
-    return {"fe": run.fe, "force_amplitude": run.force_amplitude, "gap": run.gap, "model": model,
-            "steps_per_period": run.steps_per_period, "time_step": run.dt, "settle_time": run.settle_time}
+    return {
+        "fe": run.fe,
+        "force_amplitude": run.force_amplitude,
+        "gap": run.gap,
+        "model": model,
+        "steps_per_period": run.steps_per_period,
+        "time_step": run.dt,
+        "settle_time": run.settle_time,
+    }
 
 
 def end_attrs(run) -> dict:
     """Parameters written when the point ends (vocabulary names, SI)."""
-    return {"settled": bool(run.steady_state), "period_multiple": int(run.period_multiple),
-            "peak_contact_force": run.peak_contact_force, "impacts_per_period": run.impacts_per_period,
-            "force_amplitude_measured": force_fundamental(run)}
+    return {
+        "settled": bool(run.steady_state),
+        "period_multiple": int(run.period_multiple),
+        "peak_contact_force": run.peak_contact_force,
+        "impacts_per_period": run.impacts_per_period,
+        "force_amplitude_measured": force_fundamental(run),
+    }
 
 
 def write_point(rec, run, model: str, **extra) -> None:
@@ -194,25 +229,35 @@ def harmonics_of(run) -> dict[str, list[dict]]:
 
     out = {}
     for name, (src, order) in HARMONIC_SOURCES.items():
-        if src == "contact_force":       # exact from the per-step force (it jumps between samples)
+        if src == "contact_force":  # exact from the per-step force (it jumps between samples)
             c = np.abs(contact_force_harmonics(run, K_MAX))
-            out[name] = [{"k": k, "frequency_hz": k * run.fe, "amplitude": float(c[k - 1])}
-                         for k in range(1, K_MAX + 1)]
+            out[name] = [
+                {"k": k, "frequency_hz": k * run.fe, "amplitude": float(c[k - 1])}
+                for k in range(1, K_MAX + 1)
+            ]
             continue
         fit = harmonic_amplitudes(run.outputs[src], run.sample_rate, run.fe, K_MAX)
         if order:
             fit = derivative_harmonics(fit, order)
-        out[name] = [{"k": r["k"], "frequency_hz": r["frequency_hz"], "amplitude": r["amplitude"]}
-                     for r in fit.to_records()]
+        out[name] = [
+            {"k": r["k"], "frequency_hz": r["frequency_hz"], "amplitude": r["amplitude"]}
+            for r in fit.to_records()
+        ]
     return out
 
 
 def point_summary(run) -> dict:
     """The small result of a run kept after its samples are written (``rig study --json`` point)."""
-    return {"fe": run.fe, "force_amplitude": run.force_amplitude, "gap": run.gap,
-            "force_amplitude_measured": force_fundamental(run), "steady_state": bool(run.steady_state),
-            "peak_contact_force_n": run.peak_contact_force, "impacts_per_period": run.impacts_per_period,
-            "harmonics": harmonics_of(run)}
+    return {
+        "fe": run.fe,
+        "force_amplitude": run.force_amplitude,
+        "gap": run.gap,
+        "force_amplitude_measured": force_fundamental(run),
+        "steady_state": bool(run.steady_state),
+        "peak_contact_force_n": run.peak_contact_force,
+        "impacts_per_period": run.impacts_per_period,
+        "harmonics": harmonics_of(run),
+    }
 
 
 def run_figure(run, system, title: str):
@@ -220,18 +265,28 @@ def run_figure(run, system, title: str):
     from rigtools.analysis.plots import vibro_impact_figure
 
     o = run.outputs
-    return vibro_impact_figure(run.time, o["active_tip_displacement"], o["passive_tip_displacement"],
-                               o["contact_force"], o["active_tip_acceleration"], o["passive_tip_acceleration"],
-                               run.fe, k_max=K_MAX, gap=run.gap, natural_frequencies_hz=natural_frequencies(system),
-                               title=title, force=o["excitation_force"])
+    return vibro_impact_figure(
+        run.time,
+        o["active_tip_displacement"],
+        o["passive_tip_displacement"],
+        o["contact_force"],
+        o["active_tip_acceleration"],
+        o["passive_tip_acceleration"],
+        run.fe,
+        k_max=K_MAX,
+        gap=run.gap,
+        natural_frequencies_hz=natural_frequencies(system),
+        title=title,
+        force=o["excitation_force"],
+    )
 
 
 # ------------------------------------------------------------------------------ studies
 
 
-def iter_study_points(system, plan, settings: RunSettings,
-                      progress: Callable[[float, float], None] | None = None,
-                      runner=None) -> Iterator[tuple[object, object]]:
+def iter_study_points(
+    system, plan, settings: RunSettings, progress: Callable[[float, float], None] | None = None, runner=None
+) -> Iterator[tuple[object, object]]:
     """``(planned point, settled run)`` of a :class:`rigtools.sim.studies.StudyPlan` or ``MapPlan``, in
     point order, through ``runner`` (a :class:`rigtools.study_runner.StudyRunner`; default
     in-process); input errors become :class:`UserError`. ``progress(simulated_s, at_most_s)``
@@ -240,8 +295,11 @@ def iter_study_points(system, plan, settings: RunSettings,
     from rigtools.sim.vibro_impact import SimulationInputError
 
     runner = runner if runner is not None else StudyRunner()
-    options = RunOptions(record_duration=settings.duration, steps_per_period=settings.steps_per_period,
-                         max_settle_time=settings.max_settle_time)
+    options = RunOptions(
+        record_duration=settings.duration,
+        steps_per_period=settings.steps_per_period,
+        max_settle_time=settings.max_settle_time,
+    )
     it = iter(runner.run(system, plan.chains(), options, settle_progress=progress))
     while True:
         try:
@@ -254,11 +312,17 @@ def iter_study_points(system, plan, settings: RunSettings,
         yield point, run
 
 
-def write_study(rec, system, plan, settings: RunSettings, model: str,
-                on_point: Callable[[object, dict], None] | None = None,
-                guard: Callable[[], ContextManager] = nullcontext,
-                progress: Callable[[float, float], None] | None = None,
-                runner=None) -> list[dict]:
+def write_study(
+    rec,
+    system,
+    plan,
+    settings: RunSettings,
+    model: str,
+    on_point: Callable[[object, dict], None] | None = None,
+    guard: Callable[[], ContextManager] = nullcontext,
+    progress: Callable[[float, float], None] | None = None,
+    runner=None,
+) -> list[dict]:
     """Run a study and write each point to ``rec`` as soon as it settles.
 
     Only the per-point summaries (:func:`point_summary` plus ``value`` and ``direction``) are
@@ -348,8 +412,9 @@ def check_memory(needed: int, what: str, hint: str) -> None:
     """Refuse up front (one line with the estimate) work that needs more memory than is available."""
     avail = available_memory()
     if avail is not None and needed > 0.8 * avail:
-        raise UserError(f"{what} needs about {needed / 1e9:.3g} GB of memory, {avail / 1e9:.3g} GB are "
-                        f"available: {hint}")
+        raise UserError(
+            f"{what} needs about {needed / 1e9:.3g} GB of memory, {avail / 1e9:.3g} GB are available: {hint}"
+        )
 
 
 def human_seconds(s: float) -> str:

@@ -29,8 +29,12 @@ from typing import Any, Callable, Iterator, Sequence
 from rigtools.errors import UserError
 from rigtools.sim.studies import MapPlan, PlannedPoint
 
-WORKER_ENV = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1",
-              "NUMBA_NUM_THREADS": "1"}
+WORKER_ENV = {
+    "OPENBLAS_NUM_THREADS": "1",
+    "OMP_NUM_THREADS": "1",
+    "MKL_NUM_THREADS": "1",
+    "NUMBA_NUM_THREADS": "1",
+}
 Progress = Callable[[int, int, str], None]
 
 
@@ -49,24 +53,39 @@ class RunOptions:
     max_settle_time: float = 30.0
 
 
-def run_point(system: Any, point: PlannedPoint, options: RunOptions, previous: Any = None,
-              progress: Callable[[float, float], None] | None = None) -> Any:
+def run_point(
+    system: Any,
+    point: PlannedPoint,
+    options: RunOptions,
+    previous: Any = None,
+    progress: Callable[[float, float], None] | None = None,
+) -> Any:
     """One settled point: the system at the point's gap, from ``previous.final_state`` if given.
 
     The function every executor runs (in-process or on a Dask worker); ``progress(simulated_s,
     at_most_s)`` while it settles (in-process only)."""
     from rigtools.sim.vibro_impact import run_harmonic
 
-    return run_harmonic(system.with_contact(gap=point.gap), point.fe, point.force,
-                        record_periods=max(1, int(round(options.record_duration * point.fe))),
-                        steps_per_period=options.steps_per_period,
-                        max_settle_time=options.max_settle_time,
-                        initial=None if previous is None else previous.final_state,
-                        progress=progress)
+    return run_harmonic(
+        system.with_contact(gap=point.gap),
+        point.fe,
+        point.force,
+        record_periods=max(1, int(round(options.record_duration * point.fe))),
+        steps_per_period=options.steps_per_period,
+        max_settle_time=options.max_settle_time,
+        initial=None if previous is None else previous.final_state,
+        progress=progress,
+    )
 
 
-def map_chains(gaps: Sequence[float], forces: Sequence[float], fes: Sequence[float], *,
-               direction: str = "up", carry_state: bool = True) -> list[list[PlannedPoint]]:
+def map_chains(
+    gaps: Sequence[float],
+    forces: Sequence[float],
+    fes: Sequence[float],
+    *,
+    direction: str = "up",
+    carry_state: bool = True,
+) -> list[list[PlannedPoint]]:
     """The chains of a gap x F0 x fe map (:class:`rigtools.sim.studies.MapPlan`)."""
     return MapPlan(tuple(gaps), tuple(forces), tuple(fes), direction, carry_state).chains()
 
@@ -92,8 +111,9 @@ class StudyRunner:
         Chains in flight at once (default: twice the number of workers, at least 2).
     """
 
-    def __init__(self, workers: int | None = None, scheduler: str | None = None,
-                 window: int | None = None) -> None:
+    def __init__(
+        self, workers: int | None = None, scheduler: str | None = None, window: int | None = None
+    ) -> None:
         if workers is not None and scheduler is not None:
             raise UserError("--workers and --scheduler exclude each other: give one")
         if workers is not None and not 1 <= workers <= 256:
@@ -113,20 +133,26 @@ class StudyRunner:
         from distributed import Client, LocalCluster
 
         # A task whose worker dies fails at once; the runner resubmits it once and reports it.
-        dask.config.set({"distributed.scheduler.allowed-failures": 0,
-                         "distributed.worker.daemon": False})
+        dask.config.set({"distributed.scheduler.allowed-failures": 0, "distributed.worker.daemon": False})
         try:
             if self.scheduler is not None:
                 self._client = Client(self.scheduler, timeout="10s")
             else:
-                self._cluster = LocalCluster(n_workers=self.workers, threads_per_worker=1,
-                                             processes=True, dashboard_address=None,
-                                             env=dict(WORKER_ENV), silence_logs=40)
+                self._cluster = LocalCluster(
+                    n_workers=self.workers,
+                    threads_per_worker=1,
+                    processes=True,
+                    dashboard_address=None,
+                    env=dict(WORKER_ENV),
+                    silence_logs=40,
+                )
                 self._client = Client(self._cluster)
         except (OSError, TimeoutError) as exc:
             self.close()
-            raise StudyRunnerError(f"cannot reach the Dask scheduler {self.scheduler or 'LocalCluster'}: "
-                                   f"{' '.join(str(exc).split())[:200]}") from None
+            raise StudyRunnerError(
+                f"cannot reach the Dask scheduler {self.scheduler or 'LocalCluster'}: "
+                f"{' '.join(str(exc).split())[:200]}"
+            ) from None
         self._client.run(_configure_worker)
         return self
 
@@ -153,9 +179,15 @@ class StudyRunner:
         return self._client
 
     # ------------------------------------------------------------------ running
-    def run(self, system: Any, chains: list[list[PlannedPoint]], options: RunOptions,
-            progress: Progress | None = None, point_fn: Callable = run_point,
-            settle_progress: Callable[[float, float], None] | None = None) -> Iterator[tuple[PlannedPoint, Any]]:
+    def run(
+        self,
+        system: Any,
+        chains: list[list[PlannedPoint]],
+        options: RunOptions,
+        progress: Progress | None = None,
+        point_fn: Callable = run_point,
+        settle_progress: Callable[[float, float], None] | None = None,
+    ) -> Iterator[tuple[PlannedPoint, Any]]:
         """Yield ``(planned point, run)`` in point order as points finish.
 
         ``progress(done, total, text)`` after each point; ``settle_progress(simulated_s,
@@ -181,12 +213,27 @@ class StudyRunner:
             progress(self.report.done, total, f"point {point.index + 1} of {total}")
         yield point, run
 
-    def _submit_chain(self, system_f, chain: list[PlannedPoint], options: RunOptions,
-                      previous: Any, point_fn: Callable, attempt: int, token: str) -> list:
+    def _submit_chain(
+        self,
+        system_f,
+        chain: list[PlannedPoint],
+        options: RunOptions,
+        previous: Any,
+        point_fn: Callable,
+        attempt: int,
+        token: str,
+    ) -> list:
         futures = []
         for point in chain:
-            fut = self._client.submit(point_fn, system_f, point, options, previous,
-                                      key=f"study-{token}-point-{point.index}-try{attempt}", pure=False)
+            fut = self._client.submit(
+                point_fn,
+                system_f,
+                point,
+                options,
+                previous,
+                key=f"study-{token}-point-{point.index}-try{attempt}",
+                pure=False,
+            )
             futures.append(fut)
             previous = fut
         return futures
@@ -196,7 +243,7 @@ class StudyRunner:
         from distributed.scheduler import KilledWorker
 
         client = self._client
-        token = uuid.uuid4().hex[:12]          # keys unique to this run
+        token = uuid.uuid4().hex[:12]  # keys unique to this run
         system_f = client.scatter(system, broadcast=True, hash=False)
         window = self.window or max(2, 2 * self.n_workers)
         pending = deque(chains)
@@ -205,7 +252,9 @@ class StudyRunner:
         while pending or in_flight:
             while pending and len(in_flight) < window:
                 chain = pending.popleft()
-                in_flight.append((chain, self._submit_chain(system_f, chain, options, None, point_fn, 0, token)))
+                in_flight.append(
+                    (chain, self._submit_chain(system_f, chain, options, None, point_fn, 0, token))
+                )
             chain, futures = in_flight.popleft()
             i, last = 0, None
             while i < len(chain):
@@ -214,8 +263,10 @@ class StudyRunner:
                 except (KilledWorker, CancelledError, OSError) as exc:
                     point = chain[i]
                     if point.index in tried:
-                        raise StudyRunnerError(f"point {point.index + 1} of {total} was lost twice with its "
-                                               f"worker ({type(exc).__name__}); earlier points are kept") from None
+                        raise StudyRunnerError(
+                            f"point {point.index + 1} of {total} was lost twice with its "
+                            f"worker ({type(exc).__name__}); earlier points are kept"
+                        ) from None
                     tried.add(point.index)
                     self.report.retried.append((point.index, f"worker lost ({type(exc).__name__}); rerun"))
                     for f in futures[i:]:
@@ -223,7 +274,7 @@ class StudyRunner:
                     futures[i:] = self._submit_chain(system_f, chain[i:], options, last, point_fn, 1, token)
                     continue
                 last = run
-                futures[i] = None              # let the scheduler forget it
+                futures[i] = None  # let the scheduler forget it
                 yield from self._done(chain[i], run, total, progress)
                 i += 1
 

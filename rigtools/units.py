@@ -27,26 +27,43 @@ from __future__ import annotations
 import math
 import re
 
-STANDARD_GRAVITY = 9.80665      # m/s^2
+STANDARD_GRAVITY = 9.80665  # m/s^2
 
 # The largest shroud gap accepted anywhere (rig file [contact] gap, every --gap and gap study):
 # ten times what the largest lab blade could close, so "--gap 0.5" (0.5 m, a plain number is SI)
 # is refused instead of silently simulating a rig that never touches. Up to it, a large gap is the
 # way to run the rig linear (no impacts).
-MAX_GAP = 0.05                  # m
+MAX_GAP = 0.05  # m
 
 # SI prefixes, case-sensitive (m milli, M mega; "u" is accepted for micro)
 PREFIXES: dict[str, float] = {
-    "p": 1e-12, "n": 1e-9, "u": 1e-6, "µ": 1e-6, "m": 1e-3, "c": 1e-2,
-    "k": 1e3, "M": 1e6, "G": 1e9, "T": 1e12,
+    "p": 1e-12,
+    "n": 1e-9,
+    "u": 1e-6,
+    "µ": 1e-6,
+    "m": 1e-3,
+    "c": 1e-2,
+    "k": 1e3,
+    "M": 1e6,
+    "G": 1e9,
+    "T": 1e12,
 }
 
 # base symbols that take a prefix: symbol -> (factor to SI, dimension)
 _PREFIXABLE: dict[str, tuple[float, str]] = {
-    "m": (1.0, "length"), "g": (1e-3, "mass"), "s": (1.0, "time"), "Hz": (1.0, "frequency"),
-    "N": (1.0, "force"), "Pa": (1.0, "pressure"), "V": (1.0, "voltage"), "A": (1.0, "current"),
-    "Ω": (1.0, "resistance"), "ohm": (1.0, "resistance"), "H": (1.0, "inductance"),
-    "Vpp": (0.5, "voltage_amplitude"), "Vpk": (1.0, "voltage_amplitude"),
+    "m": (1.0, "length"),
+    "g": (1e-3, "mass"),
+    "s": (1.0, "time"),
+    "Hz": (1.0, "frequency"),
+    "N": (1.0, "force"),
+    "Pa": (1.0, "pressure"),
+    "V": (1.0, "voltage"),
+    "A": (1.0, "current"),
+    "Ω": (1.0, "resistance"),
+    "ohm": (1.0, "resistance"),
+    "H": (1.0, "inductance"),
+    "Vpp": (0.5, "voltage_amplitude"),
+    "Vpk": (1.0, "voltage_amplitude"),
 }
 
 
@@ -64,7 +81,7 @@ def _build_table() -> dict[str, tuple[float, str]]:
 
     def add(text: str, factor: float, dimension: str) -> None:
         if text in table and table[text][1] != dimension:
-            raise AssertionError(f"unit {text!r} defined twice")   # a programming error
+            raise AssertionError(f"unit {text!r} defined twice")  # a programming error
         table[text] = (factor, dimension)
 
     for symbol, (factor, dim) in _PREFIXABLE.items():
@@ -120,13 +137,27 @@ for _text in _UNITS:
 _ACCEPTS = {"voltage_amplitude": ("voltage_amplitude", "voltage")}
 
 _EXAMPLES = {
-    "length": "'0.5 mm'", "mass": "'110 g'", "time": "'2 s', '50 ms'", "frequency": "'60 Hz', '5 kHz'",
-    "force": "'15 N'", "pressure": "'200 GPa'", "density": "'7850 kg/m^3'", "stiffness": "'1e6 N/m'",
-    "rotational_stiffness": "'1.2e4 N*m/rad'", "damping": "'200 N*s/m'", "inertia": "'1e-5 kg*m^2'",
-    "voltage": "'1 V', '500 mV'", "voltage_amplitude": "'1 V' (peak), '2 Vpp'", "current": "'4 mA'",
-    "resistance": "'2.5 ohm'", "inductance": "'0.5 mH'", "force_factor": "'10 N/A'",
-    "acceleration": "'4900 m/s^2', '500 g0'", "hertz_stiffness": "'1e9 N/m^1.5'",
-    "hertz_damping": "'2e8 N*s/m^2.5'", "sensitivity_accel": "'10 mV/g'",
+    "length": "'0.5 mm'",
+    "mass": "'110 g'",
+    "time": "'2 s', '50 ms'",
+    "frequency": "'60 Hz', '5 kHz'",
+    "force": "'15 N'",
+    "pressure": "'200 GPa'",
+    "density": "'7850 kg/m^3'",
+    "stiffness": "'1e6 N/m'",
+    "rotational_stiffness": "'1.2e4 N*m/rad'",
+    "damping": "'200 N*s/m'",
+    "inertia": "'1e-5 kg*m^2'",
+    "voltage": "'1 V', '500 mV'",
+    "voltage_amplitude": "'1 V' (peak), '2 Vpp'",
+    "current": "'4 mA'",
+    "resistance": "'2.5 ohm'",
+    "inductance": "'0.5 mH'",
+    "force_factor": "'10 N/A'",
+    "acceleration": "'4900 m/s^2', '500 g0'",
+    "hertz_stiffness": "'1e9 N/m^1.5'",
+    "hertz_damping": "'2e8 N*s/m^2.5'",
+    "sensitivity_accel": "'10 mV/g'",
     "sensitivity_force": "'11.24 mV/N'",
 }
 
@@ -186,25 +217,29 @@ def parse_quantity(value: float | int | str, dimension: str | None = None) -> fl
     if unit is None:
         return number
     # "μ" (Greek mu) / "µ" (micro sign), "Ω" / "Ω" (ohm sign), "·" / "*": same meaning
-    text = (unit.replace(" ", "").replace("·", "*").replace("μ", "µ").replace("\u2126", "Ω"))
+    text = unit.replace(" ", "").replace("·", "*").replace("μ", "µ").replace("\u2126", "Ω")
     if text not in _UNITS:
         candidates = sorted(_FOLDED.get(text.casefold(), []))
         if dimension is not None:
             fitting = [c for c in candidates if _UNITS[c][1] in _ACCEPTS.get(dimension, (dimension,))]
             candidates = fitting or candidates
         if len(candidates) > 1:
-            raise ValueError(f"unit {unit!r} in {value!r} is ambiguous: units are case-sensitive, write "
-                             + " or ".join(repr(c) for c in candidates))
+            raise ValueError(
+                f"unit {unit!r} in {value!r} is ambiguous: units are case-sensitive, write "
+                + " or ".join(repr(c) for c in candidates)
+            )
         if candidates:
-            raise ValueError(f"unknown unit {unit!r} in {value!r}: units are case-sensitive, "
-                             f"write {candidates[0]!r}")
+            raise ValueError(
+                f"unknown unit {unit!r} in {value!r}: units are case-sensitive, write {candidates[0]!r}"
+            )
         example = f" ({_name(dimension)}, e.g. {_EXAMPLES[dimension]})" if dimension in _EXAMPLES else ""
         raise ValueError(f"unknown unit {unit!r} in {value!r}{example}")
     factor, dim = _UNITS[text]
     if dimension is not None and dim not in _ACCEPTS.get(dimension, (dimension,)):
         if dim == "voltage_amplitude":
-            raise ValueError(f"{value!r} is a peak-to-peak or peak amplitude; give a voltage here, "
-                             "e.g. '1 V'")
+            raise ValueError(
+                f"{value!r} is a peak-to-peak or peak amplitude; give a voltage here, e.g. '1 V'"
+            )
         raise ValueError(f"{value!r} is {_name(dim)}, expected {_name(dimension)}")
     result = number * factor
     if not math.isfinite(result):

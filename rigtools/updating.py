@@ -35,9 +35,16 @@ from rigtools.errors import UserError
 
 FORCE, ACTIVE, PASSIVE = "force", "active_shroud_accel", "passive_shroud_accel"
 DWELL_CHANNELS = (FORCE, ACTIVE, PASSIVE)
-K_HARMONICS = 10        # harmonics fitted and scored (k = 1..10: most of each shroud's energy at 60 Hz)
-BROADBAND_SIGNALS = {"chirp": "periodic", "periodic": "periodic", "burst": "burst", "random": "random",
-                     "tap": "burst", "hammer": "burst", "impact": "burst"}
+K_HARMONICS = 10  # harmonics fitted and scored (k = 1..10: most of each shroud's energy at 60 Hz)
+BROADBAND_SIGNALS = {
+    "chirp": "periodic",
+    "periodic": "periodic",
+    "burst": "burst",
+    "random": "random",
+    "tap": "burst",
+    "hammer": "burst",
+    "impact": "burst",
+}
 
 
 # ------------------------------------------------------------------------- identified modes
@@ -106,8 +113,9 @@ def _open(path: str | Path):
     return open_recording(p)
 
 
-def identify_recording(path: str | Path, *, f_min: float | None = None, f_max: float | None = None,
-                       method: str = "lscf") -> RecordingModes:
+def identify_recording(
+    path: str | Path, *, f_min: float | None = None, f_max: float | None = None, method: str = "lscf"
+) -> RecordingModes:
     """Natural frequencies and damping ratios in every broadband point of a recording.
 
     Parameters
@@ -136,21 +144,32 @@ def identify_recording(path: str | Path, *, f_min: float | None = None, f_max: f
         from rigtools.analyze import analyze_tap_test, is_hit_per_point_tap_test
 
         tap_test = is_hit_per_point_tap_test(procedure, rec.points)
-        if tap_test:                            # one frame per accepted hit, each its own point
+        if tap_test:  # one frame per accepted hit, each its own point
             tap = analyze_tap_test(rec.points, rec.experiment, method=method)
             usable = 1
             for resp, ident in tap.frf.modes.items():
                 modes = sorted(ident.modes, key=lambda m: m.frequency_hz)
-                sets.append(IdentifiedSet(name, tap.index, _blade_of(resp), resp,
-                                          [float(m.frequency_hz) for m in modes],
-                                          [float(m.damping_ratio) for m in modes], list(ident.notes)))
-        for point in ([] if tap_test else rec.complete_points):
+                sets.append(
+                    IdentifiedSet(
+                        name,
+                        tap.index,
+                        _blade_of(resp),
+                        resp,
+                        [float(m.frequency_hz) for m in modes],
+                        [float(m.damping_ratio) for m in modes],
+                        list(ident.notes),
+                    )
+                )
+        for point in [] if tap_test else rec.complete_points:
             prm = point.params
             if not {"frame_samples", "record_start", "record_samples"} <= set(prm):
                 continue
             forces = [n for n, c in point.channels.items() if c.quantity == "force"]
-            responses = [n for n, c in point.channels.items()
-                         if c.quantity == "acceleration" and _blade_of(n) is not None]
+            responses = [
+                n
+                for n, c in point.channels.items()
+                if c.quantity == "acceleration" and _blade_of(n) is not None
+            ]
             if not forces or not responses or point.sample_rate is None:
                 continue
             force = FORCE if FORCE in forces else forces[0]
@@ -171,23 +190,42 @@ def identify_recording(path: str | Path, *, f_min: float | None = None, f_max: f
 
             def blocks(point=point, names=names, start=start, n=n, frame=frame):
                 for i in range(start, start + n, frame):
-                    yield {c: point.channels[c][i:i + frame] for c in names}
+                    yield {c: point.channels[c][i : i + frame] for c in names}
 
             usable += 1
-            result = analyze_frf_test(blocks(), rate, excitation=excitation, segment_samples=frame,
-                                      responses=responses, force=force, f_min=lo, f_max=hi, method=method)
+            result = analyze_frf_test(
+                blocks(),
+                rate,
+                excitation=excitation,
+                segment_samples=frame,
+                responses=responses,
+                force=force,
+                f_min=lo,
+                f_max=hi,
+                method=method,
+            )
             for resp in responses:
                 ident = result.modes[resp]
                 modes = sorted(ident.modes, key=lambda m: m.frequency_hz)
-                sets.append(IdentifiedSet(name, point.index, _blade_of(resp), resp,
-                                          [float(m.frequency_hz) for m in modes],
-                                          [float(m.damping_ratio) for m in modes], list(ident.notes)))
+                sets.append(
+                    IdentifiedSet(
+                        name,
+                        point.index,
+                        _blade_of(resp),
+                        resp,
+                        [float(m.frequency_hz) for m in modes],
+                        [float(m.damping_ratio) for m in modes],
+                        list(ident.notes),
+                    )
+                )
     if usable == 0:
         what = f" (a {procedure} recording)" if procedure else ""
         if status != "complete":
             what = f" ({procedure + ', ' if procedure else ''}status {status})"
-        raise UserError(f"{name}{what} holds no complete broadband test (FRF or tap test) to identify modes "
-                        "from; record one with 'rig acquire frf'")
+        raise UserError(
+            f"{name}{what} holds no complete broadband test (FRF or tap test) to identify modes "
+            "from; record one with 'rig acquire frf'"
+        )
     out = RecordingModes(str(path), procedure, sets, band)
     if out.n_modes == 0:
         why = "; ".join(dict.fromkeys(n for s in sets for n in s.notes)) or "no stable poles"
@@ -207,9 +245,15 @@ class PairedMode:
     sources: list[str]
 
 
-def mode_targets(params, recordings: Sequence[RecordingModes], *, max_modes: int = 3,
-                 frequency_sigma: float = 1e-3, damping_sigma: float = 0.1,
-                 damping: bool = True) -> tuple[list, list[PairedMode], list[str]]:
+def mode_targets(
+    params,
+    recordings: Sequence[RecordingModes],
+    *,
+    max_modes: int = 3,
+    frequency_sigma: float = 1e-3,
+    damping_sigma: float = 0.1,
+    damping: bool = True,
+) -> tuple[list, list[PairedMode], list[str]]:
     """Pair identified modes with the model's flexural modes of each blade.
 
     Each identified set is paired on its own (:func:`rigtools.sim.updating.pair_modes`); a (blade, order)
@@ -234,14 +278,17 @@ def mode_targets(params, recordings: Sequence[RecordingModes], *, max_modes: int
             for t, fm in zip(pairing.targets, pairing.model_hz):
                 if t.order > max_modes:
                     continue
-                seen.setdefault((t.blade, t.order), []).append((t.frequency_hz, t.damping_ratio,
-                                                                f"{s.recording}:{s.response}"))
+                seen.setdefault((t.blade, t.order), []).append(
+                    (t.frequency_hz, t.damping_ratio, f"{s.recording}:{s.response}")
+                )
                 model_hz[(t.blade, t.order)] = fm
             for f in pairing.unpaired:
-                notes.append(f"{s.recording} {s.response}: {f:.2f} Hz matches no {s.blade} flexural mode "
-                             "(within 15 %): left out")
+                notes.append(
+                    f"{s.recording} {s.response}: {f:.2f} Hz matches no {s.blade} flexural mode "
+                    "(within 15 %): left out"
+                )
     targets, paired = [], []
-    for (blade, order) in sorted(seen):
+    for blade, order in sorted(seen):
         vals = seen[(blade, order)]
         f = float(np.mean([v[0] for v in vals]))
         zs = [v[1] for v in vals if v[1] is not None]
@@ -250,9 +297,14 @@ def mode_targets(params, recordings: Sequence[RecordingModes], *, max_modes: int
         paired.append(PairedMode(blade, order, f, z, model_hz[(blade, order)], [v[2] for v in vals]))
     for blade in ("active", "passive"):
         if not any(p.blade == blade for p in paired):
-            notes.append(f"no {blade}-blade modes in the recordings: "
-                         + ("the fit sees the active blade only (add a tap test of the passive blade)"
-                            if blade == "passive" else "add an FRF test of the active blade"))
+            notes.append(
+                f"no {blade}-blade modes in the recordings: "
+                + (
+                    "the fit sees the active blade only (add a tap test of the passive blade)"
+                    if blade == "passive"
+                    else "add an FRF test of the active blade"
+                )
+            )
     return targets, paired, notes
 
 
@@ -282,8 +334,10 @@ def fit_linear(params, targets, names: Sequence[str], **kwargs):
     names = list(names)
     start = dict(kwargs.pop("start", None) or {})
     bounds = dict(kwargs.pop("bounds", None) or {})
-    roots = {"root.rotational_stiffness": (KR_MAX, CLAMPED_START_ROTATIONAL),
-             "root.translational_stiffness": (KT_MAX, CLAMPED_START_TRANSLATIONAL)}
+    roots = {
+        "root.rotational_stiffness": (KR_MAX, CLAMPED_START_ROTATIONAL),
+        "root.translational_stiffness": (KT_MAX, CLAMPED_START_TRANSLATIONAL),
+    }
     if any(n in roots for n in names):
         if params.root.kind != "springs":
             params = replace(params, root=RootParams("springs", KR_MAX, KT_MAX))
@@ -320,9 +374,9 @@ class DwellData:
 
     name: str
     fe: float
-    force_amplitude: float   # measured fundamental of the force, N (the model is driven at it)
+    force_amplitude: float  # measured fundamental of the force, N (the model is driven at it)
     gap: float
-    analysis: object         # rigtools.analysis.point.DwellAnalysis of the settled window
+    analysis: object  # rigtools.analysis.point.DwellAnalysis of the settled window
 
     def amplitudes(self, channel: str, k_max: int = K_HARMONICS) -> np.ndarray:
         return np.asarray(self.analysis.harmonics[channel].amplitude[:k_max], dtype=float)
@@ -353,13 +407,14 @@ def read_dwell(path: str | Path, *, k_max: int = 30) -> list[DwellData]:
             rate = float(point.sample_rate)
             start = int(round(float(prm["record_start"]) * rate))
             n = int(prm["record_samples"])
-            chans = {c: point.channels[c][start:start + n] for c in DWELL_CHANNELS if c in point.channels}
+            chans = {c: point.channels[c][start : start + n] for c in DWELL_CHANNELS if c in point.channels}
             ana = analyze_dwell(chans, rate, float(prm["fe"]), k_max=k_max)
             f0 = float(prm.get("force_amplitude_measured") or ana.force_amplitude)
             out.append(DwellData(f"{name}:{point.index}", float(prm["fe"]), f0, float(prm["gap"]), ana))
     if not out:
-        raise UserError(f"{name} holds no settled force-controlled dwell point (record one with "
-                        "'rig acquire dwell')")
+        raise UserError(
+            f"{name} holds no settled force-controlled dwell point (record one with 'rig acquire dwell')"
+        )
     return out
 
 
@@ -378,11 +433,15 @@ def model_dwell(params, dwell: DwellData, *, system=None, duration: float = 0.5)
     system = replace(system, contact=params.contact).with_contact(gap=dwell.gap)
     run = simulate_point(system, dwell.fe, dwell.force_amplitude, RunSettings(duration=duration))
     k = 30
-    fits = {FORCE: harmonic_amplitudes(run.outputs["excitation_force"], run.sample_rate, run.fe, k),
-            ACTIVE: derivative_harmonics(harmonic_amplitudes(run.outputs["active_tip_velocity"],
-                                                             run.sample_rate, run.fe, k), 1),
-            PASSIVE: derivative_harmonics(harmonic_amplitudes(run.outputs["passive_tip_velocity"],
-                                                              run.sample_rate, run.fe, k), 1)}
+    fits = {
+        FORCE: harmonic_amplitudes(run.outputs["excitation_force"], run.sample_rate, run.fe, k),
+        ACTIVE: derivative_harmonics(
+            harmonic_amplitudes(run.outputs["active_tip_velocity"], run.sample_rate, run.fe, k), 1
+        ),
+        PASSIVE: derivative_harmonics(
+            harmonic_amplitudes(run.outputs["passive_tip_velocity"], run.sample_rate, run.fe, k), 1
+        ),
+    }
     return DwellAnalysis(run.fe, run.sample_rate, fits, force_amplitude=fits[FORCE].at(1))
 
 
@@ -394,20 +453,33 @@ def agreement(dwell: DwellData, model, *, k_max: int = K_HARMONICS):
     return point_agreement(dwell.analysis, model, channels=list(DWELL_CHANNELS), k_max=k_max)
 
 
-def harmonic_targets(dwells: Sequence[DwellData], *, k_max: int = K_HARMONICS, sigma: float = 0.05,
-                     floor: float = 0.01) -> list:
+def harmonic_targets(
+    dwells: Sequence[DwellData], *, k_max: int = K_HARMONICS, sigma: float = 0.05, floor: float = 0.01
+) -> list:
     """:class:`rigtools.sim.contact_fit.HarmonicTarget` of each dwell (both shroud accelerations)."""
     from rigtools.sim.contact_fit import HarmonicTarget
 
-    return [HarmonicTarget(d.fe, d.force_amplitude, d.gap,
-                           {c: d.amplitudes(c, k_max) for c in (ACTIVE, PASSIVE) if c in d.analysis.harmonics},
-                           sigma=sigma, floor=floor)
-            for d in dwells]
+    return [
+        HarmonicTarget(
+            d.fe,
+            d.force_amplitude,
+            d.gap,
+            {c: d.amplitudes(c, k_max) for c in (ACTIVE, PASSIVE) if c in d.analysis.harmonics},
+            sigma=sigma,
+            floor=floor,
+        )
+        for d in dwells
+    ]
 
 
-def fit_contact_to_dwells(params, dwells: Sequence[DwellData], *, law: str | None = None,
-                          names: Sequence[str] = ("contact.stiffness", "contact.damping"),
-                          k_max: int = K_HARMONICS):
+def fit_contact_to_dwells(
+    params,
+    dwells: Sequence[DwellData],
+    *,
+    law: str | None = None,
+    names: Sequence[str] = ("contact.stiffness", "contact.damping"),
+    k_max: int = K_HARMONICS,
+):
     """:func:`rigtools.sim.contact_fit.fit_contact` to the dwells' shroud harmonics; one-line errors."""
     from rigtools.sim.contact_fit import fit_contact
     from rigtools.sim.params import SimulationInputError
@@ -434,8 +506,14 @@ def _toml_value(value) -> str:
     return repr(v)
 
 
-def updated_rig_text(text: str, values: dict[str, float | str], comments: dict[str, str], *,
-                     remove: Sequence[str] = (), header: str = "") -> str:
+def updated_rig_text(
+    text: str,
+    values: dict[str, float | str],
+    comments: dict[str, str],
+    *,
+    remove: Sequence[str] = (),
+    header: str = "",
+) -> str:
     """The rig-file ``text`` with ``values`` (``"section.key"`` -> SI value or text) set.
 
     Each key is replaced in place (its old line kept as a comment) or added at the end of its
@@ -445,7 +523,7 @@ def updated_rig_text(text: str, values: dict[str, float | str], comments: dict[s
     every value given (a key written some other way, e.g. as an inline table, raises).
     """
     lines = text.splitlines()
-    sections: dict[str, tuple[int, int]] = {}   # name -> (header line, last line of the section)
+    sections: dict[str, tuple[int, int]] = {}  # name -> (header line, last line of the section)
     current, start = "", -1
     for i, line in enumerate(lines):
         m = _HEADER.match(line)
@@ -454,7 +532,7 @@ def updated_rig_text(text: str, values: dict[str, float | str], comments: dict[s
             current, start = m.group(1).strip().strip('"').strip("'"), i
     sections.setdefault(current, (start, len(lines) - 1))
 
-    edits: dict[int, list[str]] = {}    # line index -> replacement lines
+    edits: dict[int, list[str]] = {}  # line index -> replacement lines
     appends: dict[str, list[str]] = {}  # section -> lines added at its end
     new_sections: dict[str, list[str]] = {}
     for full, value in values.items():
@@ -485,8 +563,10 @@ def updated_rig_text(text: str, values: dict[str, float | str], comments: dict[s
         for i in range(lo + 1, hi + 1):
             m = _KEY.match(lines[i])
             if m and m.group(2) == key:
-                edits[i] = [f"{m.group(1)}# removed by rig update ({comments.get(full, 'replaced')}): "
-                            f"{lines[i].strip()}"]
+                edits[i] = [
+                    f"{m.group(1)}# removed by rig update ({comments.get(full, 'replaced')}): "
+                    f"{lines[i].strip()}"
+                ]
     out: list[str] = [f"# {h}" for h in header.splitlines()] if header else []
     # added keys go after the last key line of their section (before trailing comments/blanks)
     after: dict[int, list[str]] = {}
@@ -503,21 +583,34 @@ def updated_rig_text(text: str, values: dict[str, float | str], comments: dict[s
     try:
         data = tomllib.loads(new)
     except tomllib.TOMLDecodeError as exc:
-        raise UserError(f"the updated rig file would not be valid TOML ({exc}): is a fitted section written as an "
-                        "inline table or dotted keys? edit the rig file by hand") from None
+        raise UserError(
+            f"the updated rig file would not be valid TOML ({exc}): is a fitted section written as an "
+            "inline table or dotted keys? edit the rig file by hand"
+        ) from None
     for full, value in values.items():
         node = data
         for part in full.split("."):
             node = node.get(part) if isinstance(node, dict) else None
-        if node != value and not (isinstance(value, float) and isinstance(node, (int, float))
-                                  and float(node) == value):
-            raise UserError(f"could not write {full} into the rig file (is it given as an inline table "
-                            "or a dotted key?); edit the rig file by hand")
+        if node != value and not (
+            isinstance(value, float) and isinstance(node, (int, float)) and float(node) == value
+        ):
+            raise UserError(
+                f"could not write {full} into the rig file (is it given as an inline table "
+                "or a dotted key?); edit the rig file by hand"
+            )
     return new
 
 
-def rig_file_update(text: str, linear=None, contact=None, *, sources: Sequence[str] = (),
-                    modes_used: str = "", contact_sources: Sequence[str] = (), when: str = "") -> str:
+def rig_file_update(
+    text: str,
+    linear=None,
+    contact=None,
+    *,
+    sources: Sequence[str] = (),
+    modes_used: str = "",
+    contact_sources: Sequence[str] = (),
+    when: str = "",
+) -> str:
     """The updated rig-file text from an :class:`rigtools.sim.updating.UpdateResult` and/or a
     :class:`rigtools.sim.contact_fit.ContactFitResult`, each key commented with recording, modes and residual."""
     values: dict[str, float | str] = {}
@@ -525,8 +618,10 @@ def rig_file_update(text: str, linear=None, contact=None, *, sources: Sequence[s
     remove: list[str] = []
     if linear is not None:
         rms = math.sqrt(2 * linear.cost_after / max(1, linear.residuals_after.size))
-        why = (f"rig update from {', '.join(sources)} ({modes_used}); max frequency error "
-               f"{100 * linear.max_frequency_error_after:.3f} %, rms residual {rms:.3g} sigma")
+        why = (
+            f"rig update from {', '.join(sources)} ({modes_used}); max frequency error "
+            f"{100 * linear.max_frequency_error_after:.3f} %, rms residual {rms:.3g} sigma"
+        )
         fitted = linear.rig_file_values()
         for key, v in fitted.items():
             values[key] = v
@@ -542,13 +637,17 @@ def rig_file_update(text: str, linear=None, contact=None, *, sources: Sequence[s
             remove.append("damping.ratio")
             comments["damping.ratio"] = "Rayleigh damping fitted instead"
     if contact is not None:
-        why = (f"rig update contact fit ({contact.law} law) to {', '.join(contact_sources)}; "
-               f"rms harmonic error {100 * contact.rms_log_error_after:.2f} %")
+        why = (
+            f"rig update contact fit ({contact.law} law) to {', '.join(contact_sources)}; "
+            f"rms harmonic error {100 * contact.rms_log_error_after:.2f} %"
+        )
         for key, v in contact.rig_file_values().items():
             values[key] = v
             comments[key] = why
-    header = (f"updated by rig update{(' on ' + when) if when else ''}: fitted keys are marked; "
-              "the original lines follow them as '# was:'")
+    header = (
+        f"updated by rig update{(' on ' + when) if when else ''}: fitted keys are marked; "
+        "the original lines follow them as '# was:'"
+    )
     return updated_rig_text(text, values, comments, remove=remove, header=header)
 
 
@@ -558,4 +657,3 @@ def check_rig_text(text: str, path: str | Path | None = None):
     from rigtools.config import parse_rig
 
     return parse_rig(tomllib.loads(text), f"updated rig file {path}" if path else "updated rig file")
-

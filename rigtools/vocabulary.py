@@ -18,8 +18,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
-EM = "em"        # written by rig runs (backends "nidaqmx", "simulated")
-FEM = "fem"      # written by model runs (backend "fem")
+EM = "em"  # written by rig runs (backends "nidaqmx", "simulated")
+FEM = "fem"  # written by model runs (backend "fem")
 BOTH = (EM, FEM)
 
 
@@ -89,66 +89,174 @@ PASSIVE_SHROUD = "passive blade shroud (tip)"
 FORCE_POINT = "active blade, force sensor"
 
 CHANNELS: dict[str, ChannelTerm] = _table(
-    ChannelTerm("force", "N", "force", FORCE_POINT,
-                "force into the active blade at the force sensor: measured by the sensor (EM), "
-                "applied to the model there (FEM)"),
-    ChannelTerm("active_shroud_accel", "m/s^2", "acceleration", ACTIVE_SHROUD,
-                "acceleration of the active blade's shroud in the impact direction"),
-    ChannelTerm("passive_shroud_accel", "m/s^2", "acceleration", PASSIVE_SHROUD,
-                "acceleration of the passive blade's shroud in the impact direction"),
-    ChannelTerm("drive", "V", "voltage", "DAQ analog output to the shaker amplifier",
-                "drive samples written to the shaker amplifier's input, on the output's clock",
-                (EM,)),
-    ChannelTerm("active_shroud_disp", "m", "displacement", ACTIVE_SHROUD,
-                "displacement of the active shroud, impact direction", (FEM,)),
-    ChannelTerm("passive_shroud_disp", "m", "displacement", PASSIVE_SHROUD,
-                "displacement of the passive shroud, impact direction", (FEM,)),
-    ChannelTerm("force_point_disp", "m", "displacement", FORCE_POINT,
-                "displacement of the active blade at the force sensor", (FEM,)),
-    ChannelTerm("active_shroud_vel", "m/s", "velocity", ACTIVE_SHROUD,
-                "velocity of the active shroud, impact direction", (FEM,)),
-    ChannelTerm("passive_shroud_vel", "m/s", "velocity", PASSIVE_SHROUD,
-                "velocity of the passive shroud, impact direction", (FEM,)),
-    ChannelTerm("force_point_vel", "m/s", "velocity", FORCE_POINT,
-                "velocity of the active blade at the force sensor", (FEM,)),
-    ChannelTerm("force_point_accel", "m/s^2", "acceleration", FORCE_POINT,
-                "acceleration of the active blade at the force sensor", (FEM,)),
-    ChannelTerm("contact_force", "N", "force", "between the shrouds",
-                "contact force between the shrouds (>= 0, pushing them apart)", (FEM,)),
+    ChannelTerm(
+        "force",
+        "N",
+        "force",
+        FORCE_POINT,
+        "force into the active blade at the force sensor: measured by the sensor (EM), "
+        "applied to the model there (FEM)",
+    ),
+    ChannelTerm(
+        "active_shroud_accel",
+        "m/s^2",
+        "acceleration",
+        ACTIVE_SHROUD,
+        "acceleration of the active blade's shroud in the impact direction",
+    ),
+    ChannelTerm(
+        "passive_shroud_accel",
+        "m/s^2",
+        "acceleration",
+        PASSIVE_SHROUD,
+        "acceleration of the passive blade's shroud in the impact direction",
+    ),
+    ChannelTerm(
+        "drive",
+        "V",
+        "voltage",
+        "DAQ analog output to the shaker amplifier",
+        "drive samples written to the shaker amplifier's input, on the output's clock",
+        (EM,),
+    ),
+    ChannelTerm(
+        "active_shroud_disp",
+        "m",
+        "displacement",
+        ACTIVE_SHROUD,
+        "displacement of the active shroud, impact direction",
+        (FEM,),
+    ),
+    ChannelTerm(
+        "passive_shroud_disp",
+        "m",
+        "displacement",
+        PASSIVE_SHROUD,
+        "displacement of the passive shroud, impact direction",
+        (FEM,),
+    ),
+    ChannelTerm(
+        "force_point_disp",
+        "m",
+        "displacement",
+        FORCE_POINT,
+        "displacement of the active blade at the force sensor",
+        (FEM,),
+    ),
+    ChannelTerm(
+        "active_shroud_vel",
+        "m/s",
+        "velocity",
+        ACTIVE_SHROUD,
+        "velocity of the active shroud, impact direction",
+        (FEM,),
+    ),
+    ChannelTerm(
+        "passive_shroud_vel",
+        "m/s",
+        "velocity",
+        PASSIVE_SHROUD,
+        "velocity of the passive shroud, impact direction",
+        (FEM,),
+    ),
+    ChannelTerm(
+        "force_point_vel",
+        "m/s",
+        "velocity",
+        FORCE_POINT,
+        "velocity of the active blade at the force sensor",
+        (FEM,),
+    ),
+    ChannelTerm(
+        "force_point_accel",
+        "m/s^2",
+        "acceleration",
+        FORCE_POINT,
+        "acceleration of the active blade at the force sensor",
+        (FEM,),
+    ),
+    ChannelTerm(
+        "contact_force",
+        "N",
+        "force",
+        "between the shrouds",
+        "contact force between the shrouds (>= 0, pushing them apart)",
+        (FEM,),
+    ),
 )
 
 PARAMETERS: dict[str, ParameterTerm] = _table(
     ParameterTerm("fe", "Hz", "float", "excitation frequency"),
-    ParameterTerm("force_amplitude", "N", "float",
-                  "target force amplitude F0 (peak): the amplitude applied to the model (FEM), "
-                  "the force-control target on the rig (EM)"),
-    ParameterTerm("force_amplitude_measured", "N", "float",
-                  "fundamental (harmonic 1, peak) of the force channel over the record",
-                  at="end"),
-    ParameterTerm("gap", "m", "float", "shroud gap (closed when the active shroud has moved this far "
-                  "towards the passive one)"),
+    ParameterTerm(
+        "force_amplitude",
+        "N",
+        "float",
+        "target force amplitude F0 (peak): the amplitude applied to the model (FEM), "
+        "the force-control target on the rig (EM)",
+    ),
+    ParameterTerm(
+        "force_amplitude_measured",
+        "N",
+        "float",
+        "fundamental (harmonic 1, peak) of the force channel over the record",
+        at="end",
+    ),
+    ParameterTerm(
+        "gap",
+        "m",
+        "float",
+        "shroud gap (closed when the active shroud has moved this far towards the passive one)",
+    ),
     ParameterTerm("settled", "", "bool", "the response was steady (periodic) when recorded", at="end"),
-    ParameterTerm("drive_amplitude", "V", "float",
-                  "drive amplitude (peak) at the DAQ output to the shaker amplifier", sources=(EM,)),
-    ParameterTerm("record_start", "s", "float",
-                  "start of the record, from the start of the drive", sources=(EM,)),
+    ParameterTerm(
+        "drive_amplitude",
+        "V",
+        "float",
+        "drive amplitude (peak) at the DAQ output to the shaker amplifier",
+        sources=(EM,),
+    ),
+    ParameterTerm(
+        "record_start", "s", "float", "start of the record, from the start of the drive", sources=(EM,)
+    ),
     ParameterTerm("direction", "", "text", 'sweep direction of a study point: "up" or "down"'),
-    ParameterTerm("study_value", "", "float",
-                  "the swept value of a study point, in the SI units of the swept parameter "
-                  "(gap m, force N, frequency Hz)"),
-    ParameterTerm("model", "", "text", '"fem" (reduced FE model) or "am" (assumed-modes model)',
-                  sources=(FEM,)),
+    ParameterTerm(
+        "study_value",
+        "",
+        "float",
+        "the swept value of a study point, in the SI units of the swept parameter "
+        "(gap m, force N, frequency Hz)",
+    ),
+    ParameterTerm(
+        "model", "", "text", '"fem" (reduced FE model) or "am" (assumed-modes model)', sources=(FEM,)
+    ),
     ParameterTerm("steps_per_period", "", "int", "time steps per excitation period", sources=(FEM,)),
     ParameterTerm("time_step", "s", "float", "integration time step (1 / sample rate)", sources=(FEM,)),
-    ParameterTerm("settle_time", "s", "float", "simulated time run before the record to reach the "
-                  "steady state", sources=(FEM,)),
-    ParameterTerm("period_multiple", "", "int",
-                  "the response repeats every this many excitation periods (0: not steady)",
-                  at="end", sources=(FEM,)),
-    ParameterTerm("peak_contact_force", "N", "float", "largest contact force over the record",
-                  at="end", sources=(FEM,)),
-    ParameterTerm("impacts_per_period", "", "float", "contact onsets per excitation period over the record",
-                  at="end", sources=(FEM,)),
+    ParameterTerm(
+        "settle_time",
+        "s",
+        "float",
+        "simulated time run before the record to reach the steady state",
+        sources=(FEM,),
+    ),
+    ParameterTerm(
+        "period_multiple",
+        "",
+        "int",
+        "the response repeats every this many excitation periods (0: not steady)",
+        at="end",
+        sources=(FEM,),
+    ),
+    ParameterTerm(
+        "peak_contact_force", "N", "float", "largest contact force over the record", at="end", sources=(FEM,)
+    ),
+    ParameterTerm(
+        "impacts_per_period",
+        "",
+        "float",
+        "contact onsets per excitation period over the record",
+        at="end",
+        sources=(FEM,),
+    ),
 )
 
 # Schema v1 files written before this vocabulary: old name -> current name. The old

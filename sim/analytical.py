@@ -35,7 +35,9 @@ def _flexural_scales(blade: BladeParams) -> tuple[float, float]:
     return blade.density * blade.area, blade.youngs_modulus * blade.i_flexural
 
 
-def _mass_stations(blade: BladeParams, masses: list[LumpedMass]) -> tuple[list[float], list[tuple[float, float]], tuple[float, float]]:
+def _mass_stations(
+    blade: BladeParams, masses: list[LumpedMass]
+) -> tuple[list[float], list[tuple[float, float]], tuple[float, float]]:
     """Interior stations (fractions of L), their (mu, j), and the tip (mu, j); masses at one point add."""
     rho_a, _ = _flexural_scales(blade)
     L = blade.length
@@ -78,7 +80,11 @@ def _basis(lam: np.ndarray, t: float, seg: float) -> np.ndarray:
 
 
 def characteristic_determinant(
-    lam: np.ndarray, blade: BladeParams, masses: list[LumpedMass], root: RootParams, _matrix_out: dict | None = None
+    lam: np.ndarray,
+    blade: BladeParams,
+    masses: list[LumpedMass],
+    root: RootParams,
+    _matrix_out: dict | None = None,
 ) -> np.ndarray:
     """Determinant of the boundary/continuity system at ``lambda = beta L`` (vectorised).
 
@@ -139,7 +145,9 @@ def _roots(fun, n: int, step: float = 0.004, start: float = 1e-3) -> np.ndarray:
         vals = fun(grid)
         idx = np.nonzero(np.sign(vals[:-1]) * np.sign(vals[1:]) < 0)[0]
         for i in idx:
-            found.append(brentq(lambda z: float(fun(np.array([z]))[0]), grid[i], grid[i + 1], xtol=1e-14, rtol=1e-15))
+            found.append(
+                brentq(lambda z: float(fun(np.array([z]))[0]), grid[i], grid[i + 1], xtol=1e-14, rtol=1e-15)
+            )
             if len(found) == n:
                 break
         lo = grid[-1]
@@ -187,13 +195,7 @@ def tip_mass_frequency_equation(lam: np.ndarray, mu: float, j: float) -> np.ndar
     c, s = np.cos(lam), np.sin(lam)
     th = np.tanh(lam)
     sech = 1.0 / np.cosh(lam)
-    return (
-        sech
-        + c
-        + mu * lam * (c * th - s)
-        - j * lam**3 * (s + th * c)
-        + mu * j * lam**4 * (sech - c)
-    )
+    return sech + c + mu * lam * (c * th - s) - j * lam**3 * (s + th * c) + mu * j * lam**4 * (sech - c)
 
 
 def tip_mass_lambdas(mu: float, j: float, n: int) -> np.ndarray:
@@ -362,7 +364,9 @@ def assumed_modes_blade(
         M += m.mass * np.outer(p[0], p[0]) + m.rotary_inertia * np.outer(s[0], s[0])
     if root.kind == "springs":
         p, s, _ = model.evaluate(0.0)
-        K += root.translational_stiffness * np.outer(p[0], p[0]) + root.rotational_stiffness * np.outer(s[0], s[0])
+        K += root.translational_stiffness * np.outer(p[0], p[0]) + root.rotational_stiffness * np.outer(
+            s[0], s[0]
+        )
     model.mass = 0.5 * (M + M.T)
     model.stiffness = 0.5 * (K + K.T)
     return model

@@ -105,14 +105,18 @@ def _shape_functions(xi: np.ndarray, length: float, phi: float):
         ],
         axis=1,
     )
-    dnv = c / L * np.stack(
-        [
-            6 * x2 - 6 * x1 - phi * one,
-            L * (3 * x2 - (4 + phi) * x1 + (1 + phi / 2) * one),
-            -6 * x2 + 6 * x1 + phi * one,
-            L * (3 * x2 - (2 - phi) * x1 - (phi / 2) * one),
-        ],
-        axis=1,
+    dnv = (
+        c
+        / L
+        * np.stack(
+            [
+                6 * x2 - 6 * x1 - phi * one,
+                L * (3 * x2 - (4 + phi) * x1 + (1 + phi / 2) * one),
+                -6 * x2 + 6 * x1 + phi * one,
+                L * (3 * x2 - (2 - phi) * x1 - (phi / 2) * one),
+            ],
+            axis=1,
+        )
     )
     nt = c * np.stack(
         [
@@ -123,14 +127,18 @@ def _shape_functions(xi: np.ndarray, length: float, phi: float):
         ],
         axis=1,
     )
-    dnt = c / L * np.stack(
-        [
-            6.0 / L * (2 * x1 - one),
-            6 * x1 - (4 + phi) * one,
-            6.0 / L * (one - 2 * x1),
-            6 * x1 - (2 - phi) * one,
-        ],
-        axis=1,
+    dnt = (
+        c
+        / L
+        * np.stack(
+            [
+                6.0 / L * (2 * x1 - one),
+                6 * x1 - (4 + phi) * one,
+                6.0 / L * (one - 2 * x1),
+                6 * x1 - (2 - phi) * one,
+            ],
+            axis=1,
+        )
     )
     return nv, dnv, nt, dnt
 
@@ -222,7 +230,12 @@ def element_matrices(
     for idx, inertia, sign in ((_XY, s.i_flexural, None), (_XZ, s.i_edgewise, _XZ_SIGN)):
         phi = 0.0
         if theory == "timoshenko":
-            phi = 12.0 * s.youngs_modulus * inertia / (s.shear_coefficient * s.shear_modulus * s.area * length**2)
+            phi = (
+                12.0
+                * s.youngs_modulus
+                * inertia
+                / (s.shear_coefficient * s.shear_modulus * s.area * length**2)
+            )
         k4, m4 = planar_bending(length, s.youngs_modulus, inertia, s.density, s.area, phi, rotary_inertia)
         if sign is not None:
             k4 = k4 * np.outer(sign, sign)

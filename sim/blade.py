@@ -154,7 +154,9 @@ def build_blade(
     x = mesh_nodes(params.length, params.elements, [m.position for m in masses])
     n_nodes = len(x)
     n_full = n_nodes * N_DOF_NODE
-    section = rectangular_section(params.width, params.thickness, params.youngs_modulus, params.density, params.poisson)
+    section = rectangular_section(
+        params.width, params.thickness, params.youngs_modulus, params.density, params.poisson
+    )
 
     lengths = np.diff(x)
     rows, cols, kv, mv = [], [], [], []

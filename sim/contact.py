@@ -65,7 +65,9 @@ def contact_force(closure: np.ndarray, closure_rate: np.ndarray, contact: Contac
         damper = contact.damping * v
     else:
         elastic = contact.stiffness * pen**contact.hertz_exponent
-        damper = contact.damping * v * (pen**contact.hertz_exponent if contact.law == "hunt-crossley" else 1.0)
+        damper = (
+            contact.damping * v * (pen**contact.hertz_exponent if contact.law == "hunt-crossley" else 1.0)
+        )
     return np.where(g > 0, np.maximum(elastic + damper, 0.0), 0.0)
 
 
@@ -84,8 +86,7 @@ def law(g: float, v: float, kc: float, cc: float, p: float, code: int) -> float:
 
 
 @njit(cache=True)
-def _law_slope(g: float, v: float, g1: float, v1: float, kc: float, cc: float, p: float,
-               code: int) -> float:
+def _law_slope(g: float, v: float, g1: float, v1: float, kc: float, cc: float, p: float, code: int) -> float:
     """d law / d f along ``g = g0 + g1 f``, ``v = v0 + v1 f`` where the law is positive."""
     if code == HUNT_CROSSLEY:
         return p * g ** (p - 1.0) * g1 * (kc + cc * v) + g**p * cc * v1
@@ -93,8 +94,9 @@ def _law_slope(g: float, v: float, g1: float, v1: float, kc: float, cc: float, p
 
 
 @njit(cache=True)
-def solve_contact(g0: float, g1: float, v0: float, v1: float,
-                  kc: float, cc: float, p: float, code: int) -> float:
+def solve_contact(
+    g0: float, g1: float, v0: float, v1: float, kc: float, cc: float, p: float, code: int
+) -> float:
     """Force ``f >= 0`` consistent with ``f = law(g0 + g1 f, v0 + v1 f)``.
 
     ``g1 < 0`` (the force opens the contact) and ``v1 <= 0`` make the right side non-increasing in
@@ -115,7 +117,7 @@ def solve_contact(g0: float, g1: float, v0: float, v1: float,
     hi = law(g0, v0, kc, cc, p, code)
     if hi <= 0.0:
         return 0.0
-    f_close = -g0 / g1          # force at which g reaches zero
+    f_close = -g0 / g1  # force at which g reaches zero
     if hi > f_close:
         hi = f_close
     lo = 0.0
@@ -225,6 +227,6 @@ def linear_restitution(damping_ratio: float, clipped: bool = True) -> float:
     s = math.sqrt(1.0 - z * z)
     if not clipped:
         return math.exp(-math.pi * z / s)
-    phase = math.pi - math.atan2(2.0 * z * s, 1.0 - 2.0 * z * z)     # w_d t at release
+    phase = math.pi - math.atan2(2.0 * z * s, 1.0 - 2.0 * z * z)  # w_d t at release
     # v(t)/v0 = e^{-z wn t} (cos(w_d t) - z/s sin(w_d t)); at release this equals -e^{-z wn t}
     return -math.exp(-z * phase / s) * (math.cos(phase) - z / s * math.sin(phase))

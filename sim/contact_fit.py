@@ -45,13 +45,31 @@ HERTZ_REFERENCE_PENETRATION = 1e-5  # m
 # contact to the next (impacts resolved on a fixed step), so steps of 0.1 % would differentiate noise
 FD_STEP = 0.02
 
-CONTACT_PARAMETERS: dict[str, UpdateParameter] = {p.name: p for p in (
-    UpdateParameter("contact.stiffness", "N/m (linear) or N/m^p (hertz)", "shroud contact stiffness",
-                    True, (0.1, 10.0), True, lambda p: p.contact.stiffness,
-                    lambda p, v: replace(p, contact=replace(p.contact, stiffness=v))),
-    UpdateParameter("contact.damping", "N*s/m", "shroud contact damping", True, (0.01, 100.0), True,
-                    lambda p: p.contact.damping, lambda p, v: replace(p, contact=replace(p.contact, damping=v))),
-)}
+CONTACT_PARAMETERS: dict[str, UpdateParameter] = {
+    p.name: p
+    for p in (
+        UpdateParameter(
+            "contact.stiffness",
+            "N/m (linear) or N/m^p (hertz)",
+            "shroud contact stiffness",
+            True,
+            (0.1, 10.0),
+            True,
+            lambda p: p.contact.stiffness,
+            lambda p, v: replace(p, contact=replace(p.contact, stiffness=v)),
+        ),
+        UpdateParameter(
+            "contact.damping",
+            "N*s/m",
+            "shroud contact damping",
+            True,
+            (0.01, 100.0),
+            True,
+            lambda p: p.contact.damping,
+            lambda p, v: replace(p, contact=replace(p.contact, damping=v)),
+        ),
+    )
+}
 
 
 @dataclass(frozen=True)
@@ -105,8 +123,14 @@ class HarmonicTarget:
         return a > self.floor * a.max() if a.max() > 0 else np.zeros(a.size, bool)
 
 
-def harmonic_amplitudes(system: ReducedSystem, target: HarmonicTarget, *, steps_per_period: int | None = None,
-                        record_periods: int = 4, tol: float = 1e-7) -> tuple[dict[str, np.ndarray], bool]:
+def harmonic_amplitudes(
+    system: ReducedSystem,
+    target: HarmonicTarget,
+    *,
+    steps_per_period: int | None = None,
+    record_periods: int = 4,
+    tol: float = 1e-7,
+) -> tuple[dict[str, np.ndarray], bool]:
     """The model's shroud acceleration harmonics ``k = 1..K`` at a target's dwell.
 
     Returns
@@ -115,8 +139,14 @@ def harmonic_amplitudes(system: ReducedSystem, target: HarmonicTarget, *, steps_
         Location -> amplitudes (m/s^2) of the harmonics the target holds; whether the run
         reached a periodic steady state.
     """
-    run = run_harmonic(system.with_contact(gap=target.gap), target.fe, target.force_amplitude,
-                       record_periods=record_periods, steps_per_period=steps_per_period, tol=tol)
+    run = run_harmonic(
+        system.with_contact(gap=target.gap),
+        target.fe,
+        target.force_amplitude,
+        record_periods=record_periods,
+        steps_per_period=steps_per_period,
+        tol=tol,
+    )
     out = {}
     for loc, a in target.amplitudes.items():
         v = run.outputs[LOCATIONS[loc]]
@@ -164,8 +194,9 @@ class ContactFitResult:
     @property
     def rms_log_error_after(self) -> float:
         """RMS of ``ln(A_model / A_target)`` over the fitted harmonics after the fit."""
-        sig = np.concatenate([np.full(int(t.mask(loc).sum()), t.sigma) for t in self.targets
-                              for loc in t.amplitudes])
+        sig = np.concatenate(
+            [np.full(int(t.mask(loc).sum()), t.sigma) for t in self.targets for loc in t.amplitudes]
+        )
         return float(np.sqrt(np.mean((self.residuals_after * sig) ** 2)))
 
     def rig_file_values(self) -> dict[str, float | str]:
@@ -178,33 +209,54 @@ class ContactFitResult:
         ident = self.identifiability
         return {
             "law": self.law,
-            "parameters": {n: {"unit": u, "start": self.initial[n], "fitted": self.fitted[n],
-                               "bounds": list(self.bounds[n]), "confidence_95": list(ident.confidence[n])}
-                           for n, u in zip(self.names, self.units)},
+            "parameters": {
+                n: {
+                    "unit": u,
+                    "start": self.initial[n],
+                    "fitted": self.fitted[n],
+                    "bounds": list(self.bounds[n]),
+                    "confidence_95": list(ident.confidence[n]),
+                }
+                for n, u in zip(self.names, self.units)
+            },
             "rig_file": self.rig_file_values(),
-            "cost_before": self.cost_before, "cost_after": self.cost_after,
-            "rms_log_error_after": self.rms_log_error_after, "steady": self.steady,
-            "model_evaluations": self.n_evaluations, "vibro_impact_runs": self.n_runs,
-            "wall_time_s": self.wall_time, "success": self.success, "message": self.message,
-            "identifiability": {"rank": ident.rank, "condition": ident.condition,
-                                "unresolved": list(ident.unresolved)},
+            "cost_before": self.cost_before,
+            "cost_after": self.cost_after,
+            "rms_log_error_after": self.rms_log_error_after,
+            "steady": self.steady,
+            "model_evaluations": self.n_evaluations,
+            "vibro_impact_runs": self.n_runs,
+            "wall_time_s": self.wall_time,
+            "success": self.success,
+            "message": self.message,
+            "identifiability": {
+                "rank": ident.rank,
+                "condition": ident.condition,
+                "unresolved": list(ident.unresolved),
+            },
         }
 
     def report(self) -> str:
         """Plain-text report: fitted values with 95 % intervals, fit quality, identifiability."""
         ident = self.identifiability
-        lines = [f"contact fit ({self.law} law): {len(self.names)} parameters, {len(self.targets)} dwells, "
-                 f"{len(self.residual_labels)} harmonics, {self.n_runs} vibro-impact runs, {self.wall_time:.1f} s"
-                 + ("" if self.success else f" (optimiser: {self.message})")
-                 + ("" if self.steady else " -- at the optimum, a run did not reach a periodic steady state")]
+        lines = [
+            f"contact fit ({self.law} law): {len(self.names)} parameters, {len(self.targets)} dwells, "
+            f"{len(self.residual_labels)} harmonics, {self.n_runs} vibro-impact runs, {self.wall_time:.1f} s"
+            + ("" if self.success else f" (optimiser: {self.message})")
+            + ("" if self.steady else " -- at the optimum, a run did not reach a periodic steady state")
+        ]
         for n, u in zip(self.names, self.units):
             lo, hi = ident.confidence[n]
-            lines.append(f"{n:<20} start {self.initial[n]:<11.5g} fitted {self.fitted[n]:<11.5g} "
-                         f"95 % [{lo:.4g}, {hi:.4g}]  {u}")
+            lines.append(
+                f"{n:<20} start {self.initial[n]:<11.5g} fitted {self.fitted[n]:<11.5g} "
+                f"95 % [{lo:.4g}, {hi:.4g}]  {u}"
+            )
         rms0 = math.sqrt(2 * self.cost_before / max(1, self.residuals_before.size))
         rms1 = math.sqrt(2 * self.cost_after / max(1, self.residuals_after.size))
-        lines.append(f"rms residual (in sigmas) before {rms0:.3g}, after {rms1:.3g}; "
-                     f"rms amplitude error after {100 * self.rms_log_error_after:.2f} %")
+        lines.append(
+            f"rms residual (in sigmas) before {rms0:.3g}, after {rms1:.3g}; "
+            f"rms amplitude error after {100 * self.rms_log_error_after:.2f} %"
+        )
         lines.append(f"Jacobian rank {ident.rank} of {len(self.names)}, condition {ident.condition:.3g}")
         if ident.unresolved:
             lines.append("the data cannot separate or determine:")
@@ -260,8 +312,9 @@ def fit_contact(
     names = list(dict.fromkeys(names))
     if not names or any(n not in CONTACT_PARAMETERS for n in names):
         bad = [n for n in names if n not in CONTACT_PARAMETERS]
-        raise ValueError(f"unknown contact parameter {bad[0] if bad else ''!r} "
-                         f"(known: {', '.join(CONTACT_PARAMETERS)})")
+        raise ValueError(
+            f"unknown contact parameter {bad[0] if bad else ''!r} (known: {', '.join(CONTACT_PARAMETERS)})"
+        )
     targets = list(targets)
     if not targets:
         raise ValueError("give at least one dwell target")
@@ -270,7 +323,7 @@ def fit_contact(
     if law != params.contact.law:
         k = params.contact.stiffness
         p = params.contact.hertz_exponent
-        if law == "hertz":    # equal force at the reference penetration
+        if law == "hertz":  # equal force at the reference penetration
             k = k * HERTZ_REFERENCE_PENETRATION ** (1.0 - p)
         else:
             k = k * HERTZ_REFERENCE_PENETRATION ** (p - 1.0)
@@ -280,7 +333,9 @@ def fit_contact(
     v0 = np.array([float(start.get(n, s.get(base))) for n, s in zip(names, specs)])
     if np.any(v0 <= 0):
         raise ValueError("contact stiffness and damping must start > 0 to be fitted in log scale")
-    b_all = {n: tuple(map(float, (bounds or {}).get(n, s.default_bounds(v)))) for n, s, v in zip(names, specs, v0)}
+    b_all = {
+        n: tuple(map(float, (bounds or {}).get(n, s.default_bounds(v)))) for n, s, v in zip(names, specs, v0)
+    }
     for n, (lo_n, hi_n) in b_all.items():
         if not 0 < lo_n < hi_n:
             raise ValueError(f"{n}: bounds ({lo_n}, {hi_n}) must satisfy 0 < low < high")
@@ -290,8 +345,11 @@ def fit_contact(
     linear = system if system is not None else reduced_system(base, "fem")
     linear = replace(linear, contact=base.contact)
     k_max = b_all["contact.stiffness"][1] if "contact.stiffness" in names else base.contact.stiffness
-    steps = (fit_steps_per_period(linear, targets, k_max) if steps_per_period is None
-             else [int(n) for n in steps_per_period])
+    steps = (
+        fit_steps_per_period(linear, targets, k_max)
+        if steps_per_period is None
+        else [int(n) for n in steps_per_period]
+    )
     if len(steps) != len(targets):
         raise ValueError("give one steps_per_period per target")
 
@@ -332,9 +390,18 @@ def fit_contact(
     hi = np.log(np.array([b_all[n][1] for n in names]) / v0)
     lo, hi = np.minimum(lo, -1e-12), np.maximum(hi, 1e-12)
     r0, h0, _ = evaluate(x0)
-    sol = scipy.optimize.least_squares(residuals, x0, jac=lambda x: _forward_jacobian(residuals, x, hi, FD_STEP),
-                                       bounds=(lo, hi), method="trf", x_scale=1.0, max_nfev=max_evaluations,
-                                       xtol=1e-8, ftol=1e-8, gtol=1e-8)
+    sol = scipy.optimize.least_squares(
+        residuals,
+        x0,
+        jac=lambda x: _forward_jacobian(residuals, x, hi, FD_STEP),
+        bounds=(lo, hi),
+        method="trf",
+        x_scale=1.0,
+        max_nfev=max_evaluations,
+        xtol=1e-8,
+        ftol=1e-8,
+        gtol=1e-8,
+    )
     x = sol.x
     r1, h1, steady1 = evaluate(x)
     ident = _identifiability(_central_jacobian(residuals, x, lo, hi, FD_STEP), names, specs, x, v0, 1.0, 0)
@@ -342,27 +409,58 @@ def fit_contact(
     out_params = base
     for s, n in zip(specs, names):
         out_params = s.set(out_params, fitted[n])
-    labels = [f"{t.fe:g} Hz {t.force_amplitude:g} N gap {1e3 * t.gap:g} mm {loc} k={k}"
-              for t in targets for loc in t.amplitudes for k in np.flatnonzero(t.mask(loc)) + 1]
+    labels = [
+        f"{t.fe:g} Hz {t.force_amplitude:g} N gap {1e3 * t.gap:g} mm {loc} k={k}"
+        for t in targets
+        for loc in t.amplitudes
+        for k in np.flatnonzero(t.mask(loc)) + 1
+    ]
     return ContactFitResult(
-        names=names, units=[CONTACT_PARAMETERS[n].unit for n in names], law=law,
-        initial={n: float(v) for n, v in zip(names, v0)}, fitted=fitted, bounds=b_all, params=out_params,
-        residual_labels=labels, residuals_before=r0, residuals_after=r1, harmonics_before=h0,
-        harmonics_after=h1, steady=bool(steady1), n_evaluations=counts["evaluations"],
-        n_runs=counts["runs"], wall_time=time.perf_counter() - t0, success=bool(sol.success),
-        message=str(sol.message), identifiability=ident, targets=targets)
+        names=names,
+        units=[CONTACT_PARAMETERS[n].unit for n in names],
+        law=law,
+        initial={n: float(v) for n, v in zip(names, v0)},
+        fitted=fitted,
+        bounds=b_all,
+        params=out_params,
+        residual_labels=labels,
+        residuals_before=r0,
+        residuals_after=r1,
+        harmonics_before=h0,
+        harmonics_after=h1,
+        steady=bool(steady1),
+        n_evaluations=counts["evaluations"],
+        n_runs=counts["runs"],
+        wall_time=time.perf_counter() - t0,
+        success=bool(sol.success),
+        message=str(sol.message),
+        identifiability=ident,
+        targets=targets,
+    )
 
 
-def fit_steps_per_period(system: ReducedSystem, targets: Sequence[HarmonicTarget], stiffness_max: float) -> list[int]:
+def fit_steps_per_period(
+    system: ReducedSystem, targets: Sequence[HarmonicTarget], stiffness_max: float
+) -> list[int]:
     """Steps per period per target that resolve the stiffest contact a fit may try."""
     stiff = system.with_contact(stiffness=stiffness_max)
-    return [steps_per_period_for(stiff.with_contact(gap=t.gap), t.fe, force_scale=max(100.0, 10 * t.force_amplitude))
-            for t in targets]
+    return [
+        steps_per_period_for(
+            stiff.with_contact(gap=t.gap), t.fe, force_scale=max(100.0, 10 * t.force_amplitude)
+        )
+        for t in targets
+    ]
 
 
-def targets_from_model(params: RigParams, dwells: Sequence[tuple[float, float, float]], n_harmonics: int = 10,
-                       *, system: ReducedSystem | None = None, steps_per_period: Sequence[int] | None = None,
-                       **target_kwargs) -> list[HarmonicTarget]:
+def targets_from_model(
+    params: RigParams,
+    dwells: Sequence[tuple[float, float, float]],
+    n_harmonics: int = 10,
+    *,
+    system: ReducedSystem | None = None,
+    steps_per_period: Sequence[int] | None = None,
+    **target_kwargs,
+) -> list[HarmonicTarget]:
     """Synthetic targets: the model's own harmonics at the dwells ``(fe, F0, gap)`` (a known contact),
     at the given steps per period (default: the integrator's own choice)."""
     system = system if system is not None else reduced_system(params, "fem")

@@ -37,8 +37,13 @@ from rigtools.sim.contact import law_code, solve_contact
 from rigtools.sim.params import ContactParams
 from rigtools.sim.rig_model import RigModel
 from rigtools.sim.vibro_impact import (
-    DIVERGED_DISPLACEMENT, N_OUT, OUT_COLUMNS, SimulationDivergedError, SimulationInputError,
-    check_time_step, diverged_message,
+    DIVERGED_DISPLACEMENT,
+    N_OUT,
+    OUT_COLUMNS,
+    SimulationDivergedError,
+    SimulationInputError,
+    check_time_step,
+    diverged_message,
 )
 
 # outputs: the same columns as the fast stepper (coil current always zero)
@@ -80,7 +85,7 @@ def full_modal_system(model: RigModel) -> FullOrderSystem:
         r = modes.shapes[loads, :]
         keep = np.abs(r).max(axis=0) > 1e-12 * np.abs(r).max()
         phi = modes.shapes[:, keep]
-        c = model.damping[off:off + blade.n_dofs, off:off + blade.n_dofs]
+        c = model.damping[off : off + blade.n_dofs, off : off + blade.n_dofs]
         cproj = phi.T @ (c @ phi)
         cd = np.diag(cproj).copy()
         off_diag = cproj - np.diag(cd)
@@ -92,13 +97,11 @@ def full_modal_system(model: RigModel) -> FullOrderSystem:
         omegas.append(modes.omegas[keep])
         cds.append(cd)
         rows.append(row)
-    return FullOrderSystem(np.concatenate(omegas), np.concatenate(cds), np.hstack(rows),
-                           model.n_dofs, worst)
+    return FullOrderSystem(np.concatenate(omegas), np.concatenate(cds), np.hstack(rows), model.n_dofs, worst)
 
 
 @njit(cache=True)
-def _hht_modal(omega, cdiag, rA, rP, rF, u, v, a, s, force, out, dt, alpha,
-               gap, kc, cc, pexp, code):
+def _hht_modal(omega, cdiag, rA, rP, rF, u, v, a, s, force, out, dt, alpha, gap, kc, cc, pexp, code):
     """HHT-alpha on decoupled modes with the contact through the rows; state in place."""
     n = omega.size
     beta = 0.25 * (1.0 + alpha) ** 2
@@ -126,9 +129,12 @@ def _hht_modal(omega, cdiag, rA, rP, rF, u, v, a, s, force, out, dt, alpha,
             vp[j] = vpj
             f0 = rF[j] * F_old - d[j] * lam_old
             f1 = rF[j] * F_new
-            r = ((1.0 - alpha) * f1 + alpha * f0
-                 - (1.0 - alpha) * (cdiag[j] * vpj + k[j] * upj)
-                 - alpha * (cdiag[j] * v[j] + k[j] * u[j]))
+            r = (
+                (1.0 - alpha) * f1
+                + alpha * f0
+                - (1.0 - alpha) * (cdiag[j] * vpj + k[j] * upj)
+                - alpha * (cdiag[j] * v[j] + k[j] * u[j])
+            )
             a0[j] = r / sdiag[j]
             g0 += d[j] * (upj + beta * dt * dt * a0[j])
             gd0 += d[j] * (vpj + gamma * dt * a0[j])
@@ -182,7 +188,7 @@ def _hht_modal(omega, cdiag, rA, rP, rF, u, v, a, s, force, out, dt, alpha,
         if code == 2:
             g_end = xa - xp - gap
             out[i, 13] = cc * g_end**pexp * gd * gd if (lam > 0.0 and g_end > 0.0) else 0.0
-        out[i, 14] = 1.0        # no events: the force is taken linear over every step
+        out[i, 14] = 1.0  # no events: the force is taken linear over every step
         out[i, 15] = lam
         out[i, 16] = lam
 
@@ -208,8 +214,14 @@ class FullOrderIntegrator:
     ``(n, N_OUT)`` with the columns of :data:`rigtools.sim.vibro_impact.OUT_COLUMNS`.
     """
 
-    def __init__(self, model: RigModel, dt: float, alpha: float = 0.0, solver: str = "modal",
-                 contact: ContactParams | None = None):
+    def __init__(
+        self,
+        model: RigModel,
+        dt: float,
+        alpha: float = 0.0,
+        solver: str = "modal",
+        contact: ContactParams | None = None,
+    ):
         if not 0.0 <= alpha <= 1.0 / 3.0:
             raise SimulationInputError(f"HHT alpha must be in [0, 1/3], got {alpha}")
         self.model = model
@@ -218,7 +230,13 @@ class FullOrderIntegrator:
         self.alpha = float(alpha)
         self.solver = solver
         c = self.contact
-        self._contact = (float(c.gap), float(c.stiffness), float(c.damping), float(c.hertz_exponent), law_code(c))
+        self._contact = (
+            float(c.gap),
+            float(c.stiffness),
+            float(c.damping),
+            float(c.hertz_exponent),
+            law_code(c),
+        )
         self.system = full_modal_system(model)
         _check = _ContactView(self.system.contact_effective_mass(), c)
         check_time_step(_check, self.dt)
@@ -266,13 +284,18 @@ class FullOrderIntegrator:
             vp = v + dt * (1 - gamma) * a
             f0 = self._eF * F_old - d * lam_old
             f1 = self._eF * F_new
-            r = ((1 - a_) * f1 + a_ * f0 - (1 - a_) * (self._C @ vp + self._K @ up)
-                 - a_ * (self._C @ v + self._K @ u))
+            r = (
+                (1 - a_) * f1
+                + a_ * f0
+                - (1 - a_) * (self._C @ vp + self._K @ up)
+                - a_ * (self._C @ v + self._K @ u)
+            )
             a0 = scipy.linalg.cho_solve(self._S, r)
             g0 = d @ (up + beta * dt * dt * a0) - gap
             gd0 = d @ (vp + gamma * dt * a0)
-            lam = solve_contact(g0, -beta * dt * dt * (1 - a_) * dz, gd0, -gamma * dt * (1 - a_) * dz,
-                                kc, cc, p, code)
+            lam = solve_contact(
+                g0, -beta * dt * dt * (1 - a_) * dz, gd0, -gamma * dt * (1 - a_) * dz, kc, cc, p, code
+            )
             a1 = a0 - (1 - a_) * lam * z
             u1 = up + beta * dt * dt * a1
             v1 = vp + gamma * dt * a1
@@ -296,14 +319,36 @@ class FullOrderIntegrator:
         if self.solver == "modal":
             gap, kc, cc, p, code = self._contact
             sy = self.system
-            _hht_modal(sy.omega, sy.cdiag, sy.rows[0].copy(), sy.rows[1].copy(), sy.rows[2].copy(),
-                       self._u, self._v, self._a, self._s, force, out, self.dt, self.alpha,
-                       gap, kc, cc, p, code)
+            _hht_modal(
+                sy.omega,
+                sy.cdiag,
+                sy.rows[0].copy(),
+                sy.rows[1].copy(),
+                sy.rows[2].copy(),
+                self._u,
+                self._v,
+                self._a,
+                self._s,
+                force,
+                out,
+                self.dt,
+                self.alpha,
+                gap,
+                kc,
+                cc,
+                p,
+                code,
+            )
         else:
             self._step_physical(force, out)
-        if not (np.isfinite(out).all() and np.abs(out[:, [0, 3, 6]]).max(initial=0.0) < DIVERGED_DISPLACEMENT):
-            raise SimulationDivergedError(diverged_message(_ContactView(self.system.contact_effective_mass(),
-                                                                        self.contact), self.dt, self.time))
+        if not (
+            np.isfinite(out).all() and np.abs(out[:, [0, 3, 6]]).max(initial=0.0) < DIVERGED_DISPLACEMENT
+        ):
+            raise SimulationDivergedError(
+                diverged_message(
+                    _ContactView(self.system.contact_effective_mass(), self.contact), self.dt, self.time
+                )
+            )
         self.time += self.dt * force.size
         return out
 
@@ -319,9 +364,16 @@ class _ContactView:
         return self._meff
 
 
-def run_full_order(model: RigModel, fe: float, force_amplitude: float, duration: float, dt: float,
-                   alpha: float = 0.0, record_periods: int = 10,
-                   contact: ContactParams | None = None) -> dict[str, np.ndarray]:
+def run_full_order(
+    model: RigModel,
+    fe: float,
+    force_amplitude: float,
+    duration: float,
+    dt: float,
+    alpha: float = 0.0,
+    record_periods: int = 10,
+    contact: ContactParams | None = None,
+) -> dict[str, np.ndarray]:
     """Force ``F0 sin(2 pi fe t)`` from rest for ``duration`` s; return the last
     ``record_periods`` periods of the outputs (keys of ``OUT_COLUMNS``), sampled every step.
 
@@ -332,10 +384,11 @@ def run_full_order(model: RigModel, fe: float, force_amplitude: float, duration:
         raise SimulationInputError("1/(fe*dt) must be an integer number of steps per period")
     n = int(round(n))
     periods = int(math.ceil(duration * fe))
-    if periods < record_periods + 1:    # the record starts at the end of a whole period
+    if periods < record_periods + 1:  # the record starts at the end of a whole period
         raise SimulationInputError(
             f"duration {duration:g} s holds {periods} excitation periods; recording {record_periods} "
-            f"needs at least {record_periods + 1}")
+            f"needs at least {record_periods + 1}"
+        )
     integ = FullOrderIntegrator(model, dt, alpha, contact=contact)
     w = 2 * np.pi * fe
     one = force_amplitude * np.sin(w * dt * np.arange(1, n + 1))
@@ -346,5 +399,5 @@ def run_full_order(model: RigModel, fe: float, force_amplitude: float, duration:
             keep.append(o)
     data = np.vstack(keep)
     # samples at t = 0 .. (P n - 1) dt of the record, force phase zero at t = 0 (as run_harmonic)
-    data = data[n - 1: n - 1 + record_periods * n]
+    data = data[n - 1 : n - 1 + record_periods * n]
     return {name: data[:, i] for i, name in enumerate(OUT_COLUMNS) if name != "coil_current"}

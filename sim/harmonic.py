@@ -79,10 +79,14 @@ def _passive_fe_blade(rig: RigModel, position: float) -> BladeModel:
     if np.min(np.abs(blade.node_x - position)) < 1e-9 * blade.params.length:
         return blade
     marker = LumpedMass(0.0, 0.0, position)
-    return build_blade("passive", blade.params, [*blade.masses, marker], blade.root, None, blade.rotary_inertia)
+    return build_blade(
+        "passive", blade.params, [*blade.masses, marker], blade.root, None, blade.rotary_inertia
+    )
 
 
-def fem_harmonic_response(rig: RigModel, frequencies_hz: np.ndarray, force_amplitude: float) -> HarmonicResponse:
+def fem_harmonic_response(
+    rig: RigModel, frequencies_hz: np.ndarray, force_amplitude: float
+) -> HarmonicResponse:
     """Linear harmonic response of the FE model (modal superposition over all modes).
 
     Parameters
@@ -108,8 +112,14 @@ def fem_harmonic_response(rig: RigModel, frequencies_hz: np.ndarray, force_ampli
         drive_node = blade.sensor_node if name == "active" else blade.node_at(position)
         tip = modes.shapes[blade.dof(blade.tip_node, UY)]
         drive = modes.shapes[blade.dof(drive_node, UY)]
-        x = _superpose(omegas, damping_ratios(omegas, params.damping), np.vstack([tip, drive]), drive,
-                       out.frequencies_hz, force_amplitude)
+        x = _superpose(
+            omegas,
+            damping_ratios(omegas, params.damping),
+            np.vstack([tip, drive]),
+            drive,
+            out.frequencies_hz,
+            force_amplitude,
+        )
         out.displacement[f"{name}_shroud"] = x[:, 0]
         out.displacement[f"{name}_force_point"] = x[:, 1]
     return out
@@ -145,8 +155,14 @@ def am_harmonic_response(
         omegas = 2.0 * np.pi * f
         tip = am.shape(bp.length) @ vec
         drive = am.shape(position) @ vec
-        x = _superpose(omegas, damping_ratios(omegas, params.damping), np.vstack([tip, drive]), drive,
-                       out.frequencies_hz, force_amplitude)
+        x = _superpose(
+            omegas,
+            damping_ratios(omegas, params.damping),
+            np.vstack([tip, drive]),
+            drive,
+            out.frequencies_hz,
+            force_amplitude,
+        )
         out.displacement[f"{name}_shroud"] = x[:, 0]
         out.displacement[f"{name}_force_point"] = x[:, 1]
     return out

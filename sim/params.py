@@ -26,8 +26,17 @@ class SimulationInputError(ValueError):
     """Physically invalid input (negative gap, too coarse a step, ...); one-line message."""
 
 
-def _finite(owner: str, name: str, value, *, gt: float | None = None, ge: float | None = None,
-            lt: float | None = None, le: float | None = None, unit: str = "") -> None:
+def _finite(
+    owner: str,
+    name: str,
+    value,
+    *,
+    gt: float | None = None,
+    ge: float | None = None,
+    lt: float | None = None,
+    le: float | None = None,
+    unit: str = "",
+) -> None:
     """One-line refusal of a value that is not a finite number in the given range."""
     shown = f"{value!r}{(' ' + unit) if unit else ''}"
     try:
@@ -36,11 +45,17 @@ def _finite(owner: str, name: str, value, *, gt: float | None = None, ge: float 
         raise SimulationInputError(f"{owner}.{name} must be a number, got {shown}") from None
     if isinstance(value, bool) or not math.isfinite(v):
         raise SimulationInputError(f"{owner}.{name} must be a finite number, got {shown}")
-    for bound, ok, word in ((gt, lambda b: v > b, ">"), (ge, lambda b: v >= b, ">="),
-                            (lt, lambda b: v < b, "<"), (le, lambda b: v <= b, "<=")):
+    for bound, ok, word in (
+        (gt, lambda b: v > b, ">"),
+        (ge, lambda b: v >= b, ">="),
+        (lt, lambda b: v < b, "<"),
+        (le, lambda b: v <= b, "<="),
+    ):
         if bound is not None and not ok(bound):
-            raise SimulationInputError(f"{owner}.{name} must be {word} {bound:g}{(' ' + unit) if unit else ''}, "
-                                       f"got {v:g}{(' ' + unit) if unit else ''}")
+            raise SimulationInputError(
+                f"{owner}.{name} must be {word} {bound:g}{(' ' + unit) if unit else ''}, "
+                f"got {v:g}{(' ' + unit) if unit else ''}"
+            )
 
 
 @dataclass(frozen=True)
@@ -58,15 +73,22 @@ class BladeParams:
 
     def __post_init__(self) -> None:
         o = "blade"
-        for name, unit in (("length", "m"), ("width", "m"), ("thickness", "m"),
-                           ("youngs_modulus", "Pa"), ("density", "kg/m^3")):
+        for name, unit in (
+            ("length", "m"),
+            ("width", "m"),
+            ("thickness", "m"),
+            ("youngs_modulus", "Pa"),
+            ("density", "kg/m^3"),
+        ):
             _finite(o, name, getattr(self, name), gt=0, unit=unit)
         _finite(o, "poisson", self.poisson, gt=-1.0, lt=0.5)
         if isinstance(self.elements, bool) or int(self.elements) != self.elements:
             raise SimulationInputError(f"blade.elements must be a whole number, got {self.elements!r}")
         _finite(o, "elements", self.elements, ge=1, le=MAX_ELEMENTS)
         if self.theory not in THEORIES:
-            raise SimulationInputError(f"blade.theory must be one of {', '.join(THEORIES)}, got {self.theory!r}")
+            raise SimulationInputError(
+                f"blade.theory must be one of {', '.join(THEORIES)}, got {self.theory!r}"
+            )
 
     @property
     def area(self) -> float:
@@ -98,11 +120,21 @@ class RootParams:
     def __post_init__(self) -> None:
         if self.kind not in ("clamped", "springs"):
             raise SimulationInputError(f"root.kind must be 'clamped' or 'springs', got {self.kind!r}")
-        strict = self.kind == "springs"      # a spring root needs both springs
-        _finite("root", "rotational_stiffness", self.rotational_stiffness,
-                **({"gt": 0} if strict else {"ge": 0}), unit="N*m/rad")
-        _finite("root", "translational_stiffness", self.translational_stiffness,
-                **({"gt": 0} if strict else {"ge": 0}), unit="N/m")
+        strict = self.kind == "springs"  # a spring root needs both springs
+        _finite(
+            "root",
+            "rotational_stiffness",
+            self.rotational_stiffness,
+            **({"gt": 0} if strict else {"ge": 0}),
+            unit="N*m/rad",
+        )
+        _finite(
+            "root",
+            "translational_stiffness",
+            self.translational_stiffness,
+            **({"gt": 0} if strict else {"ge": 0}),
+            unit="N/m",
+        )
 
     def check_against(self, blade: BladeParams, which: str = "root") -> None:
         """Refuse springs so stiff, next to the root element of ``blade``, that the FE eigen-solve
@@ -110,16 +142,23 @@ class RootParams:
         if self.kind != "springs":
             return
         le = blade.length / blade.elements
-        refs = (("translational_stiffness", blade.youngs_modulus * blade.area / le, "N/m", "axial EA/Le"),
-                ("rotational_stiffness", blade.youngs_modulus * blade.i_flexural / le, "N*m/rad",
-                 "bending EI/Le"))
+        refs = (
+            ("translational_stiffness", blade.youngs_modulus * blade.area / le, "N/m", "axial EA/Le"),
+            (
+                "rotational_stiffness",
+                blade.youngs_modulus * blade.i_flexural / le,
+                "N*m/rad",
+                "bending EI/Le",
+            ),
+        )
         for name, ref, unit, what in refs:
             k = getattr(self, name)
             if k > MAX_ROOT_SPRING_RATIO * ref:
                 raise SimulationInputError(
                     f"{which}.{name} {k:.3g} {unit} is {k / ref:.2g} times the root element's {what} "
                     f"({ref:.3g} {unit}); above {MAX_ROOT_SPRING_RATIO:.0e} times the natural frequencies "
-                    f"come out wrong: use kind = \"clamped\" for a rigid root")
+                    f'come out wrong: use kind = "clamped" for a rigid root'
+                )
 
 
 @dataclass(frozen=True)
@@ -151,7 +190,9 @@ class ContactParams:
         _finite("contact", "stiffness", self.stiffness, gt=0, unit="N/m")
         _finite("contact", "damping", self.damping, ge=0, unit="N*s/m")
         if self.law not in CONTACT_LAWS:
-            raise SimulationInputError(f"contact.law must be one of {', '.join(CONTACT_LAWS)}, got {self.law!r}")
+            raise SimulationInputError(
+                f"contact.law must be one of {', '.join(CONTACT_LAWS)}, got {self.law!r}"
+            )
         _finite("contact", "hertz_exponent", self.hertz_exponent, ge=1.0, le=3.0)
 
 
@@ -190,7 +231,8 @@ class RigParams:
         if not self.force_sensor.position <= self.active.length:
             raise SimulationInputError(
                 f"force_sensor.position {self.force_sensor.position * 1e3:g} mm lies beyond the active "
-                f"blade's length {self.active.length * 1e3:g} mm")
+                f"blade's length {self.active.length * 1e3:g} mm"
+            )
         if not self.force_sensor.position > 0:
             raise SimulationInputError("force_sensor.position must be > 0 (the root is clamped)")
         self.root.check_against(self.active, "root")

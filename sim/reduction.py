@@ -23,14 +23,14 @@ import scipy.sparse.linalg as spla
 
 from rigtools.sim.params import ContactParams, DampingParams, RigParams, SimulationInputError
 
-if TYPE_CHECKING:   # imported lazily at run time: these build on the FE and AM modules
+if TYPE_CHECKING:  # imported lazily at run time: these build on the FE and AM modules
     from rigtools.sim.analytical import AssumedModesBlade
     from rigtools.sim.rig_model import RigModel
 
 ROWS = ("active_tip", "passive_tip", "force_point")
 ACTIVE, PASSIVE = 0, 1
 DEFAULT_CUTOFF_HZ = 6000.0
-MAX_MODAL_DAMPING_RATIO = 1.0e3    # beyond: absurd, and exp(A dt) of such a mode over/underflows
+MAX_MODAL_DAMPING_RATIO = 1.0e3  # beyond: absurd, and exp(A dt) of such a mode over/underflows
 
 
 @dataclass(frozen=True)
@@ -74,23 +74,27 @@ class ReducedSystem:
     def __post_init__(self) -> None:
         om = np.asarray(self.omega, dtype=float)
         ze = np.asarray(self.zeta, dtype=float)
-        which = lambda j: ("active" if int(np.asarray(self.blade)[j]) == ACTIVE else "passive")  # noqa: E731
+        which = lambda j: "active" if int(np.asarray(self.blade)[j]) == ACTIVE else "passive"  # noqa: E731
         bad = np.flatnonzero(~(np.isfinite(om) & (om > 0)))
         if bad.size:
             j = int(bad[0])
             raise SimulationInputError(
                 f"natural frequency {om[j] / (2 * np.pi):g} Hz of {which(j)} mode {j + 1}: the eigen-solve "
-                f"failed (check the root springs, blade dimensions and material)")
+                f"failed (check the root springs, blade dimensions and material)"
+            )
         bad = np.flatnonzero(~(np.isfinite(ze) & (ze >= 0) & (ze <= MAX_MODAL_DAMPING_RATIO)))
         if bad.size:
             j = int(bad[0])
             raise SimulationInputError(
                 f"modal damping ratio {ze[j]:g} of {which(j)} mode {j + 1} ({om[j] / (2 * np.pi):.4g} Hz) is "
                 f"outside [0, {MAX_MODAL_DAMPING_RATIO:g}]: check [damping] (Rayleigh alpha = "
-                f"{self.damping.alpha:g} 1/s, beta = {self.damping.beta:g} s)")
+                f"{self.damping.alpha:g} 1/s, beta = {self.damping.beta:g} s)"
+            )
         if not np.isfinite(np.asarray(self.shapes, dtype=float)).all():
-            raise SimulationInputError("the mode shapes hold non-finite values: the eigen-solve failed "
-                                       "(check the root springs, blade dimensions and material)")
+            raise SimulationInputError(
+                "the mode shapes hold non-finite values: the eigen-solve failed "
+                "(check the root springs, blade dimensions and material)"
+            )
 
     @property
     def n_modes(self) -> int:
@@ -138,7 +142,7 @@ class ReducedSystem:
         omega[act] = np.sqrt(np.clip(w2, 0.0, None))
         shapes[:, act] = self.shapes[:, act] @ t
         pseudo = None if self.pseudo is None else self.pseudo.copy()
-        if pseudo is not None:   # the highest ones remain the pseudo-modes
+        if pseudo is not None:  # the highest ones remain the pseudo-modes
             n_ps = int(self.pseudo[act].sum())
             pseudo[act] = False
             if n_ps:
@@ -160,15 +164,16 @@ def damping_ratios(omega: np.ndarray, damping: DampingParams) -> np.ndarray:
     return damping.alpha / (2.0 * safe) + damping.beta * omega / 2.0
 
 
-def _blade_ritz(mass, stiffness, damping, modes_omega, modes_shapes, load_dofs, cutoff_hz,
-                static_correction: bool):
+def _blade_ritz(
+    mass, stiffness, damping, modes_omega, modes_shapes, load_dofs, cutoff_hz, static_correction: bool
+):
     """Ritz basis of one blade: kept modes + re-diagonalised residual static shapes.
 
     Returns (omega, zeta, basis (n_dofs, n), pseudo flags).
     """
     rows = modes_shapes[load_dofs, :]
     scale = np.abs(rows).max()
-    moves = np.abs(rows).max(axis=0) > 1e-9 * scale      # modes the loads can excite / we can see
+    moves = np.abs(rows).max(axis=0) > 1e-9 * scale  # modes the loads can excite / we can see
     keep = moves & (modes_omega < 2.0 * np.pi * cutoff_hz)
     phi = modes_shapes[:, keep]
     om = modes_omega[keep]
@@ -198,8 +203,12 @@ def _blade_ritz(mass, stiffness, damping, modes_omega, modes_shapes, load_dofs, 
     return omega, zeta, basis, np.concatenate(pseudo)
 
 
-def reduce_rig_model(model: RigModel, cutoff_hz: float = DEFAULT_CUTOFF_HZ, static_correction: bool = True,
-                     keep_bases: bool = False) -> ReducedSystem:
+def reduce_rig_model(
+    model: RigModel,
+    cutoff_hz: float = DEFAULT_CUTOFF_HZ,
+    static_correction: bool = True,
+    keep_bases: bool = False,
+) -> ReducedSystem:
     """Reduce the FE rig model (:class:`rigtools.sim.rig_model.RigModel`) to decoupled modal oscillators.
 
     Parameters
@@ -230,9 +239,10 @@ def reduce_rig_model(model: RigModel, cutoff_hz: float = DEFAULT_CUTOFF_HZ, stat
         modes = blade_modes(blade)
         tip = blade.dof(blade.tip_node, 1)
         loads = [tip] if blade.sensor_node is None else [tip, blade.dof(blade.sensor_node, 1)]
-        c = model.damping[off:off + blade.n_dofs, off:off + blade.n_dofs]
-        om, z, basis, ps = _blade_ritz(blade.mass, blade.stiffness, c, modes.omegas, modes.shapes,
-                                       loads, cutoff_hz, static_correction)
+        c = model.damping[off : off + blade.n_dofs, off : off + blade.n_dofs]
+        om, z, basis, ps = _blade_ritz(
+            blade.mass, blade.stiffness, c, modes.omegas, modes.shapes, loads, cutoff_hz, static_correction
+        )
         parts.append((om, z, basis, ps, tip, loads))
     (om_a, z_a, b_a, ps_a, tip_a, loads_a), (om_p, z_p, b_p, ps_p, tip_p, _) = parts
     n1, n2 = om_a.size, om_p.size
@@ -253,9 +263,13 @@ def reduce_rig_model(model: RigModel, cutoff_hz: float = DEFAULT_CUTOFF_HZ, stat
     )
 
 
-def reduce_assumed_modes(active: AssumedModesBlade, passive: AssumedModesBlade, params: RigParams,
-                         force_position: float | None = None,
-                         cutoff_hz: float | None = None) -> ReducedSystem:
+def reduce_assumed_modes(
+    active: AssumedModesBlade,
+    passive: AssumedModesBlade,
+    params: RigParams,
+    force_position: float | None = None,
+    cutoff_hz: float | None = None,
+) -> ReducedSystem:
     """Reduced system from two assumed-modes blades (:class:`rigtools.sim.analytical.AssumedModesBlade`).
 
     Each blade's generalised ``mass``/``stiffness`` is diagonalised; the rows are the mode
@@ -299,8 +313,13 @@ def reduce_assumed_modes(active: AssumedModesBlade, passive: AssumedModesBlade, 
     )
 
 
-def reduced_system(params: RigParams, model: str = "fem", cutoff_hz: float = DEFAULT_CUTOFF_HZ,
-                   n_terms: int = 12, rig_model: RigModel | None = None) -> ReducedSystem:
+def reduced_system(
+    params: RigParams,
+    model: str = "fem",
+    cutoff_hz: float = DEFAULT_CUTOFF_HZ,
+    n_terms: int = 12,
+    rig_model: RigModel | None = None,
+) -> ReducedSystem:
     """The reduced system of a rig, from the FE model (``"fem"``) or the assumed-modes model
     (``"am"``, all of its ``n_terms`` shapes per blade).
 

@@ -124,10 +124,17 @@ def build_rig_model(params: RigParams, rotary_inertia: bool = True) -> RigModel:
     RigModel
     """
     active = build_blade(
-        "active", params.active, blade_masses(params, "active"), params.root, params.force_sensor, rotary_inertia
+        "active",
+        params.active,
+        blade_masses(params, "active"),
+        params.root,
+        params.force_sensor,
+        rotary_inertia,
     )
     passive_root = params.passive_root if params.passive_root is not None else params.root
-    passive = build_blade("passive", params.passive, blade_masses(params, "passive"), passive_root, None, rotary_inertia)
+    passive = build_blade(
+        "passive", params.passive, blade_masses(params, "passive"), passive_root, None, rotary_inertia
+    )
     mass = sp.block_diag([active.mass, passive.mass], format="csr")
     stiffness = sp.block_diag([active.stiffness, passive.stiffness], format="csr")
     damping = sp.block_diag(

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 
-SUBHARMONIC_DISTINCT = 1e-2   # period-1 mismatch above which a lag-m match counts as period m
+SUBHARMONIC_DISTINCT = 1e-2  # period-1 mismatch above which a lag-m match counts as period m
 
 
 @dataclass(frozen=True)
@@ -35,8 +35,13 @@ class Periodicity:
     mismatch: float
 
 
-def period_mismatch(signals: np.ndarray, samples_per_period: int, lag: int = 1,
-                    n_compare: int = 3, scale: np.ndarray | None = None) -> float:
+def period_mismatch(
+    signals: np.ndarray,
+    samples_per_period: int,
+    lag: int = 1,
+    n_compare: int = 3,
+    scale: np.ndarray | None = None,
+) -> float:
     """Largest relative difference between the last ``n_compare`` periods and those ``lag``
     periods earlier.
 
@@ -68,15 +73,20 @@ def period_mismatch(signals: np.ndarray, samples_per_period: int, lag: int = 1,
     if x.shape[1] < w + lag * n:
         return float("inf")
     now = x[:, -w:]
-    before = x[:, -w - lag * n: x.shape[1] - lag * n]
+    before = x[:, -w - lag * n : x.shape[1] - lag * n]
     span = np.ptp(now, axis=1) if scale is None else np.asarray(scale, dtype=float)
     span = np.where(span > 0, span, 1.0)
     return float(np.max(np.max(np.abs(now - before), axis=1) / span))
 
 
-def check_periodic(signals: np.ndarray, samples_per_period: int, tol: float = 1e-5,
-                   n_compare: int = 3, max_multiple: int = 4,
-                   scale: np.ndarray | None = None) -> Periodicity:
+def check_periodic(
+    signals: np.ndarray,
+    samples_per_period: int,
+    tol: float = 1e-5,
+    n_compare: int = 3,
+    max_multiple: int = 4,
+    scale: np.ndarray | None = None,
+) -> Periodicity:
     """Is the tail of ``signals`` periodic with a period of ``m`` excitation periods?
 
     Tries ``m = 1 .. max_multiple`` in that order and returns the first that matches within

@@ -74,19 +74,19 @@ class Study:
         return np.array([p.run.peak_contact_force for p in self.points if direction in (None, p.direction)])
 
 
-SWEPT = {"gap": "gap", "force": "force", "frequency": "fe"}   # study kind -> swept parameter
+SWEPT = {"gap": "gap", "force": "force", "frequency": "fe"}  # study kind -> swept parameter
 
 
 @dataclass(frozen=True)
 class PlannedPoint:
     """One point of a study plan: its place in run order and every parameter it runs at (SI)."""
 
-    index: int           # run order, from 0
-    value: float         # the swept value
-    direction: str       # "up" or "down"
-    fe: float            # Hz
-    force: float         # force amplitude F0, N
-    gap: float           # m
+    index: int  # run order, from 0
+    value: float  # the swept value
+    direction: str  # "up" or "down"
+    fe: float  # Hz
+    force: float  # force amplitude F0, N
+    gap: float  # m
 
 
 @dataclass(frozen=True)
@@ -131,8 +131,9 @@ class StudyPlan:
         for v in self.values:
             if not np.isfinite(v) or v < 0 or (self.kind == "frequency" and v <= 0):
                 raise SimulationInputError(
-                    f"{what} values must be {'> 0' if self.kind == 'frequency' else '>= 0'}, got {v:g}")
-        sweep_order(self.values, self.direction)          # checks direction and emptiness
+                    f"{what} values must be {'> 0' if self.kind == 'frequency' else '>= 0'}, got {v:g}"
+                )
+        sweep_order(self.values, self.direction)  # checks direction and emptiness
 
     @property
     def fixed(self) -> dict[str, float]:
@@ -144,7 +145,9 @@ class StudyPlan:
         out = []
         for i, (v, d) in enumerate(sweep_order(self.values, self.direction)):
             p = {"fe": self.fe, "force": self.force, "gap": self.gap, SWEPT[self.kind]: v}
-            out.append(PlannedPoint(index=i, value=v, direction=d, fe=p["fe"], force=p["force"], gap=p["gap"]))
+            out.append(
+                PlannedPoint(index=i, value=v, direction=d, fe=p["fe"], force=p["force"], gap=p["gap"])
+            )
         return out
 
     def chains(self) -> list[list[PlannedPoint]]:
@@ -154,8 +157,13 @@ class StudyPlan:
 
     def to_dict(self) -> dict:
         """JSON-able description (for a recording's experiment attribute)."""
-        return {"kind": self.kind, "values": list(self.values), "direction": self.direction,
-                "fixed": self.fixed, "carry_state": self.carry_state}
+        return {
+            "kind": self.kind,
+            "values": list(self.values),
+            "direction": self.direction,
+            "fixed": self.fixed,
+            "carry_state": self.carry_state,
+        }
 
 
 def sweep_order(values: Iterable[float], direction: Direction) -> list[tuple[float, str]]:
@@ -195,7 +203,7 @@ class MapPlan:
             if not getattr(self, name):
                 raise SimulationInputError(f"a map needs at least one value in {name}")
         for gap in self.gaps:
-            for force in self.forces:        # validates every value and the direction
+            for force in self.forces:  # validates every value and the direction
                 StudyPlan("frequency", self.fes, self.direction, force=force, gap=gap)
 
     @property
@@ -207,13 +215,22 @@ class MapPlan:
         out, index = [], 0
         for gap in self.gaps:
             for force in self.forces:
-                plan = StudyPlan("frequency", self.fes, self.direction, force=force, gap=gap,
-                                 carry_state=self.carry_state)
+                plan = StudyPlan(
+                    "frequency", self.fes, self.direction, force=force, gap=gap, carry_state=self.carry_state
+                )
                 for chain in plan.chains():
                     renumbered = []
                     for p in chain:
-                        renumbered.append(PlannedPoint(index=index, value=p.value, direction=p.direction,
-                                                       fe=p.fe, force=p.force, gap=p.gap))
+                        renumbered.append(
+                            PlannedPoint(
+                                index=index,
+                                value=p.value,
+                                direction=p.direction,
+                                fe=p.fe,
+                                force=p.force,
+                                gap=p.gap,
+                            )
+                        )
                         index += 1
                     out.append(renumbered)
         return out
@@ -223,13 +240,25 @@ class MapPlan:
         return [p for chain in self.chains() for p in chain]
 
     def to_dict(self) -> dict:
-        return {"kind": "map", "gaps": list(self.gaps), "forces": list(self.forces), "fes": list(self.fes),
-                "direction": self.direction, "carry_state": self.carry_state}
+        return {
+            "kind": "map",
+            "gaps": list(self.gaps),
+            "forces": list(self.forces),
+            "fes": list(self.fes),
+            "direction": self.direction,
+            "carry_state": self.carry_state,
+        }
 
 
-def iter_study(system: ReducedSystem, plan: StudyPlan, *, start: int = 0,
-               initial: RunState | None = None, record_duration: float | None = None,
-               **run_options) -> Iterator[tuple[PlannedPoint, VibroImpactRun]]:
+def iter_study(
+    system: ReducedSystem,
+    plan: StudyPlan,
+    *,
+    start: int = 0,
+    initial: RunState | None = None,
+    record_duration: float | None = None,
+    **run_options,
+) -> Iterator[tuple[PlannedPoint, VibroImpactRun]]:
     """Run a study plan point by point, yielding ``(planned point, settled run)`` as each finishes.
 
     Nothing is kept between points but the carried state, so memory does not grow with the
@@ -261,11 +290,20 @@ def iter_study(system: ReducedSystem, plan: StudyPlan, *, start: int = 0,
         yield point, run
 
 
-def run_study(system: ReducedSystem, kind: StudyKind, values: Iterable[float], *,
-              fe: float | None = None, force: float | None = None, gap: float | None = None,
-              direction: Direction = "up", carry_state: bool = True,
-              progress: Progress | None = None, record_duration: float | None = None,
-              **run_options) -> Study:
+def run_study(
+    system: ReducedSystem,
+    kind: StudyKind,
+    values: Iterable[float],
+    *,
+    fe: float | None = None,
+    force: float | None = None,
+    gap: float | None = None,
+    direction: Direction = "up",
+    carry_state: bool = True,
+    progress: Progress | None = None,
+    record_duration: float | None = None,
+    **run_options,
+) -> Study:
     """Run a gap, force or frequency study and keep every point in memory (see :func:`iter_study`
     to stream points instead).
 

@@ -68,16 +68,16 @@ _UY, _RZ = 1, 5
 # start values of a fitted spring when the nominal rig has a clamped root: stiff, but soft enough
 # that the frequencies feel them (1e5 N*m/rad lowers f1 by ~0.3 % on the default rig, 1e10 N/m by
 # ~0.003 %)
-CLAMPED_START_ROTATIONAL = 1e5      # N*m/rad
+CLAMPED_START_ROTATIONAL = 1e5  # N*m/rad
 CLAMPED_START_TRANSLATIONAL = 1e10  # N/m
 # a clamp written as springs, for the spring that is not fitted (frequencies change < 1e-6)
-RIGID_ROTATIONAL = 1e9              # N*m/rad
-RIGID_TRANSLATIONAL = 1e12          # N/m
+RIGID_ROTATIONAL = 1e9  # N*m/rad
+RIGID_TRANSLATIONAL = 1e12  # N/m
 
 CORRELATION_LIMIT = 0.95
-NULL_RATIO = 1e-8     # singular value / largest below which a direction carries no information
-FD_STEP = 1e-3      # finite-difference step in scaled x (~0.1 %): above the eigenvalue round-off
-MAX_STD = 0.25        # 1-sigma extent (in scaled x, ~relative) above which a direction is undetermined
+NULL_RATIO = 1e-8  # singular value / largest below which a direction carries no information
+FD_STEP = 1e-3  # finite-difference step in scaled x (~0.1 %): above the eigenvalue round-off
+MAX_STD = 0.25  # 1-sigma extent (in scaled x, ~relative) above which a direction is undetermined
 
 
 # ------------------------------------------------------------------------------ the registry
@@ -142,8 +142,11 @@ def _scale_mass(mass, value: float):
 
 def _set_youngs(params: RigParams, value: float) -> RigParams:
     factor = value / params.active.youngs_modulus
-    return replace(params, active=replace(params.active, youngs_modulus=value),
-                   passive=replace(params.passive, youngs_modulus=params.passive.youngs_modulus * factor))
+    return replace(
+        params,
+        active=replace(params.active, youngs_modulus=value),
+        passive=replace(params.passive, youngs_modulus=params.passive.youngs_modulus * factor),
+    )
 
 
 def _ratio(params: RigParams) -> float:
@@ -169,37 +172,93 @@ def _set_beta(params: RigParams, value: float) -> RigParams:
     return replace(params, damping=DampingParams(ratio=None, alpha=_rayleigh(params)[0], beta=value))
 
 
-PARAMETERS: dict[str, UpdateParameter] = {p.name: p for p in (
-    UpdateParameter(
-        "root.rotational_stiffness", "N*m/rad", "root rotational springs (both blades, every axis)",
-        True, (1e1, 1e9), False,
-        lambda p: p.root.rotational_stiffness if p.root.kind == "springs" else CLAMPED_START_ROTATIONAL,
-        lambda p, v: _set_root(p, rotational_stiffness=v)),
-    UpdateParameter(
-        "root.translational_stiffness", "N/m", "root translational springs (both blades, every axis)",
-        True, (1e4, 1e13), False,
-        lambda p: p.root.translational_stiffness if p.root.kind == "springs" else CLAMPED_START_TRANSLATIONAL,
-        lambda p, v: _set_root(p, translational_stiffness=v)),
-    UpdateParameter(
-        "damping.ratio", "", "modal damping ratio (every mode)", True, (1e-5, 0.5), False,
-        _ratio, lambda p, v: replace(p, damping=DampingParams(ratio=v))),
-    UpdateParameter(
-        "damping.alpha", "1/s", "Rayleigh mass-proportional damping (C = alpha M + beta K)",
-        True, (1e-6, 1e4), False, lambda p: _rayleigh(p)[0], _set_alpha),
-    UpdateParameter(
-        "damping.beta", "s", "Rayleigh stiffness-proportional damping (C = alpha M + beta K)",
-        True, (1e-12, 1e-2), False, lambda p: _rayleigh(p)[1], _set_beta),
-    UpdateParameter(
-        "shroud.mass", "kg", "shroud mass (both tips; rotary inertia scaled with it)",
-        False, (0.5, 1.5), True, lambda p: p.shroud.mass, lambda p, v: replace(p, shroud=_scale_mass(p.shroud, v))),
-    UpdateParameter(
-        "force_sensor.mass", "kg", "force-sensor mass (rotary inertia scaled with it)",
-        False, (0.5, 1.5), True, lambda p: p.force_sensor.mass,
-        lambda p, v: replace(p, force_sensor=_scale_mass(p.force_sensor, v))),
-    UpdateParameter(
-        "blade.youngs_modulus", "Pa", "Young's modulus of the blades (the passive one scaled alike)",
-        False, (0.5, 1.5), True, lambda p: p.active.youngs_modulus, _set_youngs),
-)}
+PARAMETERS: dict[str, UpdateParameter] = {
+    p.name: p
+    for p in (
+        UpdateParameter(
+            "root.rotational_stiffness",
+            "N*m/rad",
+            "root rotational springs (both blades, every axis)",
+            True,
+            (1e1, 1e9),
+            False,
+            lambda p: p.root.rotational_stiffness if p.root.kind == "springs" else CLAMPED_START_ROTATIONAL,
+            lambda p, v: _set_root(p, rotational_stiffness=v),
+        ),
+        UpdateParameter(
+            "root.translational_stiffness",
+            "N/m",
+            "root translational springs (both blades, every axis)",
+            True,
+            (1e4, 1e13),
+            False,
+            lambda p: (
+                p.root.translational_stiffness if p.root.kind == "springs" else CLAMPED_START_TRANSLATIONAL
+            ),
+            lambda p, v: _set_root(p, translational_stiffness=v),
+        ),
+        UpdateParameter(
+            "damping.ratio",
+            "",
+            "modal damping ratio (every mode)",
+            True,
+            (1e-5, 0.5),
+            False,
+            _ratio,
+            lambda p, v: replace(p, damping=DampingParams(ratio=v)),
+        ),
+        UpdateParameter(
+            "damping.alpha",
+            "1/s",
+            "Rayleigh mass-proportional damping (C = alpha M + beta K)",
+            True,
+            (1e-6, 1e4),
+            False,
+            lambda p: _rayleigh(p)[0],
+            _set_alpha,
+        ),
+        UpdateParameter(
+            "damping.beta",
+            "s",
+            "Rayleigh stiffness-proportional damping (C = alpha M + beta K)",
+            True,
+            (1e-12, 1e-2),
+            False,
+            lambda p: _rayleigh(p)[1],
+            _set_beta,
+        ),
+        UpdateParameter(
+            "shroud.mass",
+            "kg",
+            "shroud mass (both tips; rotary inertia scaled with it)",
+            False,
+            (0.5, 1.5),
+            True,
+            lambda p: p.shroud.mass,
+            lambda p, v: replace(p, shroud=_scale_mass(p.shroud, v)),
+        ),
+        UpdateParameter(
+            "force_sensor.mass",
+            "kg",
+            "force-sensor mass (rotary inertia scaled with it)",
+            False,
+            (0.5, 1.5),
+            True,
+            lambda p: p.force_sensor.mass,
+            lambda p, v: replace(p, force_sensor=_scale_mass(p.force_sensor, v)),
+        ),
+        UpdateParameter(
+            "blade.youngs_modulus",
+            "Pa",
+            "Young's modulus of the blades (the passive one scaled alike)",
+            False,
+            (0.5, 1.5),
+            True,
+            lambda p: p.active.youngs_modulus,
+            _set_youngs,
+        ),
+    )
+}
 
 
 def rig_file_values(params: RigParams, names: Sequence[str]) -> dict[str, float | str]:
@@ -391,9 +450,9 @@ def flexural_modes(blade: BladeModel, n: int | None = None) -> tuple[np.ndarray,
 class Prediction:
     """What the model predicts for a set of targets."""
 
-    frequencies_hz: dict[str, np.ndarray]   # blade -> lowest flexural frequencies
-    damping_ratios: dict[str, np.ndarray]   # blade -> their damping ratios
-    frf: list[np.ndarray]                   # one array per FRF target
+    frequencies_hz: dict[str, np.ndarray]  # blade -> lowest flexural frequencies
+    damping_ratios: dict[str, np.ndarray]  # blade -> their damping ratios
+    frf: list[np.ndarray]  # one array per FRF target
 
 
 def predict(params: RigParams, targets: Sequence[Target]) -> Prediction:
@@ -416,8 +475,13 @@ def predict(params: RigParams, targets: Sequence[Target]) -> Prediction:
         if need[b] == 0 and not (b == "active" and frfs):
             continue
         root = params.root if b == "active" or params.passive_root is None else params.passive_root
-        blade = build_blade(b, params.active if b == "active" else params.passive, blade_masses(params, b),
-                            root, params.force_sensor if b == "active" else None)
+        blade = build_blade(
+            b,
+            params.active if b == "active" else params.passive,
+            blade_masses(params, b),
+            root,
+            params.force_sensor if b == "active" else None,
+        )
         all_modes = b == "active" and bool(frfs)
         om, phi, idx = flexural_modes(blade, None if all_modes else need[b])
         if om.size < need[b]:
@@ -610,56 +674,92 @@ class UpdateResult:
         """JSON-ready summary (plain floats, lists and strings)."""
         ident = self.identifiability
         return {
-            "parameters": {n: {"unit": u, "start": self.initial[n], "fitted": self.fitted[n],
-                               "bounds": list(self.bounds[n]), "confidence_95": list(ident.confidence[n]),
-                               "std_relative": float(ident.std_scaled[i])}
-                           for i, (n, u) in enumerate(zip(self.names, self.units))},
+            "parameters": {
+                n: {
+                    "unit": u,
+                    "start": self.initial[n],
+                    "fitted": self.fitted[n],
+                    "bounds": list(self.bounds[n]),
+                    "confidence_95": list(ident.confidence[n]),
+                    "std_relative": float(ident.std_scaled[i]),
+                }
+                for i, (n, u) in enumerate(zip(self.names, self.units))
+            },
             "rig_file": self.rig_file_values(),
-            "modes": [{"blade": m.target.blade, "order": m.target.order, "target_hz": m.target.frequency_hz,
-                       "before_hz": m.before_hz, "after_hz": m.after_hz, "error_before": m.error_before,
-                       "error_after": m.error_after, "damping_target": m.target.damping_ratio,
-                       "damping_before": m.damping_before, "damping_after": m.damping_after}
-                      for m in self.modes],
-            "cost_before": self.cost_before, "cost_after": self.cost_after,
+            "modes": [
+                {
+                    "blade": m.target.blade,
+                    "order": m.target.order,
+                    "target_hz": m.target.frequency_hz,
+                    "before_hz": m.before_hz,
+                    "after_hz": m.after_hz,
+                    "error_before": m.error_before,
+                    "error_after": m.error_after,
+                    "damping_target": m.target.damping_ratio,
+                    "damping_before": m.damping_before,
+                    "damping_after": m.damping_after,
+                }
+                for m in self.modes
+            ],
+            "cost_before": self.cost_before,
+            "cost_after": self.cost_after,
             "max_frequency_error_before": self.max_frequency_error_before,
             "max_frequency_error_after": self.max_frequency_error_after,
-            "model_evaluations": self.n_evaluations, "wall_time_s": self.wall_time,
-            "success": self.success, "message": self.message, "covariance": self.covariance,
-            "identifiability": {"rank": ident.rank, "condition": ident.condition,
-                                "singular_values": ident.singular_values.tolist(),
-                                "correlation": [[None if not np.isfinite(c) else float(c) for c in row]
-                                                for row in ident.correlation],
-                                "unresolved": list(ident.unresolved)},
+            "model_evaluations": self.n_evaluations,
+            "wall_time_s": self.wall_time,
+            "success": self.success,
+            "message": self.message,
+            "covariance": self.covariance,
+            "identifiability": {
+                "rank": ident.rank,
+                "condition": ident.condition,
+                "singular_values": ident.singular_values.tolist(),
+                "correlation": [
+                    [None if not np.isfinite(c) else float(c) for c in row] for row in ident.correlation
+                ],
+                "unresolved": list(ident.unresolved),
+            },
         }
 
     def report(self) -> str:
         """A plain-text report: fitted values with 95 % intervals, modes before/after, and the
         parameters the data cannot separate."""
         ident = self.identifiability
-        lines = [f"model update: {len(self.names)} parameters, {len(self.residual_labels)} residuals, "
-                 f"{self.n_evaluations} model evaluations, {self.wall_time:.1f} s"
-                 + ("" if self.success else f" (optimiser: {self.message})")]
+        lines = [
+            f"model update: {len(self.names)} parameters, {len(self.residual_labels)} residuals, "
+            f"{self.n_evaluations} model evaluations, {self.wall_time:.1f} s"
+            + ("" if self.success else f" (optimiser: {self.message})")
+        ]
         lines.append(f"{'parameter':<30} {'start':>12} {'fitted':>12} {'95 % interval':>27}  unit")
         for n, u in zip(self.names, self.units):
             lo, hi = ident.confidence[n]
-            lines.append(f"{n:<30} {self.initial[n]:>12.5g} {self.fitted[n]:>12.5g} "
-                         f"{f'[{lo:.4g}, {hi:.4g}]':>27}  {u}")
+            lines.append(
+                f"{n:<30} {self.initial[n]:>12.5g} {self.fitted[n]:>12.5g} {f'[{lo:.4g}, {hi:.4g}]':>27}  {u}"
+            )
         if self.modes:
-            lines.append(f"{'mode':<12} {'target Hz':>10} {'before Hz':>10} {'err %':>7} {'after Hz':>10} "
-                         f"{'err %':>7} {'zeta target':>11} {'zeta after':>10}")
+            lines.append(
+                f"{'mode':<12} {'target Hz':>10} {'before Hz':>10} {'err %':>7} {'after Hz':>10} "
+                f"{'err %':>7} {'zeta target':>11} {'zeta after':>10}"
+            )
             for m in self.modes:
                 zt = "-" if m.target.damping_ratio is None else f"{m.target.damping_ratio:.4g}"
-                lines.append(f"{m.target.label:<12} {m.target.frequency_hz:>10.2f} {m.before_hz:>10.2f} "
-                             f"{100 * m.error_before:>+7.3f} {m.after_hz:>10.2f} {100 * m.error_after:>+7.3f} "
-                             f"{zt:>11} {m.damping_after:>10.4g}")
-        lines.append(f"Jacobian rank {ident.rank} of {len(self.names)}, condition {ident.condition:.3g} "
-                     f"(covariance from {self.covariance} uncertainties)")
+                lines.append(
+                    f"{m.target.label:<12} {m.target.frequency_hz:>10.2f} {m.before_hz:>10.2f} "
+                    f"{100 * m.error_before:>+7.3f} {m.after_hz:>10.2f} {100 * m.error_after:>+7.3f} "
+                    f"{zt:>11} {m.damping_after:>10.4g}"
+                )
+        lines.append(
+            f"Jacobian rank {ident.rank} of {len(self.names)}, condition {ident.condition:.3g} "
+            f"(covariance from {self.covariance} uncertainties)"
+        )
         if ident.unresolved:
             lines.append("the data cannot separate or determine:")
             lines += [f"  {line}" for line in ident.unresolved]
         else:
-            lines.append("every parameter is determined by the data (no |correlation| > "
-                         f"{CORRELATION_LIMIT}, no near-null direction)")
+            lines.append(
+                "every parameter is determined by the data (no |correlation| > "
+                f"{CORRELATION_LIMIT}, no near-null direction)"
+            )
         return "\n".join(lines)
 
 
@@ -669,8 +769,14 @@ class UpdateResult:
 class _Problem:
     """Scaled variables <-> parameter values, and the counted, cached model evaluation."""
 
-    def __init__(self, params: RigParams, targets: Sequence[Target], names: list[str],
-                 start: dict[str, float], bounds: dict[str, tuple[float, float]]) -> None:
+    def __init__(
+        self,
+        params: RigParams,
+        targets: Sequence[Target],
+        names: list[str],
+        start: dict[str, float],
+        bounds: dict[str, tuple[float, float]],
+    ) -> None:
         self.base, self.targets, self.names = params, targets, names
         self.specs = [PARAMETERS[n] for n in names]
         self.v0 = np.array([start[n] for n in names])
@@ -679,12 +785,14 @@ class _Problem:
         self._cache: dict[bytes, np.ndarray] = {}
 
     def to_x(self, v: np.ndarray) -> np.ndarray:
-        return np.array([math.log(vi / v0) if s.log else vi / v0 - 1.0
-                         for s, vi, v0 in zip(self.specs, v, self.v0)])
+        return np.array(
+            [math.log(vi / v0) if s.log else vi / v0 - 1.0 for s, vi, v0 in zip(self.specs, v, self.v0)]
+        )
 
     def to_v(self, x: np.ndarray) -> np.ndarray:
-        return np.array([v0 * math.exp(xi) if s.log else v0 * (1.0 + xi)
-                         for s, xi, v0 in zip(self.specs, x, self.v0)])
+        return np.array(
+            [v0 * math.exp(xi) if s.log else v0 * (1.0 + xi) for s, xi, v0 in zip(self.specs, x, self.v0)]
+        )
 
     def params_at(self, x: np.ndarray) -> RigParams:
         p = self.base
@@ -716,7 +824,9 @@ def _forward_jacobian(fun, x: np.ndarray, hi: np.ndarray, step: float = FD_STEP)
     return np.column_stack(cols)
 
 
-def _central_jacobian(fun, x: np.ndarray, lo: np.ndarray, hi: np.ndarray, step: float = FD_STEP) -> np.ndarray:
+def _central_jacobian(
+    fun, x: np.ndarray, lo: np.ndarray, hi: np.ndarray, step: float = FD_STEP
+) -> np.ndarray:
     """Central differences (one-sided at a bound) of ``fun`` at ``x``, absolute step ``step``."""
     cols = []
     for i in range(x.size):
@@ -739,10 +849,11 @@ def _check_names(names: Sequence[str]) -> list[str]:
     return names
 
 
-def _identifiability(jac: np.ndarray, names: list[str], specs, x: np.ndarray, v0: np.ndarray,
-                     scale2: float, dof: int) -> Identifiability:
+def _identifiability(
+    jac: np.ndarray, names: list[str], specs, x: np.ndarray, v0: np.ndarray, scale2: float, dof: int
+) -> Identifiability:
     n = len(names)
-    if jac.shape[0] < n:   # fewer residuals than parameters: the missing rows carry nothing
+    if jac.shape[0] < n:  # fewer residuals than parameters: the missing rows carry nothing
         jac = np.vstack([jac, np.zeros((n - jac.shape[0], n))])
     _, s_full, vt = np.linalg.svd(jac, full_matrices=False)
     smax = s_full[0] if s_full[0] > 0 else 1.0
@@ -765,11 +876,17 @@ def _identifiability(jac: np.ndarray, names: list[str], specs, x: np.ndarray, v0
     for i, (name, spec) in enumerate(zip(names, specs)):
         half = z * std[i]
         if spec.log:
-            confidence[name] = (v0[i] * math.exp(x[i] - half), v0[i] * math.exp(x[i] + half)) \
-                if half < 50 else (0.0, math.inf)
+            confidence[name] = (
+                (v0[i] * math.exp(x[i] - half), v0[i] * math.exp(x[i] + half))
+                if half < 50
+                else (0.0, math.inf)
+            )
         else:
-            confidence[name] = (v0[i] * (1 + x[i] - half), v0[i] * (1 + x[i] + half)) \
-                if np.isfinite(half) else (-math.inf, math.inf)
+            confidence[name] = (
+                (v0[i] * (1 + x[i] - half), v0[i] * (1 + x[i] + half))
+                if np.isfinite(half)
+                else (-math.inf, math.inf)
+            )
 
     unresolved: list[str] = []
     named: set[frozenset] = set()
@@ -802,8 +919,9 @@ def _identifiability(jac: np.ndarray, names: list[str], specs, x: np.ndarray, v0
                 if pair in named:
                     continue
                 named.add(pair)
-                unresolved.append(f"{names[big[a]]} <-> {names[big[b]]}: near-null direction "
-                                  f"[{direction}] ({how})")
+                unresolved.append(
+                    f"{names[big[a]]} <-> {names[big[b]]}: near-null direction [{direction}] ({how})"
+                )
     return Identifiability(names, s_full, vt, rank, condition, corr, std, confidence, unresolved)
 
 
@@ -876,45 +994,93 @@ def update_model(
     lo = np.minimum(lo, -1e-12)
     hi = np.maximum(hi, 1e-12)
 
-    pred0 = predict(params, targets)       # the nominal rig as given (clamped root and all)
+    pred0 = predict(params, targets)  # the nominal rig as given (clamped root and all)
     prob.n_evaluations += 1
     r0 = _residuals(pred0, targets)
-    sol = scipy.optimize.least_squares(prob.residuals, x0, jac=lambda x: _forward_jacobian(prob.residuals, x, hi),
-                                       bounds=(lo, hi), method="trf", x_scale=1.0, max_nfev=max_evaluations, xtol=1e-10, ftol=1e-10,
-                                       gtol=1e-10)
+    sol = scipy.optimize.least_squares(
+        prob.residuals,
+        x0,
+        jac=lambda x: _forward_jacobian(prob.residuals, x, hi),
+        bounds=(lo, hi),
+        method="trf",
+        x_scale=1.0,
+        max_nfev=max_evaluations,
+        xtol=1e-10,
+        ftol=1e-10,
+        gtol=1e-10,
+    )
     x = sol.x
     r1 = prob.residuals(x)
     pred1 = prob.prediction(x)
     m, n_p = r1.size, len(names)
     dof = m - n_p
     scale2 = 1.0 if covariance == "stated" else (float(r1 @ r1) / dof if dof > 0 else 1.0)
-    ident = _identifiability(_central_jacobian(prob.residuals, x, lo, hi), names, prob.specs, x, prob.v0, scale2,
-                             dof if covariance == "residual" else 0)
+    ident = _identifiability(
+        _central_jacobian(prob.residuals, x, lo, hi),
+        names,
+        prob.specs,
+        x,
+        prob.v0,
+        scale2,
+        dof if covariance == "residual" else 0,
+    )
     v = prob.to_v(x)
-    modes = [ModeComparison(t, float(pred0.frequencies_hz[t.blade][t.order - 1]),
-                            float(pred1.frequencies_hz[t.blade][t.order - 1]),
-                            float(pred0.damping_ratios[t.blade][t.order - 1]),
-                            float(pred1.damping_ratios[t.blade][t.order - 1]))
-             for t in targets if isinstance(t, ModeTarget)]
+    modes = [
+        ModeComparison(
+            t,
+            float(pred0.frequencies_hz[t.blade][t.order - 1]),
+            float(pred1.frequencies_hz[t.blade][t.order - 1]),
+            float(pred0.damping_ratios[t.blade][t.order - 1]),
+            float(pred1.damping_ratios[t.blade][t.order - 1]),
+        )
+        for t in targets
+        if isinstance(t, ModeTarget)
+    ]
     return UpdateResult(
-        names=names, units=[PARAMETERS[n].unit for n in names],
+        names=names,
+        units=[PARAMETERS[n].unit for n in names],
         initial={n: float(v) for n, v in zip(names, prob.v0)},
-        fitted={n: float(vi) for n, vi in zip(names, v)}, bounds=b_all, params=prob.params_at(x),
-        residual_labels=_residual_labels(targets), residuals_before=r0, residuals_after=r1, modes=modes,
-        n_evaluations=prob.n_evaluations, wall_time=time.perf_counter() - t0, success=bool(sol.success),
-        message=str(sol.message), identifiability=ident, covariance=covariance)
+        fitted={n: float(vi) for n, vi in zip(names, v)},
+        bounds=b_all,
+        params=prob.params_at(x),
+        residual_labels=_residual_labels(targets),
+        residuals_before=r0,
+        residuals_after=r1,
+        modes=modes,
+        n_evaluations=prob.n_evaluations,
+        wall_time=time.perf_counter() - t0,
+        success=bool(sol.success),
+        message=str(sol.message),
+        identifiability=ident,
+        covariance=covariance,
+    )
 
 
-def mode_targets(params: RigParams, n_modes: int = 3, *, damping: bool = False,
-                 frequency_sigma: float = 1e-3, damping_sigma: float = 0.1) -> list[ModeTarget]:
+def mode_targets(
+    params: RigParams,
+    n_modes: int = 3,
+    *,
+    damping: bool = False,
+    frequency_sigma: float = 1e-3,
+    damping_sigma: float = 0.1,
+) -> list[ModeTarget]:
     """Exact targets from a model: the first ``n_modes`` flexural modes of both blades of
     ``params`` (e.g. a test article whose parameters are known), with their damping ratios if
     ``damping``."""
     probe = [ModeTarget(b, n_modes, 1.0) for b in ("active", "passive")]
     pred = predict(params, probe)
-    return [ModeTarget(b, k + 1, float(pred.frequencies_hz[b][k]),
-                       float(pred.damping_ratios[b][k]) if damping else None, frequency_sigma, damping_sigma)
-            for b in ("active", "passive") for k in range(n_modes)]
+    return [
+        ModeTarget(
+            b,
+            k + 1,
+            float(pred.frequencies_hz[b][k]),
+            float(pred.damping_ratios[b][k]) if damping else None,
+            frequency_sigma,
+            damping_sigma,
+        )
+        for b in ("active", "passive")
+        for k in range(n_modes)
+    ]
 
 
 @dataclass
@@ -936,9 +1102,17 @@ class Pairing:
     unpaired: list[float]
 
 
-def pair_modes(params: RigParams, blade: Blade, frequencies_hz: Sequence[float],
-               damping_ratios: Sequence[float | None] | None = None, *, max_offset: float = 0.15,
-               n_model: int = 8, frequency_sigma: float = 1e-3, damping_sigma: float = 0.1) -> Pairing:
+def pair_modes(
+    params: RigParams,
+    blade: Blade,
+    frequencies_hz: Sequence[float],
+    damping_ratios: Sequence[float | None] | None = None,
+    *,
+    max_offset: float = 0.15,
+    n_model: int = 8,
+    frequency_sigma: float = 1e-3,
+    damping_sigma: float = 0.1,
+) -> Pairing:
     """Pair identified natural frequencies of one blade with the model's flexural modes.
 
     Each identified mode goes to one model mode (one-to-one, least total ``|ln(f_id / f_model)|``,

@@ -28,16 +28,27 @@ from rigtools.sim.reduction import ReducedSystem
 
 # output columns of the compiled kernel
 OUT_COLUMNS = (
-    "active_tip_displacement", "active_tip_velocity", "active_tip_acceleration",
-    "passive_tip_displacement", "passive_tip_velocity", "passive_tip_acceleration",
-    "force_point_displacement", "force_point_velocity", "force_point_acceleration",
-    "contact_force", "excitation_force", "coil_current",
-    "damping_power", "contact_damping_power",
+    "active_tip_displacement",
+    "active_tip_velocity",
+    "active_tip_acceleration",
+    "passive_tip_displacement",
+    "passive_tip_velocity",
+    "passive_tip_acceleration",
+    "force_point_displacement",
+    "force_point_velocity",
+    "force_point_acceleration",
+    "contact_force",
+    "excitation_force",
+    "coil_current",
+    "damping_power",
+    "contact_damping_power",
     # the contact force within each step (exact load of the scheme): linear from the previous
     # step's force to ``contact_force_before_split`` over the fraction ``contact_split`` of the
     # step, then linear from ``contact_force_after_split`` to ``contact_force`` (split = 1, both
     # equal to contact_force, in a step without an event); see :func:`contact_force_harmonics`
-    "contact_split", "contact_force_before_split", "contact_force_after_split",
+    "contact_split",
+    "contact_force_before_split",
+    "contact_force_after_split",
 )
 N_OUT = len(OUT_COLUMNS)
 MIN_STEPS_PER_CONTACT = 20
@@ -45,7 +56,7 @@ MIN_STEPS_PER_CONTACT = 20
 # overshoot and the run diverge (1e4 N*s/m at the default 50 us step: 8.5, no steady state;
 # 1e5: 1e227 N); at <= 2 the contact-force harmonics agree with a 4x finer step to 0.01 %
 MAX_CONTACT_DAMPING_STEP = 2.0
-DIVERGED_DISPLACEMENT = 1.0e3    # m: no blade tip moves a kilometre
+DIVERGED_DISPLACEMENT = 1.0e3  # m: no blade tip moves a kilometre
 # scalar state slots: last load at the force point, last contact force, coil current,
 # last coil voltage, last force-point velocity
 _S_F, _S_FC, _S_I, _S_V, _S_VF = range(5)
@@ -64,16 +75,20 @@ class ShakerCoupling:
     sensor reads ``Bl i - m_a a - k_s x - c_s v`` (the force passed into the blade).
     """
 
-    armature_mass: float          # kg
-    suspension_stiffness: float   # N/m
-    suspension_damping: float     # N s/m
-    force_factor: float           # Bl, N/A
-    coil_resistance: float        # ohm
-    coil_inductance: float        # H
+    armature_mass: float  # kg
+    suspension_stiffness: float  # N/m
+    suspension_damping: float  # N s/m
+    force_factor: float  # Bl, N/A
+    coil_resistance: float  # ohm
+    coil_inductance: float  # H
 
     def __post_init__(self) -> None:
-        for name, unit in (("armature_mass", "kg"), ("suspension_stiffness", "N/m"),
-                           ("suspension_damping", "N*s/m"), ("coil_inductance", "H")):
+        for name, unit in (
+            ("armature_mass", "kg"),
+            ("suspension_stiffness", "N/m"),
+            ("suspension_damping", "N*s/m"),
+            ("coil_inductance", "H"),
+        ):
             _finite("shaker", name, getattr(self, name), ge=0, unit=unit)
         _finite("shaker", "force_factor", self.force_factor, ge=0, unit="N/A")
         _finite("shaker", "coil_resistance", self.coil_resistance, gt=0, unit="ohm")
@@ -84,7 +99,7 @@ class StepOutput:
     """Outputs of :meth:`VibroImpactStepper.step`, one value per step (y direction, SI)."""
 
     time: np.ndarray
-    data: np.ndarray = field(repr=False)   # (n_steps, N_OUT) in OUT_COLUMNS order
+    data: np.ndarray = field(repr=False)  # (n_steps, N_OUT) in OUT_COLUMNS order
 
     def __getattr__(self, name: str) -> np.ndarray:
         # only called for names that are not attributes; during copy/unpickling ``data`` is not
@@ -103,14 +118,16 @@ class StepperState:
 
     q: np.ndarray
     v: np.ndarray
-    scalars: np.ndarray   # see the _S_* slots
+    scalars: np.ndarray  # see the _S_* slots
     time: float = 0.0
 
     def copy(self) -> "StepperState":
         return StepperState(self.q.copy(), self.v.copy(), self.scalars.copy(), self.time)
 
 
-def foh_propagators(omega: np.ndarray, zeta: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def foh_propagators(
+    omega: np.ndarray, zeta: np.ndarray, dt: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Exact one-step propagators of ``q'' + 2 zeta w q' + w^2 q = p`` for piecewise-linear ``p``.
 
     Returns ``E (n,2,2), G0 (n,2), G1 (n,2)`` with ``x1 = E x0 + G0 p0 + G1 p1``, ``x = (q, q')``
@@ -121,11 +138,11 @@ def foh_propagators(omega: np.ndarray, zeta: np.ndarray, dt: float) -> tuple[np.
     G0 = np.empty((n, 2))
     G1 = np.empty((n, 2))
     for j in range(n):
-        a = np.array([[0.0, 1.0], [-omega[j] ** 2, -2.0 * zeta[j] * omega[j]]])
+        a = np.array([[0.0, 1.0], [-(omega[j] ** 2), -2.0 * zeta[j] * omega[j]]])
         aug = np.zeros((4, 4))
         aug[:2, :2] = a * dt
-        aug[1, 2] = dt          # constant input, b = (0, 1)
-        aug[2, 3] = 1.0         # ramp input s/dt
+        aug[1, 2] = dt  # constant input, b = (0, 1)
+        aug[2, 3] = 1.0  # ramp input s/dt
         x = scipy.linalg.expm(aug)
         E[j] = x[:2, :2]
         gamma1, gamma2 = x[:2, 2], x[:2, 3]
@@ -134,7 +151,7 @@ def foh_propagators(omega: np.ndarray, zeta: np.ndarray, dt: float) -> tuple[np.
     return E, G0, G1
 
 
-_FAST = {"reassoc", "contract", "arcp", "nsz"}   # no nnan/ninf: keep comparisons exact
+_FAST = {"reassoc", "contract", "arcp", "nsz"}  # no nnan/ninf: keep comparisons exact
 
 
 @njit(cache=True)
@@ -157,10 +174,10 @@ def _props_series(w, z, tau, P, j):
     g1v = 0.0
     g2q = 0.0
     g2v = 0.0
-    fk = 1.0                  # 1 / k!
-    for k in range(25):       # the scaled norm w tau (1 + 2 zeta) < 0.5: 0.5^25 / 25! ~ 2e-33
-        f1 = fk / (k + 1)     # 1 / (k+1)!
-        f2 = f1 / (k + 2)     # 1 / (k+2)!
+    fk = 1.0  # 1 / k!
+    for k in range(25):  # the scaled norm w tau (1 + 2 zeta) < 0.5: 0.5^25 / 25! ~ 2e-33
+        f1 = fk / (k + 1)  # 1 / (k+1)!
+        f2 = f1 / (k + 2)  # 1 / (k+2)!
         e00 += a * fk
         e01 += b * fk
         e10 += c * fk
@@ -196,7 +213,7 @@ def _props(omega, zeta, tau, P):
             _props_series(w, z, tau, P, j)
             continue
         if abs(z - 1.0) < 1e-7:
-            z = 1.0 + 1e-7        # the critically damped limit, nudged off the double root
+            z = 1.0 + 1e-7  # the critically damped limit, nudged off the double root
         root = np.sqrt(complex(z * z - 1.0))
         l1 = w * (-z + root)
         l2 = w * (-z - root)
@@ -259,8 +276,7 @@ def _influence(P, phiF, d):
 
 
 @njit(cache=True)
-def _end_loads(infl, g0, gd0, vF0, F_end, i_free, use_shaker, bl, kap,
-               gap, kc, cc, pexp, code):
+def _end_loads(infl, g0, gd0, vF0, F_end, i_free, use_shaker, bl, kap, gap, kc, cc, pexp, code):
     """Solve the end-of-step loads (force-point load, contact force) of a (sub)step with the
     influence coefficients ``infl`` of :func:`_influence`."""
     hgF, hgc, hvF, hvc, hfF, hfc = infl
@@ -271,8 +287,9 @@ def _end_loads(infl, g0, gd0, vF0, F_end, i_free, use_shaker, bl, kap,
     else:
         F0 = F_end
         F1 = 0.0
-    fc = solve_contact(g0 - gap + hgF * F0, hgF * F1 - hgc, gd0 + hvF * F0, hvF * F1 - hvc,
-                       kc, cc, pexp, code)
+    fc = solve_contact(
+        g0 - gap + hgF * F0, hgF * F1 - hgc, gd0 + hvF * F0, hvF * F1 - hvc, kc, cc, pexp, code
+    )
     return F0 + F1 * fc, fc, F0
 
 
@@ -295,8 +312,7 @@ def _hermite_root(y0, s0, y1, s1):
         t = 0.5 * (lo + hi)
         t2 = t * t
         t3 = t2 * t
-        y = ((2 * t3 - 3 * t2 + 1) * y0 + (t3 - 2 * t2 + t) * s0
-             + (-2 * t3 + 3 * t2) * y1 + (t3 - t2) * s1)
+        y = (2 * t3 - 3 * t2 + 1) * y0 + (t3 - 2 * t2 + t) * s0 + (-2 * t3 + 3 * t2) * y1 + (t3 - t2) * s1
         if (y < 0.0) == neg_at_lo:
             lo = t
         else:
@@ -305,8 +321,7 @@ def _hermite_root(y0, s0, y1, s1):
 
 
 @njit(cache=True, fastmath=_FAST)
-def _kernel(P, omega, zeta, phiA, phiP, phiF, q, v, s, u, out, dt,
-            gap, kc, cc, pexp, code, shaker, events):
+def _kernel(P, omega, zeta, phiA, phiP, phiF, q, v, s, u, out, dt, gap, kc, cc, pexp, code, shaker, events):
     """Step ``len(u)`` times in place (state ``q, v, s``), writing ``out (len(u), N_OUT)``.
 
     ``P`` holds the whole-step propagators. ``shaker = (enabled, Bl, e, c0, c1, c_s, m_a, k_s)``:
@@ -349,8 +364,7 @@ def _kernel(P, omega, zeta, phiA, phiP, phiF, q, v, s, u, out, dt,
             i_free = ei * s[2] + c0 * w_old + c1 * u[i]
         else:
             i_free = 0.0
-        F, fc, Fn = _end_loads(infl, g0, gd0, vF0, u[i], i_free, use_shaker, bl, kap,
-                               gap, kc, cc, pexp, code)
+        F, fc, Fn = _end_loads(infl, g0, gd0, vF0, u[i], i_free, use_shaker, bl, kap, gap, kc, cc, pexp, code)
         onset = fc_old == 0.0 and fc > 0.0 and g_old < 0.0
         release = fc_old > 0.0 and fc == 0.0
         split = False
@@ -404,10 +418,24 @@ def _kernel(P, omega, zeta, phiA, phiP, phiF, q, v, s, u, out, dt,
                     gdm += d[j] * v1[j]
                     gm += d[j] * q1[j]
                 if onset and cc > 0.0 and code != 2:
-                    fc_start = cc * gdm if gdm > 0.0 else 0.0    # damping force at first touch
+                    fc_start = cc * gdm if gdm > 0.0 else 0.0  # damping force at first touch
                 g0b, gd0b, vF0b = _free(P2, q1, v1, phiF, d, F_mid, fc_start, qf, vf)
-                F, fc, Fn = _end_loads(_influence(P2, phiF, d), g0b, gd0b, vF0b, u[i], i_free,
-                                       use_shaker, bl, kap, gap, kc, cc, pexp, code)
+                F, fc, Fn = _end_loads(
+                    _influence(P2, phiF, d),
+                    g0b,
+                    gd0b,
+                    vF0b,
+                    u[i],
+                    i_free,
+                    use_shaker,
+                    bl,
+                    kap,
+                    gap,
+                    kc,
+                    cc,
+                    pexp,
+                    code,
+                )
                 _finish(P2, qf, vf, phiF, d, F, fc, q, v)
         xa = 0.0
         va = 0.0
@@ -479,8 +507,12 @@ def _kernel(P, omega, zeta, phiA, phiP, phiF, q, v, s, u, out, dt,
             elif split:
                 ce = 0.5 * cc * tau1 * max(g_old, 0.0) ** pexp * gd_old * gd_old
             elif fc > 0.0 or fc_old > 0.0:
-                ce = 0.5 * cc * dt * (max(g_old, 0.0) ** pexp * gd_old * gd_old
-                                      + max(g_new, 0.0) ** pexp * gd * gd)
+                ce = (
+                    0.5
+                    * cc
+                    * dt
+                    * (max(g_old, 0.0) ** pexp * gd_old * gd_old + max(g_new, 0.0) ** pexp * gd * gd)
+                )
         elif cc > 0.0:
             if split and onset:
                 ce = cc * (dt - tau1) * (gdm * gdm + gdm * gd + gd * gd) / 3.0
@@ -521,8 +553,9 @@ def effective_contact_damping(contact, force_scale: float = 100.0) -> float:
     return contact.damping
 
 
-def max_time_step(system: ReducedSystem, force_scale: float = 100.0,
-                  min_steps: int = MIN_STEPS_PER_CONTACT) -> tuple[float, str]:
+def max_time_step(
+    system: ReducedSystem, force_scale: float = 100.0, min_steps: int = MIN_STEPS_PER_CONTACT
+) -> tuple[float, str]:
     """Largest admissible step, s, and what limits it (``"stiffness"`` or ``"damping"``):
     ``min_steps`` steps per contact period, and ``c dt / m_eff <= 2`` for the contact damping."""
     meff = system.contact_effective_mass()
@@ -533,8 +566,9 @@ def max_time_step(system: ReducedSystem, force_scale: float = 100.0,
     return (dt_k, "stiffness") if dt_k <= dt_c else (dt_c, "damping")
 
 
-def check_time_step(system: ReducedSystem, dt: float, force_scale: float = 100.0,
-                    min_steps: int = MIN_STEPS_PER_CONTACT) -> float:
+def check_time_step(
+    system: ReducedSystem, dt: float, force_scale: float = 100.0, min_steps: int = MIN_STEPS_PER_CONTACT
+) -> float:
     """Refuse a step that does not resolve the contact period with ``min_steps`` steps, or
     whose contact damping force would overshoot (``c dt / m_eff > 2``).
 
@@ -544,21 +578,23 @@ def check_time_step(system: ReducedSystem, dt: float, force_scale: float = 100.0
     """
     if not (dt > 0 and math.isfinite(dt)):
         raise SimulationInputError(f"time step must be > 0, got {dt}")
-    validate_contact(system)    # before the contact period, which needs a positive stiffness
+    validate_contact(system)  # before the contact period, which needs a positive stiffness
     meff = system.contact_effective_mass()
     tc = contact_period(meff, system.contact, force_scale)
     if dt > tc / min_steps:
         raise SimulationInputError(
             f"time step {dt * 1e6:.3g} us is too coarse for the contact stiffness "
             f"{system.contact.stiffness:.3g}: the contact period {tc * 1e3:.3g} ms needs "
-            f"dt <= {tc / min_steps * 1e6:.3g} us ({min_steps} steps per contact period)")
+            f"dt <= {tc / min_steps * 1e6:.3g} us ({min_steps} steps per contact period)"
+        )
     c = effective_contact_damping(system.contact, force_scale)
     if c * dt > MAX_CONTACT_DAMPING_STEP * meff:
         raise SimulationInputError(
             f"time step {dt * 1e6:.3g} us is too coarse for the contact damping {c:.3g} N*s/m "
             f"({c / (2 * math.sqrt(system.contact.stiffness * meff)):.3g} of critical on "
             f"{meff * 1e3:.3g} g): it needs dt <= {MAX_CONTACT_DAMPING_STEP * meff / c * 1e6:.3g} us "
-            f"(c dt / m <= {MAX_CONTACT_DAMPING_STEP:g}); lower the contact damping or the step")
+            f"(c dt / m <= {MAX_CONTACT_DAMPING_STEP:g}); lower the contact damping or the step"
+        )
     return tc
 
 
@@ -579,8 +615,13 @@ class VibroImpactStepper:
         Force (N) at which a Hertz contact's tangent stiffness is taken for the step check.
     """
 
-    def __init__(self, system: ReducedSystem, dt: float, shaker: ShakerCoupling | None = None,
-                 force_scale: float = 100.0):
+    def __init__(
+        self,
+        system: ReducedSystem,
+        dt: float,
+        shaker: ShakerCoupling | None = None,
+        force_scale: float = 100.0,
+    ):
         self.contact_period = check_time_step(system, dt, force_scale)
         if shaker is not None:
             system = system.with_attached(shaker.armature_mass, shaker.suspension_stiffness)
@@ -592,14 +633,29 @@ class VibroImpactStepper:
         self.events = True
         self._phi = [np.ascontiguousarray(system.shapes[i]) for i in range(3)]
         c = system.contact
-        self._contact = (float(c.gap), float(c.stiffness), float(c.damping), float(c.hertz_exponent),
-                         law_code(c))
+        self._contact = (
+            float(c.gap),
+            float(c.stiffness),
+            float(c.damping),
+            float(c.hertz_exponent),
+            law_code(c),
+        )
         if shaker is None:
             self._shaker = np.zeros(8)
         else:
             e, c0, c1 = _coil_coefficients(shaker, self.dt)
-            self._shaker = np.array([1.0, shaker.force_factor, e, c0, c1, shaker.suspension_damping,
-                                     shaker.armature_mass, shaker.suspension_stiffness])
+            self._shaker = np.array(
+                [
+                    1.0,
+                    shaker.force_factor,
+                    e,
+                    c0,
+                    c1,
+                    shaker.suspension_damping,
+                    shaker.armature_mass,
+                    shaker.suspension_stiffness,
+                ]
+            )
         self.state = StepperState(np.zeros(system.n_modes), np.zeros(system.n_modes), np.zeros(5))
 
     def reset(self) -> None:
@@ -632,14 +688,39 @@ class VibroImpactStepper:
         st = self.state
         gap, kc, cc, p, code = self._contact
         if not np.isfinite(u).all():
-            raise SimulationInputError(f"the input ({'coil voltage' if self.shaker else 'force'}) "
-                                       "holds a non-finite value")
-        _kernel(self._P, self.system.omega, self.system.zeta,
-                self._phi[0], self._phi[1], self._phi[2], st.q, st.v, st.scalars, u, out, self.dt,
-                gap, kc, cc, p, code, self._shaker, self.events)
-        if not (np.isfinite(out).all() and np.abs(out[:, [0, 3, 6]]).max(initial=0.0) < DIVERGED_DISPLACEMENT):
-            bad = int(np.argmin(np.isfinite(out).all(axis=1) & (np.abs(out[:, [0, 3, 6]]).max(axis=1)
-                                                               < DIVERGED_DISPLACEMENT)))
+            raise SimulationInputError(
+                f"the input ({'coil voltage' if self.shaker else 'force'}) holds a non-finite value"
+            )
+        _kernel(
+            self._P,
+            self.system.omega,
+            self.system.zeta,
+            self._phi[0],
+            self._phi[1],
+            self._phi[2],
+            st.q,
+            st.v,
+            st.scalars,
+            u,
+            out,
+            self.dt,
+            gap,
+            kc,
+            cc,
+            p,
+            code,
+            self._shaker,
+            self.events,
+        )
+        if not (
+            np.isfinite(out).all() and np.abs(out[:, [0, 3, 6]]).max(initial=0.0) < DIVERGED_DISPLACEMENT
+        ):
+            bad = int(
+                np.argmin(
+                    np.isfinite(out).all(axis=1)
+                    & (np.abs(out[:, [0, 3, 6]]).max(axis=1) < DIVERGED_DISPLACEMENT)
+                )
+            )
             # the values the kernel ran with (the same as system.contact unless overridden)
             ran = _ContactSystem(self.system, replace(self.system.contact, gap=gap, stiffness=kc, damping=cc))
             raise SimulationDivergedError(diverged_message(ran, self.dt, st.time + self.dt * (bad + 1)))
@@ -672,8 +753,10 @@ def diverged_message(system, dt: float, time: float) -> str:
     if np.max(zeta) > 10:
         suspects.append(f"modal damping (ratio up to {np.max(zeta):.3g}: Rayleigh alpha/beta?)")
     suspects.append(f"contact stiffness {c.stiffness:.3g} N/m and time step {dt * 1e6:.3g} us")
-    return (f"the simulation diverged (non-finite or > {DIVERGED_DISPLACEMENT:g} m displacement) at "
-            f"t = {time:.6g} s; likely cause: {'; '.join(suspects)}")
+    return (
+        f"the simulation diverged (non-finite or > {DIVERGED_DISPLACEMENT:g} m displacement) at "
+        f"t = {time:.6g} s; likely cause: {'; '.join(suspects)}"
+    )
 
 
 def validate_contact(system: ReducedSystem) -> None:
@@ -689,7 +772,7 @@ def validate_contact(system: ReducedSystem) -> None:
 
 # --------------------------------------------------------------------------- harmonic runs
 
-DEFAULT_STEPS_PER_CONTACT = 30   # halving the step then moves harmonics k <= 10 by < 0.2 %
+DEFAULT_STEPS_PER_CONTACT = 30  # halving the step then moves harmonics k <= 10 by < 0.2 %
 
 
 @dataclass
@@ -697,7 +780,7 @@ class RunState:
     """What a sweep carries from one point to the next: the stepper state and the force phase."""
 
     stepper: StepperState
-    phase: float = 0.0        # phase of the force sin(phase) at the state's time, rad
+    phase: float = 0.0  # phase of the force sin(phase) at the state's time, rad
 
 
 @dataclass
@@ -763,8 +846,9 @@ class VibroImpactRun:
         """
         o = self.outputs
 
-        def work(p):   # whole periods of a periodic signal: the rectangle sum is the trapezoid rule
+        def work(p):  # whole periods of a periodic signal: the rectangle sum is the trapezoid rule
             return float(np.sum(p)) * self.dt / self.record_periods
+
         w_in = work(o["excitation_force"] * o["force_point_velocity"])
         w_md = work(o["damping_power"])
         w_cd = work(o["contact_damping_power"])
@@ -772,8 +856,13 @@ class VibroImpactRun:
         return {"input": w_in, "modal_damping": w_md, "contact_damping": w_cd, "imbalance": imbalance}
 
 
-def steps_per_period_for(system: ReducedSystem, fe: float, steps_per_contact: int = DEFAULT_STEPS_PER_CONTACT,
-                         force_scale: float = 100.0, k_max: int = 30) -> int:
+def steps_per_period_for(
+    system: ReducedSystem,
+    fe: float,
+    steps_per_contact: int = DEFAULT_STEPS_PER_CONTACT,
+    force_scale: float = 100.0,
+    k_max: int = 30,
+) -> int:
     """Integer steps per excitation period giving at least ``steps_per_contact`` steps per
     contact period, ``c dt / m_eff <= 1`` for the contact damping ``c`` and a sample rate of at
     least ``4 * k_max * fe``."""
@@ -798,17 +887,26 @@ def validate_harmonic_input(fe: float, force_amplitude: float, gap: float | None
 def _pair_scale(hist: np.ndarray, n: int) -> np.ndarray:
     """Common scale of the tip displacements (rows 0, 2) and of the tip velocities (rows 1, 3)
     over the last three periods."""
-    span = np.ptp(hist[:, -3 * n:], axis=1)
+    span = np.ptp(hist[:, -3 * n :], axis=1)
     x, v = max(span[0], span[2]), max(span[1], span[3])
     return np.array([x, v, x, v])
 
 
-def run_harmonic(system: ReducedSystem, fe: float, force_amplitude: float, *,
-                 record_periods: int = 20, steps_per_period: int | None = None,
-                 max_settle_time: float = 30.0, tol: float = 1e-5, check_every: int = 5,
-                 initial: RunState | None = None, min_settle_periods: int = 0,
-                 progress: Callable[[float, float], None] | None = None,
-                 force_harmonics=None) -> VibroImpactRun:
+def run_harmonic(
+    system: ReducedSystem,
+    fe: float,
+    force_amplitude: float,
+    *,
+    record_periods: int = 20,
+    steps_per_period: int | None = None,
+    max_settle_time: float = 30.0,
+    tol: float = 1e-5,
+    check_every: int = 5,
+    initial: RunState | None = None,
+    min_settle_periods: int = 0,
+    progress: Callable[[float, float], None] | None = None,
+    force_harmonics=None,
+) -> VibroImpactRun:
     """Force ``F0 sin(2 pi fe t)`` at the force point, run to a periodic steady state, record.
 
     With ``force_harmonics`` the periodic force ``sum_k A_k cos(k 2 pi fe t + phi_k)`` replaces
@@ -863,8 +961,11 @@ def run_harmonic(system: ReducedSystem, fe: float, force_amplitude: float, *,
     # a Hertz contact stiffens with the force: size the step for a generous peak force
     peak = force_amplitude if harmonics is None else max(force_amplitude, float(np.sum(harmonics[:, 1])))
     force_scale = max(100.0, 10.0 * peak)
-    n = (steps_per_period_for(system, fe, force_scale=force_scale) if steps_per_period is None
-         else int(steps_per_period))
+    n = (
+        steps_per_period_for(system, fe, force_scale=force_scale)
+        if steps_per_period is None
+        else int(steps_per_period)
+    )
     dt = 1.0 / (fe * n)
     stepper = VibroImpactStepper(system, dt, force_scale=force_scale)
     if initial is not None:
@@ -882,11 +983,12 @@ def run_harmonic(system: ReducedSystem, fe: float, force_amplitude: float, *,
         if np.any(harmonics[:, 0] >= n / 2):
             raise SimulationInputError(
                 f"force harmonic k = {int(harmonics[:, 0].max())} needs more than {n} steps per period "
-                f"(k < steps / 2)")
+                f"(k < steps / 2)"
+            )
         stepper.state.scalars[_S_F] = float(periodic_force(harmonics, np.array([phase0]))[0])
         ramp = periodic_force(harmonics, phase0 + w * dt * np.arange(1, n + 1))
     chunk = np.tile(ramp, check_every)
-    keep = max(check_every, 3 + 4) * n        # enough periods for m <= 4 with 3 compared
+    keep = max(check_every, 3 + 4) * n  # enough periods for m <= 4 with 3 compared
     hist = np.empty((4, 0))
     out = np.empty((chunk.size, N_OUT))
     periods_run = 0
@@ -912,7 +1014,7 @@ def run_harmonic(system: ReducedSystem, fe: float, force_amplitude: float, *,
     o = stepper.step(rec_u)
     tail = np.hstack([hist, o.data[:, [0, 1, 3, 4]].T])[:, -keep:]
     final = check_periodic(tail, n, tol, scale=_pair_scale(tail, n))
-    steady = final.steady     # the record itself must repeat (checked on its last periods)
+    steady = final.steady  # the record itself must repeat (checked on its last periods)
     # samples at t = 0, dt, ..., (P n - 1) dt of the record, the force phase being phase0 at t = 0
     data = np.empty_like(o.data)
     data[0] = last if last is not None else 0.0
@@ -920,10 +1022,18 @@ def run_harmonic(system: ReducedSystem, fe: float, force_amplitude: float, *,
     t_rec = dt * np.arange(data.shape[0])
     outputs = {name: data[:, i] for i, name in enumerate(OUT_COLUMNS) if name != "coil_current"}
     return VibroImpactRun(
-        fe=float(fe), force_amplitude=float(force_amplitude), gap=float(system.contact.gap), dt=dt,
-        steps_per_period=n, record_periods=record_periods, time=t_rec, outputs=outputs,
-        steady_state=bool(steady), period_multiple=final.period_multiple if steady else 0,
-        mismatch=float(final.mismatch), settle_time=float(settle_time),
+        fe=float(fe),
+        force_amplitude=float(force_amplitude),
+        gap=float(system.contact.gap),
+        dt=dt,
+        steps_per_period=n,
+        record_periods=record_periods,
+        time=t_rec,
+        outputs=outputs,
+        steady_state=bool(steady),
+        period_multiple=final.period_multiple if steady else 0,
+        mismatch=float(final.mismatch),
+        settle_time=float(settle_time),
         contact_period=stepper.contact_period,
         final_state=RunState(stepper.state.copy(), phase0),
     )
@@ -960,6 +1070,7 @@ def periodic_force(terms: np.ndarray, phase: np.ndarray) -> np.ndarray:
 
 # --------------------------------------------------------------------------- exact harmonics
 
+
 def _segment_integrals(phi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``A = int_0^1 exp(-i phi u) du`` and ``B = int_0^1 u exp(-i phi u) du`` (series for small
     ``|phi|``, where the closed forms cancel)."""
@@ -973,7 +1084,7 @@ def _segment_integrals(phi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         zs = z[small]
         a = np.zeros_like(zs)
         b = np.zeros_like(zs)
-        term = np.ones_like(zs)           # z^n / n!
+        term = np.ones_like(zs)  # z^n / n!
         for n in range(9):
             a += term / (n + 1)
             b += term / (n + 2)
@@ -1028,8 +1139,10 @@ def contact_force_harmonics(run: VibroImpactRun, k_max: int = 30) -> np.ndarray:
     total = np.zeros(k_max, dtype=complex)
     # segment 1: [0, theta dt] from f_start to f_before; segment 2: [theta dt, dt] from f_after
     # to f_end; int_a^{a+h} (f0 + (f1 - f0) u) e^{-i w t} dt = h e^{-i w a} (f0 A + (f1 - f0) B)
-    for a, h, f0, f1 in ((t_start, theta * dt, f_start, f_before),
-                         (t_start + theta * dt, (1.0 - theta) * dt, f_after, f_end)):
+    for a, h, f0, f1 in (
+        (t_start, theta * dt, f_start, f_before),
+        (t_start + theta * dt, (1.0 - theta) * dt, f_after, f_end),
+    ):
         live = (h > 0) & ((f0 != 0) | (f1 != 0))
         if not np.any(live):
             continue
@@ -1052,27 +1165,37 @@ class CostEstimate:
     """What a harmonic run will cost (:func:`estimate_steps`)."""
 
     steps_per_period: int
-    limited_by: str            # "contact stiffness", "contact damping" or "harmonics"
-    time_step: float           # s
-    settle_periods: int        # estimated periods to settle (modal-damping decay to ``tol``)
+    limited_by: str  # "contact stiffness", "contact damping" or "harmonics"
+    time_step: float  # s
+    settle_periods: int  # estimated periods to settle (modal-damping decay to ``tol``)
     record_periods: int
-    total_steps: int           # (settle + record) * steps_per_period
-    mode_steps: int            # total_steps * n_modes: the kernel's work
-    seconds: float             # rough wall time at SECONDS_PER_MODE_STEP
-    worst_case_steps: int      # if the run never settles: max_settle_time, then the record
+    total_steps: int  # (settle + record) * steps_per_period
+    mode_steps: int  # total_steps * n_modes: the kernel's work
+    seconds: float  # rough wall time at SECONDS_PER_MODE_STEP
+    worst_case_steps: int  # if the run never settles: max_settle_time, then the record
     worst_case_seconds: float
 
     def describe(self) -> str:
         """One line for a user, e.g. ``'~7.5e+07 steps (3.27e+05 per period, set by the contact
         stiffness), about 32 s (up to 4.6e+02 s if it does not settle)'``."""
-        return (f"~{self.total_steps:.2g} steps ({self.steps_per_period:.3g} per period, set by the "
-                f"{self.limited_by}), about {self.seconds:.2g} s (up to {self.worst_case_seconds:.2g} s "
-                f"if it does not settle)")
+        return (
+            f"~{self.total_steps:.2g} steps ({self.steps_per_period:.3g} per period, set by the "
+            f"{self.limited_by}), about {self.seconds:.2g} s (up to {self.worst_case_seconds:.2g} s "
+            f"if it does not settle)"
+        )
 
 
-def estimate_steps(system: ReducedSystem, fe: float, force_amplitude: float = 0.0, *,
-                   record_periods: int = 20, steps_per_period: int | None = None,
-                   tol: float = 1e-5, max_settle_time: float = 30.0, check_every: int = 5) -> CostEstimate:
+def estimate_steps(
+    system: ReducedSystem,
+    fe: float,
+    force_amplitude: float = 0.0,
+    *,
+    record_periods: int = 20,
+    steps_per_period: int | None = None,
+    tol: float = 1e-5,
+    max_settle_time: float = 30.0,
+    check_every: int = 5,
+) -> CostEstimate:
     """Cheap up-front estimate of a :func:`run_harmonic` call (no integration).
 
     Steps per period as :func:`run_harmonic` chooses them; settling time from the slowest
@@ -1093,8 +1216,13 @@ def estimate_steps(system: ReducedSystem, fe: float, force_amplitude: float = 0.
         n_k = math.ceil(DEFAULT_STEPS_PER_CONTACT / (fe * tc) - 1e-9)
         c = effective_contact_damping(system.contact, force_scale)
         n_c = math.ceil(c / (fe * system.contact_effective_mass()) - 1e-9) if c > 0 else 0
-        limited = ("harmonics" if n == 4 * 30 and n > max(n_k, n_c)
-                   else "contact damping" if n_c > n_k else "contact stiffness")
+        limited = (
+            "harmonics"
+            if n == 4 * 30 and n > max(n_k, n_c)
+            else "contact damping"
+            if n_c > n_k
+            else "contact stiffness"
+        )
     else:
         limited = "given steps per period"
     real = np.ones(system.n_modes, bool) if system.pseudo is None else ~np.asarray(system.pseudo, bool)
@@ -1106,8 +1234,15 @@ def estimate_steps(system: ReducedSystem, fe: float, force_amplitude: float = 0.
     mode_steps = total * system.n_modes
     max_periods = max(int(math.ceil(max_settle_time * fe)), check_every)
     worst = (int(math.ceil(max_periods / check_every)) * check_every + int(record_periods)) * n
-    return CostEstimate(steps_per_period=n, limited_by=limited, time_step=1.0 / (fe * n),
-                        settle_periods=periods, record_periods=int(record_periods), total_steps=total,
-                        mode_steps=mode_steps, seconds=mode_steps * SECONDS_PER_MODE_STEP,
-                        worst_case_steps=worst,
-                        worst_case_seconds=worst * system.n_modes * SECONDS_PER_MODE_STEP)
+    return CostEstimate(
+        steps_per_period=n,
+        limited_by=limited,
+        time_step=1.0 / (fe * n),
+        settle_periods=periods,
+        record_periods=int(record_periods),
+        total_steps=total,
+        mode_steps=mode_steps,
+        seconds=mode_steps * SECONDS_PER_MODE_STEP,
+        worst_case_steps=worst,
+        worst_case_seconds=worst * system.n_modes * SECONDS_PER_MODE_STEP,
+    )

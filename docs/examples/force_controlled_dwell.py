@@ -19,15 +19,23 @@ def main() -> None:
     p.add_argument("--rig", default=None)
     args = p.parse_args()
     cfg = load_rig(args.rig)
-    dwell = SineDwell(cfg, {"fe": 60.0, "force": 15.0, "gap": 0.5e-3, "record_periods": 60},
-                      args.out, backend=args.backend, overwrite=True,
-                      progress=lambda e: e.kind == "control" and print(
-                          f"update {e.update}: force error {e.control_error * 100:+.2f} %"))
+    dwell = SineDwell(
+        cfg,
+        {"fe": 60.0, "force": 15.0, "gap": 0.5e-3, "record_periods": 60},
+        args.out,
+        backend=args.backend,
+        overwrite=True,
+        progress=lambda e: (
+            e.kind == "control" and print(f"update {e.update}: force error {e.control_error * 100:+.2f} %")
+        ),
+    )
     result = dwell.run()
     point = result.points[0]
-    print(f"{result.status.value}: F1 = {point['force_amplitude_measured']:.3f} N at "
-          f"{point['drive_amplitude']:.3f} V after {point['control_updates']} updates, "
-          f"settled {point['settled']}")
+    print(
+        f"{result.status.value}: F1 = {point['force_amplitude_measured']:.3f} N at "
+        f"{point['drive_amplitude']:.3f} V after {point['control_updates']} updates, "
+        f"settled {point['settled']}"
+    )
 
 
 if __name__ == "__main__":

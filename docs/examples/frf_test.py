@@ -1,6 +1,6 @@
 """Lab script: periodic-chirp FRF test (no impacts: gap opened to 5 mm), H1 peaks as a check.
 
-    python docs/examples/frf_test.py frf.h5
+python docs/examples/frf_test.py frf.h5
 """
 
 import argparse
@@ -14,10 +14,17 @@ def main() -> None:
     p.add_argument("out")
     p.add_argument("--backend", default="sim")
     args = p.parse_args()
-    FrfTest(load_rig(), {"signal": "chirp", "band": (20.0, 500.0), "level": 0.3, "frame": 0.5,
-                         "averages": 4, "gap": 5e-3}, args.out, backend=args.backend, overwrite=True).run()
+    FrfTest(
+        load_rig(),
+        {"signal": "chirp", "band": (20.0, 500.0), "level": 0.3, "frame": 0.5, "averages": 4, "gap": 5e-3},
+        args.out,
+        backend=args.backend,
+        overwrite=True,
+    ).run()
     for pk in quick_check(args.out)["peaks"]:
-        print(f"peak {pk['frequency_hz']:6.1f} Hz  |H1| {pk['h1']:8.2f} (m/s^2)/N  coherence {pk['coherence']:.4f}")
+        print(
+            f"peak {pk['frequency_hz']:6.1f} Hz  |H1| {pk['h1']:8.2f} (m/s^2)/N  coherence {pk['coherence']:.4f}"
+        )
 
 
 if __name__ == "__main__":

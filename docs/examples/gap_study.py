@@ -22,16 +22,23 @@ def main() -> None:
     p.add_argument("--backend", default="sim")
     p.add_argument("--resume", action="store_true")
     args = p.parse_args()
-    study = RigStudy(load_rig(), {"kind": "gap", "values": [0.3e-3, 0.6e-3, 0.9e-3], "force": 15.0,
-                                  "fe": 60.0, "record_periods": 30},
-                     args.out, backend=args.backend, overwrite=not args.resume, resume=args.resume,
-                     confirm_gap=ask_operator,
-                     progress=lambda e: e.kind == "point_done" and print(f"point {e.point}/{e.n_points} done"))
+    study = RigStudy(
+        load_rig(),
+        {"kind": "gap", "values": [0.3e-3, 0.6e-3, 0.9e-3], "force": 15.0, "fe": 60.0, "record_periods": 30},
+        args.out,
+        backend=args.backend,
+        overwrite=not args.resume,
+        resume=args.resume,
+        confirm_gap=ask_operator,
+        progress=lambda e: e.kind == "point_done" and print(f"point {e.point}/{e.n_points} done"),
+    )
     result = study.run()
     for pt in result.points:
         h = pt["harmonics"]["passive_shroud_accel"]["amplitude"]
-        print(f"gap {pt['gap'] * 1e3:.2f} mm: F1 {pt['force_amplitude_measured']:.2f} N, "
-              f"passive shroud k=1..3: {', '.join(f'{a:.1f}' for a in h[:3])} m/s^2")
+        print(
+            f"gap {pt['gap'] * 1e3:.2f} mm: F1 {pt['force_amplitude_measured']:.2f} N, "
+            f"passive shroud k=1..3: {', '.join(f'{a:.1f}' for a in h[:3])} m/s^2"
+        )
     print(result.status.value)
 
 

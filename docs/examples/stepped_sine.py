@@ -1,6 +1,6 @@
 """Lab script: stepped sine up and down at 15 N across the impact range, with jumps.
 
-    python docs/examples/stepped_sine.py sweep.h5
+python docs/examples/stepped_sine.py sweep.h5
 """
 
 import argparse
@@ -16,14 +16,26 @@ def main() -> None:
     p.add_argument("out")
     p.add_argument("--backend", default="sim")
     args = p.parse_args()
-    sweep = SteppedSine(load_rig(), {"frequencies": list(np.arange(62.0, 72.01, 2.0)), "force": 15.0,
-                                     "gap": 0.7e-3, "direction": "both", "record_periods": 10},
-                        args.out, backend=args.backend, overwrite=True)
+    sweep = SteppedSine(
+        load_rig(),
+        {
+            "frequencies": list(np.arange(62.0, 72.01, 2.0)),
+            "force": 15.0,
+            "gap": 0.7e-3,
+            "direction": "both",
+            "record_periods": 10,
+        },
+        args.out,
+        backend=args.backend,
+        overwrite=True,
+    )
     result = sweep.run()
     for pt in result.points:
-        print(f"{pt['fe']:5.1f} Hz {pt['direction']:>4}: active shroud "
-              f"{pt['harmonics']['active_shroud_accel']['amplitude'][0]:7.1f} m/s^2 at F1 "
-              f"{pt['force_amplitude_measured']:.2f} N")
+        print(
+            f"{pt['fe']:5.1f} Hz {pt['direction']:>4}: active shroud "
+            f"{pt['harmonics']['active_shroud_accel']['amplitude'][0]:7.1f} m/s^2 at F1 "
+            f"{pt['force_amplitude_measured']:.2f} N"
+        )
     for direction, jumps in result.summary["jumps"].items():
         for j in jumps:
             print(f"jump ({direction}): {j['from_hz']:g} -> {j['to_hz']:g} Hz")

@@ -31,10 +31,14 @@ def main() -> None:
     p.add_argument("--backend", default="sim")
     p.add_argument("--rig", default=None)
     args = p.parse_args()
-    test = TapTest(load_rig(args.rig), {"blade": "passive", "position": 0.085, "hits": 5,
-                                        "gap": 5e-3 if args.backend == "sim" else None},
-                   args.out, backend=args.backend, overwrite=True,
-                   progress=lambda e: print(e.text) if e.kind in ("message", "point_done") else None)
+    test = TapTest(
+        load_rig(args.rig),
+        {"blade": "passive", "position": 0.085, "hits": 5, "gap": 5e-3 if args.backend == "sim" else None},
+        args.out,
+        backend=args.backend,
+        overwrite=True,
+        progress=lambda e: print(e.text) if e.kind in ("message", "point_done") else None,
+    )
     result = test.run()
     print(f"{result.summary['accepted']} of {result.summary['hits']} hits accepted; {result.status.value}")
     res = tap_analysis(args.out, f_min=20, f_max=1600, n_modes=3)

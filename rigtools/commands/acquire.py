@@ -94,16 +94,28 @@ FAULT_PATTERN = re.compile(r"^\s*([A-Za-z_-]+)\s*@\s*([^:]+?)\s*(?::\s*([\w.-]+)
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    p = subparsers.add_parser("acquire", help=HELP, description=HELP + ".", epilog=COMMON_EPILOG,
-                              formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = subparsers.add_parser(
+        "acquire",
+        help=HELP,
+        description=HELP + ".",
+        epilog=COMMON_EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     sub = p.add_subparsers(dest="procedure", metavar="PROCEDURE", required=True)
-    for name, text in (("dwell", "force-controlled sine dwell at one frequency"),
-                       ("sweep", "force-controlled stepped sine up/down with harmonics and jumps"),
-                       ("study", "force-controlled gap / force / frequency study (the paper's form)"),
-                       ("frf", "burst random or periodic chirp FRF test, recorded raw"),
-                       ("tap", "impact-hammer (tap) test of a blade, one frame per hit, recorded raw")):
-        q = sub.add_parser(name, help=text, description=text + ".", epilog=EPILOGS[name] + "\n" + COMMON_EPILOG,
-                           formatter_class=argparse.RawDescriptionHelpFormatter)
+    for name, text in (
+        ("dwell", "force-controlled sine dwell at one frequency"),
+        ("sweep", "force-controlled stepped sine up/down with harmonics and jumps"),
+        ("study", "force-controlled gap / force / frequency study (the paper's form)"),
+        ("frf", "burst random or periodic chirp FRF test, recorded raw"),
+        ("tap", "impact-hammer (tap) test of a blade, one frame per hit, recorded raw"),
+    ):
+        q = sub.add_parser(
+            name,
+            help=text,
+            description=text + ".",
+            epilog=EPILOGS[name] + "\n" + COMMON_EPILOG,
+            formatter_class=argparse.RawDescriptionHelpFormatter,
+        )
         if name == "study":
             q.add_argument("kind", choices=("gap", "force", "frequency"), help="swept parameter")
             q.add_argument("--values", required=True, help='"a,b,c" or "start:stop:step", with units')
@@ -117,10 +129,16 @@ def register(subparsers: argparse._SubParsersAction) -> None:
             q.add_argument("--periods", type=int, default=None, help="whole periods recorded per point")
             q.add_argument("--max-updates", type=int, default=10, help="force-control updates (default 10)")
         if name == "sweep":
-            q.add_argument("--frequencies", required=True, help='"start:stop:step" or "a,b,c", e.g. "340 Hz:380 Hz:2 Hz"')
+            q.add_argument(
+                "--frequencies", required=True, help='"start:stop:step" or "a,b,c", e.g. "340 Hz:380 Hz:2 Hz"'
+            )
             q.add_argument("--direction", choices=("up", "down", "both"), default="up")
-            q.add_argument("--jump-threshold", type=float, default=0.3,
-                           help="relative change of the response between neighbouring steps called a jump (default 0.3)")
+            q.add_argument(
+                "--jump-threshold",
+                type=float,
+                default=0.3,
+                help="relative change of the response between neighbouring steps called a jump (default 0.3)",
+            )
         if name == "frf":
             q.add_argument("--signal", choices=("chirp", "burst"), default="chirp")
             q.add_argument("--band", required=True, help='"low:high", e.g. "20 Hz:500 Hz"')
@@ -133,24 +151,45 @@ def register(subparsers: argparse._SubParsersAction) -> None:
             q.add_argument("--hits", type=int, default=5, help="accepted hits averaged (default 5)")
             q.add_argument("--frame", default="2 s", help='frame per hit, default "2 s"')
             q.add_argument("--pretrigger", default="10 ms", help='kept before the trigger, default "10 ms"')
-            q.add_argument("--trigger", default="5 N", help='trigger level on the hammer force, default "5 N"')
+            q.add_argument(
+                "--trigger", default="5 N", help='trigger level on the hammer force, default "5 N"'
+            )
             q.add_argument("--hammer-channel", default="hammer", help="the hammer's [daq.channels] entry")
-            q.add_argument("--response", default=None, help="response channel (default: the blade's accelerometer)")
-            q.add_argument("--timeout", default="60 s", help='longest wait for the next accepted hit, default "60 s"')
-            q.add_argument("--hit-force", default="20 N", help='simulated rig: peak hammer force, default "20 N"')
-            q.add_argument("--pulse", default="0.5 ms", help='simulated rig: hammer pulse length, default "0.5 ms"')
+            q.add_argument(
+                "--response", default=None, help="response channel (default: the blade's accelerometer)"
+            )
+            q.add_argument(
+                "--timeout", default="60 s", help='longest wait for the next accepted hit, default "60 s"'
+            )
+            q.add_argument(
+                "--hit-force", default="20 N", help='simulated rig: peak hammer force, default "20 N"'
+            )
+            q.add_argument(
+                "--pulse", default="0.5 ms", help='simulated rig: hammer pulse length, default "0.5 ms"'
+            )
             q.add_argument("--f-max", default="2 kHz", help='highest frequency identified, default "2 kHz"')
-        q.add_argument("--gap", default=None, help='shroud gap, e.g. "0.5 mm" (default: as set / the rig file)')
-        q.add_argument("--backend", choices=("nidaq", "sim"), default="nidaq",
-                       help="nidaq: the NI-DAQmx rig (default); sim: the simulated rig")
+        q.add_argument(
+            "--gap", default=None, help='shroud gap, e.g. "0.5 mm" (default: as set / the rig file)'
+        )
+        q.add_argument(
+            "--backend",
+            choices=("nidaq", "sim"),
+            default="nidaq",
+            help="nidaq: the NI-DAQmx rig (default); sim: the simulated rig",
+        )
         q.add_argument("--rig", metavar="FILE", help="rig file (TOML); default: the calibrated default rig")
         q.add_argument("--out", required=True, metavar="FILE", help="HDF5 recording to write")
         q.add_argument("--overwrite", action="store_true", help="replace --out if it exists")
         q.add_argument("--json", action="store_true", help="print the results as JSON")
         q.add_argument("--pace", action="store_true", help="simulated rig: real time")
         q.add_argument("--seed", type=seed, default=None, help="simulated rig: noise seed")
-        q.add_argument("--fault", action="append", default=[], metavar="KIND@TIME[:CHANNEL]",
-                       help="simulated rig: inject a fault (repeatable)")
+        q.add_argument(
+            "--fault",
+            action="append",
+            default=[],
+            metavar="KIND@TIME[:CHANNEL]",
+            help="simulated rig: inject a fault (repeatable)",
+        )
         q.set_defaults(func=run)
 
 
@@ -177,8 +216,10 @@ def parse_faults(texts: list[str], backend: str) -> list:
         try:
             faults.append(Fault(kind, at_time=t, channel=channel))
         except ConfigurationError:
-            raise UserError(f"--fault = {text!r}: unknown kind {kind!r} (known: "
-                            f"{', '.join(k.replace('_', '-') for k in FAULT_KINDS)})") from None
+            raise UserError(
+                f"--fault = {text!r}: unknown kind {kind!r} (known: "
+                f"{', '.join(k.replace('_', '-') for k in FAULT_KINDS)})"
+            ) from None
     return faults
 
 
@@ -213,8 +254,9 @@ def run(args: argparse.Namespace) -> int:
     out = check_out(args) if not resume else _resume_out(args)
     cfg = load_rig(args.rig)
     faults = parse_faults(args.fault, args.backend)
-    kwargs = dict(backend=args.backend, overwrite=args.overwrite, pace=args.pace, faults=faults,
-                  seed=args.seed)
+    kwargs = dict(
+        backend=args.backend, overwrite=args.overwrite, pace=args.pace, faults=faults, seed=args.seed
+    )
     proc = build(args, cfg, out, kwargs)
     from rigtools.procedures.base import Status
 
@@ -240,8 +282,10 @@ def _exit_interrupted(proc, code: int) -> None:
     import os
 
     reason = proc.result.reason if proc.result is not None else "interrupted"
-    print(f"rig acquire: interrupted ({reason}); drive ramped to zero; {proc.out} kept with status "
-          "aborted", file=sys.stderr)
+    print(
+        f"rig acquire: interrupted ({reason}); drive ramped to zero; {proc.out} kept with status aborted",
+        file=sys.stderr,
+    )
     sys.stdout.flush()
     sys.stderr.flush()
     os._exit(code)
@@ -261,25 +305,38 @@ def build(args, cfg, out, kwargs):
 
     proc_name = args.procedure
     if proc_name == "dwell":
-        params = {"fe": quantity(args.fe, "frequency", "--fe"), "force": quantity(args.force, "force", "--force"),
-                  "gap": _gap(args), "control": _control(args)}
+        params = {
+            "fe": quantity(args.fe, "frequency", "--fe"),
+            "force": quantity(args.force, "force", "--force"),
+            "gap": _gap(args),
+            "control": _control(args),
+        }
         if args.periods is not None:
             params["record_periods"] = args.periods
         return P.SineDwell(cfg, params, out, **kwargs)
     if proc_name == "sweep":
-        params = {"frequencies": grid(args.frequencies, "frequency", "--frequencies"),
-                  "force": quantity(args.force, "force", "--force"), "gap": _gap(args),
-                  "direction": args.direction, "jump_threshold": args.jump_threshold,
-                  "control": _control(args)}
+        params = {
+            "frequencies": grid(args.frequencies, "frequency", "--frequencies"),
+            "force": quantity(args.force, "force", "--force"),
+            "gap": _gap(args),
+            "direction": args.direction,
+            "jump_threshold": args.jump_threshold,
+            "control": _control(args),
+        }
         if args.periods is not None:
             params["record_periods"] = args.periods
         return P.SteppedSine(cfg, params, out, **kwargs)
     if proc_name == "study":
         values = grid(args.values, args.kind, "--values")
-        params = {"kind": args.kind, "values": values, "direction": args.direction,
-                  "fe": None if args.fe is None else quantity(args.fe, "frequency", "--fe"),
-                  "force": None if args.force is None else quantity(args.force, "force", "--force"),
-                  "gap": _gap(args), "control": _control(args)}
+        params = {
+            "kind": args.kind,
+            "values": values,
+            "direction": args.direction,
+            "fe": None if args.fe is None else quantity(args.fe, "frequency", "--fe"),
+            "force": None if args.force is None else quantity(args.force, "force", "--force"),
+            "gap": _gap(args),
+            "control": _control(args),
+        }
         if args.periods is not None:
             params["record_periods"] = args.periods
         if args.resume:
@@ -290,14 +347,20 @@ def build(args, cfg, out, kwargs):
 
         if not 1 <= args.hits <= 1000:
             raise UserError(f"--hits = {args.hits}: use 1..1000")
-        params = {"blade": args.blade, "position": quantity(args.position, "length", "--position"),
-                  "hits": args.hits, "frame": quantity(args.frame, "time", "--frame"),
-                  "pretrigger": quantity(args.pretrigger, "time", "--pretrigger"),
-                  "trigger": quantity(args.trigger, "force", "--trigger"), "gap": _gap(args),
-                  "hammer_channel": args.hammer_channel, "response": args.response,
-                  "timeout": quantity(args.timeout, "time", "--timeout"),
-                  "hit_force": quantity(args.hit_force, "force", "--hit-force"),
-                  "pulse": quantity(args.pulse, "time", "--pulse")}
+        params = {
+            "blade": args.blade,
+            "position": quantity(args.position, "length", "--position"),
+            "hits": args.hits,
+            "frame": quantity(args.frame, "time", "--frame"),
+            "pretrigger": quantity(args.pretrigger, "time", "--pretrigger"),
+            "trigger": quantity(args.trigger, "force", "--trigger"),
+            "gap": _gap(args),
+            "hammer_channel": args.hammer_channel,
+            "response": args.response,
+            "timeout": quantity(args.timeout, "time", "--timeout"),
+            "hit_force": quantity(args.hit_force, "force", "--hit-force"),
+            "pulse": quantity(args.pulse, "time", "--pulse"),
+        }
         quantity(args.f_max, "frequency", "--f-max")
         return TapTest(cfg, params, out, **kwargs)
     from rigtools.procedures.frf import FrfTest
@@ -305,9 +368,15 @@ def build(args, cfg, out, kwargs):
     band = [quantity(t, "frequency", "--band") for t in args.band.split(":")]
     if len(band) != 2:
         raise UserError(f"--band = {args.band!r}: write low:high, e.g. '20 Hz:500 Hz'")
-    params = {"signal": args.signal, "band": tuple(band), "level": quantity(args.level, "voltage", "--level"),
-              "frame": quantity(args.frame, "time", "--frame"), "averages": args.averages,
-              "gap": _gap(args), "seed": args.seed}
+    params = {
+        "signal": args.signal,
+        "band": tuple(band),
+        "level": quantity(args.level, "voltage", "--level"),
+        "frame": quantity(args.frame, "time", "--frame"),
+        "averages": args.averages,
+        "gap": _gap(args),
+        "seed": args.seed,
+    }
     return FrfTest(cfg, params, out, **kwargs)
 
 
@@ -321,6 +390,7 @@ def _confirm(args):
             input(f"{msg}, then press Enter (Ctrl-C stops) ")
         except EOFError:
             raise UserError("no operator input (stdin closed); give --yes to run unattended") from None
+
     return confirm
 
 
@@ -336,9 +406,14 @@ class Display:
             from rich.console import Console
             from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-            self.bar = Progress(TextColumn("{task.description}"), BarColumn(),
-                                TextColumn("{task.completed}/{task.total} points"), TimeElapsedColumn(),
-                                console=Console(stderr=True), transient=True)
+            self.bar = Progress(
+                TextColumn("{task.description}"),
+                BarColumn(),
+                TextColumn("{task.completed}/{task.total} points"),
+                TimeElapsedColumn(),
+                console=Console(stderr=True),
+                transient=True,
+            )
             self.bar.__enter__()
             self.task = self.bar.add_task(f"{self.args.procedure}", total=1)
         return self
@@ -361,26 +436,48 @@ class Display:
 
 
 def _point_doc(p: dict, units: dict) -> dict:
-    keys = ("fe", "force_amplitude", "force_amplitude_measured", "gap", "drive_amplitude",
-            "control_updates", "settled", "direction", "study_value")
+    keys = (
+        "fe",
+        "force_amplitude",
+        "force_amplitude_measured",
+        "gap",
+        "drive_amplitude",
+        "control_updates",
+        "settled",
+        "direction",
+        "study_value",
+    )
     doc = {k: p[k] for k in keys if k in p}
-    doc["channels"] = {name: {"units": units.get(name, ""), "peak": p["peaks"][name],
-                              "harmonics": [{"k": i + 1, "amplitude": a, "phase": ph} for i, (a, ph)
-                                            in enumerate(zip(h["amplitude"], h["phase"]))]}
-                       for name, h in p["harmonics"].items()}
+    doc["channels"] = {
+        name: {
+            "units": units.get(name, ""),
+            "peak": p["peaks"][name],
+            "harmonics": [
+                {"k": i + 1, "amplitude": a, "phase": ph}
+                for i, (a, ph) in enumerate(zip(h["amplitude"], h["phase"]))
+            ],
+        }
+        for name, h in p["harmonics"].items()
+    }
     return doc
 
 
 def report(args, proc, result) -> dict:
-    doc = {"file": str(proc.out), "status": result.status.value, "reason": result.reason,
-           "backend": args.backend, "procedure": args.procedure}
+    doc = {
+        "file": str(proc.out),
+        "status": result.status.value,
+        "reason": result.reason,
+        "backend": args.backend,
+        "procedure": args.procedure,
+    }
     units = {s.name: s.units for s in getattr(proc, "specs", [])}
     if args.procedure == "dwell" and result.points:
         doc.update(_point_doc(result.points[0], units))
         doc["warnings"] = result.points[0]["safety_warnings"]
     elif args.procedure in ("sweep", "study"):
-        doc["points"] = [{k: v for k, v in _point_doc(p, units).items() if k != "channels"}
-                         for p in result.points]
+        doc["points"] = [
+            {k: v for k, v in _point_doc(p, units).items() if k != "channels"} for p in result.points
+        ]
         doc.update(result.summary)
     elif args.procedure == "frf" and result.status.value == "finished":
         from rigtools.procedures.frf import quick_check
@@ -394,8 +491,10 @@ def report(args, proc, result) -> dict:
 
             f_max = min(quantity(args.f_max, "frequency", "--f-max"), 0.45 * proc.rate)
             res = tap_analysis(proc.out, proc.response, f_min=5.0, f_max=f_max)
-            doc["modes"] = [{"frequency_hz": m.frequency_hz, "damping_ratio": m.damping_ratio}
-                            for m in res.modes[proc.response].modes]
+            doc["modes"] = [
+                {"frequency_hz": m.frequency_hz, "damping_ratio": m.damping_ratio}
+                for m in res.modes[proc.response].modes
+            ]
     return doc
 
 
@@ -405,36 +504,56 @@ def print_summary(args, doc: dict) -> None:
 
     console = Console()
     if args.procedure == "dwell" and "fe" in doc:
-        table = Table(title=f"sine dwell {doc['fe']:g} Hz, F0 {doc['force_amplitude']:g} N ({doc['backend']})")
+        table = Table(
+            title=f"sine dwell {doc['fe']:g} Hz, F0 {doc['force_amplitude']:g} N ({doc['backend']})"
+        )
         for col in ("channel", "units", "1×fe", "largest k×fe, k ≥ 2", "peak"):
             table.add_column(col)
         for name, ch in doc["channels"].items():
             h = ch["harmonics"]
             top = max(h[1:], key=lambda r: r["amplitude"]) if len(h) > 1 else None
-            table.add_row(name, ch["units"], f"{h[0]['amplitude']:.4g}",
-                          f"{top['amplitude']:.4g} (k = {top['k']})" if top else "-", f"{ch['peak']:.4g}")
+            table.add_row(
+                name,
+                ch["units"],
+                f"{h[0]['amplitude']:.4g}",
+                f"{top['amplitude']:.4g} (k = {top['k']})" if top else "-",
+                f"{ch['peak']:.4g}",
+            )
         console.print(table)
-        console.print(f"force {doc['force_amplitude_measured']:.4g} N (target {doc['force_amplitude']:g} N) at "
-                      f"{doc['drive_amplitude']:.4g} V after {doc['control_updates']} updates; settled: "
-                      f"{'yes' if doc['settled'] else 'NO'}; wrote {doc['file']} ({doc['status']})")
+        console.print(
+            f"force {doc['force_amplitude_measured']:.4g} N (target {doc['force_amplitude']:g} N) at "
+            f"{doc['drive_amplitude']:.4g} V after {doc['control_updates']} updates; settled: "
+            f"{'yes' if doc['settled'] else 'NO'}; wrote {doc['file']} ({doc['status']})"
+        )
     elif args.procedure in ("sweep", "study"):
         table = Table(title=f"{args.procedure} ({doc['backend']}, {len(doc['points'])} points)")
         for col in ("fe Hz", "dir", "F0 N", "F1 N", "gap mm", "drive V", "updates", "settled"):
             table.add_column(col)
         for p in doc["points"]:
-            table.add_row(f"{p['fe']:g}", p.get("direction", ""), f"{p['force_amplitude']:g}",
-                          f"{p['force_amplitude_measured']:.4g}", f"{p['gap'] * 1e3:.3g}",
-                          f"{p['drive_amplitude']:.3g}", str(p["control_updates"]), "yes" if p["settled"] else "NO")
+            table.add_row(
+                f"{p['fe']:g}",
+                p.get("direction", ""),
+                f"{p['force_amplitude']:g}",
+                f"{p['force_amplitude_measured']:.4g}",
+                f"{p['gap'] * 1e3:.3g}",
+                f"{p['drive_amplitude']:.3g}",
+                str(p["control_updates"]),
+                "yes" if p["settled"] else "NO",
+            )
         console.print(table)
         for d, jumps in doc.get("jumps", {}).items():
             for j in jumps:
-                console.print(f"jump {d}: {j['from_hz']:g} -> {j['to_hz']:g} Hz ({j['kind']}, {j['change'] * 100:.0f} %)")
+                console.print(
+                    f"jump {d}: {j['from_hz']:g} -> {j['to_hz']:g} Hz ({j['kind']}, {j['change'] * 100:.0f} %)"
+                )
         if "peak_hz" in doc:
             console.print(f"response peak per newton at {doc['peak_hz']:.4g} Hz")
         console.print(f"wrote {doc['file']} ({doc['status']})")
     elif args.procedure == "tap":
-        console.print(f"{doc.get('accepted', 0)} of {doc.get('hits', 0)} hits accepted on "
-                      f"{doc.get('response', '')} / {doc.get('hammer', '')}")
+        console.print(
+            f"{doc.get('accepted', 0)} of {doc.get('hits', 0)} hits accepted on "
+            f"{doc.get('response', '')} / {doc.get('hammer', '')}"
+        )
         for h in doc.get("hits_detail", []):
             if not h["accepted"]:
                 console.print(f"hit {h['hit']} rejected: {h['reject_reason']}")
@@ -449,8 +568,10 @@ def print_summary(args, doc: dict) -> None:
     elif args.procedure == "frf":
         chk = doc.get("check")
         if chk:
-            table = Table(title=f"H1 {chk['response']}/{chk['force']}: {chk['averages']} averages, "
-                                f"{chk['resolution_hz']:g} Hz resolution")
+            table = Table(
+                title=f"H1 {chk['response']}/{chk['force']}: {chk['averages']} averages, "
+                f"{chk['resolution_hz']:g} Hz resolution"
+            )
             for col in ("peak Hz", "|H1|", "coherence"):
                 table.add_column(col)
             for pk in chk["peaks"]:

@@ -37,15 +37,28 @@ examples:
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    p = subparsers.add_parser("analyze", help=HELP, description=HELP + ".", epilog=EPILOG,
-                              formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = subparsers.add_parser(
+        "analyze",
+        help=HELP,
+        description=HELP + ".",
+        epilog=EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     p.add_argument("file", metavar="FILE", help="recording (.h5)")
     p.add_argument("--json", action="store_true", help="print the results as JSON")
     p.add_argument("--out", metavar="DIR", help="write figures (PNG) into DIR (made if missing)")
-    p.add_argument("--kind", choices=("accelerance", "mobility", "receptance"), default="accelerance",
-                   help="FRF kind: (m/s^2)/N, (m/s)/N or m/N (default accelerance)")
-    p.add_argument("--method", choices=("lscf", "peak"), default="lscf",
-                   help="modal identification of FRF tests (default lscf)")
+    p.add_argument(
+        "--kind",
+        choices=("accelerance", "mobility", "receptance"),
+        default="accelerance",
+        help="FRF kind: (m/s^2)/N, (m/s)/N or m/N (default accelerance)",
+    )
+    p.add_argument(
+        "--method",
+        choices=("lscf", "peak"),
+        default="lscf",
+        help="modal identification of FRF tests (default lscf)",
+    )
     p.add_argument("--channels", metavar="A,B", help="analyse only these channels (the force is kept)")
     p.set_defaults(func=run)
 
@@ -64,36 +77,58 @@ def print_tables(analysis, console) -> None:
     """The rich tables of ``rig analyze``."""
     from rich.table import Table
 
-    console.print(f"{analysis.path}: {analysis.procedure or 'recording'} ({analysis.backend}, "
-                  f"status {analysis.status}); amplitudes are peak")
+    console.print(
+        f"{analysis.path}: {analysis.procedure or 'recording'} ({analysis.backend}, "
+        f"status {analysis.status}); amplitudes are peak"
+    )
     for note in analysis.notes + analysis.skipped:
         console.print(f"note: {note}")
     rows = analysis.point_rows()
     if rows:
-        short = {"point": "pt", "fe (Hz)": "fe Hz", "F0 target, peak (N)": "F0 N", "F1 measured, peak (N)": "F1 N",
-                 "gap (mm)": "gap mm", "impacts/period": "imp/T", "settled": "settled"}
+        short = {
+            "point": "pt",
+            "fe (Hz)": "fe Hz",
+            "F0 target, peak (N)": "F0 N",
+            "F1 measured, peak (N)": "F1 N",
+            "gap (mm)": "gap mm",
+            "impacts/period": "imp/T",
+            "settled": "settled",
+        }
         cols = list(rows[0])
         harm = [c for c in cols if "·fe" in c]
         for title, group, caption in (
-                ("periodic points", ["point"] + [c for c in cols if c not in harm and c != "point"],
-                 "F0 target and F1 measured force fundamental, peak; imp/T: impacts per period"),
-                ("shroud-acceleration harmonics, peak (m/s²)", ["point"] + harm,
-                 "A6, P22...: active/passive shroud at 6·fe, 22·fe...")):
+            (
+                "periodic points",
+                ["point"] + [c for c in cols if c not in harm and c != "point"],
+                "F0 target and F1 measured force fundamental, peak; imp/T: impacts per period",
+            ),
+            (
+                "shroud-acceleration harmonics, peak (m/s²)",
+                ["point"] + harm,
+                "A6, P22...: active/passive shroud at 6·fe, 22·fe...",
+            ),
+        ):
             if len(group) < 2:
                 continue
             table = Table(title=title, caption=caption)
             for c in group:
-                table.add_column(short.get(c) or c.replace("active ", "A").replace("passive ", "P").split("·")[0],
-                                 justify="right", no_wrap=True)
+                table.add_column(
+                    short.get(c) or c.replace("active ", "A").replace("passive ", "P").split("·")[0],
+                    justify="right",
+                    no_wrap=True,
+                )
             for r in rows:
                 table.add_row(*(_fmt(r.get(c), 3) for c in group))
             console.print(table)
-        console.print("modes: none from sine points (a sine excites one frequency at a time; "
-                      "use rig acquire frf)")
+        console.print(
+            "modes: none from sine points (a sine excites one frequency at a time; use rig acquire frf)"
+        )
     for p in analysis.broadband:
         est = p.frf.estimate
-        table = Table(title=f"point {p.index}: modes ({p.frf.kind}, {est.n_averages} averages, "
-                            f"{est.resolution_hz:.3g} Hz resolution, {p.excitation})")
+        table = Table(
+            title=f"point {p.index}: modes ({p.frf.kind}, {est.n_averages} averages, "
+            f"{est.resolution_hz:.3g} Hz resolution, {p.excitation})"
+        )
         for col in ("response", "mode", "f (Hz)", "ζ (%)", "coherence", "method"):
             table.add_column(col, justify="right")
         for i, r in enumerate(p.frf.responses):
@@ -101,26 +136,51 @@ def print_tables(analysis, console) -> None:
             if not m.modes:
                 table.add_row(r, "–", "–", "–", _fmt(float(est.coherence[i][p._band()].mean())), m.method)
             for j, mode in enumerate(m.modes):
-                table.add_row(r, str(j + 1), f"{mode.frequency_hz:.2f}", f"{100 * mode.damping_ratio:.3f}",
-                              _fmt(p.coherence_at(i, mode.frequency_hz)), m.method)
+                table.add_row(
+                    r,
+                    str(j + 1),
+                    f"{mode.frequency_hz:.2f}",
+                    f"{100 * mode.damping_ratio:.3f}",
+                    _fmt(p.coherence_at(i, mode.frequency_hz)),
+                    m.method,
+                )
         console.print(table)
         for n in p.notes:
             console.print(f"note: {n}")
     if analysis.frequency_table:
-        cols = [("blade", "blade"), ("mode", "k"), ("fem_hz", "FEM"), ("am_hz", "AM"),
-                ("em_hz", "EM"), ("fem_vs_em_pct", "FEM %"), ("am_vs_em_pct", "AM %")]
+        cols = [
+            ("blade", "blade"),
+            ("mode", "k"),
+            ("fem_hz", "FEM"),
+            ("am_hz", "AM"),
+            ("em_hz", "EM"),
+            ("fem_vs_em_pct", "FEM %"),
+            ("am_vs_em_pct", "AM %"),
+        ]
         if "article_hz" in analysis.frequency_table[0]:
             cols += [("article_hz", "article"), ("em_vs_article_pct", "EM-art %")]
-        table = Table(title="flexural natural frequencies, Hz (paper's Table 2)",
-                      caption="EM: identified here; FEM/AM %: (model - EM) / EM; article: the simulated "
-                              "rig's own test article, EM-art %: (EM - article) / article")
+        table = Table(
+            title="flexural natural frequencies, Hz (paper's Table 2)",
+            caption="EM: identified here; FEM/AM %: (model - EM) / EM; article: the simulated "
+            "rig's own test article, EM-art %: (EM - article) / article",
+        )
         for _, h in cols:
             table.add_column(h, justify="right", no_wrap=True)
         for r in analysis.frequency_table:
-            table.add_row(*(f"{r[k]:.1f}" if isinstance(r[k], float) and k.endswith("hz") and r[k] == r[k]
-                            else f"{r[k]:+.3f}" if k == "em_vs_article_pct" and r[k] == r[k]
-                            else f"{r[k]:+.2f}" if isinstance(r[k], float) and r[k] == r[k]
-                            else "–" if isinstance(r[k], float) else str(r[k]) for k, _ in cols))
+            table.add_row(
+                *(
+                    f"{r[k]:.1f}"
+                    if isinstance(r[k], float) and k.endswith("hz") and r[k] == r[k]
+                    else f"{r[k]:+.3f}"
+                    if k == "em_vs_article_pct" and r[k] == r[k]
+                    else f"{r[k]:+.2f}"
+                    if isinstance(r[k], float) and r[k] == r[k]
+                    else "–"
+                    if isinstance(r[k], float)
+                    else str(r[k])
+                    for k, _ in cols
+                )
+            )
         console.print(table)
 
 

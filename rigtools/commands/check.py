@@ -29,14 +29,19 @@ examples:
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser(
-        "check", help="validate a recording file (exit 0 valid, 1 invalid, 2 unreadable)",
-        description=HELP, formatter_class=argparse.RawDescriptionHelpFormatter)
+        "check",
+        help="validate a recording file (exit 0 valid, 1 invalid, 2 unreadable)",
+        description=HELP,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     parser.add_argument("file", metavar="FILE", help="recording (.h5) to check")
-    parser.add_argument("--quick", action="store_true",
-                        help="check metadata only; do not read the samples")
-    parser.add_argument("--json", action="store_true",
-                        help='print {"path", "valid", "readable", "status", "points", "channels", '
-                             '"problems": [{"where", "message", "severity", "fatal"}]}')
+    parser.add_argument("--quick", action="store_true", help="check metadata only; do not read the samples")
+    parser.add_argument(
+        "--json",
+        action="store_true",
+        help='print {"path", "valid", "readable", "status", "points", "channels", '
+        '"problems": [{"where", "message", "severity", "fatal"}]}',
+    )
     parser.set_defaults(func=run)
 
 
@@ -47,9 +52,17 @@ def run(args: argparse.Namespace) -> int:
         result = check_recording(args.file, read_data=not args.quick)
     except RecordingError as exc:
         if args.json:
-            print(json.dumps({"path": args.file, "valid": False, "readable": False,
-                              "problems": [{"where": "/", "message": str(exc),
-                                            "severity": "error", "fatal": True}]}, indent=1))
+            print(
+                json.dumps(
+                    {
+                        "path": args.file,
+                        "valid": False,
+                        "readable": False,
+                        "problems": [{"where": "/", "message": str(exc), "severity": "error", "fatal": True}],
+                    },
+                    indent=1,
+                )
+            )
             return 2
         raise
     if args.json:
@@ -62,9 +75,11 @@ def run(args: argparse.Namespace) -> int:
         for problem in errors:
             print(f"  error: {problem.line()}")
     else:
-        print(f"{args.file}: valid rigtools recording (status {result.status}, "
-              f"{result.n_points} point{'s' * (result.n_points != 1)}, "
-              f"{result.n_channels} channel{'s' * (result.n_channels != 1)})")
+        print(
+            f"{args.file}: valid rigtools recording (status {result.status}, "
+            f"{result.n_points} point{'s' * (result.n_points != 1)}, "
+            f"{result.n_channels} channel{'s' * (result.n_channels != 1)})"
+        )
     for problem in notes:
         print(f"  note: {problem.line()}")
     sys.stdout.flush()

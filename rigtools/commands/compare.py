@@ -44,21 +44,45 @@ examples:
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    p = subparsers.add_parser("compare", help=HELP, description=HELP + ".", epilog=EPILOG,
-                              formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = subparsers.add_parser(
+        "compare",
+        help=HELP,
+        description=HELP + ".",
+        epilog=EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     p.add_argument("em", metavar="EM.h5", help="experiment recording (rig acquire ...)")
     p.add_argument("fem", metavar="FEM.h5", nargs="?", help="model recording (rig simulate / rig study)")
-    p.add_argument("--simulate", action="store_true", help="run the model at every EM point instead of FEM.h5")
-    p.add_argument("--model", choices=("fem", "am"), default="fem",
-                   help="model run by --simulate: reduced FE model (default) or assumed-modes model")
-    p.add_argument("--excitation", choices=("measured", "nominal"), default="measured",
-                   help="--simulate drive: the recorded force waveform (default) or F0 sin")
+    p.add_argument(
+        "--simulate", action="store_true", help="run the model at every EM point instead of FEM.h5"
+    )
+    p.add_argument(
+        "--model",
+        choices=("fem", "am"),
+        default="fem",
+        help="model run by --simulate: reduced FE model (default) or assumed-modes model",
+    )
+    p.add_argument(
+        "--excitation",
+        choices=("measured", "nominal"),
+        default="measured",
+        help="--simulate drive: the recorded force waveform (default) or F0 sin",
+    )
     p.add_argument("--rig", metavar="FILE", help="rig file for the model; default: the rig stored in EM.h5")
-    p.add_argument("--frf", metavar="FRF.h5", help="FRF recording (rig acquire frf) giving the EM natural frequencies")
-    p.add_argument("--harmonics", metavar="K", default="12",
-                   help="harmonics shown per point in the table, k = 1..K plus 22 (default 12; JSON has all 30)")
-    p.add_argument("--workers", metavar="N", help="--simulate: run the model points on N local worker processes "
-                   "(Dask; default in this process)")
+    p.add_argument(
+        "--frf", metavar="FRF.h5", help="FRF recording (rig acquire frf) giving the EM natural frequencies"
+    )
+    p.add_argument(
+        "--harmonics",
+        metavar="K",
+        default="12",
+        help="harmonics shown per point in the table, k = 1..K plus 22 (default 12; JSON has all 30)",
+    )
+    p.add_argument(
+        "--workers",
+        metavar="N",
+        help="--simulate: run the model points on N local worker processes (Dask; default in this process)",
+    )
     p.add_argument("--json", action="store_true", help="print JSON instead of tables")
     p.add_argument("--out", metavar="DIR", help="write the figures as PNG into DIR")
     p.set_defaults(func=run)
@@ -79,17 +103,27 @@ def print_comparison(cmp, k_show: int) -> None:
 
     console = Console()
     ml = cmp.model_label
-    how = (f"model recording {cmp.model_source}" if cmp.excitation is None
-           else f"{ml} simulated at every EM point, {cmp.excitation} excitation")
+    how = (
+        f"model recording {cmp.model_source}"
+        if cmp.excitation is None
+        else f"{ml} simulated at every EM point, {cmp.excitation} excitation"
+    )
     console.print(f"[bold]EM[/bold] {cmp.em_path}  vs  {how}")
     if cmp.natural is not None and len(cmp.natural):
         t = Table(title="natural frequencies, Hz (diff % = 100 (model - EM) / EM; AM vs FEM)")
         for col in ("blade", "mode", "FEM", "AM", "EM", "FEM vs EM %", "AM vs EM %", "AM vs FEM %"):
             t.add_column(col, justify="left" if col == "blade" else "right")
         for r in cmp.natural.to_dict("records"):
-            t.add_row(r["blade"], str(r["mode"]), _fmt(r["fem_hz"], ".2f"), _fmt(r["am_hz"], ".2f"),
-                      _fmt(r["em_hz"], ".2f"), _fmt(r["fem_vs_em_pct"], "+.2f"), _fmt(r["am_vs_em_pct"], "+.2f"),
-                      _fmt(r["am_vs_fem_pct"], "+.3f"))
+            t.add_row(
+                r["blade"],
+                str(r["mode"]),
+                _fmt(r["fem_hz"], ".2f"),
+                _fmt(r["am_hz"], ".2f"),
+                _fmt(r["em_hz"], ".2f"),
+                _fmt(r["fem_vs_em_pct"], "+.2f"),
+                _fmt(r["am_vs_em_pct"], "+.2f"),
+                _fmt(r["am_vs_fem_pct"], "+.3f"),
+            )
         console.print(t)
     for p in cmp.points:
         t = Table(title=f"{p.label()}: harmonics (peak), score {p.score:.3f}")
@@ -98,20 +132,43 @@ def print_comparison(cmp, k_show: int) -> None:
         for ch in dict.fromkeys(p.table["channel"]):
             sub = p.table[(p.table["channel"] == ch) & ((p.table["k"] <= k_show) | (p.table["k"] == 22))]
             for i, r in enumerate(sub.itertuples(index=False)):
-                t.add_row(ch if i == 0 else "", str(r.k), _fmt(r.frequency_hz, ".0f"), _fmt(r.em), _fmt(r.fem),
-                          _fmt(r.diff_pct, "+.1f"))
+                t.add_row(
+                    ch if i == 0 else "",
+                    str(r.k),
+                    _fmt(r.frequency_hz, ".0f"),
+                    _fmt(r.em),
+                    _fmt(r.fem),
+                    _fmt(r.diff_pct, "+.1f"),
+                )
             t.add_section()
         console.print(t)
         for line in p.explanation_lines(ml):
             console.print(f"  [yellow]explained[/yellow]: {line}")
     t = Table(title=f"agreement (10^-E over the shroud accelerations' harmonics), mean {cmp.mean_score:.3f}")
-    for col in ("EM point", "fe Hz", "gap mm", "F0 N", "F1 EM N", f"F1 {ml} N", "active E", "passive E", "score"):
+    for col in (
+        "EM point",
+        "fe Hz",
+        "gap mm",
+        "F0 N",
+        "F1 EM N",
+        f"F1 {ml} N",
+        "active E",
+        "passive E",
+        "score",
+    ):
         t.add_column(col, justify="right")
     for p in cmp.points:
-        t.add_row(str(p.em_index), _fmt(p.params["fe"]), _fmt(p.params.get("gap", math.nan) * 1e3),
-                  _fmt(p.params.get("force_amplitude")), _fmt(p.em.force_amplitude), _fmt(p.model.force_amplitude),
-                  _fmt(p.agreement.per_channel.get("active_shroud_accel"), ".3f"),
-                  _fmt(p.agreement.per_channel.get("passive_shroud_accel"), ".3f"), _fmt(p.score, ".3f"))
+        t.add_row(
+            str(p.em_index),
+            _fmt(p.params["fe"]),
+            _fmt(p.params.get("gap", math.nan) * 1e3),
+            _fmt(p.params.get("force_amplitude")),
+            _fmt(p.em.force_amplitude),
+            _fmt(p.model.force_amplitude),
+            _fmt(p.agreement.per_channel.get("active_shroud_accel"), ".3f"),
+            _fmt(p.agreement.per_channel.get("passive_shroud_accel"), ".3f"),
+            _fmt(p.score, ".3f"),
+        )
     console.print(t)
     for n in cmp.notes:
         console.print(f"note: {n}")
@@ -140,17 +197,33 @@ def run(args: argparse.Namespace) -> int:
 
     from rigtools.compare import compare_recordings
 
-    with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-                  console=Console(stderr=True), transient=True,
-                  disable=args.json or not sys.stderr.isatty()) as bar:
-        task = bar.add_task("comparing" + (" (model runs at the EM points)" if args.simulate else ""), total=None)
+    with Progress(
+        TextColumn("{task.description}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeElapsedColumn(),
+        console=Console(stderr=True),
+        transient=True,
+        disable=args.json or not sys.stderr.isatty(),
+    ) as bar:
+        task = bar.add_task(
+            "comparing" + (" (model runs at the EM points)" if args.simulate else ""), total=None
+        )
 
         def progress(done: int, total: int, text: str) -> None:
             bar.update(task, completed=done, total=total, description=f"model run {text}")
 
-        cmp = compare_recordings(args.em, args.fem, simulate=args.simulate, model=args.model,
-                                 excitation=args.excitation, rig=args.rig, frf=args.frf, workers=workers,
-                                 progress=progress)
+        cmp = compare_recordings(
+            args.em,
+            args.fem,
+            simulate=args.simulate,
+            model=args.model,
+            excitation=args.excitation,
+            rig=args.rig,
+            frf=args.frf,
+            workers=workers,
+            progress=progress,
+        )
     written = cmp.save_figures(args.out) if args.out else []
     if args.json:
         out = cmp.to_dict()
@@ -176,8 +249,10 @@ def _check_out_dir(out: Path, stem: str) -> None:
 
         for path in taken:
             if not (path.is_file() and not path.is_symlink() and is_derived_plot(path)):
-                raise UserError(f"--out: {path} exists and was not made by rigtools as a derived file; "
-                                "not overwritten (move it or choose another folder)")
+                raise UserError(
+                    f"--out: {path} exists and was not made by rigtools as a derived file; "
+                    "not overwritten (move it or choose another folder)"
+                )
 
 
 def _json_default(x):

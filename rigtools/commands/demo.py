@@ -33,8 +33,13 @@ examples:
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    p = subparsers.add_parser("demo", help=HELP, description=HELP + ".", epilog=EPILOG,
-                              formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = subparsers.add_parser(
+        "demo",
+        help=HELP,
+        description=HELP + ".",
+        epilog=EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     p.add_argument("--out", default="rig-demo", metavar="DIR", help='output folder (default "rig-demo")')
     p.add_argument("--quick", action="store_true", help="reduced resolution, under a minute")
     p.add_argument("--json", action="store_true", help="print the findings as JSON")
@@ -62,8 +67,15 @@ def run(args: argparse.Namespace) -> int:
 
     console = Console(stderr=True)
     settings = demo_settings.quick() if args.quick else demo_settings.full()
-    with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
-                  TimeElapsedColumn(), console=console, disable=args.json, transient=True) as bar:
+    with Progress(
+        TextColumn("{task.description}"),
+        BarColumn(),
+        TextColumn("{task.completed}/{task.total}"),
+        TimeElapsedColumn(),
+        console=console,
+        disable=args.json,
+        transient=True,
+    ) as bar:
         task = bar.add_task("rig demo", total=n_steps())
 
         def progress(text: str) -> None:
@@ -98,4 +110,3 @@ def run(args: argparse.Namespace) -> int:
     Console().print(table)
     print(f"report: {result['report']}")
     return 0
-

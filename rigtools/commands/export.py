@@ -32,13 +32,21 @@ Exit status: 0 written, 2 bad input (unreadable recording, existing OUT without 
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    p = subparsers.add_parser("export", help=HELP, description=HELP + ".", epilog=EPILOG,
-                              formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = subparsers.add_parser(
+        "export",
+        help=HELP,
+        description=HELP + ".",
+        epilog=EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     p.add_argument("format", choices=("uff",), help="output format")
     p.add_argument("file", metavar="FILE.h5", help="the recording")
     p.add_argument("out", metavar="OUT", help="file to write")
-    p.add_argument("--what", default="time,spectra,frf",
-                   help='comma list of time, spectra, frf (default "time,spectra,frf")')
+    p.add_argument(
+        "--what",
+        default="time,spectra,frf",
+        help='comma list of time, spectra, frf (default "time,spectra,frf")',
+    )
     p.add_argument("--resolution", default="1 Hz", help='FRF frequency resolution (default "1 Hz")')
     p.add_argument("--overwrite", action="store_true", help="replace OUT if it exists")
     p.add_argument("--json", action="store_true", help="print what was written as JSON")
@@ -62,8 +70,10 @@ def run(args: argparse.Namespace) -> int:
             raise UserError(f"{args.file}: the recording has no points to export")
         functions = recording_functions(rec, what, frf_resolution_hz=resolution)
     if not functions:
-        raise UserError(f"{args.file}: nothing to export for --what {args.what!r} "
-                        "(FRFs need a force channel and two resolution periods of data)")
+        raise UserError(
+            f"{args.file}: nothing to export for --what {args.what!r} "
+            "(FRFs need a force channel and two resolution periods of data)"
+        )
     write_uff(out, functions)
     counts: dict[str, int] = {}
     for f in functions:

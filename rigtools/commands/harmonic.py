@@ -37,16 +37,30 @@ MIN_POINTS, MAX_POINTS = 2, 200_000
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
-        "harmonic", help=HELP, description=HELP + ".", epilog=EPILOG,
+        "harmonic",
+        help=HELP,
+        description=HELP + ".",
+        epilog=EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("--rig", metavar="FILE", help="rig file (TOML); default: the calibrated default rig")
-    p.add_argument("--force", default="15 N", help='force amplitude F0 (default "15 N"; a plain number is newtons)')
+    p.add_argument(
+        "--force", default="15 N", help='force amplitude F0 (default "15 N"; a plain number is newtons)'
+    )
     p.add_argument("--fmin", default="10 Hz", help='lowest frequency (default "10 Hz")')
     p.add_argument("--fmax", default="1500 Hz", help='highest frequency (default "1500 Hz")')
-    p.add_argument("--points", type=int, default=2000,
-                   help=f"frequencies, evenly spaced (default 2000, {MIN_POINTS} to {MAX_POINTS})")
-    p.add_argument("--out", required=True, metavar="FILE", help="output file, .csv or .json (peak amplitudes); the plot goes to FILE.png")
+    p.add_argument(
+        "--points",
+        type=int,
+        default=2000,
+        help=f"frequencies, evenly spaced (default 2000, {MIN_POINTS} to {MAX_POINTS})",
+    )
+    p.add_argument(
+        "--out",
+        required=True,
+        metavar="FILE",
+        help="output file, .csv or .json (peak amplitudes); the plot goes to FILE.png",
+    )
     p.add_argument("--overwrite", action="store_true", help="replace FILE if it exists")
     p.set_defaults(func=run)
 
@@ -68,8 +82,14 @@ def write_curves(path: Path, fem: HarmonicResponse, am: HarmonicResponse, rig_na
 
     if path.suffix.lower() == ".csv":
         cols = _columns(fem, am)
-        np.savetxt(path, np.column_stack(list(cols.values())), delimiter=",", header=",".join(cols),
-                   comments="", fmt="%.9g")
+        np.savetxt(
+            path,
+            np.column_stack(list(cols.values())),
+            delimiter=",",
+            header=",".join(cols),
+            comments="",
+            fmt="%.9g",
+        )
         return
     doc = {
         "rig": rig_name,
@@ -99,8 +119,9 @@ def curves_figure(fem: HarmonicResponse, am: HarmonicResponse, title: str):
         }
         for label, res in (("FEM", fem), ("AM", am))
     }
-    return amplitude_frequency_figure(fem.frequencies_hz, curves, force_amplitude=fem.force_amplitude,
-                                      title=title)
+    return amplitude_frequency_figure(
+        fem.frequencies_hz, curves, force_amplitude=fem.force_amplitude, title=title
+    )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -139,6 +160,8 @@ def run(args: argparse.Namespace) -> int:
     from rigtools.figures import plot_path, save_figure
 
     png = save_figure(curves_figure(fem, am, rig_config.name), plot_path(out), dpi=120)
-    print(f"wrote {out} and {png} ({args.points} frequencies {fmin:g}-{fmax:g} Hz, F0 = {force:g} N peak, "
-          "FEM and AM peak amplitudes)")
+    print(
+        f"wrote {out} and {png} ({args.points} frequencies {fmin:g}-{fmax:g} Hz, F0 = {force:g} N peak, "
+        "FEM and AM peak amplitudes)"
+    )
     return 0

@@ -26,12 +26,19 @@ Exit status: 0 written, 2 bad input (not a TDMS file, no units or timing, existi
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    p = subparsers.add_parser("import", help=HELP, description=HELP + ".", epilog=EPILOG,
-                              formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = subparsers.add_parser(
+        "import",
+        help=HELP,
+        description=HELP + ".",
+        epilog=EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     p.add_argument("format", choices=("tdms",), help="input format")
     p.add_argument("source", metavar="IN", help="the file to import")
     p.add_argument("out", metavar="OUT.h5", help="recording to write")
-    p.add_argument("--rig", metavar="FILE", help="rig file stored with the recording (default: the default rig)")
+    p.add_argument(
+        "--rig", metavar="FILE", help="rig file stored with the recording (default: the default rig)"
+    )
     p.add_argument("--rename", default="", metavar="OLD=NEW,...", help="channel renames")
     p.add_argument("--sample-rate", default=None, help='for logs without waveform timing, e.g. "51.2 kHz"')
     p.add_argument("--overwrite", action="store_true", help="replace OUT if it exists")
@@ -61,12 +68,14 @@ def check_renames(source: str, rename: dict[str, str]) -> None:
 
         meta = TdmsFile.read_metadata(source)
         names = {ch.name for group in meta.groups() for ch in group.channels()}
-    except Exception:          # not readable: import_tdms gives the one-line reason
+    except Exception:  # not readable: import_tdms gives the one-line reason
         return
     unknown = sorted(set(rename) - names)
     if unknown:
-        raise UserError(f"--rename: no channel {', '.join(repr(u) for u in unknown)} in {source} "
-                        f"(channels: {', '.join(sorted(names)) or 'none'})")
+        raise UserError(
+            f"--rename: no channel {', '.join(repr(u) for u in unknown)} in {source} "
+            f"(channels: {', '.join(sorted(names)) or 'none'})"
+        )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -79,17 +88,21 @@ def run(args: argparse.Namespace) -> int:
         rate = quantity(args.sample_rate, "frequency", "--sample-rate")
         if not rate > 0:
             raise UserError(f"--sample-rate = {args.sample_rate!r}: must be > 0 Hz")
-    out = output_path(args.out, args.overwrite, "OUT",
-                      inputs=[args.source, *([args.rig] if args.rig else [])])
+    out = output_path(
+        args.out, args.overwrite, "OUT", inputs=[args.source, *([args.rig] if args.rig else [])]
+    )
     cfg = load_rig(args.rig)
     check_renames(args.source, rename)
-    summary = import_tdms(args.source, out, rig=cfg.to_json(), overwrite=args.overwrite,
-                          rename=rename, sample_rate=rate)
+    summary = import_tdms(
+        args.source, out, rig=cfg.to_json(), overwrite=args.overwrite, rename=rename, sample_rate=rate
+    )
     if args.json:
         print(json.dumps({"file": str(out), **summary}))
     else:
         for p in summary["points"]:
-            print(f"point from group {p['group']!r}: {len(p['channels'])} channels "
-                  f"({', '.join(p['channels'])}), {p['samples']} samples at {p['sample_rate']:g} Hz")
+            print(
+                f"point from group {p['group']!r}: {len(p['channels'])} channels "
+                f"({', '.join(p['channels'])}), {p['samples']} samples at {p['sample_rate']:g} Hz"
+            )
         print(f"wrote {out}")
     return 0

@@ -21,18 +21,26 @@ examples:
 """
 
 # How to show well-known parameters: label, SI factor, unit.
-_DISPLAY = {"fe": ("fe", 1.0, "Hz"), "force_amplitude": ("F0", 1.0, "N"),
-            "gap": ("gap", 1e3, "mm"), "force_amplitude_measured": ("F meas", 1.0, "N"),
-            "drive_amplitude": ("drive", 1.0, "V")}
+_DISPLAY = {
+    "fe": ("fe", 1.0, "Hz"),
+    "force_amplitude": ("F0", 1.0, "N"),
+    "gap": ("gap", 1e3, "mm"),
+    "force_amplitude_measured": ("F meas", 1.0, "N"),
+    "drive_amplitude": ("drive", 1.0, "V"),
+}
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser(
-        "info", help="summarise a recording (points, channels, durations, status)",
-        description=HELP, formatter_class=argparse.RawDescriptionHelpFormatter)
+        "info",
+        help="summarise a recording (points, channels, durations, status)",
+        description=HELP,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     parser.add_argument("file", metavar="FILE", help="recording (.h5)")
-    parser.add_argument("--json", action="store_true",
-                        help="print the summary as JSON (root attributes, channels, points)")
+    parser.add_argument(
+        "--json", action="store_true", help="print the summary as JSON (root attributes, channels, points)"
+    )
     parser.set_defaults(func=run)
 
 
@@ -41,23 +49,51 @@ def summary(rec: Recording) -> dict[str, Any]:
     channels: dict[str, dict[str, Any]] = {}
     for point in rec.points:
         for name, ch in point.channels.items():
-            channels.setdefault(name, {
-                "name": name, "quantity": ch.quantity, "units": ch.units,
-                "sample_rate": ch.sample_rate, "t0": ch.t0, "sensitivity": ch.sensitivity,
-                "sensitivity_units": ch.sensitivity_units, "physical_channel": ch.physical_channel,
-                "location": ch.location})
+            channels.setdefault(
+                name,
+                {
+                    "name": name,
+                    "quantity": ch.quantity,
+                    "units": ch.units,
+                    "sample_rate": ch.sample_rate,
+                    "t0": ch.t0,
+                    "sensitivity": ch.sensitivity,
+                    "sensitivity_units": ch.sensitivity_units,
+                    "physical_channel": ch.physical_channel,
+                    "location": ch.location,
+                },
+            )
     return {
-        "path": rec.path, "status": rec.status, "complete": rec.complete,
-        "abort_reason": rec.abort_reason, "end_status": rec.attrs.get("end_status"),
-        "end_reason": rec.attrs.get("end_reason"), "backend": rec.backend, "created": rec.created,
-        "ended": rec.ended, "software_version": rec.software_version,
-        "schema_version": rec.schema_version, "opened_as": rec.opened_as,
-        "writer": rec.writer, "experiment": rec.experiment,
+        "path": rec.path,
+        "status": rec.status,
+        "complete": rec.complete,
+        "abort_reason": rec.abort_reason,
+        "end_status": rec.attrs.get("end_status"),
+        "end_reason": rec.attrs.get("end_reason"),
+        "backend": rec.backend,
+        "created": rec.created,
+        "ended": rec.ended,
+        "software_version": rec.software_version,
+        "schema_version": rec.schema_version,
+        "opened_as": rec.opened_as,
+        "writer": rec.writer,
+        "experiment": rec.experiment,
         "channels": list(channels.values()),
-        "points": [{"index": p.index, "params": p.params, "start_time": p.start_time,
-                    "end_time": p.end_time, "ended": p.ended, "complete": p.complete,
-                    "state": _point_state(rec, p), "n_samples": p.n_samples,
-                    "duration_s": p.duration, "channels": list(p.channels)} for p in rec.points],
+        "points": [
+            {
+                "index": p.index,
+                "params": p.params,
+                "start_time": p.start_time,
+                "end_time": p.end_time,
+                "ended": p.ended,
+                "complete": p.complete,
+                "state": _point_state(rec, p),
+                "n_samples": p.n_samples,
+                "duration_s": p.duration,
+                "channels": list(p.channels),
+            }
+            for p in rec.points
+        ],
         "total_duration_s": sum(p.duration for p in rec.points),
     }
 
@@ -108,12 +144,15 @@ def run(args: argparse.Namespace) -> int:
     elif info["status"] == "recording":
         status += " (incomplete: the writer stopped without closing the file)"
     if info["end_status"]:
-        status += f"; procedure {info['end_status']}" + (f" ({info['end_reason']})" if info["end_reason"]
-                                                          and info["status"] != "aborted" else "")
+        status += f"; procedure {info['end_status']}" + (
+            f" ({info['end_reason']})" if info["end_reason"] and info["status"] != "aborted" else ""
+        )
     console.print(f"[bold]{info['path']}[/bold]  status {status}")
-    console.print(f"backend {info['backend']}, created {info['created']}, "
-                  f"rigtools {info['software_version']}, schema v{info['schema_version']}"
-                  + (f", opened as {info['opened_as']}" if info["opened_as"] != "clean" else ""))
+    console.print(
+        f"backend {info['backend']}, created {info['created']}, "
+        f"rigtools {info['software_version']}, schema v{info['schema_version']}"
+        + (f", opened as {info['opened_as']}" if info["opened_as"] != "clean" else "")
+    )
     console.print(f"{len(info['points'])} points, {info['total_duration_s']:.3f} s recorded")
 
     table = Table(title="channels")
@@ -121,16 +160,27 @@ def run(args: argparse.Namespace) -> int:
         table.add_column(column)
     for ch in info["channels"]:
         sens = "" if ch["sensitivity"] is None else f"{ch['sensitivity']:g} {ch['sensitivity_units'] or ''}"
-        table.add_row(ch["name"], ch["quantity"], ch["units"], f"{ch['sample_rate']:g}", sens,
-                      ch["physical_channel"] or "", ch["location"] or "")
+        table.add_row(
+            ch["name"],
+            ch["quantity"],
+            ch["units"],
+            f"{ch['sample_rate']:g}",
+            sens,
+            ch["physical_channel"] or "",
+            ch["location"] or "",
+        )
     console.print(table)
 
     table = Table(title="points")
     for column in ("point", "parameters", "samples", "duration (s)", "state"):
         table.add_column(column, justify="right" if column in ("samples", "duration (s)") else "left")
     for p in info["points"]:
-        table.add_row(f"{p['index']:04d}", _format_params(p["params"]), str(p["n_samples"]),
-                      f"{p['duration_s']:.3f}",
-                      p["state"] if p["complete"] else f"[yellow]{p['state']}[/yellow]")
+        table.add_row(
+            f"{p['index']:04d}",
+            _format_params(p["params"]),
+            str(p["n_samples"]),
+            f"{p['duration_s']:.3f}",
+            p["state"] if p["complete"] else f"[yellow]{p['state']}[/yellow]",
+        )
     console.print(table)
     return 0

@@ -28,12 +28,20 @@ examples:
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
-        "modal", help=HELP, description=HELP.replace("%%", "%") + ".", epilog=EPILOG,
+        "modal",
+        help=HELP,
+        description=HELP.replace("%%", "%") + ".",
+        epilog=EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("--rig", metavar="FILE", help="rig file (TOML); default: the calibrated default rig")
-    p.add_argument("--modes", metavar="N", type=int, default=8,
-                   help="FEM modes listed per blade, lowest first (default 8); the AM lists its N lowest flexural modes")
+    p.add_argument(
+        "--modes",
+        metavar="N",
+        type=int,
+        default=8,
+        help="FEM modes listed per blade, lowest first (default 8); the AM lists its N lowest flexural modes",
+    )
     p.add_argument("--json", action="store_true", help="print JSON instead of a table")
     p.set_defaults(func=run)
 
@@ -56,7 +64,9 @@ def modal_results(rig_config, n_modes: int) -> dict:
         ]
         bp = params.active if name == "active" else params.passive
         am = exact_flexural_frequencies(bp, blade_masses(params, name), n_modes, roots[name])
-        out["am"][name] = [{"mode": i + 1, "frequency_hz": float(f), "kind": "flexural"} for i, f in enumerate(am)]
+        out["am"][name] = [
+            {"mode": i + 1, "frequency_hz": float(f), "kind": "flexural"} for i, f in enumerate(am)
+        ]
     return out
 
 
@@ -66,7 +76,9 @@ def _print_table(results: dict, rig_name: str) -> None:
 
     console = Console()
     for name in ("active", "passive"):
-        table = Table(title=f"{rig_name}: {name} blade" + (" (with force sensor)" if name == "active" else ""))
+        table = Table(
+            title=f"{rig_name}: {name} blade" + (" (with force sensor)" if name == "active" else "")
+        )
         for col in ("mode", "kind", "FEM (Hz)", "flexural #", "AM (Hz)", "diff %"):
             table.add_column(col, justify="left" if col == "kind" else "right")
         am = results["am"][name]

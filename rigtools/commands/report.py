@@ -25,19 +25,32 @@ examples:
 """
 
 PAGE = "report.html"
-MARKER = "querySelectorAll('img.figure')"     # in the page script of rigtools.report.html
+MARKER = "querySelectorAll('img.figure')"  # in the page script of rigtools.report.html
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    p = subparsers.add_parser("report", help=HELP, description=HELP + ".", epilog=EPILOG,
-                              formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = subparsers.add_parser(
+        "report",
+        help=HELP,
+        description=HELP + ".",
+        epilog=EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     p.add_argument("files", metavar="FILE", nargs="+", help="recordings (.h5)")
     p.add_argument("--out", required=True, metavar="DIR", help="folder of the report (report.html)")
-    p.add_argument("--kind", choices=("accelerance", "mobility", "receptance"), default="accelerance",
-                   help="FRF kind (default accelerance)")
-    p.add_argument("--method", choices=("lscf", "peak"), default="lscf", help="modal identification (default lscf)")
+    p.add_argument(
+        "--kind",
+        choices=("accelerance", "mobility", "receptance"),
+        default="accelerance",
+        help="FRF kind (default accelerance)",
+    )
+    p.add_argument(
+        "--method", choices=("lscf", "peak"), default="lscf", help="modal identification (default lscf)"
+    )
     p.add_argument("--fem", metavar="FILE", help="model recording to compare the first FILE with")
-    p.add_argument("--simulate", action="store_true", help="compare the first FILE with the model run at its points")
+    p.add_argument(
+        "--simulate", action="store_true", help="compare the first FILE with the model run at its points"
+    )
     p.add_argument("--model", choices=("fem", "am"), default="fem", help="model for --simulate (default fem)")
     p.add_argument("--rig", metavar="FILE", help="rig file for --simulate (default: the recording's rig)")
     p.set_defaults(func=run)
@@ -98,7 +111,8 @@ def run(args: argparse.Namespace) -> int:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise UserError(f"--out {out}: cannot make the folder ({exc.strerror})") from None
-    page = write_derived(out / PAGE, lambda tmp: tmp.write_text(report.html(), encoding="utf-8"),
-                         replaceable=_is_report)
+    page = write_derived(
+        out / PAGE, lambda tmp: tmp.write_text(report.html(), encoding="utf-8"), replaceable=_is_report
+    )
     print(f"wrote {page} ({len(analyses)} recording(s), {report.n_figures} figures)")
     return 0

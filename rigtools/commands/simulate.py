@@ -60,7 +60,7 @@ examples:
   rig simulate --model am --gap "0.7 mm" --out am.h5 --overwrite
 """
 
-MAX_GAP = 0.05            # m: no blade closes a gap this wide; a plain "0.5" meant mm
+MAX_GAP = 0.05  # m: no blade closes a gap this wide; a plain "0.5" meant mm
 MAX_STEPS_PER_PERIOD = 10_000_000
 
 
@@ -84,8 +84,10 @@ def gap_option(text: str, option: str = "--gap") -> float:
     if gap < 0:
         raise UserError(f"{option} = {text!r}: the gap must be >= 0")
     if gap > MAX_GAP:
-        raise UserError(f"{option} = {text!r} is {gap * 1e3:g} mm, wider than any blade could close "
-                        f"(at most {MAX_GAP * 1e3:g} mm); write gaps with units, e.g. '0.5 mm'")
+        raise UserError(
+            f"{option} = {text!r} is {gap * 1e3:g} mm, wider than any blade could close "
+            f"(at most {MAX_GAP * 1e3:g} mm); write gaps with units, e.g. '0.5 mm'"
+        )
     return gap
 
 
@@ -97,7 +99,9 @@ def check_output(args: argparse.Namespace) -> Path:
     """
     out = Path(args.out)
     if str(args.out).strip() and out.is_dir():
-        raise UserError(f"--out = {args.out!r} is a directory; give a file name, e.g. {str(out / 'run.h5')!r}")
+        raise UserError(
+            f"--out = {args.out!r} is a directory; give a file name, e.g. {str(out / 'run.h5')!r}"
+        )
     out = check_out(args)
     folder = out.parent if str(out.parent) else Path(".")
     if not os.access(folder, os.W_OK | os.X_OK):
@@ -109,14 +113,29 @@ def check_output(args: argparse.Namespace) -> Path:
 
 def add_model_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--rig", metavar="FILE", help="rig file (TOML); default: the calibrated default rig")
-    p.add_argument("--model", choices=("fem", "am"), default="fem",
-                   help="fem: reduced FE model (default); am: assumed-modes (analytical) model")
-    p.add_argument("--duration", default="1 s",
-                   help='recorded time after the steady state is reached (default "1 s"; at least one period)')
-    p.add_argument("--max-settle", default="30 s",
-                   help='give up waiting for a steady state after this simulated time (default "30 s")')
-    p.add_argument("--steps-per-period", type=int, default=None, metavar="N",
-                   help="time steps per excitation period (default: 30 per contact period, at least 120)")
+    p.add_argument(
+        "--model",
+        choices=("fem", "am"),
+        default="fem",
+        help="fem: reduced FE model (default); am: assumed-modes (analytical) model",
+    )
+    p.add_argument(
+        "--duration",
+        default="1 s",
+        help='recorded time after the steady state is reached (default "1 s"; at least one period)',
+    )
+    p.add_argument(
+        "--max-settle",
+        default="30 s",
+        help='give up waiting for a steady state after this simulated time (default "30 s")',
+    )
+    p.add_argument(
+        "--steps-per-period",
+        type=int,
+        default=None,
+        metavar="N",
+        help="time steps per excitation period (default: 30 per contact period, at least 120)",
+    )
     p.add_argument("--out", required=True, metavar="FILE", help="HDF5 file to write (.h5)")
     p.add_argument("--overwrite", action="store_true", help="replace FILE if it exists")
     p.add_argument("--json", action="store_true", help="print the results as JSON on stdout")
@@ -124,8 +143,13 @@ def add_model_options(p: argparse.ArgumentParser) -> None:
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    p = subparsers.add_parser("simulate", help=HELP, description=HELP + ".", epilog=EPILOG,
-                              formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = subparsers.add_parser(
+        "simulate",
+        help=HELP,
+        description=HELP + ".",
+        epilog=EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     p.add_argument("--fe", default="60 Hz", help='excitation frequency (default "60 Hz")')
     p.add_argument("--force", default="15 N", help='force amplitude F0 (default "15 N")')
     p.add_argument("--gap", default=None, help='shroud gap (default: the rig file\'s, e.g. "0.5 mm")')
@@ -143,14 +167,18 @@ def run_settings(args: argparse.Namespace, fe_values: list[float]):
         raise UserError(f"--duration = {args.duration!r}: must be > 0 s")
     for fe in fe_values:
         if duration * fe < 1.0 - 1e-9:
-            raise UserError(f"--duration = {args.duration!r} is shorter than one excitation period "
-                            f"(1/fe = {1 / fe:.4g} s at fe = {fe:g} Hz)")
+            raise UserError(
+                f"--duration = {args.duration!r} is shorter than one excitation period "
+                f"(1/fe = {1 / fe:.4g} s at fe = {fe:g} Hz)"
+            )
     if max_settle < 0:
         raise UserError(f"--max-settle = {args.max_settle!r}: must be >= 0")
     n = args.steps_per_period
     if n is not None and not 4 * K_MAX <= n <= MAX_STEPS_PER_PERIOD:
-        raise UserError(f"--steps-per-period = {n}: need {4 * K_MAX} (to resolve harmonic {K_MAX}) to "
-                        f"{MAX_STEPS_PER_PERIOD}")
+        raise UserError(
+            f"--steps-per-period = {n}: need {4 * K_MAX} (to resolve harmonic {K_MAX}) to "
+            f"{MAX_STEPS_PER_PERIOD}"
+        )
     return RunSettings(duration=duration, max_settle_time=max_settle, steps_per_period=n)
 
 
@@ -177,8 +205,13 @@ def working(text: str, quiet: bool = False) -> Iterator[None]:
     from rich.console import Console
     from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 
-    with Progress(SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn(),
-                  console=Console(stderr=True), transient=True) as bar:
+    with Progress(
+        SpinnerColumn(),
+        TextColumn("{task.description}"),
+        TimeElapsedColumn(),
+        console=Console(stderr=True),
+        transient=True,
+    ) as bar:
         bar.add_task(text, total=None)
         yield
 
@@ -193,9 +226,14 @@ def simulated_time_bar(text: str, at_most: float, quiet: bool = False) -> Iterat
     from rich.console import Console
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-    with Progress(TextColumn("{task.description}"), BarColumn(),
-                  TextColumn("{task.completed:.3g}/{task.total:.3g} s"),
-                  TimeElapsedColumn(), console=Console(stderr=True), transient=True) as bar:
+    with Progress(
+        TextColumn("{task.description}"),
+        BarColumn(),
+        TextColumn("{task.completed:.3g}/{task.total:.3g} s"),
+        TimeElapsedColumn(),
+        console=Console(stderr=True),
+        transient=True,
+    ) as bar:
         task = bar.add_task(f"settling {text}", total=at_most)
         yield lambda done, total: bar.update(task, completed=done, total=total)
 
@@ -208,7 +246,9 @@ def load_model(args: argparse.Namespace, quiet: bool):
     cfg = load_rig(args.rig)
     params = cfg.to_params()
     elements = announce_model(params, args.model, quiet)
-    with working(f"building the {'FE' if args.model == 'fem' else 'assumed-modes'} model ({elements})", quiet):
+    with working(
+        f"building the {'FE' if args.model == 'fem' else 'assumed-modes'} model ({elements})", quiet
+    ):
         return cfg, reduced_system(params, args.model)
 
 
@@ -217,25 +257,34 @@ def announce_work(system, points: list[tuple[float, float]], settings, quiet: bo
 
     ``points``: (fe, force) of each run."""
     from rigtools.simulation import (
-        LONG_WORK_SECONDS, check_memory, human_seconds, run_memory_estimate, run_time_estimate,
+        LONG_WORK_SECONDS,
+        check_memory,
+        human_seconds,
+        run_memory_estimate,
+        run_time_estimate,
         steps_per_period,
     )
 
     worst = max(points, key=lambda p: run_memory_estimate(system, p[0], p[1], settings))
     need = run_memory_estimate(system, *worst, settings)
     n = steps_per_period(system, *worst, settings)
-    check_memory(need, f"a run of {n} steps per period x {settings.record_periods(worst[0])} recorded periods",
-                 "shorten --duration (or give fewer --steps-per-period, or a softer contact)")
+    check_memory(
+        need,
+        f"a run of {n} steps per period x {settings.record_periods(worst[0])} recorded periods",
+        "shorten --duration (or give fewer --steps-per-period, or a softer contact)",
+    )
     least = sum(run_time_estimate(system, fe, f, settings)[0] for fe, f in points)
     most = sum(run_time_estimate(system, fe, f, settings)[1] for fe, f in points)
     if most > LONG_WORK_SECONDS and not quiet:
         c = system.contact
         print(
             f"this will take {human_seconds(least)} to {human_seconds(most)} (contact stiffness {c.stiffness:.3g} "
-            f"N/m: {n} steps per period; the most if settling takes all of --max-settle)", file=sys.stderr)
+            f"N/m: {n} steps per period; the most if settling takes all of --max-settle)",
+            file=sys.stderr,
+        )
     from rigtools.runtime import ensure_kernels_compiled
 
-    ensure_kernels_compiled()       # first run only: says so instead of a frozen progress bar
+    ensure_kernels_compiled()  # first run only: says so instead of a frozen progress bar
 
 
 # ------------------------------------------------------------------------------ rig simulate
@@ -281,18 +330,27 @@ def _run(args: argparse.Namespace, stops, written: list) -> int:
     if gap is not None:
         system = system.with_contact(gap=gap)
     announce_work(system, [(fe, force)], settings, quiet=args.json)
-    with simulated_time_bar(f"{fe:g} Hz, {force:g} N, gap {system.contact.gap * 1e3:g} mm", (max(math.ceil(settings.max_settle_time * fe), 5)
-                                                + settings.record_periods(fe)) / fe, args.json) as progress:
+    with simulated_time_bar(
+        f"{fe:g} Hz, {force:g} N, gap {system.contact.gap * 1e3:g} mm",
+        (max(math.ceil(settings.max_settle_time * fe), 5) + settings.record_periods(fe)) / fe,
+        args.json,
+    ) as progress:
         result = simu.simulate_point(system, fe, force, settings, progress=progress)
     experiment = {"procedure": "simulate", "model": args.model, "cli": "rig simulate"}
-    with stops.protected():       # a stop request waits until the file is complete
-        with RecordingWriter(out, backend="fem", rig=cfg.to_json(), experiment=experiment,
-                             overwrite=args.overwrite) as rec:
+    with stops.protected():  # a stop request waits until the file is complete
+        with RecordingWriter(
+            out, backend="fem", rig=cfg.to_json(), experiment=experiment, overwrite=args.overwrite
+        ) as rec:
             simu.write_point(rec, result, args.model)
         written.append(out)
-    doc = {"harmonics": simu.harmonics_of(result),
-           "contact": {"peak_force_n": result.peak_contact_force, "impacts_per_period": result.impacts_per_period},
-           "steady_state": bool(result.steady_state)}
+    doc = {
+        "harmonics": simu.harmonics_of(result),
+        "contact": {
+            "peak_force_n": result.peak_contact_force,
+            "impacts_per_period": result.impacts_per_period,
+        },
+        "steady_state": bool(result.steady_state),
+    }
     png = write_plot(args, out, lambda: simu.run_figure(result, system, f"{cfg.name} ({args.model.upper()})"))
     doc["plot"] = None if png is None else str(png)
     if args.json:
@@ -315,11 +373,16 @@ def print_summary(doc: dict, result, out: Path) -> None:
         table.add_column(name + (" (m/s²)" if "accel" in name else " (N)"), justify="right")
     h = doc["harmonics"]
     for i in range(10):
-        table.add_row(str(i + 1), f"{h['force'][i]['frequency_hz']:g}",
-                      *(f"{h[name][i]['amplitude']:.4g}" for name in names))
+        table.add_row(
+            str(i + 1),
+            f"{h['force'][i]['frequency_hz']:g}",
+            *(f"{h[name][i]['amplitude']:.4g}" for name in names),
+        )
     console.print(table)
     c = doc["contact"]
-    console.print(f"peak contact force {c['peak_force_n']:.4g} N, {c['impacts_per_period']:g} impacts per period, "
-                  f"steady state: {'yes' if doc['steady_state'] else 'NO'} "
-                  f"(after {result.settle_time:.3g} s simulated); wrote {out}"
-                  + (f" and {doc['plot']}" if doc.get("plot") else ""))
+    console.print(
+        f"peak contact force {c['peak_force_n']:.4g} N, {c['impacts_per_period']:g} impacts per period, "
+        f"steady state: {'yes' if doc['steady_state'] else 'NO'} "
+        f"(after {result.settle_time:.3g} s simulated); wrote {out}"
+        + (f" and {doc['plot']}" if doc.get("plot") else "")
+    )

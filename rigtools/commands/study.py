@@ -10,7 +10,14 @@ import sys
 import numpy as np
 
 from rigtools.commands.simulate import (
-    add_model_options, announce_work, check_output, gap_option, load_model, number, run_settings, write_plot,
+    add_model_options,
+    announce_work,
+    check_output,
+    gap_option,
+    load_model,
+    number,
+    run_settings,
+    write_plot,
 )
 from rigtools.errors import UserError
 
@@ -65,20 +72,41 @@ MAX_POINTS = 10_000
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    p = subparsers.add_parser("study", help=HELP, description=HELP + ".", epilog=EPILOG,
-                              formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("kind", choices=("gap", "force", "frequency", "map"),
-                   help="the swept parameter; map: gap x F0 x fe (--gap, --force, --fe take grids)")
+    p = subparsers.add_parser(
+        "study",
+        help=HELP,
+        description=HELP + ".",
+        epilog=EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument(
+        "kind",
+        choices=("gap", "force", "frequency", "map"),
+        help="the swept parameter; map: gap x F0 x fe (--gap, --force, --fe take grids)",
+    )
     p.add_argument("--values", default=None, help='"a,b,c" or "start:stop:step", with units (not for map)')
     p.add_argument("--fe", default=None, help='fixed excitation frequency (default "60 Hz"); map: a grid')
     p.add_argument("--force", default=None, help='fixed force amplitude (default "15 N"); map: a grid')
     p.add_argument("--gap", default=None, help='fixed gap (default "0.7 mm"; gap study: swept); map: a grid')
-    p.add_argument("--workers", type=int, default=None, metavar="N",
-                   help="run independent chains of points on a Dask LocalCluster of N worker processes")
-    p.add_argument("--scheduler", default=None, metavar="ADDR",
-                   help="run on an existing Dask cluster, e.g. tcp://10.0.0.5:8786 (dask-jobqueue/SLURM)")
-    p.add_argument("--direction", choices=("up", "down", "both"), default="up",
-                   help="sweep order: ascending, descending, or up then down (default up)")
+    p.add_argument(
+        "--workers",
+        type=int,
+        default=None,
+        metavar="N",
+        help="run independent chains of points on a Dask LocalCluster of N worker processes",
+    )
+    p.add_argument(
+        "--scheduler",
+        default=None,
+        metavar="ADDR",
+        help="run on an existing Dask cluster, e.g. tcp://10.0.0.5:8786 (dask-jobqueue/SLURM)",
+    )
+    p.add_argument(
+        "--direction",
+        choices=("up", "down", "both"),
+        default="up",
+        help="sweep order: ascending, descending, or up then down (default up)",
+    )
     p.add_argument("--from-rest", action="store_true", help="start every point from rest")
     add_model_options(p)
     p.set_defaults(func=run)
@@ -87,7 +115,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def parse_values(text: str, kind: str) -> list[float]:
     """``"a,b,c"`` or ``"start:stop:step"`` (stop included) in SI units, each checked."""
     dimension = DIMENSION[kind]
-    one = (lambda p: gap_option(p, "--values")) if kind == "gap" else (lambda p: number(p, dimension, "--values"))
+    one = (
+        (lambda p: gap_option(p, "--values"))
+        if kind == "gap"
+        else (lambda p: number(p, dimension, "--values"))
+    )
     text = text.strip()
     if ":" in text:
         parts = text.split(":")
@@ -108,8 +140,11 @@ def parse_values(text: str, kind: str) -> list[float]:
             raise UserError(f"--values: {len(values)} points is too many (at most {MAX_POINTS})")
     bad = [v for v in values if (v <= 0 if kind == "frequency" else v < 0)]
     if bad:
-        what = {"gap": "gaps must be >= 0", "force": "force amplitudes must be >= 0",
-                "frequency": "frequencies must be > 0"}[kind]
+        what = {
+            "gap": "gaps must be >= 0",
+            "force": "force amplitudes must be >= 0",
+            "frequency": "frequencies must be > 0",
+        }[kind]
         raise UserError(f"--values = {text!r}: {what} (got {bad[0]:g})")
     return values
 
@@ -121,12 +156,19 @@ def make_map(args: argparse.Namespace):
 
     missing = [o for o, v in (("--gap", args.gap), ("--force", args.force), ("--fe", args.fe)) if v is None]
     if missing:
-        raise UserError(f"rig study map needs grids for {', '.join(missing)}, e.g. --gap \"0.3 mm:0.7 mm:0.2 mm\" "
-                        '--force "10 N,15 N,20 N" --fe "58 Hz:62 Hz:2 Hz"')
+        raise UserError(
+            f'rig study map needs grids for {", ".join(missing)}, e.g. --gap "0.3 mm:0.7 mm:0.2 mm" '
+            '--force "10 N,15 N,20 N" --fe "58 Hz:62 Hz:2 Hz"'
+        )
     if args.values is not None:
-        raise UserError("--values is for gap, force and frequency studies; a map takes --gap, --force, --fe grids")
-    grids = [parse_values(args.gap, "gap"), parse_values(args.force, "force"),
-             parse_values(args.fe, "frequency")]
+        raise UserError(
+            "--values is for gap, force and frequency studies; a map takes --gap, --force, --fe grids"
+        )
+    grids = [
+        parse_values(args.gap, "gap"),
+        parse_values(args.force, "force"),
+        parse_values(args.fe, "frequency"),
+    ]
     n = len(grids[0]) * len(grids[1]) * len(grids[2])
     if n > MAX_POINTS:
         raise UserError(f"the map has {n} points; at most {MAX_POINTS}")
@@ -165,7 +207,7 @@ def run(args: argparse.Namespace) -> int:
     with StopRequests() as stops:
         try:
             return _run(args, stops)
-        except Stopped as exc:        # before the file was created
+        except Stopped as exc:  # before the file was created
             print(f"rig study: {exc.reason}; nothing written", file=sys.stderr)
             return exc.exit_code
 
@@ -183,7 +225,7 @@ def _run(args: argparse.Namespace, stops) -> int:
         plan, values = make_map(args), None
     else:
         if args.values is None:
-            raise UserError(f"rig study {args.kind} needs --values, e.g. --values \"0.3 mm:0.9 mm:0.1 mm\"")
+            raise UserError(f'rig study {args.kind} needs --values, e.g. --values "0.3 mm:0.9 mm:0.1 mm"')
         values = parse_values(args.values, args.kind)
         plan = make_plan(args, values)
     planned = plan.points()
@@ -192,9 +234,16 @@ def _run(args: argparse.Namespace, stops) -> int:
     cfg, system = load_model(args, quiet=args.json)
     announce_work(system, [(p.fe, p.force) for p in planned], settings, quiet=args.json)
 
-    experiment = {"procedure": f"{args.kind} study", "model": args.model, "direction": args.direction,
-                  "carry_state": not args.from_rest, "fixed": plan.fixed, "values": values,
-                  "plan": plan.to_dict(), "cli": "rig study"}
+    experiment = {
+        "procedure": f"{args.kind} study",
+        "model": args.model,
+        "direction": args.direction,
+        "carry_state": not args.from_rest,
+        "fixed": plan.fixed,
+        "values": values,
+        "plan": plan.to_dict(),
+        "cli": "rig study",
+    }
     unit, scale = UNIT["frequency" if args.kind == "map" else args.kind]
     if args.kind == "map":
         label = lambda p: f"gap {p.gap * 1e3:g} mm, F0 {p.force:g} N, fe {p.fe:g} Hz"  # noqa: E731
@@ -203,12 +252,14 @@ def _run(args: argparse.Namespace, stops) -> int:
     rec = None
     try:
         with stops.protected():
-            rec = RecordingWriter(out, backend="fem", rig=cfg.to_json(), experiment=experiment,
-                                  overwrite=args.overwrite)
+            rec = RecordingWriter(
+                out, backend="fem", rig=cfg.to_json(), experiment=experiment, overwrite=args.overwrite
+            )
         with runner:
             if args.json or not sys.stderr.isatty():
-                points = simu.write_study(rec, system, plan, settings, args.model, guard=stops.protected,
-                                          runner=runner)
+                points = simu.write_study(
+                    rec, system, plan, settings, args.model, guard=stops.protected, runner=runner
+                )
             else:
                 points = _with_progress(rec, system, plan, settings, args, planned, label, stops, runner)
             for index, reason in runner.report.retried:
@@ -216,11 +267,13 @@ def _run(args: argparse.Namespace, stops) -> int:
     except Stopped as exc:
         if rec is None:
             raise
-        n = rec.n_points         # every point begun was ended: writes are protected
+        n = rec.n_points  # every point begun was ended: writes are protected
         with stops.protected():
             rec.abort(f"{exc.reason} after {n} of {len(planned)} points")
-        print(f"rig study: {exc.reason} after {n} of {len(planned)} points; {out} keeps them "
-              "(status aborted)", file=sys.stderr)
+        print(
+            f"rig study: {exc.reason} after {n} of {len(planned)} points; {out} keeps them (status aborted)",
+            file=sys.stderr,
+        )
         return exc.exit_code
     except BaseException as exc:
         if rec is not None:
@@ -230,16 +283,33 @@ def _run(args: argparse.Namespace, stops) -> int:
     try:
         with stops.protected():
             rec.close()
-        png = None if args.kind == "map" else write_plot(
-            args, out, lambda: study_plot(args.kind, plan.fixed, points, f"{cfg.name} ({args.model.upper()})"))
+        png = (
+            None
+            if args.kind == "map"
+            else write_plot(
+                args,
+                out,
+                lambda: study_plot(args.kind, plan.fixed, points, f"{cfg.name} ({args.model.upper()})"),
+            )
+        )
         if args.json:
-            print(json.dumps({"kind": args.kind, "fixed": plan.fixed, "points": points,
-                              "plot": None if png is None else str(png)}))
+            print(
+                json.dumps(
+                    {
+                        "kind": args.kind,
+                        "fixed": plan.fixed,
+                        "points": points,
+                        "plot": None if png is None else str(png),
+                    }
+                )
+            )
         else:
             print_table(args.kind, points, out, png)
     except Stopped as exc:
-        print(f"rig study: {exc.reason}; {out} is complete ({len(points)} points; no table or plot)",
-              file=sys.stderr)
+        print(
+            f"rig study: {exc.reason}; {out} is complete ({len(points)} points; no table or plot)",
+            file=sys.stderr,
+        )
         return exc.exit_code
     return 0
 
@@ -250,19 +320,35 @@ def _with_progress(rec, system, plan, settings, args, planned, label, stops, run
 
     from rigtools import simulation as simu
 
-    with Progress(TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(),
-                  TimeElapsedColumn(), console=Console(stderr=True)) as bar:
+    with Progress(
+        TextColumn("[bold]{task.description}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeElapsedColumn(),
+        console=Console(stderr=True),
+    ) as bar:
         task = bar.add_task(f"{args.kind} study: {label(planned[0])}", total=len(planned))
         settle = bar.add_task("  settling (simulated s)", total=1.0)
 
         def on_point(p, summary) -> None:
             nxt = planned[p.index + 1] if p.index + 1 < len(planned) else None
-            bar.update(task, completed=p.index + 1,
-                       description=f"{args.kind} study: " + (label(nxt) if nxt else "done"))
+            bar.update(
+                task,
+                completed=p.index + 1,
+                description=f"{args.kind} study: " + (label(nxt) if nxt else "done"),
+            )
 
-        return simu.write_study(rec, system, plan, settings, args.model, on_point=on_point, guard=stops.protected,
-                                runner=runner,
-                                progress=lambda done, total: bar.update(settle, completed=done, total=total))
+        return simu.write_study(
+            rec,
+            system,
+            plan,
+            settings,
+            args.model,
+            on_point=on_point,
+            guard=stops.protected,
+            runner=runner,
+            progress=lambda done, total: bar.update(settle, completed=done, total=total),
+        )
 
 
 def study_plot(kind: str, fixed: dict, points: list[dict], title: str):
@@ -271,10 +357,20 @@ def study_plot(kind: str, fixed: dict, points: list[dict], title: str):
 
     harmonics = {
         label: np.array([[r["amplitude"] for r in p["harmonics"][channel]] for p in points])
-        for label, channel in (("active shroud", "active_shroud_accel"), ("passive shroud", "passive_shroud_accel"))
+        for label, channel in (
+            ("active shroud", "active_shroud_accel"),
+            ("passive shroud", "passive_shroud_accel"),
+        )
     }
-    return study_figure(kind, [p["value"] for p in points], [p["direction"] for p in points],
-                        [p["peak_contact_force_n"] for p in points], harmonics, fixed=fixed, title=title)
+    return study_figure(
+        kind,
+        [p["value"] for p in points],
+        [p["direction"] for p in points],
+        [p["peak_contact_force_n"] for p in points],
+        harmonics,
+        fixed=fixed,
+        title=title,
+    )
 
 
 def print_table(kind: str, points: list[dict], out, png=None) -> None:
@@ -282,18 +378,30 @@ def print_table(kind: str, points: list[dict], out, png=None) -> None:
     from rich.table import Table
 
     if kind == "map":
-        kind = "frequency"          # a map's points are fe sweeps; the gap and F0 are in the file
+        kind = "frequency"  # a map's points are fe sweeps; the gap and F0 are in the file
     unit, scale = UNIT[kind]
     table = Table(title=f"{kind} study")
-    for col in (f"{kind} ({unit})", "dir", "steady", "peak contact force (N)", "impacts/period",
-                "active a(6fe) m/s²", "passive a(8fe) m/s²"):
+    for col in (
+        f"{kind} ({unit})",
+        "dir",
+        "steady",
+        "peak contact force (N)",
+        "impacts/period",
+        "active a(6fe) m/s²",
+        "passive a(8fe) m/s²",
+    ):
         table.add_column(col, justify="right")
     for p in points:
         h = p["harmonics"]
-        table.add_row(f"{p['value'] * scale:g}", p["direction"], "yes" if p["steady_state"] else "NO",
-                      f"{p['peak_contact_force_n']:.4g}", f"{p['impacts_per_period']:g}",
-                      f"{h['active_shroud_accel'][5]['amplitude']:.4g}",
-                      f"{h['passive_shroud_accel'][7]['amplitude']:.4g}")
+        table.add_row(
+            f"{p['value'] * scale:g}",
+            p["direction"],
+            "yes" if p["steady_state"] else "NO",
+            f"{p['peak_contact_force_n']:.4g}",
+            f"{p['impacts_per_period']:g}",
+            f"{h['active_shroud_accel'][5]['amplitude']:.4g}",
+            f"{h['passive_shroud_accel'][7]['amplitude']:.4g}",
+        )
     console = Console()
     console.print(table)
     console.print(f"wrote {out} ({len(points)} points)" + (f" and {png}" if png else ""))

@@ -9,8 +9,11 @@ import numpy as np
 
 from rigtools.demo.findings import Finding, mark
 
-CH = (("force", "force sensor (N)"), ("active_shroud_accel", "active shroud accel. (m/s²)"),
-      ("passive_shroud_accel", "passive shroud accel. (m/s²)"))
+CH = (
+    ("force", "force sensor (N)"),
+    ("active_shroud_accel", "active shroud accel. (m/s²)"),
+    ("passive_shroud_accel", "passive shroud accel. (m/s²)"),
+)
 
 
 def _plt():
@@ -57,7 +60,9 @@ def harmonic_figure(h: dict):
     fig, ax = plt.subplots(figsize=(9, 3.6))
     for i, loc in enumerate(("active_shroud", "passive_shroud")):
         ax.semilogy(h["frequency_hz"], h["fem"][loc], color=f"C{i}", label=f"FEM {loc.replace('_', ' ')}")
-        ax.semilogy(h["frequency_hz"], h["am"][loc], "--", color=f"C{i + 2}", label=f"AM {loc.replace('_', ' ')}")
+        ax.semilogy(
+            h["frequency_hz"], h["am"][loc], "--", color=f"C{i + 2}", label=f"AM {loc.replace('_', ' ')}"
+        )
     ax.set_xlabel("excitation frequency (Hz)")
     ax.set_ylabel("acceleration amplitude (m/s²)")
     ax.set_title("Linear harmonic response at 15 N, FEM vs AM (paper Fig. 7)")
@@ -70,8 +75,11 @@ def waveform_figure(d: dict, title: str):
     plt = _plt()
     fig, axes = plt.subplots(3, 1, figsize=(9, 6.4), sharex=True)
     for ax, (ch, label) in zip(axes, CH):
-        for key, style, name in (("em_wave", "-", "EM (simulated rig)"), ("fem_wave", "--", "FEM"),
-                                 ("am_wave", ":", "AM")):
+        for key, style, name in (
+            ("em_wave", "-", "EM (simulated rig)"),
+            ("fem_wave", "--", "FEM"),
+            ("am_wave", ":", "AM"),
+        ):
             w = d[key]
             ax.plot(w["time_s"] * 1e3, w[ch], style, lw=1, label=name)
         ax.set_ylabel(label, fontsize=8)
@@ -105,13 +113,20 @@ def study_figure(study: dict, kind: str, label: str):
     rig = sorted(study["rig"]["points"], key=lambda p: p["value"])
     fem = sorted(study["fem"]["points"], key=lambda p: p["value"])
     fig, (ax, ax2) = plt.subplots(1, 2, figsize=(10, 3.4))
-    ax.plot([p["value"] * scale for p in rig], [p["impulse_level"] for p in rig], "o-", label="EM (simulated rig)")
+    ax.plot(
+        [p["value"] * scale for p in rig], [p["impulse_level"] for p in rig], "o-", label="EM (simulated rig)"
+    )
     ax.plot([p["value"] * scale for p in fem], [p["impulse_level"] for p in fem], "s--", label="FEM")
     ax.set_xlabel(f"{kind} ({unit})")
     ax.set_ylabel("impact level (m/s²)", fontsize=9)
     ax.legend(fontsize=8)
-    ax2.plot([p["value"] * scale for p in fem], [p["peak_contact_force_n"] for p in fem], "s--", color="C1",
-             label="FEM peak contact force")
+    ax2.plot(
+        [p["value"] * scale for p in fem],
+        [p["peak_contact_force_n"] for p in fem],
+        "s--",
+        color="C1",
+        label="FEM peak contact force",
+    )
     ax2.set_xlabel(f"{kind} ({unit})")
     ax2.set_ylabel("peak contact force (N)", fontsize=9)
     ax3 = ax2.twinx()
@@ -146,19 +161,30 @@ def build_report(data: dict, findings: list[Finding], out_dir: Path):
     from rigtools.report import Report
 
     pts = data["points"]
-    rep = Report("rig demo: the paper's study on the simulated rig",
-                 f"settings {data['settings']}; f1 = {data['info']['f1_hz']:.2f} Hz; free amplitude "
-                 f"{data['info']['free_amplitude_m'] * 1e3:.2f} mm")
+    rep = Report(
+        "rig demo: the paper's study on the simulated rig",
+        f"settings {data['settings']}; f1 = {data['info']['f1_hz']:.2f} Hz; free amplitude "
+        f"{data['info']['free_amplitude_m'] * 1e3:.2f} mm",
+    )
     s = rep.section("Findings C1-C7, judged from the data")
-    s.text("Each finding is judged at the paper's point and at the equivalent impact-oscillator point "
-           f"({pts['equivalent'].label}, F0 = {pts['equivalent'].force:.1f} N keeps the paper's free amplitude) "
-           "on what a lab measures: the force sensor, the shroud accelerations and impacts per period found "
-           "from them; the model's contact force is quoted beside. Impact level: the impulsive (high-passed) "
-           "part of the passive shroud acceleration at the impacts, which follows the contact force's "
-           "jump at each impact.")
-    s.table([{"finding": f.id, "claim": f.claim,
-              **{f"{pts[k].label}": f"{mark(v.holds)} {v.why}" for k, v in f.verdicts.items()}}
-             for f in findings])
+    s.text(
+        "Each finding is judged at the paper's point and at the equivalent impact-oscillator point "
+        f"({pts['equivalent'].label}, F0 = {pts['equivalent'].force:.1f} N keeps the paper's free amplitude) "
+        "on what a lab measures: the force sensor, the shroud accelerations and impacts per period found "
+        "from them; the model's contact force is quoted beside. Impact level: the impulsive (high-passed) "
+        "part of the passive shroud acceleration at the impacts, which follows the contact force's "
+        "jump at each impact."
+    )
+    s.table(
+        [
+            {
+                "finding": f.id,
+                "claim": f.claim,
+                **{f"{pts[k].label}": f"{mark(v.holds)} {v.why}" for k, v in f.verdicts.items()},
+            }
+            for f in findings
+        ]
+    )
     if "equivalent" in pts and data["safety_note"]:
         s.note(data["safety_note"])
     m = data["modal"]
@@ -167,34 +193,76 @@ def build_report(data: dict, findings: list[Finding], out_dir: Path):
     for blade in ("active", "passive"):
         fem = [e for e in m["fem"][blade] if e["kind"] == "flexural"]
         for i, e in enumerate(fem[:3]):
-            em = m["em"]["active"][i]["frequency_hz"] if blade == "active" and i < len(m["em"]["active"]) else None
-            rows.append({"blade": blade, "mode": f"flexural {i + 1}", "FEM (Hz)": e["frequency_hz"],
-                         "AM (Hz)": m["am"][blade][i]["frequency_hz"], "EM identified (Hz)": em})
-    s.table(rows, caption="natural frequencies (EM: FRF test on the simulated rig, gap open; the passive "
-                          "blade is not driven with the gap open)")
-    s.figure(check_labels(frf_figure(m)), "FRF of the simulated rig's active shroud over the force, with the FEM frequencies")
+            em = (
+                m["em"]["active"][i]["frequency_hz"]
+                if blade == "active" and i < len(m["em"]["active"])
+                else None
+            )
+            rows.append(
+                {
+                    "blade": blade,
+                    "mode": f"flexural {i + 1}",
+                    "FEM (Hz)": e["frequency_hz"],
+                    "AM (Hz)": m["am"][blade][i]["frequency_hz"],
+                    "EM identified (Hz)": em,
+                }
+            )
+    s.table(
+        rows,
+        caption="natural frequencies (EM: FRF test on the simulated rig, gap open; the passive "
+        "blade is not driven with the gap open)",
+    )
+    s.figure(
+        check_labels(frf_figure(m)),
+        "FRF of the simulated rig's active shroud over the force, with the FEM frequencies",
+    )
     s = rep.section("Harmonic response (paper Fig. 7)")
-    s.figure(check_labels(harmonic_figure(data["harmonic"])), "linear amplitude-frequency curves of the shroud accelerations")
+    s.figure(
+        check_labels(harmonic_figure(data["harmonic"])),
+        "linear amplitude-frequency curves of the shroud accelerations",
+    )
     for key, d in data["dwell"].items():
-        s = rep.section(f"Dwell at {pts[key].label}, F0 = {d['force']:.1f} N, gap {d['gap'] * 1e3:g} mm (Figs. 8-9)")
-        s.table([{"run": name, "force peak (N)": d[k]["force_peak_n"],
-                  "active accel. peak (m/s²)": d[k]["active_accel_peak"],
-                  "passive accel. peak (m/s²)": d[k]["passive_accel_peak"],
-                  "impacts/period": d[k]["impacts_per_period"],
-                  "peak contact force (N)": d[k].get("peak_contact_force_n")}
-                 for k, name in (("em", "EM (simulated rig)"), ("fem", "FEM"), ("am", "AM"))])
-        s.figure(check_labels(waveform_figure(d, f"waveforms at {pts[key].label}")), "force and shroud accelerations, EM vs FEM vs AM")
-        s.figure(check_labels(spectrum_figure(d, f"harmonics at {pts[key].label}")), "shroud acceleration harmonics k·fe")
+        s = rep.section(
+            f"Dwell at {pts[key].label}, F0 = {d['force']:.1f} N, gap {d['gap'] * 1e3:g} mm (Figs. 8-9)"
+        )
+        s.table(
+            [
+                {
+                    "run": name,
+                    "force peak (N)": d[k]["force_peak_n"],
+                    "active accel. peak (m/s²)": d[k]["active_accel_peak"],
+                    "passive accel. peak (m/s²)": d[k]["passive_accel_peak"],
+                    "impacts/period": d[k]["impacts_per_period"],
+                    "peak contact force (N)": d[k].get("peak_contact_force_n"),
+                }
+                for k, name in (("em", "EM (simulated rig)"), ("fem", "FEM"), ("am", "AM"))
+            ]
+        )
+        s.figure(
+            check_labels(waveform_figure(d, f"waveforms at {pts[key].label}")),
+            "force and shroud accelerations, EM vs FEM vs AM",
+        )
+        s.figure(
+            check_labels(spectrum_figure(d, f"harmonics at {pts[key].label}")),
+            "shroud acceleration harmonics k·fe",
+        )
     s = rep.section("Gap, force and frequency studies (Figs. 10-16)")
-    s.figure(check_labels(gap_trend_figure(data)), "impact strength against the gap: reversed at the paper's "
-                                                   "point, as the paper reports at the equivalent point")
+    s.figure(
+        check_labels(gap_trend_figure(data)),
+        "impact strength against the gap: reversed at the paper's "
+        "point, as the paper reports at the equivalent point",
+    )
     for (kind, key), st in data["studies"].items():
-        s.figure(check_labels(study_figure(st, kind, pts[key].label)), f"{kind} study at {pts[key].label}: measured on the "
-                                                          "simulated rig and simulated by the FEM")
+        s.figure(
+            check_labels(study_figure(st, kind, pts[key].label)),
+            f"{kind} study at {pts[key].label}: measured on the simulated rig and simulated by the FEM",
+        )
     u = data["update"]
     s = rep.section("Model updating on the identified modes")
-    s.text(f"fitted {', '.join(f'{n} = {v:.4g}' for n, v in u.get('fitted', {}).items())} "
-           f"(start {', '.join(f'{n} = {v:.4g}' for n, v in u.get('initial', {}).items())})")
+    s.text(
+        f"fitted {', '.join(f'{n} = {v:.4g}' for n, v in u.get('fitted', {}).items())} "
+        f"(start {', '.join(f'{n} = {v:.4g}' for n, v in u.get('initial', {}).items())})"
+    )
     s.table(u["modes"], caption="frequencies before and after the update (Hz)")
     s = rep.section("Files")
     s.table([{"file": Path(f).name} for f in data["files"]])

@@ -21,7 +21,7 @@ from rigtools.demo.findings import evaluate
 from rigtools.demo.settings import DemoSettings
 
 STUDIES = ("gap", "force", "frequency")
-MARKER = ".rig-demo"        # written first into a demo's folder: a later demo may replace its files
+MARKER = ".rig-demo"  # written first into a demo's folder: a later demo may replace its files
 
 
 def n_steps() -> int:
@@ -29,8 +29,9 @@ def n_steps() -> int:
     return 5 + 2 + 2 * len(STUDIES) + 1
 
 
-def run_demo(out_dir: str | Path, settings: DemoSettings,
-             progress: Callable[[str], None] | None = None, cfg=None) -> dict:
+def run_demo(
+    out_dir: str | Path, settings: DemoSettings, progress: Callable[[str], None] | None = None, cfg=None
+) -> dict:
     """Run the demo into ``out_dir``: recordings, ``report.html``; returns its data, the findings
     and the report's path. ``progress(text)`` is called as each step starts."""
     from rigtools.config import load_rig
@@ -66,14 +67,27 @@ def run_demo(out_dir: str | Path, settings: DemoSettings,
             studies[(kind, key)] = {"rig": rig, "fem": fem}
             files += [rig["file"], fem["file"]]
     say("findings and report")
-    data = {"settings": settings.name, "info": info, "points": points, "modal": modal, "harmonic": harmonic,
-            "dwell": dwell, "studies": studies, "update": update, "files": files,
-            "safety_note": (f"At the equivalent point the simulated rig runs with its [safety] limits and max "
-                            f"drive scaled by F0/15 N (max drive at most {steps.MAX_DRIVE:g} V, inside the "
-                            "DAQ's ±10 V); the rig's physics is the calibrated default rig's.")}
+    data = {
+        "settings": settings.name,
+        "info": info,
+        "points": points,
+        "modal": modal,
+        "harmonic": harmonic,
+        "dwell": dwell,
+        "studies": studies,
+        "update": update,
+        "files": files,
+        "safety_note": (
+            f"At the equivalent point the simulated rig runs with its [safety] limits and max "
+            f"drive scaled by F0/15 N (max drive at most {steps.MAX_DRIVE:g} V, inside the "
+            "DAQ's ±10 V); the rig's physics is the calibrated default rig's."
+        ),
+    }
     findings = evaluate(data)
     report = write_report(build_report(data, findings, out), out / "report.html")
-    (out / "findings.json").write_text(json.dumps(findings_doc(findings, report, files), indent=1), encoding="utf-8")
+    (out / "findings.json").write_text(
+        json.dumps(findings_doc(findings, report, files), indent=1), encoding="utf-8"
+    )
     save_png(gap_trend_figure(data), out / "gap-trend.png")
     return {"data": data, "findings": findings, "report": report}
 

@@ -10,10 +10,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-EQUIVALENT_RATIO = 1.8          # fe / f1 of the equivalent impact-oscillator point
+EQUIVALENT_RATIO = 1.8  # fe / f1 of the equivalent impact-oscillator point
 PAPER_FE, PAPER_FORCE = 60.0, 15.0
-DWELL_GAP = 0.5e-3              # m: the dwell of Figures 8-9
-STUDY_GAP = 0.7e-3              # m: the fixed gap of the force and frequency studies
+DWELL_GAP = 0.5e-3  # m: the dwell of Figures 8-9
+STUDY_GAP = 0.7e-3  # m: the fixed gap of the force and frequency studies
 
 
 @dataclass(frozen=True)
@@ -21,20 +21,21 @@ class DemoSettings:
     """Resolution of every step (SI). :func:`quick` and :func:`full` are the two shipped sets."""
 
     name: str
-    frf_frame: float                     # s: FRF resolution 1/frame
+    frf_frame: float  # s: FRF resolution 1/frame
     frf_averages: int
     frf_band: tuple[float, float] = (20.0, 1500.0)
     harmonic_points: int = 3000
     dwell_periods: int = 120
     study_periods: int = 30
     gap_values: tuple[float, ...] = (0.3e-3, 0.4e-3, 0.5e-3, 0.6e-3, 0.7e-3, 0.8e-3, 0.9e-3)
-    force_ratios: tuple[float, ...] = (1 / 3, 2 / 3, 1.0, 4 / 3, 5 / 3)    # of F0 (5..25 N at 15 N)
-    frequency_ratios: tuple[float, ...] = field(                            # of the point's fe
-        default=(1.0, 62 / 60, 64 / 60, 66 / 60, 68 / 60, 70 / 60, 72 / 60, 74 / 60, 76 / 60))
+    force_ratios: tuple[float, ...] = (1 / 3, 2 / 3, 1.0, 4 / 3, 5 / 3)  # of F0 (5..25 N at 15 N)
+    frequency_ratios: tuple[float, ...] = field(  # of the point's fe
+        default=(1.0, 62 / 60, 64 / 60, 66 / 60, 68 / 60, 70 / 60, 72 / 60, 74 / 60, 76 / 60)
+    )
     # the equivalent point's F0 (~118 N) already needs ~8 V of the DAQ's 10 V output: its force
     # study goes up to F0, not beyond
     equivalent_force_ratios: tuple[float, ...] = (0.2, 0.4, 0.6, 0.8, 1.0)
-    model_settle_time: float = 20.0      # s: a model run that has not settled by then is recorded anyway
+    model_settle_time: float = 20.0  # s: a model run that has not settled by then is recorded anyway
 
 
 def full() -> DemoSettings:
@@ -44,20 +45,36 @@ def full() -> DemoSettings:
 
 def quick() -> DemoSettings:
     """``--quick``: the same steps at reduced resolution (under a minute)."""
-    return DemoSettings(name="quick", frf_frame=0.5, frf_averages=4, harmonic_points=600,
-                        dwell_periods=30, study_periods=10,
-                        gap_values=(0.3e-3, 0.6e-3, 0.9e-3), force_ratios=(1 / 3, 1.0, 5 / 3),
-                        frequency_ratios=(1.0, 64 / 60, 68 / 60, 72 / 60, 76 / 60),
-                        equivalent_force_ratios=(0.2, 0.6, 1.0), model_settle_time=8.0)
+    return DemoSettings(
+        name="quick",
+        frf_frame=0.5,
+        frf_averages=4,
+        harmonic_points=600,
+        dwell_periods=30,
+        study_periods=10,
+        gap_values=(0.3e-3, 0.6e-3, 0.9e-3),
+        force_ratios=(1 / 3, 1.0, 5 / 3),
+        frequency_ratios=(1.0, 64 / 60, 68 / 60, 72 / 60, 76 / 60),
+        equivalent_force_ratios=(0.2, 0.6, 1.0),
+        model_settle_time=8.0,
+    )
 
 
 def tiny() -> DemoSettings:
     """Smallest useful set (tests): two or three points per study."""
-    return DemoSettings(name="tiny", frf_frame=0.5, frf_averages=2, harmonic_points=200,
-                        dwell_periods=12, study_periods=6,
-                        gap_values=(0.3e-3, 0.9e-3), force_ratios=(1 / 3, 5 / 3),
-                        frequency_ratios=(1.0, 68 / 60, 76 / 60),
-                        equivalent_force_ratios=(0.2, 1.0), model_settle_time=5.0)
+    return DemoSettings(
+        name="tiny",
+        frf_frame=0.5,
+        frf_averages=2,
+        harmonic_points=200,
+        dwell_periods=12,
+        study_periods=6,
+        gap_values=(0.3e-3, 0.9e-3),
+        force_ratios=(1 / 3, 5 / 3),
+        frequency_ratios=(1.0, 68 / 60, 76 / 60),
+        equivalent_force_ratios=(0.2, 1.0),
+        model_settle_time=5.0,
+    )
 
 
 @dataclass(frozen=True)

@@ -26,7 +26,7 @@ from rigtools.demo.settings import (
 )
 
 K_MAX = 30
-MAX_DRIVE = 9.5        # V
+MAX_DRIVE = 9.5  # V
 ACTIVE, PASSIVE, FORCE = "active_shroud_accel", "passive_shroud_accel", "force"
 
 
@@ -70,10 +70,22 @@ def operating_points(cfg) -> tuple[OperatingPoint, OperatingPoint, dict]:
     fe_eq = EQUIVALENT_RATIO * f1
     x_paper = free_amplitude(cfg, PAPER_FE, PAPER_FORCE)
     force_eq = PAPER_FORCE * x_paper / free_amplitude(cfg, fe_eq, PAPER_FORCE)
-    paper = OperatingPoint("paper", f"paper's point ({PAPER_FE:g} Hz = {PAPER_FE / f1:.2f} f1)", PAPER_FE, PAPER_FORCE)
-    eq = OperatingPoint("equivalent", f"equivalent point ({fe_eq:.1f} Hz = {EQUIVALENT_RATIO:g} f1)", fe_eq, force_eq)
-    return paper, eq, {"f1_hz": f1, "free_amplitude_m": x_paper, "paper_ratio": PAPER_FE / f1,
-                       "coupled_f2_hz": coupled_active_f2(cfg)}
+    paper = OperatingPoint(
+        "paper", f"paper's point ({PAPER_FE:g} Hz = {PAPER_FE / f1:.2f} f1)", PAPER_FE, PAPER_FORCE
+    )
+    eq = OperatingPoint(
+        "equivalent", f"equivalent point ({fe_eq:.1f} Hz = {EQUIVALENT_RATIO:g} f1)", fe_eq, force_eq
+    )
+    return (
+        paper,
+        eq,
+        {
+            "f1_hz": f1,
+            "free_amplitude_m": x_paper,
+            "paper_ratio": PAPER_FE / f1,
+            "coupled_f2_hz": coupled_active_f2(cfg),
+        },
+    )
 
 
 def lab_config(cfg, force: float):
@@ -84,16 +96,22 @@ def lab_config(cfg, force: float):
     s = max(1.0, force / PAPER_FORCE)
     if s == 1.0:
         return cfg
-    limits = {k: ChannelLimitConfig(warning=v.warning * s, abort=v.abort * s) for k, v in cfg.safety.limits.items()}
+    limits = {
+        k: ChannelLimitConfig(warning=v.warning * s, abort=v.abort * s) for k, v in cfg.safety.limits.items()
+    }
     # the DAQ's output range is +-10 V: stay below it
-    safety = cfg.safety.model_copy(update={"limits": limits, "max_drive": min(MAX_DRIVE, cfg.safety.max_drive * s)})
+    safety = cfg.safety.model_copy(
+        update={"limits": limits, "max_drive": min(MAX_DRIVE, cfg.safety.max_drive * s)}
+    )
     return cfg.model_copy(update={"safety": safety})
 
 
 # ------------------------------------------------------------------------------ lab quantities
 
 
-def lab_quantities(force: np.ndarray, active: np.ndarray, passive: np.ndarray, rate: float, fe: float) -> dict:
+def lab_quantities(
+    force: np.ndarray, active: np.ndarray, passive: np.ndarray, rate: float, fe: float
+) -> dict:
     """What a lab measures on one steady record: peaks of the force sensor and the shroud
     accelerometers, impacts per period (from the accelerations, :func:`rigtools.analysis.impacts.detect_impacts`)
     and the acceleration harmonics k = 1..30 (peak, m/s²)."""
@@ -102,13 +120,18 @@ def lab_quantities(force: np.ndarray, active: np.ndarray, passive: np.ndarray, r
 
     imp = detect_impacts(active, rate, fe, passive_acceleration=passive, force=force)
     k_max = int(min(K_MAX, np.floor(0.45 * rate / fe)))
-    harm = {name: harmonic_amplitudes(x, rate, fe, k_max).amplitude.tolist()
-            for name, x in ((ACTIVE, active), (PASSIVE, passive), (FORCE, force))}
-    return {"force_peak_n": float(np.max(np.abs(force))), "active_accel_peak": float(np.max(np.abs(active))),
-            "passive_accel_peak": float(np.max(np.abs(passive))),
-            "impacts_per_period": float(imp.impacts_per_period),
-            "impulse_level": float(imp.impulse_levels.get("passive_acceleration", 0.0)),
-            "harmonics": harm}
+    harm = {
+        name: harmonic_amplitudes(x, rate, fe, k_max).amplitude.tolist()
+        for name, x in ((ACTIVE, active), (PASSIVE, passive), (FORCE, force))
+    }
+    return {
+        "force_peak_n": float(np.max(np.abs(force))),
+        "active_accel_peak": float(np.max(np.abs(active))),
+        "passive_accel_peak": float(np.max(np.abs(passive))),
+        "impacts_per_period": float(imp.impacts_per_period),
+        "impulse_level": float(imp.impulse_levels.get("passive_acceleration", 0.0)),
+        "harmonics": harm,
+    }
 
 
 def _record_window(point) -> tuple[dict, float]:
@@ -116,7 +139,7 @@ def _record_window(point) -> tuple[dict, float]:
     rate = float(point.sample_rate)
     start = int(round(float(point.params.get("record_start", 0.0)) * rate))
     n = int(point.params.get("record_samples", point.n_samples - start))
-    return {name: np.asarray(ch[start:start + n], dtype=float) for name, ch in point.channels.items()}, rate
+    return {name: np.asarray(ch[start : start + n], dtype=float) for name, ch in point.channels.items()}, rate
 
 
 def recording_points(path: str | Path) -> list[dict]:
@@ -131,10 +154,13 @@ def recording_points(path: str | Path) -> list[dict]:
             x, rate = _record_window(point)
             fe = float(point.params["fe"])
             q = lab_quantities(x[FORCE], x[ACTIVE], x[PASSIVE], rate, fe)
-            q.update(fe=fe, force=float(point.params.get("force_amplitude", np.nan)),
-                     gap=float(point.params.get("gap", np.nan)),
-                     value=float(point.params.get("study_value", np.nan)),
-                     force_measured=float(point.params.get("force_amplitude_measured", np.nan)))
+            q.update(
+                fe=fe,
+                force=float(point.params.get("force_amplitude", np.nan)),
+                gap=float(point.params.get("gap", np.nan)),
+                value=float(point.params.get("study_value", np.nan)),
+                force_measured=float(point.params.get("force_amplitude_measured", np.nan)),
+            )
             out.append(q)
     return out
 
@@ -142,10 +168,21 @@ def recording_points(path: str | Path) -> list[dict]:
 def run_quantities(run) -> dict:
     """:func:`lab_quantities` of a model run, with the model's contact force beside them."""
     o = run.outputs
-    q = lab_quantities(o["excitation_force"], o["active_tip_acceleration"], o["passive_tip_acceleration"],
-                       run.sample_rate, run.fe)
-    q.update(fe=run.fe, force=run.force_amplitude, gap=run.gap, peak_contact_force_n=float(run.peak_contact_force),
-             model_impacts_per_period=float(run.impacts_per_period), settled=bool(run.steady_state))
+    q = lab_quantities(
+        o["excitation_force"],
+        o["active_tip_acceleration"],
+        o["passive_tip_acceleration"],
+        run.sample_rate,
+        run.fe,
+    )
+    q.update(
+        fe=run.fe,
+        force=run.force_amplitude,
+        gap=run.gap,
+        peak_contact_force_n=float(run.peak_contact_force),
+        model_impacts_per_period=float(run.impacts_per_period),
+        settled=bool(run.steady_state),
+    )
     return q
 
 
@@ -162,25 +199,55 @@ def modal_step(cfg, out_dir: Path, settings: DemoSettings) -> dict:
 
     res = modal_results(cfg, 6)
     path = out_dir / "frf_test.h5"
-    FrfTest(cfg, {"signal": "chirp", "band": settings.frf_band, "level": 0.3, "frame": settings.frf_frame,
-                  "averages": settings.frf_averages, "gap": 5e-3}, path, backend="sim", overwrite=True).run()
+    FrfTest(
+        cfg,
+        {
+            "signal": "chirp",
+            "band": settings.frf_band,
+            "level": 0.3,
+            "frame": settings.frf_frame,
+            "averages": settings.frf_averages,
+            "gap": 5e-3,
+        },
+        path,
+        backend="sim",
+        overwrite=True,
+    ).run()
     with open_recording(path) as rec:
         point = rec.points[0]
         rate = float(point.sample_rate)
         start = int(round(float(point.params["record_start"]) * rate))
         n = int(point.params["record_samples"])
         frame = int(point.params["frame_samples"])
-        block = {name: np.asarray(point[name][start:start + n], dtype=float) for name in (FORCE, ACTIVE)}
+        block = {name: np.asarray(point[name][start : start + n], dtype=float) for name in (FORCE, ACTIVE)}
     lo, hi = settings.frf_band
-    ana = analyze_frf_test([block], rate, excitation="periodic", segment_samples=frame, responses=(ACTIVE,),
-                           f_min=lo, f_max=hi, method="peak")
+    ana = analyze_frf_test(
+        [block],
+        rate,
+        excitation="periodic",
+        segment_samples=frame,
+        responses=(ACTIVE,),
+        f_min=lo,
+        f_max=hi,
+        method="peak",
+    )
     modes = ana.modes[ACTIVE].modes
-    return {"fem": res["fem"], "am": res["am"],
-            "em": {"active": [{"frequency_hz": float(m.frequency_hz), "damping_ratio": float(m.damping_ratio)}
-                              for m in modes]},
-            "frf": {"frequency_hz": ana.estimate.frequency_hz, "h": np.abs(ana.estimate.h1[0]),
-                    "coherence": ana.estimate.coherence[0]},
-            "file": str(path)}
+    return {
+        "fem": res["fem"],
+        "am": res["am"],
+        "em": {
+            "active": [
+                {"frequency_hz": float(m.frequency_hz), "damping_ratio": float(m.damping_ratio)}
+                for m in modes
+            ]
+        },
+        "frf": {
+            "frequency_hz": ana.estimate.frequency_hz,
+            "h": np.abs(ana.estimate.h1[0]),
+            "coherence": ana.estimate.coherence[0],
+        },
+        "file": str(path),
+    }
 
 
 def flexural(entries: list[dict]) -> list[float]:
@@ -195,12 +262,16 @@ def harmonic_step(cfg, settings: DemoSettings, force: float = PAPER_FORCE) -> di
 
     f = np.linspace(10.0, 1500.0, settings.harmonic_points)
     fem, am = harmonic_curves(build_rig_model(cfg.to_params()), f, force)
-    return {"frequency_hz": f,
-            "fem": {loc: fem.acceleration_amplitude(loc) for loc in ("active_shroud", "passive_shroud")},
-            "am": {loc: am.acceleration_amplitude(loc) for loc in ("active_shroud", "passive_shroud")}}
+    return {
+        "frequency_hz": f,
+        "fem": {loc: fem.acceleration_amplitude(loc) for loc in ("active_shroud", "passive_shroud")},
+        "am": {loc: am.acceleration_amplitude(loc) for loc in ("active_shroud", "passive_shroud")},
+    }
 
 
-def dwell_step(cfg, out_dir: Path, settings: DemoSettings, point: OperatingPoint, gap: float = DWELL_GAP) -> dict:
+def dwell_step(
+    cfg, out_dir: Path, settings: DemoSettings, point: OperatingPoint, gap: float = DWELL_GAP
+) -> dict:
     """A force-controlled dwell on the simulated rig and the FEM and AM runs at the same point;
     the waveforms (last periods) and lab quantities of each (Figures 8-9)."""
     from rigtools.procedures import SineDwell
@@ -208,28 +279,50 @@ def dwell_step(cfg, out_dir: Path, settings: DemoSettings, point: OperatingPoint
     from rigtools.simulation import RunSettings, load_system, simulate_point, write_point
 
     path = out_dir / f"dwell_{point.key}.h5"
-    SineDwell(lab_config(cfg, point.force), {"fe": point.fe, "force": point.force, "gap": gap,
-                                             "record_periods": settings.dwell_periods},
-              path, backend="sim", overwrite=True).run()
+    SineDwell(
+        lab_config(cfg, point.force),
+        {"fe": point.fe, "force": point.force, "gap": gap, "record_periods": settings.dwell_periods},
+        path,
+        backend="sim",
+        overwrite=True,
+    ).run()
     em = recording_points(path)[0]
     with open_recording(path) as rec:
         x, rate = _record_window(rec.points[0])
-    out = {"point": point.key, "fe": point.fe, "force": point.force, "gap": gap, "files": [str(path)],
-           "em": em, "em_wave": _last_periods(x[FORCE], x[ACTIVE], x[PASSIVE], rate, point.fe)}
-    run_settings = RunSettings(duration=settings.dwell_periods / point.fe, max_settle_time=settings.model_settle_time)
+    out = {
+        "point": point.key,
+        "fe": point.fe,
+        "force": point.force,
+        "gap": gap,
+        "files": [str(path)],
+        "em": em,
+        "em_wave": _last_periods(x[FORCE], x[ACTIVE], x[PASSIVE], rate, point.fe),
+    }
+    run_settings = RunSettings(
+        duration=settings.dwell_periods / point.fe, max_settle_time=settings.model_settle_time
+    )
     model_path = out_dir / f"dwell_{point.key}_model.h5"
-    with RecordingWriter(model_path, backend="model", rig=cfg.to_json(),
-                         experiment={"procedure": "demo dwell, model", "fe": point.fe, "force": point.force,
-                                     "gap": gap}, overwrite=True) as rec:
+    with RecordingWriter(
+        model_path,
+        backend="model",
+        rig=cfg.to_json(),
+        experiment={"procedure": "demo dwell, model", "fe": point.fe, "force": point.force, "gap": gap},
+        overwrite=True,
+    ) as rec:
         for model in ("fem", "am"):
             _, system = load_system_cached(cfg, model)
             run = simulate_point(system.with_contact(gap=gap), point.fe, point.force, run_settings)
             write_point(rec, run, model)
             out[model] = run_quantities(run)
             o = run.outputs
-            out[f"{model}_wave"] = _last_periods(o["excitation_force"], o["active_tip_acceleration"],
-                                                 o["passive_tip_acceleration"], run.sample_rate, run.fe,
-                                                 contact=o["contact_force"])
+            out[f"{model}_wave"] = _last_periods(
+                o["excitation_force"],
+                o["active_tip_acceleration"],
+                o["passive_tip_acceleration"],
+                run.sample_rate,
+                run.fe,
+                contact=o["contact_force"],
+            )
     out["files"].append(str(model_path))
     return out
 
@@ -254,12 +347,16 @@ def _last_periods(force, active, passive, rate, fe, contact=None, periods: int =
     from rigtools.analysis.plots import force_zero_crossing_time
 
     n = int(round(periods * rate / fe))
-    m = min(len(force), n + int(np.ceil(rate / fe)) + 1)     # one period more to find the origin
+    m = min(len(force), n + int(np.ceil(rate / fe)) + 1)  # one period more to find the origin
     lead = int(round(force_zero_crossing_time(np.asarray(force[-m:]), rate, fe) * rate))
     lead = min(lead, m - n)
     sl = slice(len(force) - m + lead, len(force) - m + lead + n)
-    wave = {"time_s": np.arange(n) / rate, FORCE: np.asarray(force[sl]), ACTIVE: np.asarray(active[sl]),
-            PASSIVE: np.asarray(passive[sl])}
+    wave = {
+        "time_s": np.arange(n) / rate,
+        FORCE: np.asarray(force[sl]),
+        ACTIVE: np.asarray(active[sl]),
+        PASSIVE: np.asarray(passive[sl]),
+    }
     if contact is not None:
         wave["contact_force"] = np.asarray(contact[sl])
     return wave
@@ -271,15 +368,20 @@ def study_plan_values(kind: str, point: OperatingPoint, settings: DemoSettings) 
         return {"values": tuple(settings.gap_values), "fe": point.fe, "force": point.force}
     if kind == "force":
         ratios = settings.force_ratios if point.key == "paper" else settings.equivalent_force_ratios
-        return {"values": tuple(round(r * point.force, 6) for r in ratios), "fe": point.fe,
-                "gap": STUDY_GAP}
+        return {"values": tuple(round(r * point.force, 6) for r in ratios), "fe": point.fe, "gap": STUDY_GAP}
     # the same relative sweep (60..76 Hz is 1..1.27 fe) at both points
     ratios = settings.frequency_ratios
     return {"values": tuple(round(r * point.fe, 4) for r in ratios), "force": point.force, "gap": STUDY_GAP}
 
 
-def rig_study_step(cfg, out_dir: Path, settings: DemoSettings, kind: str, point: OperatingPoint,
-                   progress: Callable[[str], None] | None = None) -> dict:
+def rig_study_step(
+    cfg,
+    out_dir: Path,
+    settings: DemoSettings,
+    kind: str,
+    point: OperatingPoint,
+    progress: Callable[[str], None] | None = None,
+) -> dict:
     """A gap, force or frequency study measured on the simulated rig (force-controlled
     :class:`rigtools.procedures.RigStudy`), each point reduced to lab quantities."""
     from rigtools.procedures import RigStudy
@@ -292,8 +394,14 @@ def rig_study_step(cfg, out_dir: Path, settings: DemoSettings, kind: str, point:
         if progress is not None and ev.kind == "point":
             progress(f"rig {kind} study, {point.key} point: {ev.point}/{ev.n_points}")
 
-    RigStudy(lab_config(cfg, top_force), {"kind": kind, "record_periods": settings.study_periods, **plan},
-             path, backend="sim", overwrite=True, progress=on_event).run()
+    RigStudy(
+        lab_config(cfg, top_force),
+        {"kind": kind, "record_periods": settings.study_periods, **plan},
+        path,
+        backend="sim",
+        overwrite=True,
+        progress=on_event,
+    ).run()
     return {"kind": kind, "point": point.key, "file": str(path), "points": recording_points(path)}
 
 
@@ -311,8 +419,13 @@ def model_study_step(cfg, out_dir: Path, settings: DemoSettings, kind: str, poin
     rs = RunSettings(duration=settings.study_periods / fe_min, max_settle_time=settings.model_settle_time)
     path = out_dir / f"study_{kind}_{point.key}_fem.h5"
     pts = []
-    with RecordingWriter(path, backend="model", rig=cfg.to_json(),
-                         experiment={"procedure": "demo model study", "plan": plan.to_dict()}, overwrite=True) as rec:
+    with RecordingWriter(
+        path,
+        backend="model",
+        rig=cfg.to_json(),
+        experiment={"procedure": "demo model study", "plan": plan.to_dict()},
+        overwrite=True,
+    ) as rec:
         for planned, run in iter_study_points(system, plan, rs):
             write_point(rec, run, "fem", direction=planned.direction, study_value=planned.value)
             q = run_quantities(run)
@@ -332,6 +445,17 @@ def update_step(cfg, em_active: list[float]) -> dict:
     if not pairing.targets:
         return {"names": [], "modes": [], "note": "no identified mode paired with the model"}
     res = update_model(params, pairing.targets, ["root.rotational_stiffness"])
-    return {"names": res.names, "fitted": res.fitted, "initial": res.initial,
-            "modes": [{"mode": f"{m.target.blade} f{m.target.order}", "measured_hz": m.target.frequency_hz,
-                       "before_hz": m.before_hz, "after_hz": m.after_hz} for m in res.modes]}
+    return {
+        "names": res.names,
+        "fitted": res.fitted,
+        "initial": res.initial,
+        "modes": [
+            {
+                "mode": f"{m.target.blade} f{m.target.order}",
+                "measured_hz": m.target.frequency_hz,
+                "before_hz": m.before_hz,
+                "after_hz": m.after_hz,
+            }
+            for m in res.modes
+        ],
+    }

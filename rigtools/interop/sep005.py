@@ -16,9 +16,16 @@ def point_to_sep005(point: Any) -> list[dict]:
     dicts (``name``, ``data``, ``fs``, ``unit_str``, plus ``start_timestamp`` and ``t0``)."""
     out = []
     for name, channel in point.channels.items():
-        out.append({"name": name, "data": np.asarray(channel.read(), dtype=float),
-                    "fs": float(channel.sample_rate), "unit_str": channel.units,
-                    "start_timestamp": point.start_time, "t0": float(channel.t0)})
+        out.append(
+            {
+                "name": name,
+                "data": np.asarray(channel.read(), dtype=float),
+                "fs": float(channel.sample_rate),
+                "unit_str": channel.units,
+                "start_timestamp": point.start_time,
+                "t0": float(channel.t0),
+            }
+        )
     return out
 
 
@@ -35,7 +42,8 @@ def to_sep005(recording: Any, point: int | None = None) -> list[dict] | list[lis
     if point is not None:
         matches = [p for p in recording.points if p.index == point]
         if not matches:
-            raise IndexError(f"point {point} not in the recording (points "
-                             f"{[p.index for p in recording.points]})")
+            raise IndexError(
+                f"point {point} not in the recording (points {[p.index for p in recording.points]})"
+            )
         return point_to_sep005(matches[0])
     return [point_to_sep005(p) for p in recording.points]

@@ -31,15 +31,25 @@ G = 9.80665
 LBF = 4.4482216152605
 # unit_string (lower case) -> (SI units, quantity, factor to SI)
 UNITS: dict[str, tuple[str, str, float]] = {
-    "n": ("N", "force", 1.0), "newtons": ("N", "force", 1.0), "newton": ("N", "force", 1.0),
-    "lbf": ("N", "force", LBF), "pounds": ("N", "force", LBF),
-    "m/s^2": ("m/s^2", "acceleration", 1.0), "m/s2": ("m/s^2", "acceleration", 1.0),
-    "m/s\u00b2": ("m/s^2", "acceleration", 1.0), "meterspersecondsquared": ("m/s^2", "acceleration", 1.0),
-    "g": ("m/s^2", "acceleration", G), "gs": ("m/s^2", "acceleration", G),
-    "m/s": ("m/s", "velocity", 1.0), "m": ("m", "displacement", 1.0), "mm": ("m", "displacement", 1e-3),
-    "v": ("V", "voltage", 1.0), "volts": ("V", "voltage", 1.0), "mv": ("V", "voltage", 1e-3),
+    "n": ("N", "force", 1.0),
+    "newtons": ("N", "force", 1.0),
+    "newton": ("N", "force", 1.0),
+    "lbf": ("N", "force", LBF),
+    "pounds": ("N", "force", LBF),
+    "m/s^2": ("m/s^2", "acceleration", 1.0),
+    "m/s2": ("m/s^2", "acceleration", 1.0),
+    "m/s\u00b2": ("m/s^2", "acceleration", 1.0),
+    "meterspersecondsquared": ("m/s^2", "acceleration", 1.0),
+    "g": ("m/s^2", "acceleration", G),
+    "gs": ("m/s^2", "acceleration", G),
+    "m/s": ("m/s", "velocity", 1.0),
+    "m": ("m", "displacement", 1.0),
+    "mm": ("m", "displacement", 1e-3),
+    "v": ("V", "voltage", 1.0),
+    "volts": ("V", "voltage", 1.0),
+    "mv": ("V", "voltage", 1e-3),
 }
-CHUNK = 1 << 20           # samples per channel copied at a time
+CHUNK = 1 << 20  # samples per channel copied at a time
 _BAD_NAME_CHARS = re.compile(r"[^A-Za-z0-9_.\-]")
 
 
@@ -58,13 +68,17 @@ def channel_name(tdms_name: str, rename: dict[str, str]) -> str:
 def _units(channel: Any, source: str) -> tuple[str, str, float]:
     text = str(channel.properties.get("unit_string", "")).strip()
     if not text:
-        raise TdmsImportError(f"{source}: channel {channel.path} has no unit_string property; "
-                              "the toolkit needs units to store SI values")
+        raise TdmsImportError(
+            f"{source}: channel {channel.path} has no unit_string property; "
+            "the toolkit needs units to store SI values"
+        )
     key = text.lower().replace(" ", "")
     if key not in UNITS:
-        raise TdmsImportError(f"{source}: channel {channel.path} has units {text!r}, not one of "
-                              f"{', '.join(sorted({u[0] for u in UNITS.values()}))} or their usual "
-                              "spellings (g, lbf, mV, Newtons, Volts)")
+        raise TdmsImportError(
+            f"{source}: channel {channel.path} has units {text!r}, not one of "
+            f"{', '.join(sorted({u[0] for u in UNITS.values()}))} or their usual "
+            "spellings (g, lbf, mV, Newtons, Volts)"
+        )
     return UNITS[key]
 
 
@@ -72,18 +86,29 @@ def _rate(channel: Any, source: str, sample_rate: float | None) -> float:
     inc = channel.properties.get("wf_increment")
     if inc is None:
         if sample_rate is None:
-            raise TdmsImportError(f"{source}: channel {channel.path} has no wf_increment (no "
-                                  "waveform timing); give the sample rate (--sample-rate)")
+            raise TdmsImportError(
+                f"{source}: channel {channel.path} has no wf_increment (no "
+                "waveform timing); give the sample rate (--sample-rate)"
+            )
         return float(sample_rate)
     inc = float(inc)
     if not (math.isfinite(inc) and inc > 0):
-        raise TdmsImportError(f"{source}: channel {channel.path} has wf_increment {inc!r}; "
-                              "it must be a positive number of seconds")
+        raise TdmsImportError(
+            f"{source}: channel {channel.path} has wf_increment {inc!r}; "
+            "it must be a positive number of seconds"
+        )
     return 1.0 / inc
 
 
-def import_tdms(source: str | Path, out: str | Path, *, rig: Any, overwrite: bool = False,
-                rename: dict[str, str] | None = None, sample_rate: float | None = None) -> dict:
+def import_tdms(
+    source: str | Path,
+    out: str | Path,
+    *,
+    rig: Any,
+    overwrite: bool = False,
+    rename: dict[str, str] | None = None,
+    sample_rate: float | None = None,
+) -> dict:
     """Convert a TDMS log into a recording (backend ``"tdms"``).
 
     Parameters
@@ -121,9 +146,10 @@ def import_tdms(source: str | Path, out: str | Path, *, rig: Any, overwrite: boo
         raise TdmsImportError(f"{source}: no such file")
     try:
         tdms = TdmsFile.open(source)
-    except Exception as exc:          # npTDMS raises ValueError, KeyError, struct.error, ...
-        raise TdmsImportError(f"{source}: not a readable TDMS file ({type(exc).__name__}: "
-                              f"{' '.join(str(exc).split())[:200]})") from None
+    except Exception as exc:  # npTDMS raises ValueError, KeyError, struct.error, ...
+        raise TdmsImportError(
+            f"{source}: not a readable TDMS file ({type(exc).__name__}: {' '.join(str(exc).split())[:200]})"
+        ) from None
     with tdms:
         groups = [g for g in tdms.groups() if g.channels()]
         if not groups:
@@ -138,26 +164,39 @@ def import_tdms(source: str | Path, out: str | Path, *, rig: Any, overwrite: boo
                 rates.add(round(rate, 9))
                 name = channel_name(ch.name, rename)
                 if name in names:
-                    raise TdmsImportError(f"{source}: group {group.name!r}: two channels map to the "
-                                          f"name {name!r}; rename one")
+                    raise TdmsImportError(
+                        f"{source}: group {group.name!r}: two channels map to the name {name!r}; rename one"
+                    )
                 names.add(name)
                 try:
-                    specs.append(ChannelSpec(name=name, units=units, quantity=quantity, sample_rate=rate,
-                                             t0=float(ch.properties.get("wf_start_offset", 0.0)),
-                                             physical_channel=str(ch.properties.get("NI_ChannelName", ch.name))))
+                    specs.append(
+                        ChannelSpec(
+                            name=name,
+                            units=units,
+                            quantity=quantity,
+                            sample_rate=rate,
+                            t0=float(ch.properties.get("wf_start_offset", 0.0)),
+                            physical_channel=str(ch.properties.get("NI_ChannelName", ch.name)),
+                        )
+                    )
                 except ValueError as exc:
                     raise TdmsImportError(f"{source}: {exc}") from None
                 factors.append(factor)
                 lengths.append(len(ch))
             if len(rates) != 1:
-                raise TdmsImportError(f"{source}: group {group.name!r} mixes sample rates "
-                                      f"{sorted(rates)} Hz; a point has one rate")
+                raise TdmsImportError(
+                    f"{source}: group {group.name!r} mixes sample rates "
+                    f"{sorted(rates)} Hz; a point has one rate"
+                )
             plan.append((group, specs, factors, min(lengths), len(set(lengths)) > 1))
-        experiment = {"procedure": "import", "source_format": "tdms", "source": source.name,
-                      "properties": {k: str(v) for k, v in tdms.properties.items()}}
+        experiment = {
+            "procedure": "import",
+            "source_format": "tdms",
+            "source": source.name,
+            "properties": {k: str(v) for k, v in tdms.properties.items()},
+        }
         summary = []
-        with RecordingWriter(out, backend="tdms", rig=rig, experiment=experiment,
-                             overwrite=overwrite) as rec:
+        with RecordingWriter(out, backend="tdms", rig=rig, experiment=experiment, overwrite=overwrite) as rec:
             for group, specs, factors, n, uneven in plan:
                 params: dict[str, Any] = {"source_group": group.name}
                 if uneven:
@@ -166,10 +205,17 @@ def import_tdms(source: str | Path, out: str | Path, *, rig: Any, overwrite: boo
                 scale = np.asarray(factors)[:, None]
                 for start in range(0, n, CHUNK):
                     length = min(CHUNK, n - start)
-                    block = np.vstack([np.asarray(ch.read_data(start, length), dtype=float)
-                                       for ch in group.channels()])
+                    block = np.vstack(
+                        [np.asarray(ch.read_data(start, length), dtype=float) for ch in group.channels()]
+                    )
                     point.append(block * scale)
                 point.end()
-                summary.append({"group": group.name, "channels": [s.name for s in specs],
-                                "samples": int(n), "sample_rate": specs[0].sample_rate})
+                summary.append(
+                    {
+                        "group": group.name,
+                        "channels": [s.name for s in specs],
+                        "samples": int(n),
+                        "sample_rate": specs[0].sample_rate,
+                    }
+                )
     return {"points": summary}

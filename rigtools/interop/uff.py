@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 # UFF 58 function types (record 6, field 1)
-FUNC_TIME, FUNC_AUTO_SPECTRUM, FUNC_FRF, FUNC_COHERENCE = 1, 2, 4, 6   # the types pyuff writes
+FUNC_TIME, FUNC_AUTO_SPECTRUM, FUNC_FRF, FUNC_COHERENCE = 1, 2, 4, 6  # the types pyuff writes
 # specific data types (records 8-10, field 1)
 DATA_UNKNOWN, DATA_GENERAL, DATA_DISPLACEMENT, DATA_VELOCITY, DATA_ACCELERATION = 0, 1, 8, 11, 12
 DATA_FORCE, DATA_TIME, DATA_FREQUENCY = 13, 17, 18
@@ -96,45 +96,76 @@ class UffFunction:
         den = QUANTITY_CODES.get(self.reference_quantity, (DATA_UNKNOWN, 0, 0))
         if self.func_type == FUNC_COHERENCE:
             num = den = (DATA_GENERAL, 0, 0)
-        elif self.func_type == FUNC_AUTO_SPECTRUM:          # units squared
+        elif self.func_type == FUNC_AUTO_SPECTRUM:  # units squared
             num = (num[0], 2 * num[1], 2 * num[2])
         ratio = self.func_type == FUNC_FRF
         x = np.asarray(self.x, dtype=float)
         inc = float(x[1] - x[0]) if x.size > 1 else 0.0
         complex_data = np.iscomplexobj(self.data)
         return {
-            "type": 58, "binary": 1,
-            "id1": self.description[:80], "id2": "shrouded-blade-rig export", "id3": "", "id4": "",
+            "type": 58,
+            "binary": 1,
+            "id1": self.description[:80],
+            "id2": "shrouded-blade-rig export",
+            "id3": "",
+            "id4": "",
             "id5": "",
-            "func_type": self.func_type, "ver_num": 0, "load_case_id": 0,
-            "rsp_ent_name": self.response[0][:10], "rsp_node": self.response[1], "rsp_dir": DIRECTION_Y,
-            "ref_ent_name": self.reference[0][:10], "ref_node": self.reference[1], "ref_dir": DIRECTION_Y,
-            "ord_data_type": 6 if complex_data else 4, "num_pts": int(x.size),
-            "abscissa_spacing": 1, "abscissa_min": float(x[0]) if x.size else 0.0,
-            "abscissa_inc": inc, "z_axis_value": 0.0,
+            "func_type": self.func_type,
+            "ver_num": 0,
+            "load_case_id": 0,
+            "rsp_ent_name": self.response[0][:10],
+            "rsp_node": self.response[1],
+            "rsp_dir": DIRECTION_Y,
+            "ref_ent_name": self.reference[0][:10],
+            "ref_node": self.reference[1],
+            "ref_dir": DIRECTION_Y,
+            "ord_data_type": 6 if complex_data else 4,
+            "num_pts": int(x.size),
+            "abscissa_spacing": 1,
+            "abscissa_min": float(x[0]) if x.size else 0.0,
+            "abscissa_inc": inc,
+            "z_axis_value": 0.0,
             "abscissa_spec_data_type": DATA_TIME if time_axis else DATA_FREQUENCY,
-            "abscissa_len_unit_exp": 0, "abscissa_force_unit_exp": 0, "abscissa_temp_unit_exp": 0,
+            "abscissa_len_unit_exp": 0,
+            "abscissa_force_unit_exp": 0,
+            "abscissa_temp_unit_exp": 0,
             "abscissa_axis_lab": "Time" if time_axis else "Frequency",
             "abscissa_axis_units_lab": "s" if time_axis else "Hz",
-            "ordinate_spec_data_type": num[0], "ordinate_len_unit_exp": num[1],
-            "ordinate_force_unit_exp": num[2], "ordinate_temp_unit_exp": 0,
+            "ordinate_spec_data_type": num[0],
+            "ordinate_len_unit_exp": num[1],
+            "ordinate_force_unit_exp": num[2],
+            "ordinate_temp_unit_exp": 0,
             "ordinate_axis_lab": self.response_quantity[:20],
             "ordinate_axis_units_lab": self.units_label[:20],
             "orddenom_spec_data_type": den[0] if ratio else 0,
             "orddenom_len_unit_exp": den[1] if ratio else 0,
-            "orddenom_force_unit_exp": den[2] if ratio else 0, "orddenom_temp_unit_exp": 0,
+            "orddenom_force_unit_exp": den[2] if ratio else 0,
+            "orddenom_temp_unit_exp": 0,
             "orddenom_axis_lab": self.reference_quantity[:20] if ratio else "",
             "orddenom_axis_units_lab": "N" if ratio else "",
-            "z_axis_spec_data_type": 0, "z_axis_len_unit_exp": 0, "z_axis_force_unit_exp": 0,
-            "z_axis_temp_unit_exp": 0, "z_axis_axis_lab": "", "z_axis_axis_units_lab": "",
-            "data": np.asarray(self.data, dtype=complex if complex_data else float), "x": x,
+            "z_axis_spec_data_type": 0,
+            "z_axis_len_unit_exp": 0,
+            "z_axis_force_unit_exp": 0,
+            "z_axis_temp_unit_exp": 0,
+            "z_axis_axis_lab": "",
+            "z_axis_axis_units_lab": "",
+            "data": np.asarray(self.data, dtype=complex if complex_data else float),
+            "x": x,
         }
 
 
 def units_dataset() -> dict:
     """The dataset 164 saying the file is in SI (m, N, s, K), as pyuff writes it."""
-    return {"type": 164, "units_code": SI_UNITS_CODE, "units_description": "SI units",
-            "temp_mode": 2, "length": 1.0, "force": 1.0, "temp": 1.0, "temp_offset": 273.15}
+    return {
+        "type": 164,
+        "units_code": SI_UNITS_CODE,
+        "units_description": "SI units",
+        "temp_mode": 2,
+        "length": 1.0,
+        "force": 1.0,
+        "temp": 1.0,
+        "temp_offset": 273.15,
+    }
 
 
 def write_uff(path: str | Path, functions: list[UffFunction]) -> int:
@@ -156,8 +187,9 @@ def write_uff(path: str | Path, functions: list[UffFunction]) -> int:
 WHAT = ("time", "spectra", "frf")
 
 
-def recording_functions(recording, what: tuple[str, ...] = WHAT, *,
-                        frf_resolution_hz: float = 1.0, reference: str = "force") -> list[UffFunction]:
+def recording_functions(
+    recording, what: tuple[str, ...] = WHAT, *, frf_resolution_hz: float = 1.0, reference: str = "force"
+) -> list[UffFunction]:
     """The UFF functions of an open recording.
 
     Parameters
@@ -190,14 +222,34 @@ def recording_functions(recording, what: tuple[str, ...] = WHAT, *,
             ch = point.channels[name]
             where = (name, node_of(name, order))
             if "time" in what:
-                functions.append(UffFunction(FUNC_TIME, f"{label} {name} time record", where, where,
-                                             ch.quantity, ch.quantity, ch.t0 + np.arange(n) / ch.sample_rate,
-                                             ch[:n], ch.units))
+                functions.append(
+                    UffFunction(
+                        FUNC_TIME,
+                        f"{label} {name} time record",
+                        where,
+                        where,
+                        ch.quantity,
+                        ch.quantity,
+                        ch.t0 + np.arange(n) / ch.sample_rate,
+                        ch[:n],
+                        ch.units,
+                    )
+                )
             if "spectra" in what:
                 f, amp = amplitude_spectrum(ch[:n], ch.sample_rate)
-                functions.append(UffFunction(FUNC_AUTO_SPECTRUM, f"{label} {name} auto spectrum, RMS^2 per bin (flattop)",
-                                             where, where, ch.quantity, ch.quantity, f, amp ** 2 / 2,
-                                             f"({ch.units})^2"))
+                functions.append(
+                    UffFunction(
+                        FUNC_AUTO_SPECTRUM,
+                        f"{label} {name} auto spectrum, RMS^2 per bin (flattop)",
+                        where,
+                        where,
+                        ch.quantity,
+                        ch.quantity,
+                        f,
+                        amp**2 / 2,
+                        f"({ch.units})^2",
+                    )
+                )
         if "frf" in what and reference in point.channels:
             ref = point.channels[reference]
             nperseg = int(round(ref.sample_rate / frf_resolution_hz))
@@ -211,10 +263,30 @@ def recording_functions(recording, what: tuple[str, ...] = WHAT, *,
                     continue
                 est = estimate_frf(x, ch[:n], ch.sample_rate, nperseg=nperseg)
                 where = (name, node_of(name, order))
-                functions.append(UffFunction(FUNC_FRF, f"{label} H1 {name}/{reference}", where, ref_where,
-                                             ch.quantity, ref.quantity, est.frequency_hz, est.h1,
-                                             f"{ch.units}/{ref.units}"))
-                functions.append(UffFunction(FUNC_COHERENCE, f"{label} coherence {name}/{reference}",
-                                             where, ref_where, ch.quantity, ref.quantity, est.frequency_hz,
-                                             est.coherence, "-"))
+                functions.append(
+                    UffFunction(
+                        FUNC_FRF,
+                        f"{label} H1 {name}/{reference}",
+                        where,
+                        ref_where,
+                        ch.quantity,
+                        ref.quantity,
+                        est.frequency_hz,
+                        est.h1,
+                        f"{ch.units}/{ref.units}",
+                    )
+                )
+                functions.append(
+                    UffFunction(
+                        FUNC_COHERENCE,
+                        f"{label} coherence {name}/{reference}",
+                        where,
+                        ref_where,
+                        ch.quantity,
+                        ref.quantity,
+                        est.frequency_hz,
+                        est.coherence,
+                        "-",
+                    )
+                )
     return functions

@@ -26,6 +26,21 @@ from rigtools.procedures.sweep import (
 )
 from rigtools.procedures.tap import TapParameters, TapTest
 
-__all__ = ["ControlParameters", "DwellParameters", "Procedure", "ProcedureFailed",
-           "ProcedureResult", "ProgressEvent", "RigStudy", "SineDwell", "Status", "SteppedSine",
-           "StopRequested", "StudyParameters", "SweepParameters", "TapParameters", "TapTest", "detect_jumps"]
+__all__ = [
+    "ControlParameters",
+    "DwellParameters",
+    "Procedure",
+    "ProcedureFailed",
+    "ProcedureResult",
+    "ProgressEvent",
+    "RigStudy",
+    "SineDwell",
+    "Status",
+    "SteppedSine",
+    "StopRequested",
+    "StudyParameters",
+    "SweepParameters",
+    "TapParameters",
+    "TapTest",
+    "detect_jumps",
+]

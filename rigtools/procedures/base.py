@@ -105,7 +105,7 @@ class Procedure:
         self._progress = progress
         self._stop = threading.Event()
         self.stop_reason = ""
-        self.stop_signal: int | None = None      # the signal that asked for the stop, if any
+        self.stop_signal: int | None = None  # the signal that asked for the stop, if any
         self.result: ProcedureResult | None = None
 
     # -- for scripts ---------------------------------------------------------------------------
@@ -158,13 +158,13 @@ class Procedure:
                 error = Interrupted(self.stop_signal)
         except KeyboardInterrupt as exc:
             status, reason, error = Status.ABORTED, (self.stop_reason or _interrupt_text(exc)), exc
-        except BaseException as exc:          # noqa: BLE001 - recorded, then re-raised
+        except BaseException as exc:  # noqa: BLE001 - recorded, then re-raised
             status, reason, error = Status.FAILED, _one_line(exc), exc
         finally:
             self._restore_signal_handlers(previous)
             try:
                 self.shutdown(status, reason)
-            except BaseException as exc:      # noqa: BLE001
+            except BaseException as exc:  # noqa: BLE001
                 if error is None:
                     status, reason, error = Status.FAILED, _one_line(exc), exc
         result = self.result or ProcedureResult(status)
@@ -182,7 +182,7 @@ class Procedure:
 
         def handler(signum, frame):
             name = signal.Signals(signum).name
-            if self._stop.is_set():          # a second signal: interrupt now
+            if self._stop.is_set():  # a second signal: interrupt now
                 raise Interrupted(signum)
             if not self._stop.is_set():
                 self.stop_signal = signum

@@ -52,10 +52,20 @@ class SineProcedure(Procedure):
 
     name = "sine"
 
-    def __init__(self, cfg, out: str | Path, *, backend: str = "nidaq", overwrite: bool = False,
-                 device=None, pace: bool = False, faults=(), seed: int | None = None,
-                 progress: Callable[[ProgressEvent], None] | None = None,
-                 confirm_gap: Callable[[float, int], None] | None = None) -> None:
+    def __init__(
+        self,
+        cfg,
+        out: str | Path,
+        *,
+        backend: str = "nidaq",
+        overwrite: bool = False,
+        device=None,
+        pace: bool = False,
+        faults=(),
+        seed: int | None = None,
+        progress: Callable[[ProgressEvent], None] | None = None,
+        confirm_gap: Callable[[float, int], None] | None = None,
+    ) -> None:
         super().__init__(progress)
         self.cfg, self.out, self.backend, self.overwrite = cfg, Path(out), backend, overwrite
         self.device, self._device_opts = device, dict(pace=pace, faults=faults, seed=seed)
@@ -83,20 +93,32 @@ class SineProcedure(Procedure):
         if self.first_frequency() >= rate / 2:
             from rigtools.errors import UserError
 
-            raise UserError(f"fe = {self.first_frequency():g} Hz must be below half the sample rate "
-                            f"({rate / 2:g} Hz)")
+            raise UserError(
+                f"fe = {self.first_frequency():g} Hz must be below half the sample rate ({rate / 2:g} Hz)"
+            )
         monitor = rig.safety_monitor(self.cfg, self.device)
         self.specs = rig.channel_specs(self.device, self.cfg, rate)
-        self.session = SineSession(self.device, self.cfg, monitor, self.first_frequency(), self,
-                                   rig.force_row(self.device),
-                                   ring_seconds=max(2.0, self.record_seconds() + 0.5))
+        self.session = SineSession(
+            self.device,
+            self.cfg,
+            monitor,
+            self.first_frequency(),
+            self,
+            rig.force_row(self.device),
+            ring_seconds=max(2.0, self.record_seconds() + 0.5),
+        )
         self.open_writer(rig.experiment_metadata(self.name, self.device, self.parameters_doc()))
 
     def open_writer(self, experiment: dict) -> None:
         from rigtools.recording import RecordingWriter
 
-        self.writer = RecordingWriter(self.out, backend=self.device.backend, rig=self.cfg.to_json(),
-                                      experiment=experiment, overwrite=self.overwrite)
+        self.writer = RecordingWriter(
+            self.out,
+            backend=self.device.backend,
+            rig=self.cfg.to_json(),
+            experiment=experiment,
+            overwrite=self.overwrite,
+        )
 
     def set_gap(self, gap: float | None, index: int = 0) -> float:
         """The gap the point runs at: set directly on the simulated rig; on the real rig the
@@ -133,7 +155,7 @@ class SineProcedure(Procedure):
                     if self.point is not None and not self.point.ended:
                         try:
                             self.point.set_attrs(point_complete=False)
-                        except Exception:      # noqa: BLE001 - the file still gets its status
+                        except Exception:  # noqa: BLE001 - the file still gets its status
                             pass
                     if status is Status.FINISHED:
                         self.writer.close()
@@ -166,10 +188,17 @@ class SineDwell(SineProcedure):
         gap = self.set_gap(p.gap)
         self.emit("point", point=1, n_points=1, text=f"{p.fe:g} Hz, {p.force:g} N")
         self.begin_point({"fe": p.fe, "force_amplitude": p.force, "gap": gap})
-        res = self.session.run_point(p.fe, p.force, record_periods=p.record_periods, k_max=p.k_max,
-                                     point=1, n_points=1, **p.control.model_dump())
+        res = self.session.run_point(
+            p.fe,
+            p.force,
+            record_periods=p.record_periods,
+            k_max=p.k_max,
+            point=1,
+            n_points=1,
+            **p.control.model_dump(),
+        )
         res["gap"] = gap
-        self.session.finish()                 # the ramp to zero goes into the point
+        self.session.finish()  # the ramp to zero goes into the point
         self.end_point(point_attrs(res))
         self.result.points.append(res)
         self.emit("point_done", point=1, n_points=1)

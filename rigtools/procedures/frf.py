@@ -66,28 +66,51 @@ class FrfTest(SineProcedure):
             self.device = rig.open_device(self.cfg, self.backend, **self._device_opts)
         rate = rig.configure(self.device, self.cfg)
         if p.band[1] >= rate / 2:
-            raise UserError(f"band {p.band[0]:g}..{p.band[1]:g} Hz: the top must be below half the "
-                            f"sample rate ({rate / 2:g} Hz)")
+            raise UserError(
+                f"band {p.band[0]:g}..{p.band[1]:g} Hz: the top must be below half the "
+                f"sample rate ({rate / 2:g} Hz)"
+            )
         max_drive = self.cfg.safety.max_drive
         peak = p.level * (3.5 if p.signal == "burst" else 1.0)
         if peak > max_drive:
-            raise UserError(f"level {p.level:g} V: the drive would reach about {peak:.3g} V, above "
-                            f"[safety] max_drive {max_drive:g} V")
+            raise UserError(
+                f"level {p.level:g} V: the drive would reach about {peak:.3g} V, above "
+                f"[safety] max_drive {max_drive:g} V"
+            )
         if p.signal == "burst":
-            self.drive = RandomDrive(rate, p.level, p.band, max_drive=max_drive,
-                                     ramp_time=self.cfg.safety.ramp_time, burst_period=p.frame,
-                                     burst_fraction=p.burst_fraction, seed=p.seed)
+            self.drive = RandomDrive(
+                rate,
+                p.level,
+                p.band,
+                max_drive=max_drive,
+                ramp_time=self.cfg.safety.ramp_time,
+                burst_period=p.frame,
+                burst_fraction=p.burst_fraction,
+                seed=p.seed,
+            )
             self.frame_samples = self.drive.burst_samples
         else:
-            self.drive = PeriodicChirp(rate, p.level, p.band, period=p.frame, max_drive=max_drive,
-                                       ramp_time=self.cfg.safety.ramp_time)
+            self.drive = PeriodicChirp(
+                rate,
+                p.level,
+                p.band,
+                period=p.frame,
+                max_drive=max_drive,
+                ramp_time=self.cfg.safety.ramp_time,
+            )
             self.frame_samples = self.drive.period_samples
         self.monitor = rig.safety_monitor(self.cfg, self.device)
         self.specs = rig.channel_specs(self.device, self.cfg, rate)
         self.rate = rate
         self.sink = PointSink(len(self.specs), 1)
-        self.stream = BlockStream(self.device, self.drive, sink=self.sink, safety=self.monitor,
-                                  record_drive=True, abort_ramp_time=self.cfg.safety.abort_ramp_time)
+        self.stream = BlockStream(
+            self.device,
+            self.drive,
+            sink=self.sink,
+            safety=self.monitor,
+            record_drive=True,
+            abort_ramp_time=self.cfg.safety.abort_ramp_time,
+        )
         self.open_writer(rig.experiment_metadata(self.name, self.device, self.parameters_doc()))
 
     def _read(self) -> None:
@@ -100,9 +123,17 @@ class FrfTest(SineProcedure):
         p = self.params
         gap = self.set_gap(p.gap)
         self.point = self.writer.begin_point(
-            params={"gap": gap, "signal": p.signal, "band_low": p.band[0], "band_high": p.band[1],
-                    "drive_level": p.level, "frame_samples": self.frame_samples, "averages": p.averages},
-            channels=self.specs)
+            params={
+                "gap": gap,
+                "signal": p.signal,
+                "band_low": p.band[0],
+                "band_high": p.band[1],
+                "drive_level": p.level,
+                "frame_samples": self.frame_samples,
+                "averages": p.averages,
+            },
+            channels=self.specs,
+        )
         self.sink.begin(self.point)
         # the ramp, then one frame to reach the periodic state, then the averaged frames
         ramp = int(math.ceil(self.cfg.safety.ramp_time * self.rate))
@@ -112,16 +143,26 @@ class FrfTest(SineProcedure):
         while self.sink.total < total:
             before = self.sink.total
             self._read()
-            self.emit("recording" if before >= start else "settling", point=1, n_points=1,
-                      text=f"{max(0, before - start) / self.frame_samples:.0f}/{p.averages} frames")
+            self.emit(
+                "recording" if before >= start else "settling",
+                point=1,
+                n_points=1,
+                text=f"{max(0, before - start) / self.frame_samples:.0f}/{p.averages} frames",
+            )
         self.stream.finish()
         self.record_start = start
-        self.point.set_attrs(point_complete=True, record_start=start / self.rate,
-                             record_samples=p.averages * self.frame_samples)
+        self.point.set_attrs(
+            point_complete=True,
+            record_start=start / self.rate,
+            record_samples=p.averages * self.frame_samples,
+        )
         self.point.end()
         self.point = None
-        self.result.summary = {"record_start": start / self.rate, "frame_samples": self.frame_samples,
-                               "averages": p.averages}
+        self.result.summary = {
+            "record_start": start / self.rate,
+            "frame_samples": self.frame_samples,
+            "averages": p.averages,
+        }
 
     def shutdown(self, status, reason) -> None:
         self.session = None
@@ -146,10 +187,13 @@ def quick_check(path, response: str | None = None, n_peaks: int = 5) -> dict:
         specs = {name: ch for name, ch in point.channels.items()}
         force_name = next(name for name, ch in specs.items() if ch.quantity == "force")
         if response is None:
-            response = next(name for name, ch in specs.items()
-                            if ch.quantity == "acceleration" and "passive" not in name.lower())
-        x = specs[force_name][start:start + n]
-        y = specs[response][start:start + n]
+            response = next(
+                name
+                for name, ch in specs.items()
+                if ch.quantity == "acceleration" and "passive" not in name.lower()
+            )
+        x = specs[force_name][start : start + n]
+        y = specs[response][start : start + n]
         lo, hi = float(prm["band_low"]), float(prm["band_high"])
     est = estimate_frf(x, y, rate, nperseg=frame, noverlap=0, window="boxcar", detrend=False)
     f = est.frequency_hz
@@ -157,8 +201,15 @@ def quick_check(path, response: str | None = None, n_peaks: int = 5) -> dict:
     mag = np.abs(est.h1)
     idx, props = find_peaks(np.where(band, mag, 0.0), prominence=0)
     order = idx[np.argsort(props["prominences"])[::-1][:n_peaks]]
-    peaks = [{"frequency_hz": float(f[i]), "h1": float(mag[i]), "coherence": float(est.coherence[i])}
-             for i in sorted(order)]
-    return {"response": response, "force": force_name, "averages": est.n_averages,
-            "resolution_hz": est.resolution_hz, "peaks": peaks,
-            "mean_coherence_in_band": float(np.mean(est.coherence[band]))}
+    peaks = [
+        {"frequency_hz": float(f[i]), "h1": float(mag[i]), "coherence": float(est.coherence[i])}
+        for i in sorted(order)
+    ]
+    return {
+        "response": response,
+        "force": force_name,
+        "averages": est.n_averages,
+        "resolution_hz": est.resolution_hz,
+        "peaks": peaks,
+        "mean_coherence_in_band": float(np.mean(est.coherence[band])),
+    }

@@ -15,8 +15,15 @@ from rigtools.errors import UserError
 BACKENDS = ("nidaq", "sim")
 
 
-def open_device(cfg, backend: str = "nidaq", *, pace: bool = False, faults: Sequence = (),
-                seed: int | None = None, model: str = "auto"):
+def open_device(
+    cfg,
+    backend: str = "nidaq",
+    *,
+    pace: bool = False,
+    faults: Sequence = (),
+    seed: int | None = None,
+    model: str = "auto",
+):
     """The acquisition device of ``backend`` (not configured yet).
 
     Parameters
@@ -48,8 +55,9 @@ def open_device(cfg, backend: str = "nidaq", *, pace: bool = False, faults: Sequ
     except ImportError:
         from rigtools.drivers.contracts import DriverUnavailable
 
-        raise DriverUnavailable("NI-DAQmx (the nidaqmx package) is not installed; "
-                                "use --backend sim to run on the simulated rig") from None
+        raise DriverUnavailable(
+            "NI-DAQmx (the nidaqmx package) is not installed; use --backend sim to run on the simulated rig"
+        ) from None
     return NiDaqDevice(abort_ramp_time=cfg.safety.abort_ramp_time)
 
 
@@ -58,8 +66,9 @@ def configure(device, cfg) -> float:
     from rigtools.drivers.contracts import ConfigurationError, DriverUnavailable
 
     try:
-        return device.configure(cfg.daq.input_specs(), cfg.daq.output_spec(), cfg.daq.sample_rate,
-                                cfg.daq.block_size())
+        return device.configure(
+            cfg.daq.input_specs(), cfg.daq.output_spec(), cfg.daq.sample_rate, cfg.daq.block_size()
+        )
     except DriverUnavailable as exc:
         text = str(exc).replace("--simulated", "--backend sim")
         raise DriverUnavailable(text) from None
@@ -79,14 +88,30 @@ def channel_specs(device, cfg, rate: float) -> list:
     """Recording channels: every input (from its spec), then the drive as written."""
     from rigtools.recording import ChannelSpec
 
-    specs = [ChannelSpec(name=s.name, units=s.units, quantity=s.quantity, sample_rate=rate,
-                         sensitivity=s.sensitivity, sensitivity_units=s.sensitivity_units,
-                         physical_channel=s.physical_channel, location=s.location or None)
-             for s in device.input_channels]
+    specs = [
+        ChannelSpec(
+            name=s.name,
+            units=s.units,
+            quantity=s.quantity,
+            sample_rate=rate,
+            sensitivity=s.sensitivity,
+            sensitivity_units=s.sensitivity_units,
+            physical_channel=s.physical_channel,
+            location=s.location or None,
+        )
+        for s in device.input_channels
+    ]
     out = cfg.daq.output_spec()
-    specs.append(ChannelSpec(name=out.name, units="V", quantity="voltage", sample_rate=rate,
-                             physical_channel=out.physical_channel,
-                             location="drive output to the shaker amplifier (as written)"))
+    specs.append(
+        ChannelSpec(
+            name=out.name,
+            units="V",
+            quantity="voltage",
+            sample_rate=rate,
+            physical_channel=out.physical_channel,
+            location="drive output to the shaker amplifier (as written)",
+        )
+    )
     return specs
 
 
@@ -95,15 +120,20 @@ def force_row(device) -> int:
     for i, spec in enumerate(device.input_channels):
         if spec.kind == "force":
             return i
-    raise UserError("the rig file's [daq] has no force channel (kind = \"force\"); force "
-                    "control needs one")
+    raise UserError('the rig file\'s [daq] has no force channel (kind = "force"); force control needs one')
 
 
 def experiment_metadata(procedure: str, device, parameters: dict, **extra) -> dict:
     """The recording's ``experiment`` attribute: procedure, its parameters, the device."""
-    doc = {"procedure": procedure, "parameters": parameters, "device": asdict(device.info()),
-           "faults": [f"{f.kind}@{f.at_time if f.at_time is not None else f.at_block}:{f.channel or ''}"
-                      for f in getattr(device, "faults", ())],
-           "pace": bool(getattr(device, "pace", False))}
+    doc = {
+        "procedure": procedure,
+        "parameters": parameters,
+        "device": asdict(device.info()),
+        "faults": [
+            f"{f.kind}@{f.at_time if f.at_time is not None else f.at_block}:{f.channel or ''}"
+            for f in getattr(device, "faults", ())
+        ],
+        "pace": bool(getattr(device, "pace", False)),
+    }
     doc.update(extra)
     return doc

@@ -24,11 +24,11 @@ import numpy as np
 from rigtools.acquisition import BlockStream
 from rigtools.procedures.base import StopRequested
 
-MEASURE_SECONDS = 0.1       # shortest measurement window (whole periods, at least 3)
-STEADY_TOLERANCE = 0.002    # a measurement is steady when successive windows agree this well
-SETTLED_TOLERANCE = 0.01    # steady state: every input's fundamental within 1 % over 2 windows
-MAX_WAIT_SECONDS = 3.0      # longest wait for one steady measurement
-APPROACH = 0.9              # large steps up aim at this share of F0 (approach from below)
+MEASURE_SECONDS = 0.1  # shortest measurement window (whole periods, at least 3)
+STEADY_TOLERANCE = 0.002  # a measurement is steady when successive windows agree this well
+SETTLED_TOLERANCE = 0.01  # steady state: every input's fundamental within 1 % over 2 windows
+MAX_WAIT_SECONDS = 3.0  # longest wait for one steady measurement
+APPROACH = 0.9  # large steps up aim at this share of F0 (approach from below)
 
 
 class PointSink:
@@ -37,8 +37,8 @@ class PointSink:
 
     def __init__(self, n_rows: int, ring_samples: int) -> None:
         self.point = None
-        self.total = 0                       # samples seen since the stream started
-        self.point_start = 0                 # stream sample where the current point began
+        self.total = 0  # samples seen since the stream started
+        self.point_start = 0  # stream sample where the current point began
         self._ring = np.zeros((n_rows, max(1, int(ring_samples))))
         self._filled = 0
 
@@ -54,14 +54,14 @@ class PointSink:
             self.point.append(block)
         m, r = block.shape[1], self._ring.shape[1]
         if m >= r:
-            self._ring[:, :] = block[:, m - r:]
+            self._ring[:, :] = block[:, m - r :]
             pos = (self.total + m) % r
-            self._ring = np.roll(self._ring, pos, axis=1)     # keep sample k at index k % r
+            self._ring = np.roll(self._ring, pos, axis=1)  # keep sample k at index k % r
         else:
             i = self.total % r
             first = min(m, r - i)
-            self._ring[:, i:i + first] = block[:, :first]
-            self._ring[:, :m - first] = block[:, first:]
+            self._ring[:, i : i + first] = block[:, :first]
+            self._ring[:, : m - first] = block[:, first:]
         self._filled = min(r, self._filled + m)
         self.total += m
 
@@ -106,11 +106,11 @@ def phasors(rows: np.ndarray, rate: float, fe: float, k_max: int) -> np.ndarray:
     w = 2 * np.pi * fe * np.arange(n) / rate
     k = np.arange(1, k_max + 1)
     phase = np.outer(k, w)
-    basis = np.vstack([np.ones(n), np.cos(phase), np.sin(phase)])        # (2K+1, n)
+    basis = np.vstack([np.ones(n), np.cos(phase), np.sin(phase)])  # (2K+1, n)
     gram = basis @ basis.T
-    coef = np.linalg.solve(gram, basis @ rows.T)                         # (2K+1, n_rows)
-    a, b = coef[1:k_max + 1], coef[k_max + 1:]
-    return (a - 1j * b).T          # a cos + b sin = Re((a - i b) e^{i w t})
+    coef = np.linalg.solve(gram, basis @ rows.T)  # (2K+1, n_rows)
+    a, b = coef[1 : k_max + 1], coef[k_max + 1 :]
+    return (a - 1j * b).T  # a cos + b sin = Re((a - i b) e^{i w t})
 
 
 @dataclass
@@ -123,7 +123,7 @@ class ControlResult:
     updates: int = 0
     converged: bool = False
     limited_by: str = ""
-    history: list = field(default_factory=list)        # (drive V, |F| N) per measurement
+    history: list = field(default_factory=list)  # (drive V, |F| N) per measurement
     warnings: int = 0
 
 
@@ -148,8 +148,9 @@ class SineSession:
         Latest samples kept for measurements, s (at least the longest record).
     """
 
-    def __init__(self, device, cfg, monitor, fe: float, procedure, force_row: int,
-                 ring_seconds: float = 2.0) -> None:
+    def __init__(
+        self, device, cfg, monitor, fe: float, procedure, force_row: int, ring_seconds: float = 2.0
+    ) -> None:
         from rigtools.drivers.drive_signals import SineDrive
 
         self.device, self.cfg, self.proc = device, cfg, procedure
@@ -158,13 +159,18 @@ class SineSession:
         self.monitor = monitor
         self.n_inputs = len(device.input_channels)
         self.names = [s.name for s in device.input_channels] + [cfg.daq.output_spec().name]
-        self.drive = SineDrive(self.rate, fe, max_drive=cfg.safety.max_drive,
-                               ramp_time=cfg.safety.ramp_time)
+        self.drive = SineDrive(self.rate, fe, max_drive=cfg.safety.max_drive, ramp_time=cfg.safety.ramp_time)
         self.sink = PointSink(self.n_inputs + 1, int(ring_seconds * self.rate))
-        self.stream = BlockStream(device, self.drive, sink=self.sink, safety=monitor,
-                                  record_drive=True, abort_ramp_time=cfg.safety.abort_ramp_time)
+        self.stream = BlockStream(
+            device,
+            self.drive,
+            sink=self.sink,
+            safety=monitor,
+            record_drive=True,
+            abort_ramp_time=cfg.safety.abort_ramp_time,
+        )
         self.delay = int(math.ceil(device.input_to_output_delay() * self.rate))
-        self._change_end = 0           # stream sample after which the last drive change shows
+        self._change_end = 0  # stream sample after which the last drive change shows
 
     @property
     def fe(self) -> float:
@@ -204,8 +210,9 @@ class SineSession:
             self.read()
 
     # -- measuring -------------------------------------------------------------------------------
-    def measure(self, fe: float, seconds: float = MEASURE_SECONDS,
-                max_wait: float = MAX_WAIT_SECONDS) -> tuple[complex, np.ndarray, bool]:
+    def measure(
+        self, fe: float, seconds: float = MEASURE_SECONDS, max_wait: float = MAX_WAIT_SECONDS
+    ) -> tuple[complex, np.ndarray, bool]:
         """The force fundamental once it is steady: ``(F, peaks per row, steady)``.
 
         Reads blocks until two successive windows of whole periods (after the last drive change
@@ -233,10 +240,20 @@ class SineSession:
             self.wait_samples(n)
 
     # -- force control ---------------------------------------------------------------------------
-    def hold_force(self, fe: float, target: float, *, tolerance: float = 0.005,
-                   max_updates: int = 10, initial_drive: float = 0.2, max_step: float = 4.0,
-                   margin: float = 0.8, control_ramp: float = 0.05, point: int = 0,
-                   n_points: int = 1) -> ControlResult:
+    def hold_force(
+        self,
+        fe: float,
+        target: float,
+        *,
+        tolerance: float = 0.005,
+        max_updates: int = 10,
+        initial_drive: float = 0.2,
+        max_step: float = 4.0,
+        margin: float = 0.8,
+        control_ramp: float = 0.05,
+        point: int = 0,
+        n_points: int = 1,
+    ) -> ControlResult:
         """Adjust the drive until the force fundamental is ``target`` N within ``tolerance``.
 
         The first drive (when none is running) is ``initial_drive`` V, reached along the
@@ -257,8 +274,14 @@ class SineSession:
             mag = abs(f)
             res.history.append((a, mag))
             err = mag / target - 1.0
-            self.proc.emit("control", point=point, n_points=n_points, update=res.updates,
-                           control_error=err, text=f"{mag:.4g} N at {a:.4g} V")
+            self.proc.emit(
+                "control",
+                point=point,
+                n_points=n_points,
+                update=res.updates,
+                control_error=err,
+                text=f"{mag:.4g} N at {a:.4g} V",
+            )
             if abs(err) <= tolerance:
                 res.converged = True
                 break
@@ -272,7 +295,7 @@ class SineSession:
             a_new = min(max(a_new, a / max_step), a * max_step)
             # linear prediction of every limited channel's peak: stay below margin * warning
             limit_name = ""
-            for row, name in enumerate(self.names[:self.n_inputs]):
+            for row, name in enumerate(self.names[: self.n_inputs]):
                 lim_c = self.monitor.limits.get(name)
                 if lim_c is not None and peaks[row] > 0:
                     allowed = a * margin * lim_c.warning / peaks[row]
@@ -310,15 +333,19 @@ class SineSession:
         n = whole_periods(seconds, self.rate, fe)
         # a channel far below its limits (a passive shroud without impacts) is steady enough when
         # it moves by less than 0.1 % of its warning level
-        floor = np.array([1e-3 * self.monitor.limits[name].warning if name in self.monitor.limits else 0.0
-                          for name in self.names[:self.n_inputs]])
+        floor = np.array(
+            [
+                1e-3 * self.monitor.limits[name].warning if name in self.monitor.limits else 0.0
+                for name in self.names[: self.n_inputs]
+            ]
+        )
         self._wait_change()
         start = self.sink.total
         prev = None
         while True:
             while self.sink.total - max(start, self._change_end) < n:
                 self.read()
-            data = self.sink.last(n)[:self.n_inputs]
+            data = self.sink.last(n)[: self.n_inputs]
             amps, noise = [], []
             for row in data:
                 p, fit = phasor(row, self.rate, fe)
@@ -351,12 +378,25 @@ class SineSession:
         for name, p in zip(self.names, fits):
             rel = np.angle(p * np.exp(-1j * k * ref))
             harmonics[name] = {"amplitude": np.abs(p).tolist(), "phase": rel.tolist()}
-        return {"record_start": start / self.rate, "record_samples": n,
-                "force_amplitude_measured": float(abs(fits[self.force_row][0])),
-                "harmonics": harmonics, "peaks": np.max(np.abs(data), axis=1).tolist()}
+        return {
+            "record_start": start / self.rate,
+            "record_samples": n,
+            "force_amplitude_measured": float(abs(fits[self.force_row][0])),
+            "harmonics": harmonics,
+            "peaks": np.max(np.abs(data), axis=1).tolist(),
+        }
 
-    def run_point(self, fe: float, force: float, *, record_periods: int, k_max: int = 10,
-                  point: int = 0, n_points: int = 1, **control) -> dict:
+    def run_point(
+        self,
+        fe: float,
+        force: float,
+        *,
+        record_periods: int,
+        k_max: int = 10,
+        point: int = 0,
+        n_points: int = 1,
+        **control,
+    ) -> dict:
         """Hold ``force`` at ``fe``, settle, record; the point's parameters and analysis."""
         warnings0 = len(self.stream.stats.warnings)
         if abs(self.fe - fe) > 1e-12 * fe:
@@ -366,23 +406,39 @@ class SineSession:
         steady = self.settle(fe)
         self.proc.emit("recording", point=point, n_points=n_points, text=f"{record_periods} periods")
         rec = self.record(fe, record_periods, k_max)
-        settled = bool(steady and ctl.converged
-                       and abs(rec["force_amplitude_measured"] / force - 1) <= 0.01)
-        return {"fe": fe, "force_amplitude": force,
-                "force_amplitude_measured": rec["force_amplitude_measured"],
-                "drive_amplitude": float(self.drive.target), "control_updates": ctl.updates,
-                "settled": settled, "control_converged": ctl.converged,
-                "control_limited_by": ctl.limited_by, "control_warnings": ctl.warnings,
-                "safety_warnings": len(self.stream.stats.warnings) - warnings0,
-                "record_start": rec["record_start"], "record_samples": rec["record_samples"],
-                "harmonics": rec["harmonics"], "peaks": dict(zip(self.names, rec["peaks"])),
-                "control_history": ctl.history}
+        settled = bool(steady and ctl.converged and abs(rec["force_amplitude_measured"] / force - 1) <= 0.01)
+        return {
+            "fe": fe,
+            "force_amplitude": force,
+            "force_amplitude_measured": rec["force_amplitude_measured"],
+            "drive_amplitude": float(self.drive.target),
+            "control_updates": ctl.updates,
+            "settled": settled,
+            "control_converged": ctl.converged,
+            "control_limited_by": ctl.limited_by,
+            "control_warnings": ctl.warnings,
+            "safety_warnings": len(self.stream.stats.warnings) - warnings0,
+            "record_start": rec["record_start"],
+            "record_samples": rec["record_samples"],
+            "harmonics": rec["harmonics"],
+            "peaks": dict(zip(self.names, rec["peaks"])),
+            "control_history": ctl.history,
+        }
 
 
 def point_attrs(result: dict) -> dict:
     """The recording point parameters of a :meth:`SineSession.run_point` result."""
-    attrs = {k: result[k] for k in ("force_amplitude_measured", "drive_amplitude", "control_updates",
-                                    "settled", "record_start", "record_samples")}
+    attrs = {
+        k: result[k]
+        for k in (
+            "force_amplitude_measured",
+            "drive_amplitude",
+            "control_updates",
+            "settled",
+            "record_start",
+            "record_samples",
+        )
+    }
     attrs["control_limited_by"] = result["control_limited_by"]
     attrs["safety_warnings"] = result["safety_warnings"]
     for name, h in result["harmonics"].items():

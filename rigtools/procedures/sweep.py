@@ -33,9 +33,15 @@ class SweepParameters(BaseModel):
     direction: Literal["up", "down", "both"] = "up"
     record_periods: int = Field(30, ge=1, le=1_000_000)
     k_max: int = Field(10, ge=1, le=100)
-    jump_threshold: float = Field(0.3, gt=0, le=10,
-                                  description="relative change of the response between neighbouring steps called a jump")
-    response: Optional[str] = Field(None, description="response channel (default: the active shroud accelerometer)")
+    jump_threshold: float = Field(
+        0.3,
+        gt=0,
+        le=10,
+        description="relative change of the response between neighbouring steps called a jump",
+    )
+    response: Optional[str] = Field(
+        None, description="response channel (default: the active shroud accelerometer)"
+    )
     control: ControlParameters = ControlParameters()
 
     @field_validator("frequencies")
@@ -53,16 +59,18 @@ def response_channel(device, name: str | None) -> int:
         for i, s in enumerate(specs):
             if s.name == name:
                 return i
-        raise UserError(f"response channel {name!r} is not an input (inputs: "
-                        f"{', '.join(s.name for s in specs)})")
+        raise UserError(
+            f"response channel {name!r} is not an input (inputs: {', '.join(s.name for s in specs)})"
+        )
     for i, s in enumerate(specs):
         if s.kind == "accel" and "passive" not in s.name.lower():
             return i
     return 0
 
 
-def detect_jumps(freqs: list[float], amps: list[float], threshold: float,
-                 contrast: float = 2.0) -> list[dict]:
+def detect_jumps(
+    freqs: list[float], amps: list[float], threshold: float, contrast: float = 2.0
+) -> list[dict]:
     """Jumps between neighbouring steps of one sweep direction (in run order).
 
     A jump is a step where the response changes by more than ``threshold`` (relative to the
@@ -77,9 +85,15 @@ def detect_jumps(freqs: list[float], amps: list[float], threshold: float,
         change = abs(a1 - a0) / max(min(a0, a1), 1e-300)
         neighbours = [d[j] for j in (i - 2, i) if 0 <= j < d.size]
         if change > threshold and all(d[i - 1] > contrast * x for x in neighbours):
-            out.append({"from_hz": freqs[i - 1], "to_hz": freqs[i],
-                        "frequency_hz": 0.5 * (freqs[i - 1] + freqs[i]),
-                        "change": change, "kind": "up" if a1 > a0 else "down"})
+            out.append(
+                {
+                    "from_hz": freqs[i - 1],
+                    "to_hz": freqs[i],
+                    "frequency_hz": 0.5 * (freqs[i - 1] + freqs[i]),
+                    "change": change,
+                    "kind": "up" if a1 > a0 else "down",
+                }
+            )
     return out
 
 
@@ -93,8 +107,13 @@ class SteppedSine(SineProcedure):
         self.params = params if isinstance(params, SweepParameters) else validate(SweepParameters, **params)
         vals = list(self.params.frequencies)
         d = self.params.direction
-        self.order = ([(f, "up") for f in vals] if d == "up" else [(f, "down") for f in vals[::-1]]
-                      if d == "down" else [(f, "up") for f in vals] + [(f, "down") for f in vals[::-1][1:]])
+        self.order = (
+            [(f, "up") for f in vals]
+            if d == "up"
+            else [(f, "down") for f in vals[::-1]]
+            if d == "down"
+            else [(f, "up") for f in vals] + [(f, "down") for f in vals[::-1][1:]]
+        )
 
     def first_frequency(self) -> float:
         return self.order[0][0]
@@ -114,10 +133,18 @@ class SteppedSine(SineProcedure):
         curves: dict[str, tuple[list, list]] = {"up": ([], []), "down": ([], [])}
         for i, (fe, direction) in enumerate(self.order):
             self.emit("point", point=i + 1, n_points=n, text=f"{fe:g} Hz ({direction})")
-            self.begin_point({"fe": fe, "force_amplitude": p.force, "gap": gap, "direction": direction,
-                              "study_value": fe})
-            res = self.session.run_point(fe, p.force, record_periods=p.record_periods, k_max=p.k_max,
-                                         point=i + 1, n_points=n, **p.control.model_dump())
+            self.begin_point(
+                {"fe": fe, "force_amplitude": p.force, "gap": gap, "direction": direction, "study_value": fe}
+            )
+            res = self.session.run_point(
+                fe,
+                p.force,
+                record_periods=p.record_periods,
+                k_max=p.k_max,
+                point=i + 1,
+                n_points=n,
+                **p.control.model_dump(),
+            )
             res.update(gap=gap, direction=direction)
             amp = res["harmonics"][name]["amplitude"][0]
             res["response_per_newton"] = amp / max(res["force_amplitude_measured"], 1e-300)
@@ -127,8 +154,10 @@ class SteppedSine(SineProcedure):
             curves[direction][1].append(amp)
             self.emit("point_done", point=i + 1, n_points=n)
         self.session.finish()
-        self.result.summary = {"response_channel": name, "jumps": {
-            d: detect_jumps(f, a, p.jump_threshold) for d, (f, a) in curves.items() if f}}
+        self.result.summary = {
+            "response_channel": name,
+            "jumps": {d: detect_jumps(f, a, p.jump_threshold) for d, (f, a) in curves.items() if f},
+        }
         pts = [r for r in self.result.points if r["direction"] == self.order[0][1]]
         per_n = [r["response_per_newton"] for r in pts]
         k = int(np.argmax(per_n))
@@ -138,8 +167,8 @@ class SteppedSine(SineProcedure):
 def peak_frequency(freqs: list[float], values: list[float], k: int) -> float:
     """The peak of ``values(freqs)`` by a parabola through the largest step and its neighbours."""
     if 0 < k < len(freqs) - 1:
-        f = np.array(freqs[k - 1:k + 2])
-        y = np.array(values[k - 1:k + 2])
+        f = np.array(freqs[k - 1 : k + 2])
+        y = np.array(values[k - 1 : k + 2])
         c = np.polyfit(f - f[1], y, 2)
         if c[0] < 0:
             return float(f[1] - c[1] / (2 * c[0]))
@@ -169,8 +198,15 @@ class StudyParameters(BaseModel):
         from rigtools.sim.vibro_impact import SimulationInputError
 
         try:
-            return StudyPlan(self.kind, self.values, self.direction, fe=self.fe, force=self.force,
-                             gap=self.gap, carry_state=True)
+            return StudyPlan(
+                self.kind,
+                self.values,
+                self.direction,
+                fe=self.fe,
+                force=self.force,
+                gap=self.gap,
+                carry_state=True,
+            )
         except SimulationInputError as exc:
             raise UserError(str(exc)) from None
 
@@ -186,7 +222,7 @@ def complete_points(path: Path) -> int:
                 if not point.end_time or not bool(point.params.get("point_complete", False)):
                     break
                 n += 1
-    except Exception:        # noqa: BLE001 - an unreadable file has no complete point
+    except Exception:  # noqa: BLE001 - an unreadable file has no complete point
         return 0
     return n
 
@@ -231,16 +267,20 @@ class RigStudy(SineProcedure):
         if not out.exists() and not backup.exists():
             raise UserError(f"--resume: {out} does not exist; run without --resume to start the study")
         use_out = out.exists() and (not backup.exists() or complete_points(out) >= complete_points(backup))
-        self._check_same_study(out if use_out else backup, experiment)      # before touching files
+        self._check_same_study(out if use_out else backup, experiment)  # before touching files
         if use_out:
             os.replace(out, backup)
         elif out.exists():
-            out.unlink()                # a copy cut short: the backup holds every point it had
+            out.unlink()  # a copy cut short: the backup holds every point it had
         self.start_index = complete_points(backup)
         if self.start_index >= len(self.points_planned):
             self.start_index = len(self.points_planned)
-        self.writer = RecordingWriter(out, backend=self.device.backend, rig=self.cfg.to_json(),
-                                      experiment={**experiment, "resumed": True})
+        self.writer = RecordingWriter(
+            out,
+            backend=self.device.backend,
+            rig=self.cfg.to_json(),
+            experiment={**experiment, "resumed": True},
+        )
         self._copy_points(backup, self.start_index)
         backup.unlink()
 
@@ -250,11 +290,13 @@ class RigStudy(SineProcedure):
         try:
             with open_recording(path) as rec:
                 old = rec.experiment
-        except Exception as exc:       # noqa: BLE001 - one line for the user
+        except Exception as exc:  # noqa: BLE001 - one line for the user
             raise UserError(f"--resume: cannot read {path}: {exc}") from None
         if old.get("parameters", {}).get("plan") != experiment["parameters"]["plan"]:
-            raise UserError(f"--resume: {self.out} holds a different study (plan "
-                            f"{old.get('parameters', {}).get('plan')}); give the same options")
+            raise UserError(
+                f"--resume: {self.out} holds a different study (plan "
+                f"{old.get('parameters', {}).get('plan')}); give the same options"
+            )
 
     def _copy_points(self, path: Path, n: int) -> None:
         from rigtools.recording import open_recording
@@ -275,22 +317,36 @@ class RigStudy(SineProcedure):
         n = len(self.points_planned)
         self.result.summary = {"kind": p.kind, "resumed_from": self.start_index}
         last_gap = None
-        for planned in self.points_planned[self.start_index:]:
+        for planned in self.points_planned[self.start_index :]:
             i = planned.index
             text = f"{p.kind} {planned.value:g} ({planned.direction})"
             self.emit("point", point=i + 1, n_points=n, text=text)
             if hasattr(self.device, "set_gap"):
                 gap = self.set_gap(planned.gap, i)
-            else:                       # the operator sets it; the point records what was asked
+            else:  # the operator sets it; the point records what was asked
                 if planned.gap != last_gap:
                     self._hand_gap(planned.gap, i)
                 gap = planned.gap
             last_gap = planned.gap
-            self.begin_point({"fe": planned.fe, "force_amplitude": planned.force, "gap": gap,
-                              "direction": planned.direction, "study_value": planned.value,
-                              "study_index": i})
-            res = self.session.run_point(planned.fe, planned.force, record_periods=p.record_periods,
-                                         k_max=p.k_max, point=i + 1, n_points=n, **p.control.model_dump())
+            self.begin_point(
+                {
+                    "fe": planned.fe,
+                    "force_amplitude": planned.force,
+                    "gap": gap,
+                    "direction": planned.direction,
+                    "study_value": planned.value,
+                    "study_index": i,
+                }
+            )
+            res = self.session.run_point(
+                planned.fe,
+                planned.force,
+                record_periods=p.record_periods,
+                k_max=p.k_max,
+                point=i + 1,
+                n_points=n,
+                **p.control.model_dump(),
+            )
             res.update(gap=gap, direction=planned.direction, study_value=planned.value, index=i)
             self.end_point(point_attrs(res))
             self.result.points.append(res)
@@ -302,7 +358,14 @@ class RigStudy(SineProcedure):
         s = self.session
         if s.stream._started:
             s.finish()
-            self.session = SineSession(self.device, self.cfg, s.monitor, s.fe, self, s.force_row,
-                                       ring_seconds=s.sink._ring.shape[1] / s.rate)
+            self.session = SineSession(
+                self.device,
+                self.cfg,
+                s.monitor,
+                s.fe,
+                self,
+                s.force_row,
+                ring_seconds=s.sink._ring.shape[1] / s.rate,
+            )
         if self.confirm_gap is not None:
             self.confirm_gap(gap, index)

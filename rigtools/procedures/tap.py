@@ -45,11 +45,18 @@ from rigtools.procedures.base import StopRequested, validate
 from rigtools.procedures.dwell import MAX_GAP, SineProcedure
 
 # a PCB 086C03-class modal hammer: what the simulated rig fits when the rig file has none
-DEFAULT_HAMMER = dict(physical_channel="Dev1/ai3", kind="force", sensitivity=2.25,
-                      sensitivity_units="mV/N", excitation_current=0.004, min_value=-2200.0,
-                      max_value=2200.0, location="impact hammer (simulated rig default)")
-DECAY_FRACTION = 0.005      # the last 10 % of a frame must stay below this share of its peak
-NOISE_FACTOR = 6.0          # ... or below this many times the rms noise before the hit
+DEFAULT_HAMMER = dict(
+    physical_channel="Dev1/ai3",
+    kind="force",
+    sensitivity=2.25,
+    sensitivity_units="mV/N",
+    excitation_current=0.004,
+    min_value=-2200.0,
+    max_value=2200.0,
+    location="impact hammer (simulated rig default)",
+)
+DECAY_FRACTION = 0.005  # the last 10 % of a frame must stay below this share of its peak
+NOISE_FACTOR = 6.0  # ... or below this many times the rms noise before the hit
 
 
 class TapParameters(BaseModel):
@@ -60,7 +67,9 @@ class TapParameters(BaseModel):
     blade: Literal["active", "passive"] = "passive"
     position: float = Field(gt=0, le=1.0, description="hit position, m from the root")
     hits: int = Field(5, ge=1, le=1000, description="accepted hits averaged")
-    frame: float = Field(2.0, gt=0, le=60, description="frame per hit with the pretrigger, s (resolution 1/frame)")
+    frame: float = Field(
+        2.0, gt=0, le=60, description="frame per hit with the pretrigger, s (resolution 1/frame)"
+    )
     pretrigger: float = Field(0.01, ge=0, le=1, description="kept before the trigger, s")
     trigger: float = Field(5.0, gt=0, le=10000, description="trigger level on the hammer force, N")
     release: float = Field(0.002, gt=0, le=0.1, description="quiet time ending a pulse, s")
@@ -77,10 +86,10 @@ class _Trigger:
 
     def __init__(self, test: "TapTest", row: int, pre: int, frame: int) -> None:
         self.test, self.row, self.pre, self.frame = test, row, pre, frame
-        self.total = 0                          # samples seen
-        self.history = np.zeros((0, 0))         # the latest `pre` samples (all rows)
-        self.current = None                     # [point, samples written, trigger sample, data]
-        self.last_event = 0                     # sample of the last trigger or frame end
+        self.total = 0  # samples seen
+        self.history = np.zeros((0, 0))  # the latest `pre` samples (all rows)
+        self.current = None  # [point, samples written, trigger sample, data]
+        self.last_event = 0  # sample of the last trigger or frame end
 
     def append(self, block: np.ndarray) -> None:
         i = 0
@@ -99,7 +108,7 @@ class _Trigger:
                 i = k
             else:
                 take = min(n - i, self.frame - self.current.samples)
-                self.current.add(block[:, i:i + take])
+                self.current.add(block[:, i : i + take])
                 self.total += take
                 i += take
                 if self.current.samples >= self.frame:
@@ -111,7 +120,7 @@ class _Trigger:
         if self.pre == 0:
             return
         joined = part if self.history.size == 0 else np.hstack([self.history, part])
-        self.history = joined[:, -self.pre:]
+        self.history = joined[:, -self.pre :]
 
 
 class _Hit:
@@ -156,13 +165,17 @@ class TapTest(SineProcedure):
         names = [s.name for s in inputs]
         if p.hammer_channel not in names:
             if self.backend != "sim":
-                raise UserError(f"the rig file has no [daq.channels.{p.hammer_channel}]: add the impact "
-                                f"hammer's force channel (kind = \"force\", IEPE, its sensitivity in mV/N)")
+                raise UserError(
+                    f"the rig file has no [daq.channels.{p.hammer_channel}]: add the impact "
+                    f'hammer\'s force channel (kind = "force", IEPE, its sensitivity in mV/N)'
+                )
             inputs.append(InputChannelSpec(p.hammer_channel, **DEFAULT_HAMMER))
         hammer = inputs[[s.name for s in inputs].index(p.hammer_channel)]
         if hammer.kind != "force":
-            raise UserError(f"[daq.channels.{p.hammer_channel}] is kind {hammer.kind!r}: the hammer "
-                            f"channel must be kind = \"force\"")
+            raise UserError(
+                f"[daq.channels.{p.hammer_channel}] is kind {hammer.kind!r}: the hammer "
+                f'channel must be kind = "force"'
+            )
         return inputs
 
     def response_channel(self, names: list[str]) -> str:
@@ -174,8 +187,10 @@ class TapTest(SineProcedure):
         accel = [s.name for s in self.device.input_channels if s.kind == "accel"]
         mine = [n for n in accel if p.blade in n.lower()]
         if not mine:
-            raise UserError(f"no accelerometer named for the {p.blade} blade among {', '.join(accel) or 'the inputs'}; "
-                            f"name one with --response")
+            raise UserError(
+                f"no accelerometer named for the {p.blade} blade among {', '.join(accel) or 'the inputs'}; "
+                f"name one with --response"
+            )
         return mine[0]
 
     def startup(self) -> None:
@@ -188,8 +203,9 @@ class TapTest(SineProcedure):
             self.device = rig.open_device(self.cfg, self.backend, **self._device_opts)
         inputs = self._inputs()
         try:
-            rate = self.device.configure(inputs, self.cfg.daq.output_spec(), self.cfg.daq.sample_rate,
-                                         self.cfg.daq.block_size())
+            rate = self.device.configure(
+                inputs, self.cfg.daq.output_spec(), self.cfg.daq.sample_rate, self.cfg.daq.block_size()
+            )
         except DriverUnavailable as exc:
             raise DriverUnavailable(str(exc).replace("--simulated", "--backend sim")) from None
         except ConfigurationError as exc:
@@ -206,10 +222,23 @@ class TapTest(SineProcedure):
         self.specs = rig.channel_specs(self.device, self.cfg, rate)
         self.monitor = rig.safety_monitor(self.cfg, self.device)
         self.trigger = _Trigger(self, self.hammer_row, self.pre_samples, self.frame_samples)
-        self.stream = BlockStream(self.device, _ZeroDrive(), sink=self.trigger, safety=self.monitor,
-                                  record_drive=True, abort_ramp_time=self.cfg.safety.abort_ramp_time)
-        self.open_writer(rig.experiment_metadata(self.name, self.device, self.parameters_doc(),
-                                                 hammer_channel=p.hammer_channel, response=self.response))
+        self.stream = BlockStream(
+            self.device,
+            _ZeroDrive(),
+            sink=self.trigger,
+            safety=self.monitor,
+            record_drive=True,
+            abort_ramp_time=self.cfg.safety.abort_ramp_time,
+        )
+        self.open_writer(
+            rig.experiment_metadata(
+                self.name,
+                self.device,
+                self.parameters_doc(),
+                hammer_channel=p.hammer_channel,
+                response=self.response,
+            )
+        )
 
     def _simulated_hammer(self) -> None:
         from rigtools.drivers.contracts import ConfigurationError
@@ -217,8 +246,15 @@ class TapTest(SineProcedure):
 
         p = self.params
         interval = p.frame + 0.5
-        hammer = SimulatedHammer(blade=p.blade, position=p.position, peak=p.hit_force, duration=p.pulse,
-                                 interval=interval, first=0.3, seed=self._device_opts.get("seed") or 0)
+        hammer = SimulatedHammer(
+            blade=p.blade,
+            position=p.position,
+            peak=p.hit_force,
+            duration=p.pulse,
+            interval=interval,
+            first=0.3,
+            seed=self._device_opts.get("seed") or 0,
+        )
         try:
             self.device.set_hammer(hammer)
         except ConfigurationError as exc:
@@ -229,11 +265,18 @@ class TapTest(SineProcedure):
         p = self.params
         self.hits_seen += 1
         point = self.writer.begin_point(
-            params={"hit": self.hits_seen, "blade": p.blade, "position": p.position, "gap": self.gap,
-                    "trigger_level": p.trigger, "trigger_time": trigger_sample / self.rate,
-                    "pretrigger_samples": before.shape[1] if before.size else 0,
-                    "frame_samples": self.frame_samples},
-            channels=self.specs)
+            params={
+                "hit": self.hits_seen,
+                "blade": p.blade,
+                "position": p.position,
+                "gap": self.gap,
+                "trigger_level": p.trigger,
+                "trigger_time": trigger_sample / self.rate,
+                "pretrigger_samples": before.shape[1] if before.size else 0,
+                "frame_samples": self.frame_samples,
+            },
+            channels=self.specs,
+        )
         self.point = point
         self.emit("recording", point=self.accepted + 1, n_points=p.hits, text=f"hit {self.hits_seen}")
         return _Hit(point, before, self.hammer_row, self.frame_samples)
@@ -246,23 +289,40 @@ class TapTest(SineProcedure):
         if not reason:
             reason = undecayed(data[self.response_row], hit.pre)
         accepted = not reason
-        hit.point.set_attrs(point_complete=True, accepted=accepted, reject_reason=reason,
-                            hit_peak_force=float(np.max(np.abs(force))))
+        hit.point.set_attrs(
+            point_complete=True,
+            accepted=accepted,
+            reject_reason=reason,
+            hit_peak_force=float(np.max(np.abs(force))),
+        )
         hit.point.end()
         self.point = None
         if accepted:
             self.accepted += 1
-        self.result.points.append({"hit": self.hits_seen, "accepted": accepted, "reject_reason": reason,
-                                   "peak_force": float(np.max(np.abs(force)))})
-        self.emit("point_done", point=self.accepted, n_points=p.hits,
-                  text="accepted" if accepted else f"rejected: {reason}")
+        self.result.points.append(
+            {
+                "hit": self.hits_seen,
+                "accepted": accepted,
+                "reject_reason": reason,
+                "peak_force": float(np.max(np.abs(force))),
+            }
+        )
+        self.emit(
+            "point_done",
+            point=self.accepted,
+            n_points=p.hits,
+            text="accepted" if accepted else f"rejected: {reason}",
+        )
 
     # -- execute ---------------------------------------------------------------------------------
     def execute(self) -> None:
         p = self.params
         self.gap = self.set_gap(p.gap)
-        self.emit("message", text=f"tap the {p.blade} blade at {p.position * 1e3:g} mm from the root "
-                                  f"(trigger {p.trigger:g} N on {p.hammer_channel})")
+        self.emit(
+            "message",
+            text=f"tap the {p.blade} blade at {p.position * 1e3:g} mm from the root "
+            f"(trigger {p.trigger:g} N on {p.hammer_channel})",
+        )
         wait_from = 0
         accepted = 0
         while self.accepted < p.hits:
@@ -274,14 +334,24 @@ class TapTest(SineProcedure):
                 accepted, wait_from = self.accepted, self.trigger.total
             if self.trigger.current is None and (self.trigger.total - wait_from) / self.rate > p.timeout:
                 rejected = self.hits_seen - self.accepted
-                raise UserError(f"no accepted hit over {p.trigger:g} N on {p.hammer_channel} within "
-                                f"{p.timeout:g} s ({self.accepted} of {p.hits} hits accepted"
-                                + (f", {rejected} rejected: {self.result.points[-1]['reject_reason']}"
-                                   if rejected else "") + ")")
+                raise UserError(
+                    f"no accepted hit over {p.trigger:g} N on {p.hammer_channel} within "
+                    f"{p.timeout:g} s ({self.accepted} of {p.hits} hits accepted"
+                    + (
+                        f", {rejected} rejected: {self.result.points[-1]['reject_reason']}"
+                        if rejected
+                        else ""
+                    )
+                    + ")"
+                )
         self.stream.finish()
-        self.result.summary = {"hits": self.hits_seen, "accepted": self.accepted,
-                               "frame_samples": self.frame_samples, "response": self.response,
-                               "hammer": p.hammer_channel}
+        self.result.summary = {
+            "hits": self.hits_seen,
+            "accepted": self.accepted,
+            "frame_samples": self.frame_samples,
+            "response": self.response,
+            "hammer": p.hammer_channel,
+        }
 
     def shutdown(self, status, reason) -> None:
         self.session = None
@@ -308,7 +378,7 @@ def double_hit(force: np.ndarray, start: int, level: float, release: int) -> str
     for k, b in enumerate(below):
         run = run + 1 if b else 0
         if run >= release:
-            later = np.flatnonzero(f[start + k:] >= level)
+            later = np.flatnonzero(f[start + k :] >= level)
             if later.size:
                 return f"double hit {later[0] + k:d} samples after the trigger"
             return ""
@@ -321,17 +391,25 @@ def undecayed(response: np.ndarray, pretrigger: int = 0) -> str:
     samples before the hit); otherwise why not."""
     x = np.asarray(response, dtype=float)
     r = np.abs(x - (x[:pretrigger].mean() if pretrigger else 0.0))
-    tail = r[int(0.9 * r.size):]
+    tail = r[int(0.9 * r.size) :]
     peak = float(r.max()) if r.size else 0.0
     noise = NOISE_FACTOR * float(np.sqrt(np.mean(r[:pretrigger] ** 2))) if pretrigger else 0.0
     if peak > 0 and tail.size and float(tail.max()) > max(DECAY_FRACTION * peak, noise):
-        return (f"the response has not decayed by the frame's end ({tail.max() / peak * 100:.1f} % of "
-                f"its peak): lengthen --frame")
+        return (
+            f"the response has not decayed by the frame's end ({tail.max() / peak * 100:.1f} % of "
+            f"its peak): lengthen --frame"
+        )
     return ""
 
 
-def tap_analysis(path, response: str | None = None, *, f_min: float | None = None,
-                 f_max: float | None = None, n_modes: int | None = None):
+def tap_analysis(
+    path,
+    response: str | None = None,
+    *,
+    f_min: float | None = None,
+    f_max: float | None = None,
+    n_modes: int | None = None,
+):
     """H1 of the response over the hammer force over the accepted hits of a tap-test recording
     (rectangular window per frame) and the modes identified from it.
 
@@ -354,9 +432,22 @@ def tap_analysis(path, response: str | None = None, *, f_min: float | None = Non
             if not prm.get("accepted", False) or point.n_samples < frame:
                 continue
             rate = point.sample_rate
-            blocks.append({"force": np.asarray(point.channels[hammer][:frame], dtype=float),
-                           response: np.asarray(point.channels[response][:frame], dtype=float)})
+            blocks.append(
+                {
+                    "force": np.asarray(point.channels[hammer][:frame], dtype=float),
+                    response: np.asarray(point.channels[response][:frame], dtype=float),
+                }
+            )
         if not blocks:
             raise UserError(f"{path}: no accepted hit to analyse")
-    return analyze_frf_test(blocks, rate, excitation="burst", segment_samples=frame, responses=(response,),
-                            force="force", f_min=f_min, f_max=f_max, n_modes=n_modes)
+    return analyze_frf_test(
+        blocks,
+        rate,
+        excitation="burst",
+        segment_samples=frame,
+        responses=(response,),
+        force="force",
+        f_min=f_min,
+        f_max=f_max,
+        n_modes=n_modes,
+    )

@@ -6,8 +6,13 @@ See ``docs/recording-format.md`` for the file layout.
 """
 
 from rigtools.recording.reader import Channel, Point, Recording, open_recording
-from rigtools.recording.schema import (SCHEMA_NAME, SCHEMA_VERSION, ChannelSpec, RecordingError,
-                                       RecordingWriteError)
+from rigtools.recording.schema import (
+    SCHEMA_NAME,
+    SCHEMA_VERSION,
+    ChannelSpec,
+    RecordingError,
+    RecordingWriteError,
+)
 from rigtools.recording.lock import writer_alive
 from rigtools.recording.validate import CheckResult, Problem, check_recording
 from rigtools.recording.writer import PointWriter, RecordingWriter

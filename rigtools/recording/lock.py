@@ -134,7 +134,7 @@ class WriterLock:
             os.ftruncate(self._fd, 0)
             os.pwrite(self._fd, text, 0)
         except OSError:
-            pass            # the text is for messages only; a full disk must not stop the lock
+            pass  # the text is for messages only; a full disk must not stop the lock
 
     @property
     def held(self) -> bool:
@@ -147,7 +147,7 @@ class WriterLock:
             return
         if sys.platform != "win32":
             try:
-                self.path.unlink()      # while still locked: see acquire()
+                self.path.unlink()  # while still locked: see acquire()
             except OSError:
                 pass
         try:

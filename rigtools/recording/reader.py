@@ -99,8 +99,9 @@ def open_h5(path: str | os.PathLike) -> tuple[h5py.File, str]:
         raise RecordingError(f"{p}: not an HDF5 file (no HDF5 signature)") from None
     truncated = _TRUNCATED.search(reason)
     if truncated:
-        raise RecordingError(f"{p}: truncated HDF5 file ({truncated.group(1)} of "
-                             f"{truncated.group(2)} bytes present)") from None
+        raise RecordingError(
+            f"{p}: truncated HDF5 file ({truncated.group(1)} of {truncated.group(2)} bytes present)"
+        ) from None
     raise RecordingError(f"{p}: unreadable HDF5 file ({reason})") from None
 
 
@@ -113,8 +114,7 @@ def _flags_set(path: Path) -> bool:
 
 def _attrs(obj: h5py.HLObject, cache: AttrCache | None) -> dict[str, Any]:
     raw = (cache if cache is not None else AttrCache()).of(obj)
-    return {key: python_value(value) for key, value in raw.items()
-            if not isinstance(value, Unreadable)}
+    return {key: python_value(value) for key, value in raw.items() if not isinstance(value, Unreadable)}
 
 
 class Channel:
@@ -146,8 +146,10 @@ class Channel:
         self.location: str | None = self.attrs.get("location")
 
     def __repr__(self) -> str:
-        return (f"<Channel {self.name!r}: {len(self)} samples of {self.quantity} in {self.units} "
-                f"at {self.sample_rate:g} Hz>")
+        return (
+            f"<Channel {self.name!r}: {len(self)} samples of {self.quantity} in {self.units} "
+            f"at {self.sample_rate:g} Hz>"
+        )
 
     @property
     def shape(self) -> tuple[int]:
@@ -175,8 +177,7 @@ class Channel:
         try:
             return self._dataset[key]
         except (OSError, RuntimeError) as exc:
-            raise RecordingError(f"{self._path}: cannot read {self._dataset.name} "
-                                 f"({_reason(exc)})") from None
+            raise RecordingError(f"{self._path}: cannot read {self._dataset.name} ({_reason(exc)})") from None
 
     def read(self) -> np.ndarray:
         """All samples as a numpy array."""
@@ -207,8 +208,7 @@ class Point:
         self.end_time: str = attrs.pop("end_time")
         # v1 files written before the vocabulary read with today's names.
         self.params: dict[str, Any] = current_parameters(attrs)
-        self.channels: dict[str, Channel] = {name: Channel(group[name], path, cache)
-                                             for name in group}
+        self.channels: dict[str, Channel] = {name: Channel(group[name], path, cache) for name in group}
 
     def __repr__(self) -> str:
         return f"<Point {self.name}: {self.params} channels={list(self.channels)}>"
@@ -252,8 +252,10 @@ class Point:
         n = self.n_samples
         first = next(iter(self.channels.values()), None)
         time_s = first.time()[:n] if first is not None else np.empty(0)
-        frame = pd.DataFrame({name: c[:n] if n else np.empty(0) for name, c in self.channels.items()},
-                             index=pd.Index(time_s, name="time"))
+        frame = pd.DataFrame(
+            {name: c[:n] if n else np.empty(0) for name, c in self.channels.items()},
+            index=pd.Index(time_s, name="time"),
+        )
         return frame
 
 
@@ -310,8 +312,7 @@ class Recording:
         return [p for p in self.points if p.complete]
 
     def __repr__(self) -> str:
-        return (f"<Recording {self.path}: {self.status}, backend {self.backend}, "
-                f"{len(self.points)} points>")
+        return f"<Recording {self.path}: {self.status}, backend {self.backend}, {len(self.points)} points>"
 
     def __enter__(self) -> Recording:
         return self
@@ -345,8 +346,7 @@ class Recording:
             try:
                 data = tomllib.loads(self.rig)
             except tomllib.TOMLDecodeError as exc:
-                raise RecordingError(f"{self.path}: rig attribute is neither JSON nor TOML "
-                                     f"({exc})") from None
+                raise RecordingError(f"{self.path}: rig attribute is neither JSON nor TOML ({exc})") from None
         return parse_rig(data, source=f"{self.path} rig")
 
     def to_dataframe(self, per: str = "sample"):
@@ -363,9 +363,17 @@ class Recording:
         import pandas as pd
 
         if per == "point":
-            rows = [{"point": p.index, "start_time": p.start_time, "end_time": p.end_time,
-                     "n_samples": p.n_samples, "duration": p.duration, **p.params}
-                    for p in self.points]
+            rows = [
+                {
+                    "point": p.index,
+                    "start_time": p.start_time,
+                    "end_time": p.end_time,
+                    "n_samples": p.n_samples,
+                    "duration": p.duration,
+                    **p.params,
+                }
+                for p in self.points
+            ]
             return pd.DataFrame(rows)
         if per != "sample":
             raise ValueError(f"per={per!r}: use 'sample' or 'point'")
@@ -379,12 +387,14 @@ class Recording:
                 parts["time"].append(channel.time())
                 parts["value"].append(channel.read())
         cat = lambda key, dtype: np.concatenate(parts[key]) if parts[key] else np.empty(0, dtype)  # noqa: E731
-        return pd.DataFrame({
-            "point": cat("point", np.int64),
-            "channel": pd.Categorical.from_codes(cat("channel", np.int32), categories=names),
-            "time": cat("time", np.float64),
-            "value": cat("value", np.float64),
-        })
+        return pd.DataFrame(
+            {
+                "point": cat("point", np.int64),
+                "channel": pd.Categorical.from_codes(cat("channel", np.int32), categories=names),
+                "time": cat("time", np.float64),
+                "value": cat("value", np.float64),
+            }
+        )
 
 
 def open_recording(path: str | os.PathLike) -> Recording:
@@ -418,7 +428,7 @@ def open_recording(path: str | os.PathLike) -> Recording:
         return rec
 
 
-LIVE_RETRY_S = 3.0     # how long a reader retries a file its live writer is changing
+LIVE_RETRY_S = 3.0  # how long a reader retries a file its live writer is changing
 
 
 def _open_once(path: str | os.PathLike) -> Recording:

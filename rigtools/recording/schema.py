@@ -31,7 +31,7 @@ STATUS_COMPLETE = "complete"
 STATUS_ABORTED = "aborted"
 STATUSES = (STATUS_RECORDING, STATUS_COMPLETE, STATUS_ABORTED)
 
-KNOWN_BACKENDS = ("nidaqmx", "simulated", "fem")   # others are allowed: the name of an import source
+KNOWN_BACKENDS = ("nidaqmx", "simulated", "fem")  # others are allowed: the name of an import source
 
 POINTS_GROUP = "points"
 
@@ -71,7 +71,7 @@ STANDARD_PARAMETERS: dict[str, str] = {
     "force_amplitude": "commanded (or simulated) force amplitude F0, N",
     "gap": "shroud gap, m",
     "force_amplitude_measured": "fundamental (peak) of the force into the blade, N (v1 files before "
-                                "this name: measured_force_amplitude)",
+    "this name: measured_force_amplitude)",
     "settled": "true if the response was steady when recorded",
     "drive_amplitude": "drive voltage amplitude, V",
 }
@@ -170,16 +170,18 @@ class ChannelSpec:
         for key in ("units", "quantity"):
             if not isinstance(getattr(self, key), str):
                 raise ValueError(f"channel {self.name!r}: {key} must be text")
-        if not (isinstance(self.sample_rate, Real) and math.isfinite(self.sample_rate)
-                and self.sample_rate > 0):
+        if not (
+            isinstance(self.sample_rate, Real) and math.isfinite(self.sample_rate) and self.sample_rate > 0
+        ):
             raise ValueError(f"channel {self.name!r}: sample_rate {self.sample_rate!r} must be > 0 Hz")
         if not (isinstance(self.t0, Real) and math.isfinite(self.t0)):
             raise ValueError(f"channel {self.name!r}: t0 {self.t0!r} must be a finite number of s")
         if self.sensitivity is not None and not (
-                isinstance(self.sensitivity, Real) and math.isfinite(self.sensitivity)
-                and self.sensitivity != 0):
-            raise ValueError(f"channel {self.name!r}: sensitivity {self.sensitivity!r} must be a "
-                             "finite non-zero number")
+            isinstance(self.sensitivity, Real) and math.isfinite(self.sensitivity) and self.sensitivity != 0
+        ):
+            raise ValueError(
+                f"channel {self.name!r}: sensitivity {self.sensitivity!r} must be a finite non-zero number"
+            )
         for key in ("sensitivity_units", "physical_channel", "location"):
             value = getattr(self, key)
             if value is not None and not isinstance(value, str):
@@ -187,8 +189,12 @@ class ChannelSpec:
 
     def attrs(self) -> dict[str, Any]:
         """The dataset attributes of this channel (optional ones only when set)."""
-        out: dict[str, Any] = {"units": self.units, "quantity": self.quantity,
-                               "sample_rate": float(self.sample_rate), "t0": float(self.t0)}
+        out: dict[str, Any] = {
+            "units": self.units,
+            "quantity": self.quantity,
+            "sample_rate": float(self.sample_rate),
+            "t0": float(self.t0),
+        }
         if self.sensitivity is not None:
             out["sensitivity"] = float(self.sensitivity)
         for key in ("sensitivity_units", "physical_channel", "location"):
@@ -222,8 +228,7 @@ def parameter_value(name: str, value: Any) -> Any:
         arr = np.asarray(value)
         if arr.ndim == 1 and arr.dtype.kind in "iuf":
             return arr.astype(np.float64 if arr.dtype.kind == "f" else np.int64)
-    raise ValueError(f"parameter {name!r} = {value!r}: store text, numbers, bools or 1-D numeric "
-                     "lists only")
+    raise ValueError(f"parameter {name!r} = {value!r}: store text, numbers, bools or 1-D numeric lists only")
 
 
 def python_value(value: Any) -> Any:

@@ -38,8 +38,15 @@ def _mix(a: int, b: int, c: int) -> tuple[int, int, int]:
 
 def _final(a: int, b: int, c: int) -> int:
     v = [a, b, c]
-    for target, source, shift in ((2, 1, 14), (0, 2, 11), (1, 0, 25), (2, 1, 16), (0, 2, 4),
-                                  (1, 0, 14), (2, 1, 24)):
+    for target, source, shift in (
+        (2, 1, 14),
+        (0, 2, 11),
+        (1, 0, 25),
+        (2, 1, 16),
+        (0, 2, 4),
+        (1, 0, 14),
+        (2, 1, 24),
+    ):
         v[target] = ((v[target] ^ v[source]) - _rot(v[source], shift)) & _MASK
     return v[2]
 
@@ -56,7 +63,7 @@ def lookup3(data: bytes, initval: int = 0) -> int:
         offset += 12
     if length == 0:
         return c
-    x, y, z = struct.unpack("<3I", data[offset:offset + length].ljust(12, b"\0"))
+    x, y, z = struct.unpack("<3I", data[offset : offset + length].ljust(12, b"\0"))
     return _final((a + x) & _MASK, (b + y) & _MASK, (c + z) & _MASK)
 
 
@@ -112,7 +119,7 @@ class FlagClearedFile(io.RawIOBase):
         n = self._fh.readinto(view)
         if n and self._pos < len(self._head):
             stop = min(len(self._head), self._pos + n)
-            view[: stop - self._pos] = self._head[self._pos:stop]
+            view[: stop - self._pos] = self._head[self._pos : stop]
         self._pos += n or 0
         return n
 

@@ -43,7 +43,7 @@ from rigtools.recording.schema import (
 
 ERROR = "error"
 NOTE = "note"
-NEWER_PREFIX = "schema_version "      # start of the one message that means "file is newer"
+NEWER_PREFIX = "schema_version "  # start of the one message that means "file is newer"
 
 
 @dataclass(frozen=True)
@@ -96,8 +96,9 @@ class AttrCache(dict):
         return self[key]
 
 
-def _check_attr(attrs: dict[str, Any], name: str, kind: str, where: str, out: list[Problem],
-                required: bool = True) -> Any:
+def _check_attr(
+    attrs: dict[str, Any], name: str, kind: str, where: str, out: list[Problem], required: bool = True
+) -> Any:
     """Append a problem if attribute ``name`` is missing or not of ``kind``; return its value."""
     if name not in attrs:
         if required:
@@ -107,11 +108,13 @@ def _check_attr(attrs: dict[str, Any], name: str, kind: str, where: str, out: li
     if isinstance(value, Unreadable):
         out.append(Problem(where, f"attribute '{name}' cannot be read ({value.reason})", fatal=True))
         return None
-    ok = {"text": _is_text, "int": lambda v: isinstance(v, (int, np.integer)) and not isinstance(
-        v, (bool, np.bool_)), "float": _is_number}[kind](value)
+    ok = {
+        "text": _is_text,
+        "int": lambda v: isinstance(v, (int, np.integer)) and not isinstance(v, (bool, np.bool_)),
+        "float": _is_number,
+    }[kind](value)
     if not ok:
-        out.append(Problem(where, f"attribute '{name}' = {python_value(value)!r} is not {kind}",
-                           fatal=True))
+        out.append(Problem(where, f"attribute '{name}' = {python_value(value)!r} is not {kind}", fatal=True))
         return None
     return python_value(value)
 
@@ -127,23 +130,39 @@ def find_problems(f: h5py.File, cache: AttrCache | None = None) -> list[Problem]
     attrs = cache.of(f)
     schema = _check_attr(attrs, "schema", "text", "/", [])
     if schema is None:
-        return [Problem("/", f"not a rigtools recording: no text attribute 'schema' "
-                             f"(expected '{SCHEMA_NAME}')", fatal=True)]
+        return [
+            Problem(
+                "/",
+                f"not a rigtools recording: no text attribute 'schema' (expected '{SCHEMA_NAME}')",
+                fatal=True,
+            )
+        ]
     if schema != SCHEMA_NAME:
-        return [Problem("/", f"not a rigtools recording: schema is '{schema}' "
-                             f"(expected '{SCHEMA_NAME}')", fatal=True)]
+        return [
+            Problem(
+                "/", f"not a rigtools recording: schema is '{schema}' (expected '{SCHEMA_NAME}')", fatal=True
+            )
+        ]
     version = _check_attr(attrs, "schema_version", "int", "/", out)
     if version is None:
         return out
     if version > SCHEMA_VERSION:
-        return [Problem("/", f"{NEWER_PREFIX}{version} is newer than this rigtools "
-                             f"{rigtools.__version__} reads (up to {SCHEMA_VERSION}); upgrade rigtools",
-                        fatal=True)]
+        return [
+            Problem(
+                "/",
+                f"{NEWER_PREFIX}{version} is newer than this rigtools "
+                f"{rigtools.__version__} reads (up to {SCHEMA_VERSION}); upgrade rigtools",
+                fatal=True,
+            )
+        ]
     if version < 1:
         return [Problem("/", f"schema_version {version} is not a valid version", fatal=True)]
 
-    root = {name: _check_attr(attrs, name, kind, "/", out) for name, (kind, _) in ROOT_ATTRS.items()
-            if name not in ("schema", "schema_version")}
+    root = {
+        name: _check_attr(attrs, name, kind, "/", out)
+        for name, (kind, _) in ROOT_ATTRS.items()
+        if name not in ("schema", "schema_version")
+    }
     status = root.get("status")
     if status is not None and status not in STATUSES:
         out.append(Problem("/", f"status '{status}' is not one of {', '.join(STATUSES)}", fatal=True))
@@ -179,29 +198,47 @@ def find_problems(f: h5py.File, cache: AttrCache | None = None) -> list[Problem]
     for name in points:
         idx = point_index(name)
         if idx is None:
-            out.append(Problem(f"/{POINTS_GROUP}/{name}", "unexpected object (point groups are "
-                                                          "named 0000, 0001, ...)"))
+            out.append(
+                Problem(
+                    f"/{POINTS_GROUP}/{name}", "unexpected object (point groups are named 0000, 0001, ...)"
+                )
+            )
             continue
         indices.append(idx)
         out.extend(_point_problems(points[name], f"/{POINTS_GROUP}/{name}", status, cache))
     indices.sort()
     if indices != list(range(len(indices))):
-        out.append(Problem(f"/{POINTS_GROUP}", f"points are not numbered 0..{len(indices) - 1} "
-                                               f"without gaps: {indices}"))
+        out.append(
+            Problem(
+                f"/{POINTS_GROUP}", f"points are not numbered 0..{len(indices) - 1} without gaps: {indices}"
+            )
+        )
     if status not in (None, STATUS_COMPLETE):
-        out.append(Problem("/", f"incomplete: status is '{status}'"
-                           + (" (the writer was killed or is still running)"
-                              if status == "recording" else f": {root.get('abort_reason')}"),
-                           severity=NOTE))
+        out.append(
+            Problem(
+                "/",
+                f"incomplete: status is '{status}'"
+                + (
+                    " (the writer was killed or is still running)"
+                    if status == "recording"
+                    else f": {root.get('abort_reason')}"
+                ),
+                severity=NOTE,
+            )
+        )
     return out
 
 
-def _end_status_problems(attrs: dict[str, Any], status: str | None, abort_reason: str | None) -> list[Problem]:
+def _end_status_problems(
+    attrs: dict[str, Any], status: str | None, abort_reason: str | None
+) -> list[Problem]:
     """The optional ``end_status`` / ``end_reason`` of a procedure: their types, the word, and
     agreement with ``status`` and ``abort_reason``."""
     out: list[Problem] = []
-    end = {name: _check_attr(attrs, name, kind, "/", out, required=False)
-           for name, (kind, _) in OPTIONAL_ROOT_ATTRS.items()}
+    end = {
+        name: _check_attr(attrs, name, kind, "/", out, required=False)
+        for name, (kind, _) in OPTIONAL_ROOT_ATTRS.items()
+    }
     word = end.get("end_status")
     if word is None:
         return out
@@ -214,8 +251,13 @@ def _end_status_problems(attrs: dict[str, Any], status: str | None, abort_reason
         if word == END_FINISHED:
             out.append(Problem("/", "end_status is 'finished' but status is 'aborted'"))
         elif abort_reason and not abort_reason.startswith(f"{word}: "):
-            out.append(Problem("/", f"end_status is '{word}' but abort_reason does not start "
-                                    f"with '{word}: ' ({abort_reason!r})"))
+            out.append(
+                Problem(
+                    "/",
+                    f"end_status is '{word}' but abort_reason does not start "
+                    f"with '{word}: ' ({abort_reason!r})",
+                )
+            )
     if word != END_FINISHED and end.get("end_reason") == "":
         out.append(Problem("/", f"end_status is '{word}' but end_reason is empty"))
     return out
@@ -241,9 +283,10 @@ def _point_problems(group: Any, where: str, status: str | None, cache: AttrCache
         if isinstance(value, Unreadable):
             out.append(Problem(where, f"parameter '{key}' cannot be read ({value.reason})"))
             continue
-        if not (isinstance(value, (str, bytes, np.generic, int, float))
-                or (isinstance(value, np.ndarray) and value.dtype.kind in "biufSUO"
-                    and value.ndim <= 1)):
+        if not (
+            isinstance(value, (str, bytes, np.generic, int, float))
+            or (isinstance(value, np.ndarray) and value.dtype.kind in "biufSUO" and value.ndim <= 1)
+        ):
             out.append(Problem(where, f"parameter '{key}' is not text, a number or a bool"))
     lengths: dict[str, int] = {}
     rates: dict[str, float] = {}
@@ -256,18 +299,25 @@ def _point_problems(group: Any, where: str, status: str | None, cache: AttrCache
             out.append(Problem(cwhere, "is not a dataset (channels are 1-D datasets)", fatal=True))
             continue
         if dataset.ndim != 1 or dataset.dtype.kind not in "iuf":
-            out.append(Problem(cwhere, f"is not a 1-D numeric dataset (shape {dataset.shape}, "
-                                       f"dtype {dataset.dtype})", fatal=True))
+            out.append(
+                Problem(
+                    cwhere,
+                    f"is not a 1-D numeric dataset (shape {dataset.shape}, dtype {dataset.dtype})",
+                    fatal=True,
+                )
+            )
             continue
         lengths[name] = dataset.shape[0]
         dattrs = cache.of(dataset)
-        values = {key: _check_attr(dattrs, key, kind, cwhere, out)
-                  for key, (kind, _) in CHANNEL_ATTRS.items()}
+        values = {
+            key: _check_attr(dattrs, key, kind, cwhere, out) for key, (kind, _) in CHANNEL_ATTRS.items()
+        }
         rate = values.get("sample_rate")
         if rate is not None:
             if not (math.isfinite(rate) and rate > 0):
-                out.append(Problem(cwhere, f"sample_rate {rate!r} is not a positive number of Hz",
-                                   fatal=True))
+                out.append(
+                    Problem(cwhere, f"sample_rate {rate!r} is not a positive number of Hz", fatal=True)
+                )
             else:
                 rates[name] = float(rate)
         t0 = values.get("t0")
@@ -282,8 +332,11 @@ def _point_problems(group: Any, where: str, status: str | None, cache: AttrCache
         if status == STATUS_COMPLETE:
             out.append(Problem(where, f"channels differ in length: {detail}"))
         else:
-            out.append(Problem(where, f"channels differ in length (writer stopped mid-block): "
-                                      f"{detail}", severity=NOTE))
+            out.append(
+                Problem(
+                    where, f"channels differ in length (writer stopped mid-block): {detail}", severity=NOTE
+                )
+            )
     if len(set(rates.values())) > 1:
         detail = ", ".join(f"{k}={v:g} Hz" for k, v in rates.items())
         out.append(Problem(where, f"channels differ in sample_rate: {detail}"))
@@ -307,9 +360,16 @@ class CheckResult:
         return not any(p.severity == ERROR for p in self.problems)
 
     def to_dict(self) -> dict[str, Any]:
-        return {"path": self.path, "valid": self.valid, "status": self.status,
-                "points": self.n_points, "channels": self.n_channels, "opened_as": self.opened_as,
-                "writer": self.writer, "problems": [asdict(p) for p in self.problems]}
+        return {
+            "path": self.path,
+            "valid": self.valid,
+            "status": self.status,
+            "points": self.n_points,
+            "channels": self.n_channels,
+            "opened_as": self.opened_as,
+            "writer": self.writer,
+            "problems": [asdict(p) for p in self.problems],
+        }
 
 
 def check_recording(path: str | os.PathLike, read_data: bool = True) -> CheckResult:
@@ -339,50 +399,64 @@ def check_recording(path: str | os.PathLike, read_data: bool = True) -> CheckRes
                 raise
             time.sleep(0.05)
             continue
-        if writer is not None and not result.valid and time.monotonic() <= deadline \
-                and writer_alive(path) is not None:
+        if (
+            writer is not None
+            and not result.valid
+            and time.monotonic() <= deadline
+            and writer_alive(path) is not None
+        ):
             time.sleep(0.05)
             continue
         break
     result.writer = writer
     if result.status == "recording":
         result.problems = [p for p in result.problems if not p.message.startswith("incomplete:")]
-        result.problems.append(Problem("/", "incomplete: status is 'recording': " + (
-            f"being written now ({writer}); showing what is there" if writer else
-            "the writer stopped without closing the file (killed, crashed or a write error)"),
-            severity=NOTE))
+        result.problems.append(
+            Problem(
+                "/",
+                "incomplete: status is 'recording': "
+                + (
+                    f"being written now ({writer}); showing what is there"
+                    if writer
+                    else "the writer stopped without closing the file (killed, crashed or a write error)"
+                ),
+                severity=NOTE,
+            )
+        )
     return result
 
 
 def _check_once(path: str | os.PathLike, read_data: bool) -> CheckResult:
-    from rigtools.recording.reader import open_h5   # the reader's tolerant opener
+    from rigtools.recording.reader import open_h5  # the reader's tolerant opener
 
     f, opened_as = open_h5(path)
     try:
         return _check_file(f, path, opened_as, read_data)
     except (OSError, RuntimeError, KeyError, ValueError) as exc:
-        raise RecordingError(f"{path}: damaged HDF5 structure ({' '.join(str(exc).split())})") \
-            from None
+        raise RecordingError(f"{path}: damaged HDF5 structure ({' '.join(str(exc).split())})") from None
     finally:
         f.close()
 
 
-def _check_file(f: h5py.File, path: str | os.PathLike, opened_as: str,
-                read_data: bool) -> CheckResult:
+def _check_file(f: h5py.File, path: str | os.PathLike, opened_as: str, read_data: bool) -> CheckResult:
     result = CheckResult(str(path), opened_as=opened_as)
     try:
         try:
             result.problems = find_problems(f)
         except (OSError, RuntimeError, KeyError, ValueError) as exc:
-            raise RecordingError(f"{path}: damaged HDF5 structure ({' '.join(str(exc).split())})") \
-                from None
+            raise RecordingError(f"{path}: damaged HDF5 structure ({' '.join(str(exc).split())})") from None
         if result.problems and result.problems[0].message.startswith(NEWER_PREFIX):
-            raise RecordingError(f"{path}: {result.problems[0].message}; this rigtools cannot "
-                                 "check it")
+            raise RecordingError(f"{path}: {result.problems[0].message}; this rigtools cannot check it")
         if opened_as == "flags-cleared":
-            result.problems.append(Problem("/", "the writer was killed while adding structure "
-                                                "(HDF5 consistency flags set; h5clear -s clears "
-                                                "them for other tools)", severity=NOTE))
+            result.problems.append(
+                Problem(
+                    "/",
+                    "the writer was killed while adding structure "
+                    "(HDF5 consistency flags set; h5clear -s clears "
+                    "them for other tools)",
+                    severity=NOTE,
+                )
+            )
         if "status" in f.attrs:
             result.status = python_value(_scalar(f.attrs["status"]))
         points = f.get(POINTS_GROUP)
@@ -396,16 +470,14 @@ def _check_file(f: h5py.File, path: str | os.PathLike, opened_as: str,
                     channels.update(group)
                     if read_data:
                         ended = group.attrs.get("end_time", b"") not in ("", b"")
-                        result.problems.extend(_data_problems(group, f"/{POINTS_GROUP}/{name}",
-                                                              ended))
+                        result.problems.extend(_data_problems(group, f"/{POINTS_GROUP}/{name}", ended))
             result.n_channels = len(channels)
     finally:
         f.close()
     return result
 
 
-def _data_problems(group: h5py.Group, where: str, ended: bool = True,
-                   block: int = 1 << 20) -> list[Problem]:
+def _data_problems(group: h5py.Group, where: str, ended: bool = True, block: int = 1 << 20) -> list[Problem]:
     """Unreadable and non-finite samples of a point's channels.
 
     In a point its writer ended, every sample was written: a NaN or infinite sample is an error
@@ -419,11 +491,11 @@ def _data_problems(group: h5py.Group, where: str, ended: bool = True,
         if not isinstance(dataset, h5py.Dataset) or dataset.ndim != 1:
             continue
         n_bad = 0
-        last_good = -1                 # index of the last finite sample
+        last_good = -1  # index of the last finite sample
         start = 0
         try:
             for start in range(0, dataset.shape[0], block):
-                values = dataset[start:start + block]
+                values = dataset[start : start + block]
                 if values.dtype.kind == "f":
                     finite = np.isfinite(values)
                     n_bad += int(finite.size - np.count_nonzero(finite))
@@ -432,17 +504,29 @@ def _data_problems(group: h5py.Group, where: str, ended: bool = True,
                 else:
                     last_good = start + values.size - 1
         except (OSError, ValueError, RuntimeError) as exc:
-            out.append(Problem(f"{where}/{name}", f"samples cannot be read from index {start} "
-                                                  f"({' '.join(str(exc).split())})"))
+            out.append(
+                Problem(
+                    f"{where}/{name}",
+                    f"samples cannot be read from index {start} ({' '.join(str(exc).split())})",
+                )
+            )
             continue
         tail = dataset.shape[0] - 1 - last_good if not ended else 0
         inner = n_bad - tail
         if inner:
-            out.append(Problem(f"{where}/{name}", f"{inner} sample{'s' * (inner != 1)} "
-                                                  "NaN or infinite" + ("" if ended else
-                                                                       " before the unflushed tail")))
+            out.append(
+                Problem(
+                    f"{where}/{name}",
+                    f"{inner} sample{'s' * (inner != 1)} "
+                    "NaN or infinite" + ("" if ended else " before the unflushed tail"),
+                )
+            )
         if tail:
-            out.append(Problem(f"{where}/{name}", f"last {tail} samples are NaN: not flushed "
-                                                  "when the writer stopped (point incomplete)",
-                               severity=NOTE))
+            out.append(
+                Problem(
+                    f"{where}/{name}",
+                    f"last {tail} samples are NaN: not flushed when the writer stopped (point incomplete)",
+                    severity=NOTE,
+                )
+            )
     return out

@@ -83,12 +83,12 @@ from rigtools.recording.schema import (
 from rigtools.recording.lock import LockBusy, WriterLock
 
 LIBVER = ("v110", "v110")
-DEFAULT_CHUNK_SAMPLES = 16384        # 128 KiB of float64 per chunk: ~0.3 s at 51.2 kS/s
+DEFAULT_CHUNK_SAMPLES = 16384  # 128 KiB of float64 per chunk: ~0.3 s at 51.2 kS/s
 COMPRESSIONS = ("gzip", "none")
 DEFLATE_THREADS = 2
-MAX_PENDING_CHUNKS = 8               # full chunks (all channels) queued before append waits
-RESERVE_STEP = 16 << 20              # grow the reserved space beyond HDF5's end in 16 MiB steps
-BASE_RESERVE = 1 << 20               # kept free beyond HDF5's end for metadata and the final status
+MAX_PENDING_CHUNKS = 8  # full chunks (all channels) queued before append waits
+RESERVE_STEP = 16 << 20  # grow the reserved space beyond HDF5's end in 16 MiB steps
+BASE_RESERVE = 1 << 20  # kept free beyond HDF5's end for metadata and the final status
 _HDF5_ERRNO = re.compile(r"errno = (\d+), error message = '([^']*)'")
 
 # h5py files that met a write error: never closed in this process (HDF5 may crash closing them).
@@ -113,8 +113,11 @@ def _preallocate(fd: int, offset: int, length: int) -> None:
             os.posix_fallocate(fd, offset, length)
             return
         except OSError as exc:
-            if exc.errno not in (errno_codes.EOPNOTSUPP, errno_codes.EINVAL,
-                                 getattr(errno_codes, "ENOTSUP", errno_codes.EOPNOTSUPP)):
+            if exc.errno not in (
+                errno_codes.EOPNOTSUPP,
+                errno_codes.EINVAL,
+                getattr(errno_codes, "ENOTSUP", errno_codes.EOPNOTSUPP),
+            ):
                 raise
     os.ftruncate(fd, offset + length)
 
@@ -141,7 +144,7 @@ def _rig_text(rig: Any) -> str:
 
 def one_line(exc: BaseException, limit: int = 500) -> str:
     """``"TypeName: message"`` of an exception on one line, at most ``limit`` characters."""
-    if isinstance(exc, KeyboardInterrupt):   # rigtools.errors.Interrupted names its signal
+    if isinstance(exc, KeyboardInterrupt):  # rigtools.errors.Interrupted names its signal
         return " ".join(str(exc).split()) or "KeyboardInterrupt: interrupted by the user"
     text = f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
     text = " ".join(text.split())
@@ -167,27 +170,25 @@ class _DeflatedChunks:
     the partial tail through HDF5's own (filtered) write.
     """
 
-    def __init__(self, datasets: list[h5py.Dataset], chunk: int, level: int,
-                 pool: ThreadPoolExecutor):
+    def __init__(self, datasets: list[h5py.Dataset], chunk: int, level: int, pool: ThreadPoolExecutor):
         self._datasets = datasets
         self._chunk = chunk
         self._level = level
         self._pool = pool
         self._tail = np.empty((len(datasets), chunk))
-        self._tail_start = 0          # sample index of tail[:, 0]; a multiple of chunk
-        self._tail_n = 0              # samples in the tail
+        self._tail_start = 0  # sample index of tail[:, 0]; a multiple of chunk
+        self._tail_n = 0  # samples in the tail
         self._pending: deque[tuple[int, list[Future]]] = deque()
 
     def add(self, data: np.ndarray) -> None:
         pos, n = 0, data.shape[1]
         while pos < n:
             take = min(self._chunk - self._tail_n, n - pos)
-            self._tail[:, self._tail_n:self._tail_n + take] = data[:, pos:pos + take]
+            self._tail[:, self._tail_n : self._tail_n + take] = data[:, pos : pos + take]
             self._tail_n += take
             pos += take
             if self._tail_n == self._chunk:
-                futures = [self._pool.submit(_shuffle_deflate, row, self._level)
-                           for row in self._tail]
+                futures = [self._pool.submit(_shuffle_deflate, row, self._level) for row in self._tail]
                 self._pending.append((self._tail_start, futures))
                 self._tail = np.empty_like(self._tail)
                 self._tail_start += self._chunk
@@ -198,8 +199,7 @@ class _DeflatedChunks:
         """Write compressed chunks from the head of the queue: the finished ones, or all if ``wait``."""
         while self._pending:
             offset, futures = self._pending[0]
-            if not (wait or len(self._pending) > MAX_PENDING_CHUNKS
-                    or all(f.done() for f in futures)):
+            if not (wait or len(self._pending) > MAX_PENDING_CHUNKS or all(f.done() for f in futures)):
                 return
             self._pending.popleft()
             for dataset, future in zip(self._datasets, futures, strict=True):
@@ -213,7 +213,7 @@ class _DeflatedChunks:
             for dataset, row in zip(self._datasets, self._tail, strict=True):
                 filespace = dataset.id.get_space()
                 filespace.select_hyperslab((self._tail_start,), (self._tail_n,))
-                dataset.id.write(memspace, filespace, np.ascontiguousarray(row[:self._tail_n]))
+                dataset.id.write(memspace, filespace, np.ascontiguousarray(row[: self._tail_n]))
 
 
 class PointWriter:
@@ -231,8 +231,14 @@ class PointWriter:
         Samples per channel known to be on disk (as of the last flush).
     """
 
-    def __init__(self, writer: RecordingWriter, index: int, channels: tuple[ChannelSpec, ...],
-                 datasets: list[h5py.Dataset], deflated: _DeflatedChunks | None = None):
+    def __init__(
+        self,
+        writer: RecordingWriter,
+        index: int,
+        channels: tuple[ChannelSpec, ...],
+        datasets: list[h5py.Dataset],
+        deflated: _DeflatedChunks | None = None,
+    ):
         self._writer = writer
         self.index = index
         self.name = point_name(index)
@@ -267,8 +273,10 @@ class PointWriter:
         if data.ndim == 1 and len(self.channels) == 1:
             data = data[np.newaxis, :]
         if data.ndim != 2 or data.shape[0] != len(self.channels):
-            raise ValueError(f"block of shape {data.shape}: expected ({len(self.channels)}, n_samples)"
-                             f" for channels {[c.name for c in self.channels]}")
+            raise ValueError(
+                f"block of shape {data.shape}: expected ({len(self.channels)}, n_samples)"
+                f" for channels {[c.name for c in self.channels]}"
+            )
         n = data.shape[1]
         if n == 0:
             return
@@ -352,10 +360,19 @@ class RecordingWriter:
     ...     point.end()
     """
 
-    def __init__(self, path: str | os.PathLike, backend: str, rig: Any,
-                 experiment: Mapping[str, Any] | None = None, *, overwrite: bool = False,
-                 compression: str = "gzip", compression_level: int = 1,
-                 chunk_samples: int = DEFAULT_CHUNK_SAMPLES, flush_interval: float = 0.5):
+    def __init__(
+        self,
+        path: str | os.PathLike,
+        backend: str,
+        rig: Any,
+        experiment: Mapping[str, Any] | None = None,
+        *,
+        overwrite: bool = False,
+        compression: str = "gzip",
+        compression_level: int = 1,
+        chunk_samples: int = DEFAULT_CHUNK_SAMPLES,
+        flush_interval: float = 0.5,
+    ):
         if not isinstance(backend, str) or not backend.strip():
             raise ValueError("backend must be non-empty text, e.g. 'simulated'")
         if compression not in COMPRESSIONS:
@@ -381,22 +398,24 @@ class RecordingWriter:
         self._pool: ThreadPoolExecutor | None = None
         self._fd: int | None = None
         self._final_reserve = BASE_RESERVE
-        self._unflushed = 0             # bytes appended since the last flush (HDF5 may cache them)
+        self._unflushed = 0  # bytes appended since the last flush (HDF5 may cache them)
         self._lock = WriterLock(self.path)
 
         if not self.path.parent.is_dir():
-            raise RecordingError(f"cannot create {self.path}: directory {self.path.parent} does "
-                                 "not exist")
+            raise RecordingError(f"cannot create {self.path}: directory {self.path.parent} does not exist")
         if self.path.is_dir():
             raise RecordingError(f"cannot create {self.path}: it is a directory")
         try:
-            self._lock.acquire()        # before anything creates or truncates the file
+            self._lock.acquire()  # before anything creates or truncates the file
         except LockBusy as busy:
-            raise RecordingError(f"{self.path} is being written by another run ({busy.holder}); "
-                                 "two runs cannot write one file") from None
+            raise RecordingError(
+                f"{self.path} is being written by another run ({busy.holder}); two runs cannot write one file"
+            ) from None
         except OSError as exc:
-            raise RecordingError(f"cannot create {self.path}: cannot create its lock file "
-                                 f"{self._lock.path.name} ({_os_error_text(exc)})") from None
+            raise RecordingError(
+                f"cannot create {self.path}: cannot create its lock file "
+                f"{self._lock.path.name} ({_os_error_text(exc)})"
+            ) from None
         try:
             self._create(overwrite, backend, rig_text, experiment_text)
         except BaseException:
@@ -404,23 +423,24 @@ class RecordingWriter:
                 os.close(self._fd)
                 self._fd = None
                 with contextlib.suppress(OSError):
-                    self.path.unlink()      # a half-made file we created: not a recording
+                    self.path.unlink()  # a half-made file we created: not a recording
             self._lock.release()
             raise
 
     def _create(self, overwrite: bool, backend: str, rig_text: str, experiment_text: str) -> None:
         if self.path.exists() and not overwrite:
-            raise RecordingError(f"{self.path} exists; pass overwrite=True (rig: --overwrite) to "
-                                 "replace it")
+            raise RecordingError(f"{self.path} exists; pass overwrite=True (rig: --overwrite) to replace it")
         try:
-            self._file = h5py.File(self.path, "w" if overwrite else "w-", libver=LIBVER,
-                                   locking=False)
+            self._file = h5py.File(self.path, "w" if overwrite else "w-", libver=LIBVER, locking=False)
         except (FileExistsError, OSError) as exc:
             number = getattr(exc, "errno", None) or 0
-            if number in (errno_codes.ENOSPC, errno_codes.EFBIG,
-                          getattr(errno_codes, "EDQUOT", -1), errno_codes.EIO):
-                raise RecordingWriteError(f"cannot create {self.path}: "
-                                          f"{_os_error_text(exc)}") from None
+            if number in (
+                errno_codes.ENOSPC,
+                errno_codes.EFBIG,
+                getattr(errno_codes, "EDQUOT", -1),
+                errno_codes.EIO,
+            ):
+                raise RecordingWriteError(f"cannot create {self.path}: {_os_error_text(exc)}") from None
             raise RecordingError(f"cannot create {self.path}: {exc}") from None
         try:
             self._fd = os.open(self.path, os.O_RDWR)
@@ -454,8 +474,11 @@ class RecordingWriter:
             try:
                 self.abort(one_line(exc))
             except Exception as secondary:  # never hide the original exception
-                warnings.warn(f"could not mark {self.path} as aborted: {one_line(secondary)}",
-                              RuntimeWarning, stacklevel=2)
+                warnings.warn(
+                    f"could not mark {self.path} as aborted: {one_line(secondary)}",
+                    RuntimeWarning,
+                    stacklevel=2,
+                )
         return False
 
     # -- points ------------------------------------------------------------------------------
@@ -464,8 +487,9 @@ class RecordingWriter:
         """Number of points begun so far."""
         return self._n_points
 
-    def begin_point(self, params: Mapping[str, Any] | None = None,
-                    channels: Sequence[ChannelSpec] = ()) -> PointWriter:
+    def begin_point(
+        self, params: Mapping[str, Any] | None = None, channels: Sequence[ChannelSpec] = ()
+    ) -> PointWriter:
         """Start point ``/points/NNNN`` with its parameters and channels; returns its writer.
 
         Parameters
@@ -495,8 +519,7 @@ class RecordingWriter:
 
         index = self._n_points
         # the partial last chunk of every channel is rewritten at each flush
-        self._final_reserve = max(self._final_reserve,
-                                  BASE_RESERVE + 2 * len(channels) * self._chunk * 8)
+        self._final_reserve = max(self._final_reserve, BASE_RESERVE + 2 * len(channels) * self._chunk * 8)
         what = f"adding point {point_name(index)}"
         self._reopen_plain(what)
         self._ensure_space(65536 + 16384 * len(channels), what)
@@ -511,9 +534,15 @@ class RecordingWriter:
                 filters = {"compression": "gzip", "compression_opts": self._level, "shuffle": True}
             datasets = []
             for spec in channels:
-                dataset = group.create_dataset(spec.name, shape=(0,), maxshape=(None,),
-                                               dtype="<f8", chunks=(self._chunk,),
-                                               fillvalue=np.nan, **filters)
+                dataset = group.create_dataset(
+                    spec.name,
+                    shape=(0,),
+                    maxshape=(None,),
+                    dtype="<f8",
+                    chunks=(self._chunk,),
+                    fillvalue=np.nan,
+                    **filters,
+                )
                 for key, value in spec.attrs().items():
                     dataset.attrs[key] = value
                 datasets.append(dataset)
@@ -543,7 +572,7 @@ class RecordingWriter:
             for key, value in point._pending.items():
                 group.attrs[key] = value
             if point._pending:
-                self._file.flush()      # parameters on disk before end_time marks the point ended
+                self._file.flush()  # parameters on disk before end_time marks the point ended
             group.attrs["end_time"] = utc_now()
             self._start_swmr()
         point.ended = True
@@ -601,7 +630,7 @@ class RecordingWriter:
                 self._closed = True
                 self.status = status
                 try:
-                    self._file.close()    # HDF5 trims the reserved space here
+                    self._file.close()  # HDF5 trims the reserved space here
                 finally:
                     self._release()
 
@@ -636,18 +665,20 @@ class RecordingWriter:
             if size < need:
                 try:
                     _preallocate(self._fd, size, max(need - size, RESERVE_STEP))
-                except OSError:     # not a whole step left: take just what is needed
+                except OSError:  # not a whole step left: take just what is needed
                     _preallocate(self._fd, size, need - size)
         except OSError as exc:
             if not fail_clean:
-                raise RecordingWriteError(f"cannot write {self.path} ({what}): "
-                                          f"{_os_error_text(exc)}") from None
+                raise RecordingWriteError(
+                    f"cannot write {self.path} ({what}): {_os_error_text(exc)}"
+                ) from None
             self._write_failed(exc, what, hdf5_failed=False)
 
     def _write_failed(self, exc: BaseException, what: str, hdf5_failed: bool) -> None:
         """End the run after a write error and raise :class:`RecordingWriteError`."""
-        message = (f"cannot write {self.path} ({what}): {_os_error_text(exc)}; "
-                   "everything flushed before is kept")
+        message = (
+            f"cannot write {self.path} ({what}): {_os_error_text(exc)}; everything flushed before is kept"
+        )
         point = self._point
         if point is not None:
             point._datasets = []

@@ -17,9 +17,18 @@ from pathlib import Path
 
 import numpy as np
 
-FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-         "--disable-background-networking", "--disable-component-update", "--disable-sync",
-         "--hide-scrollbars", "--force-device-scale-factor=1"]
+FLAGS = [
+    "--headless",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-quic",
+    "--no-first-run",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--hide-scrollbars",
+    "--force-device-scale-factor=1",
+]
 CANDIDATES = ("chromium", "chromium-browser", "google-chrome", "google-chrome-stable")
 
 
@@ -33,8 +42,10 @@ def find_chromium() -> str:
         path = shutil.which(name)
         if path:
             return path
-    raise BrowserUnavailable("no chromium on PATH: install Debian's package 'chromium' "
-                             "(.ci/run does) to check reports in a real browser")
+    raise BrowserUnavailable(
+        "no chromium on PATH: install Debian's package 'chromium' "
+        "(.ci/run does) to check reports in a real browser"
+    )
 
 
 @dataclass(frozen=True)
@@ -60,7 +71,7 @@ class PageShot:
 
     def crop(self, box: FigureBox) -> np.ndarray:
         l, t = int(round(box.left)), int(round(box.top))
-        return self.image[t:t + int(round(box.height)), l:l + int(round(box.width))]
+        return self.image[t : t + int(round(box.height)), l : l + int(round(box.width))]
 
 
 def _run(args: list[str], timeout: float) -> str:
@@ -84,8 +95,17 @@ def screenshot_page(page: str | Path, width: int = 1300, timeout: float = 60.0) 
         boxes = []
         for rect in re.findall(r'data-rect="([^"]+)"', dom):
             v = rect.split(",")
-            boxes.append(FigureBox(float(v[0]), float(v[1]), float(v[2]), float(v[3]),
-                                   int(float(v[4])), int(float(v[5])), v[6] == "true"))
+            boxes.append(
+                FigureBox(
+                    float(v[0]),
+                    float(v[1]),
+                    float(v[2]),
+                    float(v[3]),
+                    int(float(v[4])),
+                    int(float(v[5])),
+                    v[6] == "true",
+                )
+            )
         shot = Path(tmp) / "page.png"
         _run([exe, *FLAGS, *profile, f"--window-size={width},{height}", f"--screenshot={shot}", url], timeout)
         image = mpimg.imread(str(shot))[..., :3]

@@ -54,7 +54,7 @@ def figure_png(fig: Any, dpi: int = DPI) -> tuple[bytes, int, int]:
     fig.savefig(buf, format="png", dpi=dpi)
     plt.close(fig)
     data = buf.getvalue()
-    width = int.from_bytes(data[16:20], "big")       # PNG IHDR
+    width = int.from_bytes(data[16:20], "big")  # PNG IHDR
     height = int.from_bytes(data[20:24], "big")
     return data, width, height
 
@@ -90,8 +90,13 @@ class Section:
         self.blocks.append(f'<p class="note">{html.escape(text)}</p>')
         return self
 
-    def table(self, rows: Sequence[Mapping[str, Any]] | Any, caption: str = "",
-              columns: Sequence[str] | None = None, digits: int = 5) -> "Section":
+    def table(
+        self,
+        rows: Sequence[Mapping[str, Any]] | Any,
+        caption: str = "",
+        columns: Sequence[str] | None = None,
+        digits: int = 5,
+    ) -> "Section":
         """A table from a list of dicts (or a pandas DataFrame); column names should carry units."""
         if hasattr(rows, "to_dict"):
             rows = rows.to_dict("records")
@@ -105,8 +110,11 @@ class Section:
             cells = []
             for c in cols:
                 text, is_text = _cell(row.get(c), digits)
-                cells.append(f'<td class="text">{html.escape(text)}</td>' if is_text
-                             else f"<td>{html.escape(text)}</td>")
+                cells.append(
+                    f'<td class="text">{html.escape(text)}</td>'
+                    if is_text
+                    else f"<td>{html.escape(text)}</td>"
+                )
             out.append("<tr>" + "".join(cells) + "</tr>")
         out.append("</table>")
         self.blocks.append("\n".join(out))
@@ -120,7 +128,8 @@ class Section:
         self.blocks.append(
             f'<figure><img class="figure" src="{src}" width="{width}" height="{height}" '
             f'alt="{html.escape(caption)}" data-expected="{width},{height}">'
-            f"<figcaption>{html.escape(caption)}</figcaption></figure>")
+            f"<figcaption>{html.escape(caption)}</figcaption></figure>"
+        )
         return self
 
     def html(self) -> str:
@@ -150,10 +159,12 @@ class Report:
         made = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
         sub = html.escape(self.subtitle + (" · " if self.subtitle else "") + f"made {made}")
         body = "\n".join(s.html() for s in self.sections)
-        return (f'<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8">'
-                f"<title>{html.escape(self.title)}</title><style>{CSS}</style></head>\n"
-                f'<body><h1>{html.escape(self.title)}</h1><p class="sub">{sub}</p>\n{body}\n'
-                f"<script>{SCRIPT}</script></body></html>\n")
+        return (
+            f'<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8">'
+            f"<title>{html.escape(self.title)}</title><style>{CSS}</style></head>\n"
+            f'<body><h1>{html.escape(self.title)}</h1><p class="sub">{sub}</p>\n{body}\n'
+            f"<script>{SCRIPT}</script></body></html>\n"
+        )
 
 
 def write_report(report: Report, path: str | Path) -> Path:

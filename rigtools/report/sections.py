@@ -24,7 +24,7 @@ import numpy as np
 
 from rigtools.analyze import TABLE_HARMONICS, RecordingAnalysis, point_window
 
-MAX_WAVEFORM_FIGURES = 4     # periodic points drawn as waveforms (first, last and between)
+MAX_WAVEFORM_FIGURES = 4  # periodic points drawn as waveforms (first, last and between)
 WAVEFORM_CHANNELS = ("force", "active_shroud_accel", "passive_shroud_accel", "contact_force")
 
 
@@ -60,9 +60,16 @@ def study_axis(analysis: RecordingAnalysis) -> tuple[str, np.ndarray] | None:
     return None
 
 
-def analysis_figures(analysis: RecordingAnalysis, *, max_waveforms: int = MAX_WAVEFORM_FIGURES) -> list[NamedFigure]:
+def analysis_figures(
+    analysis: RecordingAnalysis, *, max_waveforms: int = MAX_WAVEFORM_FIGURES
+) -> list[NamedFigure]:
     """The figures of one analysed recording (see the module docstring)."""
-    from rigtools.analysis.plots import frf_figure, stabilisation_figure, time_and_spectrum_figure, trend_figure
+    from rigtools.analysis.plots import (
+        frf_figure,
+        stabilisation_figure,
+        time_and_spectrum_figure,
+        trend_figure,
+    )
 
     figs: list[NamedFigure] = []
     stem = Path(analysis.path).stem
@@ -71,30 +78,47 @@ def analysis_figures(analysis: RecordingAnalysis, *, max_waveforms: int = MAX_WA
         p = periodic[i]
         data, rate, t0, units = point_window(analysis.path, p.index)
         data = {c: data[c] for c in WAVEFORM_CHANNELS if c in data and c in p.units} or data
-        with warnings.catch_warnings():     # a channel at rest (passive blade, gap open) is all zero
+        with warnings.catch_warnings():  # a channel at rest (passive blade, gap open) is all zero
             warnings.filterwarnings("ignore", "Data has no positive values")
-            fig = time_and_spectrum_figure(data, {c: units[c] for c in data}, rate, float(p.fe), t0=t0,
-                                           k_max=min(30, int(rate / 2 / p.fe) - 1),
-                                           title=f"{stem} point {p.index}")
-        figs.append(NamedFigure(f"point{p.index}-waveforms", fig,
-                                f"Point {p.index}: waveforms over the last periods (time from the upward zero "
-                                f"crossing of the force fundamental) and peak-amplitude spectra (flat-top "
-                                f"window, k·fe marked), fe = {p.fe:g} Hz."))
+            fig = time_and_spectrum_figure(
+                data,
+                {c: units[c] for c in data},
+                rate,
+                float(p.fe),
+                t0=t0,
+                k_max=min(30, int(rate / 2 / p.fe) - 1),
+                title=f"{stem} point {p.index}",
+            )
+        figs.append(
+            NamedFigure(
+                f"point{p.index}-waveforms",
+                fig,
+                f"Point {p.index}: waveforms over the last periods (time from the upward zero "
+                f"crossing of the force fundamental) and peak-amplitude spectra (flat-top "
+                f"window, k·fe marked), fe = {p.fe:g} Hz.",
+            )
+        )
     curves = analysis.response_curves()
     axis = study_axis(analysis)
     if curves is not None and curves["frf"] and axis is not None and axis[0] == "frequency":
         order = np.argsort(curves["fe"], kind="stable")
         fe = curves["fe"][order]
         frfs = {f"X1/F1 {c.replace('_', ' ')}": h[order] for c, h in curves["frf"].items()}
-        fig = frf_figure(fe, frfs, kind=analysis.frf_kind,
-                         title=f"{stem}: first-harmonic FRF over fe (stepped sine)")
+        fig = frf_figure(
+            fe, frfs, kind=analysis.frf_kind, title=f"{stem}: first-harmonic FRF over fe (stepped sine)"
+        )
         for ax in fig.axes:
             for line in ax.lines:
                 line.set_marker("o")
                 line.set_markersize(3)
-        figs.append(NamedFigure("stepped-sine-frf", fig,
-                                f"Stepped sine: first-harmonic response over force X1/F1 as {analysis.frf_kind}, "
-                                "magnitude and phase, one marker per step."))
+        figs.append(
+            NamedFigure(
+                "stepped-sine-frf",
+                fig,
+                f"Stepped sine: first-harmonic response over force X1/F1 as {analysis.frf_kind}, "
+                "magnitude and phase, one marker per step.",
+            )
+        )
     if curves is not None and axis is not None:
         kind, values = axis
         direction = curves["direction"]
@@ -112,17 +136,24 @@ def analysis_figures(analysis: RecordingAnalysis, *, max_waveforms: int = MAX_WA
                 quantities[label] = {}
                 for d in dict.fromkeys(direction):
                     sel = np.array([x == d for x in direction])
-                    name = (f"{analysis.source.upper()} {d}" if d and len(set(direction)) > 1
-                            else analysis.source.upper())
+                    name = (
+                        f"{analysis.source.upper()} {d}"
+                        if d and len(set(direction)) > 1
+                        else analysis.source.upper()
+                    )
                     quantities[label][name] = (values[sel], arr[sel, k - 1])
                     sources[name] = True
         if quantities:
-            fig = trend_figure(kind, quantities, units,
-                               title=f"{stem}: harmonic amplitudes against {kind}")
-            figs.append(NamedFigure("harmonic-trends", fig,
-                                    f"Peak amplitudes of the force fundamental and of the shroud accelerations' "
-                                    f"{', '.join(f'{k}·fe' for k in TABLE_HARMONICS)} harmonics against {kind}, "
-                                    "one line per sweep direction."))
+            fig = trend_figure(kind, quantities, units, title=f"{stem}: harmonic amplitudes against {kind}")
+            figs.append(
+                NamedFigure(
+                    "harmonic-trends",
+                    fig,
+                    f"Peak amplitudes of the force fundamental and of the shroud accelerations' "
+                    f"{', '.join(f'{k}·fe' for k in TABLE_HARMONICS)} harmonics against {kind}, "
+                    "one line per sweep direction.",
+                )
+            )
     for p in analysis.broadband:
         est = p.frf.estimate
         band = p._band()
@@ -131,45 +162,83 @@ def analysis_figures(analysis: RecordingAnalysis, *, max_waveforms: int = MAX_WA
             m = p.frf.modes[r]
             fn = [x.frequency_hz for x in m.modes]
             frfs = {"H1": est.h1[i][band], "H2": est.h2[i][band], "Hv": est.hv[i][band]}
-            fig = frf_figure(f, frfs, coherence={r.replace("_", " "): est.coherence[i][band]},
-                             kind=analysis.frf_kind, natural_frequencies_hz=fn or None,
-                             title=f"{stem} point {p.index}: {r.replace('_', ' ')} / force")
-            figs.append(NamedFigure(f"point{p.index}-{r}-frf", fig,
-                                    f"Point {p.index}: H1, H2 and Hv of {r} over the force as {analysis.frf_kind} "
-                                    f"(magnitude and phase), coherence below; {est.n_averages} averages, "
-                                    f"{est.resolution_hz:.3g} Hz resolution."))
+            fig = frf_figure(
+                f,
+                frfs,
+                coherence={r.replace("_", " "): est.coherence[i][band]},
+                kind=analysis.frf_kind,
+                natural_frequencies_hz=fn or None,
+                title=f"{stem} point {p.index}: {r.replace('_', ' ')} / force",
+            )
+            figs.append(
+                NamedFigure(
+                    f"point{p.index}-{r}-frf",
+                    fig,
+                    f"Point {p.index}: H1, H2 and Hv of {r} over the force as {analysis.frf_kind} "
+                    f"(magnitude and phase), coherence below; {est.n_averages} averages, "
+                    f"{est.resolution_hz:.3g} Hz resolution.",
+                )
+            )
             if m.chart is not None and len(m.chart.orders):
-                fig = stabilisation_figure(m.chart, f, np.abs(est.h1[i][band]), natural_frequencies_hz=fn or None,
-                                           title=f"{stem} point {p.index}: stabilisation chart of {r.replace('_', ' ')}")
-                figs.append(NamedFigure(f"point{p.index}-{r}-stabilisation", fig,
-                                        f"Point {p.index}: LSCF poles per model order over |H1| of {r}; "
-                                        "filled: stable in frequency and damping; dashed: identified modes."))
+                fig = stabilisation_figure(
+                    m.chart,
+                    f,
+                    np.abs(est.h1[i][band]),
+                    natural_frequencies_hz=fn or None,
+                    title=f"{stem} point {p.index}: stabilisation chart of {r.replace('_', ' ')}",
+                )
+                figs.append(
+                    NamedFigure(
+                        f"point{p.index}-{r}-stabilisation",
+                        fig,
+                        f"Point {p.index}: LSCF poles per model order over |H1| of {r}; "
+                        "filled: stable in frequency and damping; dashed: identified modes.",
+                    )
+                )
     return figs
 
 
 def add_analysis(report, analysis: RecordingAnalysis) -> None:
     """One section per recording: summary, tables, notes and figures."""
     sec = report.section(f"{Path(analysis.path).name}: {analysis.procedure or 'recording'}")
-    sec.text(f"Backend {analysis.backend} ({analysis.source.upper()}), status {analysis.status}, "
-             f"{len(analysis.points)} point(s) analysed. Amplitudes are peak amplitudes; FRFs as "
-             f"{analysis.frf_kind}.")
+    sec.text(
+        f"Backend {analysis.backend} ({analysis.source.upper()}), status {analysis.status}, "
+        f"{len(analysis.points)} point(s) analysed. Amplitudes are peak amplitudes; FRFs as "
+        f"{analysis.frf_kind}."
+    )
     for note in analysis.notes + analysis.skipped:
         sec.note(note)
     rows = analysis.point_rows()
     if rows:
         sec.table(rows, caption="Periodic points: force fundamental and shroud-acceleration harmonics (peak)")
-        sec.note("No modes from these points: a sine excites one frequency at a time "
-                 "(a broadband FRF test identifies modes).")
+        sec.note(
+            "No modes from these points: a sine excites one frequency at a time "
+            "(a broadband FRF test identifies modes)."
+        )
     modes = analysis.mode_rows()
     if modes:
-        sec.table(modes, caption="Identified modes per response (LSCF with stabilisation check, or peak picking)")
+        sec.table(
+            modes, caption="Identified modes per response (LSCF with stabilisation check, or peak picking)"
+        )
     if analysis.frequency_table:
-        cols = {"blade": "blade", "mode": "mode", "fem_hz": "FEM (Hz)", "am_hz": "AM (Hz)", "em_hz": "EM (Hz)",
-                "fem_vs_em_pct": "FEM vs EM (%)", "am_vs_em_pct": "AM vs EM (%)",
-                "article_hz": "simulated test article (Hz)", "em_vs_article_pct": "EM vs article (%)"}
+        cols = {
+            "blade": "blade",
+            "mode": "mode",
+            "fem_hz": "FEM (Hz)",
+            "am_hz": "AM (Hz)",
+            "em_hz": "EM (Hz)",
+            "fem_vs_em_pct": "FEM vs EM (%)",
+            "am_vs_em_pct": "AM vs EM (%)",
+            "article_hz": "simulated test article (Hz)",
+            "em_vs_article_pct": "EM vs article (%)",
+        }
         rows = [{t: r.get(k) for k, t in cols.items() if k in r} for r in analysis.frequency_table]
-        sec.table(rows, caption="Flexural natural frequencies, FEM, AM and EM (identified), as the paper's "
-                                "Table 2; differences 100 (model - EM) / EM", digits=6)
+        sec.table(
+            rows,
+            caption="Flexural natural frequencies, FEM, AM and EM (identified), as the paper's "
+            "Table 2; differences 100 (model - EM) / EM",
+            digits=6,
+        )
     for p in analysis.broadband:
         for n in p.notes:
             sec.note(f"point {p.index}: {n}")

@@ -12,13 +12,13 @@ import numpy as np
 
 M = np.diag([1.0, 0.5])
 K = np.array([[3.0e5 + 2.0e5, -2.0e5], [-2.0e5, 2.0e5]])
-C = 5e-5 * K + 8.0 * M       # Rayleigh damping: zeta 2.6 % and 2.6 % (see modes())
+C = 5e-5 * K + 8.0 * M  # Rayleigh damping: zeta 2.6 % and 2.6 % (see modes())
 
 
 def receptance(f: np.ndarray, out: int = 0, m=M, c=C, k=K) -> np.ndarray:
     """X_out / F_1 (m/N) at frequencies ``f`` (Hz)."""
     w = 2 * np.pi * np.asarray(f, dtype=float)
-    z = k[None] - (w**2)[:, None, None] * m[None] + 1j * w[:, None, None] * c[None]   # (n, 2, 2)
+    z = k[None] - (w**2)[:, None, None] * m[None] + 1j * w[:, None, None] * c[None]  # (n, 2, 2)
     det = z[:, 0, 0] * z[:, 1, 1] - z[:, 0, 1] * z[:, 1, 0]
     # first column of the 2x2 inverse: [z11, -z10] / det
     return (z[:, 1, 1] if out == 0 else -z[:, 1, 0]) / det

@@ -5,8 +5,12 @@ import numpy as np
 import pytest
 
 from rigtools.analysis.compare import (
-    agreement_score, explain_harmonic_difference, explain_large_differences, harmonic_table,
-    natural_frequency_table, single_mode_gain,
+    agreement_score,
+    explain_harmonic_difference,
+    explain_large_differences,
+    harmonic_table,
+    natural_frequency_table,
+    single_mode_gain,
 )
 
 
@@ -28,17 +32,28 @@ def test_natural_frequency_table_pairs_by_blade_and_order():
 
 def test_harmonic_table_differences():
     em = {"force": np.array([15.0, 0.5, 0.1]), "active_acceleration": np.array([100.0, 20.0, 34.0])}
-    fem = {"force": np.array([15.0, 0.0, 0.0]), "active_acceleration": np.array([110.0, 10.0, 128.0]), "x": [1]}
+    fem = {
+        "force": np.array([15.0, 0.0, 0.0]),
+        "active_acceleration": np.array([110.0, 10.0, 128.0]),
+        "x": [1],
+    }
     t = harmonic_table(em, fem, 60.0)
     assert len(t) == 6 and set(t.channel) == {"force", "active_acceleration"}
     r = t[(t.channel == "active_acceleration") & (t.k == 3)].iloc[0]
-    assert r.frequency_hz == 180.0 and r.diff_pct == pytest.approx(100 * (128 - 34) / 34) and r.ratio == pytest.approx(128 / 34)
+    assert (
+        r.frequency_hz == 180.0
+        and r.diff_pct == pytest.approx(100 * (128 - 34) / 34)
+        and r.ratio == pytest.approx(128 / 34)
+    )
 
 
 def _harm(seed, n=30):
     rng = np.random.default_rng(seed)
-    return {"force": rng.uniform(0.01, 1, n) * 15, "active": rng.uniform(0.01, 1, n) * 300,
-            "passive": rng.uniform(0.01, 1, n) * 500}
+    return {
+        "force": rng.uniform(0.01, 1, n) * 15,
+        "active": rng.uniform(0.01, 1, n) * 300,
+        "passive": rng.uniform(0.01, 1, n) * 500,
+    }
 
 
 def test_agreement_score_properties():
@@ -55,7 +70,9 @@ def test_agreement_score_properties():
     # invariant to a common unit scale per channel (e.g. m/s^2 vs g)
     scaled_em = {c: v * (9.81 if c != "force" else 1.0) for c, v in em.items()}
     scaled_fem = {c: v * (9.81 if c != "force" else 1.0) for c, v in fem.items()}
-    assert agreement_score(scaled_em, scaled_fem).score == pytest.approx(agreement_score(em, fem).score, rel=1e-12)
+    assert agreement_score(scaled_em, scaled_fem).score == pytest.approx(
+        agreement_score(em, fem).score, rel=1e-12
+    )
     # monotone: moving one harmonic further away lowers the score; bounded in (0, 1]
     prev = 1.0
     for f in (1.0, 1.5, 3.0, 10.0, 100.0):
@@ -96,25 +113,34 @@ def test_frequency_offset_explains_a_super_harmonic_difference():
 
 def test_pair_points_by_parameters():
     from rigtools.analysis.compare import pair_points
-    em = [{"fe": 60.0, "gap": 0.5e-3, "force_amplitude_target": 15.0},
-          {"fe": 60.0, "gap": 0.7e-3, "force_amplitude_target": 15.0},
-          {"fe": 80.0, "gap": 0.7e-3, "force_amplitude_target": 15.0}]
-    model = [{"fe": 60.0, "gap": 0.7e-3, "force_amplitude_target": 15.1},
-             {"fe": 60.0, "gap": 0.5e-3, "force_amplitude_target": 14.9}]
+
+    em = [
+        {"fe": 60.0, "gap": 0.5e-3, "force_amplitude_target": 15.0},
+        {"fe": 60.0, "gap": 0.7e-3, "force_amplitude_target": 15.0},
+        {"fe": 80.0, "gap": 0.7e-3, "force_amplitude_target": 15.0},
+    ]
+    model = [
+        {"fe": 60.0, "gap": 0.7e-3, "force_amplitude_target": 15.1},
+        {"fe": 60.0, "gap": 0.5e-3, "force_amplitude_target": 14.9},
+    ]
     assert pair_points(em, model) == [(0, 1), (1, 0)]
 
 
 def test_trend_series_and_point_agreement_from_dwell_analyses():
     from rigtools.analysis.compare import point_agreement, trend_series
     from rigtools.analysis.point import analyze_dwell
+
     fs, fe = 10240.0, 60.0
     t = np.arange(int(fs)) / fs
     w = 2 * np.pi * fe
     pts = []
     for scale in (1.0, 2.0):
-        ch = {"force": 15 * np.sin(w * t),
-              "active_shroud_accel": scale * (100 * np.sin(w * t) + 34 * np.sin(6 * w * t)),
-              "passive_shroud_accel": scale * (50 * np.sin(w * t) + 7 * np.sin(8 * w * t) + 3 * np.sin(22 * w * t))}
+        ch = {
+            "force": 15 * np.sin(w * t),
+            "active_shroud_accel": scale * (100 * np.sin(w * t) + 34 * np.sin(6 * w * t)),
+            "passive_shroud_accel": scale
+            * (50 * np.sin(w * t) + 7 * np.sin(8 * w * t) + 3 * np.sin(22 * w * t)),
+        }
         pts.append(analyze_dwell(ch, fs, fe))
     s = trend_series(pts)
     np.testing.assert_allclose(s["active shroud accel 6·fe amplitude"], [34.0, 68.0], rtol=1e-9)

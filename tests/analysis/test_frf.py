@@ -31,7 +31,9 @@ def test_kind_conversions_match_closed_form():
     back = convert_frf(convert_frf(rec, f, "receptance", "accelerance"), f, "accelerance", "receptance")
     np.testing.assert_allclose(back, rec, rtol=1e-12)
     # static limit of receptance is 1/k = 1/(m wn^2)
-    assert sdof_frf(np.array([1e-6]), 80.0, 0.02, 0.3)[0].real == pytest.approx(1 / (0.3 * (2 * np.pi * 80) ** 2), rel=1e-6)
+    assert sdof_frf(np.array([1e-6]), 80.0, 0.02, 0.3)[0].real == pytest.approx(
+        1 / (0.3 * (2 * np.pi * 80) ** 2), rel=1e-6
+    )
 
 
 def test_h1_of_known_filter_with_output_noise():

@@ -7,7 +7,10 @@ from scipy import signal
 
 from _reference import periodic_response, receptance
 from rigtools.analysis.frf import (
-    SpectraAccumulator, estimate_frf, excitation_settings, frf_from_blocks,
+    SpectraAccumulator,
+    estimate_frf,
+    excitation_settings,
+    frf_from_blocks,
 )
 
 FS = 512.0
@@ -23,7 +26,7 @@ def _random_test(out_noise=0.0, in_noise=0.0, n=2**18, seed=7):
 
 
 def _exact_accelerance(f):
-    return -(2 * np.pi * f) ** 2 * receptance(f, out=1)
+    return -((2 * np.pi * f) ** 2) * receptance(f, out=1)
 
 
 def _within_1_percent(est, h):
@@ -90,7 +93,7 @@ def test_accumulator_equals_scipy_csd_for_any_block_size(block):
     rng = np.random.default_rng(11)
     data = rng.standard_normal((4, 100_000)) + 0.3
     kw = dict(fs=FS, nperseg=1024, noverlap=512, window="hann", detrend="constant")
-    blocks = (data[:, i:i + block] for i in range(0, data.shape[1], block))
+    blocks = (data[:, i : i + block] for i in range(0, data.shape[1], block))
     est = frf_from_blocks(blocks, FS, nperseg=1024, noverlap=512)
     f, sxx = signal.welch(data[0], **kw)
     np.testing.assert_allclose(est.frequency_hz, f)
@@ -116,7 +119,7 @@ def test_periodic_chirp_whole_periods_no_window_is_exact():
     y = periodic_response(x, FS, out=1, kind="accelerance")
     acc = SpectraAccumulator(FS, **excitation_settings("periodic", period))
     for i in range(0, x.size, 700):
-        acc.add(np.vstack([x[i:i + 700], y[i:i + 700]]))
+        acc.add(np.vstack([x[i : i + 700], y[i : i + 700]]))
     est = acc.frf()
     assert est.n_averages == 8
     f = est.frequency_hz
@@ -136,7 +139,9 @@ def test_burst_random_rectangular_window():
     for b in range(n_bursts):
         # cosine-tapered edges (Tukey 20 %): a hard edge rings on between the samples of the
         # band-limited force and would leak into the next burst's segment
-        x[b * period: b * period + period // 4] = rng.standard_normal(period // 4) * signal.windows.tukey(period // 4, 0.2)
+        x[b * period : b * period + period // 4] = rng.standard_normal(period // 4) * signal.windows.tukey(
+            period // 4, 0.2
+        )
     y = periodic_response(x, FS, out=1, kind="accelerance")
     est = frf_from_blocks([np.vstack([x, y])], FS, **excitation_settings("burst", period))
     f = est.frequency_hz

@@ -37,7 +37,7 @@ def test_sine_convention_and_residual():
     fit = harmonic_amplitudes(3 * np.sin(2 * np.pi * fe * t), fs, fe, 5)
     assert fit.at(1) == pytest.approx(3.0, rel=1e-12)
     assert fit.phase[0] == pytest.approx(-np.pi / 2, abs=1e-12)
-    tone = 0.5 * np.sin(2 * np.pi * 30.0 * t)     # 1.5 fe, orthogonal over whole periods
+    tone = 0.5 * np.sin(2 * np.pi * 30.0 * t)  # 1.5 fe, orthogonal over whole periods
     fit2 = harmonic_amplitudes(3 * np.sin(2 * np.pi * fe * t) + tone, fs, fe, 5)
     assert fit2.at(1) == pytest.approx(3.0, rel=1e-12)
     assert fit2.residual_rms == pytest.approx(0.5 / np.sqrt(2), rel=1e-9)
@@ -47,7 +47,12 @@ def test_records_are_plain_numbers():
     fs, fe = 1000.0, 10.0
     t = np.arange(1000) / fs
     rec = harmonic_amplitudes(np.cos(2 * np.pi * fe * t), fs, fe, 3).to_records()
-    assert rec[0] == {"k": 1, "frequency_hz": 10.0, "amplitude": pytest.approx(1.0), "phase": pytest.approx(0.0, abs=1e-12)}
+    assert rec[0] == {
+        "k": 1,
+        "frequency_hz": 10.0,
+        "amplitude": pytest.approx(1.0),
+        "phase": pytest.approx(0.0, abs=1e-12),
+    }
     assert all(type(r["k"]) is int and type(r["amplitude"]) is float for r in rec)
 
 
@@ -69,11 +74,14 @@ def test_derivative_harmonics_match_the_differentiated_signal():
     for kk, a, p in zip(k, amps, phases):
         acc -= a * (2 * np.pi * fe * kk) ** 2 * np.cos(2 * np.pi * kk * fe * t + p)
     from rigtools.analysis.harmonics import derivative_harmonics
+
     d2 = derivative_harmonics(harmonic_amplitudes(x, fs, fe, kmax), order=2)
     ref = harmonic_amplitudes(acc, fs, fe, kmax)
     np.testing.assert_allclose(d2.amplitude, ref.amplitude, rtol=1e-9)
     np.testing.assert_allclose(np.angle(np.exp(1j * (d2.phase - ref.phase))), 0, atol=1e-9)
-    np.testing.assert_allclose(derivative_harmonics(harmonic_amplitudes(x, fs, fe, kmax)).amplitude, amps * w, rtol=1e-9)
+    np.testing.assert_allclose(
+        derivative_harmonics(harmonic_amplitudes(x, fs, fe, kmax)).amplitude, amps * w, rtol=1e-9
+    )
 
 
 def test_multitone_with_noise_non_integer_records_within_0p1_percent():
@@ -101,6 +109,7 @@ def test_phases_relative_to_the_force_fundamental_do_not_depend_on_the_start():
     """The same periodic response and force sampled from two different start times: absolute
     phases differ, phases relative to the force fundamental agree (1e-9)."""
     from rigtools.analysis.harmonics import relative_phases
+
     fs, fe = 4000.0, 50.0
     amps, phases = [1.0, 0.3, 0.1], [0.2, -1.0, 2.5]
     fits = []
@@ -110,7 +119,9 @@ def test_phases_relative_to_the_force_fundamental_do_not_depend_on_the_start():
         force = harmonic_amplitudes(_signal(t, fe, [5.0], [0.7]), fs, fe, 3)
         fits.append(relative_phases(resp, force))
     np.testing.assert_allclose(np.angle(np.exp(1j * (fits[0] - fits[1]))), 0, atol=1e-9)
-    np.testing.assert_allclose(fits[0], np.angle(np.exp(1j * (np.array(phases) - np.arange(1, 4) * 0.7))), atol=1e-9)
+    np.testing.assert_allclose(
+        fits[0], np.angle(np.exp(1j * (np.array(phases) - np.arange(1, 4) * 0.7))), atol=1e-9
+    )
 
 
 def test_blocks_give_the_whole_record_fit():
@@ -118,13 +129,18 @@ def test_blocks_give_the_whole_record_fit():
     fundamental (not whole periods), fed in blocks of 9999: amplitudes, phases, offsets and
     residuals equal the one-shot least squares (1e-9 relative / 1e-9 rad)."""
     from rigtools.analysis.harmonics import harmonics_from_blocks
+
     rng = np.random.default_rng(12)
     fs, fe, kmax = 5120.0, 47.3, 30
     t = np.arange(int(7.3 * fs)) / fs
-    x = np.vstack([_signal(t, fe, rng.uniform(0.5, 2, kmax), rng.uniform(-3, 3, kmax), 0.3),
-                   _signal(t, fe, rng.uniform(0.5, 2, kmax), rng.uniform(-3, 3, kmax), -1.0)])
+    x = np.vstack(
+        [
+            _signal(t, fe, rng.uniform(0.5, 2, kmax), rng.uniform(-3, 3, kmax), 0.3),
+            _signal(t, fe, rng.uniform(0.5, 2, kmax), rng.uniform(-3, 3, kmax), -1.0),
+        ]
+    )
     x += 0.01 * rng.standard_normal(x.shape)
-    fits = harmonics_from_blocks((x[:, i:i + 9999] for i in range(0, x.shape[1], 9999)), fs, fe, kmax)
+    fits = harmonics_from_blocks((x[:, i : i + 9999] for i in range(0, x.shape[1], 9999)), fs, fe, kmax)
     for c in range(2):
         ref = harmonic_amplitudes(x[c], fs, fe, kmax)
         np.testing.assert_allclose(fits[c].amplitude, ref.amplitude, rtol=1e-9)

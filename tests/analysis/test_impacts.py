@@ -21,7 +21,7 @@ def _record(onsets, n_periods=30, seed=0, noise=0.5):
         i0 = int(round(t0 * FS))
         m = int(round(TAU * FS))
         if i0 + m < n:
-            fc[i0:i0 + m] = 50.0 * (0.4 + 0.6 * np.sin(np.pi * np.arange(m) / m))
+            fc[i0 : i0 + m] = 50.0 * (0.4 + 0.6 * np.sin(np.pi * np.arange(m) / m))
     w = 2 * np.pi * FE
     active = 100 * np.sin(w * t) + 40 * np.sin(6 * w * t + 0.3) - fc / 0.1
     passive = 30 * np.sin(w * t - 0.5) + 25 * np.sin(8 * w * t) + fc / 0.08
@@ -43,7 +43,7 @@ def test_period_one_impacts_counted_timed_and_sized():
     assert r.periodic and r.period_multiple == 1
     # raw peak of the active shroud: the pulse peak 500 m/s^2 on top of the smooth motion
     assert 400 < r.peak_levels["active_acceleration"] < 650
-    assert r.impulse_levels["passive_acceleration"] > 5 * 2.5   # well above the noise
+    assert r.impulse_levels["passive_acceleration"] > 5 * 2.5  # well above the noise
 
 
 def test_period_two_pattern():
@@ -91,7 +91,9 @@ def test_against_a_simulated_vibro_impact_run():
     run = run_harmonic(reduced_system(model.params, rig_model=model), FE, 15.0)
     o, fs = run.outputs, run.sample_rate
     truth = impacts_from_contact_force(o["contact_force"], fs, FE)
-    r = detect_impacts(o["active_tip_acceleration"], fs, FE, passive_acceleration=o["passive_tip_acceleration"])
+    r = detect_impacts(
+        o["active_tip_acceleration"], fs, FE, passive_acceleration=o["passive_tip_acceleration"]
+    )
     assert r.impacts_per_period == pytest.approx(truth["impacts_per_period"])
     np.testing.assert_allclose(r.times, truth["onsets"], atol=1.01 / fs)
     assert r.period_multiple == run.period_multiple
@@ -102,6 +104,7 @@ def test_periodic_double_integral_is_exact_for_whole_periods():
     """a = -w^2 A cos(w t) - (3w)^2 B sin(3 w t) integrates to A cos + B sin (1e-9), also when the
     record holds extra samples past the last whole period (repeated periodic part)."""
     from rigtools.analysis.impacts import periodic_double_integral
+
     fs, fe = 10000.0, 50.0
     t = np.arange(2037) / fs
     w = 2 * np.pi * fe

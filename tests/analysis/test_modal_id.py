@@ -6,7 +6,13 @@ import pytest
 from scipy import signal
 
 from rigtools.analysis.frf import estimate_frf, sdof_frf
-from rigtools.analysis.modal_id import fit_sdof, half_power_damping, identify_modes, parabolic_peak, pick_peaks
+from rigtools.analysis.modal_id import (
+    fit_sdof,
+    half_power_damping,
+    identify_modes,
+    parabolic_peak,
+    pick_peaks,
+)
 
 
 def _two_dof(f, kind="accelerance"):
@@ -52,8 +58,12 @@ def test_poles_of_digital_filter_identified_from_white_noise_h1():
     fn within 0.1 %, zeta within 15 %."""
     fs = 2000.0
     rng = np.random.default_rng(4)
-    systems = [signal.cont2discrete(([1.0], [1.0, 2 * z * 2 * np.pi * fn, (2 * np.pi * fn) ** 2]), 1 / fs, "bilinear")
-               for fn, z in ((100.0, 0.01), (450.0, 0.01))]
+    systems = [
+        signal.cont2discrete(
+            ([1.0], [1.0, 2 * z * 2 * np.pi * fn, (2 * np.pi * fn) ** 2]), 1 / fs, "bilinear"
+        )
+        for fn, z in ((100.0, 0.01), (450.0, 0.01))
+    ]
     x = rng.standard_normal(2**16)
     y = sum(signal.lfilter(np.ravel(num), den, x) for num, den, _ in systems)
     y = y + 0.02 * np.std(y) * rng.standard_normal(x.size)

@@ -24,7 +24,7 @@ def test_lscf_exact_frf_gives_exact_poles_and_mass_normalised_constants():
     """Noise-free exact accelerance on a 0.25 Hz grid: poles to 1e-6, LSFD constants (as
     receptance-form modal constants phi_1 phi_2 of the mass-normalised modes) to 1e-5."""
     f = np.arange(0, 256.001, 0.25)
-    h = -(2 * np.pi * f) ** 2 * receptance(f, 1)
+    h = -((2 * np.pi * f) ** 2) * receptance(f, 1)
     res = identify(f, h, kind="accelerance", f_min=10, f_max=250)
     fn, zeta = exact_modes()
     assert [m.method for m in res.modes] == ["lscf", "lscf"]
@@ -42,8 +42,16 @@ def test_two_dof_from_noisy_h1_within_half_percent_and_five_percent(method):
     """H1 of a random test (2 % output noise, 255 averages, df = 0.25 Hz): natural frequencies
     within 0.5 %, damping ratios within 5 % of the state-space poles."""
     est = _h1()
-    res = identify(est.frequency_hz, est.h1, kind="accelerance", excitation_psd=est.sxx,
-                   coherence=est.coherence, f_min=10, f_max=250, method=method)
+    res = identify(
+        est.frequency_hz,
+        est.h1,
+        kind="accelerance",
+        excitation_psd=est.sxx,
+        coherence=est.coherence,
+        f_min=10,
+        f_max=250,
+        method=method,
+    )
     fn, zeta = exact_modes()
     assert len(res.modes) == 2, res.notes
     np.testing.assert_allclose([m.frequency_hz for m in res.modes], fn, rtol=5e-3)
@@ -63,8 +71,16 @@ def test_no_mode_from_a_pure_sine_record():
     y = y + 0.01 * np.std(y) * rng.standard_normal(n)
     est = estimate_frf(x, y, FS, nperseg=2048)
     for method in ("lscf", "peak"):
-        res = identify(est.frequency_hz, est.h1, kind="accelerance", excitation_psd=est.sxx,
-                       coherence=est.coherence, f_min=10, f_max=250, method=method)
+        res = identify(
+            est.frequency_hz,
+            est.h1,
+            kind="accelerance",
+            excitation_psd=est.sxx,
+            coherence=est.coherence,
+            f_min=10,
+            f_max=250,
+            method=method,
+        )
         assert res.modes == []
         assert "sine dwell" in res.notes[0]
     support = excitation_support(est.frequency_hz, est.sxx, est.coherence, f_min=10, f_max=250)
@@ -75,4 +91,4 @@ def test_no_mode_from_a_pure_sine_record():
 def test_broadband_support_is_complete():
     est = _h1(n=2**16)
     support = excitation_support(est.frequency_hz, est.sxx, est.coherence, f_min=10, f_max=250)
-    assert support.ok and support.fraction > 0.9   # the anti-resonance bins lose coherence
+    assert support.ok and support.fraction > 0.9  # the anti-resonance bins lose coherence

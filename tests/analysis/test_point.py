@@ -14,9 +14,11 @@ def test_dwell_harmonics_phases_and_no_impacts():
     fs, fe = 51200.0, 60.0
     t = 0.0137 + np.arange(int(fs * 0.5)) / fs
     w = 2 * np.pi * fe
-    ch = {"force": 14.65 * np.cos(w * t + 0.4) + 5.9 * np.cos(5 * w * t - 1.0),
-          "active_shroud_accel": 120 * np.cos(w * t + 0.1) + 34 * np.cos(6 * w * t + 2.0),
-          "passive_shroud_accel": 50 * np.cos(w * t - 0.2)}
+    ch = {
+        "force": 14.65 * np.cos(w * t + 0.4) + 5.9 * np.cos(5 * w * t - 1.0),
+        "active_shroud_accel": 120 * np.cos(w * t + 0.1) + 34 * np.cos(6 * w * t + 2.0),
+        "passive_shroud_accel": 50 * np.cos(w * t - 0.2),
+    }
     res = analyze_dwell(ch, fs, fe)
     assert res.force_amplitude == pytest.approx(14.65, rel=1e-9)
     assert res.harmonics["force"].at(5) == pytest.approx(5.9, rel=1e-9)
@@ -36,10 +38,13 @@ def test_frf_test_blocks_give_the_two_dof_modes():
     x = rng.standard_normal(2**18)
     y1 = periodic_response(x, fs, out=1, kind="accelerance")
     y0 = periodic_response(x, fs, out=0, kind="accelerance")
-    blocks = ({"force": x[i:i + 10000], "a1": y1[i:i + 10000], "a0": y0[i:i + 10000]}
-              for i in range(0, x.size, 10000))
-    res = analyze_frf_test(blocks, fs, excitation="random", segment_samples=2048, responses=("a1", "a0"),
-                           f_min=10, f_max=250)
+    blocks = (
+        {"force": x[i : i + 10000], "a1": y1[i : i + 10000], "a0": y0[i : i + 10000]}
+        for i in range(0, x.size, 10000)
+    )
+    res = analyze_frf_test(
+        blocks, fs, excitation="random", segment_samples=2048, responses=("a1", "a0"), f_min=10, f_max=250
+    )
     fn, zeta = exact_modes()
     for name in ("a1", "a0"):
         got = res.modes[name].modes

@@ -9,7 +9,11 @@ from matplotlib.figure import Figure
 
 from rigtools.analysis.frf import sdof_frf
 from rigtools.analysis.plots import (
-    force_zero_crossing_time, frf_figure, harmonic_bars_figure, overlay_figure, stabilisation_figure,
+    force_zero_crossing_time,
+    frf_figure,
+    harmonic_bars_figure,
+    overlay_figure,
+    stabilisation_figure,
     trend_figure,
 )
 
@@ -28,8 +32,9 @@ def test_frf_figure_magnitude_phase_coherence():
     f = np.linspace(1, 400, 800)
     h1 = sdof_frf(f, 100.0, 0.02, 1.0, "accelerance")
     h2 = 1.05 * h1
-    fig = frf_figure(f, {"H1": h1, "H2": h2}, coherence={"H1/H2": np.full(f.size, 0.95)},
-                     natural_frequencies_hz=[100.0])
+    fig = frf_figure(
+        f, {"H1": h1, "H2": h2}, coherence={"H1/H2": np.full(f.size, 0.95)}, natural_frequencies_hz=[100.0]
+    )
     ax_m, ax_p, ax_c = fig.axes
     np.testing.assert_allclose(ax_m.lines[0].get_ydata(), np.abs(h1))
     np.testing.assert_allclose(ax_p.lines[1].get_ydata(), np.degrees(np.angle(h2)))
@@ -43,20 +48,25 @@ def test_frf_figure_magnitude_phase_coherence():
 
 def test_harmonic_bars_show_both_sides():
     em = {"force": np.array([15.0, 1.0, 5.9]), "active_shroud_acceleration": np.array([100.0, 20.0, 34.0])}
-    fem = {"force": np.array([15.0, 1e-3, 1e-3]), "active_shroud_acceleration": np.array([110.0, 10.0, 128.0])}
+    fem = {
+        "force": np.array([15.0, 1e-3, 1e-3]),
+        "active_shroud_acceleration": np.array([110.0, 10.0, 128.0]),
+    }
     fig = harmonic_bars_figure(em, fem, {"force": "N", "active_shroud_acceleration": "m/s^2"}, 60.0)
     ax = fig.axes[1]
     heights = [p.get_height() for p in ax.patches]
     assert heights == [100.0, 20.0, 34.0, 110.0, 10.0, 128.0]
     assert ax.get_ylabel() == "peak amplitude (m/s²)"
     assert [t.get_text() for t in ax.get_legend().get_texts()] == ["EM (experiment)", "FEM"]
-    assert ax.get_title() == "active shroud acceleration"     # full name, not cut
+    assert ax.get_title() == "active shroud acceleration"  # full name, not cut
 
 
 def test_trend_figure_em_and_fem_on_the_same_axes():
     gaps = np.array([0.7e-3, 0.3e-3, 0.5e-3])
-    q = {"peak force-sensor signal": {"EM": (gaps, [20.0, 30.0, 25.0]), "FEM": (gaps, [19.0, 31.0, 26.0])},
-         "passive shroud 22·fe amplitude": {"EM": (gaps, [5.0, 9.0, 7.0]), "FEM": (gaps, [4.0, 10.0, 6.0])}}
+    q = {
+        "peak force-sensor signal": {"EM": (gaps, [20.0, 30.0, 25.0]), "FEM": (gaps, [19.0, 31.0, 26.0])},
+        "passive shroud 22·fe amplitude": {"EM": (gaps, [5.0, 9.0, 7.0]), "FEM": (gaps, [4.0, 10.0, 6.0])},
+    }
     fig = trend_figure("gap", q, {"peak force-sensor signal": "N", "passive shroud 22·fe amplitude": "m/s^2"})
     ax = fig.axes[0]
     np.testing.assert_allclose(ax.lines[0].get_xdata(), [0.3, 0.5, 0.7])
@@ -76,19 +86,31 @@ def test_overlay_uses_each_sides_force_zero_crossing_as_time_zero():
     sides = {}
     for name, rate, phase0 in (("EM", 51200.0, 1.234), ("FEM", 19680.0, 0.0)):
         t = np.arange(int(rate * 0.5)) / rate
-        sides[name] = {"force": 15 * np.sin(2 * np.pi * fe * t + phase0),
-                       "active_acceleration": 100 * np.sin(2 * np.pi * fe * t + phase0 - 0.3)}
+        sides[name] = {
+            "force": 15 * np.sin(2 * np.pi * fe * t + phase0),
+            "active_acceleration": 100 * np.sin(2 * np.pi * fe * t + phase0 - 0.3),
+        }
     em_ref = force_zero_crossing_time(sides["EM"]["force"], 51200.0, fe)
     assert 15 * np.sin(2 * np.pi * fe * em_ref + 1.234) == pytest.approx(0, abs=1e-9)
-    fig = overlay_figure(sides["EM"], sides["FEM"], {"force": "N", "active_acceleration": "m/s^2"}, fe,
-                         em_rate=51200.0, fem_rate=19680.0)
+    fig = overlay_figure(
+        sides["EM"],
+        sides["FEM"],
+        {"force": "N", "active_acceleration": "m/s^2"},
+        fe,
+        em_rate=51200.0,
+        fem_rate=19680.0,
+    )
     ax_force, ax_fs, ax_acc, ax_as = fig.axes
     for line in ax_force.lines:
         t_ms, y = line.get_xdata(), line.get_ydata()
-        np.testing.assert_allclose(y, 15 * np.sin(2 * np.pi * fe * t_ms * 1e-3), atol=15 * 2 * np.pi * fe / 19680.0)
+        np.testing.assert_allclose(
+            y, 15 * np.sin(2 * np.pi * fe * t_ms * 1e-3), atol=15 * 2 * np.pi * fe / 19680.0
+        )
     for line in ax_acc.lines:
         t_ms, y = line.get_xdata(), line.get_ydata()
-        np.testing.assert_allclose(y, 100 * np.sin(2 * np.pi * fe * t_ms * 1e-3 - 0.3), atol=100 * 2 * np.pi * fe / 19680.0)
+        np.testing.assert_allclose(
+            y, 100 * np.sin(2 * np.pi * fe * t_ms * 1e-3 - 0.3), atol=100 * 2 * np.pi * fe / 19680.0
+        )
     assert [l.get_label() for l in ax_acc.lines] == ["EM", "FEM"]
     assert "zero crossing of the force fundamental (ms)" in ax_acc.get_xlabel()
     assert ax_as.get_ylabel() == "peak amplitude (m/s²)"
@@ -98,8 +120,13 @@ def test_overlay_uses_each_sides_force_zero_crossing_as_time_zero():
 
 def test_stabilisation_figure():
     from rigtools.analysis.modal_id import StabilisationChart
-    chart = StabilisationChart(np.array([2, 4, 4]), np.array([100.0, 100.1, 150.0]), np.array([0.02, 0.02, 0.1]),
-                               np.array([False, True, False]))
+
+    chart = StabilisationChart(
+        np.array([2, 4, 4]),
+        np.array([100.0, 100.1, 150.0]),
+        np.array([0.02, 0.02, 0.1]),
+        np.array([False, True, False]),
+    )
     f = np.linspace(1, 200, 200)
     fig = stabilisation_figure(chart, f, sdof_frf(f, 100.0, 0.02), natural_frequencies_hz=[100.1])
     ax = fig.axes[0]

@@ -22,21 +22,42 @@ def test_burst_random_on_the_simulated_rig_finds_the_test_articles_frequencies()
     cfg = load_rig()
     p = cfg.to_params()
     p = replace(p, contact=replace(p.contact, gap=0.05))
-    rig = SimulatedRig(p, cfg.shaker.to_params(), cfg.test_article.to_params(), seed=1,
-                       abort_ramp_time=cfg.safety.abort_ramp_time)
+    rig = SimulatedRig(
+        p,
+        cfg.shaker.to_params(),
+        cfg.test_article.to_params(),
+        seed=1,
+        abort_ramp_time=cfg.safety.abort_ramp_time,
+    )
     fs = rig.configure(cfg.daq.input_specs(), cfg.daq.output_spec(), 25600.0)
     period = 2.0
-    drive = RandomDrive(fs, 0.5, (10.0, 2000.0), max_drive=cfg.safety.max_drive, ramp_time=0.002,
-                        burst_period=period, burst_fraction=0.4, seed=2)
+    drive = RandomDrive(
+        fs,
+        0.5,
+        (10.0, 2000.0),
+        max_drive=cfg.safety.max_drive,
+        ramp_time=0.002,
+        burst_period=period,
+        burst_fraction=0.4,
+        seed=2,
+    )
     sink = BlockCollector()
     acquire(rig, drive, 8 * period, sink=sink)
     names = [s.name for s in cfg.daq.input_specs()]
     n = int(8 * period * fs)
     data = {name: sink.data[i, :n] for i, name in enumerate(names)}
     step = 30000
-    blocks = ({k: v[i:i + step] for k, v in data.items()} for i in range(0, n, step))
-    res = analyze_frf_test(blocks, fs, excitation="burst", segment_samples=int(period * fs),
-                           responses=("active_shroud_accel",), f_min=10, f_max=1800, n_modes=3)
+    blocks = ({k: v[i : i + step] for k, v in data.items()} for i in range(0, n, step))
+    res = analyze_frf_test(
+        blocks,
+        fs,
+        excitation="burst",
+        segment_samples=int(period * fs),
+        responses=("active_shroud_accel",),
+        f_min=10,
+        f_max=1800,
+        n_modes=3,
+    )
     ident = res.modes["active_shroud_accel"]
     em = np.array([m.frequency_hz for m in ident.modes])
     truth = flexural_frequencies(rig.rig_model().active, 3)

@@ -16,7 +16,7 @@ def test_on_bin_tone_reads_its_peak_amplitude(window):
     assert freqs[1] - freqs[0] == pytest.approx(fs / n)
     i = np.argmin(abs(freqs - 100.0))
     assert amp[i] == pytest.approx(2.0, rel=1e-12)
-    if window != "flattop":        # flattop's wide main lobe leaks a little of DC nearby only
+    if window != "flattop":  # flattop's wide main lobe leaks a little of DC nearby only
         assert amp[0] == pytest.approx(0.25, rel=1e-9)
 
 
@@ -46,6 +46,7 @@ def test_several_channels_at_once_and_bad_window():
 def test_rms_reading_and_labels():
     """RMS scaling: a tone reads A / sqrt(2) (1e-12), DC still its mean."""
     from rigtools.analysis.spectra import amplitude_label
+
     fs, n = 1024.0, 2048
     t = np.arange(n) / fs
     x = 0.25 + 2.0 * np.sin(2 * np.pi * 100.0 * t)

@@ -39,20 +39,36 @@ def test_sensitivity_in_si_per_unit():
     assert acc.volts_per_unit == pytest.approx(0.010 / 9.80665, rel=1e-15)
     assert force.volts_per_unit == pytest.approx(0.01124, rel=1e-15)
     assert (acc.units, acc.quantity, force.units, force.quantity, volt.units) == (
-        "m/s^2", "acceleration", "N", "force", "V")
+        "m/s^2",
+        "acceleration",
+        "N",
+        "force",
+        "V",
+    )
     assert acc.iepe and not volt.iepe
 
 
-@pytest.mark.parametrize("kwargs, text", [
-    (dict(kind="strain"), "kind 'strain'"),
-    (dict(sensitivity_units="mV/N"), "do not suit kind 'accel'"),
-    (dict(sensitivity=0.0), "sensitivity 0.0"),
-    (dict(excitation_current=0.05), "excitation current"),
-    (dict(min_value=5.0, max_value=-5.0), "below"),
-])
+@pytest.mark.parametrize(
+    "kwargs, text",
+    [
+        (dict(kind="strain"), "kind 'strain'"),
+        (dict(sensitivity_units="mV/N"), "do not suit kind 'accel'"),
+        (dict(sensitivity=0.0), "sensitivity 0.0"),
+        (dict(excitation_current=0.05), "excitation current"),
+        (dict(min_value=5.0, max_value=-5.0), "below"),
+    ],
+)
 def test_bad_channel_specs_are_refused_in_one_line(kwargs, text):
-    base = dict(name="a", physical_channel="Dev1/ai1", kind="accel", sensitivity=10.0,
-                sensitivity_units="mV/g", excitation_current=0.004, min_value=-1.0, max_value=1.0)
+    base = dict(
+        name="a",
+        physical_channel="Dev1/ai1",
+        kind="accel",
+        sensitivity=10.0,
+        sensitivity_units="mV/g",
+        excitation_current=0.004,
+        min_value=-1.0,
+        max_value=1.0,
+    )
     with pytest.raises(ConfigurationError, match=text) as info:
         InputChannelSpec(**{**base, **kwargs})
     assert "\n" not in str(info.value)
@@ -69,17 +85,23 @@ def test_specs_are_frozen_and_built_from_the_rig_file():
     assert specs[0].sensitivity_units == "mV/N" and specs[1].sensitivity_units == "mV/g"
     assert specs[1].sensitivity == pytest.approx(10.0, rel=1e-12)
     with pytest.raises(AttributeError):
-        specs[0].sensitivity = 1.0        # frozen
+        specs[0].sensitivity = 1.0  # frozen
     out = cfg.daq.output_spec()
     assert (out.physical_channel, out.min_voltage, out.max_voltage) == ("Dev1/ao0", -10.0, 10.0)
 
 
-@pytest.mark.parametrize("cls, fault", [
-    (InputOverflow, "input overflow"), (SamplesNoLongerAvailable, "samples no longer available"),
-    (OutputUnderflow, "output underflow"), (AmplifierTimeout, "amplifier timeout"),
-    (SensorOverload, "sensor overload"), (InvalidSamples, "invalid samples"),
-    (SafetyAbort, "safety abort"),
-])
+@pytest.mark.parametrize(
+    "cls, fault",
+    [
+        (InputOverflow, "input overflow"),
+        (SamplesNoLongerAvailable, "samples no longer available"),
+        (OutputUnderflow, "output underflow"),
+        (AmplifierTimeout, "amplifier timeout"),
+        (SensorOverload, "sensor overload"),
+        (InvalidSamples, "invalid samples"),
+        (SafetyAbort, "safety abort"),
+    ],
+)
 def test_faults_name_themselves_in_one_line_and_keep_the_data(cls, fault):
     partial = np.ones((3, 7))
     err = cls("on Dev1/ai0 at block 12", partial=partial)
@@ -87,14 +109,15 @@ def test_faults_name_themselves_in_one_line_and_keep_the_data(cls, fault):
     assert isinstance(err, DaqFault) and isinstance(err, DriverError)
     assert err.partial is partial
     assert str(cls()) == fault
-    assert str(cls(f"{fault} twice")) == f"{fault} twice"      # no doubled prefix
+    assert str(cls(f"{fault} twice")) == f"{fault} twice"  # no doubled prefix
 
 
 def test_error_families():
     assert issubclass(DriverUnavailable, DriverError) and not issubclass(DriverUnavailable, DaqFault)
     assert issubclass(LimitExceeded, ValueError) and issubclass(ConfigurationError, ValueError)
-    abort = SafetyAbort("force peak 70 N reached the abort limit 60 N", channel="force",
-                        value=70.0, limit=60.0)
+    abort = SafetyAbort(
+        "force peak 70 N reached the abort limit 60 N", channel="force", value=70.0, limit=60.0
+    )
     assert (abort.channel, abort.value, abort.limit) == ("force", 70.0, 60.0)
 
 
@@ -154,10 +177,14 @@ def test_acquisition_context_manager_closes_on_every_exit_path(exc):
 
 def test_the_contracts_are_abstract_with_the_documented_methods():
     for cls, methods in [
-        (AcquisitionDevice, {"configure", "write", "start", "read", "stop", "close",
-                             "input_to_output_delay"}),
-        (SignalSource, {"identify", "reset", "set_frequency", "set_amplitude", "set_output",
-                        "state", "errors", "close"}),
+        (
+            AcquisitionDevice,
+            {"configure", "write", "start", "read", "stop", "close", "input_to_output_delay"},
+        ),
+        (
+            SignalSource,
+            {"identify", "reset", "set_frequency", "set_amplitude", "set_output", "state", "errors", "close"},
+        ),
     ]:
         assert cls.__abstractmethods__ == frozenset(methods)
         with pytest.raises(TypeError):
@@ -172,8 +199,7 @@ def test_signal_source_exit_closes():
 
     class Source(SignalSource):
         limits = SourceLimits()
-        identify = reset = set_frequency = set_amplitude = set_output = state = errors = (
-            lambda self, *a: None)
+        identify = reset = set_frequency = set_amplitude = set_output = state = errors = lambda self, *a: None
 
         def close(self):
             closed.append(True)

@@ -97,7 +97,8 @@ class Rig:
         if not idle_zero_supported:
             chan = self.ao.ao_channels.add_ao_voltage_chan.return_value
             type(chan).ao_idle_output_behavior = mock.PropertyMock(
-                side_effect=DaqError("Specified property is not supported", -200452))
+                side_effect=DaqError("Specified property is not supported", -200452)
+            )
         self.task_cls = mock.Mock(side_effect=[self.ai, self.ao, self.zero])
         self.reader_cls = mock.create_autospec(AnalogMultiChannelReader)
         self.writer_cls = mock.create_autospec(AnalogSingleChannelWriter)
@@ -156,44 +157,67 @@ def test_channels_are_created_with_sensitivities_units_and_iepe_excitation(monke
     # 4 mA internal IEPE excitation on all three
     assert rig.ai.ai_channels.mock_calls[:3] == [
         mock.call.add_ai_force_iepe_chan(
-            "Dev1/ai0", name_to_assign_to_channel="force", min_val=-200.0, max_val=200.0,
-            units=ForceUnits.NEWTONS, sensitivity=11.24,
+            "Dev1/ai0",
+            name_to_assign_to_channel="force",
+            min_val=-200.0,
+            max_val=200.0,
+            units=ForceUnits.NEWTONS,
+            sensitivity=11.24,
             sensitivity_units=ForceIEPESensorSensitivityUnits.MILLIVOLTS_PER_NEWTON,
-            current_excit_source=ExcitationSource.INTERNAL, current_excit_val=0.004),
+            current_excit_source=ExcitationSource.INTERNAL,
+            current_excit_val=0.004,
+        ),
         mock.call.add_ai_accel_chan(
-            "Dev1/ai1", name_to_assign_to_channel="active_shroud_accel", min_val=-4900.0,
-            max_val=4900.0, units=AccelUnits.METERS_PER_SECOND_SQUARED, sensitivity=10.0,
+            "Dev1/ai1",
+            name_to_assign_to_channel="active_shroud_accel",
+            min_val=-4900.0,
+            max_val=4900.0,
+            units=AccelUnits.METERS_PER_SECOND_SQUARED,
+            sensitivity=10.0,
             sensitivity_units=AccelSensitivityUnits.MILLIVOLTS_PER_G,
-            current_excit_source=ExcitationSource.INTERNAL, current_excit_val=0.004),
+            current_excit_source=ExcitationSource.INTERNAL,
+            current_excit_val=0.004,
+        ),
         mock.call.add_ai_accel_chan(
-            "Dev1/ai2", name_to_assign_to_channel="passive_shroud_accel", min_val=-4900.0,
-            max_val=4900.0, units=AccelUnits.METERS_PER_SECOND_SQUARED, sensitivity=10.0,
+            "Dev1/ai2",
+            name_to_assign_to_channel="passive_shroud_accel",
+            min_val=-4900.0,
+            max_val=4900.0,
+            units=AccelUnits.METERS_PER_SECOND_SQUARED,
+            sensitivity=10.0,
             sensitivity_units=AccelSensitivityUnits.MILLIVOLTS_PER_G,
-            current_excit_source=ExcitationSource.INTERNAL, current_excit_val=0.004),
+            current_excit_source=ExcitationSource.INTERNAL,
+            current_excit_val=0.004,
+        ),
     ]
     assert rig.ai.ai_channels.add_ai_accel_chan.return_value.ai_coupling == Coupling.AC
     assert rig.ai.ai_channels.add_ai_force_iepe_chan.return_value.ai_coupling == Coupling.AC
     rig.ao.ao_channels.add_ao_voltage_chan.assert_called_once_with(
-        "Dev1/ao0", name_to_assign_to_channel="drive", min_val=-10.0, max_val=10.0,
-        units=VoltageUnits.VOLTS)
+        "Dev1/ao0", name_to_assign_to_channel="drive", min_val=-10.0, max_val=10.0, units=VoltageUnits.VOLTS
+    )
     chan = rig.ao.ao_channels.add_ao_voltage_chan.return_value
     assert chan.ao_idle_output_behavior == AOIdleOutputBehavior.ZERO_VOLTS
     rig.ai.ai_channels.add_ai_voltage_chan.assert_not_called()
-    assert dev.block_size == 5120            # 0.1 s at 51.2 kS/s
+    assert dev.block_size == 5120  # 0.1 s at 51.2 kS/s
 
 
 def test_voltage_channel_without_excitation(monkeypatch):
     rig = Rig(monkeypatch)
     dev = NiDaqDevice()
-    dev.configure([InputChannelSpec("amp_monitor", "Dev1/ai3", "voltage", 1.0, "V/V", 0.0, -5, 5)],
-                  OutputChannelSpec(), 51200.0)
+    dev.configure(
+        [InputChannelSpec("amp_monitor", "Dev1/ai3", "voltage", 1.0, "V/V", 0.0, -5, 5)],
+        OutputChannelSpec(),
+        51200.0,
+    )
     rig.ai.ai_channels.add_ai_voltage_chan.assert_called_once_with(
-        "Dev1/ai3", name_to_assign_to_channel="amp_monitor", min_val=-5, max_val=5,
-        units=VoltageUnits.VOLTS)
+        "Dev1/ai3", name_to_assign_to_channel="amp_monitor", min_val=-5, max_val=5, units=VoltageUnits.VOLTS
+    )
     with pytest.raises(ConfigurationError, match="takes no excitation"):
         NiDaqDevice().configure(
             [InputChannelSpec("v", "Dev1/ai3", "voltage", 1.0, "V/V", 0.004, -5, 5)],
-            OutputChannelSpec(), 51200.0)
+            OutputChannelSpec(),
+            51200.0,
+        )
 
 
 def test_voltage_channel_sensitivity_scales_range_and_readings_like_the_simulated_rig(monkeypatch):
@@ -201,11 +225,18 @@ def test_voltage_channel_sensitivity_scales_range_and_readings_like_the_simulate
     # a terminal reading of 1.2 V is 12 V at the coil (rigtools.drivers.sensor_chain divides the same way)
     rig = Rig(monkeypatch)
     dev = NiDaqDevice()
-    dev.configure([InputChannelSpec("coil_monitor", "Dev1/ai3", "voltage", 0.1, "V/V", 0.0, -50, 50)],
-                  OutputChannelSpec(), 51200.0)
+    dev.configure(
+        [InputChannelSpec("coil_monitor", "Dev1/ai3", "voltage", 0.1, "V/V", 0.0, -50, 50)],
+        OutputChannelSpec(),
+        51200.0,
+    )
     rig.ai.ai_channels.add_ai_voltage_chan.assert_called_once_with(
-        "Dev1/ai3", name_to_assign_to_channel="coil_monitor", min_val=-5.0, max_val=5.0,
-        units=VoltageUnits.VOLTS)
+        "Dev1/ai3",
+        name_to_assign_to_channel="coil_monitor",
+        min_val=-5.0,
+        max_val=5.0,
+        units=VoltageUnits.VOLTS,
+    )
     rig.reader.read_many_sample.side_effect = lambda data, **kw: data.fill(1.2)
     dev.write(np.zeros(16))
     dev.start()
@@ -220,13 +251,15 @@ def test_shared_rate_is_the_coerced_ai_rate_and_ao_starts_on_the_ai_trigger(monk
     actual = dev.configure(specs[0], specs[1], 51200.0)
     assert actual == coerced and dev.sample_rate == coerced
     rig.ai.timing.cfg_samp_clk_timing.assert_called_once_with(
-        51200.0, sample_mode=AcquisitionType.CONTINUOUS, samps_per_chan=102400)
+        51200.0, sample_mode=AcquisitionType.CONTINUOUS, samps_per_chan=102400
+    )
     # AO host buffer = the output queue limit: 0.1 s to zero with the 50 ms ramp, 90 % of the
     # 50 ms left for queued drive at the coerced rate: floor(0.045 * 51205.12) = 2304 samples
     rig.ao.timing.cfg_samp_clk_timing.assert_called_once_with(
-        coerced, sample_mode=AcquisitionType.CONTINUOUS, samps_per_chan=2304)
+        coerced, sample_mode=AcquisitionType.CONTINUOUS, samps_per_chan=2304
+    )
     rig.ao.triggers.start_trigger.cfg_dig_edge_start_trig.assert_called_once_with(AI_TRIGGER)
-    rig.ai.triggers.start_trigger.cfg_dig_edge_start_trig.assert_not_called()   # AI is the master
+    rig.ai.triggers.start_trigger.cfg_dig_edge_start_trig.assert_not_called()  # AI is the master
     assert rig.ao.out_stream.regen_mode == RegenerationMode.DONT_ALLOW_REGENERATION
     rig.reader_cls.assert_called_once_with(rig.ai.in_stream)
     rig.writer_cls.assert_called_once_with(rig.ao.out_stream, auto_start=False)
@@ -271,17 +304,16 @@ def test_read_fills_a_preallocated_float64_block_in_channel_order(monkeypatch, s
     block = dev.read()
     np.testing.assert_array_equal(block, expected)
     rig.reader.read_many_sample.assert_called_once_with(
-        mock.ANY, number_of_samples_per_channel=5120, timeout=10.0)
-    assert [s.name for s in dev.input_channels] == [
-        "force", "active_shroud_accel", "passive_shroud_accel"]
+        mock.ANY, number_of_samples_per_channel=5120, timeout=10.0
+    )
+    assert [s.name for s in dev.input_channels] == ["force", "active_shroud_accel", "passive_shroud_accel"]
     small = dev.read(100, timeout=2.0)
     assert small.shape == (3, 100)
-    rig.reader.read_many_sample.assert_called_with(
-        mock.ANY, number_of_samples_per_channel=100, timeout=2.0)
+    rig.reader.read_many_sample.assert_called_with(mock.ANY, number_of_samples_per_channel=100, timeout=2.0)
 
 
-RAMP = 2560        # 50 ms (the default rig's abort_ramp_time) at 51.2 kS/s
-ZEROS = 512        # 10 ms of zeros after the ramp
+RAMP = 2560  # 50 ms (the default rig's abort_ramp_time) at 51.2 kS/s
+ZEROS = 512  # 10 ms of zeros after the ramp
 
 
 def check_stop_ramp(tail: np.ndarray, last: float, n_ramp: int = RAMP) -> None:
@@ -292,24 +324,27 @@ def check_stop_ramp(tail: np.ndarray, last: float, n_ramp: int = RAMP) -> None:
     ramp = tail[:n_ramp]
     assert ramp[0] == pytest.approx(last, rel=np.pi**2 / (4 * n_ramp**2) * 1.01, abs=1e-15)
     assert ramp[-1] == 0.0 and np.all(tail[n_ramp:] == 0.0)
-    mag = ramp * np.sign(last) if last else ramp          # |drive|, same sign throughout
+    mag = ramp * np.sign(last) if last else ramp  # |drive|, same sign throughout
     assert np.all(np.diff(mag) <= 0.0) and np.all(mag >= 0.0)
     # no step: the largest change per sample is the raised cosine's steepest, pi/2 |last| / n
     assert np.max(np.abs(np.diff(np.concatenate([[last], ramp])))) <= np.pi / 2 * abs(last) / n_ramp * 1.0001
 
 
-@pytest.mark.parametrize("code, fault", [
-    (-200279, SamplesNoLongerAvailable),
-    (-200010, InputOverflow),
-    (-200284, ReadTimeout),
-    (-200999, DaqFault),
-])
+@pytest.mark.parametrize(
+    "code, fault",
+    [
+        (-200279, SamplesNoLongerAvailable),
+        (-200010, InputOverflow),
+        (-200284, ReadTimeout),
+        (-200999, DaqFault),
+    ],
+)
 def test_input_faults_ramp_the_still_running_drive_to_zero_then_stop(monkeypatch, specs, code, fault):
     """AI faults leave AO generating: the stop ramp is appended, waited for, then AO and AI stop."""
     rig, dev = configured(monkeypatch, specs, idle_zero_supported=False)
     rig.reader.read_many_sample.side_effect = DaqReadError(
-        "Attempted to read samples that are no longer available.\nMore text", code,
-        samps_per_chan_read=7)
+        "Attempted to read samples that are no longer available.\nMore text", code, samps_per_chan_read=7
+    )
     dev.write(np.full(5120, 0.3))
     dev.start()
     with pytest.raises(fault) as info:
@@ -318,34 +353,34 @@ def test_input_faults_ramp_the_still_running_drive_to_zero_then_stop(monkeypatch
     assert type(err) is fault
     assert "\n" not in str(err) and f"DAQmx {code}" in str(err) and err.code == code
     assert str(err).startswith(fault.fault)
-    assert err.partial.shape == (3, 7)                     # samples read before the fault kept
+    assert err.partial.shape == (3, 7)  # samples read before the fault kept
     check_stop_ramp(rig.written[-1], 0.3)
     order = rig.order()
-    assert order[order.index("ai_start") + 1:] == ["generated", "write", "generated", "ao_stop", "ai_stop"]
+    assert order[order.index("ai_start") + 1 :] == ["generated", "write", "generated", "ao_stop", "ai_stop"]
     # the device stops on its own 0 V sample; the on-demand task still confirms 0 V
     rig.zero.write.assert_called_once_with(0.0, auto_start=True)
     assert not dev.running
     dev.close()
     rig.ai.close.assert_called_once_with()
     rig.ao.close.assert_called_once_with()
-    assert rig.task_cls.call_count == 3                    # no second zero task on close
+    assert rig.task_cls.call_count == 3  # no second zero task on close
 
 
 @pytest.mark.parametrize("code", [-200016, -200621, -200018, -200290])
 def test_underflow_on_read_means_ao_stopped_so_no_ramp_and_zero_on_demand(monkeypatch, specs, code):
     rig, dev = configured(monkeypatch, specs, idle_zero_supported=False)
-    rig.reader.read_many_sample.side_effect = DaqReadError("Output underflow", code,
-                                                           samps_per_chan_read=0)
+    rig.reader.read_many_sample.side_effect = DaqReadError("Output underflow", code, samps_per_chan_read=0)
     dev.write(np.full(5120, 0.3))
     dev.start()
     with pytest.raises(OutputUnderflow, match=f"DAQmx {code}") as info:
         dev.read()
     assert info.value.partial is None
     order = rig.order()
-    assert order[order.index("ai_start") + 1:] == ["ao_stop", "ai_stop"]
-    assert len(rig.written) == 1                           # nothing written to a failed task
+    assert order[order.index("ai_start") + 1 :] == ["ao_stop", "ai_stop"]
+    assert len(rig.written) == 1  # nothing written to a failed task
     rig.zero.ao_channels.add_ao_voltage_chan.assert_called_once_with(
-        "Dev1/ao0", min_val=-10.0, max_val=10.0, units=VoltageUnits.VOLTS)
+        "Dev1/ao0", min_val=-10.0, max_val=10.0, units=VoltageUnits.VOLTS
+    )
     rig.zero.write.assert_called_once_with(0.0, auto_start=True)
     dev.close()
     assert rig.order()[-2:] == ["ao_close", "ai_close"] and rig.task_cls.call_count == 3
@@ -356,13 +391,15 @@ def test_write_underflow_is_mapped_and_relies_on_idle_zero_volts(monkeypatch, sp
     dev.write(np.zeros(5120))
     dev.start()
     rig.writer.write_many_sample.side_effect = [
-        DaqWriteError("Output underflow", -200621, samps_per_chan_written=0), 5120]
+        DaqWriteError("Output underflow", -200621, samps_per_chan_written=0),
+        5120,
+    ]
     with pytest.raises(OutputUnderflow, match="DAQmx -200621"):
         dev.write(np.zeros(5120))
     rig.ao.stop.assert_called_once_with()
     rig.ai.stop.assert_called_once_with()
-    assert rig.writer.write_many_sample.call_count == 2    # the failed write only; no ramp after it
-    assert rig.task_cls.call_count == 2                    # idle behaviour is 0 V: no zero task
+    assert rig.writer.write_many_sample.call_count == 2  # the failed write only; no ramp after it
+    assert rig.task_cls.call_count == 2  # idle behaviour is 0 V: no zero task
 
 
 def test_stop_appends_the_ramp_from_the_last_sample_waits_for_it_then_stops_ao_then_ai(monkeypatch, specs):
@@ -384,11 +421,19 @@ def test_stop_appends_the_ramp_from_the_last_sample_waits_for_it_then_stops_ao_t
     check_stop_ramp(write.args[0], -0.73)
     # timeout: what was queued (10240 - 6000) plus the tail, in s, plus the 0.5 s margin
     assert write.kwargs["timeout"] == pytest.approx((10240 - 6000 + RAMP + ZEROS) / 51200 + 0.5)
-    assert rig.order()[-8:] == ["generated", "write", "generated", "generated", "generated",
-                                "generated", "ao_stop", "ai_stop"]
+    assert rig.order()[-8:] == [
+        "generated",
+        "write",
+        "generated",
+        "generated",
+        "generated",
+        "generated",
+        "ao_stop",
+        "ai_stop",
+    ]
     assert rig.sleeps == [0.005, 0.005, pytest.approx(100 / 51200.0)]
     assert not dev.running
-    dev.stop()                                             # idempotent: nothing more written
+    dev.stop()  # idempotent: nothing more written
     assert len(rig.written) == 3
     # the AO host buffer bounds the queue: buffer + ramp within 0.1 s
     assert dev.output_queue_limit == 2304
@@ -443,8 +488,9 @@ def test_task_failing_at_the_ramp_write_is_stopped_without_waiting(monkeypatch, 
     rig, dev = configured(monkeypatch, specs)
     dev.write(np.full(5120, 1.0))
     dev.start()
-    rig.writer.write_many_sample.side_effect = DaqWriteError("Output underflow", -200290,
-                                                             samps_per_chan_written=0)
+    rig.writer.write_many_sample.side_effect = DaqWriteError(
+        "Output underflow", -200290, samps_per_chan_written=0
+    )
     dev.stop()
     assert rig.order()[-4:] == ["generated", "write", "ao_stop", "ai_stop"]
     assert rig.sleeps == []
@@ -507,16 +553,26 @@ def test_context_manager_zeroes_stops_and_closes_on_every_exit_path(monkeypatch,
     else:
         with pytest.raises((RuntimeError, KeyboardInterrupt)):
             run()
-    assert rig.order() == ["write", "ao_start", "ai_start", "generated", "write", "generated",
-                           "ao_stop", "ai_stop", "ao_close", "ai_close"]
+    assert rig.order() == [
+        "write",
+        "ao_start",
+        "ai_start",
+        "generated",
+        "write",
+        "generated",
+        "ao_stop",
+        "ai_stop",
+        "ao_close",
+        "ai_close",
+    ]
     check_stop_ramp(rig.written[-1], 1.0)
-    assert rig.task_cls.call_count == 2     # idle behaviour = 0 V: no on-demand zero task needed
+    assert rig.task_cls.call_count == 2  # idle behaviour = 0 V: no on-demand zero task needed
 
 
 def test_close_without_start_closes_tasks_only(monkeypatch, specs):
     rig, dev = configured(monkeypatch, specs)
     dev.close()
-    dev.close()                               # idempotent
+    dev.close()  # idempotent
     assert rig.order() == ["ao_stop", "ai_stop", "ao_close", "ai_close"]
     assert rig.written == []
 
@@ -535,8 +591,10 @@ def test_filter_delays_add_up_to_the_input_to_output_delay(monkeypatch, specs):
 
 
 def test_without_driver_one_line_suggests_simulated_rig(monkeypatch, specs):
-    for exc in (DaqNotFoundError("Could not find an installation of NI-DAQmx."),
-                DaqNotSupportedError("NI-DAQmx not supported on this device or platform.")):
+    for exc in (
+        DaqNotFoundError("Could not find an installation of NI-DAQmx."),
+        DaqNotSupportedError("NI-DAQmx not supported on this device or platform."),
+    ):
         monkeypatch.setattr(nidaq.nidaqmx, "Task", mock.Mock(side_effect=exc))
         with pytest.raises(DriverUnavailable) as info:
             NiDaqDevice().configure(specs[0], specs[1], 51200.0)

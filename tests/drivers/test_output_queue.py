@@ -29,7 +29,7 @@ def test_queue_limit_closed_form():
     # (0.1 - 0.05) s * 0.9 * 51200 S/s
     assert output_queue_limit(FS, 0.05) == 2304
     # a 100 ms ramp keeps 25 ms for the queue
-    assert output_queue_limit(FS, 0.1) in (1151, 1152)          # floor of 1152 - round-off
+    assert output_queue_limit(FS, 0.1) in (1151, 1152)  # floor of 1152 - round-off
 
 
 def test_stream_pieces_keep_two_within_the_limit(cfg):
@@ -49,7 +49,7 @@ def test_fault_to_zero_drive_within_0_1_s_queue_included(cfg, block):
     drive.set_target(2.0)
     with pytest.raises(AcquisitionAborted):
         acquire(rig, drive, 1.0, sink=BlockCollector())
-    after = rig.drive_log[rig.fault_sample:]
+    after = rig.drive_log[rig.fault_sample :]
     assert after[-1] == 0.0 and after.size <= int(0.1 * FS)
     last = np.flatnonzero(np.abs(after) > 1e-12)
     assert (last[-1] + 1) / FS <= 0.1

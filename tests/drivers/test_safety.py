@@ -53,7 +53,7 @@ def test_no_step_onto_the_shaker():
     out = [np.zeros(1)]
     drive.set_target(amp)
     out.append(drive.next_block(8000))
-    drive.set_target(1.0)                       # mid-course change starts a new ramp
+    drive.set_target(1.0)  # mid-course change starts a new ramp
     out.append(drive.next_block(3000))
     out.append(drive.stop_block())
     x = np.concatenate(out)
@@ -66,7 +66,7 @@ def test_no_step_onto_the_shaker():
 def test_stop_ramps_down_along_the_raised_cosine_to_exactly_zero(ramp):
     drive = SineDrive(FS, 60.0, max_drive=5.0, ramp_time=ramp)
     drive.set_target(3.0)
-    before = drive.next_block(40000)            # fully ramped up (<= 0.5 s = 25600 samples)
+    before = drive.next_block(40000)  # fully ramped up (<= 0.5 s = 25600 samples)
     tail = drive.stop_block()
     assert tail.size == math.ceil(ramp * FS)
     assert tail[-1] == 0.0 and drive.amplitude == 0.0 and drive.settled
@@ -74,8 +74,9 @@ def test_stop_ramps_down_along_the_raised_cosine_to_exactly_zero(ramp):
     n = tail.size
     k = np.arange(1, n + 1)
     phase = 2 * np.pi * 60.0 * (40000 + k - 1) / FS
-    np.testing.assert_allclose(tail, 3.0 * (1 - 0.5 * (1 - np.cos(np.pi * k / n))) * np.sin(phase),
-                               atol=1e-12)
+    np.testing.assert_allclose(
+        tail, 3.0 * (1 - 0.5 * (1 - np.cos(np.pi * k / n))) * np.sin(phase), atol=1e-12
+    )
     assert np.all(drive.next_block(100) == 0.0)
     assert np.max(np.abs(before[-100:])) > 2.9
 
@@ -91,8 +92,7 @@ def test_retarget_mid_ramp_starts_from_the_present_amplitude():
     second = np.concatenate([env.take(7), env.take(0), env.take(20)])
     k1, k2 = np.arange(1, 31), np.arange(1, 21)
     np.testing.assert_allclose(first, 2.0 * 0.5 * (1 - np.cos(np.pi * k1 / 100)), atol=1e-15)
-    np.testing.assert_allclose(second[:20], a + (0.5 - a) * 0.5 * (1 - np.cos(np.pi * k2 / 20)),
-                               atol=1e-15)
+    np.testing.assert_allclose(second[:20], a + (0.5 - a) * 0.5 * (1 - np.cos(np.pi * k2 / 20)), atol=1e-15)
     assert np.all(second[20:] == 0.5) and env.settled and env.target == 0.5
     with pytest.raises(ConfigurationError, match="ramp time"):
         AmplitudeEnvelope(1000.0, 0.0, 5.0)
@@ -126,8 +126,15 @@ def channels():
 
 
 def monitor():
-    return SafetyMonitor([ChannelLimit("force", 40.0, 60.0), ChannelLimit("accel", 2500.0, 4000.0),
-                          ChannelLimit("drive", 4.5, 5.5)], channels(), max_drive=5.0)
+    return SafetyMonitor(
+        [
+            ChannelLimit("force", 40.0, 60.0),
+            ChannelLimit("accel", 2500.0, 4000.0),
+            ChannelLimit("drive", 4.5, 5.5),
+        ],
+        channels(),
+        max_drive=5.0,
+    )
 
 
 def test_monitor_passes_quiet_blocks_and_warns_by_channel():
@@ -136,7 +143,7 @@ def test_monitor_passes_quiet_blocks_and_warns_by_channel():
     quiet = np.vstack([30 * np.sin(2 * np.pi * 60 * t), 1000 * np.sin(2 * np.pi * 360 * t)])
     assert mon.check(quiet, drive=4.0 * np.sin(2 * np.pi * 60 * t)) == []
     loud = quiet.copy()
-    loud[0, 100] = -45.0                        # one sample above the warning (peak |value|)
+    loud[0, 100] = -45.0  # one sample above the warning (peak |value|)
     w = mon.check(loud, drive=np.full(10, 4.6))
     assert [(x.channel, x.value, x.limit) for x in w] == [("force", 45.0, 40.0), ("drive", 4.6, 4.5)]
     assert str(w[0]) == "force peak 45 N is above the warning limit 40 N"
@@ -170,8 +177,11 @@ def test_monitor_refuses_unknown_channels_and_bad_limits():
 
 def test_monitor_from_the_default_rig_file():
     cfg = load_rig()
-    mon = SafetyMonitor([ChannelLimit(n, l.warning, l.abort) for n, l in cfg.safety.limits.items()],
-                        cfg.daq.input_specs(), cfg.safety.max_drive)
+    mon = SafetyMonitor(
+        [ChannelLimit(n, l.warning, l.abort) for n, l in cfg.safety.limits.items()],
+        cfg.daq.input_specs(),
+        cfg.safety.max_drive,
+    )
     assert mon.limits["force"].units == "N" and mon.limits["drive"].units == "V"
     block = np.zeros((3, 10))
     block[0, 0] = cfg.safety.limits["force"].abort

@@ -21,7 +21,7 @@ def test_impulses_integrate_the_half_sine_exactly_across_blocks():
     np.testing.assert_allclose(pieces, whole, rtol=0, atol=1e-15)
     starts = np.flatnonzero(np.diff((whole > 0).astype(int)) == 1) + 1
     np.testing.assert_allclose(starts * dt, 0.1 + 0.25 * np.arange(4), atol=dt)
-    per_hit = [whole[s:s + 40].sum() for s in starts]
+    per_hit = [whole[s : s + 40].sum() for s in starts]
     for i, total in enumerate(per_hit):
         assert total == pytest.approx(h._peak(i) * 2 * 5e-4 / math.pi, rel=1e-12)
         assert abs(h._peak(i) / 20.0 - 1) <= 0.1
@@ -33,8 +33,9 @@ def test_the_hammer_channel_reads_the_pulse_and_the_linear_model_refuses_a_hamme
 
     cfg = load_rig()
     ta = cfg.test_article.to_params().ideal()
-    hammer = SimulatedHammer(blade="passive", position=0.085, peak=20.0, duration=5e-4, interval=1.0,
-                             first=0.05, scatter=0.0)
+    hammer = SimulatedHammer(
+        blade="passive", position=0.085, peak=20.0, duration=5e-4, interval=1.0, first=0.05, scatter=0.0
+    )
     rig = SimulatedRig(cfg.to_params(), cfg.shaker.to_params(), ta, seed=1, hammer=hammer)
     spec = InputChannelSpec("hammer", "Dev1/ai3", "force", 2.25, "mV/N", 0.004, -2200.0, 2200.0)
     fs = rig.configure([spec], cfg.daq.output_spec(), 51200.0, 1024)
@@ -46,7 +47,9 @@ def test_the_hammer_channel_reads_the_pulse_and_the_linear_model_refuses_a_hamme
     assert x.sum() / fs == pytest.approx(20.0 * 2 * 5e-4 / math.pi, rel=1e-3)
     with pytest.raises(ConfigurationError, match="needs the vibro-impact model"):
         SimulatedRig(cfg.to_params(), model="linear", hammer=hammer).configure(
-            [spec], cfg.daq.output_spec(), 51200.0, 1024)
+            [spec], cfg.daq.output_spec(), 51200.0, 1024
+        )
     with pytest.raises(ConfigurationError, match="not on the passive blade"):
         SimulatedRig(cfg.to_params(), hammer=SimulatedHammer(position=0.3)).configure(
-            [spec], cfg.daq.output_spec(), 51200.0, 1024)
+            [spec], cfg.daq.output_spec(), 51200.0, 1024
+        )

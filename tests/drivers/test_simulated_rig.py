@@ -27,7 +27,7 @@ from rigtools.recording import ChannelSpec, RecordingWriter, open_recording
 from rigtools.sim.modal import blade_modes, flexural_frequencies
 from rigtools.sim.rig_model import build_rig_model
 
-FS = 25600.0   # resolves the contact period and the third flexural mode (1.25 kHz) comfortably
+FS = 25600.0  # resolves the contact period and the third flexural mode (1.25 kHz) comfortably
 
 
 @pytest.fixture(scope="module")
@@ -45,8 +45,14 @@ def rig(cfg):
     """Impacts off (a 50 mm gap): the linear rig for FRFs."""
     p = cfg.to_params()
     p = replace(p, contact=replace(p.contact, gap=0.05))
-    return SimulatedRig(p, cfg.shaker.to_params(), cfg.test_article.to_params(), seed=1,
-                        keep_truth=True, abort_ramp_time=cfg.safety.abort_ramp_time)
+    return SimulatedRig(
+        p,
+        cfg.shaker.to_params(),
+        cfg.test_article.to_params(),
+        seed=1,
+        keep_truth=True,
+        abort_ramp_time=cfg.safety.abort_ramp_time,
+    )
 
 
 def _configure(rig, cfg, inputs=None, fs=FS):
@@ -68,8 +74,16 @@ def test_burst_random_frf_finds_flexural_frequencies_1_to_3_percent_below_nomina
     model's static correction shifts mode 2 by ~0.01 %)."""
     fs = _configure(rig, cfg)
     period = 2.0
-    drive = RandomDrive(fs, 0.5, (10.0, 2000.0), max_drive=cfg.safety.max_drive, ramp_time=0.002,
-                        burst_period=period, burst_fraction=0.4, seed=2)
+    drive = RandomDrive(
+        fs,
+        0.5,
+        (10.0, 2000.0),
+        max_drive=cfg.safety.max_drive,
+        ramp_time=0.002,
+        burst_period=period,
+        burst_fraction=0.4,
+        seed=2,
+    )
     sink = BlockCollector()
     acquire(rig, drive, 8 * period, sink=sink)
     n = int(8 * period * fs)
@@ -125,7 +139,8 @@ def test_force_at_resonance_matches_closed_form(rig, cfg):
     reduced model keeps the diagonal of the projected blade damping, hence 2 %, measured 1.1 %)."""
     for f in flexural_frequencies(rig.rig_model().active, 2):
         assert abs(_force_per_volt(rig, cfg, f)) == pytest.approx(
-            abs(_closed_form_force_per_volt(rig, f)[0]), rel=0.02)
+            abs(_closed_form_force_per_volt(rig, f)[0]), rel=0.02
+        )
 
 
 def test_readings_convert_back_to_the_model_within_the_noise(rig, cfg):
@@ -146,8 +161,9 @@ def test_readings_convert_back_to_the_model_within_the_noise(rig, cfg):
     wc = 2 * np.pi * ta.iepe_highpass
     hp = 1j * 2 * np.pi * 60 / (1j * 2 * np.pi * 60 + wc)
     for row, spec in enumerate(rig.input_channels[:2]):
-        noise = np.hypot(ta.force_noise if spec.kind == "force" else ta.accel_noise,
-                         ta.adc_noise / spec.volts_per_unit)
+        noise = np.hypot(
+            ta.force_noise if spec.kind == "force" else ta.accel_noise, ta.adc_noise / spec.volts_per_unit
+        )
         t = np.arange(keep.stop - keep.start) / fs
         basis = np.column_stack([np.cos(2 * np.pi * 60 * t), np.sin(2 * np.pi * 60 * t)])
         cm, *_ = np.linalg.lstsq(basis, measured[row, keep], rcond=None)
@@ -161,25 +177,43 @@ def test_readings_convert_back_to_the_model_within_the_noise(rig, cfg):
         np.testing.assert_allclose(volts / lsb, np.rint(volts / lsb), atol=1e-6)
 
 
-@pytest.mark.parametrize("kind, names", [
-    ("input_overflow", "input overflow"), ("amplifier_timeout", "amplifier timeout"),
-    ("sensor_overload", "sensor overload"), ("nan_samples", "NaN")])
+@pytest.mark.parametrize(
+    "kind, names",
+    [
+        ("input_overflow", "input overflow"),
+        ("amplifier_timeout", "amplifier timeout"),
+        ("sensor_overload", "sensor overload"),
+        ("nan_samples", "NaN"),
+    ],
+)
 def test_injected_fault_ramps_drive_to_zero_names_it_and_keeps_the_data(rig, cfg, tmp_path, kind, names):
     """Fault in the middle of block 4 (0.45 s) of a 1 V, 60 Hz sine: the recording holds exactly
     the 4.5 blocks read before it, bit for bit the same as an undisturbed run with the same seed;
     the drive reaching the amplifier is zero from 0.1 s after the fault on, and never steps by
     more than the sine's own largest sample-to-sample change (2 pi 60 / fs V)."""
     specs = cfg.daq.input_specs()
-    channels = [ChannelSpec(s.name, s.units, s.quantity, FS, sensitivity=s.sensitivity,
-                            sensitivity_units=s.sensitivity_units, physical_channel=s.physical_channel,
-                            location=s.location) for s in specs]
+    channels = [
+        ChannelSpec(
+            s.name,
+            s.units,
+            s.quantity,
+            FS,
+            sensitivity=s.sensitivity,
+            sensitivity_units=s.sensitivity_units,
+            physical_channel=s.physical_channel,
+            location=s.location,
+        )
+        for s in specs
+    ]
 
     def run(path, faults):
         rig.faults = tuple(faults)
         fs = _configure(rig, cfg)
         drive = SineDrive(fs, 60.0, max_drive=5.0, ramp_time=0.2)
         drive.set_target(1.0)
-        with RecordingWriter(path, backend="simulated", rig=cfg.to_json(), experiment={"procedure": "dwell"}) as rec:
+        with RecordingWriter(
+            path, backend="simulated", rig=cfg.to_json(), experiment={"procedure": "dwell"}
+        ) as rec:
             point = rec.begin_point(params={"fe": 60.0}, channels=channels)
             acquire(rig, drive, 1.0, sink=point)
             point.end()
@@ -206,15 +240,15 @@ def test_injected_fault_ramps_drive_to_zero_names_it_and_keeps_the_data(rig, cfg
     after = log[fault_at:]
     assert not running and 0 < after.size <= int(0.1 * FS) and after[-1] == 0.0
     assert np.max(np.abs(after[-10:])) < 1e-3
-    assert np.max(np.abs(np.diff(log[fault_at - 10:]))) <= 2 * np.pi * 60 / FS * 1.0001
+    assert np.max(np.abs(np.diff(log[fault_at - 10 :]))) <= 2 * np.pi * 60 / FS * 1.0001
 
 
 def test_natural_overload_names_the_channel(rig, cfg):
     specs = cfg.daq.input_specs()
-    specs[0] = replace(specs[0], min_value=-2.0, max_value=2.0)     # +-2 N force range
+    specs[0] = replace(specs[0], min_value=-2.0, max_value=2.0)  # +-2 N force range
     fs = _configure(rig, cfg, inputs=specs)
     drive = SineDrive(fs, 60.0, max_drive=5.0, ramp_time=0.05)
-    drive.set_target(1.0)                                           # ~15 N
+    drive.set_target(1.0)  # ~15 N
     sink = BlockCollector()
     with pytest.raises(AcquisitionAborted, match="sensor overload: force beyond its range") as info:
         acquire(rig, drive, 1.0, sink=sink)
@@ -232,8 +266,9 @@ def test_reported_delay_is_the_drive_to_input_delay(rig, cfg):
     (a symmetric two-tap average has exactly linear phase)."""
     from scipy import signal
 
-    specs = cfg.daq.input_specs() + [InputChannelSpec("amplifier_monitor", "Dev1/ai3", "voltage",
-                                                      min_value=-25.0, max_value=25.0)]
+    specs = cfg.daq.input_specs() + [
+        InputChannelSpec("amplifier_monitor", "Dev1/ai3", "voltage", min_value=-25.0, max_value=25.0)
+    ]
     fs = _configure(rig, cfg, inputs=specs)
     d = round(rig.input_to_output_delay() * fs - 0.5)
     assert d > 0 and rig.input_to_output_delay() * fs == pytest.approx(d + 0.5, abs=1e-9)
@@ -243,7 +278,7 @@ def test_reported_delay_is_the_drive_to_input_delay(rig, cfg):
     acquire(rig, drive, 0.5, sink=sink, record_drive=True)
     monitor, played = sink.data[3], sink.data[4]
     gain = rig.shaker.amplifier_gain
-    np.testing.assert_allclose(monitor[d + 1:], gain * 0.5 * (played[:-d - 1] + played[1:-d]), atol=1e-3)
+    np.testing.assert_allclose(monitor[d + 1 :], gain * 0.5 * (played[: -d - 1] + played[1:-d]), atol=1e-3)
     f, pxy = signal.csd(played, monitor, fs, nperseg=4096)
     band = (f >= 10.0) & (f <= 2000.0)
     slope = np.polyfit(2 * np.pi * f[band], np.unwrap(np.angle(pxy[band])), 1)[0]
@@ -254,8 +289,9 @@ def test_impacts_on_the_default_gap(cfg):
     """Default rig (0.5 mm gap), 60 Hz at ~15 N: the shrouds hit (contact force > 0), the passive
     shroud moves far above its noise, and the model is the vibro-impact one."""
     rig = SimulatedRig.from_config(cfg, seed=3, keep_truth=True)
-    specs = cfg.daq.input_specs() + [InputChannelSpec("contact_force", "sim/contact", "voltage",
-                                                      min_value=-1e4, max_value=1e4)]
+    specs = cfg.daq.input_specs() + [
+        InputChannelSpec("contact_force", "sim/contact", "voltage", min_value=-1e4, max_value=1e4)
+    ]
     rig.signal_map["contact_force"] = "contact_force"
     fs = _configure(rig, cfg, inputs=specs)
     assert rig.model_kind == "vibro-impact"
@@ -264,7 +300,7 @@ def test_impacts_on_the_default_gap(cfg):
     sink = BlockCollector()
     acquire(rig, drive, 1.5, sink=sink)
     assert np.max(sink.data[3]) > 1.0
-    assert np.std(sink.data[2, int(fs):]) > 50 * rig.test_article.accel_noise
+    assert np.std(sink.data[2, int(fs) :]) > 50 * rig.test_article.accel_noise
 
 
 def test_pace_follows_the_wall_clock(rig, cfg):
@@ -304,7 +340,7 @@ def test_shaker_and_test_article_sections_validate_in_one_line(cfg):
     from rigtools.config import ConfigError, default_rig_text, parse_rig
 
     data = tomllib.loads(default_rig_text())
-    assert parse_rig(data).test_article.to_params() == TestArticle()   # shipped file = defaults
+    assert parse_rig(data).test_article.to_params() == TestArticle()  # shipped file = defaults
     bad = copy.deepcopy(data)
     bad["test_article"]["damping_ratio"] = 1.5
     with pytest.raises(ConfigError, match=r"test_article.damping_ratio = 1.5"):
@@ -323,13 +359,13 @@ def test_safety_abort_in_the_loop_ramps_the_drive_down_within_0_1_s(rig, cfg):
     fs = _configure(rig, cfg)
     monitor = SafetyMonitor([ChannelLimit("force", 4.0, 6.0)], rig.input_channels, max_drive=5.0)
     drive = SineDrive(fs, 60.0, max_drive=5.0, ramp_time=0.3)
-    drive.set_target(1.0)                                          # ~15 N once ramped up
+    drive.set_target(1.0)  # ~15 N once ramped up
     with pytest.raises(AcquisitionAborted, match="safety abort: force peak") as info:
         acquire(rig, drive, 2.0, safety=monitor)
     log = rig.drive_log
-    after = log[info.value.samples_kept:]
+    after = log[info.value.samples_kept :]
     assert not rig.running and 0 < after.size <= int(0.1 * fs) and after[-1] == 0.0
-    assert np.max(np.abs(np.diff(log[-int(0.2 * fs):]))) <= 2 * np.pi * 60 / fs * 1.0001
+    assert np.max(np.abs(np.diff(log[-int(0.2 * fs) :]))) <= 2 * np.pi * 60 / fs * 1.0001
 
 
 @pytest.mark.parametrize("chunk", [2560, 1000, 777])
@@ -346,11 +382,12 @@ def test_readings_do_not_depend_on_the_block_size(cfg, chunk):
     samples = drive.next_block(int(0.8 * FS))
 
     def run(block):
-        rig = SimulatedRig(cfg.to_params(), cfg.shaker.to_params(), ta, keep_truth=True,
-                           max_time_to_zero=None)       # whole-run blocks: no queue bound
+        rig = SimulatedRig(
+            cfg.to_params(), cfg.shaker.to_params(), ta, keep_truth=True, max_time_to_zero=None
+        )  # whole-run blocks: no queue bound
         _configure(rig, cfg)
         assert rig.input_to_output_delay() > 0
-        parts = [samples[i:i + block] for i in range(0, samples.size, block)]
+        parts = [samples[i : i + block] for i in range(0, samples.size, block)]
         rig.write(parts[0])
         rig.start()
         read = []
@@ -363,7 +400,7 @@ def test_readings_do_not_depend_on_the_block_size(cfg, chunk):
 
     ref_read, ref_truth, lsb = run(samples.size)
     read, truth, _ = run(chunk)
-    assert np.std(ref_truth[2]) > 10.0      # the passive shroud moves: impacts happened
+    assert np.std(ref_truth[2]) > 10.0  # the passive shroud moves: impacts happened
     peak = np.max(np.abs(ref_truth), axis=1, keepdims=True)
     assert np.all(np.abs(truth - ref_truth) <= 1e-12 * peak)
     assert np.all(np.abs(read - ref_read) <= lsb[:, None] * (1 + 1e-9))
@@ -381,23 +418,24 @@ def test_integrating_sampler_leaves_no_alias_lines_between_the_harmonics(cfg):
     ta = cfg.test_article.to_params().ideal()
 
     def run(fs):
-        rig = SimulatedRig(cfg.to_params(), cfg.shaker.to_params(), ta, model="vibro-impact",
-                           max_time_to_zero=None)       # one 3 s block: no queue bound
+        rig = SimulatedRig(
+            cfg.to_params(), cfg.shaker.to_params(), ta, model="vibro-impact", max_time_to_zero=None
+        )  # one 3 s block: no queue bound
         rig.configure(cfg.daq.input_specs(), cfg.daq.output_spec(), fs)
         drive = SineDrive(fs, 60.0, max_drive=5.0, ramp_time=0.5)
         drive.set_target(1.0)
         u = drive.next_block(int(3 * fs))
         rig.write(u)
         rig.start()
-        x = rig.read(u.size)[:, int(2 * fs):]
-        spectrum = np.abs(np.fft.rfft(x, axis=1)) * 2 / x.shape[1]      # 1 Hz bins
+        x = rig.read(u.size)[:, int(2 * fs) :]
+        spectrum = np.abs(np.fft.rfft(x, axis=1)) * 2 / x.shape[1]  # 1 Hz bins
         harmonics = spectrum[:, 60:721:60]
         sides = np.maximum(spectrum[:, 40:701:60], spectrum[:, 80:741:60]).max(axis=1)
         return harmonics[:, 0], sides
 
     h1, sides = run(51200.0)
     h1_ref, sides_ref = run(61440.0)
-    assert np.all(sides_ref <= 1e-9 * h1_ref)          # the comb analysis itself is clean
+    assert np.all(sides_ref <= 1e-9 * h1_ref)  # the comb analysis itself is clean
     assert np.all(sides < 1e-4 * h1), sides / h1
     np.testing.assert_allclose(h1, h1_ref, rtol=2e-4)
 
@@ -418,7 +456,7 @@ def test_linear_model_reports_exact_interval_means():
         return rig._physics
 
     model = physics(FS)
-    coarse = np.hstack([model.step(part) for part in np.array_split(u, 3)])   # state carried
+    coarse = np.hstack([model.step(part) for part in np.array_split(u, 3)])  # state carried
     fine_u = np.interp(np.arange(1, 8 * u.size + 1) / 8, np.arange(u.size + 1), np.r_[0.0, u])
     fine = physics(8 * FS).step(fine_u).reshape(coarse.shape[0], -1, 8).mean(axis=2)
     rms = np.std(fine, axis=1, keepdims=True)

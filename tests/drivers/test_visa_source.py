@@ -63,14 +63,17 @@ def test_sine_settings_round_trip(gen):
     assert gen.state().output_on is False
 
 
-@pytest.mark.parametrize("call, value, text", [
-    ("set_frequency", 2500.0, "frequency 2500.0 Hz is outside"),
-    ("set_frequency", 0.5, "outside the allowed 1..2000 Hz"),
-    ("set_frequency", float("nan"), "frequency nan"),
-    ("set_amplitude", 2.5, "amplitude 2.5 Vpp is outside"),
-    ("set_amplitude", 0.0, "amplitude 0.0 Vpp"),
-    ("set_amplitude", -1.0, "amplitude -1.0 Vpp"),
-])
+@pytest.mark.parametrize(
+    "call, value, text",
+    [
+        ("set_frequency", 2500.0, "frequency 2500.0 Hz is outside"),
+        ("set_frequency", 0.5, "outside the allowed 1..2000 Hz"),
+        ("set_frequency", float("nan"), "frequency nan"),
+        ("set_amplitude", 2.5, "amplitude 2.5 Vpp is outside"),
+        ("set_amplitude", 0.0, "amplitude 0.0 Vpp"),
+        ("set_amplitude", -1.0, "amplitude -1.0 Vpp"),
+    ],
+)
 def test_limits_are_enforced_before_sending(gen, monkeypatch, call, value, text):
     sent = []
     monkeypatch.setattr(gen._inst, "write", lambda cmd: sent.append(cmd))
@@ -86,7 +89,7 @@ def test_simulator_error_response_raises(rm):
         g.set_amplitude(1.0)
         with pytest.raises(SignalSourceError, match=r"'VOLT 30.000000' refused: -100 Command error"):
             g.set_amplitude(30.0)
-        assert g.state().amplitude_vpp == pytest.approx(1.0)   # unchanged, queue drained
+        assert g.state().amplitude_vpp == pytest.approx(1.0)  # unchanged, queue drained
         with pytest.raises(SignalSourceError, match="refused: -100"):
             g._send("FUNC WOBBLE")
         assert g.errors() == []
@@ -110,7 +113,7 @@ def test_exit_turns_the_output_off_even_on_error(rm):
     # the simulated instrument keeps its state between sessions: reopen and look
     with WaveformGenerator(SIMULATED_RESOURCE, LIMITS, resource_manager=rm) as g2:
         assert g2.state().output_on is False
-    g.close()   # idempotent
+    g.close()  # idempotent
 
 
 def test_unknown_resource_and_missing_visa_library_say_so_in_one_line(rm):

@@ -20,7 +20,12 @@ def run_cli(argv) -> tuple[int, str, str]:
 
 def rig(*args, cwd) -> str:
     """``rig ARGS`` as a subprocess in ``cwd``; asserts success and returns its stdout."""
-    proc = subprocess.run([sys.executable, "-m", "rigtools.cli", *map(str, args)], cwd=cwd,
-                          capture_output=True, text=True, timeout=600)
+    proc = subprocess.run(
+        [sys.executable, "-m", "rigtools.cli", *map(str, args)],
+        cwd=cwd,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert proc.returncode == 0, proc.stderr[-2000:]
     return proc.stdout

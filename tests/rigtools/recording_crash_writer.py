@@ -23,8 +23,16 @@ SAMPLE_RATE = 20000.0
 BLOCK_S = 0.05
 BLOCK = int(SAMPLE_RATE * BLOCK_S)
 CHANNELS = [
-    ChannelSpec("force", "N", "force", SAMPLE_RATE, sensitivity=11.24, sensitivity_units="mV/N",
-                physical_channel="Dev1/ai0", location="active blade, x=0.090 m"),
+    ChannelSpec(
+        "force",
+        "N",
+        "force",
+        SAMPLE_RATE,
+        sensitivity=11.24,
+        sensitivity_units="mV/N",
+        physical_channel="Dev1/ai0",
+        location="active blade, x=0.090 m",
+    ),
     ChannelSpec("active_shroud_accel", "m/s^2", "acceleration", SAMPLE_RATE),
     ChannelSpec("passive_shroud_accel", "m/s^2", "acceleration", SAMPLE_RATE),
     ChannelSpec("drive", "V", "voltage", SAMPLE_RATE),
@@ -37,14 +45,19 @@ def block(seed: int, point: int, index: int) -> np.ndarray:
 
 
 def main(path: str, seed: int, point_blocks: int) -> None:
-    with RecordingWriter(path, backend="simulated", rig='name = "crash test rig"',
-                         experiment={"procedure": "crash-test", "seed": seed}) as rec:
+    with RecordingWriter(
+        path,
+        backend="simulated",
+        rig='name = "crash test rig"',
+        experiment={"procedure": "crash-test", "seed": seed},
+    ) as rec:
         print("S", time.time(), flush=True)
         point_no = 0
         next_due = time.monotonic()
         while True:
-            point = rec.begin_point(params={"fe": 60.0 + point_no, "force_amplitude": 15.0,
-                                            "gap": 5e-4}, channels=CHANNELS)
+            point = rec.begin_point(
+                params={"fe": 60.0 + point_no, "force_amplitude": 15.0, "gap": 5e-4}, channels=CHANNELS
+            )
             reported = 0
             for index in range(point_blocks):
                 point.append(block(seed, point_no, index))

@@ -32,7 +32,7 @@ class DelayDevice(AcquisitionDevice):
 
     def __init__(self, fault_at_block: int | None = None):
         self.fault_at_block = fault_at_block
-        self.written = []          # every drive block written
+        self.written = []  # every drive block written
         self.played = np.zeros(0)  # drive samples consumed by reads
         self._queue = np.zeros(0)
         self._running = False
@@ -67,7 +67,7 @@ class DelayDevice(AcquisitionDevice):
         k0 = self.played.size
         self.played = np.concatenate([self.played, drive])
         padded = np.concatenate([np.zeros(DELAY), self.played])
-        out = np.vstack([GAIN * padded[k0:k0 + n], np.full(n, 1.5)])
+        out = np.vstack([GAIN * padded[k0 : k0 + n], np.full(n, 1.5)])
         self.reads += 1
         if self.fault_at_block is not None and self.reads - 1 == self.fault_at_block:
             self.stop()
@@ -86,8 +86,14 @@ class DelayDevice(AcquisitionDevice):
 
 def _device(**kw):
     dev = DelayDevice(**kw)
-    dev.configure([InputChannelSpec("force", "x/ai0", "force", 11.24, "mV/N"),
-                   InputChannelSpec("level", "x/ai1", "voltage")], OutputChannelSpec(), FS)
+    dev.configure(
+        [
+            InputChannelSpec("force", "x/ai0", "force", 11.24, "mV/N"),
+            InputChannelSpec("level", "x/ai1", "voltage"),
+        ],
+        OutputChannelSpec(),
+        FS,
+    )
     return dev
 
 
@@ -104,11 +110,11 @@ def test_acquire_stores_every_block_exactly_and_ends_at_zero():
     # 10 blocks + the 2 queued + ramp (0.2 s = 2 blocks) and delay (3 samples -> 1 block)
     assert stats.blocks == 10 + 2 + 3 and data.shape == (3, stats.samples)
     played = dev.played[: data.shape[1]]
-    np.testing.assert_array_equal(data[2], played)                       # drive row = played drive
+    np.testing.assert_array_equal(data[2], played)  # drive row = played drive
     np.testing.assert_allclose(data[0, DELAY:], GAIN * played[:-DELAY], rtol=0, atol=1e-12)
     assert np.all(data[1] == 1.5)
-    assert abs(played[-1]) == 0.0 and np.max(np.abs(played[-DELAY - 1:])) == 0.0
-    assert np.max(np.abs(played)) == pytest.approx(1.0, abs=1e-3)         # ramped up to 1 V
+    assert abs(played[-1]) == 0.0 and np.max(np.abs(played[-DELAY - 1 :])) == 0.0
+    assert np.max(np.abs(played)) == pytest.approx(1.0, abs=1e-3)  # ramped up to 1 V
     assert dev.stops == 1 and not dev.running
 
 
@@ -127,9 +133,9 @@ def test_safety_abort_stops_and_keeps_the_offending_block():
     dev, sink = _device(), BlockCollector()
     monitor = SafetyMonitor([ChannelLimit("force", 2.0, 3.0)], dev.input_channels, max_drive=5.0)
     with pytest.raises(AcquisitionAborted, match="force peak .* abort limit 3") as info:
-        acquire(dev, _sine(2.0), 3.0, sink=sink, safety=monitor)   # 2 x 2 V = 4 N > 3 N
+        acquire(dev, _sine(2.0), 3.0, sink=sink, safety=monitor)  # 2 x 2 V = 4 N > 3 N
     assert info.value.fault == "safety abort"
-    assert np.max(np.abs(sink.data[0])) >= 3.0                      # the block that tripped is kept
+    assert np.max(np.abs(sink.data[0])) >= 3.0  # the block that tripped is kept
     assert np.max(np.abs(sink.data[0, :-BLOCK])) < 3.0
     assert dev.stops == 1
 
@@ -185,10 +191,11 @@ def test_random_drive_rms_band_and_bursts():
     x = np.concatenate([drive.next_block(4000) for _ in range(60)])[400:]
     assert np.std(x) == pytest.approx(0.5, rel=0.02)
     f, p = signal.welch(x, fs, nperseg=4000)
-    inside = (f >= 25) & (f <= 1000)   # 4th-order skirts: an octave beyond the band
+    inside = (f >= 25) & (f <= 1000)  # 4th-order skirts: an octave beyond the band
     assert p[inside].sum() / p.sum() > 0.99
-    burst = RandomDrive(fs, 1.0, (50.0, 500.0), max_drive=2.5, ramp_time=0.001, burst_period=0.5,
-                        burst_fraction=0.6, seed=4)
+    burst = RandomDrive(
+        fs, 1.0, (50.0, 500.0), max_drive=2.5, ramp_time=0.001, burst_period=0.5, burst_fraction=0.6, seed=4
+    )
     y = np.concatenate([burst.next_block(1000) for _ in range(8)]).reshape(-1, 2000)
     assert np.all(y[:, 1200:] == 0.0) and np.std(y[1:, 50:1150]) > 0.8
     assert np.max(np.abs(y)) <= 2.5

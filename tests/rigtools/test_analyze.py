@@ -10,9 +10,24 @@ import pytest
 
 from cli_helpers import run_cli
 
-FRF = ["acquire", "frf", "--backend", "sim", "--signal", "burst", "--band", "20 Hz:1500 Hz",
-       "--level", "0.3 V", "--frame", "0.5 s", "--averages", "6", "--seed", "3"]
-
+FRF = [
+    "acquire",
+    "frf",
+    "--backend",
+    "sim",
+    "--signal",
+    "burst",
+    "--band",
+    "20 Hz:1500 Hz",
+    "--level",
+    "0.3 V",
+    "--frame",
+    "0.5 s",
+    "--averages",
+    "6",
+    "--seed",
+    "3",
+]
 
 
 @pytest.fixture(scope="module")
@@ -27,8 +42,23 @@ def frf_file(tmp_path_factory):
 def study_file(tmp_path_factory):
     """A FEM frequency study with the gap wide open (linear): a stepped sine of the model."""
     path = tmp_path_factory.mktemp("study") / "steps.h5"
-    code, out, err = run_cli(["study", "frequency", "--values", "40 Hz,52 Hz,60 Hz", "--gap", "3 mm",
-                              "--force", "5 N", "--duration", "0.1 s", "--out", str(path), "--no-plot"])
+    code, out, err = run_cli(
+        [
+            "study",
+            "frequency",
+            "--values",
+            "40 Hz,52 Hz,60 Hz",
+            "--gap",
+            "3 mm",
+            "--force",
+            "5 N",
+            "--duration",
+            "0.1 s",
+            "--out",
+            str(path),
+            "--no-plot",
+        ]
+    )
     assert code == 0, err
     return path
 
@@ -59,7 +89,9 @@ def test_frf_test_gives_the_test_articles_active_frequencies(frf_file):
     # the issue's goal: within 0.5 % of the test article's own values (measured: ~0.01 %)
     np.testing.assert_allclose(got[:3], ref, rtol=0.005)
     # the test article's damping ratio 1.2 %, every mode, within 5 %
-    np.testing.assert_allclose([m.damping_ratio for m in modes[:3]], cfg.test_article.damping_ratio, rtol=0.05)
+    np.testing.assert_allclose(
+        [m.damping_ratio for m in modes[:3]], cfg.test_article.damping_ratio, rtol=0.05
+    )
     # the Table-2 rows: FEM and AM of the nominal rig beside EM, the article's own and the difference
     rows = {(r["blade"], r["mode"]): r for r in a.frequency_table}
     for k in (1, 2, 3):
@@ -67,7 +99,7 @@ def test_frf_test_gives_the_test_articles_active_frequencies(frf_file):
         assert r["em_hz"] == pytest.approx(got[k - 1])
         assert abs(r["em_vs_article_pct"]) < 0.5
         assert r["fem_vs_em_pct"] == pytest.approx(100 * (r["fem_hz"] - r["em_hz"]) / r["em_hz"])
-        assert r["am_hz"] == pytest.approx(r["fem_hz"], rel=0.005)      # AM and FEM of the nominal rig agree
+        assert r["am_hz"] == pytest.approx(r["fem_hz"], rel=0.005)  # AM and FEM of the nominal rig agree
     # the passive blade is not reached by the force with the gap open: no modes, said so
     assert not p.frf.modes["passive_shroud_accel"].modes
     assert np.isnan(rows[("passive", 1)]["em_hz"])
@@ -99,7 +131,7 @@ def test_cli_analyze_frf_json_and_figures(frf_file, tmp_path):
     assert code == 0 and "natural frequencies" in out and "active" in out
     from rigtools.runtime import WIDE_OUTPUT_COLUMNS
 
-    assert max(len(line) for line in out.splitlines()) <= WIDE_OUTPUT_COLUMNS   # rig's width in a pipe
+    assert max(len(line) for line in out.splitlines()) <= WIDE_OUTPUT_COLUMNS  # rig's width in a pipe
 
 
 def test_stepped_sine_curves_match_linear_fem(study_file):
@@ -142,9 +174,13 @@ def test_chunked_harmonics_of_a_long_synthetic_record(tmp_path, monkeypatch):
     accel = sig(a_true) + 0.02 * rng.standard_normal(n)
     path = tmp_path / "synthetic.h5"
     with RecordingWriter(path, backend="simulated", rig="{}", experiment={"procedure": "sine dwell"}) as w:
-        pt = w.begin_point(params={"fe": fe, "force_amplitude": 12.0},
-                           channels=[ChannelSpec("force", "N", "force", rate),
-                                     ChannelSpec("active_shroud_accel", "m/s^2", "acceleration", rate)])
+        pt = w.begin_point(
+            params={"fe": fe, "force_amplitude": 12.0},
+            channels=[
+                ChannelSpec("force", "N", "force", rate),
+                ChannelSpec("active_shroud_accel", "m/s^2", "acceleration", rate),
+            ],
+        )
         pt.append(np.vstack([force, accel]))
         pt.set_attrs(measured_force_amplitude=12.0)
         pt.end()
@@ -166,8 +202,11 @@ def test_chunked_harmonics_of_a_long_synthetic_record(tmp_path, monkeypatch):
 def test_cli_bad_input_one_line_exit_2(tmp_path, frf_file):
     bad = tmp_path / "x.h5"
     bad.write_bytes(b"not hdf5 at all" * 10)
-    for argv in (["analyze", str(bad)], ["analyze", str(tmp_path / "missing.h5")],
-                 ["analyze", str(frf_file), "--channels", "strain_gauge"]):
+    for argv in (
+        ["analyze", str(bad)],
+        ["analyze", str(tmp_path / "missing.h5")],
+        ["analyze", str(frf_file), "--channels", "strain_gauge"],
+    ):
         code, out, err = run_cli(argv)
         assert code == 2
         lines = err.strip().splitlines()
@@ -212,14 +251,23 @@ def test_tap_test_record_without_frames_gives_the_mode(tmp_path):
     pulse = np.where(t < 2.5e-4, np.sin(np.pi * t / 2.5e-4), 0.0)
     force = sum(a * np.roll(pulse, at) for a, at in ((50, 100), (35, 8300), (60, 16500), (42, 24700)))
     # accelerance of m x'' + c x' + k x = F: a = s^2 / (m (s^2 + 2 zeta wn s + wn^2)) F
-    sys_a = signal.dlti(*signal.cont2discrete(([1.0, 0, 0], [m, 2 * zeta * wn * m, wn**2 * m]), 1 / rate,
-                                              method="bilinear")[:2], dt=1 / rate)
+    sys_a = signal.dlti(
+        *signal.cont2discrete(([1.0, 0, 0], [m, 2 * zeta * wn * m, wn**2 * m]), 1 / rate, method="bilinear")[
+            :2
+        ],
+        dt=1 / rate,
+    )
     _, accel = signal.dlsim(sys_a, force)
     accel = accel[:, 0] + 0.002 * np.random.default_rng(1).standard_normal(n)
     path = tmp_path / "tap.h5"
     with RecordingWriter(path, backend="simulated", rig="{}", experiment={"procedure": "tap test"}) as w:
-        pt = w.begin_point(params={}, channels=[ChannelSpec("force", "N", "force", rate),
-                                                 ChannelSpec("passive_shroud_accel", "m/s^2", "acceleration", rate)])
+        pt = w.begin_point(
+            params={},
+            channels=[
+                ChannelSpec("force", "N", "force", rate),
+                ChannelSpec("passive_shroud_accel", "m/s^2", "acceleration", rate),
+            ],
+        )
         pt.append(np.vstack([force, accel]))
         pt.end()
     for method in ("lscf", "peak"):

@@ -46,11 +46,18 @@ RIG = ["--rig"]
 def _write_recording(path: Path, *, nan: bool = False) -> Path:
     """A small real recording: two points of 60 Hz sines on four channels, written by the writer."""
     t = np.arange(int(RATE)) / RATE
-    with RecordingWriter(path, backend="simulated", rig=default_rig_text(),
-                         experiment={"procedure": "sine dwell"}) as rec:
+    with RecordingWriter(
+        path, backend="simulated", rig=default_rig_text(), experiment={"procedure": "sine dwell"}
+    ) as rec:
         for k, fe in enumerate((60.0, 61.0)):
-            block = np.vstack([15 * np.sin(2 * np.pi * fe * t), 80 * np.sin(2 * np.pi * fe * t + 1),
-                               100 * np.sin(2 * np.pi * fe * t + 2), np.sin(2 * np.pi * fe * t)])
+            block = np.vstack(
+                [
+                    15 * np.sin(2 * np.pi * fe * t),
+                    80 * np.sin(2 * np.pi * fe * t + 1),
+                    100 * np.sin(2 * np.pi * fe * t + 2),
+                    np.sin(2 * np.pi * fe * t),
+                ]
+            )
             if nan and k == 1:
                 block[1, 100:104] = np.nan
             point = rec.begin_point({"fe": fe, "force_amplitude": 15.0}, CHANNELS)
@@ -61,8 +68,11 @@ def _write_recording(path: Path, *, nan: bool = False) -> Path:
 
 
 def _digest(folder: Path) -> dict[str, str]:
-    return {p.name: hashlib.sha256(p.read_bytes()).hexdigest()
-            for p in sorted(folder.iterdir()) if p.is_file() and not p.name.startswith(".")}
+    return {
+        p.name: hashlib.sha256(p.read_bytes()).hexdigest()
+        for p in sorted(folder.iterdir())
+        if p.is_file() and not p.name.startswith(".")
+    }
 
 
 @pytest.fixture(scope="module")
@@ -85,9 +95,14 @@ def _write_tdms(path: Path) -> None:
     rng = np.random.default_rng(3)
     props = lambda unit: {"unit_string": unit, "wf_increment": 1 / RATE, "wf_start_offset": 0.0}  # noqa: E731
     with TdmsWriter(str(path)) as w:
-        w.write_segment([RootObject({"name": "log"}), GroupObject("Task"),
-                         ChannelObject("Task", "Dev1/ai0", rng.standard_normal(500), properties=props("Newtons")),
-                         ChannelObject("Task", "Dev1/ai1", rng.standard_normal(500), properties=props("g"))])
+        w.write_segment(
+            [
+                RootObject({"name": "log"}),
+                GroupObject("Task"),
+                ChannelObject("Task", "Dev1/ai0", rng.standard_normal(500), properties=props("Newtons")),
+                ChannelObject("Task", "Dev1/ai1", rng.standard_normal(500), properties=props("g")),
+            ]
+        )
 
 
 @pytest.fixture(scope="module")
@@ -100,7 +115,7 @@ def run_cli(argv: list[str]) -> tuple[int, str, str]:
     with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
         try:
             code = main(argv)
-        except SystemExit as exc:       # --help and argparse's own exits
+        except SystemExit as exc:  # --help and argparse's own exits
             code = exc.code if isinstance(exc.code, int) else 0
     return code, out.getvalue(), err.getvalue()
 
@@ -112,7 +127,7 @@ def assert_clean_failure(code: int, err: str, expected: int, lab: Path, digest: 
     assert len(lines) <= 2, err
     if expected not in (0, 1):
         assert lines and "error" in lines[0] or any("interrupt" in x for x in lines), err
-    now = _digest(lab)      # files a case adds beside them are allowed (derived files)
+    now = _digest(lab)  # files a case adds beside them are allowed (derived files)
     assert {name: now.get(name) for name in digest} == digest, "an existing recording or rig file changed"
 
 
@@ -125,7 +140,7 @@ class Case:
     argv: list[str]
     code: int = 2
     setup: Callable[[Path], None] | None = None
-    expect: str | None = None       # text the stderr line must contain
+    expect: str | None = None  # text the stderr line must contain
     marks: list = field(default_factory=list)
 
 
@@ -154,6 +169,7 @@ def _rig_with(change: Callable[[dict], None]) -> Callable[[Path], None]:
         data = tomllib.loads(default_rig_text())
         change(data)
         (tmp / "rig.toml").write_text(tomli_w.dumps(data), encoding="utf-8")
+
     return setup
 
 
@@ -164,12 +180,14 @@ def _set(section: str, key: str, value) -> Callable[[Path], None]:
         for part in parts:
             node = node.setdefault(part, {})
         node[key] = value
+
     return _rig_with(change)
 
 
 def _raw_rig(data: bytes | Callable[[], bytes]) -> Callable[[Path], None]:
     def setup(tmp: Path) -> None:
         (tmp / "rig.toml").write_bytes(data() if callable(data) else data)
+
     return setup
 
 
@@ -178,27 +196,50 @@ def _replace_in_rig(old: str, new: str) -> Callable[[Path], None]:
         text = default_rig_text()
         assert old in text
         (tmp / "rig.toml").write_text(text.replace(old, new, 1), encoding="utf-8")
+
     return setup
 
 
 BAD_VALUES = [
-    ("blade", "length", -0.1), ("blade", "length", "0.5 MM"), ("blade", "length", "1e400 m"),
-    ("blade", "width", 0), ("blade", "thickness", "2 kg"), ("blade", "elements", 1),
-    ("blade", "elements", 10**7), ("blade", "youngs_modulus", "200 gpa"),
-    ("blade", "youngs_modulus", "200 mPa"), ("blade", "density", 1e9), ("blade", "poisson", 0.7),
-    ("blade", "theory", "bernoulli"), ("blade", "colour", "blue"),
-    ("passive_blade", "length", 100.0), ("passive_blade", "thickness", -1e-3),
-    ("passive_blade", "elements", 0), ("passive_blade", "youngs_modulus", "1e400 Pa"),
-    ("passive_blade", "density", "nan"), ("passive_blade", "poisson", -0.1),
+    ("blade", "length", -0.1),
+    ("blade", "length", "0.5 MM"),
+    ("blade", "length", "1e400 m"),
+    ("blade", "width", 0),
+    ("blade", "thickness", "2 kg"),
+    ("blade", "elements", 1),
+    ("blade", "elements", 10**7),
+    ("blade", "youngs_modulus", "200 gpa"),
+    ("blade", "youngs_modulus", "200 mPa"),
+    ("blade", "density", 1e9),
+    ("blade", "poisson", 0.7),
+    ("blade", "theory", "bernoulli"),
+    ("blade", "colour", "blue"),
+    ("passive_blade", "length", 100.0),
+    ("passive_blade", "thickness", -1e-3),
+    ("passive_blade", "elements", 0),
+    ("passive_blade", "youngs_modulus", "1e400 Pa"),
+    ("passive_blade", "density", "nan"),
+    ("passive_blade", "poisson", -0.1),
     ("passive_blade", "mass", "1 kg"),
-    ("root", "kind", "welded"), ("root", "rotational_stiffness", "1e18 N*m/rad"),
-    ("root", "translational_stiffness", 1e24), ("root", "rotational_stiffness", -5.0),
-    ("shroud", "mass", 0), ("shroud", "mass", "1e400 g"), ("shroud", "rotary_inertia", -1.0),
-    ("contact", "gap", 0.5), ("contact", "gap", "-0.1 mm"), ("contact", "gap", "0.5 MM"),
-    ("contact", "stiffness", 0), ("contact", "stiffness", "1e13 N/m"),
-    ("contact", "damping", "1e5 N*s/m"), ("contact", "law", "elastic"),
-    ("damping", "alpha", float("inf")), ("damping", "alpha", -1.0), ("damping", "beta", 1.0),
-    ("damping", "ratio", 1.5), ("force_sensor", "position", "2 m"),
+    ("root", "kind", "welded"),
+    ("root", "rotational_stiffness", "1e18 N*m/rad"),
+    ("root", "translational_stiffness", 1e24),
+    ("root", "rotational_stiffness", -5.0),
+    ("shroud", "mass", 0),
+    ("shroud", "mass", "1e400 g"),
+    ("shroud", "rotary_inertia", -1.0),
+    ("contact", "gap", 0.5),
+    ("contact", "gap", "-0.1 mm"),
+    ("contact", "gap", "0.5 MM"),
+    ("contact", "stiffness", 0),
+    ("contact", "stiffness", "1e13 N/m"),
+    ("contact", "damping", "1e5 N*s/m"),
+    ("contact", "law", "elastic"),
+    ("damping", "alpha", float("inf")),
+    ("damping", "alpha", -1.0),
+    ("damping", "beta", 1.0),
+    ("damping", "ratio", 1.5),
+    ("force_sensor", "position", "2 m"),
     ("force_sensor", "mass", "-3 g"),
 ]
 
@@ -212,34 +253,84 @@ RIG_FILE_CASES = [
     for s, k, v in BAD_VALUES
 ] + [
     # root springs so soft the blade is almost free: the FEM reduction failed with a LinAlgError
-    Case("rig:root-springs-soft-rotation", ["simulate", "--rig", "{rig}", "--out", "{tmp}/s.h5"],
-         expect="root", setup=_rig_with(lambda d: d["root"].update(
-             kind="springs", rotational_stiffness=1e-4, translational_stiffness=1e3))),
-    Case("rig:root-springs-soft-translation", ["simulate", "--rig", "{rig}", "--out", "{tmp}/s.h5"],
-         expect="root", setup=_rig_with(lambda d: d["root"].update(
-             kind="springs", rotational_stiffness=1e7, translational_stiffness="1 N/m"))),
-    Case("rig:root-springs-free", ["harmonic", "--rig", "{rig}", "--out", "{tmp}/h.csv"],
-         expect="root", setup=_rig_with(lambda d: d["root"].update(
-             kind="springs", rotational_stiffness="1e-12 N*m/rad", translational_stiffness=1e-9))),
+    Case(
+        "rig:root-springs-soft-rotation",
+        ["simulate", "--rig", "{rig}", "--out", "{tmp}/s.h5"],
+        expect="root",
+        setup=_rig_with(
+            lambda d: d["root"].update(kind="springs", rotational_stiffness=1e-4, translational_stiffness=1e3)
+        ),
+    ),
+    Case(
+        "rig:root-springs-soft-translation",
+        ["simulate", "--rig", "{rig}", "--out", "{tmp}/s.h5"],
+        expect="root",
+        setup=_rig_with(
+            lambda d: d["root"].update(
+                kind="springs", rotational_stiffness=1e7, translational_stiffness="1 N/m"
+            )
+        ),
+    ),
+    Case(
+        "rig:root-springs-free",
+        ["harmonic", "--rig", "{rig}", "--out", "{tmp}/h.csv"],
+        expect="root",
+        setup=_rig_with(
+            lambda d: d["root"].update(
+                kind="springs", rotational_stiffness="1e-12 N*m/rad", translational_stiffness=1e-9
+            )
+        ),
+    ),
     # a Hertz law's stiffness is in N/m^1.5 (the rig file's own comment): a linear unit is refused
-    Case("rig:hertz-with-linear-unit", ["modal", "--rig", "{rig}"], expect="hertz stiffness",
-         setup=_rig_with(lambda d: d["contact"].update(law="hertz", stiffness="1e6 N/m"))),
-    Case("rig:linear-with-hertz-unit", ["modal", "--rig", "{rig}"], expect="hertz stiffness",
-         setup=_rig_with(lambda d: d["contact"].update(law="linear", stiffness="1e9 N/m^1.5"))),
+    Case(
+        "rig:hertz-with-linear-unit",
+        ["modal", "--rig", "{rig}"],
+        expect="hertz stiffness",
+        setup=_rig_with(lambda d: d["contact"].update(law="hertz", stiffness="1e6 N/m")),
+    ),
+    Case(
+        "rig:linear-with-hertz-unit",
+        ["modal", "--rig", "{rig}"],
+        expect="hertz stiffness",
+        setup=_rig_with(lambda d: d["contact"].update(law="linear", stiffness="1e9 N/m^1.5")),
+    ),
     Case("rig:unknown-section", ["modal", "--rig", "{rig}"], setup=_set("blades", "length", 0.1)),
-    Case("rig:inf-literal", ["modal", "--rig", "{rig}"], expect="contact.stiffness",
-         setup=_replace_in_rig('stiffness = "1e6 N/m"', "stiffness = inf")),
-    Case("rig:1e400-literal", ["modal", "--rig", "{rig}"], expect="contact.gap",
-         setup=_replace_in_rig('gap = "0.5 mm"', "gap = 1e400")),
-    Case("rig:nan-literal", ["modal", "--rig", "{rig}"], expect="contact.damping",
-         setup=_replace_in_rig('damping = "200 N*s/m"', "damping = nan")),
-    Case("rig:latin-1", ["modal", "--rig", "{rig}"],
-         setup=_raw_rig(lambda: ("# réglage du banc\n" + default_rig_text()).encode("latin-1", "replace")),
-         expect="not UTF-8"),
-    Case("rig:utf-16", ["modal", "--rig", "{rig}"],
-         setup=_raw_rig(lambda: default_rig_text().encode("utf-16")), expect="UTF-16"),
-    Case("rig:bom", ["modal", "--rig", "{rig}"],
-         setup=_raw_rig(lambda: b"\xef\xbb\xbf" + default_rig_text().encode()), expect="BOM"),
+    Case(
+        "rig:inf-literal",
+        ["modal", "--rig", "{rig}"],
+        expect="contact.stiffness",
+        setup=_replace_in_rig('stiffness = "1e6 N/m"', "stiffness = inf"),
+    ),
+    Case(
+        "rig:1e400-literal",
+        ["modal", "--rig", "{rig}"],
+        expect="contact.gap",
+        setup=_replace_in_rig('gap = "0.5 mm"', "gap = 1e400"),
+    ),
+    Case(
+        "rig:nan-literal",
+        ["modal", "--rig", "{rig}"],
+        expect="contact.damping",
+        setup=_replace_in_rig('damping = "200 N*s/m"', "damping = nan"),
+    ),
+    Case(
+        "rig:latin-1",
+        ["modal", "--rig", "{rig}"],
+        setup=_raw_rig(lambda: ("# réglage du banc\n" + default_rig_text()).encode("latin-1", "replace")),
+        expect="not UTF-8",
+    ),
+    Case(
+        "rig:utf-16",
+        ["modal", "--rig", "{rig}"],
+        setup=_raw_rig(lambda: default_rig_text().encode("utf-16")),
+        expect="UTF-16",
+    ),
+    Case(
+        "rig:bom",
+        ["modal", "--rig", "{rig}"],
+        setup=_raw_rig(lambda: b"\xef\xbb\xbf" + default_rig_text().encode()),
+        expect="BOM",
+    ),
     Case("rig:empty", ["modal", "--rig", "{rig}"], setup=_raw_rig(b""), expect="empty"),
     Case("rig:not-toml", ["modal", "--rig", "{rig}"], setup=_raw_rig(b"blade = [[[\n")),
     Case("rig:binary", ["modal", "--rig", "{rig}"], setup=_raw_rig(bytes(range(256)) * 4)),
@@ -247,15 +338,39 @@ RIG_FILE_CASES = [
     Case("rig:a-directory", ["modal", "--rig", "{lab}"], expect="directory"),
     Case("rig:missing", ["modal", "--rig", "{tmp}/nope.toml"]),
     Case("rig:simulate-recording-as-rig", ["simulate", "--rig", "{lab}/run.h5", "--out", "{tmp}/s.h5"]),
-    Case("rig:harmonic-bad-rig", ["harmonic", "--rig", "{rig}", "--out", "{tmp}/h.csv"],
-         setup=_set("contact", "gap", 0.5)),
-    Case("rig:study-bad-rig", ["study", "gap", "--values", "0.5 mm", "--rig", "{rig}", "--out", "{tmp}/s.h5"],
-         setup=_set("damping", "alpha", float("nan"))),
-    Case("rig:acquire-bad-rig", ["acquire", "dwell", "--backend", "sim", "--fe", "60 Hz", "--force", "15 N",
-                                 "--rig", "{rig}", "--out", "{tmp}/a.h5"],
-         setup=_set("passive_blade", "youngs_modulus", "-1 GPa")),
-    Case("rig:import-bad-rig", ["import", "tdms", "{lab}/in.tdms", "{tmp}/o.h5", "--rig", "{rig}"],
-         setup=_set("blade", "length", "1e400 m")),
+    Case(
+        "rig:harmonic-bad-rig",
+        ["harmonic", "--rig", "{rig}", "--out", "{tmp}/h.csv"],
+        setup=_set("contact", "gap", 0.5),
+    ),
+    Case(
+        "rig:study-bad-rig",
+        ["study", "gap", "--values", "0.5 mm", "--rig", "{rig}", "--out", "{tmp}/s.h5"],
+        setup=_set("damping", "alpha", float("nan")),
+    ),
+    Case(
+        "rig:acquire-bad-rig",
+        [
+            "acquire",
+            "dwell",
+            "--backend",
+            "sim",
+            "--fe",
+            "60 Hz",
+            "--force",
+            "15 N",
+            "--rig",
+            "{rig}",
+            "--out",
+            "{tmp}/a.h5",
+        ],
+        setup=_set("passive_blade", "youngs_modulus", "-1 GPa"),
+    ),
+    Case(
+        "rig:import-bad-rig",
+        ["import", "tdms", "{lab}/in.tdms", "{tmp}/o.h5", "--rig", "{rig}"],
+        setup=_set("blade", "length", "1e400 m"),
+    ),
 ]
 
 
@@ -349,42 +464,191 @@ OPTION_CASES = [
     Case("dwell:periods-memory", _dwell("60 Hz", "15 N", "--periods", "10000000000000")),
     Case("dwell:max-updates-negative", _dwell("60 Hz", "15 N", "--max-updates", "-1")),
     Case("dwell:fault-unknown", _dwell("60 Hz", "15 N", "--fault", "meltdown@1")),
-    Case("dwell:fault-nidaq", ["acquire", "dwell", "--fe", "60 Hz", "--force", "15 N",
-                               "--fault", "overload@0.5", "--out", "{tmp}/a.h5"]),
-    Case("sweep:frequencies-bad", ["acquire", "sweep", "--backend", "sim", "--force", "15 N",
-                                   "--frequencies", "340:380", "--out", "{tmp}/a.h5"]),
-    Case("sweep:too-many-points", ["acquire", "sweep", "--backend", "sim", "--force", "15 N",
-                                   "--frequencies", "10 Hz:1000 Hz:0.00001 Hz", "--out", "{tmp}/a.h5"]),
-    Case("sweep:jump-threshold-nan", ["acquire", "sweep", "--backend", "sim", "--force", "15 N",
-                                      "--frequencies", "50 Hz:60 Hz:5 Hz", "--jump-threshold", "nan",
-                                      "--out", "{tmp}/a.h5"]),
-    Case("astudy:values-plain-gap", ["acquire", "study", "gap", "--backend", "sim", "--values", "0.4,0.5",
-                                     "--fe", "60 Hz", "--force", "15 N", "--out", "{tmp}/a.h5"]),
-    Case("frf:band-reversed", ["acquire", "frf", "--backend", "sim", "--band", "500 Hz:20 Hz",
-                               "--level", "0.3 V", "--out", "{tmp}/a.h5"]),
-    Case("frf:level-vpp-negative", ["acquire", "frf", "--backend", "sim", "--band", "20 Hz:500 Hz",
-                                    "--level", "-1 Vpp", "--out", "{tmp}/a.h5"]),
-    Case("frf:level-newton", ["acquire", "frf", "--backend", "sim", "--band", "20 Hz:500 Hz",
-                              "--level", "0.3 N", "--out", "{tmp}/a.h5"]),
-    Case("frf:frame-memory", ["acquire", "frf", "--backend", "sim", "--band", "20 Hz:500 Hz",
-                              "--level", "0.3 V", "--frame", "1e6 h", "--out", "{tmp}/a.h5"]),
-    Case("frf:averages-zero", ["acquire", "frf", "--backend", "sim", "--band", "20 Hz:500 Hz",
-                               "--level", "0.3 V", "--averages", "0", "--out", "{tmp}/a.h5"]),
+    Case(
+        "dwell:fault-nidaq",
+        [
+            "acquire",
+            "dwell",
+            "--fe",
+            "60 Hz",
+            "--force",
+            "15 N",
+            "--fault",
+            "overload@0.5",
+            "--out",
+            "{tmp}/a.h5",
+        ],
+    ),
+    Case(
+        "sweep:frequencies-bad",
+        [
+            "acquire",
+            "sweep",
+            "--backend",
+            "sim",
+            "--force",
+            "15 N",
+            "--frequencies",
+            "340:380",
+            "--out",
+            "{tmp}/a.h5",
+        ],
+    ),
+    Case(
+        "sweep:too-many-points",
+        [
+            "acquire",
+            "sweep",
+            "--backend",
+            "sim",
+            "--force",
+            "15 N",
+            "--frequencies",
+            "10 Hz:1000 Hz:0.00001 Hz",
+            "--out",
+            "{tmp}/a.h5",
+        ],
+    ),
+    Case(
+        "sweep:jump-threshold-nan",
+        [
+            "acquire",
+            "sweep",
+            "--backend",
+            "sim",
+            "--force",
+            "15 N",
+            "--frequencies",
+            "50 Hz:60 Hz:5 Hz",
+            "--jump-threshold",
+            "nan",
+            "--out",
+            "{tmp}/a.h5",
+        ],
+    ),
+    Case(
+        "astudy:values-plain-gap",
+        [
+            "acquire",
+            "study",
+            "gap",
+            "--backend",
+            "sim",
+            "--values",
+            "0.4,0.5",
+            "--fe",
+            "60 Hz",
+            "--force",
+            "15 N",
+            "--out",
+            "{tmp}/a.h5",
+        ],
+    ),
+    Case(
+        "frf:band-reversed",
+        [
+            "acquire",
+            "frf",
+            "--backend",
+            "sim",
+            "--band",
+            "500 Hz:20 Hz",
+            "--level",
+            "0.3 V",
+            "--out",
+            "{tmp}/a.h5",
+        ],
+    ),
+    Case(
+        "frf:level-vpp-negative",
+        [
+            "acquire",
+            "frf",
+            "--backend",
+            "sim",
+            "--band",
+            "20 Hz:500 Hz",
+            "--level",
+            "-1 Vpp",
+            "--out",
+            "{tmp}/a.h5",
+        ],
+    ),
+    Case(
+        "frf:level-newton",
+        [
+            "acquire",
+            "frf",
+            "--backend",
+            "sim",
+            "--band",
+            "20 Hz:500 Hz",
+            "--level",
+            "0.3 N",
+            "--out",
+            "{tmp}/a.h5",
+        ],
+    ),
+    Case(
+        "frf:frame-memory",
+        [
+            "acquire",
+            "frf",
+            "--backend",
+            "sim",
+            "--band",
+            "20 Hz:500 Hz",
+            "--level",
+            "0.3 V",
+            "--frame",
+            "1e6 h",
+            "--out",
+            "{tmp}/a.h5",
+        ],
+    ),
+    Case(
+        "frf:averages-zero",
+        [
+            "acquire",
+            "frf",
+            "--backend",
+            "sim",
+            "--band",
+            "20 Hz:500 Hz",
+            "--level",
+            "0.3 V",
+            "--averages",
+            "0",
+            "--out",
+            "{tmp}/a.h5",
+        ],
+    ),
     Case("acquire:no-procedure", ["acquire"]),
     # rig export / import / devices
     Case("export:what-unknown", ["export", "uff", "{lab}/run.h5", "{tmp}/o.uff", "--what", "movies"]),
     Case("export:resolution-zero", ["export", "uff", "{lab}/run.h5", "{tmp}/o.uff", "--resolution", "0 Hz"]),
-    Case("export:resolution-seconds", ["export", "uff", "{lab}/run.h5", "{tmp}/o.uff", "--resolution", "1 s"]),
+    Case(
+        "export:resolution-seconds", ["export", "uff", "{lab}/run.h5", "{tmp}/o.uff", "--resolution", "1 s"]
+    ),
     Case("export:format-unknown", ["export", "csv", "{lab}/run.h5", "{tmp}/o.csv"]),
-    Case("import:sample-rate-negative", ["import", "tdms", "{lab}/in.tdms", "{tmp}/o.h5",
-                                         "--sample-rate", "-5 kHz"]),
+    Case(
+        "import:sample-rate-negative",
+        ["import", "tdms", "{lab}/in.tdms", "{tmp}/o.h5", "--sample-rate", "-5 kHz"],
+    ),
     Case("import:rename-bad", ["import", "tdms", "{lab}/in.tdms", "{tmp}/o.h5", "--rename", "a==b,c"]),
-    Case("import:rename-unknown-channel", ["import", "tdms", "{lab}/in.tdms", "{tmp}/o.h5", "--rename",
-                                           "Dev1/ai9=force"], expect="Dev1/ai9"),
-    Case("import:rename-unstorable-name", ["import", "tdms", "{lab}/in.tdms", "{tmp}/o.h5", "--rename",
-                                           "Dev1/ai0=a/b"]),
-    Case("import:rename-two-to-one", ["import", "tdms", "{lab}/in.tdms", "{tmp}/o.h5", "--rename",
-                                      "Dev1/ai0=x,Dev1/ai1=x"]),
+    Case(
+        "import:rename-unknown-channel",
+        ["import", "tdms", "{lab}/in.tdms", "{tmp}/o.h5", "--rename", "Dev1/ai9=force"],
+        expect="Dev1/ai9",
+    ),
+    Case(
+        "import:rename-unstorable-name",
+        ["import", "tdms", "{lab}/in.tdms", "{tmp}/o.h5", "--rename", "Dev1/ai0=a/b"],
+    ),
+    Case(
+        "import:rename-two-to-one",
+        ["import", "tdms", "{lab}/in.tdms", "{tmp}/o.h5", "--rename", "Dev1/ai0=x,Dev1/ai1=x"],
+    ),
     Case("import:missing-source", ["import", "tdms", "{tmp}/in.tdms", "{tmp}/o.h5"]),
     Case("import:source-is-recording", ["import", "tdms", "{lab}/run.h5", "{tmp}/o.h5"]),
     Case("devices:unknown-option", ["devices", "--colour"]),
@@ -432,7 +696,7 @@ def _dir(tmp: Path) -> None:
     (tmp / "r.h5").mkdir()
 
 
-LAB_SOURCE: Path = Path()       # set by the fixture below for the setups
+LAB_SOURCE: Path = Path()  # set by the fixture below for the setups
 
 
 @pytest.fixture(autouse=True)
@@ -451,8 +715,15 @@ def _lab_source(lab):
             (lab / name).write_bytes(data)
 
 
-DAMAGED = {"truncated": _truncated, "text": _text, "empty": _empty, "foreign-schema": _foreign,
-           "plain-hdf5": _plain_hdf5, "newer-schema": _newer, "directory": _dir}
+DAMAGED = {
+    "truncated": _truncated,
+    "text": _text,
+    "empty": _empty,
+    "foreign-schema": _foreign,
+    "plain-hdf5": _plain_hdf5,
+    "newer-schema": _newer,
+    "directory": _dir,
+}
 READERS = {
     "info": ["info", "{tmp}/r.h5"],
     "info-json": ["info", "--json", "{tmp}/r.h5"],
@@ -460,10 +731,15 @@ READERS = {
     "export": ["export", "uff", "{tmp}/r.h5", "{tmp}/o.uff"],
 }
 RECORDING_CASES = [
-    Case(f"{reader}:{damage}", argv, setup=setup,
-         # rig check reports a file that is HDF5 but not a recording as invalid (1), documented
-         code=1 if reader == "check" and damage in ("foreign-schema", "plain-hdf5") else 2)
-    for damage, setup in DAMAGED.items() for reader, argv in READERS.items()
+    Case(
+        f"{reader}:{damage}",
+        argv,
+        setup=setup,
+        # rig check reports a file that is HDF5 but not a recording as invalid (1), documented
+        code=1 if reader == "check" and damage in ("foreign-schema", "plain-hdf5") else 2,
+    )
+    for damage, setup in DAMAGED.items()
+    for reader, argv in READERS.items()
 ] + [
     Case("info:missing", ["info", "{tmp}/none.h5"]),
     Case("check:missing", ["check", "{tmp}/none.h5"]),
@@ -484,8 +760,19 @@ WRITERS = {
     "simulate": lambda out, *x: ["simulate", "--out", out, "--no-plot", *x],
     "study": lambda out, *x: ["study", "gap", "--values", "0.5 mm", "--out", out, *x],
     "harmonic": lambda out, *x: ["harmonic", "--out", out, *x],
-    "dwell": lambda out, *x: ["acquire", "dwell", "--backend", "sim", "--fe", "60 Hz", "--force", "15 N",
-                              "--out", out, *x],
+    "dwell": lambda out, *x: [
+        "acquire",
+        "dwell",
+        "--backend",
+        "sim",
+        "--fe",
+        "60 Hz",
+        "--force",
+        "15 N",
+        "--out",
+        out,
+        *x,
+    ],
     "export": lambda out, *x: ["export", "uff", "{lab}/run.h5", out, *x],
     "import": lambda out, *x: ["import", "tdms", "{lab}/in.tdms", out, *x],
 }
@@ -502,7 +789,7 @@ def _out_cases() -> list[Case]:
             Case(f"{name}:out-missing-folder", make("{tmp}/no/such/folder/x" + suffix)),
             Case(f"{name}:out-is-recording", make("{lab}/run.h5")),
         ]
-        if name in ("harmonic", "export"):      # derived files: never over a recording
+        if name in ("harmonic", "export"):  # derived files: never over a recording
             cases.append(Case(f"{name}:out-is-recording-overwrite", make("{lab}/run.h5", "--overwrite")))
         cases += [
             Case(f"{name}:out-empty", make("")),
@@ -511,15 +798,27 @@ def _out_cases() -> list[Case]:
     cases += [
         Case("simulate:out-png-exists", ["simulate", "--out", "{lab}/run.png"]),
         Case("harmonic:out-png", ["harmonic", "--out", "{tmp}/x.png"]),
-        Case("harmonic:existing-without-overwrite", ["harmonic", "--out", "{tmp}/h.csv"],
-             setup=lambda tmp: (tmp / "h.csv").write_text("f,a\n1,2\n")),
+        Case(
+            "harmonic:existing-without-overwrite",
+            ["harmonic", "--out", "{tmp}/h.csv"],
+            setup=lambda tmp: (tmp / "h.csv").write_text("f,a\n1,2\n"),
+        ),
         Case("export:out-is-input", ["export", "uff", "{lab}/run.h5", "{lab}/run.h5", "--overwrite"]),
-        Case("import:out-is-rig", ["import", "tdms", "{lab}/in.tdms", "{lab}/rig.toml", "--rig",
-                                   "{lab}/rig.toml", "--overwrite"], expect="input"),
-        Case("import:out-is-source", ["import", "tdms", "{lab}/in.tdms", "{lab}/in.tdms", "--overwrite"],
-             expect="input"),
-        Case("import:out-existing-recording", ["import", "tdms", "{lab}/in.tdms", "{lab}/run.h5"],
-             expect="--overwrite"),
+        Case(
+            "import:out-is-rig",
+            ["import", "tdms", "{lab}/in.tdms", "{lab}/rig.toml", "--rig", "{lab}/rig.toml", "--overwrite"],
+            expect="input",
+        ),
+        Case(
+            "import:out-is-source",
+            ["import", "tdms", "{lab}/in.tdms", "{lab}/in.tdms", "--overwrite"],
+            expect="input",
+        ),
+        Case(
+            "import:out-existing-recording",
+            ["import", "tdms", "{lab}/in.tdms", "{lab}/run.h5"],
+            expect="--overwrite",
+        ),
     ]
     return cases
 
@@ -535,19 +834,29 @@ def test_read_only_folder(name, lab, lab_digest, tmp_path, monkeypatch):
     real = os.access
     ro = tmp_path / "ro"
     ro.mkdir()
-    monkeypatch.setattr(os, "access", lambda p, mode, **kw:
-                        False if (mode & os.W_OK and Path(p).resolve() in (ro, ro.resolve())) else real(p, mode, **kw))
+    monkeypatch.setattr(
+        os,
+        "access",
+        lambda p, mode, **kw: (
+            False if (mode & os.W_OK and Path(p).resolve() in (ro, ro.resolve())) else real(p, mode, **kw)
+        ),
+    )
     suffix = _SUFFIX.get(name, ".h5")
     case = Case(f"{name}:read-only", WRITERS[name]("{tmp}/ro/x" + suffix), expect="writable")
     run_case(case, lab, lab_digest, tmp_path)
 
 
 # ------------------------------------------------------------------ controls (the good inputs)
-@pytest.mark.parametrize("argv", [
-    ["check", "{lab}/run.h5"], ["info", "--json", "{lab}/run.png"],
-    ["export", "uff", "{lab}/run.h5", "{tmp}/ok.uff"],
-    ["import", "tdms", "{lab}/in.tdms", "{tmp}/ok.h5", "--rig", "{lab}/rig.toml"],
-], ids=["check", "info-png-named", "export", "import"])
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["check", "{lab}/run.h5"],
+        ["info", "--json", "{lab}/run.png"],
+        ["export", "uff", "{lab}/run.h5", "{tmp}/ok.uff"],
+        ["import", "tdms", "{lab}/in.tdms", "{tmp}/ok.h5", "--rig", "{lab}/rig.toml"],
+    ],
+    ids=["check", "info-png-named", "export", "import"],
+)
 def test_the_lab_files_are_good(argv, lab, lab_digest, tmp_path):
     """The cases above fail for the reason they name: the same commands on good input succeed."""
     code, _, err = run_cli(_fill(argv, lab, tmp_path))
@@ -582,8 +891,19 @@ def test_a_recording_named_png_survives_its_own_plot(lab, lab_digest, tmp_path):
 
 # --------------------------------------------------------- subprocesses: signals, pipes, console
 RIG_CMD = [sys.executable, "-m", "rigtools.cli"]
-PACED_DWELL = ["acquire", "dwell", "--backend", "sim", "--pace", "--seed", "1", "--fe", "60 Hz",
-               "--force", "15 N"]
+PACED_DWELL = [
+    "acquire",
+    "dwell",
+    "--backend",
+    "sim",
+    "--pace",
+    "--seed",
+    "1",
+    "--fe",
+    "60 Hz",
+    "--force",
+    "15 N",
+]
 
 
 def _env(**extra: str) -> dict[str, str]:
@@ -593,8 +913,15 @@ def _env(**extra: str) -> dict[str, str]:
 
 
 def _spawn(argv: list[str], cwd: Path, **env: str) -> subprocess.Popen:
-    return subprocess.Popen([*RIG_CMD, *argv], cwd=cwd, env=_env(**env), stdin=subprocess.DEVNULL,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    return subprocess.Popen(
+        [*RIG_CMD, *argv],
+        cwd=cwd,
+        env=_env(**env),
+        stdin=subprocess.DEVNULL,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
 
 
 def _wait_for(condition: Callable[[], bool], proc: subprocess.Popen, limit: float = 60.0) -> None:
@@ -608,6 +935,7 @@ def _wait_for(condition: Callable[[], bool], proc: subprocess.Popen, limit: floa
 
 def _writing(path: Path) -> Callable[[], bool]:
     """True once the recording holds at least one point with samples."""
+
     def ready() -> bool:
         if not path.exists():
             return False
@@ -616,6 +944,7 @@ def _writing(path: Path) -> Callable[[], bool]:
                 return bool(rec.points) and rec.points[0].n_samples > 0
         except Exception:
             return False
+
     return ready
 
 
@@ -664,8 +993,10 @@ def test_signal_during_a_simulated_acquisition(sig, lab, lab_digest, tmp_path):
 
 def test_sigterm_during_a_model_study_keeps_finished_points(lab, lab_digest, tmp_path):
     out = tmp_path / "study.h5"
-    proc = _spawn(["study", "frequency", "--values", "50 Hz:70 Hz:0.25 Hz", "--duration", "0.2 s",
-                   "--out", str(out)], tmp_path)
+    proc = _spawn(
+        ["study", "frequency", "--values", "50 Hz:70 Hz:0.25 Hz", "--duration", "0.2 s", "--out", str(out)],
+        tmp_path,
+    )
     _wait_for(_writing(out), proc)
     proc.send_signal(signal.SIGTERM)
     code, _, err = _finish(proc)
@@ -677,9 +1008,15 @@ def test_sigterm_during_a_model_study_keeps_finished_points(lab, lab_digest, tmp
 
 def test_closed_pipe(lab, tmp_path):
     """``rig info --json FILE | head -1``: the reader goes away; no traceback, status 0 or 141."""
-    shell = subprocess.run(f"{' '.join(RIG_CMD)} info --json {lab / 'run.h5'} | head -1; "
-                           "echo status ${PIPESTATUS[0]} >&2", shell=True, executable="/bin/bash",
-                           capture_output=True, text=True, env=_env(), timeout=120)
+    shell = subprocess.run(
+        f"{' '.join(RIG_CMD)} info --json {lab / 'run.h5'} | head -1; echo status ${{PIPESTATUS[0]}} >&2",
+        shell=True,
+        executable="/bin/bash",
+        capture_output=True,
+        text=True,
+        env=_env(),
+        timeout=120,
+    )
     assert shell.stdout.count("\n") == 1
     status = [line for line in shell.stderr.splitlines() if line.startswith("status")]
     assert status in (["status 0"], ["status 141"]) and "Traceback" not in shell.stderr, shell.stderr
@@ -690,12 +1027,16 @@ def test_closed_pipe(lab, tmp_path):
     assert proc.wait(timeout=120) == 141 and "Traceback" not in err and err.strip() == "", err
 
 
-@pytest.mark.parametrize("argv, code", [
-    (["info", "{lab}/run.h5"], 0),
-    (["modal", "--modes", "3"], 0),
-    (["simulate", "--gap", "0.5 µM", "--out", "{tmp}/s.h5"], 2),
-    (["modal", "--rig", "{tmp}/réglage.toml"], 2),
-], ids=["info-table", "modal-table", "micro-sign-error", "accented-path-error"])
+@pytest.mark.parametrize(
+    "argv, code",
+    [
+        (["info", "{lab}/run.h5"], 0),
+        (["modal", "--modes", "3"], 0),
+        (["simulate", "--gap", "0.5 µM", "--out", "{tmp}/s.h5"], 2),
+        (["modal", "--rig", "{tmp}/réglage.toml"], 2),
+    ],
+    ids=["info-table", "modal-table", "micro-sign-error", "accented-path-error"],
+)
 def test_ascii_only_console(argv, code, lab, lab_digest, tmp_path):
     """A console that cannot print non-ASCII (Windows ``> log.txt``): no UnicodeEncodeError."""
     proc = _spawn(_fill(argv, lab, tmp_path), tmp_path, PYTHONIOENCODING="ascii")
@@ -715,8 +1056,19 @@ def test_two_writers_on_one_path(lab, lab_digest, tmp_path):
     first = _spawn([*PACED_DWELL, "--periods", "6000", "--out", str(out)], tmp_path)
     _wait_for(_writing(out), first)
     seconds = [
-        ["acquire", "dwell", "--backend", "sim", "--fe", "60 Hz", "--force", "15 N", "--out", str(out),
-         "--overwrite"],
+        [
+            "acquire",
+            "dwell",
+            "--backend",
+            "sim",
+            "--fe",
+            "60 Hz",
+            "--force",
+            "15 N",
+            "--out",
+            str(out),
+            "--overwrite",
+        ],
         ["simulate", "--out", str(out), "--overwrite", "--no-plot"],
         ["study", "gap", "--values", "0.5 mm", "--out", str(out), "--overwrite"],
         ["import", "tdms", str(lab / "in.tdms"), str(out), "--overwrite"],

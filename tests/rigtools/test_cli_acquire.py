@@ -15,10 +15,22 @@ from rigtools.config import default_rig_text, load_rig
 from rigtools.recording import check_recording, open_recording
 from cli_helpers import run_cli
 
-RATE = 51200.0                     # [daq] sample_rate of the default rig
-DWELL = ["dwell", "--backend", "sim", "--seed", "1", "--fe", "60", "--force", "15 N",
-         "--gap", "0.5 mm", "--periods", "12"]
-
+RATE = 51200.0  # [daq] sample_rate of the default rig
+DWELL = [
+    "dwell",
+    "--backend",
+    "sim",
+    "--seed",
+    "1",
+    "--fe",
+    "60",
+    "--force",
+    "15 N",
+    "--gap",
+    "0.5 mm",
+    "--periods",
+    "12",
+]
 
 
 @pytest.fixture(scope="module")
@@ -46,7 +58,9 @@ def test_dwell_holds_15_newtons_and_writes_a_complete_recording(dwell):
         p = rec.points[0]
         assert p.params["fe"] == 60.0 and p.params["force_amplitude"] == 15.0
         assert p.params["gap"] == pytest.approx(5e-4)
-        assert p.params["force_amplitude_measured"] == pytest.approx(doc["force_amplitude_measured"], rel=1e-12)
+        assert p.params["force_amplitude_measured"] == pytest.approx(
+            doc["force_amplitude_measured"], rel=1e-12
+        )
         assert p.params["drive_amplitude"] == pytest.approx(doc["drive_amplitude"], rel=1e-12)
         assert list(p.channels) == [*(s.name for s in cfg.daq.input_specs()), "drive"]
         start, n = round(p.params["record_start"] * RATE), int(p.params["record_samples"])
@@ -54,8 +68,10 @@ def test_dwell_holds_15_newtons_and_writes_a_complete_recording(dwell):
         # the record window, refitted from the file, gives the reported fundamental
         from rigtools.analysis.harmonics import harmonic_amplitudes
 
-        force = p["force"][start:start + n]
-        assert harmonic_amplitudes(force, RATE, 60.0, 1).at(1) == pytest.approx(doc["force_amplitude_measured"], rel=1e-9)
+        force = p["force"][start : start + n]
+        assert harmonic_amplitudes(force, RATE, 60.0, 1).at(1) == pytest.approx(
+            doc["force_amplitude_measured"], rel=1e-9
+        )
         drive = np.asarray(p["drive"])
         # the whole stream is kept: the ramp up from 0 V, and the ramp down to exactly 0 V at the end
         assert drive[0] == pytest.approx(0.0, abs=1e-6) and drive[-1] == 0.0
@@ -96,9 +112,27 @@ def test_held_force_needs_the_drive_of_the_shaker_closed_form(tmp_path):
     from rigtools.sim.rig_model import build_rig_model
 
     rig = _linear_rig(tmp_path)
-    code, text, err = run_cli(["acquire", "dwell", "--rig", str(rig), "--backend", "sim", "--seed", "2",
-                               "--fe", "60", "--force", "2 N", "--periods", "12",
-                               "--out", str(tmp_path / "linear.h5"), "--json"])
+    code, text, err = run_cli(
+        [
+            "acquire",
+            "dwell",
+            "--rig",
+            str(rig),
+            "--backend",
+            "sim",
+            "--seed",
+            "2",
+            "--fe",
+            "60",
+            "--force",
+            "2 N",
+            "--periods",
+            "12",
+            "--out",
+            str(tmp_path / "linear.h5"),
+            "--json",
+        ]
+    )
     assert code == 0, err
     doc = json.loads(text)
     cfg = load_rig(rig)
@@ -145,16 +179,19 @@ def test_without_the_ni_driver_exit_3_in_one_line(tmp_path):
     assert not out.exists()
 
 
-@pytest.mark.parametrize("change, message", [
-    (["--force", "-1 N"], "force"),
-    (["--force", "1 V"], "is a voltage, expected a force"),
-    (["--fe", "0"], "fe"),
-    (["--fe", "30 kHz"], "fe"),
-    (["--gap", "5 m"], "gap"),
-    (["--periods", "0"], "record_periods"),
-    (["--max-updates", "0"], "--max-updates"),
-    (["--fault", "melt@1"], "unknown kind 'melt'"),
-])
+@pytest.mark.parametrize(
+    "change, message",
+    [
+        (["--force", "-1 N"], "force"),
+        (["--force", "1 V"], "is a voltage, expected a force"),
+        (["--fe", "0"], "fe"),
+        (["--fe", "30 kHz"], "fe"),
+        (["--gap", "5 m"], "gap"),
+        (["--periods", "0"], "record_periods"),
+        (["--max-updates", "0"], "--max-updates"),
+        (["--fault", "melt@1"], "unknown kind 'melt'"),
+    ],
+)
 def test_bad_input_exit_2_in_one_line(tmp_path, change, message):
     argv = ["acquire", *DWELL, *change, "--out", str(tmp_path / "x.h5")]
     code, text, err = run_cli(argv)
@@ -163,8 +200,20 @@ def test_bad_input_exit_2_in_one_line(tmp_path, change, message):
 
 
 def test_fault_needs_the_simulated_rig(tmp_path):
-    code, _, err = run_cli(["acquire", "dwell", "--fe", "60", "--force", "1 N", "--out",
-                            str(tmp_path / "u.h5"), "--fault", "input-overflow@1"])
+    code, _, err = run_cli(
+        [
+            "acquire",
+            "dwell",
+            "--fe",
+            "60",
+            "--force",
+            "1 N",
+            "--out",
+            str(tmp_path / "u.h5"),
+            "--fault",
+            "input-overflow@1",
+        ]
+    )
     assert code == 2 and err.count("\n") == 1 and "--backend sim" in err
 
 
@@ -193,9 +242,31 @@ def test_frf_prints_the_h1_peaks_with_their_coherence(tmp_path):
     from rigtools.sim.rig_model import build_rig_model
 
     out = tmp_path / "frf.h5"
-    code, text, err = run_cli(["acquire", "frf", "--backend", "sim", "--seed", "1", "--signal", "chirp",
-                               "--band", "20 Hz:500 Hz", "--level", "0.3 V", "--frame", "0.5 s",
-                               "--averages", "4", "--gap", "5 mm", "--out", str(out), "--json"])
+    code, text, err = run_cli(
+        [
+            "acquire",
+            "frf",
+            "--backend",
+            "sim",
+            "--seed",
+            "1",
+            "--signal",
+            "chirp",
+            "--band",
+            "20 Hz:500 Hz",
+            "--level",
+            "0.3 V",
+            "--frame",
+            "0.5 s",
+            "--averages",
+            "4",
+            "--gap",
+            "5 mm",
+            "--out",
+            str(out),
+            "--json",
+        ]
+    )
     assert code == 0, err
     doc = json.loads(text)
     assert doc["status"] == "finished" and check_recording(out).valid
@@ -214,19 +285,62 @@ def test_frf_prints_the_h1_peaks_with_their_coherence(tmp_path):
 
 def test_sweep_json_and_resume_refusals(tmp_path):
     out = tmp_path / "sw.h5"
-    code, text, err = run_cli(["acquire", "sweep", "--backend", "sim", "--seed", "1", "--frequencies",
-                               "100 Hz:104 Hz:2 Hz", "--force", "2 N", "--gap", "5 mm", "--periods", "20",
-                               "--out", str(out), "--json"])
+    code, text, err = run_cli(
+        [
+            "acquire",
+            "sweep",
+            "--backend",
+            "sim",
+            "--seed",
+            "1",
+            "--frequencies",
+            "100 Hz:104 Hz:2 Hz",
+            "--force",
+            "2 N",
+            "--gap",
+            "5 mm",
+            "--periods",
+            "20",
+            "--out",
+            str(out),
+            "--json",
+        ]
+    )
     assert code == 0, err
     doc = json.loads(text)
     assert [p["fe"] for p in doc["points"]] == [100.0, 102.0, 104.0]
     assert all(abs(p["force_amplitude_measured"] / 2.0 - 1) <= 0.01 for p in doc["points"])
     assert doc["jumps"] == {"up": []}
-    code, _, err = run_cli(["acquire", "study", "gap", "--backend", "sim", "--values", "0.3 mm,0.5 mm",
-                            "--out", str(tmp_path / "none.h5"), "--resume"])
+    code, _, err = run_cli(
+        [
+            "acquire",
+            "study",
+            "gap",
+            "--backend",
+            "sim",
+            "--values",
+            "0.3 mm,0.5 mm",
+            "--out",
+            str(tmp_path / "none.h5"),
+            "--resume",
+        ]
+    )
     assert code == 2 and err.count("\n") == 1 and "does not exist" in err
-    code, _, err = run_cli(["acquire", "study", "gap", "--backend", "sim", "--values", "0.3 mm,0.5 mm",
-                            "--out", str(out), "--resume", "--yes"])
+    code, _, err = run_cli(
+        [
+            "acquire",
+            "study",
+            "gap",
+            "--backend",
+            "sim",
+            "--values",
+            "0.3 mm,0.5 mm",
+            "--out",
+            str(out),
+            "--resume",
+            "--yes",
+        ]
+    )
     assert code == 2 and err.count("\n") == 1 and "different study" in err
-    with open_recording(out) as rec:                   # the sweep's file is untouched
+    with open_recording(out) as rec:  # the sweep's file is untouched
         assert rec.status == "complete" and len(rec.points) == 3

@@ -22,10 +22,20 @@ def ni_missing() -> bool:
 
 def fake_ni_system():
     chans = lambda prefix, n: [SimpleNamespace(name=f"{prefix}{i}") for i in range(n)]  # noqa: E731
-    dev = SimpleNamespace(name="Dev1", product_type="NI 9234", serial_num=0x1A2B3C,
-                          ai_physical_chans=chans("Dev1/ai", 4), ao_physical_chans=[])
-    dev2 = SimpleNamespace(name="Dev2", product_type="NI 9260", serial_num=0xFF,
-                           ai_physical_chans=[], ao_physical_chans=chans("Dev2/ao", 2))
+    dev = SimpleNamespace(
+        name="Dev1",
+        product_type="NI 9234",
+        serial_num=0x1A2B3C,
+        ai_physical_chans=chans("Dev1/ai", 4),
+        ao_physical_chans=[],
+    )
+    dev2 = SimpleNamespace(
+        name="Dev2",
+        product_type="NI 9260",
+        serial_num=0xFF,
+        ai_physical_chans=[],
+        ao_physical_chans=chans("Dev2/ao", 2),
+    )
     version = SimpleNamespace(major_version=2024, minor_version=3, update_version=0)
     return SimpleNamespace(driver_version=version, devices=[dev, dev2])
 
@@ -35,7 +45,7 @@ def test_without_hardware_says_why_and_suggests_the_simulated_rig(capsys):
     code = main(["devices"])
     out = capsys.readouterr().out.splitlines()
     assert out[0] == "NI-DAQmx: cannot list devices: NI-DAQmx driver not installed on this machine"
-    assert out[1].startswith("VISA: ")          # listed, or one line saying why not
+    assert out[1].startswith("VISA: ")  # listed, or one line saying why not
     assert "--backend sim" in out[-1]
     assert code == (0 if out[1].startswith("VISA (") else 3)
 
@@ -58,8 +68,12 @@ def test_json_output(monkeypatch, capsys):
     data = json.loads(capsys.readouterr().out)
     assert data["nidaqmx"]["available"] is True
     assert data["nidaqmx"]["devices"][0] == {
-        "name": "Dev1", "product_type": "NI 9234", "serial_number": "1A2B3C",
-        "ai_channels": ["Dev1/ai0", "Dev1/ai1", "Dev1/ai2", "Dev1/ai3"], "ao_channels": []}
+        "name": "Dev1",
+        "product_type": "NI 9234",
+        "serial_number": "1A2B3C",
+        "ai_channels": ["Dev1/ai0", "Dev1/ai1", "Dev1/ai2", "Dev1/ai3"],
+        "ao_channels": [],
+    }
     assert data["visa"]["available"] is True and data["visa"]["reason"] is None
     assert "TCPIP0::192.168.1.20::inst0::INSTR" in data["visa"]["resources"]
 
@@ -70,8 +84,14 @@ def test_neither_backend_available_is_exit_3_with_reasons(monkeypatch, capsys):
 
     monkeypatch.setattr(nidaqmx.system.System, "local", staticmethod(no_driver))
     import pyvisa
-    monkeypatch.setattr(pyvisa, "ResourceManager", lambda backend="": (_ for _ in ()).throw(
-        ValueError("Could not locate a VISA implementation. Install either the IVI binary or pyvisa-py.")))
+
+    monkeypatch.setattr(
+        pyvisa,
+        "ResourceManager",
+        lambda backend="": (_ for _ in ()).throw(
+            ValueError("Could not locate a VISA implementation. Install either the IVI binary or pyvisa-py.")
+        ),
+    )
     assert main(["devices", "--json"]) == 3
     data = json.loads(capsys.readouterr().out)
     assert data["nidaqmx"]["reason"] == "NI-DAQmx driver not installed on this machine"
@@ -92,7 +112,7 @@ def test_missing_or_malformed_simulator_file_is_one_line(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "no such file" in err and err.count("\n") == 1
     bad = tmp_path / "bad.yaml"
-    bad.write_text('spec: "1.1"\ndevices: [\n')          # pyvisa-sim raises a yaml error
+    bad.write_text('spec: "1.1"\ndevices: [\n')  # pyvisa-sim raises a yaml error
     main(["devices", "--json", "--visa-backend", f"{bad}@sim"])
     reason = json.loads(capsys.readouterr().out)["visa"]["reason"]
     assert "Could not parse definitions file" in reason and "Traceback" not in reason

@@ -47,7 +47,10 @@ def _write_rig(tmp_path, change):
     [
         (lambda d: d["blade"].__setitem__("thicknes", "3 mm"), ["unknown key", "blade.thicknes"]),
         (lambda d: d["blade"].__setitem__("thickness", "-3.2 mm"), ["blade.thickness", "-3.2 mm"]),
-        (lambda d: d["force_sensor"].__setitem__("position", "200 mm"), ["force_sensor.position", "beyond the blade"]),
+        (
+            lambda d: d["force_sensor"].__setitem__("position", "200 mm"),
+            ["force_sensor.position", "beyond the blade"],
+        ),
     ],
 )
 @pytest.mark.parametrize("command", [["modal"], ["harmonic", "--out", "x.csv"]])
@@ -76,7 +79,9 @@ def test_harmonic_writes_csv_json_and_png(tmp_path, capsys):
     header = out.read_text().splitlines()[0].split(",")
     data = np.loadtxt(out, delimiter=",", skiprows=1)
     assert data.shape == (40, 17) and header[0] == "frequency_hz"
-    assert "fem_active_shroud_acceleration_m_s2" in header and "am_passive_force_point_displacement_m" in header
+    assert (
+        "fem_active_shroud_acceleration_m_s2" in header and "am_passive_force_point_displacement_m" in header
+    )
     f = data[:, 0]
     acc = data[:, header.index("fem_active_shroud_acceleration_m_s2")]
     disp = data[:, header.index("fem_active_shroud_displacement_m")]
@@ -89,7 +94,13 @@ def test_harmonic_writes_csv_json_and_png(tmp_path, capsys):
 
 @pytest.mark.parametrize(
     "extra",
-    [["--out", "x.txt"], ["--force", "-5"], ["--force", "3 m"], ["--fmin", "500", "--fmax", "100"], ["--points", "1"]],
+    [
+        ["--out", "x.txt"],
+        ["--force", "-5"],
+        ["--force", "3 m"],
+        ["--fmin", "500", "--fmax", "100"],
+        ["--points", "1"],
+    ],
 )
 def test_harmonic_bad_options(tmp_path, capsys, extra):
     argv = ["harmonic", "--out", str(tmp_path / "c.csv"), *extra]

@@ -11,17 +11,57 @@ import pytest
 from cli_helpers import run_cli
 
 
-
 @pytest.fixture(scope="module")
 def recordings(tmp_path_factory):
     d = tmp_path_factory.mktemp("rep")
     runs = {
-        "dwell": ["acquire", "dwell", "--backend", "sim", "--seed", "1", "--fe", "60", "--force", "15 N",
-                  "--gap", "0.5 mm", "--periods", "12"],
-        "frf": ["acquire", "frf", "--backend", "sim", "--signal", "burst", "--band", "20 Hz:1500 Hz",
-                "--level", "0.3 V", "--frame", "0.5 s", "--averages", "4", "--seed", "2"],
-        "study": ["study", "gap", "--values", "0.4 mm,1 mm", "--fe", "60", "--force", "15 N",
-                  "--duration", "0.1 s", "--no-plot"],
+        "dwell": [
+            "acquire",
+            "dwell",
+            "--backend",
+            "sim",
+            "--seed",
+            "1",
+            "--fe",
+            "60",
+            "--force",
+            "15 N",
+            "--gap",
+            "0.5 mm",
+            "--periods",
+            "12",
+        ],
+        "frf": [
+            "acquire",
+            "frf",
+            "--backend",
+            "sim",
+            "--signal",
+            "burst",
+            "--band",
+            "20 Hz:1500 Hz",
+            "--level",
+            "0.3 V",
+            "--frame",
+            "0.5 s",
+            "--averages",
+            "4",
+            "--seed",
+            "2",
+        ],
+        "study": [
+            "study",
+            "gap",
+            "--values",
+            "0.4 mm,1 mm",
+            "--fe",
+            "60",
+            "--force",
+            "15 N",
+            "--duration",
+            "0.1 s",
+            "--no-plot",
+        ],
     }
     paths = {}
     for name, argv in runs.items():
@@ -34,7 +74,7 @@ def recordings(tmp_path_factory):
 def test_report_opens_in_chromium_with_every_figure_drawn(recordings, tmp_path, monkeypatch):
     from rigtools.report.browser import figure_is_drawn, screenshot_page
 
-    monkeypatch.setitem(sys.modules, "rigtools.compare", None)      # comparison not installed
+    monkeypatch.setitem(sys.modules, "rigtools.compare", None)  # comparison not installed
     files = [str(recordings[k]) for k in ("dwell", "frf", "study")]
     code, out, err = run_cli(["report", *files, "--out", str(tmp_path / "rep"), "--simulate"])
     assert code == 0, err

@@ -25,8 +25,23 @@ from rigtools.errors import EXIT_SIGHUP, EXIT_SIGINT, EXIT_SIGPIPE, EXIT_SIGTERM
 from rigtools.recording import ChannelSpec, RecordingWriter
 from rigtools import runtime
 
-COMMANDS = ["acquire", "analyze", "check", "compare", "demo", "devices", "export", "harmonic", "import", "info",
-            "modal", "report", "simulate", "study", "update"]
+COMMANDS = [
+    "acquire",
+    "analyze",
+    "check",
+    "compare",
+    "demo",
+    "devices",
+    "export",
+    "harmonic",
+    "import",
+    "info",
+    "modal",
+    "report",
+    "simulate",
+    "study",
+    "update",
+]
 HEAVY = ["scipy", "numba", "h5py", "nidaqmx", "pyvisa", "matplotlib"]
 LINUX = pytest.mark.skipif(not Path("/proc/self/maps").exists(), reason="needs /proc (Linux)")
 
@@ -39,8 +54,9 @@ def _env(**extra: str) -> dict[str, str]:
 
 
 def _rig(*args: str, **popen) -> subprocess.Popen:
-    return subprocess.Popen([sys.executable, "-c", "import sys; from rigtools.cli import main; "
-                             "sys.exit(main())", *args], **popen)
+    return subprocess.Popen(
+        [sys.executable, "-c", "import sys; from rigtools.cli import main; sys.exit(main())", *args], **popen
+    )
 
 
 def _stderr_ok(text: str, max_lines: int = 2) -> None:
@@ -53,9 +69,13 @@ def small_recording(path: Path, units: str = "m/s^2") -> Path:
     """A complete two-channel, one-point recording (0.1 s at 10 kHz)."""
     t = np.arange(1000) / 1e4
     with RecordingWriter(path, backend="simulated", rig="{}") as rec:
-        point = rec.begin_point({"fe": 60.0}, [ChannelSpec("force", "N", "force", 1e4),
-                                              ChannelSpec("active_shroud_accel", units,
-                                                          "acceleration", 1e4)])
+        point = rec.begin_point(
+            {"fe": 60.0},
+            [
+                ChannelSpec("force", "N", "force", 1e4),
+                ChannelSpec("active_shroud_accel", units, "acceleration", 1e4),
+            ],
+        )
         point.append(np.vstack([15 * np.sin(2 * np.pi * 60 * t), 400 * np.sin(2 * np.pi * 60 * t)]))
         point.end()
     return path
@@ -73,9 +93,11 @@ def test_help_lists_every_command_without_importing_it(monkeypatch):
 
 
 def test_summaries_come_from_constants_and_docstrings():
-    source = ('"""``rig x``: do x."""\nHELP = "first" + " part"\n'
-              'def register(sub):\n    sub.add_parser("x", help=HELP)\n'
-              '    sub.add_parser("y", help=f"{HELP}")\n')
+    source = (
+        '"""``rig x``: do x."""\nHELP = "first" + " part"\n'
+        'def register(sub):\n    sub.add_parser("x", help=HELP)\n'
+        '    sub.add_parser("y", help=f"{HELP}")\n'
+    )
     assert cli.command_summaries("x", source) == [("x", "first part"), ("y", "``rig x``: do x.")]
     assert cli.command_summaries("z", None) == [("z", "")]
 
@@ -98,25 +120,30 @@ print(json.dumps(out))
 def _probe(*argvs: tuple[str, ...], **popen) -> subprocess.Popen:
     """A process running ``main(argv)`` for each argv in turn, printing the exit status and the
     modules loaded after each (cumulative)."""
-    return subprocess.Popen([sys.executable, "-c", _PROBE, json.dumps([list(a) for a in argvs])],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=_env(),
-                            **popen)
+    return subprocess.Popen(
+        [sys.executable, "-c", _PROBE, json.dumps([list(a) for a in argvs])],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=_env(),
+        **popen,
+    )
 
 
 # Command modules that import a heavy package at their top (the coordinator fixes them at merge;
 # the tests turn into passes then, and strict xfail makes them say so).
-OFFENDERS: dict[str, str] = {}     # command -> why its --help still imports a heavy package
+OFFENDERS: dict[str, str] = {}  # command -> why its --help still imports a heavy package
 
 
 def _probe_cases():
-    cases = [pytest.param(("--help",), id="rig--help"),
-             pytest.param(("no-such-command",), id="rig-bad-command")]
+    cases = [
+        pytest.param(("--help",), id="rig--help"),
+        pytest.param(("no-such-command",), id="rig-bad-command"),
+    ]
     for name in COMMANDS:
-        marks = ([pytest.mark.xfail(strict=True, reason=OFFENDERS[name])]
-                 if name in OFFENDERS else [])
+        marks = [pytest.mark.xfail(strict=True, reason=OFFENDERS[name])] if name in OFFENDERS else []
         cases.append(pytest.param((name, "--help"), id=f"{name}--help", marks=marks))
-        cases.append(pytest.param((name, "--no-such-option"), id=f"{name}-bad-option",
-                                  marks=marks))
+        cases.append(pytest.param((name, "--no-such-option"), id=f"{name}-bad-option", marks=marks))
     return cases
 
 
@@ -156,14 +183,17 @@ def test_rig_info_does_not_import_scipy_signal(tmp_path):
 
 
 # -- argparse errors -------------------------------------------------------------------------
-@pytest.mark.parametrize("argv, prog", [
-    (["--no-such-option"], "rig"),
-    (["no-such-command"], "rig"),
-    *[([name, "--no-such-option"], f"rig {name}") for name in COMMANDS],
-    (["simulate", "--gap"], "rig simulate"),                 # an option without its value
-    (["acquire", "dwell", "--backend", "sim"], "rig acquire dwell"),  # required options missing
-    (["info"], "rig info"),                                  # required positional missing
-])
+@pytest.mark.parametrize(
+    "argv, prog",
+    [
+        (["--no-such-option"], "rig"),
+        (["no-such-command"], "rig"),
+        *[([name, "--no-such-option"], f"rig {name}") for name in COMMANDS],
+        (["simulate", "--gap"], "rig simulate"),  # an option without its value
+        (["acquire", "dwell", "--backend", "sim"], "rig acquire dwell"),  # required options missing
+        (["info"], "rig info"),  # required positional missing
+    ],
+)
 def test_argparse_errors_are_one_line_and_a_hint(capsys, argv, prog):
     assert cli.main(argv) == 2
     err = capsys.readouterr().err
@@ -194,9 +224,9 @@ def test_handler_raises_once_ignores_repeats_and_restores():
         with runtime.handle_stop_signals():
             try:
                 os.kill(os.getpid(), signal.SIGTERM)
-                time.sleep(1)                    # the handler raises here
+                time.sleep(1)  # the handler raises here
             finally:
-                os.kill(os.getpid(), signal.SIGTERM)   # a repeat during clean-up: ignored
+                os.kill(os.getpid(), signal.SIGTERM)  # a repeat during clean-up: ignored
                 time.sleep(0.05)
     assert info.value.signal_name == "SIGTERM"
     assert signal.getsignal(signal.SIGTERM) == before
@@ -229,10 +259,31 @@ def stopped_acquisitions(tmp_path_factory):
     runs = {}
     for sig, _ in SIGNAL_CASES:
         out = tmp / f"{signal.Signals(sig).name}.h5"
-        runs[sig] = out, _rig("acquire", "dwell", "--backend", "sim", "--pace", "--fe", "60 Hz",
-                              "--force", "5 N", "--gap", "5 mm", "--periods", "1800", "--out", str(out),
-                              "--json", stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                              text=True, env=_env())
+        runs[sig] = (
+            out,
+            _rig(
+                "acquire",
+                "dwell",
+                "--backend",
+                "sim",
+                "--pace",
+                "--fe",
+                "60 Hz",
+                "--force",
+                "5 N",
+                "--gap",
+                "5 mm",
+                "--periods",
+                "1800",
+                "--out",
+                str(out),
+                "--json",
+                stdout=subprocess.PIPE,
+                stderr=subprocess.PIPE,
+                text=True,
+                env=_env(),
+            ),
+        )
     results = {}
     try:
         pending = dict(runs)
@@ -268,15 +319,25 @@ def test_signal_during_simulated_acquisition_aborts_cleanly(stopped_acquisitions
         drive = f["points/0000/drive"][:]
     assert force.size >= 5120 and np.all(np.isfinite(force))
     peak = np.max(np.abs(drive))
-    assert peak > 0.05                                                # the dwell was running
-    tail = np.abs(drive[-20:])                                        # ... and ramped to zero
+    assert peak > 0.05  # the dwell was running
+    tail = np.abs(drive[-20:])  # ... and ramped to zero
     assert tail[-1] < 0.01 * peak and np.all(np.diff(tail) <= 0)
 
 
 @LINUX
 def test_sigterm_during_simulation(tmp_path):
-    proc = _rig("simulate", "--max-settle", "600", "--out", str(tmp_path / "sim.h5"), "--json",
-                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=_env())
+    proc = _rig(
+        "simulate",
+        "--max-settle",
+        "600",
+        "--out",
+        str(tmp_path / "sim.h5"),
+        "--json",
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=_env(),
+    )
     maps = Path(f"/proc/{proc.pid}/maps")
     try:
         _wait_for(lambda: proc.poll() is not None or "numba" in maps.read_text())
@@ -294,8 +355,15 @@ def test_sigterm_during_simulation(tmp_path):
 @LINUX
 def test_ctrl_c_during_start_up_is_one_line(tmp_path):
     """While command modules import (numpy mapped, the command not yet running)."""
-    proc = _rig("simulate", "--out", str(tmp_path / "sim.h5"),
-                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=_env())
+    proc = _rig(
+        "simulate",
+        "--out",
+        str(tmp_path / "sim.h5"),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=_env(),
+    )
     maps = Path(f"/proc/{proc.pid}/maps")
     try:
         _wait_for(lambda: proc.poll() is not None or "numpy" in maps.read_text())
@@ -305,7 +373,7 @@ def test_ctrl_c_during_start_up_is_one_line(tmp_path):
         if proc.poll() is None:
             proc.kill()
     assert proc.returncode == EXIT_SIGINT, stderr
-    _stderr_ok(stderr, max_lines=2)          # a first-run "compiling the kernels" line may precede
+    _stderr_ok(stderr, max_lines=2)  # a first-run "compiling the kernels" line may precede
     assert "interrupted" in stderr
 
 
@@ -314,12 +382,21 @@ def test_ctrl_c_while_loading_the_rig_file_is_one_line(tmp_path):
     """The rig file is a FIFO nobody writes: `rig` blocks loading it until Ctrl-C."""
     fifo = tmp_path / "rig.toml"
     os.mkfifo(fifo)
-    proc = _rig("simulate", "--rig", str(fifo), "--out", str(tmp_path / "sim.h5"),
-                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=_env())
+    proc = _rig(
+        "simulate",
+        "--rig",
+        str(fifo),
+        "--out",
+        str(tmp_path / "sim.h5"),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=_env(),
+    )
 
     writer: list[int] = []
 
-    def reader_waiting() -> bool:    # a non-blocking open for writing succeeds once rig reads
+    def reader_waiting() -> bool:  # a non-blocking open for writing succeeds once rig reads
         try:
             writer.append(os.open(fifo, os.O_WRONLY | os.O_NONBLOCK))
             return True
@@ -328,7 +405,7 @@ def test_ctrl_c_while_loading_the_rig_file_is_one_line(tmp_path):
 
     try:
         _wait_for(lambda: proc.poll() is not None or reader_waiting())
-        time.sleep(0.2)               # rig is now blocked reading the (empty, open) FIFO
+        time.sleep(0.2)  # rig is now blocked reading the (empty, open) FIFO
         proc.send_signal(signal.SIGINT)
         _, stderr = proc.communicate(timeout=60)
     finally:
@@ -342,15 +419,21 @@ def test_ctrl_c_while_loading_the_rig_file_is_one_line(tmp_path):
 
 
 # -- closed pipe, consoles -------------------------------------------------------------------
-@pytest.mark.parametrize("args", [("--help",), ("info", "--json", "FILE"), ("info", "FILE"),
-                                  ("check", "FILE")])
+@pytest.mark.parametrize(
+    "args", [("--help",), ("info", "--json", "FILE"), ("info", "FILE"), ("check", "FILE")]
+)
 def test_closed_stdout_ends_quietly(tmp_path, args):
     path = small_recording(tmp_path / "run.h5")
     read, write = os.pipe()
-    os.close(read)                           # the reader is gone before rig writes anything
+    os.close(read)  # the reader is gone before rig writes anything
     try:
-        proc = _rig(*[str(path) if a == "FILE" else a for a in args], stdout=write,
-                    stderr=subprocess.PIPE, text=True, env=_env())
+        proc = _rig(
+            *[str(path) if a == "FILE" else a for a in args],
+            stdout=write,
+            stderr=subprocess.PIPE,
+            text=True,
+            env=_env(),
+        )
     finally:
         os.close(write)
     _, stderr = proc.communicate(timeout=120)
@@ -363,13 +446,22 @@ def test_closed_stdout_ends_quietly(tmp_path, args):
 def test_console_that_cannot_print_the_text(tmp_path, encoding):
     """A recording named and labelled with characters the console lacks ("m/s²", "≥")."""
     path = small_recording(tmp_path / "run ≥ 0.5 mm.h5", units="m/s²")
-    proc = subprocess.run([sys.executable, "-c", "import sys; from rigtools.cli import main; "
-                           "sys.exit(main())", "info", str(path)], capture_output=True,
-                          env=_env(PYTHONIOENCODING=encoding), timeout=120)
+    proc = subprocess.run(
+        [
+            sys.executable,
+            "-c",
+            "import sys; from rigtools.cli import main; sys.exit(main())",
+            "info",
+            str(path),
+        ],
+        capture_output=True,
+        env=_env(PYTHONIOENCODING=encoding),
+        timeout=120,
+    )
     assert proc.returncode == 0, proc.stderr
     assert b"Traceback" not in proc.stderr
     text = proc.stdout.decode(encoding)
-    assert "\\u2265 0.5 mm" in text                      # "≥" escaped, the rest intact
+    assert "\\u2265 0.5 mm" in text  # "≥" escaped, the rest intact
 
 
 def test_configure_console_escapes_what_the_encoding_lacks():
@@ -386,14 +478,15 @@ def test_configure_process_sets_blas_threads_even_after_numpy_loaded():
     env = _env()
     for var in runtime.BLAS_THREAD_VARS:
         env.pop(var, None)
-    code = ("import numpy, scipy.linalg, json, os\n"
-            "from threadpoolctl import threadpool_info\n"
-            "from rigtools.runtime import configure_process\n"
-            "s = configure_process()\n"
-            "print(json.dumps([s.blas_threads, s.blas_limited_live, os.environ['OPENBLAS_NUM_THREADS'],"
-            " sorted({i['num_threads'] for i in threadpool_info() if i['user_api'] == 'blas'})]))")
-    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env,
-                          timeout=120)
+    code = (
+        "import numpy, scipy.linalg, json, os\n"
+        "from threadpoolctl import threadpool_info\n"
+        "from rigtools.runtime import configure_process\n"
+        "s = configure_process()\n"
+        "print(json.dumps([s.blas_threads, s.blas_limited_live, os.environ['OPENBLAS_NUM_THREADS'],"
+        " sorted({i['num_threads'] for i in threadpool_info() if i['user_api'] == 'blas'})]))"
+    )
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=120)
     assert proc.returncode == 0, proc.stderr
     assert json.loads(proc.stdout) == [1, True, "1", [1]]
 
@@ -402,10 +495,11 @@ def test_importing_the_cli_changes_no_environment():
     env = _env()
     for var in runtime.BLAS_THREAD_VARS:
         env.pop(var, None)
-    code = ("import os, rigtools.cli; "
-            "print(any(v in os.environ for v in ('OPENBLAS_NUM_THREADS', 'OMP_NUM_THREADS')))")
-    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env,
-                          timeout=60)
+    code = (
+        "import os, rigtools.cli; "
+        "print(any(v in os.environ for v in ('OPENBLAS_NUM_THREADS', 'OMP_NUM_THREADS')))"
+    )
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=60)
     assert proc.stdout.strip() == "False"
 
 
@@ -421,14 +515,15 @@ def test_read_only_install_caches_kernels_per_user(tmp_path, monkeypatch):
 
 def test_first_run_says_it_compiles_the_kernels_then_not(tmp_path):
     """A fresh numba cache: the line once; then the kernels are cached and nothing is said."""
-    code = ("import contextlib, io\n"
-            "from rigtools.runtime import ensure_kernels_compiled, kernels_cached\n"
-            "first = ensure_kernels_compiled()\n"
-            "said = io.StringIO()\n"
-            "print(first, kernels_cached(), ensure_kernels_compiled(said), repr(said.getvalue()))")
+    code = (
+        "import contextlib, io\n"
+        "from rigtools.runtime import ensure_kernels_compiled, kernels_cached\n"
+        "first = ensure_kernels_compiled()\n"
+        "said = io.StringIO()\n"
+        "print(first, kernels_cached(), ensure_kernels_compiled(said), repr(said.getvalue()))"
+    )
     env = _env(NUMBA_CACHE_DIR=str(tmp_path / "numba"))
-    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env,
-                          timeout=300)
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=300)
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.split() == ["True", "True", "False", "''"]
     assert proc.stderr.startswith("compiling the simulation kernels (first run only, ~")

@@ -30,7 +30,9 @@ def simulated(tmp_path_factory):
     out = tmp_path_factory.mktemp("sim") / "run.h5"
     buf = io.StringIO()
     with contextlib.redirect_stdout(buf):
-        code = main(["simulate", "--fe", "60", "--force", "15", "--gap", "0.5 mm", "--out", str(out), "--json", *FAST])
+        code = main(
+            ["simulate", "--fe", "60", "--force", "15", "--gap", "0.5 mm", "--out", str(out), "--json", *FAST]
+        )
     return code, json.loads(buf.getvalue()), out
 
 
@@ -65,8 +67,14 @@ def test_simulate_file_holds_the_run(simulated):
         p = rec.points[0]
         assert p.params["fe"] == 60.0 and p.params["gap"] == pytest.approx(5e-4)
         assert p.params["settled"] is True or p.params["settled"] == 1
-        for name, units in (("active_shroud_accel", "m/s^2"), ("passive_shroud_accel", "m/s^2"), ("force", "N"),
-                            ("contact_force", "N"), ("active_shroud_disp", "m"), ("passive_shroud_vel", "m/s")):
+        for name, units in (
+            ("active_shroud_accel", "m/s^2"),
+            ("passive_shroud_accel", "m/s^2"),
+            ("force", "N"),
+            ("contact_force", "N"),
+            ("active_shroud_disp", "m"),
+            ("passive_shroud_vel", "m/s"),
+        ):
             assert p.channels[name].units == units
         a = np.asarray(p["active_shroud_accel"])
         fs = p.sample_rate
@@ -76,14 +84,17 @@ def test_simulate_file_holds_the_run(simulated):
         assert np.max(p["contact_force"][:]) == pytest.approx(doc["contact"]["peak_force_n"])
 
 
-@pytest.mark.parametrize("argv, needle", [
-    (["--gap", "-0.2 mm"], "gap"),
-    (["--force", "-5"], "force"),
-    (["--fe", "0"], "frequency"),
-    (["--duration", "10 ms"], "shorter than one excitation period"),
-    (["--steps-per-period", "150"], "too coarse for the contact stiffness"),
-    (["--gap", "half a mm"], "--gap"),
-])
+@pytest.mark.parametrize(
+    "argv, needle",
+    [
+        (["--gap", "-0.2 mm"], "gap"),
+        (["--force", "-5"], "force"),
+        (["--fe", "0"], "frequency"),
+        (["--duration", "10 ms"], "shorter than one excitation period"),
+        (["--steps-per-period", "150"], "too coarse for the contact stiffness"),
+        (["--gap", "half a mm"], "--gap"),
+    ],
+)
 def test_simulate_refuses_invalid_input_with_one_line(tmp_path, capsys, argv, needle):
     code = main(["simulate", "--out", str(tmp_path / "x.h5"), *argv])
     err = capsys.readouterr().err
@@ -109,18 +120,39 @@ def test_study_writes_one_point_per_value(tmp_path, capsys):
         assert [p.params["gap"] for p in rec.points] == pytest.approx([3e-4, 5e-4])
         assert rec.experiment["procedure"] == "gap study"
         assert [pt["peak_contact_force_n"] for pt in doc["points"]] == pytest.approx(
-            [float(np.max(p["contact_force"][:])) for p in rec.points])
+            [float(np.max(p["contact_force"][:])) for p in rec.points]
+        )
     assert doc["plot"] == str(tmp_path / "gap.png")
-    assert_png(tmp_path / "gap.png", 1100, 1000)     # 11 x (3.6 + 2 x 3.2) in at 100 dpi
+    assert_png(tmp_path / "gap.png", 1100, 1000)  # 11 x (3.6 + 2 x 3.2) in at 100 dpi
 
 
 def test_study_both_directions_and_bad_values(tmp_path, capsys):
     out = tmp_path / "f.h5"
-    assert main(["study", "frequency", "--values", "60 Hz,75 Hz", "--direction", "both", "--out", str(out),
-                 "--json", "--no-plot", *FAST]) == 0
+    assert (
+        main(
+            [
+                "study",
+                "frequency",
+                "--values",
+                "60 Hz,75 Hz",
+                "--direction",
+                "both",
+                "--out",
+                str(out),
+                "--json",
+                "--no-plot",
+                *FAST,
+            ]
+        )
+        == 0
+    )
     doc = json.loads(capsys.readouterr().out)
     assert doc["plot"] is None and not (tmp_path / "f.png").exists()
-    assert [(p["value"], p["direction"]) for p in doc["points"]] == [(60.0, "up"), (75.0, "up"), (60.0, "down")]
+    assert [(p["value"], p["direction"]) for p in doc["points"]] == [
+        (60.0, "up"),
+        (75.0, "up"),
+        (60.0, "down"),
+    ]
     assert main(["study", "gap", "--values", "0.3,0.5", "--out", str(tmp_path / "g.h5")]) == 2
     assert "units" in capsys.readouterr().err
     assert main(["study", "frequency", "--values", "-5 Hz", "--out", str(tmp_path / "g.h5")]) == 2
@@ -136,19 +168,22 @@ def _digest(path):
     return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
-@pytest.mark.parametrize("argv, needle", [
-    (["--gap", "0.5"], "--gap = '0.5' is 500 mm, wider than any blade could close"),
-    (["--gap", "1e400 mm"], "--gap = '1e400 mm': '1e400 mm' is not a finite number"),
-    (["--fe", "1e400"], "--fe = '1e400': '1e400' is not a finite number"),
-    (["--force", "1e400 N"], "--force"),
-    (["--force", "nan"], "--force"),
-    (["--duration", "1e400"], "--duration"),
-    (["--duration", "0 s"], "--duration"),
-    (["--max-settle", "1e400 s"], "--max-settle"),
-    (["--steps-per-period", "100000000"], "--steps-per-period"),
-    (["--steps-per-period", "100"], "--steps-per-period"),
-    (["--duration", "1000 s", "--steps-per-period", "1000000"], "GB of memory"),
-])
+@pytest.mark.parametrize(
+    "argv, needle",
+    [
+        (["--gap", "0.5"], "--gap = '0.5' is 500 mm, wider than any blade could close"),
+        (["--gap", "1e400 mm"], "--gap = '1e400 mm': '1e400 mm' is not a finite number"),
+        (["--fe", "1e400"], "--fe = '1e400': '1e400' is not a finite number"),
+        (["--force", "1e400 N"], "--force"),
+        (["--force", "nan"], "--force"),
+        (["--duration", "1e400"], "--duration"),
+        (["--duration", "0 s"], "--duration"),
+        (["--max-settle", "1e400 s"], "--max-settle"),
+        (["--steps-per-period", "100000000"], "--steps-per-period"),
+        (["--steps-per-period", "100"], "--steps-per-period"),
+        (["--duration", "1000 s", "--steps-per-period", "1000000"], "GB of memory"),
+    ],
+)
 def test_simulate_refuses_bad_input_and_leaves_the_recording_alone(simulated, capsys, argv, needle):
     """One line, exit 2, and an existing recording given as --out with --overwrite is untouched."""
     _, _, out = simulated
@@ -161,8 +196,11 @@ def test_simulate_refuses_bad_input_and_leaves_the_recording_alone(simulated, ca
 
 
 def test_output_paths_that_are_directories_are_refused(tmp_path, capsys):
-    for argv in (["simulate", "--out", str(tmp_path)], ["study", "gap", "--values", "0.5 mm", "--out", str(tmp_path)],
-                 ["harmonic", "--out", str(tmp_path / "d.csv")]):
+    for argv in (
+        ["simulate", "--out", str(tmp_path)],
+        ["study", "gap", "--values", "0.5 mm", "--out", str(tmp_path)],
+        ["harmonic", "--out", str(tmp_path / "d.csv")],
+    ):
         if argv[0] == "harmonic":
             (tmp_path / "d.csv").mkdir()
         assert main(argv) == 2
@@ -170,8 +208,10 @@ def test_output_paths_that_are_directories_are_refused(tmp_path, capsys):
         assert "is a directory" in err and err.count("\n") == 1
 
 
-@pytest.mark.skipif(not hasattr(__import__("os"), "geteuid") or __import__("os").geteuid() == 0,
-                    reason="root may write anywhere")
+@pytest.mark.skipif(
+    not hasattr(__import__("os"), "geteuid") or __import__("os").geteuid() == 0,
+    reason="root may write anywhere",
+)
 def test_read_only_outputs_are_refused(tmp_path, capsys):
     folder = tmp_path / "ro"
     folder.mkdir()
@@ -211,13 +251,13 @@ def test_long_work_is_announced_with_its_estimate(capsys):
     stiff = system.with_contact(stiffness=1e12, gap=0.5e-3)
     settings = RunSettings(duration=0.05, max_settle_time=30.0)
     n = steps_per_period(stiff, 60.0, 15.0, settings)
-    assert n == pytest.approx(327_000, rel=0.01)       # 30 steps per contact period of ~1.5 us
+    assert n == pytest.approx(327_000, rel=0.01)  # 30 steps per contact period of ~1.5 us
     least, most = run_time_estimate(stiff, 60.0, 15.0, settings)
     assert most == pytest.approx((1800 + 3) * n * stiff.n_modes / 7.0e7, rel=1e-9) and most > 60
     announce_work(stiff, [(60.0, 15.0)], settings, quiet=False)
     err = capsys.readouterr().err
     assert err.startswith("this will take") and "min" in err and err.count("\n") == 1
-    announce_work(system, [(60.0, 15.0)], RunSettings(0.1, 4.0), quiet=False)    # the default: quick, silent
+    announce_work(system, [(60.0, 15.0)], RunSettings(0.1, 4.0), quiet=False)  # the default: quick, silent
     assert capsys.readouterr().err == ""
 
 
@@ -228,7 +268,9 @@ def test_model_build_estimate_scales_with_the_elements():
     from rigtools.simulation import model_build_estimate
 
     params = load_rig().to_params()
-    big = replace(params, active=replace(params.active, elements=2000), passive=replace(params.passive, elements=2000))
+    big = replace(
+        params, active=replace(params.active, elements=2000), passive=replace(params.passive, elements=2000)
+    )
     seconds, peak = model_build_estimate(big)
     assert seconds == pytest.approx(230.0) and peak == pytest.approx(48 * 12006**2)
     assert model_build_estimate(params)[0] < 1.0 and model_build_estimate(big, "am") == (0.0, 0)
@@ -239,9 +281,11 @@ def test_model_commands_import_light():
     import subprocess
     import sys
 
-    code = ("import sys\nimport rigtools.commands.simulate, rigtools.commands.study, rigtools.commands.harmonic, "
-            "rigtools.commands.modal, rigtools.vocabulary\n"
-            "print([m for m in ('scipy', 'numba', 'h5py', 'matplotlib', 'nidaqmx', 'pyvisa') if m in sys.modules])")
+    code = (
+        "import sys\nimport rigtools.commands.simulate, rigtools.commands.study, rigtools.commands.harmonic, "
+        "rigtools.commands.modal, rigtools.vocabulary\n"
+        "print([m for m in ('scipy', 'numba', 'h5py', 'matplotlib', 'nidaqmx', 'pyvisa') if m in sys.modules])"
+    )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "[]"
 
@@ -274,16 +318,33 @@ def test_sigterm_during_simulate_writes_nothing_and_exits_143(tmp_path):
     import time
 
     out = tmp_path / "t.h5"
-    proc = subprocess.Popen([sys.executable, "-m", "rigtools.cli", "simulate", "--out", str(out), "--json",
-                             "--max-settle", "30 s", "--duration", "20 s", "--fe", "40"],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, cwd=tmp_path,
-                            env=dict(os.environ, PYTHONUNBUFFERED="1"))
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "rigtools.cli",
+            "simulate",
+            "--out",
+            str(out),
+            "--json",
+            "--max-settle",
+            "30 s",
+            "--duration",
+            "20 s",
+            "--fe",
+            "40",
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        cwd=tmp_path,
+        env=dict(os.environ, PYTHONUNBUFFERED="1"),
+    )
     status = f"/proc/{proc.pid}/status"
     if not os.path.exists(status):
         proc.kill()
         pytest.skip("needs /proc to see when the command has taken over SIGTERM")
     t0 = time.monotonic()
-    while time.monotonic() - t0 < 120 and proc.poll() is None:    # wait for the SIGTERM handler (bit 15)
+    while time.monotonic() - t0 < 120 and proc.poll() is None:  # wait for the SIGTERM handler (bit 15)
         caught = [line for line in open(status) if line.startswith("SigCgt:")]
         if caught and int(caught[0].split()[1], 16) >> (signal.SIGTERM - 1) & 1:
             break
@@ -294,10 +355,12 @@ def test_sigterm_during_simulate_writes_nothing_and_exits_143(tmp_path):
     if proc.returncode == 0:
         pytest.skip("the run finished before the signal (a very fast machine)")
     assert proc.returncode == 143, stderr
-    assert stderr.decode().strip().splitlines()[-1] in ("rig simulate: SIGTERM: terminated (kill, timeout or a job scheduler); nothing written",
-                                                        "rig simulate: SIGTERM: terminated (kill, timeout or a job scheduler); "
-                                                        f"{out} is complete "
-                                                        "(no summary or plot)")
+    assert stderr.decode().strip().splitlines()[-1] in (
+        "rig simulate: SIGTERM: terminated (kill, timeout or a job scheduler); nothing written",
+        "rig simulate: SIGTERM: terminated (kill, timeout or a job scheduler); "
+        f"{out} is complete "
+        "(no summary or plot)",
+    )
     assert "Traceback" not in stderr.decode()
 
 
@@ -313,8 +376,12 @@ def test_json_contact_force_harmonics_are_the_exact_ones(tmp_path, capsys):
     doc = json.loads(capsys.readouterr().out)
     got = np.array([h["amplitude"] for h in doc["harmonics"]["contact_force"]])
     _, system = load_system(None)
-    run = simulate_point(system.with_contact(gap=0.9e-3), 60.0, 15.0,
-                         RunSettings(duration=0.1, max_settle_time=4.0, steps_per_period=None))
+    run = simulate_point(
+        system.with_contact(gap=0.9e-3),
+        60.0,
+        15.0,
+        RunSettings(duration=0.1, max_settle_time=4.0, steps_per_period=None),
+    )
     np.testing.assert_allclose(got, np.abs(contact_force_harmonics(run, 30)), rtol=1e-12)
     fit = harmonic_amplitudes(run.outputs["contact_force"], run.sample_rate, 60.0, 30)
-    assert abs(fit.amplitude[0] / got[0] - 1) > 1e-3        # the sampled fit really differs
+    assert abs(fit.amplitude[0] / got[0] - 1) > 1e-3  # the sampled fit really differs

@@ -40,7 +40,11 @@ def test_streamed_study_equals_the_in_memory_study(system, tmp_path):
         for p, r, s in zip(rec.points, ref.points, summaries):
             assert p.ended
             assert (p.params["direction"], p.params["study_value"]) == (r.direction, r.value)
-            assert p.params["gap"] == r.run.gap and p.params["fe"] == 60.0 and p.params["force_amplitude"] == 15.0
+            assert (
+                p.params["gap"] == r.run.gap
+                and p.params["fe"] == 60.0
+                and p.params["force_amplitude"] == 15.0
+            )
             for name, src in MODEL_OUTPUTS.items():
                 np.testing.assert_allclose(p[name][:], r.run.outputs[src], rtol=1e-12, atol=0)
             assert p.params["peak_contact_force"] == pytest.approx(r.run.peak_contact_force, rel=1e-12)
@@ -54,8 +58,21 @@ def test_streamed_study_equals_the_in_memory_study(system, tmp_path):
 def _start(tmp_path, out, values="5 N:40 N:0.05 N"):
     """A long force study (701 points) in a subprocess; returns the process."""
     env = dict(os.environ, PYTHONUNBUFFERED="1")
-    cmd = [sys.executable, "-m", "rigtools.cli", "study", "force", "--values", values, "--out", str(out),
-           "--json", "--no-plot", "--from-rest", *FAST]
+    cmd = [
+        sys.executable,
+        "-m",
+        "rigtools.cli",
+        "study",
+        "force",
+        "--values",
+        values,
+        "--out",
+        str(out),
+        "--json",
+        "--no-plot",
+        "--from-rest",
+        *FAST,
+    ]
     return subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env, cwd=tmp_path)
 
 
@@ -68,7 +85,7 @@ def _ended_points(out):
     try:
         with open_recording(out) as rec:
             return [(p.index, datetime.fromisoformat(p.end_time).timestamp()) for p in rec.points if p.ended]
-    except Exception:        # the writer is between structure and streaming: try again
+    except Exception:  # the writer is between structure and streaming: try again
         return []
 
 
@@ -96,8 +113,11 @@ def _check_points(out, indices):
             force = p["force"][:]
             assert force.size == n and np.all(np.isfinite(force))
             assert harmonic_amplitudes(force, p.sample_rate, p.params["fe"], 1).at(1) == pytest.approx(
-                p.params["force_amplitude"], rel=1e-9)
-            assert p.params["force_amplitude_measured"] == pytest.approx(p.params["force_amplitude"], rel=1e-9)
+                p.params["force_amplitude"], rel=1e-9
+            )
+            assert p.params["force_amplitude_measured"] == pytest.approx(
+                p.params["force_amplitude"], rel=1e-9
+            )
             assert p.params["study_value"] == p.params["force_amplitude"] == pytest.approx(5.0 + 0.05 * i)
         return rec.status, rec.abort_reason, len(rec.points)
 
@@ -114,11 +134,16 @@ def test_sigkill_keeps_every_point_finished_a_second_before(tmp_path):
     assert len(old) >= 2
     assert old == list(range(len(old)))
     status, _, n = _check_points(out, old)
-    assert status == "recording" and n >= len(old)       # the writer never finished the file
+    assert status == "recording" and n >= len(old)  # the writer never finished the file
 
 
-@pytest.mark.parametrize("sig, code, reason", [(signal.SIGINT, 130, "SIGINT: interrupted (Ctrl-C)"),
-                                               (signal.SIGTERM, 143, "SIGTERM: terminated (kill, timeout or a job scheduler)")])
+@pytest.mark.parametrize(
+    "sig, code, reason",
+    [
+        (signal.SIGINT, 130, "SIGINT: interrupted (Ctrl-C)"),
+        (signal.SIGTERM, 143, "SIGTERM: terminated (kill, timeout or a job scheduler)"),
+    ],
+)
 def test_stop_request_ends_the_file_aborted_with_every_point(tmp_path, sig, code, reason):
     out = tmp_path / "stopped.h5"
     proc = _start(tmp_path, out)
@@ -127,35 +152,50 @@ def test_stop_request_ends_the_file_aborted_with_every_point(tmp_path, sig, code
     stdout, stderr = proc.communicate(timeout=60)
     err = stderr.decode().strip().splitlines()
     assert proc.returncode == code
-    assert len(err) == 1 and err[0].startswith(f"rig study: {reason} after ") and "Traceback" not in stderr.decode()
+    assert (
+        len(err) == 1
+        and err[0].startswith(f"rig study: {reason} after ")
+        and "Traceback" not in stderr.decode()
+    )
     assert stdout == b""
     with open_recording(out) as rec:
         n = len(rec.points)
         assert rec.status == "aborted" and rec.abort_reason == f"{reason} after {n} of 701 points"
-        assert all(p.ended for p in rec.points)      # a stop waits for the point being written
+        assert all(p.ended for p in rec.points)  # a stop waits for the point being written
     _check_points(out, range(n))
 
 
 def test_study_json_reports_the_measured_force_fundamental(tmp_path, capsys):
     out = tmp_path / "f.h5"
-    assert main(["study", "force", "--values", "10 N,20 N", "--out", str(out), "--json", "--no-plot", *FAST]) == 0
+    assert (
+        main(["study", "force", "--values", "10 N,20 N", "--out", str(out), "--json", "--no-plot", *FAST])
+        == 0
+    )
     doc = json.loads(capsys.readouterr().out)
     assert [p["force_amplitude_measured"] for p in doc["points"]] == pytest.approx([10.0, 20.0], rel=1e-12)
     with open_recording(out) as rec:
-        assert [p.params["force_amplitude_measured"] for p in rec.points] == pytest.approx([10.0, 20.0], rel=1e-12)
+        assert [p.params["force_amplitude_measured"] for p in rec.points] == pytest.approx(
+            [10.0, 20.0], rel=1e-12
+        )
 
 
-@pytest.mark.parametrize("argv, needle", [
-    (["gap", "--values", "0.3 mm,0.5"], "wider than any blade could close"),
-    (["gap", "--values", "0.3 mm:1e400 mm:0.1 mm"], "not a finite number"),
-    (["force", "--values", "1 N:1e9 N:1 N"], "too many"),
-    (["force", "--values", "5 N", "--gap", "0.5"], "--gap = '0.5' is 500 mm"),
-    (["force", "--values", "5 N", "--fe", "1e400"], "--fe = '1e400': '1e400' is not a finite number"),
-    (["frequency", "--values", "60 Hz", "--duration", "1e400 s"], "--duration"),
-    (["frequency", "--values", "60 Hz", "--max-settle", "-1 s"], "--max-settle"),
-    (["frequency", "--values", "60 Hz", "--steps-per-period", "100000000"], "--steps-per-period"),
-    (["force", "--values", "5 N", "--duration", "1000 s", "--steps-per-period", "1000000"], "GB of memory"),
-])
+@pytest.mark.parametrize(
+    "argv, needle",
+    [
+        (["gap", "--values", "0.3 mm,0.5"], "wider than any blade could close"),
+        (["gap", "--values", "0.3 mm:1e400 mm:0.1 mm"], "not a finite number"),
+        (["force", "--values", "1 N:1e9 N:1 N"], "too many"),
+        (["force", "--values", "5 N", "--gap", "0.5"], "--gap = '0.5' is 500 mm"),
+        (["force", "--values", "5 N", "--fe", "1e400"], "--fe = '1e400': '1e400' is not a finite number"),
+        (["frequency", "--values", "60 Hz", "--duration", "1e400 s"], "--duration"),
+        (["frequency", "--values", "60 Hz", "--max-settle", "-1 s"], "--max-settle"),
+        (["frequency", "--values", "60 Hz", "--steps-per-period", "100000000"], "--steps-per-period"),
+        (
+            ["force", "--values", "5 N", "--duration", "1000 s", "--steps-per-period", "1000000"],
+            "GB of memory",
+        ),
+    ],
+)
 def test_study_refuses_bad_input_with_one_line(tmp_path, capsys, argv, needle):
     out = tmp_path / "x.h5"
     assert main(["study", *argv, "--out", str(out)]) == 2
@@ -181,16 +221,22 @@ def test_memory_does_not_grow_with_the_number_of_points(system, tmp_path):
         tracemalloc.stop()
         return value
 
-    peak(1)       # compile and warm caches outside the measurement
+    peak(1)  # compile and warm caches outside the measurement
     p2, p8 = peak(2), peak(8)
     assert p8 < 1.15 * p2, (p2, p8)
     tracemalloc.start()
-    study = run_study(sys_, "force", list(np.linspace(5.0, 20.0, 8)), carry_state=False, record_duration=0.5,
-                      max_settle_time=4.0)
+    study = run_study(
+        sys_,
+        "force",
+        list(np.linspace(5.0, 20.0, 8)),
+        carry_state=False,
+        record_duration=0.5,
+        max_settle_time=4.0,
+    )
     in_memory = tracemalloc.get_traced_memory()[1]
     tracemalloc.stop()
     run_bytes = sum(a.nbytes for a in study.points[0].run.outputs.values())
-    assert in_memory > p8 + 4 * run_bytes, (in_memory, p8, run_bytes)     # 8 runs held vs 1 at a time
+    assert in_memory > p8 + 4 * run_bytes, (in_memory, p8, run_bytes)  # 8 runs held vs 1 at a time
 
 
 def test_stop_requests_hold_a_signal_until_the_protected_write_is_done():
@@ -203,12 +249,12 @@ def test_stop_requests_hold_a_signal_until_the_protected_write_is_done():
         with StopRequests() as stops:
             with stops.protected():
                 os.kill(os.getpid(), signal.SIGTERM)
-                time.sleep(0.05)            # the handler runs here and only holds the request
+                time.sleep(0.05)  # the handler runs here and only holds the request
                 steps.append("written")
             steps.append("not reached")
     assert steps == ["written"]
     assert info.value.exit_code == 143 and info.value.reason.startswith("SIGTERM")
-    assert signal.getsignal(signal.SIGTERM) is before       # the previous handler is back
+    assert signal.getsignal(signal.SIGTERM) is before  # the previous handler is back
 
 
 def test_a_record_appended_in_blocks_is_the_run(system, tmp_path, monkeypatch):
@@ -216,7 +262,7 @@ def test_a_record_appended_in_blocks_is_the_run(system, tmp_path, monkeypatch):
 
     cfg, sys_ = system
     run = simulation.simulate_point(sys_, 60.0, 15.0, RunSettings(0.1, 4.0))
-    monkeypatch.setattr(simulation, "APPEND_SAMPLES", 577)        # several blocks and a partial one
+    monkeypatch.setattr(simulation, "APPEND_SAMPLES", 577)  # several blocks and a partial one
     assert run.time.size > 3 * 577 and run.time.size % 577
     with RecordingWriter(tmp_path / "b.h5", backend="fem", rig=cfg.to_json()) as rec:
         simulation.write_point(rec, run, "fem")

@@ -12,21 +12,57 @@ import pytest
 from cli_helpers import rig
 
 
-
 @pytest.fixture(scope="module")
 def scores(tmp_path_factory):
     cwd = tmp_path_factory.mktemp("cmp60")
-    rig("acquire", "frf", "--backend", "sim", "--signal", "burst", "--band", "20 Hz:2 kHz", "--level", "0.3 V",
-        "--frame", "0.5 s", "--averages", "8", "--seed", "1", "--out", "frf.h5", cwd=cwd)
+    rig(
+        "acquire",
+        "frf",
+        "--backend",
+        "sim",
+        "--signal",
+        "burst",
+        "--band",
+        "20 Hz:2 kHz",
+        "--level",
+        "0.3 V",
+        "--frame",
+        "0.5 s",
+        "--averages",
+        "8",
+        "--seed",
+        "1",
+        "--out",
+        "frf.h5",
+        cwd=cwd,
+    )
     rig("update", "frf.h5", "--params", "root.rotational_stiffness,damping.ratio", "--out", "u.toml", cwd=cwd)
-    rig("acquire", "study", "gap", "--backend", "sim", "--seed", "1", "--values", "0.3 mm,0.6 mm,0.9 mm",
-        "--force", "15 N", "--fe", "60", "--yes", "--out", "em.h5", cwd=cwd)
+    rig(
+        "acquire",
+        "study",
+        "gap",
+        "--backend",
+        "sim",
+        "--seed",
+        "1",
+        "--values",
+        "0.3 mm,0.6 mm,0.9 mm",
+        "--force",
+        "15 N",
+        "--fe",
+        "60",
+        "--yes",
+        "--out",
+        "em.h5",
+        cwd=cwd,
+    )
     out = {}
     for model in ("nominal", "updated"):
         for excitation in ("measured", "nominal"):
             extra = ["--rig", "u.toml"] if model == "updated" else []
-            doc = json.loads(rig("compare", "em.h5", "--simulate", "--excitation", excitation, "--json", *extra,
-                                 cwd=cwd))
+            doc = json.loads(
+                rig("compare", "em.h5", "--simulate", "--excitation", excitation, "--json", *extra, cwd=cwd)
+            )
             out[model, excitation] = doc["mean_score"]
     print("agreement scores (model rig, excitation):", out)
     return out

@@ -16,21 +16,76 @@ from cli_helpers import run_cli
 GAPS = "0.3 mm,0.6 mm,0.9 mm"
 
 
-
 @pytest.fixture(scope="module")
 def files(tmp_path_factory):
     d = tmp_path_factory.mktemp("cmp")
     paths = {"study65": d / "gap65.h5", "dwell60": d / "dwell60.h5", "frf": d / "frf.h5"}
-    code, _, err = run_cli(["acquire", "study", "gap", "--backend", "sim", "--seed", "1", "--values", GAPS,
-                            "--force", "15 N", "--fe", "65", "--periods", "10", "--yes",
-                            "--out", str(paths["study65"])])
+    code, _, err = run_cli(
+        [
+            "acquire",
+            "study",
+            "gap",
+            "--backend",
+            "sim",
+            "--seed",
+            "1",
+            "--values",
+            GAPS,
+            "--force",
+            "15 N",
+            "--fe",
+            "65",
+            "--periods",
+            "10",
+            "--yes",
+            "--out",
+            str(paths["study65"]),
+        ]
+    )
     assert code == 0, err
-    code, _, err = run_cli(["acquire", "dwell", "--backend", "sim", "--seed", "1", "--fe", "60", "--force", "15 N",
-                            "--gap", "0.6 mm", "--periods", "10", "--out", str(paths["dwell60"])])
+    code, _, err = run_cli(
+        [
+            "acquire",
+            "dwell",
+            "--backend",
+            "sim",
+            "--seed",
+            "1",
+            "--fe",
+            "60",
+            "--force",
+            "15 N",
+            "--gap",
+            "0.6 mm",
+            "--periods",
+            "10",
+            "--out",
+            str(paths["dwell60"]),
+        ]
+    )
     assert code == 0, err
-    code, _, err = run_cli(["acquire", "frf", "--backend", "sim", "--seed", "1", "--signal", "chirp",
-                            "--band", "20 Hz:1 kHz", "--level", "0.3 V", "--frame", "0.5 s", "--averages", "4",
-                            "--out", str(paths["frf"])])
+    code, _, err = run_cli(
+        [
+            "acquire",
+            "frf",
+            "--backend",
+            "sim",
+            "--seed",
+            "1",
+            "--signal",
+            "chirp",
+            "--band",
+            "20 Hz:1 kHz",
+            "--level",
+            "0.3 V",
+            "--frame",
+            "0.5 s",
+            "--averages",
+            "4",
+            "--out",
+            str(paths["frf"]),
+        ]
+    )
     assert code == 0, err
     paths["dir"] = d
     return paths
@@ -42,8 +97,12 @@ def test_gap_study_measured_excitation_agrees_better_than_nominal(files):
     FEM driven by F0 sin lacks the force's 5·fe and 6·fe harmonics (about 5 N and 1 N)."""
     scores = {}
     for exc in ("measured", "nominal"):
-        figs = ["--out", str(files["dir"] / "figs")] if exc == "measured" else []   # figures once: slow to draw
-        code, out, err = run_cli(["compare", str(files["study65"]), "--simulate", "--excitation", exc, "--json", *figs])
+        figs = (
+            ["--out", str(files["dir"] / "figs")] if exc == "measured" else []
+        )  # figures once: slow to draw
+        code, out, err = run_cli(
+            ["compare", str(files["study65"]), "--simulate", "--excitation", exc, "--json", *figs]
+        )
         assert code == 0, err
         doc = json.loads(out)
         scores[exc] = [p["agreement"]["score"] for p in doc["points"]]
@@ -57,7 +116,7 @@ def test_gap_study_measured_excitation_agrees_better_than_nominal(files):
         # the fundamental of the force applied equals the EM force fundamental
         f1 = [r for r in rows if r["channel"] == "force" and r["k"] == 1][0]
         assert f1["fem"] == pytest.approx(f1["em"], rel=1e-9)
-        if figs:      # trends + per point overlay and harmonic bars, named after the EM file
+        if figs:  # trends + per point overlay and harmonic bars, named after the EM file
             names = sorted(p.rsplit("/", 1)[-1] for p in doc["figures"])
             assert len(names) == 1 + 2 * 3 and "gap65.compare-trends.png" in names
     assert np.mean(scores["measured"]) > np.mean(scores["nominal"]) + 0.05
@@ -70,7 +129,9 @@ def test_6fe_difference_at_60_hz_is_explained_by_the_em_2nd_mode_offset(files):
     the FEM's (361.9 Hz, +1.77 %). Measured: EM force 5·fe harmonic about 6 N."""
     from rigtools.compare import compare_recordings
 
-    cmp = compare_recordings(str(files["dwell60"]), simulate=True, excitation="nominal", frf=str(files["frf"]))
+    cmp = compare_recordings(
+        str(files["dwell60"]), simulate=True, excitation="nominal", frf=str(files["frf"])
+    )
     nat = cmp.natural.set_index(["blade", "mode"])
     em2, fem2 = nat.loc[("active", 2), "em_hz"], nat.loc[("active", 2), "fem_hz"]
     print(f"active mode 2: EM {em2:.2f} Hz, FEM {fem2:.2f} Hz ({100 * (fem2 / em2 - 1):+.2f} %)")
@@ -92,8 +153,17 @@ def test_6fe_difference_at_60_hz_is_explained_by_the_em_2nd_mode_offset(files):
     # just above the EM resonance: a higher natural frequency raises the harmonic, a lower one lowers it
     assert e.ratio_per_percent[0] > 1 > e.ratio_per_percent[1]
     # printed on stdout by the command
-    code, out, err = run_cli(["compare", str(files["dwell60"]), "--simulate", "--excitation", "nominal",
-                              "--frf", str(files["frf"])])
+    code, out, err = run_cli(
+        [
+            "compare",
+            str(files["dwell60"]),
+            "--simulate",
+            "--excitation",
+            "nominal",
+            "--frf",
+            str(files["frf"]),
+        ]
+    )
     assert code == 0, err
     text = " ".join(out.split())
     assert "EM active mode 2 at 355" in text and "mean agreement score (nominal excitation, FEM)" in text
@@ -104,13 +174,29 @@ def test_model_recording_is_paired_by_meaning_and_scores_as_the_same_run_simulat
     --excitation nominal``: the same model at the same point, so the same score (the F0 differs
     by the EM force's 0.1 % control error)."""
     fem = files["dir"] / "fem60.h5"
-    code, _, err = run_cli(["simulate", "--fe", "60 Hz", "--force", "15 N", "--gap", "0.6 mm", "--duration", "0.2 s",
-                            "--out", str(fem), "--no-plot"])
+    code, _, err = run_cli(
+        [
+            "simulate",
+            "--fe",
+            "60 Hz",
+            "--force",
+            "15 N",
+            "--gap",
+            "0.6 mm",
+            "--duration",
+            "0.2 s",
+            "--out",
+            str(fem),
+            "--no-plot",
+        ]
+    )
     assert code == 0, err
     code, out, err = run_cli(["compare", str(files["dwell60"]), str(fem), "--json"])
     assert code == 0, err
     from_file = json.loads(out)
-    code, out, err = run_cli(["compare", str(files["dwell60"]), "--simulate", "--excitation", "nominal", "--json"])
+    code, out, err = run_cli(
+        ["compare", str(files["dwell60"]), "--simulate", "--excitation", "nominal", "--json"]
+    )
     simulated = json.loads(out)
     a, b = from_file["points"][0]["agreement"]["score"], simulated["points"][0]["agreement"]["score"]
     print(f"score against the FEM recording {a:.4f}, against --simulate nominal {b:.4f}")
@@ -118,8 +204,22 @@ def test_model_recording_is_paired_by_meaning_and_scores_as_the_same_run_simulat
     assert a == pytest.approx(b, abs=0.01)
     # a model point at another gap does not pair: one line, exit 2
     other = files["dir"] / "fem60-gap09.h5"
-    code, _, err = run_cli(["simulate", "--fe", "60 Hz", "--force", "15 N", "--gap", "0.9 mm", "--duration", "0.1 s",
-                            "--out", str(other), "--no-plot"])
+    code, _, err = run_cli(
+        [
+            "simulate",
+            "--fe",
+            "60 Hz",
+            "--force",
+            "15 N",
+            "--gap",
+            "0.9 mm",
+            "--duration",
+            "0.1 s",
+            "--out",
+            str(other),
+            "--no-plot",
+        ]
+    )
     assert code == 0, err
     code, out, err = run_cli(["compare", str(files["dwell60"]), str(other)])
     assert code == 2 and "no EM point" in err and "(60.0, 0.9, 15.0)" in err and err.count("\n") == 1, err
@@ -134,15 +234,18 @@ def test_a_study_without_frf_data_says_so(files):
     assert cmp.natural.loc[0, "fem_hz"] == pytest.approx(53.21, abs=0.05)
 
 
-@pytest.mark.parametrize("argv, message", [
-    (["compare"], "EM.h5"),
-    (["compare", "{em}", "{em}", "--simulate"], "not both"),
-    (["compare", "{em}"], "--simulate"),
-    (["compare", "{dir}/missing.h5", "--simulate"], "no such file"),
-    (["compare", "{em}", "--simulate", "--model", "xfem"], "--model"),
-    (["compare", "{em}", "--simulate", "--harmonics", "0"], "--harmonics"),
-    (["compare", "{frf}", "--simulate"], "no complete periodic"),
-])
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["compare"], "EM.h5"),
+        (["compare", "{em}", "{em}", "--simulate"], "not both"),
+        (["compare", "{em}"], "--simulate"),
+        (["compare", "{dir}/missing.h5", "--simulate"], "no such file"),
+        (["compare", "{em}", "--simulate", "--model", "xfem"], "--model"),
+        (["compare", "{em}", "--simulate", "--harmonics", "0"], "--harmonics"),
+        (["compare", "{frf}", "--simulate"], "no complete periodic"),
+    ],
+)
 def test_bad_input_exit_2_in_one_line(files, argv, message):
     argv = [a.format(em=files["dwell60"], dir=files["dir"], frf=files["frf"]) for a in argv]
     code, out, err = run_cli(argv)
@@ -164,14 +267,16 @@ def test_report_section_holds_the_tables_notes_and_figures(files):
     from rigtools.compare import compare_recordings
     from rigtools.report import Report
 
-    cmp = compare_recordings(str(files["dwell60"]), simulate=True, excitation="measured", frf=str(files["frf"]))
+    cmp = compare_recordings(
+        str(files["dwell60"]), simulate=True, excitation="measured", frf=str(files["frf"])
+    )
     report = Report("compare")
     cmp.add_to_report(report)
     (sec,) = report.sections
     page = report.html()
-    assert sec.figures == 2                          # overlay and harmonic bars of the one point
+    assert sec.figures == 2  # overlay and harmonic bars of the one point
     assert "Natural frequencies" in page and "355.6" in page and "Agreement per point" in page
-    assert page.count("<table>") == 3                # natural frequencies, agreement, harmonics
+    assert page.count("<table>") == 3  # natural frequencies, agreement, harmonics
     doc = cmp.to_dict()
     json.dumps(doc, allow_nan=False)
     assert doc["points"][0]["explanations"][0]["model_mode"]["mode"] == 2

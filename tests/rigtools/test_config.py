@@ -26,7 +26,14 @@ def test_default_rig_loads_in_si_units():
 
 @pytest.mark.parametrize(
     "text, si",
-    [("0.5 mm", 5e-4), ("110 g", 0.11), ("200 GPa", 2e11), ("7.85 g/cm^3", 7850.0), (3, 3.0), ("1e6 N/m", 1e6)],
+    [
+        ("0.5 mm", 5e-4),
+        ("110 g", 0.11),
+        ("200 GPa", 2e11),
+        ("7.85 g/cm^3", 7850.0),
+        (3, 3.0),
+        ("1e6 N/m", 1e6),
+    ],
 )
 def test_quantity_strings(text, si):
     assert parse_quantity(text) == pytest.approx(si, rel=1e-12)
@@ -70,9 +77,7 @@ def test_missing_file(tmp_path):
         load_rig(tmp_path / "nope.toml")
 
 
-@pytest.mark.parametrize(
-    "text, si", [("2 mN", 2e-3), ("2 MN/m", 2e6), ("3 mN/m", 3e-3), ("1 MPa", 1e6)]
-)
+@pytest.mark.parametrize("text, si", [("2 mN", 2e-3), ("2 MN/m", 2e6), ("3 mN/m", 3e-3), ("1 MPa", 1e6)])
 def test_milli_and_mega_prefixes_keep_their_case(text, si):
     assert parse_quantity(text) == pytest.approx(si, rel=1e-12)
 

@@ -12,7 +12,12 @@ import pytest
 
 from rigtools.drivers.shaker import SHAKER_BOUNDS, ShakerParams
 from rigtools.config import (
-    MAX_CONTACT_DAMPING_RATIO, RigConfig, ShakerConfig, default_rig_text, load_rig, parse_rig,
+    MAX_CONTACT_DAMPING_RATIO,
+    RigConfig,
+    ShakerConfig,
+    default_rig_text,
+    load_rig,
+    parse_rig,
 )
 from rigtools.errors import ConfigError, UserError
 from rigtools.options import gap as gap_option
@@ -36,24 +41,47 @@ def _edited(section: str, **values) -> dict:
 
 
 # ------------------------------------------------------------------ [passive_blade] bounds
-@pytest.mark.parametrize("key, value", [
-    ("length", "-1 mm"), ("length", "0.1 mm"), ("length", "10 m"), ("width", 0), ("width", "2 m"),
-    ("thickness", "0 mm"), ("thickness", "1 m"), ("youngs_modulus", "1 kPa"),
-    ("youngs_modulus", "1e14 Pa"), ("density", 1.0), ("density", "1e6 kg/m^3"), ("poisson", 0.5),
-    ("poisson", -0.1), ("elements", 1), ("elements", 100000), ("theory", "rubber"),
-    ("length", "3 g"),
-])
+@pytest.mark.parametrize(
+    "key, value",
+    [
+        ("length", "-1 mm"),
+        ("length", "0.1 mm"),
+        ("length", "10 m"),
+        ("width", 0),
+        ("width", "2 m"),
+        ("thickness", "0 mm"),
+        ("thickness", "1 m"),
+        ("youngs_modulus", "1 kPa"),
+        ("youngs_modulus", "1e14 Pa"),
+        ("density", 1.0),
+        ("density", "1e6 kg/m^3"),
+        ("poisson", 0.5),
+        ("poisson", -0.1),
+        ("elements", 1),
+        ("elements", 100000),
+        ("theory", "rubber"),
+        ("length", "3 g"),
+    ],
+)
 def test_passive_blade_values_are_bounded(key, value):
     message = _one_line(_edited("passive_blade", **{key: value}))
     assert f"passive_blade.{key} = {value!r}" in message
 
 
-@pytest.mark.parametrize("key", ["length", "width", "thickness", "youngs_modulus", "density", "poisson",
-                                 "elements"])
+@pytest.mark.parametrize(
+    "key", ["length", "width", "thickness", "youngs_modulus", "density", "poisson", "elements"]
+)
 def test_passive_blade_has_the_same_ranges_as_blade(key):
     """A value refused in [blade] is refused in [passive_blade] with the same range text."""
-    bad = {"length": "10 m", "width": "2 m", "thickness": "1 m", "youngs_modulus": "1e14 Pa",
-           "density": 1.0, "poisson": 0.6, "elements": 1}[key]
+    bad = {
+        "length": "10 m",
+        "width": "2 m",
+        "thickness": "1 m",
+        "youngs_modulus": "1e14 Pa",
+        "density": 1.0,
+        "poisson": 0.6,
+        "elements": 1,
+    }[key]
     active = _one_line(_edited("blade", **{key: bad})).split(": ", 2)[-1]
     passive = _one_line(_edited("passive_blade", **{key: bad})).split(": ", 2)[-1]
     assert active == passive
@@ -61,12 +89,14 @@ def test_passive_blade_has_the_same_ranges_as_blade(key):
 
 def test_range_message_states_range_and_si_value():
     message = _one_line(_edited("passive_blade", thickness="0 mm"))
-    assert message.endswith("passive_blade.thickness = '0 mm': outside the allowed range [1e-05, 0.5] m (= 0 m)")
+    assert message.endswith(
+        "passive_blade.thickness = '0 mm': outside the allowed range [1e-05, 0.5] m (= 0 m)"
+    )
 
 
 # ------------------------------------------------------------------ non-finite numbers
 NON_FINITE_TOML = [
-    ("blade", "length", "1e400"),          # TOML reads 1e400 as inf
+    ("blade", "length", "1e400"),  # TOML reads 1e400 as inf
     ("blade", "youngs_modulus", "inf"),
     ("blade", "poisson", "nan"),
     ("passive_blade", "density", "-inf"),
@@ -121,25 +151,45 @@ def test_non_finite_values_are_refused(tmp_path, section, key, toml_value):
 
 
 # ------------------------------------------------------------------ absurd values
-@pytest.mark.parametrize("section, values, expected", [
-    ("root", {"kind": "springs", "rotational_stiffness": 1e12, "translational_stiffness": 1e8},
-     "root.rotational_stiffness = 1000000000000.0: outside the allowed range [0, 1e+07] N*m/rad"),
-    ("root", {"kind": "springs", "rotational_stiffness": 1e4, "translational_stiffness": "1e16 N/m"},
-     "root.translational_stiffness = '1e16 N/m'"),
-    ("test_article", {"root_rotational_stiffness": "1e15 N*m/rad"}, "test_article.root_rotational_stiffness"),
-    ("contact", {"damping": "1e5 N*s/m"}, "contact.damping = 100000 N*s/m: at most 2 x the critical"),
-    ("contact", {"gap": 0.5}, "contact.gap = 0.5: outside the allowed range [0, 0.05] m (a plain number is in m"),
-    ("contact", {"gap": "60 mm"}, "contact.gap = '60 mm'"),
-    ("contact", {"stiffness": "1e13 N/m"}, "contact.stiffness = '1e13 N/m'"),
-    ("damping", {"ratio": None, "alpha": 1e6}, "damping.alpha = 1000000.0"),
-    ("damping", {"beta": 1.0, "ratio": None}, "damping.beta = 1.0"),
-    ("shroud", {"mass": "100 kg"}, "shroud.mass = '100 kg'"),
-    ("blade", {"youngs_modulus": "1e14 Pa"}, "blade.youngs_modulus = '1e14 Pa'"),
-    ("signal_source", {"max_amplitude": "30 Vpp"}, "signal_source.max_amplitude = '30 Vpp': outside the "
-                                                   "allowed range (0, 10] V peak (= 15 V peak)"),
-    ("shaker", {"armature_mass": "20 kg"}, "shaker.armature_mass = '20 kg'"),
-    ("shaker", {"coil_resistance": 0}, "shaker.coil_resistance = 0"),
-])
+@pytest.mark.parametrize(
+    "section, values, expected",
+    [
+        (
+            "root",
+            {"kind": "springs", "rotational_stiffness": 1e12, "translational_stiffness": 1e8},
+            "root.rotational_stiffness = 1000000000000.0: outside the allowed range [0, 1e+07] N*m/rad",
+        ),
+        (
+            "root",
+            {"kind": "springs", "rotational_stiffness": 1e4, "translational_stiffness": "1e16 N/m"},
+            "root.translational_stiffness = '1e16 N/m'",
+        ),
+        (
+            "test_article",
+            {"root_rotational_stiffness": "1e15 N*m/rad"},
+            "test_article.root_rotational_stiffness",
+        ),
+        ("contact", {"damping": "1e5 N*s/m"}, "contact.damping = 100000 N*s/m: at most 2 x the critical"),
+        (
+            "contact",
+            {"gap": 0.5},
+            "contact.gap = 0.5: outside the allowed range [0, 0.05] m (a plain number is in m",
+        ),
+        ("contact", {"gap": "60 mm"}, "contact.gap = '60 mm'"),
+        ("contact", {"stiffness": "1e13 N/m"}, "contact.stiffness = '1e13 N/m'"),
+        ("damping", {"ratio": None, "alpha": 1e6}, "damping.alpha = 1000000.0"),
+        ("damping", {"beta": 1.0, "ratio": None}, "damping.beta = 1.0"),
+        ("shroud", {"mass": "100 kg"}, "shroud.mass = '100 kg'"),
+        ("blade", {"youngs_modulus": "1e14 Pa"}, "blade.youngs_modulus = '1e14 Pa'"),
+        (
+            "signal_source",
+            {"max_amplitude": "30 Vpp"},
+            "signal_source.max_amplitude = '30 Vpp': outside the allowed range (0, 10] V peak (= 15 V peak)",
+        ),
+        ("shaker", {"armature_mass": "20 kg"}, "shaker.armature_mass = '20 kg'"),
+        ("shaker", {"coil_resistance": 0}, "shaker.coil_resistance = 0"),
+    ],
+)
 def test_absurd_values_are_refused(section, values, expected):
     data = copy.deepcopy(DEFAULT)
     table = data.setdefault(section, {})
@@ -155,7 +205,7 @@ def test_contact_damping_limit_is_relative_to_critical():
     """2 x critical of the shroud on the contact spring: accepted at the limit, refused just above."""
     k, m = 1e6, parse_rig(DEFAULT).shroud.mass
     limit = MAX_CONTACT_DAMPING_RATIO * 2.0 * math.sqrt(k * m)
-    assert limit == pytest.approx(4.0 * math.sqrt(0.11e6), rel=1e-12)   # 1326.6 N*s/m
+    assert limit == pytest.approx(4.0 * math.sqrt(0.11e6), rel=1e-12)  # 1326.6 N*s/m
     assert parse_rig(_edited("contact", damping=limit * (1 - 1e-9))).contact.damping < limit
     _one_line(_edited("contact", damping=limit * (1 + 1e-9)))
 
@@ -171,11 +221,20 @@ def test_gap_maximum_is_shared_by_config_and_cli():
 
 
 # ------------------------------------------------------------------ channel names
-@pytest.mark.parametrize("name, why", [
-    ("drive", "reserved"), ("Drive", "reserved"), ("bad name", "cannot store"), (".hidden", "cannot store"),
-    ("-x", "cannot store"), ("a/b", "cannot store"), ("schwingung_ä", "cannot store"), ("", "cannot store"),
-    ("tab\there", "cannot store"),
-])
+@pytest.mark.parametrize(
+    "name, why",
+    [
+        ("drive", "reserved"),
+        ("Drive", "reserved"),
+        ("bad name", "cannot store"),
+        (".hidden", "cannot store"),
+        ("-x", "cannot store"),
+        ("a/b", "cannot store"),
+        ("schwingung_ä", "cannot store"),
+        ("", "cannot store"),
+        ("tab\there", "cannot store"),
+    ],
+)
 def test_channel_names_the_recording_cannot_store_are_refused(name, why):
     data = copy.deepcopy(DEFAULT)
     channels = data["daq"]["channels"]
@@ -186,8 +245,12 @@ def test_channel_names_the_recording_cannot_store_are_refused(name, why):
 
 def test_storable_channel_names_are_accepted():
     data = copy.deepcopy(DEFAULT)
-    data["daq"]["channels"]["mic_1.left-side"] = {"physical_channel": "Dev1/ai5", "kind": "voltage",
-                                                  "sensitivity": 1.0, "range": "10 V"}
+    data["daq"]["channels"]["mic_1.left-side"] = {
+        "physical_channel": "Dev1/ai5",
+        "kind": "voltage",
+        "sensitivity": 1.0,
+        "range": "10 V",
+    }
     assert "mic_1.left-side" in parse_rig(data).daq.channels
 
 
@@ -197,19 +260,22 @@ def _write_hdf5(path):
         f["x"] = np.arange(3.0)
 
 
-@pytest.mark.parametrize("case, expected", [
-    ("latin1", "is not UTF-8 text (byte 0xe9 on line 1)"),
-    ("utf16", "is UTF-16 text; save it as UTF-8"),
-    ("bom", "starts with a byte-order mark"),
-    ("hdf5", "is an HDF5 file (a recording?)"),
-    ("directory", "is a directory"),
-    ("missing", "cannot read rig file"),
-    ("empty", "is empty"),
-    ("blank", "is empty"),
-    ("binary", "is a binary file"),
-    ("not_toml", "is not valid TOML"),
-    ("huge", "is larger than 1000 kB"),
-])
+@pytest.mark.parametrize(
+    "case, expected",
+    [
+        ("latin1", "is not UTF-8 text (byte 0xe9 on line 1)"),
+        ("utf16", "is UTF-16 text; save it as UTF-8"),
+        ("bom", "starts with a byte-order mark"),
+        ("hdf5", "is an HDF5 file (a recording?)"),
+        ("directory", "is a directory"),
+        ("missing", "cannot read rig file"),
+        ("empty", "is empty"),
+        ("blank", "is empty"),
+        ("binary", "is a binary file"),
+        ("not_toml", "is not valid TOML"),
+        ("huge", "is larger than 1000 kB"),
+    ],
+)
 def test_rig_files_that_are_not_utf8_toml(tmp_path, case, expected):
     path = tmp_path / "rig.toml"
     text = default_rig_text()
@@ -243,8 +309,9 @@ def test_rig_files_that_are_not_utf8_toml(tmp_path, case, expected):
 
 def test_utf8_rig_file_with_non_ascii_text_loads(tmp_path):
     path = tmp_path / "rig.toml"
-    path.write_text(default_rig_text().replace('name = "default steel rig"', 'name = "Prüfstand µ"'),
-                    encoding="utf-8")
+    path.write_text(
+        default_rig_text().replace('name = "default steel rig"', 'name = "Prüfstand µ"'), encoding="utf-8"
+    )
     assert load_rig(path).name == "Prüfstand µ"
 
 
@@ -255,15 +322,23 @@ def test_shaker_defaults_and_ranges_come_from_one_place():
     for name, bound in SHAKER_BOUNDS.items():
         assert ShakerConfig.model_fields[name].default == bound.default == getattr(params, name)
     assert RigConfig.model_validate(DEFAULT).shaker.to_params() == ShakerParams(
-        armature_mass=0.1, suspension_stiffness=2e4, suspension_damping=5.0, force_factor=10.0,
-        coil_resistance=2.5, coil_inductance=5e-4, amplifier_gain=4.0)
+        armature_mass=0.1,
+        suspension_stiffness=2e4,
+        suspension_damping=5.0,
+        force_factor=10.0,
+        coil_resistance=2.5,
+        coil_inductance=5e-4,
+        amplifier_gain=4.0,
+    )
 
 
 @pytest.mark.parametrize("name", list(SHAKER_BOUNDS))
 @pytest.mark.parametrize("where", ["low", "high", "inf"])
 def test_shaker_bounds_hold_in_config_and_params(name, where):
     bound = SHAKER_BOUNDS[name]
-    value = {"low": bound.low - (0.0 if bound.low_open else 1.0), "high": bound.high * 2.0, "inf": math.inf}[where]
+    value = {"low": bound.low - (0.0 if bound.low_open else 1.0), "high": bound.high * 2.0, "inf": math.inf}[
+        where
+    ]
     message = _one_line(_edited("shaker", **{name: value}))
     assert f"shaker.{name} = {value!r}" in message
     with pytest.raises(ValueError, match=f"shaker {name} = "):
@@ -275,16 +350,26 @@ def test_shaker_bounds_hold_in_config_and_params(name, where):
 
 def test_shaker_coupling_is_built_from_the_params():
     coupling = ShakerParams(armature_mass=0.2).coupling()
-    assert coupling.armature_mass == 0.2 and coupling.coil_resistance == SHAKER_BOUNDS["coil_resistance"].default
+    assert (
+        coupling.armature_mass == 0.2 and coupling.coil_resistance == SHAKER_BOUNDS["coil_resistance"].default
+    )
 
 
-@pytest.mark.parametrize("path, value", [
-    ("daq.channels.force.sensitivity", math.inf), ("daq.channels.force.range", math.nan),
-    ("daq.channels.active_shroud_accel.range", "1e400 m/s^2"), ("safety.limits.force.warning", math.inf),
-    ("safety.limits.drive.abort", math.nan), ("daq.block_duration", "1e400 s"), ("blade.elements", math.inf),
-    ("force_sensor.position", -math.inf), ("shroud.rotary_inertia", math.nan),
-    ("daq.channels.force.excitation_current", math.inf),
-])
+@pytest.mark.parametrize(
+    "path, value",
+    [
+        ("daq.channels.force.sensitivity", math.inf),
+        ("daq.channels.force.range", math.nan),
+        ("daq.channels.active_shroud_accel.range", "1e400 m/s^2"),
+        ("safety.limits.force.warning", math.inf),
+        ("safety.limits.drive.abort", math.nan),
+        ("daq.block_duration", "1e400 s"),
+        ("blade.elements", math.inf),
+        ("force_sensor.position", -math.inf),
+        ("shroud.rotary_inertia", math.nan),
+        ("daq.channels.force.excitation_current", math.inf),
+    ],
+)
 def test_non_finite_values_in_nested_tables_name_the_key(path, value):
     data = copy.deepcopy(DEFAULT)
     *head, last = path.split(".")
@@ -303,8 +388,14 @@ def test_root_springs_at_their_limits_still_model_a_clamp():
     from rigtools.sim.reduction import reduced_system
 
     clamped = parse_rig(DEFAULT)
-    springs = parse_rig(_edited("root", kind="springs", rotational_stiffness=MAX_ROOT_ROTATIONAL_STIFFNESS,
-                                translational_stiffness=MAX_ROOT_TRANSLATIONAL_STIFFNESS))
+    springs = parse_rig(
+        _edited(
+            "root",
+            kind="springs",
+            rotational_stiffness=MAX_ROOT_ROTATIONAL_STIFFNESS,
+            translational_stiffness=MAX_ROOT_TRANSLATIONAL_STIFFNESS,
+        )
+    )
     f_clamped = np.sort(reduced_system(clamped.to_params(), "fem").frequencies_hz)[:4]
     f_springs = np.sort(reduced_system(springs.to_params(), "fem").frequencies_hz)[:4]
     assert f_clamped[0] == pytest.approx(53.2, abs=0.05)

@@ -45,7 +45,7 @@ def test_equivalent_point_keeps_the_free_amplitude(cfg, points):
     # independent check: the FEM harmonic response at both points (within 0.1 %)
     assert steps.free_amplitude(cfg, eq.fe, eq.force) == pytest.approx(info["free_amplitude_m"], rel=1e-3)
     assert eq.fe / info["f1_hz"] == pytest.approx(1.8)
-    assert info["free_amplitude_m"] == pytest.approx(1.19e-3, rel=0.02)     # docs/calibration.md: ~1.2 mm
+    assert info["free_amplitude_m"] == pytest.approx(1.19e-3, rel=0.02)  # docs/calibration.md: ~1.2 mm
 
 
 def test_gap_finding_flips_when_the_gap_exceeds_the_free_amplitude(cfg, points):
@@ -54,8 +54,8 @@ def test_gap_finding_flips_when_the_gap_exceeds_the_free_amplitude(cfg, points):
     v = findings.c4_gap(near, near)
     assert v.holds is True, v.why
     assert near[0]["impulse_level"] > near[1]["impulse_level"] > 0
-    assert near[0]["peak_contact_force_n"] > near[1]["peak_contact_force_n"]      # the model agrees
-    far = _study(cfg, "gap", (5e-3, 6e-3), fe=eq.fe, force=eq.force)     # > 4x the free amplitude
+    assert near[0]["peak_contact_force_n"] > near[1]["peak_contact_force_n"]  # the model agrees
+    far = _study(cfg, "gap", (5e-3, 6e-3), fe=eq.fe, force=eq.force)  # > 4x the free amplitude
     assert all(p["impacts_per_period"] == 0 for p in far)
     v = findings.c4_gap(far, far)
     assert v.holds is False and "no impacts" in v.why
@@ -98,7 +98,7 @@ def test_c7_flips_with_the_force_sensor_at_a_node_of_mode_2(cfg):
     f2 = [_active_f2(_moved_sensor(cfg, x)) for x in positions]
     node = float(positions[int(np.argmax(f2))])
     moved = _moved_sensor(cfg, node)
-    assert max(f2) > 440.0                       # no longer 361.9 Hz: near the passive 481 Hz
+    assert max(f2) > 440.0  # no longer 361.9 Hz: near the passive 481 Hz
     system2 = steps.load_system_cached(moved, "fem")[1]
     run2 = simulate_point(system2.with_contact(gap=0.5e-3), PAPER_FE, PAPER_FORCE, SETTINGS)
     q2 = steps.run_quantities(run2)
@@ -124,8 +124,8 @@ def test_c1_and_c2_judge_the_numbers():
     fem = {"active": [53.2, 361.9, 1270.6], "passive": [54.9, 481.4, 1321.7]}
     am = {"active": [53.2, 361.9, 1271.2], "passive": [54.9, 481.5, 1322.3]}
     assert findings.c1_frequencies(fem, am, [52.0, 355.6, 1252.9]).holds is True
-    assert findings.c1_frequencies(fem, am, [54.0, 355.6, 1252.9]).holds is False     # EM above the FEM
-    assert findings.c1_frequencies(fem, am, [45.0, 355.6, 1252.9]).holds is False     # 15 % off
+    assert findings.c1_frequencies(fem, am, [54.0, 355.6, 1252.9]).holds is False  # EM above the FEM
+    assert findings.c1_frequencies(fem, am, [45.0, 355.6, 1252.9]).holds is False  # 15 % off
     curve = {"active_shroud": np.array([1.0, 2.0, 3.0])}
     assert findings.c2_harmonic(curve, {"active_shroud": curve["active_shroud"] * 1.01}).holds is True
     assert findings.c2_harmonic(curve, {"active_shroud": curve["active_shroud"] * 1.2}).holds is False

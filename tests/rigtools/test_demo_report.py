@@ -16,12 +16,12 @@ import pytest
 from rigtools.recording import open_recording
 from rigtools.report.browser import BrowserUnavailable, figure_is_drawn, find_chromium, screenshot_page
 
-N_FIGURES = 2 + 2 * 2 + 1 + 6      # FRF, harmonic; waveforms + spectra per point; the gap trend, six studies
+N_FIGURES = 2 + 2 * 2 + 1 + 6  # FRF, harmonic; waveforms + spectra per point; the gap trend, six studies
 
 
 ROOT = Path(__file__).resolve().parents[2]
 README = ROOT / "README.md"
-SKIP = ("python3 -m venv", "pip install", "-m pytest")     # set-up and the suite itself
+SKIP = ("python3 -m venv", "pip install", "-m pytest")  # set-up and the suite itself
 
 
 def blocks(lang: str) -> list[str]:
@@ -41,7 +41,9 @@ def shell_commands() -> list[str]:
                 continue
             for part in line.split(" && "):
                 if not any(s in part for s in SKIP):
-                    out.append(part.replace(".venv/bin/", bindir).replace("rigtools/data/", f"{ROOT}/rigtools/data/"))
+                    out.append(
+                        part.replace(".venv/bin/", bindir).replace("rigtools/data/", f"{ROOT}/rigtools/data/")
+                    )
     return out
 
 
@@ -53,7 +55,7 @@ def demo(tmp_path_factory):
     for cmd in shell_commands():
         proc = subprocess.run(["bash", "-c", cmd], cwd=cwd, capture_output=True, text=True, timeout=600)
         hardware = "--rig lab.toml" in cmd and "--backend sim" not in cmd
-        allowed = (0, 3) if hardware else (0,)       # 3: NI-DAQmx not on this machine, said in one line
+        allowed = (0, 3) if hardware else (0,)  # 3: NI-DAQmx not on this machine, said in one line
         assert proc.returncode in allowed, f"{cmd}: exit {proc.returncode}\n{proc.stderr[-2000:]}"
         if proc.returncode == 3:
             assert "NI-DAQmx" in proc.stderr and "Traceback" not in proc.stderr
@@ -68,8 +70,9 @@ def test_readme_python_examples_run(demo):
     code = blocks("python")
     assert code
     for block in code:
-        proc = subprocess.run([sys.executable, "-c", block], cwd=out.parent, capture_output=True, text=True,
-                              timeout=300)
+        proc = subprocess.run(
+            [sys.executable, "-c", block], cwd=out.parent, capture_output=True, text=True, timeout=300
+        )
         assert proc.returncode == 0, proc.stderr[-2000:]
         assert "impacts per period" in proc.stdout
 
@@ -86,7 +89,7 @@ def test_demo_writes_recordings_and_judges_every_finding(demo):
     assert v["C5"]["paper"]["holds"] is True and v["C5"]["equivalent"]["holds"] is True
     assert v["C1"]["paper"]["holds"] is True and v["C2"]["paper"]["holds"] is True
     assert v["C3"]["paper"]["holds"] is True and v["C3"]["equivalent"]["holds"] is True
-    assert v["C6"]["paper"]["holds"] is False            # impacts grow with fe until the orbit folds
+    assert v["C6"]["paper"]["holds"] is False  # impacts grow with fe until the orbit folds
     assert len(doc["files"]) == 1 + 2 * 2 + 2 * 6
     for f in doc["files"]:
         with open_recording(out.parent / f) as rec:

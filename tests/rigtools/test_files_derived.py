@@ -6,8 +6,14 @@ import numpy as np
 import pytest
 
 from rigtools.errors import UserError
-from rigtools.figures import (derived_path, is_derived_plot, plot_path, png_software, save_figure,
-                              write_derived)
+from rigtools.figures import (
+    derived_path,
+    is_derived_plot,
+    plot_path,
+    png_software,
+    save_figure,
+    write_derived,
+)
 from rigtools.recording import ChannelSpec, RecordingWriter, open_recording
 
 
@@ -26,8 +32,9 @@ def _figure():
     return fig
 
 
-@pytest.mark.parametrize("name", ["x.png", "x.PNG", "run.h5", "run", "a.b.png", ".png",
-                                  "x.plot.png", "run.hdf5"])
+@pytest.mark.parametrize(
+    "name", ["x.png", "x.PNG", "run.h5", "run", "a.b.png", ".png", "x.plot.png", "run.hdf5"]
+)
 def test_plot_path_is_never_the_output(tmp_path, name):
     out = tmp_path / name
     assert plot_path(out) != out
@@ -52,15 +59,15 @@ def test_recording_survives_its_own_plot(tmp_path, name):
 
 
 def test_plot_never_replaces_another_recording_or_user_file(tmp_path):
-    other = tmp_path / "run.png"                # another recording, named like run.h5's plot
+    other = tmp_path / "run.png"  # another recording, named like run.h5's plot
     other_data = _recording(other)
     _recording(tmp_path / "run.h5")
     first = save_figure(_figure(), plot_path(tmp_path / "run.h5"))
     assert first == tmp_path / "run.plot.png" and other.read_bytes() == other_data
     user = tmp_path / "run.plot.png"
-    second = save_figure(_figure(), plot_path(tmp_path / "run.h5"))   # replaces its own plot
+    second = save_figure(_figure(), plot_path(tmp_path / "run.h5"))  # replaces its own plot
     assert second == first
-    user.write_bytes(b"my notes")             # a user's file takes the name: next name used
+    user.write_bytes(b"my notes")  # a user's file takes the name: next name used
     assert plot_path(tmp_path / "run.h5") == tmp_path / "run.plot-2.png"
     with pytest.raises(UserError, match="not made by rigtools"):
         save_figure(_figure(), other)
@@ -74,17 +81,17 @@ def test_write_derived_refuses_its_source_and_is_atomic(tmp_path):
     src = tmp_path / "data.csv"
     src.write_text("1,2\n")
     with pytest.raises(UserError, match="derived from"):
-        write_derived(src, lambda tmp: tmp.write_text("x"), source=src,
-                      replaceable=lambda p: True)
+        write_derived(src, lambda tmp: tmp.write_text("x"), source=src, replaceable=lambda p: True)
 
     def failing(tmp):
         tmp.write_text("half")
         raise RuntimeError("disk full")
+
     target = derived_path(src, ".txt", "summary", replaceable=lambda p: True)
     assert target == tmp_path / "data.txt"
     with pytest.raises(RuntimeError):
         write_derived(target, failing, source=src, replaceable=lambda p: True)
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["data.csv"]   # no half file, no temp
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["data.csv"]  # no half file, no temp
 
 
 def test_plots_are_marked(tmp_path):

@@ -32,10 +32,16 @@ def _signals():
 def recording(tmp_path_factory):
     path = tmp_path_factory.mktemp("uff") / "frf.h5"
     force, accel = _signals()
-    with RecordingWriter(path, backend="simulated", rig=load_rig(None).to_json(),
-                         experiment={"procedure": "frf"}) as rec:
-        p = rec.begin_point(params={"fe": 0.0}, channels=[
-            ChannelSpec("force", "N", "force", FS), ChannelSpec("active_shroud_accel", "m/s^2", "acceleration", FS)])
+    with RecordingWriter(
+        path, backend="simulated", rig=load_rig(None).to_json(), experiment={"procedure": "frf"}
+    ) as rec:
+        p = rec.begin_point(
+            params={"fe": 0.0},
+            channels=[
+                ChannelSpec("force", "N", "force", FS),
+                ChannelSpec("active_shroud_accel", "m/s^2", "acceleration", FS),
+            ],
+        )
         p.append(np.vstack([force, accel]))
         p.end()
     return path
@@ -50,7 +56,7 @@ def test_uff_round_trip_equals_source(recording, tmp_path, capsys):
     out = tmp_path / "frf.uff"
     assert main(["export", "uff", str(recording), str(out), "--resolution", "8 Hz"]) == 0
     sets = _read(out)
-    assert sets[0]["type"] == 164 and sets[0]["units_code"] == 1          # SI
+    assert sets[0]["type"] == 164 and sets[0]["units_code"] == 1  # SI
     f58 = [s for s in sets if s["type"] == 58]
     force, accel = _signals()
     by = {(s["func_type"], s["rsp_node"]): s for s in f58}
@@ -65,8 +71,8 @@ def test_uff_round_trip_equals_source(recording, tmp_path, capsys):
     # spectra equal the analysis layer's
     f, amp = amplitude_spectrum(accel, FS)
     spec = by[(2, 2)]
-    np.testing.assert_allclose(spec["data"], amp ** 2 / 2, rtol=1e-15, atol=0)
-    assert spec["ordinate_len_unit_exp"] == 2                 # (m/s^2)^2
+    np.testing.assert_allclose(spec["data"], amp**2 / 2, rtol=1e-15, atol=0)
+    assert spec["ordinate_len_unit_exp"] == 2  # (m/s^2)^2
     # FRF and coherence: reference node 1 (force), numerator acceleration, denominator force
     frf, coh = by[(4, 2)], by[(6, 2)]
     est = estimate_frf(force, accel, FS, nperseg=256)
@@ -93,12 +99,22 @@ def test_sep005_dicts(recording):
 def _write_tdms(path, *, units=("g", "Newtons"), increment=1 / FS, extra=None):
     rng = np.random.default_rng(3)
     a, f = rng.standard_normal(1000), rng.standard_normal(1000)
-    props = lambda u: {k: v for k, v in {"unit_string": u, "wf_increment": increment,  # noqa: E731
-                                         "wf_start_offset": 0.0}.items() if v is not None}
+    props = lambda u: {
+        k: v
+        for k, v in {
+            "unit_string": u,
+            "wf_increment": increment,  # noqa: E731
+            "wf_start_offset": 0.0,
+        }.items()
+        if v is not None
+    }
     with TdmsWriter(str(path)) as w:
-        objs = [RootObject({"name": "log"}), GroupObject("Task"),
-                ChannelObject("Task", "Dev1/ai1", a, properties=props(units[0])),
-                ChannelObject("Task", "Dev1/ai0", f, properties=props(units[1]))]
+        objs = [
+            RootObject({"name": "log"}),
+            GroupObject("Task"),
+            ChannelObject("Task", "Dev1/ai1", a, properties=props(units[0])),
+            ChannelObject("Task", "Dev1/ai0", f, properties=props(units[1])),
+        ]
         if extra:
             objs += extra
         w.write_segment(objs)

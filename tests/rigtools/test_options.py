@@ -21,21 +21,28 @@ def _refused(call, *args, **kwargs) -> str:
 
 
 # ------------------------------------------------------------------ gap
-@pytest.mark.parametrize("text, si", [("0.5 mm", 5e-4), ("0", 0.0), ("50 mm", MAX_GAP), ("500 um", 5e-4),
-                                      ("0.0005", 5e-4)])
+@pytest.mark.parametrize(
+    "text, si", [("0.5 mm", 5e-4), ("0", 0.0), ("50 mm", MAX_GAP), ("500 um", 5e-4), ("0.0005", 5e-4)]
+)
 def test_gap_accepted(text, si):
     assert options.gap(text) == pytest.approx(si, rel=1e-12)
 
 
-@pytest.mark.parametrize("text, expected", [
-    ("0.5", "--gap = '0.5': a gap must be between 0 and 50 mm; a plain number is metres, write e.g. '0.5 mm'"),
-    ("51 mm", "--gap = '51 mm': a gap must be between 0 and 50 mm"),
-    ("-0.1 mm", "--gap = '-0.1 mm': a gap must be between 0 and 50 mm"),
-    ("1e400 mm", "--gap = '1e400 mm': '1e400 mm' is not a finite number"),
-    ("0.5 MM", "--gap = '0.5 MM': unit 'MM' in '0.5 MM' is ambiguous"),
-    ("3 N", "--gap = '3 N': '3 N' is a force, expected a length"),
-    ("half a mm", "--gap = 'half a mm': cannot read"),
-])
+@pytest.mark.parametrize(
+    "text, expected",
+    [
+        (
+            "0.5",
+            "--gap = '0.5': a gap must be between 0 and 50 mm; a plain number is metres, write e.g. '0.5 mm'",
+        ),
+        ("51 mm", "--gap = '51 mm': a gap must be between 0 and 50 mm"),
+        ("-0.1 mm", "--gap = '-0.1 mm': a gap must be between 0 and 50 mm"),
+        ("1e400 mm", "--gap = '1e400 mm': '1e400 mm' is not a finite number"),
+        ("0.5 MM", "--gap = '0.5 MM': unit 'MM' in '0.5 MM' is ambiguous"),
+        ("3 N", "--gap = '3 N': '3 N' is a force, expected a length"),
+        ("half a mm", "--gap = 'half a mm': cannot read"),
+    ],
+)
 def test_gap_refused(text, expected):
     assert expected in _refused(options.gap, text)
 
@@ -45,20 +52,25 @@ def test_gap_names_its_option():
 
 
 # ------------------------------------------------------------------ durations, counts, positives
-@pytest.mark.parametrize("text, si", [("2 s", 2.0), ("500 ms", 0.5), ("1 min", 60.0), ("3", 3.0), ("1 h", 3600.0)])
+@pytest.mark.parametrize(
+    "text, si", [("2 s", 2.0), ("500 ms", 0.5), ("1 min", 60.0), ("3", 3.0), ("1 h", 3600.0)]
+)
 def test_duration_accepted(text, si):
     assert options.duration(text) == si
 
 
-@pytest.mark.parametrize("text, kwargs, expected", [
-    ("0 s", {}, "--duration = '0 s': must be > 0"),
-    ("-1 s", {}, "--duration = '-1 s': must be > 0"),
-    ("inf", {}, "cannot read 'inf'"),
-    ("1e400 s", {}, "not a finite number"),
-    ("2 h", {"maximum": 3600.0}, "--duration = '2 h': must be at most 3600 s"),
-    ("2 Hz", {}, "'2 Hz' is a frequency, expected a time"),
-    ("-1 s", {"allow_zero": True}, "must be >= 0"),
-])
+@pytest.mark.parametrize(
+    "text, kwargs, expected",
+    [
+        ("0 s", {}, "--duration = '0 s': must be > 0"),
+        ("-1 s", {}, "--duration = '-1 s': must be > 0"),
+        ("inf", {}, "cannot read 'inf'"),
+        ("1e400 s", {}, "not a finite number"),
+        ("2 h", {"maximum": 3600.0}, "--duration = '2 h': must be at most 3600 s"),
+        ("2 Hz", {}, "'2 Hz' is a frequency, expected a time"),
+        ("-1 s", {"allow_zero": True}, "must be >= 0"),
+    ],
+)
 def test_duration_refused(text, kwargs, expected):
     assert expected in _refused(options.duration, text, **kwargs)
 
@@ -70,14 +82,21 @@ def test_duration_zero_allowed_when_asked():
 def test_positive_finite_names_option_and_unit():
     assert options.positive_finite("20 N", "force", "--force", maximum=100.0, unit="N") == 20.0
     assert "--force = '200 N': must be at most 100 N" in _refused(
-        options.positive_finite, "200 N", "force", "--force", maximum=100.0, unit="N")
+        options.positive_finite, "200 N", "force", "--force", maximum=100.0, unit="N"
+    )
 
 
-@pytest.mark.parametrize("text, kwargs, expected", [
-    ("0", {}, "--steps = '0': must be >= 1"), ("2.5", {}, "expected a whole number"),
-    ("ten", {}, "expected a whole number"), ("1e3", {}, "expected a whole number"),
-    ("5001", {"maximum": 5000}, "must be between 1 and 5000"), (True, {}, "expected a whole number"),
-])
+@pytest.mark.parametrize(
+    "text, kwargs, expected",
+    [
+        ("0", {}, "--steps = '0': must be >= 1"),
+        ("2.5", {}, "expected a whole number"),
+        ("ten", {}, "expected a whole number"),
+        ("1e3", {}, "expected a whole number"),
+        ("5001", {"maximum": 5000}, "must be between 1 and 5000"),
+        (True, {}, "expected a whole number"),
+    ],
+)
 def test_count_refused(text, kwargs, expected):
     assert expected in _refused(options.count, text, "--steps", **kwargs)
 
@@ -88,29 +107,40 @@ def test_count_accepted(text, value):
 
 
 # ------------------------------------------------------------------ seed
-@pytest.mark.parametrize("value, expected", [("0", 0), (42, 42), ("9223372036854775807", 2**63 - 1), (None, None)])
+@pytest.mark.parametrize(
+    "value, expected", [("0", 0), (42, 42), ("9223372036854775807", 2**63 - 1), (None, None)]
+)
 def test_seed_accepted(value, expected):
     assert options.seed(value) == expected
 
 
-@pytest.mark.parametrize("value, expected", [
-    ("-1", "--seed = '-1': a seed is a whole number between 0 and 2**63 - 1"),
-    (-5, "--seed = -5"), ("1.5", "a seed is a whole number >= 0"), ("abc", "--seed = 'abc'"),
-    (2**63, "between 0 and 2**63 - 1"), (True, "--seed = True"),
-])
+@pytest.mark.parametrize(
+    "value, expected",
+    [
+        ("-1", "--seed = '-1': a seed is a whole number between 0 and 2**63 - 1"),
+        (-5, "--seed = -5"),
+        ("1.5", "a seed is a whole number >= 0"),
+        ("abc", "--seed = 'abc'"),
+        (2**63, "between 0 and 2**63 - 1"),
+        (True, "--seed = True"),
+    ],
+)
 def test_seed_refused(value, expected):
     assert expected in _refused(options.seed, value)
 
 
 # ------------------------------------------------------------------ drive amplitude (peak V)
-@pytest.mark.parametrize("text, peak", [("1 V", 1.0), ("2 Vpp", 1.0), ("500 mV", 0.5), ("1", 1.0),
-                                        ("300 mVpp", 0.15)])
+@pytest.mark.parametrize(
+    "text, peak", [("1 V", 1.0), ("2 Vpp", 1.0), ("500 mV", 0.5), ("1", 1.0), ("300 mVpp", 0.15)]
+)
 def test_drive_amplitude_is_peak(text, peak):
     assert options.drive_amplitude(text) == pytest.approx(peak, rel=1e-14)
 
 
-@pytest.mark.parametrize("text, expected", [("0 V", "must be > 0 V"), ("-1 V", "must be > 0 V"),
-                                            ("1 N", "is a force"), ("2 vpp", "write 'Vpp'")])
+@pytest.mark.parametrize(
+    "text, expected",
+    [("0 V", "must be > 0 V"), ("-1 V", "must be > 0 V"), ("1 N", "is a force"), ("2 vpp", "write 'Vpp'")],
+)
 def test_drive_amplitude_refused(text, expected):
     assert expected in _refused(options.drive_amplitude, text)
 
@@ -126,10 +156,13 @@ def test_output_path_refusals(tmp_path):
     assert "is a directory" in _refused(options.output_path, str(tmp_path))
     assert "is a directory" in _refused(options.output_path, str(tmp_path / "new") + "/")
     assert "does not exist" in _refused(options.output_path, str(tmp_path / "nope" / "run.h5"))
-    assert f"--out = {str(existing)!r} exists; give --overwrite" in _refused(options.output_path, str(existing))
+    assert f"--out = {str(existing)!r} exists; give --overwrite" in _refused(
+        options.output_path, str(existing)
+    )
     assert "is not a folder" in _refused(options.output_path, str(existing / "x.h5"))
-    assert "must end in .csv or .json" in _refused(options.output_path, str(tmp_path / "a.png"), False,
-                                                   suffixes=(".csv", ".json"))
+    assert "must end in .csv or .json" in _refused(
+        options.output_path, str(tmp_path / "a.png"), False, suffixes=(".csv", ".json")
+    )
     assert options.output_path(str(tmp_path / "A.CSV"), suffixes=(".csv",)).name == "A.CSV"
     assert "give a file name" in _refused(options.output_path, "  ")
     assert "--plot:" in _refused(options.output_path, "", option="--plot")
@@ -167,7 +200,9 @@ def test_output_path_read_only(tmp_path):
 def test_output_path_read_only_folder_simulated(tmp_path, monkeypatch):
     """The same refusal when the tests run as root (os.access says what the OS would)."""
     monkeypatch.setattr(options.os, "access", lambda path, mode: False)
-    assert f"folder {str(tmp_path)!r} is not writable" in _refused(options.output_path, str(tmp_path / "a.h5"))
+    assert f"folder {str(tmp_path)!r} is not writable" in _refused(
+        options.output_path, str(tmp_path / "a.h5")
+    )
 
 
 def test_check_out_is_output_path(tmp_path):
@@ -176,7 +211,9 @@ def test_check_out_is_output_path(tmp_path):
     assert options.check_out(argparse.Namespace(out=str(tmp_path / "b.h5"))) == tmp_path / "b.h5"
     assert "exists; give --overwrite" in _refused(options.check_out, argparse.Namespace(out=str(existing)))
     assert options.check_out(argparse.Namespace(out=str(existing), overwrite=True)) == existing
-    assert "is a directory" in _refused(options.check_out, argparse.Namespace(out=str(tmp_path), overwrite=True))
+    assert "is a directory" in _refused(
+        options.check_out, argparse.Namespace(out=str(tmp_path), overwrite=True)
+    )
 
 
 # ------------------------------------------------------------------ memory
@@ -195,22 +232,27 @@ def test_memory_estimate_is_samples_times_channels_times_8_bytes():
 
 def test_memory_estimate_refused_above_the_limit():
     # 10 h at 51.2 kHz, 4 channels, float64: 36000 * 51200 * 4 * 8 B = 59.0 GB
-    message = _refused(options.memory_estimate_check, 10 * 3600 * 51200, 4, "--duration '10 h'", limit=8 * 10**9)
-    assert message == ("--duration '10 h' would need about 59 GB of memory, more than this machine's "
-                       "8 GB; shorten it")
+    message = _refused(
+        options.memory_estimate_check, 10 * 3600 * 51200, 4, "--duration '10 h'", limit=8 * 10**9
+    )
+    assert message == (
+        "--duration '10 h' would need about 59 GB of memory, more than this machine's 8 GB; shorten it"
+    )
 
 
 def test_memory_estimate_uses_the_machine_by_default():
     total = options.total_memory()
     if total is None:
         pytest.skip("total memory unknown")
-    options.memory_estimate_check(total / 16 / 2, 2, "half")      # fits
+    options.memory_estimate_check(total / 16 / 2, 2, "half")  # fits
     assert "GB of memory" in _refused(options.memory_estimate_check, total / 8 + 1, 2, "too much")
 
 
 # ------------------------------------------------------------------ light import
 def test_options_import_is_light():
-    code = ("import sys, rigtools.options; heavy = {'numpy', 'scipy', 'h5py', 'numba', 'pydantic', "
-            "'nidaqmx', 'pyvisa', 'matplotlib'}; print(sorted(heavy & set(sys.modules)))")
+    code = (
+        "import sys, rigtools.options; heavy = {'numpy', 'scipy', 'h5py', 'numba', 'pydantic', "
+        "'nidaqmx', 'pyvisa', 'matplotlib'}; print(sorted(heavy & set(sys.modules)))"
+    )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"

@@ -14,7 +14,7 @@ from rigtools.procedures.frf import FrfTest, quick_check
 from rigtools.recording import check_recording, open_recording
 
 RATE = 51200.0
-WIDE = 5e-3            # a gap no response here closes below 2 N: no impacts
+WIDE = 5e-3  # a gap no response here closes below 2 N: no impacts
 
 
 @pytest.fixture(scope="module")
@@ -36,16 +36,21 @@ def test_force_control_with_impacts_at_60_hz(cfg, tmp_path):
     """15 N at 60 Hz, gap 0.5 mm (impacts: the force holds harmonics up to 40 % of its
     fundamental): the fundamental within 1 % (control tolerance 0.5 %) in at most 10 updates
     after the ramp (measured: 3), approached from below, no safety warning."""
-    r = SineDwell(cfg, {"fe": 60.0, "force": 15.0, "gap": 5e-4, "record_periods": 12}, tmp_path / "d.h5",
-                  backend="sim", seed=1).run()
+    r = SineDwell(
+        cfg,
+        {"fe": 60.0, "force": 15.0, "gap": 5e-4, "record_periods": 12},
+        tmp_path / "d.h5",
+        backend="sim",
+        seed=1,
+    ).run()
     p = r.points[0]
     assert r.status is Status.FINISHED
     assert p["force_amplitude_measured"] == pytest.approx(15.0, rel=0.01)
     assert p["control_updates"] <= 10 and p["settled"] and p["safety_warnings"] == 0
     forces = [f for _, f in p["control_history"]]
-    assert max(forces[:-1]) < 15.0 * 1.05                  # never far above the target
+    assert max(forces[:-1]) < 15.0 * 1.05  # never far above the target
     force_h = p["harmonics"]["force"]["amplitude"]
-    assert max(force_h[1:]) > 0.2 * force_h[0]              # impacts: force rich in harmonics
+    assert max(force_h[1:]) > 0.2 * force_h[0]  # impacts: force rich in harmonics
 
 
 def test_force_control_at_the_measured_first_resonance(cfg, tmp_path):
@@ -56,20 +61,35 @@ def test_force_control_at_the_measured_first_resonance(cfg, tmp_path):
     default rig: it needs 6.9 V (2.18 N/V, measured with raised limits in
     test_force_control_reaches_15_n_at_the_first_resonance_with_raised_drive_limits), above the
     drive warning (4.5 V) -- the controller stops at 0.98 x 4.5 V and names the limit."""
-    FrfTest(cfg, {"signal": "chirp", "band": (20.0, 200.0), "level": 0.2, "frame": 1.0, "averages": 3,
-                  "gap": WIDE}, tmp_path / "frf.h5", backend="sim", seed=1).run()
+    FrfTest(
+        cfg,
+        {"signal": "chirp", "band": (20.0, 200.0), "level": 0.2, "frame": 1.0, "averages": 3, "gap": WIDE},
+        tmp_path / "frf.h5",
+        backend="sim",
+        seed=1,
+    ).run()
     chk = quick_check(tmp_path / "frf.h5")
     f1 = min(pk["frequency_hz"] for pk in chk["peaks"] if pk["h1"] > 10)
     f1_fe = _article_flexural(cfg, 1)[0]
     assert f1 == pytest.approx(f1_fe, rel=0.02)
-    r = SineDwell(cfg, {"fe": f1, "force": 2.0, "gap": WIDE, "record_periods": 12}, tmp_path / "r.h5",
-                  backend="sim", seed=1).run()
+    r = SineDwell(
+        cfg,
+        {"fe": f1, "force": 2.0, "gap": WIDE, "record_periods": 12},
+        tmp_path / "r.h5",
+        backend="sim",
+        seed=1,
+    ).run()
     p = r.points[0]
     assert p["force_amplitude_measured"] == pytest.approx(2.0, rel=0.01)
     assert p["control_updates"] <= 10 and p["settled"] and p["safety_warnings"] == 0
-    assert p["force_amplitude_measured"] / p["drive_amplitude"] < 3.0         # force drop-out
-    high = SineDwell(cfg, {"fe": f1, "force": 15.0, "gap": WIDE, "record_periods": 6}, tmp_path / "h.h5",
-                     backend="sim", seed=1).run()
+    assert p["force_amplitude_measured"] / p["drive_amplitude"] < 3.0  # force drop-out
+    high = SineDwell(
+        cfg,
+        {"fe": f1, "force": 15.0, "gap": WIDE, "record_periods": 6},
+        tmp_path / "h.h5",
+        backend="sim",
+        seed=1,
+    ).run()
     q = high.points[0]
     assert q["control_limited_by"] == "drive warning" and q["safety_warnings"] == 0
     assert q["drive_amplitude"] <= 0.98 * 4.5 + 1e-9 and not q["settled"]
@@ -95,18 +115,24 @@ def test_force_control_reaches_15_n_at_the_first_resonance_with_raised_drive_lim
     path = tmp_path / "raised.toml"
     path.write_text(tomli_w.dumps(data))
     raised = load_rig(path)
-    FrfTest(raised, {"signal": "chirp", "band": (20.0, 200.0), "level": 0.2, "frame": 1.0, "averages": 3},
-            tmp_path / "frf.h5", backend="sim", seed=1).run()
+    FrfTest(
+        raised,
+        {"signal": "chirp", "band": (20.0, 200.0), "level": 0.2, "frame": 1.0, "averages": 3},
+        tmp_path / "frf.h5",
+        backend="sim",
+        seed=1,
+    ).run()
     chk = quick_check(tmp_path / "frf.h5")
     f1 = min(pk["frequency_hz"] for pk in chk["peaks"] if pk["h1"] > 10)
     assert f1 == pytest.approx(_article_flexural(cfg, 1)[0], rel=0.02)
-    r = SineDwell(raised, {"fe": f1, "force": 15.0, "record_periods": 12}, tmp_path / "r.h5",
-                  backend="sim", seed=1).run()
+    r = SineDwell(
+        raised, {"fe": f1, "force": 15.0, "record_periods": 12}, tmp_path / "r.h5", backend="sim", seed=1
+    ).run()
     p = r.points[0]
     assert r.status is Status.FINISHED and p["gap"] == pytest.approx(0.03)
     assert p["force_amplitude_measured"] == pytest.approx(15.0, rel=0.01)
     assert p["control_updates"] <= 10 and p["settled"] and p["safety_warnings"] == 0
-    assert p["drive_amplitude"] > 4.5                       # beyond the default rig's warning
+    assert p["drive_amplitude"] > 4.5  # beyond the default rig's warning
     limits = raised.safety.limits
     for name in ("active_shroud_accel", "passive_shroud_accel", "force"):
         assert p["peaks"][name] < limits[name].warning
@@ -118,8 +144,13 @@ def test_stepped_sine_peak_is_the_articles_second_flexural_frequency(cfg, tmp_pa
     article's own 2nd flexural frequency (FE, with the [test_article] root, masses)."""
     freqs = list(np.arange(340.0, 380.001, 2.0))
     out = tmp_path / "s.h5"
-    r = SteppedSine(cfg, {"frequencies": freqs, "force": 2.0, "gap": WIDE, "record_periods": 30},
-                    out, backend="sim", seed=1).run()
+    r = SteppedSine(
+        cfg,
+        {"frequencies": freqs, "force": 2.0, "gap": WIDE, "record_periods": 30},
+        out,
+        backend="sim",
+        seed=1,
+    ).run()
     f2 = _article_flexural(cfg, 2)[1]
     assert r.summary["peak_hz"] == pytest.approx(f2, rel=0.003)
     assert all(abs(p["force_amplitude_measured"] / 2.0 - 1) <= 0.01 for p in r.points)
@@ -135,13 +166,23 @@ def test_up_and_down_stepped_sine_jumps_differ(cfg, tmp_path):
     up to a jump down between 69 and 71 Hz, and on the way down the response jumps up again
     only between 65 and 63 Hz (measured with 1 Hz steps: 70->71 up, 64->63 down; with these
     2 Hz steps the up jump, 108 -> 80 m/s^2, is 2.9 times its neighbouring step)."""
-    r = SteppedSine(cfg, {"frequencies": list(np.arange(57.0, 79.001, 2.0)), "force": 15.0, "gap": 7e-4,
-                          "direction": "both", "record_periods": 10}, tmp_path / "j.h5",
-                    backend="sim", seed=1).run()
+    r = SteppedSine(
+        cfg,
+        {
+            "frequencies": list(np.arange(57.0, 79.001, 2.0)),
+            "force": 15.0,
+            "gap": 7e-4,
+            "direction": "both",
+            "record_periods": 10,
+        },
+        tmp_path / "j.h5",
+        backend="sim",
+        seed=1,
+    ).run()
     up, down = r.summary["jumps"]["up"], r.summary["jumps"]["down"]
     assert len(up) == 1 and len(down) == 1
     assert up[0]["from_hz"] < up[0]["to_hz"] and down[0]["from_hz"] > down[0]["to_hz"]
-    assert up[0]["frequency_hz"] > down[0]["frequency_hz"] + 2          # hysteresis
+    assert up[0]["frequency_hz"] > down[0]["frequency_hz"] + 2  # hysteresis
     assert all(abs(p["force_amplitude_measured"] / 15.0 - 1) <= 0.01 for p in r.points)
 
 
@@ -177,7 +218,7 @@ def test_stop_request_from_a_script_ramps_down_and_keeps_the_data(cfg, tmp_path)
         assert drive[-1] == 0.0 and p.n_samples >= stop_at[0]
         assert (p.n_samples - stop_at[0]) / RATE <= 0.4 + 1e-9
         moving = np.flatnonzero(np.abs(drive) > 1e-9)
-        assert moving[-1] + 1 < p.n_samples                     # it ends at rest, recorded
+        assert moving[-1] + 1 < p.n_samples  # it ends at rest, recorded
 
 
 def test_safety_abort_during_the_ramp_keeps_the_peak_and_the_ramp(cfg, tmp_path):
@@ -196,8 +237,13 @@ def test_safety_abort_during_the_ramp_keeps_the_peak_and_the_ramp(cfg, tmp_path)
     rig.write_text(tomli_w.dumps(data))
     low = load_rig(rig)
     out = tmp_path / "abort.h5"
-    proc = SineDwell(low, {"fe": 60.0, "force": 15.0, "gap": 5e-4, "control": {"initial_drive": 1.0}},
-                     out, backend="sim", seed=1)
+    proc = SineDwell(
+        low,
+        {"fe": 60.0, "force": 15.0, "gap": 5e-4, "control": {"initial_drive": 1.0}},
+        out,
+        backend="sim",
+        seed=1,
+    )
     with pytest.raises(Exception) as info:
         proc.run()
     assert "safety abort" in str(info.value)
@@ -216,9 +262,14 @@ def test_fault_mid_study_fails_with_the_reason_and_keeps_the_points_before(cfg, 
     from rigtools.drivers.simulated import Fault
 
     out = tmp_path / "fault.h5"
-    proc = RigStudy(cfg, {"kind": "gap", "values": [3e-4, 5e-4, 7e-4, 9e-4], "force": 15.0, "fe": 60.0,
-                          "record_periods": 12}, out, backend="sim", seed=1,
-                    faults=[Fault("amplifier_timeout", at_time=5.0)])
+    proc = RigStudy(
+        cfg,
+        {"kind": "gap", "values": [3e-4, 5e-4, 7e-4, 9e-4], "force": 15.0, "fe": 60.0, "record_periods": 12},
+        out,
+        backend="sim",
+        seed=1,
+        faults=[Fault("amplifier_timeout", at_time=5.0)],
+    )
     with pytest.raises(Exception) as info:
         proc.run()
     assert "amplifier timeout" in str(info.value)
@@ -267,17 +318,22 @@ def test_real_rig_gap_study_asks_the_operator_with_the_drive_at_zero(cfg, tmp_pa
         sim.set_gap(gap)
 
     out = tmp_path / "hand.h5"
-    r = RigStudy(cfg, {"kind": "gap", "values": [4e-4, 8e-4], "force": 15.0, "fe": 60.0, "record_periods": 12},
-                 out, device=_HandGapRig(sim), confirm_gap=operator).run()
+    r = RigStudy(
+        cfg,
+        {"kind": "gap", "values": [4e-4, 8e-4], "force": 15.0, "fe": 60.0, "record_periods": 12},
+        out,
+        device=_HandGapRig(sim),
+        confirm_gap=operator,
+    ).run()
     assert r.status is Status.FINISHED
     assert [(i, g) for i, g, _ in asked] == [(0, 4e-4), (1, 8e-4)]
-    assert all(not running for _, _, running in asked)          # asked with the stream stopped
+    assert all(not running for _, _, running in asked)  # asked with the stream stopped
     with open_recording(out) as rec:
         assert [p.params["gap"] for p in rec.points] == [4e-4, 8e-4]
         for p in rec.points:
             assert p.params["force_amplitude_measured"] == pytest.approx(15.0, rel=0.01)
             drive = np.asarray(p["drive"])
-            assert abs(drive[0]) < 1e-6                          # each point starts from rest
+            assert abs(drive[0]) < 1e-6  # each point starts from rest
 
 
 def test_simulation_diverging_mid_acquisition_is_a_fault(cfg, tmp_path):
@@ -313,4 +369,4 @@ def test_simulation_diverging_mid_acquisition_is_a_fault(cfg, tmp_path):
     drive = rig.drive_log
     assert drive[-1] == 0.0 and not rig._running
     ramp = int(cfg.safety.abort_ramp_time * RATE)
-    assert np.all(np.abs(np.diff(drive[-ramp - 50:])) < 0.01)          # a ramp, not a step
+    assert np.all(np.abs(np.diff(drive[-ramp - 50 :])) < 0.01)  # a ramp, not a step

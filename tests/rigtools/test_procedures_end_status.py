@@ -39,26 +39,54 @@ def test_schema_lists_the_end_attributes():
     assert set(OPTIONAL_ROOT_ATTRS) == {"end_status", "end_reason"}
 
 
-@pytest.mark.parametrize("abort, attrs", [
-    (None, {}),
-    (None, {"end_status": "finished", "end_reason": ""}),
-    ("aborted: signal SIGINT (Ctrl-C)", {"end_status": "aborted", "end_reason": "signal SIGINT (Ctrl-C)"}),
-    ("failed: amplifier timeout", {"end_status": "failed", "end_reason": "amplifier timeout"}),
-])
+@pytest.mark.parametrize(
+    "abort, attrs",
+    [
+        (None, {}),
+        (None, {"end_status": "finished", "end_reason": ""}),
+        (
+            "aborted: signal SIGINT (Ctrl-C)",
+            {"end_status": "aborted", "end_reason": "signal SIGINT (Ctrl-C)"},
+        ),
+        ("failed: amplifier timeout", {"end_status": "failed", "end_reason": "amplifier timeout"}),
+    ],
+)
 def test_consistent_end_status_is_valid(tmp_path, abort, attrs):
     path = _file(tmp_path / "ok.h5", abort, **attrs)
     assert _errors(path) == [] and check_recording(path).valid
 
 
-@pytest.mark.parametrize("abort, attrs, message", [
-    (None, {"end_status": "done", "end_reason": ""}, "end_status 'done' is not one of finished, aborted, failed"),
-    (None, {"end_status": "failed", "end_reason": "x"}, "end_status is 'failed' but status is 'complete'"),
-    ("failed: x", {"end_status": "finished", "end_reason": ""}, "end_status is 'finished' but status is 'aborted'"),
-    ("failed: x", {"end_status": "aborted", "end_reason": "x"},
-     "end_status is 'aborted' but abort_reason does not start with 'aborted: ' ('failed: x')"),
-    ("failed: x", {"end_status": "failed", "end_reason": ""}, "end_status is 'failed' but end_reason is empty"),
-    (None, {"end_status": 3}, "attribute 'end_status' = 3 is not text"),
-])
+@pytest.mark.parametrize(
+    "abort, attrs, message",
+    [
+        (
+            None,
+            {"end_status": "done", "end_reason": ""},
+            "end_status 'done' is not one of finished, aborted, failed",
+        ),
+        (
+            None,
+            {"end_status": "failed", "end_reason": "x"},
+            "end_status is 'failed' but status is 'complete'",
+        ),
+        (
+            "failed: x",
+            {"end_status": "finished", "end_reason": ""},
+            "end_status is 'finished' but status is 'aborted'",
+        ),
+        (
+            "failed: x",
+            {"end_status": "aborted", "end_reason": "x"},
+            "end_status is 'aborted' but abort_reason does not start with 'aborted: ' ('failed: x')",
+        ),
+        (
+            "failed: x",
+            {"end_status": "failed", "end_reason": ""},
+            "end_status is 'failed' but end_reason is empty",
+        ),
+        (None, {"end_status": 3}, "attribute 'end_status' = 3 is not text"),
+    ],
+)
 def test_inconsistent_end_status_is_reported(tmp_path, abort, attrs, message):
     path = _file(tmp_path / "bad.h5", abort, **attrs)
     assert message in [p.message for p in check_recording(path).problems]
@@ -72,7 +100,9 @@ def _cli(argv):
 
 
 def test_rig_info_and_check_show_the_end_status(tmp_path):
-    path = _file(tmp_path / "f.h5", "failed: amplifier timeout", end_status="failed", end_reason="amplifier timeout")
+    path = _file(
+        tmp_path / "f.h5", "failed: amplifier timeout", end_status="failed", end_reason="amplifier timeout"
+    )
     code, out, _ = _cli(["info", str(path), "--json"])
     doc = json.loads(out)
     assert code == 0 and doc["end_status"] == "failed" and doc["end_reason"] == "amplifier timeout"

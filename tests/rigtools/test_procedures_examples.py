@@ -11,13 +11,21 @@ from rigtools.recording import check_recording, open_recording
 EXAMPLES = Path(__file__).resolve().parents[2] / "docs" / "examples"
 
 
-@pytest.mark.parametrize("script, points", [("force_controlled_dwell.py", 1), ("gap_study.py", 3),
-                                            ("stepped_sine.py", 11), ("frf_test.py", 1),
-                                            ("tap_test.py", 5)])
+@pytest.mark.parametrize(
+    "script, points",
+    [
+        ("force_controlled_dwell.py", 1),
+        ("gap_study.py", 3),
+        ("stepped_sine.py", 11),
+        ("frf_test.py", 1),
+        ("tap_test.py", 5),
+    ],
+)
 def test_example_runs(tmp_path, script, points):
     out = tmp_path / "run.h5"
-    done = subprocess.run([sys.executable, str(EXAMPLES / script), str(out)], capture_output=True,
-                          text=True, cwd=tmp_path)
+    done = subprocess.run(
+        [sys.executable, str(EXAMPLES / script), str(out)], capture_output=True, text=True, cwd=tmp_path
+    )
     assert done.returncode == 0, done.stderr
     assert check_recording(out).valid
     with open_recording(out) as rec:

@@ -42,8 +42,9 @@ def test_tap_test_gives_the_passive_blades_first_three_flexural_frequencies(cfg,
     damping within 5 % of the article's 1.2 %. Each hit is one raw point of 2 s, 10 ms of it
     before the trigger; the drive stays at 0 V; the file checks valid."""
     out = tmp_path / "tap.h5"
-    r = TapTest(cfg, {"blade": "passive", "position": 0.085, "hits": 5, "gap": WIDE}, out,
-                backend="sim", seed=1).run()
+    r = TapTest(
+        cfg, {"blade": "passive", "position": 0.085, "hits": 5, "gap": WIDE}, out, backend="sim", seed=1
+    ).run()
     assert r.status is Status.FINISHED and r.summary["accepted"] == 5 and r.summary["hits"] == 5
     assert r.summary["response"] == "passive_shroud_accel"
     res = tap_analysis(out, f_min=20, f_max=1600, n_modes=3)
@@ -58,8 +59,8 @@ def test_tap_test_gives_the_passive_blades_first_three_flexural_frequencies(cfg,
         assert p.params["accepted"] and p.params["pretrigger_samples"] == 512
         assert p.n_samples == p.params["frame_samples"] == 102400
         hammer = np.asarray(p["hammer"])
-        assert np.argmax(hammer >= 5.0) == 512                  # the trigger, after the pretrigger
-        assert np.max(np.abs(hammer[:500])) < 0.1               # quiet before the pulse
+        assert np.argmax(hammer >= 5.0) == 512  # the trigger, after the pretrigger
+        assert np.max(np.abs(hammer[:500])) < 0.1  # quiet before the pulse
         assert np.all(np.asarray(p["drive"]) == 0.0)
 
 
@@ -71,17 +72,35 @@ def test_frf_test_gives_the_active_blades_first_three_flexural_frequencies(cfg, 
     from rigtools.procedures.frf import FrfTest
 
     out = tmp_path / "frf.h5"
-    FrfTest(cfg, {"signal": "chirp", "band": (20.0, 1600.0), "level": 0.3, "frame": 1.0, "averages": 4,
-                  "gap": WIDE}, out, backend="sim", seed=1).run()
+    FrfTest(
+        cfg,
+        {"signal": "chirp", "band": (20.0, 1600.0), "level": 0.3, "frame": 1.0, "averages": 4, "gap": WIDE},
+        out,
+        backend="sim",
+        seed=1,
+    ).run()
     with open_recording(out) as rec:
         p = rec.points[0]
         start = int(round(p.params["record_start"] * p.sample_rate))
         n, frame = int(p.params["record_samples"]), int(p.params["frame_samples"])
-        blocks = [{name: np.asarray(p[name][start + i:start + i + frame]) for name in ("force", "active_shroud_accel")}
-                  for i in range(0, n, frame)]
+        blocks = [
+            {
+                name: np.asarray(p[name][start + i : start + i + frame])
+                for name in ("force", "active_shroud_accel")
+            }
+            for i in range(0, n, frame)
+        ]
         rate = p.sample_rate
-    res = analyze_frf_test(blocks, rate, excitation="periodic", segment_samples=frame,
-                           responses=("active_shroud_accel",), f_min=20, f_max=1600, n_modes=3)
+    res = analyze_frf_test(
+        blocks,
+        rate,
+        excitation="periodic",
+        segment_samples=frame,
+        responses=("active_shroud_accel",),
+        f_min=20,
+        f_max=1600,
+        n_modes=3,
+    )
     em = np.array([m.frequency_hz for m in res.modes["active_shroud_accel"].modes])
     np.testing.assert_allclose(em, _article(cfg, "active"), rtol=5e-3)
 
@@ -94,7 +113,7 @@ def test_double_hit_and_decay_checks():
     start = int(np.argmax(one >= level))
     assert double_hit(one, start, level, 102) == ""
     text = double_hit(one + pulse(0.02), start, level, 102)
-    assert text.startswith("double hit") and 500 < int(text.split()[2]) < 530      # ~10 ms later
+    assert text.startswith("double hit") and 500 < int(text.split()[2]) < 530  # ~10 ms later
     decay = np.exp(-t * 200) * np.sin(2 * np.pi * 300 * t)
     assert undecayed(decay) == ""
     assert "not decayed" in undecayed(np.exp(-t * 2) * np.sin(2 * np.pi * 300 * t))
@@ -116,7 +135,9 @@ def _rig(*args):
 
 def test_cli_tap_json_and_errors(tmp_path):
     out = tmp_path / "t.h5"
-    r = _rig("--backend", "sim", "--position", "85 mm", "--hits", "2", "--gap", "5 mm", "--out", str(out), "--json")
+    r = _rig(
+        "--backend", "sim", "--position", "85 mm", "--hits", "2", "--gap", "5 mm", "--out", str(out), "--json"
+    )
     assert r.returncode == 0, r.stderr
     doc = json.loads(r.stdout)
     assert doc["status"] == "finished" and doc["accepted"] == 2
@@ -124,7 +145,8 @@ def test_cli_tap_json_and_errors(tmp_path):
     assert any(abs(x / 53.6855 - 1) < 5e-3 for x in f)
     bad = _rig("--backend", "sim", "--position", "200 mm", "--out", str(tmp_path / "b.h5"))
     assert bad.returncode == 2 and bad.stderr.strip().splitlines() == [
-        "rig acquire: error: hammer position 200 mm is not on the passive blade (0 .. 155 mm from the root)"]
+        "rig acquire: error: hammer position 200 mm is not on the passive blade (0 .. 155 mm from the root)"
+    ]
     ni = _rig("--position", "85 mm", "--out", str(tmp_path / "n.h5"))
     assert ni.returncode == 2 and "[daq.channels.hammer]" in ni.stderr and "Traceback" not in ni.stderr
     unit = _rig("--backend", "sim", "--position", "85 N", "--out", str(tmp_path / "u.h5"))
@@ -145,9 +167,14 @@ def test_the_rig_files_hammer_channel_is_used_and_checked(cfg, tmp_path):
     from rigtools.errors import UserError
 
     data = tomllib.loads(default_rig_text())
-    data["daq"]["channels"]["hammer"] = {"physical_channel": "Dev1/ai3", "kind": "force",
-                                         "sensitivity": "2.25 mV/N", "excitation_current": "4 mA",
-                                         "range": "2200 N", "location": "impact hammer"}
+    data["daq"]["channels"]["hammer"] = {
+        "physical_channel": "Dev1/ai3",
+        "kind": "force",
+        "sensitivity": "2.25 mV/N",
+        "excitation_current": "4 mA",
+        "range": "2200 N",
+        "location": "impact hammer",
+    }
     path = tmp_path / "hammer.toml"
     path.write_text(tomli_w.dumps(data))
     rig = load_rig(path)
@@ -163,10 +190,18 @@ def test_the_rig_files_hammer_channel_is_used_and_checked(cfg, tmp_path):
     path.write_text(tomli_w.dumps(data))
     with pytest.raises(UserError, match=r"is kind 'accel': the hammer channel must be kind = \"force\""):
         TapTest(load_rig(path), {"position": 0.085, "hits": 1}, tmp_path / "x.h5", backend="sim").run()
-    short = TapTest(cfg, {"position": 0.085, "hits": 1, "frame": 0.5, "timeout": 2.5, "gap": WIDE},
-                    tmp_path / "s.h5", backend="sim", seed=1)
-    with pytest.raises(UserError, match=r"no accepted hit over 5 N on hammer within 2.5 s \(0 of 1 hits "
-                                        r"accepted, \d rejected: the response has not decayed"):
+    short = TapTest(
+        cfg,
+        {"position": 0.085, "hits": 1, "frame": 0.5, "timeout": 2.5, "gap": WIDE},
+        tmp_path / "s.h5",
+        backend="sim",
+        seed=1,
+    )
+    with pytest.raises(
+        UserError,
+        match=r"no accepted hit over 5 N on hammer within 2.5 s \(0 of 1 hits "
+        r"accepted, \d rejected: the response has not decayed",
+    ):
         short.run()
     assert short.result.points[0]["accepted"] is False
     assert "not decayed" in short.result.points[0]["reject_reason"]

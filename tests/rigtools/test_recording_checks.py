@@ -15,8 +15,7 @@ from rigtools.cli import main
 from rigtools.recording import ChannelSpec, RecordingWriter, open_recording
 from rigtools.recording.writer import LIBVER
 
-CHANNELS = [ChannelSpec("force", "N", "force", 1000.0), ChannelSpec("acc", "m/s^2", "acceleration",
-                                                                    1000.0)]
+CHANNELS = [ChannelSpec("force", "N", "force", 1000.0), ChannelSpec("acc", "m/s^2", "acceleration", 1000.0)]
 
 
 def _write(path, block):
@@ -36,7 +35,7 @@ def test_nan_in_a_complete_file_is_an_error(tmp_path, capsys):
     assert "INVALID" in out
     assert "/points/0000/acc: 3 samples NaN or infinite" in out
     assert "/points/0000/force: 1 sample NaN or infinite" in out
-    assert main(["check", "--quick", str(path)]) == 0      # --quick reads no samples
+    assert main(["check", "--quick", str(path)]) == 0  # --quick reads no samples
     clean = _write(tmp_path / "clean.h5", np.ones((2, 1000)))
     assert main(["check", str(clean)]) == 0
 
@@ -49,13 +48,13 @@ def _kill_mid_point(path, tail_nan: int, inner_nan: bool = False):
         p0.set_attrs(settled=True)
         p0.end()
         rec.begin_point({"fe": 61.0}, CHANNELS).append(np.ones((2, 100)))
-    with h5py.File(path, "r+", libver=LIBVER) as f:        # as if killed: point 1 never ended
+    with h5py.File(path, "r+", libver=LIBVER) as f:  # as if killed: point 1 never ended
         f.attrs["status"] = "recording"
         f.attrs["ended"] = ""
         f["points/0001"].attrs["end_time"] = ""
         for name in ("force", "acc"):
             ds = f[f"points/0001/{name}"]
-            ds.resize((100 + tail_nan,))                   # extent grew, samples never written
+            ds.resize((100 + tail_nan,))  # extent grew, samples never written
             if inner_nan:
                 ds[50] = np.nan
     return path
@@ -107,9 +106,13 @@ def test_reader_and_info_do_not_import_scipy(tmp_path):
 def test_info_json_into_a_closed_pipe_prints_no_traceback(tmp_path):
     path = tmp_path / "big.h5"
     with RecordingWriter(path, backend="simulated", rig="{}") as rec:
-        point = rec.begin_point({"curve": np.arange(30000.0)}, CHANNELS)   # > 64 KiB of JSON
+        point = rec.begin_point({"curve": np.arange(30000.0)}, CHANNELS)  # > 64 KiB of JSON
         point.append(np.ones((2, 10)))
-    run = subprocess.run(f'"{sys.executable}" -m rigtools.cli info --json "{path}" | head -1',
-                         shell=True, capture_output=True, text=True)
+    run = subprocess.run(
+        f'"{sys.executable}" -m rigtools.cli info --json "{path}" | head -1',
+        shell=True,
+        capture_output=True,
+        text=True,
+    )
     assert run.stdout == "{\n"
     assert "Traceback" not in run.stderr and "BrokenPipe" not in run.stderr

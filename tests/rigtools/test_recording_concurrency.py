@@ -20,12 +20,18 @@ import numpy as np
 import pytest
 
 from rigtools.cli import main
-from rigtools.recording import (ChannelSpec, RecordingError, RecordingWriter, check_recording,
-                                open_recording, writer_alive)
+from rigtools.recording import (
+    ChannelSpec,
+    RecordingError,
+    RecordingWriter,
+    check_recording,
+    open_recording,
+    writer_alive,
+)
 from rigtools.recording.lock import lock_path
 
 HERE = Path(__file__).parent
-POINT_BLOCKS = 8                    # 0.4 s points: checks below cross many point boundaries
+POINT_BLOCKS = 8  # 0.4 s points: checks below cross many point boundaries
 
 pytestmark = pytest.mark.skipif(not hasattr(signal, "SIGKILL"), reason="needs POSIX signals")
 
@@ -34,9 +40,12 @@ pytestmark = pytest.mark.skipif(not hasattr(signal, "SIGKILL"), reason="needs PO
 def live(tmp_path):
     """A recording being written by another process; yields (path, process)."""
     path = tmp_path / "live.h5"
-    proc = subprocess.Popen([sys.executable, str(HERE / "recording_crash_writer.py"), str(path),
-                             "7", str(POINT_BLOCKS)], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(
+        [sys.executable, str(HERE / "recording_crash_writer.py"), str(path), "7", str(POINT_BLOCKS)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     line = proc.stdout.readline()
     assert line.startswith("S"), proc.stderr.read()
     yield path, proc
@@ -59,8 +68,8 @@ def test_second_writer_is_refused_and_first_file_stays_valid(live, capsys):
         message = str(info.value)
         assert "\n" not in message and str(path) in message
         assert "being written by another run" in message and f"pid {proc.pid}" in message
-    assert proc.poll() is None                      # the first writer never noticed
-    assert path.stat().st_size >= size_before       # nothing truncated the file
+    assert proc.poll() is None  # the first writer never noticed
+    assert path.stat().st_size >= size_before  # nothing truncated the file
     time.sleep(0.5)
     os.kill(proc.pid, signal.SIGKILL)
     proc.wait(timeout=30)
@@ -78,7 +87,7 @@ def test_second_writer_is_refused_and_first_file_stays_valid(live, capsys):
         point.append(np.arange(10.0))
     with open_recording(path) as rec:
         assert rec.complete and rec.points[0]["force"][:].tolist() == list(range(10))
-    assert not lock_path(path).exists()            # removed on close
+    assert not lock_path(path).exists()  # removed on close
 
 
 def test_two_writers_in_one_process_and_the_lock_is_released(tmp_path):
@@ -115,7 +124,7 @@ def test_info_and_check_on_a_file_being_written(live, capsys):
         assert main(["info", str(path)]) == 0
         assert "being written now" in capsys.readouterr().out
         time.sleep(0.1)
-    assert len(seen_points) >= 2                    # the reads spanned point boundaries
+    assert len(seen_points) >= 2  # the reads spanned point boundaries
     os.kill(proc.pid, signal.SIGKILL)
     proc.wait(timeout=30)
     assert main(["info", "--json", str(path)]) == 0

@@ -30,14 +30,17 @@ sys.path.insert(0, str(HERE))
 import recording_crash_writer as child  # noqa: E402
 
 N_KILLS = 12
-POINT_BLOCKS = 24          # 1.2 s points
-MARGIN_S = 1.0             # the guarantee: flushed more than 1 s before the kill
+POINT_BLOCKS = 24  # 1.2 s points
+MARGIN_S = 1.0  # the guarantee: flushed more than 1 s before the kill
 
 
 def _start(path: Path, seed: int) -> subprocess.Popen:
-    return subprocess.Popen([sys.executable, str(HERE / "recording_crash_writer.py"), str(path),
-                             str(seed), str(POINT_BLOCKS)], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True)
+    return subprocess.Popen(
+        [sys.executable, str(HERE / "recording_crash_writer.py"), str(path), str(seed), str(POINT_BLOCKS)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
 
 
 def _wait_started(proc: subprocess.Popen) -> None:

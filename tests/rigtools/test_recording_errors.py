@@ -26,9 +26,13 @@ def good(tmp_path):
     path = tmp_path / "good.h5"
     with RecordingWriter(path, backend="simulated", rig="{}", experiment={"a": 1}) as rec:
         for p in range(2):
-            point = rec.begin_point({"fe": 60.0 + p}, [ChannelSpec("force", "N", "force", 1000.0),
-                                                       ChannelSpec("accel", "m/s^2", "acceleration",
-                                                                   1000.0)])
+            point = rec.begin_point(
+                {"fe": 60.0 + p},
+                [
+                    ChannelSpec("force", "N", "force", 1000.0),
+                    ChannelSpec("accel", "m/s^2", "acceleration", 1000.0),
+                ],
+            )
             point.append(np.ones((2, 3000)) * p)
             point.end()
     return path
@@ -80,11 +84,9 @@ def test_other_schema_and_newer_version(good, tmp_path, capsys):
     with h5py.File(other, "w") as f:
         f.create_dataset("x", data=np.arange(3))
     assert "not a rigtools recording: no text attribute 'schema'" in _one_line_error(other)
-    foreign = _copy(good, tmp_path / "foreign.h5",
-                    lambda f: f.attrs.__setitem__("schema", "acme.daq"))
+    foreign = _copy(good, tmp_path / "foreign.h5", lambda f: f.attrs.__setitem__("schema", "acme.daq"))
     assert "schema is 'acme.daq'" in _one_line_error(foreign)
-    newer = _copy(good, tmp_path / "newer.h5",
-                  lambda f: f.attrs.__setitem__("schema_version", np.int64(2)))
+    newer = _copy(good, tmp_path / "newer.h5", lambda f: f.attrs.__setitem__("schema_version", np.int64(2)))
     message = _one_line_error(newer)
     assert "schema_version 2 is newer" in message and "upgrade rigtools" in message
     for path in (other, foreign):
@@ -99,9 +101,12 @@ def test_other_schema_and_newer_version(good, tmp_path, capsys):
     assert code == 2 and doc["readable"] is False and "newer" in doc["problems"][0]["message"]
 
 
-@pytest.mark.parametrize("where, name", [("/", n) for n in ROOT_ATTRS if n != "schema"]
-                         + [("/points/0001", n) for n in POINT_ATTRS]
-                         + [("/points/0001/accel", n) for n in CHANNEL_ATTRS])
+@pytest.mark.parametrize(
+    "where, name",
+    [("/", n) for n in ROOT_ATTRS if n != "schema"]
+    + [("/points/0001", n) for n in POINT_ATTRS]
+    + [("/points/0001/accel", n) for n in CHANNEL_ATTRS],
+)
 def test_missing_attributes(good, tmp_path, capsys, where, name):
     path = _copy(good, tmp_path / "missing.h5", lambda f: f[where].attrs.__delitem__(name))
     message = _one_line_error(path)
@@ -116,11 +121,16 @@ def test_inconsistent_channels_are_reported_but_readable(good, tmp_path, capsys)
         data = f["points/0001/accel"][:100]
         del f["points/0001/accel"]
         ds = f["points/0001"].create_dataset("accel", data=data)
-        for key, value in {"units": "m/s^2", "quantity": "acceleration", "sample_rate": 1000.0,
-                           "t0": 0.0}.items():
+        for key, value in {
+            "units": "m/s^2",
+            "quantity": "acceleration",
+            "sample_rate": 1000.0,
+            "t0": 0.0,
+        }.items():
             ds.attrs[key] = value
+
     path = _copy(good, tmp_path / "uneven.h5", damage)
-    with open_recording(path) as rec:        # still readable: the data are there
+    with open_recording(path) as rec:  # still readable: the data are there
         assert rec.points[1].n_samples == 100
     code, out, _ = _rig_check(path, capsys)
     assert code == 1
@@ -132,6 +142,7 @@ def test_wrong_channel_shape_and_bad_experiment(good, tmp_path):
     def two_d(f):
         del f["points/0000/accel"]
         f["points/0000"].create_dataset("accel", data=np.zeros((2, 2)))
+
     assert "is not a 1-D numeric dataset" in _one_line_error(_copy(good, tmp_path / "a.h5", two_d))
     bad_json = _copy(good, tmp_path / "b.h5", lambda f: f.attrs.__setitem__("experiment", "{oops"))
     assert "'experiment' is not a JSON object" in _one_line_error(bad_json)
@@ -156,7 +167,7 @@ def test_writer_killed_outside_swmr_mode_still_reads(good, tmp_path, capsys):
         "from rigtools.recording.writer import LIBVER\n"
         "f = h5py.File(sys.argv[1], 'r+', libver=LIBVER, locking=False)\n"
         "f.attrs['status'] = 'recording'; f.attrs['ended'] = ''\n"
-        "f.flush(); os._exit(0)\n"       # no close: like a kill after the last flush
+        "f.flush(); os._exit(0)\n"  # no close: like a kill after the last flush
     )
     path.write_bytes(good.read_bytes())
     subprocess.run([sys.executable, "-c", script, str(path)], check=True)
@@ -168,7 +179,7 @@ def test_writer_killed_outside_swmr_mode_still_reads(good, tmp_path, capsys):
         np.testing.assert_array_equal(rec.points[1]["force"][:], np.ones(3000))
     code, out, _ = _rig_check(path, capsys)
     assert code == 0 and "h5clear -s" in out and "incomplete" in out
-    assert consistency_flags(path) != 0          # the reader never modifies the file
+    assert consistency_flags(path) != 0  # the reader never modifies the file
 
 
 def test_rig_info_json(good, capsys):
@@ -185,8 +196,9 @@ def test_rig_info_json(good, capsys):
 def test_cli_subprocess_prints_no_traceback(tmp_path):
     bad = tmp_path / "bad.h5"
     bad.write_bytes(b"\x89HDF\r\n\x1a\n" + b"\0" * 20)
-    run = subprocess.run([sys.executable, "-m", "rigtools.cli", "check", str(bad)],
-                         capture_output=True, text=True)
+    run = subprocess.run(
+        [sys.executable, "-m", "rigtools.cli", "check", str(bad)], capture_output=True, text=True
+    )
     assert run.returncode == 2 and "Traceback" not in run.stderr
     assert len(run.stderr.strip().splitlines()) == 1
 

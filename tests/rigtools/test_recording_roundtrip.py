@@ -22,21 +22,50 @@ from rigtools.recording.schema import CHANNEL_ATTRS, MEASURED_CHANNEL_ATTRS, POI
 DOC = Path(__file__).parents[2] / "docs" / "recording-format.md"
 RATE = 51200.0
 RIG_TEXT = 'name = "test rig"\n[blade]\nlength = "180 mm"\n'
-EXPERIMENT = {"procedure": "gap study", "operator": "tester", "gaps_m": [3e-4, 5e-4],
-              "nested": {"ok": True, "n": 3}, "note": "Ünïcode ok"}
+EXPERIMENT = {
+    "procedure": "gap study",
+    "operator": "tester",
+    "gaps_m": [3e-4, 5e-4],
+    "nested": {"ok": True, "n": 3},
+    "note": "Ünïcode ok",
+}
 
 
 def _channels(rate: float = RATE) -> list[ChannelSpec]:
     return [
-        ChannelSpec("force", "N", "force", rate, t0=0.0, sensitivity=11.24, sensitivity_units="mV/N",
-                    physical_channel="Dev1/ai0", location="active blade, x=0.090 m"),
-        ChannelSpec("active_shroud_accel", "m/s^2", "acceleration", rate, t0=1e-5, sensitivity=10.0,
-                    sensitivity_units="mV/g", physical_channel="Dev1/ai1",
-                    location="active blade, x=0.180 m"),
-        ChannelSpec("passive_shroud_accel", "m/s^2", "acceleration", rate, sensitivity=9.87,
-                    sensitivity_units="mV/g", physical_channel="Dev1/ai2",
-                    location="passive blade, x=0.180 m"),
-        ChannelSpec("contact_force", "N", "force", rate),       # a simulated, unmeasured channel
+        ChannelSpec(
+            "force",
+            "N",
+            "force",
+            rate,
+            t0=0.0,
+            sensitivity=11.24,
+            sensitivity_units="mV/N",
+            physical_channel="Dev1/ai0",
+            location="active blade, x=0.090 m",
+        ),
+        ChannelSpec(
+            "active_shroud_accel",
+            "m/s^2",
+            "acceleration",
+            rate,
+            t0=1e-5,
+            sensitivity=10.0,
+            sensitivity_units="mV/g",
+            physical_channel="Dev1/ai1",
+            location="active blade, x=0.180 m",
+        ),
+        ChannelSpec(
+            "passive_shroud_accel",
+            "m/s^2",
+            "acceleration",
+            rate,
+            sensitivity=9.87,
+            sensitivity_units="mV/g",
+            physical_channel="Dev1/ai2",
+            location="passive blade, x=0.180 m",
+        ),
+        ChannelSpec("contact_force", "N", "force", rate),  # a simulated, unmeasured channel
     ]
 
 
@@ -44,15 +73,22 @@ def _write(path: Path, n_points: int = 3, blocks: int = 7, **kwargs) -> dict[int
     """Write points of uneven block sizes; return the full arrays written per point."""
     rng = np.random.default_rng(7)
     written = {}
-    with RecordingWriter(path, backend="simulated", rig=RIG_TEXT, experiment=EXPERIMENT,
-                         **kwargs) as rec:
+    with RecordingWriter(path, backend="simulated", rig=RIG_TEXT, experiment=EXPERIMENT, **kwargs) as rec:
         for p in range(n_points):
-            point = rec.begin_point(params={"fe": 60.0 + p, "force_amplitude": 15.0, "gap": 5e-4,
-                                            "repeat": p, "label": f"pt{p}", "harmonics": [1, 6, 8]},
-                                    channels=_channels())
+            point = rec.begin_point(
+                params={
+                    "fe": 60.0 + p,
+                    "force_amplitude": 15.0,
+                    "gap": 5e-4,
+                    "repeat": p,
+                    "label": f"pt{p}",
+                    "harmonics": [1, 6, 8],
+                },
+                channels=_channels(),
+            )
             parts = []
             for b in range(blocks):
-                block = rng.standard_normal((4, 100 + 997 * b))   # odd sizes cross chunk edges
+                block = rng.standard_normal((4, 100 + 997 * b))  # odd sizes cross chunk edges
                 point.append(block)
                 parts.append(block)
             point.set_attrs(settled=p % 2 == 0, measured_force_amplitude=14.8 + p)
@@ -81,19 +117,34 @@ def test_every_attribute_and_array_round_trips(tmp_path):
         assert rec.opened_as == "clean"
         assert [p.index for p in rec.points] == [0, 1, 2]
         for p, point in enumerate(rec.points):
-            assert point.params == {"fe": 60.0 + p, "force_amplitude": 15.0, "gap": 5e-4,
-                                    "repeat": p, "label": f"pt{p}", "harmonics": [1, 6, 8],
-                                    "settled": p % 2 == 0, "force_amplitude_measured": 14.8 + p}  # v1 name read as today's
+            assert point.params == {
+                "fe": 60.0 + p,
+                "force_amplitude": 15.0,
+                "gap": 5e-4,
+                "repeat": p,
+                "label": f"pt{p}",
+                "harmonics": [1, 6, 8],
+                "settled": p % 2 == 0,
+                "force_amplitude_measured": 14.8 + p,
+            }  # v1 name read as today's
             assert isinstance(point.params["settled"], bool)
             assert isinstance(point.params["repeat"], int)
             assert point.ended and point.start_time <= point.end_time
-            assert list(point.channels) == [c.name for c in _channels()]   # block order kept
+            assert list(point.channels) == [c.name for c in _channels()]  # block order kept
             for row, spec in enumerate(_channels()):
                 ch = point.channels[spec.name]
-                for key in ("units", "quantity", "sample_rate", "t0", "sensitivity",
-                            "sensitivity_units", "physical_channel", "location"):
+                for key in (
+                    "units",
+                    "quantity",
+                    "sample_rate",
+                    "t0",
+                    "sensitivity",
+                    "sensitivity_units",
+                    "physical_channel",
+                    "location",
+                ):
                     assert getattr(ch, key) == getattr(spec, key), key
-                np.testing.assert_array_equal(np.asarray(ch), written[p][row])   # exact
+                np.testing.assert_array_equal(np.asarray(ch), written[p][row])  # exact
                 np.testing.assert_array_equal(ch[10:20], written[p][row, 10:20])
                 assert len(ch) == written[p].shape[1]
                 assert ch.duration == pytest.approx(written[p].shape[1] / RATE, rel=1e-15)
@@ -141,7 +192,7 @@ def test_whole_array_append_and_uncompressed_option(tmp_path):
     path = tmp_path / "fem.h5"
     with RecordingWriter(path, backend="fem", rig="{}", compression="none") as rec:
         point = rec.begin_point({"fe": 60.0}, [ChannelSpec("active_tip_disp", "m", "displacement", 1e4)])
-        point.append(x[0])                                    # 1-D for a single channel
+        point.append(x[0])  # 1-D for a single channel
         point.end()
     with open_recording(path) as back:
         np.testing.assert_array_equal(back.points[0]["active_tip_disp"][:], x[0])
@@ -179,10 +230,13 @@ def test_never_overwrites_without_permission(tmp_path):
         RecordingWriter(tmp_path / "no" / "dir.h5", backend="fem", rig="{}")
 
 
-@pytest.mark.parametrize("exc, reason", [
-    (RuntimeError("amplifier timeout\nsecond line"), "RuntimeError: amplifier timeout second line"),
-    (KeyboardInterrupt(), "KeyboardInterrupt: interrupted by the user"),
-])
+@pytest.mark.parametrize(
+    "exc, reason",
+    [
+        (RuntimeError("amplifier timeout\nsecond line"), "RuntimeError: amplifier timeout second line"),
+        (KeyboardInterrupt(), "KeyboardInterrupt: interrupted by the user"),
+    ],
+)
 def test_exception_marks_aborted_with_reason_and_reraises(tmp_path, exc, reason):
     path = tmp_path / "run.h5"
     block = np.arange(8.0).reshape(2, 4)
@@ -195,7 +249,7 @@ def test_exception_marks_aborted_with_reason_and_reraises(tmp_path, exc, reason)
     with open_recording(path) as back:
         assert back.status == "aborted" and back.abort_reason == reason
         point = back.points[0]
-        assert point.ended and point.params["settled"] is False     # data and parameters kept
+        assert point.ended and point.params["settled"] is False  # data and parameters kept
         np.testing.assert_array_equal(np.asarray(point["active_shroud_accel"]), block[1])
 
 

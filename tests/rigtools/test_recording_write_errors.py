@@ -50,8 +50,12 @@ CHILD = textwrap.dedent("""
 def test_file_size_limit_ends_in_one_error_and_keeps_the_data(tmp_path, capsys, compression):
     path = tmp_path / "full.h5"
     limit = 6_000_000
-    run = subprocess.run([sys.executable, "-c", CHILD, str(path), str(limit), compression],
-                         capture_output=True, text=True, timeout=120)
+    run = subprocess.run(
+        [sys.executable, "-c", CHILD, str(path), str(limit), compression],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert run.returncode == 4, run.stderr
     assert "Traceback" not in run.stderr and "Segmentation" not in run.stderr
     lines = run.stdout.splitlines()
@@ -63,7 +67,7 @@ def test_file_size_limit_ends_in_one_error_and_keeps_the_data(tmp_path, capsys, 
         if line.startswith("F"):
             _, p, n = line.split()
             flushed[int(p)] = int(n)
-    assert sum(flushed.values()) >= 20_000          # a real amount was written first
+    assert sum(flushed.values()) >= 20_000  # a real amount was written first
     assert path.stat().st_size <= limit
     assert not lock_path(path).exists()
     with open_recording(path) as rec:
@@ -72,12 +76,13 @@ def test_file_size_limit_ends_in_one_error_and_keeps_the_data(tmp_path, capsys, 
         assert "File too large" in rec.abort_reason
         for p, n in flushed.items():
             point = rec.points[p]
-            expected = np.hstack([np.random.default_rng([p, b]).standard_normal((2, 2000))
-                                  for b in range(-(-n // 2000))])[:, :n]
+            expected = np.hstack(
+                [np.random.default_rng([p, b]).standard_normal((2, 2000)) for b in range(-(-n // 2000))]
+            )[:, :n]
             for row, name in enumerate(("a", "b")):
                 np.testing.assert_array_equal(point[name][:n], expected[row])
         assert rec.points[-1].complete is False and rec.points[0].complete is True
-    assert main(["check", str(path)]) == 0          # valid, aborted: everything flushed reads
+    assert main(["check", str(path)]) == 0  # valid, aborted: everything flushed reads
     out = capsys.readouterr().out
     assert "status aborted" in out and "File too large" in out
     assert main(["info", "--json", str(path)]) == 0
@@ -89,5 +94,6 @@ def test_write_error_is_a_user_error_with_exit_4():
     assert RecordingWriteError("x").exit_code == 4
     from rigtools.errors import UserError
     from rigtools.recording import RecordingError
+
     assert issubclass(RecordingWriteError, RecordingError)
     assert issubclass(RecordingWriteError, UserError)

@@ -18,7 +18,7 @@ from rigtools.sim.reduction import reduced_system
 
 OPTIONS = RunOptions(record_duration=0.1, max_settle_time=3.0)
 CHAINS = map_chains([0.3e-3, 0.5e-3, 0.7e-3], [10.0, 15.0, 20.0], [58.0, 60.0, 62.0])
-cloudpickle.register_pickle_by_value(sys.modules[__name__])   # workers cannot import tests/
+cloudpickle.register_pickle_by_value(sys.modules[__name__])  # workers cannot import tests/
 
 
 @pytest.fixture(scope="module")
@@ -77,7 +77,7 @@ def test_killed_worker_loses_no_point(system, in_process, tmp_path):
     marker = str(tmp_path / "killed")
     with StudyRunner(workers=2) as runner:
         got = list(runner.run(system, CHAINS, OPTIONS, point_fn=functools.partial(_dies_once, marker, 13)))
-    assert Path(marker).exists()                       # the worker really died
+    assert Path(marker).exists()  # the worker really died
     retried = [i for i, _ in runner.report.retried]
     # point 13 killed its worker; points queued on the same worker were lost with it: each rerun once
     assert 13 in retried and len(set(retried)) == len(retried)
@@ -96,8 +96,21 @@ def test_rig_study_map_same_file_on_two_workers(tmp_path):
     from rigtools.cli import main
     from rigtools.recording import open_recording
 
-    argv = ["study", "map", "--gap", "0.3 mm,0.5 mm", "--force", "15 N", "--fe", "58 Hz,60 Hz",
-            "--duration", "0.1 s", "--max-settle", "3 s", "--json"]
+    argv = [
+        "study",
+        "map",
+        "--gap",
+        "0.3 mm,0.5 mm",
+        "--force",
+        "15 N",
+        "--fe",
+        "58 Hz,60 Hz",
+        "--duration",
+        "0.1 s",
+        "--max-settle",
+        "3 s",
+        "--json",
+    ]
     assert main([*argv, "--out", str(tmp_path / "one.h5")]) == 0
     assert main([*argv, "--workers", "2", "--out", str(tmp_path / "two.h5")]) == 0
     with open_recording(tmp_path / "one.h5") as a, open_recording(tmp_path / "two.h5") as b:
@@ -107,4 +120,8 @@ def test_rig_study_map_same_file_on_two_workers(tmp_path):
             for name in pa.channels:
                 assert np.array_equal(pa[name].read(), pb[name].read()), name
     assert [(p.params["gap"], p.params["fe"]) for p in open_recording(tmp_path / "one.h5").points] == [
-        (0.3e-3, 58.0), (0.3e-3, 60.0), (0.5e-3, 58.0), (0.5e-3, 60.0)]
+        (0.3e-3, 58.0),
+        (0.3e-3, 60.0),
+        (0.5e-3, 58.0),
+        (0.5e-3, 60.0),
+    ]

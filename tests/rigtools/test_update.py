@@ -20,12 +20,39 @@ from rigtools.updating import updated_rig_text
 from rigtools.sim.updating import mode_targets
 from cli_helpers import run_cli
 
-FRF = ["acquire", "frf", "--backend", "sim", "--seed", "1", "--signal", "chirp", "--band", "20 Hz:2 kHz",
-       "--level", "0.3 V", "--frame", "1 s", "--averages", "4"]
-DWELL = ["acquire", "dwell", "--backend", "sim", "--seed", "2", "--fe", "60", "--force", "15 N",
-         "--gap", "0.5 mm"]
+FRF = [
+    "acquire",
+    "frf",
+    "--backend",
+    "sim",
+    "--seed",
+    "1",
+    "--signal",
+    "chirp",
+    "--band",
+    "20 Hz:2 kHz",
+    "--level",
+    "0.3 V",
+    "--frame",
+    "1 s",
+    "--averages",
+    "4",
+]
+DWELL = [
+    "acquire",
+    "dwell",
+    "--backend",
+    "sim",
+    "--seed",
+    "2",
+    "--fe",
+    "60",
+    "--force",
+    "15 N",
+    "--gap",
+    "0.5 mm",
+]
 K_ROT = "root.rotational_stiffness"
-
 
 
 @pytest.fixture(scope="module")
@@ -88,7 +115,7 @@ def test_fit_from_the_frf_test_recovers_root_stiffness_and_damping(updated, arti
     doc, _ = updated
     spec, _ = article
     fit = doc["fit"]
-    assert fit["max_frequency_error_before"] > 0.014          # the clamped nominal rig: 1.4-2.3 % high
+    assert fit["max_frequency_error_before"] > 0.014  # the clamped nominal rig: 1.4-2.3 % high
     assert fit["max_frequency_error_after"] < 0.003
     assert fit["parameters"][K_ROT]["fitted"] == pytest.approx(spec.root_rotational_stiffness, rel=0.10)
     assert fit["parameters"]["damping.ratio"]["fitted"] == pytest.approx(spec.damping_ratio, rel=0.10)
@@ -122,29 +149,52 @@ def test_too_many_parameters_for_one_blades_modes_are_named(folder, frf, article
     """Root stiffness, shroud and sensor masses from the active blade's three modes: the report names
     the pairs the data cannot separate (correlations ~ +0.999) instead of passing the values as fitted."""
     out = folder / "four.toml"
-    code, text, err = run_cli(["update", frf, "--out", out, "--params",
-                               "root.rotational_stiffness,shroud.mass,force_sensor.mass,damping.ratio"])
+    code, text, err = run_cli(
+        [
+            "update",
+            frf,
+            "--out",
+            out,
+            "--params",
+            "root.rotational_stiffness,shroud.mass,force_sensor.mass,damping.ratio",
+        ]
+    )
     assert code == 0, err
     assert "root.rotational_stiffness <-> shroud.mass: correlation +0.99" in text
     assert "the data cannot separate or determine" in text
     assert "no passive-blade modes" in text
     # from the first mode alone even two parameters are one too many
-    code, js, err = run_cli(["update", frf, "--out", folder / "one.toml", "--modes", "1", "--json",
-                             "--params", "root.rotational_stiffness,shroud.mass"])
+    code, js, err = run_cli(
+        [
+            "update",
+            frf,
+            "--out",
+            folder / "one.toml",
+            "--modes",
+            "1",
+            "--json",
+            "--params",
+            "root.rotational_stiffness,shroud.mass",
+        ]
+    )
     assert code == 0, err
     unresolved = json.loads(js)["fit"]["identifiability"]["unresolved"]
     # f1 moves ~40x more per relative change of the shroud mass than of ln(root stiffness): the
     # one direction the data do not see is mostly the root stiffness, traded against the mass
-    assert unresolved == ["root.rotational_stiffness: not determined by the data (no information; "
-                          "trades against shroud.mass)"], unresolved
+    assert unresolved == [
+        "root.rotational_stiffness: not determined by the data (no information; trades against shroud.mass)"
+    ], unresolved
 
 
-@pytest.mark.parametrize("argv, message", [
-    (["--params", "root.stiffness"], "--params: unknown parameter 'root.stiffness'"),
-    (["--params", "damping.ratio,damping.alpha"], "fit either damping.ratio"),
-    (["--modes", "0"], "--modes = 0"),
-    (["--band", "2 kHz:20 Hz"], "need 0 < low < high"),
-])
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["--params", "root.stiffness"], "--params: unknown parameter 'root.stiffness'"),
+        (["--params", "damping.ratio,damping.alpha"], "fit either damping.ratio"),
+        (["--modes", "0"], "--modes = 0"),
+        (["--band", "2 kHz:20 Hz"], "need 0 < low < high"),
+    ],
+)
 def test_bad_options_are_one_line_exit_2(folder, frf, argv, message):
     code, out, err = run_cli(["update", frf, "--out", folder / "bad.toml", *argv])
     assert code == 2 and out == ""
@@ -155,9 +205,11 @@ def test_bad_options_are_one_line_exit_2(folder, frf, argv, message):
 def test_bad_recordings_are_one_line_exit_2(folder, frf, dwell):
     junk = folder / "junk.h5"
     junk.write_text("not a recording")
-    for path, message in ((folder / "missing.h5", "no such file"),
-                          (junk, "junk.h5"),
-                          (dwell, "dwell.h5 (a sine dwell recording) holds no complete broadband test")):
+    for path, message in (
+        (folder / "missing.h5", "no such file"),
+        (junk, "junk.h5"),
+        (dwell, "dwell.h5 (a sine dwell recording) holds no complete broadband test"),
+    ):
         code, out, err = run_cli(["update", path, "--out", folder / "bad.toml"])
         assert code == 2, err
         assert message in err and len(err.strip().splitlines()) == 1 and "Traceback" not in err
@@ -178,10 +230,14 @@ def scored(folder, frf, dwell):
     assert code == 0, err
     out["default"] = json.loads(js)
     guess = folder / "guess.toml"
-    guess.write_text(default_rig_text().replace('stiffness = "1e6 N/m"', 'stiffness = "3e5 N/m"')
-                     .replace('damping = "200 N*s/m"', 'damping = "80 N*s/m"'))
-    code, js, err = run_cli(["update", frf, "--rig", guess, "--contact", dwell, "--out", folder / "g.toml",
-                             "--json"])
+    guess.write_text(
+        default_rig_text()
+        .replace('stiffness = "1e6 N/m"', 'stiffness = "3e5 N/m"')
+        .replace('damping = "200 N*s/m"', 'damping = "80 N*s/m"')
+    )
+    code, js, err = run_cli(
+        ["update", frf, "--rig", guess, "--contact", dwell, "--out", folder / "g.toml", "--json"]
+    )
     assert code == 0, err
     out["guess"] = json.loads(js)
     return out
@@ -195,7 +251,7 @@ def test_scores_rise_with_each_update_from_a_guessed_contact(scored, folder):
     print(f"guessed contact: nominal {nominal:.4f}, linear update {linear:.4f}, contact fit {contact:.4f}")
     assert nominal < linear < contact
     c = scored["guess"]["contact_fit"]["parameters"]
-    assert c["contact.stiffness"]["fitted"] > 2 * c["contact.stiffness"]["start"]      # 3e5 -> ~6.9e5
+    assert c["contact.stiffness"]["fitted"] > 2 * c["contact.stiffness"]["start"]  # 3e5 -> ~6.9e5
     new = load_rig(folder / "g.toml")
     assert new.contact.stiffness == c["contact.stiffness"]["fitted"]
     assert new.contact.damping == c["contact.damping"]["fitted"]
@@ -203,17 +259,23 @@ def test_scores_rise_with_each_update_from_a_guessed_contact(scored, folder):
 
 def test_scores_nominal_to_linear_update_default_rig(scored):
     a = scored["default"]["agreement"]
-    print(f"default rig: nominal {a['nominal'][0]:.4f}, linear update {a['linear update'][0]:.4f}, "
-          f"contact fit {a['contact fit'][0]:.4f}")
-    assert a["nominal"][0] < a["linear update"][0]          # 0.611 -> 0.661
+    print(
+        f"default rig: nominal {a['nominal'][0]:.4f}, linear update {a['linear update'][0]:.4f}, "
+        f"contact fit {a['contact fit'][0]:.4f}"
+    )
+    assert a["nominal"][0] < a["linear update"][0]  # 0.611 -> 0.661
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "the default rig file's contact already is the simulated rig's (1e6 N/m, 200 N*s/m): nothing is "
-    "left for the contact fit to correct. What remains (rms shroud-harmonic error ~50 %) is the force's "
-    "own harmonics on the rig (shaker-blade interaction at impacts: k=5 is 40 % of F0) that a model "
-    "driven by a pure sine at the measured amplitude does not have; the fit trades contact stiffness "
-    "against them (1e6 -> 7.3e5 N/m) and the score stays flat: 0.661 -> 0.660 (measured)"))
+@pytest.mark.xfail(
+    strict=True,
+    reason=(
+        "the default rig file's contact already is the simulated rig's (1e6 N/m, 200 N*s/m): nothing is "
+        "left for the contact fit to correct. What remains (rms shroud-harmonic error ~50 %) is the force's "
+        "own harmonics on the rig (shaker-blade interaction at impacts: k=5 is 40 % of F0) that a model "
+        "driven by a pure sine at the measured amplitude does not have; the fit trades contact stiffness "
+        "against them (1e6 -> 7.3e5 N/m) and the score stays flat: 0.661 -> 0.660 (measured)"
+    ),
+)
 def test_scores_contact_fit_improves_default_rig(scored):
     a = scored["default"]["agreement"]
     assert a["contact fit"][0] > a["linear update"][0]
@@ -221,8 +283,12 @@ def test_scores_contact_fit_improves_default_rig(scored):
 
 def test_rig_text_editor_rayleigh_new_section_and_inline_tables():
     text = "name = 'x'\n\n[damping]\nratio = 0.01  # old\n\n[root]\nkind = \"clamped\"\n"
-    new = updated_rig_text(text, {"damping.alpha": 1.5, "damping.beta": 2e-6, "passive_blade.youngs_modulus": 2.1e11},
-                           {"damping.alpha": "fitted"}, remove=["damping.ratio"])
+    new = updated_rig_text(
+        text,
+        {"damping.alpha": 1.5, "damping.beta": 2e-6, "passive_blade.youngs_modulus": 2.1e11},
+        {"damping.alpha": "fitted"},
+        remove=["damping.ratio"],
+    )
     data = tomllib.loads(new)
     assert data["damping"] == {"alpha": 1.5, "beta": 2e-6}
     assert data["passive_blade"] == {"youngs_modulus": 2.1e11}
@@ -234,11 +300,20 @@ def test_rig_text_editor_rayleigh_new_section_and_inline_tables():
 def test_a_parameter_that_cannot_explain_the_modes_is_flagged(folder, frf):
     """Young's modulus scales every frequency alike; the bolted root lowers f1 (2.3 %) more than f3
     (1.4 %): no modulus matches all three, and the command says so instead of passing it quietly."""
-    code, js, err = run_cli(["update", frf, "--out", folder / "e.toml", "--json",
-                             "--params", "blade.youngs_modulus,damping.ratio"])
+    code, js, err = run_cli(
+        [
+            "update",
+            frf,
+            "--out",
+            folder / "e.toml",
+            "--json",
+            "--params",
+            "blade.youngs_modulus,damping.ratio",
+        ]
+    )
     assert code == 0, err
     doc = json.loads(js)
-    assert doc["fit"]["max_frequency_error_after"] > 0.004           # measured 0.47 %
+    assert doc["fit"]["max_frequency_error_after"] > 0.004  # measured 0.47 %
     assert doc["warnings"][0].startswith("the fitted parameters do not explain the identified modes")
 
 

@@ -26,12 +26,27 @@ from rigtools.sim.updating import mode_targets
 from cli_helpers import run_cli
 
 RATE = 51200.0
-FRAME = 51200          # 1 s frames: 1 Hz resolution
+FRAME = 51200  # 1 s frames: 1 Hz resolution
 FRAMES = 4
-FRF = ["acquire", "frf", "--backend", "sim", "--seed", "1", "--signal", "chirp", "--band", "20 Hz:2 kHz",
-       "--level", "0.3 V", "--frame", "1 s", "--averages", "4"]
+FRF = [
+    "acquire",
+    "frf",
+    "--backend",
+    "sim",
+    "--seed",
+    "1",
+    "--signal",
+    "chirp",
+    "--band",
+    "20 Hz:2 kHz",
+    "--level",
+    "0.3 V",
+    "--frame",
+    "1 s",
+    "--averages",
+    "4",
+]
 FOUR = "root.rotational_stiffness,shroud.mass,force_sensor.mass,damping.ratio"
-
 
 
 @pytest.fixture(scope="module")
@@ -46,24 +61,38 @@ def write_tap(path, params, seed=3):
     rng = np.random.default_rng(seed)
     t = np.arange(FRAME) / RATE
     width = 0.5e-3
-    force = np.where(t < width, 50.0 * np.sin(np.pi * t / width), 0.0)   # 50 N, 0.5 ms half-sine
+    force = np.where(t < width, 50.0 * np.sin(np.pi * t / width), 0.0)  # 50 N, 0.5 ms half-sine
     spec = np.fft.rfft(force)
     f = np.arange(spec.size) * RATE / FRAME
     resp = fem_harmonic_response(build_rig_model(params), f[1:], 1.0)
     acc = np.zeros(spec.size, complex)
-    acc[1:] = -(2 * np.pi * f[1:]) ** 2 * resp.displacement["passive_shroud"]
+    acc[1:] = -((2 * np.pi * f[1:]) ** 2) * resp.displacement["passive_shroud"]
     y = np.fft.irfft(acc * spec, FRAME)
     n = FRAMES * FRAME
     x_all = np.tile(force, FRAMES) + rng.normal(0, 0.005, n)
     y_all = np.tile(y, FRAMES) + rng.normal(0, 0.02, n)
-    with RecordingWriter(path, "synthetic", default_rig_text(),
-                         {"procedure": "tap test (synthetic)"}) as rec:
+    with RecordingWriter(path, "synthetic", default_rig_text(), {"procedure": "tap test (synthetic)"}) as rec:
         point = rec.begin_point(
-            params={"signal": "tap", "band_low": 20.0, "band_high": 2000.0, "frame_samples": FRAME,
-                    "record_start": 0.0, "record_samples": n, "hammer_location": "passive blade, 85 mm"},
-            channels=[ChannelSpec("force", "N", "force", RATE, location="hammer on the passive blade"),
-                      ChannelSpec("passive_shroud_accel", "m/s^2", "acceleration", RATE,
-                                  location="passive blade shroud (tip)")])
+            params={
+                "signal": "tap",
+                "band_low": 20.0,
+                "band_high": 2000.0,
+                "frame_samples": FRAME,
+                "record_start": 0.0,
+                "record_samples": n,
+                "hammer_location": "passive blade, 85 mm",
+            },
+            channels=[
+                ChannelSpec("force", "N", "force", RATE, location="hammer on the passive blade"),
+                ChannelSpec(
+                    "passive_shroud_accel",
+                    "m/s^2",
+                    "acceleration",
+                    RATE,
+                    location="passive blade shroud (tip)",
+                ),
+            ],
+        )
         point.append(np.vstack([x_all, y_all]))
         point.end()
 
@@ -101,16 +130,23 @@ def test_both_blades_separate_root_stiffness_and_masses(both, article):
     spec, art = article
     fit = doc["fit"]
     p = {k: v["fitted"] for k, v in fit["parameters"].items()}
-    print(f"both blades: root {p['root.rotational_stiffness']:.5g} N*m/rad, shroud {p['shroud.mass']:.5g} kg, "
-          f"sensor {p['force_sensor.mass']:.5g} kg, zeta {p['damping.ratio']:.4g}; "
-          f"max frequency error {100 * fit['max_frequency_error_after']:.3f} %; "
-          f"unresolved {fit['identifiability']['unresolved']}")
+    print(
+        f"both blades: root {p['root.rotational_stiffness']:.5g} N*m/rad, shroud {p['shroud.mass']:.5g} kg, "
+        f"sensor {p['force_sensor.mass']:.5g} kg, zeta {p['damping.ratio']:.4g}; "
+        f"max frequency error {100 * fit['max_frequency_error_after']:.3f} %; "
+        f"unresolved {fit['identifiability']['unresolved']}"
+    )
     assert p["root.rotational_stiffness"] == pytest.approx(spec.root_rotational_stiffness, rel=0.10)
     assert p["shroud.mass"] == pytest.approx(art.shroud.mass, rel=0.01)
     assert p["damping.ratio"] == pytest.approx(spec.damping_ratio, rel=0.10)
     assert fit["max_frequency_error_after"] < 0.003
-    assert not any("shroud.mass" in line and "root.rotational_stiffness" in line
-                   for line in fit["identifiability"]["unresolved"])
+    assert not any(
+        "shroud.mass" in line and "root.rotational_stiffness" in line
+        for line in fit["identifiability"]["unresolved"]
+    )
     cfg = load_rig(out)
-    assert cfg.shroud.mass == p["shroud.mass"] and cfg.root.rotational_stiffness == p["root.rotational_stiffness"]
+    assert (
+        cfg.shroud.mass == p["shroud.mass"]
+        and cfg.root.rotational_stiffness == p["root.rotational_stiffness"]
+    )
     assert "frf.h5, tap.h5" in out.read_text()

@@ -8,10 +8,24 @@ from rigtools.analysis.harmonics import harmonic_amplitudes
 from rigtools.config import load_rig
 from rigtools.recording import RecordingWriter, open_recording
 from rigtools.simulation import (
-    MODEL_OUTPUTS, RunSettings, channel_specs, end_attrs, load_system, point_params, simulate_point, write_point,
+    MODEL_OUTPUTS,
+    RunSettings,
+    channel_specs,
+    end_attrs,
+    load_system,
+    point_params,
+    simulate_point,
+    write_point,
 )
 from rigtools.vocabulary import (
-    CHANNELS, EM, FEM, PARAMETERS, V1_PARAMETER_RENAMES, channel_names, current_parameters, source_of,
+    CHANNELS,
+    EM,
+    FEM,
+    PARAMETERS,
+    V1_PARAMETER_RENAMES,
+    channel_names,
+    current_parameters,
+    source_of,
     unknown_parameters,
 )
 
@@ -56,17 +70,20 @@ def test_force_amplitude_measured_is_the_fundamental_of_the_recorded_force(run, 
         p = rec.points[0]
         fund = harmonic_amplitudes(p["force"][:], p.sample_rate, p.params["fe"], 1).at(1)
         assert p.params["force_amplitude_measured"] == pytest.approx(fund, rel=1e-12)
-        assert fund == pytest.approx(15.0, rel=1e-12)       # the model's force is F0 sin(2 pi fe t)
+        assert fund == pytest.approx(15.0, rel=1e-12)  # the model's force is F0 sin(2 pi fe t)
         assert "measured_force_amplitude" not in p.params
 
 
 def test_v1_names_map_to_current_ones():
     assert V1_PARAMETER_RENAMES == {"measured_force_amplitude": "force_amplitude_measured"}
     assert current_parameters({"fe": 60.0, "measured_force_amplitude": 14.8}) == {
-        "fe": 60.0, "force_amplitude_measured": 14.8}
+        "fe": 60.0,
+        "force_amplitude_measured": 14.8,
+    }
     # a current name present wins over its old alias
     assert current_parameters({"measured_force_amplitude": 1.0, "force_amplitude_measured": 2.0}) == {
-        "force_amplitude_measured": 2.0}
+        "force_amplitude_measured": 2.0
+    }
 
 
 @pytest.mark.parametrize("n", [120, 121, 123, 150, 327])

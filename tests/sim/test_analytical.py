@@ -15,7 +15,9 @@ from rigtools.sim.params import BladeParams, LumpedMass, RootParams
 from rigtools.sim.rig_model import blade_masses, build_rig_model
 
 BLADE = BladeParams(length=0.155, width=0.04, thickness=0.0032, youngs_modulus=2e11, density=7850.0)
-SCALE = np.sqrt(BLADE.youngs_modulus * BLADE.i_flexural / (BLADE.density * BLADE.area * BLADE.length**4)) / (2 * np.pi)
+SCALE = np.sqrt(BLADE.youngs_modulus * BLADE.i_flexural / (BLADE.density * BLADE.area * BLADE.length**4)) / (
+    2 * np.pi
+)
 RHO_AL = BLADE.density * BLADE.area * BLADE.length
 
 

@@ -8,19 +8,29 @@ Euler-Bernoulli matrices are the phi = 0 case. Tolerances: 1e-12 relative (exact
 import numpy as np
 import pytest
 
-from rigtools.sim.beam_element import element_matrices, planar_bending, rectangle_torsion_constant, rectangular_section
+from rigtools.sim.beam_element import (
+    element_matrices,
+    planar_bending,
+    rectangle_torsion_constant,
+    rectangular_section,
+)
 
 L, E, I, RHO, A = 0.0155, 2.0e11, 1.2e-10, 7850.0, 1.28e-4
 
 
 def _timoshenko_stiffness(phi):
-    return E * I / ((1 + phi) * L**3) * np.array(
-        [
-            [12, 6 * L, -12, 6 * L],
-            [6 * L, (4 + phi) * L**2, -6 * L, (2 - phi) * L**2],
-            [-12, -6 * L, 12, -6 * L],
-            [6 * L, (2 - phi) * L**2, -6 * L, (4 + phi) * L**2],
-        ]
+    return (
+        E
+        * I
+        / ((1 + phi) * L**3)
+        * np.array(
+            [
+                [12, 6 * L, -12, 6 * L],
+                [6 * L, (4 + phi) * L**2, -6 * L, (2 - phi) * L**2],
+                [-12, -6 * L, 12, -6 * L],
+                [6 * L, (2 - phi) * L**2, -6 * L, (4 + phi) * L**2],
+            ]
+        )
     )
 
 
@@ -33,15 +43,34 @@ def test_bending_stiffness_matches_closed_form(phi):
 
 def test_euler_bernoulli_mass_matches_closed_form():
     _, m_trans = planar_bending(L, E, I, RHO, A, 0.0, rotary_inertia=False)
-    ref_trans = RHO * A * L / 420 * np.array(
-        [[156, 22 * L, 54, -13 * L], [22 * L, 4 * L**2, 13 * L, -3 * L**2],
-         [54, 13 * L, 156, -22 * L], [-13 * L, -3 * L**2, -22 * L, 4 * L**2]]
+    ref_trans = (
+        RHO
+        * A
+        * L
+        / 420
+        * np.array(
+            [
+                [156, 22 * L, 54, -13 * L],
+                [22 * L, 4 * L**2, 13 * L, -3 * L**2],
+                [54, 13 * L, 156, -22 * L],
+                [-13 * L, -3 * L**2, -22 * L, 4 * L**2],
+            ]
+        )
     )
     assert np.allclose(m_trans, ref_trans, rtol=1e-12, atol=1e-14 * np.abs(ref_trans).max())
     _, m_all = planar_bending(L, E, I, RHO, A, 0.0, rotary_inertia=True)
-    ref_rot = RHO * I / (30 * L) * np.array(
-        [[36, 3 * L, -36, 3 * L], [3 * L, 4 * L**2, -3 * L, -(L**2)],
-         [-36, -3 * L, 36, -3 * L], [3 * L, -(L**2), -3 * L, 4 * L**2]]
+    ref_rot = (
+        RHO
+        * I
+        / (30 * L)
+        * np.array(
+            [
+                [36, 3 * L, -36, 3 * L],
+                [3 * L, 4 * L**2, -3 * L, -(L**2)],
+                [-36, -3 * L, 36, -3 * L],
+                [3 * L, -(L**2), -3 * L, 4 * L**2],
+            ]
+        )
     )
     assert np.allclose(m_all - m_trans, ref_rot, rtol=1e-10, atol=1e-12 * np.abs(ref_rot).max())
 
@@ -52,8 +81,12 @@ def test_timoshenko_mass_translational_part_closed_form():
     _, m = planar_bending(L, E, I, RHO, A, phi, rotary_inertia=False)
     c = RHO * A * L / (1 + phi) ** 2
     row = c * np.array(
-        [13 / 35 + 7 * phi / 10 + phi**2 / 3, (11 / 210 + 11 * phi / 120 + phi**2 / 24) * L,
-         9 / 70 + 3 * phi / 10 + phi**2 / 6, -(13 / 420 + 3 * phi / 40 + phi**2 / 24) * L]
+        [
+            13 / 35 + 7 * phi / 10 + phi**2 / 3,
+            (11 / 210 + 11 * phi / 120 + phi**2 / 24) * L,
+            9 / 70 + 3 * phi / 10 + phi**2 / 6,
+            -(13 / 420 + 3 * phi / 40 + phi**2 / 24) * L,
+        ]
     )
     assert np.allclose(m[0], row, rtol=1e-12)
 

@@ -35,11 +35,11 @@ def test_solve_contact_is_consistent(code, p):
         f = solve_contact(g0, g1, v0, v1, kc, cc, p, code)
         assert f >= 0
         target = law(g0 + g1 * f, v0 + v1 * f, kc, cc, p, code)
-        if f == 0.0:       # open, or the damping would pull: the law gives zero too
+        if f == 0.0:  # open, or the damping would pull: the law gives zero too
             assert target == 0.0
         elif g0 + g1 * f > 1e-12 * abs(g0):
             assert f == pytest.approx(target, rel=1e-9)
-        else:              # no fixed point at the jump of the law: the force that closes the gap
+        else:  # no fixed point at the jump of the law: the force that closes the gap
             assert abs(g0 + g1 * f) <= 1e-12 * abs(g0)
 
 

@@ -34,14 +34,14 @@ def through_passive_blade(run, system, k_max):
     W = 2 * np.pi * run.fe * k[:, None]
     H = 1.0 / (system.omega**2 - W**2 + 2j * system.zeta * system.omega * W)
     phiA, phiP, phiF = system.shapes
-    assert np.all(phiP * phiF == 0)         # the excitation does not load the passive blade
+    assert np.all(phiP * phiF == 0)  # the excitation does not load the passive blade
     return -X / (H @ (phiP * (phiA - phiP)))
 
 
 @pytest.mark.parametrize("gap", [0.5e-3, 0.9e-3])
 def test_contact_force_harmonics_match_the_passive_blade_route(system, gap):
     sy = system.with_contact(gap=gap)
-    run = run_harmonic(sy, FE, F0, tol=1e-10)       # settled to 1e-10 for the reference's sake
+    run = run_harmonic(sy, FE, F0, tol=1e-10)  # settled to 1e-10 for the reference's sake
     assert run.steady_state and run.period_multiple == 1
     exact = contact_force_harmonics(run, K)
     ref = through_passive_blade(run, sy, K)
@@ -66,21 +66,37 @@ def test_contact_force_harmonics_of_a_known_piecewise_linear_force():
 
     fe, n = 50.0, 64
     dt = 1.0 / (fe * n)
-    t0, t1, f_jump = 10.3 * dt, 17.6 * dt, 3.0      # contact from t0 (jump to 3 N) to t1
+    t0, t1, f_jump = 10.3 * dt, 17.6 * dt, 3.0  # contact from t0 (jump to 3 N) to t1
     t = dt * np.arange(n)
     f_end = np.where((t > t0) & (t < t1), f_jump + 4e3 * (t - t0) * (t1 - t) / dt, 0.0)
     split = np.ones(n)
     before = f_end.copy()
     after = f_end.copy()
-    m_on, m_off = int(np.ceil(t0 / dt)), int(np.ceil(t1 / dt))   # steps ending after the events
+    m_on, m_off = int(np.ceil(t0 / dt)), int(np.ceil(t1 / dt))  # steps ending after the events
     split[m_on], before[m_on], after[m_on] = t0 / dt - (m_on - 1), 0.0, f_jump
     split[m_off], before[m_off], after[m_off] = t1 / dt - (m_off - 1), 0.0, 0.0
-    outputs = {"contact_force": f_end, "contact_split": split, "contact_force_before_split": before,
-               "contact_force_after_split": after}
-    run = VibroImpactRun(fe=fe, force_amplitude=1.0, gap=0.0, dt=dt, steps_per_period=n,
-                         record_periods=1, time=dt * np.arange(n), outputs=outputs, steady_state=True,
-                         period_multiple=1, mismatch=0.0, settle_time=0.0, contact_period=1.0,
-                         final_state=None)
+    outputs = {
+        "contact_force": f_end,
+        "contact_split": split,
+        "contact_force_before_split": before,
+        "contact_force_after_split": after,
+    }
+    run = VibroImpactRun(
+        fe=fe,
+        force_amplitude=1.0,
+        gap=0.0,
+        dt=dt,
+        steps_per_period=n,
+        record_periods=1,
+        time=dt * np.arange(n),
+        outputs=outputs,
+        steady_state=True,
+        period_multiple=1,
+        mismatch=0.0,
+        settle_time=0.0,
+        contact_period=1.0,
+        final_state=None,
+    )
     got = contact_force_harmonics(run, 12)
     # the scheme's force: linear between the event instants and the step ends
     knots_t = np.r_[t0, dt * np.arange(m_on, m_off), t1]
@@ -88,6 +104,7 @@ def test_contact_force_harmonics_of_a_known_piecewise_linear_force():
 
     def g(t):
         return np.interp(t, knots_t, knots_f) if t0 <= t <= t1 else 0.0
+
     for k in range(1, 13):
         w = 2 * np.pi * k * fe
         pts = list(knots_t)

@@ -15,7 +15,10 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from rigtools.sim.contact import (
-    contact_damping_ratio, hunt_crossley_damping, hunt_crossley_restitution, linear_restitution,
+    contact_damping_ratio,
+    hunt_crossley_damping,
+    hunt_crossley_restitution,
+    linear_restitution,
 )
 from rigtools.sim.params import ContactParams, DampingParams
 from rigtools.sim.reduction import ReducedSystem
@@ -24,15 +27,25 @@ from rigtools.sim.vibro_impact import VibroImpactStepper
 
 def ode_restitution(m, v0, force):
     """Mass m hitting the contact at v0 (g = 0 at t = 0); outgoing speed / v0 (DOP853)."""
+
     def rhs(t, y):
         return [y[1], -force(y[0], y[1]) / m]
 
-    def release(t, y):          # contact ends where the force reaches zero (g = 0 or damping)
+    def release(t, y):  # contact ends where the force reaches zero (g = 0 or damping)
         return force(y[0], y[1]) if y[0] > 0 else y[0]
+
     release.terminal, release.direction = True, -1
     t_c = 1.0
-    sol = solve_ivp(rhs, (1e-12 * t_c, 10.0), [v0 * 1e-12 * t_c, v0], method="DOP853",
-                    rtol=1e-12, atol=1e-16, events=release, max_step=1e-4)
+    sol = solve_ivp(
+        rhs,
+        (1e-12 * t_c, 10.0),
+        [v0 * 1e-12 * t_c, v0],
+        method="DOP853",
+        rtol=1e-12,
+        atol=1e-16,
+        events=release,
+        max_step=1e-4,
+    )
     assert sol.status == 1
     return -sol.y_events[0][0][1] / v0
 
@@ -40,15 +53,25 @@ def ode_restitution(m, v0, force):
 def kernel_restitution(m, v0, contact, steps_per_contact=400):
     """The same impact through VibroImpactStepper: one nearly free mode (1 Hz, undamped), the
     passive blade absent (rigid stop), the mass starting just short of the gap at -v0."""
-    sysm = ReducedSystem(omega=np.array([2 * np.pi * 1.0]), zeta=np.array([0.0]),
-                         shapes=np.array([[1 / math.sqrt(m)], [0.0], [1 / math.sqrt(m)]]),
-                         blade=np.array([0]), contact=contact, damping=DampingParams(ratio=0.01),
-                         source="test", pseudo=np.zeros(1, bool))
-    k_tan = contact.stiffness if contact.law == "linear" else contact.stiffness * 1e-3 ** (contact.hertz_exponent - 1)
+    sysm = ReducedSystem(
+        omega=np.array([2 * np.pi * 1.0]),
+        zeta=np.array([0.0]),
+        shapes=np.array([[1 / math.sqrt(m)], [0.0], [1 / math.sqrt(m)]]),
+        blade=np.array([0]),
+        contact=contact,
+        damping=DampingParams(ratio=0.01),
+        source="test",
+        pseudo=np.zeros(1, bool),
+    )
+    k_tan = (
+        contact.stiffness
+        if contact.law == "linear"
+        else contact.stiffness * 1e-3 ** (contact.hertz_exponent - 1)
+    )
     tc = 2 * math.pi * math.sqrt(m / k_tan)
     dt = tc / steps_per_contact
     st = VibroImpactStepper(sysm, dt, force_scale=1.0)
-    x0 = contact.gap - 0.37 * v0 * dt      # touch inside the first step
+    x0 = contact.gap - 0.37 * v0 * dt  # touch inside the first step
     st.state.q[0] = x0 * math.sqrt(m)
     st.state.v[0] = v0 * math.sqrt(m)
     out = st.step(np.zeros(int(20 * tc / dt)))
@@ -68,7 +91,9 @@ def test_linear_clipped_restitution_closed_form(zeta):
     e_ode = ode_restitution(M, V0, lambda g, v: max(k * g + c * v, 0.0))
     assert linear_restitution(zeta) == pytest.approx(e_ode, rel=1e-7)
     e_run = kernel_restitution(M, V0, ContactParams(gap=1e-4, stiffness=k, damping=c))
-    assert e_run == pytest.approx(linear_restitution(zeta), rel=1e-3)      # measured < 3e-5 (400 steps per contact)
+    assert e_run == pytest.approx(
+        linear_restitution(zeta), rel=1e-3
+    )  # measured < 3e-5 (400 steps per contact)
 
 
 def test_default_contact_restitution_is_0_36_not_0_25():

@@ -15,9 +15,14 @@ def system():
     return reduced_system(load_rig().to_params())
 
 
-@pytest.mark.parametrize("stiffness, damping, limited", [
-    (1e6, 200.0, "contact stiffness"), (1e8, 200.0, "contact stiffness"), (1e6, 1e4, "contact damping"),
-])
+@pytest.mark.parametrize(
+    "stiffness, damping, limited",
+    [
+        (1e6, 200.0, "contact stiffness"),
+        (1e8, 200.0, "contact stiffness"),
+        (1e6, 1e4, "contact damping"),
+    ],
+)
 def test_estimate_matches_the_run(system, stiffness, damping, limited):
     sy = system.with_contact(stiffness=stiffness, damping=damping, gap=0.9e-3)
     est = estimate_steps(sy, 60.0, 15.0)
@@ -44,7 +49,7 @@ def test_stiff_contact_is_flagged_before_running(system):
     assert est.total_steps > 5e7 and est.seconds > 10
     # it does not settle in 30 s (measured: nearly elastic contact, 4e-4 of critical): worst case
     assert est.worst_case_steps == (1800 + 20) * est.steps_per_period
-    assert est.worst_case_seconds > 200        # issue 8 measured 255 s
+    assert est.worst_case_seconds > 200  # issue 8 measured 255 s
     with pytest.raises(SimulationInputError, match="frequency"):
         estimate_steps(system, -1.0)
 
@@ -55,5 +60,5 @@ def test_reduction_estimate_grows_with_elements():
     p = load_rig().to_params()
     big = replace(p, active=replace(p.active, elements=2000), passive=replace(p.passive, elements=2000))
     assert estimate_reduction_seconds(p) == pytest.approx(1.4)
-    assert estimate_reduction_seconds(big) == pytest.approx(1.4 * 20**1.7)      # ~230 s
+    assert estimate_reduction_seconds(big) == pytest.approx(1.4 * 20**1.7)  # ~230 s
     assert np.isfinite(estimate_reduction_seconds(big))

@@ -29,8 +29,13 @@ def test_physical_and_modal_solvers_agree(model, alpha):
     force = 40 * np.sin(2 * np.pi * 60 * t)
     a = FullOrderIntegrator(m, dt, alpha, solver="modal").step(force)
     b = FullOrderIntegrator(m, dt, alpha, solver="physical").step(force)
-    assert b[:, OUT_COLUMNS.index("contact_force")].max() > 1.0    # impacts happened
-    for name in ("active_tip_displacement", "passive_tip_acceleration", "force_point_velocity", "contact_force"):
+    assert b[:, OUT_COLUMNS.index("contact_force")].max() > 1.0  # impacts happened
+    for name in (
+        "active_tip_displacement",
+        "passive_tip_acceleration",
+        "force_point_velocity",
+        "contact_force",
+    ):
         i = OUT_COLUMNS.index(name)
         assert np.max(np.abs(a[:, i] - b[:, i])) <= 1e-4 * np.max(np.abs(b[:, i]))
 

@@ -33,7 +33,9 @@ def test_static_limit_matches_cantilever_formulas(params, rig_eb):
     am = am_harmonic_response(params, f, 1.0)
     for res, tol in ((fem, 1e-6), (am, 1e-5)):
         for blade in ("active", "passive"):
-            assert res.displacement[f"{blade}_shroud"].real[0] == pytest.approx(a**2 * (3 * L - a) / (6 * ei), rel=tol)
+            assert res.displacement[f"{blade}_shroud"].real[0] == pytest.approx(
+                a**2 * (3 * L - a) / (6 * ei), rel=tol
+            )
             assert res.displacement[f"{blade}_force_point"].real[0] == pytest.approx(a**3 / (3 * ei), rel=tol)
 
 
@@ -52,14 +54,19 @@ def test_default_fem_peaks_match_am_peaks(params):
     f = np.linspace(300.0, 420.0, 4001)
     fem, am = harmonic_curves(rig, f, 15.0)
     for loc in ("active_shroud", "active_force_point"):
-        assert fem.acceleration_amplitude(loc).max() == pytest.approx(am.acceleration_amplitude(loc).max(), rel=1e-2)
+        assert fem.acceleration_amplitude(loc).max() == pytest.approx(
+            am.acceleration_amplitude(loc).max(), rel=1e-2
+        )
 
 
 def test_modal_superposition_equals_direct_solve(params):
     """Direct sparse solve of (K + i w C - w^2 M) x = F on the active blade, modal damping; 1e-6
     (the dense modal C makes the direct system ill-conditioned at the 1e-8 level)."""
-    small = dataclasses.replace(params, active=dataclasses.replace(params.active, elements=30),
-                                passive=dataclasses.replace(params.passive, elements=30))
+    small = dataclasses.replace(
+        params,
+        active=dataclasses.replace(params.active, elements=30),
+        passive=dataclasses.replace(params.passive, elements=30),
+    )
     rig = build_rig_model(small)
     f = np.array([40.0, 200.0, 361.0, 900.0])
     fem = fem_harmonic_response(rig, f, 15.0)

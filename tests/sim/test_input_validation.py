@@ -13,18 +13,33 @@ import pytest
 from rigtools.config import load_rig
 from rigtools.sim.modal import flexural_frequencies
 from rigtools.sim.params import (
-    BladeParams, ContactParams, DampingParams, LumpedMass, RootParams, SimulationInputError,
+    BladeParams,
+    ContactParams,
+    DampingParams,
+    LumpedMass,
+    RootParams,
+    SimulationInputError,
 )
 from rigtools.sim.reduction import reduced_system
 from rigtools.sim.rig_model import build_rig_model
 from rigtools.sim.vibro_impact import (
-    ShakerCoupling, SimulationDivergedError, VibroImpactStepper, contact_force_harmonics, run_harmonic,
+    ShakerCoupling,
+    SimulationDivergedError,
+    VibroImpactStepper,
+    contact_force_harmonics,
+    run_harmonic,
 )
 
 INF, NAN = math.inf, math.nan
 BLADE = dict(length=0.155, width=0.04, thickness=3.2e-3, youngs_modulus=200e9, density=7850.0)
-SHAKER = dict(armature_mass=0.1, suspension_stiffness=2e4, suspension_damping=5.0, force_factor=10.0,
-              coil_resistance=2.5, coil_inductance=5e-4)
+SHAKER = dict(
+    armature_mass=0.1,
+    suspension_stiffness=2e4,
+    suspension_damping=5.0,
+    force_factor=10.0,
+    coil_resistance=2.5,
+    coil_inductance=5e-4,
+)
 
 
 @pytest.fixture(scope="module")
@@ -37,36 +52,44 @@ def system(params):
     return reduced_system(params)
 
 
-@pytest.mark.parametrize("make, field", [
-    (lambda: BladeParams(**{**BLADE, "length": INF}), "blade.length"),
-    (lambda: BladeParams(**{**BLADE, "thickness": -1e-3}), "blade.thickness"),
-    (lambda: BladeParams(**{**BLADE, "youngs_modulus": NAN}), "blade.youngs_modulus"),
-    (lambda: BladeParams(**{**BLADE, "density": 0.0}), "blade.density"),
-    (lambda: BladeParams(**BLADE, poisson=0.5), "blade.poisson"),
-    (lambda: BladeParams(**BLADE, elements=0), "blade.elements"),
-    (lambda: BladeParams(**BLADE, elements=2.5), "blade.elements"),
-    (lambda: BladeParams(**BLADE, elements=10**6), "blade.elements"),
-    (lambda: BladeParams(**BLADE, theory="plate"), "blade.theory"),
-    (lambda: RootParams(kind="glued"), "root.kind"),
-    (lambda: RootParams(kind="springs", rotational_stiffness=1e4), "root.translational_stiffness"),
-    (lambda: RootParams(kind="springs", rotational_stiffness=INF, translational_stiffness=1e8),
-     "root.rotational_stiffness"),
-    (lambda: LumpedMass(mass=NAN, rotary_inertia=0.0, position=0.1), "mass.mass"),
-    (lambda: LumpedMass(mass=0.1, rotary_inertia=-1.0, position=0.1), "mass.rotary_inertia"),
-    (lambda: ContactParams(gap=INF, stiffness=1e6), "contact.gap"),
-    (lambda: ContactParams(gap=-1e-4, stiffness=1e6), "contact.gap"),
-    (lambda: ContactParams(gap=1e-4, stiffness=NAN), "contact.stiffness"),
-    (lambda: ContactParams(gap=1e-4, stiffness=1e6, damping=-1.0), "contact.damping"),
-    (lambda: ContactParams(gap=1e-4, stiffness=1e6, damping=INF), "contact.damping"),
-    (lambda: ContactParams(gap=1e-4, stiffness=1e6, law="coulomb"), "contact.law"),
-    (lambda: ContactParams(gap=1e-4, stiffness=1e6, law="hertz", hertz_exponent=5.0), "contact.hertz_exponent"),
-    (lambda: DampingParams(ratio=1.0), "damping.ratio"),
-    (lambda: DampingParams(ratio=None, alpha=INF), "damping.alpha"),
-    (lambda: DampingParams(ratio=None, beta=NAN), "damping.beta"),
-    (lambda: ShakerCoupling(**{**SHAKER, "coil_resistance": 0.0}), "shaker.coil_resistance"),
-    (lambda: ShakerCoupling(**{**SHAKER, "armature_mass": INF}), "shaker.armature_mass"),
-    (lambda: ShakerCoupling(**{**SHAKER, "force_factor": NAN}), "shaker.force_factor"),
-])
+@pytest.mark.parametrize(
+    "make, field",
+    [
+        (lambda: BladeParams(**{**BLADE, "length": INF}), "blade.length"),
+        (lambda: BladeParams(**{**BLADE, "thickness": -1e-3}), "blade.thickness"),
+        (lambda: BladeParams(**{**BLADE, "youngs_modulus": NAN}), "blade.youngs_modulus"),
+        (lambda: BladeParams(**{**BLADE, "density": 0.0}), "blade.density"),
+        (lambda: BladeParams(**BLADE, poisson=0.5), "blade.poisson"),
+        (lambda: BladeParams(**BLADE, elements=0), "blade.elements"),
+        (lambda: BladeParams(**BLADE, elements=2.5), "blade.elements"),
+        (lambda: BladeParams(**BLADE, elements=10**6), "blade.elements"),
+        (lambda: BladeParams(**BLADE, theory="plate"), "blade.theory"),
+        (lambda: RootParams(kind="glued"), "root.kind"),
+        (lambda: RootParams(kind="springs", rotational_stiffness=1e4), "root.translational_stiffness"),
+        (
+            lambda: RootParams(kind="springs", rotational_stiffness=INF, translational_stiffness=1e8),
+            "root.rotational_stiffness",
+        ),
+        (lambda: LumpedMass(mass=NAN, rotary_inertia=0.0, position=0.1), "mass.mass"),
+        (lambda: LumpedMass(mass=0.1, rotary_inertia=-1.0, position=0.1), "mass.rotary_inertia"),
+        (lambda: ContactParams(gap=INF, stiffness=1e6), "contact.gap"),
+        (lambda: ContactParams(gap=-1e-4, stiffness=1e6), "contact.gap"),
+        (lambda: ContactParams(gap=1e-4, stiffness=NAN), "contact.stiffness"),
+        (lambda: ContactParams(gap=1e-4, stiffness=1e6, damping=-1.0), "contact.damping"),
+        (lambda: ContactParams(gap=1e-4, stiffness=1e6, damping=INF), "contact.damping"),
+        (lambda: ContactParams(gap=1e-4, stiffness=1e6, law="coulomb"), "contact.law"),
+        (
+            lambda: ContactParams(gap=1e-4, stiffness=1e6, law="hertz", hertz_exponent=5.0),
+            "contact.hertz_exponent",
+        ),
+        (lambda: DampingParams(ratio=1.0), "damping.ratio"),
+        (lambda: DampingParams(ratio=None, alpha=INF), "damping.alpha"),
+        (lambda: DampingParams(ratio=None, beta=NAN), "damping.beta"),
+        (lambda: ShakerCoupling(**{**SHAKER, "coil_resistance": 0.0}), "shaker.coil_resistance"),
+        (lambda: ShakerCoupling(**{**SHAKER, "armature_mass": INF}), "shaker.armature_mass"),
+        (lambda: ShakerCoupling(**{**SHAKER, "force_factor": NAN}), "shaker.force_factor"),
+    ],
+)
 def test_parameter_objects_refuse_bad_values_with_one_line(make, field):
     with pytest.raises(SimulationInputError) as err:
         make()

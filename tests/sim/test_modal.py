@@ -28,7 +28,13 @@ def _tip_mass_lambdas(mu, j, n):
 
     def f(l):
         c, s, ch, sh = np.cos(l), np.sin(l), np.cosh(l), np.sinh(l)
-        return (1 + c * ch + mu * l * (c * sh - s * ch) - j * l**3 * (ch * s + sh * c) + mu * j * l**4 * (1 - c * ch)) / ch
+        return (
+            1
+            + c * ch
+            + mu * l * (c * sh - s * ch)
+            - j * l**3 * (ch * s + sh * c)
+            + mu * j * l**4 * (1 - c * ch)
+        ) / ch
 
     grid = np.arange(1e-3, 40.0, 1e-3)
     vals = f(grid)
@@ -58,7 +64,9 @@ def test_mesh_convergence_is_fourth_order():
     exact = _tip_mass_lambdas(mu, j, 3) ** 2 * _scale(BLADE)
     errors = []
     for n in (4, 8, 16):
-        b = build_blade("t", BladeParams(**{**BLADE.__dict__, "elements": n}), [tip], RootParams(), rotary_inertia=False)
+        b = build_blade(
+            "t", BladeParams(**{**BLADE.__dict__, "elements": n}), [tip], RootParams(), rotary_inertia=False
+        )
         errors.append(abs(flexural_frequencies(b, 3)[2] / exact[2] - 1))
     assert errors[0] > errors[1] > errors[2]
     assert errors[0] / errors[1] > 10 and errors[1] / errors[2] > 10
@@ -75,7 +83,12 @@ def _timoshenko_exact(b: BladeParams, n: int) -> np.ndarray:
         w2 = (2 * np.pi * f) ** 2
         # y = [w, psi, w', psi']
         a = np.array(
-            [[0, 0, 1, 0], [0, 0, 0, 1], [-rho * A * w2 / kga, 0, 0, 1], [0, kga / ei - rho * I * w2 / ei, -kga / ei, 0]]
+            [
+                [0, 0, 1, 0],
+                [0, 0, 0, 1],
+                [-rho * A * w2 / kga, 0, 0, 1],
+                [0, kga / ei - rho * I * w2 / ei, -kga / ei, 0],
+            ]
         )
         t = scipy.linalg.expm(a * b.length)
         # w(0) = psi(0) = 0; at L: psi'(L) = 0 and w'(L) - psi(L) = 0
@@ -90,8 +103,15 @@ def _timoshenko_exact(b: BladeParams, n: int) -> np.ndarray:
 def test_timoshenko_deep_cantilever_against_exact_theory():
     """Deep beam L/h = 5: shear and rotary inertia lower mode 3 by ~30 % vs Euler-Bernoulli;
     FE (100 elements, Timoshenko, rotary inertia) within 0.05 % of the exact Timoshenko values."""
-    deep = BladeParams(length=0.1, width=0.06, thickness=0.02, youngs_modulus=2e11, density=7850.0,
-                       poisson=0.3, theory="timoshenko")
+    deep = BladeParams(
+        length=0.1,
+        width=0.06,
+        thickness=0.02,
+        youngs_modulus=2e11,
+        density=7850.0,
+        poisson=0.3,
+        theory="timoshenko",
+    )
     exact = _timoshenko_exact(deep, 3)
     fe = flexural_frequencies(build_blade("t", deep, [], RootParams(), rotary_inertia=True), 3)
     assert np.abs(fe / exact - 1).max() < 5e-4
@@ -121,11 +141,16 @@ def test_mode_kinds_and_torsion_axial_edgewise_closed_forms():
     ip = BLADE.i_flexural + BLADE.i_edgewise
     from rigtools.sim.beam_element import rectangle_torsion_constant
 
-    c_t = np.sqrt(BLADE.shear_modulus * rectangle_torsion_constant(BLADE.width, BLADE.thickness) / (BLADE.density * ip))
+    c_t = np.sqrt(
+        BLADE.shear_modulus * rectangle_torsion_constant(BLADE.width, BLADE.thickness) / (BLADE.density * ip)
+    )
     assert tor == pytest.approx(np.array([1, 3]) * c_t / (4 * L), rel=2e-3)  # linear elements: O(h^2)
     assert ax == pytest.approx(np.sqrt(BLADE.youngs_modulus / BLADE.density) / (4 * L), rel=1e-4)
-    edge_exact = np.array([1.8751040687, 4.6940911330]) ** 2 * np.sqrt(
-        BLADE.youngs_modulus * BLADE.i_edgewise / (BLADE.density * BLADE.area * L**4)) / (2 * np.pi)
+    edge_exact = (
+        np.array([1.8751040687, 4.6940911330]) ** 2
+        * np.sqrt(BLADE.youngs_modulus * BLADE.i_edgewise / (BLADE.density * BLADE.area * L**4))
+        / (2 * np.pi)
+    )
     assert edge == pytest.approx(edge_exact, rel=1e-4)
     assert modes.kinds[0] == "flexural" and len(modes.kinds) == b.n_dofs
     # mass-normalised shapes

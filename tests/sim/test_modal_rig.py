@@ -9,7 +9,9 @@ from rigtools.sim.modal import blade_modes
 from rigtools.sim.params import DampingParams, LumpedMass, RigParams, RootParams, BladeParams, ContactParams
 from rigtools.sim.rig_model import build_rig_model
 
-BLADE = BladeParams(length=0.155, width=0.04, thickness=0.0032, youngs_modulus=2e11, density=7850.0, elements=20)
+BLADE = BladeParams(
+    length=0.155, width=0.04, thickness=0.0032, youngs_modulus=2e11, density=7850.0, elements=20
+)
 
 
 def _params(**kw):
@@ -56,8 +58,9 @@ def test_modal_damping_gives_each_mode_its_ratio():
 
 
 def test_rayleigh_damping_and_spring_root():
-    rig = build_rig_model(_params(damping=DampingParams(ratio=None, alpha=3.0, beta=1e-6),
-                                  root=RootParams("springs", 2e3, 1e8)))
+    rig = build_rig_model(
+        _params(damping=DampingParams(ratio=None, alpha=3.0, beta=1e-6), root=RootParams("springs", 2e3, 1e8))
+    )
     ref = 3.0 * rig.mass + 1e-6 * rig.stiffness
     assert abs(rig.damping - ref).max() < 1e-12 * abs(ref).max()
     assert rig.active.n_dofs == 6 * 21  # spring root keeps the root node

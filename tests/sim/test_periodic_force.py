@@ -26,7 +26,7 @@ TWO = [(1, 10.0, 0.3), (5, 2.0, -1.1)]
 
 @pytest.fixture(scope="module")
 def open_system():
-    return reduced_system(load_rig().to_params()).with_contact(gap=1.0)   # 1 m: never closes
+    return reduced_system(load_rig().to_params()).with_contact(gap=1.0)  # 1 m: never closes
 
 
 def _run(system, harmonics, **kw):
@@ -55,12 +55,13 @@ def test_complex_coefficients_equal_tuples(open_system):
     c = np.zeros(5, complex)
     c[0], c[4] = 10.0 * np.exp(0.3j), 2.0 * np.exp(-1.1j)
     a, b = _run(open_system, c), _run(open_system, TWO)
-    assert np.max(np.abs(a.outputs["active_tip_displacement"] - b.outputs["active_tip_displacement"])) \
-        <= 1e-12 * np.max(np.abs(b.outputs["active_tip_displacement"]))
+    assert np.max(
+        np.abs(a.outputs["active_tip_displacement"] - b.outputs["active_tip_displacement"])
+    ) <= 1e-12 * np.max(np.abs(b.outputs["active_tip_displacement"]))
 
 
 def test_sine_as_harmonic_equals_default_path():
-    system = reduced_system(load_rig().to_params()).with_contact(gap=0.6e-3)   # impacting
+    system = reduced_system(load_rig().to_params()).with_contact(gap=0.6e-3)  # impacting
     ref = run_harmonic(system, FE, 15.0, record_periods=2)
     alt = run_harmonic(system, FE, 15.0, record_periods=2, force_harmonics=[(1, 15.0, -math.pi / 2)])
     assert alt.steps_per_period == ref.steps_per_period
@@ -79,7 +80,9 @@ def test_linear_response_matches_modal_receptance(open_system):
     phiA, phiP, phiF = open_system.shapes
     for k, a, p in TWO:
         W = 2 * np.pi * FE * k
-        H = np.sum(phiA * phiF / (open_system.omega**2 - W**2 + 2j * open_system.zeta * open_system.omega * W))
+        H = np.sum(
+            phiA * phiF / (open_system.omega**2 - W**2 + 2j * open_system.zeta * open_system.omega * W)
+        )
         want = abs(H) * a
         got = fit.at(k)
         print(f"k={k}: |X| model {got:.6e} m, receptance {want:.6e} m, diff {100 * (got / want - 1):+.3f} %")

@@ -67,7 +67,7 @@ def test_attached_mass_and_spring_match_the_fe_blade_with_them(model, reduced):
     f_red = f_red[f_red < 2500.0]
     assert f_red.size >= 3
     f_bare = np.sort(reduced.frequencies_hz[reduced.blade == 0])[0]
-    assert abs(f_red[0] / f_bare - 1) > 1e-3       # the attachment does move the modes
+    assert abs(f_red[0] / f_bare - 1) > 1e-3  # the attachment does move the modes
     for f in f_red:
         assert f == pytest.approx(f_full[np.argmin(np.abs(f_full - f))], rel=1e-5)
 
@@ -77,8 +77,13 @@ def test_apparent_shroud_masses_of_point_masses_in_series():
     are ``m`` and the contact sees ``m1 m2 / (m1 + m2)`` (closed form, round-off)."""
     m1, m2 = 0.15, 0.12
     shapes = np.array([[1 / math.sqrt(m1), 0.0], [0.0, 1 / math.sqrt(m2)], [1 / math.sqrt(m1), 0.0]])
-    system = ReducedSystem(omega=np.array([300.0, 400.0]), zeta=np.full(2, 0.01), shapes=shapes,
-                           blade=np.array([0, 1]), contact=ContactParams(gap=1e-4, stiffness=1e6),
-                           damping=DampingParams(ratio=0.01))
+    system = ReducedSystem(
+        omega=np.array([300.0, 400.0]),
+        zeta=np.full(2, 0.01),
+        shapes=shapes,
+        blade=np.array([0, 1]),
+        contact=ContactParams(gap=1e-4, stiffness=1e6),
+        damping=DampingParams(ratio=0.01),
+    )
     assert system.tip_masses() == pytest.approx((m1, m2), rel=1e-12)
     assert system.contact_effective_mass() == pytest.approx(m1 * m2 / (m1 + m2), rel=1e-12)

@@ -74,8 +74,11 @@ def test_peak_contact_force_grows_with_force_amplitude(system):
     assert peaks[-1] > 50.0
 
 
-@pytest.mark.xfail(strict=True, reason="default rig: fe = 1.13 f1, the impact velocity of the 1-impact orbit grows "
-                   "with the gap (42 -> 67 N over 0.3 -> 0.9 mm); see docs/calibration.md")
+@pytest.mark.xfail(
+    strict=True,
+    reason="default rig: fe = 1.13 f1, the impact velocity of the 1-impact orbit grows "
+    "with the gap (42 -> 67 N over 0.3 -> 0.9 mm); see docs/calibration.md",
+)
 def test_peak_contact_force_falls_as_the_gap_grows(gap_study):
     peaks = gap_study.peak_contact_force()
     assert np.all(np.diff(peaks) < 0), peaks
@@ -100,7 +103,7 @@ def test_frequency_trend_falls_where_the_impact_oscillator_theory_puts_it(system
     peaks = run_study(system, "frequency", freqs, gap=0.7e-3, force=90.0).peak_contact_force()
     impacting = peaks[peaks > 0]
     assert peaks[0] > 0 and peaks[-1] == 0, peaks
-    assert np.all(np.diff(impacting) < 0) and np.all(peaks[impacting.size:] == 0), peaks
+    assert np.all(np.diff(impacting) < 0) and np.all(peaks[impacting.size :] == 0), peaks
 
 
 def test_impacts_stop_inside_the_frequency_range(freq_study):
@@ -111,8 +114,11 @@ def test_impacts_stop_inside_the_frequency_range(freq_study):
     assert np.all(up[stop:] == 0)
 
 
-@pytest.mark.xfail(strict=True, reason="default rig: fe = 1.13 f1, peak force rises 59 -> 101 N from 60 to 70 Hz "
-                   "until the orbit folds (jump down at 72 Hz); see docs/calibration.md")
+@pytest.mark.xfail(
+    strict=True,
+    reason="default rig: fe = 1.13 f1, peak force rises 59 -> 101 N from 60 to 70 Hz "
+    "until the orbit folds (jump down at 72 Hz); see docs/calibration.md",
+)
 def test_peak_contact_force_falls_as_fe_rises(freq_study):
     up = freq_study.peak_contact_force("up")
     impacting = up[up > 0]
@@ -145,11 +151,14 @@ def test_largest_passive_harmonic_4_to_9_is_nearest_its_second_flexural(model, g
         assert 4 + int(np.argmax(h[3:9])) == int(round(f2 / p.run.fe)) == 8
 
 
-@pytest.mark.xfail(strict=True, reason="default rig: the passive spectrum decays smoothly over 18-26 fe; mode 3 "
-                   "(1321.6 Hz) carries 0.5 % of the shroud's flexibility, no peak at 22 fe; see docs/calibration.md")
+@pytest.mark.xfail(
+    strict=True,
+    reason="default rig: the passive spectrum decays smoothly over 18-26 fe; mode 3 "
+    "(1321.6 Hz) carries 0.5 % of the shroud's flexibility, no peak at 22 fe; see docs/calibration.md",
+)
 def test_largest_passive_harmonic_near_its_third_flexural(model, gap_study):
     f3 = flexural_frequencies(model.passive, 3)[2]
     for p in gap_study.points:
         k3 = int(round(f3 / p.run.fe))
         h = _accel(p.run, "passive_tip")
-        assert k3 - 4 + int(np.argmax(h[k3 - 5:k3 + 4])) == k3
+        assert k3 - 4 + int(np.argmax(h[k3 - 5 : k3 + 4])) == k3

@@ -34,7 +34,7 @@ K_TR = "root.translational_stiffness"
 def rig():
     cfg = load_rig(None)
     nominal = cfg.to_params()
-    article_spec = cfg.test_article.to_params()      # rigtools.drivers.simulated.TestArticle
+    article_spec = cfg.test_article.to_params()  # rigtools.drivers.simulated.TestArticle
     return nominal, article_spec, article_spec.apply(nominal)
 
 
@@ -48,8 +48,12 @@ def test_fast_flexural_solver_matches_modal(rig):
     _, _, article = rig
     model = build_rig_model(article)
     pred = predict(article, [ModeTarget("active", 4, 1.0), ModeTarget("passive", 4, 1.0)])
-    np.testing.assert_allclose(pred.frequencies_hz["active"], flexural_frequencies(model.active, 4), rtol=1e-7)
-    np.testing.assert_allclose(pred.frequencies_hz["passive"], flexural_frequencies(model.passive, 4), rtol=1e-7)
+    np.testing.assert_allclose(
+        pred.frequencies_hz["active"], flexural_frequencies(model.active, 4), rtol=1e-7
+    )
+    np.testing.assert_allclose(
+        pred.frequencies_hz["passive"], flexural_frequencies(model.passive, 4), rtol=1e-7
+    )
 
 
 def test_frf_matches_harmonic_response(rig):
@@ -58,8 +62,10 @@ def test_frf_matches_harmonic_response(rig):
     f = np.array([20.0, 52.0, 200.0, 355.0, 900.0, 1250.0, 3000.0])
     ref = fem_harmonic_response(build_rig_model(article), f, 1.0)
     w2 = (2 * np.pi * f) ** 2
-    targets = [FrfTarget(f, np.ones(f.size), "active_shroud", "accelerance"),
-               FrfTarget(f, np.ones(f.size), "active_force_point", "receptance")]
+    targets = [
+        FrfTarget(f, np.ones(f.size), "active_shroud", "accelerance"),
+        FrfTarget(f, np.ones(f.size), "active_force_point", "receptance"),
+    ]
     pred = predict(article, targets)
     np.testing.assert_allclose(pred.frf[0], -w2 * ref.displacement["active_shroud"], rtol=1e-6)
     np.testing.assert_allclose(pred.frf[1], ref.displacement["active_force_point"], rtol=1e-6)
@@ -72,10 +78,10 @@ def test_fit_recovers_root_stiffness_and_damping(rig, targets):
     names = [K_ROT, "shroud.mass", "force_sensor.mass", "damping.ratio"]
     res = update_model(nominal, targets, names)
     assert res.success
-    assert res.fitted[K_ROT] == pytest.approx(spec.root_rotational_stiffness, rel=0.10)   # 1.2e4
-    assert res.fitted["damping.ratio"] == pytest.approx(spec.damping_ratio, rel=0.10)     # 0.012
-    assert res.max_frequency_error_before > 0.013          # nominal: 1.4-2.3 % high
-    assert res.max_frequency_error_after < 0.003           # goal: within 0.3 %
+    assert res.fitted[K_ROT] == pytest.approx(spec.root_rotational_stiffness, rel=0.10)  # 1.2e4
+    assert res.fitted["damping.ratio"] == pytest.approx(spec.damping_ratio, rel=0.10)  # 0.012
+    assert res.max_frequency_error_before > 0.013  # nominal: 1.4-2.3 % high
+    assert res.max_frequency_error_after < 0.003  # goal: within 0.3 %
     assert len(res.modes) == 6 and {m.target.blade for m in res.modes} == {"active", "passive"}
     # the masses come out near their +1 % / -1 % deviations
     assert res.fitted["shroud.mass"] == pytest.approx(nominal.shroud.mass * 1.01, rel=0.01)
@@ -89,7 +95,8 @@ def test_fit_recovers_root_stiffness_and_damping(rig, targets):
     assert keys["root.kind"] == "springs"
     assert keys["root.rotational_stiffness"] == pytest.approx(res.fitted[K_ROT])
     assert keys["shroud.rotary_inertia"] / keys["shroud.mass"] == pytest.approx(
-        nominal.shroud.rotary_inertia / nominal.shroud.mass)
+        nominal.shroud.rotary_inertia / nominal.shroud.mass
+    )
     text = res.report()
     assert K_ROT in text and "active f1" in text and "Jacobian rank 4 of 4" in text
 
@@ -117,8 +124,9 @@ def test_first_modes_alone_cannot_separate_shroud_mass_and_root_stiffness(rig, t
     first = [t for t in targets if t.order == 1]
     res = update_model(nominal, first, [K_ROT, "shroud.mass"])
     assert res.identifiability.correlation[0, 1] > 0.95
-    assert any(line.startswith(f"{K_ROT} <-> shroud.mass: correlation")
-               for line in res.identifiability.unresolved), res.identifiability.unresolved
+    assert any(
+        line.startswith(f"{K_ROT} <-> shroud.mass: correlation") for line in res.identifiability.unresolved
+    ), res.identifiability.unresolved
     assert "cannot separate" in res.report()
     # and Young's modulus against the root stiffness from two modes per blade
     two = [t for t in targets if t.order <= 2]
@@ -144,8 +152,10 @@ def test_rayleigh_coefficients_from_target_ratios(rig):
     res = update_model(article, targets, ["damping.alpha", "damping.beta"])
     assert res.fitted["damping.alpha"] == pytest.approx(3.0, rel=1e-3)
     assert res.fitted["damping.beta"] == pytest.approx(4e-6, rel=1e-3)
-    assert rig_file_values(res.params, ["damping.alpha"]) == {"damping.alpha": pytest.approx(3.0, rel=1e-3),
-                                                              "damping.beta": pytest.approx(4e-6, rel=1e-3)}
+    assert rig_file_values(res.params, ["damping.alpha"]) == {
+        "damping.alpha": pytest.approx(3.0, rel=1e-3),
+        "damping.beta": pytest.approx(4e-6, rel=1e-3),
+    }
 
 
 def test_root_stiffness_and_damping_from_frf(rig):
@@ -153,7 +163,10 @@ def test_root_stiffness_and_damping_from_frf(rig):
     active modes): root stiffness and damping ratio recovered from a wrong start."""
     _, spec, article = rig
     f = np.concatenate([np.linspace(49, 55, 13), np.linspace(345, 365, 11)])
-    h = -(2 * np.pi * f) ** 2 * fem_harmonic_response(build_rig_model(article), f, 1.0).displacement["active_shroud"]
+    h = (
+        -((2 * np.pi * f) ** 2)
+        * fem_harmonic_response(build_rig_model(article), f, 1.0).displacement["active_shroud"]
+    )
     start = replace(article, damping=DampingParams(ratio=0.008))
     res = update_model(start, [FrfTarget(f, h)], [K_ROT, "damping.ratio"], start={K_ROT: 2e4})
     assert res.fitted[K_ROT] == pytest.approx(spec.root_rotational_stiffness, rel=1e-3)
@@ -174,8 +187,16 @@ def test_bad_input():
         ModeTarget("left", 1, 53.0)
     with pytest.raises(ValueError, match="location"):
         FrfTarget([50.0], [1.0 + 0j], location="passive_tip")
-    assert set(PARAMETERS) >= {K_ROT, K_TR, "damping.ratio", "damping.alpha", "damping.beta",
-                               "shroud.mass", "force_sensor.mass", "blade.youngs_modulus"}
+    assert set(PARAMETERS) >= {
+        K_ROT,
+        K_TR,
+        "damping.ratio",
+        "damping.alpha",
+        "damping.beta",
+        "shroud.mass",
+        "force_sensor.mass",
+        "blade.youngs_modulus",
+    }
 
 
 # ------------------------------------------------------------------ contact from impacts
@@ -203,8 +224,11 @@ def test_contact_fit_recovers_known_contact(rig):
     assert res.steady and res.rms_log_error_after < 0.002 < res.cost_before
     lo, hi = res.identifiability.confidence["contact.stiffness"]
     assert lo < 1e6 < hi
-    assert res.rig_file_values() == {"contact.law": "linear", "contact.stiffness": res.fitted["contact.stiffness"],
-                                     "contact.damping": res.fitted["contact.damping"]}
+    assert res.rig_file_values() == {
+        "contact.law": "linear",
+        "contact.stiffness": res.fitted["contact.stiffness"],
+        "contact.damping": res.fitted["contact.damping"],
+    }
     assert "contact fit (linear law)" in res.report()
 
 
@@ -232,7 +256,7 @@ def test_pair_modes_skips_missing_and_spurious_peaks(rig, targets):
     assert [t.frequency_hz for t in pairing.targets] == [found[0], found[2]]
     assert pairing.targets[0].damping_ratio == 0.012 and pairing.targets[1].damping_ratio is None
     assert pairing.unpaired == [800.0]
-    assert pairing.model_hz[0] == pytest.approx(53.21, abs=0.01)     # nominal active f1
+    assert pairing.model_hz[0] == pytest.approx(53.21, abs=0.01)  # nominal active f1
 
 
 def test_frf_test_on_the_simulated_rig_end_to_end(rig):
@@ -251,15 +275,27 @@ def test_frf_test_on_the_simulated_rig_end_to_end(rig):
     nominal, spec, _ = rig
     cfg = load_rig(None)
     wide = replace(nominal, contact=replace(nominal.contact, gap=0.05))
-    device = SimulatedRig(wide, cfg.shaker.to_params(), spec, seed=1, abort_ramp_time=cfg.safety.abort_ramp_time)
+    device = SimulatedRig(
+        wide, cfg.shaker.to_params(), spec, seed=1, abort_ramp_time=cfg.safety.abort_ramp_time
+    )
     fs = device.configure(cfg.daq.input_specs(), cfg.daq.output_spec(), 25600.0)
     period = 2.0
-    drive = RandomDrive(fs, 0.5, (10.0, 2000.0), max_drive=cfg.safety.max_drive, ramp_time=0.002,
-                        burst_period=period, burst_fraction=0.4, seed=2)
+    drive = RandomDrive(
+        fs,
+        0.5,
+        (10.0, 2000.0),
+        max_drive=cfg.safety.max_drive,
+        ramp_time=0.002,
+        burst_period=period,
+        burst_fraction=0.4,
+        seed=2,
+    )
     sink = BlockCollector()
     acquire(device, drive, 8 * period, sink=sink)
     n = int(8 * period * fs)
-    est = estimate_frf(sink.data[0, :n], sink.data[1, :n], fs, nperseg=int(period * fs), noverlap=0, window="boxcar")
+    est = estimate_frf(
+        sink.data[0, :n], sink.data[1, :n], fs, nperseg=int(period * fs), noverlap=0, window="boxcar"
+    )
     modes = identify_modes(est.frequency_hz, est.h1, kind="accelerance", f_min=10, f_max=1800, n_modes=3)
     pairing = pair_modes(nominal, "active", [m.frequency_hz for m in modes], [m.damping_ratio for m in modes])
     assert [t.order for t in pairing.targets] == [1, 2, 3] and not pairing.unpaired
@@ -274,8 +310,12 @@ def test_frf_test_on_the_simulated_rig_end_to_end(rig):
         near |= np.abs(est.frequency_hz / m.frequency_hz - 1) < 0.03
     sel = near & (est.coherence > 0.99)
     frf = FrfTarget(est.frequency_hz[sel], est.h1[sel], "active_shroud", "accelerance", sigma=0.05)
-    res = update_model(nominal, [*pairing.targets, frf], [K_ROT, "shroud.mass", "force_sensor.mass", "damping.ratio"])
-    assert any(line.startswith(f"{K_ROT} <-> shroud.mass: correlation") for line in res.identifiability.unresolved)
+    res = update_model(
+        nominal, [*pairing.targets, frf], [K_ROT, "shroud.mass", "force_sensor.mass", "damping.ratio"]
+    )
+    assert any(
+        line.startswith(f"{K_ROT} <-> shroud.mass: correlation") for line in res.identifiability.unresolved
+    )
 
 
 def test_clamped_root_becomes_springs_rigid_where_not_fitted(rig):
@@ -287,7 +327,11 @@ def test_clamped_root_becomes_springs_rigid_where_not_fitted(rig):
     clamped = predict(nominal, [ModeTarget("active", 3, 1.0)]).frequencies_hz["active"]
     stiff = PARAMETERS[K_ROT].set(nominal, RIGID_ROTATIONAL)
     assert stiff.root.kind == "springs" and stiff.root.translational_stiffness == RIGID_TRANSLATIONAL
-    np.testing.assert_allclose(predict(stiff, [ModeTarget("active", 3, 1.0)]).frequencies_hz["active"],
-                               clamped, rtol=1e-6)
+    np.testing.assert_allclose(
+        predict(stiff, [ModeTarget("active", 3, 1.0)]).frequencies_hz["active"], clamped, rtol=1e-6
+    )
     assert rig_file_values(PARAMETERS[K_ROT].set(nominal, 1.2e4), [K_ROT]) == {
-        "root.kind": "springs", "root.rotational_stiffness": 1.2e4, "root.translational_stiffness": RIGID_TRANSLATIONAL}
+        "root.kind": "springs",
+        "root.rotational_stiffness": 1.2e4,
+        "root.translational_stiffness": RIGID_TRANSLATIONAL,
+    }

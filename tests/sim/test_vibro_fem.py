@@ -22,8 +22,12 @@ TIPS = ("active_tip", "passive_tip")
 
 
 def accel_harmonics(outputs, sample_rate, fe=FE, k_max=30):
-    return {tip: derivative_harmonics(harmonic_amplitudes(outputs[f"{tip}_velocity"], sample_rate, fe, k_max)).amplitude
-            for tip in TIPS}
+    return {
+        tip: derivative_harmonics(
+            harmonic_amplitudes(outputs[f"{tip}_velocity"], sample_rate, fe, k_max)
+        ).amplitude
+        for tip in TIPS
+    }
 
 
 @pytest.fixture(scope="module")
@@ -75,7 +79,7 @@ def test_agrees_with_full_order_reference_within_one_percent(model, fem_run):
 def test_energy_balance_over_a_steady_period(fem_run):
     """Input work F v at the force point = modal damping + contact damping (1 %)."""
     e = fem_run.energy_balance()
-    assert e["contact_damping"] > 0.1 * e["input"]        # the impacts do dissipate
+    assert e["contact_damping"] > 0.1 * e["input"]  # the impacts do dissipate
     assert abs(e["imbalance"]) < 1e-2
 
 
@@ -90,15 +94,21 @@ def test_fem_and_am_vibro_impact_agree(model, fem_run):
     assert am.peak_contact_force == pytest.approx(fem_run.peak_contact_force, rel=5e-2)
 
 
-@pytest.mark.parametrize("kwargs, match", [
-    ({"fe": -60.0}, "frequency"), ({"force_amplitude": -1.0}, "force"),
-    ({"gap": -1e-4}, "gap"), ({"steps_per_period": 40}, "too coarse"), ({"record_periods": 0}, "period"),
-])
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        ({"fe": -60.0}, "frequency"),
+        ({"force_amplitude": -1.0}, "force"),
+        ({"gap": -1e-4}, "gap"),
+        ({"steps_per_period": 40}, "too coarse"),
+        ({"record_periods": 0}, "period"),
+    ],
+)
 def test_invalid_physical_input_is_refused_with_one_line(model, kwargs, match):
     system = reduced_system(model.params, rig_model=model)
     args = {"fe": FE, "force_amplitude": F0, **kwargs}
     with pytest.raises(SimulationInputError, match=match) as err:
-        if "gap" in kwargs:         # refused by ContactParams itself
+        if "gap" in kwargs:  # refused by ContactParams itself
             system = system.with_contact(gap=args.pop("gap"))
         run_harmonic(system, args.pop("fe"), args.pop("force_amplitude"), **args)
     assert "\n" not in str(err.value)

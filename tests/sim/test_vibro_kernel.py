@@ -18,8 +18,14 @@ from scipy.optimize import brentq
 from rigtools.sim.params import ContactParams, DampingParams
 from rigtools.sim.reduction import ReducedSystem
 from rigtools.sim.vibro_impact import (
-    OUT_COLUMNS, ShakerCoupling, SimulationInputError, VibroImpactRun, VibroImpactStepper, _props,
-    foh_propagators, run_harmonic,
+    OUT_COLUMNS,
+    ShakerCoupling,
+    SimulationInputError,
+    VibroImpactRun,
+    VibroImpactStepper,
+    _props,
+    foh_propagators,
+    run_harmonic,
 )
 
 
@@ -27,12 +33,25 @@ def _system(masses_freqs_zetas, contact, passive=()):
     """Point masses on springs: active oscillators share the tip and force point."""
     om, ze, rows, blade = [], [], [], []
     for m, f, z in masses_freqs_zetas:
-        om.append(2 * np.pi * f); ze.append(z); rows.append((1 / math.sqrt(m), 0.0, 1 / math.sqrt(m))); blade.append(0)
+        om.append(2 * np.pi * f)
+        ze.append(z)
+        rows.append((1 / math.sqrt(m), 0.0, 1 / math.sqrt(m)))
+        blade.append(0)
     for m, f, z in passive:
-        om.append(2 * np.pi * f); ze.append(z); rows.append((0.0, 1 / math.sqrt(m), 0.0)); blade.append(1)
-    return ReducedSystem(omega=np.array(om), zeta=np.array(ze), shapes=np.array(rows).T.copy(),
-                         blade=np.array(blade), contact=contact, damping=DampingParams(ratio=0.01),
-                         source="test", pseudo=np.zeros(len(om), bool))
+        om.append(2 * np.pi * f)
+        ze.append(z)
+        rows.append((0.0, 1 / math.sqrt(m), 0.0))
+        blade.append(1)
+    return ReducedSystem(
+        omega=np.array(om),
+        zeta=np.array(ze),
+        shapes=np.array(rows).T.copy(),
+        blade=np.array(blade),
+        contact=contact,
+        damping=DampingParams(ratio=0.01),
+        source="test",
+        pseudo=np.zeros(len(om), bool),
+    )
 
 
 @pytest.mark.parametrize("zeta", [0.0, 0.01, 0.7, 1.0, 3.0])
@@ -45,7 +64,9 @@ def test_compiled_propagators_match_matrix_exponential(zeta):
         E, G0, G1 = foh_propagators(om, ze, tau)
         P = np.empty((8, 2))
         _props(om, ze, tau, P)
-        ref = np.vstack([E[:, 0, 0], E[:, 0, 1], E[:, 1, 0], E[:, 1, 1], G0[:, 0], G0[:, 1], G1[:, 0], G1[:, 1]])
+        ref = np.vstack(
+            [E[:, 0, 0], E[:, 0, 1], E[:, 1, 0], E[:, 1, 1], G0[:, 0], G0[:, 1], G1[:, 0], G1[:, 1]]
+        )
         scale = np.abs(ref).max(axis=0)
         np.testing.assert_allclose(P / scale, ref / scale, atol=1e-9)
 
@@ -60,7 +81,9 @@ def test_compiled_propagators_keep_their_precision_on_short_steps(zeta):
         E, G0, G1 = foh_propagators(om, ze, tau)
         P = np.empty((8, om.size))
         _props(om, ze, tau, P)
-        ref = np.vstack([E[:, 0, 0], E[:, 0, 1], E[:, 1, 0], E[:, 1, 1], G0[:, 0], G0[:, 1], G1[:, 0], G1[:, 1]])
+        ref = np.vstack(
+            [E[:, 0, 0], E[:, 0, 1], E[:, 1, 0], E[:, 1, 1], G0[:, 0], G0[:, 1], G1[:, 0], G1[:, 1]]
+        )
         np.testing.assert_allclose(P, ref, rtol=1e-9, atol=1e-300)
 
 
@@ -76,6 +99,7 @@ def test_propagators_match_closed_form():
 
 
 # ------------------------------------------------------------- exact piecewise-linear reference
+
 
 def _phase_solution(m, c, k, F0, Om, b):
     """x'' + (c/m) x' + (k/m) x = (F0/m) sin(Om t) + b: particular part and homogeneous modes."""
@@ -124,12 +148,14 @@ def _exact_stop(m, k, c, kc, gap, F0, Om, t_end, n_grid):
         state = np.array([x1[0], v1[0]])
         t0, closed = t1, not closed
         events.append(t1)
+
     def evaluate(t):
         out = np.full_like(t, np.nan)
         for a, bnd, f in pieces:
             sel = (t >= a) & (t <= bnd)
             out[sel] = f(t[sel])[0]
         return out
+
     return evaluate, events
 
 
@@ -158,7 +184,7 @@ def test_single_oscillator_against_exact_piecewise_solution(stop_case):
     """Error < 0.5 % of the amplitude at 40 steps per contact period; halving dt cuts it by
     ~4 (second order, FOH with implicit contact force)."""
     sysm, _, events, _ = stop_case
-    assert len(events) > 6          # several impacts within the window
+    assert len(events) > 6  # several impacts within the window
     tc = 2 * np.pi * math.sqrt(0.2 / 2e6)
     e1 = _run_stop(stop_case, tc / 40)
     e2 = _run_stop(stop_case, tc / 80)
@@ -177,8 +203,11 @@ def test_two_oscillators_against_solve_ivp(law):
     if law == "hunt-crossley":
         cc = 2.0 * kc
     p = 1.0 if law == "linear" else 1.5
-    sysm = _system([(m1, f1, zeta)], ContactParams(gap=gap, stiffness=kc, damping=cc, law=law, hertz_exponent=1.5),
-                   passive=[(m2, f2, zeta)])
+    sysm = _system(
+        [(m1, f1, zeta)],
+        ContactParams(gap=gap, stiffness=kc, damping=cc, law=law, hertz_exponent=1.5),
+        passive=[(m2, f2, zeta)],
+    )
     k1, k2 = m1 * (2 * np.pi * f1) ** 2, m2 * (2 * np.pi * f2) ** 2
     c1, c2 = 2 * zeta * math.sqrt(k1 * m1), 2 * zeta * math.sqrt(k2 * m2)
     Om = 2 * np.pi * fe
@@ -192,28 +221,38 @@ def test_two_oscillators_against_solve_ivp(law):
     def rhs(t, y, closed):
         x1, v1, x2, v2 = y
         f = force(y) if closed else 0.0
-        return [v1, (F0 * math.sin(Om * t) - c1 * v1 - k1 * x1 - f) / m1,
-                v2, (-c2 * v2 - k2 * x2 + f) / m2]
+        return [v1, (F0 * math.sin(Om * t) - c1 * v1 - k1 * x1 - f) / m1, v2, (-c2 * v2 - k2 * x2 + f) / m2]
 
-    def touch(t, y, closed):     # open -> closed when the closure becomes positive
+    def touch(t, y, closed):  # open -> closed when the closure becomes positive
         return y[0] - y[2] - gap
+
     touch.terminal, touch.direction = True, 1
 
-    def release(t, y, closed):   # closed -> open when the contact force reaches zero
-        if law == "hunt-crossley":       # with the closure (the force has no jump)
+    def release(t, y, closed):  # closed -> open when the contact force reaches zero
+        if law == "hunt-crossley":  # with the closure (the force has no jump)
             return (y[0] - y[2] - gap) * (kc + cc * (y[1] - y[3]))
         return kc * max(y[0] - y[2] - gap, 0.0) ** p + cc * (y[1] - y[3])
+
     release.terminal, release.direction = True, -1
 
-    k_tangent = 3e6 if law == "linear" else 1.5e7     # Hertz: tangent stiffness at the ~900 N peak
+    k_tangent = 3e6 if law == "linear" else 1.5e7  # Hertz: tangent stiffness at the ~900 N peak
     t_end, dt = 0.1, 2 * np.pi * math.sqrt(m1 * m2 / (m1 + m2) / k_tangent) / 100
     n = int(t_end / dt)
     t_eval = dt * np.arange(1, n + 1)
     ys, t0, y0, closed, n_events = [], 0.0, [0, 0, 0, 0], False, 0
     while t0 < t_end:
         te = t_eval[t_eval > t0]
-        sol = solve_ivp(rhs, (t0, t_end), y0, method="DOP853", rtol=1e-12, atol=1e-15,
-                        events=release if closed else touch, args=(closed,), t_eval=te)
+        sol = solve_ivp(
+            rhs,
+            (t0, t_end),
+            y0,
+            method="DOP853",
+            rtol=1e-12,
+            atol=1e-15,
+            events=release if closed else touch,
+            args=(closed,),
+            t_eval=te,
+        )
         ys.append(sol.y)
         if sol.status != 1:
             break
@@ -229,9 +268,11 @@ def test_two_oscillators_against_solve_ivp(law):
     # (no jump at touch), same tolerances: measured 0.010 % / 0.015 % (x), 0.15 % (v), peak
     # force 0.012 %.
     tol_x, tol_v = (3e-4, 6e-4) if law == "linear" else (6e-4, 1e-2)
-    for got, want, tol in ((out.active_tip_displacement, ref[0], tol_x),
-                           (out.passive_tip_displacement, ref[2], tol_x),
-                           (out.active_tip_velocity, ref[1], tol_v)):
+    for got, want, tol in (
+        (out.active_tip_displacement, ref[0], tol_x),
+        (out.passive_tip_displacement, ref[2], tol_x),
+        (out.active_tip_velocity, ref[1], tol_v),
+    ):
         assert np.max(np.abs(got - want)) < tol * np.max(np.abs(want))
     pen = np.maximum(ref[0] - ref[2] - gap, 0)
     f_ref = np.array([force(y) for y in ref.T])
@@ -244,8 +285,14 @@ def test_shaker_linear_steady_state_against_frequency_domain():
     is exact)."""
     m, fn, zeta = 0.1, 80.0, 0.05
     sysm = _system([(m, fn, zeta)], ContactParams(gap=1.0, stiffness=1e6))
-    sh = ShakerCoupling(armature_mass=0.02, suspension_stiffness=2e3, suspension_damping=3.0,
-                        force_factor=5.0, coil_resistance=2.0, coil_inductance=5e-4)
+    sh = ShakerCoupling(
+        armature_mass=0.02,
+        suspension_stiffness=2e3,
+        suspension_damping=3.0,
+        force_factor=5.0,
+        coil_resistance=2.0,
+        coil_inductance=5e-4,
+    )
     fe, V0 = 100.0, 1.0
     n = 400
     dt = 1 / (fe * n)
@@ -254,8 +301,9 @@ def test_shaker_linear_steady_state_against_frequency_domain():
     out = st.step(V0 * np.sin(2 * np.pi * fe * t))
     w = 2 * np.pi * fe
     # phasors: blade point receptance (two oscillators at the same point), armature, coil
-    H = sum(1 / (mm * ((2 * np.pi * f) ** 2 - w**2 + 2j * z * 2 * np.pi * f * w))
-            for mm, f, z in [(m, fn, zeta)])
+    H = sum(
+        1 / (mm * ((2 * np.pi * f) ** 2 - w**2 + 2j * z * 2 * np.pi * f * w)) for mm, f, z in [(m, fn, zeta)]
+    )
     Za = -sh.armature_mass * w**2 + 1j * w * sh.suspension_damping + sh.suspension_stiffness
     # x = H Fs ; Fs = Bl I - Za x ; (R + jwL) I + Bl jw x = V
     Zc = sh.coil_resistance + 1j * w * sh.coil_inductance
@@ -265,8 +313,9 @@ def test_shaker_linear_steady_state_against_frequency_domain():
     last = slice(-n, None)
     tt = t[last]
 
-    def phasor(x):     # 2 mean(x e^{-jwt}) over one whole period = X
+    def phasor(x):  # 2 mean(x e^{-jwt}) over one whole period = X
         return 2 * np.mean(x * np.exp(-1j * w * tt))
+
     # complex comparison: amplitude and phase (a one-step time shift would be 1.6 % off; measured 4e-5)
     assert phasor(out.excitation_force[last]) == pytest.approx(Fs, rel=1e-3)
     assert phasor(out.coil_current[last]) == pytest.approx(I, rel=1e-3)
@@ -311,10 +360,22 @@ def test_impacts_per_period_counts_a_contact_starting_on_the_first_sample():
     one[:10] = 5.0
     outputs = {name: np.zeros(n * periods) for name in OUT_COLUMNS}
     outputs["contact_force"] = np.tile(one, periods)
-    run = VibroImpactRun(fe=60.0, force_amplitude=1.0, gap=1e-4, dt=1 / (60.0 * n), steps_per_period=n,
-                         record_periods=periods, time=np.arange(n * periods) / (60.0 * n), outputs=outputs,
-                         steady_state=True, period_multiple=1, mismatch=0.0, settle_time=0.0,
-                         contact_period=1e-3, final_state=None)
+    run = VibroImpactRun(
+        fe=60.0,
+        force_amplitude=1.0,
+        gap=1e-4,
+        dt=1 / (60.0 * n),
+        steps_per_period=n,
+        record_periods=periods,
+        time=np.arange(n * periods) / (60.0 * n),
+        outputs=outputs,
+        steady_state=True,
+        period_multiple=1,
+        mismatch=0.0,
+        settle_time=0.0,
+        contact_period=1e-3,
+        final_state=None,
+    )
     assert run.impacts_per_period == 1.0
-    outputs["contact_force"] = np.roll(outputs["contact_force"], 37)    # onset inside the period
+    outputs["contact_force"] = np.roll(outputs["contact_force"], 37)  # onset inside the period
     assert run.impacts_per_period == 1.0

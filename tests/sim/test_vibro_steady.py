@@ -4,11 +4,11 @@ import numpy as np
 
 from rigtools.sim.steady_state import check_periodic, period_mismatch
 
-N = 200                      # samples per excitation period
+N = 200  # samples per excitation period
 
 
 def _t(periods):
-    return np.arange(periods * N) / N      # time in excitation periods
+    return np.arange(periods * N) / N  # time in excitation periods
 
 
 def test_periodic_signal_is_steady_with_period_one():
@@ -20,7 +20,7 @@ def test_periodic_signal_is_steady_with_period_one():
 
 def test_period_doubling_is_found():
     t = _t(12)
-    x = np.sin(2 * np.pi * t) + 0.2 * np.sin(np.pi * t)           # fe/2 subharmonic
+    x = np.sin(2 * np.pi * t) + 0.2 * np.sin(np.pi * t)  # fe/2 subharmonic
     res = check_periodic(x, N, tol=1e-9)
     assert res.steady and res.period_multiple == 2
 
