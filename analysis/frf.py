@@ -96,7 +96,7 @@ class FRFEstimate:
             raise ValueError(f"FRF estimator must be h1, h2 or hv, got {name!r}")
         return getattr(self, name)
 
-    def as_kind(self, measured: FRFKind, target: FRFKind) -> "FRFEstimate":
+    def as_kind(self, measured: FRFKind, target: FRFKind) -> FRFEstimate:
         """The same estimate with H1 and H2 converted from ``measured`` to ``target`` (e.g. an
         acceleration response, ``"accelerance"``, shown as ``"receptance"``); spectra and coherence
         unchanged."""

@@ -42,7 +42,6 @@ Times are seconds from the first sample.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 import numpy as np

@@ -21,12 +21,12 @@ import time
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
-import numpy as np  # noqa: E402
+import numpy as np
 
-from rigtools.config import load_rig  # noqa: E402
-from rigtools.study_runner import RunOptions, StudyRunner, map_chains  # noqa: E402
-from rigtools.sim.reduction import reduced_system  # noqa: E402
-from rigtools.sim.studies import StudyPlan  # noqa: E402
+from rigtools.config import load_rig
+from rigtools.sim.reduction import reduced_system
+from rigtools.sim.studies import StudyPlan
+from rigtools.study_runner import RunOptions, StudyRunner, map_chains
 
 
 def nothing(system, point, options, previous):

@@ -20,11 +20,11 @@ from rigtools.runtime import configure_process
 
 configure_process()  # as `rig` does: one BLAS thread (else idle BLAS threads spin and the figures mislead)
 
-from rigtools.config import load_rig  # noqa: E402
-from rigtools.demo import settings  # noqa: E402
-from rigtools.demo.run import run_demo  # noqa: E402
-from rigtools.demo.steps import load_system_cached  # noqa: E402
-from rigtools.simulation import RunSettings, simulate_point  # noqa: E402
+from rigtools.config import load_rig
+from rigtools.demo import settings
+from rigtools.demo.run import run_demo
+from rigtools.demo.steps import load_system_cached
+from rigtools.simulation import RunSettings, simulate_point
 
 GOALS = {"quick": 60.0, "full": 600.0}
 

@@ -26,10 +26,10 @@ import tempfile
 import time
 from pathlib import Path
 
-from rigtools.drivers.drive_signals import SineDrive
-from rigtools.drivers.simulated import SimulatedRig
 from rigtools.acquisition import acquire
 from rigtools.config import load_rig
+from rigtools.drivers.drive_signals import SineDrive
+from rigtools.drivers.simulated import SimulatedRig
 from rigtools.procedures import RigStudy
 
 GAPS = [0.3e-3, 0.45e-3, 0.6e-3, 0.75e-3, 0.9e-3]

@@ -21,11 +21,11 @@ import time
 
 import numpy as np
 
+from rigtools.acquisition import acquire
+from rigtools.config import load_rig
 from rigtools.drivers.contracts import InputChannelSpec
 from rigtools.drivers.safety import ChannelLimit, SafetyMonitor, SineDrive
 from rigtools.drivers.simulated import SIGNALS, SimulatedRig
-from rigtools.acquisition import acquire
-from rigtools.config import load_rig
 
 FS = 51200.0
 

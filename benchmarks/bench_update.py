@@ -44,20 +44,20 @@ from pathlib import Path
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
-from rigtools.config import load_rig  # noqa: E402
-from rigtools.sim.modal import flexural_frequencies  # noqa: E402
-from rigtools.sim.rig_model import build_rig_model  # noqa: E402
-from dataclasses import replace  # noqa: E402
+from dataclasses import replace
 
-from rigtools.sim.contact_fit import (  # noqa: E402
+from rigtools.config import load_rig
+from rigtools.sim.contact_fit import (
     HarmonicTarget,
     fit_contact,
     fit_steps_per_period,
     harmonic_amplitudes,
     targets_from_model,
 )
-from rigtools.sim.reduction import reduced_system  # noqa: E402
-from rigtools.sim.updating import mode_targets, predict, update_model  # noqa: E402
+from rigtools.sim.modal import flexural_frequencies
+from rigtools.sim.reduction import reduced_system
+from rigtools.sim.rig_model import build_rig_model
+from rigtools.sim.updating import mode_targets, predict, update_model
 
 NAMES = [
     "root.rotational_stiffness",

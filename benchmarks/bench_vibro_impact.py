@@ -31,15 +31,15 @@ import time
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
-import numpy as np  # noqa: E402
+import numpy as np
 
-from rigtools.analysis.harmonics import derivative_harmonics, harmonic_amplitudes  # noqa: E402
-from rigtools.config import load_rig  # noqa: E402
-from rigtools.sim.full_order import FullOrderIntegrator, run_full_order  # noqa: E402
-from rigtools.sim.reduction import reduced_system  # noqa: E402
-from rigtools.sim.rig_model import build_rig_model  # noqa: E402
-from rigtools.sim.studies import run_study  # noqa: E402
-from rigtools.sim.vibro_impact import N_OUT, VibroImpactStepper, run_harmonic, steps_per_period_for  # noqa: E402
+from rigtools.analysis.harmonics import derivative_harmonics, harmonic_amplitudes
+from rigtools.config import load_rig
+from rigtools.sim.full_order import FullOrderIntegrator, run_full_order
+from rigtools.sim.reduction import reduced_system
+from rigtools.sim.rig_model import build_rig_model
+from rigtools.sim.studies import run_study
+from rigtools.sim.vibro_impact import N_OUT, VibroImpactStepper, run_harmonic, steps_per_period_for
 
 FE, F0 = 60.0, 15.0
 REF_STEPS = 1760

@@ -44,18 +44,18 @@ from dataclasses import replace
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
-import numpy as np  # noqa: E402
-from scipy.optimize import brentq  # noqa: E402
+import numpy as np
+from scipy.optimize import brentq
 
-from rigtools.analysis.harmonics import derivative_harmonics, harmonic_amplitudes  # noqa: E402
-from rigtools.config import load_rig  # noqa: E402
-from rigtools.sim.analytical import assumed_modes_blade, exact_flexural_frequencies, tip_mass_lambdas  # noqa: E402
-from rigtools.sim.modal import flexural_frequencies  # noqa: E402
-from rigtools.sim.params import BladeParams, DampingParams, LumpedMass, RigParams  # noqa: E402
-from rigtools.sim.reduction import reduced_system  # noqa: E402
-from rigtools.sim.rig_model import build_rig_model  # noqa: E402
-from rigtools.sim.studies import run_study  # noqa: E402
-from rigtools.sim.vibro_impact import run_harmonic  # noqa: E402
+from rigtools.analysis.harmonics import derivative_harmonics, harmonic_amplitudes
+from rigtools.config import load_rig
+from rigtools.sim.analytical import assumed_modes_blade, exact_flexural_frequencies, tip_mass_lambdas
+from rigtools.sim.modal import flexural_frequencies
+from rigtools.sim.params import BladeParams, DampingParams, LumpedMass, RigParams
+from rigtools.sim.reduction import reduced_system
+from rigtools.sim.rig_model import build_rig_model
+from rigtools.sim.studies import run_study
+from rigtools.sim.vibro_impact import run_harmonic
 
 E, RHO = 200e9, 7850.0
 GAPS = [0.3e-3, 0.5e-3, 0.7e-3, 0.9e-3]

@@ -34,9 +34,10 @@ from __future__ import annotations
 
 import abc
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from types import TracebackType
-from typing import Literal, Sequence
+from typing import Literal
 
 import numpy as np
 
@@ -452,7 +453,7 @@ class AcquisitionDevice(abc.ABC):
             self.backend, self.sample_rate, self.sample_rate, self.block_size, self.input_to_output_delay()
         )
 
-    def __enter__(self) -> "AcquisitionDevice":
+    def __enter__(self) -> AcquisitionDevice:
         return self
 
     def __exit__(
@@ -531,7 +532,7 @@ class SignalSource(abc.ABC):
     def close(self) -> None:
         """Output off, release the connection. Idempotent."""
 
-    def __enter__(self) -> "SignalSource":
+    def __enter__(self) -> SignalSource:
         return self
 
     def __exit__(

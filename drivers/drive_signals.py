@@ -17,7 +17,7 @@ and slope at both ends, so the shaker sees no step and no kink.
 from __future__ import annotations
 
 import math
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 from scipy import signal

@@ -44,7 +44,7 @@ from __future__ import annotations
 
 import math
 import time
-from typing import Sequence
+from collections.abc import Sequence
 
 import nidaqmx
 import numpy as np
@@ -56,9 +56,9 @@ from nidaqmx.constants import (
     Coupling,
     DigitalWidthUnits,
     ExcitationSource,
-    OutputDataTransferCondition,
     ForceIEPESensorSensitivityUnits,
     ForceUnits,
+    OutputDataTransferCondition,
     RegenerationMode,
     VoltageUnits,
 )

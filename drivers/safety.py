@@ -18,8 +18,8 @@ continuous in value and slope at both ends, so the shaker sees no step and no ki
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
-from typing import Iterable, Sequence
 
 import numpy as np
 

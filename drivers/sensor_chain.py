@@ -18,8 +18,8 @@ So a reading equals the physical value within the noise, the quantisation step
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Sequence
 
 import numpy as np
 from scipy import signal

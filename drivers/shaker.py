@@ -14,8 +14,8 @@ dynamics take up the coil's force, and the sensor force dips, as on a real rig.
 from __future__ import annotations
 
 import math
-from numbers import Real
 from dataclasses import dataclass, fields
+from numbers import Real
 
 import numpy as np
 

@@ -48,8 +48,8 @@ import math
 import re
 import time
 from collections import deque
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
-from typing import Sequence
 
 import numba
 import numpy as np
@@ -152,7 +152,7 @@ class TestArticle:
             damping=DampingParams(ratio=self.damping_ratio),
         )
 
-    def ideal(self) -> "TestArticle":
+    def ideal(self) -> TestArticle:
         """The same deviations with a noise-free, DC-coupled measurement chain without delay line
         (the integrating sampler's half sample remains)."""
         return replace(
@@ -202,7 +202,7 @@ class Fault:
             raise ConfigurationError(f"fault {kind}: the moment must be >= 0")
 
     @classmethod
-    def parse(cls, text: str) -> "Fault":
+    def parse(cls, text: str) -> Fault:
         """``"KIND@N"`` (block N) or ``"KIND@T s"`` (time), optionally ``":CHANNEL"`` at the end,
         e.g. ``"input-overflow@3"``, ``"nan-samples@0.25s:force"``."""
         match = re.fullmatch(r"\s*([\w-]+)@([0-9.eE+-]+)\s*(s?)\s*(?::\s*(\w+))?\s*", text)
@@ -772,7 +772,7 @@ class SimulatedRig(AcquisitionDevice):
         self.fault_sample: int | None = None
 
     @classmethod
-    def from_config(cls, config, **kwargs) -> "SimulatedRig":
+    def from_config(cls, config, **kwargs) -> SimulatedRig:
         """From a validated rig file (:class:`rigtools.config.RigConfig`, duck-typed)."""
         kwargs.setdefault("abort_ramp_time", config.safety.abort_ramp_time)
         return cls(config.to_params(), config.shaker.to_params(), config.test_article.to_params(), **kwargs)

@@ -31,8 +31,9 @@ from __future__ import annotations
 
 import math
 from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Callable, Protocol
+from typing import Protocol
 
 import numpy as np
 
@@ -168,7 +169,7 @@ class BlockStream:
 
     # ------------------------------------------------------------------ life cycle
 
-    def __enter__(self) -> "BlockStream":
+    def __enter__(self) -> BlockStream:
         self.start()
         return self
 

@@ -689,10 +689,10 @@ def model_frequencies(rig_config, n_modes: int = 3) -> dict[str, dict[str, list[
     (:func:`rigtools.sim.analytical.exact_flexural_frequencies`); ``article``: the simulated rig's test
     article (``[test_article]`` applied to the nominal rig as :class:`rigtools.drivers.simulated.SimulatedRig`
     does, reduced as its vibro-impact physics does)."""
-    from rigtools.simulation import natural_frequencies
     from rigtools.sim.analytical import exact_flexural_frequencies
     from rigtools.sim.reduction import reduce_rig_model, reduced_system
     from rigtools.sim.rig_model import blade_masses, build_rig_model
+    from rigtools.simulation import natural_frequencies
 
     params = rig_config.to_params()
     fem = natural_frequencies(reduced_system(params, "fem"))

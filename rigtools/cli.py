@@ -27,8 +27,8 @@ import ast
 import importlib
 import pkgutil
 import sys
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Sequence
 
 from rigtools import errors
 from rigtools.errors import UserError

@@ -51,8 +51,8 @@ from typing import Any
 import numpy as np
 
 from rigtools.errors import UserError
-from rigtools.vocabulary import CHANNELS, current_parameters
 from rigtools.sim.studies import PlannedPoint
+from rigtools.vocabulary import CHANNELS, current_parameters
 
 FORCE, ACTIVE, PASSIVE = "force", "active_shroud_accel", "passive_shroud_accel"
 COMPARED = (FORCE, ACTIVE, PASSIVE)
@@ -540,9 +540,9 @@ def simulate_em_points(
     progress: Progress | None = None,
 ) -> list:
     """Model runs at the EM points: ``em_points`` is ``[(params, DwellAnalysis)]``; returns the runs."""
+    from rigtools.sim.vibro_impact import SimulationInputError
     from rigtools.simulation import check_finite
     from rigtools.study_runner import RunOptions, StudyRunner
-    from rigtools.sim.vibro_impact import SimulationInputError
 
     planned = []
     for i, (params, ana) in enumerate(em_points):

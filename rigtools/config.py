@@ -11,13 +11,13 @@ from __future__ import annotations
 
 import json
 import math
-import tomllib
 import types
 import typing
 from importlib import resources
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
+import tomllib
 from pydantic import (
     BaseModel,
     BeforeValidator,
@@ -31,7 +31,6 @@ from pydantic import (
 
 from rigtools.drivers.shaker import SHAKER_BOUNDS
 from rigtools.errors import ConfigError
-from rigtools.units import MAX_GAP, parse_quantity
 from rigtools.sim.params import (
     BladeParams,
     ContactParams,
@@ -40,6 +39,7 @@ from rigtools.sim.params import (
     RigParams,
     RootParams,
 )
+from rigtools.units import MAX_GAP, parse_quantity
 
 
 def _quantity(dimension: str):
@@ -120,7 +120,7 @@ class RootConfig(_Section):
     translational_stiffness: Stiffness = Field(default=0.0, ge=0, le=MAX_ROOT_TRANSLATIONAL_STIFFNESS)
 
     @model_validator(mode="after")
-    def _springs_need_stiffness(self) -> "RootConfig":
+    def _springs_need_stiffness(self) -> RootConfig:
         if self.kind == "springs" and (
             self.rotational_stiffness < MIN_ROOT_ROTATIONAL_STIFFNESS
             or self.translational_stiffness < MIN_ROOT_TRANSLATIONAL_STIFFNESS
@@ -184,7 +184,7 @@ class DampingConfig(_Section):
     beta: float = Field(default=0.0, ge=0, le=1e-2)  # s; 2*zeta/omega, zeta = 1 at 32 Hz
 
     @model_validator(mode="after")
-    def _one_kind(self) -> "DampingConfig":
+    def _one_kind(self) -> DampingConfig:
         rayleigh = self.alpha > 0 or self.beta > 0
         if self.ratio is not None and rayleigh:
             raise ValueError("give either ratio or alpha/beta (Rayleigh), not both")
@@ -251,7 +251,7 @@ class DaqChannelConfig(_Section):
         return full_scale
 
     @model_validator(mode="after")
-    def _voltage_is_not_iepe(self) -> "DaqChannelConfig":
+    def _voltage_is_not_iepe(self) -> DaqChannelConfig:
         if self.kind == "voltage" and self.excitation_current > 0:
             raise ValueError("a voltage channel takes no excitation current (give 0 or leave it out)")
         return self
@@ -335,7 +335,7 @@ class DaqConfig(_Section):
         return channels
 
     @model_validator(mode="after")
-    def _terminals_used_once(self) -> "DaqConfig":
+    def _terminals_used_once(self) -> DaqConfig:
         seen: dict[str, str] = {self.drive_channel.strip().lower(): "drive_channel"}
         for name, ch in self.channels.items():
             terminal = ch.physical_channel.strip().lower()
@@ -402,7 +402,7 @@ class SignalSourceConfig(_Section):
         return 2.0 * self.max_amplitude
 
     @model_validator(mode="after")
-    def _range(self) -> "SignalSourceConfig":
+    def _range(self) -> SignalSourceConfig:
         if self.frequency_min >= self.frequency_max:
             raise ValueError(
                 f"frequency_min {self.frequency_min} Hz must be below frequency_max {self.frequency_max} Hz"
@@ -554,7 +554,7 @@ class RigConfig(_Section):
         return data
 
     @model_validator(mode="after")
-    def _sensor_on_blade(self) -> "RigConfig":
+    def _sensor_on_blade(self) -> RigConfig:
         if self.force_sensor.position >= self.blade.length:
             raise ValueError(
                 f"force_sensor.position = {self.force_sensor.position} m is beyond the blade "
@@ -563,7 +563,7 @@ class RigConfig(_Section):
         return self
 
     @model_validator(mode="after")
-    def _contact_damping_integrable(self) -> "RigConfig":
+    def _contact_damping_integrable(self) -> RigConfig:
         c = self.contact
         if c.law == "linear" and c.damping > 0:
             critical = 2.0 * math.sqrt(c.stiffness * self.shroud.mass)
@@ -575,7 +575,7 @@ class RigConfig(_Section):
         return self
 
     @model_validator(mode="after")
-    def _safety_names_known_channels(self) -> "RigConfig":
+    def _safety_names_known_channels(self) -> RigConfig:
         known = set(self.daq.channels) | {"drive"}
         if "limits" not in self.safety.model_fields_set:  # defaults follow the channels given
             limits = {k: v for k, v in self.safety.limits.items() if k in known}

@@ -23,9 +23,10 @@ import signal
 import sys
 import threading
 import time
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable, Iterator, TextIO
+from typing import Any, TextIO
 
 from rigtools.errors import Interrupted
 
@@ -78,13 +79,13 @@ class StopRequests:
         self._depth = 0
         self._held: Interrupted | None = None
 
-    def __enter__(self) -> "StopRequests":
+    def __enter__(self) -> StopRequests:
         if threading.current_thread() is threading.main_thread():
             for sig in self.signals:
                 self._previous[sig] = signal.signal(sig, self._handler)
         return self
 
-    def __exit__(self, *exc: Any) -> bool:
+    def __exit__(self, *exc: object) -> bool:
         for sig, old in self._previous.items():
             with contextlib.suppress(Exception):
                 signal.signal(sig, old if old is not None else signal.SIG_DFL)
@@ -197,7 +198,7 @@ def numba_cache_dir() -> Path | None:
     """
     if os.environ.get("NUMBA_CACHE_DIR"):
         return Path(os.environ["NUMBA_CACHE_DIR"])
-    import rigtools.sim as sim  # light: a package docstring
+    from rigtools import sim  # light: a package docstring
 
     pkg = Path(sim.__file__).resolve().parent
     pycache = pkg / "__pycache__"

@@ -291,8 +291,8 @@ def iter_study_points(
     point order, through ``runner`` (a :class:`rigtools.study_runner.StudyRunner`; default
     in-process); input errors become :class:`UserError`. ``progress(simulated_s, at_most_s)``
     while each settles (in-process)."""
-    from rigtools.study_runner import RunOptions, StudyRunner
     from rigtools.sim.vibro_impact import SimulationInputError
+    from rigtools.study_runner import RunOptions, StudyRunner
 
     runner = runner if runner is not None else StudyRunner()
     options = RunOptions(

@@ -23,8 +23,9 @@ from __future__ import annotations
 import os
 import uuid
 from collections import deque
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
-from typing import Any, Callable, Iterator, Sequence
+from typing import Any
 
 from rigtools.errors import UserError
 from rigtools.sim.studies import MapPlan, PlannedPoint
@@ -126,7 +127,7 @@ class StudyRunner:
         self._cluster = None
 
     # ------------------------------------------------------------------ life cycle
-    def __enter__(self) -> "StudyRunner":
+    def __enter__(self) -> StudyRunner:
         if self.workers is None and self.scheduler is None:
             return self
         import dask
@@ -156,7 +157,7 @@ class StudyRunner:
         self._client.run(_configure_worker)
         return self
 
-    def __exit__(self, *exc: Any) -> None:
+    def __exit__(self, *exc: object) -> None:
         self.close()
 
     def close(self) -> None:

@@ -175,7 +175,7 @@ def units_of(dimension: str) -> list[str]:
     return [text for text, (_, dim) in _UNITS.items() if dim in accepted]
 
 
-def parse_quantity(value: float | int | str, dimension: str | None = None) -> float:
+def parse_quantity(value: float | str, dimension: str | None = None) -> float:
     """Convert a number or a quantity string to a finite float in SI units.
 
     Parameters
@@ -247,7 +247,7 @@ def parse_quantity(value: float | int | str, dimension: str | None = None) -> fl
     return result
 
 
-def voltage_amplitude(value: float | int | str) -> float:
+def voltage_amplitude(value: float | str) -> float:
     """A voltage amplitude in peak volts: ``"1 V"`` and ``1`` are 1 V peak, ``"2 Vpp"`` is 1 V peak.
 
     Raises

@@ -24,12 +24,12 @@ from __future__ import annotations
 
 import math
 import re
-import tomllib
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Sequence
 
 import numpy as np
+import tomllib
 
 from rigtools.errors import UserError
 
@@ -426,8 +426,8 @@ def model_dwell(params, dwell: DwellData, *, system=None, duration: float = 0.5)
 
     from rigtools.analysis.harmonics import derivative_harmonics, harmonic_amplitudes
     from rigtools.analysis.point import DwellAnalysis
-    from rigtools.simulation import RunSettings, simulate_point
     from rigtools.sim.reduction import reduced_system
+    from rigtools.simulation import RunSettings, simulate_point
 
     system = system if system is not None else reduced_system(params, "fem")
     system = replace(system, contact=params.contact).with_contact(gap=dwell.gap)

@@ -82,7 +82,7 @@ def law(g: float, v: float, kc: float, cc: float, p: float, code: int) -> float:
         f = g**p * (kc + cc * v)
     else:
         f = kc * g + cc * v
-    return f if f > 0.0 else 0.0
+    return max(0.0, f)
 
 
 @njit(cache=True)
@@ -118,8 +118,7 @@ def solve_contact(
     if hi <= 0.0:
         return 0.0
     f_close = -g0 / g1  # force at which g reaches zero
-    if hi > f_close:
-        hi = f_close
+    hi = min(hi, f_close)
     lo = 0.0
     f = 0.5 * hi
     for _ in range(60):

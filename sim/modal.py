@@ -48,7 +48,7 @@ class Modes:
         """Circular natural frequencies, rad/s."""
         return 2.0 * np.pi * self.frequencies_hz
 
-    def of_kind(self, kind: str) -> "Modes":
+    def of_kind(self, kind: str) -> Modes:
         """The modes of one kind only, in ascending order."""
         sel = [i for i, k in enumerate(self.kinds) if k == kind]
         return Modes(self.frequencies_hz[sel], self.shapes[:, sel], [self.kinds[i] for i in sel])

@@ -74,7 +74,7 @@ class ReducedSystem:
     def __post_init__(self) -> None:
         om = np.asarray(self.omega, dtype=float)
         ze = np.asarray(self.zeta, dtype=float)
-        which = lambda j: "active" if int(np.asarray(self.blade)[j]) == ACTIVE else "passive"  # noqa: E731
+        which = lambda j: "active" if int(np.asarray(self.blade)[j]) == ACTIVE else "passive"
         bad = np.flatnonzero(~(np.isfinite(om) & (om > 0)))
         if bad.size:
             j = int(bad[0])
@@ -120,11 +120,11 @@ class ReducedSystem:
             return mp
         return ma * mp / (ma + mp)
 
-    def with_contact(self, **changes) -> "ReducedSystem":
+    def with_contact(self, **changes) -> ReducedSystem:
         """The same system with contact parameters changed (``gap=...``, ``stiffness=...``)."""
         return replace(self, contact=replace(self.contact, **changes))
 
-    def with_attached(self, mass: float, stiffness: float) -> "ReducedSystem":
+    def with_attached(self, mass: float, stiffness: float) -> ReducedSystem:
         """Add a point mass and a grounded spring at the force point (e.g. a shaker armature).
 
         The active blade's modes are re-diagonalised in the current basis

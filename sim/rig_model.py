@@ -13,14 +13,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
-import numpy as np
 import scipy.sparse as sp
 
 from rigtools.sim.blade import BladeModel, build_blade
 from rigtools.sim.modal import _all_modes
 from rigtools.sim.params import DampingParams, LumpedMass, RigParams
 
-__all__ = ["BladeModel", "RigModel", "build_rig_model", "blade_damping", "blade_masses"]
+__all__ = ["BladeModel", "RigModel", "blade_damping", "blade_masses", "build_rig_model"]
 
 UY = 1
 

@@ -12,7 +12,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-
 SUBHARMONIC_DISTINCT = 1e-2  # period-1 mismatch above which a lag-m match counts as period m
 
 

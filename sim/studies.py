@@ -18,8 +18,9 @@ caller can write every point as soon as it exists (``rig study`` does, through
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
-from typing import Callable, Iterable, Iterator, Literal
+from typing import Literal
 
 import numpy as np
 

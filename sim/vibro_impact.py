@@ -121,7 +121,7 @@ class StepperState:
     scalars: np.ndarray  # see the _S_* slots
     time: float = 0.0
 
-    def copy(self) -> "StepperState":
+    def copy(self) -> StepperState:
         return StepperState(self.q.copy(), self.v.copy(), self.scalars.copy(), self.time)
 
 

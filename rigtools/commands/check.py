@@ -6,7 +6,6 @@ import argparse
 import json
 import sys
 
-
 HELP = """\
 Check that FILE is a valid rigtools recording (docs/recording-format.md): schema name and
 version, root/point/channel attributes, point numbering, equal channel lengths and sample rates

@@ -5,8 +5,6 @@ from __future__ import annotations
 import argparse
 import json
 
-import numpy as np
-
 from rigtools.errors import UserError
 
 HELP = "natural frequencies of both blades: FEM vs analytical model (AM), differences in %%"

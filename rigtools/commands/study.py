@@ -217,7 +217,6 @@ def _run(args: argparse.Namespace, stops) -> int:
     from rigtools.errors import Interrupted as Stopped
     from rigtools.recording import RecordingWriter
     from rigtools.recording.writer import one_line
-
     from rigtools.study_runner import StudyRunner
 
     out = check_output(args)
@@ -246,9 +245,9 @@ def _run(args: argparse.Namespace, stops) -> int:
     }
     unit, scale = UNIT["frequency" if args.kind == "map" else args.kind]
     if args.kind == "map":
-        label = lambda p: f"gap {p.gap * 1e3:g} mm, F0 {p.force:g} N, fe {p.fe:g} Hz"  # noqa: E731
+        label = lambda p: f"gap {p.gap * 1e3:g} mm, F0 {p.force:g} N, fe {p.fe:g} Hz"
     else:
-        label = lambda p: f"{args.kind} {p.value * scale:g} {unit} ({p.direction})"  # noqa: E731
+        label = lambda p: f"{args.kind} {p.value * scale:g} {unit} ({p.direction})"
     rec = None
     try:
         with stops.protected():

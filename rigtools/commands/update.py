@@ -147,9 +147,9 @@ def run(args: argparse.Namespace) -> int:
         if not Path(path).exists():
             raise UserError(f"{path}: no such file")
 
+    from rigtools import updating as up
     from rigtools.commands.simulate import working
     from rigtools.config import default_rig_text, load_rig, read_rig_text
-    from rigtools import updating as up
 
     cfg = load_rig(args.rig)
     text = read_rig_text(args.rig) if args.rig else default_rig_text()

@@ -13,8 +13,8 @@ Swap points (each a single call below, its data shape documented in :mod:`rigtoo
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from pathlib import Path
-from typing import Callable
 
 from rigtools.demo import steps
 from rigtools.demo.findings import evaluate

@@ -10,8 +10,8 @@ response (:func:`harmonic_step`), the dwell (:func:`dwell_step`), the studies on
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 
@@ -276,7 +276,7 @@ def dwell_step(
     the waveforms (last periods) and lab quantities of each (Figures 8-9)."""
     from rigtools.procedures import SineDwell
     from rigtools.recording import RecordingWriter, open_recording
-    from rigtools.simulation import RunSettings, load_system, simulate_point, write_point
+    from rigtools.simulation import RunSettings, simulate_point, write_point
 
     path = out_dir / f"dwell_{point.key}.h5"
     SineDwell(
@@ -409,8 +409,8 @@ def model_study_step(cfg, out_dir: Path, settings: DemoSettings, kind: str, poin
     """The same study on the FEM (:func:`rigtools.simulation.iter_study_points`), each point
     written to a recording and reduced to the same lab quantities, with the contact force."""
     from rigtools.recording import RecordingWriter
-    from rigtools.simulation import RunSettings, iter_study_points, write_point
     from rigtools.sim.studies import StudyPlan
+    from rigtools.simulation import RunSettings, iter_study_points, write_point
 
     prm = study_plan_values(kind, point, settings)
     plan = StudyPlan(kind, prm.pop("values"), "up", **prm)

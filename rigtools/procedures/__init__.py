@@ -19,8 +19,8 @@ from rigtools.procedures.base import (
 from rigtools.procedures.dwell import ControlParameters, DwellParameters, SineDwell
 from rigtools.procedures.sweep import (
     RigStudy,
-    StudyParameters,
     SteppedSine,
+    StudyParameters,
     SweepParameters,
     detect_jumps,
 )

@@ -25,9 +25,10 @@ from __future__ import annotations
 import enum
 import signal
 import threading
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 from rigtools.errors import Interrupted, UserError
 

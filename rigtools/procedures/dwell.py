@@ -3,15 +3,15 @@ opening the rig and the recording (:class:`SineProcedure`)."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
-from typing import Callable, Optional
 
 from pydantic import BaseModel, ConfigDict, Field
 
 from rigtools.procedures.base import (
     Procedure,
-    ProgressEvent,
     ProcedureResult,
+    ProgressEvent,
     Status,
     mark_end_status,
     validate,
@@ -40,7 +40,7 @@ class DwellParameters(BaseModel):
 
     fe: float = Field(gt=0, le=25000, description="excitation frequency, Hz")
     force: float = Field(gt=0, le=1000, description="force amplitude F0 (fundamental), N")
-    gap: Optional[float] = Field(None, ge=0, le=MAX_GAP, description="shroud gap, m (None: as set)")
+    gap: float | None = Field(None, ge=0, le=MAX_GAP, description="shroud gap, m (None: as set)")
     record_periods: int = Field(60, ge=1, le=1_000_000)
     k_max: int = Field(10, ge=1, le=100)
     control: ControlParameters = ControlParameters()

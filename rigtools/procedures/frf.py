@@ -10,7 +10,7 @@ and the coherence at its peaks; the analysis of the raw record belongs to :mod:`
 from __future__ import annotations
 
 import math
-from typing import Literal, Optional
+from typing import Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
@@ -33,9 +33,9 @@ class FrfParameters(BaseModel):
     frame: float = Field(1.0, gt=0, le=100, description="frame (period) length, s: resolution 1/frame")
     averages: int = Field(10, ge=2, le=10000)
     burst_fraction: float = Field(0.5, gt=0, le=1)
-    gap: Optional[float] = Field(None, ge=0, le=MAX_GAP)
-    response: Optional[str] = None
-    seed: Optional[int] = Field(None, ge=0)
+    gap: float | None = Field(None, ge=0, le=MAX_GAP)
+    response: str | None = None
+    seed: int | None = Field(None, ge=0)
 
     @model_validator(mode="after")
     def _band(self):

@@ -7,8 +7,8 @@ Command modules and lab scripts get a configured device from :func:`open_device`
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import asdict
-from typing import Sequence
 
 from rigtools.errors import UserError
 

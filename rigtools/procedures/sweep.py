@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 import os
 from pathlib import Path
-from typing import Literal, Optional
+from typing import Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, field_validator
@@ -29,7 +29,7 @@ class SweepParameters(BaseModel):
 
     frequencies: tuple[float, ...] = Field(min_length=2, description="step frequencies, Hz")
     force: float = Field(gt=0, le=1000, description="force amplitude F0 at every step, N")
-    gap: Optional[float] = Field(None, ge=0, le=MAX_GAP)
+    gap: float | None = Field(None, ge=0, le=MAX_GAP)
     direction: Literal["up", "down", "both"] = "up"
     record_periods: int = Field(30, ge=1, le=1_000_000)
     k_max: int = Field(10, ge=1, le=100)
@@ -39,7 +39,7 @@ class SweepParameters(BaseModel):
         le=10,
         description="relative change of the response between neighbouring steps called a jump",
     )
-    response: Optional[str] = Field(
+    response: str | None = Field(
         None, description="response channel (default: the active shroud accelerometer)"
     )
     control: ControlParameters = ControlParameters()
@@ -186,9 +186,9 @@ class StudyParameters(BaseModel):
     kind: Literal["gap", "force", "frequency"]
     values: tuple[float, ...] = Field(min_length=1)
     direction: Literal["up", "down", "both"] = "up"
-    fe: Optional[float] = Field(None, gt=0, le=25000)
-    force: Optional[float] = Field(None, gt=0, le=1000)
-    gap: Optional[float] = Field(None, ge=0, le=MAX_GAP)
+    fe: float | None = Field(None, gt=0, le=25000)
+    force: float | None = Field(None, gt=0, le=1000)
+    gap: float | None = Field(None, ge=0, le=MAX_GAP)
     record_periods: int = Field(30, ge=1, le=1_000_000)
     k_max: int = Field(10, ge=1, le=100)
     control: ControlParameters = ControlParameters()
@@ -273,8 +273,7 @@ class RigStudy(SineProcedure):
         elif out.exists():
             out.unlink()  # a copy cut short: the backup holds every point it had
         self.start_index = complete_points(backup)
-        if self.start_index >= len(self.points_planned):
-            self.start_index = len(self.points_planned)
+        self.start_index = min(len(self.points_planned), self.start_index)
         self.writer = RecordingWriter(
             out,
             backend=self.device.backend,

@@ -34,8 +34,7 @@ pulse of ``pulse`` seconds and ``hit_force`` peak at ``position`` every
 
 from __future__ import annotations
 
-import math
-from typing import Literal, Optional
+from typing import Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
@@ -73,9 +72,9 @@ class TapParameters(BaseModel):
     pretrigger: float = Field(0.01, ge=0, le=1, description="kept before the trigger, s")
     trigger: float = Field(5.0, gt=0, le=10000, description="trigger level on the hammer force, N")
     release: float = Field(0.002, gt=0, le=0.1, description="quiet time ending a pulse, s")
-    gap: Optional[float] = Field(None, ge=0, le=MAX_GAP)
+    gap: float | None = Field(None, ge=0, le=MAX_GAP)
     hammer_channel: str = "hammer"
-    response: Optional[str] = None
+    response: str | None = None
     timeout: float = Field(60.0, gt=0, le=3600, description="longest wait for the next accepted hit, s")
     hit_force: float = Field(20.0, gt=0, le=2000, description="simulated rig: peak hammer force, N")
     pulse: float = Field(5e-4, ge=5e-5, le=5e-3, description="simulated rig: half-sine pulse length, s")
@@ -84,7 +83,7 @@ class TapParameters(BaseModel):
 class _Trigger:
     """Cuts the continuous stream into one frame per hit (a :class:`BlockStream` sink)."""
 
-    def __init__(self, test: "TapTest", row: int, pre: int, frame: int) -> None:
+    def __init__(self, test: TapTest, row: int, pre: int, frame: int) -> None:
         self.test, self.row, self.pre, self.frame = test, row, pre, frame
         self.total = 0  # samples seen
         self.history = np.zeros((0, 0))  # the latest `pre` samples (all rows)
@@ -194,8 +193,8 @@ class TapTest(SineProcedure):
         return mine[0]
 
     def startup(self) -> None:
-        from rigtools.drivers.contracts import ConfigurationError, DriverUnavailable
         from rigtools.acquisition import BlockStream
+        from rigtools.drivers.contracts import ConfigurationError, DriverUnavailable
         from rigtools.procedures import rig
 
         p = self.params

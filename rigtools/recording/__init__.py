@@ -5,6 +5,7 @@ See ``docs/recording-format.md`` for the file layout.
 >>> from rigtools.recording import RecordingWriter, ChannelSpec, open_recording, RecordingError
 """
 
+from rigtools.recording.lock import writer_alive
 from rigtools.recording.reader import Channel, Point, Recording, open_recording
 from rigtools.recording.schema import (
     SCHEMA_NAME,
@@ -13,7 +14,6 @@ from rigtools.recording.schema import (
     RecordingError,
     RecordingWriteError,
 )
-from rigtools.recording.lock import writer_alive
 from rigtools.recording.validate import CheckResult, Problem, check_recording
 from rigtools.recording.writer import PointWriter, RecordingWriter
 

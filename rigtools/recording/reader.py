@@ -19,6 +19,7 @@ from typing import Any
 import h5py
 import numpy as np
 
+from rigtools.recording.lock import writer_alive
 from rigtools.recording.schema import (
     POINTS_GROUP,
     STATUS_COMPLETE,
@@ -26,12 +27,11 @@ from rigtools.recording.schema import (
     point_index,
     python_value,
 )
-from rigtools.recording.lock import writer_alive
-from rigtools.vocabulary import current_parameters
 from rigtools.recording.superblock import FlagClearedFile, consistency_flags
 from rigtools.recording.validate import AttrCache, Unreadable, find_problems
+from rigtools.vocabulary import current_parameters
 
-_H5_REASON = re.compile(r"\((.*)\)\s*$", re.S)
+_H5_REASON = re.compile(r"\((.*)\)\s*$", re.DOTALL)
 _TRUNCATED = re.compile(r"truncated file: eof = (\d+),.*stored_eof = (\d+)")
 
 
@@ -386,7 +386,7 @@ class Recording:
                 parts["channel"].append(np.full(n, names.index(name), dtype=np.int32))
                 parts["time"].append(channel.time())
                 parts["value"].append(channel.read())
-        cat = lambda key, dtype: np.concatenate(parts[key]) if parts[key] else np.empty(0, dtype)  # noqa: E731
+        cat = lambda key, dtype: np.concatenate(parts[key]) if parts[key] else np.empty(0, dtype)
         return pd.DataFrame(
             {
                 "point": cat("point", np.int64),

@@ -66,6 +66,7 @@ import h5py
 import numpy as np
 
 import rigtools
+from rigtools.recording.lock import LockBusy, WriterLock
 from rigtools.recording.schema import (
     POINTS_GROUP,
     SCHEMA_NAME,
@@ -80,7 +81,6 @@ from rigtools.recording.schema import (
     point_name,
     utc_now,
 )
-from rigtools.recording.lock import LockBusy, WriterLock
 
 LIBVER = ("v110", "v110")
 DEFAULT_CHUNK_SAMPLES = 16384  # 128 KiB of float64 per chunk: ~0.3 s at 51.2 kS/s

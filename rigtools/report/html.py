@@ -11,10 +11,11 @@ from __future__ import annotations
 import base64
 import html
 import io
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import Any, Iterable, Mapping, Sequence
+from typing import Any
 
 DPI = 100
 
@@ -80,12 +81,12 @@ class Section:
     blocks: list[str] = field(default_factory=list)
     figures: int = 0
 
-    def text(self, text: str) -> "Section":
+    def text(self, text: str) -> Section:
         """A paragraph (plain text, escaped)."""
         self.blocks.append(f"<p>{html.escape(text)}</p>")
         return self
 
-    def note(self, text: str) -> "Section":
+    def note(self, text: str) -> Section:
         """A highlighted remark."""
         self.blocks.append(f'<p class="note">{html.escape(text)}</p>')
         return self
@@ -96,7 +97,7 @@ class Section:
         caption: str = "",
         columns: Sequence[str] | None = None,
         digits: int = 5,
-    ) -> "Section":
+    ) -> Section:
         """A table from a list of dicts (or a pandas DataFrame); column names should carry units."""
         if hasattr(rows, "to_dict"):
             rows = rows.to_dict("records")
@@ -120,7 +121,7 @@ class Section:
         self.blocks.append("\n".join(out))
         return self
 
-    def figure(self, fig: Any, caption: str, dpi: int = DPI) -> "Section":
+    def figure(self, fig: Any, caption: str, dpi: int = DPI) -> Section:
         """A matplotlib figure, embedded as PNG, with a caption saying what it shows."""
         data, width, height = figure_png(fig, dpi)
         self.figures += 1

@@ -3,9 +3,9 @@ the chunked accumulator against scipy.signal.csd, burst random and periodic chir
 
 import numpy as np
 import pytest
+from _reference import periodic_response, receptance
 from scipy import signal
 
-from _reference import periodic_response, receptance
 from rigtools.analysis.frf import (
     SpectraAccumulator,
     estimate_frf,

@@ -3,9 +3,10 @@ modes of the 2-DOF in tests/analysis/_reference.py; nothing from a pure-sine (dw
 
 import numpy as np
 import pytest
+from _reference import K, M, periodic_response, receptance
+from _reference import modes as exact_modes
 from scipy import linalg
 
-from _reference import K, M, modes as exact_modes, periodic_response, receptance
 from rigtools.analysis.frf import estimate_frf, excitation_settings
 from rigtools.analysis.modal_id import excitation_support, identify, identify_modes
 

@@ -5,8 +5,9 @@ import json
 
 import numpy as np
 import pytest
+from _reference import modes as exact_modes
+from _reference import periodic_response
 
-from _reference import modes as exact_modes, periodic_response
 from rigtools.analysis.point import analyze_dwell, analyze_frf_test
 
 

@@ -6,16 +6,15 @@ natural-frequency table beside the nominal FEM."""
 from dataclasses import replace
 
 import numpy as np
-import pytest
 
 from rigtools.analysis.compare import natural_frequency_table
 from rigtools.analysis.point import analyze_frf_test
 
 
 def test_burst_random_on_the_simulated_rig_finds_the_test_articles_frequencies():
-    from rigtools.drivers.simulated import SimulatedRig
     from rigtools.acquisition import BlockCollector, RandomDrive, acquire
     from rigtools.config import load_rig
+    from rigtools.drivers.simulated import SimulatedRig
     from rigtools.sim.modal import flexural_frequencies
     from rigtools.sim.rig_model import build_rig_model
 

@@ -7,6 +7,7 @@ import inspect
 import numpy as np
 import pytest
 
+from rigtools.config import load_rig
 from rigtools.drivers import contracts
 from rigtools.drivers.contracts import (
     AcquisitionDevice,
@@ -28,7 +29,6 @@ from rigtools.drivers.contracts import (
     SourceLimits,
     SourceState,
 )
-from rigtools.config import load_rig
 
 
 def test_sensitivity_in_si_per_unit():
@@ -204,8 +204,7 @@ def test_signal_source_exit_closes():
         def close(self):
             closed.append(True)
 
-    with pytest.raises(ValueError):
-        with Source():
-            raise ValueError("boom")
+    with pytest.raises(ValueError), Source():
+        raise ValueError("boom")
     assert closed == [True]
     assert contracts.STANDARD_GRAVITY == 9.80665

@@ -35,6 +35,7 @@ from nidaqmx.task.channels import AIChannel, AOChannel
 from nidaqmx.task.collections import AIChannelCollection, AOChannelCollection
 from nidaqmx.task.triggering import StartTrigger, Triggers
 
+from rigtools.config import load_rig
 from rigtools.drivers import nidaq
 from rigtools.drivers.contracts import (
     ConfigurationError,
@@ -51,7 +52,6 @@ from rigtools.drivers.contracts import (
     SensorOverload,
 )
 from rigtools.drivers.nidaq import NiDaqDevice
-from rigtools.config import load_rig
 
 AI_TRIGGER = "/Dev1/ai/StartTrigger"
 

@@ -4,12 +4,12 @@ rig, which models the NI backend's non-regenerating output, and the simulated ri
 import numpy as np
 import pytest
 
+from rigtools.acquisition import AcquisitionAborted, BlockCollector, acquire, stream_piece
+from rigtools.config import load_rig
 from rigtools.drivers.contracts import LimitExceeded
 from rigtools.drivers.drive_signals import SineDrive
 from rigtools.drivers.safety import output_queue_limit
 from rigtools.drivers.simulated import Fault, SimulatedRig
-from rigtools.acquisition import AcquisitionAborted, BlockCollector, acquire, stream_piece
-from rigtools.config import load_rig
 
 FS = 51200.0
 

@@ -13,9 +13,9 @@ import math
 import numpy as np
 import pytest
 
+from rigtools.config import load_rig
 from rigtools.drivers.contracts import ConfigurationError, InputChannelSpec, LimitExceeded, SafetyAbort
 from rigtools.drivers.safety import AmplitudeEnvelope, ChannelLimit, SafetyMonitor, SineDrive, raised_cosine
-from rigtools.config import load_rig
 
 FS = 51200.0
 

@@ -10,19 +10,19 @@
 * the reported input-to-output delay is the one the drive shows at the inputs.
 """
 
-from dataclasses import replace
 import time
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
+from rigtools.acquisition import AcquisitionAborted, BlockCollector, RandomDrive, acquire
 from rigtools.analysis.frf import estimate_frf, sine_frf
 from rigtools.analysis.modal_id import identify_modes
+from rigtools.config import load_rig
 from rigtools.drivers.contracts import ConfigurationError, InputChannelSpec, OutputChannelSpec, SensorOverload
 from rigtools.drivers.safety import SineDrive
 from rigtools.drivers.simulated import FAULT_KINDS, Fault, SimulatedRig, TestArticle
-from rigtools.acquisition import AcquisitionAborted, BlockCollector, RandomDrive, acquire
-from rigtools.config import load_rig
 from rigtools.recording import ChannelSpec, RecordingWriter, open_recording
 from rigtools.sim.modal import blade_modes, flexural_frequencies
 from rigtools.sim.rig_model import build_rig_model
@@ -335,6 +335,7 @@ def test_too_coarse_sample_rate_is_one_line(cfg):
 
 def test_shaker_and_test_article_sections_validate_in_one_line(cfg):
     import copy
+
     import tomllib
 
     from rigtools.config import ConfigError, default_rig_text, parse_rig

@@ -8,8 +8,8 @@ to at least 1e-12 relative).
 
 from __future__ import annotations
 
-import pyvisa
 import pytest
+import pyvisa
 
 from rigtools.drivers.contracts import DriverUnavailable, LimitExceeded, SignalSourceError, SourceLimits
 from rigtools.drivers.visa_source import (

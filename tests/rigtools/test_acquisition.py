@@ -6,6 +6,13 @@ import numpy as np
 import pytest
 from scipy import signal
 
+from rigtools.acquisition import (
+    AcquisitionAborted,
+    BlockCollector,
+    BlockStream,
+    RandomDrive,
+    acquire,
+)
 from rigtools.drivers.contracts import (
     AcquisitionDevice,
     InputChannelSpec,
@@ -14,13 +21,6 @@ from rigtools.drivers.contracts import (
     OutputUnderflow,
 )
 from rigtools.drivers.safety import ChannelLimit, SafetyMonitor, SineDrive
-from rigtools.acquisition import (
-    AcquisitionAborted,
-    BlockCollector,
-    BlockStream,
-    RandomDrive,
-    acquire,
-)
 
 FS, BLOCK, DELAY, GAIN = 1000.0, 100, 3, 2.0
 

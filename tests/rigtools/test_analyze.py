@@ -7,7 +7,6 @@ import json
 
 import numpy as np
 import pytest
-
 from cli_helpers import run_cli
 
 FRF = [
@@ -169,7 +168,7 @@ def test_chunked_harmonics_of_a_long_synthetic_record(tmp_path, monkeypatch):
     rng = np.random.default_rng(5)
     f_true = {1: (12.0, 0.3), 5: (0.7, -1.1)}
     a_true = {1: (40.0, 1.0), 6: (3.0, 2.0), 8: (1.5, -0.4), 22: (0.4, 0.9)}
-    sig = lambda tones: sum(a * np.cos(2 * np.pi * k * fe * t + ph) for k, (a, ph) in tones.items())  # noqa: E731
+    sig = lambda tones: sum(a * np.cos(2 * np.pi * k * fe * t + ph) for k, (a, ph) in tones.items())
     force = sig(f_true) + 0.01 * rng.standard_normal(n)
     accel = sig(a_true) + 0.02 * rng.standard_normal(n)
     path = tmp_path / "synthetic.h5"

@@ -18,15 +18,15 @@ import signal
 import subprocess
 import sys
 import time
-import tomllib
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable
 
 import h5py
 import numpy as np
 import pytest
 import tomli_w
+import tomllib
 
 from rigtools.cli import main
 from rigtools.config import default_rig_text
@@ -93,7 +93,7 @@ def _write_tdms(path: Path) -> None:
     from nptdms import ChannelObject, GroupObject, RootObject, TdmsWriter
 
     rng = np.random.default_rng(3)
-    props = lambda unit: {"unit_string": unit, "wf_increment": 1 / RATE, "wf_start_offset": 0.0}  # noqa: E731
+    props = lambda unit: {"unit_string": unit, "wf_increment": 1 / RATE, "wf_start_offset": 0.0}
     with TdmsWriter(str(path)) as w:
         w.write_segment(
             [

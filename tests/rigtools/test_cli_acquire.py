@@ -4,16 +4,16 @@ injected faults (exit 4, file kept, status failed), the missing NI-DAQmx driver 
 line offering --backend sim) and one-line refusals of bad input (exit 2)."""
 
 import json
-import tomllib
 
 import numpy as np
 import pytest
 import tomli_w
+import tomllib
+from cli_helpers import run_cli
 
 from rigtools.cli import main
 from rigtools.config import default_rig_text, load_rig
 from rigtools.recording import check_recording, open_recording
-from cli_helpers import run_cli
 
 RATE = 51200.0  # [daq] sample_rate of the default rig
 DWELL = [

@@ -21,7 +21,7 @@ def ni_missing() -> bool:
 
 
 def fake_ni_system():
-    chans = lambda prefix, n: [SimpleNamespace(name=f"{prefix}{i}") for i in range(n)]  # noqa: E731
+    chans = lambda prefix, n: [SimpleNamespace(name=f"{prefix}{i}") for i in range(n)]
     dev = SimpleNamespace(
         name="Dev1",
         product_type="NI 9234",

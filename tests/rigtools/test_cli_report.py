@@ -7,7 +7,6 @@ import re
 import sys
 
 import pytest
-
 from cli_helpers import run_cli
 
 

@@ -20,10 +20,9 @@ import h5py
 import numpy as np
 import pytest
 
-from rigtools import cli
+from rigtools import cli, runtime
 from rigtools.errors import EXIT_SIGHUP, EXIT_SIGINT, EXIT_SIGPIPE, EXIT_SIGTERM, Interrupted
 from rigtools.recording import ChannelSpec, RecordingWriter
-from rigtools import runtime
 
 COMMANDS = [
     "acquire",
@@ -220,14 +219,13 @@ def test_interrupted_names_its_signal_and_exit_code():
 
 def test_handler_raises_once_ignores_repeats_and_restores():
     before = signal.getsignal(signal.SIGTERM)
-    with pytest.raises(Interrupted) as info:
-        with runtime.handle_stop_signals():
-            try:
-                os.kill(os.getpid(), signal.SIGTERM)
-                time.sleep(1)  # the handler raises here
-            finally:
-                os.kill(os.getpid(), signal.SIGTERM)  # a repeat during clean-up: ignored
-                time.sleep(0.05)
+    with pytest.raises(Interrupted) as info, runtime.handle_stop_signals():
+        try:
+            os.kill(os.getpid(), signal.SIGTERM)
+            time.sleep(1)  # the handler raises here
+        finally:
+            os.kill(os.getpid(), signal.SIGTERM)  # a repeat during clean-up: ignored
+            time.sleep(0.05)
     assert info.value.signal_name == "SIGTERM"
     assert signal.getsignal(signal.SIGTERM) == before
 

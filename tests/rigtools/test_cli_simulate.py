@@ -293,9 +293,8 @@ def test_model_commands_import_light():
 def test_a_contact_damping_that_would_diverge_is_refused_up_front(tmp_path, capsys):
     """A contact damping of 1e5 N*s/m made the run blow up: the rig file is refused with one line
     naming the key (the run's own divergence check is tested in tests/sim), no file."""
-    import tomllib
-
     import tomli_w
+    import tomllib
 
     from rigtools.config import default_rig_text
 
@@ -368,8 +367,8 @@ def test_json_contact_force_harmonics_are_the_exact_ones(tmp_path, capsys):
     """--json contact-force harmonics come from the per-step force (rigtools.sim.vibro_impact.
     contact_force_harmonics, itself checked against quadrature and the passive blade in tests/sim),
     not from a fit of the samples, which is 2.7 % off at k = 1 for a 0.9 mm gap."""
-    from rigtools.simulation import RunSettings, load_system, simulate_point
     from rigtools.sim.vibro_impact import contact_force_harmonics
+    from rigtools.simulation import RunSettings, load_system, simulate_point
 
     out = tmp_path / "c.h5"
     assert main(["simulate", "--gap", "0.9 mm", "--out", str(out), "--json", "--no-plot", *FAST]) == 0

@@ -14,8 +14,8 @@ import pytest
 from rigtools.analysis.harmonics import harmonic_amplitudes
 from rigtools.cli import main
 from rigtools.recording import RecordingWriter, open_recording
-from rigtools.simulation import MODEL_OUTPUTS, RunSettings, load_system, write_study
 from rigtools.sim.studies import StudyPlan, run_study
+from rigtools.simulation import MODEL_OUTPUTS, RunSettings, load_system, write_study
 
 FAST = ["--duration", "0.1 s", "--max-settle", "4 s"]
 GAPS = [0.3e-3, 0.5e-3, 0.7e-3]
@@ -245,20 +245,19 @@ def test_stop_requests_hold_a_signal_until_the_protected_write_is_done():
 
     steps = []
     before = signal.getsignal(signal.SIGTERM)
-    with pytest.raises(Stopped) as info:
-        with StopRequests() as stops:
-            with stops.protected():
-                os.kill(os.getpid(), signal.SIGTERM)
-                time.sleep(0.05)  # the handler runs here and only holds the request
-                steps.append("written")
-            steps.append("not reached")
+    with pytest.raises(Stopped) as info, StopRequests() as stops:
+        with stops.protected():
+            os.kill(os.getpid(), signal.SIGTERM)
+            time.sleep(0.05)  # the handler runs here and only holds the request
+            steps.append("written")
+        steps.append("not reached")
     assert steps == ["written"]
     assert info.value.exit_code == 143 and info.value.reason.startswith("SIGTERM")
     assert signal.getsignal(signal.SIGTERM) is before  # the previous handler is back
 
 
 def test_a_record_appended_in_blocks_is_the_run(system, tmp_path, monkeypatch):
-    import rigtools.simulation as simulation
+    from rigtools import simulation
 
     cfg, sys_ = system
     run = simulation.simulate_point(sys_, 60.0, 15.0, RunSettings(0.1, 4.0))

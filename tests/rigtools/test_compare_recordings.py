@@ -10,7 +10,6 @@ import json
 
 import numpy as np
 import pytest
-
 from cli_helpers import run_cli
 
 GAPS = "0.3 mm,0.6 mm,0.9 mm"

@@ -4,13 +4,12 @@ line (a ConfigError) naming the key and the value as written."""
 
 import copy
 import math
-import tomllib
 
 import h5py
 import numpy as np
 import pytest
+import tomllib
 
-from rigtools.drivers.shaker import SHAKER_BOUNDS, ShakerParams
 from rigtools.config import (
     MAX_CONTACT_DAMPING_RATIO,
     RigConfig,
@@ -19,6 +18,7 @@ from rigtools.config import (
     load_rig,
     parse_rig,
 )
+from rigtools.drivers.shaker import SHAKER_BOUNDS, ShakerParams
 from rigtools.errors import ConfigError, UserError
 from rigtools.options import gap as gap_option
 from rigtools.units import MAX_GAP

@@ -12,8 +12,8 @@ import pytest
 from rigtools.config import load_rig
 from rigtools.demo import findings, steps
 from rigtools.demo.settings import PAPER_FE, PAPER_FORCE
-from rigtools.simulation import RunSettings, iter_study_points, simulate_point
 from rigtools.sim.studies import StudyPlan
+from rigtools.simulation import RunSettings, iter_study_points, simulate_point
 
 SETTINGS = RunSettings(duration=0.1, max_settle_time=5.0)
 

@@ -26,7 +26,7 @@ SKIP = ("python3 -m venv", "pip install", "-m pytest")  # set-up and the suite i
 
 def blocks(lang: str) -> list[str]:
     """The fenced code blocks of one language in the README draft."""
-    return re.findall(rf"```{lang}\n(.*?)```", README.read_text(encoding="utf-8"), flags=re.S)
+    return re.findall(rf"```{lang}\n(.*?)```", README.read_text(encoding="utf-8"), flags=re.DOTALL)
 
 
 def shell_commands() -> list[str]:

@@ -13,7 +13,7 @@ from rigtools.analysis.spectra import amplitude_spectrum
 from rigtools.cli import main
 from rigtools.config import load_rig
 from rigtools.interop.sep005 import to_sep005
-from rigtools.interop.tdms import G, LBF
+from rigtools.interop.tdms import LBF, G
 from rigtools.recording import ChannelSpec, RecordingWriter, open_recording
 
 FS = 2048.0
@@ -103,7 +103,7 @@ def _write_tdms(path, *, units=("g", "Newtons"), increment=1 / FS, extra=None):
         k: v
         for k, v in {
             "unit_string": u,
-            "wf_increment": increment,  # noqa: E731
+            "wf_increment": increment,
             "wf_start_offset": 0.0,
         }.items()
         if v is not None

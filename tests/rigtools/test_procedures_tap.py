@@ -108,7 +108,7 @@ def test_frf_test_gives_the_active_blades_first_three_flexural_frequencies(cfg, 
 def test_double_hit_and_decay_checks():
     rate, level = 51200.0, 5.0
     t = np.arange(int(0.05 * rate)) / rate
-    pulse = lambda t0: np.where((t >= t0) & (t < t0 + 5e-4), 20 * np.sin(np.pi * (t - t0) / 5e-4), 0.0)  # noqa: E731
+    pulse = lambda t0: np.where((t >= t0) & (t < t0 + 5e-4), 20 * np.sin(np.pi * (t - t0) / 5e-4), 0.0)
     one = pulse(0.01)
     start = int(np.argmax(one >= level))
     assert double_hit(one, start, level, 102) == ""
@@ -159,9 +159,8 @@ def test_the_rig_files_hammer_channel_is_used_and_checked(cfg, tmp_path):
     a frame too short for the response to decay (0.5 s: mode 1 keeps 16 % of its amplitude) is
     recorded but rejected, and the test waits for the next accepted hit (here --timeout ends it
     after three rejected hits, status failed)."""
-    import tomllib
-
     import tomli_w
+    import tomllib
 
     from rigtools.config import default_rig_text
     from rigtools.errors import UserError

@@ -9,7 +9,6 @@ import textwrap
 
 import h5py
 import numpy as np
-import pytest
 
 from rigtools.cli import main
 from rigtools.recording import ChannelSpec, RecordingWriter, open_recording

@@ -27,7 +27,7 @@ from rigtools.recording import open_recording
 
 HERE = Path(__file__).parent
 sys.path.insert(0, str(HERE))
-import recording_crash_writer as child  # noqa: E402
+import recording_crash_writer as child
 
 N_KILLS = 12
 POINT_BLOCKS = 24  # 1.2 s points

@@ -165,7 +165,7 @@ def test_plain_h5py_reads_the_documented_names(tmp_path):
             assert isinstance(f.attrs[key], str)
         assert sorted(f["points"]) == ["0000", "0001"]
         g = f["points/0001"]
-        assert g.attrs["fe"] == 61.0 and g.attrs["gap"] == 5e-4 and g.attrs["settled"] == False  # noqa: E712
+        assert g.attrs["fe"] == 61.0 and g.attrs["gap"] == 5e-4 and g.attrs["settled"] == False
         ds = f["points/0001/passive_shroud_accel"]
         assert ds.dtype == np.float64 and ds.ndim == 1
         assert ds.attrs["units"] == "m/s^2" and ds.attrs["quantity"] == "acceleration"
@@ -240,12 +240,11 @@ def test_never_overwrites_without_permission(tmp_path):
 def test_exception_marks_aborted_with_reason_and_reraises(tmp_path, exc, reason):
     path = tmp_path / "run.h5"
     block = np.arange(8.0).reshape(2, 4)
-    with pytest.raises(type(exc)):
-        with RecordingWriter(path, backend="simulated", rig="{}") as rec:
-            point = rec.begin_point({"fe": 60.0}, _channels()[:2])
-            point.append(block)
-            point.set_attrs(settled=False)
-            raise exc
+    with pytest.raises(type(exc)), RecordingWriter(path, backend="simulated", rig="{}") as rec:
+        point = rec.begin_point({"fe": 60.0}, _channels()[:2])
+        point.append(block)
+        point.set_attrs(settled=False)
+        raise exc
     with open_recording(path) as back:
         assert back.status == "aborted" and back.abort_reason == reason
         point = back.points[0]

@@ -8,13 +8,13 @@ import io
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib import image as mpimg  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
+from matplotlib import image as mpimg
 
-from rigtools.report import Report, write_report  # noqa: E402
-from rigtools.report.browser import figure_is_drawn, screenshot_page  # noqa: E402
-from rigtools.report.html import figure_png  # noqa: E402
+from rigtools.report import Report, write_report
+from rigtools.report.browser import figure_is_drawn, screenshot_page
+from rigtools.report.html import figure_png
 
 
 def _fig(seed):

@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 from rigtools.config import load_rig
-from rigtools.study_runner import RunOptions, StudyRunner, map_chains, run_point
 from rigtools.sim.reduction import reduced_system
+from rigtools.study_runner import RunOptions, StudyRunner, map_chains, run_point
 
 OPTIONS = RunOptions(record_duration=0.1, max_settle_time=3.0)
 CHAINS = map_chains([0.3e-3, 0.5e-3, 0.7e-3], [10.0, 15.0, 20.0], [58.0, 60.0, 62.0])

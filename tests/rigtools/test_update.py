@@ -9,16 +9,16 @@ the recording and the identification).
 """
 
 import json
-import tomllib
 
 import numpy as np
 import pytest
+import tomllib
+from cli_helpers import run_cli
 
 from rigtools.config import default_rig_text, load_rig
 from rigtools.errors import UserError
-from rigtools.updating import updated_rig_text
 from rigtools.sim.updating import mode_targets
-from cli_helpers import run_cli
+from rigtools.updating import updated_rig_text
 
 FRF = [
     "acquire",

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from rigtools.sim.modal import blade_modes
-from rigtools.sim.params import DampingParams, LumpedMass, RigParams, RootParams, BladeParams, ContactParams
+from rigtools.sim.params import BladeParams, ContactParams, DampingParams, LumpedMass, RigParams, RootParams
 from rigtools.sim.rig_model import build_rig_model
 
 BLADE = BladeParams(

@@ -266,10 +266,10 @@ def test_frf_test_on_the_simulated_rig_end_to_end(rig):
     k_rot comes out 9.7 % low (the +1 %/-1 % mass deviations, not fitted, are absorbed by it),
     zeta within 1 %, the three frequencies within 0.23 %. Freeing all three masses as well, the
     report names the pairs that active-blade data cannot separate."""
+    from rigtools.acquisition import BlockCollector, RandomDrive, acquire
     from rigtools.analysis.frf import estimate_frf
     from rigtools.analysis.modal_id import identify_modes
     from rigtools.drivers.simulated import SimulatedRig
-    from rigtools.acquisition import BlockCollector, RandomDrive, acquire
     from rigtools.sim.updating import pair_modes
 
     nominal, spec, _ = rig

@@ -25,7 +25,6 @@ from rigtools.sim.vibro_impact import (
     VibroImpactStepper,
     _props,
     foh_propagators,
-    run_harmonic,
 )
 
 
