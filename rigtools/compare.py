@@ -452,7 +452,7 @@ def _with_velocity_harmonics(analysis, velocities: dict, rate: float):
     """Replace the acceleration harmonics by ``derivative_harmonics`` of the velocity ones."""
     from rigtools.analysis.harmonics import derivative_harmonics, harmonic_amplitudes
 
-    fits = dict(rigtools.analysis.harmonics)
+    fits = dict(analysis.harmonics)
     for ch, v in velocities.items():
         if ch in fits:
             k = int(fits[ch].k[-1])
@@ -495,7 +495,7 @@ def model_point_analysis(point, k_max: int = K_MAX):
 def em_force_harmonics(analysis) -> list[tuple[int, float, float]]:
     """``(k, A_k, phi_k)`` of the EM force, phases shifted so the fundamental is ``-pi/2`` (a sine
     from t = 0, as the nominal force): ``phi_k - k (phi_1 + pi/2)``."""
-    fit = rigtools.analysis.harmonics[FORCE]
+    fit = analysis.harmonics[FORCE]
     shift = fit.phase[0] + math.pi / 2
     return [
         (int(k), float(a), float(np.angle(np.exp(1j * (p - k * shift)))))
