@@ -85,7 +85,7 @@ class FRFEstimate:
 
     @property
     def hv(self) -> np.ndarray:
-        """Hv = H1 / sqrt(coherence): geometric mean of |H1| and |H2|, phase of H1 (NaN where the
+        """Hv = H1 / sqrt(coherence): geometric mean of ``|H1|`` and ``|H2|``, phase of H1 (NaN where the
         coherence is 0)."""
         with np.errstate(divide="ignore", invalid="ignore"):
             return self.h1 / np.sqrt(self.coherence)

@@ -79,7 +79,7 @@ def pick_peaks(
     f_min, f_max
         Band to search, Hz (inclusive); default the whole grid except 0 Hz.
     min_prominence_db
-        Minimum prominence of a peak in dB (20 log10 |h|).
+        Minimum prominence of a peak in dB (``20 log10 |h|``).
     n_peaks
         Keep only the ``n_peaks`` most prominent, then sort them by frequency.
     """

@@ -591,7 +591,7 @@ def stabilisation_figure(
     natural_frequencies_hz: Sequence[float] | None = None,
     title: str = "",
 ) -> Figure:
-    """Stabilisation chart: LSCF poles per model order (stable filled, others open) over |H|.
+    """Stabilisation chart: LSCF poles per model order (stable filled, others open) over ``|H|``.
 
     ``chart`` is an :class:`rigtools.analysis.modal_id.StabilisationChart`. ``fig.axes[0]`` holds the
     poles (left axis: model order), ``fig.axes[1]`` the FRF magnitude (right axis, log).

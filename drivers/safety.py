@@ -2,7 +2,7 @@
 
 Pure numpy; no hardware. The pieces:
 
-* :class:`SafetyMonitor` -- per-channel warning and abort limits on the peak |value| of each
+* :class:`SafetyMonitor` -- per-channel warning and abort limits on the peak ``|value|`` of each
   block (force in N, accelerations in m/s^2, the drive in V). ``check`` returns the warnings and
   raises :class:`~rigtools.drivers.contracts.SafetyAbort` naming the channel, the value and the limit.
 * :class:`SineDrive` -- the phase-continuous sine that goes to the shaker amplifier. Its
@@ -40,7 +40,7 @@ DRIVE = "drive"  # name of the drive output in limits
 
 @dataclass(frozen=True)
 class ChannelLimit:
-    """Warning and abort limits on the peak |value| of a channel, in its SI units."""
+    """Warning and abort limits on the peak ``|value|`` of a channel, in its SI units."""
 
     channel: str
     warning: float

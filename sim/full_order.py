@@ -210,6 +210,8 @@ class FullOrderIntegrator:
     contact
         Override of the contact parameters (e.g. another gap).
 
+    Notes
+    -----
     ``step(force)`` takes the force at the force DOF at the end of each step and returns an array
     ``(n, N_OUT)`` with the columns of :data:`rigtools.sim.vibro_impact.OUT_COLUMNS`.
     """

@@ -56,7 +56,7 @@ class HarmonicResponse:
     displacement: dict[str, np.ndarray] = field(default_factory=dict)
 
     def displacement_amplitude(self, location: str) -> np.ndarray:
-        """|X| at a location, m."""
+        """``|X|`` at a location, m."""
         return np.abs(self.displacement[location])
 
     def acceleration_amplitude(self, location: str) -> np.ndarray:

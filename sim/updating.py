@@ -659,12 +659,12 @@ class UpdateResult:
 
     @property
     def max_frequency_error_before(self) -> float:
-        """Largest |relative frequency error| over the mode targets before the fit."""
+        """Largest ``|relative frequency error|`` over the mode targets before the fit."""
         return max((abs(m.error_before) for m in self.modes), default=float("nan"))
 
     @property
     def max_frequency_error_after(self) -> float:
-        """Largest |relative frequency error| over the mode targets after the fit."""
+        """Largest ``|relative frequency error|`` over the mode targets after the fit."""
         return max((abs(m.error_after) for m in self.modes), default=float("nan"))
 
     def rig_file_values(self) -> dict[str, float | str]:

@@ -1,4 +1,5 @@
 """Lab script: hold 15 N at 60 Hz with the shrouds impacting (0.5 mm gap), record 60 periods.
+==========================================================================================
 
     python docs/examples/force_controlled_dwell.py dwell.h5 [--backend nidaq|sim]
 

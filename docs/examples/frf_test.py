@@ -1,4 +1,5 @@
 """Lab script: periodic-chirp FRF test (no impacts: gap opened to 5 mm), H1 peaks as a check.
+==========================================================================================
 
 python docs/examples/frf_test.py frf.h5
 """

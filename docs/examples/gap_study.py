@@ -1,4 +1,5 @@
 """Lab script: force-controlled gap study (15 N, 60 Hz), the paper's Figure 10 on the rig.
+=======================================================================================
 
     python docs/examples/gap_study.py study.h5 [--resume]
 

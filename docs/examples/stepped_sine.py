@@ -1,4 +1,5 @@
 """Lab script: stepped sine up and down at 15 N across the impact range, with jumps.
+=================================================================================
 
 python docs/examples/stepped_sine.py sweep.h5
 """

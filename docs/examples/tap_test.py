@@ -1,6 +1,9 @@
-"""Lab script: impact-hammer (tap) test of the passive blade (it has no shaker), hit at 85 mm
-from the root so that its first three flexural modes all move; prints the modes identified
-from H1 (shroud acceleration / hammer force) over the accepted hits.
+"""Lab script: impact-hammer (tap) test of the passive blade
+==========================================================
+
+The passive blade has no shaker; it is hit at 85 mm from the root so that its first three
+flexural modes all move. The script prints the modes identified from H1 (shroud acceleration /
+hammer force) over the accepted hits.
 
     python docs/examples/tap_test.py tap.h5
     python docs/examples/tap_test.py tap.h5 --backend nidaq --rig lab.toml
