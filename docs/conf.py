@@ -14,7 +14,7 @@ ROOT = DOCS.parent
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(DOCS / "_ext"))
 
-import rigtools  # noqa: E402 (after the path set-up above)
+import rigtools
 
 project = "shrouded-blade rig toolkit"
 author = "the rigtools authors"
