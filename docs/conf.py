@@ -4,6 +4,8 @@ The user guide is the repository's markdown pages (MyST), the API reference is g
 docstrings (autosummary + numpydoc), and the scripts of ``docs/examples/`` run as a sphinx-gallery.
 """
 
+import importlib
+import pkgutil
 import sys
 from pathlib import Path
 
@@ -49,6 +51,24 @@ autosummary_generate = True
 # through the module's __getattr__) although they are defined in other modules.
 autosummary_ignore_module_all = False
 autosummary_imported_members = False
+# The packages of the reference and their modules (every module but private ones, found on disk, so
+# a new module appears without editing the docs); the template "package" lists them.
+API_PACKAGES = [
+    "rigtools.procedures",
+    "rigtools.recording",
+    "rigtools.interop",
+    "rigtools.sim",
+    "rigtools.analysis",
+    "rigtools.drivers",
+]
+
+
+def _submodules(package: str) -> list[str]:
+    path = importlib.import_module(package).__path__
+    return [f"{package}.{m.name}" for m in pkgutil.iter_modules(path) if not m.name.startswith("_")]
+
+
+autosummary_context = {"api_submodules": {name: _submodules(name) for name in API_PACKAGES}}
 autodoc_typehints = "none"  # numpydoc shows the documented types; signatures stay short
 autodoc_member_order = "bysource"
 autodoc_mock_imports: list[str] = []
