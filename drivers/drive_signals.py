@@ -155,10 +155,15 @@ class SineDrive:
 
     Examples
     --------
+    >>> import numpy as np
     >>> drive = SineDrive(51200.0, 60.0, max_drive=5.0, ramp_time=0.5)
     >>> drive.set_target(2.0)                  # ramps up over 0.5 s from the next sample
-    >>> block = drive.next_block(5120)
+    >>> block = drive.next_block(51200)        # 1 s: the ramp, then 2 V peak
+    >>> round(float(np.abs(block[-854:]).max()), 3)      # the last period
+    2.0
     >>> tail = drive.stop_block()              # 0.5 s of samples ending at 0 V
+    >>> len(tail), float(tail[-1]), drive.amplitude
+    (25600, 0.0, 0.0)
     """
 
     def __init__(

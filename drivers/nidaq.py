@@ -141,10 +141,20 @@ class NiDaqDevice(AcquisitionDevice):
 
     Examples
     --------
-    >>> with NiDaqDevice() as daq:                                  # doctest: +SKIP
-    ...     rate = daq.configure(cfg.daq.input_specs(), cfg.daq.output_spec(), 51200.0)
-    ...     daq.write(first); daq.write(second); daq.start()
-    ...     block = daq.read()
+    The contract's order: configure, queue the first two drive blocks, start, read. It needs the
+    NI-DAQmx driver and the rig's device (not run by the test suite, which has no hardware):
+
+    >>> from rigtools.config import load_rig
+    >>> from rigtools.drivers.drive_signals import SineDrive
+    >>> cfg = load_rig("lab.toml")  # doctest: +SKIP
+    >>> with NiDaqDevice(abort_ramp_time=cfg.safety.abort_ramp_time) as daq:  # doctest: +SKIP
+    ...     rate = daq.configure(cfg.daq.input_specs(), cfg.daq.output_spec(), cfg.daq.sample_rate)
+    ...     drive = SineDrive(rate, 60.0, max_drive=cfg.safety.max_drive, ramp_time=0.5)
+    ...     drive.set_target(1.0)
+    ...     daq.write(drive.next_block(daq.block_size))
+    ...     daq.write(drive.next_block(daq.block_size))
+    ...     daq.start()
+    ...     block = daq.read()  # (input channels, block_size), SI units
     """
 
     backend = "nidaqmx"

@@ -136,10 +136,25 @@ class BlockStream:
 
     Examples
     --------
-    >>> with BlockStream(device, drive, sink=point, safety=monitor) as stream:   # doctest: +SKIP
-    ...     while stream.stats.duration < 2.0:
-    ...         stream.read()
-    ...     stream.finish()
+    Half a second of a 0.2 V sine at 60 Hz on the simulated rig, with the rig file's limits:
+
+    >>> from rigtools.config import load_rig
+    >>> from rigtools.drivers.safety import SineDrive
+    >>> from rigtools.procedures.rig import configure, open_device, safety_monitor
+    >>> cfg = load_rig()
+    >>> device = open_device(cfg, "sim", seed=1)
+    >>> rate = configure(device, cfg)
+    >>> drive = SineDrive(rate, 60.0, max_drive=cfg.safety.max_drive, ramp_time=0.05)
+    >>> drive.set_target(0.2)
+    >>> sink = BlockCollector()
+    >>> with BlockStream(device, drive, sink=sink, safety=safety_monitor(cfg, device)) as stream:
+    ...     while stream.stats.duration < 0.5:
+    ...         block = stream.read()      # (channels, samples), also given to the sink
+    ...     stats = stream.finish()
+    >>> [channel.name for channel in device.input_channels]
+    ['force', 'active_shroud_accel', 'passive_shroud_accel']
+    >>> sink.data.shape[1] == stats.samples, stats.duration >= 0.5, stats.warnings
+    (True, True, [])
     """
 
     def __init__(

@@ -66,10 +66,24 @@ class StopRequests:
 
     Examples
     --------
-    >>> with StopRequests() as stops:          # doctest: +SKIP
-    ...     for run in runs:
-    ...         with stops.protected():
-    ...             write(run)
+    A SIGTERM that arrives while point 2 is being written: the point is finished, then the
+    stop is raised (here the process sends the signal to itself, as ``kill`` would):
+
+    >>> import os, signal
+    >>> from rigtools.errors import Interrupted
+    >>> written = []
+    >>> try:
+    ...     with StopRequests() as stops:
+    ...         for point in (1, 2, 3):
+    ...             with stops.protected():
+    ...                 if point == 2:
+    ...                     os.kill(os.getpid(), signal.SIGTERM)
+    ...                 written.append(point)
+    ... except Interrupted as stop:
+    ...     print(stop.signal_name, stop.exit_code)
+    SIGTERM 143
+    >>> written
+    [1, 2]
     """
 
     def __init__(self, signals: tuple[int, ...] = STOP_SIGNALS) -> None:

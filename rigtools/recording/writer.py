@@ -350,14 +350,24 @@ class RecordingWriter:
 
     Examples
     --------
-    >>> with RecordingWriter("run.h5", backend="simulated", rig=rig_text,
-    ...                      experiment={"procedure": "dwell"}) as rec:        # doctest: +SKIP
+    One point of 0.1 s of a 15 N force at 60 Hz, streamed in five blocks, then read back:
+
+    >>> import numpy as np
+    >>> from rigtools.config import load_rig
+    >>> from rigtools.recording import ChannelSpec, RecordingWriter, open_recording
+    >>> rate = 51200.0
+    >>> force = 15.0 * np.sin(2 * np.pi * 60.0 * np.arange(5120) / rate)
+    >>> with RecordingWriter("run.h5", backend="simulated", rig=load_rig(),
+    ...                      experiment={"procedure": "dwell"}, overwrite=True) as rec:
     ...     point = rec.begin_point(params={"fe": 60.0, "force_amplitude": 15.0, "gap": 5e-4},
-    ...                             channels=[ChannelSpec("force", "N", "force", 51200.0)])
-    ...     for block in blocks:
+    ...                             channels=[ChannelSpec("force", "N", "force", rate)])
+    ...     for block in np.split(force, 5):
     ...         point.append(block)
     ...     point.set_attrs(settled=True)
     ...     point.end()
+    >>> with open_recording("run.h5") as run:
+    ...     print(run.status, run.points[0].n_samples, run.points[0].params["settled"])
+    complete 5120 True
     """
 
     def __init__(
