@@ -39,4 +39,4 @@ curves = {
 }
 fig = amplitude_frequency_figure(frequencies, curves, force_amplitude=15.0, title=rig_config.name)
 peak = frequencies[np.argmax(fem.displacement_amplitude("passive_shroud"))]
-print(f"passive shroud: largest FEM displacement at {peak:.0f} Hz")
+print(f"passive shroud: largest FEM displacement at {peak:.1f} Hz")
