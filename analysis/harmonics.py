@@ -50,7 +50,7 @@ class HarmonicFit:
         """``[{"k", "frequency_hz", "amplitude", "phase"}, ...]`` with plain Python numbers."""
         return [
             {"k": int(k), "frequency_hz": float(f), "amplitude": float(a), "phase": float(p)}
-            for k, f, a, p in zip(self.k, self.frequency_hz, self.amplitude, self.phase)
+            for k, f, a, p in zip(self.k, self.frequency_hz, self.amplitude, self.phase, strict=True)
         ]
 
 

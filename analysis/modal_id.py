@@ -396,11 +396,11 @@ def lscf_stabilisation(
     model.get_poles(method="lscf", show_progress=False)
     orders, fr, xi, stable = [], [], [], []
     prev_f = prev_x = np.array([])
-    for j, (pf, px) in enumerate(zip(model.pole_freq, model.pole_xi)):
+    for j, (pf, px) in enumerate(zip(model.pole_freq, model.pole_xi, strict=True)):
         pf, px = np.asarray(pf, float), np.asarray(px, float)
         keep = np.isfinite(pf) & (pf >= f_min) & (pf <= f_max) & (px > 0) & (px < max_damping)
         pf, px = pf[keep], px[keep]
-        for a, b in zip(pf, px):
+        for a, b in zip(pf, px, strict=True):
             near = (np.abs(prev_f - a) <= freq_tol * a) & (np.abs(prev_x - b) <= damping_tol * b)
             orders.append(2 * (j + 1))
             fr.append(a)
@@ -557,7 +557,7 @@ def _lsfd(model, chart, clusters, f, h, kind, f_lo, f_hi):
     n = min(rec.size, f.size)
     err = float(np.linalg.norm(rec[:n][band[:n]] - h[:n][band[:n]]) / np.linalg.norm(h[:n][band[:n]]))
     modes = []
-    for (fn, zeta), (j, i), a in zip(medians, pole_ind, np.asarray(consts)[0]):
+    for (fn, zeta), (j, i), a in zip(medians, pole_ind, np.asarray(consts)[0], strict=True):
         pole = model.all_poles[j][i]
         wd = abs(pole.imag)
         # sdypy's term A / (i w - s) + conj: the single-mode form (i w)^k R / (wn^2 - w^2 + 2 i zeta wn w)

@@ -353,7 +353,7 @@ def study_figure(
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=8)
 
-    point_labels = [f"{v:.4g}{'↑' if d == 'up' else '↓'}" for v, d in zip(x, dirs)]
+    point_labels = [f"{v:.4g}{'↑' if d == 'up' else '↓'}" for v, d in zip(x, dirs, strict=True)]
     for i, (label, amp) in enumerate(harmonics.items()):
         amp = np.asarray(amp, dtype=float)
         k = np.arange(1, amp.shape[1] + 1)
@@ -656,7 +656,7 @@ def harmonic_bars_figure(
         raise ValueError("no channel present in both em and fem")
     fig = Figure(figsize=(12, 2.8 * len(channels) + 0.8), layout="constrained")
     axes = fig.subplots(len(channels), 1, squeeze=False)[:, 0]
-    for ax, ch in zip(axes, channels):
+    for ax, ch in zip(axes, channels, strict=True):
         a = np.asarray(em[ch], dtype=float)[:k_max]
         b = np.asarray(fem[ch], dtype=float)[:k_max]
         n = min(a.size, b.size)
@@ -711,7 +711,7 @@ def trend_figure(
     rows = int(np.ceil(len(names) / cols))
     fig = Figure(figsize=(6.0 * cols, 3.2 * rows + 0.8), layout="constrained")
     axes = np.atleast_1d(fig.subplots(rows, cols, squeeze=False).ravel())
-    for ax, name in zip(axes, names):
+    for ax, name in zip(axes, names, strict=True):
         for i, (src, (x, y)) in enumerate(quantities[name].items()):
             x = np.asarray(x, dtype=float) * scale
             order = np.argsort(x, kind="stable")

@@ -63,7 +63,7 @@ class DwellAnalysis:
             recs = fit.to_records()
             rel = self.phases_to_force.get(name)
             if rel is not None:
-                for r, p in zip(recs, rel):
+                for r, p in zip(recs, rel, strict=True):
                     r["phase_to_force"] = float(p)
             channels[name] = {
                 "harmonics": recs,

@@ -90,7 +90,7 @@ def measure(cfg, seconds: float, repeats: int) -> dict:
     return {
         m: {
             "realtime_factor": best[m],
-            "peak": dict(zip([s.name for s in inputs], np.round(sink.peak, 3).tolist())),
+            "peak": dict(zip([s.name for s in inputs], np.round(sink.peak, 3).tolist(), strict=True)),
         }
         for m, (_, sink, inputs) in runners.items()
     }

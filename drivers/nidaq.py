@@ -429,7 +429,7 @@ class NiDaqDevice(AcquisitionDevice):
         if self._scaled:
             data *= self._volts_scale
         if not np.all(np.isfinite(data)):
-            bad = [s.name for s, row in zip(self._inputs, data) if not np.all(np.isfinite(row))]
+            bad = [s.name for s, row in zip(self._inputs, data, strict=True) if not np.all(np.isfinite(row))]
             self._fail(InvalidSamples(f"non-finite samples on {', '.join(bad)}", partial=data))
         try:
             overloaded = self._ai.in_stream.overloaded_chans_exist

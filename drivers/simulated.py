@@ -1045,7 +1045,7 @@ class SimulatedRig(AcquisitionDevice):
             data = self._chain.to_volts(physical)
         first = self._chain.first_overload
         if first >= 0:
-            names = [s.name for s, o in zip(self._inputs, self._chain.overloaded) if o]
+            names = [s.name for s, o in zip(self._inputs, self._chain.overloaded, strict=True) if o]
             self._fail(
                 SensorOverload(
                     f"{', '.join(names)} beyond its range at t = {(k0 + first) / self._rate:.4f} s",

@@ -113,7 +113,7 @@ def mesh_nodes(length: float, n_elements: int, breakpoints: list[float]) -> np.n
         counts[np.argmax(share - counts)] += 1
     while counts.sum() > n_elements:
         counts[np.argmax(counts - share)] -= 1
-    parts = [np.linspace(a, b, n + 1)[:-1] for a, b, n in zip(cuts[:-1], cuts[1:], counts)]
+    parts = [np.linspace(a, b, n + 1)[:-1] for a, b, n in zip(cuts[:-1], cuts[1:], counts, strict=True)]
     return np.concatenate([*parts, [length]])
 
 

@@ -218,7 +218,7 @@ class ContactFitResult:
                     "bounds": list(self.bounds[n]),
                     "confidence_95": list(ident.confidence[n]),
                 }
-                for n, u in zip(self.names, self.units)
+                for n, u in zip(self.names, self.units, strict=True)
             },
             "rig_file": self.rig_file_values(),
             "cost_before": self.cost_before,
@@ -246,7 +246,7 @@ class ContactFitResult:
             + ("" if self.success else f" (optimiser: {self.message})")
             + ("" if self.steady else " -- at the optimum, a run did not reach a periodic steady state")
         ]
-        for n, u in zip(self.names, self.units):
+        for n, u in zip(self.names, self.units, strict=True):
             lo, hi = ident.confidence[n]
             lines.append(
                 f"{n:<20} start {self.initial[n]:<11.5g} fitted {self.fitted[n]:<11.5g} "
@@ -331,17 +331,17 @@ def fit_contact(
         base = replace(params, contact=replace(params.contact, law=law, stiffness=k))
     start = dict(start or {})
     specs = [CONTACT_PARAMETERS[n] for n in names]
-    v0 = np.array([float(start.get(n, s.get(base))) for n, s in zip(names, specs)])
+    v0 = np.array([float(start.get(n, s.get(base))) for n, s in zip(names, specs, strict=True)])
     if np.any(v0 <= 0):
         raise ValueError("contact stiffness and damping must start > 0 to be fitted in log scale")
     b_all = {
-        n: tuple(map(float, (bounds or {}).get(n, s.default_bounds(v)))) for n, s, v in zip(names, specs, v0)
+        n: tuple(map(float, (bounds or {}).get(n, s.default_bounds(v)))) for n, s, v in zip(names, specs, v0, strict=True)
     }
     for n, (lo_n, hi_n) in b_all.items():
         if not 0 < lo_n < hi_n:
             raise ValueError(f"{n}: bounds ({lo_n}, {hi_n}) must satisfy 0 < low < high")
-    v0 = np.array([min(max(v, b_all[n][0]), b_all[n][1]) for n, v in zip(names, v0)])
-    for s, v in zip(specs, v0):
+    v0 = np.array([min(max(v, b_all[n][0]), b_all[n][1]) for n, v in zip(names, v0, strict=True)])
+    for s, v in zip(specs, v0, strict=True):
         base = s.set(base, float(v))
     linear = system if system is not None else reduced_system(base, "fem")
     linear = replace(linear, contact=base.contact)
@@ -362,7 +362,7 @@ def fit_contact(
 
     def system_at(x) -> ReducedSystem:
         contact = base.contact
-        for s, v in zip(names, to_v(x)):
+        for s, v in zip(names, to_v(x), strict=True):
             contact = replace(contact, **{s.split(".")[1]: float(v)})
         return replace(linear, contact=contact)
 
@@ -372,7 +372,7 @@ def fit_contact(
             counts["evaluations"] += 1
             sysx = system_at(x)
             res, harms, all_steady = [], [], True
-            for t, n in zip(targets, steps):
+            for t, n in zip(targets, steps, strict=True):
                 amps, steady = harmonic_amplitudes(sysx, t, steps_per_period=n, record_periods=record_periods)
                 counts["runs"] += 1
                 all_steady &= steady
@@ -406,9 +406,9 @@ def fit_contact(
     x = sol.x
     r1, h1, steady1 = evaluate(x)
     ident = _identifiability(_central_jacobian(residuals, x, lo, hi, FD_STEP), names, specs, x, v0, 1.0, 0)
-    fitted = {n: float(v) for n, v in zip(names, to_v(x))}
+    fitted = {n: float(v) for n, v in zip(names, to_v(x), strict=True)}
     out_params = base
-    for s, n in zip(specs, names):
+    for s, n in zip(specs, names, strict=True):
         out_params = s.set(out_params, fitted[n])
     labels = [
         f"{t.fe:g} Hz {t.force_amplitude:g} N gap {1e3 * t.gap:g} mm {loc} k={k}"
@@ -420,7 +420,7 @@ def fit_contact(
         names=names,
         units=[CONTACT_PARAMETERS[n].unit for n in names],
         law=law,
-        initial={n: float(v) for n, v in zip(names, v0)},
+        initial={n: float(v) for n, v in zip(names, v0, strict=True)},
         fitted=fitted,
         bounds=b_all,
         params=out_params,
@@ -468,7 +468,7 @@ def targets_from_model(
     system = replace(system, contact=params.contact)
     out = []
     steps = steps_per_period if steps_per_period is not None else [None] * len(dwells)
-    for (fe, f0, gap), n in zip(dwells, steps):
+    for (fe, f0, gap), n in zip(dwells, steps, strict=True):
         probe = HarmonicTarget(fe, f0, gap, {loc: np.ones(n_harmonics) for loc in LOCATIONS})
         amps, _ = harmonic_amplitudes(system, probe, steps_per_period=n)
         out.append(HarmonicTarget(fe, f0, gap, amps, **target_kwargs))

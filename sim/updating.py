@@ -684,7 +684,7 @@ class UpdateResult:
                     "confidence_95": list(ident.confidence[n]),
                     "std_relative": float(ident.std_scaled[i]),
                 }
-                for i, (n, u) in enumerate(zip(self.names, self.units))
+                for i, (n, u) in enumerate(zip(self.names, self.units, strict=True))
             },
             "rig_file": self.rig_file_values(),
             "modes": [
@@ -732,7 +732,7 @@ class UpdateResult:
             + ("" if self.success else f" (optimiser: {self.message})")
         ]
         lines.append(f"{'parameter':<30} {'start':>12} {'fitted':>12} {'95 % interval':>27}  unit")
-        for n, u in zip(self.names, self.units):
+        for n, u in zip(self.names, self.units, strict=True):
             lo, hi = ident.confidence[n]
             lines.append(
                 f"{n:<30} {self.initial[n]:>12.5g} {self.fitted[n]:>12.5g} {f'[{lo:.4g}, {hi:.4g}]':>27}  {u}"
@@ -787,17 +787,17 @@ class _Problem:
 
     def to_x(self, v: np.ndarray) -> np.ndarray:
         return np.array(
-            [math.log(vi / v0) if s.log else vi / v0 - 1.0 for s, vi, v0 in zip(self.specs, v, self.v0)]
+            [math.log(vi / v0) if s.log else vi / v0 - 1.0 for s, vi, v0 in zip(self.specs, v, self.v0, strict=True)]
         )
 
     def to_v(self, x: np.ndarray) -> np.ndarray:
         return np.array(
-            [v0 * math.exp(xi) if s.log else v0 * (1.0 + xi) for s, xi, v0 in zip(self.specs, x, self.v0)]
+            [v0 * math.exp(xi) if s.log else v0 * (1.0 + xi) for s, xi, v0 in zip(self.specs, x, self.v0, strict=True)]
         )
 
     def params_at(self, x: np.ndarray) -> RigParams:
         p = self.base
-        for s, v in zip(self.specs, self.to_v(x)):
+        for s, v in zip(self.specs, self.to_v(x), strict=True):
             p = s.set(p, float(v))
         return p
 
@@ -874,7 +874,7 @@ def _identifiability(
     np.fill_diagonal(corr, 1.0)
     z = 1.959963984540054 if dof <= 0 else float(scipy.stats.t.ppf(0.975, dof))
     confidence = {}
-    for i, (name, spec) in enumerate(zip(names, specs)):
+    for i, (name, spec) in enumerate(zip(names, specs, strict=True)):
         half = z * std[i]
         if spec.log:
             confidence[name] = (
@@ -1040,8 +1040,8 @@ def update_model(
     return UpdateResult(
         names=names,
         units=[PARAMETERS[n].unit for n in names],
-        initial={n: float(v) for n, v in zip(names, prob.v0)},
-        fitted={n: float(vi) for n, vi in zip(names, v)},
+        initial={n: float(v) for n, v in zip(names, prob.v0, strict=True)},
+        fitted={n: float(vi) for n, vi in zip(names, v, strict=True)},
         bounds=b_all,
         params=prob.params_at(x),
         residual_labels=_residual_labels(targets),
@@ -1149,7 +1149,7 @@ def pair_modes(
     rows, cols = _opt.linear_sum_assignment(np.where(cost <= math.log1p(max_offset), cost, 1e3))
     targets, model_hz, unpaired = [], [], []
     paired = {}
-    for r, c in zip(rows, cols):
+    for r, c in zip(rows, cols, strict=True):
         if cost[r, c] <= math.log1p(max_offset):
             paired[int(r)] = int(c)
     for i, f in enumerate(f_id):

@@ -833,7 +833,7 @@ class VibroImpactRun:
         edges = np.diff(closed)
         starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
         # a contact that straddles the record ends is not a whole contact
-        lengths = [e - s for s, e in zip(starts, ends) if s > 0 and e < closed.size - 2]
+        lengths = [e - s for s, e in zip(starts, ends, strict=True) if s > 0 and e < closed.size - 2]
         return float(min(lengths)) if lengths else float("inf")
 
     def energy_balance(self) -> dict[str, float]:

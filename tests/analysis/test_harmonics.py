@@ -8,7 +8,7 @@ from rigtools.analysis.harmonics import harmonic_amplitudes
 
 def _signal(t, fe, amps, phases, offset=0.0):
     x = np.full_like(t, offset)
-    for k, (a, p) in enumerate(zip(amps, phases), start=1):
+    for k, (a, p) in enumerate(zip(amps, phases, strict=True), start=1):
         x += a * np.cos(2 * np.pi * k * fe * t + p)
     return x
 
@@ -71,7 +71,7 @@ def test_derivative_harmonics_match_the_differentiated_signal():
     k = np.arange(1, kmax + 1)
     w = 2 * np.pi * fe * k
     acc = np.zeros_like(t)
-    for kk, a, p in zip(k, amps, phases):
+    for kk, a, p in zip(k, amps, phases, strict=True):
         acc -= a * (2 * np.pi * fe * kk) ** 2 * np.cos(2 * np.pi * kk * fe * t + p)
     from rigtools.analysis.harmonics import derivative_harmonics
 

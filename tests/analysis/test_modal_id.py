@@ -70,7 +70,7 @@ def test_poles_of_digital_filter_identified_from_white_noise_h1():
     est = estimate_frf(x, y, fs, nperseg=4096)
     modes = identify_modes(est.frequency_hz, est.h1, kind="receptance", f_min=20, f_max=900, n_modes=2)
     assert len(modes) == 2
-    for mode, (_, den, _) in zip(modes, systems):
+    for mode, (_, den, _) in zip(modes, systems, strict=True):
         z = np.roots(den)
         s = np.log(z[np.argmax(z.imag)]) * fs
         assert mode.frequency_hz == pytest.approx(abs(s) / (2 * np.pi), rel=1e-3)

@@ -118,7 +118,7 @@ def test_study_figure_separates_sweeps_and_maps_the_harmonics():
     assert up.get_linestyle() != down.get_linestyle() and up.get_marker() != down.get_marker()
     assert [t.get_text() for t in ax.get_legend().get_texts()] == ["sweep up ↑", "sweep down ↓"]
     assert ax.get_xlabel() == "gap (mm)" and ax.get_ylabel() == "peak contact force (N)"
-    for hm, amp in zip(fig.axes[1::2], (act, pas)):  # each heat map followed by its colour bar
+    for hm, amp in zip(fig.axes[1::2], (act, pas), strict=True):  # each heat map followed by its colour bar
         mesh = hm.collections[0]
         assert isinstance(mesh.norm, LogNorm)
         np.testing.assert_array_equal(np.asarray(mesh.get_array()).reshape(30, 5), amp.T)
@@ -206,7 +206,7 @@ def test_amplitude_frequency_figure_plots_each_curve():
             curves[m][quantity][f"{blade}_{loc}"] for loc in ("shroud", "force_point") for m in ("FEM", "AM")
         ]
         assert len(ax.lines) == 4
-        for line, y in zip(ax.lines, expected):
+        for line, y in zip(ax.lines, expected, strict=True):
             np.testing.assert_array_equal(line.get_xdata(), f)
             np.testing.assert_array_equal(line.get_ydata(), y)
         assert ax.get_yscale() == "log" and _has_units(ax.get_ylabel())

@@ -275,7 +275,7 @@ def test_frf_prints_the_h1_peaks_with_their_coherence(tmp_path):
     modes = blade_modes(build_rig_model(ta.apply(cfg.to_params())).active, 6)
     flex = modes.frequencies_hz[np.array(modes.kinds) == "flexural"][:2]
     peaks = sorted(doc["check"]["peaks"], key=lambda p: -p["h1"])[:2]
-    for f, pk in zip(flex, sorted(peaks, key=lambda p: p["frequency_hz"])):
+    for f, pk in zip(flex, sorted(peaks, key=lambda p: p["frequency_hz"]), strict=True):
         assert abs(pk["frequency_hz"] - f) <= 2.0 and pk["coherence"] > 0.99
     with open_recording(out) as rec:
         p = rec.points[0]

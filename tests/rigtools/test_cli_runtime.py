@@ -159,7 +159,7 @@ def probes():
     for argvs, proc in procs.items():
         stdout, stderr = proc.communicate(timeout=180)
         assert proc.returncode == 0, stderr
-        for argv, (code, modules) in zip(argvs, json.loads(stdout.strip().splitlines()[-1])):
+        for argv, (code, modules) in zip(argvs, json.loads(stdout.strip().splitlines()[-1]), strict=True):
             out[argv] = code, modules
     return out
 

@@ -37,7 +37,7 @@ def test_streamed_study_equals_the_in_memory_study(system, tmp_path):
     ref = run_study(sys_, "gap", GAPS, direction="both", record_duration=0.1, max_settle_time=4.0)
     with open_recording(out) as rec:
         assert rec.status == "complete" and len(rec.points) == len(ref.points) == 5
-        for p, r, s in zip(rec.points, ref.points, summaries):
+        for p, r, s in zip(rec.points, ref.points, summaries, strict=True):
             assert p.ended
             assert (p.params["direction"], p.params["study_value"]) == (r.direction, r.value)
             assert (

@@ -119,7 +119,7 @@ def test_gap_study_measured_excitation_agrees_better_than_nominal(files):
             names = sorted(p.rsplit("/", 1)[-1] for p in doc["figures"])
             assert len(names) == 1 + 2 * 3 and "gap65.compare-trends.png" in names
     assert np.mean(scores["measured"]) > np.mean(scores["nominal"]) + 0.05
-    assert all(m > n for m, n in zip(scores["measured"], scores["nominal"]))
+    assert all(m > n for m, n in zip(scores["measured"], scores["nominal"], strict=True))
 
 
 def test_6fe_difference_at_60_hz_is_explained_by_the_em_2nd_mode_offset(files):

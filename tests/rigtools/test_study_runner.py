@@ -33,7 +33,7 @@ def in_process(system):
 
 def _same(a, b):
     assert [p.index for p, _ in a] == [p.index for p, _ in b] == list(range(27))
-    for (pa, ra), (pb, rb) in zip(a, b):
+    for (pa, ra), (pb, rb) in zip(a, b, strict=True):
         assert pa == pb
         for key, value in ra.outputs.items():
             assert np.array_equal(value, rb.outputs[key]), (pa.index, key)
@@ -115,7 +115,7 @@ def test_rig_study_map_same_file_on_two_workers(tmp_path):
     assert main([*argv, "--workers", "2", "--out", str(tmp_path / "two.h5")]) == 0
     with open_recording(tmp_path / "one.h5") as a, open_recording(tmp_path / "two.h5") as b:
         assert len(a.points) == len(b.points) == 4
-        for pa, pb in zip(a.points, b.points):
+        for pa, pb in zip(a.points, b.points, strict=True):
             assert (pa.params["gap"], pa.params["fe"]) == (pb.params["gap"], pb.params["fe"])
             for name in pa.channels:
                 assert np.array_equal(pa[name].read(), pb[name].read()), name

@@ -68,7 +68,7 @@ def test_rig_analyze_identifies_the_passive_blade_from_a_tap_test(folder):
     rows = [r for r in doc["natural_frequencies"] if r["blade"] == "passive"]
     em = [r["em_hz"] for r in sorted(rows, key=lambda r: r["mode"])]
     assert len(em) == 3
-    for got, ref in zip(em, ARTICLE["passive"]):
+    for got, ref in zip(em, ARTICLE["passive"], strict=True):
         assert got == pytest.approx(ref, rel=5e-3)  # measured: within 0.011 %
 
 

@@ -128,8 +128,8 @@ def test_peak_contact_force_falls_as_fe_rises(freq_study):
 def test_up_and_down_sweeps_show_hysteresis(freq_study):
     """Carrying the state: the up sweep stays on the impacting branch to higher fe than the
     down sweep picks it up again (a jump at each end of the overlap)."""
-    up = dict(zip(freq_study.values("up"), freq_study.peak_contact_force("up")))
-    down = dict(zip(freq_study.values("down"), freq_study.peak_contact_force("down")))
+    up = dict(zip(freq_study.values("up"), freq_study.peak_contact_force("up"), strict=True))
+    down = dict(zip(freq_study.values("down"), freq_study.peak_contact_force("down"), strict=True))
     differ = [f for f in up if f in down and (up[f] > 0) != (down[f] > 0)]
     assert differ, (up, down)
 
