@@ -107,7 +107,7 @@ def harmonic_amplitudes(x: np.ndarray, sample_rate: float, fe: float, k_max: int
     )
     if whole:
         spectrum = np.fft.rfft(x)
-        bins = k * int(round(periods))
+        bins = k * round(periods)
         coef = spectrum[bins] * (2.0 / n)  # a - i b for a cos + b sin
         a, b = coef.real, -coef.imag
         offset = spectrum[0].real / n

@@ -129,7 +129,7 @@ def periodic_double_integral(x: np.ndarray, sample_rate: float, base_hz: float) 
     n_per = int(np.floor(x.size * base_hz / sample_rate))
     if n_per < 1:
         raise ValueError("record shorter than one period")
-    n = int(round(n_per * sample_rate / base_hz))
+    n = round(n_per * sample_rate / base_hz)
     n = min(n, x.size)
     spec = np.fft.rfft(x[:n])
     f = np.fft.rfftfreq(n, 1.0 / sample_rate)
@@ -291,7 +291,7 @@ def detect_impacts(
         if peaks.size:
             hx = np.abs(impulsive_part(x, sample_rate, fc))
             spans = [(g[0], g[-1]) for g in groups]
-            half = max(2, int(round(2e-4 * sample_rate)))
+            half = max(2, round(2e-4 * sample_rate))
             impulse_levels[name] = float(
                 np.mean([hx[max(lo - half, 0) : hi + half + 1].max() for lo, hi in spans])
             )

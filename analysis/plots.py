@@ -35,7 +35,7 @@ def _suptitle(fig: Figure, text: str, width: int = 110) -> None:
 
 def _last_periods(n: int, sample_rate: float, fe: float, periods: float) -> slice:
     """The last ``periods`` excitation periods of an ``n``-sample record (all of it if shorter)."""
-    m = int(round(periods * sample_rate / fe))
+    m = round(periods * sample_rate / fe)
     return slice(max(n - m, 0), n)
 
 

@@ -81,7 +81,7 @@ def main() -> None:
     run_study(system, "gap", GAPS[:1], record_periods=1, max_settle_time=0.05)
 
     # fast integrator, wall per simulated second
-    steps = int(round(args.seconds / dt))
+    steps = round(args.seconds / dt)
     u = F0 * np.sin(2 * np.pi * FE * dt * np.arange(1, steps + 1))
     out = np.empty((steps, N_OUT))
 
@@ -92,7 +92,7 @@ def main() -> None:
 
     # full-order reference, same process
     ref_seconds = 0.5
-    ref_steps = int(round(ref_seconds * FE * REF_STEPS))
+    ref_steps = round(ref_seconds * FE * REF_STEPS)
     uf = F0 * np.sin(2 * np.pi * FE / (FE * REF_STEPS) * np.arange(1, ref_steps + 1))
 
     def full():

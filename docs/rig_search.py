@@ -110,11 +110,11 @@ def family_rig(
     s, m2 = 0.53, None
     for _ in range(3):  # sensor mass <-> antinode
 
-        def f2(m):
+        def f2(m, s):
             return exact_flexural_frequencies(blade, [LumpedMass(m, sensor_j, s * length), tip], 2)[1] - 361.9
 
         try:
-            m2 = brentq(f2, 1e-4, 2.0, xtol=1e-8)
+            m2 = brentq(f2, 1e-4, 2.0, args=(s,), xtol=1e-8)
         except ValueError:
             return None
         am = assumed_modes_blade(blade, [LumpedMass(m2, sensor_j, s * length), tip], None, 3)
@@ -157,7 +157,7 @@ def paper_findings(params: RigParams) -> dict:
     pk = gap.peak_contact_force()
     r["gap_peaks"] = pk.round(2).tolist()
     r["gap"] = float(np.min(-np.diff(pk) / pk[:-1])) if pk[0] > 0 else -1.0
-    k2a, k2p, k3 = (int(round(f / 60.0)) for f in (fa[1], fp[1], fp[2]))
+    k2a, k2p, k3 = (round(f / 60.0) for f in (fa[1], fp[1], fp[2]))
     r["k3"] = k3
     r["m6"] = min(_band_margin(_accel(p.run, "active_tip"), 6, 4, 9) if k2a == 6 else -1 for p in gap.points)
     r["m8"] = min(_band_margin(_accel(p.run, "passive_tip"), 8, 4, 9) if k2p == 8 else -1 for p in gap.points)
@@ -273,13 +273,13 @@ def active_blade(
     s = 0.55
     for _ in range(4):
 
-        def f2(t):
+        def f2(t, s):
             b = BladeParams(length, width, t, E, RHO)
             masses = [LumpedMass(m2, sensor_j, s * length), LumpedMass(m1, j1, length)]
             return exact_flexural_frequencies(b, masses, 2)[1] - 361.9
 
         try:
-            t = brentq(f2, 2e-4, 1e-2, xtol=1e-9)
+            t = brentq(f2, 2e-4, 1e-2, args=(s,), xtol=1e-9)
         except ValueError:
             return None
         b = BladeParams(length, width, t, E, RHO)

@@ -37,9 +37,12 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from types import TracebackType
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
+
+if TYPE_CHECKING:  # typing.Self is 3.11+; the annotations are strings (PEP 563), never evaluated
+    from typing_extensions import Self
 
 STANDARD_GRAVITY = 9.80665  # m/s^2 per g, exactly (CGPM 1901)
 
@@ -453,7 +456,7 @@ class AcquisitionDevice(abc.ABC):
             self.backend, self.sample_rate, self.sample_rate, self.block_size, self.input_to_output_delay()
         )
 
-    def __enter__(self) -> AcquisitionDevice:
+    def __enter__(self) -> Self:
         return self
 
     def __exit__(
@@ -532,7 +535,7 @@ class SignalSource(abc.ABC):
     def close(self) -> None:
         """Output off, release the connection. Idempotent."""
 
-    def __enter__(self) -> SignalSource:
+    def __enter__(self) -> Self:
         return self
 
     def __exit__(

@@ -296,9 +296,9 @@ class RandomDrive:
         if burst_period is None:
             self._gate = None
         else:
-            period = int(round(burst_period * sample_rate))
-            on = int(round(burst_fraction * period))
-            edge = min(max(1, int(round(edge_time * sample_rate))), on // 2)
+            period = round(burst_period * sample_rate)
+            on = round(burst_fraction * period)
+            edge = min(max(1, round(edge_time * sample_rate)), on // 2)
             rise = raised_cosine(edge)  # ends at exactly 1
             gate = np.zeros(period)
             gate[:on] = 1.0
@@ -377,7 +377,7 @@ class PeriodicChirp:
         lo, hi = float(band[0]), float(band[1])
         if not 0 < lo < hi < sample_rate / 2:
             raise ValueError(f"band {band} Hz must satisfy 0 < low < high < {sample_rate / 2:g}")
-        n = int(round(period * sample_rate))
+        n = round(period * sample_rate)
         if n < 4:
             raise ValueError(f"period {period!r} s is shorter than 4 samples")
         t_per = n / sample_rate

@@ -42,6 +42,7 @@ requested when it is half full or less, where the device allows).
 
 from __future__ import annotations
 
+import contextlib
 import math
 import time
 from collections.abc import Sequence
@@ -367,12 +368,10 @@ class NiDaqDevice(AcquisitionDevice):
 
     def info(self) -> DeviceInfo:
         details: dict[str, str] = {}
-        try:
+        with contextlib.suppress(Exception):  # informational only; never fail a run for it
             details["devices"] = ", ".join(
                 f"{d.name} ({d.product_type}, s/n {d.serial_num:X})" for d in self._ai.devices
             )
-        except Exception:  # informational only; never fail a run for it
-            pass
         details["drive_idle_zero_volts"] = str(self._idle_is_zero)
         details["abort_ramp_time_s"] = f"{self.ramp_samples / self._rate:g}"
         details["max_time_to_zero_s"] = f"{self.time_to_zero():.3g}"
@@ -452,7 +451,7 @@ class NiDaqDevice(AcquisitionDevice):
     @property
     def ramp_samples(self) -> int:
         """Samples of the stop ramp: ``abort_ramp_time * rate``, rounded down (never longer)."""
-        return max(1, int(math.floor(self.abort_ramp_time * self._rate + 1e-9)))
+        return max(1, math.floor(self.abort_ramp_time * self._rate + 1e-9))
 
     def stop_ramp(self) -> np.ndarray:
         """The samples :meth:`stop` appends: a raised-cosine ramp from the last written sample to

@@ -217,4 +217,4 @@ def output_queue_limit(
             f"abort ramp {abort_ramp_time:g} s leaves no room for queued drive within "
             f"{max_time_to_zero:g} s to zero"
         )
-    return int(math.floor(room))
+    return math.floor(room)

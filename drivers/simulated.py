@@ -219,7 +219,7 @@ class Fault:
         """Index of the first sample the fault spoils."""
         if self.at_block is not None:
             return self.at_block * block_size + block_size // 2
-        return int(round(self.at_time * sample_rate))
+        return round(self.at_time * sample_rate)
 
 
 # ------------------------------------------------------------------------------------ hammer
@@ -264,15 +264,15 @@ class SimulatedHammer:
         ``k = k0 .. k0 + n - 1``, N*s (exact integrals of the half-sines)."""
         out = np.zeros(n)
         t0, t1 = k0 * dt, (k0 + n) * dt
-        i_lo = max(0, int(math.floor((t0 - self.first - self.duration) / self.interval)))
-        i_hi = int(math.floor((t1 - self.first) / self.interval))
+        i_lo = max(0, math.floor((t0 - self.first - self.duration) / self.interval))
+        i_hi = math.floor((t1 - self.first) / self.interval)
         if self.hits is not None:
             i_hi = min(i_hi, self.hits - 1)
         w = math.pi / self.duration
         for i in range(i_lo, i_hi + 1):
             ts = self.first + i * self.interval
-            a = max(k0, int(math.floor(ts / dt)))
-            b = min(k0 + n, int(math.ceil((ts + self.duration) / dt)))
+            a = max(k0, math.floor(ts / dt))
+            b = min(k0 + n, math.ceil((ts + self.duration) / dt))
             if b <= a:
                 continue
             edges = np.clip(np.arange(a, b + 1) * dt - ts, 0.0, self.duration)
@@ -1102,7 +1102,7 @@ class SimulatedRig(AcquisitionDevice):
         """
         queued = self._take(self._queued)
         last = float(queued[-1]) if queued.size else self._last_drive
-        r = max(1, int(math.floor(self.abort_ramp_time * self._rate + 1e-9)))
+        r = max(1, math.floor(self.abort_ramp_time * self._rate + 1e-9))
         ramp = last * (1.0 - raised_cosine(r))
         ramp[-1] = 0.0
         tail = np.zeros(self._delay_line.size)

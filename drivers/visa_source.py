@@ -19,6 +19,7 @@ A simulated instrument ships as package data (:func:`simulator_path`); open it w
 
 from __future__ import annotations
 
+import contextlib
 import math
 import re
 from importlib import resources
@@ -42,6 +43,7 @@ TERMINATION = "\n"
 MIN_AMPLITUDE_VPP = 0.001  # the 33500's smallest amplitude
 SUPPORTED_MODELS = ("335", "336")  # 33500 and 33600 series share the command set
 MAX_ERRORS_DRAINED = 32  # the instrument's queue holds at most 20
+DEFAULT_LIMITS = SourceLimits()  # frozen: one instance is safe to share as a default
 
 # SCPI error queue entry: <code>,"<text>"
 _SCPI_ERROR = re.compile(r'^\s*([-+]?\d+)\s*,\s*"(.*)"\s*$')
@@ -73,7 +75,7 @@ def open_resource_manager(backend: str = "") -> pyvisa.ResourceManager:
     """
     try:
         return pyvisa.ResourceManager(backend)
-    except Exception as exc:  # backends raise what they like (pyvisa-sim: yaml errors)
+    except Exception as exc:  # noqa: BLE001 - backends raise what they like (pyvisa-sim: yaml errors)
         first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         # pyvisa-sim puts the repr of a whole traceback after its own sentence: keep the sentence
         first = first.split(" 'Traceback")[0].strip()
@@ -117,7 +119,7 @@ class WaveformGenerator(SignalSource):
     def __init__(
         self,
         resource: str,
-        limits: SourceLimits = SourceLimits(),
+        limits: SourceLimits = DEFAULT_LIMITS,
         *,
         backend: str = "",
         resource_manager: pyvisa.ResourceManager | None = None,
@@ -132,7 +134,7 @@ class WaveformGenerator(SignalSource):
                 resource,
                 read_termination=TERMINATION,
                 write_termination=TERMINATION,
-                timeout=int(round(timeout * 1000)),
+                timeout=round(timeout * 1000),
             )
         except VisaIOError as exc:
             self._close_rm()
@@ -158,10 +160,8 @@ class WaveformGenerator(SignalSource):
 
     def _close_rm(self) -> None:
         if self._own_rm:
-            try:
+            with contextlib.suppress(Exception):  # best effort: the manager may be half open
                 self._rm.close()
-            except Exception:
-                pass
 
     def _query(self, command: str) -> str:
         """Send a query and return the reply; an error string as a reply raises."""
@@ -294,10 +294,8 @@ class WaveformGenerator(SignalSource):
         if getattr(self, "_closed", True):
             return
         self._closed = True
-        try:
+        with contextlib.suppress(Exception):  # the instrument may be gone; closing must still happen
             self._inst.write("OUTP OFF")
-        except Exception:  # the instrument may be gone; closing must still happen
-            pass
         try:
             self._inst.close()
         finally:

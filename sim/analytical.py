@@ -21,6 +21,7 @@ It shares nothing with the FE matrices. Two parts:
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -349,7 +350,7 @@ def assumed_modes_blade(
 
     M = np.zeros((n_terms, n_terms))
     K = np.zeros((n_terms, n_terms))
-    for a, b in zip(cuts[:-1], cuts[1:], strict=True):
+    for a, b in itertools.pairwise(cuts):
         panels = max(4, int(np.ceil(lams[-1] * (b - a) / np.pi)) * 2)
         x, w = _composite_gauss(a * L, b * L, panels)
         # keep the quadrature nodes inside this segment's own basis

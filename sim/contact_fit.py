@@ -335,7 +335,8 @@ def fit_contact(
     if np.any(v0 <= 0):
         raise ValueError("contact stiffness and damping must start > 0 to be fitted in log scale")
     b_all = {
-        n: tuple(map(float, (bounds or {}).get(n, s.default_bounds(v)))) for n, s, v in zip(names, specs, v0, strict=True)
+        n: tuple(map(float, (bounds or {}).get(n, s.default_bounds(v))))
+        for n, s, v in zip(names, specs, v0, strict=True)
     }
     for n, (lo_n, hi_n) in b_all.items():
         if not 0 < lo_n < hi_n:

@@ -384,8 +384,8 @@ def run_full_order(
     n = 1.0 / (fe * dt)
     if abs(n - round(n)) > 1e-6:
         raise SimulationInputError("1/(fe*dt) must be an integer number of steps per period")
-    n = int(round(n))
-    periods = int(math.ceil(duration * fe))
+    n = round(n)
+    periods = math.ceil(duration * fe)
     if periods < record_periods + 1:  # the record starts at the end of a whole period
         raise SimulationInputError(
             f"duration {duration:g} s holds {periods} excitation periods; recording {record_periods} "

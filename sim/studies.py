@@ -285,7 +285,7 @@ def iter_study(
         sysp = system.with_contact(gap=point.gap)
         opts = dict(run_options)
         if record_duration is not None:
-            opts["record_periods"] = max(1, int(round(record_duration * point.fe)))
+            opts["record_periods"] = max(1, round(record_duration * point.fe))
         run = run_harmonic(sysp, point.fe, point.force, initial=state if plan.carry_state else None, **opts)
         state = run.final_state
         yield point, run

@@ -787,12 +787,18 @@ class _Problem:
 
     def to_x(self, v: np.ndarray) -> np.ndarray:
         return np.array(
-            [math.log(vi / v0) if s.log else vi / v0 - 1.0 for s, vi, v0 in zip(self.specs, v, self.v0, strict=True)]
+            [
+                math.log(vi / v0) if s.log else vi / v0 - 1.0
+                for s, vi, v0 in zip(self.specs, v, self.v0, strict=True)
+            ]
         )
 
     def to_v(self, x: np.ndarray) -> np.ndarray:
         return np.array(
-            [v0 * math.exp(xi) if s.log else v0 * (1.0 + xi) for s, xi, v0 in zip(self.specs, x, self.v0, strict=True)]
+            [
+                v0 * math.exp(xi) if s.log else v0 * (1.0 + xi)
+                for s, xi, v0 in zip(self.specs, x, self.v0, strict=True)
+            ]
         )
 
     def params_at(self, x: np.ndarray) -> RigParams:

@@ -994,7 +994,7 @@ def run_harmonic(
     periods_run = 0
     steady = False
     per = None
-    max_periods = max(int(math.ceil(max_settle_time * fe)), check_every)
+    max_periods = max(math.ceil(max_settle_time * fe), check_every)
     while periods_run < max_periods:
         o = stepper.step(chunk, out)
         periods_run += check_every
@@ -1051,7 +1051,7 @@ def periodic_force_terms(force_harmonics) -> np.ndarray:
         terms = np.asarray(arr, dtype=float).reshape(-1, 3) if arr.size else np.empty((0, 3))
     if terms.shape[0] == 0:
         raise SimulationInputError("force_harmonics holds no harmonic")
-    k, a, ph = terms.T
+    k, a, _ph = terms.T
     if not (np.all(np.isfinite(terms)) and np.all(k >= 1) and np.all(k == np.round(k))):
         raise SimulationInputError("force harmonics need integer orders k >= 1 and finite values")
     if np.any(a < 0):
@@ -1229,11 +1229,11 @@ def estimate_steps(
     decay = float(np.min((system.zeta * system.omega)[real])) if real.any() else math.inf
     t_settle = math.log(1.0 / tol) / decay if decay > 0 else math.inf
     t_settle = min(t_settle, max_settle_time)
-    periods = max(check_every, int(math.ceil(t_settle * fe / check_every)) * check_every)
+    periods = max(check_every, math.ceil(t_settle * fe / check_every) * check_every)
     total = (periods + int(record_periods)) * n
     mode_steps = total * system.n_modes
-    max_periods = max(int(math.ceil(max_settle_time * fe)), check_every)
-    worst = (int(math.ceil(max_periods / check_every)) * check_every + int(record_periods)) * n
+    max_periods = max(math.ceil(max_settle_time * fe), check_every)
+    worst = (math.ceil(max_periods / check_every) * check_every + int(record_periods)) * n
     return CostEstimate(
         steps_per_period=n,
         limited_by=limited,

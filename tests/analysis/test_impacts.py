@@ -14,12 +14,12 @@ def _record(onsets, n_periods=30, seed=0, noise=0.5):
     f(t) = 50 N (0.4 + 0.6 sin(pi t / tau)) for 0 <= t < tau (a damped contact force jumps where
     the contact closes and opens); active shroud mass 0.1 kg, passive 0.08 kg."""
     rng = np.random.default_rng(seed)
-    n = int(round(n_periods * FS / FE))
+    n = round(n_periods * FS / FE)
     t = np.arange(n) / FS
     fc = np.zeros(n)
     for t0 in onsets:
-        i0 = int(round(t0 * FS))
-        m = int(round(TAU * FS))
+        i0 = round(t0 * FS)
+        m = round(TAU * FS)
         if i0 + m < n:
             fc[i0 : i0 + m] = 50.0 * (0.4 + 0.6 * np.sin(np.pi * np.arange(m) / m))
     w = 2 * np.pi * FE
@@ -34,7 +34,7 @@ def test_period_one_impacts_counted_timed_and_sized():
     """One contact per period at phase 0.25: 30 impacts (1 per period), onsets within one sample,
     contact duration within 2 samples (0.04 ms) of 1 ms, period 1."""
     onsets = (np.arange(30) + 0.25) / FE
-    a, p, f, fc = _record(onsets)
+    a, p, f, _fc = _record(onsets)
     r = detect_impacts(a, FS, FE, passive_acceleration=p, force=f)
     assert r.n_impacts == 30
     assert r.impacts_per_period == pytest.approx(1.0)
@@ -54,7 +54,7 @@ def test_period_two_pattern():
         onsets.append((k + 0.25) / FE)
         if k % 2:
             onsets.append((k + 0.6) / FE)
-    a, p, f, _ = _record(onsets)
+    a, p, _f, _ = _record(onsets)
     r = detect_impacts(a, FS, FE, passive_acceleration=p)
     assert r.n_impacts == len(onsets)
     assert r.impacts_per_period == pytest.approx(1.5, abs=0.04)

@@ -162,7 +162,7 @@ def test_time_and_spectrum_figure_per_channel():
     xt, yt = ax_ft.lines[0].get_xdata(), ax_ft.lines[0].get_ydata()
     dt_ms = 1e3 / rate
     assert 0 <= xt[0] < dt_ms and xt[-1] == pytest.approx(5e3 / fe, abs=dt_ms)
-    i0 = int(round((1.5 + xt[0] * 1e-3 - 1.5) * rate)) % 800  # sample within the period
+    i0 = round((1.5 + xt[0] * 1e-3 - 1.5) * rate) % 800  # sample within the period
     np.testing.assert_allclose(
         yt, force[n - 4800 :][(np.arange(4800) % 800 == i0).argmax() :][: yt.size], atol=1e-12
     )

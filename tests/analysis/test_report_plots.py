@@ -100,7 +100,7 @@ def test_overlay_uses_each_sides_force_zero_crossing_as_time_zero():
         em_rate=51200.0,
         fem_rate=19680.0,
     )
-    ax_force, ax_fs, ax_acc, ax_as = fig.axes
+    ax_force, _ax_fs, ax_acc, ax_as = fig.axes
     for line in ax_force.lines:
         t_ms, y = line.get_xdata(), line.get_ydata()
         np.testing.assert_allclose(

@@ -603,7 +603,7 @@ def test_without_driver_one_line_suggests_simulated_rig(monkeypatch, specs):
 
 def test_on_this_machine_without_nidaqmx_the_real_call_says_unavailable(specs):
     try:
-        nidaqmx.system.System.local().driver_version
+        _ = nidaqmx.system.System.local().driver_version  # raises without the NI driver
     except (DaqNotFoundError, DaqNotSupportedError):
         pass
     else:  # pragma: no cover - only on a machine with NI-DAQmx

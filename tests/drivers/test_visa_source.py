@@ -105,11 +105,10 @@ def test_error_string_as_a_reply_raises(gen, monkeypatch):
 
 
 def test_exit_turns_the_output_off_even_on_error(rm):
-    with pytest.raises(RuntimeError):
-        with WaveformGenerator(SIMULATED_RESOURCE, LIMITS, resource_manager=rm) as g:
-            g.configure_sine(60.0, 1.0)
-            g.set_output(True)
-            raise RuntimeError("procedure failed")
+    with pytest.raises(RuntimeError), WaveformGenerator(SIMULATED_RESOURCE, LIMITS, resource_manager=rm) as g:
+        g.configure_sine(60.0, 1.0)
+        g.set_output(True)
+        raise RuntimeError("procedure failed")
     # the simulated instrument keeps its state between sessions: reopen and look
     with WaveformGenerator(SIMULATED_RESOURCE, LIMITS, resource_manager=rm) as g2:
         assert g2.state().output_on is False

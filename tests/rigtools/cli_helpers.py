@@ -26,6 +26,7 @@ def rig(*args, cwd) -> str:
         capture_output=True,
         text=True,
         timeout=600,
+        check=False,
     )
     assert proc.returncode == 0, proc.stderr[-2000:]
     return proc.stdout

@@ -32,7 +32,7 @@ FRF = [
 @pytest.fixture(scope="module")
 def frf_file(tmp_path_factory):
     path = tmp_path_factory.mktemp("frf") / "burst.h5"
-    code, out, err = run_cli([*FRF, "--out", str(path)])
+    code, _out, err = run_cli([*FRF, "--out", str(path)])
     assert code == 0, err
     return path
 
@@ -41,7 +41,7 @@ def frf_file(tmp_path_factory):
 def study_file(tmp_path_factory):
     """A FEM frequency study with the gap wide open (linear): a stepped sine of the model."""
     path = tmp_path_factory.mktemp("study") / "steps.h5"
-    code, out, err = run_cli(
+    code, _out, err = run_cli(
         [
             "study",
             "frequency",
@@ -206,7 +206,7 @@ def test_cli_bad_input_one_line_exit_2(tmp_path, frf_file):
         ["analyze", str(tmp_path / "missing.h5")],
         ["analyze", str(frf_file), "--channels", "strain_gauge"],
     ):
-        code, out, err = run_cli(argv)
+        code, _out, err = run_cli(argv)
         assert code == 2
         lines = err.strip().splitlines()
         assert len(lines) == 1 and lines[0].startswith("rig analyze: error:"), err

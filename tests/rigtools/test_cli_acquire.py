@@ -167,7 +167,7 @@ def test_without_the_ni_driver_exit_3_in_one_line(tmp_path):
     from nidaqmx.errors import DaqNotFoundError, DaqNotSupportedError
 
     try:
-        nidaqmx.system.System.local().driver_version
+        _ = nidaqmx.system.System.local().driver_version  # raises without the NI driver
     except (DaqNotFoundError, DaqNotSupportedError):
         pass
     else:  # pragma: no cover - only on a machine with NI-DAQmx

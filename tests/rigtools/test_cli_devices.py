@@ -14,7 +14,7 @@ from rigtools.cli import main
 
 def ni_missing() -> bool:
     try:
-        nidaqmx.system.System.local().driver_version
+        _ = nidaqmx.system.System.local().driver_version  # raises without the NI driver
     except DaqNotFoundError:
         return True
     return False

@@ -65,7 +65,7 @@ def recordings(tmp_path_factory):
     paths = {}
     for name, argv in runs.items():
         paths[name] = d / f"{name}.h5"
-        code, out, err = run_cli([*argv, "--out", str(paths[name])])
+        code, _out, err = run_cli([*argv, "--out", str(paths[name])])
         assert code == 0, err
     return paths
 
@@ -104,13 +104,13 @@ def test_report_opens_in_chromium_with_every_figure_drawn(recordings, tmp_path, 
 
 
 def test_report_refuses_bad_input_and_keeps_foreign_files(recordings, tmp_path):
-    code, out, err = run_cli(["report", str(tmp_path / "none.h5"), "--out", str(tmp_path / "r")])
+    code, _out, err = run_cli(["report", str(tmp_path / "none.h5"), "--out", str(tmp_path / "r")])
     assert code == 2 and err.startswith("rig report: error:") and len(err.strip().splitlines()) == 1
     foreign = tmp_path / "mine"
     foreign.mkdir()
     (foreign / "report.html").write_text("<html>my notes</html>")
-    code, out, err = run_cli(["report", str(recordings["dwell"]), "--out", str(foreign)])
+    code, _out, err = run_cli(["report", str(recordings["dwell"]), "--out", str(foreign)])
     assert code == 2 and "not overwritten" in err
     assert (foreign / "report.html").read_text() == "<html>my notes</html>"
-    code, out, err = run_cli(["report", str(recordings["dwell"]), "--out", str(recordings["dwell"])])
+    code, _out, err = run_cli(["report", str(recordings["dwell"]), "--out", str(recordings["dwell"])])
     assert code == 2

@@ -174,7 +174,7 @@ def test_help_and_argument_errors_do_not_import_heavy_packages(probes, argv):
 
 def test_rig_info_does_not_import_scipy_signal(tmp_path):
     path = small_recording(tmp_path / "run.h5")
-    stdout, stderr = _probe(("info", str(path))).communicate(timeout=120)
+    stdout, _stderr = _probe(("info", str(path))).communicate(timeout=120)
     [[code, modules]] = json.loads(stdout.strip().splitlines()[-1])
     assert code == 0
     assert "scipy.signal" not in modules
@@ -455,6 +455,7 @@ def test_console_that_cannot_print_the_text(tmp_path, encoding):
         capture_output=True,
         env=_env(PYTHONIOENCODING=encoding),
         timeout=120,
+        check=False,
     )
     assert proc.returncode == 0, proc.stderr
     assert b"Traceback" not in proc.stderr
@@ -484,7 +485,9 @@ def test_configure_process_sets_blas_threads_even_after_numpy_loaded():
         "print(json.dumps([s.blas_threads, s.blas_limited_live, os.environ['OPENBLAS_NUM_THREADS'],"
         " sorted({i['num_threads'] for i in threadpool_info() if i['user_api'] == 'blas'})]))"
     )
-    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=120)
+    proc = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=120, check=False
+    )
     assert proc.returncode == 0, proc.stderr
     assert json.loads(proc.stdout) == [1, True, "1", [1]]
 
@@ -497,7 +500,9 @@ def test_importing_the_cli_changes_no_environment():
         "import os, rigtools.cli; "
         "print(any(v in os.environ for v in ('OPENBLAS_NUM_THREADS', 'OMP_NUM_THREADS')))"
     )
-    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=60)
+    proc = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=60, check=False
+    )
     assert proc.stdout.strip() == "False"
 
 
@@ -521,7 +526,9 @@ def test_first_run_says_it_compiles_the_kernels_then_not(tmp_path):
         "print(first, kernels_cached(), ensure_kernels_compiled(said), repr(said.getvalue()))"
     )
     env = _env(NUMBA_CACHE_DIR=str(tmp_path / "numba"))
-    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=300)
+    proc = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=300, check=False
+    )
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.split() == ["True", "True", "False", "''"]
     assert proc.stderr.startswith("compiling the simulation kernels (first run only, ~")

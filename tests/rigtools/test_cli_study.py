@@ -85,7 +85,7 @@ def _ended_points(out):
     try:
         with open_recording(out) as rec:
             return [(p.index, datetime.fromisoformat(p.end_time).timestamp()) for p in rec.points if p.ended]
-    except Exception:  # the writer is between structure and streaming: try again
+    except Exception:  # noqa: BLE001 - the writer is between structure and streaming: try again
         return []
 
 

@@ -113,7 +113,7 @@ def test_gap_study_measured_excitation_agrees_better_than_nominal(files):
         assert {r["channel"] for r in rows} == {"force", "active_shroud_accel", "passive_shroud_accel"}
         assert all(r["em"] > 0 and r["fem"] > 0 for r in rows if r["channel"] != "force")
         # the fundamental of the force applied equals the EM force fundamental
-        f1 = [r for r in rows if r["channel"] == "force" and r["k"] == 1][0]
+        f1 = next(r for r in rows if r["channel"] == "force" and r["k"] == 1)
         assert f1["fem"] == pytest.approx(f1["em"], rel=1e-9)
         if figs:  # trends + per point overlay and harmonic bars, named after the EM file
             names = sorted(p.rsplit("/", 1)[-1] for p in doc["figures"])
@@ -144,9 +144,9 @@ def test_6fe_difference_at_60_hz_is_explained_by_the_em_2nd_mode_offset(files):
     assert row.diff_pct > 100
     found = [(ch, e, m) for ch, e, m in p.explanations if ch == "active_shroud_accel" and e.k == 6]
     assert found, p.explanations
-    ch, e, m = found[0]
+    _ch, e, m = found[0]
     assert e.natural_hz == pytest.approx(em2) and m == ("active", 2, pytest.approx(fem2))
-    line = [x for x in p.explanation_lines("FEM") if "6·fe" in x][0]
+    line = next(x for x in p.explanation_lines("FEM") if "6·fe" in x)
     print(line)
     assert "EM active mode 2 at 355" in line and "+1." in line
     # just above the EM resonance: a higher natural frequency raises the harmonic, a lower one lowers it
@@ -247,7 +247,7 @@ def test_a_study_without_frf_data_says_so(files):
 )
 def test_bad_input_exit_2_in_one_line(files, argv, message):
     argv = [a.format(em=files["dwell60"], dir=files["dir"], frf=files["frf"]) for a in argv]
-    code, out, err = run_cli(argv)
+    code, _out, err = run_cli(argv)
     assert code == 2 and message in err, err
     assert "Traceback" not in err
 

@@ -14,6 +14,7 @@ def test_out_that_is_a_file_is_refused(tmp_path):
         capture_output=True,
         text=True,
         timeout=120,
+        check=False,
     )
     assert proc.returncode == 2
     assert proc.stderr.strip().splitlines() == [f"rig demo: error: --out {f}: exists and is not a folder"]
@@ -22,7 +23,11 @@ def test_out_that_is_a_file_is_refused(tmp_path):
 
 def test_help_teaches_the_options():
     proc = subprocess.run(
-        [sys.executable, "-m", "rigtools.cli", "demo", "--help"], capture_output=True, text=True, timeout=120
+        [sys.executable, "-m", "rigtools.cli", "demo", "--help"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
     )
     assert proc.returncode == 0
     for word in ("--quick", "--out", "--json", "Exit status", "rig demo --quick"):
@@ -36,6 +41,7 @@ def test_out_holding_other_files_is_refused(tmp_path):
         capture_output=True,
         text=True,
         timeout=120,
+        check=False,
     )
     assert proc.returncode == 2
     assert "holds files that a demo did not write" in proc.stderr

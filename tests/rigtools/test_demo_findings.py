@@ -41,7 +41,7 @@ def _study(cfg, kind, values, **fixed):
 
 
 def test_equivalent_point_keeps_the_free_amplitude(cfg, points):
-    paper, eq, info = points
+    _paper, eq, info = points
     # independent check: the FEM harmonic response at both points (within 0.1 %)
     assert steps.free_amplitude(cfg, eq.fe, eq.force) == pytest.approx(info["free_amplitude_m"], rel=1e-3)
     assert eq.fe / info["f1_hz"] == pytest.approx(1.8)
@@ -49,7 +49,7 @@ def test_equivalent_point_keeps_the_free_amplitude(cfg, points):
 
 
 def test_gap_finding_flips_when_the_gap_exceeds_the_free_amplitude(cfg, points):
-    _, eq, info = points
+    _, eq, _info = points
     near = _study(cfg, "gap", (0.3e-3, 0.9e-3), fe=eq.fe, force=eq.force)
     v = findings.c4_gap(near, near)
     assert v.holds is True, v.why

@@ -69,7 +69,7 @@ def test_uff_round_trip_equals_source(recording, tmp_path, capsys):
     assert (t_acc["ordinate_spec_data_type"], t_acc["ordinate_len_unit_exp"]) == (12, 1)
     assert t_acc["abscissa_spec_data_type"] == 17 and t_acc["rsp_dir"] == 2
     # spectra equal the analysis layer's
-    f, amp = amplitude_spectrum(accel, FS)
+    _f, amp = amplitude_spectrum(accel, FS)
     spec = by[(2, 2)]
     np.testing.assert_allclose(spec["data"], amp**2 / 2, rtol=1e-15, atol=0)
     assert spec["ordinate_len_unit_exp"] == 2  # (m/s^2)^2
@@ -87,7 +87,7 @@ def test_uff_round_trip_equals_source(recording, tmp_path, capsys):
 
 
 def test_sep005_dicts(recording):
-    force, accel = _signals()
+    _force, accel = _signals()
     with open_recording(recording) as rec:
         chans = to_sep005(rec, point=0)
     assert [c["name"] for c in chans] == ["force", "active_shroud_accel"]

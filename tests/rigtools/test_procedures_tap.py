@@ -81,7 +81,7 @@ def test_frf_test_gives_the_active_blades_first_three_flexural_frequencies(cfg, 
     ).run()
     with open_recording(out) as rec:
         p = rec.points[0]
-        start = int(round(p.params["record_start"] * p.sample_rate))
+        start = round(p.params["record_start"] * p.sample_rate)
         n, frame = int(p.params["record_samples"]), int(p.params["frame_samples"])
         blocks = [
             {

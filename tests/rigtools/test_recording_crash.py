@@ -109,7 +109,7 @@ def test_sigkill_at_random_moments_keeps_everything_flushed(tmp_path):
         for k, path, proc in batch:
             out, err = proc.communicate(timeout=30)
             assert proc.returncode == -signal.SIGKILL, err
-            points, samples = _verify(path, k, kills[k], out)
+            _points, samples = _verify(path, k, kills[k], out)
             exercised += samples > 0
             checked_samples += samples
     # the schedule must have exercised the guarantee, not only files with nothing old enough

@@ -210,7 +210,7 @@ def test_bad_recordings_are_one_line_exit_2(folder, frf, dwell):
         (junk, "junk.h5"),
         (dwell, "dwell.h5 (a sine dwell recording) holds no complete broadband test"),
     ):
-        code, out, err = run_cli(["update", path, "--out", folder / "bad.toml"])
+        code, _out, err = run_cli(["update", path, "--out", folder / "bad.toml"])
         assert code == 2, err
         assert message in err and len(err.strip().splitlines()) == 1 and "Traceback" not in err
     # an FRF test given as a dwell

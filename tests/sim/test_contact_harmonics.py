@@ -108,8 +108,8 @@ def test_contact_force_harmonics_of_a_known_piecewise_linear_force():
     for k in range(1, 13):
         w = 2 * np.pi * k * fe
         pts = list(knots_t)
-        re = quad(lambda t: g(t) * np.cos(w * t), t0, t1, points=pts, limit=200, epsabs=1e-14)[0]
-        im = quad(lambda t: -g(t) * np.sin(w * t), t0, t1, points=pts, limit=200, epsabs=1e-14)[0]
+        re = quad(lambda t, w=w: g(t) * np.cos(w * t), t0, t1, points=pts, limit=200, epsabs=1e-14)[0]
+        im = quad(lambda t, w=w: -g(t) * np.sin(w * t), t0, t1, points=pts, limit=200, epsabs=1e-14)[0]
         want = 2 * fe * (re + 1j * im)
         assert got[k - 1] == pytest.approx(want, rel=1e-9, abs=1e-12)
 

@@ -144,7 +144,7 @@ def test_a_diverging_run_stops_with_one_line_naming_the_suspects(system):
     """Bypass the step check (private override) to make the damper overshoot: the stepper must
     stop, not return NaN or 1e227."""
     st = VibroImpactStepper(system, 5e-5)
-    gap, kc, cc, p, code = st._contact
+    gap, kc, _cc, p, code = st._contact
     st._contact = (gap, kc, 1e5, p, code)
     u = 15.0 * np.sin(2 * np.pi * 60.0 * 5e-5 * np.arange(1, 200_001))
     with pytest.raises(SimulationDivergedError, match="diverged.*contact damping 1e\\+05") as err:

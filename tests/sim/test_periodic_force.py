@@ -77,8 +77,8 @@ def test_linear_response_matches_modal_receptance(open_system):
     run = _run(open_system, TWO, tol=1e-9, max_settle_time=30.0)
     assert run.steady_state
     fit = harmonic_amplitudes(run.outputs["active_tip_displacement"], run.sample_rate, FE, 6)
-    phiA, phiP, phiF = open_system.shapes
-    for k, a, p in TWO:
+    phiA, _phiP, phiF = open_system.shapes
+    for k, a, _phase in TWO:
         W = 2 * np.pi * FE * k
         H = np.sum(
             phiA * phiF / (open_system.omega**2 - W**2 + 2j * open_system.zeta * open_system.omega * W)

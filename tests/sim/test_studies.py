@@ -139,7 +139,7 @@ def test_largest_active_harmonic_4_to_9_is_nearest_its_second_flexural(model, ga
     f2 = flexural_frequencies(model.active, 2)[1]
     for p in gap_study.points:
         h = _accel(p.run, "active_tip")
-        k_nearest = int(round(f2 / p.run.fe))
+        k_nearest = round(f2 / p.run.fe)
         assert 4 + int(np.argmax(h[3:9])) == k_nearest == 6
 
 
@@ -148,7 +148,7 @@ def test_largest_passive_harmonic_4_to_9_is_nearest_its_second_flexural(model, g
     f2 = flexural_frequencies(model.passive, 2)[1]
     for p in gap_study.points:
         h = _accel(p.run, "passive_tip")
-        assert 4 + int(np.argmax(h[3:9])) == int(round(f2 / p.run.fe)) == 8
+        assert 4 + int(np.argmax(h[3:9])) == round(f2 / p.run.fe) == 8
 
 
 @pytest.mark.xfail(
@@ -159,6 +159,6 @@ def test_largest_passive_harmonic_4_to_9_is_nearest_its_second_flexural(model, g
 def test_largest_passive_harmonic_near_its_third_flexural(model, gap_study):
     f3 = flexural_frequencies(model.passive, 3)[2]
     for p in gap_study.points:
-        k3 = int(round(f3 / p.run.fe))
+        k3 = round(f3 / p.run.fe)
         h = _accel(p.run, "passive_tip")
         assert k3 - 4 + int(np.argmax(h[k3 - 5 : k3 + 4])) == k3

@@ -170,7 +170,7 @@ def stop_case():
 
 
 def _run_stop(case, dt):
-    sysm, exact, events, (F0, fe, t_end) = case
+    sysm, exact, _events, (F0, fe, t_end) = case
     st = VibroImpactStepper(sysm, dt)
     n = int(t_end / dt)
     t = dt * np.arange(1, n + 1)
@@ -182,7 +182,7 @@ def _run_stop(case, dt):
 def test_single_oscillator_against_exact_piecewise_solution(stop_case):
     """Error < 0.5 % of the amplitude at 40 steps per contact period; halving dt cuts it by
     ~4 (second order, FOH with implicit contact force)."""
-    sysm, _, events, _ = stop_case
+    _sysm, _, events, _ = stop_case
     assert len(events) > 6  # several impacts within the window
     tc = 2 * np.pi * math.sqrt(0.2 / 2e6)
     e1 = _run_stop(stop_case, tc / 40)
@@ -273,7 +273,6 @@ def test_two_oscillators_against_solve_ivp(law):
         (out.active_tip_velocity, ref[1], tol_v),
     ):
         assert np.max(np.abs(got - want)) < tol * np.max(np.abs(want))
-    pen = np.maximum(ref[0] - ref[2] - gap, 0)
     f_ref = np.array([force(y) for y in ref.T])
     assert out.contact_force.max() == pytest.approx(f_ref.max(), rel=1e-3 if law == "linear" else 5e-3)
 
@@ -341,7 +340,7 @@ def test_step_output_columns_copy_and_pickle():
     for twin in (copy.copy(out), pickle.loads(pickle.dumps(out))):
         np.testing.assert_array_equal(twin.active_tip_displacement, out.active_tip_displacement)
     with pytest.raises(AttributeError):
-        out.no_such_column
+        _ = out.no_such_column
 
 
 @pytest.mark.parametrize("stiffness", [0.0, -2e6])
