@@ -328,19 +328,26 @@ def explain_large_differences(
     Returns ``[(channel, FrequencyOffsetExplanation), ...]``.
     """
     out = []
-    for row in table.itertuples(index=False):
-        if not np.isfinite(row.diff_pct) or abs(row.diff_pct) <= threshold_pct:
+    for channel, k, f_k, ratio, diff_pct in zip(
+        table["channel"].astype(str),
+        table["k"].to_numpy(dtype=int),
+        table["frequency_hz"].to_numpy(dtype=float),
+        table["ratio"].to_numpy(dtype=float),
+        table["diff_pct"].to_numpy(dtype=float),
+        strict=True,
+    ):
+        if not np.isfinite(diff_pct) or abs(diff_pct) <= threshold_pct:
             continue
-        blade = (channel_blade or {}).get(row.channel)
+        blade = (channel_blade or {}).get(channel)
         if blade is None:
-            blade = next((b for b in BLADES if str(row.channel).startswith(b)), None)
+            blade = next((b for b in BLADES if channel.startswith(b)), None)
         if blade is None or blade not in natural_hz_em:
             continue
         fns = np.asarray(natural_hz_em[blade], dtype=float)
         if fns.size == 0:
             continue
-        j = int(np.argmin(np.abs(fns - row.frequency_hz)))
-        if abs(fns[j] - row.frequency_hz) > within_pct / 100.0 * fns[j]:
+        j = int(np.argmin(np.abs(fns - f_k)))
+        if abs(fns[j] - f_k) > within_pct / 100.0 * fns[j]:
             continue
         if isinstance(damping_ratio, Mapping):
             zeta = float(np.asarray(damping_ratio[blade], dtype=float)[j])
@@ -352,8 +359,8 @@ def explain_large_differences(
             model = float(m[j]) if j < m.size else None
         out.append(
             (
-                row.channel,
-                explain_harmonic_difference(int(row.k), fe, float(row.ratio), float(fns[j]), zeta, model),
+                channel,
+                explain_harmonic_difference(int(k), fe, float(ratio), float(fns[j]), zeta, model),
             )
         )
     return out

@@ -221,7 +221,7 @@ class HarmonicAccumulator:
 
     def result(self) -> list[HarmonicFit]:
         """One :class:`HarmonicFit` per channel."""
-        if self.n < 2 * self.k_max + 1:
+        if self._dtx is None or self._xtx is None or self.n < 2 * self.k_max + 1:
             raise ValueError(
                 f"need at least {2 * self.k_max + 1} samples to fit {self.k_max} harmonics, got {self.n}"
             )

@@ -265,16 +265,17 @@ def detect_impacts(
     # last step after it of at least release_fraction of that size (a damped contact opening)
     step = np.abs(np.diff(base))
     w = int(np.ceil(sample_rate / fc))
-    onsets, durations = [], []
+    onsets: list[int] = []
+    ends: list[float] = []  # contact durations, s (NaN where no opening is seen)
     for g in groups:
         lo, hi = max(g[0] - w, 0), min(g[-1] + w, step.size)
         seg = step[lo:hi]
         k = int(np.flatnonzero(seg >= 0.5 * seg.max())[0])  # the first of the large steps
         onsets.append(lo + k + 1)
         after = np.flatnonzero(seg[k + 2 :] >= release_fraction * seg[k])
-        durations.append((after[-1] + 1) / sample_rate + 1.0 / sample_rate if after.size else np.nan)
+        ends.append((after[-1] + 1) / sample_rate + 1.0 / sample_rate if after.size else np.nan)
     peaks = np.array(onsets, dtype=int)
-    durations = np.array(durations)
+    durations = np.array(ends)
     duration = a.size / sample_rate
     times = peaks / sample_rate
     tol = float(time_tolerance) if time_tolerance is not None else max(3.0 / sample_rate, 0.01 / fe)

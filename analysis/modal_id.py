@@ -416,12 +416,13 @@ def _stable_clusters(chart: StabilisationChart, freq_tol: float, min_stable: int
     members at distinct orders."""
     idx = np.flatnonzero(chart.stable)
     idx = idx[np.argsort(chart.frequency_hz[idx])]
-    clusters, current = [], []
+    clusters: list[np.ndarray] = []
+    current: list[int] = []
     for i in idx:
         if current and chart.frequency_hz[i] > chart.frequency_hz[current[0]] * (1 + 2 * freq_tol):
             clusters.append(np.array(current))
             current = []
-        current.append(i)
+        current.append(int(i))
     if current:
         clusters.append(np.array(current))
     return [c for c in clusters if np.unique(chart.orders[c]).size >= min_stable]

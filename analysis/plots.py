@@ -10,6 +10,7 @@ displacements are plotted in mm, forces in N, accelerations in m/s², frequencie
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from typing import Any
 
 import numpy as np
 from matplotlib.colors import LogNorm
@@ -236,7 +237,7 @@ def vibro_impact_figure(
     if t.size < 2:
         raise ValueError("need at least 2 samples")
     rate = 1.0 / float(t[1] - t[0])
-    win = _last_periods(t.size, rate, fe, periods)
+    win: slice | np.ndarray = _last_periods(t.size, rate, fe, periods)  # or a mask, below
     t_label = "time (s)"
     if force is not None:
         w = _last_periods(t.size, rate, fe, periods + 1)
@@ -339,10 +340,11 @@ def study_figure(
     fig = Figure(figsize=(11, 3.6 + 3.2 * n_maps), layout="constrained")
     grid = fig.add_gridspec(1 + n_maps, 1, height_ratios=[1.1] + [1.0] * n_maps)
     ax = fig.add_subplot(grid[0])
-    for direction, style in (
-        ("up", dict(marker="o", ls="-", color="C0")),
-        ("down", dict(marker="s", ls="--", color="C3", mfc="none")),
-    ):
+    styles: dict[str, dict[str, Any]] = {
+        "up": dict(marker="o", ls="-", color="C0"),
+        "down": dict(marker="s", ls="--", color="C3", mfc="none"),
+    }
+    for direction, style in styles.items():
         sel = dirs == direction
         if np.any(sel):
             arrow = "↑" if direction == "up" else "↓"
@@ -452,7 +454,7 @@ def time_and_spectrum_figure(
         x = np.asarray(channels[name], dtype=float)
         unit = units[name].replace("^2", "²")
         t = (t0 + np.arange(x.size) / sample_rate - t_ref) * t_scale
-        win = _last_periods(x.size, sample_rate, fe, periods)
+        win: slice | np.ndarray = _last_periods(x.size, sample_rate, fe, periods)  # or a mask, below
         if force_channel in channels:
             win = (t >= 0) & (t <= periods / fe * t_scale * (1 + 1e-9))
         ax_t, ax_s = axes[i]

@@ -46,6 +46,7 @@ import contextlib
 import math
 import time
 from collections.abc import Sequence
+from typing import NamedTuple
 
 import nidaqmx
 import numpy as np
@@ -137,6 +138,16 @@ def _unavailable(exc: Exception) -> DriverUnavailable:
     return DriverUnavailable(NO_DRIVER_MESSAGE)
 
 
+class _Session(NamedTuple):
+    """What :meth:`NiDaqDevice.configure` set up, for the streaming calls."""
+
+    ai: nidaqmx.Task
+    ao: nidaqmx.Task
+    reader: AnalogMultiChannelReader
+    writer: AnalogSingleChannelWriter
+    output: OutputChannelSpec
+
+
 class NiDaqDevice(AcquisitionDevice):
     """Force, accelerations and the shaker drive on NI-DAQmx hardware (e.g. a DSA module).
 
@@ -177,8 +188,8 @@ class NiDaqDevice(AcquisitionDevice):
             )
         self.abort_ramp_time = float(abort_ramp_time)
         self.max_time_to_zero = float(max_time_to_zero)
-        self._ai = None
-        self._ao = None
+        self._ai: nidaqmx.Task | None = None
+        self._ao: nidaqmx.Task | None = None
         self._reader: AnalogMultiChannelReader | None = None
         self._writer: AnalogSingleChannelWriter | None = None
         self._inputs: tuple[InputChannelSpec, ...] = ()
@@ -220,8 +231,8 @@ class NiDaqDevice(AcquisitionDevice):
                     f"channel {spec.name!r}: a voltage channel takes no excitation current"
                 )
         try:
-            self._ai = nidaqmx.Task()
-            self._ao = nidaqmx.Task()
+            ai = self._ai = nidaqmx.Task()
+            ao = self._ao = nidaqmx.Task()
         except (DaqNotFoundError, DaqNotSupportedError) as exc:
             self._close_tasks()
             raise _unavailable(exc) from None
@@ -235,8 +246,8 @@ class NiDaqDevice(AcquisitionDevice):
         self._requested_rate = float(sample_rate)
         try:
             for spec in inputs:
-                self._add_input(spec)
-            ao_chan = self._ao.ao_channels.add_ao_voltage_chan(
+                self._add_input(ai, spec)
+            ao_chan = ao.ao_channels.add_ao_voltage_chan(
                 output.physical_channel,
                 name_to_assign_to_channel=output.name,
                 min_val=output.min_voltage,
@@ -250,29 +261,29 @@ class NiDaqDevice(AcquisitionDevice):
                 self._idle_is_zero = False
 
             buffer = max(int(BUFFER_SECONDS * sample_rate), 2 * (block_size or 1))
-            self._ai.timing.cfg_samp_clk_timing(
+            ai.timing.cfg_samp_clk_timing(
                 sample_rate, sample_mode=AcquisitionType.CONTINUOUS, samps_per_chan=buffer
             )
-            self._rate = float(self._ai.timing.samp_clk_rate)  # the coerced, actual rate
+            self._rate = float(ai.timing.samp_clk_rate)  # the coerced, actual rate
             self._block = int(block_size) if block_size else max(1, round(DEFAULT_BLOCK_SECONDS * self._rate))
             self._ao_buffer = output_queue_limit(self._rate, self.abort_ramp_time, self.max_time_to_zero)
-            self._ao.timing.cfg_samp_clk_timing(
+            ao.timing.cfg_samp_clk_timing(
                 self._rate, sample_mode=AcquisitionType.CONTINUOUS, samps_per_chan=self._ao_buffer
             )
-            self._limit_onboard_fifo(ao_chan)
-            ao_rate = float(self._ao.timing.samp_clk_rate)
+            self._limit_onboard_fifo(ao, ao_chan)
+            ao_rate = float(ao.timing.samp_clk_rate)
             if not math.isclose(ao_rate, self._rate, rel_tol=1e-9):
                 raise ConfigurationError(
                     f"input and output clocks coerced to different rates ({self._rate} and "
                     f"{ao_rate} S/s); choose a rate both support"
                 )
             # AO waits for the AI start trigger: both start on the same clock edge
-            self._ao.triggers.start_trigger.cfg_dig_edge_start_trig(self._ai.triggers.start_trigger.term)
-            self._ao.out_stream.regen_mode = RegenerationMode.DONT_ALLOW_REGENERATION
+            ao.triggers.start_trigger.cfg_dig_edge_start_trig(ai.triggers.start_trigger.term)
+            ao.out_stream.regen_mode = RegenerationMode.DONT_ALLOW_REGENERATION
 
-            self._reader = AnalogMultiChannelReader(self._ai.in_stream)
-            self._writer = AnalogSingleChannelWriter(self._ao.out_stream, auto_start=False)
-            self._delay = self._read_delay()
+            self._reader = AnalogMultiChannelReader(ai.in_stream)
+            self._writer = AnalogSingleChannelWriter(ao.out_stream, auto_start=False)
+            self._delay = self._read_delay(ai, ao)
         except DaqError as exc:
             self._close_tasks()
             raise ConfigurationError(
@@ -283,14 +294,14 @@ class NiDaqDevice(AcquisitionDevice):
             raise
         return self._rate
 
-    def _limit_onboard_fifo(self, ao_chan) -> None:
+    def _limit_onboard_fifo(self, ao: nidaqmx.Task, ao_chan) -> None:
         """Keep the onboard output FIFO short where the device allows (best effort)."""
         try:
             ao_chan.ao_data_xfer_req_cond = OutputDataTransferCondition.ON_BOARD_MEMORY_HALF_FULL_OR_LESS
         except (DaqError, AttributeError, TypeError):
             pass
         try:
-            self._ao.out_stream.output_onbrd_buf_size = max(2, self._ao_buffer // 2)
+            ao.out_stream.output_onbrd_buf_size = max(2, self._ao_buffer // 2)
         except (DaqError, AttributeError, TypeError):
             pass
 
@@ -299,9 +310,9 @@ class NiDaqDevice(AcquisitionDevice):
         """The AO host buffer: the most drive samples queued ahead (see the module docstring)."""
         return self._ao_buffer or None
 
-    def _add_input(self, spec: InputChannelSpec) -> None:
+    def _add_input(self, ai: nidaqmx.Task, spec: InputChannelSpec) -> None:
         excitation = ExcitationSource.INTERNAL if spec.iepe else ExcitationSource.NONE
-        chans = self._ai.ai_channels
+        chans = ai.ai_channels
         if spec.kind == "accel":
             chan = chans.add_ai_accel_chan(
                 spec.physical_channel,
@@ -337,12 +348,12 @@ class NiDaqDevice(AcquisitionDevice):
         if spec.iepe:
             chan.ai_coupling = Coupling.AC  # IEPE: the sensor's bias voltage is blocked
 
-    def _read_delay(self) -> float:
+    def _read_delay(self, ai: nidaqmx.Task, ao: nidaqmx.Task) -> float:
         """AI plus AO filter delay in seconds; 0 where the device does not report one."""
         total = 0.0
         for chan, value, units in (
-            (self._ai.ai_channels.all, "ai_filter_delay", "ai_filter_delay_units"),
-            (self._ao.ao_channels.all, "ao_filter_delay", "ao_filter_delay_units"),
+            (ai.ai_channels.all, "ai_filter_delay", "ai_filter_delay_units"),
+            (ao.ao_channels.all, "ao_filter_delay", "ao_filter_delay_units"),
         ):
             try:
                 delay = float(getattr(chan, value))
@@ -369,9 +380,10 @@ class NiDaqDevice(AcquisitionDevice):
     def info(self) -> DeviceInfo:
         details: dict[str, str] = {}
         with contextlib.suppress(Exception):  # informational only; never fail a run for it
-            details["devices"] = ", ".join(
-                f"{d.name} ({d.product_type}, s/n {d.serial_num:X})" for d in self._ai.devices
-            )
+            if self._ai is not None:
+                details["devices"] = ", ".join(
+                    f"{d.name} ({d.product_type}, s/n {d.serial_num:X})" for d in self._ai.devices
+                )
         details["drive_idle_zero_volts"] = str(self._idle_is_zero)
         details["abort_ramp_time_s"] = f"{self.ramp_samples / self._rate:g}"
         details["max_time_to_zero_s"] = f"{self.time_to_zero():.3g}"
@@ -379,49 +391,57 @@ class NiDaqDevice(AcquisitionDevice):
 
     # ----------------------------------------------------------------------- streaming
 
-    def _require_configured(self) -> None:
-        if self._ai is None or self._writer is None or self._reader is None:
+    def _require_configured(self) -> _Session:
+        """The configured tasks and streams; raises if :meth:`configure` has not succeeded."""
+        if (
+            self._ai is None
+            or self._ao is None
+            or self._writer is None
+            or self._reader is None
+            or self._output is None
+        ):
             raise ConfigurationError("device not configured; call configure() first")
+        return _Session(self._ai, self._ao, self._reader, self._writer, self._output)
 
     def write(self, drive: np.ndarray) -> None:
-        self._require_configured()
+        session = self._require_configured()
         data = np.ascontiguousarray(drive, dtype=np.float64)
         if data.ndim != 1 or data.size == 0:
             raise LimitExceeded(f"drive block must be 1-D and non-empty, got shape {data.shape}")
         if not np.all(np.isfinite(data)):
             raise LimitExceeded("drive block holds NaN or inf; nothing written")
-        low, high = self._output.min_voltage, self._output.max_voltage
+        low, high = session.output.min_voltage, session.output.max_voltage
         if data.min() < low or data.max() > high:
             raise LimitExceeded(
                 f"drive {data.min():.4g}..{data.max():.4g} V is outside the output range "
                 f"{low}..{high} V; nothing written"
             )
         try:
-            self._writer.write_many_sample(data, timeout=10.0)
+            session.writer.write_many_sample(data, timeout=10.0)
         except DaqError as exc:
             self._fail(map_daq_error(exc))
         self._written += data.size
         self._last_value = float(data[-1])
 
     def start(self) -> None:
-        self._require_configured()
+        session = self._require_configured()
         if self._running:
             return
         if self._written == 0:
             raise ConfigurationError("write at least one drive block before start()")
         try:
-            self._ao.start()  # armed: waits for the AI start trigger
+            session.ao.start()  # armed: waits for the AI start trigger
             self._running = True
-            self._ai.start()  # fires the trigger: AO and AI start on the same edge
+            session.ai.start()  # fires the trigger: AO and AI start on the same edge
         except DaqError as exc:
             self._fail(map_daq_error(exc))
 
     def read(self, n_samples: int | None = None, timeout: float = 10.0) -> np.ndarray:
-        self._require_configured()
+        session = self._require_configured()
         n = int(n_samples or self._block)
         data = np.empty((len(self._inputs), n), dtype=np.float64)
         try:
-            self._reader.read_many_sample(data, number_of_samples_per_channel=n, timeout=timeout)
+            session.reader.read_many_sample(data, number_of_samples_per_channel=n, timeout=timeout)
         except DaqError as exc:
             got = int(getattr(exc, "samps_per_chan_read", 0) or 0)
             self._fail(map_daq_error(exc, partial=data[:, :got] * self._volts_scale if got else None))
@@ -431,8 +451,8 @@ class NiDaqDevice(AcquisitionDevice):
             bad = [s.name for s, row in zip(self._inputs, data, strict=True) if not np.all(np.isfinite(row))]
             self._fail(InvalidSamples(f"non-finite samples on {', '.join(bad)}", partial=data))
         try:
-            overloaded = self._ai.in_stream.overloaded_chans_exist
-            names = list(self._ai.in_stream.overloaded_chans) if overloaded else []
+            overloaded = session.ai.in_stream.overloaded_chans_exist
+            names = list(session.ai.in_stream.overloaded_chans) if overloaded else []
         except DaqError:  # devices without overload detection
             names = []
         if names:
@@ -472,28 +492,27 @@ class NiDaqDevice(AcquisitionDevice):
             return
         try:
             if self._running and not self._ao_failed and self._writer is not None:
-                self._ramp_to_zero()
+                self._ramp_to_zero(self._ao, self._writer)
         finally:
             for task in (self._ao, self._ai):
-                try:
-                    task.stop()
-                except DaqError:
-                    pass
+                if task is not None:
+                    with contextlib.suppress(DaqError):
+                        task.stop()
             was_running, self._running = self._running, False
-            if was_running and not self._idle_is_zero:
-                self._write_zero_on_demand()
+            if was_running and not self._idle_is_zero and self._output is not None:
+                self._write_zero_on_demand(self._output)
 
-    def _ramp_to_zero(self) -> None:
+    def _ramp_to_zero(self, ao: nidaqmx.Task, writer: AnalogSingleChannelWriter) -> None:
         """Append the stop ramp and wait (bounded) until the device has generated all of it."""
         tail = self.stop_ramp()
         try:
-            queued = self._written - int(self._ao.out_stream.total_samp_per_chan_generated)
+            queued = self._written - int(ao.out_stream.total_samp_per_chan_generated)
         except DaqError:  # the task failed since the last write: it has stopped
             self._ao_failed = True
             return
         budget = (max(queued, 0) + tail.size) / self._rate + WAIT_MARGIN_SECONDS
         try:
-            self._writer.write_many_sample(tail, timeout=budget)
+            writer.write_many_sample(tail, timeout=budget)
         except DaqError:
             self._ao_failed = True  # underflowed meanwhile or no room: it stops as it is
             return
@@ -502,21 +521,21 @@ class NiDaqDevice(AcquisitionDevice):
         deadline = _clock() + budget
         while True:
             try:
-                generated = int(self._ao.out_stream.total_samp_per_chan_generated)
+                generated = int(ao.out_stream.total_samp_per_chan_generated)
             except DaqError:  # underflow after the zeros: everything was generated
                 return
             if generated >= self._written or _clock() > deadline:
                 return
             _sleep(min(POLL_SECONDS, (self._written - generated) / self._rate))
 
-    def _write_zero_on_demand(self) -> None:
+    def _write_zero_on_demand(self, output: OutputChannelSpec) -> None:
         """A stopped AO task holds its last value; on such devices, set 0 V with a fresh task."""
         try:
             with nidaqmx.Task() as zero:
                 zero.ao_channels.add_ao_voltage_chan(
-                    self._output.physical_channel,
-                    min_val=self._output.min_voltage,
-                    max_val=self._output.max_voltage,
+                    output.physical_channel,
+                    min_val=output.min_voltage,
+                    max_val=output.max_voltage,
                     units=VoltageUnits.VOLTS,
                 )
                 zero.write(0.0, auto_start=True)

@@ -106,10 +106,6 @@ class SensorChain:
         self._noise = np.array([s.noise_rms * s.volts_per_unit for s in self.sensors])[:, None]
         self._adc_noise = np.array([s.adc_noise_rms for s in self.sensors])[:, None]
         self._any_noise = bool(np.any(self._noise > 0) or np.any(self._adc_noise > 0))
-        self._filters = [
-            highpass_coefficients(s.highpass_hz, self.sample_rate) if s.highpass_hz > 0 else None
-            for s in self.sensors
-        ]
         # channels with the same coupling corner are filtered in one call (one lfilter call per
         # block costs as much as thousands of samples: the simulated rig reads 20 ms pieces)
         groups: dict[float, list[int]] = {}
@@ -117,7 +113,8 @@ class SensorChain:
             if s.highpass_hz > 0:
                 groups.setdefault(s.highpass_hz, []).append(i)
         self._groups = [
-            (np.array(rows), self._filters[rows[0]], np.zeros((len(rows), 1))) for rows in groups.values()
+            (np.array(rows), highpass_coefficients(hz, self.sample_rate), np.zeros((len(rows), 1)))
+            for hz, rows in groups.items()
         ]
         self.overloaded = np.zeros(n, dtype=bool)
         self.first_overload = -1  # sample index of the first overload in the last block, or -1

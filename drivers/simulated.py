@@ -50,6 +50,7 @@ import time
 from collections import deque
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING, NamedTuple
 
 import numba
 import numpy as np
@@ -75,6 +76,9 @@ from rigtools.drivers.safety import MAX_TIME_TO_ZERO, output_queue_limit
 from rigtools.drivers.sensor_chain import SensorChain, SensorModel
 from rigtools.drivers.shaker import ShakerParams
 from rigtools.sim.params import DampingParams, RigParams, RootParams, SimulationInputError
+
+if TYPE_CHECKING:  # built lazily: importing it costs the FE model code
+    from rigtools.sim.rig_model import RigModel
 
 # what the physics provides, per time step
 SIGNALS = (
@@ -219,6 +223,7 @@ class Fault:
         """Index of the first sample the fault spoils."""
         if self.at_block is not None:
             return self.at_block * block_size + block_size // 2
+        assert self.at_time is not None  # __post_init__: exactly one of the two is given
         return round(self.at_time * sample_rate)
 
 
@@ -522,6 +527,7 @@ class VibroImpactPhysics:
                 f"{hammer.blade} blade (0 .. {length * 1e3:g} mm from the root)"
             )
         node = blade.node_at(hammer.position)
+        assert self.system.bases is not None  # reduced with keep_bases=True
         basis = self.system.bases[hammer.blade]
         phi_h = basis[blade.dof(node, 1)]
         attached = self._stepper.system
@@ -545,7 +551,8 @@ class VibroImpactPhysics:
 
     def set_gap(self, gap: float) -> None:
         """Change the shroud gap between steps (the state carries on), m."""
-        self._stepper._contact = (float(gap),) + tuple(self._stepper._contact[1:])
+        _, kc, cc, p, code = self._stepper._contact
+        self._stepper._contact = (float(gap), kc, cc, p, code)
 
     def step(self, coil_voltage: np.ndarray) -> np.ndarray:
         """Advance over ``coil_voltage`` (V, at the end of each step); ``(len(SIGNALS), n)`` out,
@@ -670,6 +677,14 @@ def default_signal(spec: InputChannelSpec) -> str:
     return "active_tip_accel"
 
 
+class _Session(NamedTuple):
+    """What :meth:`SimulatedRig.configure` set up, for the streaming calls."""
+
+    chain: SensorChain
+    output: OutputChannelSpec
+    physics: LinearModalPhysics | VibroImpactPhysics
+
+
 class SimulatedRig(AcquisitionDevice):
     """The rig simulated by the FE model, behind the acquisition-device contract.
 
@@ -746,9 +761,9 @@ class SimulatedRig(AcquisitionDevice):
         self.max_time_to_zero = max_time_to_zero
         self.hammer = hammer
         self._queue_limit: int | None = None
-        self._rig_model = None
-        self._physics = None
-        self._physics_dt = None
+        self._rig_model: RigModel | None = None
+        self._physics: LinearModalPhysics | VibroImpactPhysics | None = None
+        self._physics_dt: float | None = None
         self._inputs: tuple[InputChannelSpec, ...] = ()
         self._output: OutputChannelSpec | None = None
         self._rate = 0.0
@@ -779,7 +794,7 @@ class SimulatedRig(AcquisitionDevice):
 
     # ------------------------------------------------------------------ configuration
 
-    def rig_model(self):
+    def rig_model(self) -> RigModel:
         """FE model (:class:`rigtools.sim.rig_model.RigModel`) of the test article (built once)."""
         if self._rig_model is None:
             from rigtools.sim.rig_model import build_rig_model
@@ -837,7 +852,7 @@ class SimulatedRig(AcquisitionDevice):
             else:
                 self._physics = VibroImpactPhysics(self.rig_model(), self.shaker, dt)
             self._physics_dt = dt
-        self._apply_hammer()
+        self._apply_hammer(self._physics)
         self._queue_limit = (
             None
             if self.max_time_to_zero is None
@@ -851,17 +866,17 @@ class SimulatedRig(AcquisitionDevice):
         hits are timed from the start of the stream; a ``hammer`` force input records them."""
         self.hammer = hammer
         if self._physics is not None:
-            self._apply_hammer()
+            self._apply_hammer(self._physics)
 
-    def _apply_hammer(self) -> None:
-        if not hasattr(self._physics, "set_hammer"):
+    def _apply_hammer(self, physics: LinearModalPhysics | VibroImpactPhysics) -> None:
+        if not isinstance(physics, VibroImpactPhysics):
             if self.hammer is not None:
                 raise ConfigurationError(
                     "the linear model holds the active blade alone: an impact "
                     "hammer needs the vibro-impact model"
                 )
             return
-        self._physics.set_hammer(self.hammer)
+        physics.set_hammer(self.hammer)
 
     @property
     def output_queue_limit(self) -> int | None:
@@ -869,8 +884,10 @@ class SimulatedRig(AcquisitionDevice):
         return self._queue_limit
 
     def _reset_stream(self) -> None:
-        self._physics.reset()
-        self._chain.reset()
+        if self._physics is not None:
+            self._physics.reset()
+        if self._chain is not None:
+            self._chain.reset()
         self._queue.clear()
         self._queued = self._written = self._read_samples = self._blocks_read = 0
         # the sampler adds half a sample: the whole-sample line that brings the sum nearest
@@ -882,9 +899,11 @@ class SimulatedRig(AcquisitionDevice):
         self.fault_sample = None
         self._closed = False
 
-    def _require_configured(self) -> None:
-        if self._chain is None or self._output is None:
+    def _require_configured(self) -> _Session:
+        """What :meth:`configure` set up; raises if it has not succeeded."""
+        if self._chain is None or self._output is None or self._physics is None:
             raise ConfigurationError("device not configured; call configure() first")
+        return _Session(self._chain, self._output, self._physics)
 
     def input_to_output_delay(self) -> float:
         """The simulated DAQ's delay line (whole samples) plus the integrating sampler's half
@@ -913,7 +932,7 @@ class SimulatedRig(AcquisitionDevice):
     @property
     def gap(self) -> float:
         """The test article's shroud gap in use, m (set by hand on the real rig)."""
-        if self._physics is not None and hasattr(self._physics, "gap"):
+        if isinstance(self._physics, VibroImpactPhysics):
             return self._physics.gap
         return self.article_params.contact.gap
 
@@ -925,16 +944,12 @@ class SimulatedRig(AcquisitionDevice):
         """
         if not (math.isfinite(gap) and gap >= 0):
             raise ConfigurationError(f"gap {gap!r} m must be >= 0")
-        if self._physics is None:
-            self.article_params = replace(
-                self.article_params, contact=replace(self.article_params.contact, gap=float(gap))
-            )
-            self._rig_model = None
-        elif hasattr(self._physics, "set_gap"):
+        if isinstance(self._physics, VibroImpactPhysics):
             self._physics.set_gap(gap)
         self.article_params = replace(
             self.article_params, contact=replace(self.article_params.contact, gap=float(gap))
         )
+        self._rig_model = None  # built again with this gap when next needed (a new sample rate)
 
     @property
     def samples_read(self) -> int:
@@ -944,14 +959,14 @@ class SimulatedRig(AcquisitionDevice):
     # ------------------------------------------------------------------ streaming
 
     def write(self, drive: np.ndarray) -> None:
-        self._require_configured()
+        session = self._require_configured()
         data = np.array(drive, dtype=np.float64, copy=True)
         if data.ndim != 1 or data.size == 0:
             raise LimitExceeded(f"drive block must be 1-D and non-empty, got shape {data.shape}")
         d_min, d_max = float(data.min()), float(data.max())  # NaN or inf shows in these
         if not (math.isfinite(d_min) and math.isfinite(d_max)):
             raise LimitExceeded("drive block holds NaN or inf; nothing written")
-        low, high = self._output.min_voltage, self._output.max_voltage
+        low, high = session.output.min_voltage, session.output.max_voltage
         if d_min < low or d_max > high:
             raise LimitExceeded(
                 f"drive {d_min:.4g}..{d_max:.4g} V is outside the output "
@@ -994,7 +1009,7 @@ class SimulatedRig(AcquisitionDevice):
             out[i:] = out[i - 1] if i else self._last_drive
         return out
 
-    def _advance(self, drive: np.ndarray) -> np.ndarray:
+    def _advance(self, physics: LinearModalPhysics | VibroImpactPhysics, drive: np.ndarray) -> np.ndarray:
         """Run the drive through delay line, amplifier and physics; physical signals out."""
         d = self._delay_line.size
         if d:
@@ -1010,10 +1025,11 @@ class SimulatedRig(AcquisitionDevice):
             self._drive_log_n -= self._drive_log.popleft().size
         if drive.size:
             self._last_drive = float(drive[-1])
-        return self._physics.step(self.shaker.amplifier_gain * applied)
+        return physics.step(self.shaker.amplifier_gain * applied)
 
     def read(self, n_samples: int | None = None, timeout: float = 10.0) -> np.ndarray:
-        self._require_configured()
+        session = self._require_configured()
+        chain = session.chain
         if not self._running:
             raise ConfigurationError("device not started; call start() first")
         n = int(n_samples or self._block)
@@ -1029,9 +1045,9 @@ class SimulatedRig(AcquisitionDevice):
         fault = self._due_fault(k0, n)
         m = n if fault is None else fault[1]
         try:
-            physical = self._advance(self._take(m))[self._rows]
+            physical = self._advance(session.physics, self._take(m))[self._rows]
         except SimulationInputError as exc:  # SimulationDivergedError: the state is lost
-            self._physics.reset()
+            session.physics.reset()
             self._fail(
                 SimulationDiverged(f"at t = {k0 / self._rate:.4f} s: {' '.join(str(exc).split())}"),
                 m=0,
@@ -1040,21 +1056,21 @@ class SimulatedRig(AcquisitionDevice):
         if m < n:  # a fault cuts the block: pad so the noise stream matches an undisturbed run
             padded = np.zeros((physical.shape[0], n))
             padded[:, :m] = physical
-            data = self._chain.to_volts(padded)[:, :m]
+            data = chain.to_volts(padded)[:, :m]
         else:
-            data = self._chain.to_volts(physical)
-        first = self._chain.first_overload
+            data = chain.to_volts(physical)
+        first = chain.first_overload
         if first >= 0:
-            names = [s.name for s, o in zip(self._inputs, self._chain.overloaded, strict=True) if o]
+            names = [s.name for s, o in zip(self._inputs, chain.overloaded, strict=True) if o]
             self._fail(
                 SensorOverload(
                     f"{', '.join(names)} beyond its range at t = {(k0 + first) / self._rate:.4f} s",
-                    partial=self._chain.to_units(data[:, :first]),
+                    partial=chain.to_units(data[:, :first]),
                 ),
                 m=first,
                 k0=k0,
             )
-        values = self._chain.to_units(data)
+        values = chain.to_units(data)
         if self.keep_truth:
             self.truth_log.append(physical)
         if fault is not None:
@@ -1100,13 +1116,15 @@ class SimulatedRig(AcquisitionDevice):
         then zeros for the delay line to drain. The queue bound keeps the sum within
         ``max_time_to_zero``.
         """
+        if self._physics is None:  # never configured: no drive has reached the amplifier
+            return
         queued = self._take(self._queued)
         last = float(queued[-1]) if queued.size else self._last_drive
         r = max(1, math.floor(self.abort_ramp_time * self._rate + 1e-9))
         ramp = last * (1.0 - raised_cosine(r))
         ramp[-1] = 0.0
         tail = np.zeros(self._delay_line.size)
-        self._advance(np.concatenate([queued, ramp, tail]))
+        self._advance(self._physics, np.concatenate([queued, ramp, tail]))
         self._last_drive = 0.0
 
     def stop(self) -> None:

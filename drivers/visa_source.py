@@ -27,6 +27,7 @@ from pathlib import Path
 
 import pyvisa
 from pyvisa.errors import VisaIOError
+from pyvisa.resources import MessageBasedResource
 
 from rigtools.drivers.contracts import (
     AmplifierTimeout,
@@ -130,7 +131,7 @@ class WaveformGenerator(SignalSource):
         self._own_rm = resource_manager is None
         self._rm = resource_manager if resource_manager is not None else open_resource_manager(backend)
         try:
-            self._inst = self._rm.open_resource(
+            inst = self._rm.open_resource(
                 resource,
                 read_termination=TERMINATION,
                 write_termination=TERMINATION,
@@ -142,6 +143,11 @@ class WaveformGenerator(SignalSource):
         except ValueError as exc:  # malformed resource name
             self._close_rm()
             raise DriverUnavailable(f"cannot open VISA resource {resource!r}: {exc}") from None
+        if not isinstance(inst, MessageBasedResource):  # SCPI needs a message-based session
+            inst.close()
+            self._close_rm()
+            raise DriverUnavailable(f"VISA resource {resource!r} is not a message-based instrument")
+        self._inst = inst
         self._closed = False
         try:
             self._idn = self._query("*IDN?")

@@ -58,7 +58,7 @@ def _mass_stations(
             acc[0] += mu
             acc[1] += j
     stations = sorted(interior)
-    return stations, [tuple(interior[s]) for s in stations], (tip[0], tip[1])
+    return stations, [(interior[s][0], interior[s][1]) for s in stations], (tip[0], tip[1])
 
 
 def _basis(lam: np.ndarray, t: float, seg: float) -> np.ndarray:

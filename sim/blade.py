@@ -60,8 +60,9 @@ class BladeModel:
     masses: tuple[LumpedMass, ...] = ()
     root: RootParams = field(default_factory=RootParams)
     rotary_inertia: bool = True
-    _free_index: np.ndarray = field(default=None, repr=False, compare=False)
-    _cache: dict = field(default_factory=dict, repr=False, compare=False)
+    # derived in __post_init__, never given; replace() builds a model with its own index and cache
+    _free_index: np.ndarray = field(init=False, repr=False, compare=False)
+    _cache: dict = field(default_factory=dict, init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         index = np.full(len(self.node_x) * N_DOF_NODE, -1, dtype=np.int64)
@@ -86,6 +87,18 @@ class BladeModel:
         if i < 0:
             raise KeyError((node, component))
         return i
+
+    def sensor_dof(self, component: int) -> int:
+        """:meth:`dof` of ``component`` at the force sensor's node.
+
+        Raises
+        ------
+        KeyError
+            If this blade carries no force sensor.
+        """
+        if self.sensor_node is None:
+            raise KeyError(f"the {self.name} blade carries no force sensor")
+        return self.dof(self.sensor_node, component)
 
     def node_at(self, x: float) -> int:
         """The node nearest to position ``x`` (m from the root)."""

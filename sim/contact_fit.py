@@ -28,7 +28,7 @@ from typing import Literal
 import numpy as np
 import scipy.optimize
 
-from rigtools.sim.params import RigParams
+from rigtools.sim.params import ContactLaw, ContactParams, RigParams
 from rigtools.sim.reduction import ReducedSystem, reduced_system
 from rigtools.sim.updating import (
     Identifiability,
@@ -265,6 +265,26 @@ class ContactFitResult:
         return "\n".join(lines)
 
 
+def _equivalent_contact(contact: ContactParams, law: ContactLaw) -> ContactParams:
+    """``contact`` under another law, equal in spring and in damping force to it at
+    :data:`HERTZ_REFERENCE_PENETRATION`: the stiffness is in N/m (linear) or N/m**p (Hertz,
+    Hunt-Crossley), the damping in N*s/m, or N*s/m**(p+1) for Hunt-Crossley (``c g**p dg/dt``)."""
+    ref, p = HERTZ_REFERENCE_PENETRATION, contact.hertz_exponent
+
+    def spring(law: str) -> float:  # spring force per unit stiffness at the reference penetration
+        return ref if law == "linear" else ref**p
+
+    def damper(law: str) -> float:  # damping force per unit damping and unit speed there
+        return ref**p if law == "hunt-crossley" else 1.0
+
+    return replace(
+        contact,
+        law=law,
+        stiffness=contact.stiffness * spring(contact.law) / spring(law),
+        damping=contact.damping * damper(contact.law) / damper(law),
+    )
+
+
 def fit_contact(
     params: RigParams,
     targets: Sequence[HarmonicTarget],
@@ -290,8 +310,7 @@ def fit_contact(
         ``"contact.stiffness"``, ``"contact.damping"`` or both.
     law
         Contact law to fit (default: the rig's). A law other than the rig's starts from the
-        Hertz stiffness equal in force to the rig's linear one at 10 um penetration (or
-        ``start``).
+        stiffness and damping equal in force to the rig's at 10 um penetration (or ``start``).
     start, bounds
         By name; default bounds 0.1-10 times the start for the stiffness, 0.01-100 times for the
         damping (fitted in log scale).
@@ -319,25 +338,19 @@ def fit_contact(
     targets = list(targets)
     if not targets:
         raise ValueError("give at least one dwell target")
-    law = law or params.contact.law
+    fit_law: ContactLaw = law if law is not None else params.contact.law
     base = params
-    if law != params.contact.law:
-        k = params.contact.stiffness
-        p = params.contact.hertz_exponent
-        if law == "hertz":  # equal force at the reference penetration
-            k = k * HERTZ_REFERENCE_PENETRATION ** (1.0 - p)
-        else:
-            k = k * HERTZ_REFERENCE_PENETRATION ** (p - 1.0)
-        base = replace(params, contact=replace(params.contact, law=law, stiffness=k))
+    if fit_law != params.contact.law:
+        base = replace(params, contact=_equivalent_contact(params.contact, fit_law))
     start = dict(start or {})
     specs = [CONTACT_PARAMETERS[n] for n in names]
     v0 = np.array([float(start.get(n, s.get(base))) for n, s in zip(names, specs, strict=True)])
     if np.any(v0 <= 0):
         raise ValueError("contact stiffness and damping must start > 0 to be fitted in log scale")
-    b_all = {
-        n: tuple(map(float, (bounds or {}).get(n, s.default_bounds(v))))
-        for n, s, v in zip(names, specs, v0, strict=True)
-    }
+    b_all: dict[str, tuple[float, float]] = {}
+    for n, s, v in zip(names, specs, v0, strict=True):
+        lo_n, hi_n = (bounds or {}).get(n, s.default_bounds(v))
+        b_all[n] = (float(lo_n), float(hi_n))
     for n, (lo_n, hi_n) in b_all.items():
         if not 0 < lo_n < hi_n:
             raise ValueError(f"{n}: bounds ({lo_n}, {hi_n}) must satisfy 0 < low < high")
@@ -356,16 +369,16 @@ def fit_contact(
         raise ValueError("give one steps_per_period per target")
 
     counts = {"evaluations": 0, "runs": 0}
-    cache: dict[bytes, tuple[np.ndarray, list]] = {}
+    cache: dict[bytes, tuple[np.ndarray, list[dict[str, np.ndarray]], bool]] = {}
 
     def to_v(x):
         return v0 * np.exp(x)
 
     def system_at(x) -> ReducedSystem:
-        contact = base.contact
-        for s, v in zip(names, to_v(x), strict=True):
-            contact = replace(contact, **{s.split(".")[1]: float(v)})
-        return replace(linear, contact=contact)
+        p = base
+        for s, v in zip(specs, to_v(x), strict=True):
+            p = s.set(p, float(v))
+        return replace(linear, contact=p.contact)
 
     def evaluate(x):
         key = np.asarray(x, dtype=float).tobytes()
@@ -420,7 +433,7 @@ def fit_contact(
     return ContactFitResult(
         names=names,
         units=[CONTACT_PARAMETERS[n].unit for n in names],
-        law=law,
+        law=fit_law,
         initial={n: float(v) for n, v in zip(names, v0, strict=True)},
         fitted=fitted,
         bounds=b_all,

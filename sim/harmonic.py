@@ -109,9 +109,9 @@ def fem_harmonic_response(
     for name, blade in (("active", rig.active), ("passive", _passive_fe_blade(rig, position))):
         modes = blade_modes(blade)
         omegas = modes.omegas
-        drive_node = blade.sensor_node if name == "active" else blade.node_at(position)
+        drive_dof = blade.sensor_dof(UY) if name == "active" else blade.dof(blade.node_at(position), UY)
         tip = modes.shapes[blade.dof(blade.tip_node, UY)]
-        drive = modes.shapes[blade.dof(drive_node, UY)]
+        drive = modes.shapes[drive_dof]
         x = _superpose(
             omegas,
             damping_ratios(omegas, params.damping),

@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 from typing import Literal
 
 Theory = Literal["euler-bernoulli", "timoshenko"]
+ContactLaw = Literal["linear", "hertz", "hunt-crossley"]
 THEORIES = ("euler-bernoulli", "timoshenko")
 CONTACT_LAWS = ("linear", "hertz", "hunt-crossley")
 MAX_ELEMENTS = 20000
@@ -182,7 +183,7 @@ class ContactParams:
     gap: float
     stiffness: float
     damping: float = 0.0
-    law: Literal["linear", "hertz", "hunt-crossley"] = "linear"
+    law: ContactLaw = "linear"
     hertz_exponent: float = 1.5
 
     def __post_init__(self) -> None:

@@ -143,7 +143,7 @@ class ReducedSystem:
         shapes[:, act] = self.shapes[:, act] @ t
         pseudo = None if self.pseudo is None else self.pseudo.copy()
         if pseudo is not None:  # the highest ones remain the pseudo-modes
-            n_ps = int(self.pseudo[act].sum())
+            n_ps = int(pseudo[act].sum())
             pseudo[act] = False
             if n_ps:
                 pseudo[act[-n_ps:]] = True
@@ -177,7 +177,7 @@ def _blade_ritz(
     keep = moves & (modes_omega < 2.0 * np.pi * cutoff_hz)
     phi = modes_shapes[:, keep]
     om = modes_omega[keep]
-    basis, omegas, pseudo = [phi], [om], [np.zeros(om.size, bool)]
+    parts, omegas, pseudo = [phi], [om], [np.zeros(om.size, bool)]
     if static_correction:
         e = np.zeros((mass.shape[0], len(load_dofs)))
         e[load_dofs, np.arange(len(load_dofs))] = 1.0
@@ -190,10 +190,10 @@ def _blade_ritz(
         ok = flex > 1e-9 * np.abs(np.diag(static[load_dofs, :]))
         if ok.any():
             w2, t = scipy.linalg.eigh(kr[np.ix_(ok, ok)], mr[np.ix_(ok, ok)])
-            basis.append(resid[:, ok] @ t)
+            parts.append(resid[:, ok] @ t)
             omegas.append(np.sqrt(w2))
             pseudo.append(np.ones(w2.size, bool))
-    basis = np.hstack(basis)
+    basis = np.hstack(parts)
     omega = np.concatenate(omegas)
     if damping is None:
         zeta = None

@@ -147,7 +147,7 @@ def build_rig_model(params: RigParams, rotary_inertia: bool = True) -> RigModel:
         mass=mass,
         stiffness=stiffness,
         damping=damping,
-        force_dof=active.dof(active.sensor_node, UY),
+        force_dof=active.sensor_dof(UY),
         active_tip_dof=active.dof(active.tip_node, UY),
         passive_tip_dof=n_a + passive.dof(passive.tip_node, UY),
     )

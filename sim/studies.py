@@ -145,7 +145,7 @@ class StudyPlan:
         """Every point in run order."""
         out = []
         for i, (v, d) in enumerate(sweep_order(self.values, self.direction)):
-            p = {"fe": self.fe, "force": self.force, "gap": self.gap, SWEPT[self.kind]: v}
+            p = {**self.fixed, SWEPT[self.kind]: v}
             out.append(
                 PlannedPoint(index=i, value=v, direction=d, fe=p["fe"], force=p["force"], gap=p["gap"])
             )
@@ -167,9 +167,10 @@ class StudyPlan:
         }
 
 
-def sweep_order(values: Iterable[float], direction: Direction) -> list[tuple[float, str]]:
+def sweep_order(values: Iterable[float], direction: str) -> list[tuple[float, str]]:
     """The values in run order with their direction: ``up`` ascending, ``down`` descending,
-    ``both`` ascending then descending (the turning value is not repeated)."""
+    ``both`` ascending then descending (the turning value is not repeated); any other
+    ``direction`` (a :data:`Direction` is expected) is refused."""
     vals = sorted(float(v) for v in values)
     if not vals:
         raise SimulationInputError("a study needs at least one value")

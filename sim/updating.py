@@ -132,8 +132,24 @@ def _springs(params: RigParams) -> RootParams:
     return RootParams("springs", RIGID_ROTATIONAL, RIGID_TRANSLATIONAL)
 
 
-def _set_root(params: RigParams, **changes: float) -> RigParams:
-    return replace(params, root=replace(_springs(params), **changes), passive_root=None)
+def _set_root(
+    params: RigParams,
+    *,
+    rotational_stiffness: float | None = None,
+    translational_stiffness: float | None = None,
+) -> RigParams:
+    """Both roots on springs; the stiffnesses given replace the current ones."""
+    root = _springs(params)
+    root = replace(
+        root,
+        rotational_stiffness=root.rotational_stiffness
+        if rotational_stiffness is None
+        else rotational_stiffness,
+        translational_stiffness=(
+            root.translational_stiffness if translational_stiffness is None else translational_stiffness
+        ),
+    )
+    return replace(params, root=root, passive_root=None)
 
 
 def _scale_mass(mass, value: float):
@@ -492,10 +508,12 @@ def predict(params: RigParams, targets: Sequence[Target]) -> Prediction:
         zetas[b] = zeta_all[: need[b]]
         if all_modes:
             row = {int(d): i for i, d in enumerate(idx)}
-            drive = phi[row[blade.dof(blade.sensor_node, _UY)]]
+            drive = phi[row[blade.sensor_dof(_UY)]]
             for t in frfs:
-                node = blade.tip_node if t.location == "active_shroud" else blade.sensor_node
-                out = phi[row[blade.dof(node, _UY)]]
+                at = (
+                    blade.dof(blade.tip_node, _UY) if t.location == "active_shroud" else blade.sensor_dof(_UY)
+                )
+                out = phi[row[at]]
                 w = 2 * np.pi * t.frequencies_hz[:, None]
                 x = (drive * out)[None, :] / (om**2 - w**2 + 2j * zeta_all * om * w)
                 out_frf.append(x.sum(axis=1) * (1j * w[:, 0]) ** _FRF_ORDER[t.kind])
@@ -983,13 +1001,13 @@ def update_model(
     v_start = {n: float(start.get(n, PARAMETERS[n].get(params))) for n in names}
     b_all: dict[str, tuple[float, float]] = {}
     for n in names:
-        lo, hi = (bounds or {}).get(n, PARAMETERS[n].default_bounds(v_start[n]))
-        if not lo < hi:
-            raise ValueError(f"{n}: bounds ({lo}, {hi}) are empty")
-        if PARAMETERS[n].log and lo <= 0:
+        b_lo, b_hi = (bounds or {}).get(n, PARAMETERS[n].default_bounds(v_start[n]))
+        if not b_lo < b_hi:
+            raise ValueError(f"{n}: bounds ({b_lo}, {b_hi}) are empty")
+        if PARAMETERS[n].log and b_lo <= 0:
             raise ValueError(f"{n}: the lower bound must be > 0 (fitted in log scale)")
-        v_start[n] = min(max(v_start[n], lo), hi)
-        b_all[n] = (float(lo), float(hi))
+        v_start[n] = min(max(v_start[n], b_lo), b_hi)
+        b_all[n] = (float(b_lo), float(b_hi))
     # the base: each fitted parameter set to its start (so a clamped root becomes springs)
     base = params
     for n in names:

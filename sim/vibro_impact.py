@@ -17,13 +17,14 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
+from typing import Protocol
 
 import numpy as np
 import scipy.linalg
 from numba import njit
 
 from rigtools.sim.contact import contact_period, law_code, solve_contact
-from rigtools.sim.params import SimulationInputError, _finite
+from rigtools.sim.params import ContactParams, SimulationInputError, _finite
 from rigtools.sim.reduction import ReducedSystem
 
 # output columns of the compiled kernel
@@ -566,8 +567,17 @@ def max_time_step(
     return (dt_k, "stiffness") if dt_k <= dt_c else (dt_c, "damping")
 
 
+class HasContact(Protocol):
+    """What :func:`check_time_step` reads of a system: the contact and the mass it moves."""
+
+    @property
+    def contact(self) -> ContactParams: ...
+
+    def contact_effective_mass(self) -> float: ...
+
+
 def check_time_step(
-    system: ReducedSystem, dt: float, force_scale: float = 100.0, min_steps: int = MIN_STEPS_PER_CONTACT
+    system: HasContact, dt: float, force_scale: float = 100.0, min_steps: int = MIN_STEPS_PER_CONTACT
 ) -> float:
     """Refuse a step that does not resolve the contact period with ``min_steps`` steps, or
     whose contact damping force would overshoot (``c dt / m_eff > 2``).
@@ -759,7 +769,7 @@ def diverged_message(system, dt: float, time: float) -> str:
     )
 
 
-def validate_contact(system: ReducedSystem) -> None:
+def validate_contact(system: HasContact) -> None:
     """Refuse a negative gap or a non-positive stiffness / negative damping with one line."""
     c = system.contact
     if not c.gap >= 0:
