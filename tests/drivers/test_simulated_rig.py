@@ -303,6 +303,18 @@ def test_impacts_on_the_default_gap(cfg):
     assert np.std(sink.data[2, int(fs) :]) > 50 * rig.test_article.accel_noise
 
 
+def test_a_gap_set_by_hand_survives_a_new_sample_rate(cfg):
+    """set_gap on a configured rig, then configure at another rate (new physics): the gap set
+    by hand is the one in use and in the rig model (it was the rig file's before the fix)."""
+    rig = SimulatedRig.from_config(cfg, seed=3)
+    _configure(rig, cfg)
+    assert rig.model_kind == "vibro-impact" and rig.gap == cfg.to_params().contact.gap
+    rig.set_gap(0.3e-3)
+    assert rig.gap == 0.3e-3 and rig.rig_model().params.contact.gap == 0.3e-3
+    _configure(rig, cfg, fs=2 * FS)
+    assert rig.gap == 0.3e-3 and rig.rig_model().params.contact.gap == 0.3e-3
+
+
 def test_pace_follows_the_wall_clock(rig, cfg):
     rig.pace = True
     try:

@@ -335,3 +335,25 @@ def test_clamped_root_becomes_springs_rigid_where_not_fitted(rig):
         "root.rotational_stiffness": 1.2e4,
         "root.translational_stiffness": RIGID_TRANSLATIONAL,
     }
+
+
+@pytest.mark.parametrize(
+    ("rig_law", "fit_law"),
+    [("linear", "hertz"), ("hertz", "linear"), ("hunt-crossley", "hertz"), ("hunt-crossley", "linear")],
+)
+def test_a_contact_fit_under_another_law_starts_from_the_same_forces(rig_law, fit_law):
+    """The start of a fit under another law: spring and damping forces equal to the rig's at the
+    reference penetration (reference: the contact law itself, rigtools.sim.contact.contact_force;
+    exact up to rounding, rel 1e-12). A Hunt-Crossley rig's stiffness is already N/m^p: before the
+    fix its Hertz start was 1e-5**(1 - p) = 316 times too stiff, and its damping kept N*s/m**(p+1)."""
+    from rigtools.sim.contact import contact_force
+    from rigtools.sim.contact_fit import HERTZ_REFERENCE_PENETRATION, _equivalent_contact
+    from rigtools.sim.params import ContactParams
+
+    rig = ContactParams(gap=0.5e-3, stiffness=2e9 if rig_law != "linear" else 7e5, damping=300.0, law=rig_law)
+    fit = _equivalent_contact(rig, fit_law)
+    assert fit.law == fit_law and fit.gap == rig.gap
+    g = np.array([HERTZ_REFERENCE_PENETRATION])
+    for v in (0.0, 0.01):  # the spring alone, then spring and damper (closing at 10 mm/s)
+        want = contact_force(g, np.array([v]), rig)
+        assert contact_force(g, np.array([v]), fit) == pytest.approx(want, rel=1e-12)
