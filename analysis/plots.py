@@ -713,7 +713,7 @@ def trend_figure(
     rows = int(np.ceil(len(names) / cols))
     fig = Figure(figsize=(6.0 * cols, 3.2 * rows + 0.8), layout="constrained")
     axes = np.atleast_1d(fig.subplots(rows, cols, squeeze=False).ravel())
-    for ax, name in zip(axes, names, strict=True):
+    for ax, name in zip(axes[: len(names)], names, strict=True):  # a grid cell left over is hidden below
         for i, (src, (x, y)) in enumerate(quantities[name].items()):
             x = np.asarray(x, dtype=float) * scale
             order = np.argsort(x, kind="stable")
