@@ -9,6 +9,7 @@ the recording and the identification).
 """
 
 import json
+import re
 
 import numpy as np
 import pytest
@@ -160,7 +161,13 @@ def test_too_many_parameters_for_one_blades_modes_are_named(folder, frf, article
         ]
     )
     assert code == 0, err
-    assert "root.rotational_stiffness <-> shroud.mass: correlation +0.99" in text
+    # the fit runs up the valley the data do not see (root stiffness ends near 1e7 N*m/rad, where f1
+    # moves ~3e-5 per unit ln k); the smallest singular value of the finite-difference Jacobian is
+    # then at its round-off floor (2.3e-4 or 1.4e-3 of 411 with 1 or 2 BLAS threads), so the printed
+    # correlation's third decimal is round-off: +1.000 (0.99994) or +0.998 on the same recording
+    pair = re.search(r"root\.rotational_stiffness <-> shroud\.mass: correlation ([+-]\d\.\d{3})", text)
+    assert pair is not None, text
+    assert float(pair.group(1)) >= 0.99
     assert "the data cannot separate or determine" in text
     assert "no passive-blade modes" in text
     # from the first mode alone even two parameters are one too many
