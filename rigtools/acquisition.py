@@ -33,7 +33,7 @@ import math
 from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Protocol
+from typing import TYPE_CHECKING, NoReturn, Protocol
 
 import numpy as np
 
@@ -42,13 +42,16 @@ from rigtools.drivers.drive_signals import RandomDrive  # noqa: F401  (kept impo
 from rigtools.drivers.safety import SafetyMonitor
 from rigtools.errors import UserError
 
+if TYPE_CHECKING:
+    from typing import Self
+
 
 class Drive(Protocol):
     """What the loop needs from a drive signal (volts at the device's sample rate)."""
 
     def next_block(self, n: int) -> np.ndarray: ...
 
-    def stop_block(self) -> np.ndarray: ...
+    def stop_block(self, ramp_time: float | None = None) -> np.ndarray: ...
 
 
 class Sink(Protocol):
@@ -184,18 +187,17 @@ class BlockStream:
 
     # ------------------------------------------------------------------ life cycle
 
-    def __enter__(self) -> BlockStream:
+    def __enter__(self) -> Self:
         self.start()
         return self
 
-    def __exit__(self, exc_type, exc, tb) -> bool:
+    def __exit__(self, exc_type, exc, tb) -> None:
         if exc is not None:
             if not isinstance(exc, AcquisitionAborted):
                 self._abort(exc)  # raises AcquisitionAborted, or re-raises Ctrl-C
-            return False
+            return
         if not self._finished:
             self.finish()
-        return False
 
     def start(self) -> None:
         """Prime two drive blocks and start the device."""
@@ -205,7 +207,7 @@ class BlockStream:
             self._write(self._next_drive())
             self._write(self._next_drive())
             self.device.start()
-        except BaseException as exc:
+        except BaseException as exc:  # noqa: BLE001 - _abort stops the device and re-raises
             self._abort(exc)
         self._started = True
 
@@ -233,7 +235,7 @@ class BlockStream:
             self.start()
         try:
             block = self.device.read(self.n)
-        except BaseException as exc:
+        except BaseException as exc:  # noqa: BLE001 - _abort stops the device and re-raises
             self._abort(exc, from_device=True)
         try:
             played = self._played.popleft()
@@ -246,7 +248,7 @@ class BlockStream:
             self._write(self._next_drive())
             if self.on_block is not None:
                 self.on_block(block, self.stats)
-        except BaseException as exc:
+        except BaseException as exc:  # noqa: BLE001 - _abort stops the device and re-raises
             self._abort(exc)
         return block
 
@@ -268,8 +270,8 @@ class BlockStream:
         )
         delay = self.device.input_to_output_delay() * self.device.sample_rate
         # the ramp, then zeros: the two blocks already queued + the ramp + the delay, whole blocks
-        tail = np.concatenate([ramp, np.zeros(int(math.ceil(delay)))])
-        n_blocks = int(math.ceil(tail.size / self.n))
+        tail = np.concatenate([ramp, np.zeros(math.ceil(delay))])
+        n_blocks = math.ceil(tail.size / self.n)
         tail = np.concatenate([tail, np.zeros(n_blocks * self.n - tail.size)])
         self._pending.extend(tail.reshape(n_blocks, self.n))
         # after the tail, zeros keep the output fed until the last read
@@ -288,11 +290,11 @@ class BlockStream:
             self.safety = None
             try:
                 self.finish(ramp_time=self.abort_ramp_time)
-            except BaseException:  # the device failed meanwhile: _abort stops it
+            except BaseException:  # noqa: BLE001, S110 - the device failed meanwhile: _abort stopped it; the abort follows
                 pass
         raise exc
 
-    def _abort(self, exc: BaseException, from_device: bool = False) -> None:
+    def _abort(self, exc: BaseException, from_device: bool = False) -> NoReturn:
         """Stop the device (drive to zero), keep what was read, re-raise as AcquisitionAborted.
 
         A fault raised by the device's read carries the samples of the failed block read before
@@ -345,7 +347,7 @@ def acquire(
     """
     if not duration > 0:
         raise ValueError(f"duration {duration!r} s must be > 0")
-    n_blocks = max(1, int(math.ceil(duration * device.sample_rate / stream_piece(device) - 1e-9)))
+    n_blocks = max(1, math.ceil(duration * device.sample_rate / stream_piece(device) - 1e-9))
     with BlockStream(
         device, drive, sink=sink, safety=safety, record_drive=record_drive, on_block=on_block
     ) as stream:

@@ -147,7 +147,8 @@ class Procedure:
         ProcedureFailed, UserError, DriverError
             When the procedure failed (status ``failed`` recorded first).
         """
-        status, reason, error = Status.FAILED, "", None
+        status, reason = Status.FAILED, ""
+        error: BaseException | None = None
         previous = self._install_signal_handlers()
         try:
             self.startup()
@@ -165,7 +166,7 @@ class Procedure:
             self._restore_signal_handlers(previous)
             try:
                 self.shutdown(status, reason)
-            except BaseException as exc:  # noqa: BLE001
+            except BaseException as exc:  # noqa: BLE001 - a failed shutdown is recorded, then raised
                 if error is None:
                     status, reason, error = Status.FAILED, _one_line(exc), exc
         result = self.result or ProcedureResult(status)

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from pydantic import BaseModel, ConfigDict, Field
 
@@ -18,6 +19,9 @@ from rigtools.procedures.base import (
 )
 from rigtools.procedures.session import SineSession, point_attrs
 from rigtools.units import MAX_GAP  # the one gap limit of rig files and every command
+
+if TYPE_CHECKING:
+    from rigtools.recording import PointWriter, RecordingWriter
 
 
 class ControlParameters(BaseModel):
@@ -68,15 +72,27 @@ class SineProcedure(Procedure):
     ) -> None:
         super().__init__(progress)
         self.cfg, self.out, self.backend, self.overwrite = cfg, Path(out), backend, overwrite
-        self.device, self._device_opts = device, dict(pace=pace, faults=faults, seed=seed)
+        self.device, self._device_opts = device, {"pace": pace, "faults": faults, "seed": seed}
         self.confirm_gap = confirm_gap
-        self.writer = None
+        self.writer: RecordingWriter | None = None
         self.session: SineSession | None = None
-        self.point = None
-        self.result = ProcedureResult(Status.FAILED, file=str(self.out))
+        self.point: PointWriter | None = None
+        self.result: ProcedureResult = ProcedureResult(Status.FAILED, file=str(self.out))
 
     def first_frequency(self) -> float:
         raise NotImplementedError
+
+    def running_session(self) -> SineSession:
+        """The session :meth:`startup` opened."""
+        if self.session is None:
+            raise RuntimeError(f"{self.name}: no session; startup() has not run")
+        return self.session
+
+    def recording_writer(self) -> RecordingWriter:
+        """The recording :meth:`startup` opened."""
+        if self.writer is None:
+            raise RuntimeError(f"{self.name}: no recording; startup() has not run")
+        return self.writer
 
     def record_seconds(self) -> float:
         return 2.0
@@ -131,15 +147,18 @@ class SineProcedure(Procedure):
             self.confirm_gap(gap, index)
         return float(gap)
 
-    def begin_point(self, params: dict):
-        self.point = self.writer.begin_point(params=params, channels=self.specs)
-        self.session.sink.begin(self.point)
-        return self.point
+    def begin_point(self, params: dict) -> PointWriter:
+        point = self.recording_writer().begin_point(params=params, channels=self.specs)
+        self.point = point
+        self.running_session().sink.begin(point)
+        return point
 
     def end_point(self, attrs: dict) -> None:
+        if self.point is None:
+            raise RuntimeError(f"{self.name}: end_point() without begin_point()")
         self.point.set_attrs(point_complete=True, **attrs)
         self.point.end()
-        self.session.sink.point = None
+        self.running_session().sink.point = None
         self.point = None
 
     def shutdown(self, status: Status, reason: str) -> None:
@@ -155,7 +174,7 @@ class SineProcedure(Procedure):
                     if self.point is not None and not self.point.ended:
                         try:
                             self.point.set_attrs(point_complete=False)
-                        except Exception:  # noqa: BLE001 - the file still gets its status
+                        except Exception:  # noqa: BLE001, S110 - the file still gets its status
                             pass
                     if status is Status.FINISHED:
                         self.writer.close()
@@ -188,7 +207,8 @@ class SineDwell(SineProcedure):
         gap = self.set_gap(p.gap)
         self.emit("point", point=1, n_points=1, text=f"{p.fe:g} Hz, {p.force:g} N")
         self.begin_point({"fe": p.fe, "force_amplitude": p.force, "gap": gap})
-        res = self.session.run_point(
+        session = self.running_session()
+        res = session.run_point(
             p.fe,
             p.force,
             record_periods=p.record_periods,
@@ -198,7 +218,7 @@ class SineDwell(SineProcedure):
             **p.control.model_dump(),
         )
         res["gap"] = gap
-        self.session.finish()  # the ramp to zero goes into the point
+        session.finish()  # the ramp to zero goes into the point
         self.end_point(point_attrs(res))
         self.result.points.append(res)
         self.emit("point_done", point=1, n_points=1)

@@ -77,8 +77,9 @@ class FrfTest(SineProcedure):
                 f"level {p.level:g} V: the drive would reach about {peak:.3g} V, above "
                 f"[safety] max_drive {max_drive:g} V"
             )
+        self.drive: RandomDrive | PeriodicChirp
         if p.signal == "burst":
-            self.drive = RandomDrive(
+            burst = RandomDrive(
                 rate,
                 p.level,
                 p.band,
@@ -88,9 +89,10 @@ class FrfTest(SineProcedure):
                 burst_fraction=p.burst_fraction,
                 seed=p.seed,
             )
-            self.frame_samples = self.drive.burst_samples
+            assert burst.burst_samples is not None  # burst_period is given: it is burst random
+            self.drive, self.frame_samples = burst, burst.burst_samples
         else:
-            self.drive = PeriodicChirp(
+            chirp = PeriodicChirp(
                 rate,
                 p.level,
                 p.band,
@@ -98,7 +100,7 @@ class FrfTest(SineProcedure):
                 max_drive=max_drive,
                 ramp_time=self.cfg.safety.ramp_time,
             )
-            self.frame_samples = self.drive.period_samples
+            self.drive, self.frame_samples = chirp, chirp.period_samples
         self.monitor = rig.safety_monitor(self.cfg, self.device)
         self.specs = rig.channel_specs(self.device, self.cfg, rate)
         self.rate = rate
@@ -122,7 +124,7 @@ class FrfTest(SineProcedure):
     def execute(self) -> None:
         p = self.params
         gap = self.set_gap(p.gap)
-        self.point = self.writer.begin_point(
+        point = self.recording_writer().begin_point(
             params={
                 "gap": gap,
                 "signal": p.signal,
@@ -134,10 +136,11 @@ class FrfTest(SineProcedure):
             },
             channels=self.specs,
         )
-        self.sink.begin(self.point)
+        self.point = point
+        self.sink.begin(point)
         # the ramp, then one frame to reach the periodic state, then the averaged frames
-        ramp = int(math.ceil(self.cfg.safety.ramp_time * self.rate))
-        start = int(math.ceil((ramp + self.frame_samples) / self.frame_samples)) * self.frame_samples
+        ramp = math.ceil(self.cfg.safety.ramp_time * self.rate)
+        start = math.ceil((ramp + self.frame_samples) / self.frame_samples) * self.frame_samples
         total = start + p.averages * self.frame_samples
         self.emit("point", point=1, n_points=1, text=f"{p.signal} {p.band[0]:g}-{p.band[1]:g} Hz")
         while self.sink.total < total:
@@ -151,12 +154,12 @@ class FrfTest(SineProcedure):
             )
         self.stream.finish()
         self.record_start = start
-        self.point.set_attrs(
+        point.set_attrs(
             point_complete=True,
             record_start=start / self.rate,
             record_samples=p.averages * self.frame_samples,
         )
-        self.point.end()
+        point.end()
         self.point = None
         self.result.summary = {
             "record_start": start / self.rate,
@@ -181,7 +184,9 @@ def quick_check(path, response: str | None = None, n_peaks: int = 5) -> dict:
         point = rec.points[0]
         prm = point.params
         rate = point.sample_rate
-        start = int(round(prm["record_start"] * rate))
+        if rate is None:
+            raise UserError(f"{path}: the channels of the FRF test have different sample rates")
+        start = round(prm["record_start"] * rate)
         n = int(prm["record_samples"])
         frame = int(prm["frame_samples"])
         specs = {name: ch for name, ch in point.channels.items()}

@@ -81,7 +81,7 @@ def whole_periods(seconds: float, rate: float, fe: float, min_periods: int = 3) 
     """Samples in the fewest whole periods of ``fe`` lasting at least ``seconds`` (and
     ``min_periods`` periods)."""
     periods = max(min_periods, math.ceil(seconds * fe - 1e-9))
-    return int(round(periods * rate / fe))
+    return round(periods * rate / fe)
 
 
 def phasor(x: np.ndarray, rate: float, fe: float, k_max: int = 1):
@@ -169,7 +169,7 @@ class SineSession:
             record_drive=True,
             abort_ramp_time=cfg.safety.abort_ramp_time,
         )
-        self.delay = int(math.ceil(device.input_to_output_delay() * self.rate))
+        self.delay = math.ceil(device.input_to_output_delay() * self.rate)
         self._change_end = 0  # stream sample after which the last drive change shows
 
     @property
@@ -190,7 +190,7 @@ class SineSession:
         self.stream.finish()
 
     def set_drive(self, amplitude: float, ramp_time: float | None = None) -> None:
-        n = int(math.ceil((self.cfg.safety.ramp_time if ramp_time is None else ramp_time) * self.rate))
+        n = math.ceil((self.cfg.safety.ramp_time if ramp_time is None else ramp_time) * self.rate)
         self.drive.set_target(amplitude, ramp_time)
         # the change shows after the queued drive, its ramp and the DAQ delay
         queued = self.stream.stats.samples + 2 * self.stream.n
@@ -346,12 +346,12 @@ class SineSession:
             while self.sink.total - max(start, self._change_end) < n:
                 self.read()
             data = self.sink.last(n)[: self.n_inputs]
-            amps, noise = [], []
+            fundamentals, noise = [], []
             for row in data:
                 p, fit = phasor(row, self.rate, fe)
-                amps.append(abs(p[0]))
+                fundamentals.append(abs(p[0]))
                 noise.append(3 * fit.residual_rms * math.sqrt(2.0 / n))
-            amps = np.array(amps)
+            amps = np.array(fundamentals)
             if prev is not None:
                 ok = np.abs(amps - prev) <= SETTLED_TOLERANCE * amps + np.array(noise) + floor
                 if np.all(ok):
@@ -366,7 +366,7 @@ class SineSession:
     def record(self, fe: float, periods: int, k_max: int = 10) -> dict:
         """Read ``periods`` whole periods and analyse them: harmonics 1..K of every channel
         (amplitude, and phase relative to the force fundamental: ``phase_k - k phase_F1``)."""
-        n = int(round(periods * self.rate / fe))
+        n = round(periods * self.rate / fe)
         start = self.sink.point_samples
         self.wait_samples(n)
         data = self.sink.last(self.sink.total - (self.sink.point_start + start))[:, :n]
@@ -375,7 +375,7 @@ class SineSession:
         ref = np.angle(fits[self.force_row][0])
         k = np.arange(1, k_max + 1)
         harmonics = {}
-        for name, p in zip(self.names, fits):
+        for name, p in zip(self.names, fits, strict=True):
             rel = np.angle(p * np.exp(-1j * k * ref))
             harmonics[name] = {"amplitude": np.abs(p).tolist(), "phase": rel.tolist()}
         return {
@@ -421,7 +421,7 @@ class SineSession:
             "record_start": rec["record_start"],
             "record_samples": rec["record_samples"],
             "harmonics": rec["harmonics"],
-            "peaks": dict(zip(self.names, rec["peaks"])),
+            "peaks": dict(zip(self.names, rec["peaks"], strict=True)),
             "control_history": ctl.history,
         }
 

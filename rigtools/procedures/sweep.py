@@ -49,7 +49,7 @@ class SweepParameters(BaseModel):
     def _positive(cls, v):
         if any(not (math.isfinite(f) and f > 0) for f in v):
             raise ValueError("every frequency must be > 0 Hz")
-        return tuple(sorted(set(float(f) for f in v)))
+        return tuple(sorted({float(f) for f in v}))
 
 
 def response_channel(device, name: str | None) -> int:
@@ -128,7 +128,8 @@ class SteppedSine(SineProcedure):
         p = self.params
         gap = self.set_gap(p.gap)
         row = response_channel(self.device, p.response)
-        name = self.session.names[row]
+        session = self.running_session()
+        name = session.names[row]
         n = len(self.order)
         curves: dict[str, tuple[list, list]] = {"up": ([], []), "down": ([], [])}
         for i, (fe, direction) in enumerate(self.order):
@@ -136,7 +137,7 @@ class SteppedSine(SineProcedure):
             self.begin_point(
                 {"fe": fe, "force_amplitude": p.force, "gap": gap, "direction": direction, "study_value": fe}
             )
-            res = self.session.run_point(
+            res = session.run_point(
                 fe,
                 p.force,
                 record_periods=p.record_periods,
@@ -153,7 +154,7 @@ class SteppedSine(SineProcedure):
             curves[direction][0].append(fe)
             curves[direction][1].append(amp)
             self.emit("point_done", point=i + 1, n_points=n)
-        self.session.finish()
+        session.finish()
         self.result.summary = {
             "response_channel": name,
             "jumps": {d: detect_jumps(f, a, p.jump_threshold) for d, (f, a) in curves.items() if f},
@@ -306,7 +307,7 @@ class RigStudy(SineProcedure):
                     break
                 attrs = {**point.params, "first_start_time": point.start_time}
                 channels = list(self.specs)
-                w = self.writer.begin_point(params=attrs, channels=channels)
+                w = self.recording_writer().begin_point(params=attrs, channels=channels)
                 data = np.vstack([point[c.name].read() for c in channels])
                 w.append(data)
                 w.end()
@@ -337,7 +338,7 @@ class RigStudy(SineProcedure):
                     "study_index": i,
                 }
             )
-            res = self.session.run_point(
+            res = self.running_session().run_point(
                 planned.fe,
                 planned.force,
                 record_periods=p.record_periods,
@@ -350,11 +351,11 @@ class RigStudy(SineProcedure):
             self.end_point(point_attrs(res))
             self.result.points.append(res)
             self.emit("point_done", point=i + 1, n_points=n)
-        self.session.finish()
+        self.running_session().finish()
 
     def _hand_gap(self, gap: float, index: int) -> None:
         """Real rig: ramp the drive down, let the operator set the gap, start a new stream."""
-        s = self.session
+        s = self.running_session()
         if s.stream._started:
             s.finish()
             self.session = SineSession(

@@ -34,7 +34,7 @@ pulse of ``pulse`` seconds and ``hit_force`` peak at ``position`` every
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
@@ -43,17 +43,28 @@ from rigtools.errors import UserError
 from rigtools.procedures.base import StopRequested, validate
 from rigtools.procedures.dwell import MAX_GAP, SineProcedure
 
-# a PCB 086C03-class modal hammer: what the simulated rig fits when the rig file has none
-DEFAULT_HAMMER = dict(
-    physical_channel="Dev1/ai3",
-    kind="force",
-    sensitivity=2.25,
-    sensitivity_units="mV/N",
-    excitation_current=0.004,
-    min_value=-2200.0,
-    max_value=2200.0,
-    location="impact hammer (simulated rig default)",
-)
+if TYPE_CHECKING:
+    from rigtools.drivers.contracts import InputChannelSpec
+    from rigtools.recording import PointWriter
+
+
+def default_hammer(name: str) -> InputChannelSpec:
+    """A PCB 086C03-class modal hammer: what the simulated rig fits when the rig file has none."""
+    from rigtools.drivers.contracts import InputChannelSpec
+
+    return InputChannelSpec(
+        name,
+        physical_channel="Dev1/ai3",
+        kind="force",
+        sensitivity=2.25,
+        sensitivity_units="mV/N",
+        excitation_current=0.004,
+        min_value=-2200.0,
+        max_value=2200.0,
+        location="impact hammer (simulated rig default)",
+    )
+
+
 DECAY_FRACTION = 0.005  # the last 10 % of a frame must stay below this share of its peak
 NOISE_FACTOR = 6.0  # ... or below this many times the rms noise before the hit
 
@@ -87,7 +98,7 @@ class _Trigger:
         self.test, self.row, self.pre, self.frame = test, row, pre, frame
         self.total = 0  # samples seen
         self.history = np.zeros((0, 0))  # the latest `pre` samples (all rows)
-        self.current = None  # [point, samples written, trigger sample, data]
+        self.current: _Hit | None = None  # the frame being recorded
         self.last_event = 0  # sample of the last trigger or frame end
 
     def append(self, block: np.ndarray) -> None:
@@ -123,7 +134,7 @@ class _Trigger:
 
 
 class _Hit:
-    def __init__(self, point, before: np.ndarray, row: int, frame: int) -> None:
+    def __init__(self, point: PointWriter, before: np.ndarray, row: int, frame: int) -> None:
         self.point, self.row = point, row
         self.samples = 0
         self.parts: list[np.ndarray] = []
@@ -156,9 +167,7 @@ class TapTest(SineProcedure):
         return 1.0
 
     # -- start-up --------------------------------------------------------------------------------
-    def _inputs(self) -> list:
-        from rigtools.drivers.contracts import InputChannelSpec
-
+    def _inputs(self) -> list[InputChannelSpec]:
         p = self.params
         inputs = list(self.cfg.daq.input_specs())
         names = [s.name for s in inputs]
@@ -168,7 +177,7 @@ class TapTest(SineProcedure):
                     f"the rig file has no [daq.channels.{p.hammer_channel}]: add the impact "
                     f'hammer\'s force channel (kind = "force", IEPE, its sensitivity in mV/N)'
                 )
-            inputs.append(InputChannelSpec(p.hammer_channel, **DEFAULT_HAMMER))
+            inputs.append(default_hammer(p.hammer_channel))
         hammer = inputs[[s.name for s in inputs].index(p.hammer_channel)]
         if hammer.kind != "force":
             raise UserError(
@@ -214,8 +223,8 @@ class TapTest(SineProcedure):
         self.hammer_row = names.index(p.hammer_channel)
         self.response = self.response_channel(names)
         self.response_row = names.index(self.response)
-        self.frame_samples = int(round(p.frame * rate))
-        self.pre_samples = int(round(p.pretrigger * rate))
+        self.frame_samples = round(p.frame * rate)
+        self.pre_samples = round(p.pretrigger * rate)
         if hasattr(self.device, "set_hammer"):
             self._simulated_hammer()
         self.specs = rig.channel_specs(self.device, self.cfg, rate)
@@ -263,7 +272,7 @@ class TapTest(SineProcedure):
     def begin_hit(self, trigger_sample: int, before: np.ndarray) -> _Hit:
         p = self.params
         self.hits_seen += 1
-        point = self.writer.begin_point(
+        point = self.recording_writer().begin_point(
             params={
                 "hit": self.hits_seen,
                 "blade": p.blade,
@@ -284,7 +293,7 @@ class TapTest(SineProcedure):
         p = self.params
         data = np.hstack(hit.parts)
         force = data[self.hammer_row]
-        reason = double_hit(force, hit.pre, p.trigger, int(round(p.release * self.rate)))
+        reason = double_hit(force, hit.pre, p.trigger, round(p.release * self.rate))
         if not reason:
             reason = undecayed(data[self.response_row], hit.pre)
         accepted = not reason
@@ -424,20 +433,25 @@ def tap_analysis(
         exp = rec.experiment or {}
         hammer = exp.get("hammer_channel", "hammer")
         response = response or exp.get("response")
-        rate, frame, blocks = None, 0, []
+        if response is None:
+            raise UserError(f"{path}: the recording names no response channel; give one")
+        rate: float | None = None
+        frame, blocks = 0, []
         for point in rec.points:
             prm = point.params
             frame = int(prm.get("frame_samples", 0))
             if not prm.get("accepted", False) or point.n_samples < frame:
                 continue
             rate = point.sample_rate
+            if rate is None:
+                raise UserError(f"{path}: point {point.name} has channels at different sample rates")
             blocks.append(
                 {
                     "force": np.asarray(point.channels[hammer][:frame], dtype=float),
                     response: np.asarray(point.channels[response][:frame], dtype=float),
                 }
             )
-        if not blocks:
+        if not blocks or rate is None:
             raise UserError(f"{path}: no accepted hit to analyse")
     return analyze_frf_test(
         blocks,
