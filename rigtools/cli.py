@@ -29,6 +29,7 @@ import pkgutil
 import sys
 from collections.abc import Sequence
 from pathlib import Path
+from typing import NoReturn
 
 from rigtools import errors
 from rigtools.errors import UserError
@@ -65,7 +66,7 @@ examples:
 class RigArgumentParser(argparse.ArgumentParser):
     """An argparse parser whose errors are one line plus a hint to ``--help`` (exit 2)."""
 
-    def _get_value(self, action, arg_string):  # type: ignore[override]
+    def _get_value(self, action, arg_string):
         # an option's ``type=`` may be one of rigtools.options' checks (type=options.seed): its
         # UserError becomes the parser's one-line error, as a ValueError would
         try:
@@ -73,7 +74,7 @@ class RigArgumentParser(argparse.ArgumentParser):
         except UserError as exc:
             raise argparse.ArgumentError(None, " ".join(str(exc).split())) from None
 
-    def error(self, message: str) -> None:  # type: ignore[override]
+    def error(self, message: str) -> NoReturn:
         text = " ".join(str(message).split())
         self.exit(errors.EXIT_USAGE, f"{self.prog}: error: {text}\n(see '{self.prog} --help')\n")
 
@@ -118,8 +119,8 @@ def command_summaries(module: str, source: str | None) -> list[tuple[str, str]]:
         except SyntaxError:
             tree = None
         if tree is not None:
-            doc = (ast.get_docstring(tree) or "").strip().splitlines()[0:1]
-            doc = doc[0] if doc else ""
+            first = (ast.get_docstring(tree) or "").strip().splitlines()[0:1]
+            doc = first[0] if first else ""
             names: dict[str, str] = {}
             for stmt in tree.body:
                 if (

@@ -134,9 +134,10 @@ def write_derived(
         or _same(path, Path(source))
     ):
         raise UserError(f"{path} is the file it is derived from; not overwritten")
-    if path.exists() or path.is_symlink():
-        if not (path.is_file() and not path.is_symlink() and replaceable(path)):
-            raise UserError(f"{path} exists and was not made by rigtools as a derived file; not overwritten")
+    if (path.exists() or path.is_symlink()) and not (
+        path.is_file() and not path.is_symlink() and replaceable(path)
+    ):
+        raise UserError(f"{path} exists and was not made by rigtools as a derived file; not overwritten")
     fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     os.close(fd)
     tmp = Path(tmp_name)

@@ -26,9 +26,12 @@ import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, TextIO
+from typing import TYPE_CHECKING, Any, TextIO
 
 from rigtools.errors import Interrupted
+
+if TYPE_CHECKING:
+    from typing import Self
 
 #: Signals handled like Ctrl-C (those this platform has).
 STOP_SIGNALS: tuple[int, ...] = tuple(
@@ -93,18 +96,17 @@ class StopRequests:
         self._depth = 0
         self._held: Interrupted | None = None
 
-    def __enter__(self) -> StopRequests:
+    def __enter__(self) -> Self:
         if threading.current_thread() is threading.main_thread():
             for sig in self.signals:
                 self._previous[sig] = signal.signal(sig, self._handler)
         return self
 
-    def __exit__(self, *exc: object) -> bool:
+    def __exit__(self, *exc: object) -> None:
         for sig, old in self._previous.items():
             with contextlib.suppress(Exception):
                 signal.signal(sig, old if old is not None else signal.SIG_DFL)
         self._previous.clear()
-        return False
 
     def _handler(self, signum: int, frame: Any) -> None:
         global last_stop
@@ -265,7 +267,7 @@ def configure_process(blas_threads: int | None = 1, *, numba_cache: bool = True)
             with contextlib.suppress(OSError):
                 cache.mkdir(parents=True, exist_ok=True)
             os.environ["NUMBA_CACHE_DIR"] = str(cache)
-            numba_config = sys.modules.get("numba.core.config")
+            numba_config: Any = sys.modules.get("numba.core.config")  # numba's settings, if loaded
             if numba_config is not None:
                 numba_config.CACHE_DIR = str(cache)
     return ProcessSettings(blas_threads, live, str(cache) if cache is not None else None)
@@ -288,14 +290,14 @@ def _is_cached(dispatcher: Any) -> bool:
     """True if numba's cache index of ``dispatcher`` is fresh and has an entry."""
     try:
         return bool(dispatcher._cache._cache_file._load_index())
-    except Exception:  # numba internals changed: say "not cached" (only costs a message)
+    except Exception:  # noqa: BLE001 - numba internals changed: say "not cached" (costs a message)
         return False
 
 
 def _index_exists(dispatcher: Any) -> bool:
     try:
         return os.path.exists(dispatcher._cache._cache_file._index_path)
-    except Exception:
+    except Exception:  # noqa: BLE001 - numba internals changed: say "no index"
         return False
 
 

@@ -198,15 +198,15 @@ def parse_quantity(value: float | str, dimension: str | None = None) -> float:
         With a one-line message if the text or the unit is not understood, the unit is of another
         dimension, or the value is not finite.
     """
-    if isinstance(value, bool):
-        raise ValueError(f"expected a number or a quantity, got {value!r}")
+    if isinstance(value, bool):  # every bad value is the documented ValueError (pydantic: a field error)
+        raise ValueError(f"expected a number or a quantity, got {value!r}")  # noqa: TRY004 - documented
     if isinstance(value, (int, float)):
         number = float(value)
         if not math.isfinite(number):
             raise ValueError(f"{value!r} is not a finite number")
         return number
     if not isinstance(value, str):
-        raise ValueError(f"expected a number or a quantity, got {value!r}")
+        raise ValueError(f"expected a number or a quantity, got {value!r}")  # noqa: TRY004 - documented
     match = _PATTERN.match(value)
     if not match:
         example = f", e.g. {_EXAMPLES[dimension]}" if dimension in _EXAMPLES else " (e.g. '0.5 mm')"

@@ -146,7 +146,7 @@ def import_tdms(
         raise TdmsImportError(f"{source}: no such file")
     try:
         tdms = TdmsFile.open(source)
-    except Exception as exc:  # npTDMS raises ValueError, KeyError, struct.error, ...
+    except Exception as exc:  # noqa: BLE001 - npTDMS raises ValueError, KeyError, struct.error, ...
         raise TdmsImportError(
             f"{source}: not a readable TDMS file ({type(exc).__name__}: {' '.join(str(exc).split())[:200]})"
         ) from None

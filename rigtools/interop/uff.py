@@ -252,7 +252,7 @@ def recording_functions(
                 )
         if "frf" in what and reference in point.channels:
             ref = point.channels[reference]
-            nperseg = int(round(ref.sample_rate / frf_resolution_hz))
+            nperseg = round(ref.sample_rate / frf_resolution_hz)
             if nperseg < 8 or n < 2 * nperseg:
                 continue
             x = ref[:n]

@@ -15,6 +15,7 @@ retries a busy lock for :data:`ACQUIRE_WAIT_S` so a probing reader cannot make i
 
 from __future__ import annotations
 
+import contextlib
 import errno
 import os
 import socket
@@ -104,7 +105,7 @@ class WriterLock:
                 # then we hold a lock nobody else can see; start over on the new file.
                 if locked and self._same_file(fd):
                     self._fd = fd
-                    self._write_holder()
+                    self._write_holder(fd)
                     return
             except BaseException:
                 os.close(fd)
@@ -124,15 +125,15 @@ class WriterLock:
         fst = os.fstat(fd)
         return (st.st_dev, st.st_ino) == (fst.st_dev, fst.st_ino)
 
-    def _write_holder(self) -> None:
+    def _write_holder(self, fd: int) -> None:
         from rigtools.recording.schema import utc_now
 
         text = f"pid {os.getpid()} on {socket.gethostname()} since {utc_now()}\n".encode()
         try:
             if sys.platform == "win32":  # pragma: no cover - byte 0 is the locked byte
                 return
-            os.ftruncate(self._fd, 0)
-            os.pwrite(self._fd, text, 0)
+            os.ftruncate(fd, 0)
+            os.pwrite(fd, text, 0)
         except OSError:
             pass  # the text is for messages only; a full disk must not stop the lock
 
@@ -161,10 +162,8 @@ class WriterLock:
                 pass
 
     def __del__(self) -> None:
-        try:
+        with contextlib.suppress(Exception):  # a finaliser must not raise
             self.release()
-        except Exception:
-            pass
 
 
 def writer_alive(path: str | os.PathLike) -> str | None:

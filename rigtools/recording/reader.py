@@ -14,10 +14,11 @@ import re
 import time
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import h5py
 import numpy as np
+import numpy.typing as npt
 
 from rigtools.recording.lock import writer_alive
 from rigtools.recording.schema import (
@@ -30,6 +31,9 @@ from rigtools.recording.schema import (
 from rigtools.recording.superblock import FlagClearedFile, consistency_flags
 from rigtools.recording.validate import AttrCache, Unreadable, find_problems
 from rigtools.vocabulary import current_parameters
+
+if TYPE_CHECKING:
+    from typing import Self
 
 _H5_REASON = re.compile(r"\((.*)\)\s*$", re.DOTALL)
 _TRUNCATED = re.compile(r"truncated file: eof = (\d+),.*stored_eof = (\d+)")
@@ -314,7 +318,7 @@ class Recording:
     def __repr__(self) -> str:
         return f"<Recording {self.path}: {self.status}, backend {self.backend}, {len(self.points)} points>"
 
-    def __enter__(self) -> Recording:
+    def __enter__(self) -> Self:
         return self
 
     def __exit__(self, *exc) -> None:
@@ -378,7 +382,7 @@ class Recording:
         if per != "sample":
             raise ValueError(f"per={per!r}: use 'sample' or 'point'")
         names = list(dict.fromkeys(c for p in self.points for c in p.channels))
-        parts = {"point": [], "channel": [], "time": [], "value": []}
+        parts: dict[str, list[np.ndarray]] = {"point": [], "channel": [], "time": [], "value": []}
         for p in self.points:
             for name, channel in p.channels.items():
                 n = len(channel)
@@ -386,11 +390,15 @@ class Recording:
                 parts["channel"].append(np.full(n, names.index(name), dtype=np.int32))
                 parts["time"].append(channel.time())
                 parts["value"].append(channel.read())
-        cat = lambda key, dtype: np.concatenate(parts[key]) if parts[key] else np.empty(0, dtype)
+
+        def cat(key: str, dtype: type[np.generic]) -> np.ndarray:
+            return np.concatenate(parts[key]) if parts[key] else np.empty(0, dtype)
+
+        codes: npt.NDArray[np.int32] = cat("channel", np.int32)
         return pd.DataFrame(
             {
                 "point": cat("point", np.int64),
-                "channel": pd.Categorical.from_codes(cat("channel", np.int32), categories=names),
+                "channel": pd.Categorical.from_codes(codes, categories=pd.Index(names)),
                 "time": cat("time", np.float64),
                 "value": cat("value", np.float64),
             }

@@ -128,7 +128,8 @@ def utc_now() -> str:
 def parse_utc(text: str) -> datetime:
     """Parse ISO 8601 text written by :func:`utc_now`; raises ValueError unless it carries UTC."""
     value = datetime.fromisoformat(text)
-    if value.utcoffset() is None or value.utcoffset().total_seconds() != 0:
+    offset = value.utcoffset()
+    if offset is None or offset.total_seconds() != 0:
         raise ValueError(f"{text!r} is not UTC")
     return value
 
@@ -168,8 +169,8 @@ class ChannelSpec:
         if not isinstance(self.name, str) or not _CHANNEL_NAME.match(self.name):
             raise ValueError(f"channel name {self.name!r}: use letters, digits, '_', '.', '-'")
         for key in ("units", "quantity"):
-            if not isinstance(getattr(self, key), str):
-                raise ValueError(f"channel {self.name!r}: {key} must be text")
+            if not isinstance(getattr(self, key), str):  # every bad field: ValueError (config.py catches it)
+                raise ValueError(f"channel {self.name!r}: {key} must be text")  # noqa: TRY004 - see the if
         if not (
             isinstance(self.sample_rate, Real) and math.isfinite(self.sample_rate) and self.sample_rate > 0
         ):

@@ -87,7 +87,7 @@ class FlagClearedFile(io.RawIOBase):
 
     def __init__(self, path: str | os.PathLike):
         super().__init__()
-        self._fh = open(path, "rb")
+        self._fh = open(path, "rb")  # noqa: SIM115 - open for this object's life; close() closes it
         head = self._fh.read(64)
         size = superblock_size(head)
         if size is None or len(head) < size:

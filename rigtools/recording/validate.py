@@ -182,9 +182,10 @@ def find_problems(f: h5py.File, cache: AttrCache | None = None) -> list[Problem]
         out.append(Problem("/", "backend is empty"))
     if root.get("experiment") is not None:
         try:
-            if not isinstance(json.loads(root["experiment"]), dict):
-                raise ValueError
+            experiment = json.loads(root["experiment"])
         except ValueError:
+            experiment = None
+        if not isinstance(experiment, dict):
             out.append(Problem("/", "attribute 'experiment' is not a JSON object", fatal=True))
 
     if POINTS_GROUP not in f:

@@ -60,7 +60,7 @@ from collections import deque
 from collections.abc import Mapping, Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import h5py
 import numpy as np
@@ -81,6 +81,9 @@ from rigtools.recording.schema import (
     point_name,
     utc_now,
 )
+
+if TYPE_CHECKING:
+    from typing import Self
 
 LIBVER = ("v110", "v110")
 DEFAULT_CHUNK_SAMPLES = 16384  # 128 KiB of float64 per chunk: ~0.3 s at 51.2 kS/s
@@ -250,13 +253,12 @@ class PointWriter:
         self.flushed_samples = 0
         self.ended = False
 
-    def __enter__(self) -> PointWriter:
+    def __enter__(self) -> Self:
         return self
 
-    def __exit__(self, exc_type, exc, tb) -> bool:
+    def __exit__(self, exc_type, exc, tb) -> None:
         if not self.ended and exc_type is None:
             self.end()
-        return False
 
     def append(self, block: np.ndarray | Sequence) -> None:
         """Append a block of samples.
@@ -474,22 +476,21 @@ class RecordingWriter:
             self._start_swmr()
 
     # -- context manager ---------------------------------------------------------------------
-    def __enter__(self) -> RecordingWriter:
+    def __enter__(self) -> Self:
         return self
 
-    def __exit__(self, exc_type, exc, tb) -> bool:
+    def __exit__(self, exc_type, exc, tb) -> None:
         if exc is None:
             self.close()
         else:
             try:
                 self.abort(one_line(exc))
-            except Exception as secondary:  # never hide the original exception
+            except Exception as secondary:  # noqa: BLE001 - warned: never hide the original exception
                 warnings.warn(
                     f"could not mark {self.path} as aborted: {one_line(secondary)}",
                     RuntimeWarning,
                     stacklevel=2,
                 )
-        return False
 
     # -- points ------------------------------------------------------------------------------
     @property

@@ -70,12 +70,12 @@ class PageShot:
     page_height: int
 
     def crop(self, box: FigureBox) -> np.ndarray:
-        l, t = int(round(box.left)), int(round(box.top))
-        return self.image[t : t + int(round(box.height)), l : l + int(round(box.width))]
+        l, t = round(box.left), round(box.top)
+        return self.image[t : t + round(box.height), l : l + round(box.width)]
 
 
 def _run(args: list[str], timeout: float) -> str:
-    proc = subprocess.run(args, capture_output=True, text=True, timeout=timeout)
+    proc = subprocess.run(args, capture_output=True, text=True, timeout=timeout, check=False)
     if proc.returncode != 0:
         raise RuntimeError(f"chromium failed ({proc.returncode}): {proc.stderr.strip()[-300:]}")
     return proc.stdout

@@ -11,6 +11,7 @@ from __future__ import annotations
 import base64
 import html
 import io
+import math
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
@@ -65,7 +66,7 @@ def _cell(value: Any, digits: int) -> tuple[str, bool]:
     if isinstance(value, bool):
         return ("yes" if value else "no"), True
     if isinstance(value, float):
-        if value != value:
+        if math.isnan(value):
             return "–", False
         return f"{value:.{digits}g}", False
     if isinstance(value, int):

@@ -40,7 +40,7 @@ class NamedFigure:
 def _pick(n: int, m: int) -> list[int]:
     if n <= m:
         return list(range(n))
-    return sorted({int(round(i)) for i in np.linspace(0, n - 1, m)})
+    return sorted({round(i) for i in np.linspace(0, n - 1, m)})
 
 
 def study_axis(analysis: RecordingAnalysis) -> tuple[str, np.ndarray] | None:
@@ -52,11 +52,10 @@ def study_axis(analysis: RecordingAnalysis) -> tuple[str, np.ndarray] | None:
     for kind in ("gap", "force", "frequency"):
         if proc.startswith(kind) and all("study_value" in p.params for p in pts):
             return kind, np.array([float(p.params["study_value"]) for p in pts])
-    key = {"gap": "gap", "force": "force_amplitude", "frequency": "fe"}
-    for kind, k in (("frequency", "fe"), ("gap", "gap"), ("force", "force_amplitude")):
-        vals = [p.params.get(key[kind]) for p in pts]
-        if all(v is not None for v in vals) and len({round(float(v), 12) for v in vals}) > 1:
-            return kind, np.array(vals, dtype=float)
+    for kind, key in (("frequency", "fe"), ("gap", "gap"), ("force", "force_amplitude")):
+        vals = [float(v) for p in pts if (v := p.params.get(key)) is not None]
+        if len(vals) == len(pts) and len({round(v, 12) for v in vals}) > 1:
+            return kind, np.array(vals)
     return None
 
 
@@ -76,6 +75,7 @@ def analysis_figures(
     periodic = analysis.periodic
     for i in _pick(len(periodic), max_waveforms):
         p = periodic[i]
+        point_fe = float(p.params["fe"])  # every periodic point has one
         data, rate, t0, units = point_window(analysis.path, p.index)
         data = {c: data[c] for c in WAVEFORM_CHANNELS if c in data and c in p.units} or data
         with warnings.catch_warnings():  # a channel at rest (passive blade, gap open) is all zero
@@ -84,9 +84,9 @@ def analysis_figures(
                 data,
                 {c: units[c] for c in data},
                 rate,
-                float(p.fe),
+                point_fe,
                 t0=t0,
-                k_max=min(30, int(rate / 2 / p.fe) - 1),
+                k_max=min(30, int(rate / 2 / point_fe) - 1),
                 title=f"{stem} point {p.index}",
             )
         figs.append(
@@ -95,7 +95,7 @@ def analysis_figures(
                 fig,
                 f"Point {p.index}: waveforms over the last periods (time from the upward zero "
                 f"crossing of the force fundamental) and peak-amplitude spectra (flat-top "
-                f"window, k·fe marked), fe = {p.fe:g} Hz.",
+                f"window, k·fe marked), fe = {point_fe:g} Hz.",
             )
         )
     curves = analysis.response_curves()
@@ -122,7 +122,8 @@ def analysis_figures(
     if curves is not None and axis is not None:
         kind, values = axis
         direction = curves["direction"]
-        quantities, units = {}, {}
+        quantities: dict[str, dict[str, tuple[np.ndarray, np.ndarray]]] = {}
+        units = {}
         sources = {}
         for c, arr in curves["harmonics"].items():
             if c not in ("force", "active_shroud_accel", "passive_shroud_accel"):
