@@ -18,6 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
+from numpy.typing import ArrayLike
 from scipy import optimize
 
 BLADES = ("active", "passive")
@@ -312,9 +313,9 @@ def explain_harmonic_difference(
 def explain_large_differences(
     table: pd.DataFrame,
     fe: float,
-    natural_hz_em: Mapping[str, Sequence[float]],
-    damping_ratio: float | Mapping[str, Sequence[float]],
-    natural_hz_model: Mapping[str, Sequence[float]] | None = None,
+    natural_hz_em: Mapping[str, ArrayLike],
+    damping_ratio: float | Mapping[str, ArrayLike],
+    natural_hz_model: Mapping[str, ArrayLike] | None = None,
     *,
     channel_blade: Mapping[str, str] | None = None,
     threshold_pct: float = 30.0,

@@ -241,15 +241,17 @@ class Comparison:
 
         out = []
         q = self.trend_quantities()
-        if q:
+        if q and self.kind is not None:
             units = {key: ("N" if key.startswith("peak force") else "m/s²") for key in q}
             fig = trend_figure(self.kind, q, units, title=f"EM vs {self.model_label}: {self.kind} study")
             out.append(
                 (
                     "trends",
                     fig,
-                    f"EM and {self.model_label} against {self.kind}: peak force-sensor "
-                    "signal, peak shroud accelerations and the 6·fe, 8·fe, 22·fe amplitudes (peak)",
+                    (
+                        f"EM and {self.model_label} against {self.kind}: peak force-sensor "
+                        "signal, peak shroud accelerations and the 6·fe, 8·fe, 22·fe amplitudes (peak)"
+                    ),
                 )
             )
         units = {c: CHANNELS[c].units.replace("^2", "²") for c in COMPARED}
@@ -366,7 +368,7 @@ def _f(x) -> float | None:
 
 
 def _plain(d: dict) -> dict:
-    out = {}
+    out: dict[str, Any] = {}
     for k, v in d.items():
         if isinstance(v, (np.floating, float)):
             out[k] = _f(v)
@@ -424,7 +426,7 @@ def _window(point) -> tuple[int, int]:
     count = point.params.get("record_samples")
     if start is None or count is None or fs is None:
         return 0, n
-    a = int(round(float(start) * fs))
+    a = round(float(start) * fs)
     b = min(n, a + int(count))
     if b - a <= 0:
         return 0, n
@@ -499,7 +501,7 @@ def em_force_harmonics(analysis) -> list[tuple[int, float, float]]:
     shift = fit.phase[0] + math.pi / 2
     return [
         (int(k), float(a), float(np.angle(np.exp(1j * (p - k * shift)))))
-        for k, a, p in zip(fit.k, fit.amplitude, fit.phase)
+        for k, a, p in zip(fit.k, fit.amplitude, fit.phase, strict=True)
     ]
 
 
@@ -521,7 +523,7 @@ def run_driven_point(system, point: DrivenPoint, options, previous=None):
         system.with_contact(gap=point.gap),
         point.fe,
         point.force,
-        record_periods=max(1, int(round(options.record_duration * point.fe))),
+        record_periods=max(1, round(options.record_duration * point.fe)),
         steps_per_period=options.steps_per_period,
         max_settle_time=options.max_settle_time,
         initial=None if previous is None else previous.final_state,
@@ -651,7 +653,7 @@ def _matched_modes(em: dict, zeta: dict, model: dict) -> tuple[dict, dict, dict]
         if m.size == 0:
             continue
         pairs = {}
-        for f, zz in zip(np.asarray(fs, dtype=float), np.asarray(zeta[blade], dtype=float)):
+        for f, zz in zip(np.asarray(fs, dtype=float), np.asarray(zeta[blade], dtype=float), strict=True):
             j = int(np.argmin(np.abs(m - f)))
             if abs(m[j] - f) <= MODE_MATCH * m[j] and j not in pairs:
                 pairs[j] = (f, zz)
@@ -876,7 +878,8 @@ def compare_recordings(
     natural = natural_table(fem_fn, am_fn, em_modes)
 
     model_items = []  # (index, params, analysis, waves, rate)
-    if simulate:
+    run_excitation: str | None = excitation  # None: the model side is a recording
+    if fem_path is None:  # --simulate (checked above)
         runs = simulate_em_points(
             system,
             [(it[1], it[2]) for it in em_items],
@@ -921,7 +924,7 @@ def compare_recordings(
                 model_items.append((p.index, params, ana, waves, fs))
         pairs = pair_points([_pair_key(it[1]) for it in em_items], [_pair_key(it[1]) for it in model_items])
         source = str(fem_path)
-        excitation = None
+        run_excitation = None
 
     if not pairs:
         have = sorted(
@@ -968,13 +971,15 @@ def compare_recordings(
         agreement = point_agreement(ana, mana, channels=[c for c in SCORED if c in chans], k_max=k_max)
         if em_modes:
             fn_e, z, fn_m = _matched_modes(em_modes, em_zeta, fn_model)
-            expl = explain_large_differences(table, params["fe"], fn_e, z, fn_m, threshold_pct=LARGE_DIFF_PCT)
-            expl = [(ch, e, _model_mode(e.natural_hz, fn_e, fn_m, fn_model)) for ch, e in expl]
+            large = explain_large_differences(
+                table, params["fe"], fn_e, z, fn_m, threshold_pct=LARGE_DIFF_PCT
+            )
+            expl = [(ch, e, _model_mode(e.natural_hz, fn_e, fn_m, fn_model)) for ch, e in large]
         else:
-            expl = explain_large_differences(
+            large = explain_large_differences(
                 table, params["fe"], fn_em_for_explain, zeta, None, threshold_pct=LARGE_DIFF_PCT
             )
-            expl = [(ch, e, None) for ch, e in expl]
+            expl = [(ch, e, None) for ch, e in large]
         mparams["model_label"] = model.upper()
         points.append(
             PointComparison(
@@ -993,4 +998,4 @@ def compare_recordings(
                 mfs,
             )
         )
-    return Comparison(str(em_path), source, model, excitation, kind, points, natural, notes, unpaired)
+    return Comparison(str(em_path), source, model, run_excitation, kind, points, natural, notes, unpaired)

@@ -16,14 +16,18 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Iterator
-from contextlib import nullcontext
+from contextlib import AbstractContextManager, nullcontext
 from dataclasses import dataclass
-from typing import ContextManager
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from rigtools.errors import UserError
 from rigtools.vocabulary import CHANNELS
+
+if TYPE_CHECKING:
+    from rigtools.sim.studies import PlannedPoint
+    from rigtools.sim.vibro_impact import VibroImpactRun
 
 K_MAX = 30
 
@@ -81,7 +85,7 @@ class RunSettings:
     steps_per_period: int | None = None
 
     def record_periods(self, fe: float) -> int:
-        return max(1, int(round(self.duration * fe)))
+        return max(1, round(self.duration * fe))
 
 
 # ------------------------------------------------------------------------------ the model
@@ -286,7 +290,7 @@ def run_figure(run, system, title: str):
 
 def iter_study_points(
     system, plan, settings: RunSettings, progress: Callable[[float, float], None] | None = None, runner=None
-) -> Iterator[tuple[object, object]]:
+) -> Iterator[tuple[PlannedPoint, VibroImpactRun]]:
     """``(planned point, settled run)`` of a :class:`rigtools.sim.studies.StudyPlan` or ``MapPlan``, in
     point order, through ``runner`` (a :class:`rigtools.study_runner.StudyRunner`; default
     in-process); input errors become :class:`UserError`. ``progress(simulated_s, at_most_s)``
@@ -318,8 +322,8 @@ def write_study(
     plan,
     settings: RunSettings,
     model: str,
-    on_point: Callable[[object, dict], None] | None = None,
-    guard: Callable[[], ContextManager] = nullcontext,
+    on_point: Callable[[PlannedPoint, dict], None] | None = None,
+    guard: Callable[[], AbstractContextManager] = nullcontext,
     progress: Callable[[float, float], None] | None = None,
     runner=None,
 ) -> list[dict]:

@@ -25,10 +25,15 @@ import uuid
 from collections import deque
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from rigtools.errors import UserError
 from rigtools.sim.studies import MapPlan, PlannedPoint
+
+if TYPE_CHECKING:
+    from typing import Self
+
+    from distributed import Client, LocalCluster
 
 WORKER_ENV = {
     "OPENBLAS_NUM_THREADS": "1",
@@ -71,7 +76,7 @@ def run_point(
         system.with_contact(gap=point.gap),
         point.fe,
         point.force,
-        record_periods=max(1, int(round(options.record_duration * point.fe))),
+        record_periods=max(1, round(options.record_duration * point.fe)),
         steps_per_period=options.steps_per_period,
         max_settle_time=options.max_settle_time,
         initial=None if previous is None else previous.final_state,
@@ -123,11 +128,11 @@ class StudyRunner:
         self.scheduler = scheduler
         self.window = window
         self.report = RunReport()
-        self._client = None
-        self._cluster = None
+        self._client: Client | None = None
+        self._cluster: LocalCluster | None = None
 
     # ------------------------------------------------------------------ life cycle
-    def __enter__(self) -> StudyRunner:
+    def __enter__(self) -> Self:
         if self.workers is None and self.scheduler is None:
             return self
         import dask
@@ -137,7 +142,7 @@ class StudyRunner:
         dask.config.set({"distributed.scheduler.allowed-failures": 0, "distributed.worker.daemon": False})
         try:
             if self.scheduler is not None:
-                self._client = Client(self.scheduler, timeout="10s")
+                client = Client(self.scheduler, timeout="10s")
             else:
                 self._cluster = LocalCluster(
                     n_workers=self.workers,
@@ -147,14 +152,15 @@ class StudyRunner:
                     env=dict(WORKER_ENV),
                     silence_logs=40,
                 )
-                self._client = Client(self._cluster)
+                client = Client(self._cluster)
         except (OSError, TimeoutError) as exc:
             self.close()
             raise StudyRunnerError(
                 f"cannot reach the Dask scheduler {self.scheduler or 'LocalCluster'}: "
                 f"{' '.join(str(exc).split())[:200]}"
             ) from None
-        self._client.run(_configure_worker)
+        self._client = client
+        client.run(_configure_worker)
         return self
 
     def __exit__(self, *exc: object) -> None:
@@ -175,7 +181,7 @@ class StudyRunner:
         return max(1, len(self._client.scheduler_info().get("workers", {})))
 
     @property
-    def client(self):
+    def client(self) -> Client | None:
         """The Dask client (``None`` in-process)."""
         return self._client
 
@@ -183,7 +189,7 @@ class StudyRunner:
     def run(
         self,
         system: Any,
-        chains: list[list[PlannedPoint]],
+        chains: Sequence[Sequence[PlannedPoint]],
         options: RunOptions,
         progress: Progress | None = None,
         point_fn: Callable = run_point,
@@ -198,7 +204,8 @@ class StudyRunner:
         k-1's), as :meth:`rigtools.sim.studies.StudyPlan.chains` and :func:`map_chains` make them.
         """
         total = sum(len(c) for c in chains)
-        if self._client is None:
+        client = self._client
+        if client is None:
             for chain in chains:
                 previous = None
                 for point in chain:
@@ -206,7 +213,7 @@ class StudyRunner:
                     previous = point_fn(system, point, options, previous, **kw)
                     yield from self._done(point, previous, total, progress)
             return
-        yield from self._run_dask(system, chains, options, total, progress, point_fn)
+        yield from self._run_dask(client, system, chains, options, total, progress, point_fn)
 
     def _done(self, point: PlannedPoint, run: Any, total: int, progress: Progress | None):
         self.report.done += 1
@@ -216,8 +223,9 @@ class StudyRunner:
 
     def _submit_chain(
         self,
+        client: Client,
         system_f,
-        chain: list[PlannedPoint],
+        chain: Sequence[PlannedPoint],
         options: RunOptions,
         previous: Any,
         point_fn: Callable,
@@ -226,7 +234,7 @@ class StudyRunner:
     ) -> list:
         futures = []
         for point in chain:
-            fut = self._client.submit(
+            fut = client.submit(
                 point_fn,
                 system_f,
                 point,
@@ -239,22 +247,21 @@ class StudyRunner:
             previous = fut
         return futures
 
-    def _run_dask(self, system, chains, options, total, progress, point_fn):
+    def _run_dask(self, client: Client, system, chains, options, total, progress, point_fn):
         from distributed import CancelledError
         from distributed.scheduler import KilledWorker
 
-        client = self._client
         token = uuid.uuid4().hex[:12]  # keys unique to this run
         system_f = client.scatter(system, broadcast=True, hash=False)
         window = self.window or max(2, 2 * self.n_workers)
         pending = deque(chains)
-        in_flight: deque[tuple[list[PlannedPoint], list]] = deque()
+        in_flight: deque[tuple[Sequence[PlannedPoint], list]] = deque()
         tried: set[int] = set()
         while pending or in_flight:
             while pending and len(in_flight) < window:
                 chain = pending.popleft()
                 in_flight.append(
-                    (chain, self._submit_chain(system_f, chain, options, None, point_fn, 0, token))
+                    (chain, self._submit_chain(client, system_f, chain, options, None, point_fn, 0, token))
                 )
             chain, futures = in_flight.popleft()
             i, last = 0, None
@@ -272,7 +279,9 @@ class StudyRunner:
                     self.report.retried.append((point.index, f"worker lost ({type(exc).__name__}); rerun"))
                     for f in futures[i:]:
                         f.cancel()
-                    futures[i:] = self._submit_chain(system_f, chain[i:], options, last, point_fn, 1, token)
+                    futures[i:] = self._submit_chain(
+                        client, system_f, chain[i:], options, last, point_fn, 1, token
+                    )
                     continue
                 last = run
                 futures[i] = None  # let the scheduler forget it
