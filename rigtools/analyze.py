@@ -23,21 +23,25 @@ Samples are read in blocks (:data:`BLOCK_SAMPLES`): harmonics and FRFs accumulat
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from rigtools.errors import UserError
 from rigtools.vocabulary import CHANNELS
 
+if TYPE_CHECKING:
+    from rigtools.analysis.frf import FRFKind
+
 BLOCK_SAMPLES = 1 << 18  # samples per channel read at a time
 WINDOW_SAMPLES = 1 << 21  # at most this many samples per channel held for impacts and plots
 K_MAX = 30
 TABLE_HARMONICS = (6, 8, 22)  # the paper's super-harmonics of interest
-KINDS = ("accelerance", "mobility", "receptance")
+KINDS: tuple[FRFKind, ...] = ("accelerance", "mobility", "receptance")
 METHODS = ("lscf", "peak")
 FORCE = "force"
 NO_MODES_PERIODIC = (
@@ -145,7 +149,7 @@ class RecordingAnalysis:
     backend: str
     source: str
     status: str
-    frf_kind: str
+    frf_kind: FRFKind
     points: list[PointAnalysis]
     skipped: list[str] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
@@ -166,7 +170,7 @@ class RecordingAnalysis:
         pts = [p for p in self.periodic if p.fe]
         if len(pts) < 2:
             return None
-        fe = np.array([float(p.fe) for p in pts])
+        fe = np.array([p.params["fe"] for p in pts], dtype=float)
         channels = [c for c in pts[0].dwell.harmonics if all(c in p.dwell.harmonics for p in pts)]
         k = min(p.dwell.harmonics[c].amplitude.size for p in pts for c in channels)
         harm = {c: np.array([p.dwell.harmonics[c].amplitude[:k] for p in pts]) for c in channels}
@@ -284,8 +288,19 @@ def _plain(obj: Any) -> Any:
     return obj
 
 
-def _frf_kind_of(units: str) -> str | None:
-    return {"m/s^2": "accelerance", "m/s": "mobility", "m": "receptance"}.get(units)
+_FRF_KIND_OF_UNITS: dict[str, FRFKind] = {"m/s^2": "accelerance", "m/s": "mobility", "m": "receptance"}
+
+
+def _frf_kind_of(units: str) -> FRFKind | None:
+    return _FRF_KIND_OF_UNITS.get(units)
+
+
+def frf_kind(kind: str) -> FRFKind:
+    """``kind`` checked against :data:`KINDS`; a :class:`UserError` naming them otherwise."""
+    for k in KINDS:
+        if k == kind:
+            return k
+    raise UserError(f"--kind {kind!r}: use one of {', '.join(KINDS)}")
 
 
 def _blocks(
@@ -302,7 +317,7 @@ def record_window(point) -> tuple[int, int]:
     ``record_samples``), else the whole point."""
     n = point.n_samples
     rate = point.sample_rate or 1.0
-    start = int(round(float(point.params.get("record_start", 0.0) or 0.0) * rate))
+    start = round(float(point.params.get("record_start", 0.0) or 0.0) * rate)
     start = min(max(start, 0), n)
     count = int(point.params.get("record_samples", n - start) or (n - start))
     return start, max(0, min(count, n - start))
@@ -351,7 +366,9 @@ def analyze_periodic(point, *, channels: Sequence[str] | None = None, k_max: int
     arrays = {c: np.asarray(point.channels[c][a : a + m], dtype=float) for c in names}
     dwell = analyze_dwell(arrays, rate, fe, k_max=k, force=FORCE)
     if m < n:  # harmonics over the whole window, block by block
-        fits = dict(zip(names, harmonics_from_blocks(_blocks(point, names, start, n), rate, fe, k)))
+        fits = dict(
+            zip(names, harmonics_from_blocks(_blocks(point, names, start, n), rate, fe, k), strict=True)
+        )
         rel = {c: relative_phases(f, fits[FORCE]) for c, f in fits.items()} if FORCE in fits else {}
         dwell = replace(
             dwell,
@@ -396,7 +413,7 @@ def tap_frames(point, force: str, start: int, n: int, threshold: float = 0.2) ->
             f"point {point.index}: {peaks.size} hit(s) of the force found; an FRF of a tap "
             "test needs two or more taps to average (coherence)"
         )
-    pre = min(int(round(0.002 * rate)), int(np.min(np.diff(peaks))) // 20)
+    pre = min(round(0.002 * rate), int(np.min(np.diff(peaks))) // 20)
     first = max(0, int(peaks[0]) - pre)
     seg = int(min(np.min(np.diff(peaks)), n - (int(peaks[-1]) - pre)))
     hits = int(peaks.size if n - (int(peaks[-1]) - pre) >= seg else peaks.size - 1)
@@ -428,7 +445,13 @@ def analyze_broadband(
             f"displacement) beside {force}"
         )
     units = {c: point.channels[c].units for c in [force, *resp]}
-    measured = {_frf_kind_of(units[c]) for c in resp}
+    not_motion = [c for c in resp if _frf_kind_of(units[c]) is None]
+    if not_motion:
+        raise UserError(
+            f"point {point.index}: {', '.join(not_motion)} is not an acceleration, velocity or "
+            f"displacement ({', '.join(units[c] for c in not_motion)}): no FRF response"
+        )
+    measured = {k for c in resp if (k := _frf_kind_of(units[c])) is not None}
     if len(measured) != 1:
         raise UserError(
             f"point {point.index}: responses {', '.join(resp)} measure different quantities; "
@@ -451,7 +474,7 @@ def analyze_broadband(
         raise UserError(f"point {point.index}: {n} samples recorded, fewer than one frame ({seg})")
     lo, hi = point.params.get("band_low"), point.params.get("band_high")
     names = [force, *resp]
-    blocks = (dict(zip(names, b)) for b in _blocks(point, names, start, n))
+    blocks = (dict(zip(names, b, strict=True)) for b in _blocks(point, names, start, n))
     res = analyze_frf_test(
         blocks,
         rate,
@@ -460,7 +483,7 @@ def analyze_broadband(
         responses=resp,
         force=force,
         measured=measured.pop(),
-        kind=kind,
+        kind=frf_kind(kind),
         f_min=lo,
         f_max=hi,
         method=method,
@@ -525,6 +548,12 @@ def analyze_tap_test(
         raise UserError(
             f"tap test: no response channel beside {hammer} (channels: {', '.join(first.channels)})"
         )
+    measured = _frf_kind_of(first.channels[response].units)
+    if measured is None:
+        raise UserError(
+            f"tap test: the response {response} is not an acceleration, velocity or displacement "
+            f"({first.channels[response].units})"
+        )
     rate = float(first.sample_rate)
     frame = int(first.params["frame_samples"])
     units = {hammer: first.channels[hammer].units, response: first.channels[response].units}
@@ -547,15 +576,17 @@ def analyze_tap_test(
         segment_samples=frame,
         responses=(response,),
         force="force",
-        measured=_frf_kind_of(units[response]),
-        kind=kind,
+        measured=measured,
+        kind=frf_kind(kind),
         method=method,
         f_min=TAP_F_MIN_HZ,
         f_max=f_max,
     )
     notes = [
-        f"tap test: {len(accepted)} accepted hits of {len(points)} averaged (H1 of {response} over "
-        f"{hammer}, rectangular window of {frame} samples per hit)"
+        (
+            f"tap test: {len(accepted)} accepted hits of {len(points)} averaged (H1 of {response} over "
+            f"{hammer}, rectangular window of {frame} samples per hit)"
+        )
     ]
     for r, m in res.modes.items():
         notes.extend(f"{r}: {t}" for t in m.notes)
@@ -603,8 +634,7 @@ def analyze_recording(
     from rigtools.recording import RecordingError, open_recording
     from rigtools.vocabulary import source_of
 
-    if kind not in KINDS:
-        raise UserError(f"--kind {kind!r}: use one of {', '.join(KINDS)}")
+    checked_kind = frf_kind(kind)
     if method not in METHODS:
         raise UserError(f"--method {method!r}: use one of {', '.join(METHODS)}")
     try:
@@ -614,7 +644,7 @@ def analyze_recording(
     with rec:
         procedure = str(rec.experiment.get("procedure", ""))
         out = RecordingAnalysis(
-            str(path), procedure, rec.backend, source_of(rec.backend), rec.status, kind, []
+            str(path), procedure, rec.backend, source_of(rec.backend), rec.status, checked_kind, []
         )
         if rec.incomplete:
             out.notes.append(
@@ -740,7 +770,7 @@ def frequency_table(analysis: RecordingAnalysis, path, n_modes: int = 3) -> list
             vals = models["article"].get(r["blade"], [])
             ref = vals[r["mode"] - 1] if r["mode"] <= len(vals) else float("nan")
             r["article_hz"] = ref
-            r["em_vs_article_pct"] = 100 * (r["em_hz"] - ref) / ref if ref == ref else float("nan")
+            r["em_vs_article_pct"] = 100 * (r["em_hz"] - ref) / ref if not math.isnan(ref) else float("nan")
     for blade in models["fem"]:
         if blade not in em:
             analysis.notes.append(
@@ -764,10 +794,12 @@ def point_window(path: str | Path, index: int, periods: float = 5.0) -> tuple[di
 
     with open_recording(path) as rec:
         point = next(p for p in rec.points if p.index == index)
-        rate = float(point.sample_rate)
+        rate = point.sample_rate
+        if rate is None:
+            raise UserError(f"{path}: point {index} has channels at different sample rates")
         start, n = record_window(point)
         if "fe" in point.params:
-            m = min(n, int(round(max(periods, 1.0) * 40 * rate / float(point.params["fe"]))), WINDOW_SAMPLES)
+            m = min(n, round(max(periods, 1.0) * 40 * rate / float(point.params["fe"])), WINDOW_SAMPLES)
         else:
             m = min(n, int(point.params.get("frame_samples", n)), WINDOW_SAMPLES)
         a = start + n - m if "fe" in point.params else start

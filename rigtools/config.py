@@ -13,9 +13,10 @@ import json
 import math
 import types
 import typing
+from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 import tomllib
 from pydantic import (
@@ -41,13 +42,23 @@ from rigtools.sim.params import (
 )
 from rigtools.units import MAX_GAP, parse_quantity
 
+if TYPE_CHECKING:
+    from pydantic_core import ErrorDetails
 
-def _quantity(dimension: str):
-    def parse(value: Any) -> float:
-        return parse_quantity(value, dimension)
 
-    parse.dimension = dimension  # for the SI unit in range messages
-    return BeforeValidator(parse)
+@dataclass(frozen=True)
+class _QuantityParser:
+    """Reads a number (SI) or a quantity text (``"0.5 mm"``) of ``dimension``; the dimension
+    also gives the SI unit in range messages."""
+
+    dimension: str
+
+    def __call__(self, value: Any) -> float:
+        return parse_quantity(value, self.dimension)
+
+
+def _quantity(dimension: str) -> BeforeValidator:
+    return BeforeValidator(_QuantityParser(dimension))
 
 
 Length = Annotated[float, _quantity("length")]
@@ -295,6 +306,7 @@ def _default_daq_channels() -> dict[str, DaqChannelConfig]:
             physical_channel="Dev1/ai0",
             kind="force",
             sensitivity="11.24 mV/N",
+            excitation_current=IEPE_EXCITATION,
             range=200.0,
             location="active blade, force sensor at mid-span",
         ),
@@ -302,6 +314,7 @@ def _default_daq_channels() -> dict[str, DaqChannelConfig]:
             physical_channel="Dev1/ai1",
             kind="accel",
             sensitivity="10 mV/g",
+            excitation_current=IEPE_EXCITATION,
             range=4900.0,
             location="active blade shroud (tip)",
         ),
@@ -309,6 +322,7 @@ def _default_daq_channels() -> dict[str, DaqChannelConfig]:
             physical_channel="Dev1/ai2",
             kind="accel",
             sensitivity="10 mV/g",
+            excitation_current=IEPE_EXCITATION,
             range=4900.0,
             location="passive blade shroud (tip)",
         ),
@@ -458,8 +472,9 @@ def _shaker_field(name: str) -> Any:
     """Default and range of a [shaker] key: from :data:`rigtools.drivers.shaker.SHAKER_BOUNDS`, their one
     definition."""
     bound = SHAKER_BOUNDS[name]
-    low = {"gt": bound.low} if bound.low_open else {"ge": bound.low}
-    return Field(default=bound.default, le=bound.high, **low)
+    if bound.low_open:
+        return Field(default=bound.default, gt=bound.low, le=bound.high)
+    return Field(default=bound.default, ge=bound.low, le=bound.high)
 
 
 class ShakerConfig(_Section):
@@ -535,20 +550,21 @@ class RigConfig(_Section):
         limits = safety.get("limits") if isinstance(safety, dict) else None
         if not isinstance(limits, dict):
             return data
-        daq = data.get("daq") if isinstance(data.get("daq"), dict) else {}
-        channels = daq.get("channels")
+        daq = data.get("daq")
+        channels = daq.get("channels") if isinstance(daq, dict) else None
         if isinstance(channels, dict):
             kinds = {n: c.get("kind") for n, c in channels.items() if isinstance(c, dict)}
         else:
             kinds = {n: c.kind for n, c in _default_daq_channels().items()}
         kinds["drive"] = "voltage"
         for name, limit in limits.items():
-            if kinds.get(name) not in _KIND_DIMENSION or not isinstance(limit, dict):
+            kind = kinds.get(name)
+            if kind is None or kind not in _KIND_DIMENSION or not isinstance(limit, dict):
                 continue  # unknown channels and kinds are reported by the validation
             for key in ("warning", "abort"):
                 if isinstance(limit.get(key), str):
                     try:
-                        _channel_quantity(limit[key], kinds[name])
+                        _channel_quantity(limit[key], kind)
                     except ValueError as exc:
                         raise ValueError(f"safety.limits.{name}.{key} = {limit[key]!r}: {exc}") from None
         return data
@@ -697,8 +713,9 @@ def _allowed_range(loc: list[str]) -> tuple[str, str, str | None] | None:
                     low, low_open = bound, is_open
                 else:
                     high, high_open = bound, is_open
-        if getattr(getattr(meta, "func", None), "dimension", None):
-            dimension = meta.func.dimension
+        parser = getattr(meta, "func", None)
+        if isinstance(parser, _QuantityParser):
+            dimension = parser.dimension
             unit = _SI_UNIT.get(dimension, "")
     if low is None and high is None:
         return None
@@ -711,7 +728,7 @@ def _allowed_range(loc: list[str]) -> tuple[str, str, str | None] | None:
     )
 
 
-def _describe(error: dict[str, Any], data: dict[str, Any]) -> str:
+def _describe(error: ErrorDetails, data: dict[str, Any]) -> str:
     loc = [str(p) for p in error["loc"]]
     key = ".".join(loc) if loc else "(file)"
     if error["type"] == "extra_forbidden":

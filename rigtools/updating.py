@@ -27,11 +27,16 @@ import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 import tomllib
 
 from rigtools.errors import UserError
+
+if TYPE_CHECKING:
+    from rigtools.analysis.point import DwellAnalysis
+    from rigtools.sim.updating import Blade
 
 FORCE, ACTIVE, PASSIVE = "force", "active_shroud_accel", "passive_shroud_accel"
 DWELL_CHANNELS = (FORCE, ACTIVE, PASSIVE)
@@ -72,7 +77,7 @@ class IdentifiedSet:
 
     recording: str
     point: int
-    blade: str
+    blade: Blade
     response: str
     frequencies_hz: list[float]
     damping_ratios: list[float]
@@ -93,7 +98,7 @@ class RecordingModes:
         return sum(len(s.frequencies_hz) for s in self.sets)
 
 
-def _blade_of(name: str) -> str | None:
+def _blade_of(name: str) -> Blade | None:
     low = name.lower()
     if "passive" in low:
         return "passive"
@@ -148,12 +153,19 @@ def identify_recording(
             tap = analyze_tap_test(rec.points, rec.experiment, method=method)
             usable = 1
             for resp, ident in tap.frf.modes.items():
+                # the response's name tells its blade; else the blade the hammer hit
+                blade = _blade_of(resp) or _blade_of(str(tap.params.get("blade", "")))
+                if blade is None:
+                    raise UserError(
+                        f"{name}: tap response {resp!r} names no blade (active/passive) and the "
+                        "recording does not say which blade was hit"
+                    )
                 modes = sorted(ident.modes, key=lambda m: m.frequency_hz)
                 sets.append(
                     IdentifiedSet(
                         name,
                         tap.index,
-                        _blade_of(resp),
+                        blade,
                         resp,
                         [float(m.frequency_hz) for m in modes],
                         [float(m.damping_ratio) for m in modes],
@@ -165,18 +177,19 @@ def identify_recording(
             if not {"frame_samples", "record_start", "record_samples"} <= set(prm):
                 continue
             forces = [n for n, c in point.channels.items() if c.quantity == "force"]
-            responses = [
-                n
+            blade_of = {
+                n: blade
                 for n, c in point.channels.items()
-                if c.quantity == "acceleration" and _blade_of(n) is not None
-            ]
+                if c.quantity == "acceleration" and (blade := _blade_of(n)) is not None
+            }
+            responses = list(blade_of)
             if not forces or not responses or point.sample_rate is None:
                 continue
             force = FORCE if FORCE in forces else forces[0]
             signal = str(prm.get("signal", "burst")).lower()
             excitation = BROADBAND_SIGNALS.get(signal, "burst")
             rate = float(point.sample_rate)
-            start = int(round(float(prm["record_start"]) * rate))
+            start = round(float(prm["record_start"]) * rate)
             n = int(prm["record_samples"])
             frame = int(prm["frame_samples"])
             if n < frame or frame < 8 or start + n > point.n_samples:
@@ -211,7 +224,7 @@ def identify_recording(
                     IdentifiedSet(
                         name,
                         point.index,
-                        _blade_of(resp),
+                        blade_of[resp],
                         resp,
                         [float(m.frequency_hz) for m in modes],
                         [float(m.damping_ratio) for m in modes],
@@ -267,15 +280,15 @@ def mode_targets(
     """
     from rigtools.sim.updating import ModeTarget, pair_modes
 
-    seen: dict[tuple[str, int], list] = {}
-    model_hz: dict[tuple[str, int], float] = {}
+    seen: dict[tuple[Blade, int], list] = {}
+    model_hz: dict[tuple[Blade, int], float] = {}
     notes: list[str] = []
     for rec in recordings:
         for s in rec.sets:
             if not s.frequencies_hz:
                 continue
             pairing = pair_modes(params, s.blade, s.frequencies_hz, s.damping_ratios)
-            for t, fm in zip(pairing.targets, pairing.model_hz):
+            for t, fm in zip(pairing.targets, pairing.model_hz, strict=True):
                 if t.order > max_modes:
                     continue
                 seen.setdefault((t.blade, t.order), []).append(
@@ -376,7 +389,7 @@ class DwellData:
     fe: float
     force_amplitude: float  # measured fundamental of the force, N (the model is driven at it)
     gap: float
-    analysis: object  # rigtools.analysis.point.DwellAnalysis of the settled window
+    analysis: DwellAnalysis  # of the settled window
 
     def amplitudes(self, channel: str, k_max: int = K_HARMONICS) -> np.ndarray:
         return np.asarray(self.analysis.harmonics[channel].amplitude[:k_max], dtype=float)
@@ -405,12 +418,16 @@ def read_dwell(path: str | Path, *, k_max: int = 30) -> list[DwellData]:
             if FORCE not in point.channels or ACTIVE not in point.channels:
                 continue
             rate = float(point.sample_rate)
-            start = int(round(float(prm["record_start"]) * rate))
+            start = round(float(prm["record_start"]) * rate)
             n = int(prm["record_samples"])
             chans = {c: point.channels[c][start : start + n] for c in DWELL_CHANNELS if c in point.channels}
             ana = analyze_dwell(chans, rate, float(prm["fe"]), k_max=k_max)
-            f0 = float(prm.get("force_amplitude_measured") or ana.force_amplitude)
-            out.append(DwellData(f"{name}:{point.index}", float(prm["fe"]), f0, float(prm["gap"]), ana))
+            f0 = prm.get("force_amplitude_measured") or ana.force_amplitude
+            if f0 is None:  # no force fundamental to drive the model at
+                continue
+            out.append(
+                DwellData(f"{name}:{point.index}", float(prm["fe"]), float(f0), float(prm["gap"]), ana)
+            )
     if not out:
         raise UserError(
             f"{name} holds no settled force-controlled dwell point (record one with 'rig acquire dwell')"
@@ -476,7 +493,7 @@ def fit_contact_to_dwells(
     params,
     dwells: Sequence[DwellData],
     *,
-    law: str | None = None,
+    law: Literal["linear", "hertz"] | None = None,
     names: Sequence[str] = ("contact.stiffness", "contact.damping"),
     k_max: int = K_HARMONICS,
 ):
@@ -546,11 +563,11 @@ def updated_rig_text(
             for i in range(lo + 1, hi + 1):
                 m = _KEY.match(lines[i])
                 if m and m.group(2) == key:
-                    hit = i
+                    hit = i, m.group(1)
                     break
             if hit is not None:
-                indent = _KEY.match(lines[hit]).group(1)
-                edits[hit] = [f"{indent}# was: {lines[hit].strip()}", indent + line_text]
+                i, indent = hit
+                edits[i] = [f"{indent}# was: {lines[i].strip()}", indent + line_text]
             else:
                 appends.setdefault(section, []).append(line_text)
         else:
@@ -564,8 +581,10 @@ def updated_rig_text(
             m = _KEY.match(lines[i])
             if m and m.group(2) == key:
                 edits[i] = [
-                    f"{m.group(1)}# removed by rig update ({comments.get(full, 'replaced')}): "
-                    f"{lines[i].strip()}"
+                    (
+                        f"{m.group(1)}# removed by rig update ({comments.get(full, 'replaced')}): "
+                        f"{lines[i].strip()}"
+                    )
                 ]
     out: list[str] = [f"# {h}" for h in header.splitlines()] if header else []
     # added keys go after the last key line of their section (before trailing comments/blanks)
@@ -588,7 +607,7 @@ def updated_rig_text(
             "inline table or dotted keys? edit the rig file by hand"
         ) from None
     for full, value in values.items():
-        node = data
+        node: Any = data
         for part in full.split("."):
             node = node.get(part) if isinstance(node, dict) else None
         if node != value and not (

@@ -116,6 +116,17 @@ def test_frf_kinds_convert_by_frequency(frf_file):
     assert rec.frf.kind == "receptance" and rec.frf.modes["active_shroud_accel"].method == "peak"
 
 
+def test_a_response_that_is_no_motion_is_one_line_not_a_traceback(frf_file):
+    """Found by the type checker: ``--channels drive`` (volts) reached the FRF conversion with no
+    kind (None) and ended in a ValueError traceback; now one line naming the channel, exit 2."""
+    from rigtools.errors import EXIT_USAGE
+
+    code, out, err = run_cli(["analyze", str(frf_file), "--channels", "drive"])
+    assert code == EXIT_USAGE
+    assert "drive is not an acceleration, velocity or displacement (V)" in err
+    assert "Traceback" not in err and len(err.strip().splitlines()) == 1
+
+
 def test_cli_analyze_frf_json_and_figures(frf_file, tmp_path):
     code, out, err = run_cli(["analyze", str(frf_file), "--json", "--out", str(tmp_path / "figs")])
     assert code == 0, err
