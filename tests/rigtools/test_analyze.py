@@ -121,7 +121,7 @@ def test_a_response_that_is_no_motion_is_one_line_not_a_traceback(frf_file):
     kind (None) and ended in a ValueError traceback; now one line naming the channel, exit 2."""
     from rigtools.errors import EXIT_USAGE
 
-    code, out, err = run_cli(["analyze", str(frf_file), "--channels", "drive"])
+    code, _out, err = run_cli(["analyze", str(frf_file), "--channels", "drive"])
     assert code == EXIT_USAGE
     assert "drive is not an acceleration, velocity or displacement (V)" in err
     assert "Traceback" not in err and len(err.strip().splitlines()) == 1
