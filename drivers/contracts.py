@@ -42,7 +42,7 @@ from typing import TYPE_CHECKING, Literal
 import numpy as np
 
 if TYPE_CHECKING:  # typing.Self is 3.11+; the annotations are strings (PEP 563), never evaluated
-    from typing_extensions import Self
+    from typing import Self
 
 STANDARD_GRAVITY = 9.80665  # m/s^2 per g, exactly (CGPM 1901)
 

@@ -33,7 +33,7 @@ from typing import Any
 from rigtools.errors import Interrupted, UserError
 
 
-class Status(str, enum.Enum):
+class Status(str, enum.Enum):  # noqa: UP042 -- StrEnum would change str()/format() of members, which messages print
     FINISHED = "finished"
     ABORTED = "aborted"
     FAILED = "failed"

@@ -15,7 +15,7 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import dataclass
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from numbers import Integral, Real
 from typing import Any
 
@@ -122,7 +122,7 @@ def point_index(name: str) -> int | None:
 
 def utc_now() -> str:
     """The current time as ISO 8601 text in UTC, e.g. ``2026-11-01T05:31:07.123456+00:00``."""
-    return datetime.now(timezone.utc).isoformat(timespec="microseconds")
+    return datetime.now(UTC).isoformat(timespec="microseconds")
 
 
 def parse_utc(text: str) -> datetime:

@@ -14,7 +14,7 @@ import io
 import math
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
@@ -158,7 +158,7 @@ class Report:
 
     def html(self) -> str:
         """The whole page."""
-        made = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+        made = datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC")
         sub = html.escape(self.subtitle + (" · " if self.subtitle else "") + f"made {made}")
         body = "\n".join(s.html() for s in self.sections)
         return (

@@ -347,7 +347,6 @@ def test_too_coarse_sample_rate_is_one_line(cfg):
 
 def test_shaker_and_test_article_sections_validate_in_one_line(cfg):
     import copy
-
     import tomllib
 
     from rigtools.config import ConfigError, default_rig_text, parse_rig

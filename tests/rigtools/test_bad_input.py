@@ -18,6 +18,7 @@ import signal
 import subprocess
 import sys
 import time
+import tomllib
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -26,7 +27,6 @@ import h5py
 import numpy as np
 import pytest
 import tomli_w
-import tomllib
 
 from rigtools.cli import main
 from rigtools.config import default_rig_text

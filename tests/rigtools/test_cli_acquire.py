@@ -4,11 +4,11 @@ injected faults (exit 4, file kept, status failed), the missing NI-DAQmx driver 
 line offering --backend sim) and one-line refusals of bad input (exit 2)."""
 
 import json
+import tomllib
 
 import numpy as np
 import pytest
 import tomli_w
-import tomllib
 from cli_helpers import run_cli
 
 from rigtools.cli import main

@@ -1,11 +1,11 @@
 """``rig modal`` and ``rig harmonic`` through rigtools.cli.main: output shapes and one-line errors."""
 
 import json
+import tomllib
 
 import numpy as np
 import pytest
 import tomli_w
-import tomllib
 
 from rigtools.cli import main
 from rigtools.config import default_rig_text

@@ -293,8 +293,9 @@ def test_model_commands_import_light():
 def test_a_contact_damping_that_would_diverge_is_refused_up_front(tmp_path, capsys):
     """A contact damping of 1e5 N*s/m made the run blow up: the rig file is refused with one line
     naming the key (the run's own divergence check is tested in tests/sim), no file."""
-    import tomli_w
     import tomllib
+
+    import tomli_w
 
     from rigtools.config import default_rig_text
 

@@ -1,9 +1,9 @@
 """Rig file validation: defaults, unit strings, and one clear line for each kind of bad input."""
 
 import copy
+import tomllib
 
 import pytest
-import tomllib
 
 from rigtools.config import default_rig_text, load_rig, parse_rig
 from rigtools.errors import ConfigError

@@ -3,9 +3,9 @@ only where a sensor needs it, every terminal used once. References: the SI defin
 (1 g0 = 9.80665 m/s^2 exactly, 1 mA = 1e-3 A); exact equality up to float rounding (rel 1e-12)."""
 
 import copy
+import tomllib
 
 import pytest
-import tomllib
 
 from rigtools.config import default_rig_text, parse_rig
 from rigtools.errors import ConfigError

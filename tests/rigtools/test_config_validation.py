@@ -4,11 +4,11 @@ line (a ConfigError) naming the key and the value as written."""
 
 import copy
 import math
+import tomllib
 
 import h5py
 import numpy as np
 import pytest
-import tomllib
 
 from rigtools.config import (
     MAX_CONTACT_DAMPING_RATIO,

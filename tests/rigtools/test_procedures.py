@@ -102,8 +102,9 @@ def test_force_control_reaches_15_n_at_the_first_resonance_with_raised_drive_lim
     shroud swings ~14 mm). The first resonance from a periodic-chirp FRF test on that rig
     (52.0 Hz, 1 Hz lines); measured: 14.9996 N after 4 updates at 6.88 V, peak active shroud
     acceleration 1504 m/s^2 (warning 2500), force peak 15.01 N (warning 40 N)."""
-    import tomli_w
     import tomllib
+
+    import tomli_w
 
     from rigtools.config import default_rig_text
 
@@ -224,8 +225,9 @@ def test_safety_abort_during_the_ramp_keeps_the_peak_and_the_ramp(cfg, tmp_path)
     """A force abort limit of 3 N trips during the first ramp (target force 15 N): status
     failed with the reason; the samples before it, the block holding the peak that tripped it
     and the recorded ramp to 0 V are kept (not 0 samples)."""
-    import tomli_w
     import tomllib
+
+    import tomli_w
 
     from rigtools.config import default_rig_text
 

@@ -159,8 +159,9 @@ def test_the_rig_files_hammer_channel_is_used_and_checked(cfg, tmp_path):
     a frame too short for the response to decay (0.5 s: mode 1 keeps 16 % of its amplitude) is
     recorded but rejected, and the test waits for the next accepted hit (here --timeout ends it
     after three rejected hits, status failed)."""
-    import tomli_w
     import tomllib
+
+    import tomli_w
 
     from rigtools.config import default_rig_text
     from rigtools.errors import UserError

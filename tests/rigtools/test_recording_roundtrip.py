@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import json
 import re
-from datetime import datetime, timedelta, timezone
+from datetime import UTC, datetime, timedelta
 from pathlib import Path
 
 import h5py
@@ -99,9 +99,9 @@ def _write(path: Path, n_points: int = 3, blocks: int = 7, **kwargs) -> dict[int
 
 def test_every_attribute_and_array_round_trips(tmp_path):
     path = tmp_path / "run.h5"
-    before = datetime.now(timezone.utc)
+    before = datetime.now(UTC)
     written = _write(path)
-    after = datetime.now(timezone.utc)
+    after = datetime.now(UTC)
     with open_recording(path) as rec:
         assert rec.status == "complete" and rec.complete and not rec.incomplete
         assert rec.abort_reason == ""

@@ -10,10 +10,10 @@ the recording and the identification).
 
 import json
 import re
+import tomllib
 
 import numpy as np
 import pytest
-import tomllib
 from cli_helpers import run_cli
 
 from rigtools.config import default_rig_text, load_rig
