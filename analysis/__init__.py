@@ -13,7 +13,7 @@ arrays and small dataclasses out):
   stabilisation chart and LSFD, or peak picking with half-power damping).
 - :mod:`rigtools.analysis.impacts`: impacts from shroud accelerations (count, levels, contact duration,
   period multiple).
-- :mod:`rigtools.analysis.compare`: natural-frequency and harmonic tables, agreement score, the
+- :mod:`rigtools.analysis.correlation`: natural-frequency and harmonic tables, agreement score, the
   natural-frequency offset that explains a harmonic difference, point pairing.
 - :mod:`rigtools.analysis.point`: one call per recorded point (dwell or FRF test) for ``rig analyze``.
 - :mod:`rigtools.analysis.plots`: matplotlib figures for the report.

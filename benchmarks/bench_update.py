@@ -7,7 +7,7 @@ force_sensor.mass, damping.ratio`` free (the widest fit the rig file's deviation
 
 Same-run baselines:
 
-* one model evaluation of the fit (:func:`rigtools.sim.updating.predict`: both blades built, the lowest
+* one model evaluation of the fit (:func:`rigtools.sim.parameter_fit.predict`: both blades built, the lowest
   flexural modes solved); the fit's time over it says how much the fit costs beyond its
   evaluations;
 * one evaluation the plain way (:func:`rigtools.sim.rig_model.build_rig_model` and
@@ -57,7 +57,7 @@ from rigtools.sim.contact_fit import (
 from rigtools.sim.modal import flexural_frequencies
 from rigtools.sim.reduction import reduced_system
 from rigtools.sim.rig_model import build_rig_model
-from rigtools.sim.updating import mode_targets, predict, update_model
+from rigtools.sim.parameter_fit import mode_targets, predict, update_model
 
 NAMES = [
     "root.rotational_stiffness",
@@ -178,7 +178,7 @@ def main() -> None:
 def end_to_end() -> dict:
     """Record an FRF test on the simulated rig (not timed), then time ``rig update`` on it."""
     from rigtools.cli import main as rig
-    from rigtools.updating import identify_recording
+    from rigtools.model_update import identify_recording
 
     with tempfile.TemporaryDirectory() as tmp:
         frf = Path(tmp) / "frf.h5"

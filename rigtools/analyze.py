@@ -715,24 +715,17 @@ def identified_frequencies(analysis: RecordingAnalysis) -> dict[str, list[float]
 def model_frequencies(rig_config, n_modes: int = 3) -> dict[str, dict[str, list[float]]]:
     """Flexural natural frequencies of both blades of a rig: ``{"fem": ..., "am": ...,
     "article": ...}`` with ``{blade: [Hz, ...]}`` each. ``fem``: the reduced FE model
-    (:func:`rigtools.simulation.natural_frequencies`); ``am``: the exact Euler-Bernoulli solution
-    (:func:`rigtools.sim.analytical.exact_flexural_frequencies`); ``article``: the simulated rig's test
+    (:mod:`rigtools.sim.natural_frequencies`); ``am``: the exact Euler-Bernoulli solution; ``article``: the simulated rig's test
     article (``[test_article]`` applied to the nominal rig as :class:`rigtools.drivers.simulated.SimulatedRig`
     does, reduced as its vibro-impact physics does)."""
-    from rigtools.sim.analytical import exact_flexural_frequencies
+    from rigtools.sim.natural_frequencies import analytical_natural_frequencies
+    from rigtools.sim.natural_frequencies import reduced_natural_frequencies as natural_frequencies
     from rigtools.sim.reduction import reduce_rig_model, reduced_system
-    from rigtools.sim.rig_model import blade_masses, build_rig_model
-    from rigtools.simulation import natural_frequencies
+    from rigtools.sim.rig_model import build_rig_model
 
     params = rig_config.to_params()
     fem = natural_frequencies(reduced_system(params, "fem"))
-    roots = {"active": params.root, "passive": params.passive_root or params.root}
-    am = {
-        b: exact_flexural_frequencies(
-            params.active if b == "active" else params.passive, blade_masses(params, b), n_modes, roots[b]
-        )
-        for b in roots
-    }
+    am = analytical_natural_frequencies(params, n_modes)
     out = {
         "fem": {b: [float(x) for x in fem[b][:n_modes]] for b in fem},
         "am": {b: [float(x) for x in am[b]] for b in am},
@@ -746,10 +739,10 @@ def model_frequencies(rig_config, n_modes: int = 3) -> dict[str, dict[str, list[
 
 def frequency_table(analysis: RecordingAnalysis, path, n_modes: int = 3) -> list[dict] | None:
     """The paper's Table 2 for a broadband recording: per blade and mode FEM, AM, EM (identified)
-    and their differences in % (:func:`rigtools.analysis.compare.natural_frequency_table`), with the
+    and their differences in % (:func:`rigtools.analysis.correlation.natural_frequency_table`), with the
     simulated test article's own frequency and EM's difference from it when the recording was
     made on the simulated rig. None if nothing was identified or the rig cannot be read."""
-    from rigtools.analysis.compare import natural_frequency_table
+    from rigtools.analysis.correlation import natural_frequency_table
     from rigtools.recording import RecordingError, open_recording
 
     em = identified_frequencies(analysis)

@@ -1,156 +1,22 @@
-"""Saving figures and other derived files next to the files they describe, never over them.
+"""Saving matplotlib figures as PNG next to the files they describe, never over them (the naming
+and safe-writing rule of derived files: :mod:`rigtools.derived_files`).
 
 matplotlib is switched to its non-interactive Agg backend on import, before anything could import
 pyplot, so figures are written the same way on a desktop and on a headless CI machine.
-
-Naming rule for derived files (docs/recording-format.md, "Derived files"): the derived file of
-``DIR/STEM.SUFFIX`` is ``DIR/STEM.png`` (``run.h5`` -> ``run.png``), unless that name is the
-source itself (a source named ``x.png``) or an existing file that is not a rigtools plot (a
-recording, a user's image, anything else); then ``STEM.plot.png``, ``STEM.plot-2.png``, ... the
-first that is free or a rigtools plot. ``STEM.plot.png`` can never equal the source's name (a
-suffix holds no dot), and :func:`write_derived` checks again when writing, replaces a file only
-atomically and never replaces the source or a file that is not a derived file.
 """
 
 from __future__ import annotations
 
 import os
-import struct
-import tempfile
-from collections.abc import Callable
 from pathlib import Path
 
 import matplotlib
 
-from rigtools.errors import UserError
+from rigtools.derived_files import write_derived
 
 matplotlib.use("Agg")
 
 DPI = 100
-PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
-SOFTWARE_PREFIXES = ("rigtools", "Matplotlib")  # whose PNGs a new plot may replace
-
-
-def png_software(path: str | os.PathLike) -> str | None:
-    """The ``Software`` text of a PNG file (None if it is not a PNG or has none)."""
-    try:
-        with open(path, "rb") as fh:
-            head = fh.read(1 << 16)
-    except OSError:
-        return None
-    if not head.startswith(PNG_SIGNATURE):
-        return None
-    pos = len(PNG_SIGNATURE)
-    while pos + 8 <= len(head):
-        length, kind = struct.unpack(">I4s", head[pos : pos + 8])
-        if kind == b"IDAT":
-            break
-        data = head[pos + 8 : pos + 8 + length]
-        if kind == b"tEXt" and b"\0" in data:
-            key, _, value = data.partition(b"\0")
-            if key == b"Software":
-                return value.decode("latin-1")
-        pos += 12 + length
-    return None
-
-
-def is_derived_plot(path: str | os.PathLike) -> bool:
-    """True if ``path`` is a PNG written by rigtools (or matplotlib): a plot a new one may replace."""
-    software = png_software(path)
-    return software is not None and software.startswith(SOFTWARE_PREFIXES)
-
-
-def _same(a: Path, b: Path) -> bool:
-    try:
-        return a.resolve() == b.resolve() or (a.exists() and b.exists() and a.samefile(b))
-    except OSError:
-        return False
-
-
-def derived_path(
-    source: str | os.PathLike,
-    ext: str = ".png",
-    kind: str = "plot",
-    replaceable: Callable[[Path], bool] = is_derived_plot,
-) -> Path:
-    """Name of the ``kind`` file derived from ``source`` (see the module's naming rule).
-
-    Parameters
-    ----------
-    source : path
-        The file the derived file describes (a recording, a CSV of curves...).
-    ext : str
-        Extension of the derived file, with its dot.
-    kind : str
-        Word inserted when the plain name is taken: ``STEM.{kind}{ext}``.
-    replaceable : callable
-        Whether an existing file of that name may be replaced (default: a rigtools/matplotlib PNG).
-
-    Returns
-    -------
-    Path
-        Never ``source`` itself, never an existing file ``replaceable`` refuses.
-    """
-    source = Path(source)
-    stem = source.stem
-    candidates = [source.with_name(stem + ext), source.with_name(f"{stem}.{kind}{ext}")]
-    candidates += (source.with_name(f"{stem}.{kind}-{n}{ext}") for n in range(2, 1000))
-    for path in candidates:
-        if path.name.lower() == source.name.lower() or _same(path, source):
-            continue
-        if not path.exists() and not path.is_symlink():
-            return path
-        if path.is_file() and not path.is_symlink() and replaceable(path):
-            return path
-    raise UserError(f"no free name for the {kind} of {source} ({candidates[-1].name} taken)")
-
-
-def plot_path(out: str | os.PathLike) -> Path:
-    """The figure written beside an output file: ``STEM.png``, never ``out`` itself nor a file
-    that is not a plot (then ``STEM.plot.png``; see the module's naming rule)."""
-    return derived_path(out, ".png", "plot")
-
-
-def write_derived(
-    path: str | os.PathLike,
-    write: Callable[[Path], None],
-    *,
-    source: str | os.PathLike | None = None,
-    replaceable: Callable[[Path], bool] = is_derived_plot,
-) -> Path:
-    """Write a derived file safely: ``write(tmp)`` fills a temporary file in the same folder,
-    which then atomically takes the name ``path``.
-
-    Raises
-    ------
-    UserError
-        If ``path`` is ``source`` or exists and ``replaceable`` refuses it (a recording, a file
-        not made by rigtools): nothing is written and the existing file is untouched.
-    """
-    path = Path(path)
-    if source is not None and (
-        path.name.lower() == Path(source).name.lower()
-        and path.parent.resolve() == Path(source).parent.resolve()
-        or _same(path, Path(source))
-    ):
-        raise UserError(f"{path} is the file it is derived from; not overwritten")
-    if (path.exists() or path.is_symlink()) and not (
-        path.is_file() and not path.is_symlink() and replaceable(path)
-    ):
-        raise UserError(f"{path} exists and was not made by rigtools as a derived file; not overwritten")
-    fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    os.close(fd)
-    tmp = Path(tmp_name)
-    umask = os.umask(0)
-    os.umask(umask)
-    os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes it private; a plot is an ordinary file
-    try:
-        write(tmp)
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
-    return path
 
 
 def save_figure(

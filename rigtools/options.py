@@ -1,5 +1,5 @@
 """Command-line option helpers shared by every ``rig`` sub-command: quantities with units, gaps,
-durations, counts, seeds, output paths and a memory check. Each refuses bad input with one
+durations, counts, seeds and output paths (the memory check: :mod:`rigtools.memory`). Each refuses bad input with one
 :class:`~rigtools.errors.UserError` line naming the option and the value (exit 2).
 
 Light on purpose (stdlib and rigtools.units only; no scipy, h5py, numba, pydantic): command
@@ -10,7 +10,6 @@ are those of :mod:`rigtools.units`, the same as in a rig file.
 from __future__ import annotations
 
 import argparse
-import math
 import os
 import re
 from collections.abc import Iterable
@@ -20,7 +19,7 @@ from rigtools.errors import UserError
 from rigtools.units import MAX_GAP, parse_quantity, voltage_amplitude
 
 
-def quantity(text: str, dimension: str, option: str) -> float:
+def quantity(text: str | float, dimension: str, option: str) -> float:
     """Parse a CLI quantity (``"0.5 mm"``, ``"15 N"``; a plain number is SI) or raise a one-line
     :class:`UserError` naming the option. Non-finite values are refused."""
     try:
@@ -77,13 +76,18 @@ def duration(
     return positive_finite(text, "time", option, allow_zero=allow_zero, maximum=maximum, unit="s")
 
 
-def gap(text: str, option: str = "--gap") -> float:
+def gap(text: str | float, option: str = "--gap") -> float:
     """A shroud gap in metres, ``0 <= gap <= MAX_GAP`` (the same limit as the rig file's
-    ``[contact] gap``). A plain number is metres: ``--gap 0.5`` is refused, write ``"0.5 mm"``."""
+    ``[contact] gap``): the one gap rule of every ``--gap``, gap study and map. A plain number is
+    metres: ``--gap 0.5`` is refused, write ``"0.5 mm"``."""
     value = quantity(text, "length", option)
-    if not 0.0 <= value <= MAX_GAP:
-        hint = "; a plain number is metres, write e.g. '0.5 mm'" if value > MAX_GAP else ""
-        raise UserError(f"{option} = {text!r}: a gap must be between 0 and {MAX_GAP * 1e3:g} mm{hint}")
+    if value < 0:
+        raise UserError(f"{option} = {text!r}: a gap must be between 0 and {MAX_GAP * 1e3:g} mm")
+    if value > MAX_GAP:
+        raise UserError(
+            f"{option} = {text!r} is {value * 1e3:g} mm, wider than any blade could close "
+            f"(a gap must be between 0 and {MAX_GAP * 1e3:g} mm); a plain number is metres: write gaps with units, e.g. '0.5 mm'"
+        )
     return value
 
 
@@ -202,62 +206,3 @@ def output_path(
 def check_out(args: argparse.Namespace, *, suffixes: Iterable[str] | None = None) -> Path:
     """``args.out`` checked by :func:`output_path` (``args.overwrite`` if the command has it)."""
     return output_path(args.out, getattr(args, "overwrite", False), "--out", suffixes=suffixes)
-
-
-def total_memory() -> int | None:
-    """This machine's physical memory in bytes (``/proc/meminfo`` MemTotal, else ``os.sysconf``),
-    or ``None`` if it cannot be read."""
-    try:
-        with open("/proc/meminfo", encoding="ascii") as fh:
-            for line in fh:
-                if line.startswith("MemTotal:"):
-                    return int(line.split()[1]) * 1024
-    except (OSError, ValueError, IndexError):
-        pass
-    try:
-        pages, size = os.sysconf("SC_PHYS_PAGES"), os.sysconf("SC_PAGE_SIZE")
-    except (AttributeError, ValueError, OSError):
-        return None
-    return pages * size if pages > 0 and size > 0 else None
-
-
-def memory_estimate_check(
-    n_samples_total: float, n_channels: int, what: str, *, bytes_per_sample: int = 8, limit: int | None = None
-) -> float:
-    """Refuse work whose samples would not fit in this machine's memory.
-
-    Parameters
-    ----------
-    n_samples_total
-        Samples per channel the work holds in memory at once (e.g. duration x sample rate x
-        points kept).
-    n_channels
-        Channels held.
-    what
-        What is estimated, for the message, e.g. ``"--duration '10 h' at 51.2 kHz"``.
-    bytes_per_sample
-        8 for float64.
-    limit
-        Bytes allowed; default: the machine's total memory (:func:`total_memory`; no check if it
-        cannot be read).
-
-    Returns
-    -------
-    float
-        The estimate in bytes.
-
-    Raises
-    ------
-    UserError
-        One line with the estimate and the limit in GB if the estimate is larger than the limit.
-    """
-    estimate = float(n_samples_total) * float(n_channels) * float(bytes_per_sample)
-    if not math.isfinite(estimate):
-        raise UserError(f"{what}: too large to hold in memory")
-    limit = total_memory() if limit is None else limit
-    if limit is not None and estimate > limit:
-        raise UserError(
-            f"{what} would need about {estimate / 1e9:.3g} GB of memory, more than this "
-            f"machine's {limit / 1e9:.3g} GB; shorten it"
-        )
-    return estimate

@@ -1,8 +1,8 @@
 """Model runs as recordings: the vibro-impact simulations that ``rig simulate``, ``rig study``
 and later the EM-versus-FEM comparison and the demo share.
 
-* :func:`load_system`, :func:`simulate_point`, :func:`natural_frequencies`: the reduced model of
-  a rig file and one settled run;
+* :func:`load_system`, :func:`simulate_point`: the reduced model of a rig file and one settled run
+  (its natural frequencies: :mod:`rigtools.sim.natural_frequencies`);
 * :data:`MODEL_OUTPUTS`, :func:`channel_specs`, :func:`channel_block`, :func:`point_params`,
   :func:`end_attrs`: a run as one recording point, named by :mod:`rigtools.vocabulary`;
 * :func:`harmonics_of`, :func:`point_summary`: the small per-point results printed or plotted;
@@ -99,19 +99,6 @@ def load_system(rig: str | None, model: str = "fem"):
 
     cfg = load_rig(rig)
     return cfg, reduced_system(cfg.to_params(), model)
-
-
-def natural_frequencies(system) -> dict[str, np.ndarray]:
-    """The kept (not static-correction) mode frequencies of each blade of a reduced system, Hz:
-    its flexural natural frequencies, ``{"active": ..., "passive": ...}`` ascending."""
-    from rigtools.sim.reduction import ACTIVE, PASSIVE
-
-    real = np.ones(system.n_modes, bool) if system.pseudo is None else ~np.asarray(system.pseudo, bool)
-    f = system.frequencies_hz
-    return {
-        "active": np.sort(f[real & (system.blade == ACTIVE)]),
-        "passive": np.sort(f[real & (system.blade == PASSIVE)]),
-    }
 
 
 def simulate_point(
@@ -267,6 +254,7 @@ def point_summary(run) -> dict:
 def run_figure(run, system, title: str):
     """:func:`rigtools.analysis.plots.vibro_impact_figure` of one settled run."""
     from rigtools.analysis.plots import vibro_impact_figure
+    from rigtools.sim.natural_frequencies import reduced_natural_frequencies
 
     o = run.outputs
     return vibro_impact_figure(
@@ -279,7 +267,7 @@ def run_figure(run, system, title: str):
         run.fe,
         k_max=K_MAX,
         gap=run.gap,
-        natural_frequencies_hz=natural_frequencies(system),
+        natural_frequencies_hz=reduced_natural_frequencies(system),
         title=title,
         force=o["excitation_force"],
     )
@@ -393,32 +381,6 @@ def model_build_estimate(params, model: str = "fem") -> tuple[float, int]:
         seconds += 0.5 * FE_BUILD_SECONDS_2000 * (e / 2000.0) ** FE_BUILD_EXPONENT
         peak = max(peak, int(FE_BUILD_BYTES_PER_DOF2 * (6.0 * (e + 1)) ** 2))
     return seconds, peak
-
-
-def available_memory() -> int | None:
-    """Bytes of memory available to a new allocation (Linux MemAvailable), None if unknown."""
-    try:
-        with open("/proc/meminfo", encoding="ascii") as f:
-            for line in f:
-                if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
-    except (OSError, ValueError, IndexError):
-        pass
-    try:
-        import os
-
-        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
-    except (ValueError, OSError, AttributeError):
-        return None
-
-
-def check_memory(needed: int, what: str, hint: str) -> None:
-    """Refuse up front (one line with the estimate) work that needs more memory than is available."""
-    avail = available_memory()
-    if avail is not None and needed > 0.8 * avail:
-        raise UserError(
-            f"{what} needs about {needed / 1e9:.3g} GB of memory, {avail / 1e9:.3g} GB are available: {hint}"
-        )
 
 
 def human_seconds(s: float) -> str:

@@ -13,7 +13,7 @@ above ``floor`` times the largest of their location (the rest is noise on a real
 :func:`scipy.optimize.least_squares` in ``ln k_c`` and ``ln c_c`` with bounds; the time step is
 fixed over the fit (sized for the stiffest contact the bounds allow), so that a trial change of the
 stiffness does not also change the discretisation. Identifiability is reported as in
-:mod:`rigtools.sim.updating`. ``law="hertz"`` fits a Hertz contact instead (stiffness in N/m^p), so the two
+:mod:`rigtools.sim.parameter_fit`. ``law="hertz"`` fits a Hertz contact instead (stiffness in N/m^p), so the two
 laws can be compared by their residuals.
 """
 
@@ -30,7 +30,7 @@ import scipy.optimize
 
 from rigtools.sim.params import ContactLaw, ContactParams, RigParams
 from rigtools.sim.reduction import ReducedSystem, reduced_system
-from rigtools.sim.updating import (
+from rigtools.sim.parameter_fit import (
     Identifiability,
     UpdateParameter,
     _central_jacobian,
@@ -161,7 +161,7 @@ def harmonic_amplitudes(
 
 @dataclass
 class ContactFitResult:
-    """The outcome of :func:`fit_contact` (fields as :class:`rigtools.sim.updating.UpdateResult`)."""
+    """The outcome of :func:`fit_contact` (fields as :class:`rigtools.sim.parameter_fit.UpdateResult`)."""
 
     names: list[str]
     units: list[str]
@@ -303,7 +303,7 @@ def fit_contact(
     Parameters
     ----------
     params
-        The rig (its linear part updated first, e.g. by :func:`rigtools.sim.updating.update_model`).
+        The rig (its linear part updated first, e.g. by :func:`rigtools.sim.parameter_fit.update_model`).
     targets
         :class:`HarmonicTarget` items (dwells, or the points of a gap study).
     names

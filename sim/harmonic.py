@@ -148,9 +148,8 @@ def am_harmonic_response(
     """
     position = params.force_sensor.position
     out = HarmonicResponse("am", np.asarray(frequencies_hz, dtype=float), float(force_amplitude))
-    roots = {"active": params.root, "passive": params.passive_root or params.root}
     for name, bp in (("active", params.active), ("passive", params.passive)):
-        am = assumed_modes_blade(bp, blade_masses(params, name), roots[name], n_terms)
+        am = assumed_modes_blade(bp, blade_masses(params, name), params.root_of(name), n_terms)
         f, vec = am.modes()
         omegas = 2.0 * np.pi * f
         tip = am.shape(bp.length) @ vec

@@ -240,3 +240,14 @@ class RigParams:
         self.root.check_against(self.passive, "root")
         if self.passive_root is not None:
             self.passive_root.check_against(self.passive, "passive_root")
+
+    def root_of(self, blade: str) -> RootParams:
+        """The root of ``blade`` (``"active"`` or ``"passive"``): the passive blade has its own
+        ``passive_root`` when given, else both blades share ``root``. The one place this fallback lives."""
+        if blade == "passive" and self.passive_root is not None:
+            return self.passive_root
+        return self.root
+
+    def blade(self, name: str) -> BladeParams:
+        """The :class:`BladeParams` of ``name`` (``"active"`` or ``"passive"``)."""
+        return self.active if name == "active" else self.passive

@@ -352,7 +352,7 @@ def reduced_system(
         from rigtools.sim.analytical import assumed_modes_blade
         from rigtools.sim.rig_model import blade_masses
 
-        passive_root = params.passive_root if params.passive_root is not None else params.root
+        passive_root = params.root_of("passive")
         act = assumed_modes_blade(params.active, blade_masses(params, "active"), params.root, n_terms)
         pas = assumed_modes_blade(params.passive, blade_masses(params, "passive"), passive_root, n_terms)
         # all shapes are kept: the AM has no static correction, its higher shapes supply it

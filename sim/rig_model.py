@@ -130,7 +130,7 @@ def build_rig_model(params: RigParams, rotary_inertia: bool = True) -> RigModel:
         params.force_sensor,
         rotary_inertia,
     )
-    passive_root = params.passive_root if params.passive_root is not None else params.root
+    passive_root = params.root_of("passive")
     passive = build_blade(
         "passive", params.passive, blade_masses(params, "passive"), passive_root, None, rotary_inertia
     )

@@ -97,7 +97,7 @@ def _fmt(x, spec: str = ".4g") -> str:
 
 
 def print_comparison(cmp, k_show: int) -> None:
-    """Rich tables of a :class:`rigtools.compare.Comparison` on stdout."""
+    """Rich tables of a :class:`rigtools.recording_comparison.Comparison` on stdout."""
     from rich.console import Console
     from rich.table import Table
 
@@ -195,7 +195,7 @@ def run(args: argparse.Namespace) -> int:
     from rich.console import Console
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
-    from rigtools.compare import compare_recordings
+    from rigtools.recording_comparison import compare_recordings
 
     with Progress(
         TextColumn("{task.description}"),
@@ -245,7 +245,7 @@ def _check_out_dir(out: Path, stem: str) -> None:
         taken = sorted(out.glob(f"{stem}.compare-*.png"))
         if not taken:
             return
-        from rigtools.figures import is_derived_plot
+        from rigtools.derived_files import is_derived_plot
 
         for path in taken:
             if not (path.is_file() and not path.is_symlink() and is_derived_plot(path)):

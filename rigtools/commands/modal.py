@@ -44,30 +44,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
-def modal_results(rig_config, n_modes: int) -> dict:
-    """FEM and AM modes of both blades as the ``--json`` mapping."""
-    from rigtools.sim.analytical import exact_flexural_frequencies
-    from rigtools.sim.modal import blade_modes
-    from rigtools.sim.rig_model import blade_masses, build_rig_model
-
-    params = rig_config.to_params()
-    rig = build_rig_model(params)
-    roots = {"active": params.root, "passive": params.passive_root or params.root}
-    out: dict = {"fem": {}, "am": {}}
-    for name in ("active", "passive"):
-        modes = blade_modes(rig.blade(name), n_modes)
-        out["fem"][name] = [
-            {"mode": i + 1, "frequency_hz": float(f), "kind": k}
-            for i, (f, k) in enumerate(zip(modes.frequencies_hz, modes.kinds))
-        ]
-        bp = params.active if name == "active" else params.passive
-        am = exact_flexural_frequencies(bp, blade_masses(params, name), n_modes, roots[name])
-        out["am"][name] = [
-            {"mode": i + 1, "frequency_hz": float(f), "kind": "flexural"} for i, f in enumerate(am)
-        ]
-    return out
-
-
 def _print_table(results: dict, rig_name: str) -> None:
     from rich.console import Console
     from rich.table import Table
@@ -97,13 +73,15 @@ def _print_table(results: dict, rig_name: str) -> None:
 def run(args: argparse.Namespace) -> int:
     if args.modes < 1 or args.modes > 200:
         raise UserError(f"--modes = {args.modes}: must be between 1 and 200")
-    from rigtools.commands.simulate import announce_model, working
     from rigtools.config import load_rig
+    from rigtools.model_options import announce_model
+    from rigtools.progress import working
+    from rigtools.sim.natural_frequencies import blade_mode_table
 
     rig_config = load_rig(args.rig)
     elements = announce_model(rig_config.to_params(), quiet=args.json)
     with working(f"FE and AM modes of both blades ({elements})", args.json):
-        results = modal_results(rig_config, args.modes)
+        results = blade_mode_table(rig_config.to_params(), args.modes)
     if args.json:
         print(json.dumps(results, indent=1))
     else:

@@ -12,7 +12,7 @@ For each recording: the tables and figures of rig analyze (periodic points: forc
 amplitudes, waveforms and spectra; stepped sines and studies: response curves; FRF tests: H1,
 H2, Hv with phase and coherence, stabilisation charts, identified modes). Every amplitude is a
 peak amplitude. With --fem FILE.h5 or --simulate, an EM-versus-FEM comparison of the first
-recording (rigtools.compare) is added when that module is installed.
+recording (rigtools.recording_comparison) is added when that module is installed.
 
 The page is DIR/report.html (DIR is made if missing); an existing report.html is replaced only
 if rigtools made it. Open it in any browser, no network needed.
@@ -65,13 +65,13 @@ def _is_report(path) -> bool:
 
 
 def add_comparison(report, args, say) -> dict | None:
-    """The comparison section from :mod:`rigtools.compare`, if asked for and available."""
+    """The comparison section from :mod:`rigtools.recording_comparison`, if asked for and available."""
     if not (args.fem or args.simulate):
         return None
     try:
-        from rigtools.compare import compare_recordings
+        from rigtools.recording_comparison import compare_recordings
     except ImportError:
-        say("rig report: comparison is not available (no rigtools.compare); report without it")
+        say("rig report: comparison is not available (no rigtools.recording_comparison); report without it")
         return None
     cmp = compare_recordings(args.files[0], args.fem, simulate=args.simulate, model=args.model, rig=args.rig)
     cmp.add_to_report(report)
@@ -85,7 +85,7 @@ def run(args: argparse.Namespace) -> int:
     from rich.console import Console
 
     from rigtools.analyze import analyze_recording
-    from rigtools.figures import write_derived
+    from rigtools.derived_files import write_derived
     from rigtools.report.html import Report
     from rigtools.report.sections import add_analysis
 

@@ -1,7 +1,7 @@
 """``rig simulate``: one vibro-impact run of the FE (or AM) model, settled and recorded as HDF5.
 
-Parse, call :mod:`rigtools.simulation`, print. Also holds the option parsing ``rig study``
-shares (model options, finite quantities, the gap rule, output checks, cost announcements).
+Parse, call :mod:`rigtools.simulation` (options shared with ``rig study``:
+:mod:`rigtools.model_options`), print.
 """
 
 from __future__ import annotations
@@ -9,15 +9,12 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import os
 import sys
 import textwrap
-from collections.abc import Iterator
-from contextlib import contextmanager
 from pathlib import Path
 
-from rigtools.errors import UserError
-from rigtools.options import check_out, quantity
+from rigtools import model_options as mo
+from rigtools.options import check_out, gap
 from rigtools.vocabulary import channel_names, describe_channels
 
 HELP = "simulate the vibro-impact response (FE or assumed-modes model) and record it as HDF5"
@@ -60,87 +57,6 @@ examples:
   rig simulate --model am --gap "0.7 mm" --out am.h5 --overwrite
 """
 
-MAX_GAP = 0.05  # m: no blade closes a gap this wide; a plain "0.5" meant mm
-MAX_STEPS_PER_PERIOD = 10_000_000
-
-
-# ------------------------------------------------------------------------------ shared options
-
-
-def number(text: str, dimension: str, option: str) -> float:
-    """A finite quantity (``quantity`` refuses bad text; ``"1e400"`` parses to inf: refused here)."""
-    value = quantity(text, dimension, option)
-    if not math.isfinite(value):
-        raise UserError(f"{option} = {text!r}: not a finite number")
-    return value
-
-
-def gap_option(text: str, option: str = "--gap") -> float:
-    """A shroud gap in m, ``>= 0`` and at most 50 mm (a plain number is metres: "0.5" is refused).
-
-    TODO: use ``rigtools.options.gap(text, option)`` (the one shared rule) once merged.
-    """
-    gap = number(text, "length", option)
-    if gap < 0:
-        raise UserError(f"{option} = {text!r}: the gap must be >= 0")
-    if gap > MAX_GAP:
-        raise UserError(
-            f"{option} = {text!r} is {gap * 1e3:g} mm, wider than any blade could close "
-            f"(at most {MAX_GAP * 1e3:g} mm); write gaps with units, e.g. '0.5 mm'"
-        )
-    return gap
-
-
-def check_output(args: argparse.Namespace) -> Path:
-    """``--out`` checked before any work: folder exists and is writable, not a directory, not an
-    existing file without ``--overwrite``, not read-only.
-
-    TODO: the directory/read-only checks belong in ``rigtools.options.check_out``.
-    """
-    out = Path(args.out)
-    if str(args.out).strip() and out.is_dir():
-        raise UserError(
-            f"--out = {args.out!r} is a directory; give a file name, e.g. {str(out / 'run.h5')!r}"
-        )
-    out = check_out(args)
-    folder = out.parent if str(out.parent) else Path(".")
-    if not os.access(folder, os.W_OK | os.X_OK):
-        raise UserError(f"--out = {args.out!r}: folder {str(folder)!r} is not writable")
-    if out.exists() and not os.access(out, os.W_OK):
-        raise UserError(f"--out = {args.out!r} is read-only")
-    return out
-
-
-def add_model_options(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--rig", metavar="FILE", help="rig file (TOML); default: the calibrated default rig")
-    p.add_argument(
-        "--model",
-        choices=("fem", "am"),
-        default="fem",
-        help="fem: reduced FE model (default); am: assumed-modes (analytical) model",
-    )
-    p.add_argument(
-        "--duration",
-        default="1 s",
-        help='recorded time after the steady state is reached (default "1 s"; at least one period)',
-    )
-    p.add_argument(
-        "--max-settle",
-        default="30 s",
-        help='give up waiting for a steady state after this simulated time (default "30 s")',
-    )
-    p.add_argument(
-        "--steps-per-period",
-        type=int,
-        default=None,
-        metavar="N",
-        help="time steps per excitation period (default: 30 per contact period, at least 120)",
-    )
-    p.add_argument("--out", required=True, metavar="FILE", help="HDF5 file to write (.h5)")
-    p.add_argument("--overwrite", action="store_true", help="replace FILE if it exists")
-    p.add_argument("--json", action="store_true", help="print the results as JSON on stdout")
-    p.add_argument("--no-plot", action="store_true", help="do not write the PNG plot beside FILE")
-
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
@@ -153,150 +69,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--fe", default="60 Hz", help='excitation frequency (default "60 Hz")')
     p.add_argument("--force", default="15 N", help='force amplitude F0 (default "15 N")')
     p.add_argument("--gap", default=None, help='shroud gap (default: the rig file\'s, e.g. "0.5 mm")')
-    add_model_options(p)
+    mo.add_model_options(p)
     p.set_defaults(func=run)
-
-
-def run_settings(args: argparse.Namespace, fe_values: list[float]):
-    """:class:`rigtools.simulation.RunSettings` from the options, checked against the periods."""
-    from rigtools.simulation import K_MAX, RunSettings
-
-    duration = number(args.duration, "time", "--duration")
-    max_settle = number(args.max_settle, "time", "--max-settle")
-    if not duration > 0:
-        raise UserError(f"--duration = {args.duration!r}: must be > 0 s")
-    for fe in fe_values:
-        if duration * fe < 1.0 - 1e-9:
-            raise UserError(
-                f"--duration = {args.duration!r} is shorter than one excitation period "
-                f"(1/fe = {1 / fe:.4g} s at fe = {fe:g} Hz)"
-            )
-    if max_settle < 0:
-        raise UserError(f"--max-settle = {args.max_settle!r}: must be >= 0")
-    n = args.steps_per_period
-    if n is not None and not 4 * K_MAX <= n <= MAX_STEPS_PER_PERIOD:
-        raise UserError(
-            f"--steps-per-period = {n}: need {4 * K_MAX} (to resolve harmonic {K_MAX}) to "
-            f"{MAX_STEPS_PER_PERIOD}"
-        )
-    return RunSettings(duration=duration, max_settle_time=max_settle, steps_per_period=n)
-
-
-def announce_model(params, model: str = "fem", quiet: bool = False) -> str:
-    """Refuse an FE model too large for the memory (one line with the estimate); say so when
-    building it will take long. Returns ``"N + M elements"`` for status lines."""
-    from rigtools.simulation import check_memory, human_seconds, model_build_estimate
-
-    seconds, peak = model_build_estimate(params, model)
-    elements = f"{params.active.elements} + {params.passive.elements} elements"
-    check_memory(peak, f"the FE model ({elements})", "use fewer [blade] elements")
-    if seconds > 20 and not quiet:
-        print(f"building the FE model ({elements}) takes about {human_seconds(seconds)}", file=sys.stderr)
-    return elements
-
-
-@contextmanager
-def working(text: str, quiet: bool = False) -> Iterator[None]:
-    """A spinner with the elapsed time on stderr while the block runs (nothing if ``quiet`` or
-    stderr is not a terminal)."""
-    if quiet or not sys.stderr.isatty():
-        yield
-        return
-    from rich.console import Console
-    from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
-
-    with Progress(
-        SpinnerColumn(),
-        TextColumn("{task.description}"),
-        TimeElapsedColumn(),
-        console=Console(stderr=True),
-        transient=True,
-    ) as bar:
-        bar.add_task(text, total=None)
-        yield
-
-
-@contextmanager
-def simulated_time_bar(text: str, at_most: float, quiet: bool = False) -> Iterator:
-    """A progress bar of simulated time (settling, at most --max-settle, then the record) on
-    stderr; yields the ``progress(simulated_s, at_most_s)`` callback (None if quiet / not a tty)."""
-    if quiet or not sys.stderr.isatty():
-        yield None
-        return
-    from rich.console import Console
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
-
-    with Progress(
-        TextColumn("{task.description}"),
-        BarColumn(),
-        TextColumn("{task.completed:.3g}/{task.total:.3g} s"),
-        TimeElapsedColumn(),
-        console=Console(stderr=True),
-        transient=True,
-    ) as bar:
-        task = bar.add_task(f"settling {text}", total=at_most)
-        yield lambda done, total: bar.update(task, completed=done, total=total)
-
-
-def load_model(args: argparse.Namespace, quiet: bool):
-    """``(rig config, reduced system)`` of ``--rig`` and ``--model``, announced (:func:`announce_model`)."""
-    from rigtools.config import load_rig
-    from rigtools.sim.reduction import reduced_system
-
-    cfg = load_rig(args.rig)
-    params = cfg.to_params()
-    elements = announce_model(params, args.model, quiet)
-    with working(
-        f"building the {'FE' if args.model == 'fem' else 'assumed-modes'} model ({elements})", quiet
-    ):
-        return cfg, reduced_system(params, args.model)
-
-
-def announce_work(system, points: list[tuple[float, float]], settings, quiet: bool) -> None:
-    """Refuse a run that needs more memory than available; say so when the runs will take long.
-
-    ``points``: (fe, force) of each run."""
-    from rigtools.simulation import (
-        LONG_WORK_SECONDS,
-        check_memory,
-        human_seconds,
-        run_memory_estimate,
-        run_time_estimate,
-        steps_per_period,
-    )
-
-    worst = max(points, key=lambda p: run_memory_estimate(system, p[0], p[1], settings))
-    need = run_memory_estimate(system, *worst, settings)
-    n = steps_per_period(system, *worst, settings)
-    check_memory(
-        need,
-        f"a run of {n} steps per period x {settings.record_periods(worst[0])} recorded periods",
-        "shorten --duration (or give fewer --steps-per-period, or a softer contact)",
-    )
-    least = sum(run_time_estimate(system, fe, f, settings)[0] for fe, f in points)
-    most = sum(run_time_estimate(system, fe, f, settings)[1] for fe, f in points)
-    if most > LONG_WORK_SECONDS and not quiet:
-        c = system.contact
-        print(
-            f"this will take {human_seconds(least)} to {human_seconds(most)} (contact stiffness {c.stiffness:.3g} "
-            f"N/m: {n} steps per period; the most if settling takes all of --max-settle)",
-            file=sys.stderr,
-        )
-    from rigtools.runtime import ensure_kernels_compiled
-
-    ensure_kernels_compiled()  # first run only: says so instead of a frozen progress bar
-
-
-# ------------------------------------------------------------------------------ rig simulate
-
-
-def write_plot(args: argparse.Namespace, out: Path, make_figure) -> Path | None:
-    """``make_figure()`` saved beside ``out`` (:func:`rigtools.figures.plot_path`), unless ``--no-plot``."""
-    if args.no_plot:
-        return None
-    from rigtools.figures import plot_path, save_figure
-
-    return save_figure(make_figure(), plot_path(out))
 
 
 def run(args: argparse.Namespace) -> int:
@@ -315,21 +89,17 @@ def run(args: argparse.Namespace) -> int:
 
 def _run(args: argparse.Namespace, stops, written: list) -> int:
     from rigtools import simulation as simu
+    from rigtools.progress import simulated_time_bar
     from rigtools.recording import RecordingWriter
 
-    out = check_output(args)
-    fe = number(args.fe, "frequency", "--fe")
-    force = number(args.force, "force", "--force")
-    if not fe > 0:
-        raise UserError(f"--fe = {args.fe!r}: the excitation frequency must be > 0 Hz")
-    if force < 0:
-        raise UserError(f"--force = {args.force!r}: the force amplitude must be >= 0 N")
-    gap = None if args.gap is None else gap_option(args.gap)
-    settings = run_settings(args, [fe])
-    cfg, system = load_model(args, quiet=args.json)
-    if gap is not None:
-        system = system.with_contact(gap=gap)
-    announce_work(system, [(fe, force)], settings, quiet=args.json)
+    out = check_out(args)
+    fe, force = mo.excitation(args.fe, args.force)
+    new_gap = None if args.gap is None else gap(args.gap)
+    settings = mo.settings_of(args, [fe])
+    cfg, system = mo.load_model(args.rig, args.model, quiet=args.json)
+    if new_gap is not None:
+        system = system.with_contact(gap=new_gap)
+    mo.announce_work(system, [(fe, force)], settings, quiet=args.json)
     with simulated_time_bar(
         f"{fe:g} Hz, {force:g} N, gap {system.contact.gap * 1e3:g} mm",
         (max(math.ceil(settings.max_settle_time * fe), 5) + settings.record_periods(fe)) / fe,
@@ -351,7 +121,8 @@ def _run(args: argparse.Namespace, stops, written: list) -> int:
         },
         "steady_state": bool(result.steady_state),
     }
-    png = write_plot(args, out, lambda: simu.run_figure(result, system, f"{cfg.name} ({args.model.upper()})"))
+    title = f"{cfg.name} ({args.model.upper()})"
+    png = mo.write_plot(args.no_plot, out, lambda: simu.run_figure(result, system, title))
     doc["plot"] = None if png is None else str(png)
     if args.json:
         print(json.dumps(doc))

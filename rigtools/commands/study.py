@@ -9,17 +9,9 @@ import sys
 
 import numpy as np
 
-from rigtools.commands.simulate import (
-    add_model_options,
-    announce_work,
-    check_output,
-    gap_option,
-    load_model,
-    number,
-    run_settings,
-    write_plot,
-)
 from rigtools.errors import UserError
+from rigtools.model_options import add_model_options, announce_work, load_model, settings_of, write_plot
+from rigtools.options import check_out, gap, quantity
 
 HELP = "run a gap, force or frequency study of the vibro-impact model and record every point"
 EPILOG = """\
@@ -116,9 +108,9 @@ def parse_values(text: str, kind: str) -> list[float]:
     """``"a,b,c"`` or ``"start:stop:step"`` (stop included) in SI units, each checked."""
     dimension = DIMENSION[kind]
     one = (
-        (lambda p: gap_option(p, "--values"))
+        (lambda p: gap(p, "--values"))
         if kind == "gap"
-        else (lambda p: number(p, dimension, "--values"))
+        else (lambda p: quantity(p, dimension, "--values"))
     )
     text = text.strip()
     if ":" in text:
@@ -185,15 +177,15 @@ def make_plan(args: argparse.Namespace, values: list[float]):
 
     fixed = {}
     if args.fe is not None:
-        fixed["fe"] = number(args.fe, "frequency", "--fe")
+        fixed["fe"] = quantity(args.fe, "frequency", "--fe")
         if not fixed["fe"] > 0:
             raise UserError(f"--fe = {args.fe!r}: the excitation frequency must be > 0 Hz")
     if args.force is not None:
-        fixed["force"] = number(args.force, "force", "--force")
+        fixed["force"] = quantity(args.force, "force", "--force")
         if fixed["force"] < 0:
             raise UserError(f"--force = {args.force!r}: the force amplitude must be >= 0 N")
     if args.gap is not None:
-        fixed["gap"] = gap_option(args.gap)
+        fixed["gap"] = gap(args.gap)
     try:
         return StudyPlan(args.kind, tuple(values), args.direction, carry_state=not args.from_rest, **fixed)
     except SimulationInputError as exc:
@@ -219,7 +211,7 @@ def _run(args: argparse.Namespace, stops) -> int:
     from rigtools.recording.writer import one_line
     from rigtools.study_runner import StudyRunner
 
-    out = check_output(args)
+    out = check_out(args)
     if args.kind == "map":
         plan, values = make_map(args), None
     else:
@@ -229,8 +221,8 @@ def _run(args: argparse.Namespace, stops) -> int:
         plan = make_plan(args, values)
     planned = plan.points()
     runner = StudyRunner(workers=args.workers, scheduler=args.scheduler)
-    settings = run_settings(args, sorted({p.fe for p in planned}))
-    cfg, system = load_model(args, quiet=args.json)
+    settings = settings_of(args, sorted({p.fe for p in planned}))
+    cfg, system = load_model(args.rig, args.model, quiet=args.json)
     announce_work(system, [(p.fe, p.force) for p in planned], settings, quiet=args.json)
 
     experiment = {
@@ -286,7 +278,7 @@ def _run(args: argparse.Namespace, stops) -> int:
             None
             if args.kind == "map"
             else write_plot(
-                args,
+                args.no_plot,
                 out,
                 lambda: study_plot(args.kind, plan.fixed, points, f"{cfg.name} ({args.model.upper()})"),
             )

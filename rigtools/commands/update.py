@@ -1,27 +1,17 @@
-"""``rig update``: fit the rig file's model to recordings (FRF/tap tests, dwells with impacts)."""
+"""``rig update``: fit the rig file's model to recordings (FRF/tap tests, dwells with impacts).
+
+Parse, call :func:`rigtools.model_update.update_rig_file`, print.
+"""
 
 from __future__ import annotations
 
 import argparse
-import datetime as _dt
 import json
-from pathlib import Path
 
-from rigtools.errors import UserError
-from rigtools.options import output_path
+from rigtools.model_update import CONTACT_LAWS, PARAMETER_NAMES
+from rigtools.model_update import DEFAULT_PARAMETERS as DEFAULT_PARAMS
 
 HELP = "fit the rig file's model to FRF/tap tests (and contact to dwells); write an updated rig file"
-PARAMETER_NAMES = (
-    "root.rotational_stiffness",
-    "root.translational_stiffness",
-    "damping.ratio",
-    "damping.alpha",
-    "damping.beta",
-    "shroud.mass",
-    "force_sensor.mass",
-    "blade.youngs_modulus",
-)
-DEFAULT_PARAMS = "root.rotational_stiffness,damping.ratio"
 EPILOG = f"""\
 Steps:
   1. identify natural frequencies and damping ratios in each recording's broadband test (LSCF on
@@ -35,7 +25,7 @@ Steps:
   4. --contact DWELL.h5: fit the contact stiffness and damping to the shroud acceleration
      harmonics (k = 1..10) of force-controlled dwells with impacts ('rig acquire dwell'), the
      vibro-impact integrator in the loop, and print the EM-versus-FEM agreement score
-     (rigtools.analysis.compare.point_agreement, force and shroud harmonics, model driven at the measured
+     (rigtools.analysis.correlation.point_agreement, force and shroud harmonics, model driven at the measured
      force) before updating, after the linear update and after the contact fit;
   5. write --out: the rig file's text with the fitted keys replaced (old line kept as '# was:')
      or added, each commented with the recordings, modes and residual it came from.
@@ -106,7 +96,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     p.add_argument(
         "--law",
-        choices=("rig", "linear", "hertz", "compare"),
+        choices=tuple(CONTACT_LAWS),
         default="rig",
         help="contact law to fit (default: the rig file's); compare: fit linear and Hertz, keep the better",
     )
@@ -114,206 +104,70 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
-def _band(text: str | None):
-    if text is None:
-        return None, None
-    from rigtools.options import quantity
-
-    parts = text.split(":")
-    if len(parts) != 2:
-        raise UserError(f'--band = {text!r}: write LOW:HIGH, e.g. "20 Hz:2 kHz"')
-    lo, hi = (quantity(x, "frequency", "--band") for x in parts)
-    if not 0 < lo < hi:
-        raise UserError(f"--band = {text!r}: need 0 < low < high")
-    return lo, hi
-
-
-def _console():
-    from rich.console import Console
-
-    return Console()
-
-
 def run(args: argparse.Namespace) -> int:
-    from rigtools.updating import parse_names
+    from rigtools.model_update import update_rig_file
+    from rigtools.progress import status
 
-    names = parse_names(args.params, PARAMETER_NAMES)
-    if not 1 <= args.modes <= 10:
-        raise UserError(f"--modes = {args.modes}: use 1..10")
-    f_min, f_max = _band(args.band)
-    inputs = [*args.recordings, *args.contact] + ([args.rig] if args.rig else [])
-    out = output_path(args.out, args.overwrite, "--out", suffixes=(".toml",), inputs=inputs)
-    for path in inputs:
-        if not Path(path).exists():
-            raise UserError(f"{path}: no such file")
-
-    from rigtools import updating as up
-    from rigtools.commands.simulate import working
-    from rigtools.config import default_rig_text, load_rig, read_rig_text
-
-    cfg = load_rig(args.rig)
-    text = read_rig_text(args.rig) if args.rig else default_rig_text()
-    nominal = cfg.to_params()
-    quiet = args.json
-    found = []
-    for i, path in enumerate(args.recordings):
-        with working(f"identifying modes in {Path(path).name} ({i + 1}/{len(args.recordings)})", quiet):
-            found.append(up.identify_recording(path, f_min=f_min, f_max=f_max))
-    dwells = []
-    for path in args.contact:
-        with working(f"reading dwell {Path(path).name}", quiet):
-            dwells.extend(up.read_dwell(path))
-    targets, paired, notes = up.mode_targets(
-        nominal, found, max_modes=args.modes, damping=not args.no_damping
+    outcome = update_rig_file(
+        args.recordings,
+        args.out,
+        rig=args.rig,
+        parameters=args.params,
+        modes=args.modes,
+        band=args.band,
+        damping=not args.no_damping,
+        contact=args.contact,
+        law=args.law,
+        overwrite=args.overwrite,
+        status=status(quiet=args.json),
     )
-    with working(f"fitting {', '.join(names)} to {len(targets)} modes", quiet):
-        res = up.fit_linear(nominal, targets, names)
-
-    scores, cres, hres = {}, None, None
-    if dwells:
-        from rigtools.sim.reduction import reduced_system
-
-        with working("EM-versus-FEM score of the nominal model", quiet):
-            scores["nominal"] = [up.agreement(d, up.model_dwell(nominal, d)).score for d in dwells]
-        linear_system = reduced_system(res.params, "fem")
-        with working("EM-versus-FEM score after the linear update", quiet):
-            scores["linear update"] = [
-                up.agreement(d, up.model_dwell(res.params, d, system=linear_system)).score for d in dwells
-            ]
-        laws = {"rig": [None], "linear": ["linear"], "hertz": ["hertz"], "compare": ["linear", "hertz"]}[
-            args.law
-        ]
-        fits = []
-        for law in laws:
-            with working(
-                f"fitting the contact ({law or res.params.contact.law} law) to {len(dwells)} dwell(s): "
-                "vibro-impact runs",
-                quiet,
-            ):
-                fits.append(up.fit_contact_to_dwells(res.params, dwells, law=law))
-        cres = min(fits, key=lambda r: r.cost_after)
-        hres = [r for r in fits if r is not cres]
-        with working("EM-versus-FEM score after the contact fit", quiet):
-            scores["contact fit"] = [
-                up.agreement(d, up.model_dwell(cres.params, d, system=linear_system)).score for d in dwells
-            ]
-
-    modes_used = ", ".join(f"{p.blade} f{p.order} {p.frequency_hz:.2f} Hz" for p in paired)
-    new_text = up.rig_file_update(
-        text,
-        res,
-        cres,
-        sources=[Path(p).name for p in args.recordings],
-        modes_used=modes_used,
-        contact_sources=[Path(p).name for p in args.contact],
-        when=_dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
-    )
-    up.check_rig_text(new_text, out)
-    try:
-        out.write_text(new_text, encoding="utf-8")
-    except OSError as exc:
-        raise UserError(
-            f"cannot write {out}: {exc.strerror or exc}",
-        ) from None
-
-    warnings = []
-    rms = (2 * res.cost_after / max(1, res.residuals_after.size)) ** 0.5
-    if rms > 2.0:
-        warnings.append(
-            f"the fitted parameters do not explain the identified modes: rms residual {rms:.3g} x "
-            f"their uncertainty (frequencies 0.1 %, damping 10 %), largest frequency error "
-            f"{100 * res.max_frequency_error_after:.3f} %; the model lacks what differs on the rig "
-            "(try the root springs or the masses)"
-        )
-    warnings += [f"not determined by the data: {line}" for line in res.identifiability.unresolved]
-    doc = {
-        "file": str(out),
-        "warnings": warnings,
-        "recordings": [
-            {
-                "file": r.path,
-                "procedure": r.procedure,
-                "sets": [
-                    {
-                        "point": s.point,
-                        "blade": s.blade,
-                        "response": s.response,
-                        "frequencies_hz": s.frequencies_hz,
-                        "damping_ratios": s.damping_ratios,
-                        "notes": s.notes,
-                    }
-                    for s in r.sets
-                ],
-            }
-            for r in found
-        ],
-        "targets": [
-            {
-                "blade": p.blade,
-                "order": p.order,
-                "frequency_hz": p.frequency_hz,
-                "damping_ratio": p.damping_ratio,
-                "model_hz": p.model_hz,
-                "sources": p.sources,
-            }
-            for p in paired
-        ],
-        "notes": notes,
-        "fit": res.as_dict(),
-    }
-    if dwells:
-        doc["contact_fit"] = cres.as_dict()
-        doc["contact_fit_other_laws"] = [r.as_dict() for r in hres]
-        doc["agreement"] = {"dwells": [d.name for d in dwells], **scores}
     if args.json:
-        print(json.dumps(doc, indent=1, default=float))
+        print(json.dumps(outcome.to_dict(), indent=1, default=float))
         return 0
-    _print(args, res, paired, notes, dwells, cres, hres, scores, out)
-    if warnings and warnings[0].startswith("the fitted"):
-        _console().print(f"[yellow]warning:[/] {warnings[0]}")
+    _print(outcome)
     return 0
 
 
-def _print(args, res, paired, notes, dwells, cres, hres, scores, out) -> None:
+def _print(o) -> None:
+    from rich.console import Console
     from rich.table import Table
 
-    con = _console()
+    con = Console()
     t = Table(title="identified modes used")
     for col in ("blade", "order", "identified Hz", "zeta", "nominal model Hz", "from"):
         t.add_column(col, justify="left" if col in ("blade", "from") else "right")
-    for p in paired:
+    for p in o.paired:
+        zeta = "-" if p.damping_ratio is None else f"{p.damping_ratio:.4f}"
         t.add_row(
-            p.blade,
-            str(p.order),
-            f"{p.frequency_hz:.3f}",
-            "-" if p.damping_ratio is None else f"{p.damping_ratio:.4f}",
-            f"{p.model_hz:.3f}",
-            ", ".join(p.sources),
+            p.blade, str(p.order), f"{p.frequency_hz:.3f}", zeta, f"{p.model_hz:.3f}", ", ".join(p.sources)
         )
     con.print(t)
-    for n in notes:
+    for n in o.notes:
         con.print(f"[yellow]note:[/] {n}")
-    con.print(res.report(), markup=False, highlight=False, soft_wrap=True)
-    if res.identifiability.unresolved:
+    con.print(o.fit.report(), markup=False, highlight=False, soft_wrap=True)
+    if o.fit.identifiability.unresolved:
         con.print(
             "[yellow]the values of the parameters named above are kept in the rig file but the data do "
             "not determine them: add modes (another blade, higher orders) or fit fewer parameters[/]"
         )
-    if dwells:
-        con.print(cres.report(), markup=False, highlight=False, soft_wrap=True)
-        for r in hres:
+    if o.dwells:
+        c = o.contact_fit
+        con.print(c.report(), markup=False, highlight=False, soft_wrap=True)
+        for r in o.other_laws:
             con.print(
                 f"other law: {r.law}: rms harmonic error {100 * r.rms_log_error_after:.2f} % "
-                f"(kept: {cres.law}, {100 * cres.rms_log_error_after:.2f} %)"
+                f"(kept: {c.law}, {100 * c.rms_log_error_after:.2f} %)"
             )
         s = Table(title="EM-versus-FEM agreement (1 = identical harmonics)")
         s.add_column("dwell")
-        for step in scores:
+        for step in o.scores:
             s.add_column(step, justify="right")
-        for i, d in enumerate(dwells):
+        for i, d in enumerate(o.dwells):
             s.add_row(
                 f"{d.name} ({d.fe:g} Hz, {d.force_amplitude:.3g} N, gap {1e3 * d.gap:g} mm)",
-                *[f"{scores[k][i]:.4f}" for k in scores],
+                *[f"{o.scores[k][i]:.4f}" for k in o.scores],
             )
         con.print(s)
-    con.print(f"wrote {out} (check: rig modal --rig {out})")
+    con.print(f"wrote {o.out} (check: rig modal --rig {o.out})")
+    if o.warnings and o.warnings[0].startswith("the fitted"):
+        con.print(f"[yellow]warning:[/] {o.warnings[0]}")

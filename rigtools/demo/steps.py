@@ -1,6 +1,6 @@
 """The demo's steps, each a small function returning plain data (dicts of floats and arrays).
 
-Every step is replaceable on its own (the coordinator swaps in ``rigtools.compare`` /
+Every step is replaceable on its own (the coordinator swaps in ``rigtools.recording_comparison`` /
 ``rigtools.analyze`` when they land): the modal check (:func:`modal_step`), the linear harmonic
 response (:func:`harmonic_step`), the dwell (:func:`dwell_step`), the studies on the simulated rig
 (:func:`rig_study_step`) and on the FEM (:func:`model_study_step`), model updating
@@ -193,11 +193,11 @@ def modal_step(cfg, out_dir: Path, settings: DemoSettings) -> dict:
     """FEM and AM natural frequencies (``rig modal``) and the simulated rig's, identified from an
     FRF test (periodic chirp, gap wide open) on the active shroud: the paper's Tables 2-3, Fig 6."""
     from rigtools.analysis.point import analyze_frf_test
-    from rigtools.commands.modal import modal_results
     from rigtools.procedures.frf import FrfTest
     from rigtools.recording import open_recording
+    from rigtools.sim.natural_frequencies import blade_mode_table
 
-    res = modal_results(cfg, 6)
+    res = blade_mode_table(cfg.to_params(), 6)
     path = out_dir / "frf_test.h5"
     FrfTest(
         cfg,
@@ -438,7 +438,7 @@ def update_step(cfg, em_active: list[float]) -> dict:
     """Model updating on the FRF-identified modes of the active blade: the root's rotational
     stiffness (the simulated rig's root is bolted, the model's clamped) fitted to them;
     frequencies before and after."""
-    from rigtools.sim.updating import pair_modes, update_model
+    from rigtools.sim.parameter_fit import pair_modes, update_model
 
     params = cfg.to_params()
     pairing = pair_modes(params, "active", em_active, frequency_sigma=5e-3)

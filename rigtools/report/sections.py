@@ -250,6 +250,6 @@ def add_analysis(report, analysis: RecordingAnalysis) -> None:
 
 
 def frequency_table_section(report, rows: list[dict], caption: str) -> None:
-    """A natural-frequency table (``rigtools.analysis.compare.natural_frequency_table`` records)."""
+    """A natural-frequency table (``rigtools.analysis.correlation.natural_frequency_table`` records)."""
     sec = report.section("Natural frequencies: FEM, AM and EM")
     sec.table(rows, caption=caption)

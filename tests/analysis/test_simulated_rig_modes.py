@@ -7,7 +7,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from rigtools.analysis.compare import natural_frequency_table
+from rigtools.analysis.correlation import natural_frequency_table
 from rigtools.analysis.point import analyze_frf_test
 
 

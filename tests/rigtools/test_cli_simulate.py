@@ -244,7 +244,7 @@ def test_harmonic_points_bounds(tmp_path, capsys, points):
 def test_long_work_is_announced_with_its_estimate(capsys):
     """Contact stiffness 1e12 N/m: ~3.3e5 steps per period, so minutes when settling is slow;
     the line comes before any work (nothing is run here)."""
-    from rigtools.commands.simulate import announce_work
+    from rigtools.model_options import announce_work
     from rigtools.simulation import RunSettings, load_system, run_time_estimate, steps_per_period
 
     _, system = load_system(None, "fem")

@@ -1,4 +1,4 @@
-"""``rig compare`` / :func:`rigtools.compare.compare_recordings` on the simulated rig.
+"""``rig compare`` / :func:`rigtools.recording_comparison.compare_recordings` on the simulated rig.
 
 The simulated rig's test article is the FE model with deliberate deviations (root stiffness,
 shroud and sensor masses, damping, sensor noise, IEPE high-pass), so EM and FEM differ as on a
@@ -126,7 +126,7 @@ def test_6fe_difference_at_60_hz_is_explained_by_the_em_2nd_mode_offset(files):
     """The issue's example: 60 Hz, 15 N. The active shroud's 6·fe (360 Hz) is x3.5 on the FEM
     (nominal excitation); the explanation cites the EM 2nd mode (355.6 Hz from the FRF test) and
     the FEM's (361.9 Hz, +1.77 %). Measured: EM force 5·fe harmonic about 6 N."""
-    from rigtools.compare import compare_recordings
+    from rigtools.recording_comparison import compare_recordings
 
     cmp = compare_recordings(
         str(files["dwell60"]), simulate=True, excitation="nominal", frf=str(files["frf"])
@@ -225,7 +225,7 @@ def test_model_recording_is_paired_by_meaning_and_scores_as_the_same_run_simulat
 
 
 def test_a_study_without_frf_data_says_so(files):
-    from rigtools.compare import compare_recordings
+    from rigtools.recording_comparison import compare_recordings
 
     cmp = compare_recordings(str(files["dwell60"]), simulate=True, excitation="measured")
     assert any("holds no FRF data" in n for n in cmp.notes)
@@ -263,7 +263,7 @@ def test_figures_never_replace_a_file_rigtools_did_not_write(files):
 
 
 def test_report_section_holds_the_tables_notes_and_figures(files):
-    from rigtools.compare import compare_recordings
+    from rigtools.recording_comparison import compare_recordings
     from rigtools.report import Report
 
     cmp = compare_recordings(

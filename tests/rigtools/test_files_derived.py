@@ -6,14 +6,8 @@ import numpy as np
 import pytest
 
 from rigtools.errors import UserError
-from rigtools.figures import (
-    derived_path,
-    is_derived_plot,
-    plot_path,
-    png_software,
-    save_figure,
-    write_derived,
-)
+from rigtools.derived_files import derived_path, is_derived_plot, plot_path, png_software, write_derived
+from rigtools.figures import save_figure
 from rigtools.recording import ChannelSpec, RecordingWriter, open_recording
 
 

@@ -33,9 +33,10 @@ def test_gap_accepted(text, si):
     [
         (
             "0.5",
-            "--gap = '0.5': a gap must be between 0 and 50 mm; a plain number is metres, write e.g. '0.5 mm'",
+            "--gap = '0.5' is 500 mm, wider than any blade could close (a gap must be between 0 and "
+            "50 mm); a plain number is metres: write gaps with units, e.g. '0.5 mm'",
         ),
-        ("51 mm", "--gap = '51 mm': a gap must be between 0 and 50 mm"),
+        ("51 mm", "--gap = '51 mm' is 51 mm, wider than any blade could close (a gap must be between 0"),
         ("-0.1 mm", "--gap = '-0.1 mm': a gap must be between 0 and 50 mm"),
         ("1e400 mm", "--gap = '1e400 mm': '1e400 mm' is not a finite number"),
         ("0.5 MM", "--gap = '0.5 MM': unit 'MM' in '0.5 MM' is ambiguous"),
@@ -216,36 +217,23 @@ def test_check_out_is_output_path(tmp_path):
     )
 
 
-# ------------------------------------------------------------------ memory
-def test_total_memory_matches_meminfo():
-    total = options.total_memory()
-    if os.path.exists("/proc/meminfo"):
-        with open("/proc/meminfo") as fh:
-            kb = next(int(line.split()[1]) for line in fh if line.startswith("MemTotal:"))
-        assert total == kb * 1024
-    assert total is None or total > 0
+# ------------------------------------------------------------------ memory (rigtools.memory)
+def test_available_memory_matches_meminfo():
+    from rigtools.memory import available_memory
+
+    avail = available_memory()
+    assert avail is None or avail > 0
 
 
-def test_memory_estimate_is_samples_times_channels_times_8_bytes():
-    assert options.memory_estimate_check(1000, 3, "x", limit=10**9) == 24000.0
+def test_memory_refused_above_the_usable_fraction():
+    from rigtools.memory import check_memory
 
-
-def test_memory_estimate_refused_above_the_limit():
     # 10 h at 51.2 kHz, 4 channels, float64: 36000 * 51200 * 4 * 8 B = 59.0 GB
-    message = _refused(
-        options.memory_estimate_check, 10 * 3600 * 51200, 4, "--duration '10 h'", limit=8 * 10**9
-    )
-    assert message == (
-        "--duration '10 h' would need about 59 GB of memory, more than this machine's 8 GB; shorten it"
-    )
-
-
-def test_memory_estimate_uses_the_machine_by_default():
-    total = options.total_memory()
-    if total is None:
-        pytest.skip("total memory unknown")
-    options.memory_estimate_check(total / 16 / 2, 2, "half")  # fits
-    assert "GB of memory" in _refused(options.memory_estimate_check, total / 8 + 1, 2, "too much")
+    need = 10 * 3600 * 51200 * 4 * 8
+    message = _refused(check_memory, need, "--duration '10 h'", "shorten it", available=8 * 10**9)
+    assert message == "--duration '10 h' needs about 59 GB of memory, 8 GB are available: shorten it"
+    check_memory(0.79 * 8e9, "fits", "", available=8 * 10**9)  # under 80 % of what is available
+    assert "GB of memory" in _refused(check_memory, 0.81 * 8e9, "too much", "", available=8 * 10**9)
 
 
 # ------------------------------------------------------------------ light import

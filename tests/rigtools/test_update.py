@@ -4,7 +4,7 @@ with impacts for the contact fit and the before/after agreement scores; one-line
 
 References: the simulated rig's test article ([test_article] of the default rig: bolted root
 1.2e4 N*m/rad and 3e8 N/m, damping ratio 0.012, shroud +1 %, sensor -1 %) and its exact FE
-frequencies (rigtools.sim.updating.mode_targets of the article's parameters, an eigen-solve independent of
+frequencies (rigtools.sim.parameter_fit.mode_targets of the article's parameters, an eigen-solve independent of
 the recording and the identification).
 """
 
@@ -18,8 +18,8 @@ from cli_helpers import run_cli
 
 from rigtools.config import default_rig_text, load_rig
 from rigtools.errors import UserError
-from rigtools.sim.updating import mode_targets
-from rigtools.updating import updated_rig_text
+from rigtools.sim.parameter_fit import mode_targets
+from rigtools.model_update import updated_rig_text
 
 FRF = [
     "acquire",
@@ -326,7 +326,7 @@ def test_a_parameter_that_cannot_explain_the_modes_is_flagged(folder, frf):
 
 def test_help_names_every_fittable_parameter():
     """The command's list (kept in the command module so that --help imports no scipy) is the registry's."""
-    from rigtools.commands.update import PARAMETER_NAMES
-    from rigtools.sim.updating import PARAMETERS
+    from rigtools.model_update import PARAMETER_NAMES
+    from rigtools.sim.parameter_fit import PARAMETERS
 
     assert sorted(PARAMETER_NAMES) == sorted(PARAMETERS)

@@ -1,4 +1,4 @@
-"""Model updating (rigtools.sim.updating) against the simulated rig's test article, whose parameters are known.
+"""Model updating (rigtools.sim.parameter_fit) against the simulated rig's test article, whose parameters are known.
 
 The targets are the test article's own flexural frequencies and damping ratios (exact, from its FE
 model), or its FRF computed by the independent harmonic-response code (rigtools.sim.harmonic).
@@ -16,7 +16,7 @@ from rigtools.sim.harmonic import fem_harmonic_response
 from rigtools.sim.modal import flexural_frequencies
 from rigtools.sim.params import DampingParams
 from rigtools.sim.rig_model import build_rig_model
-from rigtools.sim.updating import (
+from rigtools.sim.parameter_fit import (
     PARAMETERS,
     FrfTarget,
     ModeTarget,
@@ -246,7 +246,7 @@ def test_result_as_json(rig, targets):
 def test_pair_modes_skips_missing_and_spurious_peaks(rig, targets):
     """Identified active-blade modes with the 2nd missing and a spurious peak at 800 Hz: the 1st and
     3rd pair with model orders 1 and 3, the spurious one is left out."""
-    from rigtools.sim.updating import pair_modes
+    from rigtools.sim.parameter_fit import pair_modes
 
     nominal, _, _ = rig
     act = [t for t in targets if t.blade == "active"]
@@ -270,7 +270,7 @@ def test_frf_test_on_the_simulated_rig_end_to_end(rig):
     from rigtools.analysis.frf import estimate_frf
     from rigtools.analysis.modal_id import identify_modes
     from rigtools.drivers.simulated import SimulatedRig
-    from rigtools.sim.updating import pair_modes
+    from rigtools.sim.parameter_fit import pair_modes
 
     nominal, spec, _ = rig
     cfg = load_rig(None)
@@ -322,7 +322,7 @@ def test_clamped_root_becomes_springs_rigid_where_not_fitted(rig):
     """Fitting only the rotational spring of a clamped rig: the translational one is written
     rigid (1e12 N/m), and the clamped rig's frequencies are reproduced by rigid springs."""
     nominal, _, _ = rig
-    from rigtools.sim.updating import RIGID_ROTATIONAL, RIGID_TRANSLATIONAL
+    from rigtools.sim.parameter_fit import RIGID_ROTATIONAL, RIGID_TRANSLATIONAL
 
     clamped = predict(nominal, [ModeTarget("active", 3, 1.0)]).frequencies_hz["active"]
     stiff = PARAMETERS[K_ROT].set(nominal, RIGID_ROTATIONAL)

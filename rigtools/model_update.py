@@ -5,12 +5,12 @@
   accelerations over the force (:func:`rigtools.analysis.point.analyze_frf_test`, LSCF).
 * :func:`mode_targets`: those modes paired with the model's flexural modes (blade, order), the
   same mode seen by several recordings merged (mean).
-* :func:`fit_linear`: :func:`rigtools.sim.updating.update_model` with the user's errors as one line.
+* :func:`fit_linear`: :func:`rigtools.sim.parameter_fit.update_model` with the user's errors as one line.
 * :func:`read_dwell`, :func:`model_dwell`, :func:`fit_contact_to_dwells`: force-controlled dwells
   with impacts (``rig acquire dwell``) as harmonic targets, the model's harmonics at the measured
   force, and the contact fit (:func:`rigtools.sim.contact_fit.fit_contact`, vibro-impact integrator in the
   loop).
-* :func:`agreement`: EM-versus-FEM score of a dwell (:func:`rigtools.analysis.compare.point_agreement`).
+* :func:`agreement`: EM-versus-FEM score of a dwell (:func:`rigtools.analysis.correlation.point_agreement`).
 * :func:`updated_rig_text`: the original rig-file text with the fitted keys replaced or added, each
   commented with its origin, checked to load and to hold exactly the fitted values.
 
@@ -25,7 +25,8 @@ from __future__ import annotations
 import math
 import re
 import tomllib
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from contextlib import AbstractContextManager, nullcontext
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
@@ -36,7 +37,7 @@ from rigtools.errors import UserError
 
 if TYPE_CHECKING:
     from rigtools.analysis.point import DwellAnalysis
-    from rigtools.sim.updating import Blade
+    from rigtools.sim.parameter_fit import Blade
 
 FORCE, ACTIVE, PASSIVE = "force", "active_shroud_accel", "passive_shroud_accel"
 DWELL_CHANNELS = (FORCE, ACTIVE, PASSIVE)
@@ -269,16 +270,16 @@ def mode_targets(
 ) -> tuple[list, list[PairedMode], list[str]]:
     """Pair identified modes with the model's flexural modes of each blade.
 
-    Each identified set is paired on its own (:func:`rigtools.sim.updating.pair_modes`); a (blade, order)
+    Each identified set is paired on its own (:func:`rigtools.sim.parameter_fit.pair_modes`); a (blade, order)
     seen by several sets is their mean. Orders above ``max_modes`` are left out.
 
     Returns
     -------
     targets, paired, notes
-        :class:`rigtools.sim.updating.ModeTarget` list, the same with their sources, and lines about
+        :class:`rigtools.sim.parameter_fit.ModeTarget` list, the same with their sources, and lines about
         what was left out (unpaired peaks, blades without modes).
     """
-    from rigtools.sim.updating import ModeTarget, pair_modes
+    from rigtools.sim.parameter_fit import ModeTarget, pair_modes
 
     seen: dict[tuple[Blade, int], list] = {}
     model_hz: dict[tuple[Blade, int], float] = {}
@@ -322,7 +323,7 @@ def mode_targets(
 
 
 def fit_linear(params, targets, names: Sequence[str], **kwargs):
-    """:func:`rigtools.sim.updating.update_model` within what a rig file can hold; bad names or targets
+    """:func:`rigtools.sim.parameter_fit.update_model` within what a rig file can hold; bad names or targets
     become one-line :class:`UserError`.
 
     Root springs stay at or below the rig file's limits (:data:`rigtools.config.MAX_ROOT_ROTATIONAL_STIFFNESS`,
@@ -334,13 +335,13 @@ def fit_linear(params, targets, names: Sequence[str], **kwargs):
 
     from rigtools.config import MAX_ROOT_ROTATIONAL_STIFFNESS as KR_MAX
     from rigtools.config import MAX_ROOT_TRANSLATIONAL_STIFFNESS as KT_MAX
-    from rigtools.sim.params import RootParams
-    from rigtools.sim.updating import (
+    from rigtools.sim.parameter_fit import (
         CLAMPED_START_ROTATIONAL,
         CLAMPED_START_TRANSLATIONAL,
         PARAMETERS,
         update_model,
     )
+    from rigtools.sim.params import RootParams
 
     if not targets:
         raise UserError("no identified mode pairs with a model mode: nothing to fit")
@@ -463,9 +464,9 @@ def model_dwell(params, dwell: DwellData, *, system=None, duration: float = 0.5)
 
 
 def agreement(dwell: DwellData, model, *, k_max: int = K_HARMONICS):
-    """EM-versus-FEM :class:`rigtools.analysis.compare.Agreement` over the force and both shroud
+    """EM-versus-FEM :class:`rigtools.analysis.correlation.Agreement` over the force and both shroud
     accelerations, harmonics 1..k_max."""
-    from rigtools.analysis.compare import point_agreement
+    from rigtools.analysis.correlation import point_agreement
 
     return point_agreement(dwell.analysis, model, channels=list(DWELL_CHANNELS), k_max=k_max)
 
@@ -630,7 +631,7 @@ def rig_file_update(
     contact_sources: Sequence[str] = (),
     when: str = "",
 ) -> str:
-    """The updated rig-file text from an :class:`rigtools.sim.updating.UpdateResult` and/or a
+    """The updated rig-file text from an :class:`rigtools.sim.parameter_fit.UpdateResult` and/or a
     :class:`rigtools.sim.contact_fit.ContactFitResult`, each key commented with recording, modes and residual."""
     values: dict[str, float | str] = {}
     comments: dict[str, str] = {}
@@ -676,3 +677,285 @@ def check_rig_text(text: str, path: str | Path | None = None):
     from rigtools.config import parse_rig
 
     return parse_rig(tomllib.loads(text), f"updated rig file {path}" if path else "updated rig file")
+
+
+# ------------------------------------------------------------------------------ the workflow
+
+#: Rig-file keys ``rig update`` may fit (SI), lowest-risk first.
+PARAMETER_NAMES = (
+    "root.rotational_stiffness",
+    "root.translational_stiffness",
+    "damping.ratio",
+    "damping.alpha",
+    "damping.beta",
+    "shroud.mass",
+    "force_sensor.mass",
+    "blade.youngs_modulus",
+)
+DEFAULT_PARAMETERS = "root.rotational_stiffness,damping.ratio"
+CONTACT_LAWS = {"rig": [None], "linear": ["linear"], "hertz": ["hertz"], "compare": ["linear", "hertz"]}
+MAX_TARGET_MODES = 10
+RMS_WARNING = 2.0  # rms residual (in target uncertainties) above which the fit does not explain the modes
+
+
+def parse_band(text: str | None, option: str = "--band") -> tuple[float | None, float | None]:
+    """``"LOW:HIGH"`` with units (``"20 Hz:2 kHz"``) -> ``(low, high)`` in Hz; ``None`` -> no limits."""
+    if text is None:
+        return None, None
+    from rigtools.options import quantity
+
+    parts = str(text).split(":")
+    if len(parts) != 2:
+        raise UserError(f'{option} = {text!r}: write LOW:HIGH, e.g. "20 Hz:2 kHz"')
+    lo, hi = (quantity(x, "frequency", option) for x in parts)
+    if not 0 < lo < hi:
+        raise UserError(f"{option} = {text!r}: need 0 < low < high")
+    return lo, hi
+
+
+@dataclass
+class UpdateOutcome:
+    """What :func:`update_rig_file` did.
+
+    Attributes
+    ----------
+    out
+        The updated rig file written.
+    text
+        Its text.
+    recordings
+        The modes identified in each test recording.
+    paired
+        The identified modes used as targets, paired with the nominal model's modes.
+    notes
+        What the data could not give (a blade without modes, ...).
+    fit
+        The linear fit (:class:`rigtools.sim.parameter_fit.UpdateResult`).
+    dwells
+        The dwells the contact was fitted to (empty without ``contact``).
+    contact_fit
+        The kept contact fit (:class:`rigtools.sim.contact_fit.ContactFitResult`) or ``None``.
+    other_laws
+        The contact fits with the other laws tried (``law="compare"``).
+    scores
+        EM-versus-FEM agreement score (1 = identical harmonics) of each dwell: step name
+        (``"nominal"``, ``"linear update"``, ``"contact fit"``) -> one score per dwell.
+    warnings
+        One line each: a fit that does not explain the modes, parameters the data do not determine.
+    """
+
+    out: Path
+    text: str
+    recordings: list[RecordingModes]
+    paired: list[PairedMode]
+    notes: list[str]
+    fit: Any
+    dwells: list[DwellData] = field(default_factory=list)
+    contact_fit: Any = None
+    other_laws: list[Any] = field(default_factory=list)
+    scores: dict[str, list[float]] = field(default_factory=dict)
+    warnings: list[str] = field(default_factory=list)
+
+    def to_dict(self) -> dict:
+        """The ``rig update --json`` document (numbers in SI, frequencies in Hz)."""
+        doc: dict[str, Any] = {
+            "file": str(self.out),
+            "warnings": self.warnings,
+            "recordings": [
+                {
+                    "file": r.path,
+                    "procedure": r.procedure,
+                    "sets": [
+                        {
+                            "point": s.point,
+                            "blade": s.blade,
+                            "response": s.response,
+                            "frequencies_hz": s.frequencies_hz,
+                            "damping_ratios": s.damping_ratios,
+                            "notes": s.notes,
+                        }
+                        for s in r.sets
+                    ],
+                }
+                for r in self.recordings
+            ],
+            "targets": [
+                {
+                    "blade": p.blade,
+                    "order": p.order,
+                    "frequency_hz": p.frequency_hz,
+                    "damping_ratio": p.damping_ratio,
+                    "model_hz": p.model_hz,
+                    "sources": p.sources,
+                }
+                for p in self.paired
+            ],
+            "notes": self.notes,
+            "fit": self.fit.as_dict(),
+        }
+        if self.dwells:
+            doc["contact_fit"] = self.contact_fit.as_dict()
+            doc["contact_fit_other_laws"] = [r.as_dict() for r in self.other_laws]
+            doc["agreement"] = {"dwells": [d.name for d in self.dwells], **self.scores}
+        return doc
+
+
+def _no_status(text: str) -> AbstractContextManager[None]:
+    return nullcontext()
+
+
+def update_rig_file(
+    recordings: Sequence[str | Path],
+    out: str | Path,
+    *,
+    rig: str | Path | None = None,
+    parameters: str | Sequence[str] = DEFAULT_PARAMETERS,
+    modes: int = 3,
+    band: str | tuple[float, float] | None = None,
+    damping: bool = True,
+    contact: Sequence[str | Path] = (),
+    law: str = "rig",
+    overwrite: bool = False,
+    status: Callable[[str], AbstractContextManager[Any]] | None = None,
+    when: str | None = None,
+) -> UpdateOutcome:
+    """Fit a rig file's model to test recordings and write the updated rig file (``rig update``).
+
+    Parameters
+    ----------
+    recordings
+        FRF tests (``rig acquire frf``) and tap tests: modes are identified in each.
+    out
+        The updated rig file to write (``.toml``); never one of the inputs.
+    rig
+        Rig file to update; ``None``: the calibrated default rig.
+    parameters
+        Rig-file keys to fit (:data:`PARAMETER_NAMES`), a sequence or ``"a,b"`` text.
+    modes
+        Flexural modes per blade used as targets, lowest first, 1 to 10.
+    band
+        Band searched for modes, ``(low, high)`` in Hz or ``"20 Hz:2 kHz"``; ``None``: each test's.
+    damping
+        Fit the identified damping ratios too (``False``: frequencies only).
+    contact
+        Force-controlled dwells with impacts: fit the contact stiffness and damping to them.
+    law
+        Contact law to fit: ``"rig"`` (the rig file's), ``"linear"``, ``"hertz"`` or ``"compare"``
+        (both, the better kept).
+    overwrite
+        Replace ``out`` if it exists.
+    status
+        ``status(text)`` returns a context manager shown around each long step (a spinner);
+        ``None``: nothing shown.
+    when
+        Time stamp written into the file's header; default: now (UTC).
+
+    Returns
+    -------
+    UpdateOutcome
+
+    Raises
+    ------
+    UserError
+        One line: unknown parameter, bad band or mode count, unreadable recording, a recording
+        without usable modes, ``out`` existing or an input.
+    """
+    import datetime as _dt
+
+    from rigtools.config import default_rig_text, load_rig, read_rig_text
+    from rigtools.options import output_path
+
+    show = status or _no_status
+    names = parse_names(parameters if isinstance(parameters, str) else ",".join(parameters), PARAMETER_NAMES)
+    if isinstance(modes, bool) or not isinstance(modes, int) or not 1 <= modes <= MAX_TARGET_MODES:
+        raise UserError(f"--modes = {modes!r}: use 1..{MAX_TARGET_MODES}")
+    f_min, f_max = band if isinstance(band, tuple) else parse_band(band)
+    if law not in CONTACT_LAWS:
+        raise UserError(f"--law = {law!r}: use one of {', '.join(CONTACT_LAWS)}")
+    tests = [str(p) for p in recordings]
+    dwell_files = [str(p) for p in contact]
+    inputs = [*tests, *dwell_files] + ([str(rig)] if rig else [])
+    out_path = output_path(str(out), overwrite, "--out", suffixes=(".toml",), inputs=inputs)
+    for path in inputs:
+        if not Path(path).exists():
+            raise UserError(f"{path}: no such file")
+
+    cfg = load_rig(None if rig is None else str(rig))
+    text = read_rig_text(str(rig)) if rig else default_rig_text()
+    nominal = cfg.to_params()
+    found = []
+    for i, path in enumerate(tests):
+        with show(f"identifying modes in {Path(path).name} ({i + 1}/{len(tests)})"):
+            found.append(identify_recording(path, f_min=f_min, f_max=f_max))
+    dwells: list[DwellData] = []
+    for path in dwell_files:
+        with show(f"reading dwell {Path(path).name}"):
+            dwells.extend(read_dwell(path))
+    targets, paired, notes = mode_targets(nominal, found, max_modes=modes, damping=damping)
+    with show(f"fitting {', '.join(names)} to {len(targets)} modes"):
+        res = fit_linear(nominal, targets, names)
+
+    scores: dict[str, list[float]] = {}
+    cres, others = None, []
+    if dwells:
+        from rigtools.sim.reduction import reduced_system
+
+        with show("EM-versus-FEM score of the nominal model"):
+            scores["nominal"] = [agreement(d, model_dwell(nominal, d)).score for d in dwells]
+        linear_system = reduced_system(res.params, "fem")
+        with show("EM-versus-FEM score after the linear update"):
+            scores["linear update"] = [
+                agreement(d, model_dwell(res.params, d, system=linear_system)).score for d in dwells
+            ]
+        fits = []
+        for one_law in CONTACT_LAWS[law]:
+            with show(
+                f"fitting the contact ({one_law or res.params.contact.law} law) to {len(dwells)} dwell(s): "
+                "vibro-impact runs"
+            ):
+                fits.append(fit_contact_to_dwells(res.params, dwells, law=one_law))
+        cres = min(fits, key=lambda r: r.cost_after)
+        others = [r for r in fits if r is not cres]
+        with show("EM-versus-FEM score after the contact fit"):
+            scores["contact fit"] = [
+                agreement(d, model_dwell(cres.params, d, system=linear_system)).score for d in dwells
+            ]
+
+    new_text = rig_file_update(
+        text,
+        res,
+        cres,
+        sources=[Path(p).name for p in tests],
+        modes_used=", ".join(f"{p.blade} f{p.order} {p.frequency_hz:.2f} Hz" for p in paired),
+        contact_sources=[Path(p).name for p in dwell_files],
+        when=when or _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
+    )
+    check_rig_text(new_text, out_path)
+    try:
+        out_path.write_text(new_text, encoding="utf-8")
+    except OSError as exc:
+        raise UserError(f"cannot write {out_path}: {exc.strerror or exc}") from None
+
+    warnings = []
+    rms = (2 * res.cost_after / max(1, res.residuals_after.size)) ** 0.5
+    if rms > RMS_WARNING:
+        warnings.append(
+            f"the fitted parameters do not explain the identified modes: rms residual {rms:.3g} x "
+            f"their uncertainty (frequencies 0.1 %, damping 10 %), largest frequency error "
+            f"{100 * res.max_frequency_error_after:.3f} %; the model lacks what differs on the rig "
+            "(try the root springs or the masses)"
+        )
+    warnings += [f"not determined by the data: {line}" for line in res.identifiability.unresolved]
+    return UpdateOutcome(
+        out=out_path,
+        text=new_text,
+        recordings=found,
+        paired=paired,
+        notes=notes,
+        fit=res,
+        dwells=dwells,
+        contact_fit=cres,
+        other_laws=others,
+        scores=scores,
+        warnings=warnings,
+    )

@@ -4,7 +4,7 @@ offset that explains a harmonic difference (exact single-mode references)."""
 import numpy as np
 import pytest
 
-from rigtools.analysis.compare import (
+from rigtools.analysis.correlation import (
     agreement_score,
     explain_harmonic_difference,
     explain_large_differences,
@@ -112,7 +112,7 @@ def test_frequency_offset_explains_a_super_harmonic_difference():
 
 
 def test_pair_points_by_parameters():
-    from rigtools.analysis.compare import pair_points
+    from rigtools.analysis.correlation import pair_points
 
     em = [
         {"fe": 60.0, "gap": 0.5e-3, "force_amplitude_target": 15.0},
@@ -127,7 +127,7 @@ def test_pair_points_by_parameters():
 
 
 def test_trend_series_and_point_agreement_from_dwell_analyses():
-    from rigtools.analysis.compare import point_agreement, trend_series
+    from rigtools.analysis.correlation import point_agreement, trend_series
     from rigtools.analysis.point import analyze_dwell
 
     fs, fe = 10240.0, 60.0

@@ -491,7 +491,7 @@ def predict(params: RigParams, targets: Sequence[Target]) -> Prediction:
     for b in ("active", "passive"):
         if need[b] == 0 and not (b == "active" and frfs):
             continue
-        root = params.root if b == "active" or params.passive_root is None else params.passive_root
+        root = params.root_of(b)
         blade = build_blade(
             b,
             params.active if b == "active" else params.passive,

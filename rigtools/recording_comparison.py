@@ -24,7 +24,7 @@ the force the blade felt there:
 Runs go through :class:`rigtools.study_runner.StudyRunner` (in-process by default; ``workers``
 for a Dask LocalCluster), carrying the state from point to point when the EM study did.
 
-Agreement score (one per point): :func:`rigtools.analysis.compare.agreement_score` of the two shroud
+Agreement score (one per point): :func:`rigtools.analysis.correlation.agreement_score` of the two shroud
 accelerations' harmonics k = 1..K, ``score = 10 ** (-E)`` with ``E`` the energy-weighted mean
 ``|log10(model / EM)|`` over harmonics, averaged over the two channels; 1 is identical, ``1/q``
 when every harmonic is off by a factor ``q``. The force is the input and is left out of the
@@ -85,9 +85,9 @@ class PointComparison:
     em, model
         :class:`rigtools.analysis.point.DwellAnalysis` of both sides.
     table
-        :func:`rigtools.analysis.compare.harmonic_table` of the compared channels (pandas DataFrame).
+        :func:`rigtools.analysis.correlation.harmonic_table` of the compared channels (pandas DataFrame).
     agreement
-        :class:`rigtools.analysis.compare.Agreement` of the shroud accelerations.
+        :class:`rigtools.analysis.correlation.Agreement` of the shroud accelerations.
     explanations
         ``[(channel, FrequencyOffsetExplanation, (blade, mode, model Hz) or None)]`` for the large
         harmonic differences (text: :meth:`explanation_lines`).
@@ -174,7 +174,7 @@ class Comparison:
     points
         :class:`PointComparison` in EM order.
     natural
-        Natural-frequency table (:func:`rigtools.analysis.compare.natural_frequency_table` layout with the EM
+        Natural-frequency table (:func:`rigtools.analysis.correlation.natural_frequency_table` layout with the EM
         column filled where measured), or None.
     notes
         Sentences on what could not be compared and why.
@@ -224,8 +224,8 @@ class Comparison:
 
     # -------------------------------------------------------------- figures
     def trend_quantities(self) -> dict:
-        """``{label: {"EM": (values, y), model: (values, y)}}`` of :func:`rigtools.analysis.compare.trend_series`."""
-        from rigtools.analysis.compare import trend_series
+        """``{label: {"EM": (values, y), model: (values, y)}}`` of :func:`rigtools.analysis.correlation.trend_series`."""
+        from rigtools.analysis.correlation import trend_series
 
         if self.kind is None or len(self.points) < 2:
             return {}
@@ -808,13 +808,14 @@ def compare_recordings(
         raise UserError("give a model recording FEM.h5 or --simulate, not both")
     if not simulate and fem_path is None:
         raise UserError("give a model recording FEM.h5 to compare with, or --simulate")
-    from rigtools.analysis.compare import (
+    from rigtools.analysis.correlation import (
         explain_large_differences,
         harmonic_table,
         pair_points,
         point_agreement,
     )
-    from rigtools.simulation import load_system, natural_frequencies
+    from rigtools.sim.natural_frequencies import reduced_natural_frequencies as natural_frequencies
+    from rigtools.simulation import load_system
 
     notes: list[str] = []
     with _open(em_path, "EM recording") as rec:
