@@ -178,6 +178,8 @@ _FAULTS: dict[str, type[DaqFault]] = {
     "nan_samples": InvalidSamples,
 }
 FAULT_KINDS = tuple(_FAULTS)
+FAULT_TEXT = re.compile(r"\s*([\w-]+)\s*@\s*([0-9.eE+-]+)\s*(s|ms|us|µs)?\s*(?::\s*([\w.-]+))?\s*")
+_TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "µs": 1e-6}
 
 
 @dataclass(frozen=True)
@@ -196,28 +198,39 @@ class Fault:
     def __post_init__(self) -> None:
         kind = self.kind.replace("-", "_").lower()
         if kind not in _FAULTS:
-            raise ConfigurationError(f"unknown fault {self.kind!r} (known: {', '.join(FAULT_KINDS)})")
+            known = ", ".join(k.replace("_", "-") for k in FAULT_KINDS)
+            raise ConfigurationError(f"unknown kind {self.kind!r} of fault (known: {known})")
         object.__setattr__(self, "kind", kind)
         if (self.at_block is None) == (self.at_time is None):
             raise ConfigurationError(f"fault {kind}: give exactly one of at_block or at_time")
         if (self.at_block is not None and self.at_block < 0) or (
             self.at_time is not None and self.at_time < 0
         ):
-            raise ConfigurationError(f"fault {kind}: the moment must be >= 0")
+            raise ConfigurationError(f"fault {kind}: the time must be >= 0 s")
 
     @classmethod
     def parse(cls, text: str) -> Fault:
-        """``"KIND@N"`` (block N) or ``"KIND@T s"`` (time), optionally ``":CHANNEL"`` at the end,
-        e.g. ``"input-overflow@3"``, ``"nan-samples@0.25s:force"``."""
-        match = re.fullmatch(r"\s*([\w-]+)@([0-9.eE+-]+)\s*(s?)\s*(?::\s*(\w+))?\s*", text)
+        """The one text form of a fault: ``"KIND@TIME[:CHANNEL]"``, TIME from the start of the run
+        in seconds (a plain number) or with a unit ``s``, ``ms`` or ``us``; ``"@3"`` is 3 s, never
+        a block (a block is given only as ``Fault(kind, at_block=N)``). E.g. ``"input-overflow@1.5"``,
+        ``"nan-samples@250 ms:force"``.
+
+        Raises
+        ------
+        ConfigurationError
+            One line: the form not read, an unknown kind, a negative time.
+        """
+        match = FAULT_TEXT.fullmatch(text)
         if not match:
             raise ConfigurationError(
-                f"cannot read fault {text!r}: write KIND@BLOCK or KIND@SECONDSs[:CHANNEL]"
+                f"cannot read fault {text!r}: write KIND@TIME[:CHANNEL], e.g. 'input-overflow@1.5:force'"
             )
-        kind, at, seconds, channel = match.groups()
-        if seconds:
-            return cls(kind, at_time=float(at), channel=channel)
-        return cls(kind, at_block=int(float(at)), channel=channel)
+        kind, at, unit, channel = match.groups()
+        try:
+            seconds = float(at) * _TIME_UNITS[unit or "s"]
+        except ValueError:
+            raise ConfigurationError(f"cannot read fault {text!r}: {at!r} is not a time") from None
+        return cls(kind, at_time=seconds, channel=channel)
 
     def sample(self, block_size: int, sample_rate: float) -> int:
         """Index of the first sample the fault spoils."""

@@ -10,6 +10,7 @@ are those of :mod:`rigtools.units`, the same as in a rig file.
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import re
 from collections.abc import Iterable
@@ -89,6 +90,48 @@ def gap(text: str | float, option: str = "--gap") -> float:
             f"(a gap must be between 0 and {MAX_GAP * 1e3:g} mm); a plain number is metres: write gaps with units, e.g. '0.5 mm'"
         )
     return value
+
+
+STUDY_DIMENSION = {"gap": "length", "force": "force", "frequency": "frequency"}
+MAX_POINTS = 10_000  # values in one list or grid
+
+
+def value_list(text: str, kind: str, option: str = "--values") -> list[float]:
+    """The one grammar of value lists: ``"a,b,c"`` or ``"start:stop:step"`` (stop included) with
+    units, of a ``kind`` (``"gap"``, ``"force"``, ``"frequency"``) in SI units, each checked (a gap
+    by :func:`gap`; forces ``>= 0``; frequencies ``> 0``), at most :data:`MAX_POINTS` values."""
+    dimension = STUDY_DIMENSION[kind]
+
+    def one(part: str) -> float:
+        return gap(part, option) if kind == "gap" else quantity(part, dimension, option)
+
+    text = text.strip()
+    if ":" in text:
+        parts = text.split(":")
+        if len(parts) != 3:
+            raise UserError(f"{option} = {text!r}: write start:stop:step")
+        start, stop, step = (one(p) for p in parts)
+        if not step > 0 or stop < start:
+            raise UserError(f"{option} = {text!r}: need step > 0 and stop >= start")
+        n = math.floor((stop - start) / step + 1e-9) + 1
+        if n > MAX_POINTS:
+            raise UserError(f"{option} = {text!r}: {n} points is too many (at most {MAX_POINTS})")
+        values = [start + i * step for i in range(n)]
+    else:
+        values = [one(p) for p in text.split(",") if p.strip()]
+        if not values:
+            raise UserError(f"{option}: give at least one value")
+        if len(values) > MAX_POINTS:
+            raise UserError(f"{option}: {len(values)} points is too many (at most {MAX_POINTS})")
+    bad = [v for v in values if (v <= 0 if kind == "frequency" else v < 0)]
+    if bad:
+        what = {
+            "gap": "gaps must be >= 0",
+            "force": "force amplitudes must be >= 0",
+            "frequency": "frequencies must be > 0",
+        }[kind]
+        raise UserError(f"{option} = {text!r}: {what} (got {bad[0]:g})")
+    return values
 
 
 def drive_amplitude(text: str, option: str = "--drive") -> float:

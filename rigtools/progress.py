@@ -6,6 +6,10 @@ from __future__ import annotations
 import sys
 from collections.abc import Callable, Iterator
 from contextlib import AbstractContextManager, contextmanager
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from typing_extensions import Self  # typing.Self is Python 3.11+
 
 
 @contextmanager
@@ -57,3 +61,90 @@ def simulated_time_bar(
     ) as bar:
         task = bar.add_task(f"settling {text}", total=at_most)
         yield lambda done, total: bar.update(task, completed=done, total=total)
+
+
+class ProcedureProgress:
+    """A bar of a lab procedure's points on stderr, fed by its progress events
+    (:class:`rigtools.procedures.base.ProgressEvent`); off when ``enabled`` is false."""
+
+    def __init__(self, name: str, enabled: bool = True) -> None:
+        self.enabled = enabled and sys.stderr.isatty()
+        self.name = name
+
+    def __enter__(self) -> Self:
+        if self.enabled:
+            from rich.console import Console
+            from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+            self.bar = Progress(
+                TextColumn("{task.description}"),
+                BarColumn(),
+                TextColumn("{task.completed}/{task.total} points"),
+                TimeElapsedColumn(),
+                console=Console(stderr=True),
+                transient=True,
+            )
+            self.bar.__enter__()
+            self.task = self.bar.add_task(self.name, total=1)
+        return self
+
+    def event(self, e: Any) -> None:
+        """Show one progress event."""
+        if not self.enabled:
+            return
+        text = f"point {e.point}/{e.n_points} {e.kind}"
+        if e.kind == "control" and e.control_error is not None:
+            text += f" update {e.update}: error {e.control_error * 100:+.2f} % ({e.text})"
+        elif e.text:
+            text += f": {e.text}"
+        done = e.point if e.kind == "point_done" else e.point - 1
+        self.bar.update(self.task, total=e.n_points, completed=max(0, done), description=text)
+
+    def __exit__(self, *exc: object) -> bool:
+        if self.enabled:
+            self.bar.__exit__(*exc)  # type: ignore[arg-type]  # rich's __exit__ takes the exc_info triple as given
+        return False
+
+
+class StudyProgress:
+    """Bars of a model study on stderr: the points done (with the next point's label) and the
+    simulated settling time of the point running. Off when ``enabled`` is false: then
+    :attr:`on_point` and :attr:`settling` are ``None``."""
+
+    def __init__(
+        self, title: str, planned: list[Any], label: Callable[[Any], str], enabled: bool = True
+    ) -> None:
+        self.title, self.planned, self.label, self.enabled = title, planned, label, enabled
+        self.on_point: Callable[[Any, dict], None] | None = None
+        self.settling: Callable[[float, float], None] | None = None
+
+    def __enter__(self) -> Self:
+        if not self.enabled:
+            return self
+        from rich.console import Console
+        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+        self.bar = Progress(
+            TextColumn("[bold]{task.description}"),
+            BarColumn(),
+            MofNCompleteColumn(),
+            TimeElapsedColumn(),
+            console=Console(stderr=True),
+        )
+        self.bar.__enter__()
+        points = self.bar.add_task(f"{self.title}: {self.label(self.planned[0])}", total=len(self.planned))
+        settle = self.bar.add_task("  settling (simulated s)", total=1.0)
+
+        def on_point(p: Any, summary: dict) -> None:
+            nxt = self.planned[p.index + 1] if p.index + 1 < len(self.planned) else None
+            text = f"{self.title}: " + (self.label(nxt) if nxt else "done")
+            self.bar.update(points, completed=p.index + 1, description=text)
+
+        self.on_point = on_point
+        self.settling = lambda done, total: self.bar.update(settle, completed=done, total=total)
+        return self
+
+    def __exit__(self, *exc: object) -> bool:
+        if self.enabled:
+            self.bar.__exit__(*exc)  # type: ignore[arg-type]  # rich's __exit__ takes the exc_info triple as given
+        return False

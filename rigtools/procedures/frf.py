@@ -172,6 +172,9 @@ class FrfTest(SineProcedure):
         super().shutdown(status, reason)
 
 
+EDGE_BINS = 2  # frequency lines next to each band edge where the quick check looks for no peak
+
+
 def quick_check(path, response: str | None = None, n_peaks: int = 5) -> dict:
     """H1 (response / force) over the averaged frames of an FRF test recording, its peaks in the
     band and their coherence (:func:`rigtools.analysis.frf.estimate_frf`, frames as segments, no window)."""
@@ -200,11 +203,18 @@ def quick_check(path, response: str | None = None, n_peaks: int = 5) -> dict:
         x = specs[force_name][start : start + n]
         y = specs[response][start : start + n]
         lo, hi = float(prm["band_low"]), float(prm["band_high"])
+        h1_units = f"({specs[response].units})/({specs[force_name].units})"
     est = estimate_frf(x, y, rate, nperseg=frame, noverlap=0, window="boxcar", detrend=False)
     f = est.frequency_hz
-    band = (f >= lo) & (f <= hi)
     mag = np.abs(est.h1)
-    idx, props = find_peaks(np.where(band, mag, 0.0), prominence=0)
+    # peaks strictly inside the band: the excitation's edges are steps of |H1|, not resonances
+    inside = np.flatnonzero(
+        (f >= lo + EDGE_BINS * est.resolution_hz) & (f <= hi - EDGE_BINS * est.resolution_hz)
+    )
+    idx, props = (
+        find_peaks(mag[inside], prominence=0) if inside.size else (np.array([], int), {"prominences": []})
+    )
+    idx = inside[idx]
     order = idx[np.argsort(props["prominences"])[::-1][:n_peaks]]
     peaks = [
         {"frequency_hz": float(f[i]), "h1": float(mag[i]), "coherence": float(est.coherence[i])}
@@ -213,8 +223,9 @@ def quick_check(path, response: str | None = None, n_peaks: int = 5) -> dict:
     return {
         "response": response,
         "force": force_name,
+        "h1_units": h1_units,
         "averages": est.n_averages,
         "resolution_hz": est.resolution_hz,
         "peaks": peaks,
-        "mean_coherence_in_band": float(np.mean(est.coherence[band])),
+        "mean_coherence_in_band": float(np.mean(est.coherence[(f >= lo) & (f <= hi)])),
     }

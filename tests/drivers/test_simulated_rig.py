@@ -329,10 +329,14 @@ def test_pace_follows_the_wall_clock(rig, cfg):
 
 
 def test_faults_and_configuration_are_checked():
-    assert Fault.parse("input-overflow@3") == Fault("input_overflow", at_block=3)
+    # one grammar: "@N" is N seconds, as on the command line (a block only as at_block=)
+    assert Fault.parse("input-overflow@3") == Fault("input_overflow", at_time=3.0)
     assert Fault.parse("nan-samples@0.25s:force") == Fault("nan_samples", at_time=0.25, channel="force")
+    assert Fault.parse("nan-samples @ 250 ms : force") == Fault("nan_samples", at_time=0.25, channel="force")
+    with pytest.raises(ConfigurationError, match="write KIND@TIME"):
+        Fault.parse("input-overflow@soon")
     assert set(FAULT_KINDS) == {"input_overflow", "amplifier_timeout", "sensor_overload", "nan_samples"}
-    with pytest.raises(ConfigurationError, match="unknown fault"):
+    with pytest.raises(ConfigurationError, match="unknown kind 'meltdown' of fault"):
         Fault("meltdown", at_block=1)
     with pytest.raises(ConfigurationError, match="exactly one"):
         Fault("input_overflow")

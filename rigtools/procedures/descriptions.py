@@ -1,0 +1,212 @@
+"""What each lab procedure does, in the words ``rig acquire --help`` shows them: the help texts of
+the procedures, kept beside them (the command module only parses and prints)."""
+
+HELP = "lab procedures on the rig: force-controlled dwell, stepped sine, study, FRF test, tap test"
+BACKENDS = """\
+Backends: --backend nidaq (default) drives the NI-DAQmx rig of the rig file's [daq]; --backend sim
+runs the simulated rig (the FE model of [test_article] through the [shaker] model), as fast as
+it can (--pace: in real time; --seed: sensor noise; --fault KIND@TIME[:CHANNEL] injects a fault:
+input-overflow, amplifier-timeout, sensor-overload, nan-samples; TIME is seconds from the start,
+"1.5", "1.5 s" or "250 ms", never a block: rigtools.drivers.simulated.Fault.parse).
+"""
+FORCE_CONTROL = """\
+Force control: the force sensor's fundamental (least squares over whole periods) is held at
+--force F0 within 0.5 % by adjusting the drive amplitude (secant steps, at most --max-updates
+after the first ramp, never planned past 80 % of a [safety] warning level), then the response
+settles (every input's fundamental steady within 1 %) and --periods whole periods are recorded.
+Each point holds the whole stream
+of that point (control, settling, record window: record_start / record_samples), the drive as
+written, and parameters fe, force_amplitude (target), force_amplitude_measured, gap,
+drive_amplitude, control_updates, settled, harmonics k = 1..K of every channel (amplitude and
+phase relative to the force fundamental).
+"""
+QUANTITIES_AND_EXIT = """\
+The drive ramps up and down over [safety] ramp_time; on a stop, Ctrl-C, SIGTERM or SIGHUP it
+ramps to zero over abort_ramp_time while still recording (status aborted), on a fault or safety
+abort at once (status failed); everything recorded is kept.
+
+Quantities take units ("60 Hz", "15 N", "0.5 mm", "2 s"); a plain number is SI.
+Exit status: 0 finished, 2 bad input, 3 NI-DAQmx not available (use --backend sim), 4 a fault,
+safety abort or write error ended the run (status failed, file kept), 130 Ctrl-C or a signal
+(status aborted, file kept).
+"""
+COMMON_EPILOG = BACKENDS + "\n" + FORCE_CONTROL + "\n" + QUANTITIES_AND_EXIT
+FORCE_CONTROLLED = ("dwell", "sweep", "study")
+
+
+def epilog(procedure: str) -> str:
+    """The ``rig acquire PROCEDURE --help`` epilog: examples and notes, the backends, force control
+    (force-controlled procedures only), quantities and exit statuses."""
+    parts = [EPILOGS[procedure], BACKENDS]
+    if procedure in FORCE_CONTROLLED:
+        parts.append(FORCE_CONTROL)
+    return "\n".join([*parts, QUANTITIES_AND_EXIT])
+
+
+PROCEDURE_HELP = {
+    "dwell": "force-controlled sine dwell at one frequency",
+    "sweep": "force-controlled stepped sine up/down with harmonics and jumps",
+    "study": "force-controlled gap / force / frequency study (the paper's form)",
+    "frf": "burst random or periodic chirp FRF test, recorded raw",
+    "tap": "impact-hammer (tap) test of a blade, one frame per hit, recorded raw",
+}
+_SINE = FORCE_CONTROLLED
+# The options of each procedure: (procedures, flags, argparse keywords); "%(default)s" shows defaults.
+PROCEDURE_OPTIONS: tuple[tuple[tuple[str, ...], tuple[str, ...], dict], ...] = (
+    (("study",), ("kind",), {"choices": ("gap", "force", "frequency"), "help": "swept parameter"}),
+    (("study",), ("--values",), {"required": True, "help": '"a,b,c" or "start:stop:step", with units'}),
+    (("study",), ("--yes",), {"action": "store_true", "help": "do not wait for the operator to set the gap"}),
+    (("study",), ("--resume",), {"action": "store_true", "help": "continue an interrupted study in --out"}),
+    (("dwell",), ("--fe",), {"required": True, "help": 'excitation frequency, e.g. "60 Hz"'}),
+    (("study",), ("--fe",), {"help": 'excitation frequency, e.g. "60 Hz"'}),
+    (("dwell", "sweep"), ("--force",), {"required": True, "help": 'force amplitude F0, e.g. "15 N"'}),
+    (("study",), ("--force",), {"help": 'force amplitude F0, e.g. "15 N"'}),
+    (_SINE, ("--periods",), {"type": int, "default": None, "help": "whole periods recorded per point"}),
+    (
+        _SINE,
+        ("--max-updates",),
+        {"type": int, "default": 10, "help": "force-control updates (default %(default)s)"},
+    ),
+    (
+        ("sweep", "study"),
+        ("--direction",),
+        {"choices": ("up", "down", "both"), "default": "up", "help": "sweep order (default %(default)s)"},
+    ),
+    (
+        ("sweep",),
+        ("--frequencies",),
+        {"required": True, "help": '"start:stop:step" or "a,b,c", e.g. "340 Hz:380 Hz:2 Hz"'},
+    ),
+    (
+        ("sweep",),
+        ("--jump-threshold",),
+        {
+            "type": float,
+            "default": 0.3,
+            "help": "relative change of the response between neighbouring steps called a jump (default %(default)s)",
+        },
+    ),
+    (
+        ("frf",),
+        ("--signal",),
+        {"choices": ("chirp", "burst"), "default": "chirp", "help": "excitation (default %(default)s)"},
+    ),
+    (("frf",), ("--band",), {"required": True, "help": '"low:high", e.g. "20 Hz:500 Hz"'}),
+    (("frf",), ("--level",), {"required": True, "help": 'chirp peak or burst rms, e.g. "0.3 V"'}),
+    (
+        ("frf",),
+        ("--frame",),
+        {"default": "1 s", "help": 'frame length (resolution 1/frame), default "%(default)s"'},
+    ),
+    (
+        ("frf",),
+        ("--averages",),
+        {"type": int, "default": 10, "help": "frames averaged (default %(default)s)"},
+    ),
+    (
+        ("tap",),
+        ("--blade",),
+        {"choices": ("passive", "active"), "default": "passive", "help": "blade hit (default %(default)s)"},
+    ),
+    (("tap",), ("--position",), {"required": True, "help": 'hit position from the root, e.g. "85 mm"'}),
+    (
+        ("tap",),
+        ("--hits",),
+        {"type": int, "default": 5, "help": "accepted hits averaged (default %(default)s)"},
+    ),
+    (("tap",), ("--frame",), {"default": "2 s", "help": 'frame per hit, default "%(default)s"'}),
+    (
+        ("tap",),
+        ("--pretrigger",),
+        {"default": "10 ms", "help": 'kept before the trigger, default "%(default)s"'},
+    ),
+    (
+        ("tap",),
+        ("--trigger",),
+        {"default": "5 N", "help": 'trigger level on the hammer force, default "%(default)s"'},
+    ),
+    (
+        ("tap",),
+        ("--hammer-channel",),
+        {"default": "hammer", "help": "the hammer's [daq.channels] entry (default %(default)s)"},
+    ),
+    (
+        ("tap",),
+        ("--response",),
+        {"default": None, "help": "response channel (default: the blade's accelerometer)"},
+    ),
+    (
+        ("tap",),
+        ("--timeout",),
+        {"default": "60 s", "help": 'longest wait for the next accepted hit, default "%(default)s"'},
+    ),
+    (
+        ("tap",),
+        ("--hit-force",),
+        {"default": "20 N", "help": 'simulated rig: peak hammer force, default "%(default)s"'},
+    ),
+    (
+        ("tap",),
+        ("--pulse",),
+        {"default": "0.5 ms", "help": 'simulated rig: hammer pulse length, default "%(default)s"'},
+    ),
+    (
+        ("tap",),
+        ("--f-max",),
+        {"default": "2 kHz", "help": 'highest frequency identified, default "%(default)s"'},
+    ),
+)
+
+EPILOGS = {
+    "dwell": """examples:
+  rig acquire dwell --backend sim --fe 60 --force "15 N" --gap "0.5 mm" --out d.h5
+  rig acquire dwell --backend sim --fe 60 --force "15 N" --gap "0.5 mm" --out d.h5 --json
+  rig acquire dwell --rig lab.toml --fe 60 --force "15 N" --out dwell.h5
+
+--json prints {"file", "status", "backend", "fe", "force_amplitude", "force_amplitude_measured",
+"gap", "drive_amplitude", "control_updates", "settled", "warnings",
+"channels": {name: {"units", "peak", "harmonics": [{"k", "amplitude", "phase"}, ...]}}}.
+""",
+    "sweep": """examples:
+  rig acquire sweep --backend sim --frequencies "340 Hz:380 Hz:2 Hz" --force "2 N" --gap "5 mm" --out s.h5
+  rig acquire sweep --backend sim --frequencies "55 Hz:80 Hz:1 Hz" --force "15 N" --gap "0.7 mm" --direction both --out j.h5
+
+Jumps: neighbouring steps whose response fundamental differs by more than --jump-threshold
+(relative), reported per direction with the frequencies between which they happen.
+""",
+    "study": """examples:
+  rig acquire study gap --backend sim --values "0.3 mm:0.9 mm:0.2 mm" --force "15 N" --fe 60 --out s.h5 --yes
+  rig acquire study gap --backend sim --values "0.3 mm:0.9 mm:0.2 mm" --force "15 N" --fe 60 --out s.h5 --resume
+  rig acquire study force --backend sim --values "5 N,10 N,15 N" --gap "0.7 mm" --fe 60 --out f.h5
+
+The plan (values, order, up/down) is the model study's (rigtools.sim.studies.StudyPlan). On the NI rig
+the gap is set by hand: the drive ramps to zero and the command waits for the operator (Enter;
+--yes: do not wait). --resume continues an interrupted study in --out from its last complete
+point (a point cut off is dropped and run again; none is repeated or lost).
+""",
+    "frf": """examples:
+  rig acquire frf --backend sim --signal chirp --band "20 Hz:500 Hz" --level "0.3 V" --frame "0.5 s" --averages 10 --out f.h5
+  rig acquire frf --backend sim --signal burst --band "20 Hz:2 kHz" --level "0.3 V" --out b.h5
+
+Recorded raw (drive and inputs); the command prints H1 (response/force) peaks in the band and
+their coherence over the averaged frames as a quick check. --level is the chirp's peak or the
+burst's rms, V.
+""",
+    "tap": """examples:
+  rig acquire tap --backend sim --blade passive --position "85 mm" --hits 5 --gap "5 mm" --out t.h5
+  rig acquire tap --rig lab.toml --blade passive --position "85 mm" --hits 5 --out tap.h5
+
+An impact-hammer test of one blade (the passive blade has no shaker). The hammer's force is its
+own [daq.channels] entry (kind = "force", IEPE; --hammer-channel, default "hammer"); the
+response is the blade's shroud accelerometer (--response). A software trigger on the hammer
+force (--trigger, default "5 N") starts a frame of --frame (default "2 s", resolution 1/frame),
+--pretrigger (default "10 ms") of it from before the hit; one recording point per hit, recorded
+raw; a double hit or a response that has not decayed by the frame's end is recorded, marked
+rejected and not counted. The shaker's drive stays at 0 V. Tap where modes 1-3 all move: the
+shroud sits near a node of the passive blade's third flexural mode; ~85 mm from the root (of
+155 mm) moves all three. On the NI rig the command waits up to --timeout for each accepted
+hit; the simulated rig hits a half-sine of --pulse (default "0.5 ms") and --hit-force (default
+"20 N") peak every frame + 0.5 s. Prints the modes identified from H1 (response / hammer) over the
+accepted hits (rectangular window per frame) up to --f-max.
+""",
+}

@@ -1,0 +1,246 @@
+"""Lab procedures from option text, as ``rig acquire`` and scripts give them: quantity strings
+(``"60 Hz"``, ``"0.5 mm"``), value lists (``"340 Hz:380 Hz:2 Hz"``), fault texts; and a finished
+procedure's result as the ``rig acquire --json`` document.
+
+* :func:`parse_faults`: ``KIND@TIME[:CHANNEL]`` texts -> :class:`rigtools.drivers.simulated.Fault`
+  (the one fault grammar, :meth:`~rigtools.drivers.simulated.Fault.parse`);
+* :func:`build_procedure`: a :class:`rigtools.procedures.base.Procedure` of a name and options;
+* :func:`result_document`: what a run gave (harmonics, jumps, the FRF quick check, tap modes).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+from rigtools.errors import UserError
+from rigtools.options import gap as _gap_text
+from rigtools.options import quantity, value_list
+
+PROCEDURES = ("dwell", "sweep", "study", "frf", "tap")
+TAP_F_MIN_HZ = 5.0
+
+
+def parse_faults(texts: Sequence[str], backend: str) -> list[Any]:
+    """Faults for the simulated rig from ``"KIND@TIME[:CHANNEL]"`` texts (TIME in seconds or with a
+    unit: ``"input-overflow@1.5"``, ``"nan-samples@250 ms:force"``); refused on another backend."""
+    if not texts:
+        return []
+    if backend != "sim":
+        raise UserError("--fault injects faults into the simulated rig only; add --backend sim")
+    from rigtools.drivers.contracts import ConfigurationError
+    from rigtools.drivers.simulated import Fault
+
+    faults = []
+    for text in texts:
+        try:
+            faults.append(Fault.parse(text))
+        except ConfigurationError as exc:
+            raise UserError(f"--fault = {text!r}: {exc}") from None
+    return faults
+
+
+def _gap(options: Mapping[str, Any]) -> float | None:
+    value = options.get("gap")
+    return None if value is None else _gap_text(value)
+
+
+def _control(options: Mapping[str, Any]) -> dict:
+    n = options.get("max_updates", 10)
+    if not 1 <= n <= 100:
+        raise UserError(f"--max-updates = {n}: use 1..100")
+    return {"max_updates": n}
+
+
+def _grid(text: str, kind: str, option: str) -> list[float]:
+    return value_list(text, kind, option)
+
+
+def _periods(params: dict, options: Mapping[str, Any]) -> dict:
+    if options.get("periods") is not None:
+        params["record_periods"] = options["periods"]
+    return params
+
+
+def build_procedure(
+    name: str,
+    cfg: Any,
+    out: str | Path,
+    options: Mapping[str, Any],
+    *,
+    confirm_gap: Callable[[float, int], None] | None = None,
+    **run_options: Any,
+) -> Any:
+    """A procedure ready to ``run()``.
+
+    Parameters
+    ----------
+    name
+        One of :data:`PROCEDURES`.
+    cfg
+        The :class:`rigtools.config.RigConfig`.
+    out
+        The recording to write.
+    options
+        The procedure's options by their ``rig acquire`` names (``fe``, ``force``, ``gap``,
+        ``periods``, ``max_updates``, ``frequencies``, ``direction``, ``jump_threshold``, ``kind``,
+        ``values``, ``resume``, ``signal``, ``band``, ``level``, ``frame``, ``averages``, ``seed``,
+        ``blade``, ``position``, ``hits``, ``pretrigger``, ``trigger``, ``hammer_channel``,
+        ``response``, ``timeout``, ``hit_force``, ``pulse``, ``f_max``); quantities as text with
+        units or SI numbers.
+    confirm_gap
+        Study on the rig: ``confirm_gap(gap_m, index)`` waits until the operator has set the gap.
+    **run_options
+        ``backend``, ``overwrite``, ``pace``, ``faults``, ``seed`` of the procedure.
+    """
+    from rigtools import procedures as P
+
+    o = options
+    if name == "dwell":
+        params = {
+            "fe": quantity(o["fe"], "frequency", "--fe"),
+            "force": quantity(o["force"], "force", "--force"),
+            "gap": _gap(o),
+            "control": _control(o),
+        }
+        return P.SineDwell(cfg, _periods(params, o), out, **run_options)
+    if name == "sweep":
+        params = {
+            "frequencies": _grid(o["frequencies"], "frequency", "--frequencies"),
+            "force": quantity(o["force"], "force", "--force"),
+            "gap": _gap(o),
+            "direction": o.get("direction", "up"),
+            "jump_threshold": o.get("jump_threshold", 0.3),
+            "control": _control(o),
+        }
+        return P.SteppedSine(cfg, _periods(params, o), out, **run_options)
+    if name == "study":
+        params = {
+            "kind": o["kind"],
+            "values": _grid(o["values"], o["kind"], "--values"),
+            "direction": o.get("direction", "up"),
+            "fe": None if o.get("fe") is None else quantity(o["fe"], "frequency", "--fe"),
+            "force": None if o.get("force") is None else quantity(o["force"], "force", "--force"),
+            "gap": _gap(o),
+            "control": _control(o),
+        }
+        resume = bool(o.get("resume", False))
+        if resume:
+            run_options = {**run_options, "overwrite": False}
+        return P.RigStudy(
+            cfg, _periods(params, o), out, resume=resume, confirm_gap=confirm_gap, **run_options
+        )
+    if name == "tap":
+        from rigtools.procedures.tap import TapTest
+
+        hits = o.get("hits", 5)
+        if not 1 <= hits <= 1000:
+            raise UserError(f"--hits = {hits}: use 1..1000")
+        params = {
+            "blade": o.get("blade", "passive"),
+            "position": quantity(o["position"], "length", "--position"),
+            "hits": hits,
+            "frame": quantity(o.get("frame", "2 s"), "time", "--frame"),
+            "pretrigger": quantity(o.get("pretrigger", "10 ms"), "time", "--pretrigger"),
+            "trigger": quantity(o.get("trigger", "5 N"), "force", "--trigger"),
+            "gap": _gap(o),
+            "hammer_channel": o.get("hammer_channel", "hammer"),
+            "response": o.get("response"),
+            "timeout": quantity(o.get("timeout", "60 s"), "time", "--timeout"),
+            "hit_force": quantity(o.get("hit_force", "20 N"), "force", "--hit-force"),
+            "pulse": quantity(o.get("pulse", "0.5 ms"), "time", "--pulse"),
+        }
+        quantity(o.get("f_max", "2 kHz"), "frequency", "--f-max")
+        return TapTest(cfg, params, out, **run_options)
+    if name != "frf":
+        raise UserError(f"unknown procedure {name!r} (known: {', '.join(PROCEDURES)})")
+    from rigtools.procedures.frf import FrfTest
+
+    band = [quantity(t, "frequency", "--band") for t in str(o["band"]).split(":")]
+    if len(band) != 2:
+        raise UserError(f"--band = {o['band']!r}: write low:high, e.g. '20 Hz:500 Hz'")
+    params = {
+        "signal": o.get("signal", "chirp"),
+        "band": tuple(band),
+        "level": quantity(o["level"], "voltage", "--level"),
+        "frame": quantity(o.get("frame", "1 s"), "time", "--frame"),
+        "averages": o.get("averages", 10),
+        "gap": _gap(o),
+        "seed": o.get("seed"),
+    }
+    return FrfTest(cfg, params, out, **run_options)
+
+
+_POINT_KEYS = (
+    "fe",
+    "force_amplitude",
+    "force_amplitude_measured",
+    "gap",
+    "drive_amplitude",
+    "control_updates",
+    "settled",
+    "direction",
+    "study_value",
+)
+
+
+def point_document(p: Mapping[str, Any], units: Mapping[str, str]) -> dict:
+    """One point of a result: its parameters and, per channel, units, peak and harmonics."""
+    doc = {k: p[k] for k in _POINT_KEYS if k in p}
+    doc["channels"] = {
+        name: {
+            "units": units.get(name, ""),
+            "peak": p["peaks"][name],
+            "harmonics": [
+                {"k": i + 1, "amplitude": a, "phase": ph}
+                for i, (a, ph) in enumerate(zip(h["amplitude"], h["phase"], strict=True))
+            ],
+        }
+        for name, h in p["harmonics"].items()
+    }
+    return doc
+
+
+def result_document(name: str, backend: str, proc: Any, result: Any, f_max: str | float = "2 kHz") -> dict:
+    """The ``rig acquire --json`` document of a finished (or ended) procedure.
+
+    A dwell gives its point's harmonics; a sweep or study its points (without channels) and the
+    summary (jumps); a finished FRF test the quick check (:func:`rigtools.procedures.frf.quick_check`);
+    a tap test its hits and the modes identified over the accepted hits up to ``f_max``
+    (:func:`rigtools.procedures.tap.tap_analysis`).
+    """
+    doc: dict[str, Any] = {
+        "file": str(proc.out),
+        "status": result.status.value,
+        "reason": result.reason,
+        "backend": backend,
+        "procedure": name,
+    }
+    units = {s.name: s.units for s in getattr(proc, "specs", [])}
+    finished = result.status.value == "finished"
+    if name == "dwell" and result.points:
+        doc.update(point_document(result.points[0], units))
+        doc["warnings"] = result.points[0]["safety_warnings"]
+    elif name in ("sweep", "study"):
+        doc["points"] = [
+            {k: v for k, v in point_document(p, units).items() if k != "channels"} for p in result.points
+        ]
+        doc.update(result.summary)
+    elif name == "frf" and finished:
+        from rigtools.procedures.frf import quick_check
+
+        doc["check"] = quick_check(proc.out, proc.params.response)
+    elif name == "tap":
+        doc.update(result.summary)
+        doc["hits_detail"] = result.points
+        if finished:
+            from rigtools.procedures.tap import tap_analysis
+
+            top = min(quantity(f_max, "frequency", "--f-max"), 0.45 * proc.rate)
+            res = tap_analysis(proc.out, proc.response, f_min=TAP_F_MIN_HZ, f_max=top)
+            doc["modes"] = [
+                {"frequency_hz": m.frequency_hz, "damping_ratio": m.damping_ratio}
+                for m in res.modes[proc.response].modes
+            ]
+    return doc
