@@ -87,6 +87,7 @@ from rigtools.drivers.contracts import (
 )
 from rigtools.drivers.drive_signals import raised_cosine
 from rigtools.drivers.safety import MAX_ABORT_RAMP, MAX_TIME_TO_ZERO, output_queue_limit
+from rigtools.errors import one_line
 
 NO_DRIVER_MESSAGE = "NI-DAQmx driver not found on this machine; use --backend sim to run on the simulated rig"
 NOT_SUPPORTED_MESSAGE = (
@@ -118,10 +119,6 @@ _sleep = time.sleep
 _clock = time.monotonic
 
 
-def _first_line(text: str) -> str:
-    return next((line.strip() for line in str(text).splitlines() if line.strip()), "")
-
-
 def map_daq_error(exc: DaqError, partial: np.ndarray | None = None) -> DaqFault:
     """The contract fault for a DAQmx error: a known class, or a generic :class:`DaqFault`.
 
@@ -129,7 +126,7 @@ def map_daq_error(exc: DaqError, partial: np.ndarray | None = None) -> DaqFault:
     """
     code = int(exc.error_code)
     cls = FAULT_BY_CODE.get(code, DaqFault)
-    return cls(f"{_first_line(str(exc))} (DAQmx {code})", partial=partial, code=code)
+    return cls(f"{one_line(exc, first=True)} (DAQmx {code})", partial=partial, code=code)
 
 
 def _unavailable(exc: Exception) -> DriverUnavailable:
@@ -287,7 +284,7 @@ class NiDaqDevice(AcquisitionDevice):
         except DaqError as exc:
             self._close_tasks()
             raise ConfigurationError(
-                f"NI-DAQmx refused the configuration: {_first_line(str(exc))} (DAQmx {exc.error_code})"
+                f"NI-DAQmx refused the configuration: {one_line(exc, first=True)} (DAQmx {exc.error_code})"
             ) from exc
         except DriverError:
             self._close_tasks()

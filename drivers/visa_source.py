@@ -38,6 +38,7 @@ from rigtools.drivers.contracts import (
     SourceLimits,
     SourceState,
 )
+from rigtools.errors import one_line
 
 SIMULATED_RESOURCE = "TCPIP0::192.168.1.20::inst0::INSTR"
 TERMINATION = "\n"
@@ -77,11 +78,11 @@ def open_resource_manager(backend: str = "") -> pyvisa.ResourceManager:
     try:
         return pyvisa.ResourceManager(backend)
     except Exception as exc:  # noqa: BLE001 - backends raise what they like (pyvisa-sim: yaml errors)
-        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        first = one_line(exc, first=True)
         # pyvisa-sim puts the repr of a whole traceback after its own sentence: keep the sentence
         first = first.split(" 'Traceback")[0].strip()
         raise DriverUnavailable(
-            f"no VISA library available ({first}); install NI-VISA or pyvisa-py, or use --simulated"
+            f"no VISA library available ({first}); install NI-VISA or pyvisa-py, or use --backend sim"
         ) from None
 
 

@@ -40,7 +40,7 @@ import numpy as np
 from rigtools.drivers.contracts import AcquisitionDevice, DaqFault, DriverError, SafetyAbort
 from rigtools.drivers.drive_signals import RandomDrive  # noqa: F401  (kept importable from here)
 from rigtools.drivers.safety import SafetyMonitor
-from rigtools.errors import UserError
+from rigtools.errors import UserError, one_line
 
 if TYPE_CHECKING:
     from typing import Self
@@ -58,7 +58,7 @@ class Sink(Protocol):
     def append(self, block: np.ndarray) -> None: ...
 
 
-class AcquisitionAborted(UserError):
+class AcquisitionAborted(FaultError):
     """An acquisition stopped on an error, with the drive brought to zero.
 
     Attributes
@@ -72,8 +72,6 @@ class AcquisitionAborted(UserError):
     time
         Time of the error from the start of the stream, s.
     """
-
-    exit_code = 4  # rig CLI: a fault stopped the run (like drivers.DriverError)
 
     def __init__(
         self, message: str, *, fault: str, cause: BaseException, samples_kept: int, time: float
@@ -97,11 +95,6 @@ class StreamStats:
     @property
     def duration(self) -> float:
         return self.samples / self.sample_rate
-
-
-def _one_line(exc: BaseException) -> str:
-    text = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-    return text
 
 
 def stream_piece(device: AcquisitionDevice) -> int:
@@ -321,7 +314,7 @@ class BlockStream:
         fault = exc.fault if isinstance(exc, DriverError) else type(exc).__name__
         t = self.stats.samples / self.stats.sample_rate
         raise AcquisitionAborted(
-            f"acquisition aborted at t = {t:.3f} s: {_one_line(exc)}; drive brought to zero; "
+            f"acquisition aborted at t = {t:.3f} s: {one_line(exc, first=True)}; drive brought to zero; "
             f"{self.stats.samples} samples per channel ({t:.3f} s) kept",
             fault=fault,
             cause=exc,

@@ -16,6 +16,44 @@ EXIT_SIGPIPE = 128 + 13  # 141: the reader of stdout went away (`rig ... | head`
 EXIT_SIGTERM = 128 + 15  # 143: terminated (SIGTERM: kill, timeout, a job scheduler)
 
 
+def one_line(
+    error: BaseException | str, limit: int = 500, *, first: bool = False, typed: bool = False
+) -> str:
+    """The one line an error is shown as (a message, a recording's abort reason): the one rule.
+
+    Parameters
+    ----------
+    error
+        An exception or its text.
+    limit
+        At most this many characters (cut with ``...``).
+    first
+        Keep only the first non-blank line (driver messages put details on the lines after);
+        otherwise every line joined, white space folded.
+    typed
+        Prefix ``"TypeName: "`` (abort reasons: what failed).
+
+    Returns
+    -------
+    str
+        The line; the exception's type name when it has no text; a Ctrl-C without text
+        ``"KeyboardInterrupt: interrupted by the user"``.
+    """
+    text = str(error)
+    if first:
+        text = next((line for line in text.splitlines() if line.strip()), "")
+    text = " ".join(text.split())
+    if isinstance(error, BaseException):
+        name = type(error).__name__
+        if isinstance(error, KeyboardInterrupt):  # rigtools.errors.Interrupted names its signal
+            text = text or "KeyboardInterrupt: interrupted by the user"
+        elif not text:
+            text = name
+        elif typed:
+            text = f"{name}: {text}"
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
 class UserError(Exception):
     """Bad input from the user (config, command line, file). Exit status 2 by default."""
 
@@ -24,6 +62,13 @@ class UserError(Exception):
 
 class ConfigError(UserError):
     """A rig file that does not validate."""
+
+
+class FaultError(UserError):
+    """A fault, a safety abort or a write error stopped the work (exit status 4, :data:`EXIT_FAULT`).
+    Every error that ends ``rig`` with status 4 is one of these (or a driver fault)."""
+
+    exit_code = EXIT_FAULT
 
 
 class HardwareUnavailable(UserError):

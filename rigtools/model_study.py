@@ -13,7 +13,7 @@ from contextlib import AbstractContextManager, nullcontext
 from pathlib import Path
 from typing import Any
 
-from rigtools.errors import Interrupted, UserError
+from rigtools.errors import Interrupted, UserError, one_line
 from rigtools.options import MAX_POINTS, gap, quantity, value_list
 
 HELP = "run a gap, force or frequency study of the vibro-impact model and record every point"
@@ -162,7 +162,6 @@ def record_study(
     (:func:`rigtools.simulation.write_study`).
     """
     from rigtools.recording import RecordingWriter
-    from rigtools.recording.writer import one_line
     from rigtools.simulation import write_study
 
     with guard():
@@ -188,7 +187,7 @@ def record_study(
         raise StudyStopped(exc, done, planned) from None
     except BaseException as exc:
         with guard():
-            rec.abort(one_line(exc))
+            rec.abort(one_line(exc, typed=True))
         raise
     with guard():
         rec.close()

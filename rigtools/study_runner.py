@@ -27,7 +27,7 @@ from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
-from rigtools.errors import UserError
+from rigtools.errors import FaultError, UserError
 from rigtools.sim.studies import MapPlan, PlannedPoint
 
 if TYPE_CHECKING:
@@ -44,10 +44,8 @@ WORKER_ENV = {
 Progress = Callable[[int, int, str], None]
 
 
-class StudyRunnerError(UserError):
+class StudyRunnerError(FaultError):
     """A study that could not go on (a point lost twice, a scheduler that cannot be reached)."""
-
-    exit_code = 4
 
 
 @dataclass(frozen=True)

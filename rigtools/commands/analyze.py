@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 
 from rigtools.errors import UserError
 
@@ -63,127 +62,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
-def _fmt(x, digits: int = 4) -> str:
-    if x is None or (isinstance(x, float) and not math.isfinite(x)):
-        return "–"
-    if isinstance(x, bool):
-        return "yes" if x else "no"
-    if isinstance(x, float):
-        return f"{x:.{digits}g}"
-    return str(x)
-
-
-def print_tables(analysis, console) -> None:
-    """The rich tables of ``rig analyze``."""
-    from rich.table import Table
-
-    console.print(
-        f"{analysis.path}: {analysis.procedure or 'recording'} ({analysis.backend}, "
-        f"status {analysis.status}); amplitudes are peak"
-    )
-    for note in analysis.notes + analysis.skipped:
-        console.print(f"note: {note}")
-    rows = analysis.point_rows()
-    if rows:
-        short = {
-            "point": "pt",
-            "fe (Hz)": "fe Hz",
-            "F0 target, peak (N)": "F0 N",
-            "F1 measured, peak (N)": "F1 N",
-            "gap (mm)": "gap mm",
-            "impacts/period": "imp/T",
-            "settled": "settled",
-        }
-        cols = list(rows[0])
-        harm = [c for c in cols if "·fe" in c]
-        for title, group, caption in (
-            (
-                "periodic points",
-                ["point"] + [c for c in cols if c not in harm and c != "point"],
-                "F0 target and F1 measured force fundamental, peak; imp/T: impacts per period",
-            ),
-            (
-                "shroud-acceleration harmonics, peak (m/s²)",
-                ["point"] + harm,
-                "A6, P22...: active/passive shroud at 6·fe, 22·fe...",
-            ),
-        ):
-            if len(group) < 2:
-                continue
-            table = Table(title=title, caption=caption)
-            for c in group:
-                table.add_column(
-                    short.get(c) or c.replace("active ", "A").replace("passive ", "P").split("·")[0],
-                    justify="right",
-                    no_wrap=True,
-                )
-            for r in rows:
-                table.add_row(*(_fmt(r.get(c), 3) for c in group))
-            console.print(table)
-        console.print(
-            "modes: none from sine points (a sine excites one frequency at a time; use rig acquire frf)"
-        )
-    for p in analysis.broadband:
-        est = p.frf.estimate
-        table = Table(
-            title=f"point {p.index}: modes ({p.frf.kind}, {est.n_averages} averages, "
-            f"{est.resolution_hz:.3g} Hz resolution, {p.excitation})"
-        )
-        for col in ("response", "mode", "f (Hz)", "ζ (%)", "coherence", "method"):
-            table.add_column(col, justify="right")
-        for i, r in enumerate(p.frf.responses):
-            m = p.frf.modes[r]
-            if not m.modes:
-                table.add_row(r, "–", "–", "–", _fmt(float(est.coherence[i][p._band()].mean())), m.method)
-            for j, mode in enumerate(m.modes):
-                table.add_row(
-                    r,
-                    str(j + 1),
-                    f"{mode.frequency_hz:.2f}",
-                    f"{100 * mode.damping_ratio:.3f}",
-                    _fmt(p.coherence_at(i, mode.frequency_hz)),
-                    m.method,
-                )
-        console.print(table)
-        for n in p.notes:
-            console.print(f"note: {n}")
-    if analysis.frequency_table:
-        cols = [
-            ("blade", "blade"),
-            ("mode", "k"),
-            ("fem_hz", "FEM"),
-            ("am_hz", "AM"),
-            ("em_hz", "EM"),
-            ("fem_vs_em_pct", "FEM %"),
-            ("am_vs_em_pct", "AM %"),
-        ]
-        if "article_hz" in analysis.frequency_table[0]:
-            cols += [("article_hz", "article"), ("em_vs_article_pct", "EM-art %")]
-        table = Table(
-            title="flexural natural frequencies, Hz (paper's Table 2)",
-            caption="EM: identified here; FEM/AM %: (model - EM) / EM; article: the simulated "
-            "rig's own test article, EM-art %: (EM - article) / article",
-        )
-        for _, h in cols:
-            table.add_column(h, justify="right", no_wrap=True)
-        for r in analysis.frequency_table:
-            table.add_row(
-                *(
-                    f"{r[k]:.1f}"
-                    if isinstance(r[k], float) and k.endswith("hz") and r[k] == r[k]
-                    else f"{r[k]:+.3f}"
-                    if k == "em_vs_article_pct" and r[k] == r[k]
-                    else f"{r[k]:+.2f}"
-                    if isinstance(r[k], float) and r[k] == r[k]
-                    else "–"
-                    if isinstance(r[k], float)
-                    else str(r[k])
-                    for k, _ in cols
-                )
-            )
-        console.print(table)
-
-
 def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
@@ -206,7 +84,10 @@ def run(args: argparse.Namespace) -> int:
         doc["figures"] = [str(p) for p in written]
         print(json.dumps(doc, allow_nan=False))
         return 0
-    print_tables(analysis, console)
+    from rigtools.tables import analysis_tables
+
+    for item in analysis_tables(analysis):
+        console.print(item)
     for p in written:
         console.print(f"wrote {p}")
     return 0

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import sys
 from pathlib import Path
 
@@ -88,96 +87,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
-def _fmt(x, spec: str = ".4g") -> str:
-    try:
-        x = float(x)
-    except (TypeError, ValueError):
-        return "" if x is None else str(x)
-    return "–" if not math.isfinite(x) else format(x, spec)
-
-
-def print_comparison(cmp, k_show: int) -> None:
-    """Rich tables of a :class:`rigtools.recording_comparison.Comparison` on stdout."""
-    from rich.console import Console
-    from rich.table import Table
-
-    console = Console()
-    ml = cmp.model_label
-    how = (
-        f"model recording {cmp.model_source}"
-        if cmp.excitation is None
-        else f"{ml} simulated at every EM point, {cmp.excitation} excitation"
-    )
-    console.print(f"[bold]EM[/bold] {cmp.em_path}  vs  {how}")
-    if cmp.natural is not None and len(cmp.natural):
-        t = Table(title="natural frequencies, Hz (diff % = 100 (model - EM) / EM; AM vs FEM)")
-        for col in ("blade", "mode", "FEM", "AM", "EM", "FEM vs EM %", "AM vs EM %", "AM vs FEM %"):
-            t.add_column(col, justify="left" if col == "blade" else "right")
-        for r in cmp.natural.to_dict("records"):
-            t.add_row(
-                r["blade"],
-                str(r["mode"]),
-                _fmt(r["fem_hz"], ".2f"),
-                _fmt(r["am_hz"], ".2f"),
-                _fmt(r["em_hz"], ".2f"),
-                _fmt(r["fem_vs_em_pct"], "+.2f"),
-                _fmt(r["am_vs_em_pct"], "+.2f"),
-                _fmt(r["am_vs_fem_pct"], "+.3f"),
-            )
-        console.print(t)
-    for p in cmp.points:
-        t = Table(title=f"{p.label()}: harmonics (peak), score {p.score:.3f}")
-        for col in ("channel", "k", "f Hz", "EM", ml, "diff %"):
-            t.add_column(col, justify="left" if col == "channel" else "right")
-        for ch in dict.fromkeys(p.table["channel"]):
-            sub = p.table[(p.table["channel"] == ch) & ((p.table["k"] <= k_show) | (p.table["k"] == 22))]
-            for i, r in enumerate(sub.itertuples(index=False)):
-                t.add_row(
-                    ch if i == 0 else "",
-                    str(r.k),
-                    _fmt(r.frequency_hz, ".0f"),
-                    _fmt(r.em),
-                    _fmt(r.fem),
-                    _fmt(r.diff_pct, "+.1f"),
-                )
-            t.add_section()
-        console.print(t)
-        for line in p.explanation_lines(ml):
-            console.print(f"  [yellow]explained[/yellow]: {line}")
-    t = Table(title=f"agreement (10^-E over the shroud accelerations' harmonics), mean {cmp.mean_score:.3f}")
-    for col in (
-        "EM point",
-        "fe Hz",
-        "gap mm",
-        "F0 N",
-        "F1 EM N",
-        f"F1 {ml} N",
-        "active E",
-        "passive E",
-        "score",
-    ):
-        t.add_column(col, justify="right")
-    for p in cmp.points:
-        t.add_row(
-            str(p.em_index),
-            _fmt(p.params["fe"]),
-            _fmt(p.params.get("gap", math.nan) * 1e3),
-            _fmt(p.params.get("force_amplitude")),
-            _fmt(p.em.force_amplitude),
-            _fmt(p.model.force_amplitude),
-            _fmt(p.agreement.per_channel.get("active_shroud_accel"), ".3f"),
-            _fmt(p.agreement.per_channel.get("passive_shroud_accel"), ".3f"),
-            _fmt(p.score, ".3f"),
-        )
-    console.print(t)
-    for n in cmp.notes:
-        console.print(f"note: {n}")
-    if cmp.excitation is not None:
-        print(f"mean agreement score ({cmp.excitation} excitation, {ml}): {cmp.mean_score:.4f}")
-    else:
-        print(f"mean agreement score ({ml} recording): {cmp.mean_score:.4f}")
-
-
 def run(args: argparse.Namespace) -> int:
     from rigtools.options import count
 
@@ -230,7 +139,11 @@ def run(args: argparse.Namespace) -> int:
         out["figures"] = [str(p) for p in written]
         print(json.dumps(out, indent=1, allow_nan=False, default=_json_default))
     else:
-        print_comparison(cmp, k_show)
+        from rigtools.tables import comparison_tables
+
+        console = Console()
+        for item in comparison_tables(cmp, k_show):
+            console.print(item)
         for p in written:
             print(f"wrote {p}")
     return 0

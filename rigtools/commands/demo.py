@@ -6,7 +6,7 @@ import argparse
 import json
 from pathlib import Path
 
-from rigtools.errors import UserError
+from rigtools.errors import FaultError, UserError
 
 HELP = "the paper's study end to end on the simulated rig: recordings, one HTML report, findings C1-C7"
 EPILOG = """\
@@ -84,9 +84,7 @@ def run(args: argparse.Namespace) -> int:
         try:
             result = run_demo(out, settings, progress)
         except OSError as exc:
-            err = UserError(f"cannot write into {out}: {exc}")
-            err.exit_code = 4
-            raise err from None
+            raise FaultError(f"cannot write into {out}: {exc}") from None
     findings = result["findings"]
     if args.json:
         from rigtools.demo.run import findings_doc

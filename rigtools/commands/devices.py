@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 import json
 from pathlib import Path
-from typing import Any
 
 from rigtools.errors import UserError
 
@@ -56,114 +55,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.set_defaults(func=run)
 
 
-def _first_line(exc: BaseException) -> str:
-    text = str(exc).strip()
-    return text.splitlines()[0] if text else type(exc).__name__
-
-
-def list_ni_devices() -> dict[str, Any]:
-    """NI-DAQmx devices as plain data; ``reason`` says why there are none to list."""
-    try:  # here, not at the top: `rig --help` must not load nidaqmx
-        import nidaqmx.system
-        from nidaqmx.errors import DaqError, DaqNotFoundError, DaqNotSupportedError
-    except ImportError as exc:
-        return {
-            "available": False,
-            "driver_version": None,
-            "devices": [],
-            "reason": f"the nidaqmx Python package is not installed ({_first_line(exc)})",
-        }
-    try:
-        system = nidaqmx.system.System.local()
-        version = system.driver_version
-        devices = []
-        for dev in system.devices:
-            devices.append(
-                {
-                    "name": dev.name,
-                    "product_type": dev.product_type,
-                    "serial_number": f"{dev.serial_num:X}",
-                    "ai_channels": [c.name for c in dev.ai_physical_chans],
-                    "ao_channels": [c.name for c in dev.ao_physical_chans],
-                }
-            )
-    except DaqNotFoundError:
-        return {
-            "available": False,
-            "driver_version": None,
-            "devices": [],
-            "reason": "NI-DAQmx driver not installed on this machine",
-        }
-    except DaqNotSupportedError:
-        return {
-            "available": False,
-            "driver_version": None,
-            "devices": [],
-            "reason": "NI-DAQmx is not supported on this platform",
-        }
-    except DaqError as exc:
-        return {
-            "available": False,
-            "driver_version": None,
-            "devices": [],
-            "reason": f"NI-DAQmx error: {_first_line(exc)} (DAQmx {exc.error_code})",
-        }
-    return {
-        "available": True,
-        "driver_version": f"{version.major_version}.{version.minor_version}.{version.update_version}",
-        "devices": devices,
-        "reason": None,
-    }
-
-
-def list_visa_resources(backend: str = "") -> dict[str, Any]:
-    """VISA resources as plain data; ``reason`` says why there are none to list."""
-    try:  # here, not at the top: `rig --help` must not load pyvisa
-        from rigtools.drivers.contracts import DriverUnavailable
-        from rigtools.drivers.visa_source import open_resource_manager, simulator_backend
-    except ImportError as exc:
-        return {
-            "available": False,
-            "backend": backend or "default",
-            "resources": [],
-            "reason": f"the pyvisa Python package is not installed ({_first_line(exc)})",
-        }
-    if backend == "simulated":
-        backend = simulator_backend()
-    try:
-        rm = open_resource_manager(backend)
-    except DriverUnavailable as exc:
-        return {
-            "available": False,
-            "backend": backend or "default",
-            "resources": [],
-            "reason": str(exc).removesuffix(", or use --backend sim"),
-        }
-    try:
-        resources = list(rm.list_resources())
-        library = str(rm.visalib)
-    except Exception as exc:  # a VISA library that fails while listing: say so, don't crash
-        return {
-            "available": False,
-            "backend": backend or "default",
-            "resources": [],
-            "reason": f"VISA library failed to list resources: {_first_line(exc)}",
-        }
-    finally:
-        try:
-            rm.close()
-        except Exception:
-            pass
-    return {
-        "available": True,
-        "backend": backend or "default",
-        "library": library,
-        "resources": resources,
-        "reason": None,
-    }
-
-
 def run(args: argparse.Namespace) -> int:
+    from rigtools.drivers.inventory import list_ni_devices, list_visa_resources
+
     if args.visa_backend and not (
         args.visa_backend in ("simulated", "@py", "@ivi") or args.visa_backend.endswith("@sim")
     ):

@@ -46,41 +46,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
-def parse_rename(text: str) -> dict[str, str]:
-    """``"a=b,c=d"`` as ``{"a": "b", "c": "d"}``."""
-    out = {}
-    for item in (t for t in text.split(",") if t.strip()):
-        old, sep, new = item.partition("=")
-        if not sep or not old.strip() or not new.strip():
-            raise UserError(f"--rename = {text!r}: write OLD=NEW pairs separated by commas")
-        out[old.strip()] = new.strip()
-    return out
-
-
-def check_renames(source: str, rename: dict[str, str]) -> None:
-    """Refuse ``--rename`` entries naming no channel of ``source`` (a typo would otherwise import
-    the channel under its old name without a word). A file npTDMS cannot read is left to the
-    import, which says so."""
-    if not rename:
-        return
-    try:
-        from nptdms import TdmsFile
-
-        meta = TdmsFile.read_metadata(source)
-        names = {ch.name for group in meta.groups() for ch in group.channels()}
-    except Exception:  # not readable: import_tdms gives the one-line reason
-        return
-    unknown = sorted(set(rename) - names)
-    if unknown:
-        raise UserError(
-            f"--rename: no channel {', '.join(repr(u) for u in unknown)} in {source} "
-            f"(channels: {', '.join(sorted(names)) or 'none'})"
-        )
-
-
 def run(args: argparse.Namespace) -> int:
     from rigtools.config import load_rig
-    from rigtools.interop.tdms import import_tdms
+    from rigtools.interop.tdms import check_renames, import_tdms, parse_rename
 
     rename = parse_rename(args.rename)
     rate = None

@@ -30,7 +30,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from rigtools.errors import Interrupted, UserError
+from rigtools.errors import Interrupted, UserError, one_line
 
 
 class Status(str, enum.Enum):  # noqa: UP042 -- StrEnum would change str()/format() of members, which messages print
@@ -46,10 +46,8 @@ class StopRequested(BaseException):
     """
 
 
-class ProcedureFailed(UserError):
+class ProcedureFailed(FaultError):
     """A procedure ended ``failed`` (exit 4): a fault, a safety abort or an error."""
-
-    exit_code = 4
 
 
 @dataclass(frozen=True)
@@ -161,14 +159,14 @@ class Procedure:
         except KeyboardInterrupt as exc:
             status, reason, error = Status.ABORTED, (self.stop_reason or _interrupt_text(exc)), exc
         except BaseException as exc:  # noqa: BLE001 - recorded, then re-raised
-            status, reason, error = Status.FAILED, _one_line(exc), exc
+            status, reason, error = Status.FAILED, one_line(exc), exc
         finally:
             self._restore_signal_handlers(previous)
             try:
                 self.shutdown(status, reason)
             except BaseException as exc:  # noqa: BLE001 - a failed shutdown is recorded, then raised
                 if error is None:
-                    status, reason, error = Status.FAILED, _one_line(exc), exc
+                    status, reason, error = Status.FAILED, one_line(exc), exc
         result = self.result or ProcedureResult(status)
         result.status, result.reason = status, reason
         self.result = result
@@ -209,11 +207,6 @@ class Procedure:
 def _interrupt_text(exc: BaseException) -> str:
     text = str(exc).strip()
     return f"interrupted: {text}" if text else "interrupted (Ctrl-C)"
-
-
-def _one_line(exc: BaseException) -> str:
-    text = " ".join(str(exc).split())
-    return text or type(exc).__name__
 
 
 def mark_end_status(path: str | Path, status: Status, reason: str) -> None:

@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from rigtools.errors import UserError
+from rigtools.errors import FaultError, UserError
 
 SCHEMA_NAME = "rigtools.recording"
 SCHEMA_VERSION = 1
@@ -99,15 +99,13 @@ class RecordingError(UserError):
     """A recording file that cannot be created, opened or trusted; the message is one line."""
 
 
-class RecordingWriteError(RecordingError):
+class RecordingWriteError(RecordingError, FaultError):
     """Writing a recording failed in the operating system (disk full, quota, file too large, I/O).
 
     The message names the file and the OS error on one line. Everything flushed before stays
     readable; the writer marked the file ``aborted`` with this message where the disk still
     allowed it. Exit status 4 (a fault stopped the run).
     """
-
-    exit_code = 4
 
 
 def point_name(index: int) -> str:

@@ -66,6 +66,7 @@ import h5py
 import numpy as np
 
 import rigtools
+from rigtools.errors import one_line
 from rigtools.recording.lock import LockBusy, WriterLock
 from rigtools.recording.schema import (
     POINTS_GROUP,
@@ -106,7 +107,7 @@ def _os_error_text(exc: BaseException) -> str:
     match = _HDF5_ERRNO.search(str(exc))
     if match:
         return f"[Errno {match.group(1)}] {match.group(2)}"
-    return one_line(exc, 200)
+    return one_line(exc, 200, typed=True)
 
 
 def _preallocate(fd: int, offset: int, length: int) -> None:
@@ -143,15 +144,6 @@ def _rig_text(rig: Any) -> str:
     if isinstance(rig, Mapping):
         return json.dumps(rig, indent=1, default=_json_default, allow_nan=False)
     raise TypeError("rig must be TOML or JSON text (or an object with to_json())")
-
-
-def one_line(exc: BaseException, limit: int = 500) -> str:
-    """``"TypeName: message"`` of an exception on one line, at most ``limit`` characters."""
-    if isinstance(exc, KeyboardInterrupt):  # rigtools.errors.Interrupted names its signal
-        return " ".join(str(exc).split()) or "KeyboardInterrupt: interrupted by the user"
-    text = f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
-    text = " ".join(text.split())
-    return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
 def _shuffle_deflate(chunk: np.ndarray, level: int) -> bytes:
@@ -484,10 +476,10 @@ class RecordingWriter:
             self.close()
         else:
             try:
-                self.abort(one_line(exc))
+                self.abort(one_line(exc, typed=True))
             except Exception as secondary:  # noqa: BLE001 - warned: never hide the original exception
                 warnings.warn(
-                    f"could not mark {self.path} as aborted: {one_line(secondary)}",
+                    f"could not mark {self.path} as aborted: {one_line(secondary, typed=True)}",
                     RuntimeWarning,
                     stacklevel=2,
                 )

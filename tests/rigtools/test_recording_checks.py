@@ -89,8 +89,9 @@ def test_reader_and_info_do_not_import_scipy(tmp_path):
         import argparse, sys
         from rigtools.recording import open_recording, check_recording
         from rigtools.commands import info, check
+        from rigtools.recording.summary import summary
         with open_recording({str(path)!r}) as rec:
-            info.summary(rec)
+            summary(rec)
         info.run(argparse.Namespace(file={str(path)!r}, json=False))
         check.run(argparse.Namespace(file={str(path)!r}, json=False, quick=False))
         heavy = sorted(m for m in sys.modules if m.split(".")[0] in
@@ -116,3 +117,14 @@ def test_info_json_into_a_closed_pipe_prints_no_traceback(tmp_path):
     )
     assert run.stdout == "{\n"
     assert "Traceback" not in run.stderr and "BrokenPipe" not in run.stderr
+
+
+def test_info_shows_numbers_to_five_digits_and_summarises_arrays():
+    from rigtools.recording.summary import format_params, format_value
+
+    assert format_value(0.123456789) == "0.12346"
+    assert format_value(list(range(100))) == "[100 values, 0 .. 99]"
+    assert format_value([1.0, 2.5]) == "[1, 2.5]"
+    assert format_params({"gap": 0.000512345, "fe": 60.000001, "settled": True}) == (
+        "gap=0.51234 mm, fe=60 Hz, settled=yes"
+    )

@@ -1,0 +1,222 @@
+"""The tables ``rig analyze`` and ``rig compare`` print: lines and rich tables built from an
+analysis (:mod:`rigtools.analyze`) or a comparison (:mod:`rigtools.recording_comparison`), for a
+person to read. The commands print them in order."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+
+def _fmt(x, digits: int = 4) -> str:
+    if x is None or (isinstance(x, float) and not math.isfinite(x)):
+        return "–"
+    if isinstance(x, bool):
+        return "yes" if x else "no"
+    if isinstance(x, float):
+        return f"{x:.{digits}g}"
+    return str(x)
+
+
+def analysis_tables(analysis: Any) -> list[Any]:
+    """What ``rig analyze`` prints of a :class:`rigtools.analyze.RecordingAnalysis`: lines and rich
+    tables, in order."""
+    from rich.table import Table
+
+    out: list[Any] = []
+
+    out.append(
+        f"{analysis.path}: {analysis.procedure or 'recording'} ({analysis.backend}, "
+        f"status {analysis.status}); amplitudes are peak"
+    )
+    for note in analysis.notes + analysis.skipped:
+        out.append(f"note: {note}")
+    rows = analysis.point_rows()
+    if rows:
+        short = {
+            "point": "pt",
+            "fe (Hz)": "fe Hz",
+            "F0 target, peak (N)": "F0 N",
+            "F1 measured, peak (N)": "F1 N",
+            "gap (mm)": "gap mm",
+            "impacts/period": "imp/T",
+            "settled": "settled",
+        }
+        cols = list(rows[0])
+        harm = [c for c in cols if "·fe" in c]
+        for title, group, caption in (
+            (
+                "periodic points",
+                ["point"] + [c for c in cols if c not in harm and c != "point"],
+                "F0 target and F1 measured force fundamental, peak; imp/T: impacts per period",
+            ),
+            (
+                "shroud-acceleration harmonics, peak (m/s²)",
+                ["point"] + harm,
+                "A6, P22...: active/passive shroud at 6·fe, 22·fe...",
+            ),
+        ):
+            if len(group) < 2:
+                continue
+            table = Table(title=title, caption=caption)
+            for c in group:
+                table.add_column(
+                    short.get(c) or c.replace("active ", "A").replace("passive ", "P").split("·")[0],
+                    justify="right",
+                    no_wrap=True,
+                )
+            for r in rows:
+                table.add_row(*(_fmt(r.get(c), 3) for c in group))
+            out.append(table)
+        out.append(
+            "modes: none from sine points (a sine excites one frequency at a time; use rig acquire frf)"
+        )
+    for p in analysis.broadband:
+        est = p.frf.estimate
+        table = Table(
+            title=f"point {p.index}: modes ({p.frf.kind}, {est.n_averages} averages, "
+            f"{est.resolution_hz:.3g} Hz resolution, {p.excitation})"
+        )
+        for col in ("response", "mode", "f (Hz)", "ζ (%)", "coherence", "method"):
+            table.add_column(col, justify="right")
+        for i, r in enumerate(p.frf.responses):
+            m = p.frf.modes[r]
+            if not m.modes:
+                table.add_row(r, "–", "–", "–", _fmt(float(est.coherence[i][p._band()].mean())), m.method)
+            for j, mode in enumerate(m.modes):
+                table.add_row(
+                    r,
+                    str(j + 1),
+                    f"{mode.frequency_hz:.2f}",
+                    f"{100 * mode.damping_ratio:.3f}",
+                    _fmt(p.coherence_at(i, mode.frequency_hz)),
+                    m.method,
+                )
+        out.append(table)
+        for n in p.notes:
+            out.append(f"note: {n}")
+    if analysis.frequency_table:
+        cols = [
+            ("blade", "blade"),
+            ("mode", "k"),
+            ("fem_hz", "FEM"),
+            ("am_hz", "AM"),
+            ("em_hz", "EM"),
+            ("fem_vs_em_pct", "FEM %"),
+            ("am_vs_em_pct", "AM %"),
+        ]
+        if "article_hz" in analysis.frequency_table[0]:
+            cols += [("article_hz", "article"), ("em_vs_article_pct", "EM-art %")]
+        table = Table(
+            title="flexural natural frequencies, Hz (paper's Table 2)",
+            caption="EM: identified here; FEM/AM %: (model - EM) / EM; article: the simulated "
+            "rig's own test article, EM-art %: (EM - article) / article",
+        )
+        for _, h in cols:
+            table.add_column(h, justify="right", no_wrap=True)
+        for r in analysis.frequency_table:
+            table.add_row(
+                *(
+                    f"{r[k]:.1f}"
+                    if isinstance(r[k], float) and k.endswith("hz") and r[k] == r[k]
+                    else f"{r[k]:+.3f}"
+                    if k == "em_vs_article_pct" and r[k] == r[k]
+                    else f"{r[k]:+.2f}"
+                    if isinstance(r[k], float) and r[k] == r[k]
+                    else "–"
+                    if isinstance(r[k], float)
+                    else str(r[k])
+                    for k, _ in cols
+                )
+            )
+        out.append(table)
+    return out
+
+
+def _fmt_spec(x: Any, spec: str = ".4g") -> str:
+    try:
+        x = float(x)
+    except (TypeError, ValueError):
+        return "" if x is None else str(x)
+    return "–" if not math.isfinite(x) else format(x, spec)
+
+
+def comparison_tables(cmp: Any, k_show: int) -> list[Any]:
+    """What ``rig compare`` prints of a :class:`rigtools.recording_comparison.Comparison`: lines and
+    rich tables, in order; per point the harmonics k = 1..``k_show`` and 22."""
+    from rich.table import Table
+
+    out: list[Any] = []
+    ml = cmp.model_label
+    how = (
+        f"model recording {cmp.model_source}"
+        if cmp.excitation is None
+        else f"{ml} simulated at every EM point, {cmp.excitation} excitation"
+    )
+    out.append(f"[bold]EM[/bold] {cmp.em_path}  vs  {how}")
+    if cmp.natural is not None and len(cmp.natural):
+        t = Table(title="natural frequencies, Hz (diff % = 100 (model - EM) / EM; AM vs FEM)")
+        for col in ("blade", "mode", "FEM", "AM", "EM", "FEM vs EM %", "AM vs EM %", "AM vs FEM %"):
+            t.add_column(col, justify="left" if col == "blade" else "right")
+        for r in cmp.natural.to_dict("records"):
+            t.add_row(
+                r["blade"],
+                str(r["mode"]),
+                _fmt_spec(r["fem_hz"], ".2f"),
+                _fmt_spec(r["am_hz"], ".2f"),
+                _fmt_spec(r["em_hz"], ".2f"),
+                _fmt_spec(r["fem_vs_em_pct"], "+.2f"),
+                _fmt_spec(r["am_vs_em_pct"], "+.2f"),
+                _fmt_spec(r["am_vs_fem_pct"], "+.3f"),
+            )
+        out.append(t)
+    for p in cmp.points:
+        t = Table(title=f"{p.label()}: harmonics (peak), score {p.score:.3f}")
+        for col in ("channel", "k", "f Hz", "EM", ml, "diff %"):
+            t.add_column(col, justify="left" if col == "channel" else "right")
+        for ch in dict.fromkeys(p.table["channel"]):
+            sub = p.table[(p.table["channel"] == ch) & ((p.table["k"] <= k_show) | (p.table["k"] == 22))]
+            for i, r in enumerate(sub.itertuples(index=False)):
+                t.add_row(
+                    ch if i == 0 else "",
+                    str(r.k),
+                    _fmt_spec(r.frequency_hz, ".0f"),
+                    _fmt_spec(r.em),
+                    _fmt_spec(r.fem),
+                    _fmt_spec(r.diff_pct, "+.1f"),
+                )
+            t.add_section()
+        out.append(t)
+        for line in p.explanation_lines(ml):
+            out.append(f"  [yellow]explained[/yellow]: {line}")
+    t = Table(title=f"agreement (10^-E over the shroud accelerations' harmonics), mean {cmp.mean_score:.3f}")
+    for col in (
+        "EM point",
+        "fe Hz",
+        "gap mm",
+        "F0 N",
+        "F1 EM N",
+        f"F1 {ml} N",
+        "active E",
+        "passive E",
+        "score",
+    ):
+        t.add_column(col, justify="right")
+    for p in cmp.points:
+        t.add_row(
+            str(p.em_index),
+            _fmt_spec(p.params["fe"]),
+            _fmt_spec(p.params.get("gap", math.nan) * 1e3),
+            _fmt_spec(p.params.get("force_amplitude")),
+            _fmt_spec(p.em.force_amplitude),
+            _fmt_spec(p.model.force_amplitude),
+            _fmt_spec(p.agreement.per_channel.get("active_shroud_accel"), ".3f"),
+            _fmt_spec(p.agreement.per_channel.get("passive_shroud_accel"), ".3f"),
+            _fmt_spec(p.score, ".3f"),
+        )
+    out.append(t)
+    for n in cmp.notes:
+        out.append(f"note: {n}")
+    how = f"{cmp.excitation} excitation, {ml}" if cmp.excitation is not None else f"{ml} recording"
+    out.append(f"mean agreement score ({how}): {cmp.mean_score:.4f}")
+    return out
