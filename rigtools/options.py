@@ -246,6 +246,57 @@ def output_path(
     return out
 
 
+def output_folder(
+    text: str | os.PathLike,
+    option: str = "--out",
+    *,
+    replaceable: str | None = None,
+    owner: str | None = None,
+) -> Path:
+    """Check an output folder before any work is done (the one rule of every ``--out DIR``).
+
+    Parameters
+    ----------
+    text
+        The folder given; it may not exist yet (it is made when written).
+    option
+        The option's name for the message.
+    replaceable
+        A glob (``"run.compare-*.png"``): files of that name in the folder may be replaced only if
+        rigtools wrote them as derived files (:func:`rigtools.derived_files.is_derived_plot`).
+    owner
+        A marker file name (``".rig-demo"``): a folder holding other files must hold this marker
+        (a folder a previous run of the same command wrote), else it is refused.
+    owner_name
+        Who writes the marker, for the message (``"a demo"``).
+
+    Raises
+    ------
+    UserError
+        One line: the path exists and is not a folder, a taken name is not a rigtools file, or
+        the folder holds files another program wrote.
+    """
+    out = Path(text)
+    if out.exists() and not out.is_dir():
+        raise UserError(f"{option} {out}: exists and is not a folder")
+    if not out.is_dir():
+        return out
+    if owner is not None and any(out.iterdir()) and not (out / owner).exists():
+        raise UserError(
+            f"{option} {out}: holds files that this command did not write; give a new or empty folder"
+        )
+    if replaceable is not None:
+        from rigtools.derived_files import is_derived_plot
+
+        for path in sorted(out.glob(replaceable)):
+            if not (path.is_file() and not path.is_symlink() and is_derived_plot(path)):
+                raise UserError(
+                    f"{option}: {path} exists and was not made by rigtools as a derived file; "
+                    "not overwritten (move it or choose another folder)"
+                )
+    return out
+
+
 def check_out(args: argparse.Namespace, *, suffixes: Iterable[str] | None = None) -> Path:
     """``args.out`` checked by :func:`output_path` (``args.overwrite`` if the command has it)."""
     return output_path(args.out, getattr(args, "overwrite", False), "--out", suffixes=suffixes)

@@ -148,3 +148,25 @@ class StudyProgress:
         if self.enabled:
             self.bar.__exit__(*exc)  # type: ignore[arg-type]  # rich's __exit__ takes the exc_info triple as given
         return False
+
+
+@contextmanager
+def counted(text: str, quiet: bool = False, prefix: str = "") -> Iterator[Callable[[int, int, str], None]]:
+    """A bar of counted work (``done / total``) on stderr; yields ``update(done, total, text)``,
+    which shows ``prefix + text`` as the description (does nothing if quiet / not a tty)."""
+    from rich.console import Console
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    with Progress(
+        TextColumn("{task.description}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeElapsedColumn(),
+        console=Console(stderr=True),
+        transient=True,
+        disable=quiet or not sys.stderr.isatty(),
+    ) as bar:
+        task = bar.add_task(text, total=None)
+        yield lambda done, total, what: bar.update(
+            task, completed=done, total=total, description=prefix + what
+        )

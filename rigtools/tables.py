@@ -1,6 +1,7 @@
-"""The tables ``rig analyze`` and ``rig compare`` print: lines and rich tables built from an
-analysis (:mod:`rigtools.analyze`) or a comparison (:mod:`rigtools.recording_comparison`), for a
-person to read. The commands print them in order."""
+"""The tables the commands print, for a person to read: lines and rich tables built from an
+analysis (``rig analyze``, :mod:`rigtools.analyze`), a comparison (``rig compare``,
+:mod:`rigtools.recording_comparison`), a model update (``rig update``, :mod:`rigtools.model_update`)
+and a simulated run (``rig simulate``). The commands print them in order."""
 
 from __future__ import annotations
 
@@ -220,3 +221,81 @@ def comparison_tables(cmp: Any, k_show: int) -> list[Any]:
     how = f"{cmp.excitation} excitation, {ml}" if cmp.excitation is not None else f"{ml} recording"
     out.append(f"mean agreement score ({how}): {cmp.mean_score:.4f}")
     return out
+
+
+def update_tables(o: Any) -> list[Any]:
+    """What ``rig update`` prints of a :class:`rigtools.model_update.UpdateOutcome`: tables, the
+    fit reports and notes, in order (lines starting with ``[`` carry rich markup)."""
+    from rich.table import Table
+    from rich.text import Text
+
+    out: list[Any] = []
+    t = Table(title="identified modes used")
+    for col in ("blade", "order", "identified Hz", "zeta", "nominal model Hz", "from"):
+        t.add_column(col, justify="left" if col in ("blade", "from") else "right")
+    for p in o.paired:
+        zeta = "-" if p.damping_ratio is None else f"{p.damping_ratio:.4f}"
+        t.add_row(
+            p.blade, str(p.order), f"{p.frequency_hz:.3f}", zeta, f"{p.model_hz:.3f}", ", ".join(p.sources)
+        )
+    out.append(t)
+    for n in o.notes:
+        out.append(f"[yellow]note:[/] {n}")
+    out.append(Text(o.fit.report()))
+    if o.fit.identifiability.unresolved:
+        out.append(
+            "[yellow]the values of the parameters named above are kept in the rig file but the data do "
+            "not determine them: add modes (another blade, higher orders) or fit fewer parameters[/]"
+        )
+    if o.dwells:
+        c = o.contact_fit
+        out.append(Text(c.report()))
+        for r in o.other_laws:
+            out.append(
+                f"other law: {r.law}: rms harmonic error {100 * r.rms_log_error_after:.2f} % "
+                f"(kept: {c.law}, {100 * c.rms_log_error_after:.2f} %)"
+            )
+        s = Table(title="EM-versus-FEM agreement (1 = identical harmonics)")
+        s.add_column("dwell")
+        for step in o.scores:
+            s.add_column(step, justify="right")
+        for i, d in enumerate(o.dwells):
+            s.add_row(
+                f"{d.name} ({d.fe:g} Hz, {d.force_amplitude:.3g} N, gap {1e3 * d.gap:g} mm)",
+                *[f"{o.scores[k][i]:.4f}" for k in o.scores],
+            )
+        out.append(s)
+    out.append(f"wrote {o.out} (check: rig modal --rig {o.out})")
+    if o.warnings and o.warnings[0].startswith("the fitted"):
+        out.append(f"[yellow]warning:[/] {o.warnings[0]}")
+    return out
+
+
+def run_tables(doc: dict, result: Any, out: Any) -> list[Any]:
+    """What ``rig simulate`` prints of a run: the harmonics k = 1..10 of the shroud accelerations,
+    the force and the contact force, then the contact and steady-state line."""
+    from rich.table import Table
+
+    out_items: list[Any] = []
+    table = Table(title=f"harmonics k*fe (fe = {result.fe:g} Hz), peak amplitudes")
+    table.add_column("k", justify="right")
+    table.add_column("Hz", justify="right")
+    names = ("active_shroud_accel", "passive_shroud_accel", "force", "contact_force")
+    for name in names:
+        table.add_column(name + (" (m/s²)" if "accel" in name else " (N)"), justify="right")
+    h = doc["harmonics"]
+    for i in range(10):
+        table.add_row(
+            str(i + 1),
+            f"{h['force'][i]['frequency_hz']:g}",
+            *(f"{h[name][i]['amplitude']:.4g}" for name in names),
+        )
+    out_items.append(table)
+    c = doc["contact"]
+    out_items.append(
+        f"peak contact force {c['peak_force_n']:.4g} N, {c['impacts_per_period']:g} impacts per period, "
+        f"steady state: {'yes' if doc['steady_state'] else 'NO'} "
+        f"(after {result.settle_time:.3g} s simulated); wrote {out}"
+        + (f" and {doc['plot']}" if doc.get("plot") else "")
+    )
+    return out_items

@@ -6,6 +6,7 @@ import argparse
 import json
 
 from rigtools.errors import UserError
+from rigtools.options import output_folder
 
 HELP = "analyse a recording: harmonics and impacts per point; FRFs (H1, H2, Hv) and modes of FRF tests"
 EPILOG = """\
@@ -63,16 +64,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from pathlib import Path
 
     from rich.console import Console
 
     from rigtools.analyze import analyze_recording
 
     channels = [c.strip() for c in args.channels.split(",") if c.strip()] if args.channels else None
-    out = Path(args.out) if args.out else None
-    if out is not None and out.exists() and not out.is_dir():
-        raise UserError(f"--out {out}: exists and is not a folder")
+    out = output_folder(args.out) if args.out else None
     console = Console(stderr=args.json)
     with console.status(f"analysing {args.file}"):
         analysis = analyze_recording(args.file, kind=args.kind, method=args.method, channels=channels)

@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 from pathlib import Path
 
 from rigtools.errors import UserError
+from rigtools.options import output_folder
 
 HELP = "EM vs FEM/AM side by side: harmonic tables, agreement scores, natural frequencies, figures"
 EPILOG = """\
@@ -100,28 +100,15 @@ def run(args: argparse.Namespace) -> int:
         if path is not None and not Path(path).is_file():
             raise UserError(f"{what} {path}: no such file")
     if args.out is not None:
-        _check_out_dir(Path(args.out), Path(args.em).stem)
+        output_folder(args.out, replaceable=f"{Path(args.em).stem}.compare-*.png")
     from rich.console import Console
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
+    from rigtools.json_values import json_default
+    from rigtools.progress import counted
     from rigtools.recording_comparison import compare_recordings
 
-    with Progress(
-        TextColumn("{task.description}"),
-        BarColumn(),
-        MofNCompleteColumn(),
-        TimeElapsedColumn(),
-        console=Console(stderr=True),
-        transient=True,
-        disable=args.json or not sys.stderr.isatty(),
-    ) as bar:
-        task = bar.add_task(
-            "comparing" + (" (model runs at the EM points)" if args.simulate else ""), total=None
-        )
-
-        def progress(done: int, total: int, text: str) -> None:
-            bar.update(task, completed=done, total=total, description=f"model run {text}")
-
+    doing = "comparing" + (" (model runs at the EM points)" if args.simulate else "")
+    with counted(doing, quiet=args.json, prefix="model run ") as progress:
         cmp = compare_recordings(
             args.em,
             args.fem,
@@ -137,7 +124,7 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         out = cmp.to_dict()
         out["figures"] = [str(p) for p in written]
-        print(json.dumps(out, indent=1, allow_nan=False, default=_json_default))
+        print(json.dumps(out, indent=1, allow_nan=False, default=json_default))
     else:
         from rigtools.tables import comparison_tables
 
@@ -147,34 +134,3 @@ def run(args: argparse.Namespace) -> int:
         for p in written:
             print(f"wrote {p}")
     return 0
-
-
-def _check_out_dir(out: Path, stem: str) -> None:
-    """Refuse up front an --out that is a file, or that holds a figure name taken by a file
-    rigtools did not write (figures never replace a recording or a user's file)."""
-    if out.exists() and not out.is_dir():
-        raise UserError(f"--out {out} exists and is not a folder")
-    if out.is_dir():
-        taken = sorted(out.glob(f"{stem}.compare-*.png"))
-        if not taken:
-            return
-        from rigtools.derived_files import is_derived_plot
-
-        for path in taken:
-            if not (path.is_file() and not path.is_symlink() and is_derived_plot(path)):
-                raise UserError(
-                    f"--out: {path} exists and was not made by rigtools as a derived file; "
-                    "not overwritten (move it or choose another folder)"
-                )
-
-
-def _json_default(x):
-    import numpy as np
-
-    if isinstance(x, np.ndarray):
-        return [_json_default(v) if not isinstance(v, (int, float)) else v for v in x.tolist()]
-    if isinstance(x, (np.floating, np.integer)):
-        return x.item()
-    if isinstance(x, (np.bool_,)):
-        return bool(x)
-    raise TypeError(type(x).__name__)

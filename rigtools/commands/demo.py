@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import argparse
 import json
-from pathlib import Path
 
-from rigtools.errors import FaultError, UserError
+from rigtools.errors import FaultError
+from rigtools.options import output_folder
 
 HELP = "the paper's study end to end on the simulated rig: recordings, one HTML report, findings C1-C7"
 EPILOG = """\
@@ -46,18 +46,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
-def _check_out(path: Path) -> None:
-    """A new or empty folder, or one a previous demo wrote (its files are replaced); never a folder
-    of other recordings."""
-    if path.exists() and not path.is_dir():
-        raise UserError(f"--out {path}: exists and is not a folder")
-    if path.is_dir() and any(path.iterdir()) and not (path / ".rig-demo").exists():
-        raise UserError(f"--out {path}: holds files that a demo did not write; give a new or empty folder")
-
-
 def run(args: argparse.Namespace) -> int:
-    out = Path(args.out)
-    _check_out(out)
+    out = output_folder(args.out, owner=".rig-demo", owner_name="a demo")
     from rich.console import Console
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 

@@ -127,33 +127,11 @@ def _run(args: argparse.Namespace, stops, written: list) -> int:
     if args.json:
         print(json.dumps(doc))
     else:
-        print_summary(doc, result, out)
+        from rich.console import Console
+
+        from rigtools.tables import run_tables
+
+        console = Console()
+        for item in run_tables(doc, result, out):
+            console.print(item)
     return 0
-
-
-def print_summary(doc: dict, result, out: Path) -> None:
-    from rich.console import Console
-    from rich.table import Table
-
-    console = Console()
-    table = Table(title=f"harmonics k*fe (fe = {result.fe:g} Hz), peak amplitudes")
-    table.add_column("k", justify="right")
-    table.add_column("Hz", justify="right")
-    names = ("active_shroud_accel", "passive_shroud_accel", "force", "contact_force")
-    for name in names:
-        table.add_column(name + (" (m/s²)" if "accel" in name else " (N)"), justify="right")
-    h = doc["harmonics"]
-    for i in range(10):
-        table.add_row(
-            str(i + 1),
-            f"{h['force'][i]['frequency_hz']:g}",
-            *(f"{h[name][i]['amplitude']:.4g}" for name in names),
-        )
-    console.print(table)
-    c = doc["contact"]
-    console.print(
-        f"peak contact force {c['peak_force_n']:.4g} N, {c['impacts_per_period']:g} impacts per period, "
-        f"steady state: {'yes' if doc['steady_state'] else 'NO'} "
-        f"(after {result.settle_time:.3g} s simulated); wrote {out}"
-        + (f" and {doc['plot']}" if doc.get("plot") else "")
-    )

@@ -124,50 +124,14 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(outcome.to_dict(), indent=1, default=float))
         return 0
-    _print(outcome)
-    return 0
-
-
-def _print(o) -> None:
     from rich.console import Console
-    from rich.table import Table
 
-    con = Console()
-    t = Table(title="identified modes used")
-    for col in ("blade", "order", "identified Hz", "zeta", "nominal model Hz", "from"):
-        t.add_column(col, justify="left" if col in ("blade", "from") else "right")
-    for p in o.paired:
-        zeta = "-" if p.damping_ratio is None else f"{p.damping_ratio:.4f}"
-        t.add_row(
-            p.blade, str(p.order), f"{p.frequency_hz:.3f}", zeta, f"{p.model_hz:.3f}", ", ".join(p.sources)
+    from rigtools.tables import update_tables
+
+    console = Console()
+    for item in update_tables(outcome):
+        text = not hasattr(item, "columns")
+        console.print(
+            item, markup=isinstance(item, str) and item.startswith("["), highlight=False, soft_wrap=text
         )
-    con.print(t)
-    for n in o.notes:
-        con.print(f"[yellow]note:[/] {n}")
-    con.print(o.fit.report(), markup=False, highlight=False, soft_wrap=True)
-    if o.fit.identifiability.unresolved:
-        con.print(
-            "[yellow]the values of the parameters named above are kept in the rig file but the data do "
-            "not determine them: add modes (another blade, higher orders) or fit fewer parameters[/]"
-        )
-    if o.dwells:
-        c = o.contact_fit
-        con.print(c.report(), markup=False, highlight=False, soft_wrap=True)
-        for r in o.other_laws:
-            con.print(
-                f"other law: {r.law}: rms harmonic error {100 * r.rms_log_error_after:.2f} % "
-                f"(kept: {c.law}, {100 * c.rms_log_error_after:.2f} %)"
-            )
-        s = Table(title="EM-versus-FEM agreement (1 = identical harmonics)")
-        s.add_column("dwell")
-        for step in o.scores:
-            s.add_column(step, justify="right")
-        for i, d in enumerate(o.dwells):
-            s.add_row(
-                f"{d.name} ({d.fe:g} Hz, {d.force_amplitude:.3g} N, gap {1e3 * d.gap:g} mm)",
-                *[f"{o.scores[k][i]:.4f}" for k in o.scores],
-            )
-        con.print(s)
-    con.print(f"wrote {o.out} (check: rig modal --rig {o.out})")
-    if o.warnings and o.warnings[0].startswith("the fitted"):
-        con.print(f"[yellow]warning:[/] {o.warnings[0]}")
+    return 0

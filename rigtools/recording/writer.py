@@ -67,6 +67,7 @@ import numpy as np
 
 import rigtools
 from rigtools.errors import one_line
+from rigtools.json_values import json_default
 from rigtools.recording.lock import LockBusy, WriterLock
 from rigtools.recording.schema import (
     POINTS_GROUP,
@@ -126,23 +127,13 @@ def _preallocate(fd: int, offset: int, length: int) -> None:
     os.ftruncate(fd, offset + length)
 
 
-def _json_default(value: Any) -> Any:
-    if isinstance(value, np.generic):
-        return value.item()
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    if isinstance(value, Path):
-        return str(value)
-    raise TypeError(f"experiment value {value!r} of type {type(value).__name__} is not JSON")
-
-
 def _rig_text(rig: Any) -> str:
     if isinstance(rig, str):
         return rig
     if hasattr(rig, "to_json"):
         return rig.to_json()
     if isinstance(rig, Mapping):
-        return json.dumps(rig, indent=1, default=_json_default, allow_nan=False)
+        return json.dumps(rig, indent=1, default=json_default, allow_nan=False)
     raise TypeError("rig must be TOML or JSON text (or an object with to_json())")
 
 
@@ -388,7 +379,7 @@ class RecordingWriter:
         if not (math.isfinite(flush_interval) and flush_interval >= 0):
             raise ValueError("flush_interval must be >= 0 s")
         rig_text = _rig_text(rig)
-        experiment_text = json.dumps(dict(experiment or {}), default=_json_default, allow_nan=False)
+        experiment_text = json.dumps(dict(experiment or {}), default=json_default, allow_nan=False)
         self.path = Path(path)
         self.backend = backend
         self.status = STATUS_RECORDING
