@@ -21,6 +21,8 @@ import pandas as pd
 from numpy.typing import ArrayLike
 from scipy import optimize
 
+from rigtools.sim.channel_names import ACTIVE_SHROUD_ACCEL, FORCE, PASSIVE_SHROUD_ACCEL, SHROUD_ACCELS
+
 BLADES = ("active", "passive")
 
 
@@ -407,14 +409,14 @@ def pair_points(
     return pairs
 
 
-TREND_HARMONICS = {"active_shroud_accel": (6,), "passive_shroud_accel": (8, 22)}
+TREND_HARMONICS = {ACTIVE_SHROUD_ACCEL: (6,), PASSIVE_SHROUD_ACCEL: (8, 22)}
 
 
 def trend_series(
     points: Sequence,
     *,
-    force: str = "force",
-    shrouds: Sequence[str] = ("active_shroud_accel", "passive_shroud_accel"),
+    force: str = FORCE,
+    shrouds: Sequence[str] = SHROUD_ACCELS,
     harmonics: Mapping[str, Sequence[int]] = TREND_HARMONICS,
 ) -> dict[str, np.ndarray]:
     """Trend quantities of a study, one value per point, from :class:`rigtools.analysis.point.DwellAnalysis`

@@ -17,6 +17,7 @@ from matplotlib.colors import LogNorm
 from matplotlib.figure import Figure
 
 from rigtools.analysis.spectra import amplitude_spectrum
+from rigtools.sim.channel_names import FORCE
 
 BLADES = ("active", "passive")
 SPECTRUM_FLOOR = 1e-5  # spectra on a log axis: show down to this fraction of the largest peak
@@ -404,7 +405,7 @@ def time_and_spectrum_figure(
     k_max: int = 30,
     window: str = "flattop",
     title: str = "",
-    force_channel: str = "force",
+    force_channel: str = FORCE,
 ) -> Figure:
     """A measured dwell: each channel's time history (last periods) and amplitude spectrum.
 
@@ -749,7 +750,7 @@ def overlay_figure(
     fem_rate: float,
     periods: float = 3.0,
     k_max: int = 30,
-    force_channel: str = "force",
+    force_channel: str = FORCE,
     window: str = "flattop",
     model_label: str = "FEM",
     title: str = "",

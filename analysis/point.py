@@ -22,8 +22,9 @@ from rigtools.analysis.frf import FRFEstimate, FRFKind, SpectraAccumulator, exci
 from rigtools.analysis.harmonics import HarmonicFit, harmonic_amplitudes, relative_phases
 from rigtools.analysis.impacts import ImpactAnalysis, detect_impacts
 from rigtools.analysis.modal_id import ModalIdentification, identify
-
-FORCE, ACTIVE, PASSIVE = "force", "active_shroud_accel", "passive_shroud_accel"
+from rigtools.sim.channel_names import ACTIVE_SHROUD_ACCEL as ACTIVE
+from rigtools.sim.channel_names import FORCE
+from rigtools.sim.channel_names import PASSIVE_SHROUD_ACCEL as PASSIVE
 
 
 @dataclass(frozen=True)

@@ -13,53 +13,11 @@ dynamics take up the coil's force, and the sensor force dips, as on a real rig.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, fields
-from numbers import Real
 
 import numpy as np
 
-
-@dataclass(frozen=True)
-class ParamBound:
-    """Default and allowed range of one shaker parameter (SI), the one definition used by
-    :class:`ShakerParams` and by the rig file's ``[shaker]`` (:class:`rigtools.config.ShakerConfig`)."""
-
-    default: float
-    low: float
-    high: float
-    low_open: bool  # True: low itself is refused (> low); False: >= low
-    unit: str
-    dimension: str  # for :func:`rigtools.units.parse_quantity`; "" for a plain ratio
-
-    def check(self, name: str, value: float) -> None:
-        """Raise ``ValueError`` (one line naming ``name`` and ``value``) if out of range."""
-        ok = (
-            isinstance(value, Real)
-            and not isinstance(value, bool)
-            and math.isfinite(value)
-            and (value > self.low if self.low_open else value >= self.low)
-            and value <= self.high
-        )
-        if not ok:
-            low = "(" if self.low_open else "["
-            raise ValueError(
-                f"shaker {name} = {value!r} {self.unit}: must be a finite number in "
-                f"{low}{self.low:g}, {self.high:g}] {self.unit}"
-            )
-
-
-# Physically sensible ranges for a lab shaker and its amplifier, from a 10 N modal exciter to a
-# large electrodynamic shaker.
-SHAKER_BOUNDS: dict[str, ParamBound] = {
-    "armature_mass": ParamBound(0.1, 0.0, 10.0, True, "kg", "mass"),
-    "suspension_stiffness": ParamBound(2.0e4, 0.0, 1e8, False, "N/m", "stiffness"),
-    "suspension_damping": ParamBound(5.0, 0.0, 1e5, False, "N*s/m", "damping"),
-    "force_factor": ParamBound(10.0, 0.0, 1e3, True, "N/A", "force_factor"),
-    "coil_resistance": ParamBound(2.5, 0.0, 1e3, True, "ohm", "resistance"),
-    "coil_inductance": ParamBound(5e-4, 0.0, 1.0, False, "H", "inductance"),
-    "amplifier_gain": ParamBound(4.0, 0.0, 1e3, True, "V/V", ""),
-}
+from rigtools.sim.shaker_params import SHAKER_BOUNDS
 
 
 @dataclass(frozen=True)

@@ -43,7 +43,9 @@ K_MAX = 30
 TABLE_HARMONICS = (6, 8, 22)  # the paper's super-harmonics of interest
 KINDS: tuple[FRFKind, ...] = ("accelerance", "mobility", "receptance")
 METHODS = ("lscf", "peak")
-FORCE = "force"
+from rigtools.sim.channel_names import ACTIVE_SHROUD_ACCEL, FORCE, PASSIVE_SHROUD_ACCEL
+from rigtools.sim.channel_names import BLADE_OF as _BLADE_OF
+
 NO_MODES_PERIODIC = (
     "no modes from a sine record: a sine excites one frequency at a time, so the "
     "force has no broadband content to identify poles from (use rig acquire frf)"
@@ -696,7 +698,7 @@ def analyze_recording(
     return out
 
 
-BLADE_OF = {"active_shroud_accel": "active", "passive_shroud_accel": "passive"}
+BLADE_OF = {c: _BLADE_OF[c] for c in (ACTIVE_SHROUD_ACCEL, PASSIVE_SHROUD_ACCEL)}
 
 
 def identified_frequencies(analysis: RecordingAnalysis) -> dict[str, list[float]]:

@@ -30,7 +30,7 @@ from pydantic import (
     model_validator,
 )
 
-from rigtools.drivers.shaker import SHAKER_BOUNDS
+from rigtools.sim.shaker_params import SHAKER_BOUNDS
 from rigtools.errors import ConfigError
 from rigtools.sim.params import (
     BladeParams,
@@ -469,7 +469,7 @@ Inductance = Annotated[float, _quantity("inductance")]
 
 
 def _shaker_field(name: str) -> Any:
-    """Default and range of a [shaker] key: from :data:`rigtools.drivers.shaker.SHAKER_BOUNDS`, their one
+    """Default and range of a [shaker] key: from :data:`rigtools.sim.shaker_params.SHAKER_BOUNDS`, their one
     definition."""
     bound = SHAKER_BOUNDS[name]
     if bound.low_open:
@@ -479,7 +479,7 @@ def _shaker_field(name: str) -> Any:
 
 class ShakerConfig(_Section):
     """Voltage amplifier and electrodynamic shaker driving the active blade through the force sensor.
-    Defaults and ranges: :data:`rigtools.drivers.shaker.SHAKER_BOUNDS`."""
+    Defaults and ranges: :data:`rigtools.sim.shaker_params.SHAKER_BOUNDS`."""
 
     armature_mass: Mass = _shaker_field("armature_mass")  # kg
     suspension_stiffness: Stiffness = _shaker_field("suspension_stiffness")  # N/m

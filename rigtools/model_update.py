@@ -34,12 +34,14 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 
 from rigtools.errors import UserError
+from rigtools.sim.channel_names import ACTIVE_SHROUD_ACCEL as ACTIVE
+from rigtools.sim.channel_names import FORCE
+from rigtools.sim.channel_names import PASSIVE_SHROUD_ACCEL as PASSIVE
 
 if TYPE_CHECKING:
     from rigtools.analysis.point import DwellAnalysis
     from rigtools.sim.parameter_fit import Blade
 
-FORCE, ACTIVE, PASSIVE = "force", "active_shroud_accel", "passive_shroud_accel"
 DWELL_CHANNELS = (FORCE, ACTIVE, PASSIVE)
 K_HARMONICS = 10  # harmonics fitted and scored (k = 1..10: most of each shroud's energy at 60 Hz)
 BROADBAND_SIGNALS = {

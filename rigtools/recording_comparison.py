@@ -51,13 +51,14 @@ from typing import Any
 import numpy as np
 
 from rigtools.errors import UserError
+from rigtools.sim.channel_names import ACTIVE_SHROUD_ACCEL as ACTIVE
+from rigtools.sim.channel_names import FORCE, VELOCITY_OF
+from rigtools.sim.channel_names import PASSIVE_SHROUD_ACCEL as PASSIVE
 from rigtools.sim.studies import PlannedPoint
 from rigtools.vocabulary import CHANNELS, current_parameters
 
-FORCE, ACTIVE, PASSIVE = "force", "active_shroud_accel", "passive_shroud_accel"
 COMPARED = (FORCE, ACTIVE, PASSIVE)
 SCORED = (ACTIVE, PASSIVE)
-VELOCITY_OF = {ACTIVE: "active_shroud_vel", PASSIVE: "passive_shroud_vel"}
 K_MAX = 30
 LARGE_DIFF_PCT = 30.0
 MODEL_RECORD_PERIODS = 10

@@ -6,7 +6,8 @@ wrote the file: ``force`` is the force into the active blade at the force sensor
 the sensor on the rig, applied to the model in a simulation), ``force_amplitude_measured`` is
 the fundamental (harmonic 1, peak) of that channel in both.
 
-Light on purpose (standard library only): command modules may import it at the top.
+Light on purpose (standard library only): command modules may import it at the top. The names
+themselves are :mod:`rigtools.sim.channel_names` (where sim and analysis may import them).
 
 Schema v1 files written before this vocabulary name one parameter differently; readers map it
 with :func:`current_parameters` (see :data:`V1_PARAMETER_RENAMES`).
@@ -17,6 +18,8 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
+
+from rigtools.sim import channel_names as N
 
 EM = "em"  # written by rig runs (backends "nidaqmx", "simulated")
 FEM = "fem"  # written by model runs (backend "fem")
@@ -90,7 +93,7 @@ FORCE_POINT = "active blade, force sensor"
 
 CHANNELS: dict[str, ChannelTerm] = _table(
     ChannelTerm(
-        "force",
+        N.FORCE,
         "N",
         "force",
         FORCE_POINT,
@@ -98,21 +101,21 @@ CHANNELS: dict[str, ChannelTerm] = _table(
         "applied to the model there (FEM)",
     ),
     ChannelTerm(
-        "active_shroud_accel",
+        N.ACTIVE_SHROUD_ACCEL,
         "m/s^2",
         "acceleration",
         ACTIVE_SHROUD,
         "acceleration of the active blade's shroud in the impact direction",
     ),
     ChannelTerm(
-        "passive_shroud_accel",
+        N.PASSIVE_SHROUD_ACCEL,
         "m/s^2",
         "acceleration",
         PASSIVE_SHROUD,
         "acceleration of the passive blade's shroud in the impact direction",
     ),
     ChannelTerm(
-        "drive",
+        N.DRIVE,
         "V",
         "voltage",
         "DAQ analog output to the shaker amplifier",
@@ -120,7 +123,7 @@ CHANNELS: dict[str, ChannelTerm] = _table(
         (EM,),
     ),
     ChannelTerm(
-        "active_shroud_disp",
+        N.ACTIVE_SHROUD_DISP,
         "m",
         "displacement",
         ACTIVE_SHROUD,
@@ -128,7 +131,7 @@ CHANNELS: dict[str, ChannelTerm] = _table(
         (FEM,),
     ),
     ChannelTerm(
-        "passive_shroud_disp",
+        N.PASSIVE_SHROUD_DISP,
         "m",
         "displacement",
         PASSIVE_SHROUD,
@@ -136,7 +139,7 @@ CHANNELS: dict[str, ChannelTerm] = _table(
         (FEM,),
     ),
     ChannelTerm(
-        "force_point_disp",
+        N.FORCE_POINT_DISP,
         "m",
         "displacement",
         FORCE_POINT,
@@ -144,7 +147,7 @@ CHANNELS: dict[str, ChannelTerm] = _table(
         (FEM,),
     ),
     ChannelTerm(
-        "active_shroud_vel",
+        N.ACTIVE_SHROUD_VEL,
         "m/s",
         "velocity",
         ACTIVE_SHROUD,
@@ -152,7 +155,7 @@ CHANNELS: dict[str, ChannelTerm] = _table(
         (FEM,),
     ),
     ChannelTerm(
-        "passive_shroud_vel",
+        N.PASSIVE_SHROUD_VEL,
         "m/s",
         "velocity",
         PASSIVE_SHROUD,
@@ -160,7 +163,7 @@ CHANNELS: dict[str, ChannelTerm] = _table(
         (FEM,),
     ),
     ChannelTerm(
-        "force_point_vel",
+        N.FORCE_POINT_VEL,
         "m/s",
         "velocity",
         FORCE_POINT,
@@ -168,7 +171,7 @@ CHANNELS: dict[str, ChannelTerm] = _table(
         (FEM,),
     ),
     ChannelTerm(
-        "force_point_accel",
+        N.FORCE_POINT_ACCEL,
         "m/s^2",
         "acceleration",
         FORCE_POINT,
@@ -176,7 +179,7 @@ CHANNELS: dict[str, ChannelTerm] = _table(
         (FEM,),
     ),
     ChannelTerm(
-        "contact_force",
+        N.CONTACT_FORCE,
         "N",
         "force",
         "between the shrouds",

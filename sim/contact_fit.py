@@ -28,8 +28,7 @@ from typing import Literal
 import numpy as np
 import scipy.optimize
 
-from rigtools.sim.params import ContactLaw, ContactParams, RigParams
-from rigtools.sim.reduction import ReducedSystem, reduced_system
+from rigtools.sim.channel_names import ACTIVE_SHROUD_ACCEL, PASSIVE_SHROUD_ACCEL
 from rigtools.sim.parameter_fit import (
     Identifiability,
     UpdateParameter,
@@ -37,9 +36,11 @@ from rigtools.sim.parameter_fit import (
     _forward_jacobian,
     _identifiability,
 )
+from rigtools.sim.params import ContactLaw, ContactParams, RigParams
+from rigtools.sim.reduction import ReducedSystem, reduced_system
 from rigtools.sim.vibro_impact import run_harmonic, steps_per_period_for
 
-LOCATIONS = {"active_shroud_accel": "active_tip_velocity", "passive_shroud_accel": "passive_tip_velocity"}
+LOCATIONS = {ACTIVE_SHROUD_ACCEL: "active_tip_velocity", PASSIVE_SHROUD_ACCEL: "passive_tip_velocity"}
 # penetration at which a Hertz start is made equal in force to the linear contact it replaces
 HERTZ_REFERENCE_PENETRATION = 1e-5  # m
 # finite-difference step in ln k_c, ln c_c: the harmonics jitter by ~1e-4 (relative) from one trial

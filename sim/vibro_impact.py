@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 from typing import Protocol
 
 import numpy as np
@@ -24,7 +24,7 @@ import scipy.linalg
 from numba import njit
 
 from rigtools.sim.contact import contact_period, law_code, solve_contact
-from rigtools.sim.params import ContactParams, SimulationInputError, _finite
+from rigtools.sim.params import ContactParams, SimulationInputError
 from rigtools.sim.reduction import ReducedSystem
 
 # output columns of the compiled kernel
@@ -84,15 +84,10 @@ class ShakerCoupling:
     coil_inductance: float  # H
 
     def __post_init__(self) -> None:
-        for name, unit in (
-            ("armature_mass", "kg"),
-            ("suspension_stiffness", "N/m"),
-            ("suspension_damping", "N*s/m"),
-            ("coil_inductance", "H"),
-        ):
-            _finite("shaker", name, getattr(self, name), ge=0, unit=unit)
-        _finite("shaker", "force_factor", self.force_factor, ge=0, unit="N/A")
-        _finite("shaker", "coil_resistance", self.coil_resistance, gt=0, unit="ohm")
+        from rigtools.sim.shaker_params import SHAKER_BOUNDS
+
+        for f in fields(self):
+            SHAKER_BOUNDS[f.name].check(f.name, getattr(self, f.name), SimulationInputError)
 
 
 @dataclass

@@ -24,10 +24,12 @@ from rigtools.demo.settings import (
     DemoSettings,
     OperatingPoint,
 )
+from rigtools.sim.channel_names import ACTIVE_SHROUD_ACCEL as ACTIVE
+from rigtools.sim.channel_names import FORCE
+from rigtools.sim.channel_names import PASSIVE_SHROUD_ACCEL as PASSIVE
 
 K_MAX = 30
 MAX_DRIVE = 9.5  # V
-ACTIVE, PASSIVE, FORCE = "active_shroud_accel", "passive_shroud_accel", "force"
 
 
 # ------------------------------------------------------------------------------ the two points

@@ -18,9 +18,12 @@ from rigtools.config import (
     load_rig,
     parse_rig,
 )
-from rigtools.drivers.shaker import SHAKER_BOUNDS, ShakerParams
+from rigtools.drivers.shaker import ShakerParams
 from rigtools.errors import ConfigError, UserError
 from rigtools.options import gap as gap_option
+from rigtools.sim.params import SimulationInputError
+from rigtools.sim.shaker_params import SHAKER_BOUNDS
+from rigtools.sim.vibro_impact import ShakerCoupling
 from rigtools.units import MAX_GAP
 
 DEFAULT = tomllib.loads(default_rig_text())
@@ -341,11 +344,29 @@ def test_shaker_bounds_hold_in_config_and_params(name, where):
     ]
     message = _one_line(_edited("shaker", **{name: value}))
     assert f"shaker.{name} = {value!r}" in message
-    with pytest.raises(ValueError, match=f"shaker {name} = "):
+    with pytest.raises(ValueError, match=f"shaker.{name} = "):
         ShakerParams(**{name: value})
+    if name != "amplifier_gain":  # the model's coupling holds the same bounds (no amplifier in it)
+        with pytest.raises(SimulationInputError, match=f"shaker.{name} = "):
+            ShakerCoupling(
+                **{**{n: b.default for n, b in SHAKER_BOUNDS.items() if n != "amplifier_gain"}, name: value}
+            )
     # the edges themselves are accepted by both
     edge = bound.high if where == "high" else (bound.low if not bound.low_open else bound.low + 1e-9)
     assert getattr(parse_rig(_edited("shaker", **{name: edge})).shaker.to_params(), name) == edge
+
+
+def test_a_shaker_without_force_factor_is_refused_everywhere():
+    """force_factor = 0 was accepted by the model's coupling and refused by the rig file: one bound now."""
+    with pytest.raises(SimulationInputError, match="shaker.force_factor = 0.0"):
+        ShakerCoupling(
+            **{
+                **{n: b.default for n, b in SHAKER_BOUNDS.items() if n != "amplifier_gain"},
+                "force_factor": 0.0,
+            }
+        )
+    with pytest.raises(ValueError, match="shaker.force_factor = 0.0"):
+        ShakerParams(force_factor=0.0)
 
 
 def test_shaker_coupling_is_built_from_the_params():
