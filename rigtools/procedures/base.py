@@ -30,7 +30,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from rigtools.errors import Interrupted, UserError, one_line
+from rigtools.errors import FaultError, Interrupted, UserError, one_line
 
 
 class Status(str, enum.Enum):  # noqa: UP042 -- StrEnum would change str()/format() of members, which messages print
