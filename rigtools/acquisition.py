@@ -40,7 +40,7 @@ import numpy as np
 from rigtools.drivers.contracts import AcquisitionDevice, DaqFault, DriverError, SafetyAbort
 from rigtools.drivers.drive_signals import RandomDrive  # noqa: F401  (kept importable from here)
 from rigtools.drivers.safety import SafetyMonitor
-from rigtools.errors import FaultError, UserError, one_line
+from rigtools.errors import FaultError, one_line
 
 if TYPE_CHECKING:
     from typing import Self

@@ -32,7 +32,6 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from rigtools.errors import UserError
-from rigtools.vocabulary import CHANNELS
 
 if TYPE_CHECKING:
     from rigtools.analysis.frf import FRFKind
@@ -773,13 +772,6 @@ def frequency_table(analysis: RecordingAnalysis, path, n_modes: int = 3) -> list
                 "response did not follow the force); its EM column is empty"
             )
     return [{k: (float(v) if isinstance(v, (np.floating, float)) else v) for k, v in r.items()} for r in rows]
-
-
-def channel_label(name: str) -> str:
-    """``"active shroud accel (m/s²)"`` from the vocabulary (the name itself otherwise)."""
-    term = CHANNELS.get(name)
-    text = name.replace("_", " ")
-    return f"{text} ({term.units.replace('^2', '²')})" if term else text
 
 
 def point_window(path: str | Path, index: int, periods: float = 5.0) -> tuple[dict, float, float, dict]:

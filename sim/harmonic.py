@@ -19,7 +19,7 @@ AM: the same formula on the assumed-modes model's own modes (:mod:`rigtools.sim.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -175,8 +175,3 @@ def harmonic_curves(
         fem_harmonic_response(rig, frequencies_hz, force_amplitude),
         am_harmonic_response(rig.params, frequencies_hz, force_amplitude, n_terms),
     )
-
-
-def without_force_sensor(params: RigParams) -> RigParams:
-    """The same rig with a massless force sensor (the shaker force still acts at its position)."""
-    return replace(params, force_sensor=replace(params.force_sensor, mass=0.0, rotary_inertia=0.0))

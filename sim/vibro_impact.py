@@ -549,19 +549,6 @@ def effective_contact_damping(contact, force_scale: float = 100.0) -> float:
     return contact.damping
 
 
-def max_time_step(
-    system: ReducedSystem, force_scale: float = 100.0, min_steps: int = MIN_STEPS_PER_CONTACT
-) -> tuple[float, str]:
-    """Largest admissible step, s, and what limits it (``"stiffness"`` or ``"damping"``):
-    ``min_steps`` steps per contact period, and ``c dt / m_eff <= 2`` for the contact damping."""
-    meff = system.contact_effective_mass()
-    tc = contact_period(meff, system.contact, force_scale)
-    dt_k = tc / min_steps
-    c = effective_contact_damping(system.contact, force_scale)
-    dt_c = MAX_CONTACT_DAMPING_STEP * meff / c if c > 0 else math.inf
-    return (dt_k, "stiffness") if dt_k <= dt_c else (dt_c, "damping")
-
-
 class HasContact(Protocol):
     """What :func:`check_time_step` reads of a system: the contact and the mass it moves."""
 

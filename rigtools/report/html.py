@@ -12,7 +12,7 @@ import base64
 import html
 import io
 import math
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
@@ -174,8 +174,3 @@ def write_report(report: Report, path: str | Path) -> Path:
     path = Path(path)
     path.write_text(report.html(), encoding="utf-8")
     return path
-
-
-def rows_from(records: Iterable[Mapping[str, Any]], keys: Mapping[str, str]) -> list[dict]:
-    """Rename and select the keys of records for a table: ``keys`` maps record key -> column title."""
-    return [{title: r.get(key) for key, title in keys.items()} for r in records]

@@ -247,9 +247,3 @@ def add_analysis(report, analysis: RecordingAnalysis) -> None:
             sec.note(f"point {p.index}: no mode identified from any response")
     for nf in analysis_figures(analysis):
         sec.figure(nf.figure, nf.caption)
-
-
-def frequency_table_section(report, rows: list[dict], caption: str) -> None:
-    """A natural-frequency table (``rigtools.analysis.correlation.natural_frequency_table`` records)."""
-    sec = report.section("Natural frequencies: FEM, AM and EM")
-    sec.table(rows, caption=caption)
