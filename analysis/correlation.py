@@ -26,6 +26,20 @@ from rigtools.sim.channel_names import ACTIVE_SHROUD_ACCEL, FORCE, PASSIVE_SHROU
 BLADES = ("active", "passive")
 
 
+ROUND_OFF = 1e-9  # a harmonic below this fraction of its channel's largest is zero (round-off)
+
+
+def without_round_off(amplitudes) -> np.ndarray:
+    """Harmonic amplitudes with the round-off of a zero harmonic (below :data:`ROUND_OFF` times
+    the channel's largest, e.g. the k >= 2 force harmonics of a model driven by ``F0 sin``) set to
+    NaN: not a number to compare nor a bar to draw on a log axis."""
+    a = np.array(amplitudes, dtype=float)
+    finite = np.abs(a[np.isfinite(a)])
+    top = finite.max() if finite.size else 0.0
+    a[np.abs(a) <= ROUND_OFF * top] = np.nan
+    return a
+
+
 def _pct(x, ref):
     x, ref = np.asarray(x, dtype=float), np.asarray(ref, dtype=float)
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -108,17 +122,20 @@ def harmonic_table(
     -------
     pandas.DataFrame
         Rows ``channel``, ``k``, ``frequency_hz``, ``em``, ``fem``, ``diff_pct``
-        (``100 (FEM - EM) / EM``), ``ratio`` (FEM / EM).
+        (``100 (FEM - EM) / EM``), ``ratio`` (FEM / EM). A harmonic that is zero but for round-off
+        (:func:`without_round_off`) on either side has no ``diff_pct`` nor ``ratio`` (NaN): a
+        model's exactly-zero force harmonic is not "-100 %".
     """
     rows = []
     for ch in em:
         if ch not in fem:
             continue
         a, b = np.asarray(em[ch], dtype=float), np.asarray(fem[ch], dtype=float)
+        a_cmp, b_cmp = without_round_off(a), without_round_off(b)
         n = min(a.size, b.size) if k_max is None else min(int(k_max), a.size, b.size)
         for k in range(1, n + 1):
             with np.errstate(divide="ignore", invalid="ignore"):
-                ratio = b[k - 1] / a[k - 1]
+                ratio = b_cmp[k - 1] / a_cmp[k - 1]
             rows.append(
                 {
                     "channel": ch,
@@ -126,7 +143,7 @@ def harmonic_table(
                     "frequency_hz": k * float(fe),
                     "em": a[k - 1],
                     "fem": b[k - 1],
-                    "diff_pct": float(_pct(b[k - 1], a[k - 1])),
+                    "diff_pct": float(_pct(b_cmp[k - 1], a_cmp[k - 1])),
                     "ratio": float(ratio),
                 }
             )

@@ -16,6 +16,7 @@ import numpy as np
 from matplotlib.colors import LogNorm
 from matplotlib.figure import Figure
 
+from rigtools.analysis.correlation import without_round_off
 from rigtools.analysis.spectra import amplitude_spectrum
 from rigtools.sim.channel_names import FORCE
 
@@ -660,8 +661,8 @@ def harmonic_bars_figure(
     fig = Figure(figsize=(12, 2.8 * len(channels) + 0.8), layout="constrained")
     axes = fig.subplots(len(channels), 1, squeeze=False)[:, 0]
     for ax, ch in zip(axes, channels, strict=True):
-        a = np.asarray(em[ch], dtype=float)[:k_max]
-        b = np.asarray(fem[ch], dtype=float)[:k_max]
+        a = without_round_off(em[ch])[:k_max]  # a zero harmonic's round-off is no bar on a log axis
+        b = without_round_off(fem[ch])[:k_max]
         n = min(a.size, b.size)
         k = np.arange(1, n + 1)
         ax.bar(k - 0.2, a[:n], width=0.4, color="C0", label="EM (experiment)")
@@ -674,7 +675,7 @@ def harmonic_bars_figure(
         ax.set_title(ch.replace("_", " "), fontsize=9)
         ax.set_xticks(k[:: max(1, n // 15)] if n > 15 else k)
         ax.grid(True, axis="y", which="both", alpha=0.3)
-        ax.legend(fontsize=8)
+        ax.legend(fontsize=8, loc="best")
     axes[-1].set_xlabel(f"harmonic order k (frequency k·fe, fe = {fe:g} Hz)")
     _suptitle(fig, title or f"harmonic amplitudes, EM versus {model_label}")
     return fig

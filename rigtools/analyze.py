@@ -50,6 +50,11 @@ NO_MODES_PERIODIC = (
     "force has no broadband content to identify poles from (use rig acquire frf)"
 )
 PROCEDURE_FRF = ("frf test",)
+PASSIVE_NOT_EXCITED = (
+    "the passive blade was not excited: the shaker drives the active blade, and with the gap open "
+    "no force reaches the passive one, so it shows no modes here (identify them with a tap test: "
+    "rig acquire tap --blade passive)"
+)
 TAP_DEFAULT_PULSE_S = 0.5e-3  # hammer pulse when the recording does not say
 TAP_F_MIN_HZ = 5.0
 
@@ -494,11 +499,12 @@ def analyze_broadband(
         band = (res.estimate.frequency_hz >= lo) & (res.estimate.frequency_hz <= hi)
     for i, (r, m) in enumerate(res.modes.items()):
         coh = float(np.mean(res.estimate.coherence[i][band]))
-        if coh < 0.5:
+        if coh < 0.5 and BLADE_OF.get(r) == "passive":
+            notes.append(f"{r}: {PASSIVE_NOT_EXCITED} (mean coherence with the force {coh:.2f} in the band)")
+        elif coh < 0.5:
             notes.append(
                 f"{r}: mean coherence {coh:.2f} in the band: this response hardly follows the "
-                "force (a blade the force does not reach, e.g. the passive blade with the gap "
-                "open: it needs its own tap/hammer test)"
+                "force (a blade the force does not reach needs its own tap/hammer test)"
             )
         notes.extend(f"{r}: {t}" for t in m.notes)
     return PointAnalysis(
@@ -765,8 +771,11 @@ def frequency_table(analysis: RecordingAnalysis, path, n_modes: int = 3) -> list
             ref = vals[r["mode"] - 1] if r["mode"] <= len(vals) else float("nan")
             r["article_hz"] = ref
             r["em_vs_article_pct"] = 100 * (r["em_hz"] - ref) / ref if not math.isnan(ref) else float("nan")
+    shaker_driven = analysis.procedure in PROCEDURE_FRF
     for blade in models["fem"]:
-        if blade not in em:
+        if blade == "passive" and blade not in em and shaker_driven:
+            analysis.notes.append(f"passive blade: {PASSIVE_NOT_EXCITED}; its EM column is empty")
+        elif blade not in em:
             analysis.notes.append(
                 f"{blade} blade: no modes identified in this recording (its shroud "
                 "response did not follow the force); its EM column is empty"

@@ -252,6 +252,7 @@ def output_folder(
     *,
     replaceable: str | None = None,
     owner: str | None = None,
+    owner_name: str = "this command",
 ) -> Path:
     """Check an output folder before any work is done (the one rule of every ``--out DIR``).
 
@@ -283,7 +284,7 @@ def output_folder(
         return out
     if owner is not None and any(out.iterdir()) and not (out / owner).exists():
         raise UserError(
-            f"{option} {out}: holds files that this command did not write; give a new or empty folder"
+            f"{option} {out}: holds files that {owner_name} did not write; give a new or empty folder"
         )
     if replaceable is not None:
         from rigtools.derived_files import is_derived_plot

@@ -6,7 +6,7 @@ import argparse
 import json
 
 from rigtools.errors import FaultError
-from rigtools.options import output_folder
+from rigtools.options import output_folder, seed
 
 HELP = "the paper's study end to end on the simulated rig: recordings, one HTML report, findings C1-C7"
 EPILOG = """\
@@ -42,6 +42,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--out", default="rig-demo", metavar="DIR", help='output folder (default "rig-demo")')
     p.add_argument("--quick", action="store_true", help="reduced resolution, under a minute")
+    p.add_argument(
+        "--seed",
+        type=seed,
+        default=0,
+        help="the simulated rig's noise and FRF excitation (default 0: every demo gives the same findings)",
+    )
     p.add_argument("--json", action="store_true", help="print the findings as JSON")
     p.set_defaults(func=run)
 
@@ -56,7 +62,9 @@ def run(args: argparse.Namespace) -> int:
     from rigtools.demo.run import n_steps, run_demo
 
     console = Console(stderr=True)
-    settings = demo_settings.quick() if args.quick else demo_settings.full()
+    from dataclasses import replace
+
+    settings = replace(demo_settings.quick() if args.quick else demo_settings.full(), seed=args.seed)
     with Progress(
         TextColumn("{task.description}"),
         BarColumn(),

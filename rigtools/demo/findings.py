@@ -99,12 +99,12 @@ def c1_frequencies(fem: dict, am: dict, em_active: list[float]) -> Verdict:
     active blade (each paired with the nearest FEM mode)."""
     worst_am = 0.0
     for blade in ("active", "passive"):
-        for f, a in zip(fem[blade][:3], am[blade][:3]):
+        for f, a in zip(fem[blade][:3], am[blade][:3], strict=False):  # the shorter list decides
             worst_am = max(worst_am, abs(f / a - 1))
     if not em_active:
         return Verdict(False, "no mode identified in the FRF test of the simulated rig")
     diffs = [min(fem["active"], key=lambda f: abs(np.log(f / e))) for e in em_active]
-    rel = [e / f - 1 for e, f in zip(em_active, diffs)]
+    rel = [e / f - 1 for e, f in zip(em_active, diffs, strict=True)]
     lower = all(r < 0 for r in rel)
     close = all(abs(r) <= EM_TOL for r in rel)
     holds = worst_am <= FEM_AM_TOL and lower and close
@@ -120,8 +120,8 @@ def c1_frequencies(fem: dict, am: dict, em_active: list[float]) -> Verdict:
 def c2_harmonic(fem: dict, am: dict) -> Verdict:
     """Median |ln(FEM/AM)| of the linear shroud acceleration curves."""
     worst = 0.0
-    for loc in fem:
-        r = np.abs(np.log(np.asarray(fem[loc]) / np.asarray(am[loc])))
+    for loc, fem_curve in fem.items():
+        r = np.abs(np.log(np.asarray(fem_curve) / np.asarray(am[loc])))
         worst = max(worst, float(np.median(r)))
     return Verdict(
         worst <= HARMONIC_TOL,

@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from rigtools.demo.findings import Finding, mark
+from rigtools.sim.channel_names import SHROUD_ACCELS
 
 CH = (
     ("force", "force sensor (N)"),
@@ -74,7 +75,7 @@ def harmonic_figure(h: dict):
 def waveform_figure(d: dict, title: str):
     plt = _plt()
     fig, axes = plt.subplots(3, 1, figsize=(9, 6.4), sharex=True)
-    for ax, (ch, label) in zip(axes, CH):
+    for ax, (ch, label) in zip(axes, CH, strict=True):
         for key, style, name in (
             ("em_wave", "-", "EM (simulated rig)"),
             ("fem_wave", "--", "FEM"),
@@ -93,7 +94,7 @@ def waveform_figure(d: dict, title: str):
 def spectrum_figure(d: dict, title: str):
     plt = _plt()
     fig, axes = plt.subplots(1, 2, figsize=(10, 3.6))
-    for ax, ch in zip(axes, ("active_shroud_accel", "passive_shroud_accel")):
+    for ax, ch in zip(axes, SHROUD_ACCELS, strict=True):
         for j, (key, name) in enumerate((("em", "EM"), ("fem", "FEM"), ("am", "AM"))):
             a = np.asarray(d[key]["harmonics"][ch])
             k = np.arange(1, a.size + 1)
@@ -142,7 +143,7 @@ def gap_trend_figure(data: dict):
     """The README's figure: impact strength against the gap at both points, rig and FEM."""
     plt = _plt()
     fig, axes = plt.subplots(1, 2, figsize=(10, 3.6))
-    for ax, key in zip(axes, ("paper", "equivalent")):
+    for ax, key in zip(axes, ("paper", "equivalent"), strict=True):
         st = data["studies"][("gap", key)]
         for src, style, name in (("rig", "o-", "EM (simulated rig)"), ("fem", "s--", "FEM")):
             pts = sorted(st[src]["points"], key=lambda p: p["value"])

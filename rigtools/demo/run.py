@@ -20,7 +20,7 @@ from rigtools.demo import steps
 from rigtools.demo.findings import evaluate
 from rigtools.demo.settings import DemoSettings
 
-STUDIES = ("gap", "force", "frequency")
+STUDIES = steps.STUDY_KINDS
 MARKER = ".rig-demo"  # written first into a demo's folder: a later demo may replace its files
 
 
@@ -86,15 +86,24 @@ def run_demo(
     findings = evaluate(data)
     report = write_report(build_report(data, findings, out), out / "report.html")
     (out / "findings.json").write_text(
-        json.dumps(findings_doc(findings, report, files), indent=1), encoding="utf-8"
+        json.dumps(findings_doc(findings, report, files, relative_to=out), indent=1), encoding="utf-8"
     )
     save_png(gap_trend_figure(data), out / "gap-trend.png")
     return {"data": data, "findings": findings, "report": report}
 
 
-def findings_doc(findings, report: Path, files: list[str]) -> dict:
-    """The ``--json`` document (also written as ``findings.json``)."""
-    return {"report": str(report), "files": files, "findings": [f.to_dict() for f in findings]}
+def findings_doc(findings, report: Path, files: list[str], relative_to: Path | None = None) -> dict:
+    """The ``--json`` document (also written as ``findings.json``, with the file names relative to
+    the demo's folder, so two demos into two folders write the same document)."""
+
+    def name(path: str | Path) -> str:
+        return str(Path(path).relative_to(relative_to)) if relative_to is not None else str(path)
+
+    return {
+        "report": name(report),
+        "files": [name(f) for f in files],
+        "findings": [f.to_dict() for f in findings],
+    }
 
 
 def save_png(fig, path: Path) -> Path:

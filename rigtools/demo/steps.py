@@ -20,6 +20,7 @@ from rigtools.demo.settings import (
     EQUIVALENT_RATIO,
     PAPER_FE,
     PAPER_FORCE,
+    SEED_OFFSETS,
     STUDY_GAP,
     DemoSettings,
     OperatingPoint,
@@ -29,6 +30,7 @@ from rigtools.sim.channel_names import FORCE
 from rigtools.sim.channel_names import PASSIVE_SHROUD_ACCEL as PASSIVE
 
 K_MAX = 30
+STUDY_KINDS = ("gap", "force", "frequency")
 MAX_DRIVE = 9.5  # V
 
 
@@ -139,7 +141,7 @@ def lab_quantities(
 def _record_window(point) -> tuple[dict, float]:
     """The recorded steady window of a procedure point: ``({channel: samples}, rate)``."""
     rate = float(point.sample_rate)
-    start = int(round(float(point.params.get("record_start", 0.0)) * rate))
+    start = round(float(point.params.get("record_start", 0.0)) * rate)
     n = int(point.params.get("record_samples", point.n_samples - start))
     return {name: np.asarray(ch[start : start + n], dtype=float) for name, ch in point.channels.items()}, rate
 
@@ -210,15 +212,17 @@ def modal_step(cfg, out_dir: Path, settings: DemoSettings) -> dict:
             "frame": settings.frf_frame,
             "averages": settings.frf_averages,
             "gap": 5e-3,
+            "seed": settings.seed + SEED_OFFSETS["frf"],
         },
         path,
         backend="sim",
         overwrite=True,
+        seed=settings.seed + SEED_OFFSETS["frf"],
     ).run()
     with open_recording(path) as rec:
         point = rec.points[0]
         rate = float(point.sample_rate)
-        start = int(round(float(point.params["record_start"]) * rate))
+        start = round(float(point.params["record_start"]) * rate)
         n = int(point.params["record_samples"])
         frame = int(point.params["frame_samples"])
         block = {name: np.asarray(point[name][start : start + n], dtype=float) for name in (FORCE, ACTIVE)}
@@ -287,6 +291,7 @@ def dwell_step(
         path,
         backend="sim",
         overwrite=True,
+        seed=settings.seed + SEED_OFFSETS["dwell"] + (0 if point.key == "paper" else 1),
     ).run()
     em = recording_points(path)[0]
     with open_recording(path) as rec:
@@ -348,9 +353,9 @@ def _last_periods(force, active, passive, rate, fe, contact=None, periods: int =
     fundamental (the common time origin of EM and model waveforms)."""
     from rigtools.analysis.plots import force_zero_crossing_time
 
-    n = int(round(periods * rate / fe))
+    n = round(periods * rate / fe)
     m = min(len(force), n + int(np.ceil(rate / fe)) + 1)  # one period more to find the origin
-    lead = int(round(force_zero_crossing_time(np.asarray(force[-m:]), rate, fe) * rate))
+    lead = round(force_zero_crossing_time(np.asarray(force[-m:]), rate, fe) * rate)
     lead = min(lead, m - n)
     sl = slice(len(force) - m + lead, len(force) - m + lead + n)
     wave = {
@@ -403,6 +408,10 @@ def rig_study_step(
         backend="sim",
         overwrite=True,
         progress=on_event,
+        seed=settings.seed
+        + SEED_OFFSETS["study"]
+        + 10 * STUDY_KINDS.index(kind)
+        + (0 if point.key == "paper" else 1),
     ).run()
     return {"kind": kind, "point": point.key, "file": str(path), "points": recording_points(path)}
 

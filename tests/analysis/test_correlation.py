@@ -151,3 +151,18 @@ def test_trend_series_and_point_agreement_from_dwell_analyses():
     a = point_agreement(pts[0], pts[1])
     assert a.score == pytest.approx(10 ** (-2 * np.log10(2) / 3), rel=1e-4)
     assert a.per_channel["force"] == pytest.approx(0.0, abs=1e-9)
+
+
+def test_a_model_harmonic_zero_but_for_round_off_is_not_minus_100_percent():
+    """F0 sin drives the model: its force harmonics k >= 2 are zero (round-off), not "-100 %"."""
+    import numpy as np
+
+    from rigtools.analysis.correlation import harmonic_table, without_round_off
+
+    em = {"force": np.array([15.0, 0.3, 0.01])}
+    fem = {"force": np.array([15.3, 2e-15, 0.0])}
+    t = harmonic_table(em, fem, 60.0)
+    assert t["diff_pct"].iloc[0] == pytest.approx(2.0, rel=1e-12)
+    assert t["diff_pct"].iloc[1:].isna().all() and t["ratio"].iloc[1:].isna().all()
+    kept = without_round_off([1.0, 1e-8, 1e-10])
+    assert kept[1] == 1e-8 and np.isnan(kept[2])  # 1e-9 of the largest is the limit
