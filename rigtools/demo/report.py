@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from rigtools.demo.findings import Finding, mark
-from rigtools.sim.channel_names import SHROUD_ACCELS
+from rigtools.sim.channel_names import FORCE, SHROUD_ACCELS
 
 CH = (
     ("force", "force sensor (N)"),
@@ -39,19 +39,37 @@ def check_labels(fig):
     return fig
 
 
+def _f1(run: dict) -> float | None:
+    """The force fundamental (harmonic 1, peak) of a dwell run: what the force control holds."""
+    h = run.get("harmonics", {}).get(FORCE)
+    return float(h[0]) if h else run.get("force_amplitude_measured")
+
+
+def _legend(ax) -> None:
+    """A legend beside the axes (right), never over the data."""
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
+
+
 def frf_figure(modal: dict):
     plt = _plt()
     fig, ax = plt.subplots(figsize=(9, 3.6))
-    f = modal["frf"]["frequency_hz"]
-    ax.semilogy(f[1:], modal["frf"]["h"][1:], label="simulated rig (EM), H1 active shroud / force")
+    f = np.asarray(modal["frf"]["frequency_hz"])
+    lo, hi = modal["frf"].get("band", (f[1], f[-1]))
+    shown = (f >= lo) & (f <= hi)  # the excited band: outside it H1 is noise over noise
+    ax.semilogy(
+        f[shown], np.asarray(modal["frf"]["h"])[shown], label="simulated rig (EM), H1 active shroud / force"
+    )
     for e in modal["fem"]["active"]:
-        if e["kind"] == "flexural":
+        if e["kind"] == "flexural" and lo <= e["frequency_hz"] <= hi:
             ax.axvline(e["frequency_hz"], color="C1", ls="--", lw=0.8)
     ax.plot([], [], "--", color="C1", label="FEM flexural frequencies")
+    ax.set_xlim(lo, hi)
     ax.set_xlabel("frequency (Hz)")
     ax.set_ylabel("|accelerance| (m/s²/N)")
-    ax.set_title("Modal check: FRF of the simulated rig (paper Fig. 6)")
-    ax.legend(fontsize=8)
+    ax.set_title(
+        f"Modal check: FRF of the simulated rig, excited band {lo:g}-{hi:g} Hz (paper Fig. 6)", fontsize=10
+    )
+    _legend(ax)
     fig.tight_layout()
     return fig
 
@@ -67,7 +85,7 @@ def harmonic_figure(h: dict):
     ax.set_xlabel("excitation frequency (Hz)")
     ax.set_ylabel("acceleration amplitude (m/s²)")
     ax.set_title("Linear harmonic response at 15 N, FEM vs AM (paper Fig. 7)")
-    ax.legend(fontsize=8)
+    _legend(ax)
     fig.tight_layout()
     return fig
 
@@ -84,7 +102,7 @@ def waveform_figure(d: dict, title: str):
             w = d[key]
             ax.plot(w["time_s"] * 1e3, w[ch], style, lw=1, label=name)
         ax.set_ylabel(label, fontsize=8)
-    axes[0].legend(fontsize=8, ncol=3)
+    _legend(axes[0])
     axes[-1].set_xlabel("time (ms), last three periods")
     axes[0].set_title(title)
     fig.tight_layout()
@@ -102,7 +120,7 @@ def spectrum_figure(d: dict, title: str):
         ax.set_yscale("log")
         ax.set_xlabel("harmonic k (frequency k·fe)")
         ax.set_ylabel(f"{ch.replace('_accel', '').replace('_', ' ')} accel. (m/s²)", fontsize=9)
-        ax.legend(fontsize=8)
+    _legend(axes[-1])
     axes[0].set_title(title, fontsize=10)
     fig.tight_layout()
     return fig
@@ -120,7 +138,7 @@ def study_figure(study: dict, kind: str, label: str):
     ax.plot([p["value"] * scale for p in fem], [p["impulse_level"] for p in fem], "s--", label="FEM")
     ax.set_xlabel(f"{kind} ({unit})")
     ax.set_ylabel("impact level (m/s²)", fontsize=9)
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.28), ncol=2)
     ax2.plot(
         [p["value"] * scale for p in fem],
         [p["peak_contact_force_n"] for p in fem],
@@ -131,9 +149,18 @@ def study_figure(study: dict, kind: str, label: str):
     ax2.set_xlabel(f"{kind} ({unit})")
     ax2.set_ylabel("peak contact force (N)", fontsize=9)
     ax3 = ax2.twinx()
-    ax3.plot([p["value"] * scale for p in rig], [p["impacts_per_period"] for p in rig], "o:", color="C2")
+    ax3.plot(
+        [p["value"] * scale for p in rig],
+        [p["impacts_per_period"] for p in rig],
+        "o:",
+        color="C2",
+        label="EM impacts per period (right axis)",
+    )
     ax3.set_ylabel("impacts per period (EM)", fontsize=9)
-    ax2.legend(fontsize=8, loc="upper left")
+    # one legend for both y axes, below the axes (never over the data)
+    h2, l2 = ax2.get_legend_handles_labels()
+    h3, l3 = ax3.get_legend_handles_labels()
+    ax2.legend(h2 + h3, l2 + l3, fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.28), ncol=2)
     ax.set_title(f"{kind} study, {label}", fontsize=10)
     fig.tight_layout()
     return fig
@@ -152,7 +179,7 @@ def gap_trend_figure(data: dict):
         ax.set_title(f"{pt.label}, F0 = {pt.force:.3g} N", fontsize=10)
         ax.set_xlabel("shroud gap (mm)")
         ax.set_ylabel("impact level (m/s²)", fontsize=9)
-        ax.legend(fontsize=8)
+        ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.2), ncol=2)
     fig.tight_layout()
     return fig
 
@@ -230,6 +257,7 @@ def build_report(data: dict, findings: list[Finding], out_dir: Path):
             [
                 {
                     "run": name,
+                    "F1, controlled force fundamental (N)": _f1(d[k]),
                     "force peak (N)": d[k]["force_peak_n"],
                     "active accel. peak (m/s²)": d[k]["active_accel_peak"],
                     "passive accel. peak (m/s²)": d[k]["passive_accel_peak"],

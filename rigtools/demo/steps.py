@@ -248,6 +248,7 @@ def modal_step(cfg, out_dir: Path, settings: DemoSettings) -> dict:
             ]
         },
         "frf": {
+            "band": tuple(settings.frf_band),
             "frequency_hz": ana.estimate.frequency_hz,
             "h": np.abs(ana.estimate.h1[0]),
             "coherence": ana.estimate.coherence[0],

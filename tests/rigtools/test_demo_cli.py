@@ -46,3 +46,27 @@ def test_out_holding_other_files_is_refused(tmp_path):
     assert proc.returncode == 2
     assert "holds files that a demo did not write" in proc.stderr
     assert (tmp_path / "mine.h5").read_text() == "x"
+
+
+def test_two_demos_write_the_same_findings_and_a_seed_changes_the_noise(tmp_path):
+    """Deterministic by default (seed 0): two runs into two folders give byte-identical
+    findings.json; --seed changes the simulated rig's noise (the FRF test's recorded force)."""
+    from dataclasses import replace
+
+    import numpy as np
+
+    from rigtools.demo import settings
+    from rigtools.demo.run import run_demo
+    from rigtools.recording import open_recording
+
+    tiny = settings.tiny()
+    run_demo(tmp_path / "a", tiny)
+    run_demo(tmp_path / "b", tiny)
+    assert (tmp_path / "a" / "findings.json").read_bytes() == (tmp_path / "b" / "findings.json").read_bytes()
+    run_demo(tmp_path / "c", replace(tiny, seed=7))
+
+    def force(folder):
+        with open_recording(tmp_path / folder / "frf_test.h5") as rec:
+            return np.asarray(rec.points[0]["force"][:4096])
+
+    assert np.array_equal(force("a"), force("b")) and not np.array_equal(force("a"), force("c"))

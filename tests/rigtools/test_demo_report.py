@@ -107,10 +107,11 @@ def test_demo_writes_recordings_and_judges_every_finding(demo):
     assert v["C3"]["paper"]["holds"] is True and v["C3"]["equivalent"]["holds"] is True
     assert v["C6"]["paper"]["holds"] is False  # impacts grow with fe until the orbit folds
     assert len(doc["files"]) == 1 + 2 * 2 + 2 * 6
-    for f in doc["files"]:
-        with open_recording(out.parent / f) as rec:
+    for f in doc["files"]:  # named relative to the demo's folder: two folders, one findings.json
+        assert not Path(f).is_absolute()
+        with open_recording(out / f) as rec:
             assert rec.points and all(p.complete for p in rec.points)
-    assert (out / "report.html").exists() and doc["report"].endswith("report.html")
+    assert (out / "report.html").exists() and doc["report"] == "report.html"
     assert (out / ".rig-demo").exists() and (out / "gap-trend.png").stat().st_size > 10_000
 
 
