@@ -231,8 +231,15 @@ def update_tables(o: Any) -> list[Any]:
 
     out: list[Any] = []
     t = Table(title="identified modes used")
-    for col in ("blade", "order", "identified Hz", "zeta", "nominal model Hz", "from"):
-        t.add_column(col, justify="left" if col in ("blade", "from") else "right")
+    for col in (
+        "blade",
+        "flexural mode",
+        "identified f (Hz)",
+        "damping ratio ζ",
+        "nominal model f (Hz)",
+        "recordings",
+    ):
+        t.add_column(col, justify="left" if col in ("blade", "recordings") else "right")
     for p in o.paired:
         zeta = "-" if p.damping_ratio is None else f"{p.damping_ratio:.4f}"
         t.add_row(

@@ -39,6 +39,9 @@ def check_labels(fig):
     return fig
 
 
+UPDATE_UNITS = {"root.rotational_stiffness": "N·m/rad", "root.translational_stiffness": "N/m"}
+
+
 def _f1(run: dict) -> float | None:
     """The force fundamental (harmonic 1, peak) of a dwell run: what the force control holds."""
     h = run.get("harmonics", {}).get(FORCE)
@@ -288,11 +291,26 @@ def build_report(data: dict, findings: list[Finding], out_dir: Path):
         )
     u = data["update"]
     s = rep.section("Model updating on the identified modes")
-    s.text(
-        f"fitted {', '.join(f'{n} = {v:.4g}' for n, v in u.get('fitted', {}).items())} "
-        f"(start {', '.join(f'{n} = {v:.4g}' for n, v in u.get('initial', {}).items())})"
+
+    def values(kind: str) -> str:
+        return ", ".join(
+            f"{n} = {v:.4g} {UPDATE_UNITS.get(n, '')}".rstrip() for n, v in u.get(kind, {}).items()
+        )
+
+    s.text(f"fitted {values('fitted')} (start {values('initial')})")
+    s.table(
+        [
+            {
+                "mode (blade, flexural order)": m["mode"],
+                "identified on the rig (Hz)": m["measured_hz"],
+                "model before (Hz)": m["before_hz"],
+                "model after (Hz)": m["after_hz"],
+                "after vs identified (%)": 100.0 * (m["after_hz"] - m["measured_hz"]) / m["measured_hz"],
+            }
+            for m in u["modes"]
+        ],
+        caption="natural frequencies before and after the update",
     )
-    s.table(u["modes"], caption="frequencies before and after the update (Hz)")
     s = rep.section("Files")
     s.table([{"file": Path(f).name} for f in data["files"]])
     return rep
