@@ -106,7 +106,7 @@ def plot_path(out: str | os.PathLike) -> Path:
 
 def write_derived(
     path: str | os.PathLike,
-    write: Callable[[Path], None],
+    write: Callable[[Path], object],
     *,
     source: str | os.PathLike | None = None,
     replaceable: Callable[[Path], bool] = is_derived_plot,

@@ -43,6 +43,7 @@ if TYPE_CHECKING:
     from rigtools.sim.parameter_fit import Blade
 
 DWELL_CHANNELS = (FORCE, ACTIVE, PASSIVE)
+ContactLaw = Literal["linear", "hertz"]
 K_HARMONICS = 10  # harmonics fitted and scored (k = 1..10: most of each shroud's energy at 60 Hz)
 BROADBAND_SIGNALS = {
     "chirp": "periodic",
@@ -496,7 +497,7 @@ def fit_contact_to_dwells(
     params,
     dwells: Sequence[DwellData],
     *,
-    law: Literal["linear", "hertz"] | None = None,
+    law: ContactLaw | None = None,
     names: Sequence[str] = ("contact.stiffness", "contact.damping"),
     k_max: int = K_HARMONICS,
 ):
@@ -562,7 +563,7 @@ def updated_rig_text(
         line_text += f"   # {note}" if note else ""
         if section in sections:
             lo, hi = sections[section]
-            hit = None
+            hit, indent = None, ""
             for i in range(lo + 1, hi + 1):
                 m = _KEY.match(lines[i])
                 if m and m.group(2) == key:
@@ -695,7 +696,13 @@ PARAMETER_NAMES = (
     "blade.youngs_modulus",
 )
 DEFAULT_PARAMETERS = "root.rotational_stiffness,damping.ratio"
-CONTACT_LAWS = {"rig": [None], "linear": ["linear"], "hertz": ["hertz"], "compare": ["linear", "hertz"]}
+#: ``--law`` -> the contact laws fitted (``None``: the rig file's).
+CONTACT_LAWS: dict[str, list[ContactLaw | None]] = {
+    "rig": [None],
+    "linear": ["linear"],
+    "hertz": ["hertz"],
+    "compare": ["linear", "hertz"],
+}
 MAX_TARGET_MODES = 10
 RMS_WARNING = 2.0  # rms residual (in target uncertainties) above which the fit does not explain the modes
 

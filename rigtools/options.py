@@ -30,7 +30,7 @@ def quantity(text: str | float, dimension: str, option: str) -> float:
 
 
 def positive_finite(
-    text: str,
+    text: str | float,
     dimension: str,
     option: str,
     *,
@@ -70,7 +70,7 @@ def positive_finite(
 
 
 def duration(
-    text: str, option: str = "--duration", *, maximum: float | None = None, allow_zero: bool = False
+    text: str | float, option: str = "--duration", *, maximum: float | None = None, allow_zero: bool = False
 ) -> float:
     """A time in seconds (``"2 s"``, ``"500 ms"``, ``"1 min"``; a plain number is seconds), > 0
     (or >= 0 with ``allow_zero``) and at most ``maximum`` s."""

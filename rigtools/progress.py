@@ -100,10 +100,9 @@ class ProcedureProgress:
         done = e.point if e.kind == "point_done" else e.point - 1
         self.bar.update(self.task, total=e.n_points, completed=max(0, done), description=text)
 
-    def __exit__(self, *exc: object) -> bool:
+    def __exit__(self, *exc: object) -> None:
         if self.enabled:
             self.bar.__exit__(*exc)  # type: ignore[arg-type]  # rich's __exit__ takes the exc_info triple as given
-        return False
 
 
 class StudyProgress:
@@ -144,10 +143,9 @@ class StudyProgress:
         self.settling = lambda done, total: self.bar.update(settle, completed=done, total=total)
         return self
 
-    def __exit__(self, *exc: object) -> bool:
+    def __exit__(self, *exc: object) -> None:
         if self.enabled:
             self.bar.__exit__(*exc)  # type: ignore[arg-type]  # rich's __exit__ takes the exc_info triple as given
-        return False
 
 
 @contextmanager

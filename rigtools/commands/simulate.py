@@ -80,11 +80,12 @@ def run(args: argparse.Namespace) -> int:
     written: list[Path] = []
     with StopRequests() as stops:
         try:
-            return _run(args, stops, written)
+            code = _run(args, stops, written)
         except Stopped as exc:
             what = f"{written[0]} is complete (no summary or plot)" if written else "nothing written"
             print(f"rig simulate: {exc.reason}; {what}", file=sys.stderr)
-            return exc.exit_code
+            code = exc.exit_code
+    return code
 
 
 def _run(args: argparse.Namespace, stops, written: list) -> int:

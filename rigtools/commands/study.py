@@ -60,10 +60,11 @@ def run(args: argparse.Namespace) -> int:
 
     with StopRequests() as stops:
         try:
-            return _run(args, stops)
+            code = _run(args, stops)
         except Stopped as exc:  # before the file was created
             print(f"rig study: {exc.reason}; nothing written", file=sys.stderr)
-            return exc.exit_code
+            code = exc.exit_code
+    return code
 
 
 def _run(args: argparse.Namespace, stops) -> int:

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -221,7 +222,7 @@ def modal_step(cfg, out_dir: Path, settings: DemoSettings) -> dict:
     ).run()
     with open_recording(path) as rec:
         point = rec.points[0]
-        rate = float(point.sample_rate)
+        rate = float(point.sample_rate or 0.0)
         start = round(float(point.params["record_start"]) * rate)
         n = int(point.params["record_samples"])
         frame = int(point.params["frame_samples"])
@@ -297,7 +298,7 @@ def dwell_step(
     em = recording_points(path)[0]
     with open_recording(path) as rec:
         x, rate = _record_window(rec.points[0])
-    out = {
+    out: dict[str, Any] = {
         "point": point.key,
         "fe": point.fe,
         "force": point.force,

@@ -97,6 +97,7 @@ def build_procedure(
     from rigtools import procedures as P
 
     o = options
+    params: dict[str, Any]
     if name == "dwell":
         params = {
             "fe": quantity(o["fe"], "frequency", "--fe"),
