@@ -12,6 +12,31 @@ if TYPE_CHECKING:
     from typing_extensions import Self  # typing.Self is Python 3.11+
 
 
+def _bar(middle: str | None, *, transient: bool = True, disable: bool = False, bold: bool = False) -> Any:
+    """A rich ``Progress`` on stderr: description, [bar and ``middle`` text | a spinner], elapsed
+    time. ``middle="MofN"`` shows ``done/total``."""
+    from rich.console import Console
+    from rich.progress import (
+        BarColumn,
+        MofNCompleteColumn,
+        Progress,
+        ProgressColumn,
+        SpinnerColumn,
+        TextColumn,
+        TimeElapsedColumn,
+    )
+
+    description = TextColumn("[bold]{task.description}" if bold else "{task.description}")
+    columns: list[ProgressColumn | str]
+    if middle is None:
+        columns = [SpinnerColumn(), description]
+    else:
+        columns = [description, BarColumn(), MofNCompleteColumn() if middle == "MofN" else TextColumn(middle)]
+    return Progress(
+        *columns, TimeElapsedColumn(), console=Console(stderr=True), transient=transient, disable=disable
+    )
+
+
 @contextmanager
 def working(text: str, quiet: bool = False) -> Iterator[None]:
     """A spinner with the elapsed time on stderr while the block runs (nothing if ``quiet`` or
@@ -19,16 +44,7 @@ def working(text: str, quiet: bool = False) -> Iterator[None]:
     if quiet or not sys.stderr.isatty():
         yield
         return
-    from rich.console import Console
-    from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
-
-    with Progress(
-        SpinnerColumn(),
-        TextColumn("{task.description}"),
-        TimeElapsedColumn(),
-        console=Console(stderr=True),
-        transient=True,
-    ) as bar:
+    with _bar(None) as bar:
         bar.add_task(text, total=None)
         yield
 
@@ -48,17 +64,7 @@ def simulated_time_bar(
     if quiet or not sys.stderr.isatty():
         yield None
         return
-    from rich.console import Console
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
-
-    with Progress(
-        TextColumn("{task.description}"),
-        BarColumn(),
-        TextColumn("{task.completed:.3g}/{task.total:.3g} s"),
-        TimeElapsedColumn(),
-        console=Console(stderr=True),
-        transient=True,
-    ) as bar:
+    with _bar("{task.completed:.3g}/{task.total:.3g} s") as bar:
         task = bar.add_task(f"settling {text}", total=at_most)
         yield lambda done, total: bar.update(task, completed=done, total=total)
 
@@ -73,17 +79,7 @@ class ProcedureProgress:
 
     def __enter__(self) -> Self:
         if self.enabled:
-            from rich.console import Console
-            from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
-
-            self.bar = Progress(
-                TextColumn("{task.description}"),
-                BarColumn(),
-                TextColumn("{task.completed}/{task.total} points"),
-                TimeElapsedColumn(),
-                console=Console(stderr=True),
-                transient=True,
-            )
+            self.bar = _bar("{task.completed}/{task.total} points")
             self.bar.__enter__()
             self.task = self.bar.add_task(self.name, total=1)
         return self
@@ -120,16 +116,7 @@ class StudyProgress:
     def __enter__(self) -> Self:
         if not self.enabled:
             return self
-        from rich.console import Console
-        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
-
-        self.bar = Progress(
-            TextColumn("[bold]{task.description}"),
-            BarColumn(),
-            MofNCompleteColumn(),
-            TimeElapsedColumn(),
-            console=Console(stderr=True),
-        )
+        self.bar = _bar("MofN", transient=False, bold=True)
         self.bar.__enter__()
         points = self.bar.add_task(f"{self.title}: {self.label(self.planned[0])}", total=len(self.planned))
         settle = self.bar.add_task("  settling (simulated s)", total=1.0)
@@ -152,18 +139,7 @@ class StudyProgress:
 def counted(text: str, quiet: bool = False, prefix: str = "") -> Iterator[Callable[[int, int, str], None]]:
     """A bar of counted work (``done / total``) on stderr; yields ``update(done, total, text)``,
     which shows ``prefix + text`` as the description (does nothing if quiet / not a tty)."""
-    from rich.console import Console
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
-
-    with Progress(
-        TextColumn("{task.description}"),
-        BarColumn(),
-        MofNCompleteColumn(),
-        TimeElapsedColumn(),
-        console=Console(stderr=True),
-        transient=True,
-        disable=quiet or not sys.stderr.isatty(),
-    ) as bar:
+    with _bar("MofN", disable=quiet or not sys.stderr.isatty()) as bar:
         task = bar.add_task(text, total=None)
         yield lambda done, total, what: bar.update(
             task, completed=done, total=total, description=prefix + what

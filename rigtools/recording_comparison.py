@@ -290,23 +290,15 @@ class Comparison:
     def save_figures(self, out_dir: str | Path) -> list[Path]:
         """Write :meth:`figures` as PNG into ``out_dir`` (created), named
         ``EMSTEM.compare-NAME.png``; never over a recording or a file rigtools did not make."""
-        from rigtools.figures import save_figure
+        from rigtools.figures import save_figures
 
-        out_dir = Path(out_dir)
-        try:
-            out_dir.mkdir(parents=True, exist_ok=True)
-        except OSError as exc:
-            raise UserError(f"cannot create --out {out_dir}: {exc.strerror}") from None
         stem = Path(self.em_path).stem
-        paths = []
-        import matplotlib.pyplot as plt
-
-        for name, fig, _ in self.figures():
-            try:
-                paths.append(save_figure(fig, out_dir / f"{stem}.compare-{name}.png", source=self.em_path))
-            finally:
-                plt.close(fig)
-        return paths
+        return save_figures(
+            ((name, fig) for name, fig, _ in self.figures()),
+            out_dir,
+            lambda name: f"{stem}.compare-{name}.png",
+            source=self.em_path,
+        )
 
     # -------------------------------------------------------------- report
     def add_to_report(self, report) -> None:

@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 import json
 
-from rigtools.errors import UserError
 from rigtools.options import output_folder
 
 HELP = "analyse a recording: harmonics and impacts per point; FRFs (H1, H2, Hv) and modes of FRF tests"
@@ -92,18 +91,12 @@ def run(args: argparse.Namespace) -> int:
 
 
 def write_figures(analysis, out) -> list:
-    """Save every figure of :func:`rigtools.report.sections.analysis_figures` as ``DIR/STEM-NAME.png``."""
+    """Every figure of :func:`rigtools.report.sections.analysis_figures` as ``DIR/STEM-NAME.png``."""
     from pathlib import Path
 
-    from rigtools.figures import save_figure
+    from rigtools.figures import save_figures
     from rigtools.report.sections import analysis_figures
 
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise UserError(f"--out {out}: cannot make the folder ({exc.strerror})") from None
     stem = Path(analysis.path).stem
-    written = []
-    for nf in analysis_figures(analysis):
-        written.append(save_figure(nf.figure, out / f"{stem}-{nf.name}.png", source=analysis.path))
-    return written
+    named = ((nf.name, nf.figure) for nf in analysis_figures(analysis))
+    return save_figures(named, out, lambda name: f"{stem}-{name}.png", source=analysis.path)
