@@ -75,12 +75,14 @@ from rigtools.drivers.drive_signals import raised_cosine
 from rigtools.drivers.safety import MAX_TIME_TO_ZERO, output_queue_limit
 from rigtools.drivers.sensor_chain import SensorChain, SensorModel
 from rigtools.drivers.shaker import ShakerParams
-from rigtools.sim.params import DampingParams, RigParams, RootParams, SimulationInputError
 
 if TYPE_CHECKING:  # built lazily: importing it costs the FE model code
     from rigtools.sim.rig_model import RigModel
 
 # what the physics provides, per time step
+from rigtools.errors import one_line
+from rigtools.sim.params import DampingParams, RigParams, RootParams, SimulationInputError
+
 SIGNALS = (
     "force",  # N, force through the sensor into the active blade
     "active_tip_accel",  # m/s^2, active shroud, y
@@ -1062,7 +1064,7 @@ class SimulatedRig(AcquisitionDevice):
         except SimulationInputError as exc:  # SimulationDivergedError: the state is lost
             session.physics.reset()
             self._fail(
-                SimulationDiverged(f"at t = {k0 / self._rate:.4f} s: {' '.join(str(exc).split())}"),
+                SimulationDiverged(f"at t = {k0 / self._rate:.4f} s: {one_line(exc, None)}"),
                 m=0,
                 k0=k0,
             )

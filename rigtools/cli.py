@@ -72,10 +72,10 @@ class RigArgumentParser(argparse.ArgumentParser):
         try:
             return super()._get_value(action, arg_string)
         except UserError as exc:
-            raise argparse.ArgumentError(None, " ".join(str(exc).split())) from None
+            raise argparse.ArgumentError(None, errors.one_line(exc, None)) from None
 
     def error(self, message: str) -> NoReturn:
-        text = " ".join(str(message).split())
+        text = errors.one_line(str(message), None)
         self.exit(errors.EXIT_USAGE, f"{self.prog}: error: {text}\n(see '{self.prog} --help')\n")
 
 
@@ -262,7 +262,7 @@ def _run(argv: list[str]) -> int:
         command = f"rig {args.command}"
         return int(args.func(args) or 0)
     except UserError as exc:
-        _say(f"{command}: error: {' '.join(str(exc).split())}")
+        _say(f"{command}: error: {errors.one_line(exc, None)}")
         return exc.exit_code
     except KeyboardInterrupt as exc:
         text = str(exc) if isinstance(exc, errors.Interrupted) else "interrupted (Ctrl-C)"
@@ -277,7 +277,7 @@ def _run(argv: list[str]) -> int:
         if code is None:
             raise
         # A DriverError is a hardware fault that stopped the run; the driver ramped the drive to 0.
-        _say(f"{command}: error: {' '.join(str(exc).split())}")
+        _say(f"{command}: error: {errors.one_line(exc, None)}")
         return code
 
 

@@ -26,7 +26,7 @@ def one_line(
     error
         An exception or its text.
     limit
-        At most this many characters (cut with ``...``).
+        At most this many characters (cut with ``...``); ``None``: no limit.
     first
         Keep only the first non-blank line (driver messages put details on the lines after);
         otherwise every line joined, white space folded.
@@ -51,7 +51,7 @@ def one_line(
             text = name
         elif typed:
             text = f"{name}: {text}"
-    return text if len(text) <= limit else text[: limit - 3] + "..."
+    return text if limit is None or len(text) <= limit else text[: limit - 3] + "..."
 
 
 class UserError(Exception):

@@ -27,7 +27,7 @@ from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
-from rigtools.errors import FaultError, UserError
+from rigtools.errors import FaultError, UserError, one_line
 from rigtools.sim.studies import MapPlan, PlannedPoint
 
 if TYPE_CHECKING:
@@ -154,8 +154,7 @@ class StudyRunner:
         except (OSError, TimeoutError) as exc:
             self.close()
             raise StudyRunnerError(
-                f"cannot reach the Dask scheduler {self.scheduler or 'LocalCluster'}: "
-                f"{' '.join(str(exc).split())[:200]}"
+                f"cannot reach the Dask scheduler {self.scheduler or 'LocalCluster'}: {one_line(exc, 200)}"
             ) from None
         self._client = client
         client.run(_configure_worker)

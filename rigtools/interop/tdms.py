@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from rigtools.errors import UserError
+from rigtools.errors import UserError, one_line
 
 G = 9.80665
 LBF = 4.4482216152605
@@ -148,7 +148,7 @@ def import_tdms(
         tdms = TdmsFile.open(source)
     except Exception as exc:  # noqa: BLE001 - npTDMS raises ValueError, KeyError, struct.error, ...
         raise TdmsImportError(
-            f"{source}: not a readable TDMS file ({type(exc).__name__}: {' '.join(str(exc).split())[:200]})"
+            f"{source}: not a readable TDMS file ({type(exc).__name__}: {one_line(exc, 200)})"
         ) from None
     with tdms:
         groups = [g for g in tdms.groups() if g.channels()]

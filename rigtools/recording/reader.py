@@ -20,6 +20,7 @@ import h5py
 import numpy as np
 import numpy.typing as npt
 
+from rigtools.errors import one_line
 from rigtools.recording.lock import writer_alive
 from rigtools.recording.schema import (
     POINTS_GROUP,
@@ -40,7 +41,7 @@ _TRUNCATED = re.compile(r"truncated file: eof = (\d+),.*stored_eof = (\d+)")
 
 
 def _reason(exc: BaseException) -> str:
-    text = " ".join(str(exc).split())
+    text = one_line(exc, None)
     match = _H5_REASON.search(text)
     return match.group(1) if match else text
 

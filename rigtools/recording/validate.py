@@ -21,6 +21,7 @@ import h5py
 import numpy as np
 
 import rigtools
+from rigtools.errors import one_line
 from rigtools.recording.schema import (
     CHANNEL_ATTRS,
     END_FINISHED,
@@ -91,7 +92,7 @@ class AttrCache(dict):
                 try:
                     values[name] = _scalar(obj.attrs[name])
                 except (OSError, TypeError, ValueError, KeyError) as exc:
-                    values[name] = Unreadable(" ".join(str(exc).split()))
+                    values[name] = Unreadable(one_line(exc, None))
             self[key] = values
         return self[key]
 
@@ -434,7 +435,7 @@ def _check_once(path: str | os.PathLike, read_data: bool) -> CheckResult:
     try:
         return _check_file(f, path, opened_as, read_data)
     except (OSError, RuntimeError, KeyError, ValueError) as exc:
-        raise RecordingError(f"{path}: damaged HDF5 structure ({' '.join(str(exc).split())})") from None
+        raise RecordingError(f"{path}: damaged HDF5 structure ({one_line(exc, None)})") from None
     finally:
         f.close()
 
@@ -445,7 +446,7 @@ def _check_file(f: h5py.File, path: str | os.PathLike, opened_as: str, read_data
         try:
             result.problems = find_problems(f)
         except (OSError, RuntimeError, KeyError, ValueError) as exc:
-            raise RecordingError(f"{path}: damaged HDF5 structure ({' '.join(str(exc).split())})") from None
+            raise RecordingError(f"{path}: damaged HDF5 structure ({one_line(exc, None)})") from None
         if result.problems and result.problems[0].message.startswith(NEWER_PREFIX):
             raise RecordingError(f"{path}: {result.problems[0].message}; this rigtools cannot check it")
         if opened_as == "flags-cleared":
@@ -508,7 +509,7 @@ def _data_problems(group: h5py.Group, where: str, ended: bool = True, block: int
             out.append(
                 Problem(
                     f"{where}/{name}",
-                    f"samples cannot be read from index {start} ({' '.join(str(exc).split())})",
+                    f"samples cannot be read from index {start} ({one_line(exc, None)})",
                 )
             )
             continue
