@@ -30,7 +30,16 @@ def test_help_teaches_the_options():
         check=False,
     )
     assert proc.returncode == 0
-    for word in ("--quick", "--out", "--json", "Exit status", "rig demo --quick"):
+    for word in (
+        "--quick",
+        "--out",
+        "--json",
+        "--seed",
+        "deterministic",
+        "measured",
+        "Exit status",
+        "rig demo --quick",
+    ):
         assert word in proc.stdout
 
 
