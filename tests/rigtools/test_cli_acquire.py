@@ -277,10 +277,27 @@ def test_frf_prints_the_h1_peaks_with_their_coherence(tmp_path):
     peaks = sorted(doc["check"]["peaks"], key=lambda p: -p["h1"])[:2]
     for f, pk in zip(flex, sorted(peaks, key=lambda p: p["frequency_hz"]), strict=True):
         assert abs(pk["frequency_hz"] - f) <= 2.0 and pk["coherence"] > 0.99
+    # no peak at the excited band's edges (two 2 Hz lines kept clear of 20 and 500 Hz); |H1| has its unit
+    assert all(22.0 <= pk["frequency_hz"] <= 498.0 for pk in doc["check"]["peaks"]), doc["check"]["peaks"]
+    assert doc["check"]["h1_units"] == "(m/s^2)/(N)"
     with open_recording(out) as rec:
         p = rec.points[0]
         assert p.params["frame_samples"] == round(0.5 * RATE) and p.params["averages"] == 4
         assert np.asarray(p["drive"])[-1] == 0.0
+
+
+def test_frf_help_has_no_force_control_and_shows_defaults(capsys):
+    """An FRF test is not force-controlled: its help says nothing of force control, and every
+    option with a default shows it."""
+    with pytest.raises(SystemExit):
+        main(["acquire", "frf", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert "Force control" not in text and "--max-updates" not in text
+    for shown in ("(default chirp)", 'default "1 s"', "(default 10)", "TIME s from the start"):
+        assert shown in text, shown
+    with pytest.raises(SystemExit):
+        main(["acquire", "dwell", "--help"])
+    assert "Force control" in capsys.readouterr().out
 
 
 def test_sweep_json_and_resume_refusals(tmp_path):

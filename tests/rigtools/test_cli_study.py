@@ -268,3 +268,28 @@ def test_a_record_appended_in_blocks_is_the_run(system, tmp_path, monkeypatch):
     with open_recording(tmp_path / "b.h5") as rec:
         for name, src in MODEL_OUTPUTS.items():
             np.testing.assert_array_equal(rec.points[0][name][:], run.outputs[src])
+
+
+def test_a_map_prints_gap_and_force_columns_under_a_map_title():
+    """A map sweeps fe for each (gap, F0): its table shows all three, titled as a map."""
+    from rich.console import Console
+
+    from rigtools.model_study import summary_table
+
+    h = {
+        c: [{"amplitude": 0.5 * k} for k in range(1, 31)]
+        for c in ("active_shroud_accel", "passive_shroud_accel")
+    }
+    points = [
+        {"value": fe, "fe": fe, "gap": gap, "force_amplitude": f0, "direction": "up", "steady_state": True,
+         "peak_contact_force_n": 1.0, "impacts_per_period": 2.0, "harmonics": h}
+        for gap in (3e-4, 5e-4) for f0 in (10.0,) for fe in (58.0, 60.0)
+    ]  # fmt: skip
+    table = summary_table("map", points)
+    assert table.title == "map study: gap x F0 x fe, 4 points"
+    headers = [c.header for c in table.columns]
+    assert headers[:3] == ["gap (mm)", "F0 (N)", "fe (Hz)"]
+    console = Console(record=True, width=200)
+    console.print(table)
+    text = console.export_text()
+    assert "0.3" in text and "0.5" in text and "10" in text
