@@ -26,14 +26,10 @@ from rigtools.procedures.base import (
     Status,
     StopRequested,
 )
-from rigtools.procedures.dwell import ControlParameters, DwellParameters, SineDwell
-from rigtools.procedures.sweep import (
-    RigStudy,
-    SteppedSine,
-    StudyParameters,
-    SweepParameters,
-    detect_jumps,
-)
+from rigtools.procedures.dwell import DwellParameters, SineDwell
+from rigtools.procedures.rig_study import RigStudy, StudyParameters
+from rigtools.procedures.sine import ControlParameters, SineProcedure
+from rigtools.procedures.sweep import SteppedSine, SweepParameters, detect_jumps
 from rigtools.procedures.tap import TapParameters, TapTest
 
 __all__ = [
@@ -45,6 +41,7 @@ __all__ = [
     "ProgressEvent",
     "RigStudy",
     "SineDwell",
+    "SineProcedure",
     "Status",
     "SteppedSine",
     "StopRequested",

@@ -18,8 +18,9 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 from rigtools.acquisition import BlockStream
 from rigtools.errors import UserError
 from rigtools.procedures.base import StopRequested, validate
-from rigtools.procedures.dwell import MAX_GAP, SineProcedure
 from rigtools.procedures.session import PointSink
+from rigtools.procedures.sine import SineProcedure
+from rigtools.units import MAX_GAP
 
 
 class FrfParameters(BaseModel):

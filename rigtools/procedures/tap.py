@@ -41,7 +41,8 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from rigtools.errors import UserError
 from rigtools.procedures.base import StopRequested, validate
-from rigtools.procedures.dwell import MAX_GAP, SineProcedure
+from rigtools.procedures.sine import SineProcedure
+from rigtools.units import MAX_GAP
 
 if TYPE_CHECKING:
     from rigtools.drivers.contracts import InputChannelSpec

@@ -10,7 +10,7 @@ import time
 import numpy as np
 import pytest
 
-from rigtools.procedures.sweep import complete_points
+from rigtools.procedures.rig_study import complete_points
 from rigtools.recording import check_recording, open_recording
 
 RATE = 51200.0
