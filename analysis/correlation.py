@@ -40,6 +40,11 @@ def without_round_off(amplitudes) -> np.ndarray:
     return a
 
 
+def _zero_if_round_off(value: float, kept: float) -> float:
+    """``0.0`` for a finite value :func:`without_round_off` dropped (round-off), else the value."""
+    return 0.0 if np.isfinite(value) and np.isnan(kept) else float(value)
+
+
 def _pct(x, ref):
     x, ref = np.asarray(x, dtype=float), np.asarray(ref, dtype=float)
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -123,7 +128,7 @@ def harmonic_table(
     pandas.DataFrame
         Rows ``channel``, ``k``, ``frequency_hz``, ``em``, ``fem``, ``diff_pct``
         (``100 (FEM - EM) / EM``), ``ratio`` (FEM / EM). A harmonic that is zero but for round-off
-        (:func:`without_round_off`) on either side has no ``diff_pct`` nor ``ratio`` (NaN): a
+        (:func:`without_round_off`) is shown as 0 and has no ``diff_pct`` nor ``ratio`` (NaN): a
         model's exactly-zero force harmonic is not "-100 %".
     """
     rows = []
@@ -141,8 +146,8 @@ def harmonic_table(
                     "channel": ch,
                     "k": k,
                     "frequency_hz": k * float(fe),
-                    "em": a[k - 1],
-                    "fem": b[k - 1],
+                    "em": _zero_if_round_off(a[k - 1], a_cmp[k - 1]),
+                    "fem": _zero_if_round_off(b[k - 1], b_cmp[k - 1]),
                     "diff_pct": float(_pct(b_cmp[k - 1], a_cmp[k - 1])),
                     "ratio": float(ratio),
                 }

@@ -164,5 +164,6 @@ def test_a_model_harmonic_zero_but_for_round_off_is_not_minus_100_percent():
     t = harmonic_table(em, fem, 60.0)
     assert t["diff_pct"].iloc[0] == pytest.approx(2.0, rel=1e-12)
     assert t["diff_pct"].iloc[1:].isna().all() and t["ratio"].iloc[1:].isna().all()
+    assert list(t["fem"].iloc[1:]) == [0.0, 0.0] and t["em"].iloc[1] == 0.3
     kept = without_round_off([1.0, 1e-8, 1e-10])
     assert kept[1] == 1e-8 and np.isnan(kept[2])  # 1e-9 of the largest is the limit
