@@ -17,7 +17,7 @@ EXIT_SIGTERM = 128 + 15  # 143: terminated (SIGTERM: kill, timeout, a job schedu
 
 
 def one_line(
-    error: BaseException | str, limit: int = 500, *, first: bool = False, typed: bool = False
+    error: BaseException | str, limit: int | None = 500, *, first: bool = False, typed: bool = False
 ) -> str:
     """The one line an error is shown as (a message, a recording's abort reason): the one rule.
 

@@ -98,7 +98,7 @@ class ProcedureProgress:
 
     def __exit__(self, *exc: object) -> None:
         if self.enabled:
-            self.bar.__exit__(*exc)  # type: ignore[arg-type]  # rich's __exit__ takes the exc_info triple as given
+            self.bar.__exit__(*exc)
 
 
 class StudyProgress:
@@ -132,7 +132,7 @@ class StudyProgress:
 
     def __exit__(self, *exc: object) -> None:
         if self.enabled:
-            self.bar.__exit__(*exc)  # type: ignore[arg-type]  # rich's __exit__ takes the exc_info triple as given
+            self.bar.__exit__(*exc)
 
 
 @contextmanager

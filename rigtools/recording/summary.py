@@ -86,8 +86,12 @@ def point_state(rec: Recording, point: Point) -> str:
 
 
 def format_value(value: Any) -> str:
-    """A parameter value for a person: numbers to :data:`DIGITS` significant digits, yes/no, and
-    an array or list longer than :data:`ARRAY_ITEMS` summarised as ``[n values, min .. max]``."""
+    """A parameter value written for a person.
+
+    Numbers to :data:`DIGITS` significant digits, booleans as yes/no, and an array or list longer
+    than :data:`ARRAY_ITEMS` summarised by its length, smallest and largest value
+    (``[100 values, 0 .. 99]``).
+    """
     if isinstance(value, bool):
         return "yes" if value else "no"
     if isinstance(value, float):
