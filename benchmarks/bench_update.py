@@ -55,9 +55,9 @@ from rigtools.sim.contact_fit import (
     targets_from_model,
 )
 from rigtools.sim.modal import flexural_frequencies
+from rigtools.sim.parameter_fit import mode_targets, predict, update_model
 from rigtools.sim.reduction import reduced_system
 from rigtools.sim.rig_model import build_rig_model
-from rigtools.sim.parameter_fit import mode_targets, predict, update_model
 
 NAMES = [
     "root.rotational_stiffness",

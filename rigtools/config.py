@@ -30,7 +30,6 @@ from pydantic import (
     model_validator,
 )
 
-from rigtools.sim.shaker_params import SHAKER_BOUNDS
 from rigtools.errors import ConfigError
 from rigtools.sim.params import (
     BladeParams,
@@ -40,6 +39,7 @@ from rigtools.sim.params import (
     RigParams,
     RootParams,
 )
+from rigtools.sim.shaker_params import SHAKER_BOUNDS
 from rigtools.units import MAX_GAP, parse_quantity
 
 if TYPE_CHECKING:

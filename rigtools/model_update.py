@@ -937,7 +937,7 @@ def update_rig_file(
         sources=[Path(p).name for p in tests],
         modes_used=", ".join(f"{p.blade} f{p.order} {p.frequency_hz:.2f} Hz" for p in paired),
         contact_sources=[Path(p).name for p in dwell_files],
-        when=when or _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
+        when=when or _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%d %H:%M UTC"),
     )
     check_rig_text(new_text, out_path)
     try:

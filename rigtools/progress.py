@@ -6,10 +6,7 @@ from __future__ import annotations
 import sys
 from collections.abc import Callable, Iterator
 from contextlib import AbstractContextManager, contextmanager
-from typing import TYPE_CHECKING, Any
-
-if TYPE_CHECKING:
-    from typing_extensions import Self  # typing.Self is Python 3.11+
+from typing import Any, Self
 
 
 def _bar(middle: str | None, *, transient: bool = True, disable: bool = False, bold: bool = False) -> Any:

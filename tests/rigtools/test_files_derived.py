@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from rigtools.errors import UserError
 from rigtools.derived_files import derived_path, is_derived_plot, plot_path, png_software, write_derived
+from rigtools.errors import UserError
 from rigtools.figures import save_figure
 from rigtools.recording import ChannelSpec, RecordingWriter, open_recording
 

@@ -33,8 +33,10 @@ def test_gap_accepted(text, si):
     [
         (
             "0.5",
-            "--gap = '0.5' is 500 mm, wider than any blade could close (a gap must be between 0 and "
-            "50 mm); a plain number is metres: write gaps with units, e.g. '0.5 mm'",
+            (
+                "--gap = '0.5' is 500 mm, wider than any blade could close (a gap must be between 0 and "
+                "50 mm); a plain number is metres: write gaps with units, e.g. '0.5 mm'"
+            ),
         ),
         ("51 mm", "--gap = '51 mm' is 51 mm, wider than any blade could close (a gap must be between 0"),
         ("-0.1 mm", "--gap = '-0.1 mm': a gap must be between 0 and 50 mm"),

@@ -22,8 +22,8 @@ from cli_helpers import run_cli
 from rigtools.config import default_rig_text, load_rig
 from rigtools.recording import ChannelSpec, RecordingWriter
 from rigtools.sim.harmonic import fem_harmonic_response
-from rigtools.sim.rig_model import build_rig_model
 from rigtools.sim.parameter_fit import mode_targets
+from rigtools.sim.rig_model import build_rig_model
 
 RATE = 51200.0
 FRAME = 51200  # 1 s frames: 1 Hz resolution

@@ -14,8 +14,6 @@ import pytest
 from rigtools.config import load_rig
 from rigtools.sim.harmonic import fem_harmonic_response
 from rigtools.sim.modal import flexural_frequencies
-from rigtools.sim.params import DampingParams
-from rigtools.sim.rig_model import build_rig_model
 from rigtools.sim.parameter_fit import (
     PARAMETERS,
     FrfTarget,
@@ -25,6 +23,8 @@ from rigtools.sim.parameter_fit import (
     rig_file_values,
     update_model,
 )
+from rigtools.sim.params import DampingParams
+from rigtools.sim.rig_model import build_rig_model
 
 K_ROT = "root.rotational_stiffness"
 K_TR = "root.translational_stiffness"
