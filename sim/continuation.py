@@ -1,0 +1,1091 @@
+"""Periodic orbits of the reduced vibro-impact model: shooting, pseudo-arclength continuation,
+Floquet stability and bifurcations (as NLvib's shooting and COCO's ``po`` toolbox do it).
+
+The orbit is the fixed point of the map over ``periods`` forcing periods of
+:class:`rigtools.sim.vibro_impact.VibroImpactStepper` (the same compiled kernel as every time
+integration in the toolkit, so a branch and a settled run differ only by how they find the orbit).
+The state is taken at force phase zero: the modal displacements and velocities of the reduced
+system (plus the coil current when a shaker drives it). The contact force and the other loads the
+kernel carries from step to step are functions of that state (the penalty force is consistent
+with the closure at each step end), so the map depends on ``(q, v)`` alone and is smooth except
+where an impact moves across a step boundary, a change of the order of the time step's own error.
+
+Derivatives are forward finite differences of the map (one integration per state component and
+one for the parameter), relative perturbation :data:`FD_RELATIVE_STEP` of the orbit's size. They
+serve the Newton corrector and, at each converged point, are the monodromy matrix whose
+eigenvalues are the Floquet multipliers. Measured accuracy (tests/sim/test_continuation.py): the
+multipliers of the linear response agree with ``exp(lambda T)`` of each mode to 1e-6, those of a
+one-mode impact oscillator with the exact piecewise-linear solution to 1e-4.
+
+Continuation is pseudo-arclength in the scaled vector ``(y / Y, lambda / L)`` (``y`` the state with
+displacements times their mode's frequency, ``Y`` its size at the start, ``L`` the parameter range):
+a tangent predictor, a chord-Newton corrector on the arclength plane (the previous point's
+Jacobian, refreshed when it converges slowly), step control on the iteration count. Between
+consecutive points the test functions are
+
+* fold: the parameter component of the tangent changes sign;
+* period doubling: ``det(M + I)`` changes sign (a real multiplier crosses -1);
+* Neimark-Sacker: the number of complex multipliers outside the unit circle changes;
+* grazing: the smallest distance between the shrouds over the orbit (``min_gap``) changes sign.
+
+Each is located by regula falsi along the arclength and inserted as a labelled point. At a
+period doubling, :func:`switch_period_doubling` starts the period-2 branch (the map over two periods
+has a pitchfork there; its new direction is the -1 eigenvector). A point that does not converge is
+reported (``Branch.status``, ``Branch.message``) and the branch ends at the last good point.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from rigtools.sim.contact import law, law_code
+from rigtools.sim.reduction import ReducedSystem
+from rigtools.sim.vibro_impact import (
+    OUT_COLUMNS,
+    ShakerCoupling,
+    SimulationInputError,
+    StepperState,
+    VibroImpactStepper,
+    steps_per_period_for,
+    validate_contact,
+    validate_harmonic_input,
+)
+
+PARAMETERS = ("fe", "force", "gap")
+UNITS = {"fe": "Hz", "force": "N", "gap": "m"}
+FD_RELATIVE_STEP = 1e-6
+N_HARMONICS = 10
+# labels a point may carry
+FOLD, PERIOD_DOUBLING, NEIMARK_SACKER, GRAZING = "fold", "period-doubling", "neimark-sacker", "grazing"
+START, END, FAILED, SWITCH = "start", "end", "failed", "branch-switch"
+BIFURCATIONS = (FOLD, PERIOD_DOUBLING, NEIMARK_SACKER, GRAZING)
+
+_COL = {name: i for i, name in enumerate(OUT_COLUMNS)}
+
+
+class ContinuationError(SimulationInputError):
+    """A branch could not be started (no periodic orbit found at its first parameter value)."""
+
+
+@dataclass(frozen=True)
+class Forcing:
+    """The fixed quantities of a forced orbit (SI): frequency, force amplitude (coil voltage
+    amplitude, V, with a shaker), gap."""
+
+    fe: float
+    force: float
+    gap: float
+
+    def value(self, param: str) -> float:
+        return float(getattr(self, param))
+
+    def with_value(self, param: str, value: float) -> Forcing:
+        if param not in PARAMETERS:
+            raise ValueError(f"parameter must be one of {PARAMETERS}, got {param!r}")
+        return replace(self, **{param: float(value)})
+
+
+@dataclass(frozen=True)
+class OrbitMeasures:
+    """Response measures of one periodic orbit (SI, y direction).
+
+    Attributes
+    ----------
+    accel_harmonics_active, accel_harmonics_passive
+        (10,) peak acceleration of each shroud at ``k fe``, k = 1..10, m/s^2 (from the velocity,
+        ``k w |V_k|``, as :data:`rigtools.simulation.HARMONIC_SOURCES` does).
+    peak_contact_force
+        Largest contact force over the orbit, N.
+    peak_contact_force_per_period
+        Largest contact force in each forcing period of the orbit, N.
+    tip_amplitude_active, tip_amplitude_passive
+        Half the peak-to-peak shroud displacement, m.
+    impacts_per_period
+        Contact onsets per forcing period.
+    min_gap
+        Smallest distance between the shrouds over the orbit, m (negative: they overlap in the
+        penalty contact; zero: grazing).
+    force_fundamental
+        Fundamental amplitude of the force into the blade (the sensor's), N.
+    """
+
+    accel_harmonics_active: np.ndarray
+    accel_harmonics_passive: np.ndarray
+    peak_contact_force: float
+    peak_contact_force_per_period: tuple[float, ...]
+    tip_amplitude_active: float
+    tip_amplitude_passive: float
+    impacts_per_period: float
+    min_gap: float
+    force_fundamental: float
+
+    def as_dict(self) -> dict:
+        return {
+            "accel_harmonics_active": [float(a) for a in self.accel_harmonics_active],
+            "accel_harmonics_passive": [float(a) for a in self.accel_harmonics_passive],
+            "peak_contact_force": self.peak_contact_force,
+            "peak_contact_force_per_period": list(self.peak_contact_force_per_period),
+            "tip_amplitude_active": self.tip_amplitude_active,
+            "tip_amplitude_passive": self.tip_amplitude_passive,
+            "impacts_per_period": self.impacts_per_period,
+            "min_gap": self.min_gap,
+            "force_fundamental": self.force_fundamental,
+        }
+
+
+@dataclass(frozen=True)
+class BranchPoint:
+    """One periodic orbit on a branch.
+
+    Attributes
+    ----------
+    param, value
+        The continued parameter (``"fe"``, ``"force"``, ``"gap"``) and its value (Hz, N or V, m).
+    forcing
+        All three quantities at this point.
+    periods
+        Forcing periods of the orbit (1, or 2 on a period-2 branch).
+    state
+        ``(q, v)`` (plus the coil current with a shaker) at force phase zero, modal coordinates
+        of :attr:`PeriodMap.system`.
+    multipliers
+        Floquet multipliers (eigenvalues of the monodromy matrix), sorted by decreasing modulus.
+    stable
+        Every multiplier has modulus below 1.
+    labels
+        ``start``, ``end``, ``failed`` (last good point before a failure), ``branch-switch`` and the
+        bifurcations (``fold``, ``period-doubling``, ``neimark-sacker``, ``grazing``).
+    measures
+        :class:`OrbitMeasures`.
+    tangent_param
+        Parameter component of the unit tangent (scaled), which changes sign at a fold.
+    newton_iterations
+        Corrector iterations it took.
+    """
+
+    param: str
+    value: float
+    forcing: Forcing
+    periods: int
+    state: np.ndarray = field(repr=False)
+    multipliers: np.ndarray = field(repr=False)
+    stable: bool
+    labels: tuple[str, ...]
+    measures: OrbitMeasures = field(repr=False)
+    tangent_param: float = 0.0
+    newton_iterations: int = 0
+
+    @property
+    def max_multiplier(self) -> float:
+        return float(np.max(np.abs(self.multipliers))) if self.multipliers.size else 0.0
+
+
+@dataclass
+class Branch:
+    """A continued branch: points in arclength order, how it ended.
+
+    ``status`` is ``"complete"`` (reached the end value), ``"failed"`` (a point did not converge;
+    ``message`` says where and why, the last point is the last good one), ``"left range"`` (the
+    branch turned back out of the range), ``"max points"``, or ``"merged"`` (a period-2 branch
+    returned onto the period-1 branch).
+    """
+
+    param: str
+    periods: int
+    points: list[BranchPoint] = field(default_factory=list)
+    status: str = "complete"
+    message: str = ""
+
+    def values(self) -> np.ndarray:
+        return np.array([p.value for p in self.points])
+
+    def stable(self) -> np.ndarray:
+        return np.array([p.stable for p in self.points], dtype=bool)
+
+    def measure(self, name: str) -> np.ndarray:
+        """One :class:`OrbitMeasures` field per point (arrays stack, e.g. ``(n, 10)`` harmonics)."""
+        return np.array([getattr(p.measures, name) for p in self.points])
+
+    def labelled(self, label: str | None = None) -> list[BranchPoint]:
+        """The points carrying ``label`` (any bifurcation label if ``None``)."""
+        want = BIFURCATIONS if label is None else (label,)
+        return [p for p in self.points if any(lab in want for lab in p.labels)]
+
+
+# --------------------------------------------------------------------------- the shooting map
+
+
+class PeriodMap:
+    """The state after ``periods`` forcing periods as a function of the state at force phase zero.
+
+    Parameters
+    ----------
+    system
+        Reduced system (its contact law and stiffness are used; the gap comes with the forcing).
+    steps_per_period
+        Time steps per forcing period, fixed along a branch so that the map is smooth in the
+        frequency (``dt = 1 / (fe n)``).
+    periods
+        Forcing periods of the map.
+    shaker
+        With a shaker the forcing amplitude is the coil voltage (V) and the coil current is part
+        of the state.
+    force_scale
+        Force (N) at which a Hertz contact's tangent stiffness is taken for the step check.
+
+    Notes
+    -----
+    The map works on the scaled state ``y = (omega q, v[, i])`` (all in velocity units), which
+    keeps Newton and the arclength norm balanced between slow and fast modes.
+    """
+
+    def __init__(
+        self,
+        system: ReducedSystem,
+        steps_per_period: int,
+        periods: int = 1,
+        shaker: ShakerCoupling | None = None,
+        force_scale: float = 100.0,
+    ):
+        validate_contact(system)
+        self.base = system
+        self.steps_per_period = int(steps_per_period)
+        self.periods = int(periods)
+        self.shaker = shaker
+        self.force_scale = float(force_scale)
+        self.system = (
+            system
+            if shaker is None
+            else system.with_attached(shaker.armature_mass, shaker.suspension_stiffness)
+        )
+        n = self.system.n_modes
+        self.n_modes = n
+        self.dim = 2 * n + (1 if shaker is not None else 0)
+        self.scale = np.concatenate([self.system.omega, np.ones(n), np.ones(1 if shaker else 0)])
+        shapes = self.system.shapes
+        self._d = shapes[0] - shapes[1]
+        self._phi_f = shapes[2]
+        c = system.contact
+        self._law = (float(c.stiffness), float(c.damping), float(c.hertz_exponent), law_code(c))
+        self._key: tuple[float, float] | None = None
+        self._stepper: VibroImpactStepper | None = None
+        k = np.arange(1, self.steps_per_period * self.periods + 1)
+        self._unit_drive = np.sin(2.0 * np.pi * k / self.steps_per_period)
+        self._out = np.empty((k.size, len(OUT_COLUMNS)))
+        self.evaluations = 0
+
+    def with_periods(self, periods: int) -> PeriodMap:
+        return PeriodMap(self.base, self.steps_per_period, periods, self.shaker, self.force_scale)
+
+    def _stepper_for(self, p: Forcing) -> VibroImpactStepper:
+        key = (p.fe, p.gap)
+        if self._stepper is None or key != self._key:
+            validate_harmonic_input(p.fe, abs(p.force), p.gap)
+            dt = 1.0 / (p.fe * self.steps_per_period)
+            self._stepper = VibroImpactStepper(
+                self.base.with_contact(gap=p.gap), dt, self.shaker, self.force_scale
+            )
+            self._key = key
+        return self._stepper
+
+    def _scalars(self, x: np.ndarray, gap: float) -> np.ndarray:
+        """The loads the kernel carries into the first step, from the state (force phase zero)."""
+        n = self.n_modes
+        q, v = x[:n], x[n : 2 * n]
+        kc, cc, pexp, code = self._law
+        fc = law(float(self._d @ q) - gap, float(self._d @ v), kc, cc, pexp, code)
+        s = np.zeros(5)
+        s[1] = fc
+        if self.shaker is not None:
+            vf = float(self._phi_f @ v)
+            s[2] = x[2 * n]
+            s[4] = vf
+            s[0] = self.shaker.force_factor * x[2 * n] - self.shaker.suspension_damping * vf
+        return s
+
+    def flow(self, y: np.ndarray, p: Forcing) -> tuple[np.ndarray, np.ndarray]:
+        """``(y after the periods, outputs (steps, len(OUT_COLUMNS)))``; the outputs array is
+        reused by the next call (copy it to keep it)."""
+        st = self._stepper_for(p)
+        x = np.asarray(y, dtype=float) / self.scale
+        n = self.n_modes
+        st.state = StepperState(x[:n].copy(), x[n : 2 * n].copy(), self._scalars(x, p.gap), 0.0)
+        o = st.step(p.force * self._unit_drive, self._out)
+        self.evaluations += 1
+        end = [st.state.q, st.state.v]
+        if self.shaker is not None:
+            end.append(st.state.scalars[2:3])
+        return np.concatenate(end) * self.scale, o.data
+
+    def jacobian(
+        self, y: np.ndarray, p: Forcing, param: str | None = None, fy: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+        """``(Phi(y), dPhi/dy, dPhi/dparam)`` by forward differences (``param`` None: no
+        parameter column). ``fy``: ``Phi(y)`` if already known."""
+        y = np.asarray(y, dtype=float)
+        f0 = self.flow(y, p)[0] if fy is None else fy
+        size = max(float(np.linalg.norm(y)) / math.sqrt(y.size), 1e-300)
+        jac = np.empty((y.size, y.size))
+        for j in range(y.size):
+            h = FD_RELATIVE_STEP * max(abs(y[j]), size)
+            yp = y.copy()
+            yp[j] += h
+            jac[:, j] = (self.flow(yp, p)[0] - f0) / h
+        dpar = None
+        if param is not None:
+            lam = p.value(param)
+            h = FD_RELATIVE_STEP * max(abs(lam), _PARAM_FLOOR[param])
+            dpar = (self.flow(y, p.with_value(param, lam + h))[0] - f0) / h
+        return f0, jac, dpar
+
+    def linear_orbit(self, p: Forcing) -> np.ndarray:
+        """Scaled state of the steady response without contact (force ``F0 sin``, phase zero);
+        with a shaker, rest (the settling in :func:`solve_orbit` finds the orbit)."""
+        if self.shaker is not None:
+            return np.zeros(self.dim)
+        s = self.system
+        w = 2.0 * np.pi * p.fe
+        # q_j = Im(a_j exp(i w t)), a_j = phi_F,j F0 / (w_j^2 - w^2 + 2 i zeta_j w_j w)
+        a = self._phi_f * p.force / (s.omega**2 - w**2 + 2j * s.zeta * s.omega * w)
+        x = np.concatenate([a.imag, (1j * w * a).imag])
+        return x * self.scale
+
+    def measures(self, data: np.ndarray, p: Forcing) -> OrbitMeasures:
+        """:class:`OrbitMeasures` of the outputs of one :meth:`flow` over the orbit."""
+        n_total = data.shape[0]
+        per = self.periods
+        w = 2.0 * np.pi * p.fe
+        k = np.arange(1, N_HARMONICS + 1)
+
+        def accel(col: str) -> np.ndarray:
+            spec = np.fft.rfft(data[:, _COL[col]]) * 2.0 / n_total
+            return k * w * np.abs(spec[k * per])
+
+        fc = data[:, _COL["contact_force"]]
+        closed = fc > 0
+        onsets = int(np.count_nonzero(closed & ~np.roll(closed, 1)))
+        closure = data[:, _COL["active_tip_displacement"]] - data[:, _COL["passive_tip_displacement"]]
+        force = np.fft.rfft(data[:, _COL["excitation_force"]]) * 2.0 / n_total
+        xa = data[:, _COL["active_tip_displacement"]]
+        xp = data[:, _COL["passive_tip_displacement"]]
+        return OrbitMeasures(
+            accel_harmonics_active=accel("active_tip_velocity"),
+            accel_harmonics_passive=accel("passive_tip_velocity"),
+            peak_contact_force=float(fc.max()),
+            peak_contact_force_per_period=tuple(float(c.max()) for c in np.split(fc, per)),
+            tip_amplitude_active=0.5 * float(np.ptp(xa)),
+            tip_amplitude_passive=0.5 * float(np.ptp(xp)),
+            impacts_per_period=onsets / per,
+            min_gap=p.gap - _periodic_max(closure),
+            force_fundamental=float(np.abs(force[per])),
+        )
+
+
+_PARAM_FLOOR = {"fe": 1.0, "force": 1e-3, "gap": 1e-6}
+
+
+def _periodic_max(x: np.ndarray) -> float:
+    """Maximum of a periodic sampled signal, refined by the parabola through the largest sample
+    and its neighbours."""
+    i = int(np.argmax(x))
+    a, b, c = x[i - 1], x[i], x[(i + 1) % x.size]
+    den = a - 2.0 * b + c
+    if den >= 0:
+        return float(b)
+    return float(b - 0.125 * (c - a) ** 2 / den)
+
+
+# --------------------------------------------------------------------------- one orbit
+
+
+@dataclass
+class _Solution:
+    """A converged orbit with what the next step needs."""
+
+    y: np.ndarray
+    lam: float
+    fy: np.ndarray
+    jac: np.ndarray  # dPhi/dy at the solution (the monodromy matrix)
+    dpar: np.ndarray
+    data: np.ndarray
+    iterations: int
+
+
+class _Solver:
+    """Newton (fixed parameter) and pseudo-arclength correctors on one :class:`PeriodMap`."""
+
+    def __init__(self, pmap: PeriodMap, param: str, forcing: Forcing, y_scale: float, lam_scale: float):
+        self.pmap = pmap
+        self.param = param
+        self.forcing = forcing
+        self.Y = y_scale
+        self.L = lam_scale
+        self.tol = 1e-9
+        self.max_iter = 12
+
+    def at(self, lam: float) -> Forcing:
+        return self.forcing.with_value(self.param, lam)
+
+    def scaled(self, y: np.ndarray, lam: float) -> np.ndarray:
+        return np.concatenate([y / self.Y, [lam / self.L]])
+
+    def finish(self, y: np.ndarray, lam: float, iterations: int) -> _Solution:
+        p = self.at(lam)
+        fy, data = self.pmap.flow(y, p)
+        data = data.copy()
+        fy, jac, dpar = self.pmap.jacobian(y, p, self.param, fy=fy)
+        assert dpar is not None
+        return _Solution(y, lam, fy, jac, dpar, data, iterations)
+
+    def fixed(
+        self, y: np.ndarray, lam: float, jac: np.ndarray | None = None
+    ) -> tuple[np.ndarray, int] | None:
+        """Newton on ``Phi(y) - y = 0`` at a fixed parameter; ``None`` if it does not converge."""
+        p = self.at(lam)
+        eye = np.eye(y.size)
+        for it in range(1, self.max_iter + 1):
+            if jac is None or it % 4 == 0:
+                fy, jac, _ = self.pmap.jacobian(y, p)
+            else:
+                fy = self.pmap.flow(y, p)[0]
+            r = fy - y
+            try:
+                dy = np.linalg.solve(jac - eye, -r)
+            except np.linalg.LinAlgError:
+                return None
+            y = y + dy
+            if not np.all(np.isfinite(y)):
+                return None
+            if np.linalg.norm(dy) <= self.tol * self.Y and np.linalg.norm(r) <= 1e3 * self.tol * self.Y:
+                return y, it
+        return None
+
+    def arclength(
+        self, u_pred: np.ndarray, tangent: np.ndarray, jac: np.ndarray, dpar: np.ndarray
+    ) -> tuple[np.ndarray, float, int] | None:
+        """Chord Newton on ``Phi(y, lam) - y = 0``, ``tangent . (u - u_pred) = 0`` starting from
+        the Jacobian given (refreshed after 4 slow iterations); ``None`` if no convergence."""
+        u = u_pred.copy()
+        m = u.size - 1
+        eye = np.eye(m)
+        fresh = False
+        prev_rate = math.inf
+        ratio = 0.0
+        for it in range(1, self.max_iter + 1):
+            y, lam = u[:m] * self.Y, u[m] * self.L
+            p = self.at(lam)
+            try:
+                if it > 1 and not fresh and (ratio > 0.3 or it >= 5):
+                    fy, jac, dpar_new = self.pmap.jacobian(y, p, self.param)
+                    assert dpar_new is not None
+                    dpar = dpar_new
+                    fresh = True
+                else:
+                    fy = self.pmap.flow(y, p)[0]
+            except SimulationInputError:
+                return None
+            r = np.concatenate([(fy - y) / self.Y, [tangent @ (u - u_pred)]])
+            a = np.zeros((m + 1, m + 1))
+            a[:m, :m] = jac - eye
+            a[:m, m] = dpar * self.L / self.Y
+            a[m] = tangent
+            try:
+                du = np.linalg.solve(a, -r)
+            except np.linalg.LinAlgError:
+                return None
+            rate = float(np.linalg.norm(du))
+            u = u + du
+            if not np.all(np.isfinite(u)):
+                return None
+            if rate <= self.tol:
+                return u[:m] * self.Y, u[m] * self.L, it
+            ratio = rate / prev_rate if math.isfinite(prev_rate) else 0.0
+            prev_rate = rate
+        return None
+
+    def tangent(self, sol: _Solution, previous: np.ndarray | None, direction: float = 1.0) -> np.ndarray:
+        """Unit tangent (scaled) at a solution: orientation kept from ``previous`` or, without
+        one, pointing to increasing parameter times ``direction``."""
+        m = sol.y.size
+        a = np.zeros((m + 1, m + 1))
+        a[:m, :m] = sol.jac - np.eye(m)
+        a[:m, m] = sol.dpar * self.L / self.Y
+        if previous is None:
+            a[m, m] = 1.0
+        else:
+            a[m] = previous
+        rhs = np.zeros(m + 1)
+        rhs[m] = 1.0
+        t = np.linalg.solve(a, rhs)
+        t /= np.linalg.norm(t)
+        if previous is None:
+            if t[m] * direction < 0:
+                t = -t
+        elif t @ previous < 0:
+            t = -t
+        return t
+
+
+def _settle(pmap: PeriodMap, y: np.ndarray, p: Forcing, max_periods: int = 400) -> np.ndarray:
+    """Integrate the map until it repeats to 1e-6 (or ``max_periods`` forcing periods)."""
+    for _ in range(max(1, max_periods // pmap.periods)):
+        y1 = pmap.flow(y, p)[0]
+        if np.linalg.norm(y1 - y) <= 1e-6 * max(float(np.linalg.norm(y1)), 1e-300):
+            return y1
+        y = y1
+    return y
+
+
+def _point(
+    pmap: PeriodMap, param: str, sol: _Solution, forcing: Forcing, tangent_param: float, labels=()
+) -> BranchPoint:
+    p = forcing.with_value(param, sol.lam)
+    mult = np.linalg.eigvals(sol.jac)
+    mult = mult[np.argsort(-np.abs(mult))]
+    return BranchPoint(
+        param=param,
+        value=float(sol.lam),
+        forcing=p,
+        periods=pmap.periods,
+        state=sol.y / pmap.scale,
+        multipliers=mult,
+        stable=bool(np.max(np.abs(mult)) < 1.0),
+        labels=tuple(labels),
+        measures=pmap.measures(sol.data, p),
+        tangent_param=float(tangent_param),
+        newton_iterations=sol.iterations,
+    )
+
+
+def solve_orbit(
+    pmap: PeriodMap, forcing: Forcing, y0: np.ndarray | None = None, settle_periods: int = 400
+) -> BranchPoint:
+    """The periodic orbit at fixed ``forcing``: Newton from ``y0`` (default: the response
+    without contact, settled by integrating the map), with its multipliers and measures.
+
+    Raises :class:`ContinuationError` if Newton does not converge.
+    """
+    y = pmap.linear_orbit(forcing) if y0 is None else np.asarray(y0, dtype=float)
+    y_scale = max(float(np.linalg.norm(y)), 1e-12)
+    solver = _Solver(pmap, "fe", forcing, y_scale, 1.0)
+    res = solver.fixed(y, forcing.fe)
+    if res is None:
+        y = _settle(pmap, y, forcing, settle_periods)
+        solver.Y = max(float(np.linalg.norm(y)), 1e-12)
+        res = solver.fixed(y, forcing.fe)
+    if res is None:
+        raise ContinuationError(
+            f"no periodic orbit found at fe = {forcing.fe:g} Hz, force = {forcing.force:g}, "
+            f"gap = {forcing.gap * 1e3:g} mm (Newton did not converge from the settled response)"
+        )
+    sol = solver.finish(res[0], forcing.fe, res[1])
+    return _point(pmap, "fe", sol, forcing, 0.0)
+
+
+# --------------------------------------------------------------------------- continuation
+
+
+@dataclass
+class _Entry:
+    sol: _Solution
+    tangent: np.ndarray
+    point: BranchPoint
+
+
+def _tests(entry: _Entry) -> dict[str, float]:
+    """Test functions whose sign changes mark a bifurcation between two points."""
+    mu = entry.point.multipliers
+    cplx = np.abs(mu.imag) > 1e-9 * np.maximum(np.abs(mu), 1e-300)
+    return {
+        FOLD: float(entry.tangent[-1]),
+        PERIOD_DOUBLING: float(np.prod(1.0 + mu).real),
+        NEIMARK_SACKER: float(np.count_nonzero(cplx & (np.abs(mu) > 1.0))),
+        GRAZING: float(entry.point.measures.min_gap),
+    }
+
+
+def _ns_distance(entry: _Entry) -> float:
+    """|mu| - 1 of the complex multiplier closest to the unit circle (located on for NS)."""
+    mu = entry.point.multipliers
+    cplx = np.abs(mu.imag) > 1e-9 * np.maximum(np.abs(mu), 1e-300)
+    if not np.any(cplx):
+        return math.nan
+    d = np.abs(mu[cplx]) - 1.0
+    return float(d[np.argmin(np.abs(d))])
+
+
+@dataclass
+class ContinuationSettings:
+    """Step control and limits (step lengths in the scaled arclength, see the module docstring).
+
+    ``max_step`` defaults to a fiftieth of the range; ``initial_step`` to a fifth of it.
+    """
+
+    initial_step: float | None = None
+    min_step: float = 1e-6
+    max_step: float | None = None
+    max_points: int = 2000
+    locate: bool = True
+    locate_iterations: int = 12
+    steps_per_period: int | None = None
+
+
+class _Tracer:
+    def __init__(
+        self,
+        pmap: PeriodMap,
+        param: str,
+        forcing: Forcing,
+        stop: float,
+        lam_scale: float,
+        settings: ContinuationSettings,
+        progress: Callable[[int, float], None] | None,
+        bounds: tuple[float, float],
+    ):
+        self.pmap = pmap
+        self.param = param
+        self.forcing = forcing
+        self.stop = stop
+        self.settings = settings
+        self.progress = progress
+        self.bounds = bounds
+        self.solver = _Solver(pmap, param, forcing, 1.0, lam_scale)
+
+    def entry(self, sol: _Solution, tangent: np.ndarray, labels=()) -> _Entry:
+        return _Entry(sol, tangent, _point(self.pmap, self.param, sol, self.forcing, tangent[-1], labels))
+
+    def correct(self, prev: _Entry, h: float) -> _Entry | None:
+        """The point at arclength ``h`` from ``prev`` along its tangent."""
+        s = self.solver
+        u_pred = s.scaled(prev.sol.y, prev.sol.lam) + h * prev.tangent
+        res = s.arclength(u_pred, prev.tangent, prev.sol.jac, prev.sol.dpar)
+        if res is None:
+            return None
+        y, lam, it = res
+        try:
+            sol = s.finish(y, lam, it)
+            t = s.tangent(sol, prev.tangent)
+        except (SimulationInputError, np.linalg.LinAlgError):
+            return None
+        return self.entry(sol, t)
+
+    def locate(self, prev: _Entry, nxt: _Entry, h: float, kind: str) -> _Entry | None:
+        """Regula falsi (Illinois) on the arclength from ``prev`` for the test ``kind``."""
+
+        def value(e: _Entry) -> float:
+            return _ns_distance(e) if kind == NEIMARK_SACKER else _tests(e)[kind]
+
+        f0, f1 = value(prev), value(nxt)
+        if not (math.isfinite(f0) and math.isfinite(f1)) or f0 * f1 > 0:
+            return None
+        small = 1e-8 * (abs(f0) + abs(f1))
+        a, b = 0.0, h
+        best: _Entry | None = None
+        best_f = math.inf
+        side = 0
+        for _ in range(self.settings.locate_iterations):
+            s = (a * f1 - b * f0) / (f1 - f0) if f1 != f0 else 0.5 * (a + b)
+            if not (min(a, b) < s < max(a, b)):
+                s = 0.5 * (a + b)
+            e = self.correct(prev, s)
+            if e is None:
+                break
+            fs = value(e)
+            if not math.isfinite(fs):
+                break
+            if abs(fs) < best_f:
+                best, best_f = e, abs(fs)
+            if abs(fs) <= small or abs(b - a) < 1e-5 * h:
+                break
+            if fs * f0 > 0:
+                a, f0 = s, fs
+                if side == -1:
+                    f1 *= 0.5
+                side = -1
+            else:
+                b, f1 = s, fs
+                if side == 1:
+                    f0 *= 0.5
+                side = 1
+        # accepted only where the test function has come down to a thousandth of its values at
+        # the two ends (or the bracket has closed)
+        if best is None or (best_f > 1e-3 * (abs(f0) + abs(f1)) and abs(b - a) >= 1e-5 * h):
+            return None
+        return best
+
+    def run(self, first: _Entry, branch: Branch, direction_sign: float) -> Branch:
+        st = self.settings
+        lam_span = abs(self.bounds[1] - self.bounds[0])
+        h_max = st.max_step if st.max_step is not None else 1.0 / 50.0
+        h = st.initial_step if st.initial_step is not None else h_max / 5.0
+        h_max = max(h_max, h)
+        lo, hi = min(self.bounds), max(self.bounds)
+        margin = 1e-9 * lam_span
+        entries = [first]
+        branch.points.append(first.point)
+        while True:
+            prev = entries[-1]
+            if len(branch.points) >= st.max_points:
+                branch.status = "max points"
+                branch.message = f"stopped after {st.max_points} points"
+                break
+            nxt = self.correct(prev, h)
+            if nxt is None:
+                h *= 0.5
+                if h < st.min_step and len(entries) > 1:
+                    corner = self.cross_grazing_corner(entries)
+                    if corner is not None:
+                        entries.append(corner)
+                        branch.points.append(corner.point)
+                        h = h_max / 10.0
+                        continue
+                if h < st.min_step:
+                    branch.status = "failed"
+                    branch.message = (
+                        f"no convergence past {self.param} = {prev.sol.lam:.6g} {UNITS[self.param]} "
+                        f"(step below {st.min_step:g}); the branch ends at the last good point"
+                    )
+                    _relabel(branch, -1, FAILED)
+                    break
+                continue
+            # step control on the corrector's work
+            it = nxt.sol.iterations
+            lam_next = nxt.sol.lam
+            past_end = (lam_next - self.stop) * direction_sign > 0
+            outside = lam_next < lo - margin or lam_next > hi + margin
+            if past_end or outside:
+                target = self.stop if past_end else (lo if lam_next < lo else hi)
+                # the point exactly at the end value, by Newton at fixed parameter from the
+                # interpolated state
+                w = (target - prev.sol.lam) / (lam_next - prev.sol.lam)
+                y0 = prev.sol.y + w * (nxt.sol.y - prev.sol.y)
+                res = self.solver.fixed(y0, target, prev.sol.jac)
+                if res is not None:
+                    sol = self.solver.finish(res[0], target, res[1])
+                    t = self.solver.tangent(sol, prev.tangent)
+                    end = self.entry(sol, t)
+                    self._detect(prev, end, (target - prev.sol.lam) / (lam_next - prev.sol.lam) * h, branch)
+                    entries.append(end)
+                    branch.points.append(end.point)
+                    _relabel(branch, -1, END)
+                else:
+                    branch.status = "failed"
+                    branch.message = f"no orbit at the end value {target:.6g} {UNITS[self.param]}"
+                    _relabel(branch, -1, FAILED)
+                    break
+                if not past_end:
+                    branch.status = "left range"
+                    branch.message = (
+                        f"the branch turned back and left the range at {target:.6g} {UNITS[self.param]}"
+                    )
+                break
+            self._detect(prev, nxt, h, branch)
+            entries.append(nxt)
+            branch.points.append(nxt.point)
+            if self.pmap.periods > 1 and _period_one_distance(nxt) < 1e-5:
+                branch.status = "merged"
+                branch.message = (
+                    f"the period-{self.pmap.periods} orbit returned onto the period-1 branch at "
+                    f"{self.param} = {nxt.sol.lam:.6g} {UNITS[self.param]}"
+                )
+                _relabel(branch, -1, END)
+                break
+            if self.progress is not None:
+                self.progress(len(branch.points), nxt.sol.lam)
+            if it <= 3:
+                h = min(h * 1.5, h_max)
+            elif it > 6:
+                h *= 0.5
+        return branch
+
+    def cross_grazing_corner(self, entries: list[_Entry]) -> _Entry | None:
+        """Past a grazing point where the branch turns back sharply (impacts begin or end with
+        a kink in the map: no arclength plane meets the continuing branch), the orbit on the other
+        side of the grazing at a parameter a little to either side; ``None`` if the last point
+        does not graze or no such orbit is found."""
+        prev, before = entries[-1], entries[-2]
+        amplitude = max(prev.point.measures.tip_amplitude_active, 1e-300)
+        if abs(prev.point.measures.min_gap) > 1e-3 * amplitude:
+            return None
+        side = math.copysign(1.0, before.point.measures.min_gap)
+        delta = max(abs(prev.sol.lam - before.sol.lam), 1e-4 * self.solver.L)
+        for scale in (1.0, 4.0, 16.0):
+            for sign in (1.0, -1.0):
+                lam = prev.sol.lam + sign * scale * delta
+                if not min(self.bounds) <= lam <= max(self.bounds):
+                    continue
+                res = self.solver.fixed(prev.sol.y, lam, prev.sol.jac)
+                if res is None:
+                    continue
+                try:
+                    sol = self.solver.finish(res[0], lam, res[1])
+                    t = self.solver.tangent(sol, None, sign)
+                except (SimulationInputError, np.linalg.LinAlgError):
+                    continue
+                e = self.entry(sol, t)
+                if e.point.measures.min_gap * side < 0:  # the other side of the grazing
+                    return e
+        return None
+
+    def _detect(self, prev: _Entry, nxt: _Entry, h: float, branch: Branch) -> None:
+        """Append the located bifurcations between ``prev`` and ``nxt`` to the branch (``nxt`` is
+        appended by the caller); one not located is labelled on ``nxt``."""
+        t0, t1 = _tests(prev), _tests(nxt)
+        found: list[tuple[float, _Entry]] = []
+        for kind in BIFURCATIONS:
+            if kind == NEIMARK_SACKER:
+                crossed = t0[kind] != t1[kind] and _ns_distance(prev) * _ns_distance(nxt) < 0
+            else:
+                crossed = t0[kind] * t1[kind] < 0
+            if not crossed:
+                continue
+            e = self.locate(prev, nxt, h, kind) if self.settings.locate else None
+            if e is None:
+                nxt.point = replace(nxt.point, labels=(*nxt.point.labels, kind))
+                continue
+            e.point = replace(e.point, labels=(kind,))
+            u0 = self.solver.scaled(prev.sol.y, prev.sol.lam)
+            found.append((float(np.linalg.norm(self.solver.scaled(e.sol.y, e.sol.lam) - u0)), e))
+        for _, e in sorted(found, key=lambda f: f[0]):
+            branch.points.append(e.point)
+
+
+def _relabel(branch: Branch, index: int, label: str) -> None:
+    p = branch.points[index]
+    if label not in p.labels:
+        branch.points[index] = replace(p, labels=(*p.labels, label))
+
+
+def _period_one_distance(e: _Entry) -> float:
+    """How far a period-2 orbit is from repeating after one period (relative)."""
+    data = e.sol.data
+    n = data.shape[0] // 2
+    x = data[:, [_COL["active_tip_displacement"], _COL["passive_tip_displacement"]]]
+    return float(np.max(np.abs(x[:n] - x[n:])) / max(float(np.max(np.abs(x))), 1e-300))
+
+
+def _prepare(
+    system: ReducedSystem,
+    param: str,
+    start: float,
+    stop: float,
+    fe: float,
+    force: float,
+    gap: float,
+    periods: int,
+    shaker: ShakerCoupling | None,
+    settings: ContinuationSettings,
+) -> tuple[PeriodMap, Forcing]:
+    if param not in PARAMETERS:
+        raise SimulationInputError(
+            f"the continued parameter must be one of {', '.join(PARAMETERS)}, got {param!r}"
+        )
+    if not (math.isfinite(start) and math.isfinite(stop)) or start == stop:
+        raise SimulationInputError(
+            f"the {param} range needs two different finite values, got {start:g} and {stop:g}"
+        )
+    forcing = Forcing(fe, force, gap).with_value(param, start)
+    for value in (start, stop):
+        f = forcing.with_value(param, value)
+        validate_harmonic_input(f.fe, abs(f.force), f.gap)
+    # n ~ 1 / fe keeps the time step: the lowest frequency needs the most steps per period
+    fe_min = min(start, stop) if param == "fe" else fe
+    force_max = max(abs(start), abs(stop)) if param == "force" else abs(force)
+    force_scale = max(100.0, 10.0 * force_max) if shaker is None else 100.0
+    n = settings.steps_per_period or steps_per_period_for(system, fe_min, force_scale=force_scale)
+    return PeriodMap(system, n, periods, shaker, force_scale=force_scale), forcing
+
+
+def continue_orbits(
+    system: ReducedSystem,
+    param: str,
+    start: float,
+    stop: float,
+    *,
+    fe: float = 60.0,
+    force: float = 15.0,
+    gap: float = 0.7e-3,
+    periods: int = 1,
+    shaker: ShakerCoupling | None = None,
+    y0: np.ndarray | None = None,
+    settings: ContinuationSettings | None = None,
+    progress: Callable[[int, float], None] | None = None,
+) -> Branch:
+    """Continue the periodic orbits of the forced reduced system in ``param`` from ``start`` to
+    ``stop``.
+
+    Parameters
+    ----------
+    system
+        Reduced system (FEM or AM, :func:`rigtools.sim.reduction.reduced_system`).
+    param
+        ``"fe"`` (Hz), ``"force"`` (force amplitude, N; coil voltage amplitude, V, with
+        ``shaker``) or ``"gap"`` (m).
+    start, stop
+        Parameter range; the branch starts at ``start`` and ends where it reaches ``stop``, turns
+        back out of the range, fails to converge (reported in ``Branch.status``/``message``), or
+        after ``settings.max_points``.
+    fe, force, gap
+        The fixed quantities (the continued one is ignored).
+    periods
+        Forcing periods of the orbits (1; 2 for a period-2 branch).
+    shaker
+        Drive through a shaker (the simulated rig's model).
+    y0
+        Scaled starting state (:class:`PeriodMap` convention); default: the response without
+        contact, settled if Newton does not converge from it.
+    settings
+        :class:`ContinuationSettings`.
+    progress
+        ``progress(points_so_far, parameter_value)`` after each point.
+
+    Returns
+    -------
+    Branch
+        Points in arclength order, the located bifurcations inserted between them.
+
+    Raises
+    ------
+    ContinuationError
+        No orbit at ``start``.
+    """
+    settings = settings or ContinuationSettings()
+    pmap, forcing = _prepare(system, param, start, stop, fe, force, gap, periods, shaker, settings)
+    tracer = _Tracer(pmap, param, forcing, stop, abs(stop - start), settings, progress, (start, stop))
+    orbit = solve_orbit(pmap, forcing, y0)
+    y = orbit.state * pmap.scale
+    tracer.solver.Y = max(float(np.linalg.norm(y)), 1e-12)
+    sol = tracer.solver.finish(y, start, orbit.newton_iterations)
+    t = tracer.solver.tangent(sol, None, 1.0 if stop > start else -1.0)
+    branch = Branch(param=param, periods=pmap.periods)
+    return tracer.run(tracer.entry(sol, t, (START,)), branch, 1.0 if stop > start else -1.0)
+
+
+def switch_period_doubling(
+    system: ReducedSystem,
+    point: BranchPoint,
+    start: float,
+    stop: float,
+    *,
+    shaker: ShakerCoupling | None = None,
+    settings: ContinuationSettings | None = None,
+    progress: Callable[[int, float], None] | None = None,
+    offset: float = 0.02,
+) -> Branch:
+    """The period-2 branch born at a period doubling ``point`` of a period-1 branch.
+
+    Over two periods the period-1 orbit is still a fixed point and the period-2 orbit crosses it
+    (a pitchfork); the new branch leaves along the eigenvector ``v`` of the multiplier nearest
+    -1. The first point is corrected on the plane ``v . (u - u_pd - h v) = 0`` at ``h = offset``
+    (scaled arclength; halved until it converges onto an orbit that does not repeat after one
+    period), then continued within ``[start, stop]`` (the period-1 branch's range) in the
+    direction leaving the period-1 branch.
+
+    Raises
+    ------
+    ContinuationError
+        No period-2 orbit found next to the point.
+    """
+    settings = settings or ContinuationSettings()
+    param = point.param
+    lo, hi = min(start, stop), max(start, stop)
+    pmap1, _ = _prepare(system, param, start, stop, *_fixed(point), 1, shaker, settings)
+    pmap = pmap1.with_periods(2)
+    y_pd = point.state * pmap.scale
+    _, jac1, _ = pmap1.jacobian(y_pd, point.forcing)
+    mu, vecs = np.linalg.eig(jac1)
+    j = int(np.argmin(np.abs(mu + 1.0)))
+    v = vecs[:, j].real
+    v /= np.linalg.norm(v)
+    tracer = _Tracer(pmap, param, point.forcing, stop, hi - lo, settings, progress, (start, stop))
+    solver = tracer.solver
+    solver.Y = max(float(np.linalg.norm(y_pd)), 1e-12)
+    sol_pd = solver.finish(y_pd, point.value, 0)
+    direction = np.concatenate([v, [0.0]])
+    h = offset
+    first: _Entry | None = None
+    while h > 1e-5 and first is None:
+        for sign in (1.0, -1.0):
+            u_pred = solver.scaled(y_pd, point.value) + sign * h * direction
+            res = solver.arclength(u_pred, direction, sol_pd.jac, sol_pd.dpar)
+            if res is None:
+                continue
+            sol = solver.finish(*res)
+            if not lo - 1e-9 * (hi - lo) <= sol.lam <= hi + 1e-9 * (hi - lo):
+                continue
+            e = tracer.entry(sol, solver.tangent(sol, sign * direction))
+            if _period_one_distance(e) > 1e-4:
+                first = e
+                break
+        h *= 0.5
+    if first is None:
+        raise ContinuationError(
+            f"no period-2 orbit found next to the period doubling at {param} = {point.value:.6g} "
+            f"{UNITS[param]}"
+        )
+    first.point = replace(first.point, labels=(SWITCH,))
+    going_up = first.tangent[-1] >= 0
+    tracer.stop = hi if going_up else lo
+    branch = Branch(param=param, periods=2)
+    return tracer.run(first, branch, 1.0 if going_up else -1.0)
+
+
+def _fixed(point: BranchPoint) -> tuple[float, float, float]:
+    f = point.forcing
+    return f.fe, f.force, f.gap
+
+
+def trace(
+    system: ReducedSystem,
+    param: str,
+    start: float,
+    stop: float,
+    *,
+    fe: float = 60.0,
+    force: float = 15.0,
+    gap: float = 0.7e-3,
+    shaker: ShakerCoupling | None = None,
+    switch: bool = True,
+    settings: ContinuationSettings | None = None,
+    progress: Callable[[int, float], None] | None = None,
+) -> list[Branch]:
+    """The period-1 branch over ``[start, stop]`` and, with ``switch``, the period-2 branch born
+    at each of its period doublings (:func:`continue_orbits`, :func:`switch_period_doubling`).
+
+    A period-2 branch that cannot be started is returned empty with ``status = "failed"`` and
+    the reason in its ``message``.
+    """
+    main = continue_orbits(
+        system,
+        param,
+        start,
+        stop,
+        fe=fe,
+        force=force,
+        gap=gap,
+        shaker=shaker,
+        settings=settings,
+        progress=progress,
+    )
+    branches = [main]
+    if not switch:
+        return branches
+    seen: list[float] = []
+    for p in main.labelled(PERIOD_DOUBLING):
+        # a period-2 branch that ends on another period doubling of the same branch joins them
+        if any(abs(p.value - s) <= 0.01 * abs(stop - start) for s in seen):
+            continue
+        try:
+            b = switch_period_doubling(
+                system, p, start, stop, shaker=shaker, settings=settings, progress=progress
+            )
+        except ContinuationError as exc:
+            b = Branch(param=param, periods=2, status="failed", message=str(exc))
+        branches.append(b)
+        if b.points:
+            seen.append(b.points[-1].value)
+    return branches
