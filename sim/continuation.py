@@ -199,6 +199,7 @@ class Branch:
     points: list[BranchPoint] = field(default_factory=list)
     status: str = "complete"
     message: str = ""
+    steps_per_period: int = 0
 
     def values(self) -> np.ndarray:
         return np.array([p.value for p in self.points])
@@ -465,7 +466,12 @@ class _Solver:
         return None
 
     def arclength(
-        self, u_pred: np.ndarray, tangent: np.ndarray, jac: np.ndarray, dpar: np.ndarray
+        self,
+        u_pred: np.ndarray,
+        tangent: np.ndarray,
+        jac: np.ndarray | None,
+        dpar: np.ndarray | None,
+        full: bool = False,
     ) -> tuple[np.ndarray, float, int] | None:
         """Chord Newton on ``Phi(y, lam) - y = 0``, ``tangent . (u - u_pred) = 0`` starting from
         the Jacobian given (refreshed after 4 slow iterations); ``None`` if no convergence."""
@@ -479,7 +485,7 @@ class _Solver:
             y, lam = u[:m] * self.Y, u[m] * self.L
             p = self.at(lam)
             try:
-                if it > 1 and not fresh and (ratio > 0.3 or it >= 5):
+                if full or jac is None or dpar is None or (it > 1 and not fresh and (ratio > 0.3 or it >= 5)):
                     fy, jac, dpar_new = self.pmap.jacobian(y, p, self.param)
                     assert dpar_new is not None
                     dpar = dpar_new
@@ -663,9 +669,13 @@ class _Tracer:
         s = self.solver
         u_pred = s.scaled(prev.sol.y, prev.sol.lam) + h * prev.tangent
         res = s.arclength(u_pred, prev.tangent, prev.sol.jac, prev.sol.dpar)
+        if res is None:  # chord iterations failed: full Newton before the step is cut
+            res = s.arclength(u_pred, prev.tangent, None, None, full=True)
         if res is None:
             return None
         y, lam, it = res
+        if np.linalg.norm(s.scaled(y, lam) - u_pred) > 2.0 * abs(h):
+            return None  # converged far from the predictor: onto another part of the curve
         try:
             sol = s.finish(y, lam, it)
             t = s.tangent(sol, prev.tangent)
@@ -739,6 +749,7 @@ class _Tracer:
                 if h < st.min_step and len(entries) > 1:
                     corner = self.cross_grazing_corner(entries)
                     if corner is not None:
+                        self._detect(prev, corner, h, branch)
                         entries.append(corner)
                         branch.points.append(corner.point)
                         h = h_max / 10.0
@@ -836,13 +847,18 @@ class _Tracer:
         appended by the caller); one not located is labelled on ``nxt``."""
         t0, t1 = _tests(prev), _tests(nxt)
         found: list[tuple[float, _Entry]] = []
-        for kind in BIFURCATIONS:
+        # where impacts begin or end the map has a kink and the multipliers jump: the other test
+        # functions change sign there without a smooth bifurcation
+        kinds = (GRAZING,) if t0[GRAZING] * t1[GRAZING] < 0 else BIFURCATIONS
+        for kind in kinds:
             if kind == NEIMARK_SACKER:
                 crossed = t0[kind] != t1[kind] and _ns_distance(prev) * _ns_distance(nxt) < 0
             else:
                 crossed = t0[kind] * t1[kind] < 0
             if not crossed:
                 continue
+            if kind == FOLD and _near_last(branch, FOLD, nxt.sol.lam, 1e-4 * self.solver.L):
+                continue  # the tangent's sign flickering at the fold just found
             e = self.locate(prev, nxt, h, kind) if self.settings.locate else None
             if e is None:
                 nxt.point = replace(nxt.point, labels=(*nxt.point.labels, kind))
@@ -852,6 +868,11 @@ class _Tracer:
             found.append((float(np.linalg.norm(self.solver.scaled(e.sol.y, e.sol.lam) - u0)), e))
         for _, e in sorted(found, key=lambda f: f[0]):
             branch.points.append(e.point)
+
+
+def _near_last(branch: Branch, label: str, value: float, tol: float) -> bool:
+    """The last few points hold ``label`` within ``tol`` of ``value``."""
+    return any(label in p.labels and abs(p.value - value) <= tol for p in branch.points[-10:])
 
 
 def _relabel(branch: Branch, index: int, label: str) -> None:
@@ -961,7 +982,7 @@ def continue_orbits(
     tracer.solver.Y = max(float(np.linalg.norm(y)), 1e-12)
     sol = tracer.solver.finish(y, start, orbit.newton_iterations)
     t = tracer.solver.tangent(sol, None, 1.0 if stop > start else -1.0)
-    branch = Branch(param=param, periods=pmap.periods)
+    branch = Branch(param=param, periods=pmap.periods, steps_per_period=pmap.steps_per_period)
     return tracer.run(tracer.entry(sol, t, (START,)), branch, 1.0 if stop > start else -1.0)
 
 
@@ -1004,14 +1025,14 @@ def switch_period_doubling(
     tracer = _Tracer(pmap, param, point.forcing, stop, hi - lo, settings, progress, (start, stop))
     solver = tracer.solver
     solver.Y = max(float(np.linalg.norm(y_pd)), 1e-12)
-    sol_pd = solver.finish(y_pd, point.value, 0)
     direction = np.concatenate([v, [0.0]])
     h = offset
     first: _Entry | None = None
     while h > 1e-5 and first is None:
         for sign in (1.0, -1.0):
             u_pred = solver.scaled(y_pd, point.value) + sign * h * direction
-            res = solver.arclength(u_pred, direction, sol_pd.jac, sol_pd.dpar)
+            # a fresh Jacobian: at the branch point itself the bordered matrix is singular
+            res = solver.arclength(u_pred, direction, None, None, full=True)
             if res is None:
                 continue
             sol = solver.finish(*res)
@@ -1030,7 +1051,7 @@ def switch_period_doubling(
     first.point = replace(first.point, labels=(SWITCH,))
     going_up = first.tangent[-1] >= 0
     tracer.stop = hi if going_up else lo
-    branch = Branch(param=param, periods=2)
+    branch = Branch(param=param, periods=2, steps_per_period=pmap.steps_per_period)
     return tracer.run(first, branch, 1.0 if going_up else -1.0)
 
 
@@ -1084,8 +1105,45 @@ def trace(
                 system, p, start, stop, shaker=shaker, settings=settings, progress=progress
             )
         except ContinuationError as exc:
-            b = Branch(param=param, periods=2, status="failed", message=str(exc))
+            b = Branch(
+                param=param,
+                periods=2,
+                status="failed",
+                message=str(exc),
+                steps_per_period=main.steps_per_period,
+            )
         branches.append(b)
         if b.points:
             seen.append(b.points[-1].value)
     return branches
+
+
+def orbit_at(
+    system: ReducedSystem, branch: Branch, value: float, *, shaker: ShakerCoupling | None = None
+) -> list[BranchPoint]:
+    """Every orbit of ``branch`` at the parameter ``value``: Newton at that value from each pair
+    of consecutive points that brackets it (with the branch's steps per period and periods).
+
+    Returns the converged points in branch order (a branch that folds holds several).
+    """
+    pts = branch.points
+    if not pts:
+        return []
+    pmap = PeriodMap(system, branch.steps_per_period, branch.periods, shaker)
+    v = np.array([p.value for p in pts])
+    out: list[BranchPoint] = []
+    for i in range(len(pts) - 1):
+        if (v[i] - value) * (v[i + 1] - value) > 0 or v[i] == v[i + 1]:
+            continue
+        w = (value - v[i]) / (v[i + 1] - v[i])
+        y0 = (pts[i].state + w * (pts[i + 1].state - pts[i].state)) * pmap.scale
+        forcing = pts[i].forcing.with_value(branch.param, value)
+        solver = _Solver(pmap, branch.param, forcing, max(float(np.linalg.norm(y0)), 1e-12), 1.0)
+        res = solver.fixed(y0, value)
+        if res is None:
+            continue
+        sol = solver.finish(res[0], value, res[1])
+        point = _point(pmap, branch.param, sol, forcing, 0.0)
+        if not any(np.allclose(point.state, o.state, rtol=1e-6, atol=1e-12) for o in out):
+            out.append(point)
+    return out
