@@ -660,6 +660,7 @@ class _Tracer:
         self.progress = progress
         self.bounds = bounds
         self.solver = _Solver(pmap, param, forcing, 1.0, lam_scale)
+        self.y_floor = 1e-12
 
     def entry(self, sol: _Solution, tangent: np.ndarray, labels=()) -> _Entry:
         return _Entry(sol, tangent, _point(self.pmap, self.param, sol, self.forcing, tangent[-1], labels))
@@ -797,6 +798,7 @@ class _Tracer:
             self._detect(prev, nxt, h, branch)
             entries.append(nxt)
             branch.points.append(nxt.point)
+            self._rescale(nxt)
             if self.pmap.periods > 1 and _period_one_distance(nxt) < 1e-5:
                 branch.status = "merged"
                 branch.message = (
@@ -812,6 +814,18 @@ class _Tracer:
             elif it > 6:
                 h *= 0.5
         return branch
+
+    def _rescale(self, e: _Entry) -> None:
+        """Measure the state by the current orbit's size (a resonance peak many times the first
+        orbit would otherwise take as many steps): the entry's tangent is re-expressed."""
+        y_new = max(float(np.linalg.norm(e.sol.y)), self.y_floor)
+        if abs(y_new / self.solver.Y - 1.0) < 0.2:
+            return
+        m = e.sol.y.size
+        t = e.tangent.copy()
+        t[:m] *= self.solver.Y / y_new
+        self.solver.Y = y_new
+        e.tangent = t / np.linalg.norm(t)
 
     def cross_grazing_corner(self, entries: list[_Entry]) -> _Entry | None:
         """Past a grazing point where the branch turns back sharply (impacts begin or end with
@@ -980,6 +994,7 @@ def continue_orbits(
     orbit = solve_orbit(pmap, forcing, y0)
     y = orbit.state * pmap.scale
     tracer.solver.Y = max(float(np.linalg.norm(y)), 1e-12)
+    tracer.y_floor = 0.1 * tracer.solver.Y
     sol = tracer.solver.finish(y, start, orbit.newton_iterations)
     t = tracer.solver.tangent(sol, None, 1.0 if stop > start else -1.0)
     branch = Branch(param=param, periods=pmap.periods, steps_per_period=pmap.steps_per_period)
@@ -1025,6 +1040,7 @@ def switch_period_doubling(
     tracer = _Tracer(pmap, param, point.forcing, stop, hi - lo, settings, progress, (start, stop))
     solver = tracer.solver
     solver.Y = max(float(np.linalg.norm(y_pd)), 1e-12)
+    tracer.y_floor = 0.1 * solver.Y
     direction = np.concatenate([v, [0.0]])
     h = offset
     first: _Entry | None = None
