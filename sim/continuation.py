@@ -799,7 +799,7 @@ class _Tracer:
             entries.append(nxt)
             branch.points.append(nxt.point)
             self._rescale(nxt)
-            if self.pmap.periods > 1 and _period_one_distance(nxt) < 1e-5:
+            if self.pmap.periods > 1 and len(branch.points) > 5 and _period_one_distance(nxt) < 1e-5:
                 branch.status = "merged"
                 branch.message = (
                     f"the period-{self.pmap.periods} orbit returned onto the period-1 branch at "
@@ -1114,7 +1114,7 @@ def trace(
     seen: list[float] = []
     for p in main.labelled(PERIOD_DOUBLING):
         # a period-2 branch that ends on another period doubling of the same branch joins them
-        if any(abs(p.value - s) <= 0.01 * abs(stop - start) for s in seen):
+        if any(abs(p.value - s) <= 1e-3 * abs(stop - start) for s in seen):
             continue
         try:
             b = switch_period_doubling(
@@ -1129,7 +1129,7 @@ def trace(
                 steps_per_period=main.steps_per_period,
             )
         branches.append(b)
-        if b.points:
+        if b.points and b.status == "merged":
             seen.append(b.points[-1].value)
     return branches
 

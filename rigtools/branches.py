@@ -1,0 +1,186 @@
+"""Continued branches of the model as files: compute (:func:`continue_model`), store
+(:func:`write_branches`, HDF5 of kind "branches", see docs/recording-format.md), read
+(:func:`read_branches`) and draw (:func:`branches_figure`)."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from rigtools.errors import UserError
+
+BRANCHES_SCHEMA = "rigtools-branches"
+BRANCHES_VERSION = 1
+MEASURES = {  # response measure -> (OrbitMeasures field, harmonic index or None, axis label)
+    "contact": ("peak_contact_force", None, "peak contact force (N)"),
+    "accel1": ("accel_harmonics_active", 0, "active shroud acceleration, k = 1 (m/s^2)"),
+    "tip": ("tip_amplitude_active", None, "active shroud amplitude (m)"),
+    "impacts": ("impacts_per_period", None, "impacts per period"),
+}
+X_LABELS = {
+    "fe": ("excitation frequency (Hz)", 1.0),
+    "force": ("force amplitude (N)", 1.0),
+    "gap": ("gap (mm)", 1e3),
+}
+
+
+@dataclass
+class StoredBranch:
+    """A branch as read back: arrays per point, its periods and how it ended."""
+
+    param: str
+    periods: int
+    status: str
+    message: str
+    value: np.ndarray
+    stable: np.ndarray
+    multipliers: np.ndarray  # (n, m) complex
+    labels: list[tuple[str, ...]]
+    measures: dict[str, np.ndarray]
+
+
+def continue_model(
+    param: str,
+    start: float,
+    stop: float,
+    *,
+    fe: float,
+    force: float,
+    gap: float,
+    model: str = "fem",
+    rig: str | None = None,
+    switch: bool = True,
+    progress=None,
+):
+    """``(rig config, branches)``: the period-1 branch of the rig's reduced model over
+    ``[start, stop]`` and the period-2 branches of its period doublings
+    (:func:`rigtools.sim.continuation.trace`). Bad input becomes a :class:`UserError`."""
+    from rigtools.sim.continuation import trace
+    from rigtools.sim.params import SimulationInputError
+    from rigtools.simulation import load_system
+
+    if model not in ("fem", "am"):
+        raise UserError(
+            f"--model = {model!r}: continuation runs on 'fem' or 'am' (the rig's shaker model is not done)"
+        )
+    cfg, system = load_system(rig, model)
+    try:
+        branches = trace(
+            system, param, start, stop, fe=fe, force=force, gap=gap, switch=switch, progress=progress
+        )
+    except SimulationInputError as exc:
+        raise UserError(str(exc)) from None
+    return cfg, branches
+
+
+def write_branches(path: str | Path, branches, rig_text: str, experiment: dict) -> Path:
+    """Write branches to HDF5: root attrs ``schema`` = "rigtools-branches", ``schema_version``,
+    ``kind`` = "branches", ``rig``, ``experiment`` (JSON); one group ``/branches/NN`` per branch."""
+    import h5py
+
+    import rigtools
+
+    path = Path(path)
+    tmp = path.with_name(path.name + ".partial")
+    with h5py.File(tmp, "w") as f:
+        f.attrs.update(
+            schema=BRANCHES_SCHEMA,
+            schema_version=BRANCHES_VERSION,
+            kind="branches",
+            software_version=rigtools.__version__,
+            rig=rig_text,
+            experiment=json.dumps(experiment),
+        )
+        top = f.create_group("branches")
+        for i, b in enumerate(branches):
+            g = top.create_group(f"{i:02d}")
+            g.attrs.update(param=b.param, periods=b.periods, status=b.status, message=b.message)
+            pts = b.points
+            g["value"] = np.array([p.value for p in pts], float)
+            g["stable"] = np.array([p.stable for p in pts], bool)
+            m = max((p.multipliers.size for p in pts), default=0)
+            mult = np.full((len(pts), m), np.nan + 0j)
+            for j, p in enumerate(pts):
+                mult[j, : p.multipliers.size] = p.multipliers
+            g["multipliers_real"], g["multipliers_imag"] = mult.real, mult.imag
+            g.attrs["labels"] = json.dumps([list(p.labels) for p in pts])
+            meas = g.create_group("measures")
+            for name in pts[0].measures.as_dict() if pts else ():
+                if name == "peak_contact_force_per_period":
+                    meas[name] = np.array([p.measures.peak_contact_force_per_period for p in pts], float)
+                else:
+                    meas[name] = np.array([getattr(p.measures, name) for p in pts], float)
+    tmp.replace(path)
+    return path
+
+
+def read_branches(path: str | Path) -> tuple[dict, list[StoredBranch]]:
+    """``(experiment, branches)`` of a file written by :func:`write_branches`."""
+    import h5py
+
+    try:
+        f = h5py.File(path, "r")
+    except OSError as exc:
+        raise UserError(f"{path}: not a readable HDF5 file ({exc})") from None
+    with f:
+        if f.attrs.get("schema") != BRANCHES_SCHEMA:
+            raise UserError(f"{path}: not a branches file (schema {f.attrs.get('schema')!r})")
+        out = []
+        for name in sorted(f["branches"]):
+            g = f["branches"][name]
+            out.append(
+                StoredBranch(
+                    param=str(g.attrs["param"]),
+                    periods=int(g.attrs["periods"]),
+                    status=str(g.attrs["status"]),
+                    message=str(g.attrs["message"]),
+                    value=g["value"][()],
+                    stable=g["stable"][()],
+                    multipliers=g["multipliers_real"][()] + 1j * g["multipliers_imag"][()],
+                    labels=[tuple(lab) for lab in json.loads(g.attrs["labels"])],
+                    measures={k: g["measures"][k][()] for k in g["measures"]},
+                )
+            )
+        return json.loads(f.attrs["experiment"]), out
+
+
+def branches_figure(branches: list[StoredBranch], measure: str = "contact", title: str = ""):
+    """:func:`rigtools.analysis.branches.branch_figure` of stored branches."""
+    from rigtools.analysis.branches import BranchCurve, branch_figure
+
+    field_name, index, ylabel = MEASURES[measure]
+    curves = []
+    for b in branches:
+        if not b.value.size:
+            continue
+        y = b.measures[field_name]
+        curves.append(
+            BranchCurve(
+                b.value, y[:, index] if index is not None else y, b.stable, b.labels, f"period {b.periods}"
+            )
+        )
+    xlabel, scale = X_LABELS[branches[0].param] if branches else ("", 1.0)
+    return branch_figure(curves, xlabel, ylabel, x_scale=scale, title=title)
+
+
+def summary(branches) -> dict:
+    """The ``--json`` document: per branch its periods, status, points and bifurcations."""
+    return {
+        "branches": [
+            {
+                "periods": b.periods,
+                "status": b.status,
+                "message": b.message,
+                "points": len(b.points),
+                "bifurcations": [
+                    {"label": lab, "value": p.value, "stable": p.stable, "max_multiplier": p.max_multiplier}
+                    for p in b.points
+                    for lab in p.labels
+                ],
+            }
+            for b in branches
+        ]
+    }

@@ -1,0 +1,93 @@
+"""``rig continuation``: branches of periodic orbits of the model (stability, folds, period
+doubling, grazing) against fe, force or gap, stored as HDF5 with a figure."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+from rigtools.errors import UserError
+
+HELP = "continue the model's periodic orbits in fe, force or gap: branches, stability, bifurcations"
+EPILOG = """\
+Shooting on the reduced model's own integrator with pseudo-arclength continuation; Floquet
+multipliers at every point; folds (LP), period doublings (PD, then the period-2 branch),
+Neimark-Sacker (NS) and grazing (G: impacts begin or end) located and labelled.
+
+The file (kind "branches", docs/recording-format.md) holds each branch's points in order with
+stability, multipliers, labels and response measures; FILE.png plots --measure against the
+parameter (stable solid, unstable dashed).
+
+examples:
+  rig continuation --param fe --from 55 --to 80 --force 15 --gap "0.7 mm" --out fe.h5
+  rig continuation --param gap --from "0.5 mm" --to "2.5 mm" --fe 60 --force 15 --out gap.h5 --json
+"""
+DIMENSION = {"fe": "frequency", "force": "force", "gap": "length"}
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    p = subparsers.add_parser(
+        "continuation",
+        help=HELP,
+        description=HELP + ".",
+        epilog=EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("--param", required=True, choices=("fe", "force", "gap"), help="continued parameter")
+    p.add_argument("--from", dest="start", required=True, help="first value (units accepted)")
+    p.add_argument("--to", dest="stop", required=True, help="last value")
+    p.add_argument("--fe", default="60 Hz", help='fixed excitation frequency (default "60 Hz")')
+    p.add_argument("--force", default="15 N", help='fixed force amplitude (default "15 N")')
+    p.add_argument("--gap", default="0.7 mm", help='fixed gap (default "0.7 mm")')
+    p.add_argument("--model", default="fem", choices=("fem", "am", "rig"), help="model (default fem)")
+    p.add_argument("--rig", metavar="FILE", help="rig file (TOML); default: the calibrated default rig")
+    p.add_argument("--measure", default="contact", choices=("contact", "accel1", "tip", "impacts"))
+    p.add_argument("--no-switch", action="store_true", help="no period-2 branches")
+    p.add_argument("--out", required=True, metavar="FILE", help="output HDF5 file (.h5)")
+    p.add_argument("--overwrite", action="store_true", help="replace FILE if it exists")
+    p.add_argument("--json", action="store_true", help="print the branches' summary as JSON")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from rigtools.branches import branches_figure, continue_model, read_branches, summary, write_branches
+    from rigtools.commands.simulate import check_output, gap_option, number
+    from rigtools.figures import plot_path, save_figure
+
+    out = check_output(args)
+    if args.param == "gap":
+        start, stop = gap_option(args.start, "--from"), gap_option(args.stop, "--to")
+    else:
+        start = number(args.start, DIMENSION[args.param], "--from")
+        stop = number(args.stop, DIMENSION[args.param], "--to")
+    if start == stop:
+        raise UserError(f"--from and --to are both {args.start!r}: give a range")
+    fixed = {
+        "fe": number(args.fe, "frequency", "--fe"),
+        "force": number(args.force, "force", "--force"),
+        "gap": gap_option(args.gap),
+    }
+    cfg, branches = continue_model(
+        args.param, start, stop, **fixed, model=args.model, rig=args.rig, switch=not args.no_switch
+    )
+    experiment = {
+        "procedure": "continuation",
+        "param": args.param,
+        "from": start,
+        "to": stop,
+        **fixed,
+        "model": args.model,
+    }
+    write_branches(out, branches, cfg.to_json(), experiment)
+    _, stored = read_branches(out)
+    png = save_figure(branches_figure(stored, args.measure, cfg.name), plot_path(out), dpi=120)
+    doc = summary(branches)
+    if args.json:
+        print(json.dumps({**doc, "out": str(out), "plot": str(png)}))
+        return 0
+    for b in doc["branches"]:
+        marks = ", ".join(f"{x['label']} {x['value']:.6g}" for x in b["bifurcations"]) or "none"
+        print(f"period {b['periods']}: {b['points']} points, {b['status']} {b['message']}; {marks}")
+    print(f"wrote {out} and {Path(png)}")
+    return 0
