@@ -52,21 +52,22 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from rigtools.branches import branches_figure, continue_model, read_branches, summary, write_branches
-    from rigtools.commands.simulate import check_output, gap_option, number
-    from rigtools.figures import plot_path, save_figure
+    from rigtools.derived_files import plot_path
+    from rigtools.figures import save_figure
+    from rigtools.options import check_out, gap, positive_finite
 
-    out = check_output(args)
+    out = check_out(args)
     if args.param == "gap":
-        start, stop = gap_option(args.start, "--from"), gap_option(args.stop, "--to")
+        start, stop = gap(args.start, "--from"), gap(args.stop, "--to")
     else:
-        start = number(args.start, DIMENSION[args.param], "--from")
-        stop = number(args.stop, DIMENSION[args.param], "--to")
+        start = positive_finite(args.start, DIMENSION[args.param], "--from")
+        stop = positive_finite(args.stop, DIMENSION[args.param], "--to")
     if start == stop:
         raise UserError(f"--from and --to are both {args.start!r}: give a range")
     fixed = {
-        "fe": number(args.fe, "frequency", "--fe"),
-        "force": number(args.force, "force", "--force"),
-        "gap": gap_option(args.gap),
+        "fe": positive_finite(args.fe, "frequency", "--fe"),
+        "force": positive_finite(args.force, "force", "--force"),
+        "gap": gap(args.gap),
     }
     cfg, branches = continue_model(
         args.param, start, stop, **fixed, model=args.model, rig=args.rig, switch=not args.no_switch
