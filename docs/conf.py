@@ -6,6 +6,7 @@ docstrings (autosummary + numpydoc), and the scripts of ``docs/examples/`` run a
 
 import importlib
 import pkgutil
+import shutil
 import sys
 from pathlib import Path
 
@@ -47,6 +48,9 @@ exclude_patterns = [
 
 # --- API reference ---------------------------------------------------------------------------------
 autosummary_generate = True
+# autosummary never removes the page of a module that was renamed or deleted, and the stale page
+# then fails the build: start every build from no generated pages.
+shutil.rmtree(DOCS / "api" / "generated", ignore_errors=True)
 # A module's __all__ says what it offers: the front door ``rigtools`` lists its names (loaded lazily
 # through the module's __getattr__) although they are defined in other modules.
 autosummary_ignore_module_all = False
