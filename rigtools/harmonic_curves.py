@@ -8,7 +8,6 @@ AM :class:`rigtools.sim.harmonic.HarmonicResponse`; :func:`write_curves` writes 
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -78,17 +77,22 @@ def _columns(fem: HarmonicResponse, am: HarmonicResponse) -> dict[str, np.ndarra
 
 def write_curves(path: Path, fem: HarmonicResponse, am: HarmonicResponse, rig_name: str) -> None:
     """Write the curves as CSV (one column per curve) or JSON (nested by model and location)."""
+    from rigtools.derived_files import atomic_write
+    from rigtools.json_values import dumps
     from rigtools.sim.harmonic import LOCATIONS
 
     if path.suffix.lower() == ".csv":
         cols = _columns(fem, am)
-        np.savetxt(
+        atomic_write(
             path,
-            np.column_stack(list(cols.values())),
-            delimiter=",",
-            header=",".join(cols),
-            comments="",
-            fmt="%.9g",
+            lambda tmp: np.savetxt(
+                tmp,
+                np.column_stack(list(cols.values())),
+                delimiter=",",
+                header=",".join(cols),
+                comments="",
+                fmt="%.9g",
+            ),
         )
         return
     doc = {
@@ -104,7 +108,8 @@ def write_curves(path: Path, fem: HarmonicResponse, am: HarmonicResponse, rig_na
             }
             for loc in LOCATIONS
         }
-    path.write_text(json.dumps(doc), encoding="utf-8")
+    text = dumps(doc)
+    atomic_write(path, lambda tmp: tmp.write_text(text, encoding="utf-8"))
 
 
 def curves_figure(fem: HarmonicResponse, am: HarmonicResponse, title: str):

@@ -3,8 +3,8 @@
 from __future__ import annotations
 
 import argparse
-import json
 
+from rigtools import json_values
 from rigtools.errors import UserError
 from rigtools.options import output_path, quantity
 
@@ -80,7 +80,7 @@ def run(args: argparse.Namespace) -> int:
         key = {1: "time", 2: "spectra", 4: "frf", 6: "coherence"}[f.func_type]
         counts[key] = counts.get(key, 0) + 1
     if args.json:
-        print(json.dumps({"file": str(out), "datasets": counts}))
+        print(json_values.dumps({"file": str(out), "datasets": counts}))
     else:
         print(f"wrote {out}: " + ", ".join(f"{v} {k}" for k, v in counts.items()) + " (UFF 58, SI)")
     return 0

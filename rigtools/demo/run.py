@@ -12,10 +12,10 @@ Swap points (each a single call below, its data shape documented in :mod:`rigtoo
 
 from __future__ import annotations
 
-import json
 from collections.abc import Callable
 from pathlib import Path
 
+from rigtools import json_values
 from rigtools.demo import steps
 from rigtools.demo.findings import evaluate
 from rigtools.demo.settings import DemoSettings
@@ -86,7 +86,7 @@ def run_demo(
     findings = evaluate(data)
     report = write_report(build_report(data, findings, out), out / "report.html")
     (out / "findings.json").write_text(
-        json.dumps(findings_doc(findings, report, files, relative_to=out), indent=1), encoding="utf-8"
+        json_values.dumps(findings_doc(findings, report, files, relative_to=out), indent=1), encoding="utf-8"
     )
     save_png(gap_trend_figure(data), out / "gap-trend.png")
     return {"data": data, "findings": findings, "report": report}

@@ -171,16 +171,18 @@ def units_dataset() -> dict:
 def write_uff(path: str | Path, functions: list[UffFunction]) -> int:
     """Write the units dataset and ``functions`` as UFF 58 (binary, double precision) to ``path``.
 
-    Returns the number of 58 datasets written. The file is created anew (the caller checks that
-    it may be replaced).
+    Returns the number of 58 datasets written. The file is written whole or not at all
+    (:func:`rigtools.derived_files.atomic_write`; the caller checks that it may be replaced).
     """
     import pyuff
 
-    path = Path(path)
-    if path.exists():
-        path.unlink()
-    uff = pyuff.UFF(str(path))
-    uff.write_sets([units_dataset()] + [f.dataset() for f in functions], "add", force_double=True)
+    from rigtools.derived_files import atomic_write
+
+    sets = [units_dataset()] + [f.dataset() for f in functions]
+    # pyuff appends to a new file: the temporary file is emptied first (mkstemp made it)
+    atomic_write(
+        path, lambda tmp: (tmp.unlink(), pyuff.UFF(str(tmp)).write_sets(sets, "add", force_double=True))
+    )
     return len(functions)
 
 
