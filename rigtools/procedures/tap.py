@@ -238,6 +238,7 @@ class TapTest(SineProcedure):
             safety=self.monitor,
             record_drive=True,
             abort_ramp_time=self.cfg.safety.abort_ramp_time,
+            hurry=lambda: self.hurry_requested,
         )
         self.open_writer(
             rig.experiment_metadata(
