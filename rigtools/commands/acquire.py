@@ -112,7 +112,10 @@ def _exit_interrupted(proc, code: int) -> None:
 def _resume_out(text: str):
     from pathlib import Path
 
+    from rigtools.options import writable_target
+
     out = Path(text)
+    writable_target(out, f"--out = {text!r}")
     if not out.exists() and not out.with_name(out.name + ".resume-source").exists():
         raise UserError(f"--resume: {text!r} does not exist; run without --resume to start the study")
     return out
