@@ -162,6 +162,17 @@ def count(text: str | int, option: str, *, minimum: int = 1, maximum: int | None
     return value
 
 
+_SCHEDULER = re.compile(r"^(tcp|tls|ws|wss|ucx|inproc)://[^\s/:]+(:\d{1,5})?/?$")
+
+
+def scheduler_address(text: str, option: str = "--scheduler") -> str:
+    """A Dask scheduler address ``scheme://host:port`` (``tcp://10.0.0.5:8786``), checked before
+    any connection is tried."""
+    if not _SCHEDULER.match(str(text).strip()):
+        raise UserError(f"{option} = {text!r}: write a scheduler address, e.g. tcp://10.0.0.5:8786")
+    return str(text).strip()
+
+
 MAX_SEED = 2**63 - 1
 
 
@@ -217,6 +228,7 @@ def output_path(
         raise UserError(f"{option}: give a file name")
     out = Path(text)
     where = f"{option} = {str(text)!r}"
+    name_fits(out, where)
     if out.is_dir() or str(text).endswith(("/", os.sep)):
         raise UserError(f"{where} is a directory; give a file name")
     if suffixes is not None:
@@ -257,6 +269,14 @@ def same_file(a: str | os.PathLike, b: str | os.PathLike) -> bool:
         return False
 
 
+def name_fits(path: Path, where: str) -> None:
+    """Refuse a file name longer than the file system allows, before the file system is asked
+    anything else about the path."""
+    for part in path.parts:
+        if len(os.fsencode(part)) > 255:
+            raise UserError(f"{where[:80]}...: the file name is longer than the file system allows (255 bytes)")
+
+
 def writable_target(path: str | os.PathLike, where: str | None = None) -> None:
     """The one rule of what rigtools writes: a regular file or a new name in an ordinary folder.
 
@@ -268,12 +288,7 @@ def writable_target(path: str | os.PathLike, where: str | None = None) -> None:
     p = Path(path)
     where = where or str(p)
     folder = p.parent
-    try:
-        name_max = os.pathconf(folder if folder.is_dir() else ".", "PC_NAME_MAX")
-    except (OSError, ValueError):
-        name_max = 255
-    if len(os.fsencode(p.name)) > name_max:
-        raise UserError(f"{where}: the file name is longer than the file system allows ({name_max} bytes)")
+    name_fits(p, where)
     try:
         real = p.resolve()
     except (OSError, RuntimeError):

@@ -69,7 +69,7 @@ def run(args: argparse.Namespace) -> int:
     from rigtools.analyze import analyze_recording
 
     channels = [c.strip() for c in args.channels.split(",") if c.strip()] if args.channels else None
-    out = output_folder(args.out) if args.out else None
+    out = output_folder(args.out) if args.out is not None else None
     console = Console(stderr=args.json)
     with console.status(f"analysing {args.file}"):
         analysis = analyze_recording(args.file, kind=args.kind, method=args.method, channels=channels)

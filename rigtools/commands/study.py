@@ -10,7 +10,7 @@ from rigtools import json_values
 from rigtools.errors import Interrupted as Stopped
 from rigtools.model_options import add_model_options, announce_work, load_model, settings_of, write_plot
 from rigtools.model_study import EPILOG, HELP
-from rigtools.options import check_out
+from rigtools.options import check_out, scheduler_address
 from rigtools.progress import StudyProgress
 
 
@@ -41,6 +41,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--scheduler",
         default=None,
+        type=scheduler_address,
         metavar="ADDR",
         help="run on an existing Dask cluster, e.g. tcp://10.0.0.5:8786 (dask-jobqueue/SLURM)",
     )

@@ -33,14 +33,36 @@ def run_demo(
     out_dir: str | Path, settings: DemoSettings, progress: Callable[[str], None] | None = None, cfg=None
 ) -> dict:
     """Run the demo into ``out_dir``: recordings, ``report.html``; returns its data, the findings
-    and the report's path. ``progress(text)`` is called as each step starts."""
+    and the report's path. ``progress(text)`` is called as each step starts.
+
+    One demo writes a folder at a time: the writer lock of the folder's marker (the recordings'
+    lock, :mod:`rigtools.recording.lock`) is held for the whole run; a second demo into the same
+    folder is refused in one line (:class:`UserError`) before it touches anything.
+    """
+    from rigtools.errors import UserError
+    from rigtools.recording.lock import LockBusy, WriterLock
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    lock = WriterLock(out / MARKER)
+    try:
+        lock.acquire()
+    except LockBusy as busy:
+        raise UserError(
+            f"--out {out}: being written by another demo ({busy.holder}); give another folder"
+        ) from None
+    try:
+        return _run_demo(out, settings, progress, cfg)
+    finally:
+        lock.release()
+
+
+def _run_demo(out: Path, settings: DemoSettings, progress: Callable[[str], None] | None, cfg) -> dict:
     from rigtools.config import load_rig
     from rigtools.demo.report import build_report, gap_trend_figure
     from rigtools.report import write_report
 
     say = progress or (lambda text: None)
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
     (out / MARKER).write_text(f"written by rig demo ({settings.name})\n", encoding="utf-8")
     cfg = cfg if cfg is not None else load_rig(None)
     say("operating points")

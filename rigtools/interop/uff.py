@@ -189,8 +189,28 @@ def write_uff(path: str | Path, functions: list[UffFunction]) -> int:
 WHAT = ("time", "spectra", "frf")
 
 
+def check_resolution(recording, what: tuple[str, ...], resolution_hz: float, text: object) -> None:
+    """Refuse (one line naming ``--resolution``) an FRF resolution no point can give: coarser
+    than an eighth of the sample rate (a segment of fewer than 8 samples)."""
+    from rigtools.errors import UserError
+
+    if "frf" not in what:
+        return
+    rates = [p.sample_rate for p in recording.points if p.sample_rate]
+    if rates and all(round(r / resolution_hz) < 8 for r in rates):
+        raise UserError(
+            f"--resolution = {text!r}: at {max(rates):g} samples/s an FRF resolution must be at most "
+            f"{max(rates) / 8:g} Hz"
+        )
+
+
 def recording_functions(
-    recording, what: tuple[str, ...] = WHAT, *, frf_resolution_hz: float = 1.0, reference: str = "force"
+    recording,
+    what: tuple[str, ...] = WHAT,
+    *,
+    frf_resolution_hz: float = 1.0,
+    reference: str = "force",
+    complete_only: bool = False,
 ) -> list[UffFunction]:
     """The UFF functions of an open recording.
 
@@ -209,12 +229,16 @@ def recording_functions(
         Frequency resolution of the FRFs, Hz.
     reference
         The excitation channel of the FRFs.
+    complete_only
+        Leave out points that did not end (a run cut off mid-point): never exported as data.
     """
     from rigtools.analysis.frf import estimate_frf
     from rigtools.analysis.spectra import amplitude_spectrum
 
     functions: list[UffFunction] = []
     for point in recording.points:
+        if complete_only and not point.complete:
+            continue
         names = list(point.channels)
         n = point.n_samples
         if n < 2:
