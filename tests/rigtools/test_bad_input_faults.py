@@ -461,6 +461,33 @@ OPTION_CASES = [
 ]
 
 
+def _tiny_damping(tmp: Path) -> None:
+    text = default_rig_text()
+    import tomllib
+
+    import tomli_w
+
+    data = tomllib.loads(text)
+    data["damping"] = {"ratio": 1e-9}
+    (tmp / "rig.toml").write_text(tomli_w.dumps(data), encoding="utf-8")
+
+
+OPTION_CASES += [
+    Case(
+        "harmonic:tiny-damping-flagged",
+        ["harmonic", "--rig", "{tmp}/rig.toml", "--points", "400", "--out", "{tmp}/h.csv"],
+        code=0,
+        setup=_tiny_damping,
+        expect="not physical",
+    ),
+    Case(
+        "harmonic:plausible-not-flagged",
+        ["harmonic", "--points", "5", "--out", "{tmp}/h.csv"],
+        code=0,
+    ),
+]
+
+
 @pytest.mark.parametrize("case", _param(OPTION_CASES))
 def test_options_and_mistakes(case, lab, tmp_path):
     run(case, lab, tmp_path)
