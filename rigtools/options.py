@@ -274,7 +274,9 @@ def name_fits(path: Path, where: str) -> None:
     anything else about the path."""
     for part in path.parts:
         if len(os.fsencode(part)) > 255:
-            raise UserError(f"{where[:80]}...: the file name is longer than the file system allows (255 bytes)")
+            raise UserError(
+                f"{where[:80]}...: the file name is longer than the file system allows (255 bytes)"
+            )
 
 
 def writable_target(path: str | os.PathLike, where: str | None = None) -> None:
