@@ -25,7 +25,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 import pytest
-from test_bad_input import Case, _fill, _param, _write_recording, lab, lab_digest, run_cli  # noqa: F401
+from test_bad_input import Case, _fill, _param, _write_recording, _write_tdms, run_cli
 
 from rigtools.config import default_rig_text
 from rigtools.recording import check_recording
@@ -35,6 +35,19 @@ needs_root = pytest.mark.skipif(not ROOT, reason="mknod of a device node needs r
 
 
 # ----------------------------------------------------------------------------------- harness
+@pytest.fixture(scope="module")
+def lab(tmp_path_factory) -> Path:
+    """The lab of ``test_bad_input.py``: real recordings ``run.h5``, ``run.png`` (a recording named
+    .png), ``nan.h5`` (NaN samples), a rig file and a TDMS log."""
+    folder = tmp_path_factory.mktemp("lab")
+    _write_recording(folder / "run.h5")
+    _write_recording(folder / "run.png")
+    _write_recording(folder / "nan.h5", nan=True)
+    (folder / "rig.toml").write_text(default_rig_text(), encoding="utf-8")
+    _write_tdms(folder / "in.tdms")
+    return folder
+
+
 def snapshot(*folders: Path) -> dict[str, tuple]:
     """Every entry of ``folders`` (not recursing): regular files by content hash, links by
     target, device nodes and FIFOs by type and device number."""
@@ -524,7 +537,7 @@ def _env(**extra: str) -> dict[str, str]:
 def test_closed_stdout(argv, lab, tmp_path):
     """``rig modal >&-``: quietly (status 0 or 141), never a traceback."""
     before = snapshot(lab)
-    proc = subprocess.run(
+    proc = subprocess.run(  # noqa: PLW1510 - the status is what the test asserts
         [*RIG, *_fill(argv, lab, tmp_path)],
         stdout=subprocess.DEVNULL,
         stdin=subprocess.DEVNULL,
@@ -545,7 +558,7 @@ def test_stdout_on_a_full_device(argv, lab, tmp_path):
     _device("full", 7)(tmp_path)
     before = snapshot(lab, tmp_path)
     with open(tmp_path / "full", "w") as full:
-        proc = subprocess.run(
+        proc = subprocess.run(  # noqa: PLW1510 - the status is what the test asserts
             [*RIG, *_fill(argv, lab, tmp_path)],
             stdout=full,
             stderr=subprocess.PIPE,
@@ -566,7 +579,7 @@ def test_plain_c_locale_without_coercion(argv, code, lab, tmp_path):
     env = _env(LANG="C", LC_ALL="C", PYTHONCOERCECLOCALE="0", PYTHONUTF8="0")
     env.pop("PYTHONIOENCODING", None)
     before = snapshot(lab)
-    proc = subprocess.run(
+    proc = subprocess.run(  # noqa: PLW1510 - the status is what the test asserts
         [*RIG, *_fill(argv, lab, tmp_path)],
         capture_output=True,
         env=env,

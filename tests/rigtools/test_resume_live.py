@@ -9,9 +9,10 @@ import subprocess
 import sys
 import time
 
+from cli_helpers import run_cli
+
 from rigtools.procedures.rig_study import complete_points
 from rigtools.recording import check_recording, open_recording
-from cli_helpers import run_cli
 
 STUDY = [
     "acquire",
@@ -50,7 +51,7 @@ def test_resume_while_the_study_writes_is_refused_and_the_study_finishes(tmp_pat
         try:
             if complete_points(out) >= 1:
                 break
-        except Exception:  # noqa: BLE001, S112 - the writer is between flushes: try again
+        except Exception:  # noqa: BLE001, S110 - the writer is between flushes: try again
             pass
         time.sleep(0.05)
     assert live.poll() is None, "the study ended before --resume was tried"
