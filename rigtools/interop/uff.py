@@ -179,10 +179,12 @@ def write_uff(path: str | Path, functions: list[UffFunction]) -> int:
     from rigtools.derived_files import atomic_write
 
     sets = [units_dataset()] + [f.dataset() for f in functions]
-    # pyuff appends to a new file: the temporary file is emptied first (mkstemp made it)
-    atomic_write(
-        path, lambda tmp: (tmp.unlink(), pyuff.UFF(str(tmp)).write_sets(sets, "add", force_double=True))
-    )
+
+    def write(tmp: Path) -> None:
+        tmp.unlink()  # pyuff appends to a new file: the temporary file mkstemp made goes first
+        pyuff.UFF(str(tmp)).write_sets(sets, "add", force_double=True)
+
+    atomic_write(path, write)
     return len(functions)
 
 
