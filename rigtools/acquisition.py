@@ -129,6 +129,9 @@ class BlockStream:
         On a safety abort, ramp the drive to zero over this many seconds while still reading
         (the record keeps the ramp), then raise; ``None``: stop the device at once (its own
         ramp, not recorded).
+    hurry
+        Asked before each block of :meth:`finish`: once it returns True the rest of the ramp
+        is replaced by zeros (after the two blocks already queued), e.g. a third Ctrl-C.
 
     Examples
     --------
@@ -163,8 +166,10 @@ class BlockStream:
         record_drive: bool = False,
         on_block: Callable[[np.ndarray, StreamStats], None] | None = None,
         abort_ramp_time: float | None = None,
+        hurry: Callable[[], bool] | None = None,
     ) -> None:
         self.device = device
+        self.hurry = hurry
         self.abort_ramp_time = abort_ramp_time
         self.drive = drive
         self.sink = sink
@@ -268,10 +273,18 @@ class BlockStream:
         tail = np.concatenate([tail, np.zeros(n_blocks * self.n - tail.size)])
         self._pending.extend(tail.reshape(n_blocks, self.n))
         # after the tail, zeros keep the output fed until the last read
-        for _ in range(2 + n_blocks):
+        remaining, cut = 2 + n_blocks, False
+        while remaining > 0:
+            if not cut and self.hurry is not None and self.hurry():
+                # cut the ramp short: zeros from now on; three reads bring the two blocks
+                # already queued back and record a zero block, so the record ends at zero
+                cut = True
+                self._pending.clear()
+                remaining = min(remaining, 3)
             if not self._pending:
                 self._pending.append(np.zeros(self.n))
             self.read()
+            remaining -= 1
         self._finished = True
         self.device.stop()
         return self.stats

@@ -12,7 +12,7 @@ non-zero exit status; programming errors still raise.
 
 Exit status: 0 success, 1 a check found problems, 2 bad input (rig file, arguments, recording
 file), 3 hardware or its driver not available, 4 a hardware fault, safety abort or write error
-stopped the run, 129 SIGHUP (terminal closed), 130 Ctrl-C (SIGINT), 141 stdout closed by its
+stopped the run, 5 the force target cannot be reached within the rig's limits, 129 SIGHUP (terminal closed), 130 Ctrl-C (SIGINT), 141 stdout closed by its
 reader (``rig ... | head``), 143 SIGTERM (``kill``, ``timeout``, a job scheduler). On every
 signal the drive ramps to zero and a recording being written ends with status ``aborted`` and
 the signal in its ``abort_reason``.
@@ -24,7 +24,9 @@ from __future__ import annotations
 # it before anything can handle Ctrl-C.
 import argparse
 import ast
+import errno
 import importlib
+import os
 import pkgutil
 import sys
 from collections.abc import Sequence
@@ -49,6 +51,7 @@ exit status:
   2    bad input: arguments, rig file, recording file
   3    hardware or its driver not available
   4    a hardware fault, safety abort or write error stopped the run
+  5    the force target cannot be reached within the rig's limits (recording kept, status failed)
   129  SIGHUP (terminal closed)   130  Ctrl-C (SIGINT)   143  SIGTERM (kill, timeout, scheduler)
   141  stdout closed by its reader (rig ... | head)
   On a signal the drive ramps to zero and a recording ends with status "aborted", the signal
@@ -233,6 +236,23 @@ def _driver_error_code(exc: BaseException) -> int | None:
     return None
 
 
+#: errno of a path a user named (exit 2) and of a full or failing output (exit 4)
+_PATH_ERRNOS = frozenset(
+    getattr(errno, n, -1) for n in ("ENAMETOOLONG", "ENOENT", "ENOTDIR", "EISDIR", "ELOOP", "EACCES", "EROFS")
+)
+_WRITE_ERRNOS = frozenset(getattr(errno, n, -1) for n in ("ENOSPC", "EFBIG", "EDQUOT", "EIO"))
+
+
+def _os_error_code(exc: OSError) -> int | None:
+    """2 for an OSError about a path the user named, 4 for a full disk or failing output (stdout on
+    a full device), None for anything else (a programming error: raised)."""
+    if exc.errno in _WRITE_ERRNOS:
+        return errors.EXIT_FAULT
+    if exc.errno in _PATH_ERRNOS and exc.filename is not None:
+        return errors.EXIT_USAGE
+    return None
+
+
 def _run(argv: list[str]) -> int:
     command = "rig"
     try:
@@ -264,6 +284,13 @@ def _run(argv: list[str]) -> int:
     except UserError as exc:
         _say(f"{command}: error: {errors.one_line(exc, None)}")
         return exc.exit_code
+    except OSError as exc:
+        code = _os_error_code(exc)
+        if code is None:
+            raise
+        where = f"{exc.filename}: " if exc.filename else "cannot write the output: "
+        _say(f"{command}: error: {where}{exc.strerror or errors.one_line(exc, None)}")
+        return code
     except KeyboardInterrupt as exc:
         text = str(exc) if isinstance(exc, errors.Interrupted) else "interrupted (Ctrl-C)"
         _say(f"{command}: {text}")
@@ -295,6 +322,8 @@ def main(argv: list[str] | None = None) -> int:
         from rigtools.runtime import configure_console, handle_stop_signals, silence_stdout
 
         argv = list(sys.argv[1:] if argv is None else argv)
+        if sys.stdout is None:  # started with stdout closed (rig modal >&-): print into nothing
+            sys.stdout = open(os.devnull, "w")  # noqa: SIM115 - lives as long as the process
         configure_console()
         try:
             with handle_stop_signals():
@@ -304,6 +333,12 @@ def main(argv: list[str] | None = None) -> int:
         except BrokenPipeError:
             silence_stdout()
             return errors.EXIT_SIGPIPE
+        except OSError as exc:  # stdout on a full device: the flush after the command failed
+            if exc.errno not in _WRITE_ERRNOS:
+                raise
+            silence_stdout()
+            _say(f"rig: error: cannot write the output: {exc.strerror}")
+            return errors.EXIT_FAULT
         except SystemExit as exc:
             # rich handles a closed stdout itself: stdout to devnull, then SystemExit(1)
             if isinstance(exc.__context__, BrokenPipeError):

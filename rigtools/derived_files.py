@@ -18,7 +18,7 @@ import tempfile
 from collections.abc import Callable
 from pathlib import Path
 
-from rigtools.errors import UserError
+from rigtools.errors import FaultError, UserError, one_line
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 SOFTWARE_PREFIXES = ("rigtools", "Matplotlib")  # whose PNGs a new plot may replace
@@ -131,16 +131,60 @@ def write_derived(
         path.is_file() and not path.is_symlink() and replaceable(path)
     ):
         raise UserError(f"{path} exists and was not made by rigtools as a derived file; not overwritten")
-    fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    return atomic_write(path, write)
+
+
+def atomic_write(path: str | os.PathLike, write: Callable[[Path], object]) -> Path:
+    """Write a file as a whole or not at all: ``write(tmp)`` fills a temporary file in the same
+    folder, which then takes the name ``path`` by one rename. The one way rigtools writes a
+    derived file (plots, UFF, CSV, JSON, reports, rig files).
+
+    ``path`` is checked by :func:`rigtools.options.writable_target` first (no device node, FIFO,
+    socket, kernel file system, or symbolic link out of the folder). A failed write (disk full,
+    quota, a library's error on a write) removes the temporary file and leaves an existing
+    ``path`` untouched.
+
+    Raises
+    ------
+    UserError
+        ``path`` is not a place rigtools writes (exit 2).
+    FaultError
+        The write failed (exit 4), in one line naming the file.
+    """
+    from rigtools.options import writable_target
+
+    path = Path(path)
+    writable_target(path)
+    try:
+        fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name[:200]}.", suffix=".tmp", dir=path.parent)
+    except OSError as exc:
+        raise FaultError(f"cannot write {path}: {exc.strerror or exc}") from None
     os.close(fd)
     tmp = Path(tmp_name)
-    umask = os.umask(0)
-    os.umask(umask)
-    os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes it private; a plot is an ordinary file
     try:
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes it private; a derived file is an ordinary file
         write(tmp)
         os.replace(tmp, path)
-    except BaseException:
+    except BaseException as exc:
         tmp.unlink(missing_ok=True)
+        cause = _os_error(exc)
+        if cause is not None:
+            raise FaultError(
+                f"cannot write {path}: {cause.strerror or one_line(cause)}; nothing written"
+            ) from None
         raise
     return path
+
+
+def _os_error(exc: BaseException) -> OSError | None:
+    """The OSError behind ``exc`` (itself, or its cause/context: pyuff wraps a full disk in
+    ``Exception('Error writing data-set #58')``), else None."""
+    seen = 0
+    while exc is not None and seen < 5:
+        if isinstance(exc, OSError):
+            return exc
+        exc = exc.__cause__ or exc.__context__  # type: ignore[assignment]
+        seen += 1
+    return None

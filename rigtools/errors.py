@@ -10,6 +10,7 @@ EXIT_PROBLEMS = 1  # a check found problems
 EXIT_USAGE = 2  # bad input: arguments, rig file, recording file
 EXIT_HARDWARE = 3  # hardware or its driver not available
 EXIT_FAULT = 4  # a hardware fault, safety abort or write error stopped the run
+EXIT_NOT_REACHED = 5  # the force target cannot be reached within the rig's limits (status failed)
 EXIT_SIGHUP = 128 + 1  # 129: terminal closed (SIGHUP)
 EXIT_SIGINT = 128 + 2  # 130: Ctrl-C (SIGINT)
 EXIT_SIGPIPE = 128 + 13  # 141: the reader of stdout went away (`rig ... | head`)
@@ -69,6 +70,14 @@ class FaultError(UserError):
     Every error that ends ``rig`` with status 4 is one of these (or a driver fault)."""
 
     exit_code = EXIT_FAULT
+
+
+class TargetNotReached(FaultError):
+    """The force target cannot be reached within the rig's limits (max drive, a channel's
+    warning level): the recording is kept with status ``failed`` and the reason (exit status 5,
+    :data:`EXIT_NOT_REACHED`)."""
+
+    exit_code = EXIT_NOT_REACHED
 
 
 class HardwareUnavailable(UserError):

@@ -8,7 +8,6 @@ AM :class:`rigtools.sim.harmonic.HarmonicResponse`; :func:`write_curves` writes 
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -76,19 +75,47 @@ def _columns(fem: HarmonicResponse, am: HarmonicResponse) -> dict[str, np.ndarra
     return cols
 
 
+def implausible_note(fem: HarmonicResponse, am: HarmonicResponse) -> str | None:
+    """A one-line warning when a linear curve moves a shroud farther than any blade of the rig
+    can (:data:`rigtools.units.MAX_GAP`): e.g. a damping ratio of 1e-9 makes the resonance peak
+    kilometres high. ``None`` when every amplitude is plausible."""
+    from rigtools.sim.harmonic import LOCATIONS
+    from rigtools.units import MAX_GAP
+
+    worst = max(
+        (
+            (float(np.max(res.displacement_amplitude(loc))), res.model, loc)
+            for res in (fem, am)
+            for loc in LOCATIONS
+        ),
+        key=lambda t: t[0],
+    )
+    if not worst[0] > MAX_GAP:
+        return None
+    return (
+        f"warning: the {worst[1].upper()} {worst[2]} amplitude reaches {worst[0]:.3g} m, more than any blade "
+        f"of the rig can move ({MAX_GAP * 1e3:g} mm): not physical there (check [damping] and --force)"
+    )
+
+
 def write_curves(path: Path, fem: HarmonicResponse, am: HarmonicResponse, rig_name: str) -> None:
     """Write the curves as CSV (one column per curve) or JSON (nested by model and location)."""
+    from rigtools.derived_files import atomic_write
+    from rigtools.json_values import dumps
     from rigtools.sim.harmonic import LOCATIONS
 
     if path.suffix.lower() == ".csv":
         cols = _columns(fem, am)
-        np.savetxt(
+        atomic_write(
             path,
-            np.column_stack(list(cols.values())),
-            delimiter=",",
-            header=",".join(cols),
-            comments="",
-            fmt="%.9g",
+            lambda tmp: np.savetxt(
+                tmp,
+                np.column_stack(list(cols.values())),
+                delimiter=",",
+                header=",".join(cols),
+                comments="",
+                fmt="%.9g",
+            ),
         )
         return
     doc = {
@@ -104,7 +131,8 @@ def write_curves(path: Path, fem: HarmonicResponse, am: HarmonicResponse, rig_na
             }
             for loc in LOCATIONS
         }
-    path.write_text(json.dumps(doc), encoding="utf-8")
+    text = dumps(doc)
+    atomic_write(path, lambda tmp: tmp.write_text(text, encoding="utf-8"))
 
 
 def curves_figure(fem: HarmonicResponse, am: HarmonicResponse, title: str):

@@ -940,10 +940,9 @@ def update_rig_file(
         when=when or _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%d %H:%M UTC"),
     )
     check_rig_text(new_text, out_path)
-    try:
-        out_path.write_text(new_text, encoding="utf-8")
-    except OSError as exc:
-        raise UserError(f"cannot write {out_path}: {exc.strerror or exc}") from None
+    from rigtools.derived_files import atomic_write
+
+    atomic_write(out_path, lambda tmp: tmp.write_text(new_text, encoding="utf-8"))
 
     warnings = []
     rms = (2 * res.cost_after / max(1, res.residuals_after.size)) ** 0.5

@@ -13,6 +13,7 @@ import argparse
 import math
 import os
 import re
+import stat
 from collections.abc import Iterable
 from pathlib import Path
 
@@ -161,6 +162,17 @@ def count(text: str | int, option: str, *, minimum: int = 1, maximum: int | None
     return value
 
 
+_SCHEDULER = re.compile(r"^(tcp|tls|ws|wss|ucx|inproc)://[^\s/:]+(:\d{1,5})?/?$")
+
+
+def scheduler_address(text: str, option: str = "--scheduler") -> str:
+    """A Dask scheduler address ``scheme://host:port`` (``tcp://10.0.0.5:8786``), checked before
+    any connection is tried."""
+    if not _SCHEDULER.match(str(text).strip()):
+        raise UserError(f"{option} = {text!r}: write a scheduler address, e.g. tcp://10.0.0.5:8786")
+    return str(text).strip()
+
+
 MAX_SEED = 2**63 - 1
 
 
@@ -216,6 +228,7 @@ def output_path(
         raise UserError(f"{option}: give a file name")
     out = Path(text)
     where = f"{option} = {str(text)!r}"
+    name_fits(out, where)
     if out.is_dir() or str(text).endswith(("/", os.sep)):
         raise UserError(f"{where} is a directory; give a file name")
     if suffixes is not None:
@@ -227,16 +240,11 @@ def output_path(
         raise UserError(f"{where}: folder {str(folder)!r} does not exist")
     if not folder.is_dir():
         raise UserError(f"{where}: {str(folder)!r} is not a folder")
+    writable_target(out, where)
     if not os.access(folder, os.W_OK | os.X_OK):
         raise UserError(f"{where}: folder {str(folder)!r} is not writable")
     for source in inputs:
-        source = Path(source)
-        if (
-            out.exists()
-            and source.exists()
-            and os.path.samefile(out, source)
-            or out.resolve() == source.resolve()
-        ):
+        if same_file(out, Path(source)):
             raise UserError(f"{where} is an input of this command ({str(source)!r}); give another file name")
     if out.exists():
         if not overwrite:
@@ -244,6 +252,76 @@ def output_path(
         if not os.access(out, os.W_OK):
             raise UserError(f"{where} exists and is read-only")
     return out
+
+
+#: File systems of the kernel: nothing of rigtools is ever written there.
+SYSTEM_FOLDERS = ("/proc", "/sys")
+
+
+def same_file(a: str | os.PathLike, b: str | os.PathLike) -> bool:
+    """True if ``a`` and ``b`` name one file (same resolved path, or same inode)."""
+    a, b = Path(a), Path(b)
+    try:
+        if a.resolve() == b.resolve():
+            return True
+        return a.exists() and b.exists() and os.path.samefile(a, b)
+    except (OSError, RuntimeError):
+        return False
+
+
+def name_fits(path: Path, where: str) -> None:
+    """Refuse a file name longer than the file system allows, before the file system is asked
+    anything else about the path."""
+    for part in path.parts:
+        if len(os.fsencode(part)) > 255:
+            raise UserError(
+                f"{where[:80]}...: the file name is longer than the file system allows (255 bytes)"
+            )
+
+
+def writable_target(path: str | os.PathLike, where: str | None = None) -> None:
+    """The one rule of what rigtools writes: a regular file or a new name in an ordinary folder.
+
+    Refused in one :class:`UserError` line: a name longer than the file system allows, a path in
+    ``/proc`` or ``/sys``, an existing device node, FIFO, socket or other non-regular file, and a
+    symbolic link pointing outside its own folder. Used by :func:`output_path`,
+    :func:`output_folder` and every derived file (:func:`rigtools.derived_files.write_derived`).
+    """
+    p = Path(path)
+    where = where or str(p)
+    folder = p.parent
+    name_fits(p, where)
+    try:
+        real = p.resolve()
+    except (OSError, RuntimeError):
+        raise UserError(f"{where}: cannot resolve the path (a symbolic link loop?)") from None
+    if any(real == Path(s) or Path(s) in real.parents for s in SYSTEM_FOLDERS):
+        raise UserError(f"{where} is in a kernel file system ({real}); give a file in an ordinary folder")
+    try:
+        link = os.lstat(p)
+    except FileNotFoundError:
+        return
+    except OSError as exc:
+        raise UserError(f"{where}: {exc.strerror}") from None
+    if stat.S_ISLNK(link.st_mode):
+        if real.parent != folder.resolve():
+            raise UserError(f"{where} is a symbolic link to {real}, outside its folder; not written through")
+        if not real.exists():
+            return
+    info = os.stat(p) if stat.S_ISLNK(link.st_mode) else link
+    if not stat.S_ISREG(info.st_mode):
+        kind = (
+            "a device"
+            if stat.S_ISCHR(info.st_mode) or stat.S_ISBLK(info.st_mode)
+            else "a FIFO"
+            if stat.S_ISFIFO(info.st_mode)
+            else "a socket"
+            if stat.S_ISSOCK(info.st_mode)
+            else "a directory"
+            if stat.S_ISDIR(info.st_mode)
+            else "not a regular file"
+        )
+        raise UserError(f"{where} is {kind}, not a regular file; not written")
 
 
 def output_folder(
@@ -277,9 +355,12 @@ def output_folder(
         One line: the path exists and is not a folder, a taken name is not a rigtools file, or
         the folder holds files another program wrote.
     """
+    if not str(text).strip():
+        raise UserError(f"{option}: give a folder name")
     out = Path(text)
     if out.exists() and not out.is_dir():
         raise UserError(f"{option} {out}: exists and is not a folder")
+    writable_target(out / "x", f"{option} {out}")
     if not out.is_dir():
         return out
     if owner is not None and any(out.iterdir()) and not (out / owner).exists():
@@ -298,6 +379,13 @@ def output_folder(
     return out
 
 
-def check_out(args: argparse.Namespace, *, suffixes: Iterable[str] | None = None) -> Path:
-    """``args.out`` checked by :func:`output_path` (``args.overwrite`` if the command has it)."""
-    return output_path(args.out, getattr(args, "overwrite", False), "--out", suffixes=suffixes)
+def check_out(
+    args: argparse.Namespace, *, suffixes: Iterable[str] | None = None, inputs: Iterable[str | Path] = ()
+) -> Path:
+    """``args.out`` checked by :func:`output_path` (``args.overwrite`` if the command has it); the
+    rig file ``args.rig`` (if any) is always one of the ``inputs``."""
+    rig = getattr(args, "rig", None)
+    sources = [*inputs, *([rig] if rig else [])]
+    return output_path(
+        args.out, getattr(args, "overwrite", False), "--out", suffixes=suffixes, inputs=sources
+    )

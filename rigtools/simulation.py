@@ -128,7 +128,25 @@ def simulate_point(
     except SimulationInputError as exc:
         raise UserError(str(exc)) from None
     check_finite(run)
+    check_plausible(run)
     return run
+
+
+def check_plausible(run) -> None:
+    """Refuse a run whose shroud moves farther than any blade of the rig can (more than
+    :data:`rigtools.units.MAX_GAP`, the widest gap a blade could close): the linear beam model is
+    meaningless there, so it is never reported as a steady state. A typical cause is a unit slip
+    (``"1 MN"`` for ``"1 mN"``)."""
+    from rigtools.units import MAX_GAP
+
+    for name in ("active_tip_displacement", "passive_tip_displacement"):
+        peak = float(np.max(np.abs(run.outputs[name]))) if run.outputs[name].size else 0.0
+        if peak > MAX_GAP:
+            raise UserError(
+                f"--force = {run.force_amplitude:g} N at {run.fe:g} Hz moves the {name.split('_')[0]} shroud "
+                f"{peak:.3g} m, more than any blade of the rig can ({MAX_GAP * 1e3:g} mm): not a "
+                "physical steady state; check the force and its unit (mN, N, kN)"
+            )
 
 
 def check_finite(run) -> None:
@@ -346,7 +364,15 @@ def steps_per_period(system, fe: float, force: float, settings: RunSettings) -> 
     from rigtools.sim.vibro_impact import SimulationInputError, steps_per_period_for, validate_contact
 
     if settings.steps_per_period is not None:
-        return int(settings.steps_per_period)
+        from rigtools.sim.vibro_impact import check_time_step
+
+        n = int(settings.steps_per_period)
+        try:  # the contact must be resolved: refused before the first step, naming the option
+            validate_contact(system)
+            check_time_step(system, 1.0 / (fe * n), force_scale=max(100.0, 10.0 * force))
+        except SimulationInputError as exc:
+            raise UserError(f"--steps-per-period = {n}: {exc}") from None
+        return n
     try:
         validate_contact(system)
         return steps_per_period_for(system, fe, force_scale=max(100.0, 10.0 * force))

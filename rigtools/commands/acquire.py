@@ -7,9 +7,9 @@ Top-level imports stay light (``rig --help``).
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 
+from rigtools import json_values
 from rigtools.errors import EXIT_SIGINT, UserError
 from rigtools.options import check_out, seed
 from rigtools.procedures.descriptions import COMMON_EPILOG, HELP, PROCEDURE_HELP, PROCEDURE_OPTIONS, epilog
@@ -81,7 +81,7 @@ def run(args: argparse.Namespace) -> int:
         _exit_interrupted(proc, getattr(exc, "exit_code", EXIT_SIGINT))
     doc = result_document(args.procedure, args.backend, proc, result, getattr(args, "f_max", "2 kHz"))
     if args.json:
-        print(json.dumps(doc))
+        print(json_values.dumps(doc))
     else:
         from rich.console import Console
 
@@ -112,7 +112,10 @@ def _exit_interrupted(proc, code: int) -> None:
 def _resume_out(text: str):
     from pathlib import Path
 
+    from rigtools.options import writable_target
+
     out = Path(text)
+    writable_target(out, f"--out = {text!r}")
     if not out.exists() and not out.with_name(out.name + ".resume-source").exists():
         raise UserError(f"--resume: {text!r} does not exist; run without --resume to start the study")
     return out

@@ -3,8 +3,8 @@
 from __future__ import annotations
 
 import argparse
-import json
 
+from rigtools import json_values
 from rigtools.options import output_folder
 
 HELP = "analyse a recording: harmonics and impacts per point; FRFs (H1, H2, Hv) and modes of FRF tests"
@@ -69,7 +69,7 @@ def run(args: argparse.Namespace) -> int:
     from rigtools.analyze import analyze_recording
 
     channels = [c.strip() for c in args.channels.split(",") if c.strip()] if args.channels else None
-    out = output_folder(args.out) if args.out else None
+    out = output_folder(args.out) if args.out is not None else None
     console = Console(stderr=args.json)
     with console.status(f"analysing {args.file}"):
         analysis = analyze_recording(args.file, kind=args.kind, method=args.method, channels=channels)
@@ -79,7 +79,7 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         doc = analysis.to_dict()
         doc["figures"] = [str(p) for p in written]
-        print(json.dumps(doc, allow_nan=False))
+        print(json_values.dumps(doc))
         return 0
     from rigtools.tables import analysis_tables
 

@@ -3,8 +3,9 @@
 from __future__ import annotations
 
 import argparse
-import json
 import sys
+
+from rigtools import json_values
 
 HELP = """\
 Check that FILE is a valid rigtools recording (docs/recording-format.md): schema name and
@@ -52,7 +53,7 @@ def run(args: argparse.Namespace) -> int:
     except RecordingError as exc:
         if args.json:
             print(
-                json.dumps(
+                json_values.dumps(
                     {
                         "path": args.file,
                         "valid": False,
@@ -65,7 +66,7 @@ def run(args: argparse.Namespace) -> int:
             return 2
         raise
     if args.json:
-        print(json.dumps({**result.to_dict(), "readable": True}, indent=1))
+        print(json_values.dumps({**result.to_dict(), "readable": True}, indent=1))
         return 0 if result.valid else 1
     errors = [p for p in result.problems if p.severity == "error"]
     notes = [p for p in result.problems if p.severity != "error"]

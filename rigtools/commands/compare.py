@@ -3,9 +3,9 @@
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 
+from rigtools import json_values
 from rigtools.errors import UserError
 from rigtools.options import output_folder
 
@@ -103,7 +103,6 @@ def run(args: argparse.Namespace) -> int:
         output_folder(args.out, replaceable=f"{Path(args.em).stem}.compare-*.png")
     from rich.console import Console
 
-    from rigtools.json_values import json_default
     from rigtools.progress import counted
     from rigtools.recording_comparison import compare_recordings
 
@@ -124,7 +123,7 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         out = cmp.to_dict()
         out["figures"] = [str(p) for p in written]
-        print(json.dumps(out, indent=1, allow_nan=False, default=json_default))
+        print(json_values.dumps(out, indent=1))
     else:
         from rigtools.tables import comparison_tables
 

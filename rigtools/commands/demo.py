@@ -3,8 +3,8 @@
 from __future__ import annotations
 
 import argparse
-import json
 
+from rigtools import json_values
 from rigtools.errors import FaultError
 from rigtools.options import output_folder, seed
 
@@ -92,7 +92,7 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         from rigtools.demo.run import findings_doc
 
-        print(json.dumps(findings_doc(findings, result["report"], result["data"]["files"]), indent=1))
+        print(json_values.dumps(findings_doc(findings, result["report"], result["data"]["files"]), indent=1))
         return 0
     from rich.table import Table
 

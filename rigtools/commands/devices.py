@@ -3,9 +3,9 @@
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 
+from rigtools import json_values
 from rigtools.errors import UserError
 
 SIMULATED_HINT = "use --backend sim to run on the simulated rig (no hardware needed)"
@@ -72,7 +72,7 @@ def run(args: argparse.Namespace) -> int:
     visa = list_visa_resources(args.visa_backend)
     code = 0 if (ni["available"] or visa["available"]) else 3
     if args.json:
-        print(json.dumps({"nidaqmx": ni, "visa": visa}, indent=1))
+        print(json_values.dumps({"nidaqmx": ni, "visa": visa}, indent=1))
         return code
 
     if ni["available"]:

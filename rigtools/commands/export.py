@@ -3,8 +3,8 @@
 from __future__ import annotations
 
 import argparse
-import json
 
+from rigtools import json_values
 from rigtools.errors import UserError
 from rigtools.options import output_path, quantity
 
@@ -54,7 +54,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from rigtools.interop.uff import WHAT, recording_functions, write_uff
+    from rigtools.interop.uff import WHAT, check_resolution, recording_functions, write_uff
     from rigtools.recording import open_recording
 
     what = tuple(w.strip() for w in args.what.split(",") if w.strip())
@@ -66,9 +66,11 @@ def run(args: argparse.Namespace) -> int:
         raise UserError(f"--resolution = {args.resolution!r}: must be > 0 Hz")
     out = output_path(args.out, args.overwrite, "OUT", inputs=[args.file])
     with open_recording(args.file) as rec:
-        if not rec.points:
-            raise UserError(f"{args.file}: the recording has no points to export")
-        functions = recording_functions(rec, what, frf_resolution_hz=resolution)
+        skipped = [p.index for p in rec.points if not p.complete]  # cut off: never passed on as data
+        if len(skipped) == len(rec.points):
+            raise UserError(f"{args.file}: the recording has no complete points to export")
+        check_resolution(rec, what, resolution, args.resolution)
+        functions = recording_functions(rec, what, frf_resolution_hz=resolution, complete_only=True)
     if not functions:
         raise UserError(
             f"{args.file}: nothing to export for --what {args.what!r} "
@@ -80,7 +82,8 @@ def run(args: argparse.Namespace) -> int:
         key = {1: "time", 2: "spectra", 4: "frf", 6: "coherence"}[f.func_type]
         counts[key] = counts.get(key, 0) + 1
     if args.json:
-        print(json.dumps({"file": str(out), "datasets": counts}))
+        print(json_values.dumps({"file": str(out), "datasets": counts, "skipped_incomplete_points": skipped}))
     else:
-        print(f"wrote {out}: " + ", ".join(f"{v} {k}" for k, v in counts.items()) + " (UFF 58, SI)")
+        note = f"; incomplete point(s) {skipped} not exported" if skipped else ""
+        print(f"wrote {out}: " + ", ".join(f"{v} {k}" for k, v in counts.items()) + f" (UFF 58, SI){note}")
     return 0

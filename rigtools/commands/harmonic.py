@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 
 from rigtools.harmonic_curves import MAX_POINTS, MIN_POINTS
 from rigtools.options import check_out
@@ -63,7 +64,7 @@ def run(args: argparse.Namespace) -> int:
     from rigtools.config import load_rig
     from rigtools.derived_files import plot_path
     from rigtools.figures import save_figure
-    from rigtools.harmonic_curves import curves_figure, linear_curves, write_curves
+    from rigtools.harmonic_curves import curves_figure, implausible_note, linear_curves, write_curves
     from rigtools.model_options import announce_model
     from rigtools.progress import working
 
@@ -74,6 +75,9 @@ def run(args: argparse.Namespace) -> int:
     with working(f"FEM and AM curves at {args.points} frequencies ({elements})"):
         fem, am = linear_curves(params, args.force, args.fmin, args.fmax, args.points)
     write_curves(out, fem, am, rig_config.name)
+    note = implausible_note(fem, am)
+    if note:
+        print(note, file=sys.stderr)
     png = save_figure(curves_figure(fem, am, rig_config.name), plot_path(out), dpi=120)
     f = fem.frequencies_hz
     print(

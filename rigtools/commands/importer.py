@@ -3,8 +3,8 @@
 from __future__ import annotations
 
 import argparse
-import json
 
+from rigtools import json_values
 from rigtools.errors import UserError
 from rigtools.options import output_path, quantity
 
@@ -65,7 +65,7 @@ def run(args: argparse.Namespace) -> int:
         args.source, out, rig=cfg.to_json(), overwrite=args.overwrite, rename=rename, sample_rate=rate
     )
     if args.json:
-        print(json.dumps({"file": str(out), **summary}))
+        print(json_values.dumps({"file": str(out), **summary}))
     else:
         for p in summary["points"]:
             print(

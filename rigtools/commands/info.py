@@ -3,7 +3,8 @@
 from __future__ import annotations
 
 import argparse
-import json
+
+from rigtools import json_values
 
 HELP = """\
 Summarise a recording: status (complete / aborted with its reason / recording = being written
@@ -38,7 +39,7 @@ def run(args: argparse.Namespace) -> int:
     with open_recording(args.file) as rec:
         info = summary(rec)
     if args.json:
-        print(json.dumps(info, indent=1))
+        print(json_values.dumps(info, indent=1))
         return 0
 
     from rich.console import Console

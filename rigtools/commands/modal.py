@@ -3,8 +3,8 @@
 from __future__ import annotations
 
 import argparse
-import json
 
+from rigtools import json_values
 from rigtools.errors import UserError
 
 HELP = "natural frequencies of both blades: FEM vs analytical model (AM), differences in %%"
@@ -83,7 +83,7 @@ def run(args: argparse.Namespace) -> int:
     with working(f"FE and AM modes of both blades ({elements})", args.json):
         results = blade_mode_table(rig_config.to_params(), args.modes)
     if args.json:
-        print(json.dumps(results, indent=1))
+        print(json_values.dumps(results, indent=1))
     else:
         _print_table(results, rig_config.name)
     return 0

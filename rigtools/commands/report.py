@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 
 from rigtools.errors import UserError
+from rigtools.options import output_folder
 
 HELP = "one self-contained HTML page (figures embedded, works offline) of the analyses of recordings"
 EPILOG = """\
@@ -91,9 +92,7 @@ def run(args: argparse.Namespace) -> int:
 
     if args.fem and args.simulate:
         raise UserError("--fem and --simulate: give one")
-    out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise UserError(f"--out {out}: exists and is not a folder")
+    out = output_folder(args.out)
     if out.suffix.lower() in (".h5", ".hdf5"):
         raise UserError(f"--out {out}: a folder for the report, not a recording name")
     console = Console(stderr=True)

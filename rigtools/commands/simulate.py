@@ -7,12 +7,12 @@ Parse, call :mod:`rigtools.simulation` (options shared with ``rig study``:
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import sys
 import textwrap
 from pathlib import Path
 
+from rigtools import json_values
 from rigtools import model_options as mo
 from rigtools.options import check_out, gap
 from rigtools.vocabulary import channel_names, describe_channels
@@ -126,7 +126,7 @@ def _run(args: argparse.Namespace, stops, written: list) -> int:
     png = mo.write_plot(args.no_plot, out, lambda: simu.run_figure(result, system, title))
     doc["plot"] = None if png is None else str(png)
     if args.json:
-        print(json.dumps(doc))
+        print(json_values.dumps(doc))
     else:
         from rich.console import Console
 

@@ -4,13 +4,13 @@ each point written as soon as it settles."""
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 
+from rigtools import json_values
 from rigtools.errors import Interrupted as Stopped
 from rigtools.model_options import add_model_options, announce_work, load_model, settings_of, write_plot
 from rigtools.model_study import EPILOG, HELP
-from rigtools.options import check_out
+from rigtools.options import check_out, scheduler_address
 from rigtools.progress import StudyProgress
 
 
@@ -41,6 +41,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--scheduler",
         default=None,
+        type=scheduler_address,
         metavar="ADDR",
         help="run on an existing Dask cluster, e.g. tcp://10.0.0.5:8786 (dask-jobqueue/SLURM)",
     )
@@ -116,7 +117,7 @@ def _run(args: argparse.Namespace, stops) -> int:
             png = write_plot(args.no_plot, out, lambda: ms.study_plot(args.kind, plan.fixed, points, title))
         if args.json:
             doc = {"kind": args.kind, "fixed": plan.fixed, "points": points, "plot": png and str(png)}
-            print(json.dumps(doc))
+            print(json_values.dumps(doc))
         else:
             print_table(args.kind, points, out, png)
     except Stopped as exc:

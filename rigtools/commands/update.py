@@ -6,8 +6,8 @@ Parse, call :func:`rigtools.model_update.update_rig_file`, print.
 from __future__ import annotations
 
 import argparse
-import json
 
+from rigtools import json_values
 from rigtools.model_update import CONTACT_LAWS, PARAMETER_NAMES
 from rigtools.model_update import DEFAULT_PARAMETERS as DEFAULT_PARAMS
 
@@ -122,7 +122,7 @@ def run(args: argparse.Namespace) -> int:
         status=status(quiet=args.json),
     )
     if args.json:
-        print(json.dumps(outcome.to_dict(), indent=1, default=float))
+        print(json_values.dumps(outcome.to_dict(), indent=1))
         return 0
     from rich.console import Console
 

@@ -12,10 +12,10 @@ Swap points (each a single call below, its data shape documented in :mod:`rigtoo
 
 from __future__ import annotations
 
-import json
 from collections.abc import Callable
 from pathlib import Path
 
+from rigtools import json_values
 from rigtools.demo import steps
 from rigtools.demo.findings import evaluate
 from rigtools.demo.settings import DemoSettings
@@ -33,14 +33,36 @@ def run_demo(
     out_dir: str | Path, settings: DemoSettings, progress: Callable[[str], None] | None = None, cfg=None
 ) -> dict:
     """Run the demo into ``out_dir``: recordings, ``report.html``; returns its data, the findings
-    and the report's path. ``progress(text)`` is called as each step starts."""
+    and the report's path. ``progress(text)`` is called as each step starts.
+
+    One demo writes a folder at a time: the writer lock of the folder's marker (the recordings'
+    lock, :mod:`rigtools.recording.lock`) is held for the whole run; a second demo into the same
+    folder is refused in one line (:class:`UserError`) before it touches anything.
+    """
+    from rigtools.errors import UserError
+    from rigtools.recording.lock import LockBusy, WriterLock
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    lock = WriterLock(out / MARKER)
+    try:
+        lock.acquire()
+    except LockBusy as busy:
+        raise UserError(
+            f"--out {out}: being written by another demo ({busy.holder}); give another folder"
+        ) from None
+    try:
+        return _run_demo(out, settings, progress, cfg)
+    finally:
+        lock.release()
+
+
+def _run_demo(out: Path, settings: DemoSettings, progress: Callable[[str], None] | None, cfg) -> dict:
     from rigtools.config import load_rig
     from rigtools.demo.report import build_report, gap_trend_figure
     from rigtools.report import write_report
 
     say = progress or (lambda text: None)
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
     (out / MARKER).write_text(f"written by rig demo ({settings.name})\n", encoding="utf-8")
     cfg = cfg if cfg is not None else load_rig(None)
     say("operating points")
@@ -86,7 +108,7 @@ def run_demo(
     findings = evaluate(data)
     report = write_report(build_report(data, findings, out), out / "report.html")
     (out / "findings.json").write_text(
-        json.dumps(findings_doc(findings, report, files, relative_to=out), indent=1), encoding="utf-8"
+        json_values.dumps(findings_doc(findings, report, files, relative_to=out), indent=1), encoding="utf-8"
     )
     save_png(gap_trend_figure(data), out / "gap-trend.png")
     return {"data": data, "findings": findings, "report": report}

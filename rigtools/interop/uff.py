@@ -171,24 +171,48 @@ def units_dataset() -> dict:
 def write_uff(path: str | Path, functions: list[UffFunction]) -> int:
     """Write the units dataset and ``functions`` as UFF 58 (binary, double precision) to ``path``.
 
-    Returns the number of 58 datasets written. The file is created anew (the caller checks that
-    it may be replaced).
+    Returns the number of 58 datasets written. The file is written whole or not at all
+    (:func:`rigtools.derived_files.atomic_write`; the caller checks that it may be replaced).
     """
     import pyuff
 
-    path = Path(path)
-    if path.exists():
-        path.unlink()
-    uff = pyuff.UFF(str(path))
-    uff.write_sets([units_dataset()] + [f.dataset() for f in functions], "add", force_double=True)
+    from rigtools.derived_files import atomic_write
+
+    sets = [units_dataset()] + [f.dataset() for f in functions]
+
+    def write(tmp: Path) -> None:
+        tmp.unlink()  # pyuff appends to a new file: the temporary file mkstemp made goes first
+        pyuff.UFF(str(tmp)).write_sets(sets, "add", force_double=True)
+
+    atomic_write(path, write)
     return len(functions)
 
 
 WHAT = ("time", "spectra", "frf")
 
 
+def check_resolution(recording, what: tuple[str, ...], resolution_hz: float, text: object) -> None:
+    """Refuse (one line naming ``--resolution``) an FRF resolution no point can give: coarser
+    than an eighth of the sample rate (a segment of fewer than 8 samples)."""
+    from rigtools.errors import UserError
+
+    if "frf" not in what:
+        return
+    rates = [p.sample_rate for p in recording.points if p.sample_rate]
+    if rates and all(round(r / resolution_hz) < 8 for r in rates):
+        raise UserError(
+            f"--resolution = {text!r}: at {max(rates):g} samples/s an FRF resolution must be at most "
+            f"{max(rates) / 8:g} Hz"
+        )
+
+
 def recording_functions(
-    recording, what: tuple[str, ...] = WHAT, *, frf_resolution_hz: float = 1.0, reference: str = "force"
+    recording,
+    what: tuple[str, ...] = WHAT,
+    *,
+    frf_resolution_hz: float = 1.0,
+    reference: str = "force",
+    complete_only: bool = False,
 ) -> list[UffFunction]:
     """The UFF functions of an open recording.
 
@@ -207,12 +231,16 @@ def recording_functions(
         Frequency resolution of the FRFs, Hz.
     reference
         The excitation channel of the FRFs.
+    complete_only
+        Leave out points that did not end (a run cut off mid-point): never exported as data.
     """
     from rigtools.analysis.frf import estimate_frf
     from rigtools.analysis.spectra import amplitude_spectrum
 
     functions: list[UffFunction] = []
     for point in recording.points:
+        if complete_only and not point.complete:
+            continue
         names = list(point.channels)
         n = point.n_samples
         if n < 2:

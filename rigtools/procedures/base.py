@@ -16,8 +16,11 @@ fault, a safety abort, an error -- both file status ``aborted`` with ``abort_rea
 
 While a procedure runs in the main thread, SIGINT/SIGTERM/SIGHUP become a stop request: the
 drive ramps to zero over ``[safety] abort_ramp_time`` while the inputs are still read, so the
-record shows the ramp. A second signal interrupts at once (the device still ramps the drive
-to zero on its own).
+record shows the ramp. The handlers stay installed until :meth:`Procedure.shutdown` has brought
+the output to zero and closed the device: a second signal meanwhile is held (the ramp runs to
+its end), then honoured; a third cuts the ramp short (:attr:`Procedure.hurry_requested`: zeros
+are written at once, after the blocks already queued) but never skips the zero. Only once the
+device is closed does a further signal interrupt at once.
 """
 
 from __future__ import annotations
@@ -105,7 +108,9 @@ class Procedure:
         self._stop = threading.Event()
         self.stop_reason = ""
         self.stop_signal: int | None = None  # the signal that asked for the stop, if any
+        self.signals_seen = 0  # stop signals received while the drive could be live
         self.result: ProcedureResult | None = None
+        self._zeroed = False  # shutdown done: the output is at zero and the device closed
 
     # -- for scripts ---------------------------------------------------------------------------
     def stop(self, reason: str = "stop requested") -> None:
@@ -118,6 +123,11 @@ class Procedure:
     @property
     def stop_requested(self) -> bool:
         return self._stop.is_set()
+
+    @property
+    def hurry_requested(self) -> bool:
+        """True after a third stop signal: the abort ramp is cut short (zero written at once)."""
+        return self.signals_seen >= 3
 
     def emit(self, kind: str, **fields: Any) -> None:
         if self._progress is not None:
@@ -161,12 +171,14 @@ class Procedure:
         except BaseException as exc:  # noqa: BLE001 - recorded, then re-raised
             status, reason, error = Status.FAILED, one_line(exc), exc
         finally:
-            self._restore_signal_handlers(previous)
             try:
-                self.shutdown(status, reason)
+                self.shutdown(status, reason)  # signals held meanwhile: the output reaches zero
             except BaseException as exc:  # noqa: BLE001 - a failed shutdown is recorded, then raised
                 if error is None:
                     status, reason, error = Status.FAILED, one_line(exc), exc
+            finally:
+                self._zeroed = True
+                self._restore_signal_handlers(previous)
         result = self.result or ProcedureResult(status)
         result.status, result.reason = status, reason
         self.result = result
@@ -182,10 +194,12 @@ class Procedure:
 
         def handler(signum, frame):
             name = signal.Signals(signum).name
-            if self._stop.is_set():  # a second signal: interrupt now
+            if self._zeroed:  # output at zero, device closed: nothing left to protect
                 raise Interrupted(signum)
-            if not self._stop.is_set():
-                self.stop_signal = signum
+            self.signals_seen += 1
+            if self._stop.is_set():  # a further signal: held until the output is at zero
+                return
+            self.stop_signal = signum
             self.stop(f"signal {name}" + (" (Ctrl-C)" if name == "SIGINT" else ""))
 
         for sig in SIGNALS:
@@ -213,9 +227,18 @@ def mark_end_status(path: str | Path, status: Status, reason: str) -> None:
     """Set the root attributes ``end_status`` and ``end_reason`` of a closed recording."""
     import h5py
 
+    from rigtools.recording.lock import LockBusy, WriterLock
+
+    lock = WriterLock(path)  # a file another run writes now is not ours to change
+    try:
+        lock.acquire()
+    except (LockBusy, OSError):
+        return
     try:
         with h5py.File(path, "r+", libver=("v110", "v110"), locking=False) as f:
             f.attrs["end_status"] = status.value
             f.attrs["end_reason"] = reason
     except OSError:
         pass
+    finally:
+        lock.release()

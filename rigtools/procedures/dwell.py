@@ -4,9 +4,8 @@ from __future__ import annotations
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from rigtools.procedures.base import (
-    validate,
-)
+from rigtools.errors import TargetNotReached
+from rigtools.procedures.base import validate
 from rigtools.procedures.session import point_attrs
 from rigtools.procedures.sine import ControlParameters, SineProcedure
 from rigtools.units import MAX_GAP  # the one gap limit of rig files and every command
@@ -64,3 +63,9 @@ class SineDwell(SineProcedure):
         self.end_point(point_attrs(res))
         self.result.points.append(res)
         self.emit("point_done", point=1, n_points=1)
+        if res.get("control_limited_by") and not res.get("settled"):
+            raise TargetNotReached(
+                f"--force {p.force:g} N cannot be reached at {p.fe:g} Hz: "
+                f"{res['force_amplitude_measured']:.4g} N at the {res['control_limited_by']} limit "
+                f"({res['drive_amplitude']:.4g} V); the point is kept"
+            )

@@ -113,6 +113,7 @@ class FrfTest(SineProcedure):
             safety=self.monitor,
             record_drive=True,
             abort_ramp_time=self.cfg.safety.abort_ramp_time,
+            hurry=lambda: self.hurry_requested,
         )
         self.open_writer(rig.experiment_metadata(self.name, self.device, self.parameters_doc()))
 

@@ -57,6 +57,33 @@ def _grid(text: str, kind: str, option: str) -> list[float]:
     return value_list(text, kind, option)
 
 
+#: Highest excitation or analysis frequency as a fraction of the sample rate (anti-alias margin).
+NYQUIST_FRACTION = 0.45
+MIN_FRAME_SAMPLES = 64  # an FRF/tap frame shorter than this holds no usable spectrum
+
+
+def below_nyquist(values: list[float] | float, rate: float, option: str, text: Any) -> None:
+    """Refuse (exit 2, before the first sample) a frequency at or above ``NYQUIST_FRACTION`` of the
+    sample rate ``rate``, naming the option."""
+    top = NYQUIST_FRACTION * rate
+    for f in values if isinstance(values, list) else [values]:
+        if f > top:
+            raise UserError(
+                f"{option} = {text!r}: {f:g} Hz is above what {rate:g} samples/s can record "
+                f"(at most {top:g} Hz, {NYQUIST_FRACTION:g} x the sample rate)"
+            )
+
+
+def _frame(text: Any, rate: float, default: str) -> float:
+    frame = quantity(text if text is not None else default, "time", "--frame")
+    if not frame * rate >= MIN_FRAME_SAMPLES:
+        raise UserError(
+            f"--frame = {text!r}: {frame:g} s is {frame * rate:.3g} samples at {rate:g} samples/s; "
+            f"a frame needs at least {MIN_FRAME_SAMPLES} samples ({MIN_FRAME_SAMPLES / rate:.3g} s)"
+        )
+    return frame
+
+
 def _periods(params: dict, options: Mapping[str, Any]) -> dict:
     if options.get("periods") is not None:
         params["record_periods"] = options["periods"]
@@ -96,6 +123,8 @@ def build_procedure(
     """
     from rigtools import procedures as P
 
+    rate = float(cfg.daq.sample_rate)
+
     o = options
     params: dict[str, Any]
     if name == "dwell":
@@ -105,6 +134,7 @@ def build_procedure(
             "gap": _gap(o),
             "control": _control(o),
         }
+        below_nyquist(params["fe"], rate, "--fe", o["fe"])
         return P.SineDwell(cfg, _periods(params, o), out, **run_options)
     if name == "sweep":
         params = {
@@ -115,6 +145,7 @@ def build_procedure(
             "jump_threshold": o.get("jump_threshold", 0.3),
             "control": _control(o),
         }
+        below_nyquist(params["frequencies"], rate, "--frequencies", o["frequencies"])
         return P.SteppedSine(cfg, _periods(params, o), out, **run_options)
     if name == "study":
         params = {
@@ -126,6 +157,10 @@ def build_procedure(
             "gap": _gap(o),
             "control": _control(o),
         }
+        if params["kind"] == "frequency":
+            below_nyquist(params["values"], rate, "--values", o["values"])
+        if params["fe"] is not None:
+            below_nyquist(params["fe"], rate, "--fe", o["fe"])
         resume = bool(o.get("resume", False))
         if resume:
             run_options = {**run_options, "overwrite": False}
@@ -136,13 +171,13 @@ def build_procedure(
         from rigtools.procedures.tap import TapTest
 
         hits = o.get("hits", 5)
-        if not 1 <= hits <= 1000:
-            raise UserError(f"--hits = {hits}: use 1..1000")
+        if not 2 <= hits <= 1000:
+            raise UserError(f"--hits = {hits}: use 2..1000 (averaging and coherence need two hits or more)")
         params = {
             "blade": o.get("blade", "passive"),
             "position": quantity(o["position"], "length", "--position"),
             "hits": hits,
-            "frame": quantity(o.get("frame", "2 s"), "time", "--frame"),
+            "frame": _frame(o.get("frame"), rate, "2 s"),
             "pretrigger": quantity(o.get("pretrigger", "10 ms"), "time", "--pretrigger"),
             "trigger": quantity(o.get("trigger", "5 N"), "force", "--trigger"),
             "gap": _gap(o),
@@ -152,7 +187,13 @@ def build_procedure(
             "hit_force": quantity(o.get("hit_force", "20 N"), "force", "--hit-force"),
             "pulse": quantity(o.get("pulse", "0.5 ms"), "time", "--pulse"),
         }
-        quantity(o.get("f_max", "2 kHz"), "frequency", "--f-max")
+        f_max = quantity(o.get("f_max", "2 kHz"), "frequency", "--f-max")
+        if not f_max > TAP_F_MIN_HZ:
+            raise UserError(
+                f"--f-max = {o.get('f_max')!r}: modes are identified from {TAP_F_MIN_HZ:g} Hz up; "
+                f"give more than {TAP_F_MIN_HZ:g} Hz"
+            )
+        below_nyquist(f_max, rate, "--f-max", o.get("f_max"))
         return TapTest(cfg, params, out, **run_options)
     if name != "frf":
         raise UserError(f"unknown procedure {name!r} (known: {', '.join(PROCEDURES)})")
@@ -161,11 +202,12 @@ def build_procedure(
     band = [quantity(t, "frequency", "--band") for t in str(o["band"]).split(":")]
     if len(band) != 2:
         raise UserError(f"--band = {o['band']!r}: write low:high, e.g. '20 Hz:500 Hz'")
+    below_nyquist(band, rate, "--band", o["band"])
     params = {
         "signal": o.get("signal", "chirp"),
         "band": tuple(band),
         "level": quantity(o["level"], "voltage", "--level"),
-        "frame": quantity(o.get("frame", "1 s"), "time", "--frame"),
+        "frame": _frame(o.get("frame"), rate, "1 s"),
         "averages": o.get("averages", 10),
         "gap": _gap(o),
         "seed": o.get("seed"),

@@ -99,27 +99,46 @@ class RigStudy(SineProcedure):
 
     def open_writer(self, experiment: dict) -> None:
         from rigtools.recording import RecordingWriter
+        from rigtools.recording.lock import LockBusy, WriterLock
 
         if not self.resume:
             return super().open_writer(experiment)
         out = self.out
         backup = out.with_name(out.name + ".resume-source")
-        if not out.exists() and not backup.exists():
-            raise UserError(f"--resume: {out} does not exist; run without --resume to start the study")
-        use_out = out.exists() and (not backup.exists() or complete_points(out) >= complete_points(backup))
-        self._check_same_study(out if use_out else backup, experiment)  # before touching files
-        if use_out:
-            os.replace(out, backup)
-        elif out.exists():
-            out.unlink()  # a copy cut short: the backup holds every point it had
-        self.start_index = complete_points(backup)
-        self.start_index = min(len(self.points_planned), self.start_index)
-        self.writer = RecordingWriter(
-            out,
-            backend=self.device.backend,
-            rig=self.cfg.to_json(),
-            experiment={**experiment, "resumed": True},
-        )
+        # the writer lock first: a study still writing `out` is never touched
+        lock = WriterLock(out)
+        try:
+            lock.acquire()
+        except LockBusy as busy:
+            raise UserError(
+                f"--resume: {out} is being written by another run ({busy.holder}); "
+                "wait for it to end (or stop it), then resume"
+            ) from None
+        except OSError as exc:
+            raise UserError(f"--resume: cannot lock {out} ({exc.strerror or exc})") from None
+        try:
+            if not out.exists() and not backup.exists():
+                raise UserError(f"--resume: {out} does not exist; run without --resume to start the study")
+            use_out = out.exists() and (
+                not backup.exists() or complete_points(out) >= complete_points(backup)
+            )
+            self._check_same_study(out if use_out else backup, experiment)  # before touching files
+            if use_out:
+                os.replace(out, backup)
+            elif out.exists():
+                out.unlink()  # a copy cut short: the backup holds every point it had
+            self.start_index = complete_points(backup)
+            self.start_index = min(len(self.points_planned), self.start_index)
+            self.writer = RecordingWriter(
+                out,
+                backend=self.device.backend,
+                rig=self.cfg.to_json(),
+                experiment={**experiment, "resumed": True},
+                lock=lock,
+            )
+        finally:
+            if self.writer is None:
+                lock.release()
         self._copy_points(backup, self.start_index)
         backup.unlink()
 

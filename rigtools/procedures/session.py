@@ -168,6 +168,7 @@ class SineSession:
             safety=monitor,
             record_drive=True,
             abort_ramp_time=cfg.safety.abort_ramp_time,
+            hurry=lambda: bool(getattr(procedure, "hurry_requested", False)),
         )
         self.delay = math.ceil(device.input_to_output_delay() * self.rate)
         self._change_end = 0  # stream sample after which the last drive change shows

@@ -77,7 +77,7 @@ class TapParameters(BaseModel):
 
     blade: Literal["active", "passive"] = "passive"
     position: float = Field(gt=0, le=1.0, description="hit position, m from the root")
-    hits: int = Field(5, ge=1, le=1000, description="accepted hits averaged")
+    hits: int = Field(5, ge=2, le=1000, description="accepted hits averaged")
     frame: float = Field(
         2.0, gt=0, le=60, description="frame per hit with the pretrigger, s (resolution 1/frame)"
     )
@@ -238,6 +238,7 @@ class TapTest(SineProcedure):
             safety=self.monitor,
             record_drive=True,
             abort_ramp_time=self.cfg.safety.abort_ramp_time,
+            hurry=lambda: self.hurry_requested,
         )
         self.open_writer(
             rig.experiment_metadata(

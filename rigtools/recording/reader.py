@@ -352,6 +352,10 @@ class Recording:
                 data = tomllib.loads(self.rig)
             except tomllib.TOMLDecodeError as exc:
                 raise RecordingError(f"{self.path}: rig attribute is neither JSON nor TOML ({exc})") from None
+        if not isinstance(data, dict):
+            raise RecordingError(
+                f"{self.path}: rig attribute is not a rig description (a {type(data).__name__})"
+            )
         return parse_rig(data, source=f"{self.path} rig")
 
     def to_dataframe(self, per: str = "sample"):
@@ -421,6 +425,7 @@ def open_recording(path: str | os.PathLike) -> Recording:
         One line: missing or unreadable file (truncated, not HDF5), another schema, a newer
         ``schema_version``, or a missing/invalid required attribute.
     """
+    named(path)
     deadline = time.monotonic() + LIVE_RETRY_S
     while True:
         writer = writer_alive(path)
@@ -438,6 +443,17 @@ def open_recording(path: str | os.PathLike) -> Recording:
 
 
 LIVE_RETRY_S = 3.0  # how long a reader retries a file its live writer is changing
+
+
+def named(path: str | os.PathLike) -> None:
+    """Refuse in one line a path that cannot name a recording: empty, or a name longer than the
+    file system allows (before anything asks the file system about it)."""
+    text = os.fspath(path)
+    if not str(text).strip():
+        raise RecordingError("no file name given: give a recording file, e.g. run.h5")
+    name = os.path.basename(os.fsencode(text))
+    if len(name) > 255:
+        raise RecordingError(f"{str(text)[:60]}...: the file name is longer than file systems allow")
 
 
 def _open_once(path: str | os.PathLike) -> Recording:

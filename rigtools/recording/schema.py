@@ -95,6 +95,30 @@ _POINT_NAME = re.compile(r"^\d{4,}$")
 _CHANNEL_NAME = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_.\-]*$")
 
 
+#: The SI units a channel's samples may be stored in (what every reader converts from): an
+#: importer converts other units (g, mV, lbf) to these.
+CHANNEL_UNITS = ("N", "m/s^2", "m/s", "m", "V", "Pa")
+
+#: Point parameters readers compute with, and their rule: ``(lowest, strictly above it)``.
+#: ``fe`` is also below the Nyquist frequency of the point's channels (rig check).
+NUMERIC_POINT_PARAMS: dict[str, tuple[float, bool]] = {
+    "fe": (0.0, False),  # 0: no single excitation frequency (an FRF test)
+    "force_amplitude": (0.0, False),
+    "gap": (0.0, False),
+    "record_start": (0.0, False),
+    "record_samples": (0.0, False),
+    "frame_samples": (0.0, True),
+    "band_low": (0.0, False),
+    "band_high": (0.0, True),
+    "study_value": (-math.inf, False),
+}
+
+
+def channel_name_legal(name: str) -> bool:
+    """True if ``name`` is a legal channel name (letters, digits, ``_ . -``; no leading dot)."""
+    return isinstance(name, str) and bool(_CHANNEL_NAME.match(name))
+
+
 class RecordingError(UserError):
     """A recording file that cannot be created, opened or trusted; the message is one line."""
 

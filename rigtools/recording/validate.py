@@ -24,9 +24,11 @@ import rigtools
 from rigtools.errors import one_line
 from rigtools.recording.schema import (
     CHANNEL_ATTRS,
+    CHANNEL_UNITS,
     END_FINISHED,
     END_STATUSES,
     MEASURED_CHANNEL_ATTRS,
+    NUMERIC_POINT_PARAMS,
     OPTIONAL_ROOT_ATTRS,
     POINT_ATTRS,
     POINTS_GROUP,
@@ -37,6 +39,7 @@ from rigtools.recording.schema import (
     STATUS_COMPLETE,
     STATUSES,
     RecordingError,
+    channel_name_legal,
     parse_utc,
     point_index,
     python_value,
@@ -181,6 +184,8 @@ def find_problems(f: h5py.File, cache: AttrCache | None = None) -> list[Problem]
         out.append(Problem("/", "status is 'complete' but 'ended' is empty"))
     if root.get("backend") == "":
         out.append(Problem("/", "backend is empty"))
+    if root.get("rig") is not None:
+        out.extend(_rig_problems(root["rig"]))
     if root.get("experiment") is not None:
         try:
             experiment = json.loads(root["experiment"])
@@ -265,6 +270,59 @@ def _end_status_problems(
     return out
 
 
+def _rig_problems(text: str) -> list[Problem]:
+    """The ``rig`` attribute must be a rig description (JSON or TOML) that validates: readers
+    that simulate or compare build the FE model from it."""
+    import tomllib
+
+    from rigtools.config import parse_rig
+    from rigtools.errors import UserError
+
+    try:
+        data = json.loads(text)
+    except ValueError:
+        try:
+            data = tomllib.loads(text)
+        except tomllib.TOMLDecodeError:
+            return [Problem("/", "attribute 'rig' is neither JSON nor TOML")]
+    if not isinstance(data, dict):
+        return [Problem("/", f"attribute 'rig' is not a rig description (a {type(data).__name__})")]
+    try:
+        parse_rig(data, source="rig attribute")
+    except UserError as exc:  # partial descriptions exist (other writers); readers needing one refuse
+        return [Problem("/", f"attribute 'rig' does not validate: {one_line(exc, 300)}", severity=NOTE)]
+    return []
+
+
+def _parameter_problems(attrs: dict[str, Any], where: str, rate: float | None) -> list[Problem]:
+    """The point parameters readers compute with (:data:`NUMERIC_POINT_PARAMS`): numbers, finite,
+    in range; ``fe`` below the Nyquist frequency of the point's channels."""
+    out: list[Problem] = []
+    for key, (low, strict) in NUMERIC_POINT_PARAMS.items():
+        if key not in attrs or isinstance(attrs[key], Unreadable):
+            continue
+        value = _scalar(attrs[key])
+        if not _is_number(value):
+            shown = python_value(value) if not isinstance(value, np.ndarray) else value.tolist()
+            out.append(Problem(where, f"parameter '{key}' = {shown!r} is not a number", fatal=True))
+            continue
+        number = float(value)
+        if not math.isfinite(number) or (number <= low if strict else number < low):
+            rule = "finite" if low == -math.inf else f"finite and {'>' if strict else '>='} {low:g}"
+            out.append(Problem(where, f"parameter '{key}' = {number!r} is not {rule}", fatal=True))
+            continue
+        if key == "fe" and rate is not None and number >= rate / 2:
+            out.append(
+                Problem(
+                    where,
+                    f"parameter 'fe' = {number:g} Hz is not below the Nyquist frequency "
+                    f"({rate / 2:g} Hz at {rate:g} samples/s)",
+                    fatal=True,
+                )
+            )
+    return out
+
+
 def _point_problems(group: Any, where: str, status: str | None, cache: AttrCache) -> list[Problem]:
     out: list[Problem] = []
     if not isinstance(group, h5py.Group):
@@ -300,15 +358,21 @@ def _point_problems(group: Any, where: str, status: str | None, cache: AttrCache
         if not isinstance(dataset, h5py.Dataset):
             out.append(Problem(cwhere, "is not a dataset (channels are 1-D datasets)", fatal=True))
             continue
-        if dataset.ndim != 1 or dataset.dtype.kind not in "iuf":
+        if dataset.ndim != 1 or dataset.dtype.kind != "f":
             out.append(
                 Problem(
                     cwhere,
-                    f"is not a 1-D numeric dataset (shape {dataset.shape}, dtype {dataset.dtype})",
+                    f"is not a 1-D floating-point dataset (shape {dataset.shape}, dtype {dataset.dtype})",
                     fatal=True,
                 )
             )
             continue
+        if not channel_name_legal(name):
+            out.append(
+                Problem(
+                    cwhere, "illegal channel name (letters, digits, _ . - only; no leading dot)", fatal=True
+                )
+            )
         lengths[name] = dataset.shape[0]
         dattrs = cache.of(dataset)
         values = {
@@ -322,6 +386,15 @@ def _point_problems(group: Any, where: str, status: str | None, cache: AttrCache
                 )
             else:
                 rates[name] = float(rate)
+        units = values.get("units")
+        if units is not None and units not in CHANNEL_UNITS:
+            out.append(
+                Problem(
+                    cwhere,
+                    f"units {units!r} are not one of the SI units {', '.join(CHANNEL_UNITS)}",
+                    fatal=True,
+                )
+            )
         t0 = values.get("t0")
         if t0 is not None and not math.isfinite(t0):
             out.append(Problem(cwhere, f"t0 {t0!r} is not finite", fatal=True))
@@ -342,6 +415,7 @@ def _point_problems(group: Any, where: str, status: str | None, cache: AttrCache
     if len(set(rates.values())) > 1:
         detail = ", ".join(f"{k}={v:g} Hz" for k, v in rates.items())
         out.append(Problem(where, f"channels differ in sample_rate: {detail}"))
+    out.extend(_parameter_problems(attrs, where, min(rates.values()) if rates else None))
     return out
 
 
@@ -389,8 +463,9 @@ def check_recording(path: str | os.PathLike, read_data: bool = True) -> CheckRes
         newer ``schema_version`` than this rigtools reads (it cannot be checked; exit 2).
     """
     from rigtools.recording.lock import writer_alive
-    from rigtools.recording.reader import LIVE_RETRY_S
+    from rigtools.recording.reader import LIVE_RETRY_S, named
 
+    named(path)
     deadline = time.monotonic() + LIVE_RETRY_S
     while True:
         writer = writer_alive(path)

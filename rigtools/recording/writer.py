@@ -68,7 +68,7 @@ import numpy as np
 import rigtools
 from rigtools.errors import one_line
 from rigtools.json_values import json_default
-from rigtools.recording.lock import LockBusy, WriterLock
+from rigtools.recording.lock import LockBusy, WriterLock, lock_path
 from rigtools.recording.schema import (
     POINTS_GROUP,
     SCHEMA_NAME,
@@ -332,6 +332,9 @@ class RecordingWriter:
     flush_interval : float
         Flush to disk when at least this many seconds passed since the last flush (checked on
         every append; default 0.5 s, so data older than about 0.5 s plus one block is on disk).
+    lock : WriterLock, optional
+        The lock of ``path``, already held by the caller (who took it before changing files
+        there, e.g. ``rig acquire study --resume``): the writer adopts it and releases it on close.
 
     Examples
     --------
@@ -367,6 +370,7 @@ class RecordingWriter:
         compression_level: int = 1,
         chunk_samples: int = DEFAULT_CHUNK_SAMPLES,
         flush_interval: float = 0.5,
+        lock: WriterLock | None = None,
     ):
         if not isinstance(backend, str) or not backend.strip():
             raise ValueError("backend must be non-empty text, e.g. 'simulated'")
@@ -394,14 +398,16 @@ class RecordingWriter:
         self._fd: int | None = None
         self._final_reserve = BASE_RESERVE
         self._unflushed = 0  # bytes appended since the last flush (HDF5 may cache them)
-        self._lock = WriterLock(self.path)
+        adopted = lock is not None and lock.held and lock.path == lock_path(self.path)
+        self._lock = lock if lock is not None and adopted else WriterLock(self.path)
 
         if not self.path.parent.is_dir():
             raise RecordingError(f"cannot create {self.path}: directory {self.path.parent} does not exist")
         if self.path.is_dir():
             raise RecordingError(f"cannot create {self.path}: it is a directory")
         try:
-            self._lock.acquire()  # before anything creates or truncates the file
+            if not adopted:
+                self._lock.acquire()  # before anything creates or truncates the file
         except LockBusy as busy:
             raise RecordingError(
                 f"{self.path} is being written by another run ({busy.holder}); two runs cannot write one file"

@@ -171,6 +171,7 @@ class Report:
 
 def write_report(report: Report, path: str | Path) -> Path:
     """Write the report's page to ``path`` (UTF-8); returns the path."""
-    path = Path(path)
-    path.write_text(report.html(), encoding="utf-8")
-    return path
+    from rigtools.derived_files import atomic_write
+
+    text = report.html()
+    return atomic_write(path, lambda tmp: tmp.write_text(text, encoding="utf-8"))
