@@ -16,7 +16,6 @@ from typing import Any
 from rigtools.errors import Interrupted, UserError, one_line
 from rigtools.options import MAX_POINTS, gap, quantity, value_list
 
-HELP = "run a gap, force or frequency study of the vibro-impact model and record every point"
 EPILOG = """\
 The paper's studies (Figures 10-16): each value is run to a steady state and recorded as one
 point of a single HDF5 file (backend "fem", the channels and point parameters of

@@ -12,7 +12,10 @@ import sys
 from rigtools import json_values
 from rigtools.errors import EXIT_SIGINT, UserError
 from rigtools.options import check_out, seed
-from rigtools.procedures.descriptions import COMMON_EPILOG, HELP, PROCEDURE_HELP, PROCEDURE_OPTIONS, epilog
+from rigtools.procedure_help import COMMON_EPILOG, PROCEDURE_HELP, PROCEDURE_OPTIONS, epilog
+
+# literal here: `rig --help` reads each command's HELP from its source without importing it
+HELP = "lab procedures on the rig: force-controlled dwell, stepped sine, study, FRF test, tap test"
 
 COMMON_OPTIONS: tuple[tuple[str, dict], ...] = (
     ("--gap", {"default": None, "help": 'shroud gap, e.g. "0.5 mm" (default: as set / the rig file)'}),

@@ -9,7 +9,10 @@ import sys
 from rigtools import json_values
 from rigtools.errors import Interrupted as Stopped
 from rigtools.model_options import add_model_options, announce_work, load_model, settings_of, write_plot
-from rigtools.model_study import EPILOG, HELP
+from rigtools.model_study import EPILOG
+
+# literal here: `rig --help` reads each command's HELP from its source without importing it
+HELP = "run a gap, force or frequency study of the vibro-impact model and record every point"
 from rigtools.options import check_out, scheduler_address
 from rigtools.progress import StudyProgress
 

@@ -1,5 +1,5 @@
-"""What each lab procedure does, in the words ``rig acquire --help`` shows them: the help texts of
-the procedures, kept beside them (the command module only parses and prints)."""
+"""The lab procedures' help texts and options for ``rig acquire`` (light: no package imports, so
+``rig acquire --help`` stays fast; the procedures package itself loads numpy)."""
 
 HELP = "lab procedures on the rig: force-controlled dwell, stepped sine, study, FRF test, tap test"
 BACKENDS = """\
