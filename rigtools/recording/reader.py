@@ -25,6 +25,7 @@ from rigtools.recording.lock import writer_alive
 from rigtools.recording.schema import (
     POINTS_GROUP,
     STATUS_COMPLETE,
+    STATUS_RECORDING,
     RecordingError,
     point_index,
     python_value,
@@ -286,7 +287,14 @@ class Recording:
         was opened, else None. ``status == "recording"`` with no writer means it was killed.
     """
 
-    def __init__(self, f: h5py.File, path: str, opened_as: str, cache: AttrCache | None = None):
+    def __init__(
+        self,
+        f: h5py.File,
+        path: str,
+        opened_as: str,
+        cache: AttrCache | None = None,
+        unreadable: frozenset[str] = frozenset(),
+    ):
         self._file = f
         self.path = path
         self.opened_as = opened_as
@@ -303,7 +311,21 @@ class Recording:
         self.experiment: dict[str, Any] = json.loads(attrs["experiment"])
         group = f[POINTS_GROUP]
         names = sorted((n for n in group if point_index(n) is not None), key=int)
-        self.points: list[Point] = [Point(group[n], path, cache) for n in names]
+        self.points: list[Point] = []
+        #: Points of an unfinished file (status "recording": writer live or killed) whose structure
+        #: cannot be read: a killed writer cut them off mid-write, or a live one is changing them.
+        #: They are not in :attr:`points`; every point that can be read is (nothing else is lost).
+        self.unreadable_points: list[str] = []
+        for n in names:
+            if n in unreadable:
+                self.unreadable_points.append(n)
+                continue
+            try:
+                self.points.append(Point(group[n], path, cache))
+            except (OSError, RuntimeError, KeyError, ValueError):
+                if self.status != STATUS_RECORDING:
+                    raise
+                self.unreadable_points.append(n)
         self.writer: str | None = None
 
     @property
@@ -456,17 +478,39 @@ def named(path: str | os.PathLike) -> None:
         raise RecordingError(f"{str(text)[:60]}...: the file name is longer than file systems allow")
 
 
+def _point_of(where: str) -> str | None:
+    """The point group name of a problem's location (``/points/0003/force`` -> ``0003``)."""
+    parts = where.strip("/").split("/")
+    return parts[1] if len(parts) >= 2 and parts[0] == POINTS_GROUP.strip("/") else None
+
+
+def _cut_off_points(f: h5py.File, fatal: list) -> frozenset[str]:
+    """Points whose fatal problems an unfinished writer explains (status still "recording").
+
+    A writer killed mid-write (or one changing a point while it is read) can leave that point's
+    structure unreadable; the file's other points are intact and are kept."""
+    try:
+        unfinished = f.attrs.get("status") == STATUS_RECORDING
+    except (OSError, RuntimeError, KeyError):
+        return frozenset()
+    if not unfinished:
+        return frozenset()
+    return frozenset(n for n in (_point_of(p.where) for p in fatal) if n is not None)
+
+
 def _open_once(path: str | os.PathLike) -> Recording:
     f, opened_as = open_h5(path)
     try:
         cache = AttrCache()
         problems = find_problems(f, cache)
         fatal = [p for p in problems if p.fatal]
+        cut_off = _cut_off_points(f, fatal)
+        fatal = [p for p in fatal if _point_of(p.where) not in cut_off]
         if fatal:
             where = "" if fatal[0].where == "/" else f"{fatal[0].where}: "
             more = f" (and {len(fatal) - 1} more; run: rig check {path})" if len(fatal) > 1 else ""
             raise RecordingError(f"{path}: {where}{fatal[0].message}{more}")
-        return Recording(f, str(path), opened_as, cache)
+        return Recording(f, str(path), opened_as, cache, cut_off)
     except RecordingError:
         f.close()
         raise

@@ -212,7 +212,14 @@ def find_problems(f: h5py.File, cache: AttrCache | None = None) -> list[Problem]
             )
             continue
         indices.append(idx)
-        out.extend(_point_problems(points[name], f"/{POINTS_GROUP}/{name}", status, cache))
+        try:
+            group = points[name]
+        except (OSError, RuntimeError, KeyError, ValueError) as exc:
+            # a writer killed (or busy) while creating this point left its structure unreadable
+            why = f"point group cannot be read ({one_line(exc, None)})"
+            out.append(Problem(f"/{POINTS_GROUP}/{name}", why, fatal=True))
+            continue
+        out.extend(_point_problems(group, f"/{POINTS_GROUP}/{name}", status, cache))
     indices.sort()
     if indices != list(range(len(indices))):
         out.append(

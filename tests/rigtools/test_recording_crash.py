@@ -114,3 +114,38 @@ def test_sigkill_at_random_moments_keeps_everything_flushed(tmp_path):
             checked_samples += samples
     # the schedule must have exercised the guarantee, not only files with nothing old enough
     assert exercised >= N_KILLS // 2 and checked_samples > 20 * child.BLOCK
+
+
+def _three_point_file(path: Path) -> Path:
+    from rigtools.recording import ChannelSpec, RecordingWriter
+
+    with RecordingWriter(path, backend="simulated", rig="{}") as rec:
+        for k in range(3):
+            point = rec.begin_point({"fe": 60.0 + k}, [ChannelSpec("force", "N", "force", 1e4)])
+            point.append(np.full((1, 100), float(k)))
+            point.end()
+    return path
+
+
+@pytest.mark.parametrize("status, kept", [("recording", True), ("complete", False)])
+def test_a_point_cut_off_mid_creation_costs_only_that_point(tmp_path, status, kept):
+    """A writer killed between creating a point's group and writing its attributes leaves a group
+    without them: in an unfinished file (status "recording") the other points open and the cut-off
+    one is listed as unreadable; in a finished file the same defect is refused in one line."""
+    import h5py
+
+    from rigtools.recording import RecordingError
+
+    path = _three_point_file(tmp_path / "cut.h5")
+    with h5py.File(path, "r+") as f:
+        for key in list(f["points/0001"].attrs):
+            del f["points/0001"].attrs[key]
+        f.attrs["status"] = status
+    if kept:
+        with open_recording(path) as rec:
+            assert [p.index for p in rec.points] == [0, 2]
+            assert rec.unreadable_points == ["0001"]
+            assert float(rec.points[1]["force"][:][0]) == 2.0
+    else:
+        with pytest.raises(RecordingError, match="points/0001"):
+            open_recording(path)

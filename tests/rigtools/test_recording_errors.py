@@ -143,7 +143,7 @@ def test_wrong_channel_shape_and_bad_experiment(good, tmp_path):
         del f["points/0000/accel"]
         f["points/0000"].create_dataset("accel", data=np.zeros((2, 2)))
 
-    assert "is not a 1-D numeric dataset" in _one_line_error(_copy(good, tmp_path / "a.h5", two_d))
+    assert "is not a 1-D floating-point dataset" in _one_line_error(_copy(good, tmp_path / "a.h5", two_d))
     bad_json = _copy(good, tmp_path / "b.h5", lambda f: f.attrs.__setitem__("experiment", "{oops"))
     assert "'experiment' is not a JSON object" in _one_line_error(bad_json)
 
