@@ -27,6 +27,7 @@ from rigtools.procedures.base import (
     StopRequested,
 )
 from rigtools.procedures.dwell import DwellParameters, SineDwell
+from rigtools.procedures.frf import FrfParameters, FrfTest
 from rigtools.procedures.rig_study import RigStudy, StudyParameters
 from rigtools.procedures.sine import ControlParameters, SineProcedure
 from rigtools.procedures.sweep import SteppedSine, SweepParameters, detect_jumps
@@ -35,6 +36,8 @@ from rigtools.procedures.tap import TapParameters, TapTest
 __all__ = [
     "ControlParameters",
     "DwellParameters",
+    "FrfParameters",
+    "FrfTest",
     "Procedure",
     "ProcedureFailed",
     "ProcedureResult",

@@ -250,6 +250,22 @@ class Point:
             return 0.0
         return self.n_samples / next(iter(self.channels.values())).sample_rate
 
+    @property
+    def record_window(self) -> tuple[int, int]:
+        """``(first sample, samples)`` of the settled record window: the point parameters
+        ``record_start`` (s) and ``record_samples`` where the writer set them, else the whole point."""
+        n = self.n_samples
+        rate = self.sample_rate or 1.0
+        start = round(float(self.params.get("record_start", 0.0) or 0.0) * rate)
+        start = min(max(start, 0), n)
+        count = int(self.params.get("record_samples", n - start) or (n - start))
+        return start, max(0, min(count, n - start))
+
+    def settled(self, channel: str) -> np.ndarray:
+        """Samples of ``channel`` (SI units) in the settled record window (:attr:`record_window`)."""
+        start, count = self.record_window
+        return np.asarray(self.channels[channel][start : start + count], dtype=float)
+
     def to_dataframe(self):
         """Wide table: index ``time`` (s), one column per channel (trimmed to ``n_samples``)."""
         import pandas as pd
