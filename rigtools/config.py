@@ -660,10 +660,30 @@ def default_rig_text() -> str:
 def load_rig(path: str | Path | None = None) -> RigConfig:
     """Load and validate a rig file; ``None`` gives the calibrated default rig.
 
+    Parameters
+    ----------
+    path
+        The rig file (TOML); ``None``: the calibrated default rig shipped with the package.
+
+    Returns
+    -------
+    RigConfig
+        The validated description, SI units throughout.
+
     Raises
     ------
     ConfigError
         If the file is missing, is not TOML, or does not validate.
+
+    Examples
+    --------
+    >>> import rigtools
+    >>> rig = rigtools.load_rig()
+    >>> rig.contact.gap  # m
+    0.0005
+    >>> rigtools.load_rig("no-such-rig.toml")
+    Traceback (most recent call last):
+    rigtools.errors.ConfigError: cannot read rig file 'no-such-rig.toml': No such file or directory
     """
     if path is None:
         return parse_rig(tomllib.loads(default_rig_text()), "default rig")

@@ -55,6 +55,13 @@ class PointResult:
         ``{channel: (peak amplitudes of k = 1, 2, ...)}`` in the channel's SI unit (sine points).
     extra
         Every other parameter the procedure reported, by its vocabulary name.
+
+    Examples
+    --------
+    >>> from rigtools.experiments import PointResult
+    >>> p = PointResult.from_procedure(0, {"fe": 60.0, "force_amplitude": 15.0, "record_start": 1.5})
+    >>> p.fe, p.force, p.record_start
+    (60.0, 15.0, 1.5)
     """
 
     index: int
@@ -146,6 +153,15 @@ class RunResult:
         :class:`PointResult` of each point, in recording order.
     summary
         What the procedure concluded (e.g. ``jumps`` of a stepped sine, ``modes`` of a tap test).
+
+    Examples
+    --------
+    >>> import rigtools, tempfile, pathlib
+    >>> out = pathlib.Path(tempfile.mkdtemp()) / "sweep.h5"
+    >>> run = rigtools.stepped_sine(["55 Hz", "60 Hz"], "5 N", out, gap="5 mm", record_periods=5)
+    >>> table = run.to_dataframe()  # one row per point, SI units
+    >>> list(table["fe"]), bool(table["settled"].all())
+    ([55.0, 60.0], True)
     """
 
     procedure: str

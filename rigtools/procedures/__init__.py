@@ -28,6 +28,7 @@ from rigtools.procedures.base import (
 )
 from rigtools.procedures.dwell import DwellParameters, SineDwell
 from rigtools.procedures.frf import FrfParameters, FrfTest
+from rigtools.procedures.reference import reference_table
 from rigtools.procedures.rig_study import RigStudy, StudyParameters
 from rigtools.procedures.sine import ControlParameters, SineProcedure
 from rigtools.procedures.sweep import SteppedSine, SweepParameters, detect_jumps
@@ -53,4 +54,5 @@ __all__ = [
     "TapParameters",
     "TapTest",
     "detect_jumps",
+    "reference_table",
 ]

@@ -425,6 +425,11 @@ class Recording:
 def open_recording(path: str | os.PathLike) -> Recording:
     """Open a recording (schema v1) for reading.
 
+    Parameters
+    ----------
+    path
+        The HDF5 file (a file being written may be read while it grows).
+
     Returns
     -------
     Recording
@@ -436,6 +441,17 @@ def open_recording(path: str | os.PathLike) -> Recording:
     RecordingError
         One line: missing or unreadable file (truncated, not HDF5), another schema, a newer
         ``schema_version``, or a missing/invalid required attribute.
+
+    Examples
+    --------
+    >>> import rigtools, tempfile, pathlib
+    >>> out = pathlib.Path(tempfile.mkdtemp()) / "dwell.h5"
+    >>> run = rigtools.dwell("60 Hz", "5 N", out, gap="5 mm", record_periods=6, seed=1)
+    >>> with rigtools.open_recording(out) as rec:
+    ...     point = rec.points[0]
+    ...     force = point.settled("force")  # N, the settled record window only
+    ...     print(rec.status, rec.backend, force.size == point.record_window[1])
+    complete sim True
     """
     deadline = time.monotonic() + LIVE_RETRY_S
     while True:
