@@ -451,7 +451,7 @@ def open_recording(path: str | os.PathLike) -> Recording:
     ...     point = rec.points[0]
     ...     force = point.settled("force")  # N, the settled record window only
     ...     print(rec.status, rec.backend, force.size == point.record_window[1])
-    complete sim True
+    complete simulated True
     """
     deadline = time.monotonic() + LIVE_RETRY_S
     while True:
