@@ -189,18 +189,19 @@ class SimulatedPoint:
         }
 
 
-def _settings(duration: float | str, max_settle_time: float | str):
-    from rigtools.options import duration as seconds
-    from rigtools.simulation import RunSettings
+def _settings(duration: float | str, max_settle_time: float | str, fe_values: Sequence[float]):
+    from rigtools.model_options import run_settings
 
-    return RunSettings(
-        duration=seconds(duration, "duration"), max_settle_time=seconds(max_settle_time, "max_settle_time")
+    return run_settings(
+        duration, max_settle_time, None, fe_values, names=("duration", "max_settle_time", "steps_per_period")
     )
 
 
 def _system(rig: Any, model: str, gap: float | str | None):
+    """``(rig config, reduced system)``; a model too large for the memory is refused in one line."""
     from rigtools.config import RigConfig, load_rig
     from rigtools.errors import UserError
+    from rigtools.model_options import announce_model
     from rigtools.options import gap as gap_option
 
     if model not in ("fem", "am"):
@@ -208,7 +209,9 @@ def _system(rig: Any, model: str, gap: float | str | None):
     from rigtools.sim.reduction import reduced_system
 
     cfg = rig if isinstance(rig, RigConfig) else load_rig(rig)
-    system = reduced_system(cfg.to_params(), model)
+    params = cfg.to_params()
+    announce_model(params, model, quiet=True)
+    system = reduced_system(params, model)
     if gap is not None:
         system = system.with_contact(gap=gap_option(gap, "gap"))
     return cfg, system
@@ -263,17 +266,10 @@ def simulate_point(
     5.0
     """
     from rigtools import simulation as simu
-    from rigtools.options import quantity
+    from rigtools.model_options import excitation
 
-    f = quantity(fe, "frequency", "fe")
-    F = quantity(force, "force", "force")
-    from rigtools.errors import UserError
-
-    if not f > 0:
-        raise UserError(f"fe = {fe!r}: the excitation frequency must be > 0 Hz")
-    if F < 0:
-        raise UserError(f"force = {force!r}: the force amplitude must be >= 0 N")
-    settings = _settings(duration, max_settle_time)
+    f, F = excitation(fe, force, names=("fe", "force"))
+    settings = _settings(duration, max_settle_time, [f])
     cfg, system = _system(rig, model, gap)
     target = None
     if out is not None:
@@ -365,14 +361,12 @@ def simulate_study(
     ...     rec.status, len(rec.points)
     ('complete', 2)
     """
-    from rigtools import simulation as simu
     from rigtools.errors import UserError
+    from rigtools.model_study import record_study
     from rigtools.options import gap as gap_option
     from rigtools.options import output_path, quantity
     from rigtools.procedures.base import validate
-    from rigtools.procedures.sweep import StudyParameters
-    from rigtools.recording import RecordingWriter
-    from rigtools.recording.writer import one_line
+    from rigtools.procedures.rig_study import StudyParameters
     from rigtools.sim.studies import StudyPlan
     from rigtools.sim.vibro_impact import SimulationInputError
 
@@ -389,7 +383,7 @@ def simulate_study(
     except SimulationInputError as exc:
         raise UserError(str(exc)) from None
     target = output_path(str(out), overwrite, "out")
-    settings = _settings(duration, max_settle_time)
+    settings = _settings(duration, max_settle_time, sorted({p.fe for p in plan.points()}))
     cfg, system = _system(rig, model, None)
     experiment = {
         "procedure": f"{kind} study",
@@ -401,16 +395,17 @@ def simulate_study(
         "plan": plan.to_dict(),
         "cli": "rigtools.simulate_study",
     }
-    rec = RecordingWriter(
-        target, backend="fem", rig=cfg.to_json(), experiment=experiment, overwrite=overwrite
+    return record_study(
+        target,
+        plan,
+        cfg,
+        system,
+        settings,
+        experiment=experiment,
+        model=model,
+        overwrite=overwrite,
+        on_point=on_point,
     )
-    try:
-        points = simu.write_study(rec, system, plan, settings, model, on_point=on_point)
-    except BaseException as exc:
-        rec.abort(one_line(exc) or type(exc).__name__)
-        raise
-    rec.close()
-    return points
 
 
 def compare_with_model(
