@@ -628,16 +628,16 @@ def analyze_recording(
     progress
         ``progress(done, total)`` after each point.
 
-    Raises
-    ------
-    UserError
-        One line: unreadable file, unknown channel, a point that cannot be analysed.
-
     Returns
     -------
     RecordingAnalysis
         ``points`` (:class:`PointAnalysis`: harmonics of periodic points, FRFs and modes of
         broadband ones), ``notes``, ``skipped``, ``to_dict()``.
+
+    Raises
+    ------
+    UserError
+        One line: unreadable file, unknown channel, a point that cannot be analysed.
 
     Examples
     --------
