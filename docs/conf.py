@@ -46,6 +46,16 @@ exclude_patterns = [
     "auto_examples/*.py",
 ]
 
+# --- procedure parameters --------------------------------------------------------------------------
+# The reference page of every procedure parameter (unit, default, range) is generated from the
+# parameter models themselves (rigtools.procedures.reference_table), so it cannot drift from them.
+from rigtools.procedures.reference import reference_table
+
+_PARAMETERS_PAGE = DOCS / "generated" / "procedure-parameters.md"
+_PARAMETERS_PAGE.parent.mkdir(exist_ok=True)
+if not _PARAMETERS_PAGE.exists() or _PARAMETERS_PAGE.read_text(encoding="utf-8") != reference_table():
+    _PARAMETERS_PAGE.write_text(reference_table(), encoding="utf-8")  # rewritten only when it changed
+
 # --- API reference ---------------------------------------------------------------------------------
 autosummary_generate = True
 # autosummary never removes the page of a module that was renamed or deleted, and the stale page
@@ -99,18 +109,10 @@ suppress_warnings = [
 ]
 
 # --- gallery -------------------------------------------------------------------------------------------
-# Temporary, until the front door (issue 17) makes every example's output file optional: a script
-# that still requires it (argparse's positional "out") is shown but not run (sphinx-gallery's
-# filename_pattern selects what runs). The list empties by itself once they take no argument.
-NEEDS_ARGS = sorted(
-    p.stem for p in (DOCS / "examples").glob("*.py") if 'add_argument("out")' in p.read_text(encoding="utf-8")
-)
-_not_needing_args = "".join(f"(?!{name}\\.py$)" for name in NEEDS_ARGS)
-
 sphinx_gallery_conf = {
     "examples_dirs": "examples",
     "gallery_dirs": "auto_examples",
-    "filename_pattern": rf"/{_not_needing_args}[^/]+\.py$",
+    "filename_pattern": r"/[^/]+\.py$",  # every example runs (none needs an argument)
     "ignore_pattern": r"__init__\.py",
     # the library's figures are matplotlib Figures outside pyplot: scrape those the example holds
     # (first: the matplotlib scraper closes pyplot's figures, after which they look like ours)

@@ -17,10 +17,42 @@ if not (_here / "sim").is_dir() and (_here.parent / "sim" / "__init__.py").is_fi
     install_sibling_finder(_here.parent)
 
 
-def __getattr__(name: str):
-    # rigtools.open_recording (issue 4), imported lazily so `import rigtools` stays light
-    if name == "open_recording":
-        from rigtools.recording import open_recording
+# The front door: name -> (module, attribute), each imported on first use (as scipy does), so
+# `import rigtools` stays light and `import rigtools.sim` costs only sim. No name here may be
+# that of a submodule (`rigtools.analyze` is a module): importing it would rebind the attribute.
+_API: dict[str, tuple[str, str]] = {
+    "load_rig": ("rigtools.config", "load_rig"),
+    "dwell": ("rigtools.experiments", "dwell"),
+    "stepped_sine": ("rigtools.experiments", "stepped_sine"),
+    "study": ("rigtools.experiments", "study"),
+    "frf_test": ("rigtools.experiments", "frf_test"),
+    "tap_test": ("rigtools.experiments", "tap_test"),
+    "RunResult": ("rigtools.experiments", "RunResult"),
+    "PointResult": ("rigtools.experiments", "PointResult"),
+    "open_recording": ("rigtools.recording", "open_recording"),
+    "analyze_recording": ("rigtools.analyze", "analyze_recording"),
+    "spectrum": ("rigtools.workflows", "spectrum"),
+    "Spectrum": ("rigtools.workflows", "Spectrum"),
+    "simulate_point": ("rigtools.workflows", "simulate_point"),
+    "SimulatedPoint": ("rigtools.workflows", "SimulatedPoint"),
+    "simulate_study": ("rigtools.workflows", "simulate_study"),
+    "compare_with_model": ("rigtools.workflows", "compare_with_model"),
+    "update_model": ("rigtools.workflows", "update_model"),
+    "UserError": ("rigtools.errors", "UserError"),
+}
+__all__ = list(_API)
 
-        return open_recording
+
+def __getattr__(name: str) -> object:
+    if name in _API:
+        import importlib
+
+        module, attribute = _API[name]
+        value = getattr(importlib.import_module(module), attribute)
+        globals()[name] = value  # the next look-up is a plain attribute
+        return value
     raise AttributeError(f"module 'rigtools' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *__all__})

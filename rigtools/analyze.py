@@ -320,13 +320,8 @@ def _blocks(
 
 def record_window(point) -> tuple[int, int]:
     """``(first sample, samples)`` of the point's record window (``record_start`` s and
-    ``record_samples``), else the whole point."""
-    n = point.n_samples
-    rate = point.sample_rate or 1.0
-    start = round(float(point.params.get("record_start", 0.0) or 0.0) * rate)
-    start = min(max(start, 0), n)
-    count = int(point.params.get("record_samples", n - start) or (n - start))
-    return start, max(0, min(count, n - start))
+    ``record_samples``), else the whole point: :attr:`rigtools.recording.reader.Point.record_window`."""
+    return point.record_window
 
 
 def force_channel(point) -> str | None:
@@ -633,10 +628,26 @@ def analyze_recording(
     progress
         ``progress(done, total)`` after each point.
 
+    Returns
+    -------
+    RecordingAnalysis
+        ``points`` (:class:`PointAnalysis`: harmonics of periodic points, FRFs and modes of
+        broadband ones), ``notes``, ``skipped``, ``to_dict()``.
+
     Raises
     ------
     UserError
         One line: unreadable file, unknown channel, a point that cannot be analysed.
+
+    Examples
+    --------
+    >>> import rigtools, tempfile, pathlib
+    >>> out = pathlib.Path(tempfile.mkdtemp()) / "frf.h5"
+    >>> run = rigtools.frf_test(("20 Hz", "500 Hz"), "1 V", out, frame="0.5 s", averages=2, gap="5 mm")
+    >>> analysis = rigtools.analyze_recording(out)
+    >>> point = analysis.points[0]
+    >>> point.kind, point.frf.responses[0]
+    ('broadband', 'active_shroud_accel')
     """
     from rigtools.recording import RecordingError, open_recording
     from rigtools.vocabulary import source_of

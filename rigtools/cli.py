@@ -60,8 +60,8 @@ exit status:
 examples:
   rig devices
   rig simulate --gap "0.5 mm" --force "15 N" --fe "60 Hz" --out sim.h5
-  rig acquire --simulated --fe "60 Hz" --drive "0.5 V" --duration "2 s" --out run.h5
-  rig info recordings/run.h5
+  rig acquire dwell --backend sim --fe "60 Hz" --force "15 N" --gap "0.5 mm" --out run.h5
+  rig info run.h5
   rig COMMAND --help
 """
 

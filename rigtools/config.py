@@ -12,9 +12,6 @@ from __future__ import annotations
 import json
 import math
 import tomllib
-import types
-import typing
-from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any, Literal
@@ -31,6 +28,27 @@ from pydantic import (
 )
 
 from rigtools.errors import ConfigError
+from rigtools.quantity_fields import (
+    Acceleration,
+    Damping,
+    Density,
+    Force,
+    ForceFactor,
+    Frequency,
+    Inductance,
+    Inertia,
+    Length,
+    Mass,
+    Pressure,
+    Resistance,
+    RotStiffness,
+    Stiffness,
+    Time,
+    Voltage,
+    VoltageAmplitude,
+    describe_error,
+    quantity_validator,
+)
 from rigtools.sim.params import (
     BladeParams,
     ContactParams,
@@ -45,30 +63,7 @@ from rigtools.units import MAX_GAP, parse_quantity
 if TYPE_CHECKING:
     from pydantic_core import ErrorDetails
 
-
-@dataclass(frozen=True)
-class _QuantityParser:
-    """Reads a number (SI) or a quantity text (``"0.5 mm"``) of ``dimension``; the dimension
-    also gives the SI unit in range messages."""
-
-    dimension: str
-
-    def __call__(self, value: Any) -> float:
-        return parse_quantity(value, self.dimension)
-
-
-def _quantity(dimension: str) -> BeforeValidator:
-    return BeforeValidator(_QuantityParser(dimension))
-
-
-Length = Annotated[float, _quantity("length")]
-Mass = Annotated[float, _quantity("mass")]
-Pressure = Annotated[float, _quantity("pressure")]
-Density = Annotated[float, _quantity("density")]
-Stiffness = Annotated[float, _quantity("stiffness")]
-RotStiffness = Annotated[float, _quantity("rotational_stiffness")]
-Damping = Annotated[float, _quantity("damping")]
-Inertia = Annotated[float, _quantity("inertia")]
+_quantity = quantity_validator  # short name in the field annotations below
 
 
 class _Section(BaseModel):
@@ -207,10 +202,6 @@ class DampingConfig(_Section):
 # ----------------------------------------------------------------- acquisition and safety
 # [daq], [signal_source], [safety]: the measurement chain (owner: drivers). Values SI.
 
-Frequency = Annotated[float, _quantity("frequency")]
-Time = Annotated[float, _quantity("time")]
-Voltage = Annotated[float, _quantity("voltage")]
-VoltageAmplitude = Annotated[float, _quantity("voltage_amplitude")]  # peak V; "2 Vpp" = 1 V
 
 _SENSITIVITY_DIMENSION = {"accel": "sensitivity_accel", "force": "sensitivity_force", "voltage": None}
 # plausible sensor sensitivities, SI (V per m/s^2, V per N, V per V): 0.05 mV/g..10 V/g, 0.05 mV/N..1 V/N
@@ -461,12 +452,6 @@ class SafetyConfig(_Section):
 # [shaker]: the power amplifier and electrodynamic shaker; [test_article]: how the simulated rig's
 # blades deviate from the nominal model above, and its measurement chain. Values SI.
 
-Force = Annotated[float, _quantity("force")]
-Acceleration = Annotated[float, _quantity("acceleration")]
-ForceFactor = Annotated[float, _quantity("force_factor")]
-Resistance = Annotated[float, _quantity("resistance")]
-Inductance = Annotated[float, _quantity("inductance")]
-
 
 def _shaker_field(name: str) -> Any:
     """Default and range of a [shaker] key: from :data:`rigtools.sim.shaker_params.SHAKER_BOUNDS`, their one
@@ -646,120 +631,9 @@ def _raw_value(data: Any, loc: list[str], fallback: Any) -> Any:
     return data
 
 
-_SI_UNIT = {
-    "length": "m",
-    "mass": "kg",
-    "time": "s",
-    "frequency": "Hz",
-    "force": "N",
-    "pressure": "Pa",
-    "density": "kg/m^3",
-    "stiffness": "N/m",
-    "rotational_stiffness": "N*m/rad",
-    "damping": "N*s/m",
-    "inertia": "kg*m^2",
-    "voltage": "V",
-    "voltage_amplitude": "V peak",
-    "current": "A",
-    "resistance": "ohm",
-    "inductance": "H",
-    "force_factor": "N/A",
-    "acceleration": "m/s^2",
-}
-_RANGE_ERRORS = ("greater_than", "greater_than_equal", "less_than", "less_than_equal")
-
-
-def _field_metadata(loc: list[str]) -> list[Any]:
-    """The validation metadata (bounds, unit parser) of the field at ``loc``, [] if not found."""
-    cls: Any = RigConfig
-    items: list[Any] = []
-    for part in loc:
-        fields = getattr(cls, "model_fields", None)
-        if not fields or part not in fields:
-            return []
-        field = fields[part]
-        items, cls = list(field.metadata), None
-        stack = [field.annotation]
-        while stack:
-            ann = stack.pop()
-            origin = typing.get_origin(ann)
-            if origin is Annotated:
-                stack.append(typing.get_args(ann)[0])
-                for meta in ann.__metadata__:
-                    items.extend(getattr(meta, "metadata", None) or [meta])
-            elif origin in (typing.Union, types.UnionType):
-                stack.extend(typing.get_args(ann))
-            elif isinstance(ann, type) and issubclass(ann, BaseModel):
-                cls = ann
-    return items
-
-
-def _allowed_range(loc: list[str]) -> tuple[str, str, str | None] | None:
-    """(``"[1e-05, 0.5]"``, ``"m"``, ``"length"``) for the field at ``loc`` (SI), or None if it
-    has no bounds."""
-    low = high = None
-    low_open = high_open = False
-    unit, dimension = "", None
-    for meta in _field_metadata(loc):
-        for attr, is_low, is_open in (
-            ("gt", True, True),
-            ("ge", True, False),
-            ("lt", False, True),
-            ("le", False, False),
-        ):
-            bound = getattr(meta, attr, None)
-            if isinstance(bound, (int, float)):
-                if is_low:
-                    low, low_open = bound, is_open
-                else:
-                    high, high_open = bound, is_open
-        parser = getattr(meta, "func", None)
-        if isinstance(parser, _QuantityParser):
-            dimension = parser.dimension
-            unit = _SI_UNIT.get(dimension, "")
-    if low is None and high is None:
-        return None
-    left = "-inf" if low is None else f"{low:g}"
-    right = "inf" if high is None else f"{high:g}"
-    return (
-        f"{'(' if low_open or low is None else '['}{left}, {right}{')' if high_open or high is None else ']'}",
-        unit,
-        dimension,
-    )
-
-
 def _describe(error: ErrorDetails, data: dict[str, Any]) -> str:
     loc = [str(p) for p in error["loc"]]
-    key = ".".join(loc) if loc else "(file)"
-    if error["type"] == "extra_forbidden":
-        return f"unknown key '{key}'"
-    if error["type"] == "missing":
-        return f"missing key '{key}'"
-    value = _raw_value(data, loc, error.get("input"))
-    message = error["msg"].removeprefix("Value error, ")
-    if error["type"] in _RANGE_ERRORS:
-        found = _allowed_range(loc)
-        if found:
-            allowed, unit, dimension = found
-            si = error.get("input")
-            if isinstance(si, str) and dimension:  # an optional field reports the raw text
-                si = parse_quantity(si, dimension)
-            if isinstance(value, str) and isinstance(si, (int, float)):
-                note = f" (= {si:g} {unit})".replace(" )", ")")
-            elif unit and isinstance(value, (int, float)):
-                note = (
-                    f" (a plain number is in {unit}; write units, e.g. '0.5 mm')"
-                    if unit == "m"
-                    else f" (a plain number is in {unit})"
-                )
-            else:
-                note = ""
-            message = f"outside the allowed range {allowed} {unit}".rstrip() + note
-    if not loc:
-        return message
-    if isinstance(value, dict):  # a check of a whole table: its message names the keys
-        return f"{key}: {message}"
-    return f"{key} = {value!r}: {message}"
+    return describe_error(RigConfig, error, _raw_value(data, loc, error.get("input")))
 
 
 def parse_rig(data: dict[str, Any], source: str = "rig file") -> RigConfig:
@@ -786,10 +660,30 @@ def default_rig_text() -> str:
 def load_rig(path: str | Path | None = None) -> RigConfig:
     """Load and validate a rig file; ``None`` gives the calibrated default rig.
 
+    Parameters
+    ----------
+    path
+        The rig file (TOML); ``None``: the calibrated default rig shipped with the package.
+
+    Returns
+    -------
+    RigConfig
+        The validated description, SI units throughout.
+
     Raises
     ------
     ConfigError
         If the file is missing, is not TOML, or does not validate.
+
+    Examples
+    --------
+    >>> import rigtools
+    >>> rig = rigtools.load_rig()
+    >>> rig.contact.gap  # m
+    0.0005
+    >>> rigtools.load_rig("no-such-rig.toml")
+    Traceback (most recent call last):
+    rigtools.errors.ConfigError: cannot read rig file 'no-such-rig.toml': No such file or directory
     """
     if path is None:
         return parse_rig(tomllib.loads(default_rig_text()), "default rig")

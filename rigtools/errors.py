@@ -56,7 +56,19 @@ def one_line(
 
 
 class UserError(Exception):
-    """Bad input from the user (config, command line, file). Exit status 2 by default."""
+    """Bad input from the user (config, command line, file). Exit status 2 by default.
+
+    Its text is one line naming what is wrong; the CLI prints it without a traceback.
+
+    Examples
+    --------
+    >>> import rigtools
+    >>> try:
+    ...     rigtools.dwell("60 Hz", "15 Hz", "never-written.h5")
+    ... except rigtools.UserError as exc:
+    ...     print(exc)
+    force = '15 Hz': '15 Hz' is a frequency, expected a force
+    """
 
     exit_code = EXIT_USAGE
 

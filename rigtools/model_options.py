@@ -60,6 +60,8 @@ def run_settings(
     max_settle: str | float,
     steps_per_period: int | None,
     fe_values: Sequence[float],
+    *,
+    names: tuple[str, str, str] = ("--duration", "--max-settle", "--steps-per-period"),
 ) -> Any:
     """:class:`rigtools.simulation.RunSettings` checked against the excitation periods.
 
@@ -73,22 +75,24 @@ def run_settings(
         Time steps per excitation period, or ``None`` (chosen from the contact).
     fe_values
         Excitation frequencies (Hz) the settings will run at.
+    names
+        How messages name the three settings: the CLI's options, or the front door's arguments.
     """
     from rigtools.simulation import K_MAX, RunSettings
 
-    recorded = _duration(duration, "--duration")
+    duration_name, settle_name, steps_name = names
+    recorded = _duration(duration, duration_name)
     for fe in fe_values:
         if recorded * fe < 1.0 - 1e-9:
             raise UserError(
-                f"--duration = {duration!r} is shorter than one excitation period "
+                f"{duration_name} = {duration!r} is shorter than one excitation period "
                 f"(1/fe = {1 / fe:.4g} s at fe = {fe:g} Hz)"
             )
-    settle = _duration(max_settle, "--max-settle", allow_zero=True)
+    settle = _duration(max_settle, settle_name, allow_zero=True)
     n = steps_per_period
     if n is not None and not 4 * K_MAX <= n <= MAX_STEPS_PER_PERIOD:
         raise UserError(
-            f"--steps-per-period = {n}: need {4 * K_MAX} (to resolve harmonic {K_MAX}) to "
-            f"{MAX_STEPS_PER_PERIOD}"
+            f"{steps_name} = {n}: need {4 * K_MAX} (to resolve harmonic {K_MAX}) to {MAX_STEPS_PER_PERIOD}"
         )
     return RunSettings(duration=recorded, max_settle_time=settle, steps_per_period=n)
 
@@ -98,14 +102,18 @@ def settings_of(args: argparse.Namespace, fe_values: Sequence[float]) -> Any:
     return run_settings(args.duration, args.max_settle, args.steps_per_period, fe_values)
 
 
-def excitation(fe: str | float, force: str | float) -> tuple[float, float]:
-    """``(fe, F0)`` in Hz and N: ``fe > 0``, ``F0 >= 0``, each a finite quantity."""
-    f = quantity(fe, "frequency", "--fe")
+def excitation(
+    fe: str | float, force: str | float, *, names: tuple[str, str] = ("--fe", "--force")
+) -> tuple[float, float]:
+    """``(fe, F0)`` in Hz and N: ``fe > 0``, ``F0 >= 0``, each a finite quantity; messages name
+    them as ``names`` (the CLI's options, or the front door's arguments)."""
+    fe_name, force_name = names
+    f = quantity(fe, "frequency", fe_name)
     if not f > 0:
-        raise UserError(f"--fe = {fe!r}: the excitation frequency must be > 0 Hz")
-    f0 = quantity(force, "force", "--force")
+        raise UserError(f"{fe_name} = {fe!r}: the excitation frequency must be > 0 Hz")
+    f0 = quantity(force, "force", force_name)
     if f0 < 0:
-        raise UserError(f"--force = {force!r}: the force amplitude must be >= 0 N")
+        raise UserError(f"{force_name} = {force!r}: the force amplitude must be >= 0 N")
     return f, f0
 
 

@@ -55,7 +55,7 @@ from rigtools.sim.channel_names import ACTIVE_SHROUD_ACCEL as ACTIVE
 from rigtools.sim.channel_names import FORCE, VELOCITY_OF
 from rigtools.sim.channel_names import PASSIVE_SHROUD_ACCEL as PASSIVE
 from rigtools.sim.studies import PlannedPoint
-from rigtools.vocabulary import CHANNELS, current_parameters
+from rigtools.vocabulary import CHANNELS, MODEL_BACKENDS, current_parameters
 
 COMPARED = (FORCE, ACTIVE, PASSIVE)
 SCORED = (ACTIVE, PASSIVE)
@@ -812,9 +812,9 @@ def compare_recordings(
 
     notes: list[str] = []
     with _open(em_path, "EM recording") as rec:
-        if rec.backend == "fem":
+        if rec.backend in MODEL_BACKENDS:
             raise UserError(
-                f"{em_path} is a model recording (backend fem): give the EM (rig) recording first"
+                f"{em_path} is a model recording (backend {rec.backend}): give the EM (rig) recording first"
             )
         kind = _study_kind(rec)
         carry = _carry_state(rec)
@@ -904,7 +904,7 @@ def compare_recordings(
         source = "simulated"
     else:
         with _open(fem_path, "model recording") as mrec:
-            if mrec.backend != "fem":
+            if mrec.backend not in MODEL_BACKENDS:
                 notes.append(
                     f"{Path(fem_path).name} was written by backend {mrec.backend!r}, not a model run"
                 )

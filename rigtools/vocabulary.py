@@ -270,10 +270,15 @@ PARAMETERS: dict[str, ParameterTerm] = _table(
 V1_PARAMETER_RENAMES: dict[str, str] = {"measured_force_amplitude": "force_amplitude_measured"}
 
 
+# Backends of model recordings: "fem" (one model's runs) and "model" (runs of several models,
+# each point naming its model, as the demo writes them).
+MODEL_BACKENDS = ("fem", "model")
+
+
 def source_of(backend: str) -> str:
-    """``"fem"`` for model recordings (backend ``"fem"``), ``"em"`` for rig ones (``"nidaqmx"``,
-    ``"simulated"``, or an import of measured data)."""
-    return FEM if backend == "fem" else EM
+    """``"fem"`` for model recordings (backend ``"fem"`` or ``"model"``), ``"em"`` for rig ones
+    (``"nidaqmx"``, ``"simulated"``, or an import of measured data)."""
+    return FEM if backend in MODEL_BACKENDS else EM
 
 
 def current_parameters(params: Mapping[str, Any]) -> dict[str, Any]:

@@ -1,13 +1,15 @@
-"""Lab script: force-controlled gap study (15 N, 60 Hz), the paper's Figure 10 on the rig.
-=======================================================================================
+"""Force-controlled gap study (15 N, 60 Hz), the paper's Figure 10 on the rig
+==========================================================================
 
-    python docs/examples/gap_study.py study.h5 [--resume]
+    python docs/examples/gap_study.py [study.h5] [--resume]
 
 Each point is written as it completes; rerun with --resume after an interruption. On the NI
 rig the script asks the operator to set each gap and waits for Enter.
 """
 
 import argparse
+import tempfile
+from pathlib import Path
 
 from rigtools.config import load_rig
 from rigtools.procedures import RigStudy
@@ -19,14 +21,15 @@ def ask_operator(gap: float, index: int) -> None:
 
 def main() -> None:
     p = argparse.ArgumentParser()
-    p.add_argument("out")
+    p.add_argument("out", nargs="?", help="recording to write (default: in a new temporary folder)")
     p.add_argument("--backend", default="sim")
     p.add_argument("--resume", action="store_true")
     args = p.parse_args()
+    out = args.out or str(Path(tempfile.mkdtemp()) / "gap_study.h5")
     study = RigStudy(
         load_rig(),
         {"kind": "gap", "values": [0.3e-3, 0.6e-3, 0.9e-3], "force": 15.0, "fe": 60.0, "record_periods": 30},
-        args.out,
+        out,
         backend=args.backend,
         overwrite=not args.resume,
         resume=args.resume,

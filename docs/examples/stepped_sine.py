@@ -1,10 +1,12 @@
-"""Lab script: stepped sine up and down at 15 N across the impact range, with jumps.
-=================================================================================
+"""Stepped sine up and down at 15 N across the impact range, with jumps
+====================================================================
 
-python docs/examples/stepped_sine.py sweep.h5
+python docs/examples/stepped_sine.py [sweep.h5]
 """
 
 import argparse
+import tempfile
+from pathlib import Path
 
 import numpy as np
 
@@ -14,9 +16,10 @@ from rigtools.procedures import SteppedSine
 
 def main() -> None:
     p = argparse.ArgumentParser()
-    p.add_argument("out")
+    p.add_argument("out", nargs="?", help="recording to write (default: in a new temporary folder)")
     p.add_argument("--backend", default="sim")
     args = p.parse_args()
+    out = args.out or str(Path(tempfile.mkdtemp()) / "stepped_sine.h5")
     sweep = SteppedSine(
         load_rig(),
         {
@@ -26,7 +29,7 @@ def main() -> None:
             "direction": "both",
             "record_periods": 10,
         },
-        args.out,
+        out,
         backend=args.backend,
         overwrite=True,
     )

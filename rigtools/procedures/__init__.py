@@ -27,6 +27,8 @@ from rigtools.procedures.base import (
     StopRequested,
 )
 from rigtools.procedures.dwell import DwellParameters, SineDwell
+from rigtools.procedures.frf import FrfParameters, FrfTest
+from rigtools.procedures.reference import reference_table
 from rigtools.procedures.rig_study import RigStudy, StudyParameters
 from rigtools.procedures.sine import ControlParameters, SineProcedure
 from rigtools.procedures.sweep import SteppedSine, SweepParameters, detect_jumps
@@ -35,6 +37,8 @@ from rigtools.procedures.tap import TapParameters, TapTest
 __all__ = [
     "ControlParameters",
     "DwellParameters",
+    "FrfParameters",
+    "FrfTest",
     "Procedure",
     "ProcedureFailed",
     "ProcedureResult",
@@ -50,4 +54,5 @@ __all__ = [
     "TapParameters",
     "TapTest",
     "detect_jumps",
+    "reference_table",
 ]

@@ -83,15 +83,23 @@ class ProcedureResult:
 
 
 def validate(model: type, **values: Any):
-    """Build a pydantic parameter model; a bad value is one :class:`UserError` line naming it."""
+    """Build a pydantic parameter model; a bad value is one :class:`UserError` line naming the
+    parameter, the value as written and what is allowed (in SI units)."""
     from pydantic import ValidationError
+
+    from rigtools.quantity_fields import describe_error
 
     try:
         return model(**values)
     except ValidationError as exc:
         err = exc.errors()[0]
-        name = ".".join(str(p) for p in err["loc"]) or model.__name__
-        raise UserError(f"{name} = {err.get('input')!r}: {err['msg']}") from None
+        written: Any = values  # the value as the caller wrote it, before unit conversion
+        try:
+            for part in err["loc"]:
+                written = written[part]
+        except (KeyError, IndexError, TypeError):
+            written = err.get("input")
+        raise UserError(describe_error(model, err, written)) from None
 
 
 SIGNALS = tuple(getattr(signal, n) for n in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, n))

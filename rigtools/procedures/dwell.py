@@ -8,6 +8,7 @@ from rigtools.errors import TargetNotReached
 from rigtools.procedures.base import validate
 from rigtools.procedures.session import point_attrs
 from rigtools.procedures.sine import ControlParameters, SineProcedure
+from rigtools.quantity_fields import Force, Frequency, Length
 from rigtools.units import MAX_GAP  # the one gap limit of rig files and every command
 
 
@@ -16,11 +17,11 @@ class DwellParameters(BaseModel):
 
     model_config = ConfigDict(extra="forbid", frozen=True)
 
-    fe: float = Field(gt=0, le=25000, description="excitation frequency, Hz")
-    force: float = Field(gt=0, le=1000, description="force amplitude F0 (fundamental), N")
-    gap: float | None = Field(None, ge=0, le=MAX_GAP, description="shroud gap, m (None: as set)")
-    record_periods: int = Field(60, ge=1, le=1_000_000)
-    k_max: int = Field(10, ge=1, le=100)
+    fe: Frequency = Field(gt=0, le=25000, description="excitation frequency, Hz")
+    force: Force = Field(gt=0, le=1000, description="force amplitude F0 (fundamental), N")
+    gap: Length | None = Field(None, ge=0, le=MAX_GAP, description="shroud gap, m (None: as set)")
+    record_periods: int = Field(60, ge=1, le=1_000_000, description="periods recorded after settling")
+    k_max: int = Field(10, ge=1, le=100, description="highest harmonic k of fe analysed")
     control: ControlParameters = ControlParameters()
 
 

@@ -20,6 +20,7 @@ from rigtools.errors import UserError
 from rigtools.procedures.base import StopRequested, validate
 from rigtools.procedures.session import PointSink
 from rigtools.procedures.sine import SineProcedure
+from rigtools.quantity_fields import Frequency, Length, Time, Voltage
 from rigtools.units import MAX_GAP
 
 
@@ -29,14 +30,16 @@ class FrfParameters(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
 
     signal: Literal["burst", "chirp"] = "chirp"
-    band: tuple[float, float] = Field(description="(low, high) Hz")
-    level: float = Field(gt=0, le=10, description="drive: rms within bursts, or chirp peak, V")
-    frame: float = Field(1.0, gt=0, le=100, description="frame (period) length, s: resolution 1/frame")
-    averages: int = Field(10, ge=2, le=10000)
-    burst_fraction: float = Field(0.5, gt=0, le=1)
-    gap: float | None = Field(None, ge=0, le=MAX_GAP)
-    response: str | None = None
-    seed: int | None = Field(None, ge=0)
+    band: tuple[Frequency, Frequency] = Field(description="(low, high) Hz")
+    level: Voltage = Field(gt=0, le=10, description="drive: rms within bursts, or chirp peak, V")
+    frame: Time = Field(1.0, gt=0, le=100, description="frame (period) length, s: resolution 1/frame")
+    averages: int = Field(10, ge=2, le=10000, description="frames averaged")
+    burst_fraction: float = Field(0.5, gt=0, le=1, description="share of each frame the burst is on")
+    gap: Length | None = Field(None, ge=0, le=MAX_GAP, description="shroud gap, m (None: as set)")
+    response: str | None = Field(
+        None, description="response channel of the quick check (default: the active shroud accelerometer)"
+    )
+    seed: int | None = Field(None, ge=0, description="random seed of the burst signal")
 
     @model_validator(mode="after")
     def _band(self):

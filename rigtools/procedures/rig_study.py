@@ -6,16 +6,17 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from rigtools.errors import UserError
 from rigtools.procedures.base import validate
 from rigtools.procedures.session import SineSession, point_attrs
 from rigtools.procedures.sine import ControlParameters, SineProcedure
-from rigtools.units import MAX_GAP
+from rigtools.quantity_fields import Force, Frequency, Length
+from rigtools.units import MAX_GAP, parse_quantity
 
 
 class StudyParameters(BaseModel):
@@ -23,15 +24,34 @@ class StudyParameters(BaseModel):
 
     model_config = ConfigDict(extra="forbid", frozen=True)
 
-    kind: Literal["gap", "force", "frequency"]
-    values: tuple[float, ...] = Field(min_length=1)
+    kind: Literal["gap", "force", "frequency"] = Field(description="the swept parameter")
+    values: tuple[float, ...] = Field(
+        min_length=1, description="swept values: m (gap), N (force) or Hz (frequency), or quantity strings"
+    )
     direction: Literal["up", "down", "both"] = "up"
-    fe: float | None = Field(None, gt=0, le=25000)
-    force: float | None = Field(None, gt=0, le=1000)
-    gap: float | None = Field(None, ge=0, le=MAX_GAP)
-    record_periods: int = Field(30, ge=1, le=1_000_000)
-    k_max: int = Field(10, ge=1, le=100)
+    fe: Frequency | None = Field(
+        None, gt=0, le=25000, description="excitation frequency, Hz (fixed unless swept)"
+    )
+    force: Force | None = Field(None, gt=0, le=1000, description="force amplitude F0, N (fixed unless swept)")
+    gap: Length | None = Field(None, ge=0, le=MAX_GAP, description="shroud gap, m (fixed unless swept)")
+    record_periods: int = Field(30, ge=1, le=1_000_000, description="periods recorded at each point")
+    k_max: int = Field(10, ge=1, le=100, description="highest harmonic k of fe analysed")
     control: ControlParameters = ControlParameters()
+
+    @model_validator(mode="before")
+    @classmethod
+    def _values_in_si(cls, data: Any) -> Any:
+        # the unit of the swept values follows the kind: "0.3 mm" for a gap study, "60 Hz" ...
+        dimension = {"gap": "length", "force": "force", "frequency": "frequency"}
+        if isinstance(data, dict) and data.get("kind") in dimension and "values" in data:
+            values = data["values"]
+            if isinstance(values, (str, int, float)):
+                values = [values]
+            try:
+                data = {**data, "values": tuple(parse_quantity(v, dimension[data["kind"]]) for v in values)}
+            except (ValueError, TypeError) as exc:
+                raise ValueError(f"values: {exc}") from None
+        return data
 
     def plan(self):
         from rigtools.sim.studies import StudyPlan

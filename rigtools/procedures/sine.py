@@ -18,6 +18,7 @@ from rigtools.procedures.base import (
     mark_end_status,
 )
 from rigtools.procedures.session import SineSession
+from rigtools.quantity_fields import Time, VoltageAmplitude
 
 if TYPE_CHECKING:
     from rigtools.recording import PointWriter, RecordingWriter
@@ -29,11 +30,11 @@ class ControlParameters(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
 
     tolerance: float = Field(0.005, gt=0, le=0.1, description="control tolerance (fraction of F0)")
-    max_updates: int = Field(10, ge=1, le=100)
-    initial_drive: float = Field(0.2, gt=0, le=10, description="first drive, V peak")
-    max_step: float = Field(4.0, gt=1, le=20)
+    max_updates: int = Field(10, ge=1, le=100, description="force-control updates at most")
+    initial_drive: VoltageAmplitude = Field(0.2, gt=0, le=10, description="first drive amplitude, V peak")
+    max_step: float = Field(4.0, gt=1, le=20, description="largest drive ratio between two updates")
     margin: float = Field(0.8, gt=0, le=1, description="fraction of a warning level never planned past")
-    control_ramp: float = Field(0.05, gt=0, le=2, description="ramp of each update, s")
+    control_ramp: Time = Field(0.05, gt=0, le=2, description="ramp of each update, s")
 
 
 class SineProcedure(Procedure):

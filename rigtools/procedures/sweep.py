@@ -18,6 +18,7 @@ from rigtools.errors import UserError
 from rigtools.procedures.base import validate
 from rigtools.procedures.session import point_attrs
 from rigtools.procedures.sine import ControlParameters, SineProcedure
+from rigtools.quantity_fields import Force, Frequency, Length
 from rigtools.units import MAX_GAP
 
 
@@ -26,12 +27,12 @@ class SweepParameters(BaseModel):
 
     model_config = ConfigDict(extra="forbid", frozen=True)
 
-    frequencies: tuple[float, ...] = Field(min_length=2, description="step frequencies, Hz")
-    force: float = Field(gt=0, le=1000, description="force amplitude F0 at every step, N")
-    gap: float | None = Field(None, ge=0, le=MAX_GAP)
+    frequencies: tuple[Frequency, ...] = Field(min_length=2, description="step frequencies, Hz")
+    force: Force = Field(gt=0, le=1000, description="force amplitude F0 at every step, N")
+    gap: Length | None = Field(None, ge=0, le=MAX_GAP, description="shroud gap, m (None: as set)")
     direction: Literal["up", "down", "both"] = "up"
-    record_periods: int = Field(30, ge=1, le=1_000_000)
-    k_max: int = Field(10, ge=1, le=100)
+    record_periods: int = Field(30, ge=1, le=1_000_000, description="periods recorded at each step")
+    k_max: int = Field(10, ge=1, le=100, description="highest harmonic k of fe analysed")
     jump_threshold: float = Field(
         0.3,
         gt=0,

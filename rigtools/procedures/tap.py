@@ -42,6 +42,7 @@ from pydantic import BaseModel, ConfigDict, Field
 from rigtools.errors import UserError
 from rigtools.procedures.base import StopRequested, validate
 from rigtools.procedures.sine import SineProcedure
+from rigtools.quantity_fields import Force, Length, Time
 from rigtools.units import MAX_GAP
 
 if TYPE_CHECKING:
@@ -76,20 +77,20 @@ class TapParameters(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
 
     blade: Literal["active", "passive"] = "passive"
-    position: float = Field(gt=0, le=1.0, description="hit position, m from the root")
+    position: Length = Field(gt=0, le=1.0, description="hit position, m from the root")
     hits: int = Field(5, ge=2, le=1000, description="accepted hits averaged")
-    frame: float = Field(
+    frame: Time = Field(
         2.0, gt=0, le=60, description="frame per hit with the pretrigger, s (resolution 1/frame)"
     )
-    pretrigger: float = Field(0.01, ge=0, le=1, description="kept before the trigger, s")
-    trigger: float = Field(5.0, gt=0, le=10000, description="trigger level on the hammer force, N")
-    release: float = Field(0.002, gt=0, le=0.1, description="quiet time ending a pulse, s")
-    gap: float | None = Field(None, ge=0, le=MAX_GAP)
-    hammer_channel: str = "hammer"
-    response: str | None = None
-    timeout: float = Field(60.0, gt=0, le=3600, description="longest wait for the next accepted hit, s")
-    hit_force: float = Field(20.0, gt=0, le=2000, description="simulated rig: peak hammer force, N")
-    pulse: float = Field(5e-4, ge=5e-5, le=5e-3, description="simulated rig: half-sine pulse length, s")
+    pretrigger: Time = Field(0.01, ge=0, le=1, description="kept before the trigger, s")
+    trigger: Force = Field(5.0, gt=0, le=10000, description="trigger level on the hammer force, N")
+    release: Time = Field(0.002, gt=0, le=0.1, description="quiet time ending a pulse, s")
+    gap: Length | None = Field(None, ge=0, le=MAX_GAP, description="shroud gap, m (None: as set)")
+    hammer_channel: str = Field("hammer", description="input channel of the hammer force")
+    response: str | None = Field(None, description="response channel (default: the hit blade's shroud)")
+    timeout: Time = Field(60.0, gt=0, le=3600, description="longest wait for the next accepted hit, s")
+    hit_force: Force = Field(20.0, gt=0, le=2000, description="simulated rig: peak hammer force, N")
+    pulse: Time = Field(5e-4, ge=5e-5, le=5e-3, description="simulated rig: half-sine pulse length, s")
 
 
 class _Trigger:

@@ -251,6 +251,22 @@ class Point:
             return 0.0
         return self.n_samples / next(iter(self.channels.values())).sample_rate
 
+    @property
+    def record_window(self) -> tuple[int, int]:
+        """``(first sample, samples)`` of the settled record window: the point parameters
+        ``record_start`` (s) and ``record_samples`` where the writer set them, else the whole point."""
+        n = self.n_samples
+        rate = self.sample_rate or 1.0
+        start = round(float(self.params.get("record_start", 0.0) or 0.0) * rate)
+        start = min(max(start, 0), n)
+        count = int(self.params.get("record_samples", n - start) or (n - start))
+        return start, max(0, min(count, n - start))
+
+    def settled(self, channel: str) -> np.ndarray:
+        """Samples of ``channel`` (SI units) in the settled record window (:attr:`record_window`)."""
+        start, count = self.record_window
+        return np.asarray(self.channels[channel][start : start + count], dtype=float)
+
     def to_dataframe(self):
         """Wide table: index ``time`` (s), one column per channel (trimmed to ``n_samples``)."""
         import pandas as pd
@@ -435,6 +451,11 @@ class Recording:
 def open_recording(path: str | os.PathLike) -> Recording:
     """Open a recording (schema v1) for reading.
 
+    Parameters
+    ----------
+    path
+        The HDF5 file (a file being written may be read while it grows).
+
     Returns
     -------
     Recording
@@ -446,6 +467,17 @@ def open_recording(path: str | os.PathLike) -> Recording:
     RecordingError
         One line: missing or unreadable file (truncated, not HDF5), another schema, a newer
         ``schema_version``, or a missing/invalid required attribute.
+
+    Examples
+    --------
+    >>> import rigtools, tempfile, pathlib
+    >>> out = pathlib.Path(tempfile.mkdtemp()) / "dwell.h5"
+    >>> run = rigtools.dwell("60 Hz", "5 N", out, gap="5 mm", record_periods=6, seed=1)
+    >>> with rigtools.open_recording(out) as rec:
+    ...     point = rec.points[0]
+    ...     force = point.settled("force")  # N, the settled record window only
+    ...     print(rec.status, rec.backend, force.size == point.record_window[1])
+    complete simulated True
     """
     named(path)
     deadline = time.monotonic() + LIVE_RETRY_S

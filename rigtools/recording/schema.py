@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from rigtools.errors import FaultError, UserError
+from rigtools.vocabulary import MODEL_BACKENDS
 
 SCHEMA_NAME = "rigtools.recording"
 SCHEMA_VERSION = 1
@@ -31,7 +32,9 @@ STATUS_COMPLETE = "complete"
 STATUS_ABORTED = "aborted"
 STATUSES = (STATUS_RECORDING, STATUS_COMPLETE, STATUS_ABORTED)
 
-KNOWN_BACKENDS = ("nidaqmx", "simulated", "fem")  # others are allowed: the name of an import source
+# "model": a model recording holding runs of more than one model (the demo's FEM and AM points,
+# each naming its model in the point parameter "model"). Others are allowed: an import source.
+KNOWN_BACKENDS = ("nidaqmx", "simulated", *MODEL_BACKENDS)
 
 POINTS_GROUP = "points"
 
@@ -41,7 +44,10 @@ ROOT_ATTRS: dict[str, tuple[str, str]] = {
     "schema_version": ("int", f"format version; this software writes {SCHEMA_VERSION}"),
     "created": ("text", "ISO 8601 UTC time the file was created"),
     "software_version": ("text", "rigtools version that wrote the file"),
-    "backend": ("text", 'where the data came from: "nidaqmx", "simulated", "fem" or an import source'),
+    "backend": (
+        "text",
+        'where the data came from: "nidaqmx", "simulated", "fem", "model" or an import source',
+    ),
     "status": ("text", '"recording" while written, then "complete" or "aborted"'),
     "abort_reason": ("text", 'one line saying why the run stopped early; "" otherwise'),
     "ended": ("text", 'ISO 8601 UTC time the writer finished; "" while recording'),
@@ -74,6 +80,9 @@ STANDARD_PARAMETERS: dict[str, str] = {
     "this name: measured_force_amplitude)",
     "settled": "true if the response was steady when recorded",
     "drive_amplitude": "drive voltage amplitude, V",
+    "record_start": "start of the settled record window, s from the start of the point",
+    "record_samples": "samples in the settled record window (the analysed part of the point)",
+    "model": 'model points: the model run, "fem" or "am"',
 }
 
 CHANNEL_ATTRS: dict[str, tuple[str, str]] = {

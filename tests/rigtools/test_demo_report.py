@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from rigtools.recording import open_recording
-from rigtools.report.browser import BrowserUnavailable, figure_is_drawn, find_chromium, screenshot_page
+from rigtools.report.browser import figure_is_drawn, screenshot_page
 
 N_FIGURES = 2 + 2 * 2 + 1 + 6  # FRF, harmonic; waveforms + spectra per point; the gap trend, six studies
 
@@ -115,11 +115,7 @@ def test_demo_writes_recordings_and_judges_every_finding(demo):
     assert (out / ".rig-demo").exists() and (out / "gap-trend.png").stat().st_size > 10_000
 
 
-def test_demo_report_in_chromium_every_figure_drawn_with_labels(demo):
-    try:
-        find_chromium()
-    except BrowserUnavailable as exc:
-        pytest.skip(str(exc))
+def test_demo_report_in_chromium_every_figure_drawn_with_labels(demo, chromium):
     out, _doc = demo
     shot = screenshot_page(out / "report.html")
     assert len(shot.figures) == N_FIGURES

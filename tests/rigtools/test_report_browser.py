@@ -34,7 +34,7 @@ def test_blank_detector_tells_blank_from_drawn():
     assert figure_is_drawn(mpimg.imread(io.BytesIO(data))[..., :3])
 
 
-def test_report_figures_drawn_in_chromium(tmp_path):
+def test_report_figures_drawn_in_chromium(tmp_path, chromium):
     rep = Report("test report", "two figures and a table")
     s = rep.section("Waveforms")
     s.table([{"k": 1, "EM (m/s²)": 10.0, "FEM (m/s²)": 10.5, "difference (%)": 5.0}], caption="harmonics")
