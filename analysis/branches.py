@@ -77,7 +77,9 @@ def branch_figure(
     shaded = False
     for m in measured:
         marker = "^" if m.direction == "up" else "v"
-        ax.plot(np.asarray(m.value) * x_scale, m.measure, marker + ":", lw=0.8, ms=5, mfc="none", label=m.name)
+        ax.plot(
+            np.asarray(m.value) * x_scale, m.measure, marker + ":", lw=0.8, ms=5, mfc="none", label=m.name
+        )
         for lo, hi in m.jumps:
             label = "_nolegend_" if shaded else "measured jump"
             ax.axvspan(lo * x_scale, hi * x_scale, color="0.8", alpha=0.5, lw=0, label=label)

@@ -201,9 +201,7 @@ def measured_sweeps(paths, param: str, measure: str = "contact") -> list:
     return out
 
 
-def branches_figure(
-    branches: list[StoredBranch], measure: str = "contact", title: str = "", measured=()
-):
+def branches_figure(branches: list[StoredBranch], measure: str = "contact", title: str = "", measured=()):
     """:func:`rigtools.analysis.branches.branch_figure` of stored branches, with the
     :func:`measured_sweeps` given on the same axes."""
     from rigtools.analysis.branches import BranchCurve, branch_figure
