@@ -23,4 +23,8 @@ def __getattr__(name: str):
         from rigtools.recording import open_recording
 
         return open_recording
+    if name == "continuation":  # issue 22: branches of periodic orbits
+        from rigtools.branches import continuation
+
+        return continuation
     raise AttributeError(f"module 'rigtools' has no attribute {name!r}")

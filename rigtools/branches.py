@@ -8,10 +8,14 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from rigtools.errors import UserError
+
+if TYPE_CHECKING:
+    from rigtools.sim.continuation import Branch
 
 BRANCHES_SCHEMA = "rigtools-branches"
 BRANCHES_VERSION = 1
@@ -43,6 +47,85 @@ class StoredBranch:
     multipliers: np.ndarray  # (n, m) complex
     labels: list[tuple[str, ...]]
     measures: dict[str, np.ndarray]
+
+
+DIMENSION = {"fe": "frequency", "force": "force", "gap": "length"}
+
+
+def parse_inputs(
+    param: str, start: str | float, stop: str | float, fe: str | float, force: str | float, gap: str | float
+) -> tuple[float, float, dict[str, float]]:
+    """``(start, stop, {"fe", "force", "gap"})`` in SI from quantity strings (``"0.7 mm"``; a
+    plain number is SI); one-line :class:`UserError` naming the option otherwise."""
+    from rigtools.options import gap as gap_value
+    from rigtools.options import positive_finite
+
+    if param not in DIMENSION:
+        raise UserError(f"--param = {param!r}: one of {', '.join(DIMENSION)}")
+    if param == "gap":
+        lo, hi = gap_value(start, "--from"), gap_value(stop, "--to")
+    else:
+        lo = positive_finite(start, DIMENSION[param], "--from")
+        hi = positive_finite(stop, DIMENSION[param], "--to")
+    if lo == hi:
+        raise UserError(f"--from and --to are both {start!r}: give a range")
+    fixed = {
+        "fe": positive_finite(fe, "frequency", "--fe"),
+        "force": positive_finite(force, "force", "--force"),
+        "gap": gap_value(gap),
+    }
+    return lo, hi, fixed
+
+
+def continuation(
+    param: str,
+    start: str | float,
+    stop: str | float,
+    *,
+    fe: str | float = "60 Hz",
+    force: str | float = "15 N",
+    gap: str | float = "0.7 mm",
+    model: str = "fem",
+    rig: str | None = None,
+    switch: bool = True,
+) -> list[Branch]:
+    """Branches of the rig model's periodic orbits continued in ``param`` (what ``rig
+    continuation`` computes, without the file).
+
+    Parameters
+    ----------
+    param
+        ``"fe"``, ``"force"`` or ``"gap"``.
+    start, stop
+        The range of ``param`` (``"55 Hz"``, ``"0.5 mm"``; a plain number is SI).
+    fe, force, gap
+        The fixed quantities (the continued one is ignored).
+    model
+        ``"fem"`` or ``"am"`` reduction of the rig's test article.
+    rig
+        Rig file (TOML); default the calibrated default rig.
+    switch
+        Also the period-2 branch of each period doubling.
+
+    Returns
+    -------
+    list of rigtools.sim.continuation.Branch
+        The period-1 branch first; its points carry stability, Floquet multipliers, labels
+        (fold, period-doubling, neimark-sacker, grazing) and response measures.
+
+    Examples
+    --------
+    Without contact (a 5 mm gap no orbit closes) every orbit is stable:
+
+    >>> import rigtools
+    >>> (b,) = rigtools.continuation("fe", "56 Hz", "57 Hz", gap="5 mm", switch=False)
+    >>> b.status, b.points[0].value, b.points[-1].value, bool(b.stable().all())
+    ('complete', 56.0, 57.0, True)
+    >>> b.points[-1].max_multiplier < 1.0
+    True
+    """
+    lo, hi, fixed = parse_inputs(param, start, stop, fe, force, gap)
+    return continue_model(param, lo, hi, **fixed, model=model, rig=rig, switch=switch)[1]
 
 
 def continue_model(

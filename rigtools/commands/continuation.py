@@ -7,8 +7,6 @@ import argparse
 import json
 from pathlib import Path
 
-from rigtools.errors import UserError
-
 HELP = "continue the model's periodic orbits in fe, force or gap: branches, stability, bifurcations"
 EPILOG = """\
 Shooting on the reduced model's own integrator with pseudo-arclength continuation; Floquet
@@ -26,7 +24,6 @@ examples:
   rig continuation --param gap --from "0.5 mm" --to "2.5 mm" --fe 60 --force 15 --out gap.h5 --json
   rig continuation --param fe --from 60 --to 75 --measure accel1 --measured sweep.h5 --out fe.h5
 """
-DIMENSION = {"fe": "frequency", "force": "force", "gap": "length"}
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -65,27 +62,17 @@ def run(args: argparse.Namespace) -> int:
         branches_figure,
         continue_model,
         measured_sweeps,
+        parse_inputs,
         read_branches,
         summary,
         write_branches,
     )
     from rigtools.derived_files import plot_path
     from rigtools.figures import save_figure
-    from rigtools.options import check_out, gap, positive_finite
+    from rigtools.options import check_out
 
     out = check_out(args)
-    if args.param == "gap":
-        start, stop = gap(args.start, "--from"), gap(args.stop, "--to")
-    else:
-        start = positive_finite(args.start, DIMENSION[args.param], "--from")
-        stop = positive_finite(args.stop, DIMENSION[args.param], "--to")
-    if start == stop:
-        raise UserError(f"--from and --to are both {args.start!r}: give a range")
-    fixed = {
-        "fe": positive_finite(args.fe, "frequency", "--fe"),
-        "force": positive_finite(args.force, "force", "--force"),
-        "gap": gap(args.gap),
-    }
+    start, stop, fixed = parse_inputs(args.param, args.start, args.stop, args.fe, args.force, args.gap)
     measured = measured_sweeps(args.measured, args.param, args.measure)  # bad files before the work
     cfg, branches = continue_model(
         args.param, start, stop, **fixed, model=args.model, rig=args.rig, switch=not args.no_switch
