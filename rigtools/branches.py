@@ -150,7 +150,8 @@ def continue_model(
 
     if model not in ("fem", "am"):
         raise UserError(
-            f"--model = {model!r}: continuation runs on 'fem' or 'am' (the rig's shaker model is not done)"
+            f"--model = {model!r}: continuation runs on 'fem' or 'am'; the simulated rig's model "
+            "(shaker, drive voltage, force control) is not built for it yet"
         )
     cfg, system = load_system(rig, model)
     try:

@@ -101,7 +101,9 @@ class OrbitMeasures:
         (10,) peak acceleration of each shroud at ``k fe``, k = 1..10, m/s^2 (from the velocity,
         ``k w |V_k|``, as :data:`rigtools.simulation.HARMONIC_SOURCES` does).
     peak_contact_force
-        Largest contact force over the orbit, N.
+        Largest contact force over the orbit's time steps, N, as the time integrations report it
+        (a damped penalty force peaks in a kink, so a parabola between samples overshoots; along
+        a branch the value ripples by about 1 % as the steps move against the impact).
     peak_contact_force_per_period
         Largest contact force in each forcing period of the orbit, N.
     tip_amplitude_active, tip_amplitude_passive
