@@ -50,28 +50,40 @@ def branch_figure(
     fig = Figure(figsize=(8, 5))
     ax = fig.add_subplot(1, 1, 1)
     colours = ["C0", "C3", "C2", "C4", "C5"]
-    for i, c in enumerate(curves):
+    colour_of: dict[str, str] = {}  # one colour and one legend entry per name (period 1, period 2)
+    in_legend: set[tuple[str, bool]] = set()
+    for c in curves:
         x = np.asarray(c.value, float) * x_scale
         y = np.asarray(c.measure, float)
         st = np.asarray(c.stable, bool)
-        col = colours[i % len(colours)]
+        col = colour_of.setdefault(c.name, colours[len(colour_of) % len(colours)])
         for stable, style in ((True, "-"), (False, "--")):
+            if not np.any(st == stable):
+                continue
             yy = np.where(st == stable, y, np.nan)
             # join each run of one kind to its neighbours so the curve has no holes
             edge = np.flatnonzero(np.diff(st.astype(int)) != 0)
             for e in edge:
                 yy[e if st[e] != stable else e + 1] = y[e if st[e] != stable else e + 1]
-            ax.plot(x, yy, style, color=col, lw=1.6, label=f"{c.name} ({'stable' if stable else 'unstable'})")
+            label = f"{c.name} ({'stable' if stable else 'unstable'})"
+            first = (c.name, stable) not in in_legend
+            in_legend.add((c.name, stable))
+            ax.plot(x, yy, style, color=col, lw=1.6, label=label if first else "_nolegend_")
         for xi, yi, labs in zip(x, y, c.labels, strict=True):
             names = [SHORT[lab] for lab in labs if lab in SHORT]
             if names:
                 ax.plot(xi, yi, "o", color="k", ms=4)
                 ax.annotate("/".join(names), (xi, yi), textcoords="offset points", xytext=(4, 4), fontsize=8)
+    shaded = False
     for m in measured:
         marker = "^" if m.direction == "up" else "v"
-        ax.plot(np.asarray(m.value) * x_scale, m.measure, marker, ms=5, mfc="none", label=m.name)
+        ax.plot(
+            np.asarray(m.value) * x_scale, m.measure, marker + ":", lw=0.8, ms=5, mfc="none", label=m.name
+        )
         for lo, hi in m.jumps:
-            ax.axvspan(lo * x_scale, hi * x_scale, color="0.85", alpha=0.5, lw=0)
+            label = "_nolegend_" if shaded else "measured jump"
+            ax.axvspan(lo * x_scale, hi * x_scale, color="0.8", alpha=0.5, lw=0, label=label)
+            shaded = True
     ax.set_xlabel(xlabel)
     ax.set_ylabel(ylabel)
     if title:

@@ -38,6 +38,7 @@ _API: dict[str, tuple[str, str]] = {
     "simulate_study": ("rigtools.workflows", "simulate_study"),
     "compare_with_model": ("rigtools.workflows", "compare_with_model"),
     "update_model": ("rigtools.workflows", "update_model"),
+    "continuation": ("rigtools.branches", "continuation"),
     "UserError": ("rigtools.errors", "UserError"),
 }
 __all__ = list(_API)

@@ -1,16 +1,21 @@
 """Continued branches of the model as files: compute (:func:`continue_model`), store
 (:func:`write_branches`, HDF5 of kind "branches", see docs/recording-format.md), read
-(:func:`read_branches`) and draw (:func:`branches_figure`)."""
+(:func:`read_branches`), read recorded sweeps and studies to overlay (:func:`measured_sweeps`) and
+draw (:func:`branches_figure`)."""
 
 from __future__ import annotations
 
 import json
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from rigtools.errors import UserError
+
+if TYPE_CHECKING:
+    from rigtools.sim.continuation import Branch
 
 BRANCHES_SCHEMA = "rigtools-branches"
 BRANCHES_VERSION = 1
@@ -20,6 +25,8 @@ MEASURES = {  # response measure -> (OrbitMeasures field, harmonic index or None
     "tip": ("tip_amplitude_active", None, "active shroud amplitude (m)"),
     "impacts": ("impacts_per_period", None, "impacts per period"),
 }
+POINT_PARAM = {"fe": "fe", "force": "force_amplitude", "gap": "gap"}  # recording point parameter
+JUMP_THRESHOLD = 0.3  # as rig acquire sweep's default --jump-threshold
 X_LABELS = {
     "fe": ("excitation frequency (Hz)", 1.0),
     "force": ("force amplitude (N)", 1.0),
@@ -40,6 +47,85 @@ class StoredBranch:
     multipliers: np.ndarray  # (n, m) complex
     labels: list[tuple[str, ...]]
     measures: dict[str, np.ndarray]
+
+
+DIMENSION = {"fe": "frequency", "force": "force", "gap": "length"}
+
+
+def parse_inputs(
+    param: str, start: str | float, stop: str | float, fe: str | float, force: str | float, gap: str | float
+) -> tuple[float, float, dict[str, float]]:
+    """``(start, stop, {"fe", "force", "gap"})`` in SI from quantity strings (``"0.7 mm"``; a
+    plain number is SI); one-line :class:`UserError` naming the option otherwise."""
+    from rigtools.options import gap as gap_value
+    from rigtools.options import positive_finite
+
+    if param not in DIMENSION:
+        raise UserError(f"--param = {param!r}: one of {', '.join(DIMENSION)}")
+    if param == "gap":
+        lo, hi = gap_value(start, "--from"), gap_value(stop, "--to")
+    else:
+        lo = positive_finite(start, DIMENSION[param], "--from")
+        hi = positive_finite(stop, DIMENSION[param], "--to")
+    if lo == hi:
+        raise UserError(f"--from and --to are both {start!r}: give a range")
+    fixed = {
+        "fe": positive_finite(fe, "frequency", "--fe"),
+        "force": positive_finite(force, "force", "--force"),
+        "gap": gap_value(gap),
+    }
+    return lo, hi, fixed
+
+
+def continuation(
+    param: str,
+    start: str | float,
+    stop: str | float,
+    *,
+    fe: str | float = "60 Hz",
+    force: str | float = "15 N",
+    gap: str | float = "0.7 mm",
+    model: str = "fem",
+    rig: str | None = None,
+    switch: bool = True,
+) -> list[Branch]:
+    """Branches of the rig model's periodic orbits continued in ``param`` (what ``rig
+    continuation`` computes, without the file).
+
+    Parameters
+    ----------
+    param
+        ``"fe"``, ``"force"`` or ``"gap"``.
+    start, stop
+        The range of ``param`` (``"55 Hz"``, ``"0.5 mm"``; a plain number is SI).
+    fe, force, gap
+        The fixed quantities (the continued one is ignored).
+    model
+        ``"fem"`` or ``"am"`` reduction of the rig's test article.
+    rig
+        Rig file (TOML); default the calibrated default rig.
+    switch
+        Also the period-2 branch of each period doubling.
+
+    Returns
+    -------
+    list of rigtools.sim.continuation.Branch
+        The period-1 branch first; its points carry stability, Floquet multipliers, labels
+        (fold, period-doubling, neimark-sacker, grazing) and response measures.
+
+    Examples
+    --------
+    Without contact (a 5 mm gap no orbit closes) every orbit is stable:
+
+    >>> import rigtools
+    >>> (b,) = rigtools.continuation("fe", "56 Hz", "57 Hz", gap="5 mm", switch=False)
+    >>> b.status, b.points[0].value, b.points[-1].value, bool(b.stable().all())
+    ('complete', 56.0, 57.0, True)
+    >>> b.points[-1].max_multiplier < 1.0
+    True
+    """
+    lo, hi, fixed = parse_inputs(param, start, stop, fe, force, gap)
+    return continue_model(param, lo, hi, **fixed, model=model, rig=rig, switch=switch)[1]
 
 
 def continue_model(
@@ -64,7 +150,8 @@ def continue_model(
 
     if model not in ("fem", "am"):
         raise UserError(
-            f"--model = {model!r}: continuation runs on 'fem' or 'am' (the rig's shaker model is not done)"
+            f"--model = {model!r}: continuation runs on 'fem' or 'am'; the simulated rig's model "
+            "(shaker, drive voltage, force control) is not built for it yet"
         )
     cfg, system = load_system(rig, model)
     try:
@@ -147,8 +234,60 @@ def read_branches(path: str | Path) -> tuple[dict, list[StoredBranch]]:
         return json.loads(f.attrs["experiment"]), out
 
 
-def branches_figure(branches: list[StoredBranch], measure: str = "contact", title: str = ""):
-    """:func:`rigtools.analysis.branches.branch_figure` of stored branches."""
+def measured_sweeps(paths, param: str, measure: str = "contact") -> list:
+    """The recorded sweeps of ``paths`` (stepped sines of ``rig acquire sweep``, studies of
+    ``rig study`` / ``rig acquire study``) as :class:`rigtools.analysis.branches.MeasuredSweep`,
+    one per file and direction, points in run order, with their jumps (a change above
+    :data:`JUMP_THRESHOLD` between neighbouring steps, :func:`rigtools.procedures.detect_jumps`).
+
+    ``measure`` is read as the branches have it: ``accel1`` the fundamental of the active shroud
+    acceleration (fitted over each point's record window), ``contact`` and ``impacts`` the
+    model's point parameters (a rig recording has no contact force: a one-line error says so),
+    ``tip`` half the peak-to-peak active shroud displacement channel of a model recording.
+    """
+    from rigtools.analysis.branches import MeasuredSweep
+    from rigtools.analyze import analyze_periodic, record_window
+    from rigtools.procedures import detect_jumps
+    from rigtools.recording import open_recording
+    from rigtools.sim.channel_names import ACTIVE_SHROUD_ACCEL, ACTIVE_SHROUD_DISP, FORCE
+
+    def value(path, point) -> float:
+        if measure == "accel1":
+            a = analyze_periodic(point, channels=[FORCE, ACTIVE_SHROUD_ACCEL], k_max=1)
+            return float(a.dwell.harmonics[ACTIVE_SHROUD_ACCEL].amplitude[0])
+        if measure == "tip" and ACTIVE_SHROUD_DISP in point.channels:
+            start, n = record_window(point)
+            return 0.5 * float(np.ptp(point.channels[ACTIVE_SHROUD_DISP][start : start + n]))
+        name = {"contact": "peak_contact_force", "impacts": "impacts_per_period"}.get(measure, "")
+        if name not in point.params:
+            raise UserError(
+                f"--measured {path}: point {point.index} has no {MEASURES[measure][2]} "
+                f"(a rig recording measures accelerations: use --measure accel1)"
+            )
+        return float(point.params[name])
+
+    out = []
+    for path in paths:
+        with open_recording(path) as rec:
+            runs: dict[str, tuple[list[float], list[float]]] = {}
+            for point in rec.complete_points:
+                if POINT_PARAM[param] not in point.params or "fe" not in point.params:
+                    raise UserError(f"--measured {path}: point {point.index} has no {POINT_PARAM[param]}")
+                x, y = runs.setdefault(str(point.params.get("direction", "up")), ([], []))
+                x.append(float(point.params[POINT_PARAM[param]]))
+                y.append(value(path, point))
+        if not runs:
+            raise UserError(f"--measured {path}: no complete point to overlay")
+        for direction, (x, y) in runs.items():
+            jumps = [(j["from_hz"], j["to_hz"]) for j in detect_jumps(x, y, JUMP_THRESHOLD)]
+            name = f"{Path(path).stem} ({direction})"
+            out.append(MeasuredSweep(np.array(x), np.array(y), direction, name, jumps))
+    return out
+
+
+def branches_figure(branches: list[StoredBranch], measure: str = "contact", title: str = "", measured=()):
+    """:func:`rigtools.analysis.branches.branch_figure` of stored branches, with the
+    :func:`measured_sweeps` given on the same axes."""
     from rigtools.analysis.branches import BranchCurve, branch_figure
 
     field_name, index, ylabel = MEASURES[measure]
@@ -163,7 +302,7 @@ def branches_figure(branches: list[StoredBranch], measure: str = "contact", titl
             )
         )
     xlabel, scale = X_LABELS[branches[0].param] if branches else ("", 1.0)
-    return branch_figure(curves, xlabel, ylabel, x_scale=scale, title=title)
+    return branch_figure(curves, xlabel, ylabel, measured=measured, x_scale=scale, title=title)
 
 
 def summary(branches) -> dict:

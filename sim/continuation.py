@@ -58,6 +58,8 @@ from rigtools.sim.vibro_impact import (
 PARAMETERS = ("fe", "force", "gap")
 UNITS = {"fe": "Hz", "force": "N", "gap": "m"}
 FD_RELATIVE_STEP = 1e-6
+# a branch passing this close to its first point (scaled arclength units) has closed
+CLOSURE_TOLERANCE = 2e-3
 N_HARMONICS = 10
 # labels a point may carry
 FOLD, PERIOD_DOUBLING, NEIMARK_SACKER, GRAZING = "fold", "period-doubling", "neimark-sacker", "grazing"
@@ -99,7 +101,9 @@ class OrbitMeasures:
         (10,) peak acceleration of each shroud at ``k fe``, k = 1..10, m/s^2 (from the velocity,
         ``k w |V_k|``, as :data:`rigtools.simulation.HARMONIC_SOURCES` does).
     peak_contact_force
-        Largest contact force over the orbit, N.
+        Largest contact force over the orbit's time steps, N, as the time integrations report it
+        (a damped penalty force peaks in a kink, so a parabola between samples overshoots; along
+        a branch the value ripples by about 1 % as the steps move against the impact).
     peak_contact_force_per_period
         Largest contact force in each forcing period of the orbit, N.
     tip_amplitude_active, tip_amplitude_passive
@@ -190,8 +194,9 @@ class Branch:
 
     ``status`` is ``"complete"`` (reached the end value), ``"failed"`` (a point did not converge;
     ``message`` says where and why, the last point is the last good one), ``"left range"`` (the
-    branch turned back out of the range), ``"max points"``, or ``"merged"`` (a period-2 branch
-    returned onto the period-1 branch).
+    branch turned back out of the range), ``"max points"``, ``"merged"`` (a period-2 branch
+    returned onto the period-1 branch) or ``"closed"`` (the branch came back to its first point:
+    a closed loop, its last point that first orbit again).
     """
 
     param: str
@@ -661,6 +666,7 @@ class _Tracer:
         self.bounds = bounds
         self.solver = _Solver(pmap, param, forcing, 1.0, lam_scale)
         self.y_floor = 1e-12
+        self._left_start = False
 
     def entry(self, sol: _Solution, tangent: np.ndarray, labels=()) -> _Entry:
         return _Entry(sol, tangent, _point(self.pmap, self.param, sol, self.forcing, tangent[-1], labels))
@@ -795,9 +801,27 @@ class _Tracer:
                         f"the branch turned back and left the range at {target:.6g} {UNITS[self.param]}"
                     )
                 break
+            if self.pmap.periods > 1 and _half_difference(prev) @ _half_difference(nxt) < 0:
+                # through a period doubling of the period-1 branch (the map over two periods has a
+                # pitchfork there; the step is the orbit crossing onto its own shift by a period)
+                branch.status = "merged"
+                branch.message = (
+                    f"the period-{self.pmap.periods} orbit returned onto the period-1 branch between "
+                    f"{self.param} = {prev.sol.lam:.6g} and {nxt.sol.lam:.6g} {UNITS[self.param]}"
+                )
+                _relabel(branch, -1, END)
+                break
             self._detect(prev, nxt, h, branch)
             entries.append(nxt)
             branch.points.append(nxt.point)
+            if self._closes(first, prev, nxt, h_max):
+                branch.points.append(replace(first.point, labels=(END,)))
+                branch.status = "closed"
+                branch.message = (
+                    f"the branch closed on itself: back at its first orbit, {self.param} = "
+                    f"{first.sol.lam:.6g} {UNITS[self.param]}"
+                )
+                break
             self._rescale(nxt)
             if self.pmap.periods > 1 and len(branch.points) > 5 and _period_one_distance(nxt) < 1e-5:
                 branch.status = "merged"
@@ -814,6 +838,20 @@ class _Tracer:
             elif it > 6:
                 h *= 0.5
         return branch
+
+    def _closes(self, first: _Entry, prev: _Entry, nxt: _Entry, h_max: float) -> bool:
+        """The step ``prev -> nxt`` passes within :data:`CLOSURE_TOLERANCE` (scaled state and
+        parameter, plus a tenth of the step) of the branch's first point, after the branch has
+        been further than four largest steps from it."""
+        s = self.solver
+        u0, a, b = (s.scaled(e.sol.y, e.sol.lam) for e in (first, prev, nxt))
+        dist = float(np.linalg.norm(b - u0))
+        if not self._left_start:
+            self._left_start = dist > 4.0 * h_max
+            return False
+        seg = b - a
+        w = float(np.clip((u0 - a) @ seg / max(float(seg @ seg), 1e-300), 0.0, 1.0))
+        return float(np.linalg.norm(a + w * seg - u0)) <= CLOSURE_TOLERANCE + 0.1 * float(np.linalg.norm(seg))
 
     def _rescale(self, e: _Entry) -> None:
         """Measure the state by the current orbit's size (a resonance peak many times the first
@@ -856,9 +894,11 @@ class _Tracer:
                     return e
         return None
 
-    def _detect(self, prev: _Entry, nxt: _Entry, h: float, branch: Branch) -> None:
+    def _detect(self, prev: _Entry, nxt: _Entry, h: float, branch: Branch) -> list[_Entry]:
         """Append the located bifurcations between ``prev`` and ``nxt`` to the branch (``nxt`` is
-        appended by the caller); one not located is labelled on ``nxt``."""
+        appended by the caller) and return them; one not located is labelled on ``nxt``. A
+        bifurcation of the kind just found within 1e-4 of the range is the same one (a test
+        function's sign flickering at it, or a grazing corner crossed in several steps)."""
         t0, t1 = _tests(prev), _tests(nxt)
         found: list[tuple[float, _Entry]] = []
         # where impacts begin or end the map has a kink and the multipliers jump: the other test
@@ -871,8 +911,8 @@ class _Tracer:
                 crossed = t0[kind] * t1[kind] < 0
             if not crossed:
                 continue
-            if kind == FOLD and _near_last(branch, FOLD, nxt.sol.lam, 1e-4 * self.solver.L):
-                continue  # the tangent's sign flickering at the fold just found
+            if _near_last(branch, kind, nxt.sol.lam, 1e-4 * self.solver.L):
+                continue
             e = self.locate(prev, nxt, h, kind) if self.settings.locate else None
             if e is None:
                 nxt.point = replace(nxt.point, labels=(*nxt.point.labels, kind))
@@ -880,8 +920,9 @@ class _Tracer:
             e.point = replace(e.point, labels=(kind,))
             u0 = self.solver.scaled(prev.sol.y, prev.sol.lam)
             found.append((float(np.linalg.norm(self.solver.scaled(e.sol.y, e.sol.lam) - u0)), e))
-        for _, e in sorted(found, key=lambda f: f[0]):
-            branch.points.append(e.point)
+        located = [e for _, e in sorted(found, key=lambda f: f[0])]
+        branch.points.extend(e.point for e in located)
+        return located
 
 
 def _near_last(branch: Branch, label: str, value: float, tol: float) -> bool:
@@ -893,6 +934,15 @@ def _relabel(branch: Branch, index: int, label: str) -> None:
     p = branch.points[index]
     if label not in p.labels:
         branch.points[index] = replace(p, labels=(*p.labels, label))
+
+
+def _half_difference(e: _Entry) -> np.ndarray:
+    """The shroud displacements over a period-2 orbit's first period minus its second: it
+    changes sign where the branch crosses the period-1 orbit (onto its shift by one period)."""
+    data = e.sol.data
+    n = data.shape[0] // 2
+    x = data[:, [_COL["active_tip_displacement"], _COL["passive_tip_displacement"]]]
+    return (x[:n] - x[n:]).ravel()
 
 
 def _period_one_distance(e: _Entry) -> float:

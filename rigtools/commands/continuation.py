@@ -7,8 +7,6 @@ import argparse
 import json
 from pathlib import Path
 
-from rigtools.errors import UserError
-
 HELP = "continue the model's periodic orbits in fe, force or gap: branches, stability, bifurcations"
 EPILOG = """\
 Shooting on the reduced model's own integrator with pseudo-arclength continuation; Floquet
@@ -17,13 +15,15 @@ Neimark-Sacker (NS) and grazing (G: impacts begin or end) located and labelled.
 
 The file (kind "branches", docs/recording-format.md) holds each branch's points in order with
 stability, multipliers, labels and response measures; FILE.png plots --measure against the
-parameter (stable solid, unstable dashed).
+parameter (stable solid, unstable dashed); --measured overlays recorded up/down sweeps and
+studies in the same measure (a rig recording has accelerations only: --measure accel1), their
+jumps shaded.
 
 examples:
   rig continuation --param fe --from 55 --to 80 --force 15 --gap "0.7 mm" --out fe.h5
   rig continuation --param gap --from "0.5 mm" --to "2.5 mm" --fe 60 --force 15 --out gap.h5 --json
+  rig continuation --param fe --from 60 --to 75 --measure accel1 --measured sweep.h5 --out fe.h5
 """
-DIMENSION = {"fe": "frequency", "force": "force", "gap": "length"}
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -44,6 +44,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--rig", metavar="FILE", help="rig file (TOML); default: the calibrated default rig")
     p.add_argument("--measure", default="contact", choices=("contact", "accel1", "tip", "impacts"))
     p.add_argument("--no-switch", action="store_true", help="no period-2 branches")
+    p.add_argument(
+        "--measured",
+        nargs="+",
+        default=[],
+        metavar="SWEEP.h5",
+        help="recordings to overlay: stepped sines (rig acquire sweep) and studies (rig study), with their jumps",
+    )
     p.add_argument("--out", required=True, metavar="FILE", help="output HDF5 file (.h5)")
     p.add_argument("--overwrite", action="store_true", help="replace FILE if it exists")
     p.add_argument("--json", action="store_true", help="print the branches' summary as JSON")
@@ -51,24 +58,22 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from rigtools.branches import branches_figure, continue_model, read_branches, summary, write_branches
+    from rigtools.branches import (
+        branches_figure,
+        continue_model,
+        measured_sweeps,
+        parse_inputs,
+        read_branches,
+        summary,
+        write_branches,
+    )
     from rigtools.derived_files import plot_path
     from rigtools.figures import save_figure
-    from rigtools.options import check_out, gap, positive_finite
+    from rigtools.options import check_out
 
     out = check_out(args)
-    if args.param == "gap":
-        start, stop = gap(args.start, "--from"), gap(args.stop, "--to")
-    else:
-        start = positive_finite(args.start, DIMENSION[args.param], "--from")
-        stop = positive_finite(args.stop, DIMENSION[args.param], "--to")
-    if start == stop:
-        raise UserError(f"--from and --to are both {args.start!r}: give a range")
-    fixed = {
-        "fe": positive_finite(args.fe, "frequency", "--fe"),
-        "force": positive_finite(args.force, "force", "--force"),
-        "gap": gap(args.gap),
-    }
+    start, stop, fixed = parse_inputs(args.param, args.start, args.stop, args.fe, args.force, args.gap)
+    measured = measured_sweeps(args.measured, args.param, args.measure)  # bad files before the work
     cfg, branches = continue_model(
         args.param, start, stop, **fixed, model=args.model, rig=args.rig, switch=not args.no_switch
     )
@@ -79,10 +84,12 @@ def run(args: argparse.Namespace) -> int:
         "to": stop,
         **fixed,
         "model": args.model,
+        "measured": [str(m) for m in args.measured],
     }
     write_branches(out, branches, cfg.to_json(), experiment)
     _, stored = read_branches(out)
-    png = save_figure(branches_figure(stored, args.measure, cfg.name), plot_path(out), dpi=120)
+    fig = branches_figure(stored, args.measure, cfg.name, measured)
+    png = save_figure(fig, plot_path(out), dpi=120)
     doc = summary(branches)
     if args.json:
         print(json.dumps({**doc, "out": str(out), "plot": str(png)}))

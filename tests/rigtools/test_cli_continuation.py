@@ -1,0 +1,140 @@
+"""``rig continuation`` through rigtools.cli.main: a branch without contact against ``rig harmonic``
+(0.1 %), the stored file (kind "branches"), --json, one-line refusals (exit 2) and --measured
+reading a simulated stepped sine (its fundamentals as the sweep procedure recorded them)."""
+
+from __future__ import annotations
+
+import csv
+import json
+
+import h5py
+import numpy as np
+import pytest
+from cli_helpers import run_cli
+
+SHORT = ["--param", "fe", "--from", "55", "--to", "58", "--force", "15 N", "--gap", "5 mm", "--no-switch"]
+
+
+@pytest.fixture(scope="module")
+def no_contact(tmp_path_factory):
+    """A 55-58 Hz branch at a 5 mm gap (no orbit closes it) with --json, and ``rig harmonic``."""
+    d = tmp_path_factory.mktemp("cont")
+    code, out, err = run_cli(["continuation", *SHORT, "--measure", "accel1", "--out", d / "b.h5", "--json"])
+    assert code == 0, err
+    hcode, _, herr = run_cli(
+        [
+            "harmonic",
+            "--force",
+            "15 N",
+            "--fmin",
+            "55",
+            "--fmax",
+            "58",
+            "--points",
+            "601",
+            "--out",
+            d / "h.csv",
+        ]
+    )
+    assert hcode == 0, herr
+    with open(d / "h.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    lin = {k: np.array([float(r[k]) for r in rows]) for k in rows[0]}
+    return json.loads(out), d / "b.h5", lin
+
+
+@pytest.fixture(scope="module")
+def sweep(tmp_path_factory):
+    """A short stepped sine of the simulated rig, up and down, no contact (5 mm gap)."""
+    path = tmp_path_factory.mktemp("sweep") / "sw.h5"
+    code, _, err = run_cli(
+        ["acquire", "sweep", "--backend", "sim", "--frequencies", "56 Hz,57 Hz,58 Hz", "--force", "15 N"]
+        + ["--gap", "5 mm", "--direction", "both", "--periods", "5", "--out", path]
+    )
+    assert code == 0, err
+    return path
+
+
+def test_branch_without_contact_is_rig_harmonic(no_contact):
+    doc, path, lin = no_contact
+    with h5py.File(path) as f:
+        g = f["branches/00"]
+        fe = g["value"][()]
+        acc = g["measures/accel_harmonics_active"][()][:, 0]
+        tip = g["measures/tip_amplitude_active"][()]
+        mult = np.hypot(g["multipliers_real"][()], g["multipliers_imag"][()])
+    assert fe[0] == pytest.approx(55.0) and fe[-1] == pytest.approx(58.0) and fe.size >= 3
+    # rig harmonic's 5 mHz grid, linearly interpolated: 1e-6 relative here, far from resonance
+    f = lin["frequency_hz"]
+    np.testing.assert_allclose(acc, np.interp(fe, f, lin["fem_active_shroud_acceleration_m_s2"]), rtol=1e-3)
+    np.testing.assert_allclose(tip, np.interp(fe, f, lin["fem_active_shroud_displacement_m"]), rtol=1e-3)
+    assert np.all(mult < 1.0)
+    assert doc["branches"][0]["status"] == "complete"
+
+
+def test_file_kind_and_content(no_contact):
+    _, path, _ = no_contact
+    with h5py.File(path) as f:
+        assert f.attrs["kind"] == "branches" and f.attrs["schema"] == "rigtools-branches"
+        exp = json.loads(f.attrs["experiment"])
+        assert exp["param"] == "fe" and exp["from"] == 55.0 and exp["to"] == 58.0
+        assert exp["gap"] == pytest.approx(5e-3) and exp["force"] == 15.0 and exp["model"] == "fem"
+        assert list(f["branches"]) == ["00"]
+        g = f["branches/00"]
+        assert g.attrs["periods"] == 1 and g.attrs["status"] == "complete"
+        assert np.all(g["stable"][()])
+        labels = json.loads(g.attrs["labels"])
+        assert labels[0] == ["start"] and labels[-1] == ["end"] and not any(labels[1:-1])
+        assert np.all(g["measures/peak_contact_force"][()] == 0.0)
+        assert np.all(g["measures/min_gap"][()] > 0.4e-3)  # never closes
+
+
+def test_json_document(no_contact, tmp_path):
+    doc, path, _ = no_contact
+    assert set(doc) == {"branches", "out", "plot"}
+    assert doc["out"] == str(path) and doc["plot"] == str(path.with_suffix(".png"))
+    (b,) = doc["branches"]
+    assert b["periods"] == 1 and b["points"] > 2
+    assert [x["label"] for x in b["bifurcations"]] == ["start", "end"]
+    assert path.with_suffix(".png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.mark.parametrize(
+    ("args", "words"),
+    [
+        (["--param", "fe", "--from", "60", "--to", "60 Hz"], "give a range"),
+        (["--param", "fe", "--from", "fast", "--to", "60"], "--from"),
+        (["--param", "gap", "--from", "-1 mm", "--to", "1 mm"], "--from"),
+        (["--param", "fe", "--from", "55", "--to", "60", "--model", "rig"], "--model"),
+        (["--param", "fe", "--from", "55", "--to", "60", "--measured", "missing.h5"], "missing.h5"),
+    ],
+)
+def test_bad_input_is_one_line_exit_2(tmp_path, args, words):
+    code, _, err = run_cli(["continuation", *args, "--out", tmp_path / "x.h5"])
+    assert code == 2
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and words in lines[0] and "Traceback" not in err
+    assert not (tmp_path / "x.h5").exists()
+
+
+def test_measured_overlay_reads_the_sweep(sweep, tmp_path):
+    from rigtools.branches import measured_sweeps
+    from rigtools.recording import open_recording
+
+    got = measured_sweeps([sweep], "fe", "accel1")
+    assert [m.direction for m in got] == ["up", "down"]
+    # the down sweep starts below the top step (rig acquire sweep does not repeat it)
+    assert list(got[0].value) == [56.0, 57.0, 58.0] and list(got[1].value) == [57.0, 56.0]
+    assert all(m.jumps == [] for m in got)
+    with open_recording(sweep) as rec:
+        recorded = [float(p.params["active_shroud_accel_harmonic_amplitude"][0]) for p in rec.complete_points]
+    # the sweep procedure's own fit of the record window, 1e-6
+    np.testing.assert_allclose(np.concatenate([m.measure for m in got]), recorded, rtol=1e-6)
+    out = tmp_path / "m.h5"
+    code, _, err = run_cli(["continuation", *SHORT, "--measure", "accel1", "--measured", sweep, "--out", out])
+    assert code == 0, err
+    with h5py.File(out) as f:
+        assert json.loads(f.attrs["experiment"])["measured"] == [str(sweep)]
+    # a rig recording has no contact force: refused in one line before any work
+    code, _, err = run_cli(["continuation", *SHORT, "--measured", sweep, "--out", tmp_path / "c.h5"])
+    assert code == 2 and "--measure accel1" in err and len(err.strip().splitlines()) == 1
