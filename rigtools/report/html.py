@@ -53,7 +53,8 @@ def figure_png(fig: Any, dpi: int = DPI) -> tuple[bytes, int, int]:
     import matplotlib.pyplot as plt
 
     buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=dpi)
+    # cropped to what is drawn: a legend placed below the axes leaves no blank band under it
+    fig.savefig(buf, format="png", dpi=dpi, bbox_inches="tight", pad_inches=0.08)
     plt.close(fig)
     data = buf.getvalue()
     width = int.from_bytes(data[16:20], "big")  # PNG IHDR
