@@ -108,7 +108,12 @@ class Chromium:
         self.port = 0
 
     def __enter__(self) -> Chromium:
-        args = [self.exe, *FLAGS, f"--user-data-dir={self._tmp.name}", f"--window-size={self.size[0]},{self.size[1]}"]
+        args = [
+            self.exe,
+            *FLAGS,
+            f"--user-data-dir={self._tmp.name}",
+            f"--window-size={self.size[0]},{self.size[1]}",
+        ]
         args += ["--remote-debugging-port=0", "about:blank"]
         self._proc = subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
         assert self._proc.stderr is not None
@@ -133,6 +138,7 @@ class Chromium:
         req = urllib.request.Request(f"http://127.0.0.1:{self.port}/json/new?{url}", method="PUT")
         with urllib.request.urlopen(req, timeout=10) as resp:
             target = json.loads(resp.read())
+
         async def connect() -> Any:
             return await websocket_connect(target["webSocketDebuggerUrl"], max_message_size=1 << 28)
 

@@ -92,7 +92,7 @@ class LiveStatus:
 
     def event(self, e: Any) -> None:
         """A procedure progress event (:class:`rigtools.procedures.base.ProgressEvent`)."""
-        self.doc["event"] = {
+        event = {
             "kind": e.kind,
             "point": e.point,
             "n_points": e.n_points,
@@ -101,6 +101,9 @@ class LiveStatus:
             "text": e.text,
             "time": time.time(),
         }
+        self.doc["event"] = event
+        if e.kind == "control":  # the latest force-control update stays shown while the point settles
+            self.doc["control"] = event
         self._publish()
 
     def _publish(self) -> None:

@@ -37,6 +37,8 @@ ANALYSIS_SECONDS = 1.0
 MIN_PERIODS = 10
 #: Harmonics marked in the spectrum.
 K_MAX = 10
+#: A file unreadable this long (s) is reported on the page.
+UNREADABLE_S = 3.0
 #: Harmonics named in the spectrum (the strongest, k >= 2, of the active shroud).
 NAMED = 3
 
@@ -140,6 +142,7 @@ class Follower:
         self._buffer: _Buffer | None = None
         self._analysed: dict[int, dict[str, Any]] = {}  # ended points: index -> headline row
         self._limits: dict[str, tuple[float, float]] | None = None
+        self._failing_since = 0.0
 
     def poll(self) -> Snapshot:
         """Read what was appended since the last look; returns (and keeps) the new snapshot."""
@@ -148,13 +151,15 @@ class Follower:
         if not self.path.exists():
             return self.snapshot
         try:
-            rec = open_recording(self.path)
+            rec = open_recording(self.path, wait=False)
         except RecordingError as exc:
-            if self.snapshot.status == "waiting":
+            # the writer adds structure for a few ms at a time: look again at the next poll, and
+            # say so only when the file stays unreadable
+            self._failing_since = self._failing_since or time.monotonic()
+            if time.monotonic() - self._failing_since < UNREADABLE_S or self.snapshot.status == "waiting":
                 return self.snapshot
-            return self._publish(
-                status=self.snapshot.status, status_text=f"{self.snapshot.status_text} ({exc})"
-            )
+            return self._publish(**{**_fields(self.snapshot), "status_text": f"cannot read the file ({exc})"})
+        self._failing_since = 0.0
         with rec:
             return self._look(rec)
 
@@ -173,7 +178,10 @@ class Follower:
             n_points=len(rec.points),
             accepts_stop=bool(live and live.get("accepts_stop")),
         )
-        event = (live or {}).get("event") or {}
+        event = dict((live or {}).get("event") or {})
+        control = (live or {}).get("control") or {}
+        if control.get("point") == event.get("point"):
+            event["update"] = control.get("update")
         if event.get("n_points"):
             fields["n_points"] = max(len(rec.points), int(event["n_points"]))
         if not rec.points:
@@ -291,6 +299,11 @@ class Follower:
         return self.snapshot
 
 
+def _fields(s: Snapshot) -> dict[str, Any]:
+    """A snapshot's fields but its version and time (to publish it again with a change)."""
+    return {k: v for k, v in vars(s).items() if k not in ("version", "wall_time", "path")}
+
+
 # -- helpers ------------------------------------------------------------------------------------
 def _status(rec) -> tuple[str, str, str]:
     """``(status, text, what happened at the end)`` of an open recording."""
@@ -400,24 +413,44 @@ def _row(point, analysis: dict | None) -> dict[str, Any]:
 
 
 def _analyse_point(point) -> dict[str, Any]:
-    """An ended point, once: its record window analysed as ``rig analyze`` does."""
-    from rigtools.analyze import analyze_periodic, record_window
+    """An ended point, once: F1 and impacts per period of its record window as ``rig analyze``
+    finds them (:func:`rigtools.analyze.analyze_periodic`: the same window, the same impact
+    detection). F1 is fitted alone: over whole periods the harmonics are orthogonal, so it equals
+    the fit with every harmonic that ``rig analyze`` makes, at a fraction of the cost."""
+    from rigtools.analysis.harmonics import harmonic_amplitudes
+    from rigtools.analysis.impacts import detect_impacts
     from rigtools.analysis.spectra import amplitude_spectrum
-    from rigtools.errors import UserError
+    from rigtools.analyze import WINDOW_SAMPLES, record_window
 
     fe = point.params.get("fe")
     if not isinstance(fe, (int, float)) or fe <= 0 or not point.sample_rate:
         return {"row": _row(point, None), "view": {}}
-    try:
-        result = analyze_periodic(point)
-    except (UserError, ValueError, RecordingError):
-        return {"row": _row(point, None), "view": {}}
-    dwell = result.dwell
-    assert dwell is not None
-    f1 = dwell.force_amplitude
-    ipp = None if dwell.impacts is None else float(dwell.impacts.impacts_per_period)
     rate = float(point.sample_rate)
     start, n = record_window(point)
+    if n < 3:
+        return {"row": _row(point, None), "view": {}}
+    chans = point.channels
+    f1 = None
+    if FORCE in chans:
+        f1 = float(
+            harmonic_amplitudes(
+                np.asarray(chans[FORCE][start : start + n], dtype=float), rate, fe, 1
+            ).amplitude[0]
+        )
+    ipp = None
+    if ACTIVE_SHROUD_ACCEL in chans:
+        per = rate / fe  # the window rig analyze takes impacts from
+        m = n if n <= WINDOW_SAMPLES else int(np.floor(WINDOW_SAMPLES / per) * per)
+        a = start + n - m
+        window = {c: np.asarray(chans[c][a : a + m], dtype=float) for c in TRACE_CHANNELS if c in chans}
+        imp = detect_impacts(
+            window[ACTIVE_SHROUD_ACCEL],
+            rate,
+            fe,
+            passive_acceleration=window.get(PASSIVE_SHROUD_ACCEL),
+            force=window.get(FORCE),
+        )
+        ipp = float(imp.impacts_per_period)
     n_spec = min(n, int(math.floor(ANALYSIS_SECONDS * fe) * rate / fe) or n)
     traced = [c for c in TRACE_CHANNELS if c in point.channels]
     arrays = {c: np.asarray(point.channels[c][start + n - n_spec : start + n], dtype=float) for c in traced}
@@ -427,6 +460,9 @@ def _analyse_point(point) -> dict[str, Any]:
     }
     if arrays:
         view.update(_spectrum(arrays, rate, float(fe), amplitude_spectrum))
+        n_trace = min(n_spec, round(TRACE_PERIODS * rate / fe))
+        first = start + n - n_trace
+        view["traces"] = {c: min_max_envelope(arrays[c][-n_trace:], first / rate, 1.0 / rate) for c in traced}
     view["control"] = _control(point, {}, f1, point.params.get("drive_amplitude"))
     view["control"]["f1"] = f1
     view["control"]["error"] = (
