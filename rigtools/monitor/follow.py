@@ -283,10 +283,12 @@ class Follower:
     def _points(self, rec) -> list[dict[str, Any]]:
         rows = []
         for p in rec.points:
-            if p.complete and p.index not in self._analysed:
+            if _measured(p) and p.index not in self._analysed:
                 self._analysed[p.index] = _analyse_point(p)
-            row = dict(self._analysed[p.index]["row"]) if p.complete else _row(p, None)
-            if not p.complete:
+            row = dict(self._analysed[p.index]["row"]) if _measured(p) else _row(p, None)
+            if p.complete and not _measured(p):
+                row["state"] = "stopped"  # ended by a stop or a fault before its record
+            elif not p.complete:
                 row["state"] = (
                     "in progress" if rec.writer is not None and p is rec.points[-1] else "incomplete"
                 )
@@ -350,12 +352,12 @@ def _control(point, event: dict, f1: float | None = None, drive: float | None = 
     params = point.params
     target = params.get("force_amplitude")
     target = float(target) if isinstance(target, (int, float)) else None
-    if point.complete:
+    if _measured(point):
         f1 = params.get("force_amplitude_measured", f1)
         drive = params.get("drive_amplitude", drive)
     same_point = event.get("point") == point.index + 1
     updates = (
-        params.get("control_updates") if point.complete else (event.get("update") if same_point else None)
+        params.get("control_updates") if _measured(point) else (event.get("update") if same_point else None)
     )
     return {
         "target": target,
@@ -363,8 +365,10 @@ def _control(point, event: dict, f1: float | None = None, drive: float | None = 
         "drive": drive,
         "error": (f1 / target - 1.0) if f1 is not None and target else None,
         "updates": updates,
-        "settled": params.get("settled") if point.complete else None,
-        "phase": "done" if point.complete else (event.get("kind", "") if same_point else ""),
+        "settled": params.get("settled") if _measured(point) else None,
+        "phase": ("done" if _measured(point) else "stopped")
+        if point.complete
+        else (event.get("kind", "") if same_point else ""),
     }
 
 
@@ -392,6 +396,12 @@ def _spectrum(
         levels.append((k, k * fe, float(amp[lo:hi].max()), ref))
     out["named"] = sorted(levels, key=lambda r: -r[2])[:NAMED]
     return out
+
+
+def _measured(point) -> bool:
+    """True for a point ended normally with its record (a stopped point is ended too, but
+    ``point_complete`` is false and it has no record window)."""
+    return point.complete and point.params.get("point_complete", True) is not False
 
 
 def _row(point, analysis: dict | None) -> dict[str, Any]:

@@ -91,11 +91,12 @@ def _auth_provider(token: str):
         """Every request without the token is refused (403)."""
 
         @property
-        def get_user(self):
-            def get_user(handler):
+        def get_user_async(self):
+            # called in prepare(), before a websocket is upgraded: refused requests get no further
+            async def get_user(handler):
                 if not token_ok(handler, token):
-                    return None
-                if handler.get_argument("token", None) and hasattr(handler, "set_cookie"):
+                    raise HTTPError(403, "this monitor needs the token of its printed address")
+                if handler.get_argument("token", None) and not hasattr(handler, "ws_connection"):
                     handler.set_cookie(TOKEN_COOKIE, token, httponly=True, samesite="Strict")
                 return "viewer"
 
@@ -196,7 +197,7 @@ def serve(
     server.start()
     shown = "127.0.0.1" if host in ("", "0.0.0.0", "::") and token is None else host
     if host in ("0.0.0.0", "::"):
-        shown = socket.getfqdn()
+        shown = socket.gethostname()
     url = f"http://{shown}:{port}{APP_PATH}" + (f"?token={token}" if token else "")
     hub.start()
     return Served(url, token, hub, server)
