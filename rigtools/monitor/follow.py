@@ -104,7 +104,8 @@ class _Buffer:
     def __init__(self, index: int, names: list[str], capacity: int) -> None:
         self.index, self.names, self.capacity = index, names, capacity
         self.data = np.zeros((len(names), 0))
-        self.total = 0  # samples per channel read from the point so far
+        self.total = 0  # samples per channel in the point as of the last look
+        self.read = 0  # samples per channel read from the file (each sample once)
 
     def extend(self, point) -> None:
         n = point.n_samples
@@ -112,6 +113,7 @@ class _Buffer:
             return
         first = max(self.total, n - self.capacity)
         new = np.vstack([np.asarray(point.channels[c][first:n], dtype=float) for c in self.names])
+        self.read += n - first
         self.data = np.concatenate([self.data, new], axis=1)[:, -self.capacity :]
         self.total = n
 
