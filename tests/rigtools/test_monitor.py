@@ -227,3 +227,36 @@ def test_beyond_loopback_every_request_without_the_token_is_refused(dwell):
         timer.cancel()
         proc.kill()
         proc.wait()
+
+
+# -- in the browser (one test: the suite's budget) -------------------------------------------------
+def test_page_shows_the_numbers_in_chromium(dwell, chromium, tmp_path):
+    """``rig monitor`` on the finished dwell, looked at in headless Chromium by two viewers: both
+    pages show F1 and impacts per period as rig analyze reports them, the status, and drawn plots."""
+    from matplotlib import image as mpimg
+
+    from rigtools.monitor.browser import Chromium
+    from rigtools.report.browser import figure_is_drawn
+
+    with open_recording(dwell) as rec:
+        ref = analyze_periodic(rec.points[0]).dwell
+    cmd = [sys.executable, "-m", "rigtools.cli", "monitor", str(dwell), "--port", "0"]
+    server = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+    timer = threading.Timer(90, server.kill)
+    timer.start()
+    try:
+        url = server.stdout.readline().strip()
+        with Chromium(chromium) as browser:
+            pages = [browser.open(url), browser.open(url)]
+            for page in pages:
+                page.wait_text("mon-status", 60, "finished")
+                shown = page.texts("mon-f1", "mon-ipp", "mon-status")
+                assert shown["mon-f1"] == f"{ref.force_amplitude:.5g} N"
+                assert float(shown["mon-ipp"]) == pytest.approx(ref.impacts.impacts_per_period)
+            shot = mpimg.imread(str(pages[0].screenshot(tmp_path / "page.png")))[..., :3]
+    finally:
+        timer.cancel()
+        server.kill()
+        server.wait()
+    assert figure_is_drawn(shot[60:560, 0:800])  # the traces
+    assert figure_is_drawn(shot[560:900, 0:800])  # the spectrum
