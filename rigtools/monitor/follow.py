@@ -14,6 +14,7 @@ the function ``rig analyze`` uses, so the two show the same numbers.
 
 from __future__ import annotations
 
+import json
 import math
 import time
 from dataclasses import dataclass, field
@@ -145,6 +146,7 @@ class Follower:
         self._analysed: dict[int, dict[str, Any]] = {}  # ended points: index -> headline row
         self._limits: dict[str, tuple[float, float]] | None = None
         self._failing_since = 0.0
+        self._key: tuple | None = None
 
     def poll(self) -> Snapshot:
         """Read what was appended since the last look; returns (and keeps) the new snapshot."""
@@ -168,6 +170,18 @@ class Follower:
     # -- one look -------------------------------------------------------------------------------
     def _look(self, rec) -> Snapshot:
         live = read_json(live_path(self.path)) if rec.writer is not None else None
+        last = rec.points[-1] if rec.points else None
+        key = (
+            rec.status,
+            rec.writer,
+            rec.attrs.get("end_status"),
+            len(rec.points),
+            None if last is None else (last.n_samples, last.complete),
+            json.dumps(live, sort_keys=True),
+        )
+        if key == self._key:  # nothing new: the snapshot stands (no work, nothing sent)
+            return self.snapshot
+        self._key = key
         status, status_text, end = _status(rec)
         if self._limits is None:
             self._limits = _limits(rec)

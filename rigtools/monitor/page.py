@@ -1,8 +1,9 @@
 """The monitor's page: one Bokeh document per viewer, drawn from the shared :class:`.follow.Snapshot`.
 
 Bokeh draws everything (Dask's dashboard does the same: column data sources refreshed from a
-server-side callback); no JavaScript is written here. Each document looks at the latest snapshot
-every :data:`REFRESH_MS` and sends only when it changed. Values a script reads off the page
+server-side callback); no JavaScript is written here. Each document is refreshed when the
+server makes a new snapshot (and looks every :data:`REFRESH_MS` itself) and sends only when it
+changed. Values a script reads off the page
 (F1, impacts per period, the newest sample's time) carry element ids: ``mon-f1``, ``mon-ipp``,
 ``mon-latest-epoch``, ``mon-status``.
 """
@@ -17,7 +18,7 @@ import numpy as np
 
 from rigtools.monitor.follow import Snapshot
 
-REFRESH_MS = 250
+REFRESH_MS = 1000  # a fallback: new snapshots are pushed
 COLOURS = {"force": "#1f77b4", "active_shroud_accel": "#d62728", "passive_shroud_accel": "#2ca02c"}
 STATUS_COLOURS = {"recording": "#1a7f37", "finished": "#0550ae", "aborted": "#cf222e", "failed": "#cf222e"}
 
@@ -116,8 +117,10 @@ def points_html(s: Snapshot) -> str:
     return f"<table id='mon-points' style='font-size:13px'><tr>{head}</tr>{''.join(rows)}</table>"
 
 
-def build(doc, get_snapshot: Callable[[], Snapshot], stop: Callable[[], str] | None) -> None:
-    """Lay out the page on ``doc`` and refresh it from ``get_snapshot()``.
+def build(doc, get_snapshot: Callable[[], Snapshot], stop: Callable[[], str] | None) -> Callable[[], None]:
+    """Lay out the page on ``doc``; returns its ``refresh()``, which redraws it from
+    ``get_snapshot()`` when that changed (the server calls it on every new snapshot; the page
+    also looks every :data:`REFRESH_MS` by itself).
 
     ``stop`` (None: no stop control) sends a stop request and returns the text to show.
     """
@@ -230,3 +233,4 @@ def build(doc, get_snapshot: Callable[[], Snapshot], stop: Callable[[], str] | N
 
     refresh()
     doc.add_periodic_callback(refresh, REFRESH_MS)
+    return refresh

@@ -41,6 +41,25 @@ class Hub:
         self._done = threading.Event()
         self._thread = threading.Thread(target=self._run, name="monitor-follower", daemon=True)
         self.finished_at: float | None = None  # when the recording was first seen ended
+        self._viewers: dict[Any, Any] = {}  # document -> its refresh
+        self._lock = threading.Lock()
+
+    def subscribe(self, doc: Any, refresh: Any) -> None:
+        """Call ``refresh`` on ``doc``'s event loop whenever a new snapshot is made."""
+        with self._lock:
+            self._viewers[doc] = refresh
+        doc.on_session_destroyed(lambda _context: self.unsubscribe(doc))
+
+    def unsubscribe(self, doc: Any) -> None:
+        with self._lock:
+            self._viewers.pop(doc, None)
+
+    def _push(self) -> None:
+        with self._lock:
+            viewers = list(self._viewers.items())
+        for doc, refresh in viewers:
+            # the one Bokeh document call safe from another thread
+            doc.add_next_tick_callback(refresh)
 
     @property
     def snapshot(self) -> Snapshot:
@@ -55,6 +74,7 @@ class Hub:
     def _run(self) -> None:
         while not self._done.is_set():
             start = time.monotonic()
+            version = self.follower.snapshot.version
             try:
                 s = self.follower.poll()
             except Exception as exc:  # keep serving what was shown; say what went wrong
@@ -64,6 +84,8 @@ class Hub:
             else:
                 if s.status not in ("waiting", "recording") and self.finished_at is None:
                     self.finished_at = time.monotonic()
+                if s.version != version:
+                    self._push()
             self._done.wait(max(0.0, self.poll_s - (time.monotonic() - start)))
 
 
@@ -183,17 +205,26 @@ def serve(
         return "stop requested: the drive ramps to zero, the recording ends aborted"
 
     def make(doc) -> None:
-        page.build(doc, lambda: hub.snapshot, stop_run if allow_stop else None)
+        hub.subscribe(doc, page.build(doc, lambda: hub.snapshot, stop_run if allow_stop else None))
 
-    port = port or _free_port(host)
-    options: dict[str, Any] = dict(
-        address=host, port=port, allow_websocket_origin=_origins(host, port), num_procs=1
-    )
+    extra: dict[str, Any] = {"num_procs": 1}
     if token is not None:
-        options.update(
+        extra.update(
             auth_provider=_auth_provider(token), secret_key=secrets.token_urlsafe(32), sign_sessions=True
         )
-    server = Server({APP_PATH: Application(FunctionHandler(make))}, **options)
+    apps = {APP_PATH: Application(FunctionHandler(make))}
+    for attempt in range(5 if not port else 1):
+        # a free port may be taken by another process before the server binds it: pick again
+        chosen = port or _free_port(host)
+        try:
+            server = Server(
+                apps, address=host, port=chosen, allow_websocket_origin=_origins(host, chosen), **extra
+            )
+            break
+        except OSError:
+            if port or attempt == 4:
+                raise
+    port = chosen
     server.start()
     shown = "127.0.0.1" if host in ("", "0.0.0.0", "::") and token is None else host
     if host in ("0.0.0.0", "::"):
