@@ -34,6 +34,8 @@ TRACE_CHANNELS = (FORCE, ACTIVE_SHROUD_ACCEL, PASSIVE_SHROUD_ACCEL)
 TRACE_PERIODS = 5
 #: Live analysis window (spectrum, F1, impacts): whole periods within this many seconds.
 ANALYSIS_SECONDS = 1.0
+#: Impacts are found in a window this much wider on both sides than the one they are counted in, s.
+IMPACT_MARGIN_S = 0.01
 #: Fewest periods the live analysis waits for.
 MIN_PERIODS = 10
 #: Harmonics marked in the spectrum.
@@ -213,7 +215,8 @@ class Follower:
         names = [c for c in point.channels if c != "contact_force"]
         fe = point.params.get("fe")
         fe = float(fe) if isinstance(fe, (int, float)) and fe > 0 else None
-        capacity = int(max(ANALYSIS_SECONDS, (MIN_PERIODS + 1) / fe if fe else 0.0) * rate) + 1
+        seconds = max(ANALYSIS_SECONDS, (MIN_PERIODS + 1) / fe if fe else 0.0) + 2 * IMPACT_MARGIN_S
+        capacity = int(seconds * rate) + 1
         if self._buffer is None or self._buffer.index != point.index or self._buffer.names != names:
             self._buffer = _Buffer(point.index, names, capacity)
         buf = self._buffer
@@ -266,15 +269,25 @@ class Follower:
         if fe and DRIVE in arrays:
             drive = float(harmonic_amplitudes(arrays[DRIVE], rate, fe, 1).amplitude[0])
         out["control"] = _control(point, event, f1, drive)
-        if fe and ACTIVE_SHROUD_ACCEL in arrays:
+        margin = int(IMPACT_MARGIN_S * rate)
+        if fe and ACTIVE_SHROUD_ACCEL in arrays and have >= n + 2 * margin:
+            # impacts counted in whole periods that end `margin` before the newest sample, found
+            # in a window `margin` wider on both sides: one at a window's edge is counted once
+            # (the detector ignores a few ms at each end of what it is given)
+            wide = {
+                c: buf.last(c, n + 2 * margin)
+                for c in (ACTIVE_SHROUD_ACCEL, PASSIVE_SHROUD_ACCEL, FORCE)
+                if c in buf.names
+            }
             imp = detect_impacts(
-                arrays[ACTIVE_SHROUD_ACCEL],
+                wide[ACTIVE_SHROUD_ACCEL],
                 rate,
                 fe,
-                passive_acceleration=arrays.get(PASSIVE_SHROUD_ACCEL),
-                force=arrays.get(FORCE),
+                passive_acceleration=wide.get(PASSIVE_SHROUD_ACCEL),
+                force=wide.get(FORCE),
             )
-            out["impacts_per_period"] = float(imp.impacts_per_period)
+            inside = np.count_nonzero((imp.times >= margin / rate) & (imp.times < (margin + n) / rate))
+            out["impacts_per_period"] = inside / (n / rate * fe)
         return out
 
     def _peaks(self, point, names: list[str]) -> list[dict[str, Any]]:

@@ -92,14 +92,20 @@ _WRITER = """
 import sys
 import numpy as np
 from rigtools.recording import ChannelSpec, RecordingWriter
-rate = 51200.0
-specs = [ChannelSpec("force", "N", "force", rate), ChannelSpec("drive", "V", "voltage", rate)]
-t = np.arange(5120) / rate
+rate, fe, block = 51200.0, 60.0, 5000
+names = [("force", "N", "force"), ("active_shroud_accel", "m/s^2", "acceleration"),
+         ("passive_shroud_accel", "m/s^2", "acceleration"), ("drive", "V", "voltage")]
+specs = [ChannelSpec(n, u, q, rate) for n, u, q in names]
+noise = np.random.default_rng(1)
 with RecordingWriter(sys.argv[1], backend="simulated", rig="{}", experiment={}) as rec:
-    point = rec.begin_point({"fe": 60.0, "force_amplitude": 2.0}, specs)
-    for i in range(12):
+    point = rec.begin_point({"fe": fe, "force_amplitude": 2.0}, specs)
+    for i in range(24):
         sys.stdin.readline()
-        point.append(np.vstack([2.0 * np.sin(2 * np.pi * 60 * (t + i * 0.1)), 0.1 * np.ones_like(t)]))
+        t = (i * block + np.arange(block)) / rate
+        s = np.sin(2 * np.pi * fe * t)
+        spike = np.where(np.abs((t * fe) % 1.0 - 0.3) < 0.5 / rate * fe, 400.0, 0.0)  # one per period
+        data = np.vstack([2.0 * s, 80 * s - spike, 60 * s + spike, 0.1 * s])
+        point.append(data + 0.01 * noise.standard_normal(data.shape))
         rec.flush()
         print("written", flush=True)
     sys.stdin.readline()
@@ -109,17 +115,18 @@ print("closed", flush=True)
 
 
 def test_follows_a_recording_while_it_is_written_reading_only_new_samples(tmp_path):
-    """Another process appends 0.1 s blocks (flushed, SWMR); the follower, looking after each,
-    shows each new sample (latest t steps by 0.1 s) and reads every sample exactly once, then
-    shows the finished status and F1."""
+    """Another process appends blocks of 5000 samples (flushed, SWMR) of a response with one
+    impact per period; the follower, looking after each, shows each new sample and reads every
+    sample exactly once; once 1 s is there it shows F1 and exactly one impact per period at
+    every look, whatever the phase of the window's edges (no impact lost or counted twice)."""
     path = tmp_path / "live.h5"
     writer = subprocess.Popen(
         [sys.executable, "-c", _WRITER, str(path)], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True
     )
     follower = Follower(path)
-    seen = []
+    seen, ipp, f1 = [], [], []
     try:
-        for _ in range(12):
+        for _ in range(24):
             writer.stdin.write("go\n")
             writer.stdin.flush()
             assert writer.stdout.readline().strip() == "written"
@@ -129,6 +136,9 @@ def test_follows_a_recording_while_it_is_written_reading_only_new_samples(tmp_pa
                     break
                 s = follower.poll()
             seen.append(s.latest_t)
+            if s.impacts_per_period is not None:
+                ipp.append(s.impacts_per_period)
+                f1.append(s.control["f1"])
         read = follower._buffer.read
         writer.stdin.write("end\n")
         writer.stdin.flush()
@@ -136,10 +146,12 @@ def test_follows_a_recording_while_it_is_written_reading_only_new_samples(tmp_pa
     finally:
         writer.kill()
         writer.wait()
-    assert seen == pytest.approx([0.1 * (i + 1) for i in range(12)])
-    assert read == 12 * 5120  # every sample read once, none twice
+    assert seen == pytest.approx([5000 * (i + 1) / RATE for i in range(24)])
+    assert read == 24 * 5000  # every sample read once, none twice
+    assert len(ipp) >= 12 and ipp == [1.0] * len(ipp)
+    assert f1 == pytest.approx([2.0] * len(f1), rel=1e-3)
     s = follower.poll()
-    assert s.status == "finished" and s.control["f1"] == pytest.approx(2.0, rel=1e-6)
+    assert s.status == "finished" and s.control["f1"] == pytest.approx(2.0, rel=1e-3)
 
 
 # -- stop control and end states -----------------------------------------------------------------------
