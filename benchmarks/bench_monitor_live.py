@@ -125,6 +125,8 @@ def dwell_with_two_viewers(browser: Chromium, tmp: Path, shots: Path) -> None:
         f"   display lag (sample acquired -> shown): median {q[0]:.3f} s, 90 % {q[1]:.3f} s, "
         f"max {max(lags):.3f} s over {len(lags)} updates (goal < 1 s)"
     )
+    worst = sorted(zip(lags, at))[-3:]
+    print("   largest lags at t = " + ", ".join(f"{t:.2f} s ({lag:.2f} s)" for lag, t in worst))
     for i, s in enumerate(shot_texts, 1):
         print(
             f"   screenshot {i}: t = {s['mon-latest-t']} s, F1 {s['mon-f1']}, impacts/period {s['mon-ipp']}, "
