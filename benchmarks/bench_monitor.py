@@ -126,8 +126,12 @@ def main() -> None:
         print(json.dumps(result))
         return
     print(f"monitor following 4 ch x 51.2 kS/s with {result['viewers']}, {wall:.1f} s window")
-    print(f"  monitor CPU  {load * 100:6.1f} % of one core   (goal <= {GOAL * 100:.0f} %: ratio {load / GOAL:.2f})")
-    print(f"  writer CPU   {base * 100:6.1f} % of one core   (baseline, same run; monitor/writer {load / base:.2f})")
+    print(
+        f"  monitor CPU  {load * 100:6.1f} % of one core   (goal <= {GOAL * 100:.0f} %: ratio {load / GOAL:.2f})"
+    )
+    print(
+        f"  writer CPU   {base * 100:6.1f} % of one core   (baseline, same run; monitor/writer {load / base:.2f})"
+    )
 
 
 if __name__ == "__main__":
