@@ -125,7 +125,7 @@ def dwell_with_two_viewers(browser: Chromium, tmp: Path, shots: Path) -> None:
         f"   display lag (sample acquired -> shown): median {q[0]:.3f} s, 90 % {q[1]:.3f} s, "
         f"max {max(lags):.3f} s over {len(lags)} updates (goal < 1 s)"
     )
-    worst = sorted(zip(lags, at))[-3:]
+    worst = sorted(zip(lags, at, strict=True))[-3:]
     print("   largest lags at t = " + ", ".join(f"{t:.2f} s ({lag:.2f} s)" for lag, t in worst))
     for i, s in enumerate(shot_texts, 1):
         print(
@@ -200,7 +200,7 @@ def stop_from_page(browser: Chromium, tmp: Path, shots: Path) -> Path:
     time.sleep(0.5)
     page.screenshot(shots / "stopped_from_page.png")
     check = point_check(out)
-    rate, tail = check["rate"], np.abs(check["drive_tail"])
+    tail = np.abs(check["drive_tail"])
     print("2. stop from the page (served on 0.0.0.0 with a token)")
     print(f"   without the token: page {codes[0]}, wrong token {codes[1]}, data websocket {codes[2]}")
     print(

@@ -79,10 +79,12 @@ def run(args: argparse.Namespace) -> int:
         args.procedure, cfg, out, vars(args), confirm_gap=confirm, faults=faults, **run_options
     )
     try:
-        with ProcedureProgress(args.procedure, enabled=not args.json) as display:
-            with monitor_beside(args, out, proc, display.event) as progress:
-                proc._progress = progress
-                result = proc.run()
+        with (
+            ProcedureProgress(args.procedure, enabled=not args.json) as display,
+            monitor_beside(args, out, proc, display.event) as progress,
+        ):
+            proc._progress = progress
+            result = proc.run()
     except KeyboardInterrupt as exc:
         _exit_interrupted(proc, getattr(exc, "exit_code", EXIT_SIGINT))
     doc = result_document(args.procedure, args.backend, proc, result, getattr(args, "f_max", "2 kHz"))

@@ -71,21 +71,22 @@ def start_monitor(
         str(port),
     ]
     cmd += ["--linger", str(linger)] + (["--allow-stop"] if allow_stop else [])
-    log = tempfile.TemporaryFile(mode="w+")
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=log, text=True, start_new_session=True)
-    assert proc.stdout is not None
-    deadline = time.monotonic() + START_TIMEOUT_S
-    line = ""
-    while time.monotonic() < deadline and not line:
-        line = proc.stdout.readline().strip()
-        if not line and proc.poll() is not None:
-            break
-    if not line.startswith("http"):
-        with contextlib.suppress(Exception):
-            proc.kill()
-        log.seek(0)
-        why = [text for text in log.read().splitlines() if text.strip()]
-        raise UserError(f"--monitor: the monitor did not start ({why[-1] if why else 'no message'})")
+    # the monitor's own messages, kept only to say why it did not start
+    with tempfile.TemporaryFile(mode="w+") as log:
+        proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=log, text=True, start_new_session=True)
+        assert proc.stdout is not None
+        deadline = time.monotonic() + START_TIMEOUT_S
+        line = ""
+        while time.monotonic() < deadline and not line:
+            line = proc.stdout.readline().strip()
+            if not line and proc.poll() is not None:
+                break
+        if not line.startswith("http"):
+            with contextlib.suppress(Exception):
+                proc.kill()
+            log.seek(0)
+            why = [text for text in log.read().splitlines() if text.strip()]
+            raise UserError(f"--monitor: the monitor did not start ({why[-1] if why else 'no message'})")
     proc.stdout.close()
     return proc, line.split()[0]
 

@@ -18,7 +18,7 @@ import tempfile
 import time
 import urllib.request
 from pathlib import Path
-from typing import Any
+from typing import Any, Self
 
 from rigtools.report.browser import FLAGS, find_chromium
 
@@ -107,7 +107,7 @@ class Chromium:
         self._proc: subprocess.Popen | None = None
         self.port = 0
 
-    def __enter__(self) -> Chromium:
+    def __enter__(self) -> Self:
         args = [
             self.exe,
             *FLAGS,

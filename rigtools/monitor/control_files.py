@@ -17,7 +17,7 @@ import os
 import threading
 import time
 from pathlib import Path
-from typing import Any
+from typing import Any, Self
 
 #: The reason an acquiring process records for a stop sent from the monitor.
 STOP_REASON = "stopped from the monitor"
@@ -77,7 +77,7 @@ class LiveStatus:
         self._thread = threading.Thread(target=self._watch, name="monitor-stop-watch", daemon=True)
         self.doc: dict[str, Any] = {"pid": os.getpid(), "accepts_stop": True, "event": None}
 
-    def __enter__(self) -> LiveStatus:
+    def __enter__(self) -> Self:
         with contextlib.suppress(OSError):
             stop_path(self.recording).unlink()  # a request left from an earlier run is not for this one
         self._publish()

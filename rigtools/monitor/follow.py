@@ -233,7 +233,7 @@ class Follower:
         if not rate or not buf.total:
             return view
         traced = [c for c in TRACE_CHANNELS if c in names] or names[:3]
-        n_trace = int(round(TRACE_PERIODS * rate / fe)) if fe else int(0.1 * rate)
+        n_trace = round(TRACE_PERIODS * rate / fe) if fe else int(0.1 * rate)
         first = max(0, buf.total - min(n_trace, buf.data.shape[1]))
         view["traces"] = {
             c: min_max_envelope(buf.last(c, buf.total - first), first / rate, 1.0 / rate) for c in traced
@@ -256,7 +256,7 @@ class Follower:
             periods = int(min(have, ANALYSIS_SECONDS * rate) / per)
             if periods < MIN_PERIODS:
                 return {"window": f"waiting for {MIN_PERIODS} periods", "control": _control(point, event)}
-            n = int(round(periods * per))
+            n = round(periods * per)
             window = f"last {periods} periods"
         else:
             n, window = min(have, int(ANALYSIS_SECONDS * rate)), "last samples"
@@ -370,7 +370,7 @@ def _end_text(rec, word: str, reason: str) -> str:
 def _limits(rec) -> dict[str, tuple[float, float]]:
     try:
         cfg = rec.rig_config()
-    except Exception:  # a recording from other software has no rig description of ours
+    except Exception:  # noqa: BLE001 - any rig text that is not ours (other software): no limits to show
         return {}
     limits = {name: (lim.warning, lim.abort) for name, lim in cfg.safety.limits.items()}
     limits.setdefault(DRIVE, (cfg.safety.max_drive, cfg.safety.max_drive))
@@ -420,7 +420,7 @@ def _spectrum(
     df = freqs[1] - freqs[0]
     levels = []
     for k in range(2, k_top + 1):
-        i = int(round(k * fe / df))
+        i = round(k * fe / df)
         lo, hi = max(0, i - 2), min(len(amp), i + 3)
         levels.append((k, k * fe, float(amp[lo:hi].max()), ref))
     out["named"] = sorted(levels, key=lambda r: -r[2])[:NAMED]

@@ -77,7 +77,7 @@ class Hub:
             version = self.follower.snapshot.version
             try:
                 s = self.follower.poll()
-            except Exception as exc:  # keep serving what was shown; say what went wrong
+            except Exception as exc:  # noqa: BLE001 - the view must outlive any one bad look; the error is kept
                 from rigtools.errors import one_line
 
                 self.error = one_line(exc)

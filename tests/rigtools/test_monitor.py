@@ -55,12 +55,12 @@ def test_envelope_keeps_every_spike_that_striding_drops():
     y[where] = rng.choice([-1, 1], 200) * rng.uniform(5, 50, 200)
     t, v = min_max_envelope(y, 0.0, dt, max_points=2000)
     assert len(v) <= 2002 and np.all(np.diff(t) >= 0)
-    drawn = dict(zip(np.round(t / dt).astype(int), v))
+    drawn = dict(zip(np.round(t / dt).astype(int), v, strict=True))
     assert all(drawn.get(int(i)) == y[i] for i in where)
     strided = set(range(0, n, n // 2000))
     assert len(strided & set(where.tolist())) < 5  # what the envelope is for
     y[where + 1] = y[where] * 0.5  # a smaller second impact in the same bucket
-    t2, v2 = min_max_envelope(y, 0.0, dt, max_points=2000)
+    _t2, v2 = min_max_envelope(y, 0.0, dt, max_points=2000)
     assert np.array_equal(v2, v)
     # a spectrum keeps its peaks
     f, a = max_envelope(np.arange(100_000.0), np.where(np.arange(100_000) == 4321, 9.0, 1.0), 500)
