@@ -125,7 +125,9 @@ def build(doc, get_snapshot: Callable[[], Snapshot], stop: Callable[[], str] | N
     ``stop`` (None: no stop control) sends a stop request and returns the text to show.
     """
     from bokeh.layouts import column, row
-    from bokeh.models import Button, ColumnDataSource, DataRange1d, Div, LabelSet, Range1d
+    from bokeh.models import ColumnDataSource, DataRange1d, Range1d
+    from bokeh.models.annotations import LabelSet
+    from bokeh.models.widgets import Button, Div
     from bokeh.plotting import figure
 
     names = ("force", "active_shroud_accel", "passive_shroud_accel")
@@ -167,7 +169,8 @@ def build(doc, get_snapshot: Callable[[], Snapshot], stop: Callable[[], str] | N
     )
     spectrum.xaxis.axis_label = "frequency (Hz)"
     spectrum.legend.location = "top_right"
-    spectrum.x_range = Range1d(0, 1000)
+    freq_range = Range1d(start=0, end=1000)
+    spectrum.x_range = freq_range
     trend = figure(height=220, width=720, title="points: F1 (N, blue) and impacts per period (red)", tools="")
     trend.scatter("x", "f1", source=trend_src, color="#1f77b4", size=7)
     trend.line("x", "f1", source=trend_src, color="#1f77b4")
@@ -222,7 +225,7 @@ def build(doc, get_snapshot: Callable[[], Snapshot], stop: Callable[[], str] | N
             "text": [f"{k}·fe {a:.3g}" for k, _, a, _ in s.named],
         }
         if s.fe:
-            spectrum.x_range.end = min(s.fe * (len(s.harmonics) + 1.5), 25_000)
+            freq_range.end = min(s.fe * (len(s.harmonics) + 1.5), 25_000)
         rows = [r for r in s.points if r.get("f1") is not None]
         xs = [r["fe"] if len({q.get("fe") for q in rows}) > 1 else r["point"] + 1 for r in rows]
         trend_src.data = {

@@ -154,7 +154,7 @@ def _origins(host: str, port: int) -> list[str]:
     if host in ("0.0.0.0", "::", ""):
         names |= {socket.gethostname(), socket.getfqdn()}
         try:
-            names |= {a[4][0] for a in socket.getaddrinfo(socket.gethostname(), None)}
+            names |= {str(a[4][0]) for a in socket.getaddrinfo(socket.gethostname(), None)}
         except OSError:
             pass
     return sorted(f"{n}:{port}" for n in names if n)
