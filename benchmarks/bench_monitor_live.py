@@ -133,8 +133,15 @@ def dwell_with_two_viewers(browser: Chromium, tmp: Path, shots: Path) -> None:
             f"drive {s['mon-drive']}"
         )
     if len(shot_texts) == 2:
+        from matplotlib import image as mpimg
+
         changed = [k for k in IDS if shot_texts[0][k] != shot_texts[1][k]]
-        print(f"   values changed between the screenshots: {', '.join(changed)}")
+        a, b = (mpimg.imread(str(shots / f"dwell_recording_{i}.png"))[..., :3] for i in (1, 2))
+        traces = np.any(np.abs(a[60:560, :800] - b[60:560, :800]) > 0.1, axis=-1).mean()
+        print(
+            f"   values changed between the screenshots: {', '.join(changed)}; "
+            f"{traces * 100:.1f} % of the trace area's pixels differ"
+        )
     f1_done = float(final["mon-f1"].split()[0])
     print(f"   rig analyze of the point: F1 {f1:.6g} N, impacts/period {ipp:.4g}")
     print(

@@ -87,8 +87,8 @@ class LiveStatus:
     def __exit__(self, *exc: object) -> None:
         self._done.set()
         self._thread.join(timeout=1.0)
-        self.doc["accepts_stop"] = False
-        self._publish()
+        with contextlib.suppress(OSError):
+            live_path(self.recording).unlink()  # the run is over: nothing to publish, no stop taken
 
     def event(self, e: Any) -> None:
         """A procedure progress event (:class:`rigtools.procedures.base.ProgressEvent`)."""

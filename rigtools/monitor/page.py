@@ -117,6 +117,19 @@ def points_html(s: Snapshot) -> str:
     return f"<table id='mon-points' style='font-size:13px'><tr>{head}</tr>{''.join(rows)}</table>"
 
 
+#: What a study or stepped sine varies, in the order looked for: key, axis label, SI factor.
+SWEPT = (("fe", "fe (Hz)", 1.0), ("target", "F0 (N)", 1.0), ("gap", "gap (mm)", 1e3))
+
+
+def trend_axis(rows: list[dict]) -> tuple[str, str, float]:
+    """The parameter the points vary (frequency, force, gap), else the point number."""
+    for key, label, factor in SWEPT:
+        values = {r.get(key) for r in rows}
+        if len(values) > 1 and None not in values:
+            return key, label, factor
+    return "point", "point", 1.0
+
+
 def build(doc, get_snapshot: Callable[[], Snapshot], stop: Callable[[], str] | None) -> Callable[[], None]:
     """Lay out the page on ``doc``; returns its ``refresh()``, which redraws it from
     ``get_snapshot()`` when that changed (the server calls it on every new snapshot; the page
@@ -175,7 +188,7 @@ def build(doc, get_snapshot: Callable[[], Snapshot], stop: Callable[[], str] | N
     trend.scatter("x", "f1", source=trend_src, color="#1f77b4", size=7)
     trend.line("x", "f1", source=trend_src, color="#1f77b4")
     trend.scatter("x", "ipp", source=trend_src, color="#d62728", size=7, marker="square")
-    trend.xaxis.axis_label = "fe (Hz) / point"
+    trend.xaxis.axis_label = "point"
 
     widgets: list[Any] = [control]
     if stop is not None:
@@ -227,7 +240,9 @@ def build(doc, get_snapshot: Callable[[], Snapshot], stop: Callable[[], str] | N
         if s.fe:
             freq_range.end = min(s.fe * (len(s.harmonics) + 1.5), 25_000)
         rows = [r for r in s.points if r.get("f1") is not None]
-        xs = [r["fe"] if len({q.get("fe") for q in rows}) > 1 else r["point"] + 1 for r in rows]
+        key, label, factor = trend_axis(rows)
+        xs = [r[key] * factor if key != "point" else r["point"] + 1 for r in rows]
+        trend.xaxis.axis_label = label
         trend_src.data = {
             "x": xs,
             "f1": [r["f1"] for r in rows],

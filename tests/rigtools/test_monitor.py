@@ -20,7 +20,7 @@ import pytest
 
 from rigtools.analyze import analyze_periodic
 from rigtools.config import load_rig
-from rigtools.monitor.control_files import STOP_REASON, LiveStatus, request_stop, stop_path
+from rigtools.monitor.control_files import STOP_REASON, LiveStatus, live_path, request_stop, stop_path
 from rigtools.monitor.envelope import max_envelope, min_max_envelope
 from rigtools.monitor.follow import Follower
 from rigtools.procedures import RigStudy, SineDwell, Status
@@ -172,7 +172,7 @@ def test_stop_request_ends_the_run_like_ctrl_c_with_the_ramp_recorded(cfg, tmp_p
     with live:
         result = proc.run()
     assert result.status is Status.ABORTED and result.reason == STOP_REASON
-    assert not stop_path(out).exists()
+    assert not stop_path(out).exists() and not live_path(out).exists()  # nothing left beside it
     with open_recording(out) as rec:
         assert rec.status == "aborted" and STOP_REASON in rec.abort_reason
         drive = np.asarray(rec.points[0].channels["drive"])
