@@ -11,6 +11,7 @@ import sys
 
 from rigtools import json_values
 from rigtools.errors import EXIT_SIGINT, UserError
+from rigtools.monitor.beside import OPTIONS as MONITOR_OPTIONS
 from rigtools.options import check_out, seed
 from rigtools.procedure_help import COMMON_EPILOG, PROCEDURE_HELP, PROCEDURE_OPTIONS, epilog
 
@@ -56,13 +57,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         for procedures, flags, keywords in PROCEDURE_OPTIONS:
             if name in procedures:
                 q.add_argument(*flags, **keywords)
-        for flag, keywords in COMMON_OPTIONS:
+        for flag, keywords in COMMON_OPTIONS + MONITOR_OPTIONS:
             q.add_argument(flag, **keywords)
         q.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
     from rigtools.config import load_rig
+    from rigtools.monitor.beside import monitor_beside
     from rigtools.procedures.base import Status
     from rigtools.procedures.from_options import build_procedure, parse_faults, result_document
     from rigtools.progress import ProcedureProgress
@@ -77,8 +79,11 @@ def run(args: argparse.Namespace) -> int:
         args.procedure, cfg, out, vars(args), confirm_gap=confirm, faults=faults, **run_options
     )
     try:
-        with ProcedureProgress(args.procedure, enabled=not args.json) as display:
-            proc._progress = display.event
+        with (
+            ProcedureProgress(args.procedure, enabled=not args.json) as display,
+            monitor_beside(args, out, proc, display.event) as progress,
+        ):
+            proc._progress = progress
             result = proc.run()
     except KeyboardInterrupt as exc:
         _exit_interrupted(proc, getattr(exc, "exit_code", EXIT_SIGINT))

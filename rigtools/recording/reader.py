@@ -47,8 +47,11 @@ def _reason(exc: BaseException) -> str:
     return match.group(1) if match else text
 
 
-def open_h5(path: str | os.PathLike) -> tuple[h5py.File, str]:
+def open_h5(path: str | os.PathLike, wait: bool = True) -> tuple[h5py.File, str]:
     """Open any HDF5 file read-only, also one whose writer is running or was killed.
+
+    ``wait=False`` tries once and does not wait for a live writer that is adding structure
+    (a follower that looks again soon: :mod:`rigtools.monitor`).
 
     Returns
     -------
@@ -69,7 +72,7 @@ def open_h5(path: str | os.PathLike) -> tuple[h5py.File, str]:
         raise RecordingError(f"{p}: not a file")
     last: OSError | None = None
     # A live writer (it holds the lock) adds structure for a few ms at a time: wait for it longer.
-    attempts = 40 if writer_alive(p) else 4
+    attempts = (40 if writer_alive(p) else 4) if wait else 1
     for attempt in range(attempts):
         try:
             return h5py.File(p, "r"), "clean"
@@ -91,7 +94,8 @@ def open_h5(path: str | os.PathLike) -> tuple[h5py.File, str]:
         except OSError as exc:
             last = exc
         # A live writer adds a point for a few ms in plain write mode: wait, then assume it died.
-        time.sleep(min(0.05 * (attempt + 1), 0.2))
+        if attempt + 1 < attempts:
+            time.sleep(min(0.05 * (attempt + 1), 0.2))
     if "already open for write" in str(last) or "not already open for SWMR" in str(last):
         try:
             if consistency_flags(p):
@@ -448,13 +452,16 @@ class Recording:
         )
 
 
-def open_recording(path: str | os.PathLike) -> Recording:
+def open_recording(path: str | os.PathLike, wait: bool = True) -> Recording:
     """Open a recording (schema v1) for reading.
 
     Parameters
     ----------
     path
         The HDF5 file (a file being written may be read while it grows).
+    wait
+        False: one attempt; a file its live writer is changing at that moment raises
+        :class:`RecordingError` at once instead of being retried for up to a few seconds.
 
     Returns
     -------
@@ -484,11 +491,11 @@ def open_recording(path: str | os.PathLike) -> Recording:
     while True:
         writer = writer_alive(path)
         try:
-            rec = _open_once(path)
+            rec = _open_once(path, wait)
         except RecordingError:
             # A live writer between two states of the file (closing/reopening it between
             # points) can make one look damaged for a moment: look again.
-            if writer is None or writer_alive(path) is None or time.monotonic() > deadline:
+            if not wait or writer is None or writer_alive(path) is None or time.monotonic() > deadline:
                 raise
             time.sleep(0.05)
             continue
@@ -530,8 +537,8 @@ def _cut_off_points(f: h5py.File, fatal: list) -> frozenset[str]:
     return frozenset(n for n in (_point_of(p.where) for p in fatal) if n is not None)
 
 
-def _open_once(path: str | os.PathLike) -> Recording:
-    f, opened_as = open_h5(path)
+def _open_once(path: str | os.PathLike, wait: bool = True) -> Recording:
+    f, opened_as = open_h5(path, wait)
     try:
         cache = AttrCache()
         problems = find_problems(f, cache)

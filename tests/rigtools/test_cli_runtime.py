@@ -37,6 +37,7 @@ COMMANDS = [
     "import",
     "info",
     "modal",
+    "monitor",
     "report",
     "simulate",
     "study",

@@ -1,0 +1,73 @@
+"""``rig monitor FILE``: a live view of a recording in the browser (also of a finished one)."""
+
+from __future__ import annotations
+
+import argparse
+
+HELP = """\
+Serve a page that follows a recording while it is written, and shows a finished one the same
+way: time traces of the force and both shroud accelerations over the last periods (min/max
+envelopes: no impact disappears), the amplitude spectrum with the k·fe harmonics marked and the
+strongest named, the force-control state (target, measured F1, drive, error, updates, settled),
+impacts per period, each channel's peak against its safety limit, the points of a study or
+stepped sine with a trend plot, and the status (recording, finished, aborted or failed with the
+reason). It only reads the recording (SWMR, 4 looks a second, new samples only).
+
+Served on 127.0.0.1 unless --host is given; any other address needs the random token of the
+printed address (every request without it is refused). --allow-stop shows a stop button: the
+run (started with rig acquire ... --monitor) ramps the drive to zero and ends aborted, reason
+"stopped from the monitor". Ctrl-C ends the monitor, never the run.
+
+examples:
+  rig monitor recordings/run.h5
+  rig monitor run.h5 --host 0.0.0.0 --port 5006 --allow-stop
+  rig acquire dwell --backend sim --pace --fe 60 --force "15 N" --out d.h5 --monitor
+"""
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    p = subparsers.add_parser(
+        "monitor",
+        help="live view of a recording in the browser (while it is written, or finished)",
+        description=HELP,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("file", metavar="FILE", help="recording (.h5); it may not exist yet")
+    p.add_argument(
+        "--host", default="127.0.0.1", help="address to serve on (default 127.0.0.1; others need the token)"
+    )
+    p.add_argument("--port", type=int, default=5006, help="TCP port (default 5006; 0: a free one)")
+    p.add_argument("--allow-stop", action="store_true", help="show the stop control")
+    p.add_argument(
+        "--linger",
+        type=float,
+        default=None,
+        metavar="SECONDS",
+        help="exit SECONDS after the recording ended (default: run until Ctrl-C)",
+    )
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    import sys
+
+    from rigtools.errors import UserError
+    from rigtools.monitor.server import run_until_done, serve
+    from rigtools.runtime import configure_process
+
+    configure_process()  # one BLAS thread: the fits are small, and the run needs the cores
+    try:
+        served = serve(args.file, host=args.host, port=args.port, allow_stop=args.allow_stop)
+    except OSError as exc:
+        raise UserError(f"cannot serve on {args.host}:{args.port} ({exc.strerror or exc})") from None
+    print(served.url, flush=True)
+    print(
+        f"rig monitor: following {args.file}; Ctrl-C ends the monitor (never the run)",
+        file=sys.stderr,
+        flush=True,
+    )
+    try:
+        run_until_done(served, args.linger)
+    except KeyboardInterrupt:
+        served.stop()
+    return 0

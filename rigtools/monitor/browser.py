@@ -1,0 +1,161 @@
+"""Look at the monitor as a viewer does: a headless Chromium driven over the DevTools protocol.
+
+The monitor's page is live (a websocket), so a one-shot ``--screenshot`` cannot wait for it;
+:class:`Chromium` starts Debian's ``chromium`` with a DevTools port, opens pages and lets a test
+or a benchmark read values off a page (the page's ids, inside Bokeh's shadow DOM) and take
+screenshots. The protocol is spoken over tornado's websocket client (Bokeh's own dependency).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import base64
+import itertools
+import json
+import re
+import subprocess
+import tempfile
+import time
+import urllib.request
+from pathlib import Path
+from typing import Any, Self
+
+from rigtools.report.browser import FLAGS, find_chromium
+
+#: JavaScript: the text of the element with id ``ID``, searched through every shadow root.
+_FIND = """
+(() => {
+  const find = (root, id) => {
+    const hit = root.getElementById ? root.getElementById(id) : null;
+    if (hit) return hit;
+    for (const n of root.querySelectorAll('*')) {
+      if (n.shadowRoot) { const r = find(n.shadowRoot, id); if (r) return r; }
+    }
+    return null;
+  };
+  const out = {};
+  for (const id of IDS) { const el = find(document, id); out[id] = el ? el.textContent : null; }
+  return JSON.stringify(out);
+})()
+"""
+
+
+class Page:
+    """One open tab: :meth:`texts` of elements by id, :meth:`screenshot`, :meth:`click_button`."""
+
+    def __init__(self, browser: Chromium, ws: Any) -> None:
+        self._browser, self._ws, self._ids = browser, ws, itertools.count(1)
+
+    def call(self, method: str, **params: Any) -> dict:
+        return self._browser.loop.run_until_complete(self._call(method, params))
+
+    async def _call(self, method: str, params: dict) -> dict:
+        msg_id = next(self._ids)
+        await self._ws.write_message(json.dumps({"id": msg_id, "method": method, "params": params}))
+        while True:
+            raw = await self._ws.read_message()
+            if raw is None:
+                raise RuntimeError("the browser closed the page")
+            msg = json.loads(raw)
+            if msg.get("id") == msg_id:
+                if "error" in msg:
+                    raise RuntimeError(f"{method}: {msg['error']}")
+                return msg.get("result", {})
+
+    def evaluate(self, expression: str) -> Any:
+        result = self.call("Runtime.evaluate", expression=expression, returnByValue=True)
+        return result.get("result", {}).get("value")
+
+    def texts(self, *ids: str) -> dict[str, str | None]:
+        """Text of the elements with these ids (None where there is none yet)."""
+        return json.loads(self.evaluate(_FIND.replace("IDS", json.dumps(list(ids)))))
+
+    def wait_text(self, element_id: str, timeout: float = 30.0, pattern: str = r".") -> str:
+        """Wait until element ``element_id`` shows text matching ``pattern``; return it."""
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            text = self.texts(element_id)[element_id]
+            if text is not None and re.search(pattern, text):
+                return text
+            time.sleep(0.05)
+        raise TimeoutError(f"#{element_id} did not show {pattern!r} within {timeout} s")
+
+    def click_button(self, label: str) -> bool:
+        """Click the first button whose text contains ``label`` (through shadow roots)."""
+        js = """
+        (() => { const walk = (root) => { for (const n of root.querySelectorAll('*')) {
+            if (n.tagName === 'BUTTON' && n.textContent.includes(LABEL)) { n.click(); return true; }
+            if (n.shadowRoot && walk(n.shadowRoot)) return true; } return false; };
+          return walk(document); })()
+        """
+        return bool(self.evaluate(js.replace("LABEL", json.dumps(label))))
+
+    def screenshot(self, path: str | Path) -> Path:
+        data = self.call("Page.captureScreenshot", format="png")["data"]
+        Path(path).write_bytes(base64.b64decode(data))
+        return Path(path)
+
+
+class Chromium:
+    """A headless Chromium with a DevTools port; use as a context manager."""
+
+    def __init__(self, exe: str | None = None, width: int = 1500, height: int = 1150) -> None:
+        self.exe = exe or find_chromium()
+        self.size = (width, height)
+        self.loop = asyncio.new_event_loop()
+        self._tmp = tempfile.TemporaryDirectory(prefix="rig-cdp-")
+        self._proc: subprocess.Popen | None = None
+        self.port = 0
+
+    def __enter__(self) -> Self:
+        args = [
+            self.exe,
+            *FLAGS,
+            f"--user-data-dir={self._tmp.name}",
+            f"--window-size={self.size[0]},{self.size[1]}",
+        ]
+        args += ["--remote-debugging-port=0", "about:blank"]
+        self._proc = subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+        assert self._proc.stderr is not None
+        deadline = time.monotonic() + 30
+        while time.monotonic() < deadline:
+            line = self._proc.stderr.readline()
+            m = re.search(r"DevTools listening on ws://[^:]+:(\d+)/", line)
+            if m:
+                self.port = int(m.group(1))
+                break
+            if not line and self._proc.poll() is not None:
+                break
+        if not self.port:
+            self.close()
+            raise RuntimeError("chromium did not open its DevTools port")
+        return self
+
+    def open(self, url: str) -> Page:
+        """A new tab showing ``url``."""
+        from tornado.websocket import websocket_connect
+
+        req = urllib.request.Request(f"http://127.0.0.1:{self.port}/json/new?{url}", method="PUT")
+        with urllib.request.urlopen(req, timeout=10) as resp:
+            target = json.loads(resp.read())
+
+        async def connect() -> Any:
+            return await websocket_connect(target["webSocketDebuggerUrl"], max_message_size=1 << 28)
+
+        ws = self.loop.run_until_complete(connect())
+        page = Page(self, ws)
+        page.call("Page.enable")
+        return page
+
+    def close(self) -> None:
+        if self._proc is not None and self._proc.poll() is None:
+            self._proc.terminate()
+            try:
+                self._proc.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                self._proc.kill()
+        self._tmp.cleanup()
+        self.loop.close()
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()

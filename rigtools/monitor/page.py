@@ -1,0 +1,254 @@
+"""The monitor's page: one Bokeh document per viewer, drawn from the shared :class:`.follow.Snapshot`.
+
+Bokeh draws everything (Dask's dashboard does the same: column data sources refreshed from a
+server-side callback); no JavaScript is written here. Each document is refreshed when the
+server makes a new snapshot (and looks every :data:`REFRESH_MS` itself) and sends only when it
+changed. Values a script reads off the page
+(F1, impacts per period, the newest sample's time) carry element ids: ``mon-f1``, ``mon-ipp``,
+``mon-latest-epoch``, ``mon-status``.
+"""
+
+from __future__ import annotations
+
+import html
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from rigtools.monitor.follow import Snapshot
+
+REFRESH_MS = 1000  # a fallback: new snapshots are pushed
+COLOURS = {"force": "#1f77b4", "active_shroud_accel": "#d62728", "passive_shroud_accel": "#2ca02c"}
+STATUS_COLOURS = {"recording": "#1a7f37", "finished": "#0550ae", "aborted": "#cf222e", "failed": "#cf222e"}
+
+
+def _num(value: Any, fmt: str = ".4g", unit: str = "") -> str:
+    if value is None or (isinstance(value, float) and not np.isfinite(value)):
+        return "–"
+    if isinstance(value, bool):
+        return "yes" if value else "no"
+    return f"{value:{fmt}}" + (f" {unit}" if unit else "")
+
+
+def header_html(s: Snapshot) -> str:
+    colour = STATUS_COLOURS.get(s.status, "#9a6700")
+    point = "" if s.point is None else f" · point {s.point + 1} of {max(s.n_points, s.point + 1)}"
+    fe = "" if s.fe is None else f" · fe {s.fe:g} Hz"
+    epoch = "" if s.latest_epoch is None else f"{s.latest_epoch:.3f}"
+    end = f"<div>{html.escape(s.end)}</div>" if s.end else ""
+    return (
+        f"<div style='font-size:15px'><b>{html.escape(s.path)}</b> · "
+        f"<span id='mon-status' style='color:{colour};font-weight:bold'>{html.escape(s.status_text)}</span>"
+        f"{point}{fe} · newest sample t = <span id='mon-latest-t'>{s.latest_t:.3f}</span> s"
+        f"<span id='mon-latest-epoch' style='display:none'>{epoch}</span>"
+        f" · {html.escape(s.window)}</div>{end}"
+    )
+
+
+def control_html(s: Snapshot) -> str:
+    c = s.control
+    err = c.get("error")
+    rows = [
+        ("target F0", _num(c.get("target"), unit="N"), "mon-target"),
+        ("measured F1", _num(c.get("f1"), ".5g", "N"), "mon-f1"),
+        ("drive", _num(c.get("drive"), ".4g", "V"), "mon-drive"),
+        ("error", "–" if err is None else f"{err * 100:+.2f} %", "mon-error"),
+        ("updates", _num(c.get("updates"), "d"), "mon-updates"),
+        ("settled", _num(c.get("settled")) if c.get("settled") is not None else "not yet", "mon-settled"),
+        ("phase", html.escape(str(c.get("phase") or "–")), "mon-phase"),
+        ("impacts per period", _num(s.impacts_per_period, ".4g"), "mon-ipp"),
+    ]
+    body = "".join(
+        f"<tr><td>{k}</td><td id='{i}' style='text-align:right'><b>{v}</b></td></tr>" for k, v, i in rows
+    )
+    peaks = "".join(_peak_row(p) for p in s.peaks)
+    return (
+        f"<table style='font-size:14px'><tr><th colspan=2>force control</th></tr>{body}</table>"
+        f"<table style='font-size:13px;margin-top:8px'><tr><th>channel</th><th>peak</th><th>warning</th>"
+        f"<th>abort</th><th></th></tr>{peaks}</table>"
+    )
+
+
+def _peak_row(p: dict) -> str:
+    warning, abort, peak = p.get("warning"), p.get("abort"), p["peak"]
+    share = "" if not abort else f"{peak / abort * 100:.0f} % of abort"
+    colour = "#cf222e" if warning and peak >= warning else "inherit"
+    u = html.escape(p["units"])
+    return (
+        f"<tr style='color:{colour}'><td>{html.escape(p['channel'])}</td><td>{peak:.4g} {u}</td>"
+        f"<td>{_num(warning)}</td><td>{_num(abort)}</td><td>{share}</td></tr>"
+    )
+
+
+def points_html(s: Snapshot) -> str:
+    if not s.points:
+        return "<i>no point yet</i>"
+    head = "".join(
+        f"<th>{h}</th>"
+        for h in (
+            "point",
+            "fe (Hz)",
+            "gap (mm)",
+            "F0 (N)",
+            "F1 (N)",
+            "drive (V)",
+            "impacts/period",
+            "settled",
+            "state",
+        )
+    )
+    rows = []
+    for r in s.points:
+        gap = None if r.get("gap") is None else r["gap"] * 1e3
+        cells = (
+            str(r["point"] + 1),
+            _num(r.get("fe")),
+            _num(gap),
+            _num(r.get("target")),
+            _num(r.get("f1"), ".5g"),
+            _num(r.get("drive")),
+            _num(r.get("impacts_per_period"), ".3g"),
+            _num(r.get("settled")),
+            html.escape(r.get("state", "")),
+        )
+        current = " style='background:#fff8c5'" if r["point"] == s.point else ""
+        rows.append(f"<tr{current}>" + "".join(f"<td>{c}</td>" for c in cells) + "</tr>")
+    return f"<table id='mon-points' style='font-size:13px'><tr>{head}</tr>{''.join(rows)}</table>"
+
+
+#: What a study or stepped sine varies, in the order looked for: key, axis label, SI factor.
+SWEPT = (("fe", "fe (Hz)", 1.0), ("target", "F0 (N)", 1.0), ("gap", "gap (mm)", 1e3))
+
+
+def trend_axis(rows: list[dict]) -> tuple[str, str, float]:
+    """The parameter the points vary (frequency, force, gap), else the point number."""
+    for key, label, factor in SWEPT:
+        values = {r.get(key) for r in rows}
+        if len(values) > 1 and None not in values:
+            return key, label, factor
+    return "point", "point", 1.0
+
+
+def build(doc, get_snapshot: Callable[[], Snapshot], stop: Callable[[], str] | None) -> Callable[[], None]:
+    """Lay out the page on ``doc``; returns its ``refresh()``, which redraws it from
+    ``get_snapshot()`` when that changed (the server calls it on every new snapshot; the page
+    also looks every :data:`REFRESH_MS` by itself).
+
+    ``stop`` (None: no stop control) sends a stop request and returns the text to show.
+    """
+    from bokeh.layouts import column, row
+    from bokeh.models import ColumnDataSource, DataRange1d, Range1d
+    from bokeh.models.annotations import LabelSet
+    from bokeh.models.widgets import Button, Div
+    from bokeh.plotting import figure
+
+    names = ("force", "active_shroud_accel", "passive_shroud_accel")
+    header = Div(text="", sizing_mode="stretch_width")
+    control = Div(text="", width=380)
+    points = Div(text="", width=720)
+    trace_src = {c: ColumnDataSource(data={"t": [], "y": []}) for c in names}
+    spec_src = {c: ColumnDataSource(data={"f": [], "a": []}) for c in names}
+    harm_src = ColumnDataSource(data={"f": [], "top": [], "bottom": []})
+    named_src = ColumnDataSource(data={"f": [], "a": [], "text": []})
+    trend_src = ColumnDataSource(data={"x": [], "f1": [], "ipp": []})
+
+    traces = []
+    x_range = DataRange1d()  # shared: the three traces scroll together
+    for c in names:
+        p = figure(
+            height=170,
+            width=820,
+            title=c,
+            x_range=x_range,
+            tools="pan,wheel_zoom,box_zoom,reset",
+        )
+        p.line("t", "y", source=trace_src[c], color=COLOURS[c], line_width=1)
+        p.yaxis.axis_label = c
+        traces.append(p)
+    traces[-1].xaxis.axis_label = "time in point (s)"
+    spectrum = figure(
+        height=300,
+        width=820,
+        y_axis_type="log",
+        title="amplitude spectrum (peak)",
+        tools="pan,wheel_zoom,box_zoom,reset",
+    )
+    spectrum.segment("f", "bottom", "f", "top", source=harm_src, color="#888888", line_dash="dashed")
+    for c in names:
+        spectrum.line("f", "a", source=spec_src[c], color=COLOURS[c], legend_label=c)
+    spectrum.add_layout(
+        LabelSet(x="f", y="a", text="text", source=named_src, text_font_size="11px", y_offset=4)
+    )
+    spectrum.xaxis.axis_label = "frequency (Hz)"
+    spectrum.legend.location = "top_right"
+    freq_range = Range1d(start=0, end=1000)
+    spectrum.x_range = freq_range
+    trend = figure(height=220, width=720, title="points: F1 (N, blue) and impacts per period (red)", tools="")
+    trend.scatter("x", "f1", source=trend_src, color="#1f77b4", size=7)
+    trend.line("x", "f1", source=trend_src, color="#1f77b4")
+    trend.scatter("x", "ipp", source=trend_src, color="#d62728", size=7, marker="square")
+    trend.xaxis.axis_label = "point"
+
+    widgets: list[Any] = [control]
+    if stop is not None:
+        button = Button(label="stop the run (drive ramps to zero)", button_type="danger", width=300)
+        said = Div(text="")
+
+        def on_stop() -> None:
+            said.text = html.escape(stop())
+            button.disabled = True
+
+        button.on_click(on_stop)
+        widgets += [button, said]
+    doc.add_root(
+        column(
+            header,
+            row(column(*traces, spectrum), column(*widgets, points, trend)),
+            sizing_mode="stretch_width",
+        )
+    )
+    doc.title = "rig monitor"
+    seen = {"version": -1}
+
+    def refresh() -> None:
+        s = get_snapshot()
+        if s.version == seen["version"]:
+            return
+        seen["version"] = s.version
+        header.text = header_html(s)
+        control.text = control_html(s)
+        points.text = points_html(s)
+        for c in names:
+            t, y = s.traces.get(c, (np.empty(0), np.empty(0)))
+            trace_src[c].data = {"t": t, "y": y}
+            f, a = s.spectrum.get(c, (np.empty(0), np.empty(0)))
+            keep = a > 0
+            spec_src[c].data = {"f": f[keep], "a": a[keep]}
+        top = max((float(np.max(a)) for _, a in s.spectrum.values() if len(a)), default=1.0)
+        bottom = max(top * 1e-6, 1e-12)
+        harm_src.data = {
+            "f": [f for _, f in s.harmonics],
+            "top": [top] * len(s.harmonics),
+            "bottom": [bottom] * len(s.harmonics),
+        }
+        named_src.data = {
+            "f": [f for _, f, _, _ in s.named],
+            "a": [a for _, _, a, _ in s.named],
+            "text": [f"{k}·fe {a:.3g}" for k, _, a, _ in s.named],
+        }
+        if s.fe:
+            freq_range.end = min(s.fe * (len(s.harmonics) + 1.5), 25_000)
+        rows = [r for r in s.points if r.get("f1") is not None]
+        key, label, factor = trend_axis(rows)
+        xs = [r[key] * factor if key != "point" else r["point"] + 1 for r in rows]
+        trend.xaxis.axis_label = label
+        trend_src.data = {
+            "x": xs,
+            "f1": [r["f1"] for r in rows],
+            "ipp": [r.get("impacts_per_period") for r in rows],
+        }
+
+    refresh()
+    doc.add_periodic_callback(refresh, REFRESH_MS)
+    return refresh

@@ -1,0 +1,257 @@
+"""Serving the monitor: one follower for all viewers, the page, the token, the stop control.
+
+:func:`serve` starts a Bokeh server (tornado) with the page at ``/monitor``. One
+:class:`Hub` thread looks at the recording every :data:`POLL_S` and keeps the latest snapshot;
+every viewer's page reads that snapshot, so several viewers cost one reader.
+
+Access: on the loopback address (default) anyone on this machine may look. Served beyond it
+(``host`` not loopback) every request must carry the random token of the printed address
+(``?token=...``; the page then keeps it in a same-site cookie for its websocket): without it the
+page, the data websocket and so the stop control answer 403. Sessions are signed with a random
+key, so a session id cannot be made up either.
+"""
+
+from __future__ import annotations
+
+import hmac
+import ipaddress
+import secrets
+import socket
+import threading
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from rigtools.monitor.control_files import request_stop
+from rigtools.monitor.follow import Follower, Snapshot
+
+POLL_S = 0.25
+APP_PATH = "/monitor"
+TOKEN_COOKIE = "rig_monitor_token"
+
+
+class Hub:
+    """Polls the recording in a thread; :attr:`snapshot` is the latest view (thread-safe read)."""
+
+    def __init__(self, path: str | Path, poll_s: float = POLL_S) -> None:
+        self.follower = Follower(path)
+        self.poll_s = poll_s
+        self.error = ""
+        self._done = threading.Event()
+        self._thread = threading.Thread(target=self._run, name="monitor-follower", daemon=True)
+        self.finished_at: float | None = None  # when the recording was first seen ended
+        self._viewers: dict[Any, Any] = {}  # document -> its refresh
+        self._lock = threading.Lock()
+
+    def subscribe(self, doc: Any, refresh: Any) -> None:
+        """Call ``refresh`` on ``doc``'s event loop whenever a new snapshot is made."""
+        with self._lock:
+            self._viewers[doc] = refresh
+        doc.on_session_destroyed(lambda _context: self.unsubscribe(doc))
+
+    def unsubscribe(self, doc: Any) -> None:
+        with self._lock:
+            self._viewers.pop(doc, None)
+
+    def _push(self) -> None:
+        with self._lock:
+            viewers = list(self._viewers.items())
+        for doc, refresh in viewers:
+            # the one Bokeh document call safe from another thread
+            doc.add_next_tick_callback(refresh)
+
+    @property
+    def snapshot(self) -> Snapshot:
+        return self.follower.snapshot
+
+    def start(self) -> None:
+        self._thread.start()
+
+    def stop(self) -> None:
+        self._done.set()
+
+    def _run(self) -> None:
+        # the analysis modules load now, not on the first look at a run's first samples
+        import rigtools.analysis.impacts
+        import rigtools.analysis.spectra
+        import rigtools.analyze  # noqa: F401 - imported for the side effect of loading
+
+        while not self._done.is_set():
+            start = time.monotonic()
+            version = self.follower.snapshot.version
+            try:
+                s = self.follower.poll()
+            except Exception as exc:  # noqa: BLE001 - the view must outlive any one bad look; the error is kept
+                from rigtools.errors import one_line
+
+                self.error = one_line(exc)
+            else:
+                if s.status not in ("waiting", "recording") and self.finished_at is None:
+                    self.finished_at = time.monotonic()
+                if s.version != version:
+                    self._push()
+            self._done.wait(max(0.0, self.poll_s - (time.monotonic() - start)))
+
+
+def is_loopback(host: str) -> bool:
+    """True for ``localhost`` and loopback addresses (no token needed there)."""
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
+
+
+def token_ok(handler: Any, token: str) -> bool:
+    """True if the request carries ``token`` (query argument ``token`` or the page's cookie)."""
+    given = handler.get_argument("token", None) or handler.get_cookie(TOKEN_COOKIE) or ""
+    return hmac.compare_digest(given.encode(), token.encode())
+
+
+def _auth_provider(token: str):
+    from bokeh.server.auth_provider import AuthProvider
+    from tornado.web import HTTPError
+
+    class TokenAuth(AuthProvider):
+        """Every request without the token is refused (403)."""
+
+        @property
+        def get_user_async(self):
+            # called in prepare(), before a websocket is upgraded: refused requests get no further
+            async def get_user(handler):
+                if not token_ok(handler, token):
+                    raise HTTPError(403, "this monitor needs the token of its printed address")
+                if handler.get_argument("token", None) and not hasattr(handler, "ws_connection"):
+                    handler.set_cookie(TOKEN_COOKIE, token, httponly=True, samesite="Strict")
+                return "viewer"
+
+            return get_user
+
+        @property
+        def get_login_url(self):
+            def refuse(handler):
+                raise HTTPError(403, "this monitor needs the token of its printed address")
+
+            return refuse
+
+    return TokenAuth()
+
+
+@dataclass
+class Served:
+    """A running monitor: its address (with the token when there is one) and how to stop it."""
+
+    url: str
+    token: str | None
+    hub: Hub
+    server: Any
+
+    def stop(self) -> None:
+        self.hub.stop()
+        self.server.stop()
+        self.server.io_loop.stop()
+
+
+def _origins(host: str, port: int) -> list[str]:
+    names = {host, "localhost", "127.0.0.1"}
+    if host in ("0.0.0.0", "::", ""):
+        names |= {socket.gethostname(), socket.getfqdn()}
+        try:
+            names |= {str(a[4][0]) for a in socket.getaddrinfo(socket.gethostname(), None)}
+        except OSError:
+            pass
+    return sorted(f"{n}:{port}" for n in names if n)
+
+
+def _free_port(host: str) -> int:
+    with socket.socket(socket.AF_INET6 if ":" in host else socket.AF_INET) as probe:
+        probe.bind((host, 0))
+        return int(probe.getsockname()[1])
+
+
+def serve(
+    path: str | Path,
+    *,
+    host: str = "127.0.0.1",
+    port: int = 5006,
+    allow_stop: bool = False,
+    poll_s: float = POLL_S,
+) -> Served:
+    """Start the monitor of recording ``path`` (call ``served.server.io_loop.start()`` to run).
+
+    Parameters
+    ----------
+    host
+        Address to bind: loopback (default) needs no token; any other needs the printed token.
+    port
+        TCP port; 0 picks a free one.
+    allow_stop
+        Show the stop control (it asks the acquiring process to stop, as Ctrl-C does).
+    """
+    from bokeh.application import Application
+    from bokeh.application.handlers.function import FunctionHandler
+    from bokeh.server.server import Server
+
+    from rigtools.monitor import page
+
+    hub = Hub(path, poll_s)
+    token = None if is_loopback(host) else secrets.token_urlsafe(24)
+    recording = Path(path)
+
+    def stop_run() -> str:
+        s = hub.snapshot
+        if s.status != "recording":
+            return f"not stopped: the recording is {s.status}"
+        if not s.accepts_stop:
+            return "not stopped: this run takes no stop requests (start it with rig acquire ... --monitor)"
+        request_stop(recording)
+        return "stop requested: the drive ramps to zero, the recording ends aborted"
+
+    def make(doc) -> None:
+        hub.subscribe(doc, page.build(doc, lambda: hub.snapshot, stop_run if allow_stop else None))
+
+    extra: dict[str, Any] = {"num_procs": 1}
+    if token is not None:
+        extra.update(
+            auth_provider=_auth_provider(token), secret_key=secrets.token_urlsafe(32), sign_sessions=True
+        )
+    apps = {APP_PATH: Application(FunctionHandler(make))}
+    for attempt in range(5 if not port else 1):
+        # a free port may be taken by another process before the server binds it: pick again
+        chosen = port or _free_port(host)
+        try:
+            server = Server(
+                apps, address=host, port=chosen, allow_websocket_origin=_origins(host, chosen), **extra
+            )
+            break
+        except OSError:
+            if port or attempt == 4:
+                raise
+    port = chosen
+    server.start()
+    shown = "127.0.0.1" if host in ("", "0.0.0.0", "::") and token is None else host
+    if host in ("0.0.0.0", "::"):
+        shown = socket.gethostname()
+    url = f"http://{shown}:{port}{APP_PATH}" + (f"?token={token}" if token else "")
+    hub.start()
+    return Served(url, token, hub, server)
+
+
+def run_until_done(served: Served, linger: float | None) -> None:
+    """Serve until Ctrl-C, or until ``linger`` s after the recording ended (None: until Ctrl-C)."""
+    from tornado.ioloop import PeriodicCallback
+
+    def check() -> None:
+        ended = served.hub.finished_at
+        if linger is not None and ended is not None and time.monotonic() - ended >= linger:
+            served.stop()
+
+    watch = PeriodicCallback(check, 500)
+    watch.start()
+    try:
+        served.server.io_loop.start()
+    finally:
+        watch.stop()
+        served.hub.stop()
