@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from rigtools.config import load_rig
+from rigtools.errors import TargetNotReached
 from rigtools.procedures import RigStudy, SineDwell, Status, SteppedSine, detect_jumps
 from rigtools.procedures.frf import FrfTest, quick_check
 from rigtools.recording import check_recording, open_recording
@@ -60,7 +61,8 @@ def test_force_control_at_the_measured_first_resonance(cfg, tmp_path):
     60 Hz) in at most 10 updates (4) without a warning. 15 N is out of reach there on the
     default rig: it needs 6.9 V (2.18 N/V, measured with raised limits in
     test_force_control_reaches_15_n_at_the_first_resonance_with_raised_drive_limits), above the
-    drive warning (4.5 V) -- the controller stops at 0.98 x 4.5 V and names the limit."""
+    drive warning (4.5 V) -- the controller stops at 0.98 x 4.5 V and names the limit, and the
+    run ends failed (TargetNotReached, issue 19) with the point kept."""
     FrfTest(
         cfg,
         {"signal": "chirp", "band": (20.0, 200.0), "level": 0.2, "frame": 1.0, "averages": 3, "gap": WIDE},
@@ -83,14 +85,17 @@ def test_force_control_at_the_measured_first_resonance(cfg, tmp_path):
     assert p["force_amplitude_measured"] == pytest.approx(2.0, rel=0.01)
     assert p["control_updates"] <= 10 and p["settled"] and p["safety_warnings"] == 0
     assert p["force_amplitude_measured"] / p["drive_amplitude"] < 3.0  # force drop-out
-    high = SineDwell(
-        cfg,
-        {"fe": f1, "force": 15.0, "gap": WIDE, "record_periods": 6},
-        tmp_path / "h.h5",
-        backend="sim",
-        seed=1,
-    ).run()
-    q = high.points[0]
+    with pytest.raises(TargetNotReached, match="15 N cannot be reached"):
+        SineDwell(
+            cfg,
+            {"fe": f1, "force": 15.0, "gap": WIDE, "record_periods": 6},
+            tmp_path / "h.h5",
+            backend="sim",
+            seed=1,
+        ).run()
+    with open_recording(tmp_path / "h.h5") as rec:
+        assert rec.attrs["end_status"] == "failed"
+        q = rec.points[0].params
     assert q["control_limited_by"] == "drive warning" and q["safety_warnings"] == 0
     assert q["drive_amplitude"] <= 0.98 * 4.5 + 1e-9 and not q["settled"]
 

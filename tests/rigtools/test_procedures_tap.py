@@ -179,7 +179,7 @@ def test_the_rig_files_hammer_channel_is_used_and_checked(cfg, tmp_path):
     path.write_text(tomli_w.dumps(data))
     rig = load_rig(path)
     out = tmp_path / "h.h5"
-    r = TapTest(rig, {"position": 0.085, "hits": 1, "gap": WIDE}, out, backend="sim", seed=1).run()
+    r = TapTest(rig, {"position": 0.085, "hits": 2, "gap": WIDE}, out, backend="sim", seed=1).run()
     assert r.status is Status.FINISHED
     with open_recording(out) as rec:
         ch = rec.points[0].channels["hammer"]
@@ -189,17 +189,17 @@ def test_the_rig_files_hammer_channel_is_used_and_checked(cfg, tmp_path):
     data["daq"]["channels"]["hammer"]["range"] = "4900 m/s^2"
     path.write_text(tomli_w.dumps(data))
     with pytest.raises(UserError, match=r"is kind 'accel': the hammer channel must be kind = \"force\""):
-        TapTest(load_rig(path), {"position": 0.085, "hits": 1}, tmp_path / "x.h5", backend="sim").run()
+        TapTest(load_rig(path), {"position": 0.085, "hits": 2}, tmp_path / "x.h5", backend="sim").run()
     short = TapTest(
         cfg,
-        {"position": 0.085, "hits": 1, "frame": 0.5, "timeout": 2.5, "gap": WIDE},
+        {"position": 0.085, "hits": 2, "frame": 0.5, "timeout": 2.5, "gap": WIDE},
         tmp_path / "s.h5",
         backend="sim",
         seed=1,
     )
     with pytest.raises(
         UserError,
-        match=r"no accepted hit over 5 N on hammer within 2.5 s \(0 of 1 hits "
+        match=r"no accepted hit over 5 N on hammer within 2.5 s \(0 of 2 hits "
         r"accepted, \d rejected: the response has not decayed",
     ):
         short.run()
