@@ -392,6 +392,9 @@ def lscf_stabilisation(
 
     f = np.asarray(frequency_hz, dtype=float)
     h = np.atleast_2d(np.asarray(h, dtype=complex))
+    # LSCF leaves out the bins below f_min, but sdypy-EMA transforms the whole FRF first: a
+    # receptance or mobility has nan at 0 Hz (divided by i w) and would make every pole nan
+    h = np.where((f < f_min) & ~np.isfinite(h), 0.0, h)
     model = EMA.Model(frf=h, freq=f, lower=f_min, upper=f_max, pol_order_high=int(max_order), frf_form=kind)
     model.get_poles(method="lscf", show_progress=False)
     orders, fr, xi, stable = [], [], [], []

@@ -7,7 +7,7 @@ from _reference import K, M, periodic_response, receptance
 from _reference import modes as exact_modes
 from scipy import linalg
 
-from rigtools.analysis.frf import estimate_frf, excitation_settings
+from rigtools.analysis.frf import convert_frf, estimate_frf, excitation_settings
 from rigtools.analysis.modal_id import excitation_support, identify, identify_modes
 
 FS = 512.0
@@ -36,6 +36,20 @@ def test_lscf_exact_frf_gives_exact_poles_and_mass_normalised_constants():
     assert res.notes == []
     # the chart holds the stable poles of both modes at many orders
     assert res.chart.stable.sum() > 20
+
+
+@pytest.mark.parametrize("kind", ["receptance", "mobility"])
+def test_lscf_of_a_converted_frf_with_nan_at_0_hz(kind):
+    """An accelerance converted to receptance or mobility is nan at 0 Hz (divided by i w); LSCF
+    leaves that bin out (below f_min) and finds the exact poles (to 1e-6) as from accelerance
+    (`rig analyze FRF.h5 --kind receptance` ended in a LinAlgError traceback)."""
+    f = np.arange(0, 256.001, 0.25)
+    h = convert_frf(-((2 * np.pi * f) ** 2) * receptance(f, 1), f, "accelerance", kind)
+    assert np.isnan(h[0]) and np.all(np.isfinite(h[1:]))
+    res = identify(f, h, kind=kind, f_min=10, f_max=250)
+    fn, zeta = exact_modes()
+    np.testing.assert_allclose([m.frequency_hz for m in res.modes], fn, rtol=1e-6)
+    np.testing.assert_allclose([m.damping_ratio for m in res.modes], zeta, rtol=1e-5)
 
 
 @pytest.mark.parametrize("method", ["lscf", "peak"])
