@@ -57,7 +57,7 @@ examples:
   rig study gap --values "0.3 mm:0.9 mm:0.1 mm" --out gap.h5
   rig study map --gap "0.3 mm,0.5 mm" --force "10 N,15 N" --fe "58 Hz,60 Hz" --from-rest --workers 2 --out map.h5
   rig study force --values "5 N,10 N,15 N,20 N,25 N" --out force.h5
-  rig study frequency --values "60 Hz:80 Hz:1 Hz" --direction both --out sweep.h5
+  rig study frequency --values "60 Hz:80 Hz:1 Hz" --direction both --out frequency.h5
 """
 
 KINDS = ("gap", "force", "frequency", "map")

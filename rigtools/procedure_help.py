@@ -159,7 +159,7 @@ PROCEDURE_OPTIONS: tuple[tuple[tuple[str, ...], tuple[str, ...], dict], ...] = (
 
 EPILOGS = {
     "dwell": """examples:
-  rig acquire dwell --backend sim --fe 60 --force "15 N" --gap "0.5 mm" --out d.h5
+  rig acquire dwell --backend sim --fe 60 --force "15 N" --gap "0.5 mm" --out dwell.h5
   rig acquire dwell --backend sim --fe 60 --force "15 N" --gap "0.5 mm" --out d.h5 --json
   rig acquire dwell --rig lab.toml --fe 60 --force "15 N" --out dwell.h5
 
@@ -169,14 +169,14 @@ EPILOGS = {
 """,
     "sweep": """examples:
   rig acquire sweep --backend sim --frequencies "340 Hz:380 Hz:2 Hz" --force "2 N" --gap "5 mm" --out s.h5
-  rig acquire sweep --backend sim --frequencies "55 Hz:80 Hz:1 Hz" --force "15 N" --gap "0.7 mm" --direction both --out j.h5
+  rig acquire sweep --backend sim --frequencies "55 Hz:80 Hz:1 Hz" --force "15 N" --gap "0.7 mm" --direction both --out sweep.h5
 
 Jumps: neighbouring steps whose response fundamental differs by more than --jump-threshold
 (relative), reported per direction with the frequencies between which they happen.
 """,
     "study": """examples:
-  rig acquire study gap --backend sim --values "0.3 mm:0.9 mm:0.2 mm" --force "15 N" --fe 60 --out s.h5 --yes
-  rig acquire study gap --backend sim --values "0.3 mm:0.9 mm:0.2 mm" --force "15 N" --fe 60 --out s.h5 --resume
+  rig acquire study gap --backend sim --values "0.3 mm:0.9 mm:0.2 mm" --force "15 N" --fe 60 --out study.h5 --yes
+  rig acquire study gap --backend sim --values "0.3 mm:0.9 mm:0.2 mm" --force "15 N" --fe 60 --out study.h5 --resume
   rig acquire study force --backend sim --values "5 N,10 N,15 N" --gap "0.7 mm" --fe 60 --out f.h5
 
 The plan (values, order, up/down) is the model study's (rigtools.sim.studies.StudyPlan). On the NI rig
@@ -185,7 +185,7 @@ the gap is set by hand: the drive ramps to zero and the command waits for the op
 point (a point cut off is dropped and run again; none is repeated or lost).
 """,
     "frf": """examples:
-  rig acquire frf --backend sim --signal chirp --band "20 Hz:500 Hz" --level "0.3 V" --frame "0.5 s" --averages 10 --out f.h5
+  rig acquire frf --backend sim --signal chirp --band "20 Hz:500 Hz" --level "0.3 V" --frame "0.5 s" --averages 10 --out chirp.h5
   rig acquire frf --backend sim --signal burst --band "20 Hz:2 kHz" --level "0.3 V" --out b.h5
 
 Recorded raw (drive and inputs); the command prints H1 (response/force) peaks in the band and
@@ -193,7 +193,7 @@ their coherence over the averaged frames as a quick check. --level is the chirp'
 burst's rms, V.
 """,
     "tap": """examples:
-  rig acquire tap --backend sim --blade passive --position "85 mm" --hits 5 --gap "5 mm" --out t.h5
+  rig acquire tap --backend sim --blade passive --position "85 mm" --hits 5 --gap "5 mm" --out tap.h5
   rig acquire tap --rig lab.toml --blade passive --position "85 mm" --hits 5 --out tap.h5
 
 An impact-hammer test of one blade (the passive blade has no shaker). The hammer's force is its

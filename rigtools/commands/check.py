@@ -22,8 +22,8 @@ Exit status: 0 valid (notes such as "incomplete: status is 'recording'" may be p
 newer rigtools (schema_version above the one this version reads: upgrade rigtools).
 
 examples:
-  rig check recordings/run.h5
-  rig check --json recordings/run.h5
+  rig check run.h5
+  rig check --json run.h5
 """
 
 

@@ -34,11 +34,11 @@ DIR/EMSTEM.compare-*.png; never over a recording or a file rigtools did not writ
 Exit status: 0 compared, 2 bad input (files, options, nothing to pair), 130 Ctrl-C.
 
 examples:
-  rig compare em.h5 --simulate                       # FEM driven by the measured force
-  rig compare em.h5 --simulate --excitation nominal --model am
-  rig compare em.h5 fem.h5 --frf frf.h5 --out figs/
-  rig compare em.h5 --simulate --json > cmp.json     # scores, tables, explanations
-  rig compare em.h5 --simulate --workers 2           # model points on 2 local processes
+  rig compare dwell.h5 --simulate                       # FEM driven by the measured force
+  rig compare dwell.h5 --simulate --excitation nominal --model am
+  rig compare dwell.h5 fem.h5 --frf frf.h5 --out figs/
+  rig compare dwell.h5 --simulate --json > cmp.json     # scores, tables, explanations
+  rig compare dwell.h5 --simulate --workers 2           # model points on 2 local processes
 """
 
 

@@ -29,9 +29,8 @@ The demo is deterministic: the simulated rig's noise and the FRF excitation come
 Exit status: 0 done (whatever the findings), 2 bad input (--out), 4 a write error, 130 Ctrl-C.
 
 examples:
-  rig demo --quick
-  rig demo --out demo-run
-  rig demo --quick --out /tmp/demo --json
+  rig demo                                   # the full demo into rig-demo/ (55 s)
+  rig demo --quick --out demo-run --json     # reduced resolution (20 s), findings as JSON
 """
 
 

@@ -19,7 +19,7 @@ stored in the file. Channel names keep letters, digits, _ . - ("Dev1/ai0" -> "De
 
 examples:
   rig import tdms log.tdms log.h5
-  rig import tdms log.tdms log.h5 --rename "Dev1/ai0=force,Dev1/ai1=active_shroud_accel" --rig lab.toml
+  rig import tdms log.tdms log.h5 --rename "Dev1/ai0=force,Dev1/ai1=active_shroud_accel" --rig lab.toml --overwrite
 
 Exit status: 0 written, 2 bad input (not a TDMS file, no units or timing, existing OUT).
 """

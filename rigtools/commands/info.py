@@ -13,8 +13,8 @@ units, sample rate, sensor) and one row per point with its parameters, samples a
 A point shown "incomplete" was cut off (writer killed or a write error): do not count it.
 
 examples:
-  rig info recordings/run.h5
-  rig info --json recordings/run.h5 | python -m json.tool
+  rig info run.h5
+  rig info --json run.h5 | python -m json.tool
 """
 
 

@@ -19,7 +19,7 @@ Exit status: 0 listed, 2 bad input (options, rig file), 130 Ctrl-C.
 
 examples:
   rig modal                        # the calibrated default rig
-  rig modal --rig my_rig.toml --modes 10
+  rig modal --rig lab.toml --modes 10
   rig modal --json > modes.json    # {"fem": {"active": [...], "passive": [...]}, "am": {...}}
 """
 

@@ -53,7 +53,7 @@ Exit status: 0 written, 2 bad input (options, rig file, --out), 130 Ctrl-C, 143 
 
 examples:
   rig simulate --out run.h5
-  rig simulate --fe 60 --force 15 --gap "0.5 mm" --duration 1 --out run.h5 --json
+  rig simulate --fe 60 --force 15 --gap "0.5 mm" --duration 1 --out fem.h5 --json
   rig simulate --model am --gap "0.7 mm" --out am.h5 --overwrite
 """
 

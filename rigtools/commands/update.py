@@ -41,7 +41,7 @@ examples:
   rig acquire frf --backend sim --band "20 Hz:2 kHz" --level "0.3 V" --out frf.h5
   rig update frf.h5 --out updated.toml
   rig update frf.h5 tap.h5 --params root.rotational_stiffness,shroud.mass,damping.ratio --out u.toml
-  rig update frf.h5 --contact dwell.h5 --out updated.toml --json
+  rig update frf.h5 --contact dwell.h5 --out contact.toml --json
   rig modal --rig updated.toml
 """
 
