@@ -19,9 +19,9 @@ run (started with rig acquire ... --monitor) ramps the drive to zero and ends ab
 "stopped from the monitor". Ctrl-C ends the monitor, never the run.
 
 examples:
-  rig monitor recordings/run.h5
+  rig monitor run.h5
   rig monitor run.h5 --host 0.0.0.0 --port 5006 --allow-stop
-  rig acquire dwell --backend sim --pace --fe 60 --force "15 N" --out d.h5 --monitor
+  rig acquire dwell --backend sim --pace --fe 60 --force "15 N" --out live.h5 --monitor
 """
 
 

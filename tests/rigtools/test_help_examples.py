@@ -8,8 +8,12 @@ import json
 import os
 import re
 import shlex
+import signal
 import subprocess
 import sys
+import threading
+import urllib.parse
+import urllib.request
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -98,6 +102,7 @@ ORDER = (
     "analyze",
     "info",
     "check",
+    "monitor",
     "export",
     "import",
     "compare",
@@ -164,6 +169,30 @@ def test_every_command_shows_examples():
     assert by_procedure == {"dwell", "sweep", "study", "frf", "tap"}
 
 
+def _monitor(args: list[str], folder: Path) -> tuple[int, str, str]:
+    """``rig monitor ...`` serves until Ctrl-C: run it in its own process, load the page at the
+    address it prints (through loopback), then press Ctrl-C. Returns (exit status, the page's HTTP
+    status, stderr)."""
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
+    cmd = [sys.executable, "-m", "rigtools.cli", *args]
+    server = subprocess.Popen(
+        cmd, cwd=folder, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
+    timer = threading.Timer(60, server.kill)
+    timer.start()
+    try:
+        url = urllib.parse.urlsplit(server.stdout.readline().strip())
+        page = url._replace(netloc=f"127.0.0.1:{url.port}").geturl() if url.port else ""
+        with urllib.request.urlopen(page, timeout=20) as response:
+            status = str(response.status)
+        server.send_signal(signal.SIGINT)
+        _, err = server.communicate(timeout=30)
+    finally:
+        timer.cancel()
+        server.kill()
+    return server.wait(), status, err
+
+
 class _Runner:
     """Runs the examples in order in one folder, each once, in this process (``> FILE`` writes
     the captured output to FILE): asking for example i runs every earlier one first, so a test
@@ -178,6 +207,9 @@ class _Runner:
         for j in range(i + 1):
             args, redirect, _ = _shell(EXAMPLES[j])
             if j in self.done or _full_demo(args) or (self.ni and _on_hardware(args)):
+                continue
+            if args[0] == "monitor":
+                self.done[j] = _monitor(args, self.folder)
                 continue
             with contextlib.chdir(self.folder):
                 self.done[j] = run_cli(args)
@@ -235,6 +267,9 @@ def test_command_help_example_runs(examples, index):
             [f"rig acquire: error: {NOT_SUPPORTED_MESSAGE}"],
         )
         assert not (folder / PARSER.parse_args(args).out).exists()
+        return
+    if args[0] == "monitor":  # served the page; Ctrl-C ended it with status 0
+        assert (code, out) == (0, "200"), err
         return
     if args[0] == "devices" and args[1:] != ["--visa-backend", "simulated"]:
         # exit 3 when nothing can be listed (no NI driver, no VISA library here): each backend's
