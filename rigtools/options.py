@@ -389,3 +389,16 @@ def check_out(
     return output_path(
         args.out, getattr(args, "overwrite", False), "--out", suffixes=suffixes, inputs=sources
     )
+
+
+def band_option(text: str, option: str = "--band") -> tuple[float, float]:
+    """``"100 Hz:4 kHz"`` (a plain number is Hz) as ``(100.0, 4000.0)``: the one ``LOW:HIGH`` band
+    grammar of every command (``rig analyze``, ``rig acquire frf``, ``rig update``); one line naming
+    the option when it is not two increasing non-negative frequencies."""
+    parts = [t.strip() for t in str(text).split(":")]
+    if len(parts) != 2 or not all(parts):
+        raise UserError(f'{option} = {text!r}: write LOW:HIGH, e.g. "100 Hz:4 kHz"')
+    lo, hi = (quantity(p, "frequency", option) for p in parts)
+    if not (0 <= lo < hi and math.isfinite(hi)):
+        raise UserError(f"{option} = {text!r}: need 0 <= LOW < HIGH")
+    return lo, hi
