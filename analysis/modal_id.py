@@ -476,14 +476,15 @@ def lscf_stabilisation(
 
 
 def _stable_clusters(chart: StabilisationChart, freq_tol: float, min_stable: int) -> list[np.ndarray]:
-    """Groups of stable poles within ``2 freq_tol`` of each other in frequency, with at least
-    ``min_stable`` members at distinct orders."""
+    """Groups of stable poles: sorted by frequency, a new group starts where the gap to the next
+    stable pole exceeds ``freq_tol`` (relative); a group counts with poles at ``min_stable`` or
+    more distinct orders."""
     idx = np.flatnonzero(chart.stable)
     idx = idx[np.argsort(chart.frequency_hz[idx])]
     clusters: list[np.ndarray] = []
     current: list[int] = []
     for i in idx:
-        if current and chart.frequency_hz[i] > chart.frequency_hz[current[0]] * (1 + 2 * freq_tol):
+        if current and chart.frequency_hz[i] > chart.frequency_hz[current[-1]] * (1 + freq_tol):
             clusters.append(np.array(current))
             current = []
         current.append(int(i))
@@ -612,7 +613,7 @@ def identify(
        :func:`excitation_support`. A dwell or other narrow-band force returns no mode and a note.
     3. **Candidates**. ``method="lscf"``: poles of sdypy-EMA's LSCF at orders 2..2*max_order;
        a pole is *stable* when the previous order has one within ``freq_tol`` in frequency and
-       ``damping_tol`` in damping; a candidate is a group of stable poles (within 2 ``freq_tol``)
+       ``damping_tol`` in damping; a candidate is a group of stable poles (no gap over ``freq_tol``)
        at ``min_stable`` or more orders; its frequency and damping are those of its pole at the
        highest order (the spreads over the group are its evidence).
        LSFD (sdypy-EMA) gives the modal constants of the modes kept. ``method="peak"``:

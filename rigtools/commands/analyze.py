@@ -71,8 +71,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--channels", metavar="A,B", help="analyse only these channels (the force is kept)")
     p.add_argument(
         "--band",
-        metavar="LO,HI",
-        help='modal identification band, e.g. "100 Hz,4 kHz" (default: the procedure\'s band, else '
+        metavar="LOW:HIGH",
+        help='modal identification band, e.g. "100 Hz:4 kHz" (default: the procedure\'s band, else '
         "where the force spectrum has energy)",
     )
     p.add_argument(

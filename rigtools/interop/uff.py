@@ -88,6 +88,7 @@ class UffFunction:
     x: np.ndarray
     data: np.ndarray
     units_label: str
+    date: str = ""
 
     def dataset(self) -> dict:
         """The pyuff dataset dict (every field of dataset 58 filled in)."""
@@ -108,7 +109,7 @@ class UffFunction:
             "id1": self.description[:80],
             "id2": "shrouded-blade-rig export",
             "id3": "",
-            "id4": "",
+            "id4": self.date[:80],
             "id5": "",
             "func_type": self.func_type,
             "ver_num": 0,
@@ -191,27 +192,12 @@ def write_uff(path: str | Path, functions: list[UffFunction]) -> int:
 WHAT = ("time", "spectra", "frf")
 
 
-def check_resolution(recording, what: tuple[str, ...], resolution_hz: float, text: object) -> None:
-    """Refuse (one line naming ``--resolution``) an FRF resolution no point can give: coarser
-    than an eighth of the sample rate (a segment of fewer than 8 samples)."""
-    from rigtools.errors import UserError
-
-    if "frf" not in what:
-        return
-    rates = [p.sample_rate for p in recording.points if p.sample_rate]
-    if rates and all(round(r / resolution_hz) < 8 for r in rates):
-        raise UserError(
-            f"--resolution = {text!r}: at {max(rates):g} samples/s an FRF resolution must be at most "
-            f"{max(rates) / 8:g} Hz"
-        )
-
-
 def recording_functions(
     recording,
     what: tuple[str, ...] = WHAT,
     *,
-    frf_resolution_hz: float = 1.0,
-    reference: str = "force",
+    frf_options=None,
+    reference: str | None = None,
     complete_only: bool = False,
 ) -> list[UffFunction]:
     """The UFF functions of an open recording.
@@ -221,23 +207,31 @@ def recording_functions(
     recording
         An open :class:`rigtools.recording.reader.Recording`.
     what
-        Any of ``"time"`` (every channel of every point), ``"spectra"`` (auto spectra, RMS² per
-        bin: half the square of the flattop peak-amplitude spectrum of
-        :func:`rigtools.analysis.spectra.amplitude_spectrum`, so a sine of amplitude A reads A²/2) and ``"frf"`` (H1 of every
-        other measured channel over ``reference`` with its coherence, Welch averaging with a Hann
-        window at ``frf_resolution_hz``; only for points with a ``reference`` channel and at least
-        two averages).
-    frf_resolution_hz
-        Frequency resolution of the FRFs, Hz.
+        Any of ``"frf"`` (H1 of every response over the force with its coherence: the very
+        estimate ``rig analyze`` reports, :func:`rigtools.analyze.point_frf_estimate`, for the
+        points it treats as broadband), ``"time"`` (every channel of every point) and
+        ``"spectra"`` (auto spectra, RMS² per bin: half the square of the flattop
+        peak-amplitude spectrum of :func:`rigtools.analysis.spectra.amplitude_spectrum`, so a
+        sine of amplitude A reads A²/2). FRFs come first in the file, so a reader that takes
+        the FRF kind from the first record (sdypy-EMA) reads them right.
+    frf_options
+        :class:`rigtools.analyze.FRFOptions` (estimate overrides), as ``rig analyze`` takes them.
     reference
-        The excitation channel of the FRFs.
+        The excitation channel of the FRFs (default: the recording's force channel).
     complete_only
         Leave out points that did not end (a run cut off mid-point): never exported as data.
-    """
-    from rigtools.analysis.frf import estimate_frf
-    from rigtools.analysis.spectra import amplitude_spectrum
 
-    functions: list[UffFunction] = []
+    Time records and spectra carry reference node 0 (they have no reference). ID line 4 holds
+    the recording's date (``DD-MMM-YY HH:MM:SS``, UTC).
+    """
+    from rigtools.analysis.spectra import amplitude_spectrum
+    from rigtools.analyze import PROCEDURE_FRF, point_frf_estimate
+
+    procedure = str((recording.experiment or {}).get("procedure", ""))
+    date = uff_date(getattr(recording, "created", ""))
+    frfs: list[UffFunction] = []
+    others: list[UffFunction] = []
+    none = ("", 0)
     for point in recording.points:
         if complete_only and not point.complete:
             continue
@@ -250,71 +244,103 @@ def recording_functions(
             ch = point.channels[name]
             where = (name, node_of(name, order))
             if "time" in what:
-                functions.append(
+                others.append(
                     UffFunction(
                         FUNC_TIME,
                         f"{label} {name} time record",
                         where,
-                        where,
+                        none,
                         ch.quantity,
-                        ch.quantity,
+                        "",
                         ch.t0 + np.arange(n) / ch.sample_rate,
                         ch[:n],
                         ch.units,
+                        date,
                     )
                 )
             if "spectra" in what:
                 f, amp = amplitude_spectrum(ch[:n], ch.sample_rate)
-                functions.append(
+                others.append(
                     UffFunction(
                         FUNC_AUTO_SPECTRUM,
                         f"{label} {name} auto spectrum, RMS^2 per bin (flattop)",
                         where,
-                        where,
+                        none,
                         ch.quantity,
-                        ch.quantity,
+                        "",
                         f,
                         amp**2 / 2,
                         f"({ch.units})^2",
+                        date,
                     )
                 )
-        if "frf" in what and reference in point.channels:
-            ref = point.channels[reference]
-            nperseg = round(ref.sample_rate / frf_resolution_hz)
-            if nperseg < 8 or n < 2 * nperseg:
-                continue
-            x = ref[:n]
-            ref_where = (reference, node_of(reference, names.index(reference)))
-            for order, name in enumerate(names):
+        broadband = point.sample_rate is not None and ("fe" not in point.params or procedure in PROCEDURE_FRF)
+        if "frf" in what and broadband:
+            if reference is not None and reference in point.channels:
+                point = _with_force(point, reference)
+            est, resp, force, method, _ = point_frf_estimate(point, options=frf_options)
+            ref = point.channels[force]
+            ref_where = (
+                force,
+                node_of("force", 0) if force == "force" else node_of(force, names.index(force)),
+            )
+            for i, name in enumerate(resp):
                 ch = point.channels[name]
-                if name == reference or name == "drive" or ch.quantity == "voltage":
-                    continue
-                est = estimate_frf(x, ch[:n], ch.sample_rate, nperseg=nperseg)
-                where = (name, node_of(name, order))
-                functions.append(
+                where = (name, node_of(name, names.index(name)))
+                text = method.describe(float(point.sample_rate))
+                frfs.append(
                     UffFunction(
                         FUNC_FRF,
-                        f"{label} H1 {name}/{reference}",
+                        f"{label} H1 {name}/{force}; {text}",
                         where,
                         ref_where,
                         ch.quantity,
                         ref.quantity,
                         est.frequency_hz,
-                        est.h1,
+                        est.h1[i],
                         f"{ch.units}/{ref.units}",
+                        date,
                     )
                 )
-                functions.append(
-                    UffFunction(
-                        FUNC_COHERENCE,
-                        f"{label} coherence {name}/{reference}",
-                        where,
-                        ref_where,
-                        ch.quantity,
-                        ref.quantity,
-                        est.frequency_hz,
-                        est.coherence,
-                        "-",
+                if est.n_averages > 1:
+                    frfs.append(
+                        UffFunction(
+                            FUNC_COHERENCE,
+                            f"{label} coherence {name}/{force}",
+                            where,
+                            ref_where,
+                            "coherence",
+                            "",
+                            est.frequency_hz,
+                            est.coherence[i],
+                            "-",
+                            date,
+                        )
                     )
-                )
-    return functions
+    return frfs + others
+
+
+def uff_date(created: str) -> str:
+    """ISO time (``2024-05-01T12:00:00+00:00``) as UFF's ``01-May-24 12:00:00``; empty if unreadable."""
+    from datetime import datetime
+
+    try:
+        return datetime.fromisoformat(str(created)).strftime("%d-%b-%y %H:%M:%S")
+    except ValueError:
+        return ""
+
+
+class _ForceNamed:
+    """A point view whose force channel is ``name`` (``--reference``): the other force-quantity
+    channels are left out of it."""
+
+    def __init__(self, point, name: str) -> None:
+        self._point = point
+        self.channels = {c: ch for c, ch in point.channels.items() if c == name or ch.quantity != "force"}
+
+    def __getattr__(self, attr):
+        return getattr(self._point, attr)
+
+
+def _with_force(point, name: str):
+    return _ForceNamed(point, name)
