@@ -39,7 +39,7 @@ as :func:`scipy.signal.csd` / :func:`scipy.signal.welch` with the same settings 
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from typing import Literal
 
 import numpy as np
@@ -578,7 +578,9 @@ def find_hits(
     f = np.abs(np.asarray(force, dtype=float))
     if f.size == 0 or not np.any(f > 0):
         return np.array([], dtype=int)
-    peaks, _ = find_peaks(f, height=threshold * float(f.max()), distance=max(1, int(min_spacing_s * sample_rate)))
+    peaks, _ = find_peaks(
+        f, height=threshold * float(f.max()), distance=max(1, int(min_spacing_s * sample_rate))
+    )
     # a peak at sample 0 is not found by find_peaks; a triggered frame may start on the hit
     if f[0] >= threshold * float(f.max()) and (peaks.size == 0 or peaks[0] > min_spacing_s * sample_rate):
         peaks = np.concatenate([[0], peaks])
@@ -593,7 +595,7 @@ def is_impact(force: np.ndarray, sample_rate: float, hits: np.ndarray | None = N
     hits = find_hits(x, sample_rate) if hits is None else hits
     if hits.size == 0:
         return False
-    width = max(1, int(round(0.005 * sample_rate)))
+    width = max(1, round(0.005 * sample_rate))
     pre = max(1, width // 5)
     near = np.zeros(x.size, bool)
     for h in hits:
@@ -618,7 +620,7 @@ def impact_method(
     hits = find_hits(x - np.median(x), sample_rate)
     if hits.size == 0:
         raise ValueError("no hit found in the force")
-    pre = int(round(pretrigger_s * sample_rate))
+    pre = round(pretrigger_s * sample_rate)
     if hits.size > 1:
         pre = min(pre, int(np.min(np.diff(hits))) // 20)
     pre = min(pre, int(hits[0]))

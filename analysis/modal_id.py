@@ -493,7 +493,9 @@ def _stable_clusters(chart: StabilisationChart, freq_tol: float, min_stable: int
     return [c for c in clusters if np.unique(chart.orders[c]).size >= min_stable]
 
 
-def _peaks(f: np.ndarray, h: np.ndarray, f_lo: float, f_hi: float, min_db: float) -> tuple[np.ndarray, np.ndarray]:
+def _peaks(
+    f: np.ndarray, h: np.ndarray, f_lo: float, f_hi: float, min_db: float
+) -> tuple[np.ndarray, np.ndarray]:
     """Indices and prominences (dB) of the local maxima of ``|h|`` in the band."""
     mag_db = 20.0 * np.log10(np.maximum(np.abs(h), np.finfo(float).tiny))
     band = np.flatnonzero((f >= f_lo) & (f <= f_hi) & np.isfinite(mag_db))
@@ -503,9 +505,7 @@ def _peaks(f: np.ndarray, h: np.ndarray, f_lo: float, f_hi: float, min_db: float
     return band[idx], np.asarray(props["prominences"])
 
 
-def _explained_peak(
-    f: np.ndarray, peaks: np.ndarray, prom: np.ndarray, fn: float, zeta: float
-) -> int | None:
+def _explained_peak(f: np.ndarray, peaks: np.ndarray, prom: np.ndarray, fn: float, zeta: float) -> int | None:
     """Position in ``peaks`` of the peak a mode at ``fn`` explains: the most prominent peak within
     its half-power band (at least two bins either side), else None."""
     df = float(f[1] - f[0])
@@ -546,7 +546,10 @@ def _judge(
             drop(m, f"damping out of bounds: {m.damping_ratio:.3g} not in (0, {max_damping:g}]")
             continue
         if m.frequency_spread > max_frequency_spread:
-            drop(m, f"frequency not steady: {m.frequency_spread:.2%} over the orders (> {max_frequency_spread:.2%})")
+            drop(
+                m,
+                f"frequency not steady: {m.frequency_spread:.2%} over the orders (> {max_frequency_spread:.2%})",
+            )
             continue
         j = _explained_peak(f, peaks, prom, m.frequency_hz, m.damping_ratio)
         if j is None:
@@ -724,7 +727,13 @@ def identify(
         keep = sorted(modes, key=key, reverse=True)[:n_modes]
         for m in modes:
             if m not in keep:
-                dropped.append({"frequency_hz": m.frequency_hz, "damping_ratio": m.damping_ratio, "reason": f"beyond n_modes: {n_modes}"})
+                dropped.append(
+                    {
+                        "frequency_hz": m.frequency_hz,
+                        "damping_ratio": m.damping_ratio,
+                        "reason": f"beyond n_modes: {n_modes}",
+                    }
+                )
         modes = sorted(keep, key=lambda m: m.frequency_hz)
     if model is not None and chart is not None and modes:
         modes, rec = _lsfd(model, modes, f, h, f_lo, f_hi)

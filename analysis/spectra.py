@@ -168,6 +168,6 @@ def response_spectra(
         fit = harmonic_amplitudes(x, sample_rate, float(fe), k)
         harmonics = [
             {"k": j + 1, "frequency_hz": (j + 1) * float(fe), "amplitude": float(a), "phase": float(p)}
-            for j, (a, p) in enumerate(zip(fit.amplitude, fit.phase))
+            for j, (a, p) in enumerate(zip(fit.amplitude, fit.phase, strict=True))
         ]
     return ResponseSpectra(f, psd, fa, amp, peaks, harmonics, float(np.sqrt(np.mean((x - x.mean()) ** 2))))

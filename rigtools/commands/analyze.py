@@ -83,7 +83,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--frame-samples", type=int, metavar="N", help="frame length with --excitation")
     p.add_argument("--force-window", type=float, metavar="FRACTION", help="impact: force window length")
     p.add_argument("--exponential", type=float, metavar="END", help="impact: exponential window end value")
-    p.add_argument("--fe", help='excitation frequency whose harmonics a record without force shows, e.g. "50 Hz"')
+    p.add_argument(
+        "--fe", help='excitation frequency whose harmonics a record without force shows, e.g. "50 Hz"'
+    )
     p.add_argument(
         "--compare-fem",
         action="store_true",

@@ -106,7 +106,7 @@ def _check_export_equals_analysis(path, tmp_path):
 
 
 def test_beam_frf_export_equals_analysis_and_pyfrf(beam_file, tmp_path):
-    ana, est = _check_export_equals_analysis(beam_file, tmp_path)
+    _, est = _check_export_equals_analysis(beam_file, tmp_path)
     x, y, rate, method = _frames(beam_file)
     assert method.excitation == "impact" and len(method.frame_starts) == 2
     f, h1, coh = _pyfrf(x, y, rate)
@@ -128,7 +128,9 @@ def _reference_modes(f, h, coh, band, max_order=40):
     pk = pk[coh[pk] >= 0.8]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        model = EMA.Model(frf=h[None], freq=f, lower=lo, upper=hi, pol_order_high=max_order, frf_form="accelerance")
+        model = EMA.Model(
+            frf=h[None], freq=f, lower=lo, upper=hi, pol_order_high=max_order, frf_form="accelerance"
+        )
         model.get_poles(show_progress=False)
         model.select_closest_poles(list(f[pk]))
     keep = np.abs(model.nat_freq - f[pk]) <= 0.005 * f[pk]
@@ -146,7 +148,7 @@ def test_beam_modes_equal_sdypy_ema(beam_file):
     print("band", ident.band, "reference", ref_f, ref_x, "ours", ours, zeta)
     assert ref_f.size >= 3
     assert ours.size == ref_f.size  # no mode the reference does not find in the band
-    for fr, xr in zip(ref_f, ref_x):
+    for fr, xr in zip(ref_f, ref_x, strict=True):
         j = int(np.argmin(np.abs(ours - fr)))
         assert abs(ours[j] - fr) / fr < 1e-3, (fr, ours[j])
         assert abs(zeta[j] - xr) / xr < 0.10, (fr, xr, zeta[j])
