@@ -334,7 +334,12 @@ def record_window(point) -> tuple[int, int]:
 
 
 def force_channel(point) -> str | None:
-    """The force channel: ``force`` (vocabulary), else the only channel of quantity force."""
+    """The force channel: the point's ``reference_channel`` (an import's excitation, found from
+    its quantity or named with ``--reference``), ``force`` (vocabulary), else the only channel
+    of quantity force."""
+    named = point.params.get("reference_channel")
+    if isinstance(named, str) and named in point.channels:
+        return named
     if FORCE in point.channels:
         return FORCE
     forces = [n for n, c in point.channels.items() if c.quantity == "force" and n != "contact_force"]
