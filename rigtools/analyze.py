@@ -826,12 +826,15 @@ def analyze_recording(
     >>> point.kind, point.frf.responses[0]
     ('broadband', 'active_shroud_accel')
     """
+    from rigtools.frf_set import is_frf_set
     from rigtools.recording import RecordingError, open_recording
     from rigtools.vocabulary import source_of
 
     checked_kind = frf_kind(kind)
     if method not in METHODS:
         raise UserError(f"--method {method!r}: use one of {', '.join(METHODS)}")
+    if Path(path).is_file() and is_frf_set(path):
+        return analyze_frf_set(path, kind=kind, method=method, channels=channels, options=options)
     try:
         rec = open_recording(path)
     except RecordingError as exc:
@@ -901,6 +904,82 @@ def analyze_recording(
         out.notes.append("imported recording: not compared with this rig's FEM (ask with --compare-fem)")
     if not out.points and not out.skipped:
         out.notes.append("the recording holds no points")
+    return out
+
+
+def analyze_frf_set(
+    path: str | Path,
+    *,
+    kind: str = "accelerance",
+    method: str = "lscf",
+    channels: Sequence[str] | None = None,
+    options: FRFOptions | None = None,
+) -> RecordingAnalysis:
+    """Modes of the FRFs of an FRF set (:mod:`rigtools.frf_set`, e.g. ``rig import uff``), one
+    broadband point: the identification :func:`analyze_broadband` runs, on the stored FRFs and
+    coherence; the band is ``options.band`` or the whole grid above 0 Hz (an FRF set holds no
+    force spectrum). Never compared with this rig's FEM (it does not describe this rig)."""
+    from rigtools.analysis.frf import FRFEstimate
+    from rigtools.analysis.modal_id import identify
+    from rigtools.analysis.point import FRFTestAnalysis
+    from rigtools.frf_set import read_frf_set
+
+    fs = read_frf_set(path)
+    rows = list(range(len(fs.responses)))
+    if channels:
+        unknown = [c for c in channels if c not in fs.responses and c != fs.reference]
+        if unknown:
+            raise UserError(f"{path}: no FRF of {', '.join(unknown)} (responses: {', '.join(fs.responses)})")
+        rows = [i for i, r in enumerate(fs.responses) if r in channels]
+    f = fs.frequency_hz
+    h = fs.frf[rows]
+    coh = fs.coherence[rows]
+    with_coherence = bool(np.all(np.isfinite(coh)))
+    est = FRFEstimate(
+        f, h, h, coh, 2 if with_coherence else 1, np.full(f.size, np.nan), np.abs(h) * np.nan, h * np.nan
+    ).as_kind(fs.kind, kind)
+    band = (options or FRFOptions()).band
+    responses = [fs.responses[i] for i in rows]
+    modes = {}
+    try:
+        for i, r in enumerate(responses):
+            modes[r] = identify(
+                f,
+                est.h1[i],
+                kind=kind,
+                coherence=est.coherence[i] if with_coherence else None,
+                f_min=band[0] if band else None,
+                f_max=band[1] if band else None,
+                method=method,
+            )
+    except ValueError as exc:
+        raise UserError(f"{path}: {exc}") from None
+    first = next(iter(modes.values()), None)
+    params: dict[str, Any] = {"reference_channel": fs.reference}
+    if first is not None and first.band is not None:
+        params["band_low"], params["band_high"] = first.band
+    notes = [
+        f"FRF set from {fs.source.get('file', '?')} ({fs.kind} as imported); no force spectrum: band "
+        + ("as asked" if band else "the whole grid above 0 Hz (--band narrows it)")
+    ]
+    if not with_coherence:
+        notes.append("no coherence in the FRF set: peaks are not checked against it")
+    for r, m in modes.items():
+        notes.extend(f"{r}: {t}" for t in m.notes)
+    units = {r: {"accelerance": "m/s^2", "mobility": "m/s", "receptance": "m"}[fs.kind] for r in responses}
+    point = PointAnalysis(
+        0,
+        "broadband",
+        params,
+        {fs.reference: "N", **units},
+        2.0 * float(f[-1]),
+        (0, 0),
+        frf=FRFTestAnalysis(responses, est, kind, modes, None),
+        excitation="measured FRF",
+        notes=notes,
+    )
+    out = RecordingAnalysis(str(path), "frf set", "frf set", "em", "complete", kind, [point])
+    out.notes.append("FRF set: not compared with this rig's FEM")
     return out
 
 
