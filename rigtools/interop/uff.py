@@ -399,13 +399,15 @@ def read_uff_sets(source: str | Path) -> list[dict]:
 
 
 def record_name(s: dict) -> str:
-    """The name of a record's response: its entity name, else ``node<N><dir>``."""
+    """The name of a record's response: its entity name, then ``:<node><direction>`` when the
+    node is not 0 (``acc:2+Z``, ``node:2+Z`` without entity name)."""
     name = str(s.get("rsp_ent_name", "")).strip()
     if name.lower() in _NONE:
-        name = f"node{int(s.get('rsp_node', 0))}"
-    direction = int(s.get("rsp_dir", 0))
-    if int(s.get("rsp_node", 0)) and direction:
-        name += f":{'+' if direction > 0 else '-'}{'XYZ'[min(abs(direction), 3) - 1]}"
+        name = "node"
+    node, direction = int(s.get("rsp_node", 0)), int(s.get("rsp_dir", 0))
+    if node:
+        axis = f"{'+' if direction > 0 else '-'}{'XYZ'[min(abs(direction), 3) - 1]}" if direction else ""
+        name += f":{node}{axis}"
     return name
 
 
@@ -504,6 +506,19 @@ def frf_kind_from_data(f: np.ndarray, h: np.ndarray) -> str | None:
     return None
 
 
+def rate_of_increment(inc: float, *, ascii_file: bool) -> float:
+    """The sample rate of an abscissa increment. An ASCII file writes the increment with 6
+    significant digits (``9.76562E-04`` for 1024 Hz): the rate is then the roundest number (whole
+    Hz, then 0.1, 0.01, 0.001 Hz) whose increment rounds to the written one."""
+    rate = 1.0 / inc
+    if ascii_file:
+        for decimals in range(4):
+            candidate = round(rate, decimals)
+            if candidate > 0 and abs(1.0 / candidate - inc) <= 5e-6 * abs(inc):
+                return float(candidate)
+    return rate
+
+
 def import_uff(
     source: str | Path,
     out: str | Path,
@@ -563,7 +578,14 @@ def import_uff(
             fc.si, fc.name, fc.reason = None, "", "complex values in a time record"
         if not fc.kept:
             continue
-        fc.sample_rate = 1.0 / inc
+        fc.sample_rate = rate_of_increment(inc, ascii_file=not s.get("binary", 0))
+        if fc.sample_rate != 1.0 / inc:
+            fc.reason = "; ".join(
+                [
+                    *filter(None, [fc.reason]),
+                    f"rate {fc.sample_rate:g} Hz: 1/increment within its 6 written digits",
+                ]
+            )
         kept.append((fc, fc.samples, fc.sample_rate))
         data.append((np.asarray(s["data"], dtype=float), float(s.get("abscissa_min", 0.0))))
     points = []

@@ -146,15 +146,17 @@ def test_tdms_import_round_trip(tmp_path):
 
 @pytest.mark.parametrize("case", ["not_tdms", "no_units", "no_timing", "bad_units", "exists"])
 def test_malformed_inputs_one_line_exit_2(tmp_path, capsys, case):
+    """Nothing importable (not TDMS, no channel with units or timing) or an existing OUT: one
+    line, exit 2. (One channel without units is skipped, not the file: tests/rigtools/test_imports.py.)"""
     src, out = tmp_path / "in.tdms", tmp_path / "out.h5"
     if case == "not_tdms":
         src.write_bytes(b"this is not a TDMS file at all" * 10)
     elif case == "no_units":
-        _write_tdms(src, units=(None, "N"))
+        _write_tdms(src, units=(None, None))
     elif case == "no_timing":
         _write_tdms(src, increment=None)
     elif case == "bad_units":
-        _write_tdms(src, units=("furlongs", "N"))
+        _write_tdms(src, units=("furlongs", "parsecs"))
     else:
         _write_tdms(src)
         out.write_bytes(b"keep me")
