@@ -298,7 +298,7 @@ def test_uff_time_records_from_pyuff_round_trip(tmp_path):
         "add",
     )
     out = tmp_path / "t.h5"
-    code, stdout, err = _import("uff", src, out)
+    code, _, err = _import("uff", src, out)
     assert code == 0, err
     with open_recording(out) as rec:
         (p,) = rec.points
