@@ -27,7 +27,7 @@ import math
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
@@ -482,7 +482,7 @@ def frf_blocks(point, names: Sequence[str], start: int, n: int, method) -> Itera
             yield {c: np.asarray(point.channels[c][a : a + method.frame_samples], dtype=float) for c in names}
         return
     for b in _blocks(point, names, start, n):
-        yield dict(zip(names, b))
+        yield dict(zip(names, b, strict=True))
 
 
 def analyze_operational(
@@ -919,7 +919,7 @@ def analyze_frf_set(
     broadband point: the identification :func:`analyze_broadband` runs, on the stored FRFs and
     coherence; the band is ``options.band`` or the whole grid above 0 Hz (an FRF set holds no
     force spectrum). Never compared with this rig's FEM (it does not describe this rig)."""
-    from rigtools.analysis.frf import FRFEstimate
+    from rigtools.analysis.frf import FRFEstimate, FRFKind
     from rigtools.analysis.modal_id import identify
     from rigtools.analysis.point import FRFTestAnalysis
     from rigtools.frf_set import read_frf_set
@@ -937,7 +937,7 @@ def analyze_frf_set(
     with_coherence = bool(np.all(np.isfinite(coh)))
     est = FRFEstimate(
         f, h, h, coh, 2 if with_coherence else 1, np.full(f.size, np.nan), np.abs(h) * np.nan, h * np.nan
-    ).as_kind(fs.kind, kind)
+    ).as_kind(cast(FRFKind, fs.kind), cast(FRFKind, kind))
     band = (options or FRFOptions()).band
     responses = [fs.responses[i] for i in rows]
     modes = {}
@@ -946,7 +946,7 @@ def analyze_frf_set(
             modes[r] = identify(
                 f,
                 est.h1[i],
-                kind=kind,
+                kind=cast(FRFKind, kind),
                 coherence=est.coherence[i] if with_coherence else None,
                 f_min=band[0] if band else None,
                 f_max=band[1] if band else None,

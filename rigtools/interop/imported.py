@@ -32,6 +32,15 @@ class ForeignPoint:
     physical: list[str] = field(default_factory=list)
 
 
+def rows_reader(block: np.ndarray) -> Callable[[int, int], np.ndarray]:
+    """``read(start, n)`` of samples held in memory, one row per channel."""
+
+    def read(start: int, n: int) -> np.ndarray:
+        return block[:, start : start + n]
+
+    return read
+
+
 def split_by_timing(items: Sequence[tuple[Any, int, float]]) -> list[list[int]]:
     """Indices of ``(item, samples, rate)`` grouped by equal length and rate, in file order: a
     point holds channels of one length and rate, so channels of unequal length are kept whole in

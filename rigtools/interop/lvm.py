@@ -25,7 +25,7 @@ import numpy as np
 
 from rigtools.errors import UserError
 from rigtools.interop.channels import ForeignChannel, check_known, check_names, resolve
-from rigtools.interop.imported import ForeignPoint, split_by_timing, write_imported
+from rigtools.interop.imported import ForeignPoint, rows_reader, split_by_timing, write_imported
 
 _HEADINGS = ("Samples", "Delta_X", "X0", "Y_Unit_Label")
 
@@ -182,7 +182,7 @@ def import_lvm(
                     channels=fcs,
                     samples=n,
                     sample_rate=kept[part[0]][2],
-                    read=lambda a, m, b=block: b[:, a : a + m],
+                    read=rows_reader(block),
                     t0=[(cols[i][1] - first) if math.isfinite(cols[i][1]) else 0.0 for i in part],
                 )
             )

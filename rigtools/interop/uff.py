@@ -545,7 +545,7 @@ def import_uff(
         entry and line per record).
     """
     from rigtools.interop.channels import ForeignChannel, check_known, check_names, resolve
-    from rigtools.interop.imported import ForeignPoint, split_by_timing, write_imported
+    from rigtools.interop.imported import ForeignPoint, rows_reader, split_by_timing, write_imported
 
     source = Path(source)
     mapping, units, chosen = dict(mapping or {}), dict(units or {}), list(channels or [])
@@ -599,7 +599,7 @@ def import_uff(
                 channels=fcs,
                 samples=kept[part[0]][1],
                 sample_rate=kept[part[0]][2],
-                read=lambda a, m, b=block: b[:, a : a + m],
+                read=rows_reader(block),
                 t0=[data[i][1] for i in part],
             )
         )

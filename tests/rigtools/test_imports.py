@@ -390,3 +390,45 @@ def test_ufffiles_frf_kind_checked_against_data(tmp_path):
     assert fs.frequency_hz.size == 1600 and fs.frequency_hz[-1] == 799.5
     code, stdout, err = _import("uff", HAMMER / "dataset58_FRF.unv", tmp_path / "r.h5", "--units", ".1.Z-=m")
     assert code == 0 and read_frf_set(tmp_path / "r.h5").kind == "receptance", err
+
+
+def _hammer_frf_modes():
+    """Our identification and sdypy-EMA's (the reference procedure of test_measured_data: stable
+    poles nearest the 6 dB peaks with coherence >= 0.8) on the ufffiles-hammer FRF and coherence."""
+    from test_measured_data import _reference_modes
+
+    from rigtools.analysis.modal_id import identify
+    from rigtools.interop.uff import read_uff_sets
+
+    s = read_uff_sets(HAMMER / "dataset58_FRF.unv")[0]
+    coh = np.asarray(read_uff_sets(HAMMER / "dataset58_coh.unv")[0]["data"], float)
+    f, h = np.asarray(s["x"], float), np.asarray(s["data"], complex)
+    ours = identify(f, h, kind="accelerance", coherence=coh)
+    ref_f, ref_x = _reference_modes(f, h, coh, ours.band)
+    return ours, ref_f, ref_x
+
+
+def test_ufffiles_frf_no_mode_outside_its_grid():
+    """The file holds 0-799.5 Hz (SOURCE.txt): nothing at or above 800 Hz, so the 900 Hz mains
+    harmonic the issue saw on another pyuff FRF cannot be reported from it."""
+    _need(HAMMER)
+    ours, _, _ = _hammer_frf_modes()
+    assert ours.band[1] <= 799.5 and all(m.frequency_hz < 800 for m in ours.modes)
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="not met yet: about 25 modes in 0-800 Hz, 1600 lines; sdypy-EMA's LSCF poles wander "
+    "0.2-1 % over the orders (its own picks move 0.2 % with the band), so our steadiness gate keeps "
+    "140.79, 500.39, 543.22, 712.23 Hz where the reference procedure picks 140.92, 175.40, 239.14, "
+    "324.04, 376.45, 465.23, 543.22 Hz",
+)
+def test_ufffiles_frf_modes_equal_sdypy_ema():
+    _need(HAMMER)
+    ours, ref_f, ref_x = _hammer_frf_modes()
+    got = np.array([m.frequency_hz for m in ours.modes])
+    zeta = np.array([m.damping_ratio for m in ours.modes])
+    assert got.size == ref_f.size
+    for fr, xr in zip(ref_f, ref_x, strict=True):
+        j = int(np.argmin(np.abs(got - fr)))
+        assert abs(got[j] - fr) / fr < 1e-3 and abs(zeta[j] - xr) / xr < 0.10
