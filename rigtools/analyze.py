@@ -554,8 +554,14 @@ def point_frf(point, *, responses: Sequence[str] | None = None, options: FRFOpti
             f"point {point.index}: no response channel (acceleration, velocity or "
             f"displacement) beside {force}"
         )
+    not_motion = [c for c in resp if _frf_kind_of(point.channels[c].units) is None]
+    if not_motion:
+        raise UserError(
+            f"point {point.index}: {', '.join(not_motion)} is not an acceleration, velocity or "
+            f"displacement ({', '.join(point.channels[c].units for c in not_motion)}): no FRF response"
+        )
     measured = {k for c in resp if (k := _frf_kind_of(point.channels[c].units)) is not None}
-    if len(measured) != 1 or any(_frf_kind_of(point.channels[c].units) is None for c in resp):
+    if len(measured) != 1:
         raise UserError(
             f"point {point.index}: responses {', '.join(resp)} measure different quantities; "
             "analyse them one at a time (--channels)"

@@ -19,7 +19,7 @@ from __future__ import annotations
 import json
 import os
 from dataclasses import dataclass, field
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from pathlib import Path
 
 import numpy as np
@@ -77,7 +77,7 @@ def write_frf_set(path: str | Path, frf_set: FRFSet, *, overwrite: bool = False)
                 {
                     "schema": SCHEMA,
                     "schema_version": SCHEMA_VERSION,
-                    "created": datetime.now(timezone.utc).isoformat(),
+                    "created": datetime.now(UTC).isoformat(),
                     "kind": frf_set.kind,
                     "reference": frf_set.reference,
                     "responses": json.dumps(list(frf_set.responses)),
