@@ -27,7 +27,7 @@ import math
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, cast
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -925,12 +925,13 @@ def analyze_frf_set(
     broadband point: the identification :func:`analyze_broadband` runs, on the stored FRFs and
     coherence; the band is ``options.band`` or the whole grid above 0 Hz (an FRF set holds no
     force spectrum). Never compared with this rig's FEM (it does not describe this rig)."""
-    from rigtools.analysis.frf import FRFEstimate, FRFKind
+    from rigtools.analysis.frf import FRFEstimate
     from rigtools.analysis.modal_id import identify
     from rigtools.analysis.point import FRFTestAnalysis
     from rigtools.frf_set import read_frf_set
 
     fs = read_frf_set(path)
+    kind_out = frf_kind(kind)
     rows = list(range(len(fs.responses)))
     if channels:
         unknown = [c for c in channels if c not in fs.responses and c != fs.reference]
@@ -943,7 +944,7 @@ def analyze_frf_set(
     with_coherence = bool(np.all(np.isfinite(coh)))
     est = FRFEstimate(
         f, h, h, coh, 2 if with_coherence else 1, np.full(f.size, np.nan), np.abs(h) * np.nan, h * np.nan
-    ).as_kind(cast(FRFKind, fs.kind), cast(FRFKind, kind))
+    ).as_kind(frf_kind(fs.kind), kind_out)
     band = (options or FRFOptions()).band
     responses = [fs.responses[i] for i in rows]
     modes = {}
@@ -952,7 +953,7 @@ def analyze_frf_set(
             modes[r] = identify(
                 f,
                 est.h1[i],
-                kind=cast(FRFKind, kind),
+                kind=kind_out,
                 coherence=est.coherence[i] if with_coherence else None,
                 f_min=band[0] if band else None,
                 f_max=band[1] if band else None,
@@ -980,11 +981,11 @@ def analyze_frf_set(
         {fs.reference: "N", **units},
         2.0 * float(f[-1]),
         (0, 0),
-        frf=FRFTestAnalysis(responses, est, kind, modes, None),
+        frf=FRFTestAnalysis(responses, est, kind_out, modes, None),
         excitation="measured FRF",
         notes=notes,
     )
-    out = RecordingAnalysis(str(path), "frf set", "frf set", "em", "complete", kind, [point])
+    out = RecordingAnalysis(str(path), "frf set", "frf set", "em", "complete", kind_out, [point])
     out.notes.append("FRF set: not compared with this rig's FEM")
     return out
 
