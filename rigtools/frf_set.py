@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from rigtools.errors import UserError
+from rigtools.errors import UserError, one_line
 
 SCHEMA = "rigtools.frfset"
 SCHEMA_VERSION = 1
@@ -126,4 +126,4 @@ def read_frf_set(path: str | Path) -> FRFSet:
                 created=str(f.attrs.get("created", "")),
             )
     except (OSError, KeyError, ValueError) as exc:
-        raise UserError(f"{path}: cannot read the FRF set ({' '.join(str(exc).split())[:200]})") from None
+        raise UserError(f"{path}: cannot read the FRF set ({one_line(exc, 200)})") from None

@@ -78,8 +78,8 @@ def analysis_tables(analysis: Any, verbose: bool = False) -> list[Any]:
             table.add_column(col, justify="right")
         for c, sp in p.spectra.items():
             peaks = ", ".join(f"{q['frequency_hz']:.4g} ({q['amplitude']:.3g})" for q in sp.peaks[:3])
-            harm = ", ".join(f"{h['k']}: {h['amplitude']:.3g}" for h in sp.harmonics[:4]) or "–"
-            table.add_row(f"{c} ({p.units.get(c, '')})", f"{sp.rms:.3g}", peaks or "–", harm)
+            harmonics = ", ".join(f"{h['k']}: {h['amplitude']:.3g}" for h in sp.harmonics[:4]) or "–"
+            table.add_row(f"{c} ({p.units.get(c, '')})", f"{sp.rms:.3g}", peaks or "–", harmonics)
         out.append(table)
         for n in p.notes:
             out.append(f"note: {n}")

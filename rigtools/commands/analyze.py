@@ -5,7 +5,8 @@ from __future__ import annotations
 import argparse
 
 from rigtools import json_values
-from rigtools.options import output_folder, quantity
+from rigtools.frf_options import add_frf_arguments, frf_options
+from rigtools.options import output_folder, positive_finite
 
 HELP = "analyse a recording: harmonics and impacts per point; FRFs (H1, H2, Hv) and modes of FRF tests"
 EPILOG = """\
@@ -69,20 +70,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="modal identification of FRF tests (default lscf)",
     )
     p.add_argument("--channels", metavar="A,B", help="analyse only these channels (the force is kept)")
-    p.add_argument(
-        "--band",
-        metavar="LOW:HIGH",
-        help='modal identification band, e.g. "100 Hz:4 kHz" (default: the procedure\'s band, else '
-        "where the force spectrum has energy)",
-    )
-    p.add_argument(
-        "--excitation",
-        choices=("burst", "impact", "periodic", "random"),
-        help="override the FRF estimate chosen from the recording (see below)",
-    )
-    p.add_argument("--frame-samples", type=int, metavar="N", help="frame length with --excitation")
-    p.add_argument("--force-window", type=float, metavar="FRACTION", help="impact: force window length")
-    p.add_argument("--exponential", type=float, metavar="END", help="impact: exponential window end value")
+    add_frf_arguments(p, analysis=True)
     p.add_argument(
         "--fe", help='excitation frequency whose harmonics a record without force shows, e.g. "50 Hz"'
     )
@@ -98,18 +86,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     from rich.console import Console
 
-    from rigtools.analyze import FRFOptions, analyze_recording
-    from rigtools.options import band_option
+    from rigtools.analyze import analyze_recording
 
     channels = [c.strip() for c in args.channels.split(",") if c.strip()] if args.channels else None
-    options = FRFOptions(
-        band=band_option(args.band, "--band") if args.band else None,
-        excitation=args.excitation,
-        frame_samples=args.frame_samples,
-        force_window=args.force_window,
-        exponential=args.exponential,
-    )
-    fe = quantity(args.fe, "frequency", "--fe") if args.fe else None
+    options = frf_options(args)
+    fe = positive_finite(args.fe, "frequency", "--fe", unit="Hz") if args.fe else None
     out = output_folder(args.out) if args.out is not None else None
     console = Console(stderr=args.json)
     with console.status(f"analysing {args.file}"):

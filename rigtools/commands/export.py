@@ -6,6 +6,7 @@ import argparse
 
 from rigtools import json_values
 from rigtools.errors import UserError
+from rigtools.frf_options import add_frf_arguments, frf_options
 from rigtools.options import output_path
 
 HELP = "export a recording as UFF 58 (time records, spectra, FRFs with coherence) for modal software"
@@ -47,12 +48,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         default="time,spectra,frf",
         help='comma list of time, spectra, frf (default "time,spectra,frf")',
     )
-    p.add_argument(
-        "--excitation",
-        choices=("burst", "impact", "periodic", "random"),
-        help="override the FRF estimate chosen from the recording (as rig analyze)",
-    )
-    p.add_argument("--frame-samples", type=int, metavar="N", help="frame length with --excitation")
+    add_frf_arguments(p, analysis=False)
     p.add_argument("--reference", metavar="CHANNEL", help="the excitation channel (default: the force)")
     p.add_argument("--overwrite", action="store_true", help="replace OUT if it exists")
     p.add_argument("--json", action="store_true", help="print what was written as JSON")
@@ -60,7 +56,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from rigtools.analyze import FRFOptions
     from rigtools.interop.uff import WHAT, recording_functions, write_uff
     from rigtools.recording import open_recording
 
@@ -68,7 +63,7 @@ def run(args: argparse.Namespace) -> int:
     unknown = [w for w in what if w not in WHAT]
     if unknown or not what:
         raise UserError(f"--what = {args.what!r}: use a comma list of {', '.join(WHAT)}")
-    options = FRFOptions(excitation=args.excitation, frame_samples=args.frame_samples)
+    options = frf_options(args)
     out = output_path(args.out, args.overwrite, "OUT", inputs=[args.file])
     with open_recording(args.file) as rec:
         skipped = [p.index for p in rec.points if not p.complete]  # cut off: never passed on as data

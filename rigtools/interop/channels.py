@@ -31,7 +31,7 @@ INCH = 0.0254
 
 @dataclass(frozen=True)
 class SIUnits:
-    """How a declared unit becomes SI: ``si = factor * value + offset``."""
+    """How a declared unit becomes SI: the SI value is ``factor`` times the declared one plus ``offset``."""
 
     units: str
     quantity: str
@@ -88,7 +88,7 @@ def si_units(text: str) -> SIUnits | None:
 
 
 def storable_name(text: str) -> str:
-    """``text`` as a recording channel name (letters, digits, ``_ . -``)."""
+    """``text`` as a recording channel name: letters, digits, ``_``, ``.`` and ``-`` are kept."""
     name = _BAD_NAME_CHARS.sub("_", str(text).strip()).strip("_") or "channel"
     return name if name[0] != "." else "_" + name[1:]
 

@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from rigtools.errors import UserError
+from rigtools.errors import UserError, one_line
 from rigtools.interop.channels import ForeignChannel, check_known, check_names, resolve
 from rigtools.interop.imported import ForeignPoint, rows_reader, split_by_timing, write_imported
 
@@ -56,9 +56,7 @@ def read_lvm(source: str | Path) -> dict:
     try:
         return lvm_read.read_str(text)
     except (ValueError, SyntaxError, KeyError, IndexError) as exc:
-        raise LvmImportError(
-            f"{source}: cannot read the LabVIEW data ({one_line(exc, 200)})"
-        ) from None
+        raise LvmImportError(f"{source}: cannot read the LabVIEW data ({one_line(exc, 200)})") from None
 
 
 def _numbers(values: Any, count: int) -> list[float]:

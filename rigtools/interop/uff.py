@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from rigtools.errors import UserError
+from rigtools.errors import UserError, one_line
 
 # UFF 58 function types (record 6, field 1)
 FUNC_TIME, FUNC_AUTO_SPECTRUM, FUNC_FRF, FUNC_COHERENCE = 1, 2, 4, 6  # the types pyuff writes
@@ -224,6 +224,13 @@ def recording_functions(
     complete_only
         Leave out points that did not end (a run cut off mid-point): never exported as data.
 
+    Returns
+    -------
+    list of UffFunction
+        FRFs and their coherence first, then time records and spectra.
+
+    Notes
+    -----
     Time records and spectra carry reference node 0 (they have no reference). ID line 4 holds
     the recording's date (``DD-MMM-YY HH:MM:SS``, UTC).
     """
@@ -382,7 +389,7 @@ def read_uff_sets(source: str | Path) -> list[dict]:
         sets = pyuff.UFF(str(source)).read_sets()
     except Exception as exc:  # noqa: BLE001 -- pyuff raises many types on a foreign file: one line
         raise UserError(
-            f"{source}: not a readable UFF file ({type(exc).__name__}: {' '.join(str(exc).split())[:200]})"
+            f"{source}: not a readable UFF file ({type(exc).__name__}: {one_line(exc, 200)})"
         ) from None
     sets = sets if isinstance(sets, list) else [sets]
     out = []
@@ -475,7 +482,7 @@ def frf_kind_from_data(f: np.ndarray, h: np.ndarray) -> str | None:
 
     A lightly damped mode's receptance and accelerance are near +-90 deg at its peak, its mobility
     near 0/180 deg (the median over the largest peaks decides). Between receptance and accelerance,
-    |H| away from the peaks (the lower quartile of each end third of the grid) rises with frequency
+    ``|H|`` away from the peaks (the lower quartile of each end third of the grid) rises with frequency
     for accelerance (x omega^2) and falls for receptance; a change under 10 dB decides nothing.
     """
     from scipy.signal import find_peaks
