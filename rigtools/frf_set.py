@@ -17,7 +17,6 @@ An FRF set is one HDF5 file, text and numbers only:
 from __future__ import annotations
 
 import json
-import os
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
@@ -62,16 +61,26 @@ class FRFSet:
 
 
 def write_frf_set(path: str | Path, frf_set: FRFSet, *, overwrite: bool = False) -> None:
-    """Write ``frf_set`` to ``path`` (through a temporary file renamed over it)."""
+    """Write ``frf_set`` to ``path`` whole or not at all (:func:`rigtools.derived_files.atomic_write`).
+
+    Raises
+    ------
+    UserError
+        ``path`` exists and ``overwrite`` is False, or is not a place rigtools writes.
+    FaultError
+        The write failed (disk full, ...), in one line; nothing is left behind.
+    """
     import h5py
+
+    from rigtools.derived_files import atomic_write
 
     path = Path(path)
     if path.exists() and not overwrite:
         raise UserError(f"{path} exists (give --overwrite to replace it)")
     if frf_set.kind not in KINDS:
         raise ValueError(f"kind must be one of {KINDS}, got {frf_set.kind!r}")
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
-    try:
+
+    def write(tmp: Path) -> None:
         with h5py.File(tmp, "w") as f:
             f.attrs.update(
                 {
@@ -88,10 +97,8 @@ def write_frf_set(path: str | Path, frf_set: FRFSet, *, overwrite: bool = False)
             f["frequency"] = np.asarray(frf_set.frequency_hz, dtype=float)
             f["frf_real"], f["frf_imag"] = h.real, h.imag
             f["coherence"] = np.atleast_2d(np.asarray(frf_set.coherence, dtype=float))
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
+
+    atomic_write(path, write)
 
 
 def is_frf_set(path: str | Path) -> bool:
