@@ -435,3 +435,11 @@ def test_ufffiles_frf_modes_equal_sdypy_ema():
     for fr, xr in zip(ref_f, ref_x, strict=True):
         j = int(np.argmin(np.abs(got - fr)))
         assert abs(got[j] - fr) / fr < 1e-3 and abs(zeta[j] - xr) / xr < 0.10
+
+
+def test_every_unit_an_import_writes_is_one_a_recording_may_hold():
+    """The import's unit table converts only to units rig check and the readers accept."""
+    from rigtools.interop.channels import UNITS
+    from rigtools.recording.schema import CHANNEL_UNITS
+
+    assert {si.units for si in UNITS.values()} <= set(CHANNEL_UNITS)
