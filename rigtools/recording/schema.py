@@ -126,7 +126,7 @@ NUMERIC_POINT_PARAMS: dict[str, tuple[float, bool]] = {
 
 
 def channel_name_legal(name: str) -> bool:
-    """True if ``name`` is a legal channel name (letters, digits, ``_ . -``; no leading dot)."""
+    """True if ``name`` is a legal channel name: letters, digits, ``_``, ``.`` and ``-``, no leading dot."""
     return isinstance(name, str) and bool(_CHANNEL_NAME.match(name))
 
 
