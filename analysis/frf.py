@@ -39,7 +39,7 @@ as :func:`scipy.signal.csd` / :func:`scipy.signal.welch` with the same settings 
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Literal
 
 import numpy as np
@@ -285,6 +285,10 @@ class SpectraAccumulator:
     segments_per_batch
         Segments transformed at once (bounds the work memory to about
         ``segments_per_batch * nperseg * n_channels * 16`` bytes).
+    channel_windows
+        Optional ``(n_channels, nperseg)`` windows applied to each channel's segment on top of
+        ``window`` (impact tests: a force window on the force, an exponential window on the
+        responses, as :class:`FRFMethod` states them).
     """
 
     def __init__(
@@ -297,6 +301,7 @@ class SpectraAccumulator:
         detrend: str | bool = "constant",
         reference: int = 0,
         segments_per_batch: int = 64,
+        channel_windows: np.ndarray | None = None,
     ) -> None:
         if not sample_rate > 0:
             raise ValueError("sample_rate must be positive")
@@ -310,6 +315,7 @@ class SpectraAccumulator:
         self.detrend = detrend
         self.reference = int(reference)
         self.window = signal.get_window(window, self.nperseg)
+        self.channel_windows = None if channel_windows is None else np.asarray(channel_windows, dtype=float)
         self.step = self.nperseg - self.noverlap
         self.batch = max(1, int(segments_per_batch))
         self._tail: np.ndarray | None = None
@@ -340,6 +346,8 @@ class SpectraAccumulator:
         # segs: (n_channels, n_segments, nperseg)
         if self.detrend == "constant":
             segs = segs - segs.mean(axis=-1, keepdims=True)
+        if self.channel_windows is not None:
+            segs = segs * self.channel_windows[:, None, :]
         spec = np.fft.rfft(segs * self.window, axis=-1)
         auto = np.einsum("csf,csf->cf", spec.real, spec.real) + np.einsum("csf,csf->cf", spec.imag, spec.imag)
         cross = np.einsum("sf,csf->cf", np.conj(spec[self.reference]), spec)
@@ -363,19 +371,24 @@ class SpectraAccumulator:
         f = np.fft.rfftfreq(self.nperseg, 1.0 / self.sample_rate)
         return f, self._auto * scale * one_sided, self._cross * scale * one_sided
 
-    def frf(self) -> FRFEstimate:
+    def frf(self, min_averages: int = 2) -> FRFEstimate:
         """H1, H2 and coherence of every other channel over the reference channel.
 
-        ``h1`` etc. are (n_responses, n_freq) in channel order without the reference."""
-        if self.n_segments < 2:
+        ``h1`` etc. are (n_responses, n_freq) in channel order without the reference. With
+        ``min_averages=1`` (one impact) a single frame is accepted; its coherence is NaN (one
+        average has coherence 1 by construction, which says nothing)."""
+        if self.n_segments < max(1, min_averages):
             raise ValueError(
-                f"{self.n_segments} segment(s) of {self.nperseg}: need at least 2 averages "
-                "(a single average has coherence 1 by construction)"
+                f"{self.n_segments} segment(s) of {self.nperseg}: need at least {max(1, min_averages)} "
+                "averages (a single average has coherence 1 by construction)"
             )
         f, auto, cross = self.spectra()
         resp = [c for c in range(auto.shape[0]) if c != self.reference]
         sxx, syy, sxy = auto[self.reference].real, auto[resp].real, cross[resp]
-        return _frf_from_spectra(f, sxx, syy, sxy, self.n_segments)
+        est = _frf_from_spectra(f, sxx, syy, sxy, self.n_segments)
+        if self.n_segments < 2:
+            est = replace(est, coherence=np.full_like(est.coherence, np.nan))
+        return est
 
 
 def _frf_from_spectra(f, sxx, syy, sxy, n_avg) -> FRFEstimate:
@@ -420,3 +433,232 @@ def frf_from_blocks(
     for block in blocks:
         acc.add(block)
     return acc.frf()
+
+
+# ---------------------------------------------------------------------------------------------
+# One FRF estimate per test: the method follows from the excitation
+# ---------------------------------------------------------------------------------------------
+
+METHOD_EXCITATIONS = ("burst", "impact", "periodic", "random")
+
+
+@dataclass(frozen=True)
+class FRFMethod:
+    """How the FRF of a test is estimated; the one place that decides it for every reader.
+
+    ============  ==========================================  =================================
+    excitation    frames                                      window
+    ============  ==========================================  =================================
+    ``burst``     one burst period each, contiguous           rectangular (none), no overlap
+    ``impact``    one per hit, starting just before it        rectangular, or a force window on
+                                                              the force and an exponential
+                                                              window on the responses (pyFRF's
+                                                              ``force:x`` / ``exponential:x``)
+    ``periodic``  whole excitation periods, contiguous        rectangular (none), no overlap
+    ``random``    continuous record, ``frame_samples`` each   Hann, 50 % overlap
+    ============  ==========================================  =================================
+
+    Attributes
+    ----------
+    excitation
+        One of :data:`METHOD_EXCITATIONS`.
+    frame_samples
+        Samples per frame (segment); the resolution is ``sample_rate / frame_samples``.
+    frame_starts
+        ``impact``: first sample of each frame, relative to the analysed record; empty otherwise
+        (contiguous frames from the record's start).
+    force_window
+        ``impact``: fraction of the frame kept of the force (the rest set to zero), or None.
+    exponential
+        ``impact``: value the exponential response window reaches at the frame's end, or None.
+        It adds ``-ln(exponential) / (2 pi f T)`` to the damping ratio a fit reads at ``f``.
+    reason
+        Why this method was chosen (the recording's procedure, the force's content, the user).
+    """
+
+    excitation: str
+    frame_samples: int
+    frame_starts: tuple[int, ...] = ()
+    force_window: float | None = None
+    exponential: float | None = None
+    reason: str = ""
+
+    def __post_init__(self) -> None:
+        if self.excitation not in METHOD_EXCITATIONS:
+            raise ValueError(
+                f"excitation must be one of {', '.join(METHOD_EXCITATIONS)}, got {self.excitation!r}"
+            )
+        if self.frame_samples < 2:
+            raise ValueError(f"frame_samples must be at least 2, got {self.frame_samples}")
+
+    @property
+    def window(self) -> str:
+        """The segment window of every channel: ``"hann"`` (random) or ``"boxcar"``."""
+        return "hann" if self.excitation == "random" else "boxcar"
+
+    @property
+    def overlap(self) -> int:
+        """Overlap of successive frames in samples (half a frame for random, else 0)."""
+        return self.frame_samples // 2 if self.excitation == "random" else 0
+
+    @property
+    def min_averages(self) -> int:
+        """1 for an impact test (one hit gives an FRF, without coherence), else 2."""
+        return 1 if self.excitation == "impact" else 2
+
+    def channel_windows(self, n_channels: int) -> np.ndarray | None:
+        """``(n_channels, frame_samples)`` windows (force first), or None when there are none."""
+        if self.force_window is None and self.exponential is None:
+            return None
+        n = self.frame_samples
+        w = np.ones((n_channels, n))
+        if self.force_window is not None:
+            w[0, int(self.force_window * n) :] = 0.0
+        if self.exponential is not None:
+            w[1:] *= np.exp(np.log(self.exponential) * np.arange(n) / (n - 1))
+        return w
+
+    def describe(self, sample_rate: float) -> str:
+        """One line: excitation, frames, window, resolution (for notes and the record)."""
+        df = sample_rate / self.frame_samples
+        if self.excitation == "random":
+            text = f"continuous random: Hann window, {self.frame_samples}-sample frames, 50 % overlap"
+        elif self.excitation == "impact":
+            wins = []
+            if self.force_window is not None:
+                wins.append(f"force window {self.force_window:g} of the frame on the force")
+            if self.exponential is not None:
+                wins.append(f"exponential window to {self.exponential:g} on the responses")
+            text = (
+                f"impact: {len(self.frame_starts)} hit(s), one {self.frame_samples}-sample frame per hit, "
+                + (", ".join(wins) if wins else "rectangular window")
+            )
+        elif self.excitation == "burst":
+            text = f"burst: one {self.frame_samples}-sample frame per burst period, rectangular window"
+        else:
+            text = f"periodic: whole periods of {self.frame_samples} samples, no window"
+        return f"{text}, {df:.4g} Hz resolution" + (f" ({self.reason})" if self.reason else "")
+
+    def to_dict(self, sample_rate: float) -> dict:
+        """Plain-Python form for ``--json`` and recordings."""
+        return {
+            "excitation": self.excitation,
+            "frame_samples": self.frame_samples,
+            "frames": len(self.frame_starts) if self.frame_starts else None,
+            "window": self.window,
+            "overlap": self.overlap,
+            "force_window": self.force_window,
+            "exponential": self.exponential,
+            "resolution_hz": sample_rate / self.frame_samples,
+            "reason": self.reason,
+            "text": self.describe(sample_rate),
+        }
+
+    def accumulator(self, sample_rate: float, n_channels: int) -> SpectraAccumulator:
+        """A :class:`SpectraAccumulator` with this method's settings (channel 0 the force). For
+        ``impact``, add each frame as its own block of exactly ``frame_samples``."""
+        return SpectraAccumulator(
+            sample_rate,
+            nperseg=self.frame_samples,
+            noverlap=self.overlap,
+            window=self.window,
+            detrend="constant" if self.excitation == "random" else False,
+            reference=0,
+            channel_windows=self.channel_windows(n_channels),
+        )
+
+
+def find_hits(
+    force: np.ndarray, sample_rate: float, *, threshold: float = 0.2, min_spacing_s: float = 0.05
+) -> np.ndarray:
+    """Sample indices of the hits of an impact hammer: peaks of ``|force|`` above ``threshold``
+    of the largest, at least ``min_spacing_s`` apart."""
+    from scipy.signal import find_peaks
+
+    f = np.abs(np.asarray(force, dtype=float))
+    if f.size == 0 or not np.any(f > 0):
+        return np.array([], dtype=int)
+    peaks, _ = find_peaks(
+        f, height=threshold * float(f.max()), distance=max(1, int(min_spacing_s * sample_rate))
+    )
+    # a peak at sample 0 is not found by find_peaks; a triggered frame may start on the hit
+    if f[0] >= threshold * float(f.max()) and (peaks.size == 0 or peaks[0] > min_spacing_s * sample_rate):
+        peaks = np.concatenate([[0], peaks])
+    return peaks.astype(int)
+
+
+def is_impact(force: np.ndarray, sample_rate: float, hits: np.ndarray | None = None) -> bool:
+    """True when the force is a series of short pulses: 90 % of its energy (about its median)
+    lies within 5 ms after the hits and the hits cover under 20 % of the record."""
+    x = np.asarray(force, dtype=float)
+    x = x - np.median(x)
+    hits = find_hits(x, sample_rate) if hits is None else hits
+    if hits.size == 0:
+        return False
+    width = max(1, round(0.005 * sample_rate))
+    pre = max(1, width // 5)
+    near = np.zeros(x.size, bool)
+    for h in hits:
+        near[max(0, h - pre) : h + width] = True
+    energy = float(np.sum(x**2))
+    return bool(energy > 0 and np.sum(x[near] ** 2) >= 0.9 * energy and near.mean() < 0.2)
+
+
+def impact_method(
+    force: np.ndarray,
+    sample_rate: float,
+    *,
+    pretrigger_s: float = 0.002,
+    force_window: float | None = None,
+    exponential: float | None = None,
+    reason: str = "",
+) -> FRFMethod:
+    """Frames aligned to the hits of ``force``: each starts ``pretrigger_s`` before its hit (less
+    if the record starts sooner) and is as long as the shortest spacing of hits (or the rest of
+    the record after a single hit)."""
+    x = np.asarray(force, dtype=float)
+    hits = find_hits(x - np.median(x), sample_rate)
+    if hits.size == 0:
+        raise ValueError("no hit found in the force")
+    pre = round(pretrigger_s * sample_rate)
+    if hits.size > 1:
+        pre = min(pre, int(np.min(np.diff(hits))) // 20)
+    pre = min(pre, int(hits[0]))
+    starts = hits - pre
+    frame = int(np.min(np.diff(starts))) if starts.size > 1 else x.size - int(starts[0])
+    if int(starts[-1]) + frame > x.size:  # the last hit's frame runs past the end
+        if starts.size > 1:
+            starts = starts[:-1]
+        else:
+            frame = x.size - int(starts[-1])
+    return FRFMethod(
+        "impact",
+        int(frame),
+        tuple(int(s) for s in starts),
+        force_window=force_window,
+        exponential=exponential,
+        reason=reason,
+    )
+
+
+def method_from_content(
+    force: np.ndarray, sample_rate: float, *, frame_samples: int | None = None, reason: str = ""
+) -> FRFMethod:
+    """The method for a record written elsewhere, from the force itself: hits of a hammer
+    (:func:`is_impact`) give :func:`impact_method`; anything else is continuous random, Hann with
+    overlap, ``frame_samples`` per frame (default: the power of two that gives about 16
+    averages, at most 65536)."""
+    x = np.asarray(force, dtype=float)
+    if is_impact(x, sample_rate):
+        return impact_method(x, sample_rate, reason=reason or "hits found in the force")
+    return FRFMethod(
+        "random",
+        int(frame_samples or random_frame_samples(x.size)),
+        reason=reason or "continuous force (no isolated hits)",
+    )
+
+
+def random_frame_samples(n_samples: int) -> int:
+    """Frame length for continuous random excitation: the power of two that gives about 16
+    averages with 50 % overlap, between 16 and 65536 samples."""
+    return int(min(2 ** np.floor(np.log2(max(n_samples / 8.5, 16))), 1 << 16))

@@ -21,7 +21,7 @@ The FRF convention is that of :mod:`rigtools.analysis.frf` (``exp(+i w t)``).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy import optimize, signal
@@ -50,7 +50,15 @@ class IdentifiedMode:
     fit_error
         Relative RMS misfit of the local fit, ``|H - H_fit| / |H|`` over the fitted band.
     method
-        ``"sdof-fit"`` or ``"parabolic"``.
+        ``"sdof-fit"``, ``"parabolic"`` or ``"lscf"``.
+    orders_stable
+        LSCF: number of model orders at which the pole is stable (frequency and damping).
+    frequency_spread, damping_spread
+        LSCF: relative spread (max - min) / median over those orders.
+    coherence
+        Coherence at the peak the mode explains (NaN when unknown).
+    peak_db
+        Prominence of that peak of ``|H|`` in dB (NaN when unknown).
     """
 
     frequency_hz: float
@@ -59,6 +67,22 @@ class IdentifiedMode:
     peak_frequency_hz: float
     fit_error: float
     method: str
+    orders_stable: int = 0
+    frequency_spread: float = float("nan")
+    damping_spread: float = float("nan")
+    coherence: float = float("nan")
+    peak_db: float = float("nan")
+
+    def evidence(self) -> dict:
+        """The evidence for this mode, plain Python (``--json``)."""
+        return {
+            "orders_stable": self.orders_stable,
+            "frequency_spread": self.frequency_spread,
+            "damping_spread": self.damping_spread,
+            "peak_hz": self.peak_frequency_hz,
+            "peak_prominence_db": self.peak_db,
+            "coherence": self.coherence,
+        }
 
 
 def pick_peaks(
@@ -351,16 +375,21 @@ class ModalIdentification:
     Attributes
     ----------
     modes
-        The modes the data support, ascending in frequency (possibly empty).
+        The modes the data support, ascending in frequency (possibly empty); each carries its
+        evidence (:meth:`IdentifiedMode.evidence`).
     method
         ``"lscf"`` (sdypy-EMA LSCF poles, stabilisation check, LSFD constants) or ``"peak"``
         (peak picking, half-power damping refined by a local SDOF fit).
     notes
-        Sentences saying why nothing or less was reported (empty when everything found was kept).
+        Sentences saying why nothing or less was reported (at most one line on what was dropped).
     chart
         The stabilisation chart (LSCF only).
     reconstruction
         (n_freq,) FRF rebuilt from the modes (LSCF: with LSFD lower/upper residuals), or None.
+    band
+        ``(f_min, f_max)`` identified in, Hz.
+    dropped
+        Candidates not reported: ``{"frequency_hz", "damping_ratio", "reason"}`` each.
     """
 
     modes: list[IdentifiedMode]
@@ -368,6 +397,41 @@ class ModalIdentification:
     notes: list[str]
     chart: StabilisationChart | None = None
     reconstruction: np.ndarray | None = None
+    band: tuple[float, float] | None = None
+    dropped: list[dict] = field(default_factory=list)
+
+
+def excitation_band(
+    frequency_hz: np.ndarray, excitation_psd: np.ndarray, *, drop_db: float = 20.0
+) -> tuple[float, float]:
+    """The band where the force has energy: where its auto spectrum (smoothed over 1 % of the
+    bins) is within ``drop_db`` of its plateau (the 90th percentile of the level) and above its
+    noise floor (the 5th percentile) by 6 dB or more. The band is the contiguous run of such
+    bins around the plateau's strongest bin, never below the second bin (the first above 0 Hz).
+
+    A hammer's spectrum rolls off above about 1 / pulse duration; a shaker's random or chirp
+    signal stops at its programmed band: either way the FRF outside is noise over noise.
+    """
+    f = np.asarray(frequency_hz, dtype=float)
+    sxx = np.abs(np.asarray(excitation_psd, dtype=float))
+    pos = np.flatnonzero(f > 0)
+    if pos.size < 3:
+        return float(f[0]), float(f[-1])
+    level = 10.0 * np.log10(np.maximum(sxx[pos], np.finfo(float).tiny))
+    k = max(1, pos.size // 100)
+    smooth = np.convolve(level, np.ones(k) / k, mode="same")
+    plateau, floor = np.percentile(smooth, 90), np.percentile(smooth, 5)
+    threshold = max(plateau - drop_db, floor + 6.0) if plateau - floor > 6.0 else -np.inf
+    good = smooth >= threshold
+    top = int(np.argmax(np.where(good, smooth, -np.inf)))
+    lo = top
+    while lo > 0 and good[lo - 1]:
+        lo -= 1
+    hi = top
+    while hi < pos.size - 1 and good[hi + 1]:
+        hi += 1
+    lo = max(lo, 1) if pos.size > 2 else lo
+    return float(f[pos[lo]]), float(f[pos[hi]])
 
 
 def lscf_stabilisation(
@@ -415,20 +479,113 @@ def lscf_stabilisation(
 
 
 def _stable_clusters(chart: StabilisationChart, freq_tol: float, min_stable: int) -> list[np.ndarray]:
-    """Groups of stable poles within ``freq_tol`` of each other, with at least ``min_stable``
-    members at distinct orders."""
+    """Groups of stable poles: sorted by frequency, a new group starts where the gap to the next
+    stable pole exceeds ``freq_tol`` (relative); a group counts with poles at ``min_stable`` or
+    more distinct orders."""
     idx = np.flatnonzero(chart.stable)
     idx = idx[np.argsort(chart.frequency_hz[idx])]
     clusters: list[np.ndarray] = []
     current: list[int] = []
     for i in idx:
-        if current and chart.frequency_hz[i] > chart.frequency_hz[current[0]] * (1 + 2 * freq_tol):
+        if current and chart.frequency_hz[i] > chart.frequency_hz[current[-1]] * (1 + freq_tol):
             clusters.append(np.array(current))
             current = []
         current.append(int(i))
     if current:
         clusters.append(np.array(current))
     return [c for c in clusters if np.unique(chart.orders[c]).size >= min_stable]
+
+
+def _peaks(
+    f: np.ndarray, h: np.ndarray, f_lo: float, f_hi: float, min_db: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Indices and prominences (dB) of the local maxima of ``|h|`` in the band."""
+    mag_db = 20.0 * np.log10(np.maximum(np.abs(h), np.finfo(float).tiny))
+    band = np.flatnonzero((f >= f_lo) & (f <= f_hi) & np.isfinite(mag_db))
+    if band.size < 3:
+        return np.array([], int), np.array([])
+    idx, props = signal.find_peaks(mag_db[band], prominence=min_db)
+    return band[idx], np.asarray(props["prominences"])
+
+
+def _explained_peak(f: np.ndarray, peaks: np.ndarray, prom: np.ndarray, fn: float, zeta: float) -> int | None:
+    """Position in ``peaks`` of the peak a mode at ``fn`` explains: the most prominent peak within
+    its half-power band (at least two bins either side), else None."""
+    df = float(f[1] - f[0])
+    half = max(2.0 * zeta * fn, 2.0 * df)
+    near = np.flatnonzero(np.abs(f[peaks] - fn) <= half)
+    return None if near.size == 0 else int(near[np.argmax(prom[near])])
+
+
+def _judge(
+    candidates: list[IdentifiedMode],
+    f: np.ndarray,
+    h: np.ndarray,
+    coherence: np.ndarray | None,
+    f_lo: float,
+    f_hi: float,
+    *,
+    max_damping: float,
+    min_coherence: float,
+    min_peak_db: float,
+    max_frequency_spread: float,
+) -> tuple[list[IdentifiedMode], list[dict]]:
+    """Keep the candidates with physical damping, inside the band, that explain a peak of |h| with
+    coherent excitation (one candidate per peak: the one stable at most orders)."""
+    peaks, prom = _peaks(f, h, f_lo, f_hi, min_peak_db)
+    kept: dict[int, IdentifiedMode] = {}
+    dropped: list[dict] = []
+
+    def drop(m: IdentifiedMode, reason: str) -> None:
+        dropped.append({"frequency_hz": m.frequency_hz, "damping_ratio": m.damping_ratio, "reason": reason})
+
+    # reasons start with a fixed phrase (the summary counts by it), details follow after ": "
+
+    for m in candidates:
+        if not f_lo <= m.frequency_hz <= f_hi:
+            drop(m, "outside the band")
+            continue
+        if not 0.0 < m.damping_ratio <= max_damping:
+            drop(m, f"damping out of bounds: {m.damping_ratio:.3g} not in (0, {max_damping:g}]")
+            continue
+        if m.frequency_spread > max_frequency_spread:
+            drop(
+                m,
+                f"frequency not steady: {m.frequency_spread:.2%} over the orders (> {max_frequency_spread:.2%})",
+            )
+            continue
+        j = _explained_peak(f, peaks, prom, m.frequency_hz, m.damping_ratio)
+        if j is None:
+            drop(m, f"no peak of |H|: none of {min_peak_db:g} dB prominence within its half-power band")
+            continue
+        i = int(peaks[j])
+        coh = float(coherence[i]) if coherence is not None else float("nan")
+        if coherence is not None and np.isfinite(coh) and coh < min_coherence:
+            drop(m, f"incoherent: coherence {coh:.2f} at its peak (< {min_coherence:g})")
+            continue
+        m = replace(m, peak_frequency_hz=float(f[i]), coherence=coh, peak_db=float(prom[j]))
+        other = kept.get(j)
+        if other is not None:
+            loser = m if other.orders_stable >= m.orders_stable else other
+            drop(loser, f"second pole of a peak: {f[i]:.4g} Hz")
+            if loser is other:
+                kept[j] = m
+            continue
+        kept[j] = m
+    modes = sorted(kept.values(), key=lambda m: m.frequency_hz)
+    return modes, dropped
+
+
+def _dropped_summary(dropped: list[dict]) -> str:
+    """At most one line on the candidates not reported."""
+    if not dropped:
+        return ""
+    counts: dict[str, int] = {}
+    for d in dropped:
+        key = d["reason"].split(":")[0]
+        counts[key] = counts.get(key, 0) + 1
+    parts = ", ".join(f"{n} {k}" for k, n in sorted(counts.items(), key=lambda kv: -kv[1]))
+    return f"{len(dropped)} candidate(s) not reported ({parts}); details with --json"
 
 
 def identify(
@@ -446,23 +603,32 @@ def identify(
     min_stable: int = 5,
     freq_tol: float = 0.005,
     damping_tol: float = 0.05,
+    max_damping: float = 0.1,
     min_coherence: float = 0.5,
+    min_peak_db: float = 3.0,
+    max_frequency_spread: float = 0.002,
     dynamic_range_db: float = 40.0,
 ) -> ModalIdentification:
     """Natural frequencies and damping ratios the data support, with the reason for what is not.
 
     Steps:
 
-    1. **Data check** (when ``excitation_psd`` is given, as it should be for measured FRFs):
+    1. **Band**: ``[f_min, f_max]`` when given; else, with ``excitation_psd``, where the force
+       has energy (:func:`excitation_band`); else the grid above 0 Hz.
+    2. **Data check** (when ``excitation_psd`` is given, as it should be for measured FRFs):
        :func:`excitation_support`. A dwell or other narrow-band force returns no mode and a note.
-    2. ``method="lscf"``: poles of sdypy-EMA's LSCF at orders 2..2*max_order;
+    3. **Candidates**. ``method="lscf"``: poles of sdypy-EMA's LSCF at orders 2..2*max_order;
        a pole is *stable* when the previous order has one within ``freq_tol`` in frequency and
-       ``damping_tol`` in damping; a *mode* is a group of stable poles (within 2 ``freq_tol``) at
-       ``min_stable`` or more orders; its frequency and damping are the medians over the group.
-       LSFD (sdypy-EMA) then gives the modal constants and a reconstruction with residual terms.
-       ``method="peak"``: :func:`identify_modes` (quick; no stabilisation).
-    3. **Per-mode check**: a mode whose half-power band (``f (1 +- zeta)``) holds no supported bin
-       (see :func:`excitation_support`) is dropped with a note.
+       ``damping_tol`` in damping; a candidate is a group of stable poles (no gap over ``freq_tol``)
+       at ``min_stable`` or more orders; its frequency and damping are those of its pole at the
+       highest order (the spreads over the group are its evidence).
+       LSFD (sdypy-EMA) gives the modal constants of the modes kept. ``method="peak"``:
+       :func:`identify_modes` (peak picking and local SDOF fits; no stabilisation).
+    4. **Judgement** of each candidate: damping ratio in ``(0, max_damping]``, inside the band,
+       frequency steady over the stable orders (spread at most ``max_frequency_spread``),
+       explaining a peak of ``|H|`` (prominence ``min_peak_db``, within its half-power band) whose
+       coherence is at least ``min_coherence``; one mode per peak. Dropped candidates are listed
+       in :attr:`ModalIdentification.dropped` and summarised in one note.
 
     Parameters
     ----------
@@ -472,9 +638,9 @@ def identify(
     kind
         What ``h`` is (receptance, mobility, accelerance).
     excitation_psd, coherence
-        ``FRFEstimate.sxx`` and ``.coherence`` of the estimate.
+        ``FRFEstimate.sxx`` and ``.coherence`` of the estimate (coherence None for one average).
     f_min, f_max
-        Band, Hz (default: the grid without 0 Hz).
+        Band, Hz.
     n_modes
         Keep at most this many (the most strongly stable for LSCF, the most prominent peaks
         otherwise).
@@ -485,10 +651,17 @@ def identify(
     """
     f = np.asarray(frequency_hz, dtype=float)
     h = np.asarray(h, dtype=complex)
-    f_lo = float(f[f > 0][0]) if f_min is None else float(f_min)
-    f_hi = float(f[-1]) if f_max is None else float(f_max)
+    if coherence is not None and not np.any(np.isfinite(coherence)):
+        coherence = None
+    auto_lo, auto_hi = float(f[f > 0][0]), float(f[-1])
+    if excitation_psd is not None and (f_min is None or f_max is None):
+        auto_lo, auto_hi = excitation_band(f, excitation_psd)
+    f_lo = auto_lo if f_min is None else float(f_min)
+    f_hi = auto_hi if f_max is None else float(f_max)
+    if not f_hi > f_lo:
+        raise ValueError(f"band {f_lo:g}-{f_hi:g} Hz is empty")
+    band = (f_lo, f_hi)
     notes: list[str] = []
-    support = None
     if excitation_psd is not None:
         support = excitation_support(
             f,
@@ -500,10 +673,10 @@ def identify(
             min_coherence=min_coherence,
         )
         if not support.ok:
-            return ModalIdentification([], method, [f"no modes identified: {support.reason}"])
+            return ModalIdentification([], method, [f"no modes identified: {support.reason}"], band=band)
+    chart, rec, model = None, None, None
     if method == "peak":
-        modes = identify_modes(f, h, kind=kind, f_min=f_lo, f_max=f_hi, n_modes=n_modes)
-        chart, rec = None, None
+        candidates = identify_modes(f, h, kind=kind, f_min=f_lo, f_max=f_hi, min_prominence_db=min_peak_db)
     elif method == "lscf":
         model, chart = lscf_stabilisation(
             f,
@@ -514,57 +687,91 @@ def identify(
             max_order=max_order,
             freq_tol=freq_tol,
             damping_tol=damping_tol,
+            max_damping=1.0,
         )
-        clusters = _stable_clusters(chart, freq_tol, min_stable)
-        if n_modes is not None and len(clusters) > n_modes:
-            clusters = sorted(
-                sorted(clusters, key=len, reverse=True)[:n_modes], key=lambda c: chart.frequency_hz[c[0]]
+        candidates = []
+        for c in _stable_clusters(chart, freq_tol, min_stable):
+            fr, xi = chart.frequency_hz[c], chart.damping_ratio[c]
+            # the pole of the highest stable order: the most converged model (the spreads below
+            # say how much the lower orders differ)
+            top = int(np.argmax(chart.orders[c]))
+            fn, zeta = float(fr[top]), float(xi[top])
+            candidates.append(
+                IdentifiedMode(
+                    fn,
+                    zeta,
+                    complex("nan"),
+                    fn,
+                    float("nan"),
+                    "lscf",
+                    orders_stable=int(np.unique(chart.orders[c]).size),
+                    frequency_spread=float(np.ptp(fr) / np.median(fr)),
+                    damping_spread=float(np.ptp(xi) / np.median(xi)) if np.median(xi) > 0 else float("nan"),
+                )
             )
-        modes, rec = _lsfd(model, chart, clusters, f, h, kind, f_lo, f_hi)
-        if not clusters:
+        if not candidates:
             notes.append(f"no pole stable over {min_stable} model orders between {f_lo:g} and {f_hi:g} Hz")
     else:
         raise ValueError(f"method must be 'lscf' or 'peak', got {method!r}")
-    if support is not None:
-        kept = []
+    modes, dropped = _judge(
+        candidates,
+        f,
+        h,
+        coherence,
+        f_lo,
+        f_hi,
+        max_damping=max_damping,
+        min_coherence=min_coherence,
+        min_peak_db=min_peak_db,
+        max_frequency_spread=max_frequency_spread,
+    )
+    if n_modes is not None and len(modes) > n_modes:
+        key = (lambda m: m.orders_stable) if method == "lscf" else (lambda m: m.peak_db)
+        keep = sorted(modes, key=key, reverse=True)[:n_modes]
         for m in modes:
-            half = max(m.damping_ratio * m.frequency_hz, 0.5 * float(f[1] - f[0]))
-            near = (f >= m.frequency_hz - half) & (f <= m.frequency_hz + half)
-            if np.any(support.supported & near):
-                kept.append(m)
-            else:
-                notes.append(
-                    f"dropped {m.frequency_hz:.4g} Hz: no bin of its half-power band has coherent excitation"
+            if m not in keep:
+                dropped.append(
+                    {
+                        "frequency_hz": m.frequency_hz,
+                        "damping_ratio": m.damping_ratio,
+                        "reason": f"beyond n_modes: {n_modes}",
+                    }
                 )
-        modes = kept
-    return ModalIdentification(modes, method, notes, chart, rec)
+        modes = sorted(keep, key=lambda m: m.frequency_hz)
+    if model is not None and chart is not None and modes:
+        modes, rec = _lsfd(model, modes, f, h, f_lo, f_hi)
+    summary = _dropped_summary(dropped)
+    if summary:
+        notes.append(summary)
+    return ModalIdentification(modes, method, notes, chart, rec, band, dropped)
 
 
-def _lsfd(model, chart, clusters, f, h, kind, f_lo, f_hi):
-    """Modal constants of the chosen poles by sdypy-EMA's LSFD; one IdentifiedMode per cluster."""
-    if not clusters:
-        return [], None
-    pole_ind, medians = [], []
-    for c in clusters:
-        fn = float(np.median(chart.frequency_hz[c]))
-        zeta = float(np.median(chart.damping_ratio[c]))
-        medians.append((fn, zeta))
-        top = int(chart.orders[c].max())
-        j = top // 2 - 1
-        pf = np.asarray(model.pole_freq[j])
-        i = int(np.nanargmin(np.abs(pf - chart.frequency_hz[c][chart.orders[c] == top][0])))
-        pole_ind.append([j, i])
+def _lsfd(model, modes: list[IdentifiedMode], f, h, f_lo, f_hi):
+    """Modal constants of the kept modes by sdypy-EMA's LSFD (the pole of the highest order
+    closest to each mode)."""
+    pole_ind = []
+    for m in modes:
+        best = None
+        for j in range(len(model.all_poles) - 1, -1, -1):
+            pf = np.asarray(model.pole_freq[j], dtype=float)
+            if pf.size and np.any(np.isfinite(pf)):
+                i = int(np.nanargmin(np.abs(pf - m.frequency_hz)))
+                if abs(pf[i] - m.frequency_hz) <= 0.01 * m.frequency_hz:
+                    best = [j, i]
+                    break
+        if best is None:
+            return modes, None
+        pole_ind.append(best)
     model.pole_ind = np.asarray(pole_ind, dtype=int)
     rec, consts = model.get_constants(method="lsfd", f_lower=f_lo, f_upper=min(f_hi, float(model.freq[-1])))
     rec = np.asarray(rec)[0]
     band = (f >= f_lo) & (f <= f_hi)
     n = min(rec.size, f.size)
     err = float(np.linalg.norm(rec[:n][band[:n]] - h[:n][band[:n]]) / np.linalg.norm(h[:n][band[:n]]))
-    modes = []
-    for (fn, zeta), (j, i), a in zip(medians, pole_ind, np.asarray(consts)[0], strict=True):
-        pole = model.all_poles[j][i]
-        wd = abs(pole.imag)
+    out = []
+    for m, (j, i), a in zip(modes, pole_ind, np.asarray(consts)[0], strict=True):
+        wd = abs(model.all_poles[j][i].imag)
         # sdypy's term A / (i w - s) + conj: the single-mode form (i w)^k R / (wn^2 - w^2 + 2 i zeta wn w)
         # has R = 2 i w_d A
-        modes.append(IdentifiedMode(fn, zeta, complex(2j * wd * a), float(fn), err, "lscf"))
-    return modes, rec
+        out.append(replace(m, residue=complex(2j * wd * a), fit_error=err))
+    return out, rec

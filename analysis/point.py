@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from rigtools.analysis.frf import FRFEstimate, FRFKind, SpectraAccumulator, excitation_settings
+from rigtools.analysis.frf import FRFEstimate, FRFKind, FRFMethod
 from rigtools.analysis.harmonics import HarmonicFit, harmonic_amplitudes, relative_phases
 from rigtools.analysis.impacts import ImpactAnalysis, detect_impacts
 from rigtools.analysis.modal_id import ModalIdentification, identify
@@ -147,12 +147,15 @@ class FRFTestAnalysis:
         FRF kind of ``estimate``.
     modes
         ``{response: ModalIdentification}`` from ``estimator``.
+    frf_method
+        How the estimate was made (:class:`rigtools.analysis.frf.FRFMethod`), when known.
     """
 
     responses: list[str]
     estimate: FRFEstimate
     kind: str
     modes: dict[str, ModalIdentification]
+    frf_method: FRFMethod | None = None
 
     def to_dict(self) -> dict:
         """Modes and notes per response (the FRF arrays themselves are for plots/files)."""
@@ -163,10 +166,17 @@ class FRFTestAnalysis:
             "modes": {
                 r: {
                     "method": m.method,
+                    "band_hz": list(m.band) if m.band else None,
                     "notes": list(m.notes),
                     "modes": [
-                        {"frequency_hz": x.frequency_hz, "damping_ratio": x.damping_ratio} for x in m.modes
+                        {
+                            "frequency_hz": x.frequency_hz,
+                            "damping_ratio": x.damping_ratio,
+                            "evidence": x.evidence(),
+                        }
+                        for x in m.modes
                     ],
+                    "dropped": list(m.dropped),
                 }
                 for r, m in self.modes.items()
             },
@@ -177,8 +187,9 @@ def analyze_frf_test(
     blocks: Iterable[Mapping[str, np.ndarray]],
     sample_rate: float,
     *,
-    excitation: str,
-    segment_samples: int,
+    excitation: str | None = None,
+    segment_samples: int | None = None,
+    frf_method: FRFMethod | None = None,
     responses: Sequence[str] = (ACTIVE, PASSIVE),
     force: str = FORCE,
     measured: FRFKind = "accelerance",
@@ -194,9 +205,13 @@ def analyze_frf_test(
     Parameters
     ----------
     blocks
-        Iterable of ``{channel: (n,) samples}`` in time order (any block lengths).
+        Iterable of ``{channel: (n,) samples}`` in time order (any block lengths); for an
+        ``impact`` method, one block per frame of exactly ``frame_samples``.
     excitation, segment_samples
-        See :func:`rigtools.analysis.frf.excitation_settings` (``"random"``, ``"burst"``, ``"periodic"``).
+        See :func:`rigtools.analysis.frf.excitation_settings` (``"random"``, ``"burst"``,
+        ``"periodic"``); ignored when ``frf_method`` is given.
+    frf_method
+        The estimate (:class:`rigtools.analysis.frf.FRFMethod`), the one every reader uses.
     responses, force
         Channel names.
     measured, kind
@@ -208,10 +223,14 @@ def analyze_frf_test(
         :func:`rigtools.analysis.modal_id.identify`.
     """
     names = [force, *responses]
-    acc = SpectraAccumulator(sample_rate, reference=0, **excitation_settings(excitation, segment_samples))
+    if frf_method is None:
+        if excitation is None or segment_samples is None:
+            raise ValueError("give frf_method, or excitation and segment_samples")
+        frf_method = FRFMethod(excitation, int(segment_samples))
+    acc = frf_method.accumulator(sample_rate, len(names))
     for block in blocks:
         acc.add(np.vstack([np.asarray(block[n], dtype=float) for n in names]))
-    est = acc.frf().as_kind(measured, kind)
+    est = acc.frf(frf_method.min_averages).as_kind(measured, kind)
     h = est.estimator(estimator)
     modes = {}
     for i, name in enumerate(responses):
@@ -220,10 +239,10 @@ def analyze_frf_test(
             h[i],
             kind=kind,
             excitation_psd=est.sxx,
-            coherence=est.coherence[i],
+            coherence=est.coherence[i] if est.n_averages > 1 else None,
             f_min=f_min,
             f_max=f_max,
             method=method,
             n_modes=n_modes,
         )
-    return FRFTestAnalysis(list(responses), est, kind, modes)
+    return FRFTestAnalysis(list(responses), est, kind, modes, frf_method)

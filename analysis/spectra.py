@@ -15,6 +15,8 @@ For broadband signals use a density (:func:`scipy.signal.welch`), not an amplitu
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 from scipy.signal import get_window
 
@@ -76,3 +78,96 @@ def amplitude_spectrum(
         amp[..., 1:] /= np.sqrt(2.0)
     freqs = np.fft.rfftfreq(n, d=1.0 / sample_rate)
     return freqs, amp
+
+
+@dataclass(frozen=True)
+class ResponseSpectra:
+    """Spectra of one response-only (operational) channel, see :func:`response_spectra`.
+
+    Attributes
+    ----------
+    frequency_hz, psd
+        Welch power spectral density (Hann, 50 % overlap, ``scipy.signal.welch``
+        ``scaling="density"``, one-sided): units² / Hz; its integral over frequency is the
+        variance of the signal.
+    amplitude_hz, amplitude
+        Peak-amplitude spectrum of the whole record (:func:`amplitude_spectrum`, flattop): a
+        sine of peak amplitude A reads A.
+    peaks
+        The strongest peaks of the amplitude spectrum: ``{"frequency_hz", "amplitude"}``
+        (peak amplitude), descending in amplitude.
+    harmonics
+        With ``fe``: ``{"k", "frequency_hz", "amplitude", "phase"}`` of k·fe by exact least
+        squares (:func:`rigtools.analysis.harmonics.harmonic_amplitudes`); else empty.
+    """
+
+    frequency_hz: np.ndarray
+    psd: np.ndarray
+    amplitude_hz: np.ndarray
+    amplitude: np.ndarray
+    peaks: list[dict]
+    harmonics: list[dict]
+    rms: float
+
+    def to_dict(self) -> dict:
+        """Plain-Python summary (peaks, harmonics, RMS; the arrays are for figures)."""
+        return {
+            "rms": self.rms,
+            "psd_scaling": "units^2/Hz (Welch, Hann, 50 % overlap, one-sided)",
+            "amplitude_scaling": "peak (flattop)",
+            "resolution_hz": float(self.frequency_hz[1] - self.frequency_hz[0]),
+            "peaks": self.peaks,
+            "harmonics": self.harmonics,
+        }
+
+
+def response_spectra(
+    x: np.ndarray,
+    sample_rate: float,
+    *,
+    fe: float | None = None,
+    n_peaks: int = 5,
+    k_max: int = 10,
+    nperseg: int | None = None,
+) -> ResponseSpectra:
+    """What a lab reads from a response without a force: PSD, amplitude spectrum, its peaks and
+    (with the excitation frequency ``fe``) the harmonics k·fe.
+
+    Parameters
+    ----------
+    x
+        (n,) samples, SI units.
+    sample_rate
+        Hz.
+    fe
+        Excitation (e.g. shaft or mains) frequency, Hz, or None.
+    n_peaks
+        Number of peaks reported (at least 6 dB prominent in the amplitude spectrum).
+    k_max
+        Highest harmonic of ``fe`` (lowered below the Nyquist frequency).
+    nperseg
+        Welch segment length (default: a power of two giving about 16 averages).
+    """
+    from scipy.signal import find_peaks, welch
+
+    from rigtools.analysis.harmonics import harmonic_amplitudes
+
+    x = np.asarray(x, dtype=float)
+    if nperseg is None:
+        nperseg = int(min(2 ** np.floor(np.log2(max(x.size / 8.5, 16))), 1 << 16, x.size))
+    f, psd = welch(x, fs=sample_rate, window="hann", nperseg=nperseg, noverlap=nperseg // 2)
+    fa, amp = amplitude_spectrum(x, sample_rate)
+    db = 20 * np.log10(np.maximum(amp, np.finfo(float).tiny))
+    idx, _ = find_peaks(db, prominence=6.0)
+    idx = idx[fa[idx] > 0]
+    idx = idx[np.argsort(amp[idx])[::-1][:n_peaks]]
+    peaks = [{"frequency_hz": float(fa[i]), "amplitude": float(amp[i])} for i in idx]
+    harmonics: list[dict] = []
+    if fe:
+        k = max(1, min(int(k_max), int(np.floor(sample_rate / 2 / fe - 1e-9))))
+        fit = harmonic_amplitudes(x, sample_rate, float(fe), k)
+        harmonics = [
+            {"k": j + 1, "frequency_hz": (j + 1) * float(fe), "amplitude": float(a), "phase": float(p)}
+            for j, (a, p) in enumerate(zip(fit.amplitude, fit.phase, strict=True))
+        ]
+    return ResponseSpectra(f, psd, fa, amp, peaks, harmonics, float(np.sqrt(np.mean((x - x.mean()) ** 2))))

@@ -95,6 +95,7 @@ class PointAnalysis:
     frf: Any = None
     excitation: str = ""
     notes: list[str] = field(default_factory=list)
+    spectra: dict[str, Any] | None = None
 
     @property
     def fe(self) -> float | None:
@@ -120,9 +121,13 @@ class PointAnalysis:
         if self.dwell is not None:
             out["dwell"] = _plain(self.dwell.to_dict())
             out["modes"] = None
+        if self.spectra is not None:
+            out["spectra"] = _plain({c: s.to_dict() for c, s in self.spectra.items()})
         if self.frf is not None:
             d = self.frf.to_dict()
             d["excitation"] = self.excitation
+            if self.frf.frf_method is not None:
+                d["frf_method"] = self.frf.frf_method.to_dict(self.sample_rate)
             d["mean_coherence"] = {
                 r: float(np.mean(self.frf.estimate.coherence[i][self._band()]))
                 for i, r in enumerate(self.frf.responses)
@@ -168,6 +173,10 @@ class RecordingAnalysis:
     @property
     def broadband(self) -> list[PointAnalysis]:
         return [p for p in self.points if p.kind == "broadband"]
+
+    @property
+    def operational(self) -> list[PointAnalysis]:
+        return [p for p in self.points if p.kind == "operational"]
 
     def response_curves(self) -> dict | None:
         """Response curves of a stepped sine or study (None unless there are two or more periodic
@@ -325,7 +334,12 @@ def record_window(point) -> tuple[int, int]:
 
 
 def force_channel(point) -> str | None:
-    """The force channel: ``force`` (vocabulary), else the only channel of quantity force."""
+    """The force channel: the point's ``reference_channel`` (an import's excitation, found from
+    its quantity or named with ``--reference``), ``force`` (vocabulary), else the only channel
+    of quantity force."""
+    named = point.params.get("reference_channel")
+    if isinstance(named, str) and named in point.channels:
+        return named
     if FORCE in point.channels:
         return FORCE
     forces = [n for n, c in point.channels.items() if c.quantity == "force" and n != "contact_force"]
@@ -391,34 +405,198 @@ def analyze_periodic(point, *, channels: Sequence[str] | None = None, k_max: int
     )
 
 
-def tap_frames(point, force: str, start: int, n: int, threshold: float = 0.2) -> tuple[int, int, int]:
-    """Frames of a record of hammer taps: ``(first sample, samples, frame samples)`` with one
-    frame per hit, starting a few ms before it, as long as the shortest spacing of hits.
+EXCITATIONS = ("burst", "impact", "periodic", "random")
+FOREIGN_PROCEDURES = ("import",)
 
-    A hit is a peak of |force| above ``threshold`` of the largest, at least 50 ms after the
-    previous one. Raises :class:`UserError` for fewer than two hits (an FRF needs averages)."""
-    from scipy.signal import find_peaks
 
+def is_foreign(experiment: dict) -> bool:
+    """True for a recording written elsewhere and imported (``rig import``): it does not describe
+    this rig, so it is compared with the rig's FEM only when asked."""
+    return str((experiment or {}).get("procedure", "")) in FOREIGN_PROCEDURES
+
+
+def frf_method_of(
+    point,
+    force: str,
+    start: int,
+    n: int,
+    *,
+    excitation: str | None = None,
+    frame_samples: int | None = None,
+    force_window: float | None = None,
+    exponential: float | None = None,
+):
+    """The FRF estimate of a broadband point (:class:`rigtools.analysis.frf.FRFMethod`): the one
+    choice ``rig analyze``, ``rig report``, ``rig export uff`` and ``rig compare`` share.
+
+    - ``rig acquire frf`` points (``frame_samples`` and ``signal``): burst random, one frame per
+      burst period, or periodic chirp over whole periods; rectangular window.
+    - other records (a tap record, a recording imported from elsewhere): from the force's content,
+      hits of a hammer (one frame per hit) or continuous random (Hann, 50 % overlap), see
+      :func:`rigtools.analysis.frf.method_from_content`.
+    - ``excitation`` (and ``frame_samples``) override the choice; ``force_window`` and
+      ``exponential`` apply to impacts.
+    """
+    from rigtools.analysis.frf import FRFMethod, impact_method, method_from_content, random_frame_samples
+
+    if excitation is not None and excitation not in EXCITATIONS:
+        raise UserError(f"--excitation {excitation!r}: use one of {', '.join(EXCITATIONS)}")
     rate = float(point.sample_rate)
+    recorded = "frame_samples" in point.params
+    if excitation is None and recorded:
+        signal = str(point.params.get("signal", ""))
+        kind = "periodic" if signal == "chirp" else "burst"
+        return FRFMethod(
+            kind, int(point.params["frame_samples"]), reason=f"recorded {signal or 'burst'} test"
+        )
+    if excitation in ("burst", "periodic"):
+        seg = frame_samples or (int(point.params["frame_samples"]) if recorded else None)
+        if seg is None:
+            raise UserError(f"--excitation {excitation} needs the frame length (--frame-samples)")
+        return FRFMethod(excitation, int(seg), reason="asked for")
     if n > WINDOW_SAMPLES:
         raise UserError(
-            f"point {point.index}: {n} samples without a recorded frame length; "
-            f"tap records up to {WINDOW_SAMPLES} samples are supported"
+            f"point {point.index}: {n} samples without a recorded frame length; records up to "
+            f"{WINDOW_SAMPLES} samples are read whole to find the excitation (give --excitation "
+            "and --frame-samples)"
         )
-    f = np.abs(np.asarray(point.channels[force][start : start + n], dtype=float))
-    peaks, _ = find_peaks(
-        f, height=threshold * float(f.max()) if f.size else 0.0, distance=max(1, int(0.05 * rate))
+    x = np.asarray(point.channels[force][start : start + n], dtype=float)
+    try:
+        if excitation == "impact" or force_window is not None or exponential is not None:
+            return impact_method(
+                x, rate, force_window=force_window, exponential=exponential, reason="asked for"
+            )
+        if excitation == "random":
+            return FRFMethod("random", int(frame_samples or random_frame_samples(n)), reason="asked for")
+        return method_from_content(x, rate, frame_samples=frame_samples)
+    except ValueError as exc:
+        raise UserError(f"point {point.index}: {exc}") from None
+
+
+def frf_blocks(point, names: Sequence[str], start: int, n: int, method) -> Iterator[dict]:
+    """``{channel: samples}`` blocks of a point for :func:`rigtools.analysis.point.analyze_frf_test`:
+    one block per frame for an impact method, else the record window in blocks."""
+    if method.excitation == "impact":
+        for s in method.frame_starts:
+            a = start + int(s)
+            yield {c: np.asarray(point.channels[c][a : a + method.frame_samples], dtype=float) for c in names}
+        return
+    for b in _blocks(point, names, start, n):
+        yield dict(zip(names, b, strict=True))
+
+
+def analyze_operational(
+    point, *, fe: float | None = None, channels: Sequence[str] | None = None
+) -> PointAnalysis:
+    """A point without a force channel (an operational log): per channel the PSD, the
+    peak-amplitude spectrum, its peaks and, with ``fe``, the harmonics k·fe
+    (:func:`rigtools.analysis.spectra.response_spectra`)."""
+    from rigtools.analysis.spectra import response_spectra
+
+    rate = float(point.sample_rate)
+    start, n = record_window(point)
+    if n > WINDOW_SAMPLES:
+        start, n = start + n - WINDOW_SAMPLES, WINDOW_SAMPLES
+    names = list(channels or point.channels)
+    spectra = {
+        c: response_spectra(np.asarray(point.channels[c][start : start + n], dtype=float), rate, fe=fe)
+        for c in names
+    }
+    notes = ["no force channel: spectra only (PSD in units²/Hz, Hann, Welch; amplitudes are peak, flattop)"]
+    if fe is None:
+        notes.append("give --fe to read the harmonics of an excitation frequency")
+    return PointAnalysis(
+        point.index,
+        "operational",
+        dict(point.params),
+        {c: point.channels[c].units for c in names},
+        rate,
+        (start, n),
+        spectra=spectra,
+        notes=notes,
     )
-    if peaks.size < 2:
+
+
+@dataclass(frozen=True)
+class FRFOptions:
+    """How ``rig analyze`` (and every reader of the same FRF) treats a broadband point.
+
+    Attributes
+    ----------
+    band
+        ``(f_min, f_max)`` Hz for the modal identification; None: the procedure's band, else where
+        the force has energy (:func:`rigtools.analysis.modal_id.excitation_band`).
+    excitation, frame_samples, force_window, exponential
+        Overrides of the FRF estimate (:func:`frf_method_of`).
+    """
+
+    band: tuple[float, float] | None = None
+    excitation: str | None = None
+    frame_samples: int | None = None
+    force_window: float | None = None
+    exponential: float | None = None
+
+
+def point_frf(point, *, responses: Sequence[str] | None = None, options: FRFOptions | None = None):
+    """The FRF of a broadband point as every command reports it: ``(force, responses, measured
+    kind, FRFMethod, (start, n), blocks)``; ``blocks`` feeds
+    :func:`rigtools.analysis.point.analyze_frf_test` or the method's accumulator."""
+    options = options or FRFOptions()
+    force = force_channel(point)
+    if force is None:
         raise UserError(
-            f"point {point.index}: {peaks.size} hit(s) of the force found; an FRF of a tap "
-            "test needs two or more taps to average (coherence)"
+            f"point {point.index}: no force channel (channels: {', '.join(point.channels)}); "
+            "an FRF needs the force (name one with --reference)"
         )
-    pre = min(round(0.002 * rate), int(np.min(np.diff(peaks))) // 20)
-    first = max(0, int(peaks[0]) - pre)
-    seg = int(min(np.min(np.diff(peaks)), n - (int(peaks[-1]) - pre)))
-    hits = int(peaks.size if n - (int(peaks[-1]) - pre) >= seg else peaks.size - 1)
-    return start + first, hits * seg, seg
+    resp = list(responses or response_channels(point, force))
+    if not resp:
+        raise UserError(
+            f"point {point.index}: no response channel (acceleration, velocity or "
+            f"displacement) beside {force}"
+        )
+    not_motion = [c for c in resp if _frf_kind_of(point.channels[c].units) is None]
+    if not_motion:
+        raise UserError(
+            f"point {point.index}: {', '.join(not_motion)} is not an acceleration, velocity or "
+            f"displacement ({', '.join(point.channels[c].units for c in not_motion)}): no FRF response"
+        )
+    measured = {k for c in resp if (k := _frf_kind_of(point.channels[c].units)) is not None}
+    if len(measured) != 1:
+        raise UserError(
+            f"point {point.index}: responses {', '.join(resp)} measure different quantities; "
+            "analyse them one at a time (--channels)"
+        )
+    start, n = record_window(point)
+    method = frf_method_of(
+        point,
+        force,
+        start,
+        n,
+        excitation=options.excitation,
+        frame_samples=options.frame_samples,
+        force_window=options.force_window,
+        exponential=options.exponential,
+    )
+    if method.excitation != "impact" and n < method.frame_samples:
+        raise UserError(
+            f"point {point.index}: {n} samples recorded, fewer than one frame ({method.frame_samples})"
+        )
+    names = [force, *resp]
+    return force, resp, measured.pop(), method, (start, n), frf_blocks(point, names, start, n, method)
+
+
+def point_frf_estimate(point, *, responses: Sequence[str] | None = None, options: FRFOptions | None = None):
+    """``(FRFEstimate in the responses' own kind, responses, force, FRFMethod)`` of a broadband
+    point: the same numbers ``rig analyze`` reports (``rig export uff`` writes these)."""
+    force, resp, measured, method, _, blocks = point_frf(point, responses=responses, options=options)
+    acc = method.accumulator(float(point.sample_rate), 1 + len(resp))
+    for b in blocks:
+        acc.add(np.vstack([b[c] for c in [force, *resp]]))
+    try:
+        est = acc.frf(method.min_averages)
+    except ValueError as exc:
+        raise UserError(f"point {point.index}: {exc}") from None
+    return est, resp, force, method, measured
 
 
 def analyze_broadband(
@@ -428,70 +606,48 @@ def analyze_broadband(
     kind: str = "accelerance",
     method: str = "lscf",
     responses: Sequence[str] | None = None,
+    options: FRFOptions | None = None,
 ) -> PointAnalysis:
-    """H1/H2/Hv, coherence and modes of a broadband point (FRF test, tap test, free decay)."""
+    """H1/H2/Hv, coherence and modes of a broadband point (FRF test, tap test, free decay,
+    impact test or random test written elsewhere)."""
     from rigtools.analysis.point import analyze_frf_test
 
+    options = options or FRFOptions()
     rate = float(point.sample_rate)
-    force = force_channel(point)
-    if force is None:
-        raise UserError(
-            f"point {point.index}: no force channel (channels: {', '.join(point.channels)}); "
-            "an FRF needs the force into the blade"
-        )
-    resp = list(responses or response_channels(point, force))
-    if not resp:
-        raise UserError(
-            f"point {point.index}: no response channel (acceleration, velocity or "
-            f"displacement) beside {force}"
-        )
-    units = {c: point.channels[c].units for c in [force, *resp]}
-    not_motion = [c for c in resp if _frf_kind_of(units[c]) is None]
-    if not_motion:
-        raise UserError(
-            f"point {point.index}: {', '.join(not_motion)} is not an acceleration, velocity or "
-            f"displacement ({', '.join(units[c] for c in not_motion)}): no FRF response"
-        )
-    measured = {k for c in resp if (k := _frf_kind_of(units[c])) is not None}
-    if len(measured) != 1:
-        raise UserError(
-            f"point {point.index}: responses {', '.join(resp)} measure different quantities; "
-            "analyse them one at a time (--channels)"
-        )
-    start, n = record_window(point)
-    signal = str(point.params.get("signal", ""))
-    notes = []
-    if "frame_samples" in point.params:
-        seg = int(point.params["frame_samples"])
-        excitation = "periodic" if signal == "chirp" else "burst"
-    else:  # a tap test or free decays: one frame per hit of the force
-        start, n, seg = tap_frames(point, force, start, n)
-        excitation = "burst"
-        notes.append(
-            f"no frame length recorded: one frame of {seg} samples per hit of the force "
-            f"({n // seg} hits, rectangular window)"
-        )
-    if n < seg:
-        raise UserError(f"point {point.index}: {n} samples recorded, fewer than one frame ({seg})")
-    lo, hi = point.params.get("band_low"), point.params.get("band_high")
-    names = [force, *resp]
-    blocks = (dict(zip(names, b, strict=True)) for b in _blocks(point, names, start, n))
-    res = analyze_frf_test(
-        blocks,
-        rate,
-        excitation=excitation,
-        segment_samples=seg,
-        responses=resp,
-        force=force,
-        measured=measured.pop(),
-        kind=frf_kind(kind),
-        f_min=lo,
-        f_max=hi,
-        method=method,
+    force, resp, measured, frf_method, (start, n), blocks = point_frf(
+        point, responses=responses, options=options
     )
-    band = np.ones(res.estimate.frequency_hz.size, bool)
-    if lo is not None and hi is not None:
-        band = (res.estimate.frequency_hz >= lo) & (res.estimate.frequency_hz <= hi)
+    units = {c: point.channels[c].units for c in [force, *resp]}
+    notes = [f"FRF: {frf_method.describe(rate)}"]
+    if frf_method.excitation == "impact" and len(frf_method.frame_starts) < 2:
+        notes.append("one hit: no coherence (it needs two or more averages)")
+    lo, hi = options.band if options.band else (point.params.get("band_low"), point.params.get("band_high"))
+    try:
+        res = analyze_frf_test(
+            blocks,
+            rate,
+            frf_method=frf_method,
+            responses=resp,
+            force=force,
+            measured=measured,
+            kind=frf_kind(kind),
+            f_min=lo,
+            f_max=hi,
+            method=method,
+        )
+    except ValueError as exc:
+        raise UserError(f"point {point.index}: {exc}") from None
+    params = dict(point.params)
+    first = next(iter(res.modes.values()), None)
+    if first is not None and first.band is not None:
+        params["band_low"], params["band_high"] = first.band
+        if options.band is None and point.params.get("band_low") is None:
+            notes.append(
+                f"band {first.band[0]:.4g}-{first.band[1]:.4g} Hz: where the force spectrum has energy"
+            )
+    band = (res.estimate.frequency_hz >= params.get("band_low", 0.0)) & (
+        res.estimate.frequency_hz <= params.get("band_high", np.inf)
+    )
     for i, (r, m) in enumerate(res.modes.items()):
         coh = float(np.mean(res.estimate.coherence[i][band]))
         if coh < 0.5 and BLADE_OF.get(r) == "passive":
@@ -502,17 +658,18 @@ def analyze_broadband(
                 "force (a blade the force does not reach needs its own tap/hammer test)"
             )
         notes.extend(f"{r}: {t}" for t in m.notes)
-    return PointAnalysis(
+    out = PointAnalysis(
         point.index,
         "broadband",
-        dict(point.params),
+        params,
         units,
         rate,
         (start, n),
         frf=res,
-        excitation=excitation,
+        excitation=frf_method.excitation,
         notes=notes,
     )
+    return out
 
 
 def is_hit_per_point_tap_test(procedure: str, points) -> bool:
@@ -525,10 +682,16 @@ def is_hit_per_point_tap_test(procedure: str, points) -> bool:
 
 
 def analyze_tap_test(
-    points, experiment: dict, *, kind: str = "accelerance", method: str = "lscf"
+    points,
+    experiment: dict,
+    *,
+    kind: str = "accelerance",
+    method: str = "lscf",
+    band: tuple[float, float] | None = None,
 ) -> PointAnalysis:
     """H1/H2/Hv, coherence and modes of a tap (impact-hammer) test: one frame per accepted hit,
     each its own point (``rig acquire tap``), averaged together with the hammer as the force."""
+    from rigtools.analysis.frf import FRFMethod
     from rigtools.analysis.point import analyze_frf_test
 
     hammer = str(experiment.get("hammer_channel") or "hammer")
@@ -571,17 +734,25 @@ def analyze_tap_test(
     # the 0.5 ms default pulse, the same band `rig acquire tap` uses)
     pulse = float((experiment.get("parameters") or {}).get("pulse") or TAP_DEFAULT_PULSE_S)
     f_max = min(1.0 / pulse, 0.45 * rate)
+    f_min = TAP_F_MIN_HZ
+    if band is not None:
+        f_min, f_max = band
+    frf_method = FRFMethod(
+        "impact",
+        frame,
+        tuple(0 for _ in accepted),
+        reason="rig acquire tap: one recorded frame per accepted hit",
+    )
     res = analyze_frf_test(
         blocks,
         rate,
-        excitation="burst",
-        segment_samples=frame,
+        frf_method=frf_method,
         responses=(response,),
         force="force",
         measured=measured,
         kind=frf_kind(kind),
         method=method,
-        f_min=TAP_F_MIN_HZ,
+        f_min=f_min,
         f_max=f_max,
     )
     notes = [
@@ -612,6 +783,9 @@ def analyze_recording(
     method: str = "lscf",
     channels: Sequence[str] | None = None,
     progress: Callable[[int, int], None] | None = None,
+    options: FRFOptions | None = None,
+    fe: float | None = None,
+    compare_fem: bool | None = None,
 ) -> RecordingAnalysis:
     """Analyse every complete point of a recording (see the module docstring).
 
@@ -627,6 +801,15 @@ def analyze_recording(
         Only these channels (the force is always kept); unknown names are a :class:`UserError`.
     progress
         ``progress(done, total)`` after each point.
+    options
+        Band and FRF-estimate overrides of broadband points (:class:`FRFOptions`).
+    fe
+        Excitation frequency whose harmonics are marked in the spectra of a point without a
+        force channel (an operational recording).
+    compare_fem
+        Add the table of this rig's FEM/AM natural frequencies beside the identified ones;
+        default: yes for the rig's own recordings, no for imported ones (they do not describe
+        this rig).
 
     Returns
     -------
@@ -649,12 +832,15 @@ def analyze_recording(
     >>> point.kind, point.frf.responses[0]
     ('broadband', 'active_shroud_accel')
     """
+    from rigtools.frf_set import is_frf_set
     from rigtools.recording import RecordingError, open_recording
     from rigtools.vocabulary import source_of
 
     checked_kind = frf_kind(kind)
     if method not in METHODS:
         raise UserError(f"--method {method!r}: use one of {', '.join(METHODS)}")
+    if Path(path).is_file() and is_frf_set(path):
+        return analyze_frf_set(path, kind=kind, method=method, channels=channels, options=options)
     try:
         rec = open_recording(path)
     except RecordingError as exc:
@@ -680,7 +866,11 @@ def analyze_recording(
                 )
         try:
             if is_hit_per_point_tap_test(procedure, points):
-                out.points.append(analyze_tap_test(points, rec.experiment, kind=kind, method=method))
+                out.points.append(
+                    analyze_tap_test(
+                        points, rec.experiment, kind=kind, method=method, band=(options or FRFOptions()).band
+                    )
+                )
                 points = []
             for i, point in enumerate(points):
                 if not point.complete:
@@ -698,19 +888,105 @@ def analyze_recording(
                             else list(channels)
                         )
                     out.points.append(analyze_periodic(point, channels=names))
+                elif force_channel(point) is None:
+                    out.points.append(analyze_operational(point, fe=fe, channels=channels))
                 else:
                     resp = [c for c in channels if c != force_channel(point)] if channels else None
                     out.points.append(
-                        analyze_broadband(point, procedure, kind=kind, method=method, responses=resp)
+                        analyze_broadband(
+                            point, procedure, kind=kind, method=method, responses=resp, options=options
+                        )
                     )
                 if progress is not None:
                     progress(i + 1, len(points))
         except RecordingError as exc:
             raise UserError(str(exc)) from None
-    if out.broadband:
+    foreign = is_foreign(rec.experiment)
+    if compare_fem is None:
+        compare_fem = not foreign
+    if out.broadband and compare_fem:
         out.frequency_table = frequency_table(out, path)
+    elif out.broadband and foreign:
+        out.notes.append("imported recording: not compared with this rig's FEM (ask with --compare-fem)")
     if not out.points and not out.skipped:
         out.notes.append("the recording holds no points")
+    return out
+
+
+def analyze_frf_set(
+    path: str | Path,
+    *,
+    kind: str = "accelerance",
+    method: str = "lscf",
+    channels: Sequence[str] | None = None,
+    options: FRFOptions | None = None,
+) -> RecordingAnalysis:
+    """Modes of the FRFs of an FRF set (:mod:`rigtools.frf_set`, e.g. ``rig import uff``), one
+    broadband point: the identification :func:`analyze_broadband` runs, on the stored FRFs and
+    coherence; the band is ``options.band`` or the whole grid above 0 Hz (an FRF set holds no
+    force spectrum). Never compared with this rig's FEM (it does not describe this rig)."""
+    from rigtools.analysis.frf import FRFEstimate
+    from rigtools.analysis.modal_id import identify
+    from rigtools.analysis.point import FRFTestAnalysis
+    from rigtools.frf_set import read_frf_set
+
+    fs = read_frf_set(path)
+    kind_out = frf_kind(kind)
+    rows = list(range(len(fs.responses)))
+    if channels:
+        unknown = [c for c in channels if c not in fs.responses and c != fs.reference]
+        if unknown:
+            raise UserError(f"{path}: no FRF of {', '.join(unknown)} (responses: {', '.join(fs.responses)})")
+        rows = [i for i, r in enumerate(fs.responses) if r in channels]
+    f = fs.frequency_hz
+    h = fs.frf[rows]
+    coh = fs.coherence[rows]
+    with_coherence = bool(np.all(np.isfinite(coh)))
+    est = FRFEstimate(
+        f, h, h, coh, 2 if with_coherence else 1, np.full(f.size, np.nan), np.abs(h) * np.nan, h * np.nan
+    ).as_kind(frf_kind(fs.kind), kind_out)
+    band = (options or FRFOptions()).band
+    responses = [fs.responses[i] for i in rows]
+    modes = {}
+    try:
+        for i, r in enumerate(responses):
+            modes[r] = identify(
+                f,
+                est.h1[i],
+                kind=kind_out,
+                coherence=est.coherence[i] if with_coherence else None,
+                f_min=band[0] if band else None,
+                f_max=band[1] if band else None,
+                method=method,
+            )
+    except ValueError as exc:
+        raise UserError(f"{path}: {exc}") from None
+    first = next(iter(modes.values()), None)
+    params: dict[str, Any] = {"reference_channel": fs.reference}
+    if first is not None and first.band is not None:
+        params["band_low"], params["band_high"] = first.band
+    notes = [
+        f"FRF set from {fs.source.get('file', '?')} ({fs.kind} as imported); no force spectrum: band "
+        + ("as asked" if band else "the whole grid above 0 Hz (--band narrows it)")
+    ]
+    if not with_coherence:
+        notes.append("no coherence in the FRF set: peaks are not checked against it")
+    for r, m in modes.items():
+        notes.extend(f"{r}: {t}" for t in m.notes)
+    units = {r: {"accelerance": "m/s^2", "mobility": "m/s", "receptance": "m"}[fs.kind] for r in responses}
+    point = PointAnalysis(
+        0,
+        "broadband",
+        params,
+        {fs.reference: "N", **units},
+        2.0 * float(f[-1]),
+        (0, 0),
+        frf=FRFTestAnalysis(responses, est, kind_out, modes, None),
+        excitation="measured FRF",
+        notes=notes,
+    )
+    out = RecordingAnalysis(str(path), "frf set", "frf set", "em", "complete", kind_out, [point])
+    out.notes.append("FRF set: not compared with this rig's FEM")
     return out
 
 

@@ -707,21 +707,6 @@ MAX_TARGET_MODES = 10
 RMS_WARNING = 2.0  # rms residual (in target uncertainties) above which the fit does not explain the modes
 
 
-def parse_band(text: str | None, option: str = "--band") -> tuple[float | None, float | None]:
-    """``"LOW:HIGH"`` with units (``"20 Hz:2 kHz"``) -> ``(low, high)`` in Hz; ``None`` -> no limits."""
-    if text is None:
-        return None, None
-    from rigtools.options import quantity
-
-    parts = str(text).split(":")
-    if len(parts) != 2:
-        raise UserError(f'{option} = {text!r}: write LOW:HIGH, e.g. "20 Hz:2 kHz"')
-    lo, hi = (quantity(x, "frequency", option) for x in parts)
-    if not 0 < lo < hi:
-        raise UserError(f"{option} = {text!r}: need 0 < low < high")
-    return lo, hi
-
-
 @dataclass
 class UpdateOutcome:
     """What :func:`update_rig_file` did.
@@ -872,13 +857,16 @@ def update_rig_file(
     import datetime as _dt
 
     from rigtools.config import default_rig_text, load_rig, read_rig_text
-    from rigtools.options import output_path
+    from rigtools.options import band_option, output_path
 
     show = status or _no_status
     names = parse_names(parameters if isinstance(parameters, str) else ",".join(parameters), PARAMETER_NAMES)
     if isinstance(modes, bool) or not isinstance(modes, int) or not 1 <= modes <= MAX_TARGET_MODES:
         raise UserError(f"--modes = {modes!r}: use 1..{MAX_TARGET_MODES}")
-    f_min, f_max = band if isinstance(band, tuple) else parse_band(band)
+    f_min: float | None = None
+    f_max: float | None = None
+    if band is not None:
+        f_min, f_max = band if isinstance(band, tuple) else band_option(band, "--band", allow_zero=False)
     if law not in CONTACT_LAWS:
         raise UserError(f"--law = {law!r}: use one of {', '.join(CONTACT_LAWS)}")
     tests = [str(p) for p in recordings]

@@ -389,3 +389,35 @@ def check_out(
     return output_path(
         args.out, getattr(args, "overwrite", False), "--out", suffixes=suffixes, inputs=sources
     )
+
+
+def band_option(text: str, option: str = "--band", *, allow_zero: bool = True) -> tuple[float, float]:
+    """The one ``LOW:HIGH`` band grammar of every command (``rig analyze``, ``rig acquire frf``,
+    ``rig update``): ``"100 Hz:4 kHz"`` (a plain number is Hz) as ``(100.0, 4000.0)``.
+
+    Parameters
+    ----------
+    text
+        The option's text.
+    option
+        The option's name for the message.
+    allow_zero
+        Accept LOW = 0 Hz (an identification band may start at 0; an excitation band may not).
+
+    Returns
+    -------
+    tuple of float
+        ``(low, high)`` in Hz.
+
+    Raises
+    ------
+    UserError
+        One line naming the option when the text is not two increasing finite frequencies.
+    """
+    parts = [t.strip() for t in str(text).split(":")]
+    if len(parts) != 2 or not all(parts):
+        raise UserError(f'{option} = {text!r}: write LOW:HIGH, e.g. "100 Hz:4 kHz"')
+    lo, hi = (quantity(p, "frequency", option) for p in parts)
+    if not ((0 <= lo if allow_zero else 0 < lo) and lo < hi and math.isfinite(hi)):
+        raise UserError(f"{option} = {text!r}: need {'0 <=' if allow_zero else '0 <'} LOW < HIGH")
+    return lo, hi

@@ -19,9 +19,9 @@ def _fmt(x, digits: int = 4) -> str:
     return str(x)
 
 
-def analysis_tables(analysis: Any) -> list[Any]:
+def analysis_tables(analysis: Any, verbose: bool = False) -> list[Any]:
     """What ``rig analyze`` prints of a :class:`rigtools.analyze.RecordingAnalysis`: lines and rich
-    tables, in order."""
+    tables, in order; ``verbose`` adds one line per candidate mode not reported and why."""
     from rich.table import Table
 
     out: list[Any] = []
@@ -72,6 +72,17 @@ def analysis_tables(analysis: Any) -> list[Any]:
         out.append(
             "modes: none from sine points (a sine excites one frequency at a time; use rig acquire frf)"
         )
+    for p in analysis.operational:
+        table = Table(title=f"point {p.index}: spectra (no force channel)")
+        for col in ("channel", "RMS", "peaks, Hz (peak amplitude)", "harmonics k·fe"):
+            table.add_column(col, justify="right")
+        for c, sp in p.spectra.items():
+            peaks = ", ".join(f"{q['frequency_hz']:.4g} ({q['amplitude']:.3g})" for q in sp.peaks[:3])
+            harmonics = ", ".join(f"{h['k']}: {h['amplitude']:.3g}" for h in sp.harmonics[:4]) or "–"
+            table.add_row(f"{c} ({p.units.get(c, '')})", f"{sp.rms:.3g}", peaks or "–", harmonics)
+        out.append(table)
+        for n in p.notes:
+            out.append(f"note: {n}")
     for p in analysis.broadband:
         est = p.frf.estimate
         table = Table(
@@ -96,6 +107,13 @@ def analysis_tables(analysis: Any) -> list[Any]:
         out.append(table)
         for n in p.notes:
             out.append(f"note: {n}")
+        if verbose:
+            for r, m in p.frf.modes.items():
+                for d in m.dropped:
+                    out.append(
+                        f"  not reported ({r}): {d['frequency_hz']:.5g} Hz, ζ {100 * d['damping_ratio']:.3g} %: "
+                        f"{d['reason']}"
+                    )
     if analysis.frequency_table:
         cols = [
             ("blade", "blade"),

@@ -5,7 +5,8 @@ from __future__ import annotations
 import argparse
 
 from rigtools import json_values
-from rigtools.options import output_folder
+from rigtools.frf_options import add_frf_arguments, frf_options
+from rigtools.options import output_folder, positive_finite
 
 HELP = "analyse a recording: harmonics and impacts per point; FRFs (H1, H2, Hv) and modes of FRF tests"
 EPILOG = """\
@@ -21,6 +22,16 @@ Per point, by what it is:
   with damping ratios from --method lscf (sdypy-EMA LSCF with a stabilisation check; modes that
   the force spectrum does not support are dropped with a note) or peak (peak picking with
   half-power damping).
+  The FRF estimate follows the excitation: burst random one frame per burst period, periodic
+  chirp whole periods (both rectangular); a record written elsewhere by its force: one frame
+  per hammer hit (rectangular; --force-window/--exponential as pyFRF's windows) or continuous
+  random (Hann, 50 % overlap). rig export uff writes the same FRF.
+  A mode is reported when its LSCF pole is stable over 5+ model orders in frequency and
+  damping, its frequency steady within 0.2 %, its damping ratio in (0, 0.1], and it explains a
+  peak of |H| with coherence >= 0.5 inside the band; one line says how many candidates were not
+  reported (--verbose or --json list them).
+  points without a force (operational logs): PSD (units^2/Hz, Welch, Hann), peak-amplitude
+  spectrum (flattop), its peaks and, with --fe, the harmonics k*fe.
 Records are read in blocks: memory stays bounded for long recordings. Amplitudes are peak
 amplitudes (RMS = peak / sqrt 2 for a sine).
 
@@ -59,20 +70,39 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="modal identification of FRF tests (default lscf)",
     )
     p.add_argument("--channels", metavar="A,B", help="analyse only these channels (the force is kept)")
+    add_frf_arguments(p, analysis=True)
+    p.add_argument(
+        "--fe", help='excitation frequency whose harmonics a record without force shows, e.g. "50 Hz"'
+    )
+    p.add_argument(
+        "--compare-fem",
+        action="store_true",
+        help="compare an imported recording's modes with this rig's FEM (never done unasked)",
+    )
+    p.add_argument("--verbose", action="store_true", help="list every candidate mode not reported and why")
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
-
     from rich.console import Console
 
     from rigtools.analyze import analyze_recording
 
     channels = [c.strip() for c in args.channels.split(",") if c.strip()] if args.channels else None
+    options = frf_options(args)
+    fe = positive_finite(args.fe, "frequency", "--fe", unit="Hz") if args.fe else None
     out = output_folder(args.out) if args.out is not None else None
     console = Console(stderr=args.json)
     with console.status(f"analysing {args.file}"):
-        analysis = analyze_recording(args.file, kind=args.kind, method=args.method, channels=channels)
+        analysis = analyze_recording(
+            args.file,
+            kind=args.kind,
+            method=args.method,
+            channels=channels,
+            options=options,
+            fe=fe,
+            compare_fem=True if args.compare_fem else None,
+        )
     written = []
     if out is not None:
         written = write_figures(analysis, out)
@@ -83,7 +113,7 @@ def run(args: argparse.Namespace) -> int:
         return 0
     from rigtools.tables import analysis_tables
 
-    for item in analysis_tables(analysis):
+    for item in analysis_tables(analysis, verbose=args.verbose):
         console.print(item)
     for p in written:
         console.print(f"wrote {p}")

@@ -6,18 +6,19 @@ import argparse
 
 from rigtools import json_values
 from rigtools.errors import UserError
-from rigtools.options import output_path, quantity
+from rigtools.frf_options import add_frf_arguments, frf_options
+from rigtools.options import output_path
 
 HELP = "export a recording as UFF 58 (time records, spectra, FRFs with coherence) for modal software"
 EPILOG = """\
 rig export uff FILE.h5 OUT.uff writes, with pyuff, one UFF 58 function per channel and point:
-time records (function type 1), auto spectra (type 2, RMS^2 per bin from the flattop
-amplitude spectrum: a sine of peak amplitude A reads A^2/2) and, for
-points with a force channel, H1 FRFs of every response over the force (type 4) with their
-coherence (type 6), at --resolution (Hann window, Welch averages; at least two averages, so the
-point must hold two resolution periods). The file starts with a units dataset 164 (SI: m, N,
-s, K); each 58 record carries the specific data type (12 acceleration, 13 force, 8
-displacement, ...) and the unit exponents.
+FRFs first: H1 of every response over the force (type 4) with its coherence (type 6), the very
+estimate rig analyze reports (burst: frame per burst period; chirp: whole periods; impacts: a
+frame per hit; continuous random: Hann, 50 % overlap; --excitation/--frame-samples override as
+in rig analyze); then time records (type 1) and auto spectra (type 2, RMS^2 per bin from the
+flattop amplitude spectrum: a sine of peak amplitude A reads A^2/2), reference node 0. The file
+starts with a units dataset 164 (SI: m, N, s, K); each 58 record carries the specific data type
+(12 acceleration, 13 force, 8 displacement, ...), the unit exponents and the recording's date.
 
 Nodes: force sensor 1, active shroud 2, passive shroud 3, drive 100, other channels 101+;
 direction 2 (+Y, the blades' impact direction) for all. Binary, double precision values; the
@@ -25,7 +26,7 @@ abscissa increment is stored in the format's E13.5 field (6 significant digits).
 
 examples:
   rig export uff run.h5 run.uff
-  rig export uff frf.h5 frf.uff --what frf --resolution "0.5 Hz" --json
+  rig export uff frf.h5 frf.uff --what frf --json
 
 Exit status: 0 written, 2 bad input (unreadable recording, existing OUT without --overwrite).
 """
@@ -47,34 +48,34 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         default="time,spectra,frf",
         help='comma list of time, spectra, frf (default "time,spectra,frf")',
     )
-    p.add_argument("--resolution", default="1 Hz", help='FRF frequency resolution (default "1 Hz")')
+    add_frf_arguments(p, analysis=False)
+    p.add_argument("--reference", metavar="CHANNEL", help="the excitation channel (default: the force)")
     p.add_argument("--overwrite", action="store_true", help="replace OUT if it exists")
     p.add_argument("--json", action="store_true", help="print what was written as JSON")
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    from rigtools.interop.uff import WHAT, check_resolution, recording_functions, write_uff
+    from rigtools.interop.uff import WHAT, recording_functions, write_uff
     from rigtools.recording import open_recording
 
     what = tuple(w.strip() for w in args.what.split(",") if w.strip())
     unknown = [w for w in what if w not in WHAT]
     if unknown or not what:
         raise UserError(f"--what = {args.what!r}: use a comma list of {', '.join(WHAT)}")
-    resolution = quantity(args.resolution, "frequency", "--resolution")
-    if not resolution > 0:
-        raise UserError(f"--resolution = {args.resolution!r}: must be > 0 Hz")
+    options = frf_options(args)
     out = output_path(args.out, args.overwrite, "OUT", inputs=[args.file])
     with open_recording(args.file) as rec:
         skipped = [p.index for p in rec.points if not p.complete]  # cut off: never passed on as data
         if len(skipped) == len(rec.points):
             raise UserError(f"{args.file}: the recording has no complete points to export")
-        check_resolution(rec, what, resolution, args.resolution)
-        functions = recording_functions(rec, what, frf_resolution_hz=resolution, complete_only=True)
+        functions = recording_functions(
+            rec, what, frf_options=options, reference=args.reference, complete_only=True
+        )
     if not functions:
         raise UserError(
             f"{args.file}: nothing to export for --what {args.what!r} "
-            "(FRFs need a force channel and two resolution periods of data)"
+            "(FRFs need a broadband point with a force channel)"
         )
     write_uff(out, functions)
     counts: dict[str, int] = {}

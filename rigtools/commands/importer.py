@@ -1,4 +1,4 @@
-"""``rig import``: another tool's log as a recording (TDMS from NI-DAQmx logging or LabVIEW)."""
+"""``rig import``: another tool's file as a recording (TDMS, LabVIEW .lvm, UFF 58)."""
 
 from __future__ import annotations
 
@@ -6,23 +6,32 @@ import argparse
 
 from rigtools import json_values
 from rigtools.errors import UserError
-from rigtools.options import output_path, quantity
+from rigtools.options import output_path, positive_finite
 
-HELP = "import a TDMS log (NI-DAQmx configure_logging, LabVIEW) as a recording"
+HELP = "import a TDMS log, a LabVIEW measurement file or UFF 58 records as a recording"
 EPILOG = """\
-rig import tdms IN.tdms OUT.h5 reads the log with npTDMS and writes a recording (backend
-"tdms"): every TDMS group becomes a point, its channels the point's channels; the sample rate
-comes from the waveform property wf_increment (or --sample-rate), units from unit_string,
-converted to SI (g -> m/s^2, lbf -> N, mV -> V). DAQmx raw logs are scaled with the scaling
-stored in the file. Channel names keep letters, digits, _ . - ("Dev1/ai0" -> "Dev1_ai0");
---rename maps them onto the toolkit's names so analysis and comparison find them.
+rig import FORMAT IN OUT.h5 writes a recording of another tool's file and prints one line per
+channel saying what it did with it (kept: name, quantity, SI units and conversion; skipped: why).
+  tdms  NI-DAQmx / LabVIEW logs (npTDMS): every group a point; rate from wf_increment (or
+        --sample-rate), units from unit_string.
+  lvm   LabVIEW measurement files (.lvm or .lvm.gz; decimal comma, several segments, multi
+        headings): every segment a point; rate from Delta_X, units from Y_Unit_Label.
+  uff   UFF 58: time records become a recording; FRFs (with their coherence) an FRF set
+        (an .h5 that rig analyze identifies modes from).
+Units are converted to SI (g -> m/s^2, lbf -> N, mV -> V, degC -> K, ...). A channel without
+units takes those of the toolkit channel of its name (force -> N), else is skipped: supply them
+with --units NAME=UNIT. Channels of unequal length or rate are kept whole in points of their own.
+Channel names keep letters, digits, _ . - ("Dev1/ai0" -> "Dev1_ai0"); --map OLD=NEW renames.
+The excitation is the one channel of quantity force, or the one --reference names.
 
 examples:
   rig import tdms log.tdms log.h5
   rig import tdms log.tdms log.h5 --rename "Dev1/ai0=force,Dev1/ai1=active_shroud_accel" --rig lab.toml --overwrite
 
-Exit status: 0 written, 2 bad input (not a TDMS file, no units or timing, existing OUT).
+Exit status: 0 written, 2 bad input (unreadable file, nothing to import, an option naming no
+channel, existing OUT).
 """
+FORMATS = ("tdms", "lvm", "uff")
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -33,44 +42,67 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         epilog=EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("format", choices=("tdms",), help="input format")
+    p.add_argument("format", choices=FORMATS, help="input format")
     p.add_argument("source", metavar="IN", help="the file to import")
-    p.add_argument("out", metavar="OUT.h5", help="recording to write")
+    p.add_argument("out", metavar="OUT.h5", help="recording (or FRF set) to write")
     p.add_argument(
         "--rig", metavar="FILE", help="rig file stored with the recording (default: the default rig)"
     )
-    p.add_argument("--rename", default="", metavar="OLD=NEW,...", help="channel renames")
-    p.add_argument("--sample-rate", default=None, help='for logs without waveform timing, e.g. "51.2 kHz"')
+    p.add_argument(
+        "--map", "--rename", dest="map", action="append", metavar="OLD=NEW", help="rename a channel"
+    )
+    p.add_argument(
+        "--units", action="append", metavar="CHANNEL=UNIT", help="units of a channel, e.g. force=N"
+    )
+    p.add_argument("--group", action="append", metavar="NAME", help="TDMS: import only this group")
+    p.add_argument("--channel", action="append", metavar="NAME", help="import only this channel")
+    p.add_argument("--reference", metavar="CHANNEL", help="the excitation (default: the one force channel)")
+    p.add_argument("--sample-rate", default=None, help='TDMS logs without waveform timing, e.g. "51.2 kHz"')
     p.add_argument("--overwrite", action="store_true", help="replace OUT if it exists")
-    p.add_argument("--json", action="store_true", help="print what was written as JSON")
+    p.add_argument("--json", action="store_true", help="print what was done with each channel as JSON")
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
     from rigtools.config import load_rig
-    from rigtools.interop.tdms import check_renames, import_tdms, parse_rename
+    from rigtools.interop.channels import parse_pairs
 
-    rename = parse_rename(args.rename)
+    mapping = parse_pairs(args.map, "--map")
+    units = parse_pairs(args.units, "--units")
     rate = None
     if args.sample_rate is not None:
-        rate = quantity(args.sample_rate, "frequency", "--sample-rate")
-        if not rate > 0:
-            raise UserError(f"--sample-rate = {args.sample_rate!r}: must be > 0 Hz")
+        if args.format != "tdms":
+            raise UserError("--sample-rate is for TDMS logs (LVM and UFF files state their timing)")
+        rate = positive_finite(args.sample_rate, "frequency", "--sample-rate", unit="Hz")
+    if args.group and args.format != "tdms":
+        raise UserError("--group is for TDMS files (their groups)")
     out = output_path(
         args.out, args.overwrite, "OUT", inputs=[args.source, *([args.rig] if args.rig else [])]
     )
-    cfg = load_rig(args.rig)
-    check_renames(args.source, rename)
-    summary = import_tdms(
-        args.source, out, rig=cfg.to_json(), overwrite=args.overwrite, rename=rename, sample_rate=rate
-    )
-    if args.json:
-        print(json_values.dumps({"file": str(out), **summary}))
+    common = {
+        "rig": load_rig(args.rig).to_json(),
+        "overwrite": args.overwrite,
+        "mapping": mapping,
+        "units": units,
+        "channels": args.channel,
+        "reference": args.reference,
+    }
+    if args.format == "tdms":
+        from rigtools.interop.tdms import import_tdms
+
+        summary = import_tdms(args.source, out, groups=args.group, sample_rate=rate, **common)
+    elif args.format == "lvm":
+        from rigtools.interop.lvm import import_lvm
+
+        summary = import_lvm(args.source, out, **common)
     else:
-        for p in summary["points"]:
-            print(
-                f"point from group {p['group']!r}: {len(p['channels'])} channels "
-                f"({', '.join(p['channels'])}), {p['samples']} samples at {p['sample_rate']:g} Hz"
-            )
+        from rigtools.interop.uff import import_uff
+
+        summary = import_uff(args.source, out, **common)
+    if args.json:
+        print(json_values.dumps({"file": str(out), **{k: v for k, v in summary.items() if k != "lines"}}))
+    else:
+        for line in summary["lines"]:
+            print(line)
         print(f"wrote {out}")
     return 0

@@ -1,16 +1,16 @@
 """TDMS import with npTDMS: an NI-DAQmx log (``configure_logging``) or a LabVIEW waveform log
 becomes a recording in our format, so old measurements enter the same analysis.
 
-Mapping:
+Mapping (units, names and the excitation as every import treats them, :mod:`rigtools.interop.channels`):
 
-* every TDMS group becomes one point (in file order); its channels become the point's channels;
-* the sample rate is ``1 / wf_increment`` of the waveform properties (all channels of a group
-  share it; ``sample_rate`` may be given when a log has no waveform timing);
-* units come from ``unit_string`` (DAQmx writes it); they are converted to SI: ``g`` to m/s^2
-  (x 9.80665), ``lbf`` to N, ``mV`` to V; ``Newtons``/``Volts`` are read as N/V. A channel without
-  units, or with units this table does not know, is refused with one line naming it;
-* channel names keep letters, digits, ``_ . -`` (``Dev1/ai0`` becomes ``Dev1_ai0``); ``rename``
-  maps TDMS names onto the toolkit's vocabulary (``{"Dev1/ai0": "force"}``);
+* every TDMS group (or the ones ``groups`` selects) becomes a point, in file order; its channels
+  (or the ones ``channels`` selects) become the point's channels. Channels of one group with
+  unequal lengths or sample rates are kept whole in a point each per length and rate (a point's
+  channels share both), never cut to the shortest;
+* the sample rate is ``1 / wf_increment`` of the waveform properties (``sample_rate`` for logs
+  without waveform timing);
+* units come from ``unit_string`` (DAQmx writes it) or ``units``, converted to SI; a channel
+  without units or timing, with unknown units or non-numeric data is skipped with one line;
 * DAQmx raw logs are scaled by npTDMS with the scaling stored in the file.
 
 Data is copied in chunks (bounded memory, whatever the log's length).
@@ -19,85 +19,68 @@ Data is copied in chunks (bounded memory, whatever the log's length).
 from __future__ import annotations
 
 import math
-import re
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from rigtools.errors import UserError, one_line
+from rigtools.interop.channels import LBF, ForeignChannel, G, check_known, check_names, resolve
+from rigtools.interop.imported import ForeignPoint, split_by_timing, write_imported
 
-G = 9.80665
-LBF = 4.4482216152605
-# unit_string (lower case) -> (SI units, quantity, factor to SI)
-UNITS: dict[str, tuple[str, str, float]] = {
-    "n": ("N", "force", 1.0),
-    "newtons": ("N", "force", 1.0),
-    "newton": ("N", "force", 1.0),
-    "lbf": ("N", "force", LBF),
-    "pounds": ("N", "force", LBF),
-    "m/s^2": ("m/s^2", "acceleration", 1.0),
-    "m/s2": ("m/s^2", "acceleration", 1.0),
-    "m/s\u00b2": ("m/s^2", "acceleration", 1.0),
-    "meterspersecondsquared": ("m/s^2", "acceleration", 1.0),
-    "g": ("m/s^2", "acceleration", G),
-    "gs": ("m/s^2", "acceleration", G),
-    "m/s": ("m/s", "velocity", 1.0),
-    "m": ("m", "displacement", 1.0),
-    "mm": ("m", "displacement", 1e-3),
-    "v": ("V", "voltage", 1.0),
-    "volts": ("V", "voltage", 1.0),
-    "mv": ("V", "voltage", 1e-3),
-}
-CHUNK = 1 << 20  # samples per channel copied at a time
-_BAD_NAME_CHARS = re.compile(r"[^A-Za-z0-9_.\-]")
+__all__ = ["LBF", "G", "TdmsImportError", "import_tdms"]
+
+_NUMERIC = "biuf"  # numpy kinds imported (bool, integers, floats)
 
 
 class TdmsImportError(UserError):
     """A TDMS file that cannot become a recording (one line)."""
 
 
-def channel_name(tdms_name: str, rename: dict[str, str]) -> str:
-    """The recording channel name of a TDMS channel."""
-    if tdms_name in rename:
-        return rename[tdms_name]
-    name = _BAD_NAME_CHARS.sub("_", tdms_name.strip()) or "channel"
-    return name if name[0] != "." else "_" + name[1:]
-
-
-def _units(channel: Any, source: str) -> tuple[str, str, float]:
-    text = str(channel.properties.get("unit_string", "")).strip()
-    if not text:
-        raise TdmsImportError(
-            f"{source}: channel {channel.path} has no unit_string property; "
-            "the toolkit needs units to store SI values"
-        )
-    key = text.lower().replace(" ", "")
-    if key not in UNITS:
-        raise TdmsImportError(
-            f"{source}: channel {channel.path} has units {text!r}, not one of "
-            f"{', '.join(sorted({u[0] for u in UNITS.values()}))} or their usual "
-            "spellings (g, lbf, mV, Newtons, Volts)"
-        )
-    return UNITS[key]
-
-
-def _rate(channel: Any, source: str, sample_rate: float | None) -> float:
+def _rate(channel: Any, sample_rate: float | None) -> tuple[float | None, str]:
+    """``(rate, "")`` or ``(None, why not)``."""
     inc = channel.properties.get("wf_increment")
     if inc is None:
         if sample_rate is None:
-            raise TdmsImportError(
-                f"{source}: channel {channel.path} has no wf_increment (no "
-                "waveform timing); give the sample rate (--sample-rate)"
-            )
-        return float(sample_rate)
+            return None, "no wf_increment (no waveform timing); give the sample rate (--sample-rate)"
+        return float(sample_rate), ""
     inc = float(inc)
     if not (math.isfinite(inc) and inc > 0):
+        return None, f"wf_increment {inc!r} is not a positive number of seconds"
+    return 1.0 / inc, ""
+
+
+def _open(source: Path) -> Any:
+    from nptdms import TdmsFile
+
+    if not source.is_file():
+        raise TdmsImportError(f"{source}: no such file")
+    try:
+        return TdmsFile.open(source)
+    except Exception as exc:  # noqa: BLE001 -- npTDMS raises ValueError, KeyError, struct.error, ...: one line
         raise TdmsImportError(
-            f"{source}: channel {channel.path} has wf_increment {inc!r}; "
-            "it must be a positive number of seconds"
-        )
-    return 1.0 / inc
+            f"{source}: not a readable TDMS file ({type(exc).__name__}: {one_line(exc, 200)})"
+        ) from None
+
+
+def _selected(tdms: Any, groups: list[str], channels: list[str]) -> list[tuple[Any, list[Any]]]:
+    """``(group, channels)`` chosen by ``--group``/``--channel`` (names or ``group/channel``)."""
+    all_groups = [g for g in tdms.groups() if g.channels()]
+    check_known("--group", groups, [g.name for g in all_groups])
+    names = {c.name for g in all_groups for c in g.channels()}
+    check_known(
+        "--channel", channels, names | {f"{g.name}/{c.name}" for g in all_groups for c in g.channels()}
+    )
+    out = []
+    for g in all_groups:
+        if groups and g.name not in groups:
+            continue
+        chosen = [
+            c for c in g.channels() if not channels or c.name in channels or f"{g.name}/{c.name}" in channels
+        ]
+        if chosen:
+            out.append((g, chosen))
+    return out
 
 
 def import_tdms(
@@ -106,7 +89,11 @@ def import_tdms(
     *,
     rig: Any,
     overwrite: bool = False,
-    rename: dict[str, str] | None = None,
+    mapping: dict[str, str] | None = None,
+    units: dict[str, str] | None = None,
+    groups: list[str] | None = None,
+    channels: list[str] | None = None,
+    reference: str | None = None,
     sample_rate: float | None = None,
 ) -> dict:
     """Convert a TDMS log into a recording (backend ``"tdms"``).
@@ -121,136 +108,114 @@ def import_tdms(
         The rig description stored in the recording (a ``RigConfig`` or its JSON text).
     overwrite
         Replace ``out`` if it exists.
-    rename
-        TDMS channel name -> recording channel name.
+    mapping
+        TDMS channel name (or ``group/channel``) -> recording channel name (``--map``).
+    units
+        TDMS channel name (or ``group/channel``) -> unit (``--units``), for channels without
+        ``unit_string`` or with a wrong one.
+    groups, channels
+        Only these groups / channels (names or ``group/channel``); default all.
+    reference
+        The excitation channel (default: the one channel of quantity force).
     sample_rate
         Hz, for logs without waveform timing (``wf_increment``).
 
     Returns
     -------
     dict
-        ``{"points": [{"group", "channels", "samples", "sample_rate"}, ...]}``.
+        :func:`rigtools.interop.imported.write_imported`'s summary: one entry (and one line) per
+        channel, kept or skipped, and one per point.
 
     Raises
     ------
     TdmsImportError
-        One line: not a TDMS file, no channels, missing units or timing, mixed rates in a group.
+        One line: not a TDMS file, no channel left to import, an option naming no channel.
     """
-    from nptdms import TdmsFile
-
-    from rigtools.recording import ChannelSpec, RecordingWriter
-
     source = Path(source)
-    rename = dict(rename or {})
-    if not source.is_file():
-        raise TdmsImportError(f"{source}: no such file")
-    try:
-        tdms = TdmsFile.open(source)
-    except Exception as exc:  # noqa: BLE001 - npTDMS raises ValueError, KeyError, struct.error, ...
-        raise TdmsImportError(
-            f"{source}: not a readable TDMS file ({type(exc).__name__}: {one_line(exc, 200)})"
-        ) from None
-    with tdms:
-        groups = [g for g in tdms.groups() if g.channels()]
-        if not groups:
+    mapping, units = dict(mapping or {}), dict(units or {})
+    with _open(source) as tdms:
+        chosen = _selected(tdms, list(groups or []), list(channels or []))
+        if not chosen:
             raise TdmsImportError(f"{source}: no channels with data in any group")
-        plan = []
-        for group in groups:
-            specs, factors, lengths, names = [], [], [], set()
-            rates = set()
-            for ch in group.channels():
-                units, quantity, factor = _units(ch, str(source))
-                rate = _rate(ch, str(source), sample_rate)
-                rates.add(round(rate, 9))
-                name = channel_name(ch.name, rename)
-                if name in names:
-                    raise TdmsImportError(
-                        f"{source}: group {group.name!r}: two channels map to the name {name!r}; rename one"
-                    )
-                names.add(name)
-                try:
-                    specs.append(
-                        ChannelSpec(
-                            name=name,
-                            units=units,
-                            quantity=quantity,
-                            sample_rate=rate,
-                            t0=float(ch.properties.get("wf_start_offset", 0.0)),
-                            physical_channel=str(ch.properties.get("NI_ChannelName", ch.name)),
-                        )
-                    )
-                except ValueError as exc:
-                    raise TdmsImportError(f"{source}: {exc}") from None
-                factors.append(factor)
-                lengths.append(len(ch))
-            if len(rates) != 1:
-                raise TdmsImportError(
-                    f"{source}: group {group.name!r} mixes sample rates "
-                    f"{sorted(rates)} Hz; a point has one rate"
+        names = {c.name for _, chans in chosen for c in chans}
+        paths = {f"{g.name}/{c.name}" for g, chans in chosen for c in chans}
+        check_known("--map", mapping, names | paths)
+        check_known("--units", units, names | paths)
+        if reference is not None:
+            check_known("--reference", [reference], names | paths | {mapping.get(n, n) for n in names})
+        points: list[ForeignPoint] = []
+        every: list[ForeignChannel] = []
+        notes: list[str] = []
+        for group, chans in chosen:
+            kept: list[tuple[ForeignChannel, int, float]] = []
+            objects = []
+            for ch in chans:
+                path = f"{group.name}/{ch.name}"
+                fc = resolve(
+                    path,
+                    ch.name,
+                    str(ch.properties.get("unit_string", "")),
+                    mapping=mapping,
+                    units=units,
+                    path=path,
                 )
-            plan.append((group, specs, factors, min(lengths), len(set(lengths)) > 1))
+                fc.extra["file_name"] = ch.name
+                fc.samples = len(ch)
+                rate, why = _rate(ch, sample_rate)
+                if fc.kept and rate is None:
+                    fc.si, fc.name, fc.reason = None, "", why
+                elif fc.kept and np.dtype(ch.dtype).kind not in _NUMERIC:
+                    fc.si, fc.name, fc.reason = None, "", f"its data are {np.dtype(ch.dtype)}, not numbers"
+                elif fc.kept and len(ch) == 0:
+                    fc.si, fc.name, fc.reason = None, "", "no samples"
+                every.append(fc)
+                if not fc.kept:
+                    continue
+                fc.sample_rate = float(rate or 0.0)
+                kept.append((fc, len(ch), fc.sample_rate))
+                objects.append(ch)
+            parts = split_by_timing(kept)
+            if len(parts) > 1:
+                notes.append(
+                    f"group {group.name!r}: channels of {len(parts)} lengths or sample rates, each kept "
+                    f"whole in points {len(points)}-{len(points) + len(parts) - 1} (none cut)"
+                )
+            for part in parts:
+                fcs = [kept[i][0] for i in part]
+                objs = [objects[i] for i in part]
+                check_names(fcs, f"{source}: group {group.name!r}")
+                points.append(
+                    ForeignPoint(
+                        params={"source_group": group.name},
+                        channels=fcs,
+                        samples=kept[part[0]][1],
+                        sample_rate=kept[part[0]][2],
+                        read=_reader(objs),
+                        t0=[float(o.properties.get("wf_start_offset", 0.0)) for o in objs],
+                        physical=[str(o.properties.get("NI_ChannelName", o.name)) for o in objs],
+                    )
+                )
         experiment = {
             "procedure": "import",
             "source_format": "tdms",
             "source": source.name,
             "properties": {k: str(v) for k, v in tdms.properties.items()},
         }
-        summary = []
-        with RecordingWriter(out, backend="tdms", rig=rig, experiment=experiment, overwrite=overwrite) as rec:
-            for group, specs, factors, n, uneven in plan:
-                params: dict[str, Any] = {"source_group": group.name}
-                if uneven:
-                    params["trimmed_to_shortest_channel"] = True
-                point = rec.begin_point(params=params, channels=specs)
-                scale = np.asarray(factors)[:, None]
-                for start in range(0, n, CHUNK):
-                    length = min(CHUNK, n - start)
-                    block = np.vstack(
-                        [np.asarray(ch.read_data(start, length), dtype=float) for ch in group.channels()]
-                    )
-                    point.append(block * scale)
-                point.end()
-                summary.append(
-                    {
-                        "group": group.name,
-                        "channels": [s.name for s in specs],
-                        "samples": int(n),
-                        "sample_rate": specs[0].sample_rate,
-                    }
-                )
-    return {"points": summary}
-
-
-# ------------------------------------------------------------------------------ renames
-
-
-def parse_rename(text: str) -> dict[str, str]:
-    """``"a=b,c=d"`` as ``{"a": "b", "c": "d"}``."""
-    out = {}
-    for item in (t for t in text.split(",") if t.strip()):
-        old, sep, new = item.partition("=")
-        if not sep or not old.strip() or not new.strip():
-            raise UserError(f"--rename = {text!r}: write OLD=NEW pairs separated by commas")
-        out[old.strip()] = new.strip()
-    return out
-
-
-def check_renames(source: str, rename: dict[str, str]) -> None:
-    """Refuse ``--rename`` entries naming no channel of ``source`` (a typo would otherwise import
-    the channel under its old name without a word). A file npTDMS cannot read is left to the
-    import, which says so."""
-    if not rename:
-        return
-    try:
-        from nptdms import TdmsFile
-
-        meta = TdmsFile.read_metadata(source)
-        names = {ch.name for group in meta.groups() for ch in group.channels()}
-    except Exception:  # noqa: BLE001 -- not readable by npTDMS in any way: import_tdms gives the one-line reason
-        return
-    unknown = sorted(set(rename) - names)
-    if unknown:
-        raise UserError(
-            f"--rename: no channel {', '.join(repr(u) for u in unknown)} in {source} "
-            f"(channels: {', '.join(sorted(names)) or 'none'})"
+        return write_imported(
+            out,
+            backend="tdms",
+            rig=rig,
+            experiment=experiment,
+            points=points,
+            every=every,
+            reference=reference,
+            overwrite=overwrite,
+            notes=notes,
         )
+
+
+def _reader(objects: list[Any]):
+    def read(start: int, n: int) -> np.ndarray:
+        return np.vstack([np.asarray(o.read_data(start, n), dtype=float) for o in objects])
+
+    return read

@@ -1,4 +1,4 @@
-"""UFF (universal file format) dataset 58 export with pyuff: time records, spectra, FRFs and
+"""UFF (universal file format) dataset 58 export and import with pyuff. Export: time records, spectra, FRFs and
 coherence, each with its function type, node and direction numbers and unit exponents.
 
 Node and direction numbering (one numbering for every export, documented in ``rig export --help``):
@@ -24,8 +24,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
+
+from rigtools.errors import UserError, one_line
 
 # UFF 58 function types (record 6, field 1)
 FUNC_TIME, FUNC_AUTO_SPECTRUM, FUNC_FRF, FUNC_COHERENCE = 1, 2, 4, 6  # the types pyuff writes
@@ -88,6 +91,7 @@ class UffFunction:
     x: np.ndarray
     data: np.ndarray
     units_label: str
+    date: str = ""
 
     def dataset(self) -> dict:
         """The pyuff dataset dict (every field of dataset 58 filled in)."""
@@ -108,7 +112,7 @@ class UffFunction:
             "id1": self.description[:80],
             "id2": "shrouded-blade-rig export",
             "id3": "",
-            "id4": "",
+            "id4": self.date[:80],
             "id5": "",
             "func_type": self.func_type,
             "ver_num": 0,
@@ -191,27 +195,12 @@ def write_uff(path: str | Path, functions: list[UffFunction]) -> int:
 WHAT = ("time", "spectra", "frf")
 
 
-def check_resolution(recording, what: tuple[str, ...], resolution_hz: float, text: object) -> None:
-    """Refuse (one line naming ``--resolution``) an FRF resolution no point can give: coarser
-    than an eighth of the sample rate (a segment of fewer than 8 samples)."""
-    from rigtools.errors import UserError
-
-    if "frf" not in what:
-        return
-    rates = [p.sample_rate for p in recording.points if p.sample_rate]
-    if rates and all(round(r / resolution_hz) < 8 for r in rates):
-        raise UserError(
-            f"--resolution = {text!r}: at {max(rates):g} samples/s an FRF resolution must be at most "
-            f"{max(rates) / 8:g} Hz"
-        )
-
-
 def recording_functions(
     recording,
     what: tuple[str, ...] = WHAT,
     *,
-    frf_resolution_hz: float = 1.0,
-    reference: str = "force",
+    frf_options=None,
+    reference: str | None = None,
     complete_only: bool = False,
 ) -> list[UffFunction]:
     """The UFF functions of an open recording.
@@ -221,23 +210,38 @@ def recording_functions(
     recording
         An open :class:`rigtools.recording.reader.Recording`.
     what
-        Any of ``"time"`` (every channel of every point), ``"spectra"`` (auto spectra, RMS² per
-        bin: half the square of the flattop peak-amplitude spectrum of
-        :func:`rigtools.analysis.spectra.amplitude_spectrum`, so a sine of amplitude A reads A²/2) and ``"frf"`` (H1 of every
-        other measured channel over ``reference`` with its coherence, Welch averaging with a Hann
-        window at ``frf_resolution_hz``; only for points with a ``reference`` channel and at least
-        two averages).
-    frf_resolution_hz
-        Frequency resolution of the FRFs, Hz.
+        Any of ``"frf"`` (H1 of every response over the force with its coherence: the very
+        estimate ``rig analyze`` reports, :func:`rigtools.analyze.point_frf_estimate`, for the
+        points it treats as broadband), ``"time"`` (every channel of every point) and
+        ``"spectra"`` (auto spectra, RMS² per bin: half the square of the flattop
+        peak-amplitude spectrum of :func:`rigtools.analysis.spectra.amplitude_spectrum`, so a
+        sine of amplitude A reads A²/2). FRFs come first in the file, so a reader that takes
+        the FRF kind from the first record (sdypy-EMA) reads them right.
+    frf_options
+        :class:`rigtools.analyze.FRFOptions` (estimate overrides), as ``rig analyze`` takes them.
     reference
-        The excitation channel of the FRFs.
+        The excitation channel of the FRFs (default: the recording's force channel).
     complete_only
         Leave out points that did not end (a run cut off mid-point): never exported as data.
-    """
-    from rigtools.analysis.frf import estimate_frf
-    from rigtools.analysis.spectra import amplitude_spectrum
 
-    functions: list[UffFunction] = []
+    Returns
+    -------
+    list of UffFunction
+        FRFs and their coherence first, then time records and spectra.
+
+    Notes
+    -----
+    Time records and spectra carry reference node 0 (they have no reference). ID line 4 holds
+    the recording's date (``DD-MMM-YY HH:MM:SS``, UTC).
+    """
+    from rigtools.analysis.spectra import amplitude_spectrum
+    from rigtools.analyze import PROCEDURE_FRF, point_frf_estimate
+
+    procedure = str((recording.experiment or {}).get("procedure", ""))
+    date = uff_date(getattr(recording, "created", ""))
+    frfs: list[UffFunction] = []
+    others: list[UffFunction] = []
+    none = ("", 0)
     for point in recording.points:
         if complete_only and not point.complete:
             continue
@@ -250,71 +254,449 @@ def recording_functions(
             ch = point.channels[name]
             where = (name, node_of(name, order))
             if "time" in what:
-                functions.append(
+                others.append(
                     UffFunction(
                         FUNC_TIME,
                         f"{label} {name} time record",
                         where,
-                        where,
+                        none,
                         ch.quantity,
-                        ch.quantity,
+                        "",
                         ch.t0 + np.arange(n) / ch.sample_rate,
                         ch[:n],
                         ch.units,
+                        date,
                     )
                 )
             if "spectra" in what:
                 f, amp = amplitude_spectrum(ch[:n], ch.sample_rate)
-                functions.append(
+                others.append(
                     UffFunction(
                         FUNC_AUTO_SPECTRUM,
                         f"{label} {name} auto spectrum, RMS^2 per bin (flattop)",
                         where,
-                        where,
+                        none,
                         ch.quantity,
-                        ch.quantity,
+                        "",
                         f,
                         amp**2 / 2,
                         f"({ch.units})^2",
+                        date,
                     )
                 )
-        if "frf" in what and reference in point.channels:
-            ref = point.channels[reference]
-            nperseg = round(ref.sample_rate / frf_resolution_hz)
-            if nperseg < 8 or n < 2 * nperseg:
-                continue
-            x = ref[:n]
-            ref_where = (reference, node_of(reference, names.index(reference)))
-            for order, name in enumerate(names):
+        broadband = point.sample_rate is not None and ("fe" not in point.params or procedure in PROCEDURE_FRF)
+        if "frf" in what and broadband:
+            if reference is not None and reference in point.channels:
+                point = _with_force(point, reference)
+            est, resp, force, method, _ = point_frf_estimate(point, options=frf_options)
+            ref = point.channels[force]
+            ref_where = (
+                force,
+                node_of("force", 0) if force == "force" else node_of(force, names.index(force)),
+            )
+            for i, name in enumerate(resp):
                 ch = point.channels[name]
-                if name == reference or name == "drive" or ch.quantity == "voltage":
-                    continue
-                est = estimate_frf(x, ch[:n], ch.sample_rate, nperseg=nperseg)
-                where = (name, node_of(name, order))
-                functions.append(
+                where = (name, node_of(name, names.index(name)))
+                text = method.describe(float(point.sample_rate))
+                frfs.append(
                     UffFunction(
                         FUNC_FRF,
-                        f"{label} H1 {name}/{reference}",
+                        f"{label} H1 {name}/{force}; {text}",
                         where,
                         ref_where,
                         ch.quantity,
                         ref.quantity,
                         est.frequency_hz,
-                        est.h1,
+                        est.h1[i],
                         f"{ch.units}/{ref.units}",
+                        date,
                     )
                 )
-                functions.append(
-                    UffFunction(
-                        FUNC_COHERENCE,
-                        f"{label} coherence {name}/{reference}",
-                        where,
-                        ref_where,
-                        ch.quantity,
-                        ref.quantity,
-                        est.frequency_hz,
-                        est.coherence,
-                        "-",
+                if est.n_averages > 1:
+                    frfs.append(
+                        UffFunction(
+                            FUNC_COHERENCE,
+                            f"{label} coherence {name}/{force}",
+                            where,
+                            ref_where,
+                            "coherence",
+                            "",
+                            est.frequency_hz,
+                            est.coherence[i],
+                            "-",
+                            date,
+                        )
                     )
-                )
-    return functions
+    return frfs + others
+
+
+def uff_date(created: str) -> str:
+    """ISO time (``2024-05-01T12:00:00+00:00``) as UFF's ``01-May-24 12:00:00``; empty if unreadable."""
+    from datetime import datetime
+
+    try:
+        return datetime.fromisoformat(str(created)).strftime("%d-%b-%y %H:%M:%S")
+    except ValueError:
+        return ""
+
+
+class _ForceNamed:
+    """A point view whose force channel is ``name`` (``--reference``): the other force-quantity
+    channels are left out of it."""
+
+    def __init__(self, point, name: str) -> None:
+        self._point = point
+        self.channels = {c: ch for c, ch in point.channels.items() if c == name or ch.quantity != "force"}
+
+    def __getattr__(self, attr):
+        return getattr(self._point, attr)
+
+
+def _with_force(point, name: str):
+    return _ForceNamed(point, name)
+
+
+# ------------------------------------------------------------------------------------ import
+
+# specific data type (records 8-10) -> quantity
+_QUANTITY_OF_CODE = {
+    DATA_DISPLACEMENT: "displacement",
+    DATA_VELOCITY: "velocity",
+    DATA_ACCELERATION: "acceleration",
+    DATA_FORCE: "force",
+}
+_KIND_OF = {"displacement": "receptance", "velocity": "mobility", "acceleration": "accelerance"}
+_KIND_WORDS = {
+    "receptance": "receptance",
+    "compliance": "receptance",
+    "dynamic compliance": "receptance",
+    "mobility": "mobility",
+    "admittance": "mobility",
+    "accelerance": "accelerance",
+    "inertance": "accelerance",
+}
+_NONE = ("", "none", "unknown")
+
+
+def read_uff_sets(source: str | Path) -> list[dict]:
+    """The datasets 58 of a UFF file (pyuff), each cut to its stated ``num_pts``."""
+    import pyuff
+
+    source = Path(source)
+    if not source.is_file():
+        raise UserError(f"{source}: no such file")
+    try:
+        sets = pyuff.UFF(str(source)).read_sets()
+    except Exception as exc:  # noqa: BLE001 -- pyuff raises many types on a foreign file: one line
+        raise UserError(
+            f"{source}: not a readable UFF file ({type(exc).__name__}: {one_line(exc, 200)})"
+        ) from None
+    sets = sets if isinstance(sets, list) else [sets]
+    out = []
+    for s in sets:
+        if s.get("type") != 58:
+            continue
+        n = int(s.get("num_pts", len(s["data"])))
+        if len(s["data"]) > n:  # writers pad the last line; pyuff reads the padding as values
+            s = {**s, "data": s["data"][:n], "x": s["x"][:n]}
+        out.append(s)
+    if not out:
+        raise UserError(f"{source}: no UFF 58 record (function records) in the file")
+    return out
+
+
+def record_name(s: dict) -> str:
+    """The name of a record's response: its entity name, then ``:<node><direction>`` when the
+    node is not 0 (``acc:2+Z``, ``node:2+Z`` without entity name)."""
+    name = str(s.get("rsp_ent_name", "")).strip()
+    if name.lower() in _NONE:
+        name = "node"
+    node, direction = int(s.get("rsp_node", 0)), int(s.get("rsp_dir", 0))
+    if node:
+        axis = f"{'+' if direction > 0 else '-'}{'XYZ'[min(abs(direction), 3) - 1]}" if direction else ""
+        name += f":{node}{axis}"
+    return name
+
+
+def _label(s: dict, key: str) -> str:
+    text = str(s.get(key, "")).strip()
+    return "" if text.lower() in _NONE else text
+
+
+def _time_units(s: dict) -> str:
+    """The declared units of a time record: its units label, else what its data-type code says."""
+    label = _label(s, "ordinate_axis_units_lab")
+    if label:
+        return label
+    quantity = _QUANTITY_OF_CODE.get(int(s.get("ordinate_spec_data_type", 0)))
+    return {"displacement": "m", "velocity": "m/s", "acceleration": "m/s^2", "force": "N"}.get(
+        quantity or "", ""
+    )
+
+
+def _frf_kind(s: dict, given: str | None) -> tuple[str | None, float, str]:
+    """``(kind, factor to SI, how it was found)`` of an FRF record: ``given`` (``--units`` of the
+    response) first, else the labels checked against the data."""
+    from rigtools.interop.channels import si_units
+
+    if given is not None:
+        si = si_units(given)
+        if si is None or si.quantity not in _KIND_OF:
+            raise UserError(f"--units {record_name(s)}={given}: give the response's units (m/s^2, g, m/s, m)")
+        return _KIND_OF[si.quantity], si.factor, f"response units {given} from --units"
+    claims: dict[str, tuple[str, float]] = {}
+    code = _QUANTITY_OF_CODE.get(int(s.get("ordinate_spec_data_type", 0)))
+    if code in _KIND_OF:
+        claims["data-type code"] = (_KIND_OF[code], 1.0)
+    units = _label(s, "ordinate_axis_units_lab")
+    num = units[: units.rindex("/")].strip("() ") if "/" in units else ""  # "(m/s)/N" -> "m/s"
+    si = si_units(num) if num else None
+    if si is not None and si.quantity in _KIND_OF:
+        claims[f"units {units!r}"] = (_KIND_OF[si.quantity], si.factor)
+    word = _KIND_WORDS.get(_label(s, "ordinate_axis_lab").lower())
+    if word:
+        claims[f"axis label {_label(s, 'ordinate_axis_lab')!r}"] = (word, 1.0)
+    data = frf_kind_from_data(np.asarray(s["x"], float), np.asarray(s["data"], complex))
+    kinds = {k for k, _ in claims.values()}
+    said = ", ".join(f"{w} says {k}" for w, (k, _) in claims.items())
+    if len(kinds) == 1 and (data is None or data in kinds):
+        (where, (kind, factor)) = next(iter(claims.items()))
+        return kind, factor, f"{kind} from its {where}" + (", as the data show" if data else "")
+    if data is not None:
+        return data, 1.0, f"{data} from the data ({FRF_DATA_RULE}){'; ' + said if said else ''}"
+    if len(kinds) == 1:
+        (where, (kind, factor)) = next(iter(claims.items()))
+        return kind, factor, f"{kind} from its {where}"
+    return (
+        None,
+        1.0,
+        f"kind not known ({said or 'no label'}); give --units {record_name(s)}=m/s^2 (or m/s, m)",
+    )
+
+
+FRF_DATA_RULE = "peaks of |H| near +-90 deg: not mobility; |H| away from the peaks rising with frequency: accelerance, falling: receptance"
+
+
+def frf_kind_from_data(f: np.ndarray, h: np.ndarray) -> str | None:
+    """What an FRF measures, read from the data, or None when they do not tell.
+
+    A lightly damped mode's receptance and accelerance are near +-90 deg at its peak, its mobility
+    near 0/180 deg (the median over the largest peaks decides). Between receptance and accelerance,
+    ``|H|`` away from the peaks (the lower quartile of each end third of the grid) rises with frequency
+    for accelerance (x omega^2) and falls for receptance; a change under 10 dB decides nothing.
+    """
+    from scipy.signal import find_peaks
+
+    keep = f > 0
+    f, h = f[keep], h[keep]
+    mag = np.abs(h)
+    if f.size < 30 or not np.all(np.isfinite(mag)) or mag.max() == 0:
+        return None
+    peaks, props = find_peaks(mag, prominence=0.05 * mag.max())
+    if peaks.size == 0:
+        return None
+    top = peaks[np.argsort(props["prominences"])[::-1][:8]]
+    off_real = float(np.median(np.abs(np.sin(np.angle(h[top])))))
+    if off_real < 0.5:
+        return "mobility"
+    if off_real < 0.8:
+        return None
+    third = f.size // 3
+    low, high = np.percentile(mag[:third], 25), np.percentile(mag[-third:], 25)
+    if low <= 0 or high <= 0:
+        return None
+    change_db = 20 * np.log10(high / low)
+    if change_db > 10:
+        return "accelerance"
+    if change_db < -10:
+        return "receptance"
+    return None
+
+
+def rate_of_increment(inc: float, *, ascii_file: bool) -> float:
+    """The sample rate of an abscissa increment. An ASCII file writes the increment with 6
+    significant digits (``9.76562E-04`` for 1024 Hz): the rate is then the roundest number (whole
+    Hz, then 0.1, 0.01, 0.001 Hz) whose increment rounds to the written one."""
+    rate = 1.0 / inc
+    if ascii_file:
+        for decimals in range(4):
+            candidate = round(rate, decimals)
+            if candidate > 0 and abs(1.0 / candidate - inc) <= 5e-6 * abs(inc):
+                return float(candidate)
+    return rate
+
+
+def import_uff(
+    source: str | Path,
+    out: str | Path,
+    *,
+    rig: Any,
+    overwrite: bool = False,
+    mapping: dict[str, str] | None = None,
+    units: dict[str, str] | None = None,
+    channels: list[str] | None = None,
+    reference: str | None = None,
+) -> dict:
+    """Import a UFF file's datasets 58: FRFs (with their coherence) to an FRF set
+    (:mod:`rigtools.frf_set`), else time records to a recording (backend ``"uff"``).
+
+    Time records: one channel each (named by :func:`record_name`), units from the ordinate
+    label or data-type code, rate ``1 / abscissa_inc``; records of one length and rate share a
+    point. FRFs: the kind from the labels, checked against the data (:func:`frf_kind_from_data`;
+    ``--units RESPONSE=UNIT`` overrides); one FRF set of the FRFs of the first grid.
+
+    Returns
+    -------
+    dict
+        ``{"channels": [...], "points": [...], "lines": [...]}`` as every import (FRFs: one
+        entry and line per record).
+    """
+    from rigtools.interop.channels import ForeignChannel, check_known, check_names, resolve
+    from rigtools.interop.imported import ForeignPoint, rows_reader, split_by_timing, write_imported
+
+    source = Path(source)
+    mapping, units, chosen = dict(mapping or {}), dict(units or {}), list(channels or [])
+    sets = read_uff_sets(source)
+    names = {record_name(s) for s in sets}
+    for option, given in (("--channel", chosen), ("--map", mapping), ("--units", units)):
+        check_known(option, given, names)
+    sets = [s for s in sets if not chosen or record_name(s) in chosen]
+    if any(int(s["func_type"]) == FUNC_FRF for s in sets):
+        return _import_frfs(source, out, sets, mapping=mapping, units=units, overwrite=overwrite)
+    every: list[ForeignChannel] = []
+    kept: list[tuple[ForeignChannel, int, float]] = []
+    data: list[tuple[np.ndarray, float]] = []
+    for number, s in enumerate(sets, start=1):
+        name = record_name(s)
+        where = f"record {number} ({name})"
+        if int(s["func_type"]) != FUNC_TIME:
+            every.append(
+                ForeignChannel(where, reason=f"function type {s['func_type']}: neither time record nor FRF")
+            )
+            continue
+        fc = resolve(where, name, _time_units(s), mapping=mapping, units=units)
+        fc.extra["file_name"] = name
+        every.append(fc)
+        inc = float(s.get("abscissa_inc", 0.0))
+        fc.samples = len(s["data"])
+        if fc.kept and not inc > 0:
+            fc.si, fc.name, fc.reason = None, "", f"abscissa increment {inc!r} is not a positive time step"
+        if fc.kept and np.iscomplexobj(s["data"]):
+            fc.si, fc.name, fc.reason = None, "", "complex values in a time record"
+        if not fc.kept:
+            continue
+        fc.sample_rate = rate_of_increment(inc, ascii_file=not s.get("binary", 0))
+        if fc.sample_rate != 1.0 / inc:
+            fc.reason = "; ".join(
+                [
+                    *filter(None, [fc.reason]),
+                    f"rate {fc.sample_rate:g} Hz: 1/increment within its 6 written digits",
+                ]
+            )
+        kept.append((fc, fc.samples, fc.sample_rate))
+        data.append((np.asarray(s["data"], dtype=float), float(s.get("abscissa_min", 0.0))))
+    points = []
+    for part in split_by_timing(kept):
+        fcs = [kept[i][0] for i in part]
+        check_names(fcs, str(source))
+        block = np.vstack([data[i][0] for i in part])
+        points.append(
+            ForeignPoint(
+                params={"source_records": ",".join(str(i + 1) for i in part)},
+                channels=fcs,
+                samples=kept[part[0]][1],
+                sample_rate=kept[part[0]][2],
+                read=rows_reader(block),
+                t0=[data[i][1] for i in part],
+            )
+        )
+    experiment = {"procedure": "import", "source_format": "uff", "source": source.name}
+    return write_imported(
+        out,
+        backend="uff",
+        rig=rig,
+        experiment=experiment,
+        points=points,
+        every=every,
+        reference=reference,
+        overwrite=overwrite,
+    )
+
+
+def _import_frfs(source: Path, out: str | Path, sets: list[dict], *, mapping, units, overwrite) -> dict:
+    from rigtools.frf_set import FRFSet, write_frf_set
+    from rigtools.interop.channels import storable_name
+
+    lines, entries = [], []
+    frfs, grid, kinds = [], None, set()
+    coherence = {
+        (record_name(s), str(s.get("ref_ent_name", "")).strip(), int(s.get("ref_node", 0))): s
+        for s in sets
+        if int(s["func_type"]) == FUNC_COHERENCE
+    }
+    for number, s in enumerate(sets, start=1):
+        name = record_name(s)
+        where = f"record {number} ({name})"
+        ftype = int(s["func_type"])
+        if ftype == FUNC_COHERENCE:
+            continue
+        if ftype != FUNC_FRF:
+            lines.append(f"skipped {where}: function type {ftype}; this file's FRFs are imported")
+            entries.append({"source": where, "action": "skipped"})
+            continue
+        kind, factor, how = _frf_kind(s, next((units[k] for k in (name,) if k in units), None))
+        x = np.asarray(s["x"], dtype=float)
+        if kind is None or (grid is not None and (x.size != grid.size or not np.allclose(x, grid))):
+            why = how if kind is None else "another frequency grid than the first FRF's"
+            lines.append(f"skipped {where}: {why}")
+            entries.append({"source": where, "action": "skipped", "reason": why})
+            continue
+        grid = x
+        key = (name, str(s.get("ref_ent_name", "")).strip(), int(s.get("ref_node", 0)))
+        coh = coherence.get(key)
+        c = (
+            np.asarray(coh["data"], float)
+            if coh is not None and len(coh["data"]) == x.size
+            else np.full(x.size, np.nan)
+        )
+        frfs.append(
+            (mapping.get(name, storable_name(name)), np.asarray(s["data"], complex) * factor, c, kind)
+        )
+        kinds.add(kind)
+        text = f"kept    {where} -> {frfs[-1][0]}: FRF, {how}, {x.size} lines {x[0]:g}-{x[-1]:g} Hz, " + (
+            "with its coherence" if coh is not None else "no coherence record"
+        )
+        lines.append(text)
+        entries.append(
+            {"source": where, "action": "kept", "name": frfs[-1][0], "kind": kind, "how": how, "text": text}
+        )
+    if not frfs:
+        raise UserError(f"{source}: no FRF to import: " + "; ".join(lines))
+    if len(kinds) > 1:
+        raise UserError(
+            f"{source}: FRFs of different kinds ({', '.join(sorted(kinds))}); import them separately (--channel)"
+        )
+    ref = (
+        next((str(s.get("ref_ent_name", "")).strip() for s in sets if int(s["func_type"]) == FUNC_FRF), "")
+        or "force"
+    )
+    assert grid is not None
+    frf_set = FRFSet(
+        frequency_hz=grid,
+        frf=np.vstack([h for _, h, _, _ in frfs]),
+        coherence=np.vstack([c for _, _, c, _ in frfs]),
+        responses=[n for n, _, _, _ in frfs],
+        reference=ref,
+        kind=kinds.pop(),
+        source={"file": source.name, "format": "uff", "records": entries},
+    )
+    write_frf_set(out, frf_set, overwrite=overwrite)
+    lines.append(
+        f"FRF set: {len(frfs)} FRF(s) over {ref}, {frf_set.kind}; rig analyze identifies their modes"
+    )
+    return {
+        "channels": entries,
+        "points": [],
+        "frf_set": {"responses": frf_set.responses, "kind": frf_set.kind},
+        "lines": lines,
+    }

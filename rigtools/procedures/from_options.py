@@ -15,8 +15,8 @@ from pathlib import Path
 from typing import Any
 
 from rigtools.errors import UserError
+from rigtools.options import band_option, quantity, value_list
 from rigtools.options import gap as _gap_text
-from rigtools.options import quantity, value_list
 
 PROCEDURES = ("dwell", "sweep", "study", "frf", "tap")
 TAP_F_MIN_HZ = 5.0
@@ -199,13 +199,11 @@ def build_procedure(
         raise UserError(f"unknown procedure {name!r} (known: {', '.join(PROCEDURES)})")
     from rigtools.procedures.frf import FrfTest
 
-    band = [quantity(t, "frequency", "--band") for t in str(o["band"]).split(":")]
-    if len(band) != 2:
-        raise UserError(f"--band = {o['band']!r}: write low:high, e.g. '20 Hz:500 Hz'")
-    below_nyquist(band, rate, "--band", o["band"])
+    band = band_option(str(o["band"]), "--band", allow_zero=False)
+    below_nyquist(list(band), rate, "--band", o["band"])
     params = {
         "signal": o.get("signal", "chirp"),
-        "band": tuple(band),
+        "band": band,
         "level": quantity(o["level"], "voltage", "--level"),
         "frame": _frame(o.get("frame"), rate, "1 s"),
         "averages": o.get("averages", 10),

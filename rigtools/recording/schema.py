@@ -105,8 +105,10 @@ _CHANNEL_NAME = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_.\-]*$")
 
 
 #: The SI units a channel's samples may be stored in (what every reader converts from): an
-#: importer converts other units (g, mV, lbf) to these.
-CHANNEL_UNITS = ("N", "m/s^2", "m/s", "m", "V", "Pa")
+#: importer converts other units (g, mV, lbf, degC, psi, ...) to these. The rig's own channels use
+#: the first five; an imported log keeps channels of other quantities (current, temperature,
+#: pressure, strain, angle, speed, time, ratios) in theirs (:data:`rigtools.interop.channels.UNITS`).
+CHANNEL_UNITS = ("N", "m/s^2", "m/s", "m", "V", "A", "K", "Pa", "m/m", "rad", "Hz", "s", "1")
 
 #: Point parameters readers compute with, and their rule: ``(lowest, strictly above it)``.
 #: ``fe`` is also below the Nyquist frequency of the point's channels (rig check).

@@ -289,4 +289,4 @@ def test_tap_test_record_without_frames_gives_the_mode(tmp_path):
         # the bilinear map warps frequency by tan(w T/2) / (T/2): 0.01 % here
         assert modes[0].frequency_hz == pytest.approx(fn, rel=0.005)
         assert modes[0].damping_ratio == pytest.approx(zeta, rel=0.05)
-        assert any("one frame of 8200 samples per hit" in n and "(4 hits" in n for n in p.notes), p.notes
+        assert any("4 hit(s), one 8200-sample frame per hit" in n for n in p.notes), p.notes

@@ -626,10 +626,28 @@ OPTION_CASES = [
     Case("acquire:no-procedure", ["acquire"]),
     # rig export / import / devices
     Case("export:what-unknown", ["export", "uff", "{lab}/run.h5", "{tmp}/o.uff", "--what", "movies"]),
-    Case("export:resolution-zero", ["export", "uff", "{lab}/run.h5", "{tmp}/o.uff", "--resolution", "0 Hz"]),
     Case(
-        "export:resolution-seconds", ["export", "uff", "{lab}/run.h5", "{tmp}/o.uff", "--resolution", "1 s"]
+        "export:frame-samples-one",
+        ["export", "uff", "{lab}/run.h5", "{tmp}/o.uff", "--excitation", "random", "--frame-samples", "1"],
+        expect="--frame-samples = '1': must be >= 2",
     ),
+    Case(
+        "export:frame-samples-text",
+        ["export", "uff", "{lab}/run.h5", "{tmp}/o.uff", "--frame-samples", "1 s"],
+        expect="expected a whole number",
+    ),
+    Case(
+        "analyze:band-reversed",
+        ["analyze", "{lab}/run.h5", "--band", "4 kHz:100 Hz"],
+        expect="--band = '4 kHz:100 Hz': need 0 <= LOW < HIGH",
+    ),
+    Case("analyze:band-one-value", ["analyze", "{lab}/run.h5", "--band", "4 kHz"], expect="write LOW:HIGH"),
+    Case(
+        "analyze:force-window-over-one",
+        ["analyze", "{lab}/run.h5", "--force-window", "2"],
+        expect="--force-window = '2': must be in (0, 1]",
+    ),
+    Case("analyze:fe-zero", ["analyze", "{lab}/run.h5", "--fe", "0 Hz"], expect="--fe = '0 Hz': must be > 0"),
     Case("export:format-unknown", ["export", "csv", "{lab}/run.h5", "{tmp}/o.csv"]),
     Case(
         "import:sample-rate-negative",

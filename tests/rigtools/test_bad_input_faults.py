@@ -451,9 +451,9 @@ OPTION_CASES = [
         expect="--scheduler",
     ),
     Case(
-        "export:resolution-1MHz",
-        ["export", "uff", "{lab}/run.h5", "{tmp}/o.uff", "--resolution", "1 MHz"],
-        expect="--resolution",
+        "export:frame-samples-0",
+        ["export", "uff", "{lab}/run.h5", "{tmp}/o.uff", "--excitation", "random", "--frame-samples", "0"],
+        expect="--frame-samples",
     ),
     Case(
         "simulate:steps-per-period-120",

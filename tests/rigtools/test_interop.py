@@ -36,7 +36,7 @@ def recording(tmp_path_factory):
         path, backend="simulated", rig=load_rig(None).to_json(), experiment={"procedure": "frf"}
     ) as rec:
         p = rec.begin_point(
-            params={"fe": 0.0},
+            params={},
             channels=[
                 ChannelSpec("force", "N", "force", FS),
                 ChannelSpec("active_shroud_accel", "m/s^2", "acceleration", FS),
@@ -54,7 +54,9 @@ def _read(path):
 
 def test_uff_round_trip_equals_source(recording, tmp_path, capsys):
     out = tmp_path / "frf.uff"
-    assert main(["export", "uff", str(recording), str(out), "--resolution", "8 Hz"]) == 0
+    # continuous random force: rig analyze's estimate (Hann, 50 % overlap), frames of 256 asked for
+    args = ["export", "uff", str(recording), str(out), "--excitation", "random", "--frame-samples", "256"]
+    assert main(args) == 0
     sets = _read(out)
     assert sets[0]["type"] == 164 and sets[0]["units_code"] == 1  # SI
     f58 = [s for s in sets if s["type"] == 58]
@@ -68,6 +70,11 @@ def test_uff_round_trip_equals_source(recording, tmp_path, capsys):
     assert (t_force["ordinate_spec_data_type"], t_force["ordinate_force_unit_exp"]) == (13, 1)
     assert (t_acc["ordinate_spec_data_type"], t_acc["ordinate_len_unit_exp"]) == (12, 1)
     assert t_acc["abscissa_spec_data_type"] == 17 and t_acc["rsp_dir"] == 2
+    # no reference for time records and spectra (node 0); the recording's date in ID line 4
+    assert t_acc["ref_node"] == 0 and t_force["ref_node"] == 0
+    assert len(t_acc["id4"].strip()) == 18  # DD-MMM-YY HH:MM:SS
+    # FRFs first: readers that take the FRF kind from the first record (sdypy-EMA) read accelerance
+    assert f58[0]["func_type"] == 4
     # spectra equal the analysis layer's
     _f, amp = amplitude_spectrum(accel, FS)
     spec = by[(2, 2)]
@@ -76,8 +83,9 @@ def test_uff_round_trip_equals_source(recording, tmp_path, capsys):
     # FRF and coherence: reference node 1 (force), numerator acceleration, denominator force
     frf, coh = by[(4, 2)], by[(6, 2)]
     est = estimate_frf(force, accel, FS, nperseg=256)
-    np.testing.assert_allclose(frf["data"], est.h1, rtol=1e-15, atol=0)
-    np.testing.assert_allclose(coh["data"], est.coherence, rtol=1e-15, atol=0)
+    assert coh["ordinate_axis_lab"] == "coherence" and coh["ordinate_spec_data_type"] == 1
+    np.testing.assert_allclose(frf["data"], est.h1, rtol=1e-12, atol=0)  # accumulator vs scipy.signal.csd
+    np.testing.assert_allclose(coh["data"], est.coherence, rtol=1e-12, atol=1e-15)
     assert (frf["ref_node"], frf["orddenom_spec_data_type"], frf["orddenom_force_unit_exp"]) == (1, 13, 1)
     assert frf["abscissa_spec_data_type"] == 18
     # and the physics: the known FRF 0.5 + 0.25 exp(-i w / fs) where coherent
@@ -138,15 +146,17 @@ def test_tdms_import_round_trip(tmp_path):
 
 @pytest.mark.parametrize("case", ["not_tdms", "no_units", "no_timing", "bad_units", "exists"])
 def test_malformed_inputs_one_line_exit_2(tmp_path, capsys, case):
+    """Nothing importable (not TDMS, no channel with units or timing) or an existing OUT: one
+    line, exit 2. (One channel without units is skipped, not the file: tests/rigtools/test_imports.py.)"""
     src, out = tmp_path / "in.tdms", tmp_path / "out.h5"
     if case == "not_tdms":
         src.write_bytes(b"this is not a TDMS file at all" * 10)
     elif case == "no_units":
-        _write_tdms(src, units=(None, "N"))
+        _write_tdms(src, units=(None, None))
     elif case == "no_timing":
         _write_tdms(src, increment=None)
     elif case == "bad_units":
-        _write_tdms(src, units=("furlongs", "N"))
+        _write_tdms(src, units=("furlongs", "parsecs"))
     else:
         _write_tdms(src)
         out.write_bytes(b"keep me")

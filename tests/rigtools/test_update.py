@@ -199,7 +199,7 @@ def test_too_many_parameters_for_one_blades_modes_are_named(folder, frf, article
         (["--params", "root.stiffness"], "--params: unknown parameter 'root.stiffness'"),
         (["--params", "damping.ratio,damping.alpha"], "fit either damping.ratio"),
         (["--modes", "0"], "--modes = 0"),
-        (["--band", "2 kHz:20 Hz"], "need 0 < low < high"),
+        (["--band", "2 kHz:20 Hz"], "need 0 < LOW < HIGH"),
     ],
 )
 def test_bad_options_are_one_line_exit_2(folder, frf, argv, message):
