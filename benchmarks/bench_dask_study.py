@@ -65,6 +65,15 @@ def nothing(system, point, options, previous):
     return point.index
 
 
+def thread_cpu_point(system, point, options, previous):
+    """CPU seconds of the thread that computes one point (no previous: independent chains)."""
+    from rigtools.study_runner import run_point
+
+    t = time.thread_time()
+    run_point(system, point, options, None)
+    return time.thread_time() - t
+
+
 # ---------------------------------------------------------------- point bookkeeping, before/after
 def _old_period_mismatch(x, n, lag, n_compare, scale):
     w = n * n_compare
@@ -182,6 +191,7 @@ def study_on(runner, system, chains, options) -> dict:
     before = runner.client.run(usage)
     wall, n = timed(runner, system, chains, options)
     after = runner.client.run(usage)
+    compute = [c for _, c in runner.run(system, chains, options, point_fn=thread_cpu_point)]
     cpu = sum(after[w][0] - before[w][0] for w in after if w in before)
     faults = sum(after[w][1] - before[w][1] for w in after if w in before)
     from rigtools.worker_plugin import worker_settings
@@ -191,12 +201,13 @@ def study_on(runner, system, chains, options) -> dict:
         "wall": wall,
         "cpu": cpu / n,
         "faults": faults / n,
+        "thread_cpu": float(np.mean(compute)),
         "allocator": sorted({s.get("allocator", "?") for s in settings.values()}),
         "load": os.getloadavg()[0],
     }
 
 
-def report(label: str, r: dict, t_in: float, cpu_in: float, faults_in: float) -> None:
+def report(label: str, r: dict, t_in: float, cpu_in: float, faults_in: float, thread_in: float) -> None:
     speedup = t_in / r["wall"]
     ratio = r["cpu"] / cpu_in
     print(
@@ -209,6 +220,11 @@ def report(label: str, r: dict, t_in: float, cpu_in: float, faults_in: float) ->
         f"(goal <= {GOAL_CPU_RATIO}: {'met' if ratio <= GOAL_CPU_RATIO else 'NOT met'}); minor faults "
         f"{r['faults']:.0f}/point vs {faults_in:.0f} in-process; allocator in workers: "
         f"{', '.join(r['allocator'])}"
+    )
+    print(
+        f"    the computing thread alone: {r['thread_cpu'] * 1e3:.0f} ms/point = "
+        f"{r['thread_cpu'] / thread_in:.2f}x in-process (the rest of the worker's CPU: its event loop, "
+        f"heartbeats and transfers)"
     )
 
 
@@ -299,13 +315,21 @@ def main() -> int:
     t_in, n = timed(base, system, chains, options)
     c1, f1 = usage()
     cpu_in, faults_in = (c1 - c0) / n, (f1 - f0) / n
+    thread_in = float(np.mean([c for _, c in base.run(system, chains, options, point_fn=thread_cpu_point)]))
     print(
         f"independent {n}-point gap study in-process: {t_in:.2f} s, CPU {cpu_in * 1e3:.0f} ms/point, "
         f"{faults_in:.0f} minor faults/point ({load()})"
     )
     with StudyRunner(workers=2) as runner:
         timed(runner, system, chains[:4], options)  # warm the workers
-        report("2-worker LocalCluster", study_on(runner, system, chains, options), t_in, cpu_in, faults_in)
+        report(
+            "2-worker LocalCluster",
+            study_on(runner, system, chains, options),
+            t_in,
+            cpu_in,
+            faults_in,
+            thread_in,
+        )
         empty_chains = StudyPlan("gap", tuple(np.arange(400) * 1e-6), carry_state=False).chains()
         t_nothing, n_nothing = timed(runner, system, empty_chains, options, point_fn=nothing)
         overhead = t_nothing / n_nothing
@@ -331,6 +355,7 @@ def main() -> int:
             t_in,
             cpu_in,
             faults_in,
+            thread_in,
         )
     return 0
 

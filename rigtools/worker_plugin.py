@@ -22,9 +22,10 @@ class ProcessSettingsPlugin(WorkerPlugin):
     """The process settings of ``rig`` in every Dask worker, applied on each worker start.
 
     Single-threaded BLAS (environment and the loaded libraries, threadpoolctl), the numba cache
-    (:func:`rigtools.runtime.configure_process`) and glibc's allocator thresholds
+    (:func:`rigtools.runtime.configure_process`), glibc's allocator thresholds
     (:func:`rigtools.runtime.configure_allocator`: a worker started by a nanny has
-    ``MALLOC_TRIM_THRESHOLD_`` set). Registered with :meth:`distributed.Client.register_plugin`,
+    ``MALLOC_TRIM_THRESHOLD_`` set), and Dask's statistical profiler stopped: it samples the
+    Python stack every 10 ms, sees only the compiled kernel of a point, and costs CPU. Registered with :meth:`distributed.Client.register_plugin`,
     so workers that join or restart later get it too (a one-off ``client.run`` would miss them).
     """
 
@@ -37,7 +38,14 @@ class ProcessSettingsPlugin(WorkerPlugin):
             os.environ.setdefault(key, value)
         settings = configure_process()
         threadpool_limits(limits=1, user_api="blas")
+        stopped = []
+        for name in ("profile", "profile-cycle"):
+            callback = getattr(worker, "periodic_callbacks", {}).pop(name, None)
+            if callback is not None:
+                callback.stop()
+                stopped.append(name)
         WORKER_SETTINGS.update(
+            profiler="stopped" if stopped else "off",
             blas_threads=1,
             numba_cache_dir=settings.numba_cache_dir,
             allocator=configure_allocator(),
