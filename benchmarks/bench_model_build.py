@@ -132,10 +132,15 @@ def main() -> int:
         seq = [r["f"][k] for r in rows]
         steps = [b - a for a, b in itertools.pairwise(seq)]
         mono = all(s <= 0 for s in steps) or all(s >= 0 for s in steps)
+        # a change no larger than the finer mesh's round-off (its static-deflection error, which
+        # bounds the relative error of the stiffness solves) is not a convergence step
+        floor = [abs(r["static_error"]) * abs(f) for r, f in zip(rows[1:], seq[1:], strict=True)]
+        settled = all(s <= 0 or s <= e for s, e in zip(steps, floor, strict=True))
         print(
             f"f{k + 1} per size: {', '.join(f'{v:.7f}' for v in seq)} Hz, changes "
-            f"{', '.join(f'{s:+.1e}' for s in steps)} (goal monotonic: {'met' if mono else 'NOT met'}"
-            f"{'' if mono else '; the changes past 100 elements are round-off, see the static deflection'})"
+            f"{', '.join(f'{s:+.1e}' for s in steps)} (goal monotonic: {'met' if mono else 'NOT met'}; "
+            f"decreasing or within the round-off of the finer mesh, {', '.join(f'{e:.1e}' for e in floor)} "
+            f"Hz: {'yes' if settled else 'no'})"
         )
     print(f"old build for comparison (dense all-modes eigen-solve + dense damping matrix, {load_average()}):")
     for n in (100, 400):
