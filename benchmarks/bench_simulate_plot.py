@@ -3,8 +3,8 @@
 Runs ``rig simulate`` (default rig, 60 Hz, 15 N, 1 s recorded) as a subprocess with and without
 ``--no-plot``, alternating, ``--repeats`` times each, and prints the best wall and CPU time of each
 (CPU time: the child's user + system time, robust to a busy machine), the plot's cost (with minus
-without) and its ratio to the run without the plot. Goal (issue 20): the plot costs less than
-half the simulation, ratio < 0.5.
+without) and its ratio to the run without the plot, in wall time (as issue 20 measured it: 3.3 s
+with, 1.5 s without) and in CPU time. Goal: the plot costs less than half the simulation, < 0.5.
 
 Then, in this process, the parts of the plot: importing the figure code, building the figure,
 saving the PNG, against the simulation itself (model build + settle + record).
@@ -86,10 +86,11 @@ def main() -> int:
     print(f"rig simulate, best of {args.repeats} (load {load:.2f}):")
     print(f"  --no-plot: {w0:.2f} s wall, {c0:.2f} s CPU")
     print(f"  with plot: {w1:.2f} s wall, {c1:.2f} s CPU")
-    ratio = (c1 - c0) / c0
+    wall_ratio, cpu_ratio = (w1 - w0) / w0, (c1 - c0) / c0
     print(
-        f"  plot costs {c1 - c0:.2f} s CPU ({w1 - w0:.2f} s wall) = {ratio:.2f}x the run without it "
-        f"(goal < 0.5: {'met' if ratio < 0.5 else 'NOT met'})"
+        f"  plot costs {w1 - w0:.2f} s wall = {wall_ratio:.2f}x the run without it "
+        f"(goal < 0.5: {'met' if wall_ratio < 0.5 else 'NOT met'}); {c1 - c0:.2f} s CPU = "
+        f"{cpu_ratio:.2f}x its CPU ({'met' if cpu_ratio < 0.5 else 'NOT met'})"
     )
     parts()
     return 0
