@@ -28,6 +28,7 @@ import scipy.sparse.linalg as spla
 from scipy.sparse.csgraph import connected_components
 
 from rigtools.sim.blade import BladeModel
+from rigtools.sim.threads import single_blas_thread
 
 KINDS = ("axial", "flexural", "edgewise", "torsional")
 #: DOF groups up to this size are solved densely (all their modes): faster than Lanczos there.
@@ -98,9 +99,10 @@ def _all_modes(blade: BladeModel) -> Modes:
     if "modes" not in blade._cache:
         K, M = blade.stiffness, blade.mass
         parts = []
-        for idx in _groups(blade):
-            vals, vecs = scipy.linalg.eigh(K[idx][:, idx].toarray(), M[idx][:, idx].toarray())
-            parts.append((idx, vals, vecs))
+        with single_blas_thread():
+            for idx in _groups(blade):
+                vals, vecs = scipy.linalg.eigh(K[idx][:, idx].toarray(), M[idx][:, idx].toarray())
+                parts.append((idx, vals, vecs))
         blade._cache["modes"] = _assemble(blade, parts)
     return blade._cache["modes"]
 
@@ -168,9 +170,10 @@ def lowest_modes(
         below_w2 = None if below_hz is None else (2.0 * np.pi * float(below_hz)) ** 2
         K, M = blade.stiffness, blade.mass
         parts = []
-        for idx in groups:
-            vals, vecs = _group_lowest(K[idx][:, idx], M[idx][:, idx], n_modes, below_w2)
-            parts.append((idx, vals, vecs))
+        with single_blas_thread():
+            for idx in groups:
+                vals, vecs = _group_lowest(K[idx][:, idx], M[idx][:, idx], n_modes, below_w2)
+                parts.append((idx, vals, vecs))
         modes = _assemble(blade, parts)
         if n_modes is not None:
             modes = Modes(modes.frequencies_hz[:n_modes], modes.shapes[:, :n_modes], modes.kinds[:n_modes])

@@ -250,14 +250,13 @@ def reduce_rig_model(
     (sparse shift-invert, :func:`rigtools.sim.modal.lowest_modes`): time and memory grow linearly
     with the element count, and the kept modes do not depend on the mesh once it resolves them.
     """
-    from threadpoolctl import threadpool_limits
-
     from rigtools.sim.modal import lowest_modes
+    from rigtools.sim.threads import single_blas_thread
 
     parts = []
     # small dense solves and banded factorisations: BLAS threads only add overhead (and make
     # the time erratic on a busy machine), whatever the caller's process set
-    with threadpool_limits(limits=1, user_api="blas"):
+    with single_blas_thread():
         for name in ("active", "passive"):
             blade = model.blade(name)
             tip = blade.dof(blade.tip_node, 1)

@@ -185,3 +185,27 @@ def test_sparse_lowest_modes_equal_the_dense_solution(monkeypatch):
     np.testing.assert_allclose(below.frequencies_hz[:n_below], dense.frequencies_hz[:n_below], rtol=1e-7)
     # per group: everything below the limit, then at most the group's next mode (or its lowest)
     assert np.sum(below.frequencies_hz < 5000.0) == n_below
+
+
+def test_eigen_solves_run_on_one_blas_thread_whatever_the_caller_set(monkeypatch):
+    """A library user who never called configure_process: the solvers still run on one BLAS
+    thread (the model's problems are banded or small), and the caller's setting is back after."""
+    from threadpoolctl import threadpool_info, threadpool_limits
+
+    from rigtools.sim import modal
+
+    seen = []
+    solve = modal._group_lowest
+
+    def spy(*args, **kwargs):
+        seen.append({lib["num_threads"] for lib in threadpool_info() if lib["user_api"] == "blas"})
+        return solve(*args, **kwargs)
+
+    monkeypatch.setattr(modal, "_group_lowest", spy)
+    blade = build_blade("t", BLADE, [], RootParams())
+    with threadpool_limits(limits=2, user_api="blas"):
+        before = {lib["num_threads"] for lib in threadpool_info() if lib["user_api"] == "blas"}
+        flexural_frequencies(blade, 3)
+        after = {lib["num_threads"] for lib in threadpool_info() if lib["user_api"] == "blas"}
+    assert seen and all(s == {1} for s in seen)
+    assert after == before
