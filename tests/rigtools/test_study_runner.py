@@ -58,9 +58,10 @@ def test_in_process_carries_state_like_a_plain_loop(system, in_process):
 
 
 def _worker_env() -> dict:
+    from rigtools.runtime import MALLOC_TUNING_VARS
     from rigtools.worker_plugin import worker_settings
 
-    return {"environ": {k: v for k, v in os.environ.items() if k.startswith("MALLOC_")}, **worker_settings()}
+    return {"environ": {k: os.environ[k] for k in MALLOC_TUNING_VARS if k in os.environ}, **worker_settings()}
 
 
 def test_two_worker_cluster_is_bit_identical(system, in_process):
