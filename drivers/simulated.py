@@ -331,12 +331,13 @@ class LinearModalPhysics:
     """
 
     def __init__(self, model, shaker: ShakerParams, dt: float, f_max: float | None = None) -> None:
-        from rigtools.sim.modal import blade_modes
+        from rigtools.sim.modal import lowest_modes
+        from rigtools.sim.reduction import damping_ratios
 
         blade = model.active
-        n_a = blade.n_dofs
-        modes = blade_modes(blade)
         f_max = f_max if f_max is not None else 2e4
+        # only the group of modes that can move the force point or the tip (sparse solver)
+        modes = lowest_modes(blade, below_hz=f_max, dofs=[model.force_dof, model.active_tip_dof])
         phi_all = modes.shapes
         pf_all, pt_all = phi_all[model.force_dof], phi_all[model.active_tip_dof]
         scale = max(np.max(np.abs(pf_all)), np.max(np.abs(pt_all)))
@@ -347,7 +348,9 @@ class LinearModalPhysics:
         self.frequencies_hz = modes.frequencies_hz[keep]
         n = phi.shape[1]
         pf, pt = phi[model.force_dof], phi[model.active_tip_dof]
-        c_modal = phi.T @ (model.damping[:n_a, :n_a] @ phi)
+        # modal damping in modal space: the FE damping is diagonal on mass-normalised modes
+        omega = 2 * np.pi * self.frequencies_hz
+        c_modal = np.diag(2.0 * damping_ratios(omega, model.params.damping) * omega)
         s = shaker
         ff = np.outer(pf, pf)
         minv = np.linalg.inv(np.eye(n) + s.armature_mass * ff)

@@ -50,6 +50,7 @@ from rigtools.quantity_fields import (
     quantity_validator,
 )
 from rigtools.sim.params import (
+    MAX_ELEMENTS,
     BladeParams,
     ContactParams,
     DampingParams,
@@ -76,7 +77,7 @@ class _Section(BaseModel):
 BladeLength = Annotated[Length, Field(ge=1e-3, le=5.0)]
 BladeWidth = Annotated[Length, Field(ge=1e-4, le=1.0)]
 BladeThickness = Annotated[Length, Field(ge=1e-5, le=0.5)]
-Elements = Annotated[int, Field(ge=2, le=2000)]
+Elements = Annotated[int, Field(ge=2, le=MAX_ELEMENTS)]  # the limit's reason: sim.params
 YoungsModulus = Annotated[Pressure, Field(ge=1e6, le=1.5e12)]
 BladeDensity = Annotated[Density, Field(ge=100.0, le=3e4)]
 Poisson = Annotated[float, Field(ge=0.0, lt=0.5)]

@@ -11,6 +11,9 @@ and worker processes call :func:`configure_process` themselves (it is cheap and 
   ASCII or cp1252 console becomes ``m/s\\xb2`` instead of a UnicodeEncodeError).
 * :func:`configure_process` sets the BLAS thread count (small dense problems: threads only add
   overhead) and a writable numba cache directory.
+* :func:`configure_allocator` gives back glibc's adaptive allocator behaviour to a process started
+  with a ``MALLOC_*_`` tuning variable (a Dask nanny sets one): without it every numpy temporary
+  of 128 KiB or more is a fresh mmap, page-faulted in and unmapped again (2x slower points).
 * :func:`ensure_kernels_compiled` says "compiling the simulation kernels" on the first run
   instead of showing a frozen progress bar, and compiles them.
 """
@@ -18,6 +21,8 @@ and worker processes call :func:`configure_process` themselves (it is cheap and 
 from __future__ import annotations
 
 import contextlib
+import ctypes
+import ctypes.util
 import os
 import signal
 import sys
@@ -271,6 +276,86 @@ def configure_process(blas_threads: int | None = 1, *, numba_cache: bool = True)
             if numba_config is not None:
                 numba_config.CACHE_DIR = str(cache)
     return ProcessSettings(blas_threads, live, str(cache) if cache is not None else None)
+
+
+# -- the C allocator ------------------------------------------------------------------------
+#: Variables that make glibc fix its mmap and trim thresholds (turning off the adaptive mmap
+#: threshold) when present at the first malloc, whatever their value.
+MALLOC_TUNING_VARS = (
+    "MALLOC_TRIM_THRESHOLD_",
+    "MALLOC_MMAP_THRESHOLD_",
+    "MALLOC_TOP_PAD_",
+    "MALLOC_MMAP_MAX_",
+)
+# glibc's mallopt parameters (malloc.h) and the largest mmap threshold its adaptive rule reaches
+# on 64-bit (DEFAULT_MMAP_THRESHOLD_MAX: 4 * 1024 * 1024 * sizeof(long)); the adaptive rule keeps
+# the trim threshold at twice the mmap threshold.
+_M_TRIM_THRESHOLD = -1
+_M_MMAP_THRESHOLD = -3
+ADAPTIVE_MMAP_MAX = 32 * 1024 * 1024
+
+
+def _glibc() -> Any:
+    """The C library if it is glibc (has ``gnu_get_libc_version`` and ``mallopt``), else None."""
+    if not sys.platform.startswith("linux"):
+        return None
+    try:
+        libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6")
+        libc.gnu_get_libc_version  # noqa: B018 - probe: musl and others lack it
+        mallopt = libc.mallopt
+    except (OSError, AttributeError):
+        return None
+    mallopt.argtypes = (ctypes.c_int, ctypes.c_int)
+    mallopt.restype = ctypes.c_int
+    return libc
+
+
+def configure_allocator(force: bool = False) -> str:
+    """Undo a fixed glibc mmap/trim threshold set through the environment (no-op off glibc).
+
+    A ``MALLOC_TRIM_THRESHOLD_`` (or another :data:`MALLOC_TUNING_VARS`) present when the
+    process started turned glibc's adaptive mmap threshold off for good: every allocation of
+    128 KiB or more is then a fresh mmap, zero-filled page by page and unmapped on free. The
+    adaptive rule cannot be switched back on, so its steady state is set instead: mmap only
+    above :data:`ADAPTIVE_MMAP_MAX` (32 MiB) and trim the heap above twice that.
+
+    Parameters
+    ----------
+    force
+        Set those thresholds even if no tuning variable is in the environment (the adaptive rule
+        is then replaced by its steady state).
+
+    Returns
+    -------
+    str
+        What was done: ``"adaptive"`` (nothing to undo), ``"mallopt"`` (thresholds set),
+        ``"not glibc"``, or ``"mallopt failed"``.
+    """
+    if not force and not any(var in os.environ for var in MALLOC_TUNING_VARS):
+        return "adaptive"
+    libc = _glibc()
+    if libc is None:
+        return "not glibc"
+    ok = libc.mallopt(_M_MMAP_THRESHOLD, ADAPTIVE_MMAP_MAX) == 1
+    ok = libc.mallopt(_M_TRIM_THRESHOLD, 2 * ADAPTIVE_MMAP_MAX) == 1 and ok
+    return "mallopt" if ok else "mallopt failed"
+
+
+@contextlib.contextmanager
+def without_malloc_tuning() -> Iterator[None]:
+    """Within the block, no :data:`MALLOC_TUNING_VARS` in ``os.environ``; restored as found on exit.
+
+    Child processes started inside (Dask's nanny spawning workers) then keep glibc's adaptive
+    allocator, and a variable such a nanny writes into this process's environment does not leak
+    into later subprocesses.
+    """
+    saved = {var: os.environ.pop(var) for var in MALLOC_TUNING_VARS if var in os.environ}
+    try:
+        yield
+    finally:
+        for var in MALLOC_TUNING_VARS:
+            os.environ.pop(var, None)
+        os.environ.update(saved)
 
 
 # -- first-run kernel compilation --------------------------------------------------------------

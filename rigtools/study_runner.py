@@ -11,7 +11,16 @@ side on the workers.
 * ``scheduler="tcp://host:port"``: an existing cluster (dask-jobqueue users point it at SLURM).
 
 Results come back in point order, bit-identical whatever the number of workers (each point is the
-same computation on the same inputs, with single-threaded BLAS in every worker). A point whose
+same computation on the same inputs, with single-threaded BLAS in every worker).
+
+Workers compute as fast as this process. Dask's nanny starts workers with
+``MALLOC_TRIM_THRESHOLD_`` in their environment (``distributed.nanny.pre-spawn-environ``), which
+turns off glibc's adaptive mmap threshold: every numpy temporary of 128 KiB or more becomes a
+fresh mmap (35x the page faults, 2x slower points). The LocalCluster started here spawns its
+workers without it (and the nanny's copy in this process's environment is removed again); on any
+cluster :class:`rigtools.worker_plugin.ProcessSettingsPlugin` sets single-threaded BLAS and the
+allocator's thresholds (:func:`rigtools.runtime.configure_allocator`) on every worker start,
+restarts included. A point whose
 worker dies is resubmitted once, with the rest of its chain, and reported in ``retried``; a second
 loss of the same point stops the study with :class:`StudyRunnerError` naming it (every earlier
 point has been yielded). Chains are submitted a few at a time (``window``), so memory does not
@@ -20,7 +29,6 @@ grow with the number of points.
 
 from __future__ import annotations
 
-import os
 import uuid
 from collections import deque
 from collections.abc import Callable, Iterator, Sequence
@@ -28,6 +36,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 from rigtools.errors import FaultError, UserError, one_line
+from rigtools.runtime import MALLOC_TUNING_VARS, without_malloc_tuning
 from rigtools.sim.studies import MapPlan, PlannedPoint
 
 if TYPE_CHECKING:
@@ -142,14 +151,18 @@ class StudyRunner:
             if self.scheduler is not None:
                 client = Client(self.scheduler, timeout="10s")
             else:
-                self._cluster = LocalCluster(
-                    n_workers=self.workers,
-                    threads_per_worker=1,
-                    processes=True,
-                    dashboard_address=None,
-                    env=dict(WORKER_ENV),
-                    silence_logs=40,
-                )
+                # the nanny reads its pre-spawn environment when created and writes it into
+                # os.environ before each spawn: keep the allocator variable out of both
+                no_malloc = {f"distributed.nanny.pre-spawn-environ.{var}": None for var in MALLOC_TUNING_VARS}
+                with dask.config.set(no_malloc), without_malloc_tuning():
+                    self._cluster = LocalCluster(
+                        n_workers=self.workers,
+                        threads_per_worker=1,
+                        processes=True,
+                        dashboard_address=None,
+                        env=dict(WORKER_ENV),
+                        silence_logs=40,
+                    )
                 client = Client(self._cluster)
         except (OSError, TimeoutError) as exc:
             self.close()
@@ -157,7 +170,9 @@ class StudyRunner:
                 f"cannot reach the Dask scheduler {self.scheduler or 'LocalCluster'}: {one_line(exc, 200)}"
             ) from None
         self._client = client
-        client.run(_configure_worker)
+        from rigtools.worker_plugin import ProcessSettingsPlugin
+
+        client.register_plugin(ProcessSettingsPlugin(), name=ProcessSettingsPlugin.name)
         return self
 
     def __exit__(self, *exc: object) -> None:
@@ -284,12 +299,3 @@ class StudyRunner:
                 futures[i] = None  # let the scheduler forget it
                 yield from self._done(chain[i], run, total, progress)
                 i += 1
-
-
-def _configure_worker() -> None:
-    """Runs once in every worker process: the CLI's process settings (single-threaded BLAS)."""
-    from rigtools.runtime import configure_process
-
-    for key, value in WORKER_ENV.items():
-        os.environ.setdefault(key, value)
-    configure_process()

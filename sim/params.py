@@ -16,7 +16,15 @@ Theory = Literal["euler-bernoulli", "timoshenko"]
 ContactLaw = Literal["linear", "hertz", "hunt-crossley"]
 THEORIES = ("euler-bernoulli", "timoshenko")
 CONTACT_LAWS = ("linear", "hertz", "hunt-crossley")
-MAX_ELEMENTS = 20000
+# Elements per blade. Not a question of time (the model builds and reduces in linear time: 0.7 s
+# at 6400 elements) but of round-off: the stiffness matrix's condition number grows as n^4, and
+# the FE static tip deflection of the default blade (exact for these elements) is off by 1e-9 at
+# 100 elements, 2e-7 at 400, 2e-5 at 1600 and 3e-3 at 6400 (double precision, any ordering or
+# scaling of the sparse factorisation; benchmarks/bench_model_build.py). The discretisation error
+# of the first flexural frequencies is below 1e-7 at 100 elements: beyond a few hundred elements a
+# finer mesh only adds round-off, and past 2000 it exceeds 1e-4 (a mesh-convergence study would
+# mislead).
+MAX_ELEMENTS = 2000
 # a root spring stiffer than this many times the root element's own stiffness brings nothing a
 # clamp does not, and ruins the FE eigen-solve (measured: 1e6 times agrees with the clamp to
 # 4e-8; 1e7 times gives a first flexural frequency 43 % high, 1e11 times 0 Hz)

@@ -165,11 +165,23 @@ def damping_ratios(omega: np.ndarray, damping: DampingParams) -> np.ndarray:
 
 
 def _blade_ritz(
-    mass, stiffness, damping, modes_omega, modes_shapes, load_dofs, cutoff_hz, static_correction: bool
+    mass,
+    stiffness,
+    damping: DampingParams,
+    modes_omega,
+    modes_shapes,
+    load_dofs,
+    cutoff_hz,
+    static_correction: bool,
 ):
     """Ritz basis of one blade: kept modes + re-diagonalised residual static shapes.
 
-    Returns (omega, zeta, basis (n_dofs, n), pseudo flags).
+    Damping in modal space: a normal mode gets :func:`damping_ratios` of its frequency (Rayleigh
+    damping is exactly diagonal on the M- and K-orthonormal basis). A pseudo-mode ``p`` stands for
+    the truncated modes: with a modal ratio it gets ``zeta * p^T M (M^-1 K)^(1/2) p / w_p`` (what
+    the all-modes damping matrix ``M Phi diag(2 zeta w) Phi^T M`` gives it), from a few Lanczos
+    steps instead of every mode (:func:`_sqrt_stiffness_form`). Returns (omega, zeta, basis
+    (n_dofs, n), pseudo flags).
     """
     rows = modes_shapes[load_dofs, :]
     scale = np.abs(rows).max()
@@ -182,20 +194,21 @@ def _blade_ritz(
         e = np.zeros((mass.shape[0], len(load_dofs)))
         e[load_dofs, np.arange(len(load_dofs))] = 1.0
         lu = spla.splu(stiffness.tocsc())
-        static = lu.solve(e)
         # r = K^-1 e - Phi Omega^-2 Phi^T e is ~1e-6 of K^-1 e at the shroud: subtracting the two
         # leaves round-off that is not M-orthogonal to the kept modes (0.03-0.4 % of r, varying
-        # with BLAS kernel and thread count), and the pseudo-modes then carry part of the kept
-        # modes' mass (shroud mass off by up to 0.9 %). Solving for the load with the kept modes'
-        # share removed, K r = e - M Phi Phi^T e (the same r, no cancellation), then removing what
-        # the kept modes' own round-off leaks back, gives r M-orthogonal to round-off.
+        # with BLAS kernel and thread count; on a fine mesh more than r itself), and the
+        # pseudo-modes then carry part of the kept modes' mass (shroud mass off by up to 0.9 %).
+        # Solving for the load with the kept modes' share removed, K r = e - M Phi Phi^T e (the
+        # same r, no cancellation), then removing what the kept modes' own round-off leaks back,
+        # gives r M-orthogonal to round-off.
         resid = lu.solve(e - mass @ (phi @ phi[load_dofs, :].T))
         resid -= phi @ (phi.T @ (mass @ resid))
         mr = resid.T @ (mass @ resid)
         kr = resid.T @ (stiffness @ resid)
         # drop directions with no residual flexibility left (all relevant modes already kept)
         flex = np.diag(resid[load_dofs, :])
-        ok = flex > 1e-9 * np.abs(np.diag(static[load_dofs, :]))
+        static = flex + np.sum(phi[load_dofs, :] ** 2 / om**2, axis=1)
+        ok = flex > 1e-9 * np.abs(static)
         if ok.any():
             w2, t = scipy.linalg.eigh(kr[np.ix_(ok, ok)], mr[np.ix_(ok, ok)])
             parts.append(resid[:, ok] @ t)
@@ -203,12 +216,45 @@ def _blade_ritz(
             pseudo.append(np.ones(w2.size, bool))
     basis = np.hstack(parts)
     omega = np.concatenate(omegas)
-    if damping is None:
-        zeta = None
-    else:
-        c = basis.T @ (damping @ basis)
-        zeta = np.diag(c) / (2.0 * omega)
-    return omega, zeta, basis, np.concatenate(pseudo)
+    flags = np.concatenate(pseudo)
+    zeta = damping_ratios(omega, damping)
+    if damping.ratio is not None:
+        for j in np.flatnonzero(flags):
+            zeta[j] = damping.ratio * _sqrt_stiffness_form(lu, mass, basis[:, j]) / omega[j]
+    return omega, zeta, basis, flags
+
+
+def _sqrt_stiffness_form(lu, mass, x: np.ndarray, steps: int = 40) -> float:
+    """``x^T M (M^-1 K)^(1/2) x`` = ``sum_j (phi_j^T M x)^2 w_j`` over all modes, without them.
+
+    Gauss quadrature by Lanczos on ``B = K^-1 M`` (self-adjoint in the M inner product, spectrum
+    ``1 / w_j^2``; ``lu`` factorises K): ``||x||_M^2 e1^T T^(-1/2) e1`` with T the tridiagonal
+    Lanczos matrix. A residual static shape weighs mode j with ``(1 / w_j^2)^2``, so the first
+    truncated modes dominate and a few dozen steps reach round-off (checked against all modes
+    in tests/sim/test_reduction.py).
+    """
+    mx = mass @ x
+    norm2 = float(x @ mx)
+    q = x / np.sqrt(norm2)
+    basis, mbasis = [q], [mx / np.sqrt(norm2)]
+    alphas: list[float] = []
+    betas: list[float] = []
+    for _ in range(min(steps, x.size)):
+        w = lu.solve(mbasis[-1])
+        alphas.append(float(w @ mbasis[-1]))
+        for v, mv in zip(basis, mbasis, strict=True):  # full reorthogonalisation (M inner product)
+            w -= (w @ mv) * v
+        mw = mass @ w
+        beta = float(np.sqrt(max(w @ mw, 0.0)))
+        if beta <= 1e-12 * abs(alphas[0]):
+            break
+        betas.append(beta)
+        basis.append(w / beta)
+        mbasis.append(mw / beta)
+    k = len(alphas)
+    theta, vecs = scipy.linalg.eigh_tridiagonal(np.array(alphas), np.array(betas[: k - 1]))
+    theta = np.clip(theta, np.finfo(float).tiny, None)
+    return norm2 * float(np.sum(vecs[0] ** 2 / np.sqrt(theta)))
 
 
 def reduce_rig_model(
@@ -235,23 +281,38 @@ def reduce_rig_model(
     Returns
     -------
     ReducedSystem
-        Damping ratios are the diagonal of the projected FE damping matrix (exact for modal-ratio
-        and Rayleigh damping on kept modes).
-    """
-    from rigtools.sim.modal import blade_modes
+        Damping ratios are those of :func:`damping_ratios` (modal damping applied in modal
+        space: the Ritz basis diagonalises modal-ratio and Rayleigh damping).
 
-    n_a = model.active.n_dofs
+    Notes
+    -----
+    Only the modes below ``cutoff_hz`` of the DOF groups holding the load DOFs are computed
+    (sparse shift-invert, :func:`rigtools.sim.modal.lowest_modes`): time and memory grow linearly
+    with the element count, and the kept modes do not depend on the mesh once it resolves them.
+    """
+    from rigtools.sim.modal import lowest_modes
+    from rigtools.sim.threads import single_blas_thread
+
     parts = []
-    for name, off in (("active", 0), ("passive", n_a)):
-        blade = model.blade(name)
-        modes = blade_modes(blade)
-        tip = blade.dof(blade.tip_node, 1)
-        loads = [tip] if blade.sensor_node is None else [tip, blade.dof(blade.sensor_node, 1)]
-        c = model.damping[off : off + blade.n_dofs, off : off + blade.n_dofs]
-        om, z, basis, ps = _blade_ritz(
-            blade.mass, blade.stiffness, c, modes.omegas, modes.shapes, loads, cutoff_hz, static_correction
-        )
-        parts.append((om, z, basis, ps, tip, loads))
+    # small dense solves and banded factorisations: BLAS threads only add overhead (and make
+    # the time erratic on a busy machine), whatever the caller's process set
+    with single_blas_thread():
+        for name in ("active", "passive"):
+            blade = model.blade(name)
+            tip = blade.dof(blade.tip_node, 1)
+            loads = [tip] if blade.sensor_node is None else [tip, blade.dof(blade.sensor_node, 1)]
+            modes = lowest_modes(blade, below_hz=cutoff_hz, dofs=loads)
+            om, z, basis, ps = _blade_ritz(
+                blade.mass,
+                blade.stiffness,
+                model.params.damping,
+                modes.omegas,
+                modes.shapes,
+                loads,
+                cutoff_hz,
+                static_correction,
+            )
+            parts.append((om, z, basis, ps, tip, loads))
     (om_a, z_a, b_a, ps_a, tip_a, loads_a), (om_p, z_p, b_p, ps_p, tip_p, _) = parts
     n1, n2 = om_a.size, om_p.size
     shapes = np.zeros((3, n1 + n2))
@@ -360,15 +421,17 @@ def reduced_system(
     raise ValueError(f"model must be 'fem' or 'am', got {model!r}")
 
 
-# Rough cost of building and reducing the FE model (dense eigen-solves of both blades), measured
-# on the reference machine (2 shared cores, 2026): 1.4 / 5.0 / 14.2 s at 100 / 200 / 400
-# elements per blade (issue 8 saw 230 s at 2000). Only for telling a user up front.
-_REDUCTION_SECONDS_AT_100 = 1.4
-_REDUCTION_EXPONENT = 1.7
+# Rough cost of building and reducing the FE model (sparse, only the modes kept), measured on the
+# reference machine (2 shared cores under load, 2026, benchmarks/bench_model_build.py): 0.11 /
+# 0.24 / 0.46 / 2.0 s at 100 / 400 / 1600 / 6400 elements per blade (the dense all-modes build
+# it replaced took 0.5 / 13 s at 100 / 400, issue 8 saw 230 s at 2000). Only for telling a user
+# up front.
+_REDUCTION_SECONDS_AT_100 = 0.1
+_REDUCTION_EXPONENT = 0.7
 
 
 def estimate_reduction_seconds(params: RigParams) -> float:
     """Rough wall time, s, of :func:`reduced_system` with the FE model for ``params``
-    (``1.4 s * (elements / 100) ** 1.7``, elements averaged over both blades)."""
+    (``0.1 s * (elements / 100) ** 0.7``, elements averaged over both blades)."""
     elements = 0.5 * (params.active.elements + params.passive.elements)
     return _REDUCTION_SECONDS_AT_100 * (elements / 100.0) ** _REDUCTION_EXPONENT

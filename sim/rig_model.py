@@ -11,7 +11,7 @@ the passive tip (pushes it +y), ``-f`` on the active tip.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import scipy.sparse as sp
 
@@ -34,7 +34,7 @@ class RigModel:
         The rig parameters it was built from.
     active, passive
         The blade models.
-    mass, stiffness, damping
+    mass, stiffness
         Block-diagonal ``[active, passive]`` sparse matrices.
     force_dof
         Global index of uy at the active blade's force-sensor node (the shaker force acts here).
@@ -47,10 +47,30 @@ class RigModel:
     passive: BladeModel
     mass: sp.csr_matrix
     stiffness: sp.csr_matrix
-    damping: sp.csr_matrix
     force_dof: int
     active_tip_dof: int
     passive_tip_dof: int
+    _damping: sp.csr_matrix | None = field(default=None, repr=False, compare=False)
+
+    @property
+    def damping(self) -> sp.csr_matrix:
+        """Block-diagonal physical damping matrix, built on first use.
+
+        Rayleigh damping is sparse and cheap. Modal damping (a ratio on every mode) is
+        ``M Phi diag(2 zeta w) Phi^T M`` over *all* modes: dense, O(n^3) to build -- a reference
+        for the full-order integrator and the tests on meshes of a few hundred elements. The
+        model build, the reduction and the simulated rig apply modal damping in modal space
+        (:func:`rigtools.sim.reduction.damping_ratios`) and never build it.
+        """
+        if self._damping is None:
+            self._damping = sp.block_diag(
+                [
+                    blade_damping(self.active, self.params.damping),
+                    blade_damping(self.passive, self.params.damping),
+                ],
+                format="csr",
+            )
+        return self._damping
 
     @property
     def n_dofs(self) -> int:
@@ -94,7 +114,7 @@ def blade_masses(params: RigParams, blade: str) -> list[LumpedMass]:
 
 
 def blade_damping(blade: BladeModel, damping: DampingParams) -> sp.csr_matrix:
-    """Damping matrix of one blade.
+    """Damping matrix of one blade (see :attr:`RigModel.damping` for its cost).
 
     Modal ratio ``zeta`` on every mode: ``C = M Phi diag(2 zeta w) Phi^T M`` (Phi mass-normalised,
     all modes), so each mode has exactly ``zeta``. Otherwise Rayleigh ``C = alpha M + beta K``.
@@ -136,9 +156,6 @@ def build_rig_model(params: RigParams, rotary_inertia: bool = True) -> RigModel:
     )
     mass = sp.block_diag([active.mass, passive.mass], format="csr")
     stiffness = sp.block_diag([active.stiffness, passive.stiffness], format="csr")
-    damping = sp.block_diag(
-        [blade_damping(active, params.damping), blade_damping(passive, params.damping)], format="csr"
-    )
     n_a = active.n_dofs
     return RigModel(
         params=params,
@@ -146,7 +163,6 @@ def build_rig_model(params: RigParams, rotary_inertia: bool = True) -> RigModel:
         passive=passive,
         mass=mass,
         stiffness=stiffness,
-        damping=damping,
         force_dof=active.sensor_dof(UY),
         active_tip_dof=active.dof(active.tip_node, UY),
         passive_tip_dof=n_a + passive.dof(passive.tip_node, UY),

@@ -8,9 +8,11 @@ ordinary periodic response; ``m > 1`` a subharmonic one (period doubling and so 
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 SUBHARMONIC_DISTINCT = 1e-2  # period-1 mismatch above which a lag-m match counts as period m
 
@@ -75,7 +77,25 @@ def period_mismatch(
     before = x[:, -w - lag * n : x.shape[1] - lag * n]
     span = np.ptp(now, axis=1) if scale is None else np.asarray(scale, dtype=float)
     span = np.where(span > 0, span, 1.0)
-    return float(np.max(np.max(np.abs(now - before), axis=1) / span))
+    diff = _max_abs_difference(now, before) if now.size else np.zeros(x.shape[0])
+    return float(np.max(diff / span))
+
+
+@njit(cache=True)
+def _max_abs_difference(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``max(|a - b|, axis=1)`` without the temporaries (records of many periods are large);
+    NaN propagates as in numpy."""
+    out = np.zeros(a.shape[0])
+    for r in range(a.shape[0]):
+        worst = 0.0
+        for k in range(a.shape[1]):
+            d = abs(a[r, k] - b[r, k])
+            if math.isnan(d):
+                worst = d
+                break
+            worst = max(worst, d)
+        out[r] = worst
+    return out
 
 
 def check_periodic(

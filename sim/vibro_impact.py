@@ -320,6 +320,9 @@ def _hermite_root(y0, s0, y1, s1):
 def _kernel(P, omega, zeta, phiA, phiP, phiF, q, v, s, u, out, dt, gap, kc, cc, pexp, code, shaker, events):
     """Step ``len(u)`` times in place (state ``q, v, s``), writing ``out (len(u), N_OUT)``.
 
+    Returns -1, or the first step whose outputs are not finite or move a tip or the force point
+    by :data:`DIVERGED_DISPLACEMENT` or more (stepping stops there; the state is then useless).
+
     ``P`` holds the whole-step propagators. ``shaker = (enabled, Bl, e, c0, c1, c_s, m_a, k_s)``:
     with ``enabled`` the input is the coil voltage, otherwise the force at the force point.
     With ``events`` a step in which the contact closes or opens is split at the instant
@@ -521,6 +524,18 @@ def _kernel(P, omega, zeta, phiA, phiP, phiF, q, v, s, u, out, dt, gap, kc, cc, 
         out[i, 13] = ce / dt
         g_old = xa - xp - gap
         gd_old = gd
+        # a NaN fails every comparison; a sum of finite values is finite unless absurd anyway
+        total = 0.0
+        for k in range(out.shape[1]):
+            total += out[i, k]
+        if not (
+            abs(xa) < DIVERGED_DISPLACEMENT
+            and abs(xp) < DIVERGED_DISPLACEMENT
+            and abs(xF) < DIVERGED_DISPLACEMENT
+            and abs(total) < math.inf
+        ):
+            return i
+    return -1
 
 
 def _coil_coefficients(shaker: ShakerCoupling, dt: float) -> tuple[float, float, float]:
@@ -677,13 +692,28 @@ class VibroImpactStepper:
         u = np.ascontiguousarray(u, dtype=float).ravel()
         if out is None:
             out = np.empty((u.size, N_OUT))
+        t0 = self.state.time
+        self.advance(u, out)
+        return StepOutput(t0 + self.dt * np.arange(1, u.size + 1), out)
+
+    def advance(self, u: np.ndarray, out: np.ndarray) -> None:
+        """:meth:`step` without the time array: ``u`` a contiguous float array, ``out`` a
+        ``(len(u), N_OUT)`` array written in place. Allocates nothing per step.
+
+        Raises
+        ------
+        SimulationInputError
+            A non-finite input.
+        SimulationDivergedError
+            A non-finite or absurd output (the message names the likely parameters).
+        """
         st = self.state
         gap, kc, cc, p, code = self._contact
         if not np.isfinite(u).all():
             raise SimulationInputError(
                 f"the input ({'coil voltage' if self.shaker else 'force'}) holds a non-finite value"
             )
-        _kernel(
+        bad = _kernel(
             self._P,
             self.system.omega,
             self.system.zeta,
@@ -704,21 +734,11 @@ class VibroImpactStepper:
             self._shaker,
             self.events,
         )
-        if not (
-            np.isfinite(out).all() and np.abs(out[:, [0, 3, 6]]).max(initial=0.0) < DIVERGED_DISPLACEMENT
-        ):
-            bad = int(
-                np.argmin(
-                    np.isfinite(out).all(axis=1)
-                    & (np.abs(out[:, [0, 3, 6]]).max(axis=1) < DIVERGED_DISPLACEMENT)
-                )
-            )
+        if bad >= 0:
             # the values the kernel ran with (the same as system.contact unless overridden)
             ran = _ContactSystem(self.system, replace(self.system.contact, gap=gap, stiffness=kc, damping=cc))
             raise SimulationDivergedError(diverged_message(ran, self.dt, st.time + self.dt * (bad + 1)))
-        t = st.time + self.dt * np.arange(1, u.size + 1)
         st.time = st.time + self.dt * u.size
-        return StepOutput(t, out)
 
 
 class _ContactSystem:
@@ -876,6 +896,39 @@ def validate_harmonic_input(fe: float, force_amplitude: float, gap: float | None
         raise SimulationInputError(f"gap must be >= 0, got {gap * 1e3:g} mm")
 
 
+class _TipHistory:
+    """The last ``keep`` samples of both tips' displacement and velocity (rows), appended from
+    the kernel's output in place: no allocation per chunk."""
+
+    COLUMNS = (0, 1, 3, 4)  # active x, v; passive x, v (OUT_COLUMNS)
+
+    def __init__(self, keep: int, chunk: int) -> None:
+        self.keep = int(keep)
+        self.buf = np.empty((len(self.COLUMNS), self.keep + max(int(chunk), self.keep)))
+        self.end = 0
+
+    def append(self, out: np.ndarray) -> None:
+        m, cap = out.shape[0], self.buf.shape[1]
+        if m >= self.keep:
+            for r, c in enumerate(self.COLUMNS):
+                self.buf[r, : self.keep] = out[m - self.keep :, c]
+            self.end = self.keep
+            return
+        if self.end + m > cap:
+            # move the samples still needed to the front (row by row: 1-D copies, no temporary)
+            n_old = min(self.end, self.keep - m)
+            for r in range(len(self.COLUMNS)):
+                self.buf[r, :n_old] = self.buf[r, self.end - n_old : self.end]
+            self.end = n_old
+        for r, c in enumerate(self.COLUMNS):
+            self.buf[r, self.end : self.end + m] = out[:, c]
+        self.end += m
+
+    def view(self) -> np.ndarray:
+        """(4, min(samples so far, keep)) view of the latest samples, oldest first."""
+        return self.buf[:, max(0, self.end - self.keep) : self.end]
+
+
 def _pair_scale(hist: np.ndarray, n: int) -> np.ndarray:
     """Common scale of the tip displacements (rows 0, 2) and of the tip velocities (rows 1, 3)
     over the last three periods."""
@@ -981,36 +1034,37 @@ def run_harmonic(
         ramp = periodic_force(harmonics, phase0 + w * dt * np.arange(1, n + 1))
     chunk = np.tile(ramp, check_every)
     keep = max(check_every, 3 + 4) * n  # enough periods for m <= 4 with 3 compared
-    hist = np.empty((4, 0))
+    hist = _TipHistory(keep, chunk.size)
     out = np.empty((chunk.size, N_OUT))
     periods_run = 0
     steady = False
     per = None
     max_periods = max(math.ceil(max_settle_time * fe), check_every)
     while periods_run < max_periods:
-        o = stepper.step(chunk, out)
+        stepper.advance(chunk, out)
         periods_run += check_every
         if progress is not None:
             progress(periods_run / fe, (max_periods + record_periods) / fe)
-        sig = o.data[:, [0, 1, 3, 4]].T
-        hist = np.hstack([hist, sig])[:, -keep:]
+        hist.append(out)
         if periods_run < min_settle_periods:
             continue
-        per = check_periodic(hist, n, tol, scale=_pair_scale(hist, n))
+        tips = hist.view()
+        per = check_periodic(tips, n, tol, scale=_pair_scale(tips, n))
         if per.steady:
             steady = True
             break
     settle_time = stepper.time - t_start
-    last = out[-1].copy() if periods_run else None
     rec_u = np.tile(ramp, record_periods)
-    o = stepper.step(rec_u)
-    tail = np.hstack([hist, o.data[:, [0, 1, 3, 4]].T])[:, -keep:]
-    final = check_periodic(tail, n, tol, scale=_pair_scale(tail, n))
+    # samples at t = 0, dt, ..., (P n - 1) dt of the record, the force phase being phase0 at t = 0:
+    # the last settling output, then the kernel's outputs written straight behind it
+    buf = np.empty((rec_u.size + 1, N_OUT))
+    buf[0] = out[-1] if periods_run else 0.0
+    stepper.advance(rec_u, buf[1:])
+    hist.append(buf[1:])
+    tips = hist.view()
+    final = check_periodic(tips, n, tol, scale=_pair_scale(tips, n))
     steady = final.steady  # the record itself must repeat (checked on its last periods)
-    # samples at t = 0, dt, ..., (P n - 1) dt of the record, the force phase being phase0 at t = 0
-    data = np.empty_like(o.data)
-    data[0] = last if last is not None else 0.0
-    data[1:] = o.data[:-1]
+    data = buf[:-1]
     t_rec = dt * np.arange(data.shape[0])
     outputs = {name: data[:, i] for i, name in enumerate(OUT_COLUMNS) if name != "coil_current"}
     return VibroImpactRun(

@@ -34,7 +34,8 @@ SKIP = (
 
 
 def blocks(lang: str) -> list[str]:
-    """The fenced code blocks of one language in the README draft."""
+    """The fenced code blocks of one language in the README draft (tagged exactly ``lang``; a
+    block tagged ``sh cluster`` or ``python cluster`` needs a compute cluster: shown, not run)."""
     return re.findall(rf"```{lang}\n(.*?)```", README.read_text(encoding="utf-8"), flags=re.DOTALL)
 
 

@@ -57,12 +57,29 @@ def test_in_process_carries_state_like_a_plain_loop(system, in_process):
         assert np.array_equal(got.outputs["contact_force"], previous.outputs["contact_force"])
 
 
+def _worker_env() -> dict:
+    from rigtools.runtime import MALLOC_TUNING_VARS
+    from rigtools.worker_plugin import worker_settings
+
+    return {"environ": {k: os.environ[k] for k in MALLOC_TUNING_VARS if k in os.environ}, **worker_settings()}
+
+
 def test_two_worker_cluster_is_bit_identical(system, in_process):
+    before = os.environ.get("MALLOC_TRIM_THRESHOLD_")
     with StudyRunner(workers=2) as runner:
         assert runner.n_workers == 2
         got = list(runner.run(system, CHAINS, OPTIONS))
+        seen = runner.client.run(_worker_env)
     _same(in_process, got)
     assert runner.report.retried == []
+    # no allocator variable in the workers (glibc's adaptive mmap threshold stays on) nor leaked
+    # into this process by the nanny; the plugin ran in every worker
+    assert len(seen) == 2
+    for info in seen.values():
+        assert info["environ"] == {}
+        assert info["allocator"] in ("adaptive", "not glibc")
+        assert info["blas_threads"] == 1
+    assert os.environ.get("MALLOC_TRIM_THRESHOLD_") == before
 
 
 def _dies_once(marker: str, index: int, system, point, options, previous):
@@ -77,7 +94,11 @@ def test_killed_worker_loses_no_point(system, in_process, tmp_path):
     marker = str(tmp_path / "killed")
     with StudyRunner(workers=2) as runner:
         got = list(runner.run(system, CHAINS, OPTIONS, point_fn=functools.partial(_dies_once, marker, 13)))
+        runner.client.wait_for_workers(2, timeout=120)  # the nanny restarts the dead one
+        seen = runner.client.run(_worker_env)
     assert Path(marker).exists()  # the worker really died
+    # the restarted worker got the process settings too (a worker plugin, not a one-off run)
+    assert len(seen) == 2 and all(info.get("blas_threads") == 1 for info in seen.values())
     retried = [i for i, _ in runner.report.retried]
     # point 13 killed its worker; points queued on the same worker were lost with it: each rerun once
     assert 13 in retried and len(set(retried)) == len(retried)
