@@ -27,8 +27,10 @@ abort at once (status failed); everything recorded is kept.
 
 Quantities take units ("60 Hz", "15 N", "0.5 mm", "2 s"); a plain number is SI.
 Exit status: 0 finished, 2 bad input, 3 NI-DAQmx not available (use --backend sim), 4 a fault,
-safety abort or write error ended the run (status failed, file kept), 130 Ctrl-C or a signal
-(status aborted, file kept).
+safety abort or write error ended the run (status failed, file kept), 5 the force target cannot be
+reached within the rig's limits (max drive, 80 % of a warning level): dwell, sweep and study stop
+at the first such point, drive ramped to zero, status failed with the reason, every point written
+kept; 130 Ctrl-C or a signal (status aborted, file kept).
 """
 COMMON_EPILOG = BACKENDS + "\n" + FORCE_CONTROL + "\n" + QUANTITIES_AND_EXIT
 FORCE_CONTROLLED = ("dwell", "sweep", "study")

@@ -4,10 +4,9 @@ from __future__ import annotations
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from rigtools.errors import TargetNotReached
 from rigtools.procedures.base import validate
 from rigtools.procedures.session import point_attrs
-from rigtools.procedures.sine import ControlParameters, SineProcedure
+from rigtools.procedures.sine import ControlParameters, SineProcedure, target_not_reached
 from rigtools.quantity_fields import Force, Frequency, Length
 from rigtools.units import MAX_GAP  # the one gap limit of rig files and every command
 
@@ -64,9 +63,6 @@ class SineDwell(SineProcedure):
         self.end_point(point_attrs(res))
         self.result.points.append(res)
         self.emit("point_done", point=1, n_points=1)
-        if res.get("control_limited_by") and not res.get("settled"):
-            raise TargetNotReached(
-                f"--force {p.force:g} N cannot be reached at {p.fe:g} Hz: "
-                f"{res['force_amplitude_measured']:.4g} N at the {res['control_limited_by']} limit "
-                f"({res['drive_amplitude']:.4g} V); the point is kept"
-            )
+        missed = target_not_reached(res, p.force, p.fe, "the point is kept")
+        if missed is not None:
+            raise missed

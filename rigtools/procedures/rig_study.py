@@ -14,7 +14,7 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 from rigtools.errors import UserError
 from rigtools.procedures.base import validate
 from rigtools.procedures.session import SineSession, point_attrs
-from rigtools.procedures.sine import ControlParameters, SineProcedure
+from rigtools.procedures.sine import ControlParameters, SineProcedure, target_not_reached
 from rigtools.quantity_fields import Force, Frequency, Length
 from rigtools.units import MAX_GAP, parse_quantity
 
@@ -225,10 +225,16 @@ class RigStudy(SineProcedure):
                 n_points=n,
                 **p.control.model_dump(),
             )
+            kept = f"{i + 1} of {n} points recorded and kept"
+            missed = target_not_reached(res, planned.force, planned.fe, kept)
+            if missed is not None:
+                self.running_session().finish()  # the ramp to zero goes into this point
             res.update(gap=gap, direction=planned.direction, study_value=planned.value, index=i)
             self.end_point(point_attrs(res))
             self.result.points.append(res)
             self.emit("point_done", point=i + 1, n_points=n)
+            if missed is not None:
+                raise missed  # the next points would run at the same limit, not at their force
         self.running_session().finish()
 
     def _hand_gap(self, gap: float, index: int) -> None:

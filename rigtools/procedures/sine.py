@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING
 
 from pydantic import BaseModel, ConfigDict, Field
 
+from rigtools.errors import TargetNotReached
 from rigtools.procedures.base import (
     Procedure,
     ProcedureResult,
@@ -35,6 +36,34 @@ class ControlParameters(BaseModel):
     max_step: float = Field(4.0, gt=1, le=20, description="largest drive ratio between two updates")
     margin: float = Field(0.8, gt=0, le=1, description="fraction of a warning level never planned past")
     control_ramp: Time = Field(0.05, gt=0, le=2, description="ramp of each update, s")
+
+
+def target_not_reached(res: dict, force: float, fe: float, kept: str) -> TargetNotReached | None:
+    """The error that ends a force-controlled run (exit 5, status ``failed``) when the rig's limits
+    stopped a point short of its force target; ``None`` when the target was reached or the point
+    only did not settle in time (that is reported by the point's ``settled``).
+
+    Parameters
+    ----------
+    res
+        The point's result (:meth:`SineSession.run_point`).
+    force, fe
+        The point's force target (N) and excitation frequency (Hz).
+    kept
+        What of the recording is kept, for the message (``"the point is kept"``).
+
+    Returns
+    -------
+    TargetNotReached or None
+        The error to raise once the point is written and the drive is at zero.
+    """
+    if not res.get("control_limited_by") or res.get("settled"):
+        return None
+    return TargetNotReached(
+        f"--force {force:g} N cannot be reached at {fe:g} Hz: "
+        f"{res['force_amplitude_measured']:.4g} N at the {res['control_limited_by']} limit "
+        f"({res['drive_amplitude']:.4g} V); {kept}"
+    )
 
 
 class SineProcedure(Procedure):

@@ -17,7 +17,7 @@ from pydantic import BaseModel, ConfigDict, Field, field_validator
 from rigtools.errors import UserError
 from rigtools.procedures.base import validate
 from rigtools.procedures.session import point_attrs
-from rigtools.procedures.sine import ControlParameters, SineProcedure
+from rigtools.procedures.sine import ControlParameters, SineProcedure, target_not_reached
 from rigtools.quantity_fields import Force, Frequency, Length
 from rigtools.units import MAX_GAP
 
@@ -146,6 +146,9 @@ class SteppedSine(SineProcedure):
                 n_points=n,
                 **p.control.model_dump(),
             )
+            missed = target_not_reached(res, p.force, fe, f"{i + 1} of {n} steps recorded and kept")
+            if missed is not None:
+                session.finish()  # the ramp to zero goes into this step
             res.update(gap=gap, direction=direction)
             amp = res["harmonics"][name]["amplitude"][0]
             res["response_per_newton"] = amp / max(res["force_amplitude_measured"], 1e-300)
@@ -154,6 +157,8 @@ class SteppedSine(SineProcedure):
             curves[direction][0].append(fe)
             curves[direction][1].append(amp)
             self.emit("point_done", point=i + 1, n_points=n)
+            if missed is not None:
+                raise missed  # every further step would run at the same limit, not at --force
         session.finish()
         self.result.summary = {
             "response_channel": name,

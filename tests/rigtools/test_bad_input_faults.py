@@ -508,16 +508,42 @@ def test_options_and_mistakes(case, lab, tmp_path):
     assert not (tmp_path / "s.h5").exists() or case.code == 5  # refused before the first sample
 
 
-def test_an_unreachable_force_ends_failed_with_its_reason(lab, tmp_path):
-    code, _, err = run_cli(_fill([*_DW, "--fe", "60 Hz", "--force", "1 kN"], lab, tmp_path))
+_SW = ["acquire", "sweep", "--backend", "sim", "--periods", "5", "--out", "{tmp}/a.h5"]
+_ST = ["acquire", "study", "force", "--backend", "sim", "--periods", "5", "--out", "{tmp}/a.h5"]
+
+
+@pytest.mark.parametrize(
+    ("argv", "points"),
+    [
+        ([*_DW, "--fe", "60 Hz", "--force", "1 kN"], 1),
+        ([*_SW, "--frequencies", "58 Hz,60 Hz,62 Hz", "--force", "1 kN"], 1),  # stops at the first step
+        ([*_ST, "--fe", "60 Hz", "--values", "10 N,1 kN,2 kN"], 2),  # the reached point is kept
+    ],
+    ids=["dwell", "sweep", "study"],
+)
+def test_an_unreachable_force_ends_failed_with_its_reason(argv, points, lab, tmp_path):
+    """The dwell's rule for every force-controlled procedure: exit 5, status failed with the
+    reason, the run stops at the first point the rig's limits stop short, every point written
+    kept, the drive at zero at the end of the last one."""
+    code, _, err = run_cli(_fill(argv, lab, tmp_path))
     assert code == 5, err
+    assert len(err.strip().splitlines()) == 1 and "cannot be reached" in err and "Traceback" not in err
     from rigtools.recording import open_recording
 
     with open_recording(tmp_path / "a.h5") as rec:
         assert rec.attrs["end_status"] == "failed" and "cannot be reached" in rec.attrs["end_reason"]
-        drive = rec.points[0].channels["drive"].read()
+        assert len(rec.points) == points
+        assert all(bool(p.params["point_complete"]) for p in rec.points)
+        assert [bool(p.params["settled"]) for p in rec.points] == [True] * (points - 1) + [False]
+        drive = rec.points[-1].channels["drive"].read()
         assert drive[-1] == 0.0
     assert check_recording(tmp_path / "a.h5").valid
+
+
+@pytest.mark.parametrize("procedure", ["dwell", "sweep", "study"])
+def test_the_unreachable_force_status_is_documented(procedure):
+    code, out, _ = run_cli(["acquire", procedure, "--help"])
+    assert code == 0 and "5 the force target cannot be" in " ".join(out.split())
 
 
 # ---------------------------------------------------------------- item 10: the output streams
