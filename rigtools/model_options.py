@@ -144,17 +144,24 @@ def load_model(rig: str | None, model: str, quiet: bool) -> tuple[Any, Any]:
 
 
 def announce_work(system: Any, points: list[tuple[float, float]], settings: Any, quiet: bool) -> None:
-    """Refuse a run that needs more memory than available; say so when the runs will take long.
+    """Refuse a run that needs more memory than available or an excitation far above the model
+    (:func:`rigtools.simulation.check_model_range`); say so, in one line on stderr with the
+    estimate, when the runs may take longer than :data:`rigtools.simulation.LONG_WORK_SECONDS`.
 
-    ``points``: (fe, force) of each run."""
+    ``points``: (fe, force) of each run. The estimate (:func:`rigtools.simulation.run_time_estimate`)
+    covers the steps per period (contact, fe), the periods to settle (growing with fe), the
+    recorded periods and the model's size (its modes)."""
     from rigtools.simulation import (
         LONG_WORK_SECONDS,
+        check_model_range,
         human_seconds,
         run_memory_estimate,
         run_time_estimate,
         steps_per_period,
     )
 
+    for fe, _ in points:
+        check_model_range(system, fe)
     worst = max(points, key=lambda p: run_memory_estimate(system, p[0], p[1], settings))
     need = run_memory_estimate(system, *worst, settings)
     n = steps_per_period(system, *worst, settings)
@@ -163,18 +170,27 @@ def announce_work(system: Any, points: list[tuple[float, float]], settings: Any,
         f"a run of {n} steps per period x {settings.record_periods(worst[0])} recorded periods",
         "shorten --duration (or give fewer --steps-per-period, or a softer contact)",
     )
-    least = sum(run_time_estimate(system, fe, f, settings)[0] for fe, f in points)
-    most = sum(run_time_estimate(system, fe, f, settings)[1] for fe, f in points)
+    estimates = [run_time_estimate(system, fe, f, settings) for fe, f in points]
+    expected = sum(e.seconds for e in estimates)
+    most = sum(e.worst_case_seconds for e in estimates)
     if most > LONG_WORK_SECONDS and not quiet:
-        c = system.contact
-        print(
-            f"this will take {human_seconds(least)} to {human_seconds(most)} (contact stiffness "
-            f"{c.stiffness:.3g} N/m: {n} steps per period; the most if settling takes all of --max-settle)",
-            file=sys.stderr,
-        )
+        print(long_work_line(system, points, estimates, expected, most, human_seconds), file=sys.stderr)
     from rigtools.runtime import ensure_kernels_compiled
 
     ensure_kernels_compiled()  # first run only: says so instead of a frozen progress bar
+
+
+def long_work_line(system: Any, points, estimates, expected: float, most: float, human) -> str:
+    """The announcement: the total and what makes the costliest run cost."""
+    k = max(range(len(points)), key=lambda i: estimates[i].worst_case_seconds)
+    e, fe = estimates[k], points[k][0]
+    runs = f"{len(points)} runs, the longest: " if len(points) > 1 else ""
+    return (
+        f"this will take about {human(expected)}, up to {human(most)} if settling takes all of "
+        f"--max-settle ({runs}{e.steps_per_period} steps per period, set by the {e.limited_by}, x "
+        f"~{e.settle_periods} periods to settle + {e.record_periods} recorded at {fe:g} Hz; "
+        f"{system.n_modes} modes)"
+    )
 
 
 def write_plot(no_plot: bool, out: Path, make_figure: Callable[[], Any]) -> Path | None:

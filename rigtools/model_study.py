@@ -43,6 +43,9 @@ Plot: FILE.png beside FILE.h5 (--no-plot skips it): peak contact force (N) versu
 value, up and down sweeps marked apart, and heat maps of the harmonics k = 1..30 (m/s^2, log
 colour) of both shroud accelerations per point in run order.
 
+Work that may take over a minute is announced on stderr with its estimate, as rig simulate
+does; an --fe more than 10 x the model's highest mode is refused.
+
 Exit status: 0 written, 2 bad input (options, rig file, --out), 130 Ctrl-C, 143 SIGTERM,
 129 SIGHUP (the file keeps every finished point, status "aborted").
 

@@ -56,14 +56,14 @@ HARMONIC_SOURCES: dict[str, tuple[str, int]] = {
 }
 
 # Cost model (measured on a 2-core machine; estimates are stated as "about").
-KERNEL_MODE_STEPS_PER_S = 7.0e7  # time steps x modes per second of the vibro-impact kernel
 RECORD_BYTES_PER_SAMPLE = 600  # peak memory per recorded time step (outputs, copies, FFT, plot)
 SETTLE_BYTES_PER_STEP = 5 * 2 * 14 * 8  # settling keeps 5 periods of 14 outputs, twice
-FE_BUILD_SECONDS_2000 = 230.0  # FE model of 2 x 2000 elements (dense eigen-solves) ...
-FE_BUILD_EXPONENT = 2.25  # ... scaling as elements**2.25 (800 elements: ~30 s)
 FE_BUILD_BYTES_PER_DOF2 = 48.0  # dense mode shapes and their copies: ~6 n^2 float64 per blade
 #                                        (1200 elements: 2.36 GB peak RSS measured, 2.49 GB estimated)
 LONG_WORK_SECONDS = 60.0  # announce work expected to take longer than this
+# refuse an excitation this far above the model's highest mode (kept or static-correction): the
+# response there is the truncation of the model, not the blades', and the rig cannot drive it
+MODEL_RANGE_FACTOR = 10.0
 
 
 @dataclass(frozen=True)
@@ -387,26 +387,57 @@ def run_memory_estimate(system, fe: float, force: float, settings: RunSettings) 
     return int(samples * RECORD_BYTES_PER_SAMPLE + n * SETTLE_BYTES_PER_STEP)
 
 
-def run_time_estimate(system, fe: float, force: float, settings: RunSettings) -> tuple[float, float]:
-    """(least, most) seconds of one run: settling takes between 5 periods and ``max_settle_time``."""
-    n = steps_per_period(system, fe, force, settings)
-    per_step = system.n_modes / KERNEL_MODE_STEPS_PER_S
-    record = settings.record_periods(fe) * n
-    least = (5 * n + record) * per_step
-    most = (max(5, math.ceil(settings.max_settle_time * fe)) * n + record) * per_step
-    return least, most
+def run_time_estimate(system, fe: float, force: float, settings: RunSettings):
+    """What one settled run will cost, before it runs
+    (:func:`rigtools.sim.vibro_impact.estimate_steps` with these settings).
+
+    Steps per period (the contact's or ``settings.steps_per_period``) x periods to settle (the
+    slowest modal decay, at most ``max_settle_time``, so it grows with fe) plus the recorded
+    periods, times the model's modes (its size): ``.seconds`` expected, ``.worst_case_seconds``
+    if settling takes all of ``max_settle_time``.
+
+    Returns
+    -------
+    rigtools.sim.vibro_impact.CostEstimate
+    """
+    from rigtools.sim.vibro_impact import estimate_steps
+
+    n = steps_per_period(system, fe, force, settings)  # refuses a bad --steps-per-period by name
+    return estimate_steps(
+        system,
+        fe,
+        force,
+        record_periods=settings.record_periods(fe),
+        steps_per_period=n if settings.steps_per_period is not None else None,
+        max_settle_time=settings.max_settle_time,
+    )
+
+
+def check_model_range(system, fe: float) -> None:
+    """Refuse an excitation more than :data:`MODEL_RANGE_FACTOR` times above the model's highest
+    mode (kept modes and static-correction shapes): no answer there can be useful (the blades'
+    modes that respond there are not in the model, and the rig's DAQ cannot drive it)."""
+    top = float(np.max(system.omega)) / (2.0 * math.pi)
+    if fe > MODEL_RANGE_FACTOR * top:
+        raise UserError(
+            f"--fe = {fe / 1e3:.4g} kHz is more than {MODEL_RANGE_FACTOR:g} x the model's highest mode "
+            f"({top / 1e3:.4g} kHz): its response there is not the blades'; "
+            f"excite below {MODEL_RANGE_FACTOR * top / 1e3:.4g} kHz"
+        )
 
 
 def model_build_estimate(params, model: str = "fem") -> tuple[float, int]:
-    """(seconds, peak bytes) to build the FE model of both blades and their modes."""
+    """(seconds, peak bytes) to build the FE model of both blades and their modes (the seconds:
+    :func:`rigtools.sim.reduction.estimate_reduction_seconds`)."""
+    from rigtools.sim.reduction import estimate_reduction_seconds
+
     if model != "fem":
         return 0.0, 0
-    seconds, peak = 0.0, 0
-    for blade in (params.active, params.passive):
-        e = int(blade.elements)
-        seconds += 0.5 * FE_BUILD_SECONDS_2000 * (e / 2000.0) ** FE_BUILD_EXPONENT
-        peak = max(peak, int(FE_BUILD_BYTES_PER_DOF2 * (6.0 * (e + 1)) ** 2))
-    return seconds, peak
+    peak = max(
+        int(FE_BUILD_BYTES_PER_DOF2 * (6.0 * (int(b.elements) + 1)) ** 2)
+        for b in (params.active, params.passive)
+    )
+    return estimate_reduction_seconds(params), peak
 
 
 def human_seconds(s: float) -> str:

@@ -46,7 +46,10 @@ Figure 9).
 Quantities take units: "0.5 mm", "15 N", "60 Hz", "2 s"; a plain number is SI (m, N, Hz, s),
 so write gaps with "mm": a gap above 50 mm is refused. Work that needs more memory than the
 machine has (a very stiff contact with a long --duration) is refused up front with the
-estimate; work expected to take over a minute is announced with its estimate.
+estimate; work that may take over a minute (a stiff contact, a high --fe: the steps per period
+x the periods to settle, which grow with fe, x the model's modes; a large [blade] elements:
+the model build) is announced on stderr with its estimate. An --fe more than 10 x the model's
+highest mode is refused: the model's response there is not the blades'.
 
 Exit status: 0 written, 2 bad input (options, rig file, --out), 130 Ctrl-C, 143 SIGTERM, 129 SIGHUP
 (before the run is written: nothing is written; once it is, the file is completed).
