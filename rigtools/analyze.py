@@ -32,6 +32,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from rigtools.errors import UserError
+from rigtools.vocabulary import excitation_frequency
 
 if TYPE_CHECKING:
     from rigtools.analysis.frf import FRFKind
@@ -672,6 +673,21 @@ def analyze_broadband(
     return out
 
 
+def _broadband(point, procedure: str, notes: list[str], kind, method, responses, options) -> PointAnalysis:
+    """:func:`analyze_broadband`; a point of a periodic procedure gets here only with ``fe = 0``
+    (no single excitation frequency), which the note or the error line then says."""
+    keywords = {"kind": kind, "method": method, "responses": responses, "options": options}
+    if "fe" not in point.params or procedure in PROCEDURE_FRF:
+        return analyze_broadband(point, procedure, **keywords)
+    why = f"point {point.index}: fe = 0 (no single excitation frequency), so analysed as a broadband point"
+    try:
+        result = analyze_broadband(point, procedure, **keywords)
+    except UserError as exc:
+        raise UserError(f"{why}: {exc}") from None
+    notes.append(why)
+    return result
+
+
 def is_hit_per_point_tap_test(procedure: str, points) -> bool:
     """True for a tap test written by ``rig acquire tap``: one frame per hit, each its own point
     (``frame_samples`` and ``accepted`` per point). A tap record holding several hits in one point
@@ -879,7 +895,7 @@ def analyze_recording(
                     out.skipped.append(f"point {point.index}: no samples")
                 elif point.sample_rate is None:
                     out.skipped.append(f"point {point.index}: channels at different sample rates")
-                elif "fe" in point.params and procedure not in PROCEDURE_FRF:
+                elif excitation_frequency(point.params) and procedure not in PROCEDURE_FRF:
                     names = None
                     if channels:
                         names = (
@@ -892,11 +908,7 @@ def analyze_recording(
                     out.points.append(analyze_operational(point, fe=fe, channels=channels))
                 else:
                     resp = [c for c in channels if c != force_channel(point)] if channels else None
-                    out.points.append(
-                        analyze_broadband(
-                            point, procedure, kind=kind, method=method, responses=resp, options=options
-                        )
-                    )
+                    out.points.append(_broadband(point, procedure, out.notes, kind, method, resp, options))
                 if progress is not None:
                     progress(i + 1, len(points))
         except RecordingError as exc:
@@ -1081,11 +1093,12 @@ def point_window(path: str | Path, index: int, periods: float = 5.0) -> tuple[di
         if rate is None:
             raise UserError(f"{path}: point {index} has channels at different sample rates")
         start, n = record_window(point)
-        if "fe" in point.params:
-            m = min(n, round(max(periods, 1.0) * 40 * rate / float(point.params["fe"])), WINDOW_SAMPLES)
+        fe = excitation_frequency(point.params)
+        if fe:
+            m = min(n, round(max(periods, 1.0) * 40 * rate / fe), WINDOW_SAMPLES)
         else:
             m = min(n, int(point.params.get("frame_samples", n)), WINDOW_SAMPLES)
-        a = start + n - m if "fe" in point.params else start
+        a = start + n - m if fe else start
         data = {c: np.asarray(ch[a : a + m], dtype=float) for c, ch in point.channels.items()}
         units = {c: ch.units for c, ch in point.channels.items()}
         t0 = point.channels[next(iter(point.channels))].t0 + a / rate

@@ -55,7 +55,7 @@ from rigtools.sim.channel_names import ACTIVE_SHROUD_ACCEL as ACTIVE
 from rigtools.sim.channel_names import FORCE, VELOCITY_OF
 from rigtools.sim.channel_names import PASSIVE_SHROUD_ACCEL as PASSIVE
 from rigtools.sim.studies import PlannedPoint
-from rigtools.vocabulary import CHANNELS, MODEL_BACKENDS, current_parameters
+from rigtools.vocabulary import CHANNELS, MODEL_BACKENDS, current_parameters, excitation_frequency
 
 COMPARED = (FORCE, ACTIVE, PASSIVE)
 SCORED = (ACTIVE, PASSIVE)
@@ -827,7 +827,9 @@ def compare_recordings(
             if not p.complete:
                 continue
             params = current_parameters(p.params)
-            if "fe" not in params:
+            if not excitation_frequency(params):
+                if "fe" in params:
+                    notes.append(f"EM point {p.index}: fe = 0 (no single excitation frequency), left out")
                 continue
             ana, waves, fs = em_point_analysis(p, k_max)
             if FORCE not in ana.harmonics:
@@ -912,7 +914,11 @@ def compare_recordings(
                 if not p.complete or _is_frf_point(p):
                     continue
                 params = current_parameters(p.params)
-                if "fe" not in params:
+                if not excitation_frequency(params):
+                    if "fe" in params:
+                        notes.append(
+                            f"model point {p.index}: fe = 0 (no single excitation frequency), left out"
+                        )
                     continue
                 ana, waves, fs = model_point_analysis(p, k_max)
                 model_items.append((p.index, params, ana, waves, fs))

@@ -293,6 +293,24 @@ def current_parameters(params: Mapping[str, Any]) -> dict[str, Any]:
     return out
 
 
+def excitation_frequency(params: Mapping[str, Any]) -> float | None:
+    """The excitation frequency (Hz) of a periodic point, one rule for every reader: its ``fe``
+    when above 0; ``None`` without ``fe`` or with ``fe = 0`` (no single excitation frequency: an
+    FRF test), so such a point is never analysed at a frequency.
+
+    Examples
+    --------
+    >>> excitation_frequency({"fe": 60.0}), excitation_frequency({"fe": 0.0}), excitation_frequency({})
+    (60.0, None, None)
+    """
+    fe = params.get("fe")
+    try:
+        value = float(fe) if fe is not None else 0.0
+    except (TypeError, ValueError):  # rig check refuses a non-number before a reader sees it
+        return None
+    return value if value > 0 else None
+
+
 def unknown_parameters(params: Mapping[str, Any]) -> list[str]:
     """The names in ``params`` that the vocabulary does not define (for writers' tests)."""
     return [k for k in params if k not in PARAMETERS]

@@ -347,6 +347,104 @@ def test_check_names_the_defect(defect, tmp_path):
     assert not result.valid and any(p.severity == "error" for p in result.problems)
 
 
+@pytest.fixture(scope="module")
+def sim_recordings(tmp_path_factory) -> Path:
+    """A simulated dwell ``dwell.h5`` and FRF test ``frf.h5`` (the simulated rig), and a rig file."""
+    folder = tmp_path_factory.mktemp("sim")
+    for argv in (
+        ["acquire", "dwell", "--backend", "sim", "--fe", "60 Hz", "--force", "2 N", "--periods", "5"],
+        ["acquire", "frf", "--backend", "sim", "--band", "20 Hz:500 Hz", "--level", "0.5 V"],
+    ):
+        code, _, err = run_cli([*argv, "--seed", "1", "--json", "--out", str(folder / f"{argv[1]}.h5")])
+        assert code == 0, err
+    (folder / "rig.toml").write_text(default_rig_text(), encoding="utf-8")
+    return folder
+
+
+# fe = 0 means "no single excitation frequency" (an FRF test; rigtools.vocabulary.excitation_frequency):
+# legal, so check passes; no reader analyses the point at a frequency. Each reader ends in one line
+# naming why, or reads on: (argv, exit status, text on stderr or in the --json document).
+FE_ZERO_READERS = {
+    "check": (["check", "{tmp}/z.h5"], 0, ""),
+    "info": (["info", "{tmp}/z.h5"], 0, ""),
+    "analyze": (["analyze", "--json", "{tmp}/z.h5"], 0, ""),  # as broadband, with a note
+    "report": (["report", "{tmp}/z.h5", "--out", "{tmp}/r.html"], 0, ""),
+    "compare-em": (["compare", "--json", "{tmp}/z.h5", "{sim}/dwell.h5"], 2, "no complete periodic"),
+    "compare-model": (["compare", "--json", "{sim}/dwell.h5", "{tmp}/z.h5"], 2, "no periodic point"),
+    "export": (["export", "uff", "{tmp}/z.h5", "{tmp}/o.uff"], 0, ""),
+    "update": (
+        ["update", "{tmp}/z.h5", "--rig", "{sim}/rig.toml", "--out", "{tmp}/u.toml"],
+        2,
+        "no complete",
+    ),
+}
+
+
+@pytest.mark.parametrize("reader", list(FE_ZERO_READERS))
+def test_fe_zero_on_a_dwell_point_is_one_line_in_every_reader(reader, sim_recordings, tmp_path):
+    """fe = 0 on a simulated dwell's point (written there with h5py) crashed analyze, compare and
+    report (ZeroDivisionError): now one line naming why, or the reader goes on; nothing existing
+    changes, no partial output."""
+    import shutil
+
+    shutil.copy(sim_recordings / "dwell.h5", tmp_path / "z.h5")
+    with h5py.File(tmp_path / "z.h5", "r+") as f:
+        f["points/0000"].attrs["fe"] = 0.0
+    argv, expected, text = FE_ZERO_READERS[reader]
+    before = snapshot(sim_recordings, tmp_path)
+    code, out, err = run_cli([a.format(tmp=tmp_path, sim=sim_recordings) for a in argv])
+    check_case(code, err, expected, before, sim_recordings, tmp_path)
+    assert text in err
+    if reader == "analyze":
+        doc = json.loads(out)
+        assert [p["kind"] for p in doc["points"]] == ["broadband"]
+        assert (
+            "point 0: fe = 0 (no single excitation frequency), so analysed as a broadband point"
+            in doc["notes"]
+        )
+    if expected != 0:
+        assert sorted(p.name for p in tmp_path.iterdir()) == ["z.h5"]
+    if reader == "export":  # the time records, no harmonics: the samples as recorded
+        assert (tmp_path / "o.uff").stat().st_size > 0
+
+
+def test_fe_zero_beside_a_periodic_point_is_left_out_with_a_note(lab, tmp_path):
+    """A two-point dwell file, fe = 0 on the first: analyze reads the second at its 61 Hz and says
+    what it did with the first; compare leaves it out with a note and pairs the other."""
+    _write_recording(tmp_path / "z.h5")
+    with h5py.File(tmp_path / "z.h5", "r+") as f:
+        f["points/0000"].attrs["fe"] = 0.0
+    code, out, err = run_cli(["analyze", "--json", str(tmp_path / "z.h5")])
+    assert code == 0, err
+    doc = json.loads(out)
+    kinds = {p["point"]: p["kind"] for p in doc["points"]}
+    assert kinds == {0: "broadband", 1: "periodic"}
+    assert any("point 0: fe = 0" in n for n in doc["notes"])
+    code, out, err = run_cli(["compare", "--json", str(tmp_path / "z.h5"), str(lab / "run.h5")])
+    assert code == 0, err
+    doc = json.loads(out)
+    assert any("EM point 0: fe = 0" in n for n in doc["notes"])
+
+
+def test_fe_zero_on_frames_stays_legal(sim_recordings, tmp_path):
+    """The FRF test's framed point with fe = 0 (no single excitation frequency): check passes,
+    analyze reads it as broadband, with the same modes as without it."""
+    import shutil
+
+    shutil.copy(sim_recordings / "frf.h5", tmp_path / "z.h5")
+    with h5py.File(tmp_path / "z.h5", "r+") as f:
+        f["points/0000"].attrs["fe"] = 0.0
+    assert check_recording(tmp_path / "z.h5").valid
+    peaks = []
+    for path in (sim_recordings / "frf.h5", tmp_path / "z.h5"):
+        code, out, err = run_cli(["analyze", "--json", str(path)])
+        assert code == 0, err
+        doc = json.loads(out)
+        assert doc["points"][0]["kind"] == "broadband"
+        peaks.append({k: v for k, v in doc["points"][0].items() if k != "params"})
+    assert peaks[0] == peaks[1] and peaks[0]["frf"]["modes"]["active_shroud_accel"]
+
+
 # ------------------------------------------- items 7, 8: incomplete points, JSON always valid
 def _strict_json(text: str):
     def bad(token: str):
