@@ -494,8 +494,10 @@ def open_recording(path: str | os.PathLike, wait: bool = True) -> Recording:
             rec = _open_once(path, wait)
         except RecordingError:
             # A live writer between two states of the file (closing/reopening it between
-            # points) can make one look damaged for a moment: look again.
-            if not wait or writer is None or writer_alive(path) is None or time.monotonic() > deadline:
+            # points, or trimming it as it ends the run) can make one look damaged for a moment:
+            # look again. A writer that ended meanwhile left its final file: one more look (the
+            # next attempt finds no writer and its answer stands).
+            if not wait or writer is None or time.monotonic() > deadline:
                 raise
             time.sleep(0.05)
             continue

@@ -479,16 +479,11 @@ def check_recording(path: str | os.PathLike, read_data: bool = True) -> CheckRes
         try:
             result = _check_once(path, read_data)
         except RecordingError:
-            if writer is None or writer_alive(path) is None or time.monotonic() > deadline:
+            if writer is None or time.monotonic() > deadline:  # as open_recording: look again
                 raise
             time.sleep(0.05)
             continue
-        if (
-            writer is not None
-            and not result.valid
-            and time.monotonic() <= deadline
-            and writer_alive(path) is not None
-        ):
+        if writer is not None and not result.valid and time.monotonic() <= deadline:
             time.sleep(0.05)
             continue
         break
