@@ -673,19 +673,16 @@ def analyze_broadband(
     return out
 
 
-def _broadband(point, procedure: str, notes: list[str], kind, method, responses, options) -> PointAnalysis:
-    """:func:`analyze_broadband`; a point of a periodic procedure gets here only with ``fe = 0``
-    (no single excitation frequency), which the note or the error line then says."""
-    keywords = {"kind": kind, "method": method, "responses": responses, "options": options}
-    if "fe" not in point.params or procedure in PROCEDURE_FRF:
-        return analyze_broadband(point, procedure, **keywords)
-    why = f"point {point.index}: fe = 0 (no single excitation frequency), so analysed as a broadband point"
-    try:
-        result = analyze_broadband(point, procedure, **keywords)
-    except UserError as exc:
-        raise UserError(f"{why}: {exc}") from None
-    notes.append(why)
-    return result
+def _no_frequency_no_frames(point, procedure: str) -> bool:
+    """A point with ``fe = 0`` (no single excitation frequency) in a recording not of an FRF test
+    and without frames: there is no frequency to analyse it at, and a sine record is no
+    broadband test."""
+    return (
+        "fe" in point.params
+        and excitation_frequency(point.params) is None
+        and "frame_samples" not in point.params
+        and procedure not in PROCEDURE_FRF
+    )
 
 
 def is_hit_per_point_tap_test(procedure: str, points) -> bool:
@@ -895,6 +892,11 @@ def analyze_recording(
                     out.skipped.append(f"point {point.index}: no samples")
                 elif point.sample_rate is None:
                     out.skipped.append(f"point {point.index}: channels at different sample rates")
+                elif _no_frequency_no_frames(point, procedure):
+                    out.skipped.append(
+                        f"point {point.index}: fe = 0 (no single excitation frequency) and no frames: "
+                        "neither a periodic nor a broadband point"
+                    )
                 elif excitation_frequency(point.params) and procedure not in PROCEDURE_FRF:
                     names = None
                     if channels:
@@ -908,7 +910,11 @@ def analyze_recording(
                     out.points.append(analyze_operational(point, fe=fe, channels=channels))
                 else:
                     resp = [c for c in channels if c != force_channel(point)] if channels else None
-                    out.points.append(_broadband(point, procedure, out.notes, kind, method, resp, options))
+                    out.points.append(
+                        analyze_broadband(
+                            point, procedure, kind=kind, method=method, responses=resp, options=options
+                        )
+                    )
                 if progress is not None:
                     progress(i + 1, len(points))
         except RecordingError as exc:

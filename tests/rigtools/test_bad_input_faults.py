@@ -364,10 +364,13 @@ def sim_recordings(tmp_path_factory) -> Path:
 # fe = 0 means "no single excitation frequency" (an FRF test; rigtools.vocabulary.excitation_frequency):
 # legal, so check passes; no reader analyses the point at a frequency. Each reader ends in one line
 # naming why, or reads on: (argv, exit status, text on stderr or in the --json document).
+SKIPPED_FE_ZERO = (
+    "point 0: fe = 0 (no single excitation frequency) and no frames: neither a periodic nor a broadband point"
+)
 FE_ZERO_READERS = {
     "check": (["check", "{tmp}/z.h5"], 0, ""),
     "info": (["info", "{tmp}/z.h5"], 0, ""),
-    "analyze": (["analyze", "--json", "{tmp}/z.h5"], 0, ""),  # as broadband, with a note
+    "analyze": (["analyze", "--json", "{tmp}/z.h5"], 0, ""),  # left out, and says why
     "report": (["report", "{tmp}/z.h5", "--out", "{tmp}/r.html"], 0, ""),
     "compare-em": (["compare", "--json", "{tmp}/z.h5", "{sim}/dwell.h5"], 2, "no complete periodic"),
     "compare-model": (["compare", "--json", "{sim}/dwell.h5", "{tmp}/z.h5"], 2, "no periodic point"),
@@ -397,11 +400,7 @@ def test_fe_zero_on_a_dwell_point_is_one_line_in_every_reader(reader, sim_record
     assert text in err
     if reader == "analyze":
         doc = json.loads(out)
-        assert [p["kind"] for p in doc["points"]] == ["broadband"]
-        assert (
-            "point 0: fe = 0 (no single excitation frequency), so analysed as a broadband point"
-            in doc["notes"]
-        )
+        assert doc["points"] == [] and doc["skipped"] == [SKIPPED_FE_ZERO]
     if expected != 0:
         assert sorted(p.name for p in tmp_path.iterdir()) == ["z.h5"]
     if reader == "export":  # the time records, no harmonics: the samples as recorded
@@ -410,16 +409,15 @@ def test_fe_zero_on_a_dwell_point_is_one_line_in_every_reader(reader, sim_record
 
 def test_fe_zero_beside_a_periodic_point_is_left_out_with_a_note(lab, tmp_path):
     """A two-point dwell file, fe = 0 on the first: analyze reads the second at its 61 Hz and says
-    what it did with the first; compare leaves it out with a note and pairs the other."""
+    why it left the first out; compare leaves it out with a note and pairs the other."""
     _write_recording(tmp_path / "z.h5")
     with h5py.File(tmp_path / "z.h5", "r+") as f:
         f["points/0000"].attrs["fe"] = 0.0
     code, out, err = run_cli(["analyze", "--json", str(tmp_path / "z.h5")])
     assert code == 0, err
     doc = json.loads(out)
-    kinds = {p["point"]: p["kind"] for p in doc["points"]}
-    assert kinds == {0: "broadband", 1: "periodic"}
-    assert any("point 0: fe = 0" in n for n in doc["notes"])
+    assert [(p["point"], p["kind"]) for p in doc["points"]] == [(1, "periodic")]
+    assert doc["points"][0]["params"]["fe"] == 61.0 and doc["skipped"] == [SKIPPED_FE_ZERO]
     code, out, err = run_cli(["compare", "--json", str(tmp_path / "z.h5"), str(lab / "run.h5")])
     assert code == 0, err
     doc = json.loads(out)
