@@ -326,10 +326,14 @@ def test_signal_during_simulated_acquisition_aborts_cleanly(stopped_acquisitions
 
 @LINUX
 def test_sigterm_during_simulation(tmp_path):
+    # a long record keeps the run going well past the signal (the model is fast: a default run
+    # can end before the signal and die in the interpreter's teardown)
     proc = _rig(
         "simulate",
         "--max-settle",
         "600",
+        "--duration",
+        "60 s",
         "--out",
         str(tmp_path / "sim.h5"),
         "--json",
