@@ -21,23 +21,10 @@ import pandas as pd
 from numpy.typing import ArrayLike
 from scipy import optimize
 
+from rigtools.analysis.harmonics import without_round_off
 from rigtools.sim.channel_names import ACTIVE_SHROUD_ACCEL, FORCE, PASSIVE_SHROUD_ACCEL, SHROUD_ACCELS
 
 BLADES = ("active", "passive")
-
-
-ROUND_OFF = 1e-9  # a harmonic below this fraction of its channel's largest is zero (round-off)
-
-
-def without_round_off(amplitudes) -> np.ndarray:
-    """Harmonic amplitudes with the round-off of a zero harmonic (below :data:`ROUND_OFF` times
-    the channel's largest, e.g. the k >= 2 force harmonics of a model driven by ``F0 sin``) set to
-    NaN: not a number to compare nor a bar to draw on a log axis."""
-    a = np.array(amplitudes, dtype=float)
-    finite = np.abs(a[np.isfinite(a)])
-    top = finite.max() if finite.size else 0.0
-    a[np.abs(a) <= ROUND_OFF * top] = np.nan
-    return a
 
 
 def _zero_if_round_off(value: float, kept: float) -> float:

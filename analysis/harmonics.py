@@ -250,3 +250,17 @@ def harmonics_from_blocks(blocks, sample_rate: float, fe: float, k_max: int = 30
     for block in blocks:
         acc.add(block)
     return acc.result()
+
+
+ROUND_OFF = 1e-9  # a harmonic below this fraction of its channel's largest is zero (round-off)
+
+
+def without_round_off(amplitudes) -> np.ndarray:
+    """Harmonic amplitudes with the round-off of a zero harmonic (below :data:`ROUND_OFF` times
+    the channel's largest, e.g. the k >= 2 force harmonics of a model driven by ``F0 sin``) set to
+    NaN: not a number to compare nor a bar to draw on a log axis."""
+    a = np.array(amplitudes, dtype=float)
+    finite = np.abs(a[np.isfinite(a)])
+    top = finite.max() if finite.size else 0.0
+    a[np.abs(a) <= ROUND_OFF * top] = np.nan
+    return a

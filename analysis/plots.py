@@ -17,7 +17,7 @@ from matplotlib.colors import LogNorm
 from matplotlib.figure import Figure
 from matplotlib.ticker import NullLocator
 
-from rigtools.analysis.correlation import without_round_off
+from rigtools.analysis.harmonics import without_round_off
 from rigtools.analysis.spectra import amplitude_spectrum
 from rigtools.sim.channel_names import FORCE
 
