@@ -70,4 +70,5 @@ def run(args: argparse.Namespace) -> int:
         run_until_done(served, args.linger)
     except KeyboardInterrupt:
         served.stop()
+        return 130  # Ctrl-C, as for every command (rig --help: exit codes)
     return 0

@@ -9,6 +9,7 @@ Simulated rig, unpaced, fixed seed (a dwell at 60 Hz, 15 N, gap 0.5 mm: one impa
 from __future__ import annotations
 
 import http.client
+import signal
 import subprocess
 import sys
 import threading
@@ -236,6 +237,8 @@ def test_beyond_loopback_every_request_without_the_token_is_refused(dwell):
         }
         conn.request("GET", "/monitor/ws", headers=upgrade)
         assert conn.getresponse().status == 403
+        proc.send_signal(signal.SIGINT)  # Ctrl-C ends the monitor with the documented 130
+        assert proc.wait(timeout=30) == 130
     finally:
         timer.cancel()
         proc.kill()
