@@ -467,7 +467,9 @@ def frf_method_of(
 
     if excitation is not None and excitation not in EXCITATIONS:
         raise UserError(f"--excitation {excitation!r}: use one of {', '.join(EXCITATIONS)}")
-    windows = [o for o, v in (("--force-window", force_window), ("--exponential", exponential)) if v is not None]
+    windows = [
+        o for o, v in (("--force-window", force_window), ("--exponential", exponential)) if v is not None
+    ]
     if windows and excitation not in (None, "impact"):
         raise UserError(f"{' and '.join(windows)} apply to impact tests, not to --excitation {excitation}")
     rate = float(point.sample_rate)

@@ -226,7 +226,7 @@ def modal_step(cfg, out_dir: Path, settings: DemoSettings) -> dict:
             "frf test",
             responses=[ACTIVE],
             method="peak",
-            options=FRFOptions(band=tuple(settings.frf_band)),
+            options=FRFOptions(band=settings.frf_band),
         ).frf
     modes = ana.modes[ACTIVE].modes
     return {

@@ -4,9 +4,8 @@ and an exact stepped-sine point."""
 
 import numpy as np
 import pytest
-from scipy import signal
-
 from _reference import one_frf
+from scipy import signal
 
 from rigtools.analysis.frf import FRFMethod, convert_frf, sdof_frf, sine_frf
 

@@ -3,9 +3,8 @@ coarse grid, and the poles of a digital filter identified from H1 of white-noise
 
 import numpy as np
 import pytest
-from scipy import signal
-
 from _reference import one_frf
+from scipy import signal
 
 from rigtools.analysis.frf import sdof_frf
 from rigtools.analysis.modal_id import (

@@ -3,9 +3,8 @@ modes of the 2-DOF in tests/analysis/_reference.py; nothing from a pure-sine (dw
 
 import numpy as np
 import pytest
-from _reference import K, M, periodic_response, receptance
+from _reference import K, M, one_frf, periodic_response, receptance
 from _reference import modes as exact_modes
-from _reference import one_frf
 from scipy import linalg
 
 from rigtools.analysis.frf import convert_frf
