@@ -581,6 +581,26 @@ class FRFOptions:
     force_window: float | None = None
     exponential: float | None = None
 
+    def estimate_options(self) -> list[str]:
+        """The command-line names of the estimate overrides given (``--excitation``, ...)."""
+        return [
+            option
+            for option, value in (
+                ("--excitation", self.excitation),
+                ("--frame-samples", self.frame_samples),
+                ("--force-window", self.force_window),
+                ("--exponential", self.exponential),
+            )
+            if value is not None
+        ]
+
+    def refuse_unused(self, what: str, *, band: bool = True) -> None:
+        """One :class:`UserError` line when options were given for FRFs that ``what`` (the
+        reason, e.g. "run.h5 holds no broadband point") does not estimate: never ignored."""
+        given = self.estimate_options() + (["--band"] if band and self.band is not None else [])
+        if given:
+            raise UserError(f"{' and '.join(given)}: {what}, so they would be ignored")
+
 
 def point_frf(point, *, responses: Sequence[str] | None = None, options: FRFOptions | None = None):
     """The FRF of a broadband point as every command reports it: ``(force, responses, measured
@@ -942,6 +962,9 @@ def analyze_recording(
                 )
         try:
             if is_hit_per_point_tap_test(procedure, points):
+                (options or FRFOptions()).refuse_unused(
+                    "a tap test's FRF is one recorded frame per accepted hit", band=False
+                )
                 out.points.append(
                     analyze_tap_test(
                         points, rec.experiment, kind=kind, method=method, band=(options or FRFOptions()).band
@@ -982,6 +1005,8 @@ def analyze_recording(
                     progress(i + 1, len(points))
         except RecordingError as exc:
             raise UserError(str(exc)) from None
+    if not out.broadband:
+        (options or FRFOptions()).refuse_unused(f"{path} holds no broadband point (FRF, tap or impact test)")
     foreign = is_foreign(rec.experiment)
     if compare_fem is None:
         compare_fem = not foreign
@@ -1011,6 +1036,9 @@ def analyze_frf_set(
     from rigtools.analysis.point import FRFTestAnalysis
     from rigtools.frf_set import read_frf_set
 
+    (options or FRFOptions()).refuse_unused(
+        f"{path} is an FRF set: its FRFs were estimated elsewhere", band=False
+    )
     fs = read_frf_set(path)
     kind_out = frf_kind(kind)
     rows = list(range(len(fs.responses)))

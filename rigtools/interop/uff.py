@@ -238,7 +238,10 @@ def recording_functions(
     from rigtools.analyze import PROCEDURE_FRF, point_frf_estimate
 
     procedure = str((recording.experiment or {}).get("procedure", ""))
+    if frf_options is not None and "frf" not in what:
+        frf_options.refuse_unused(f"--what {','.join(what)} writes no FRF")
     date = uff_date(getattr(recording, "created", ""))
+    estimated = False
     frfs: list[UffFunction] = []
     others: list[UffFunction] = []
     none = ("", 0)
@@ -289,6 +292,7 @@ def recording_functions(
             if reference is not None and reference in point.channels:
                 point = _with_force(point, reference)
             est, resp, force, method, _ = point_frf_estimate(point, options=frf_options)
+            estimated = True
             ref = point.channels[force]
             ref_where = (
                 force,
@@ -327,6 +331,8 @@ def recording_functions(
                             date,
                         )
                     )
+    if frf_options is not None and "frf" in what and not estimated:
+        frf_options.refuse_unused(f"{recording.path} holds no broadband point to estimate an FRF of")
     return frfs + others
 
 

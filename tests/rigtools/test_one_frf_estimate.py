@@ -87,7 +87,9 @@ def test_every_reader_reports_the_same_frf_at_the_peaks(files, signal, tmp_path)
     uff = tmp_path / "out.uff"
     code, _, err = run_cli(["export", "uff", path, uff, "--what", "frf"])
     assert code == 0, err
-    (record,) = [s for s in pyuff.UFF(str(uff)).read_sets() if s.get("func_type") == 4 and f" {ACTIVE}/" in s["id1"]]
+    (record,) = [
+        s for s in pyuff.UFF(str(uff)).read_sets() if s.get("func_type") == 4 and f" {ACTIVE}/" in s["id1"]
+    ]
 
     # the front door
     front = rigtools.analyze_recording(path).broadband[0]
@@ -115,12 +117,18 @@ def test_every_reader_reports_the_same_frf_at_the_peaks(files, signal, tmp_path)
 @pytest.mark.parametrize(
     ("extra", "message"),
     [
-        (["--frame-samples", "4096"], "--frame-samples would be ignored: its FRF is the recorded burst test's"),
+        (
+            ["--frame-samples", "4096"],
+            "--frame-samples would be ignored: its FRF is the recorded burst test's",
+        ),
         (["--excitation", "burst", "--force-window", "0.5"], "--force-window apply to impact tests"),
     ],
 )
 def test_an_override_that_would_be_ignored_is_refused(files, extra, message):
-    for command in (["analyze", files["burst"]], ["export", "uff", files["burst"], files["folder"] / "x.uff"]):
+    for command in (
+        ["analyze", files["burst"]],
+        ["export", "uff", files["burst"], files["folder"] / "x.uff"],
+    ):
         if command[0] == "export" and "--force-window" in extra:
             continue  # rig export takes no impact windows
         code, _, err = run_cli([*command, *extra])
