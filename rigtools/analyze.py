@@ -81,7 +81,8 @@ class PointAnalysis:
     frf
         :class:`rigtools.analysis.point.FRFTestAnalysis` (broadband points).
     excitation
-        Welch settings used for a broadband point (``"burst"``, ``"periodic"``, ``"random"``).
+        The FRF estimate of a broadband point (``"burst"``, ``"periodic"``, ``"impact"``,
+        ``"random"``; ``"measured FRF"`` for an FRF set).
     notes
         Sentences on what was not done and why.
     """
@@ -599,7 +600,9 @@ class FRFOptions:
         reason, e.g. "run.h5 holds no broadband point") does not estimate: never ignored."""
         given = self.estimate_options() + (["--band"] if band and self.band is not None else [])
         if given:
-            raise UserError(f"{' and '.join(given)}: {what}, so they would be ignored")
+            raise UserError(
+                f"{' and '.join(given)}: {what}, so {'it' if len(given) == 1 else 'they'} would be ignored"
+            )
 
 
 def point_frf(point, *, responses: Sequence[str] | None = None, options: FRFOptions | None = None):

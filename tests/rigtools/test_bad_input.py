@@ -645,7 +645,7 @@ OPTION_CASES = [
     Case(
         "export:excitation-what-time",
         ["export", "uff", "{lab}/run.h5", "{tmp}/o.uff", "--what", "time", "--excitation", "burst"],
-        expect="--excitation: --what time writes no FRF, so they would be ignored",
+        expect="--excitation: --what time writes no FRF, so it would be ignored",
     ),
     Case(
         "analyze:excitation-without-broadband",
