@@ -17,28 +17,32 @@ Conventions (the same as :func:`scipy.signal.csd`):
   phase of H1 (H1 and H2 share their phase); the total-least-squares estimate, unbiased when the
   input and output noise-to-signal ratios are equal, and always between H1 and H2.
 
-Excitation types and their settings (:data:`EXCITATIONS`, :func:`excitation_settings`):
+One FRF estimate per test (:class:`FRFMethod`, the one place that decides it): the estimator
+and window follow from the excitation.
 
 - ``"random"`` (continuous random): Hann window, 50 % overlap, many averages.
-- ``"burst"`` (burst random): one segment per burst period, rectangular window, no overlap. The
-  response must have decayed before the period ends, then a segment holds the whole transient
+- ``"burst"`` (burst random): one frame per burst period, rectangular window, no overlap. The
+  response must have decayed before the period ends, then a frame holds the whole transient
   and there is no leakage.
-- ``"periodic"`` (periodic chirp, periodic random, pseudo-random): one segment per excitation
+- ``"periodic"`` (periodic chirp, periodic random, pseudo-random): one frame per excitation
   period (whole periods), no window, no overlap, averages over periods; the response must be in
   its periodic steady state. Leakage-free at the bins ``k / period``.
+- ``"impact"``: one frame per hammer hit, rectangular or force/exponential windows.
 
-The coherence of a single average is identically 1 and meaningless, so :func:`estimate_frf`
-refuses fewer than two. Periodic (stepped-sine) excitation is best fitted at its exact frequency,
-see :func:`sine_frf`.
+The coherence of a single average is identically 1 and meaningless, so
+:meth:`FRFMethod.estimate` refuses fewer than two (an impact test takes one hit, without
+coherence). Periodic (stepped-sine) excitation is best fitted at its exact frequency, see
+:func:`sine_frf`.
 
 Long records: :class:`SpectraAccumulator` takes the record block by block (any block sizes, any
 number of channels) and accumulates the auto and cross spectra segment by segment, so memory is
-bounded by one block plus one segment; :func:`frf_from_blocks` wraps it. It gives the same numbers
-as :func:`scipy.signal.csd` / :func:`scipy.signal.welch` with the same settings (test: 1e-10).
+bounded by one block plus one segment. It gives the same numbers as :func:`scipy.signal.csd` /
+:func:`scipy.signal.welch` with the same settings (test: 1e-10).
 """
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass, replace
 from typing import Literal
 
@@ -58,8 +62,8 @@ class FRFEstimate:
     frequency_hz
         (n_freq,) frequencies, Hz (0 .. sample_rate / 2).
     h1, h2
-        (n_freq,) complex FRF estimates, response units per excitation unit; (n_responses, n_freq)
-        from :func:`frf_from_blocks` with several responses.
+        (n_responses, n_freq) complex FRF estimates, response units per excitation unit, the
+        responses in channel order.
     coherence
         Ordinary coherence, 0..1, shaped like ``h1``.
     n_averages
@@ -120,68 +124,6 @@ def n_welch_segments(n_samples: int, nperseg: int, noverlap: int) -> int:
     return 1 + (n_samples - nperseg) // (nperseg - noverlap)
 
 
-def estimate_frf(
-    excitation: np.ndarray,
-    response: np.ndarray,
-    sample_rate: float,
-    *,
-    nperseg: int,
-    noverlap: int | None = None,
-    window: str = "hann",
-    detrend: str | bool = "constant",
-) -> FRFEstimate:
-    """H1, H2 and coherence of ``response`` over ``excitation`` by Welch averaging.
-
-    Parameters
-    ----------
-    excitation, response
-        Equal-length 1-D records (e.g. force in N and acceleration in m/s^2).
-    sample_rate
-        Samples per second, Hz.
-    nperseg
-        Segment length in samples; the frequency resolution is ``sample_rate / nperseg``.
-    noverlap
-        Overlap in samples; default half a segment.
-    window
-        Any :func:`scipy.signal.get_window` name; ``"hann"`` for random excitation,
-        ``"boxcar"`` for periodic excitation with whole periods per segment.
-    detrend
-        Passed to scipy (``"constant"`` removes each segment's mean).
-
-    Returns
-    -------
-    FRFEstimate
-
-    Raises
-    ------
-    ValueError
-        If the records differ in length or hold fewer than two segments.
-    """
-    x = np.asarray(excitation, dtype=float)
-    y = np.asarray(response, dtype=float)
-    if x.ndim != 1 or x.shape != y.shape:
-        raise ValueError(
-            f"excitation and response must be equal-length 1-D arrays, got {x.shape} and {y.shape}"
-        )
-    if noverlap is None:
-        noverlap = nperseg // 2
-    n_avg = n_welch_segments(x.size, nperseg, noverlap)
-    if n_avg < 2:
-        raise ValueError(
-            f"{x.size} samples give {n_avg} segment(s) of {nperseg}: need at least 2 averages "
-            "(a single average has coherence 1 by construction)"
-        )
-    kw = dict(fs=sample_rate, window=window, nperseg=nperseg, noverlap=noverlap, detrend=detrend)
-    f, sxx = signal.welch(x, **kw)
-    _, syy = signal.welch(y, **kw)
-    _, sxy = signal.csd(x, y, **kw)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        h1 = sxy / sxx
-        h2 = syy / np.conj(sxy)
-        coh = np.abs(sxy) ** 2 / (sxx * syy)
-    return FRFEstimate(f, h1, h2, np.clip(np.nan_to_num(coh), 0.0, 1.0), n_avg, sxx, syy, sxy)
-
-
 def sine_frf(
     excitation: np.ndarray, response: np.ndarray, sample_rate: float, frequency_hz: float
 ) -> complex:
@@ -232,34 +174,6 @@ def sdof_frf(
     return convert_frf(receptance, frequency_hz, "receptance", kind)
 
 
-EXCITATIONS = ("random", "burst", "periodic")
-
-
-def excitation_settings(excitation: str, segment_samples: int) -> dict:
-    """Welch settings for an excitation type (see the module docstring).
-
-    Parameters
-    ----------
-    excitation
-        ``"random"``, ``"burst"`` or ``"periodic"``.
-    segment_samples
-        Samples per segment: for ``"burst"`` one burst period (burst plus decay), for
-        ``"periodic"`` one excitation period (or a whole number of them).
-
-    Returns
-    -------
-    dict
-        ``nperseg``, ``noverlap``, ``window``, ``detrend`` for :func:`estimate_frf`,
-        :class:`SpectraAccumulator` or :func:`frf_from_blocks`.
-    """
-    n = int(segment_samples)
-    if excitation == "random":
-        return dict(nperseg=n, noverlap=n // 2, window="hann", detrend="constant")
-    if excitation in ("burst", "periodic"):
-        return dict(nperseg=n, noverlap=0, window="boxcar", detrend=False)
-    raise ValueError(f"excitation must be one of {', '.join(EXCITATIONS)}, got {excitation!r}")
-
-
 class SpectraAccumulator:
     """Welch auto and cross spectra of a multichannel record fed block by block.
 
@@ -278,8 +192,9 @@ class SpectraAccumulator:
     sample_rate
         Samples per second, Hz.
     nperseg, noverlap, window, detrend
-        As :func:`estimate_frf` (``noverlap`` default half a segment; ``detrend`` ``"constant"``
-        or ``False``).
+        Segment length in samples, overlap in samples (default half a segment), any
+        :func:`scipy.signal.get_window` name, and ``"constant"`` (remove each segment's mean)
+        or ``False``.
     reference
         Index of the reference (excitation) channel.
     segments_per_batch
@@ -397,42 +312,6 @@ def _frf_from_spectra(f, sxx, syy, sxy, n_avg) -> FRFEstimate:
         h2 = syy / np.conj(sxy)
         coh = np.abs(sxy) ** 2 / (sxx * syy)
     return FRFEstimate(f, h1, h2, np.clip(np.nan_to_num(coh), 0.0, 1.0), n_avg, sxx, syy, sxy)
-
-
-def frf_from_blocks(
-    blocks,
-    sample_rate: float,
-    *,
-    nperseg: int,
-    noverlap: int | None = None,
-    window: str = "hann",
-    detrend: str | bool = "constant",
-    reference: int = 0,
-) -> FRFEstimate:
-    """H1, H2, coherence (and :attr:`FRFEstimate.hv`) of a long record given block by block.
-
-    Parameters
-    ----------
-    blocks
-        Iterable of ``(n_channels, n)`` arrays in time order (e.g. chunks read from a recording);
-        channel ``reference`` is the excitation (force), the others responses.
-    sample_rate, nperseg, noverlap, window, detrend
-        As :func:`estimate_frf`; :func:`excitation_settings` gives them per excitation type.
-    reference
-        Index of the excitation channel.
-
-    Returns
-    -------
-    FRFEstimate
-        ``h1``, ``h2``, ``coherence``, ``syy``, ``sxy`` of shape (n_responses, n_freq), responses in
-        channel order without the reference.
-    """
-    acc = SpectraAccumulator(
-        sample_rate, nperseg=nperseg, noverlap=noverlap, window=window, detrend=detrend, reference=reference
-    )
-    for block in blocks:
-        acc.add(block)
-    return acc.frf()
 
 
 # ---------------------------------------------------------------------------------------------
@@ -553,6 +432,37 @@ class FRFMethod:
             "reason": self.reason,
             "text": self.describe(sample_rate),
         }
+
+    def estimate(self, blocks: Iterable[np.ndarray], sample_rate: float) -> FRFEstimate:
+        """H1, H2 and coherence of every response over the force by this method.
+
+        Parameters
+        ----------
+        blocks
+            ``(n_channels, n)`` arrays in time order, the force in row 0 (one array holds the
+            whole record); for ``impact``, one block per frame of exactly ``frame_samples``.
+        sample_rate
+            Samples per second, Hz.
+
+        Returns
+        -------
+        FRFEstimate
+            ``h1``, ``h2``, ``coherence``, ``syy``, ``sxy`` of shape (n_responses, n_freq).
+
+        Raises
+        ------
+        ValueError
+            Fewer averages than :attr:`min_averages`.
+        """
+        acc: SpectraAccumulator | None = None
+        for block in blocks:
+            block = np.atleast_2d(np.asarray(block, dtype=float))
+            if acc is None:
+                acc = self.accumulator(sample_rate, block.shape[0])
+            acc.add(block)
+        if acc is None:
+            raise ValueError("no samples to estimate an FRF from")
+        return acc.frf(self.min_averages)
 
     def accumulator(self, sample_rate: float, n_channels: int) -> SpectraAccumulator:
         """A :class:`SpectraAccumulator` with this method's settings (channel 0 the force). For

@@ -187,9 +187,7 @@ def analyze_frf_test(
     blocks: Iterable[Mapping[str, np.ndarray]],
     sample_rate: float,
     *,
-    excitation: str | None = None,
-    segment_samples: int | None = None,
-    frf_method: FRFMethod | None = None,
+    frf_method: FRFMethod,
     responses: Sequence[str] = (ACTIVE, PASSIVE),
     force: str = FORCE,
     measured: FRFKind = "accelerance",
@@ -207,11 +205,9 @@ def analyze_frf_test(
     blocks
         Iterable of ``{channel: (n,) samples}`` in time order (any block lengths); for an
         ``impact`` method, one block per frame of exactly ``frame_samples``.
-    excitation, segment_samples
-        See :func:`rigtools.analysis.frf.excitation_settings` (``"random"``, ``"burst"``,
-        ``"periodic"``); ignored when ``frf_method`` is given.
     frf_method
-        The estimate (:class:`rigtools.analysis.frf.FRFMethod`), the one every reader uses.
+        The estimate (:class:`rigtools.analysis.frf.FRFMethod`), the one every reader uses;
+        a recording's is chosen by :func:`rigtools.analyze.frf_method_of`.
     responses, force
         Channel names.
     measured, kind
@@ -223,14 +219,8 @@ def analyze_frf_test(
         :func:`rigtools.analysis.modal_id.identify`.
     """
     names = [force, *responses]
-    if frf_method is None:
-        if excitation is None or segment_samples is None:
-            raise ValueError("give frf_method, or excitation and segment_samples")
-        frf_method = FRFMethod(excitation, int(segment_samples))
-    acc = frf_method.accumulator(sample_rate, len(names))
-    for block in blocks:
-        acc.add(np.vstack([np.asarray(block[n], dtype=float) for n in names]))
-    est = acc.frf(frf_method.min_averages).as_kind(measured, kind)
+    rows = (np.vstack([np.asarray(block[n], dtype=float) for n in names]) for block in blocks)
+    est = frf_method.estimate(rows, sample_rate).as_kind(measured, kind)
     h = est.estimator(estimator)
     modes = {}
     for i, name in enumerate(responses):

@@ -81,7 +81,8 @@ class PointAnalysis:
     frf
         :class:`rigtools.analysis.point.FRFTestAnalysis` (broadband points).
     excitation
-        Welch settings used for a broadband point (``"burst"``, ``"periodic"``, ``"random"``).
+        The FRF estimate of a broadband point (``"burst"``, ``"periodic"``, ``"impact"``,
+        ``"random"``; ``"measured FRF"`` for an FRF set).
     notes
         Sentences on what was not done and why.
     """
@@ -125,26 +126,41 @@ class PointAnalysis:
         if self.spectra is not None:
             out["spectra"] = _plain({c: s.to_dict() for c, s in self.spectra.items()})
         if self.frf is not None:
-            d = self.frf.to_dict()
-            d["excitation"] = self.excitation
-            if self.frf.frf_method is not None:
-                d["frf_method"] = self.frf.frf_method.to_dict(self.sample_rate)
-            d["mean_coherence"] = {
-                r: float(np.mean(self.frf.estimate.coherence[i][self._band()]))
-                for i, r in enumerate(self.frf.responses)
-            }
-            for r, m in d["modes"].items():
-                i = self.frf.responses.index(r)
-                for mode in m["modes"]:
-                    mode["coherence"] = self.coherence_at(i, mode["frequency_hz"])
-            out["frf"] = _plain(d)
+            out["frf"] = self.frf_dict()
         return out
+
+    def frf_dict(self) -> dict:
+        """The ``"frf"`` part of :meth:`to_dict` (broadband points): the estimate's method, mean
+        coherence in the band, and per response the modes, each with its coherence and the FRF
+        at its peak (``frf_at_peak``: ``re``, ``im`` of H1 in the reported kind at the bin of
+        the peak it explains). ``rig compare --json`` shows the same for its EM modes."""
+        d = self.frf.to_dict()
+        d["excitation"] = self.excitation
+        if self.frf.frf_method is not None:
+            d["frf_method"] = self.frf.frf_method.to_dict(self.sample_rate)
+        d["mean_coherence"] = {
+            r: float(np.mean(self.frf.estimate.coherence[i][self._band()]))
+            for i, r in enumerate(self.frf.responses)
+        }
+        for r, m in d["modes"].items():
+            i = self.frf.responses.index(r)
+            for mode in m["modes"]:
+                mode["coherence"] = self.coherence_at(i, mode["frequency_hz"])
+                peak = mode["evidence"].get("peak_hz")
+                h = self.frf_at(i, peak if peak is not None and np.isfinite(peak) else mode["frequency_hz"])
+                mode["frf_at_peak"] = {"re": h.real, "im": h.imag}
+        return _plain(d)
 
     def _band(self) -> np.ndarray:
         f = self.frf.estimate.frequency_hz
         lo, hi = self.params.get("band_low", f[1] if f.size > 1 else 0.0), self.params.get("band_high", f[-1])
         band = (f >= lo) & (f <= hi)
         return band if band.any() else np.ones_like(f, bool)
+
+    def frf_at(self, row: int, frequency_hz: float) -> complex:
+        """H1 of response ``row`` (the reported kind) at the bin nearest ``frequency_hz``."""
+        f = self.frf.estimate.frequency_hz
+        return complex(self.frf.estimate.h1[row][int(np.argmin(np.abs(f - frequency_hz)))])
 
     def coherence_at(self, row: int, frequency_hz: float) -> float:
         """Coherence of response ``row`` at the bin nearest ``frequency_hz``."""
@@ -408,6 +424,10 @@ def analyze_periodic(point, *, channels: Sequence[str] | None = None, k_max: int
 
 EXCITATIONS = ("burst", "impact", "periodic", "random")
 FOREIGN_PROCEDURES = ("import",)
+#: the estimate of a recorded broadband test (``frame_samples`` and ``signal``) by its drive
+#: signal; any other signal with recorded frames (a tap test's ``tap``) is taken frame by frame
+#: as a burst
+SIGNAL_EXCITATION = {"chirp": "periodic", "periodic": "periodic", "burst": "burst", "random": "random"}
 
 
 def is_foreign(experiment: dict) -> bool:
@@ -428,25 +448,43 @@ def frf_method_of(
     exponential: float | None = None,
 ):
     """The FRF estimate of a broadband point (:class:`rigtools.analysis.frf.FRFMethod`): the one
-    choice ``rig analyze``, ``rig report``, ``rig export uff`` and ``rig compare`` share.
+    choice ``rig analyze``, ``rig report``, ``rig export uff``, ``rig compare``, ``rig update``,
+    the procedures' checks and the front door share.
 
     - ``rig acquire frf`` points (``frame_samples`` and ``signal``): burst random, one frame per
-      burst period, or periodic chirp over whole periods; rectangular window.
+      burst period, or periodic chirp over whole periods (:data:`SIGNAL_EXCITATION`);
+      rectangular window.
     - other records (a tap record, a recording imported from elsewhere): from the force's content,
       hits of a hammer (one frame per hit) or continuous random (Hann, 50 % overlap), see
       :func:`rigtools.analysis.frf.method_from_content`.
     - ``excitation`` (and ``frame_samples``) override the choice; ``force_window`` and
       ``exponential`` apply to impacts.
+
+    An override that would not change the estimate is refused in one line, never ignored:
+    ``frame_samples`` without ``excitation`` on a recorded test or with an impact estimate (its
+    frames follow the hits), windows with an estimate other than impact.
     """
     from rigtools.analysis.frf import FRFMethod, impact_method, method_from_content, random_frame_samples
 
     if excitation is not None and excitation not in EXCITATIONS:
         raise UserError(f"--excitation {excitation!r}: use one of {', '.join(EXCITATIONS)}")
+    windows = [
+        o for o, v in (("--force-window", force_window), ("--exponential", exponential)) if v is not None
+    ]
+    if windows and excitation not in (None, "impact"):
+        raise UserError(f"{' and '.join(windows)} apply to impact tests, not to --excitation {excitation}")
     rate = float(point.sample_rate)
     recorded = "frame_samples" in point.params
     if excitation is None and recorded:
-        signal = str(point.params.get("signal", ""))
-        kind = "periodic" if signal == "chirp" else "burst"
+        signal = str(point.params.get("signal", "")).lower()
+        kind = SIGNAL_EXCITATION.get(signal, "burst")
+        given = (["--frame-samples"] if frame_samples is not None else []) + windows
+        if given:
+            raise UserError(
+                f"point {point.index}: {' and '.join(given)} would be ignored: its FRF is the recorded "
+                f"{signal or 'burst'} test's ({kind}, {point.params['frame_samples']}-sample frames); "
+                "give --excitation to estimate it otherwise"
+            )
         return FRFMethod(
             kind, int(point.params["frame_samples"]), reason=f"recorded {signal or 'burst'} test"
         )
@@ -463,15 +501,22 @@ def frf_method_of(
         )
     x = np.asarray(point.channels[force][start : start + n], dtype=float)
     try:
-        if excitation == "impact" or force_window is not None or exponential is not None:
-            return impact_method(
-                x, rate, force_window=force_window, exponential=exponential, reason="asked for"
-            )
         if excitation == "random":
             return FRFMethod("random", int(frame_samples or random_frame_samples(n)), reason="asked for")
-        return method_from_content(x, rate, frame_samples=frame_samples)
+        if excitation == "impact" or windows:
+            method = impact_method(
+                x, rate, force_window=force_window, exponential=exponential, reason="asked for"
+            )
+        else:
+            method = method_from_content(x, rate, frame_samples=frame_samples)
     except ValueError as exc:
         raise UserError(f"point {point.index}: {exc}") from None
+    if method.excitation == "impact" and frame_samples is not None:
+        raise UserError(
+            f"--frame-samples {frame_samples}: point {point.index} is an impact test, one frame per "
+            f"hit as long as the hits' spacing ({method.frame_samples} samples); leave it out"
+        )
+    return method
 
 
 def frf_blocks(point, names: Sequence[str], start: int, n: int, method) -> Iterator[dict]:
@@ -537,6 +582,28 @@ class FRFOptions:
     force_window: float | None = None
     exponential: float | None = None
 
+    def estimate_options(self) -> list[str]:
+        """The command-line names of the estimate overrides given (``--excitation``, ...)."""
+        return [
+            option
+            for option, value in (
+                ("--excitation", self.excitation),
+                ("--frame-samples", self.frame_samples),
+                ("--force-window", self.force_window),
+                ("--exponential", self.exponential),
+            )
+            if value is not None
+        ]
+
+    def refuse_unused(self, what: str, *, band: bool = True) -> None:
+        """One :class:`UserError` line when options were given for FRFs that ``what`` (the
+        reason, e.g. "run.h5 holds no broadband point") does not estimate: never ignored."""
+        given = self.estimate_options() + (["--band"] if band and self.band is not None else [])
+        if given:
+            raise UserError(
+                f"{' and '.join(given)}: {what}, so {'it' if len(given) == 1 else 'they'} would be ignored"
+            )
+
 
 def point_frf(point, *, responses: Sequence[str] | None = None, options: FRFOptions | None = None):
     """The FRF of a broadband point as every command reports it: ``(force, responses, measured
@@ -587,14 +654,12 @@ def point_frf(point, *, responses: Sequence[str] | None = None, options: FRFOpti
 
 
 def point_frf_estimate(point, *, responses: Sequence[str] | None = None, options: FRFOptions | None = None):
-    """``(FRFEstimate in the responses' own kind, responses, force, FRFMethod)`` of a broadband
-    point: the same numbers ``rig analyze`` reports (``rig export uff`` writes these)."""
+    """``(FRFEstimate in the responses' own kind, responses, force, FRFMethod, measured kind)`` of
+    a broadband point: the same numbers ``rig analyze`` reports (``rig export uff`` and the
+    procedures' checks use these)."""
     force, resp, measured, method, _, blocks = point_frf(point, responses=responses, options=options)
-    acc = method.accumulator(float(point.sample_rate), 1 + len(resp))
-    for b in blocks:
-        acc.add(np.vstack([b[c] for c in [force, *resp]]))
     try:
-        est = acc.frf(method.min_averages)
+        est = method.estimate((np.vstack([b[c] for c in [force, *resp]]) for b in blocks), point.sample_rate)
     except ValueError as exc:
         raise UserError(f"point {point.index}: {exc}") from None
     return est, resp, force, method, measured
@@ -700,31 +765,51 @@ def analyze_tap_test(
     *,
     kind: str = "accelerance",
     method: str = "lscf",
-    band: tuple[float, float] | None = None,
+    band: tuple[float | None, float | None] | None = None,
+    response: str | None = None,
+    n_modes: int | None = None,
 ) -> PointAnalysis:
     """H1/H2/Hv, coherence and modes of a tap (impact-hammer) test: one frame per accepted hit,
-    each its own point (``rig acquire tap``), averaged together with the hammer as the force."""
+    each its own point (``rig acquire tap``), averaged together with the hammer as the force
+    (rectangular window; the impact estimate of :class:`rigtools.analysis.frf.FRFMethod`).
+
+    ``band`` is ``(f_min, f_max)`` of the identification, either None for its default: from
+    :data:`TAP_F_MIN_HZ` to the hammer pulse's reach ``1 / pulse``. ``response`` defaults to the
+    recording's ``response``, else the hit blade's shroud accelerometer.
+    """
     from rigtools.analysis.frf import FRFMethod
     from rigtools.analysis.point import analyze_frf_test
 
     hammer = str(experiment.get("hammer_channel") or "hammer")
-    accepted = [p for p in points if p.complete and p.params.get("accepted", False) and hammer in p.channels]
+    accepted = [
+        p
+        for p in points
+        if p.complete
+        and p.params.get("accepted", False)
+        and hammer in p.channels
+        and p.n_samples >= int(p.params.get("frame_samples", 0))
+    ]
     if len(accepted) < 2:
         raise UserError(
             f"a tap test needs at least two accepted hits to average; this one has {len(accepted)}"
         )
     first = accepted[0]
-    response = experiment.get("response") or next(
-        (
-            c
-            for c in ("passive_shroud_accel", "active_shroud_accel")
-            if c in first.channels and c.startswith(str(first.params.get("blade", "")))
-        ),
-        None,
+    response = (
+        response
+        or experiment.get("response")
+        or next(
+            (
+                c
+                for c in ("passive_shroud_accel", "active_shroud_accel")
+                if c in first.channels and c.startswith(str(first.params.get("blade", "")))
+            ),
+            None,
+        )
     )
     if response is None or response not in first.channels:
         raise UserError(
-            f"tap test: no response channel beside {hammer} (channels: {', '.join(first.channels)})"
+            f"tap test: no response channel {response or ''} beside {hammer} "
+            f"(channels: {', '.join(first.channels)})"
         )
     measured = _frf_kind_of(first.channels[response].units)
     if measured is None:
@@ -732,6 +817,8 @@ def analyze_tap_test(
             f"tap test: the response {response} is not an acceleration, velocity or displacement "
             f"({first.channels[response].units})"
         )
+    if first.sample_rate is None:
+        raise UserError(f"tap test: point {first.index} has channels at different sample rates")
     rate = float(first.sample_rate)
     frame = int(first.params["frame_samples"])
     units = {hammer: first.channels[hammer].units, response: first.channels[response].units}
@@ -741,15 +828,13 @@ def analyze_tap_test(
             response: np.asarray(p.channels[response][:frame], dtype=float),
         }
         for p in accepted
-        if p.n_samples >= frame
     )
     # a hammer pulse of duration T excites up to about 1/T: identify within that band (2 kHz for
     # the 0.5 ms default pulse, the same band `rig acquire tap` uses)
     pulse = float((experiment.get("parameters") or {}).get("pulse") or TAP_DEFAULT_PULSE_S)
-    f_max = min(1.0 / pulse, 0.45 * rate)
-    f_min = TAP_F_MIN_HZ
-    if band is not None:
-        f_min, f_max = band
+    f_min, f_max = band or (None, None)
+    f_min = TAP_F_MIN_HZ if f_min is None else f_min
+    f_max = min(1.0 / pulse, 0.45 * rate) if f_max is None else f_max
     frf_method = FRFMethod(
         "impact",
         frame,
@@ -767,6 +852,7 @@ def analyze_tap_test(
         method=method,
         f_min=f_min,
         f_max=f_max,
+        n_modes=n_modes,
     )
     notes = [
         (
@@ -784,7 +870,7 @@ def analyze_tap_test(
         rate,
         (0, frame),
         frf=res,
-        excitation="burst",
+        excitation="impact",
         notes=notes,
     )
 
@@ -879,6 +965,9 @@ def analyze_recording(
                 )
         try:
             if is_hit_per_point_tap_test(procedure, points):
+                (options or FRFOptions()).refuse_unused(
+                    "a tap test's FRF is one recorded frame per accepted hit", band=False
+                )
                 out.points.append(
                     analyze_tap_test(
                         points, rec.experiment, kind=kind, method=method, band=(options or FRFOptions()).band
@@ -919,6 +1008,8 @@ def analyze_recording(
                     progress(i + 1, len(points))
         except RecordingError as exc:
             raise UserError(str(exc)) from None
+    if not out.broadband:
+        (options or FRFOptions()).refuse_unused(f"{path} holds no broadband point (FRF, tap or impact test)")
     foreign = is_foreign(rec.experiment)
     if compare_fem is None:
         compare_fem = not foreign
@@ -948,6 +1039,9 @@ def analyze_frf_set(
     from rigtools.analysis.point import FRFTestAnalysis
     from rigtools.frf_set import read_frf_set
 
+    (options or FRFOptions()).refuse_unused(
+        f"{path} is an FRF set: its FRFs were estimated elsewhere", band=False
+    )
     fs = read_frf_set(path)
     kind_out = frf_kind(kind)
     rows = list(range(len(fs.responses)))

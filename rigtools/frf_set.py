@@ -7,11 +7,16 @@ An FRF set is one HDF5 file, text and numbers only:
                             ``created`` (ISO UTC), ``kind`` (``accelerance``, ``mobility`` or
                             ``receptance``), ``reference`` (the excitation's name),
                             ``responses`` (JSON list of names), ``source`` (JSON object: file,
-                            format, what the import assumed)
-``/frequency``              (n_freq,) float64, Hz, uniform
+                            format, what the import assumed); optional ``points`` (JSON list,
+                            one per response: ``{"response": {"entity", "node", "direction"},
+                            "reference": {...}}``, UFF node numbers and direction codes)
+``/frequency``              (n_freq,) float64, Hz, uniform, increasing
 ``/frf_real``, ``/frf_imag``  (n_responses, n_freq) float64, SI (response units per N)
 ``/coherence``              (n_responses, n_freq) float64, NaN where the source had none
 ==========================  ==================================================================
+
+:func:`summary` describes a set (``rig info``); :func:`check_frf_set` validates one (``rig
+check``).
 """
 
 from __future__ import annotations
@@ -48,6 +53,13 @@ class FRFSet:
         ``"accelerance"``, ``"mobility"`` or ``"receptance"``.
     source
         Where the FRFs came from and what their import assumed.
+    created
+        When the set was written (ISO UTC).
+    points
+        Per response, where it and its reference were measured: ``{"response": {"entity",
+        "node", "direction"}, "reference": {...}}`` (UFF node and direction code), or empty.
+    schema_version
+        The file's (as read; written as :data:`SCHEMA_VERSION`).
     """
 
     frequency_hz: np.ndarray
@@ -58,6 +70,8 @@ class FRFSet:
     kind: str
     source: dict = field(default_factory=dict)
     created: str = ""
+    points: list[dict] = field(default_factory=list)
+    schema_version: int = SCHEMA_VERSION
 
 
 def write_frf_set(path: str | Path, frf_set: FRFSet, *, overwrite: bool = False) -> None:
@@ -91,6 +105,7 @@ def write_frf_set(path: str | Path, frf_set: FRFSet, *, overwrite: bool = False)
                     "reference": frf_set.reference,
                     "responses": json.dumps(list(frf_set.responses)),
                     "source": json.dumps(frf_set.source),
+                    **({"points": json.dumps(frf_set.points)} if frf_set.points else {}),
                 }
             )
             h = np.atleast_2d(np.asarray(frf_set.frf, dtype=complex))
@@ -131,6 +146,236 @@ def read_frf_set(path: str | Path) -> FRFSet:
                 kind=str(f.attrs["kind"]),
                 source=dict(json.loads(f.attrs.get("source", "{}"))),
                 created=str(f.attrs.get("created", "")),
+                points=list(json.loads(f.attrs.get("points", "[]"))),
+                schema_version=int(f.attrs["schema_version"]),
             )
     except (OSError, KeyError, ValueError) as exc:
         raise UserError(f"{path}: cannot read the FRF set ({one_line(exc, 200)})") from None
+
+
+#: SI units of the response of each FRF kind (the reference is a force, N)
+RESPONSE_UNITS = {"accelerance": "m/s^2", "mobility": "m/s", "receptance": "m"}
+
+
+def direction_text(code: int | None) -> str:
+    """A UFF direction code as text: 1..6 are X, Y, Z, RX, RY, RZ, the sign the sense
+    (``-3`` is ``"-Z"``); 0 (scalar) and None are ``""``."""
+    if not code or abs(int(code)) > 6:
+        return ""
+    return ("+" if code > 0 else "-") + ("X", "Y", "Z", "RX", "RY", "RZ")[abs(int(code)) - 1]
+
+
+def _where(point: dict | None, name: str, units: str) -> dict:
+    point = point or {}
+    node, code = point.get("node"), point.get("direction")
+    return {
+        "name": name,
+        "entity": point.get("entity"),
+        "node": node,
+        "direction": direction_text(code) if code is not None else None,
+        "units": units,
+    }
+
+
+def summary(path: str | Path) -> dict:
+    """What ``rig info`` shows of an FRF set (plain Python, ``--json``).
+
+    Returns
+    -------
+    dict
+        ``kind`` (``"frf set"``), ``frf_kind`` and ``frf_units``, ``n_frfs``, ``references`` and
+        ``responses`` (name, UFF entity, node, direction, units; a response also its reference
+        and whether it has a coherence), ``frequency`` (``lines``, ``min_hz``, ``max_hz``,
+        ``resolution_hz``), ``source`` (file and format), ``created``, ``schema_version``.
+    """
+    fs = read_frf_set(path)
+    units = RESPONSE_UNITS.get(fs.kind, "?")
+    points = fs.points if len(fs.points) == len(fs.responses) else [{} for _ in fs.responses]
+    responses, references = [], []
+    for row, (name, point) in enumerate(zip(fs.responses, points, strict=True)):
+        ref = _where(
+            point.get("reference"), (point.get("reference") or {}).get("entity") or fs.reference, "N"
+        )
+        if ref not in references:
+            references.append(ref)
+        responses.append(
+            {
+                **_where(point.get("response"), name, units),
+                "reference": ref["name"],
+                "coherence": bool(np.any(np.isfinite(fs.coherence[row]))),
+            }
+        )
+    f = fs.frequency_hz
+    return {
+        "path": str(path),
+        "kind": "frf set",
+        "schema_version": fs.schema_version,
+        "created": fs.created,
+        "source": {k: v for k, v in fs.source.items() if k != "records"},
+        "frf_kind": fs.kind,
+        "frf_units": f"({units})/N",
+        "n_frfs": len(fs.responses),
+        "references": references,
+        "responses": responses,
+        "frequency": {
+            "lines": int(f.size),
+            "min_hz": float(f[0]) if f.size else None,
+            "max_hz": float(f[-1]) if f.size else None,
+            "resolution_hz": float(f[1] - f[0]) if f.size > 1 else None,
+        },
+    }
+
+
+@dataclass
+class FRFSetCheck:
+    """Outcome of :func:`check_frf_set`; ``valid`` when no problem is an error."""
+
+    path: str
+    problems: list = field(default_factory=list)
+    n_frfs: int = 0
+    lines: int = 0
+
+    @property
+    def valid(self) -> bool:
+        """True when no problem has severity error."""
+        return not any(p.severity == "error" for p in self.problems)
+
+    def to_dict(self) -> dict:
+        """``rig check --json`` of an FRF set."""
+        from dataclasses import asdict
+
+        return {
+            "path": self.path,
+            "kind": "frf set",
+            "valid": self.valid,
+            "frfs": self.n_frfs,
+            "lines": self.lines,
+            "problems": [asdict(p) for p in self.problems],
+        }
+
+
+def check_frf_set(path: str | Path, read_data: bool = True) -> FRFSetCheck:
+    """Validate an FRF set: schema and version, root attributes, dataset shapes and (with
+    ``read_data``) finite frequencies, FRFs and coherence (NaN only for a whole row without
+    one), coherence within [0, 1], and a uniform increasing frequency grid.
+
+    Raises
+    ------
+    RecordingError
+        The file cannot be opened as HDF5, is not an FRF set, or was written by a newer
+        rigtools (``schema_version`` above :data:`SCHEMA_VERSION`): ``rig check`` exits 2.
+    """
+    import h5py
+
+    from rigtools.recording import RecordingError
+    from rigtools.recording.validate import Problem
+
+    out = FRFSetCheck(str(path))
+
+    def error(where: str, message: str) -> None:
+        out.problems.append(Problem(where, message))
+
+    try:
+        f = h5py.File(path, "r")
+    except (OSError, ValueError) as exc:
+        raise RecordingError(f"{path}: cannot open as HDF5 ({one_line(exc, 200)})") from None
+    with f:
+        attrs = dict(f.attrs)
+        if attrs.get("schema") != SCHEMA:
+            raise RecordingError(f"{path}: not an FRF set (schema {attrs.get('schema')!r})")
+        version = attrs.get("schema_version")
+        if not isinstance(version, (int, np.integer)):
+            error("/", f"schema_version must be an integer, got {version!r}")
+        elif version > SCHEMA_VERSION:
+            raise RecordingError(
+                f"{path}: FRF set schema_version {version} is newer than this rigtools reads "
+                f"({SCHEMA_VERSION}): upgrade rigtools"
+            )
+        if attrs.get("kind") not in KINDS:
+            error("/", f"kind must be one of {', '.join(KINDS)}, got {attrs.get('kind')!r}")
+        if not isinstance(attrs.get("reference"), str) or not attrs["reference"]:
+            error("/", f"reference must be a name, got {attrs.get('reference')!r}")
+        responses = _json_attr(attrs, "responses", list, error)
+        if responses is not None and (
+            not responses
+            or not all(isinstance(r, str) and r for r in responses)
+            or len(set(responses)) < len(responses)
+        ):
+            error("/", f"responses must be distinct names, got {responses!r}")
+        _json_attr(attrs, "source", dict, error)
+        points = _json_attr(attrs, "points", list, error, required=False)
+        n = len(responses) if responses else None
+        if points is not None and n is not None and len(points) != n:
+            error("/", f"points holds {len(points)} entries for {n} responses")
+        shapes = {}
+        for name in ("frequency", "frf_real", "frf_imag", "coherence"):
+            if name not in f or not isinstance(f[name], h5py.Dataset):
+                error(f"/{name}", "missing")
+            elif f[name].dtype.kind != "f":
+                error(f"/{name}", f"must hold floats, holds {f[name].dtype}")
+            else:
+                shapes[name] = f[name].shape
+        lines = shapes.get("frequency", (0,))
+        if "frequency" in shapes and (len(lines) != 1 or lines[0] < 2):
+            error("/frequency", f"must be one-dimensional with at least 2 lines, shape {lines}")
+        expected = (n, lines[0]) if n is not None and len(lines) == 1 else None
+        for name in ("frf_real", "frf_imag", "coherence"):
+            if name in shapes and expected is not None and shapes[name] != expected:
+                error(f"/{name}", f"shape {shapes[name]}, expected {expected} (responses, lines)")
+        out.n_frfs, out.lines = n or 0, lines[0] if len(lines) == 1 else 0
+        if read_data and out.valid:
+            _data_problems(f, error)
+    return out
+
+
+def _json_attr(attrs: dict, name: str, kind: type, error, *, required: bool = True):
+    """The JSON value of a root attribute, of type ``kind``; an error (None) otherwise."""
+    if name not in attrs:
+        if required:
+            error("/", f"attribute {name} is missing")
+        return None
+    try:
+        value = json.loads(attrs[name])
+    except (TypeError, ValueError):
+        error("/", f"attribute {name} is not JSON")
+        return None
+    if not isinstance(value, kind):
+        error("/", f"attribute {name} must be a JSON {'list' if kind is list else 'object'}")
+        return None
+    return value
+
+
+def _data_problems(f, error) -> None:
+    """Values of a well-formed FRF set: finite, coherence in [0, 1], a uniform increasing grid."""
+    try:
+        freq = np.asarray(f["frequency"][:], dtype=float)
+        frf = {name: np.asarray(f[name][:], dtype=float) for name in ("frf_real", "frf_imag")}
+        coherence = np.asarray(f["coherence"][:], dtype=float)
+    except (OSError, ValueError) as exc:
+        error("/", f"the values cannot be read ({one_line(exc, 200)})")
+        return
+    if not np.all(np.isfinite(freq)):
+        error("/frequency", f"{int(np.sum(~np.isfinite(freq)))} non-finite value(s)")
+        return
+    step = np.diff(freq)
+    if np.any(step <= 0):
+        i = int(np.argmax(step <= 0))
+        error("/frequency", f"not increasing: line {i + 1} ({freq[i + 1]:g} Hz) after {freq[i]:g} Hz")
+    elif np.max(np.abs(step - step[0])) > 1e-6 * step[0]:
+        error("/frequency", f"not uniform: spacing from {step.min():g} to {step.max():g} Hz")
+    for name, values in frf.items():
+        bad = ~np.isfinite(values)
+        if bad.any():
+            error(
+                f"/{name}",
+                f"{int(bad.sum())} non-finite value(s), first at line {int(np.argwhere(bad)[0][1])}",
+            )
+    for row, c in enumerate(coherence):
+        nan = np.isnan(c)
+        if np.any(np.isinf(c)) or (nan.any() and not nan.all()):
+            error(
+                "/coherence",
+                f"row {row}: {int(np.sum(~np.isfinite(c)))} non-finite value(s) among finite ones",
+            )
+        elif not nan.any() and (c.min() < -1e-9 or c.max() > 1 + 1e-9):
+            error("/coherence", f"row {row}: values {c.min():g} to {c.max():g}, outside [0, 1]")

@@ -2,7 +2,8 @@
 
 * :func:`identify_recording`: natural frequencies and damping ratios of every broadband point of
   a recording (an FRF test, ``rig acquire frf``; a tap/hammer test), per blade, from the
-  accelerations over the force (:func:`rigtools.analysis.point.analyze_frf_test`, LSCF).
+  accelerations over the force: the very FRF and modes ``rig analyze`` reports
+  (:func:`rigtools.analyze.analyze_broadband`, :func:`rigtools.analyze.analyze_tap_test`).
 * :func:`mode_targets`: those modes paired with the model's flexural modes (blade, order), the
   same mode seen by several recordings merged (mean).
 * :func:`fit_linear`: :func:`rigtools.sim.parameter_fit.update_model` with the user's errors as one line.
@@ -45,15 +46,6 @@ if TYPE_CHECKING:
 DWELL_CHANNELS = (FORCE, ACTIVE, PASSIVE)
 ContactLaw = Literal["linear", "hertz"]
 K_HARMONICS = 10  # harmonics fitted and scored (k = 1..10: most of each shroud's energy at 60 Hz)
-BROADBAND_SIGNALS = {
-    "chirp": "periodic",
-    "periodic": "periodic",
-    "burst": "burst",
-    "random": "random",
-    "tap": "burst",
-    "hammer": "burst",
-    "impact": "burst",
-}
 
 
 # ------------------------------------------------------------------------- identified modes
@@ -141,7 +133,7 @@ def identify_recording(
     UserError
         Unreadable file, or no point holding a broadband test (a dwell, a sweep).
     """
-    from rigtools.analysis.point import analyze_frf_test
+    from rigtools.analyze import FRFOptions, analyze_broadband
 
     name = Path(path).name
     with _open(path) as rec:
@@ -154,7 +146,7 @@ def identify_recording(
 
         tap_test = is_hit_per_point_tap_test(procedure, rec.points)
         if tap_test:  # one frame per accepted hit, each its own point
-            tap = analyze_tap_test(rec.points, rec.experiment, method=method)
+            tap = analyze_tap_test(rec.points, rec.experiment, method=method, band=(f_min, f_max))
             usable = 1
             for resp, ident in tap.frf.modes.items():
                 # the response's name tells its blade; else the blade the hammer hit
@@ -189,12 +181,8 @@ def identify_recording(
             responses = list(blade_of)
             if not forces or not responses or point.sample_rate is None:
                 continue
-            force = FORCE if FORCE in forces else forces[0]
-            signal = str(prm.get("signal", "burst")).lower()
-            excitation = BROADBAND_SIGNALS.get(signal, "burst")
             rate = float(point.sample_rate)
-            start = round(float(prm["record_start"]) * rate)
-            n = int(prm["record_samples"])
+            start, n = round(float(prm["record_start"]) * rate), int(prm["record_samples"])
             frame = int(prm["frame_samples"])
             if n < frame or frame < 8 or start + n > point.n_samples:
                 continue
@@ -203,24 +191,15 @@ def identify_recording(
             lo = None if lo is None else float(lo)
             hi = None if hi is None else min(float(hi), 0.45 * rate)
             band = (lo, hi) if lo is not None and hi is not None else band
-            names = [force, *responses]
-
-            def blocks(point=point, names=names, start=start, n=n, frame=frame):
-                for i in range(start, start + n, frame):
-                    yield {c: point.channels[c][i : i + frame] for c in names}
-
             usable += 1
-            result = analyze_frf_test(
-                blocks(),
-                rate,
-                excitation=excitation,
-                segment_samples=frame,
-                responses=responses,
-                force=force,
-                f_min=lo,
-                f_max=hi,
+            # the recording's one FRF estimate, as rig analyze reports it
+            result = analyze_broadband(
+                point,
+                procedure,
                 method=method,
-            )
+                responses=responses,
+                options=FRFOptions(band=(lo, hi)) if lo is not None and hi is not None else None,
+            ).frf
             for resp in responses:
                 ident = result.modes[resp]
                 modes = sorted(ident.modes, key=lambda m: m.frequency_hz)

@@ -181,6 +181,9 @@ class Comparison:
         Sentences on what could not be compared and why.
     unpaired
         EM point indices with no model point.
+    em_frf
+        The FRF point the EM natural frequencies come from, as ``rig analyze --json`` shows it
+        (:func:`em_modes_from_frf`), or None.
     """
 
     em_path: str
@@ -192,6 +195,7 @@ class Comparison:
     natural: Any
     notes: list[str]
     unpaired: list[int] = field(default_factory=list)
+    em_frf: dict | None = None
 
     @property
     def mean_score(self) -> float:
@@ -218,6 +222,7 @@ class Comparison:
             ),
             "mean_score": self.mean_score,
             "natural_frequencies": None if self.natural is None else _records(self.natural),
+            "em_frf": self.em_frf,
             "notes": list(self.notes),
             "unpaired_em_points": list(self.unpaired),
             "points": [p.to_dict() for p in self.points],
@@ -574,39 +579,26 @@ def simulate_em_points(
 # ------------------------------------------------------------------------------ natural frequencies
 
 
-def em_modes_from_frf(recording) -> tuple[dict, dict, list[str]]:
-    """``({"active": fn}, {"active": zeta}, notes)`` from the FRF points of a recording
-    (:func:`rigtools.analysis.point.analyze_frf_test`, LSCF with a stabilisation check); the passive blade
-    is not excited by the shaker, so only the active blade's modes are measured."""
-    from rigtools.analysis.point import analyze_frf_test
+def em_modes_from_frf(recording) -> tuple[dict, dict, list[str], dict | None]:
+    """``({"active": fn}, {"active": zeta}, notes, frf)`` from the first FRF point of a recording
+    with modes: the very analysis ``rig analyze`` reports of it
+    (:func:`rigtools.analyze.analyze_broadband`: the recording's one FRF estimate, LSCF with a
+    stabilisation check); ``frf`` is that point's ``"frf"`` summary
+    (:meth:`rigtools.analyze.PointAnalysis.frf_dict`, with ``file`` and ``point``), None without
+    one. The passive blade is not excited by the shaker, so only the active blade's modes are
+    measured."""
+    from rigtools.analyze import analyze_broadband
 
     notes = []
     fns: list[float] = []
     zetas: list[float] = []
+    summary = None
+    procedure = str((recording.experiment or {}).get("procedure", ""))
     for point in recording.points:
-        if not _is_frf_point(point) or not point.complete:
+        if not _is_frf_point(point) or not point.complete or ACTIVE not in point.channels:
             continue
-        fs = point.sample_rate
-        a, b = _window(point)
-        names = [c for c in COMPARED if c in point.channels]
-
-        def blocks(a=a, b=b, point=point, names=names):
-            for s in range(a, b, 1 << 16):
-                yield {
-                    n: np.asarray(point.channels[n][s : min(b, s + (1 << 16))], dtype=float) for n in names
-                }
-
-        excitation = "periodic" if point.params["signal"] == "chirp" else "burst"
-        res = analyze_frf_test(
-            blocks(),
-            fs,
-            excitation=excitation,
-            segment_samples=int(point.params["frame_samples"]),
-            responses=[ACTIVE],
-            f_min=point.params.get("band_low"),
-            f_max=point.params.get("band_high"),
-        )
-        ident = res.modes[ACTIVE]
+        analysed = analyze_broadband(point, procedure, responses=[ACTIVE])
+        ident = analysed.frf.modes[ACTIVE]
         notes.extend(ident.notes)
         for m in ident.modes:
             if m.damping_ratio <= MAX_MODE_DAMPING:
@@ -618,12 +610,14 @@ def em_modes_from_frf(recording) -> tuple[dict, dict, list[str]]:
                     f"ratio {m.damping_ratio:.3f} is not taken as a mode (band edge or fit artefact)"
                 )
         if fns:
+            summary = {"file": str(recording.path), "point": point.index, **analysed.frf_dict()}
             break
     order = np.argsort(fns)
     return (
         {"active": np.asarray(fns)[order]} if fns else {},
         {"active": np.asarray(zetas)[order]} if fns else {},
         notes,
+        summary,
     )
 
 
@@ -839,7 +833,7 @@ def compare_recordings(
             em_items.append((p.index, params, ana, waves, fs))
         if not em_items:
             raise UserError(f"{em_path} holds no complete periodic (dwell, sweep, study) point to compare")
-        em_modes, em_zeta, mode_notes = em_modes_from_frf(rec)
+        em_modes, em_zeta, mode_notes, em_frf = em_modes_from_frf(rec)
         if not em_modes and frf is None:
             notes.append(
                 f"{Path(em_path).name} holds no FRF data: no measured (EM) natural frequencies; "
@@ -853,7 +847,7 @@ def compare_recordings(
             ) from None
     if frf is not None:
         with _open(frf, "FRF recording") as frec:
-            em_modes, em_zeta, mode_notes = em_modes_from_frf(frec)
+            em_modes, em_zeta, mode_notes, em_frf = em_modes_from_frf(frec)
         if not em_modes:
             notes.append(f"{Path(frf).name}: no modes identified from its FRF points")
     notes.extend(mode_notes)
@@ -998,4 +992,6 @@ def compare_recordings(
                 mfs,
             )
         )
-    return Comparison(str(em_path), source, model, run_excitation, kind, points, natural, notes, unpaired)
+    return Comparison(
+        str(em_path), source, model, run_excitation, kind, points, natural, notes, unpaired, em_frf
+    )

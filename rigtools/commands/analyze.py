@@ -37,7 +37,8 @@ amplitudes (RMS = peak / sqrt 2 for a sine).
 
 --out DIR writes the figures as PNG (never over a recording or a file rigtools did not make).
 
-Exit status: 0 analysed, 2 bad input (unreadable file, unknown channel, options), 130 Ctrl-C.
+Exit status: 0 analysed, 2 bad input (unreadable file, unknown channel, options; an FRF option
+that would change nothing, such as --band on a recording without a broadband point), 130 Ctrl-C.
 
 examples:
   rig analyze dwell.h5

@@ -17,6 +17,10 @@ noted and the open point's unflushed tail is not an error. NaN or infinite sampl
 its writer ended are errors; a point that never ended (writer killed, write error) is noted
 as incomplete.
 
+An FRF set (rig import uff of UFF 58 FRFs) is checked against its own schema: attributes,
+dataset shapes, and (unless --quick) finite FRFs and coherence (NaN only for a whole response
+without one), coherence within [0, 1], and a uniform increasing frequency grid.
+
 Exit status: 0 valid (notes such as "incomplete: status is 'recording'" may be printed),
 1 invalid (one line per problem), 2 unreadable (missing, truncated, not HDF5) or written by a
 newer rigtools (schema_version above the one this version reads: upgrade rigtools).
@@ -30,11 +34,11 @@ examples:
 def register(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser(
         "check",
-        help="validate a recording file (exit 0 valid, 1 invalid, 2 unreadable)",
+        help="validate a recording or FRF set (exit 0 valid, 1 invalid, 2 unreadable)",
         description=HELP,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    parser.add_argument("file", metavar="FILE", help="recording (.h5) to check")
+    parser.add_argument("file", metavar="FILE", help="recording or FRF set (.h5) to check")
     parser.add_argument("--quick", action="store_true", help="check metadata only; do not read the samples")
     parser.add_argument(
         "--json",
@@ -46,10 +50,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from rigtools.frf_set import FRFSetCheck, check_frf_set, is_frf_set
     from rigtools.recording import RecordingError, check_recording
 
+    frf_set = is_frf_set(args.file)
     try:
-        result = check_recording(args.file, read_data=not args.quick)
+        result = (check_frf_set if frf_set else check_recording)(args.file, read_data=not args.quick)
     except RecordingError as exc:
         if args.json:
             print(
@@ -70,10 +76,13 @@ def run(args: argparse.Namespace) -> int:
         return 0 if result.valid else 1
     errors = [p for p in result.problems if p.severity == "error"]
     notes = [p for p in result.problems if p.severity != "error"]
+    what = "FRF set" if frf_set else "recording"
     if errors:
-        print(f"{args.file}: INVALID recording ({len(errors)} problem{'s' * (len(errors) != 1)})")
+        print(f"{args.file}: INVALID {what} ({len(errors)} problem{'s' * (len(errors) != 1)})")
         for problem in errors:
             print(f"  error: {problem.line()}")
+    elif isinstance(result, FRFSetCheck):
+        print(f"{args.file}: valid rigtools FRF set ({result.n_frfs} FRF(s), {result.lines} lines)")
     else:
         print(
             f"{args.file}: valid rigtools recording (status {result.status}, "

@@ -28,7 +28,8 @@ examples:
   rig export uff run.h5 run.uff
   rig export uff frf.h5 frf.uff --what frf --json
 
-Exit status: 0 written, 2 bad input (unreadable recording, existing OUT without --overwrite).
+Exit status: 0 written, 2 bad input (unreadable recording, existing OUT without --overwrite,
+--excitation/--frame-samples where no FRF is estimated: --what without frf, no broadband point).
 """
 
 

@@ -11,6 +11,8 @@ Summarise a recording: status (complete / aborted with its reason / recording = 
 now, or its writer was killed), backend, software and schema versions, the channels (quantity,
 units, sample rate, sensor) and one row per point with its parameters, samples and duration.
 A point shown "incomplete" was cut off (writer killed or a write error): do not count it.
+An FRF set (rig import uff of UFF 58 FRFs) is described by its FRF kind and units, its
+references and responses (node, direction, units), frequency range and resolution, source file.
 
 examples:
   rig info run.h5
@@ -21,11 +23,11 @@ examples:
 def register(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser(
         "info",
-        help="summarise a recording (points, channels, durations, status)",
+        help="summarise a recording (points, channels, durations, status) or an FRF set",
         description=HELP,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    parser.add_argument("file", metavar="FILE", help="recording (.h5)")
+    parser.add_argument("file", metavar="FILE", help="recording or FRF set (.h5)")
     parser.add_argument(
         "--json", action="store_true", help="print the summary as JSON (root attributes, channels, points)"
     )
@@ -33,9 +35,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from rigtools.frf_set import is_frf_set
     from rigtools.recording import open_recording
     from rigtools.recording.summary import format_params, summary
 
+    if is_frf_set(args.file):
+        return frf_set_info(args)
     with open_recording(args.file) as rec:
         info = summary(rec)
     if args.json:
@@ -93,5 +98,39 @@ def run(args: argparse.Namespace) -> int:
             f"{p['duration_s']:.3f}",
             p["state"] if p["complete"] else f"[yellow]{p['state']}[/yellow]",
         )
+    console.print(table)
+    return 0
+
+
+def frf_set_info(args: argparse.Namespace) -> int:
+    """``rig info`` of an FRF set (:func:`rigtools.frf_set.summary`)."""
+    from rich.console import Console
+    from rich.table import Table
+
+    from rigtools.frf_set import summary
+
+    info = summary(args.file)
+    if args.json:
+        print(json_values.dumps(info, indent=1))
+        return 0
+    f, src = info["frequency"], info["source"]
+    console = Console()
+    console.print(
+        f"[bold]{info['path']}[/bold]  FRF set: {info['n_frfs']} {info['frf_kind']} FRF(s), {info['frf_units']}"
+    )
+    console.print(
+        f"{f['lines']} lines {f['min_hz']:g}-{f['max_hz']:g} Hz, {f['resolution_hz']:g} Hz resolution; "
+        f"from {src.get('file', '?')} ({src.get('format', '?')}), created {info['created']}, "
+        f"schema v{info['schema_version']}"
+    )
+    table = Table(title="FRFs (UFF node and direction)")
+    for column in ("response", "at", "units", "reference", "at", "coherence"):
+        table.add_column(column)
+    at = lambda p: "" if p["node"] is None else f"{p['node']} {p['direction']}".strip()
+    refs = {r["name"]: r for r in info["references"]}
+    for r in info["responses"]:
+        ref = refs[r["reference"]]
+        units = f"{r['units']} per {ref['units']}"
+        table.add_row(r["name"], at(r), units, ref["name"], at(ref), "yes" if r["coherence"] else "no")
     console.print(table)
     return 0

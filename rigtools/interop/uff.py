@@ -238,7 +238,10 @@ def recording_functions(
     from rigtools.analyze import PROCEDURE_FRF, point_frf_estimate
 
     procedure = str((recording.experiment or {}).get("procedure", ""))
+    if frf_options is not None and "frf" not in what:
+        frf_options.refuse_unused(f"--what {','.join(what)} writes no FRF")
     date = uff_date(getattr(recording, "created", ""))
+    estimated = False
     frfs: list[UffFunction] = []
     others: list[UffFunction] = []
     none = ("", 0)
@@ -289,6 +292,7 @@ def recording_functions(
             if reference is not None and reference in point.channels:
                 point = _with_force(point, reference)
             est, resp, force, method, _ = point_frf_estimate(point, options=frf_options)
+            estimated = True
             ref = point.channels[force]
             ref_where = (
                 force,
@@ -327,6 +331,8 @@ def recording_functions(
                             date,
                         )
                     )
+    if frf_options is not None and "frf" in what and not estimated:
+        frf_options.refuse_unused(f"{recording.path} holds no broadband point to estimate an FRF of")
     return frfs + others
 
 
@@ -623,12 +629,24 @@ def import_uff(
     )
 
 
+def _point_of(s: dict, side: str) -> dict:
+    """``{"entity", "node", "direction"}`` of a record's response or reference (UFF codes)."""
+    key = "rsp" if side == "response" else "ref"
+    entity = str(s.get(f"{key}_ent_name", "")).strip()
+    return {
+        "entity": "" if entity.lower() in _NONE else entity,
+        "node": int(s.get(f"{key}_node", 0)),
+        "direction": int(s.get(f"{key}_dir", 0)),
+    }
+
+
 def _import_frfs(source: Path, out: str | Path, sets: list[dict], *, mapping, units, overwrite) -> dict:
     from rigtools.frf_set import FRFSet, write_frf_set
     from rigtools.interop.channels import storable_name
 
     lines, entries = [], []
     frfs, grid, kinds = [], None, set()
+    points: list[dict] = []
     coherence = {
         (record_name(s), str(s.get("ref_ent_name", "")).strip(), int(s.get("ref_node", 0))): s
         for s in sets
@@ -662,6 +680,7 @@ def _import_frfs(source: Path, out: str | Path, sets: list[dict], *, mapping, un
         frfs.append(
             (mapping.get(name, storable_name(name)), np.asarray(s["data"], complex) * factor, c, kind)
         )
+        points.append({side: _point_of(s, side) for side in ("response", "reference")})
         kinds.add(kind)
         text = f"kept    {where} -> {frfs[-1][0]}: FRF, {how}, {x.size} lines {x[0]:g}-{x[-1]:g} Hz, " + (
             "with its coherence" if coh is not None else "no coherence record"
@@ -689,6 +708,7 @@ def _import_frfs(source: Path, out: str | Path, sets: list[dict], *, mapping, un
         reference=ref,
         kind=kinds.pop(),
         source={"file": source.name, "format": "uff", "records": entries},
+        points=points,
     )
     write_frf_set(out, frf_set, overwrite=overwrite)
     lines.append(

@@ -4,7 +4,8 @@ One recording point holds the whole stream (ramp, the settling frame, the averag
 ramp down); ``record_start`` and ``frame_samples`` say where the averaged frames are. The
 quick check (:func:`quick_check`) is H1 of the response over the force with whole frames as
 segments (rectangular window: a burst has decayed and a periodic chirp is periodic in a frame),
-and the coherence at its peaks; the analysis of the raw record belongs to :mod:`analysis`.
+the estimate ``rig analyze`` reports, and the coherence at its peaks; the analysis of the raw
+record belongs to :mod:`analysis`.
 """
 
 from __future__ import annotations
@@ -182,36 +183,30 @@ EDGE_BINS = 2  # frequency lines next to each band edge where the quick check lo
 
 def quick_check(path, response: str | None = None, n_peaks: int = 5) -> dict:
     """H1 (response / force) over the averaged frames of an FRF test recording, its peaks in the
-    band and their coherence (:func:`rigtools.analysis.frf.estimate_frf`, frames as segments, no window)."""
+    band and their coherence: the very estimate ``rig analyze`` reports
+    (:func:`rigtools.analyze.point_frf_estimate`: whole frames, no window)."""
     from scipy.signal import find_peaks
 
-    from rigtools.analysis.frf import estimate_frf
+    from rigtools.analyze import point_frf_estimate
     from rigtools.recording import open_recording
 
     with open_recording(path) as rec:
         point = rec.points[0]
         prm = point.params
-        rate = point.sample_rate
-        if rate is None:
+        if point.sample_rate is None:
             raise UserError(f"{path}: the channels of the FRF test have different sample rates")
-        start = round(prm["record_start"] * rate)
-        n = int(prm["record_samples"])
-        frame = int(prm["frame_samples"])
-        specs = {name: ch for name, ch in point.channels.items()}
-        force_name = next(name for name, ch in specs.items() if ch.quantity == "force")
         if response is None:
             response = next(
                 name
-                for name, ch in specs.items()
+                for name, ch in point.channels.items()
                 if ch.quantity == "acceleration" and "passive" not in name.lower()
             )
-        x = specs[force_name][start : start + n]
-        y = specs[response][start : start + n]
+        est, _, force_name, _, _ = point_frf_estimate(point, responses=[response])
         lo, hi = float(prm["band_low"]), float(prm["band_high"])
-        h1_units = f"({specs[response].units})/({specs[force_name].units})"
-    est = estimate_frf(x, y, rate, nperseg=frame, noverlap=0, window="boxcar", detrend=False)
+        h1_units = f"({point.channels[response].units})/({point.channels[force_name].units})"
+    h1, coherence = est.h1[0], est.coherence[0]
     f = est.frequency_hz
-    mag = np.abs(est.h1)
+    mag = np.abs(h1)
     # peaks strictly inside the band: the excitation's edges are steps of |H1|, not resonances
     inside = np.flatnonzero(
         (f >= lo + EDGE_BINS * est.resolution_hz) & (f <= hi - EDGE_BINS * est.resolution_hz)
@@ -222,7 +217,7 @@ def quick_check(path, response: str | None = None, n_peaks: int = 5) -> dict:
     idx = inside[idx]
     order = idx[np.argsort(props["prominences"])[::-1][:n_peaks]]
     peaks = [
-        {"frequency_hz": float(f[i]), "h1": float(mag[i]), "coherence": float(est.coherence[i])}
+        {"frequency_hz": float(f[i]), "h1": float(mag[i]), "coherence": float(coherence[i])}
         for i in sorted(order)
     ]
     return {
@@ -232,5 +227,5 @@ def quick_check(path, response: str | None = None, n_peaks: int = 5) -> dict:
         "averages": est.n_averages,
         "resolution_hz": est.resolution_hz,
         "peaks": peaks,
-        "mean_coherence_in_band": float(np.mean(est.coherence[(f >= lo) & (f <= hi)])),
+        "mean_coherence_in_band": float(np.mean(coherence[(f >= lo) & (f <= hi)])),
     }

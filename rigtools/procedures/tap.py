@@ -29,7 +29,8 @@ pulse of ``pulse`` seconds and ``hit_force`` peak at ``position`` every
 
 :func:`tap_analysis` is H1 of the response over the hammer force over the accepted frames
 (rectangular window per frame: a frame holds the whole hit and the decay) and
-:func:`rigtools.analysis.modal_id.identify` on it (:func:`rigtools.analysis.point.analyze_frf_test`).
+:func:`rigtools.analysis.modal_id.identify` on it: what ``rig analyze`` reports of the recording
+(:func:`rigtools.analyze.analyze_tap_test`).
 """
 
 from __future__ import annotations
@@ -422,48 +423,30 @@ def tap_analysis(
     n_modes: int | None = None,
 ):
     """H1 of the response over the hammer force over the accepted hits of a tap-test recording
-    (rectangular window per frame) and the modes identified from it.
+    (rectangular window per frame) and the modes identified from it: the very analysis ``rig
+    analyze`` reports (:func:`rigtools.analyze.analyze_tap_test`).
+
+    Parameters
+    ----------
+    path
+        A ``rig acquire tap`` recording.
+    response
+        Response channel (default: the recording's).
+    f_min, f_max
+        Identification band, Hz (default: 5 Hz to the hammer pulse's reach).
+    n_modes
+        Keep at most this many modes.
 
     Returns
     -------
     rigtools.analysis.point.FRFTestAnalysis
-        ``.modes[response].modes`` the identified modes; ``.frf`` the estimate.
+        ``.modes[response].modes`` the identified modes; ``.estimate`` the FRF.
     """
-    from rigtools.analysis.point import analyze_frf_test
+    from rigtools.analyze import analyze_tap_test
     from rigtools.recording import open_recording
 
     with open_recording(path) as rec:
         exp = rec.experiment or {}
-        hammer = exp.get("hammer_channel", "hammer")
-        response = response or exp.get("response")
-        if response is None:
+        if (response or exp.get("response")) is None:
             raise UserError(f"{path}: the recording names no response channel; give one")
-        rate: float | None = None
-        frame, blocks = 0, []
-        for point in rec.points:
-            prm = point.params
-            frame = int(prm.get("frame_samples", 0))
-            if not prm.get("accepted", False) or point.n_samples < frame:
-                continue
-            rate = point.sample_rate
-            if rate is None:
-                raise UserError(f"{path}: point {point.name} has channels at different sample rates")
-            blocks.append(
-                {
-                    "force": np.asarray(point.channels[hammer][:frame], dtype=float),
-                    response: np.asarray(point.channels[response][:frame], dtype=float),
-                }
-            )
-        if not blocks or rate is None:
-            raise UserError(f"{path}: no accepted hit to analyse")
-    return analyze_frf_test(
-        blocks,
-        rate,
-        excitation="burst",
-        segment_samples=frame,
-        responses=(response,),
-        force="force",
-        f_min=f_min,
-        f_max=f_max,
-        n_modes=n_modes,
-    )
+        return analyze_tap_test(rec.points, exp, band=(f_min, f_max), response=response, n_modes=n_modes).frf

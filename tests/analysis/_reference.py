@@ -41,3 +41,14 @@ def periodic_response(x: np.ndarray, fs: float, out: int = 0, kind: str = "recep
     h = receptance(f, out)
     h *= (2j * np.pi * f) ** {"receptance": 0, "mobility": 1, "accelerance": 2}[kind]
     return np.fft.irfft(np.fft.rfft(x) * h, n=x.size)
+
+
+def one_frf(x: np.ndarray, y: np.ndarray, fs: float, excitation: str, frame: int):
+    """:meth:`rigtools.analysis.frf.FRFMethod.estimate` of one response ``y`` over ``x``, its
+    arrays made 1-D (the estimator itself, not a reference)."""
+    from dataclasses import replace
+
+    from rigtools.analysis.frf import FRFMethod
+
+    e = FRFMethod(excitation, frame).estimate([np.vstack([x, y])], fs)
+    return replace(e, h1=e.h1[0], h2=e.h2[0], coherence=e.coherence[0], syy=e.syy[0], sxy=e.sxy[0])

@@ -4,9 +4,10 @@ and an exact stepped-sine point."""
 
 import numpy as np
 import pytest
+from _reference import one_frf
 from scipy import signal
 
-from rigtools.analysis.frf import convert_frf, estimate_frf, sdof_frf, sine_frf
+from rigtools.analysis.frf import FRFMethod, convert_frf, sdof_frf, sine_frf
 
 FS = 1000.0
 
@@ -49,7 +50,7 @@ def test_h1_of_known_filter_with_output_noise():
     x = rng.standard_normal(2**17)
     y_true = signal.lfilter(b, a, x)
     y = y_true + 0.05 * np.std(y_true) * rng.standard_normal(x.size)
-    est = estimate_frf(x, y, FS, nperseg=4096)
+    est = one_frf(x, y, FS, "random", 4096)
     assert est.n_averages == 63
     band = (est.frequency_hz > 5) & (est.frequency_hz < 300) & (est.coherence > 0.9)
     assert band.sum() > 600
@@ -72,7 +73,7 @@ def test_input_noise_biases_h1_low_by_closed_form_and_leaves_h2():
     x = rng.standard_normal(2**17)
     y = signal.lfilter(b, a, x)
     x_meas = x + 0.5 * rng.standard_normal(x.size)
-    est = estimate_frf(x_meas, y, FS, nperseg=4096)
+    est = one_frf(x_meas, y, FS, "random", 4096)
     band = (est.frequency_hz > 5) & (est.frequency_hz < 300)
     exact = _exact(b, a, est.frequency_hz[band])
     assert np.median(np.abs(est.h1[band] / exact)) == pytest.approx(1 / 1.25, rel=0.02)
@@ -83,7 +84,7 @@ def test_input_noise_biases_h1_low_by_closed_form_and_leaves_h2():
 def test_single_average_is_refused():
     x = np.zeros(1000)
     with pytest.raises(ValueError, match="at least 2 averages"):
-        estimate_frf(x, x, FS, nperseg=1000)
+        FRFMethod("random", 1000).estimate([np.vstack([x, x])], FS)
 
 
 def test_sine_frf_is_exact_for_non_integer_periods():

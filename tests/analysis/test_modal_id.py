@@ -3,9 +3,10 @@ coarse grid, and the poles of a digital filter identified from H1 of white-noise
 
 import numpy as np
 import pytest
+from _reference import one_frf
 from scipy import signal
 
-from rigtools.analysis.frf import estimate_frf, sdof_frf
+from rigtools.analysis.frf import sdof_frf
 from rigtools.analysis.modal_id import (
     fit_sdof,
     half_power_damping,
@@ -67,7 +68,7 @@ def test_poles_of_digital_filter_identified_from_white_noise_h1():
     x = rng.standard_normal(2**16)
     y = sum(signal.lfilter(np.ravel(num), den, x) for num, den, _ in systems)
     y = y + 0.02 * np.std(y) * rng.standard_normal(x.size)
-    est = estimate_frf(x, y, fs, nperseg=4096)
+    est = one_frf(x, y, fs, "random", 4096)
     modes = identify_modes(est.frequency_hz, est.h1, kind="receptance", f_min=20, f_max=900, n_modes=2)
     assert len(modes) == 2
     for mode, (_, den, _) in zip(modes, systems, strict=True):

@@ -3,11 +3,11 @@ modes of the 2-DOF in tests/analysis/_reference.py; nothing from a pure-sine (dw
 
 import numpy as np
 import pytest
-from _reference import K, M, periodic_response, receptance
+from _reference import K, M, one_frf, periodic_response, receptance
 from _reference import modes as exact_modes
 from scipy import linalg
 
-from rigtools.analysis.frf import convert_frf, estimate_frf, excitation_settings
+from rigtools.analysis.frf import convert_frf
 from rigtools.analysis.modal_id import excitation_support, identify, identify_modes
 
 FS = 512.0
@@ -18,7 +18,7 @@ def _h1(seed=1, n=2**18, noise=0.02):
     x = rng.standard_normal(n)
     y = periodic_response(x, FS, out=1, kind="accelerance")
     y = y + noise * np.std(y) * rng.standard_normal(n)
-    return estimate_frf(x, y, FS, **excitation_settings("random", 2048))
+    return one_frf(x, y, FS, "random", 2048)
 
 
 def test_lscf_exact_frf_gives_exact_poles_and_mass_normalised_constants():
@@ -84,7 +84,7 @@ def test_no_mode_from_a_pure_sine_record():
     y = periodic_response(x, FS, out=1, kind="accelerance")
     x = x + 0.15 * rng.standard_normal(n)
     y = y + 0.01 * np.std(y) * rng.standard_normal(n)
-    est = estimate_frf(x, y, FS, nperseg=2048)
+    est = one_frf(x, y, FS, "random", 2048)
     for method in ("lscf", "peak"):
         res = identify(
             est.frequency_hz,

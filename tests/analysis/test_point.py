@@ -8,6 +8,7 @@ import pytest
 from _reference import modes as exact_modes
 from _reference import periodic_response
 
+from rigtools.analysis.frf import FRFMethod
 from rigtools.analysis.point import analyze_dwell, analyze_frf_test
 
 
@@ -44,7 +45,7 @@ def test_frf_test_blocks_give_the_two_dof_modes():
         for i in range(0, x.size, 10000)
     )
     res = analyze_frf_test(
-        blocks, fs, excitation="random", segment_samples=2048, responses=("a1", "a0"), f_min=10, f_max=250
+        blocks, fs, frf_method=FRFMethod("random", 2048), responses=("a1", "a0"), f_min=10, f_max=250
     )
     fn, zeta = exact_modes()
     for name in ("a1", "a0"):

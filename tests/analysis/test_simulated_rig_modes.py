@@ -8,6 +8,7 @@ from dataclasses import replace
 import numpy as np
 
 from rigtools.analysis.correlation import natural_frequency_table
+from rigtools.analysis.frf import FRFMethod
 from rigtools.analysis.point import analyze_frf_test
 
 
@@ -50,8 +51,7 @@ def test_burst_random_on_the_simulated_rig_finds_the_test_articles_frequencies()
     res = analyze_frf_test(
         blocks,
         fs,
-        excitation="burst",
-        segment_samples=int(period * fs),
+        frf_method=FRFMethod("burst", int(period * fs)),
         responses=("active_shroud_accel",),
         f_min=10,
         f_max=1800,

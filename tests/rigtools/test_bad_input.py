@@ -159,7 +159,7 @@ def run_case(case: Case, lab: Path, digest: dict, tmp: Path) -> str:
     code, _, err = run_cli(_fill(case.argv, lab, tmp))
     assert_clean_failure(code, err, case.code, lab, digest)
     if case.expect:
-        assert case.expect in err, err
+        assert case.expect.format(lab=lab, tmp=tmp) in err, err
     return err
 
 
@@ -635,6 +635,22 @@ OPTION_CASES = [
         "export:frame-samples-text",
         ["export", "uff", "{lab}/run.h5", "{tmp}/o.uff", "--frame-samples", "1 s"],
         expect="expected a whole number",
+    ),
+    # FRF options that would not change anything: a sine-dwell recording has no broadband point
+    Case(
+        "export:excitation-without-broadband",
+        ["export", "uff", "{lab}/run.h5", "{tmp}/o.uff", "--excitation", "random", "--frame-samples", "256"],
+        expect="--excitation and --frame-samples: {lab}/run.h5 holds no broadband point to estimate",
+    ),
+    Case(
+        "export:excitation-what-time",
+        ["export", "uff", "{lab}/run.h5", "{tmp}/o.uff", "--what", "time", "--excitation", "burst"],
+        expect="--excitation: --what time writes no FRF, so it would be ignored",
+    ),
+    Case(
+        "analyze:excitation-without-broadband",
+        ["analyze", "{lab}/run.h5", "--excitation", "random", "--band", "10 Hz:100 Hz"],
+        expect="--excitation and --band: {lab}/run.h5 holds no broadband point",
     ),
     Case(
         "analyze:band-reversed",

@@ -267,7 +267,7 @@ def test_frf_test_on_the_simulated_rig_end_to_end(rig):
     zeta within 1 %, the three frequencies within 0.23 %. Freeing all three masses as well, the
     report names the pairs that active-blade data cannot separate."""
     from rigtools.acquisition import BlockCollector, RandomDrive, acquire
-    from rigtools.analysis.frf import estimate_frf
+    from rigtools.analysis.frf import FRFMethod
     from rigtools.analysis.modal_id import identify_modes
     from rigtools.drivers.simulated import SimulatedRig
     from rigtools.sim.parameter_fit import pair_modes
@@ -293,10 +293,9 @@ def test_frf_test_on_the_simulated_rig_end_to_end(rig):
     sink = BlockCollector()
     acquire(device, drive, 8 * period, sink=sink)
     n = int(8 * period * fs)
-    est = estimate_frf(
-        sink.data[0, :n], sink.data[1, :n], fs, nperseg=int(period * fs), noverlap=0, window="boxcar"
-    )
-    modes = identify_modes(est.frequency_hz, est.h1, kind="accelerance", f_min=10, f_max=1800, n_modes=3)
+    est = FRFMethod("burst", int(period * fs)).estimate([sink.data[:2, :n]], fs)
+    h1, coherence = est.h1[0], est.coherence[0]
+    modes = identify_modes(est.frequency_hz, h1, kind="accelerance", f_min=10, f_max=1800, n_modes=3)
     pairing = pair_modes(nominal, "active", [m.frequency_hz for m in modes], [m.damping_ratio for m in modes])
     assert [t.order for t in pairing.targets] == [1, 2, 3] and not pairing.unpaired
 
@@ -308,8 +307,8 @@ def test_frf_test_on_the_simulated_rig_end_to_end(rig):
     near = np.zeros(est.frequency_hz.size, bool)
     for m in modes:
         near |= np.abs(est.frequency_hz / m.frequency_hz - 1) < 0.03
-    sel = near & (est.coherence > 0.99)
-    frf = FrfTarget(est.frequency_hz[sel], est.h1[sel], "active_shroud", "accelerance", sigma=0.05)
+    sel = near & (coherence > 0.99)
+    frf = FrfTarget(est.frequency_hz[sel], h1[sel], "active_shroud", "accelerance", sigma=0.05)
     res = update_model(
         nominal, [*pairing.targets, frf], [K_ROT, "shroud.mass", "force_sensor.mass", "damping.ratio"]
     )

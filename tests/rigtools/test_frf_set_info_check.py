@@ -1,0 +1,173 @@
+"""``rig info`` and ``rig check`` of an FRF set (``rig import uff`` of UFF 58 FRFs).
+
+A UFF written with pyuff: two accelerance FRFs of a 100 Hz, 2 %-damped oscillator at nodes 2 (+Z)
+and 3 (-Y) over a force at node 1 (+Z), 0-500 Hz in 0.5 Hz lines, a coherence for the first.
+``rig info`` reports those numbers; ``rig check`` passes it (exit 0) and finds each damage made
+to a copy with h5py (exit 1, one line each; a newer schema exit 2). The public ufffiles-hammer
+FRF (../shared/data, skipped where absent) is described and valid too.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+import pyuff
+from cli_helpers import run_cli
+
+from rigtools.analysis.frf import sdof_frf
+from rigtools.interop.uff import FUNC_COHERENCE, FUNC_FRF, UffFunction
+
+PUBLIC = (
+    Path(__file__).resolve().parents[2].parent / "shared" / "data" / "ufffiles-hammer" / "dataset58_FRF.unv"
+)
+F = np.arange(0.0, 500.25, 0.5)
+
+
+def _record(func_type, name, node, direction, data):
+    d = UffFunction(
+        func_type,
+        f"{name} over hammer",
+        (name, node),
+        ("hammer", 1),
+        "acceleration" if func_type == FUNC_FRF else "coherence",
+        "force",
+        F,
+        data,
+        "m/s^2/N" if func_type == FUNC_FRF else "-",
+    ).dataset()
+    return {**d, "rsp_dir": direction, "ref_dir": 3}
+
+
+@pytest.fixture(scope="module")
+def frf_set(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("frfset")
+    h = sdof_frf(F, 100.0, 0.02, kind="accelerance")
+    src = folder / "two.uff"
+    pyuff.UFF(str(src)).write_sets(
+        [
+            _record(FUNC_FRF, "tip", 2, 3, h),
+            _record(FUNC_COHERENCE, "tip", 2, 3, np.full(F.size, 0.98)),
+            _record(FUNC_FRF, "root", 3, -2, 0.5 * h),
+        ],
+        "add",
+    )
+    out = folder / "two.h5"
+    code, _, err = run_cli(["import", "uff", src, out])
+    assert code == 0, err
+    return out
+
+
+def test_info_describes_the_frf_set(frf_set):
+    code, out, err = run_cli(["info", frf_set, "--json"])
+    assert code == 0, err
+    doc = json.loads(out)
+    assert (doc["kind"], doc["frf_kind"], doc["frf_units"], doc["n_frfs"]) == (
+        "frf set",
+        "accelerance",
+        "(m/s^2)/N",
+        2,
+    )
+    got = [(r["name"], r["node"], r["direction"], r["units"], r["coherence"]) for r in doc["responses"]]
+    assert got == [("tip_2_Z", 2, "+Z", "m/s^2", True), ("root_3-Y", 3, "-Y", "m/s^2", False)]
+    assert [(r["name"], r["node"], r["direction"], r["units"]) for r in doc["references"]] == [
+        ("hammer", 1, "+Z", "N")
+    ]
+    f = doc["frequency"]
+    assert f["lines"] == 1001 and f["min_hz"] == 0.0
+    assert f["max_hz"] == pytest.approx(500.0, rel=1e-9) and f["resolution_hz"] == pytest.approx(
+        0.5, rel=1e-9
+    )
+    assert doc["source"] == {"file": "two.uff", "format": "uff"}
+    code, out, err = run_cli(["info", frf_set])
+    assert code == 0, err
+    assert "2 accelerance FRF(s), (m/s^2)/N" in out and "1001 lines 0-500 Hz, 0.5 Hz resolution" in out
+    assert "from two.uff" in out and "tip_2_Z" in out and "3 -Y" in out
+
+
+def test_check_passes_a_good_frf_set(frf_set):
+    code, out, _ = run_cli(["check", frf_set])
+    assert code == 0 and out.strip() == f"{frf_set}: valid rigtools FRF set (2 FRF(s), 1001 lines)"
+    code, out, _ = run_cli(["check", frf_set, "--json"])
+    doc = json.loads(out)
+    assert code == 0 and doc["valid"] and (doc["frfs"], doc["lines"], doc["problems"]) == (2, 1001, [])
+
+
+def _swap_lines(f):
+    f["frequency"][10], f["frequency"][11] = f["frequency"][11], f["frequency"][10]
+
+
+def _inf(f):
+    f["frf_real"][1, 7] = np.inf
+
+
+def _coherence(f):
+    f["coherence"][0, 3] = 1.5
+
+
+def _three_names(f):
+    f.attrs["responses"] = json.dumps(["a", "b", "c"])
+
+
+@pytest.mark.parametrize(
+    ("damage", "where", "message"),
+    [
+        (_swap_lines, "/frequency", "not increasing: line 11 (5 Hz) after 5.5 Hz"),
+        (_inf, "/frf_real", "1 non-finite value(s), first at line 7"),
+        (_coherence, "/coherence", "row 0: values 0.98 to 1.5, outside [0, 1]"),
+        (_three_names, "/frf_real", "shape (2, 1001), expected (3, 1001) (responses, lines)"),
+    ],
+)
+def test_check_finds_each_damage(frf_set, tmp_path, damage, where, message):
+    bad = tmp_path / "bad.h5"
+    shutil.copy(frf_set, bad)
+    with h5py.File(bad, "r+") as f:
+        damage(f)
+    code, out, _ = run_cli(["check", bad])
+    assert code == 1, out
+    assert out.splitlines()[0].startswith(f"{bad}: INVALID FRF set")
+    assert f"  error: {where}: {message}" in out.splitlines()
+    code, out, _ = run_cli(["check", bad, "--json"])
+    doc = json.loads(out)
+    assert (
+        code == 1
+        and not doc["valid"]
+        and {"where": where, "message": message}
+        in [{k: p[k] for k in ("where", "message")} for p in doc["problems"]]
+    )
+    if damage is _inf:  # --quick reads no values
+        assert run_cli(["check", bad, "--quick"])[0] == 0
+
+
+def test_check_of_a_newer_frf_set_is_unreadable(frf_set, tmp_path):
+    newer = tmp_path / "newer.h5"
+    shutil.copy(frf_set, newer)
+    with h5py.File(newer, "r+") as f:
+        f.attrs["schema_version"] = 2
+    code, _, err = run_cli(["check", newer])
+    assert code == 2 and "schema_version 2 is newer than this rigtools reads (1)" in err
+    assert len(err.strip().splitlines()) == 1
+
+
+def test_public_ufffiles_frf(tmp_path):
+    if not PUBLIC.is_file():
+        pytest.skip(f"public data file {PUBLIC} is absent (a clone without ../shared)")
+    out = tmp_path / "hammer.h5"
+    code, _, err = run_cli(["import", "uff", PUBLIC, out])
+    assert code == 0, err
+    code, js, err = run_cli(["info", out, "--json"])
+    assert code == 0, err
+    doc = json.loads(js)
+    assert doc["n_frfs"] == 1 and doc["frequency"] == {
+        "lines": 1600,
+        "min_hz": 0.0,
+        "max_hz": 799.5,
+        "resolution_hz": 0.5,
+    }
+    assert doc["responses"][0]["entity"] == ".1.Z-" and doc["references"][0]["name"] == ".56.Z"
+    assert doc["source"]["file"] == "dataset58_FRF.unv"
+    assert run_cli(["check", out])[0] == 0
