@@ -1,6 +1,8 @@
-"""Figure of continued branches: a response measure against the continued parameter, stable parts
-solid, unstable dashed, bifurcations labelled, measured sweeps on the same axes (arrays in, a
-matplotlib figure out; no file I/O)."""
+"""Continued branches beside measured sweeps: the figure (a response measure against the continued
+parameter, stable parts solid, unstable dashed, bifurcations labelled, measured sweeps on the same
+axes), the branches' turning points (:func:`turning_points`) and which of them each measured jump
+sits at (:func:`explain_jumps`). Arrays in, a matplotlib figure or small dataclasses out; no file
+I/O."""
 
 from __future__ import annotations
 
@@ -11,6 +13,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 SHORT = {"fold": "LP", "period-doubling": "PD", "neimark-sacker": "NS", "grazing": "G"}
+TURNING_LABELS = ("fold", "grazing")  # a branch turns back at a fold, or at a grazing corner
 
 
 @dataclass
@@ -75,10 +78,18 @@ def branch_figure(
                 ax.plot(xi, yi, "o", color="k", ms=4)
                 ax.annotate("/".join(names), (xi, yi), textcoords="offset points", xytext=(4, 4), fontsize=8)
     shaded = False
-    for m in measured:
+    others = ["C1", "C6", "C8", "C9", "C7"]  # measured sweeps in colours no branch takes
+    for i, m in enumerate(measured):
         marker = "^" if m.direction == "up" else "v"
         ax.plot(
-            np.asarray(m.value) * x_scale, m.measure, marker + ":", lw=0.8, ms=5, mfc="none", label=m.name
+            np.asarray(m.value) * x_scale,
+            m.measure,
+            marker + ":",
+            color=others[i % len(others)],
+            lw=0.8,
+            ms=5,
+            mfc="none",
+            label=m.name,
         )
         for lo, hi in m.jumps:
             label = "_nolegend_" if shaded else "measured jump"
@@ -92,3 +103,82 @@ def branch_figure(
     ax.legend(fontsize=8, loc="best")
     fig.tight_layout()
     return fig
+
+
+@dataclass(frozen=True)
+class TurningPoint:
+    """Where a branch turns back in its parameter: ``upper`` (the parameter has a local maximum
+    there: a sweep up following the branch has nowhere to go and jumps) or lower (a sweep down
+    jumps); ``label`` is the point's bifurcation (``"fold"`` or ``"grazing"``: a grazing corner,
+    where impacts begin or end)."""
+
+    value: float
+    label: str
+    upper: bool
+    branch: str
+
+
+def turning_points(curve: BranchCurve) -> list[TurningPoint]:
+    """The fold and grazing points of ``curve`` at which its parameter reverses: the nearest
+    points before and after it that differ from it by more than a thousandth of the branch's
+    range lie on one side (a grazing corner is labelled where the orbit grazes, and may turn a
+    few short steps further); in branch order."""
+    v = np.asarray(curve.value, float)
+    tiny = 1e-3 * float(np.ptp(v)) if v.size else 0.0
+    out = []
+    for i, labs in enumerate(curve.labels):
+        label = next((lab for lab in labs if lab in TURNING_LABELS), None)
+        if label is None:
+            continue
+        before = next((v[j] for j in range(i - 1, -1, -1) if abs(v[j] - v[i]) > tiny), None)
+        after = next((v[j] for j in range(i + 1, v.size) if abs(v[j] - v[i]) > tiny), None)
+        if before is None or after is None or (v[i] - before) * (after - v[i]) >= 0:
+            continue
+        out.append(TurningPoint(float(v[i]), label, bool(v[i] > before), curve.name))
+    return out
+
+
+@dataclass(frozen=True)
+class JumpExplanation:
+    """A measured jump and the branches' turning point nearest to it.
+
+    ``start``, ``stop``: the jump's interval (the two steps between which it happens, ordered);
+    ``turning``: the nearest turning point of the kind a sweep in that direction meets (upper for
+    up, lower for down; any kind if the branches have none of it), ``None`` without any;
+    ``offset``: 0 inside the interval, else the turning point's distance from its nearer end
+    (positive above the interval).
+    """
+
+    sweep: str
+    direction: str
+    start: float
+    stop: float
+    turning: TurningPoint | None
+    offset: float
+
+    @property
+    def inside(self) -> bool:
+        return self.turning is not None and self.offset == 0.0
+
+
+def explain_jumps(curves: Sequence[BranchCurve], measured: Sequence[MeasuredSweep]) -> list[JumpExplanation]:
+    """For every jump of every measured sweep, the turning point of the branches that explains
+    it (:class:`JumpExplanation`): a sweep up leaves a stable branch where the branch turns back
+    at an upper turning point (a fold), a sweep down at a lower one."""
+    points = [t for c in curves for t in turning_points(c)]
+    out = []
+    for m in measured:
+        for a, b in m.jumps:
+            lo, hi = min(a, b), max(a, b)
+            want = [t for t in points if t.upper == (m.direction != "down")] or points
+
+            def offset(t: TurningPoint, lo: float = lo, hi: float = hi) -> float:
+                return 0.0 if lo <= t.value <= hi else (t.value - hi if t.value > hi else t.value - lo)
+
+            best = min(want, key=lambda t: abs(offset(t)), default=None)
+            out.append(
+                JumpExplanation(
+                    m.name, m.direction, lo, hi, best, offset(best) if best is not None else float("nan")
+                )
+            )
+    return out

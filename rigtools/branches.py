@@ -32,6 +32,7 @@ X_LABELS = {
     "force": ("force amplitude (N)", 1.0),
     "gap": ("gap (mm)", 1e3),
 }
+X_UNITS = {"fe": "Hz", "force": "N", "gap": "mm"}  # as the figure shows the parameter (X_LABELS)
 
 
 @dataclass
@@ -285,12 +286,12 @@ def measured_sweeps(paths, param: str, measure: str = "contact") -> list:
     return out
 
 
-def branches_figure(branches: list[StoredBranch], measure: str = "contact", title: str = "", measured=()):
-    """:func:`rigtools.analysis.branches.branch_figure` of stored branches, with the
-    :func:`measured_sweeps` given on the same axes."""
-    from rigtools.analysis.branches import BranchCurve, branch_figure
+def branch_curves(branches: list[StoredBranch], measure: str = "contact") -> list:
+    """The non-empty stored branches as :class:`rigtools.analysis.branches.BranchCurve` in
+    ``measure`` (a key of :data:`MEASURES`), named "period 1", "period 2"."""
+    from rigtools.analysis.branches import BranchCurve
 
-    field_name, index, ylabel = MEASURES[measure]
+    field_name, index, _ = MEASURES[measure]
     curves = []
     for b in branches:
         if not b.value.size:
@@ -301,8 +302,23 @@ def branches_figure(branches: list[StoredBranch], measure: str = "contact", titl
                 b.value, y[:, index] if index is not None else y, b.stable, b.labels, f"period {b.periods}"
             )
         )
+    return curves
+
+
+def branches_figure(branches: list[StoredBranch], measure: str = "contact", title: str = "", measured=()):
+    """:func:`rigtools.analysis.branches.branch_figure` of stored branches, with the
+    :func:`measured_sweeps` given on the same axes."""
+    from rigtools.analysis.branches import branch_figure
+
     xlabel, scale = X_LABELS[branches[0].param] if branches else ("", 1.0)
-    return branch_figure(curves, xlabel, ylabel, measured=measured, x_scale=scale, title=title)
+    return branch_figure(
+        branch_curves(branches, measure),
+        xlabel,
+        MEASURES[measure][2],
+        measured=measured,
+        x_scale=scale,
+        title=title,
+    )
 
 
 def summary(branches) -> dict:

@@ -78,7 +78,7 @@ def run(args: argparse.Namespace) -> int:
         disable=args.json,
         transient=True,
     ) as bar:
-        task = bar.add_task("rig demo", total=n_steps())
+        task = bar.add_task("rig demo", total=n_steps(settings))
 
         def progress(text: str) -> None:
             bar.update(task, advance=1, description=text)
@@ -91,7 +91,12 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         from rigtools.demo.run import findings_doc
 
-        print(json_values.dumps(findings_doc(findings, result["report"], result["data"]["files"]), indent=1))
+        data = result["data"]
+        print(
+            json_values.dumps(
+                findings_doc(findings, result["report"], data["files"], branches=data["branches"]), indent=1
+            )
+        )
         return 0
     from rich.table import Table
 

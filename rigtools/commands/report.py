@@ -15,6 +15,15 @@ H2, Hv with phase and coherence, stabilisation charts, identified modes). Every 
 peak amplitude. With --fem FILE.h5 or --simulate, an EM-versus-FEM comparison of the first
 recording (rigtools.recording_comparison) is added when that module is installed.
 
+--branches B.h5 (files of rig continuation): in the section of each stepped sine or study
+swept in the branches' parameter, the model's branches (stable solid, unstable dashed, folds
+and period doublings labelled) with the recording's up/down steps on the same axes, its jumps
+shaded, and a sentence per jump naming the model's turning point it is (or how far it lies from
+it); rig recordings are drawn in the active shroud's fundamental acceleration, model recordings
+in peak contact force. Drawn only over a recording of the branches' rig at their fixed
+quantities, never over an imported one (rig continuation --measured overlays any recording);
+a branch file drawn over nothing gets a section of its own.
+
 The page is DIR/report.html (DIR is made if missing); an existing report.html is replaced only
 if rigtools made it. Open it in any browser, no network needed.
 
@@ -22,7 +31,7 @@ Exit status: 0 written, 2 bad input (unreadable file, --out), 130 Ctrl-C.
 
 examples:
   rig report dwell.h5 frf.h5 --out report/
-  rig report study.h5 --simulate --out report/
+  rig report study.h5 --simulate --branches branches-gap.h5 --out report/
 """
 
 PAGE = "report.html"
@@ -54,6 +63,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--model", choices=("fem", "am"), default="fem", help="model for --simulate (default fem)")
     p.add_argument("--rig", metavar="FILE", help="rig file for --simulate (default: the recording's rig)")
+    p.add_argument(
+        "--branches",
+        nargs="+",
+        default=[],
+        metavar="B.h5",
+        help="branch files (rig continuation) drawn over the sweeps and studies in their parameter",
+    )
     p.set_defaults(func=run)
 
 
@@ -87,6 +103,7 @@ def run(args: argparse.Namespace) -> int:
 
     from rigtools.analyze import analyze_recording
     from rigtools.derived_files import write_derived
+    from rigtools.report.branches import add_unmatched_branches, load_branch_files
     from rigtools.report.html import Report
     from rigtools.report.sections import add_analysis
 
@@ -95,6 +112,7 @@ def run(args: argparse.Namespace) -> int:
     out = output_folder(args.out)
     if out.suffix.lower() in (".h5", ".hdf5"):
         raise UserError(f"--out {out}: a folder for the report, not a recording name")
+    branches = load_branch_files(args.branches)  # a bad file before any work
     console = Console(stderr=True)
     analyses = []
     for i, f in enumerate(args.files):
@@ -104,7 +122,8 @@ def run(args: argparse.Namespace) -> int:
     report = Report("Shrouded-blade rig: analysis report", subtitle=names)
     with console.status("building the report"):
         for a in analyses:
-            add_analysis(report, a)
+            add_analysis(report, a, branches)
+        add_unmatched_branches(report, branches)
         add_comparison(report, args, lambda s: print(s, file=sys.stderr))
     try:
         out.mkdir(parents=True, exist_ok=True)

@@ -94,6 +94,11 @@ def _contact(model_points: list[dict] | None) -> str:
     return f" (FEM peak contact force {_fmt([p['peak_contact_force_n'] for p in pts], 'N')})"
 
 
+def em_to_fem_ratios(fem_active: list[float], em_active: list[float]) -> list[float]:
+    """Each identified (EM) active frequency over the FEM flexural frequency nearest to it."""
+    return [e / min(fem_active, key=lambda f: abs(np.log(f / e))) for e in em_active]
+
+
 def c1_frequencies(fem: dict, am: dict, em_active: list[float]) -> Verdict:
     """FEM vs AM flexural frequencies (both blades, first three) and the identified EM ones of the
     active blade (each paired with the nearest FEM mode)."""
@@ -103,8 +108,7 @@ def c1_frequencies(fem: dict, am: dict, em_active: list[float]) -> Verdict:
             worst_am = max(worst_am, abs(f / a - 1))
     if not em_active:
         return Verdict(False, "no mode identified in the FRF test of the simulated rig")
-    diffs = [min(fem["active"], key=lambda f: abs(np.log(f / e))) for e in em_active]
-    rel = [e / f - 1 for e, f in zip(em_active, diffs, strict=True)]
+    rel = [r - 1 for r in em_to_fem_ratios(fem["active"], em_active)]
     lower = all(r < 0 for r in rel)
     close = all(abs(r) <= EM_TOL for r in rel)
     holds = worst_am <= FEM_AM_TOL and lower and close

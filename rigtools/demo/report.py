@@ -187,6 +187,124 @@ def gap_trend_figure(data: dict):
     return fig
 
 
+def _frequency_lead(curves) -> str:
+    """What the frequency branch explains of C6 at the paper's point: where the impacts end."""
+    from rigtools.analysis.branches import turning_points
+
+    turns = [t for t in turning_points(curves[0])] if curves else []
+    upper = [t for t in turns if t.upper]
+    lower = [t for t in turns if not t.upper]
+    if not upper:
+        return ""
+    text = (
+        "C6 at the paper's point: the impacts grow with fe and then vanish at once. The FEM's "
+        f"impacting orbit grows up to its fold (LP) at {upper[0].value:.4g} Hz and ends there; above "
+        "it only the orbit without impacts is left"
+    )
+    if lower:
+        text += (
+            f", which, coming down in fe, lasts to the grazing corner at {lower[-1].value:.4g} Hz "
+            "where impacts begin again"
+        )
+    return text + "."
+
+
+def _gap_lead(branches, gaps) -> str:
+    """What the gap branch explains of C4 at the paper's point: the trend along a stable branch."""
+    p1 = next((b for b in branches if b.periods == 1 and b.value.size > 1), None)
+    if p1 is None or not np.all(np.diff(p1.value) > 0):
+        return ""
+    lo, hi = min(gaps), max(gaps)
+    inside = (p1.value >= lo) & (p1.value <= hi)
+    force = p1.measures["peak_contact_force"]
+    a, b = np.interp([lo, hi], p1.value, force)
+    trend = "grows" if b > a else "falls"
+    stable = "stable" if p1.stable[inside].all() else "not stable everywhere"
+    return (
+        f"C4 at the paper's point: over the studied gaps ({lo * 1e3:g} to {hi * 1e3:g} mm) the FEM's "
+        f"period-1 orbit is {stable} and its peak contact force {trend} along it from {a:.3g} to "
+        f"{b:.3g} N: the trend is the branch's own slope, with no jump between the studied gaps."
+    )
+
+
+def _shift_sentence(explanations, modal: dict) -> str:
+    """The rig's jumps against the FEM's turning points lowered by the rig's own offset from the
+    FEM in natural frequency (C1): a softer rig moves its resonance and, to first order, its
+    turning points down by the same ratio."""
+    from rigtools.demo.findings import em_to_fem_ratios
+    from rigtools.demo.steps import flexural
+
+    em = [e for e in explanations if e.sweep.startswith("EM") and e.turning is not None and not e.inside]
+    ratios = em_to_fem_ratios(
+        flexural(modal["fem"]["active"]), [m["frequency_hz"] for m in modal["em"]["active"]]
+    )
+    if not em or not ratios:
+        return ""
+    lo, hi = min(ratios), max(ratios)
+    parts, overlap = [], []
+    for e in em:
+        a, b = e.turning.value * lo, e.turning.value * hi
+        parts.append(f"the {LABEL_NAMES[e.turning.label]} at {a:.4g}-{b:.4g} Hz")
+        overlap.append(a <= e.stop and b >= e.start)
+    jumps = ", ".join(f"{e.start:g}-{e.stop:g} Hz" for e in em)
+    verdict = "overlapping" if all(overlap) else "some still off" if any(overlap) else "still off"
+    return (
+        f"The rig's identified natural frequencies lie {abs(hi - 1) * 100:.1f} to {abs(lo - 1) * 100:.1f} % "
+        f"{'below' if hi < 1 else 'around'} the FEM's (C1); lowered by as much, the FEM's turning points "
+        f"fall at {' and '.join(parts)}, {verdict} the rig's jumps ({jumps})."
+    )
+
+
+LABEL_NAMES = {"fold": "fold", "grazing": "grazing corner"}
+
+
+def study_branches(
+    section, kind: str, study: dict, branch: dict, sweep: dict | None, modal: dict | None = None
+) -> None:
+    """The FEM's branch of ``kind`` (:func:`rigtools.demo.steps.branches_step`) where the report
+    shows that study at the paper's point (:func:`rigtools.report.branches.add_branches`): in
+    frequency with the simulated rig's stepped sine up and down (``sweep``,
+    :func:`rigtools.demo.steps.sweep_step`) and the FEM study's points, in the active shroud's
+    fundamental acceleration (what the rig measures); in gap with the FEM study's points in peak
+    contact force (the rig has no contact force sensor; its impact level is in the figure
+    above)."""
+    from dataclasses import replace
+
+    from rigtools.analysis.branches import explain_jumps
+    from rigtools.branches import branch_curves, measured_sweeps
+    from rigtools.report.branches import add_branches, fixed_text
+
+    stored = branch["branches"]
+    if kind == "frequency":
+        measure = "accel1"
+        sources = [("FEM frequency study", study["fem"]["file"])]
+        if sweep is not None:
+            sources.insert(0, ("EM stepped sine", sweep["file"]))
+        lead = _frequency_lead(branch_curves(stored, measure))
+    else:
+        measure = "contact"
+        sources = [("FEM gap study", study["fem"]["file"])]
+        lead = _gap_lead(stored, [p["value"] for p in study["fem"]["points"]])
+    param = branch["experiment"]["param"]
+    measured = [
+        replace(m, name=f"{name} ({m.direction})")
+        for name, path in sources
+        for m in measured_sweeps([path], param, measure)
+    ]
+    tail = ""
+    if kind == "frequency" and modal is not None:
+        tail = _shift_sentence(explain_jumps(branch_curves(stored, measure), measured), modal)
+    add_branches(
+        section,
+        stored,
+        measured,
+        measure=measure,
+        what=f"FEM branches in {param} ({fixed_text(branch['experiment'])})",
+        lead=lead,
+        tail=tail,
+    )
+
+
 def build_report(data: dict, findings: list[Finding], out_dir: Path):
     """The :class:`rigtools.report.Report` of a demo run."""
     from rigtools.report import Report
@@ -284,11 +402,14 @@ def build_report(data: dict, findings: list[Finding], out_dir: Path):
         "impact strength against the gap: reversed at the paper's "
         "point, as the paper reports at the equivalent point",
     )
+    branches = data.get("branches") or {}
     for (kind, key), st in data["studies"].items():
         s.figure(
             check_labels(study_figure(st, kind, pts[key].label)),
             f"{kind} study at {pts[key].label}: measured on the simulated rig and simulated by the FEM",
         )
+        if key == "paper" and kind in branches:
+            study_branches(s, kind, st, branches[kind], data.get("sweep"), data["modal"])
     u = data["update"]
     s = rep.section("Model updating on the identified modes")
 
@@ -312,5 +433,8 @@ def build_report(data: dict, findings: list[Finding], out_dir: Path):
         caption="natural frequencies before and after the update",
     )
     s = rep.section("Files")
-    s.table([{"file": Path(f).name} for f in data["files"]])
+    s.table(
+        [{"file": Path(f).name} for f in data["files"]]
+        + [{"file": Path(b["file"]).name} for b in branches.values()]
+    )
     return rep

@@ -24,9 +24,9 @@ STUDIES = steps.STUDY_KINDS
 MARKER = ".rig-demo"  # written first into a demo's folder: a later demo may replace its files
 
 
-def n_steps() -> int:
+def n_steps(settings: DemoSettings | None = None) -> int:
     """Steps :func:`run_demo` reports through ``progress`` (for a progress bar)."""
-    return 5 + 2 + 2 * len(STUDIES) + 1
+    return 5 + 2 + 2 * len(STUDIES) + 1 + (2 if settings is None or settings.branches else 0)
 
 
 def run_demo(
@@ -88,6 +88,14 @@ def _run_demo(out: Path, settings: DemoSettings, progress: Callable[[str], None]
             fem = steps.model_study_step(cfg, out, settings, kind, pt)
             studies[(kind, key)] = {"rig": rig, "fem": fem}
             files += [rig["file"], fem["file"]]
+    branches = {}
+    sweep = None
+    if settings.branches:
+        say("stepped sine up and down on the simulated rig at the paper's point")
+        sweep = steps.sweep_step(cfg, out, settings, paper)
+        files.append(sweep["file"])
+        say("the FEM's branches at the paper's point: frequency (fold) and gap (period doubling)")
+        branches = steps.branches_step(cfg, out, settings, paper)
     say("findings and report")
     data = {
         "settings": settings.name,
@@ -99,6 +107,8 @@ def _run_demo(out: Path, settings: DemoSettings, progress: Callable[[str], None]
         "studies": studies,
         "update": update,
         "files": files,
+        "branches": branches,
+        "sweep": sweep,
         "safety_note": (
             f"At the equivalent point the simulated rig runs with its [safety] limits and max "
             f"drive scaled by F0/15 N (max drive at most {steps.MAX_DRIVE:g} V, inside the "
@@ -108,22 +118,52 @@ def _run_demo(out: Path, settings: DemoSettings, progress: Callable[[str], None]
     findings = evaluate(data)
     report = write_report(build_report(data, findings, out), out / "report.html")
     (out / "findings.json").write_text(
-        json_values.dumps(findings_doc(findings, report, files, relative_to=out), indent=1), encoding="utf-8"
+        json_values.dumps(
+            findings_doc(findings, report, files, relative_to=out, branches=branches), indent=1
+        ),
+        encoding="utf-8",
     )
     save_png(gap_trend_figure(data), out / "gap-trend.png")
     return {"data": data, "findings": findings, "report": report}
 
 
-def findings_doc(findings, report: Path, files: list[str], relative_to: Path | None = None) -> dict:
+def findings_doc(
+    findings, report: Path, files: list[str], relative_to: Path | None = None, branches: dict | None = None
+) -> dict:
     """The ``--json`` document (also written as ``findings.json``, with the file names relative to
-    the demo's folder, so two demos into two folders write the same document)."""
+    the demo's folder, so two demos into two folders write the same document). ``branches``:
+    the branch files (``rig continuation``'s kind) of :func:`rigtools.demo.steps.branches_step`
+    and their turning points and period doublings."""
+    from rigtools.analysis.branches import turning_points
+    from rigtools.branches import branch_curves
 
     def name(path: str | Path) -> str:
         return str(Path(path).relative_to(relative_to)) if relative_to is not None else str(path)
 
+    def marks(stored) -> dict:
+        curves = branch_curves(stored)
+        return {
+            "turning_points": [
+                {"label": t.label, "value": t.value, "upper": t.upper, "branch": t.branch}
+                for c in curves
+                for t in turning_points(c)
+            ],
+            "period_doublings": [
+                float(v)
+                for b in stored
+                if b.periods == 1
+                for v, labs in zip(b.value, b.labels, strict=True)
+                if "period-doubling" in labs
+            ],
+            "status": [b.status for b in stored],
+        }
+
     return {
         "report": name(report),
         "files": [name(f) for f in files],
+        "branches": {
+            k: {"file": name(b["file"]), **marks(b["branches"])} for k, b in (branches or {}).items()
+        },
         "findings": [f.to_dict() for f in findings],
     }
 

@@ -11,12 +11,15 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 #: Offsets of each simulated-rig step's seed from DemoSettings.seed (each step its own noise).
-SEED_OFFSETS = {"frf": 0, "dwell": 100, "study": 200}
+SEED_OFFSETS = {"frf": 0, "dwell": 100, "study": 200, "sweep": 300}
 
 EQUIVALENT_RATIO = 1.8  # fe / f1 of the equivalent impact-oscillator point
 PAPER_FE, PAPER_FORCE = 60.0, 15.0
 DWELL_GAP = 0.5e-3  # m: the dwell of Figures 8-9
 STUDY_GAP = 0.7e-3  # m: the fixed gap of the force and frequency studies
+# m: the gap branch runs from the gap study's first gap to here, past the period doublings at
+# 1.53 and 2.39 mm of the paper's point (tests/sim/test_continuation.py)
+BRANCH_GAP_MAX = 2.5e-3
 
 
 @dataclass(frozen=True)
@@ -39,6 +42,11 @@ class DemoSettings:
     # study goes up to F0, not beyond
     equivalent_force_ratios: tuple[float, ...] = (0.2, 0.4, 0.6, 0.8, 1.0)
     model_settle_time: float = 20.0  # s: a model run that has not settled by then is recorded anyway
+    # the FEM's branches at the paper's point (frequency study with its fold, gap study with its
+    # period doubling) and the simulated rig's stepped sine up and down over the frequency
+    # study's range in ``sweep_step`` steps beside them; ``tiny`` leaves them out
+    branches: bool = True
+    sweep_step: float = 0.5  # Hz
     # the simulated rig's sensor noise and the FRF test's excitation: fixed by default, so two demos
     # give the same recordings and the same findings (``rig demo --seed`` changes it)
     seed: int = 0
@@ -63,6 +71,7 @@ def quick() -> DemoSettings:
         frequency_ratios=(1.0, 64 / 60, 68 / 60, 72 / 60, 76 / 60),
         equivalent_force_ratios=(0.2, 0.6, 1.0),
         model_settle_time=8.0,
+        sweep_step=1.0,
     )
 
 
@@ -80,6 +89,7 @@ def tiny() -> DemoSettings:
         frequency_ratios=(1.0, 68 / 60, 76 / 60),
         equivalent_force_ratios=(0.2, 1.0),
         model_settle_time=5.0,
+        branches=False,
     )
 
 

@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from rigtools.demo.settings import (
+    BRANCH_GAP_MAX,
     DWELL_GAP,
     EQUIVALENT_RATIO,
     PAPER_FE,
@@ -435,6 +436,89 @@ def model_study_step(cfg, out_dir: Path, settings: DemoSettings, kind: str, poin
             q["value"] = planned.value
             pts.append(q)
     return {"kind": kind, "point": point.key, "file": str(path), "points": pts}
+
+
+def sweep_step(cfg, out_dir: Path, settings: DemoSettings, point: OperatingPoint) -> dict:
+    """The simulated rig's force-controlled stepped sine up and down (``rig acquire sweep``,
+    :class:`rigtools.procedures.SteppedSine`) over the frequency study's range at its gap, in
+    ``settings.sweep_step`` steps: the measured jumps the FEM's frequency branch explains."""
+    from rigtools.procedures import SteppedSine
+
+    values = study_plan_values("frequency", point, settings)["values"]
+    lo, hi = min(values), max(values)
+    n = round((hi - lo) / settings.sweep_step)
+    path = out_dir / f"sweep_{point.key}_rig.h5"
+    SteppedSine(
+        lab_config(cfg, point.force),
+        {
+            "frequencies": tuple(round(lo + i * (hi - lo) / n, 4) for i in range(n + 1)),
+            "force": point.force,
+            "gap": STUDY_GAP,
+            "direction": "both",
+            "record_periods": settings.study_periods,
+        },
+        path,
+        backend="sim",
+        overwrite=True,
+        seed=settings.seed + SEED_OFFSETS["sweep"],
+    ).run()
+    return {"file": str(path)}
+
+
+# the gap branch's steps: a 25th of the range from the start (the default, a fiftieth reached
+# from a fifth of it, switches at the doubling at 2.39 mm onto period-2 branches that merge back
+# after a few points, missing the stable period-2 orbit that runs down to 0.3 mm)
+GAP_BRANCH_STEP = 0.04
+
+
+def branches_step(cfg, out_dir: Path, settings: DemoSettings, point: OperatingPoint) -> dict:
+    """The FEM's branches at ``point`` (:func:`rigtools.sim.continuation.trace`), each written as
+    a branch file (:func:`rigtools.branches.write_branches`, what ``rig continuation`` writes)
+    and read back: ``{"frequency": ..., "gap": ...}``, each ``{"file", "experiment",
+    "branches"}``. In frequency over the frequency study's range at its gap (period 1: the fold
+    where the impacting orbit ends, the grazing corner where it begins); in gap from the gap
+    study's first gap to :data:`BRANCH_GAP_MAX` with the period-2 branches of its doublings."""
+    from rigtools.branches import read_branches, write_branches
+    from rigtools.sim.continuation import ContinuationSettings, trace
+
+    _, system = load_system_cached(cfg, "fem")
+    fe_values = study_plan_values("frequency", point, settings)["values"]
+    runs = {
+        "frequency": (
+            "fe",
+            min(fe_values),
+            max(fe_values),
+            {"fe": point.fe, "force": point.force, "gap": STUDY_GAP},
+            False,
+            None,
+        ),
+        "gap": (
+            "gap",
+            min(settings.gap_values),
+            BRANCH_GAP_MAX,
+            {"fe": point.fe, "force": point.force, "gap": min(settings.gap_values)},
+            True,
+            ContinuationSettings(initial_step=GAP_BRANCH_STEP, max_step=GAP_BRANCH_STEP),
+        ),
+    }
+    out = {}
+    for kind, (param, start, stop, fixed, switch, cont) in runs.items():
+        branches = trace(system, param, start, stop, **fixed, switch=switch, settings=cont)
+        experiment = {
+            "procedure": "continuation",
+            "param": param,
+            "from": start,
+            "to": stop,
+            **fixed,
+            "model": "fem",
+            "measured": [],
+        }
+        path = write_branches(
+            out_dir / f"branches_{kind}_{point.key}.h5", branches, cfg.to_json(), experiment
+        )
+        experiment, stored = read_branches(path)
+        out[kind] = {"file": str(path), "experiment": experiment, "branches": stored}
+    return out
 
 
 def update_step(cfg, em_active: list[float]) -> dict:

@@ -199,8 +199,10 @@ def analysis_figures(
     return figs
 
 
-def add_analysis(report, analysis: RecordingAnalysis) -> None:
-    """One section per recording: summary, tables, notes and figures."""
+def add_analysis(report, analysis: RecordingAnalysis, branches=()) -> None:
+    """One section per recording: summary, tables, notes and figures; with ``branches``
+    (:class:`rigtools.report.branches.BranchFile`), those continued in the recording's swept
+    parameter drawn over its sweeps (:func:`rigtools.report.branches.add_recording_branches`)."""
     sec = report.section(f"{Path(analysis.path).name}: {analysis.procedure or 'recording'}")
     sec.text(
         f"Backend {analysis.backend} ({analysis.source.upper()}), status {analysis.status}, "
@@ -247,3 +249,7 @@ def add_analysis(report, analysis: RecordingAnalysis) -> None:
             sec.note(f"point {p.index}: no mode identified from any response")
     for nf in analysis_figures(analysis):
         sec.figure(nf.figure, nf.caption)
+    if branches:
+        from rigtools.report.branches import add_recording_branches
+
+        add_recording_branches(sec, analysis, list(branches))

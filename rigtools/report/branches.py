@@ -1,0 +1,328 @@
+"""The model's continued branches in the HTML report, where they explain measured jumps.
+
+:func:`add_branches` puts into a report section what a branch file says about a measured sweep:
+one or two sentences (each measured jump and the branch's turning point it sits at, or how far
+from it), the figure (:func:`rigtools.branches.branches_figure`: stable solid, unstable dashed,
+bifurcations labelled, the measured up/down steps on the same axes, their jumps shaded), and two
+tables (the branches' bifurcations; the jumps against the turning points) holding the numbers
+the sentences quote. ``rig report --branches`` (:func:`load_branch_files`,
+:func:`add_recording_branches`, :func:`add_unmatched_branches`) and ``rig demo`` use it.
+
+A branch file is drawn over a recording only if the recording describes the rig the branches
+were continued for: not an imported recording (``rig import``), the same model from its rig
+description, the same fixed quantities (within :data:`FIXED_TOLERANCE`); otherwise a note says
+why (``rig continuation --measured`` overlays any recording when asked to).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from rigtools.branches import POINT_PARAM, X_LABELS, X_UNITS, StoredBranch
+
+FIXED_TOLERANCE = 0.02  # relative: a recording's fixed fe / force / gap against the branches'
+KIND_PARAM = {"frequency": "fe", "gap": "gap", "force": "force"}  # study_axis kind -> branch param
+FIXED_NAMES = {"fe": "fe", "force": "F0", "gap": "gap"}
+LABEL_WORDS = {"fold": "fold (LP)", "grazing": "grazing corner (G: impacts begin or end there)"}
+
+
+@dataclass
+class BranchFile:
+    """A branch file as read: its path, experiment (JSON attribute), branches and rig text."""
+
+    path: Path
+    experiment: dict
+    branches: list[StoredBranch]
+    rig: str
+    used: bool = field(default=False)
+
+    @property
+    def param(self) -> str:
+        return str(self.experiment.get("param", self.branches[0].param if self.branches else ""))
+
+
+def _fmt(value: float, param: str) -> str:
+    """A parameter value as the figure shows it (mm for a gap), four significant digits."""
+    return f"{value * X_LABELS[param][1]:.4g} {X_UNITS[param]}"
+
+
+def fixed_text(experiment: dict) -> str:
+    """``"F0 = 15 N, gap 0.7 mm"``: the quantities held fixed along the branches."""
+    parts = []
+    for q in ("fe", "force", "gap"):
+        if q != experiment.get("param") and q in experiment:
+            parts.append(f"{FIXED_NAMES[q]} {_fmt(float(experiment[q]), q)}")
+    return ", ".join(parts)
+
+
+def jump_sentences(explanations: list, param: str) -> list[str]:
+    """One sentence per measured jump: the turning point it is, or the nearest one and how far."""
+    out = []
+    for e in explanations:
+        where = f"{e.sweep} jumps between {_fmt(e.start, param)} and {_fmt(e.stop, param)}"
+        t = e.turning
+        if t is None:
+            out.append(where + "; the model's branches have no turning point to explain it.")
+        elif e.inside:
+            out.append(
+                f"{where}: the jump is the model's {LABEL_WORDS[t.label]} at {_fmt(t.value, param)}, "
+                f"where the {t.branch} branch the sweep followed turns back."
+            )
+        else:
+            side = "above" if e.offset > 0 else "below"
+            kind = "upper" if t.upper else "lower"
+            out.append(
+                f"{where}; the model's nearest {kind} turning point, its {LABEL_WORDS[t.label]} at "
+                f"{_fmt(t.value, param)}, lies {_fmt(abs(e.offset), param)} {side} that interval."
+            )
+    return out
+
+
+def period_two_sentence(branches: list[StoredBranch]) -> str:
+    """Where the period-2 branches born at the period doublings are stable, or ``""``."""
+    p1 = next((b for b in branches if b.periods == 1 and b.value.size), None)
+    if p1 is None:
+        return ""
+    param = p1.param
+    pds = [v for v, labs in zip(p1.value, p1.labels, strict=True) if "period-doubling" in labs]
+    stable = [b for b in branches if b.periods == 2 and b.value.size and b.stable.any()]
+    if not pds:
+        return ""
+    text = "The period-1 orbit period-doubles (PD) at " + ", ".join(_fmt(v, param) for v in pds)
+    if not any(b.periods == 2 for b in branches):
+        return text + " (the period-2 branches were not continued)."
+    if not stable:
+        return text + "; no stable period-2 orbit was found on the branches born there."
+    spans = [
+        f"{_fmt(float(b.value[b.stable].min()), param)} to {_fmt(float(b.value[b.stable].max()), param)}"
+        for b in stable
+    ]
+    return (
+        text
+        + "; a stable period-2 orbit (two impacts of different strength) exists from "
+        + (" and from ".join(spans) + ".")
+    )
+
+
+def bifurcation_rows(branches: list[StoredBranch]) -> list[dict[str, Any]]:
+    """The table of the branches' bifurcations (turning points marked upper / lower)."""
+    from rigtools.analysis.branches import SHORT, turning_points
+    from rigtools.branches import branch_curves
+
+    if not branches:
+        return []
+    param = branches[0].param
+    unit = f"{param} ({X_UNITS[param]})"
+    scale = X_LABELS[param][1]
+    curves = iter(branch_curves(branches))
+    rows = []
+    for b in branches:
+        if not b.value.size:
+            continue
+        turning = {t.value: t for t in turning_points(next(curves))}
+        mod = np.abs(b.multipliers)
+        for i, labs in enumerate(b.labels):
+            for lab in labs:
+                if lab not in SHORT:
+                    continue
+                t = turning.get(float(b.value[i]))
+                rows.append(
+                    {
+                        "branch": f"period {b.periods}",
+                        "bifurcation": f"{lab} ({SHORT[lab]})",
+                        unit: float(b.value[i]) * scale,
+                        "stable": bool(b.stable[i]),
+                        "turning point": "" if t is None else ("upper" if t.upper else "lower"),
+                        "largest |multiplier|": float(np.nanmax(mod[i])) if mod.shape[1] else float("nan"),
+                    }
+                )
+    return rows
+
+
+def jump_rows(explanations: list, param: str) -> list[dict[str, Any]]:
+    """The table of measured jumps against the branches' turning points."""
+    unit, scale = X_UNITS[param], X_LABELS[param][1]
+    rows = []
+    for e in explanations:
+        t = e.turning
+        rows.append(
+            {
+                "sweep": e.sweep,
+                "direction": e.direction,
+                f"jump from ({unit})": e.start * scale,
+                f"jump to ({unit})": e.stop * scale,
+                "turning point": "" if t is None else f"{t.label} ({'upper' if t.upper else 'lower'})",
+                f"at ({unit})": float("nan") if t is None else t.value * scale,
+                "inside the jump": e.inside,
+                f"offset ({unit})": e.offset * scale,
+            }
+        )
+    return rows
+
+
+def add_branches(
+    section,
+    branches: list[StoredBranch],
+    measured: list,
+    *,
+    measure: str,
+    what: str,
+    lead: str = "",
+    tail: str = "",
+) -> list:
+    """Add to ``section``: ``lead``, the sentences explaining each measured jump by the
+    branches' turning points (:func:`rigtools.analysis.branches.explain_jumps`) and ``tail``, the
+    figure of the branches with ``measured`` (:class:`rigtools.analysis.branches.MeasuredSweep`)
+    overlaid, the bifurcation table and the jump table. ``what`` names the branches in the
+    caption (model, fixed quantities). Returns the jump explanations."""
+    from rigtools.analysis.branches import explain_jumps
+    from rigtools.branches import branch_curves, branches_figure
+
+    if not any(b.value.size for b in branches):
+        section.note(f"{what}: no branch point to draw ({'; '.join(b.message for b in branches)})")
+        return []
+    param = branches[0].param
+    explanations = explain_jumps(branch_curves(branches, measure), measured)
+    sentences = [lead] if lead else []
+    sentences += jump_sentences(explanations, param)
+    if measured and not explanations:
+        sentences.append("The sweeps drawn show no jump.")
+    sentences += [tail, period_two_sentence(branches)]
+    section.text(" ".join(s for s in sentences if s))
+    for b in branches:
+        if b.status not in ("complete", "merged", "closed"):
+            section.note(f"{what}, period-{b.periods} branch: {b.status}: {b.message}")
+    names = ", ".join(m.name for m in measured)
+    section.figure(
+        branches_figure(branches, measure, what, measured),
+        f"{what}: the model's periodic orbits continued in {param}, stable solid, unstable dashed, "
+        "bifurcations labelled (LP fold, PD period doubling, NS Neimark-Sacker, G grazing)"
+        + (f"; on the same axes {names} (up ^, down v), their jumps shaded." if measured else "."),
+    )
+    section.table(bifurcation_rows(branches), caption=f"{what}: bifurcations of the branches", digits=6)
+    if explanations:
+        section.table(
+            jump_rows(explanations, param),
+            caption="Measured jumps and the model's turning points (offset 0: inside the jump)",
+            digits=6,
+        )
+    return explanations
+
+
+def load_branch_files(paths) -> list[BranchFile]:
+    """Read every branch file (:func:`rigtools.branches.read_branches`; one-line
+    :class:`rigtools.errors.UserError` on a file that is not one)."""
+    import h5py
+
+    from rigtools.branches import read_branches
+
+    out = []
+    for p in paths:
+        experiment, branches = read_branches(p)
+        with h5py.File(p, "r") as f:
+            rig = str(f.attrs.get("rig", ""))
+        out.append(BranchFile(Path(p), experiment, branches, rig))
+    return out
+
+
+def _same_model(rig_a: str, rig_b: str) -> bool:
+    """The two rig descriptions (JSON or TOML text) give the same model (``to_params``)."""
+    import json
+    import tomllib
+
+    from rigtools.config import parse_rig
+    from rigtools.errors import UserError
+
+    def params(text: str):
+        try:
+            data = json.loads(text)
+        except ValueError:
+            data = tomllib.loads(text)
+        return parse_rig(data, source="rig").to_params()
+
+    try:
+        return bool(params(rig_a) == params(rig_b))
+    except (ValueError, UserError):  # unreadable or invalid (TOMLDecodeError is a ValueError)
+        return False
+
+
+def why_not(bf: BranchFile, analysis, rig: str) -> str:
+    """Why the branches of ``bf`` are not drawn over the recording of ``analysis``, or ``""``."""
+    from rigtools.analyze import is_foreign
+
+    name = bf.path.name
+    if is_foreign({"procedure": analysis.procedure}):
+        return (
+            f"{name}: imported recording, it does not describe this rig: not drawn over the model's "
+            "branches (rig continuation --measured draws it when asked)"
+        )
+    if not _same_model(rig, bf.rig):
+        return f"{name}: continued for another rig description than this recording's: not drawn over it"
+    for q in ("fe", "force", "gap"):
+        if q == bf.param or q not in bf.experiment:
+            continue
+        values = [float(v) for p in analysis.periodic if (v := p.params.get(POINT_PARAM[q])) is not None]
+        want = float(bf.experiment[q])
+        if values and abs(float(np.median(values)) / want - 1.0) > FIXED_TOLERANCE:
+            return (
+                f"{name}: continued at {FIXED_NAMES[q]} {_fmt(want, q)}, this recording runs at "
+                f"{_fmt(float(np.median(values)), q)}: not drawn over it"
+            )
+    return ""
+
+
+def add_recording_branches(section, analysis, files: list[BranchFile]) -> None:
+    """Draw every branch file continued in the recording's swept parameter over the recording's
+    sweeps (model recordings in peak contact force, rig recordings in the active shroud's
+    fundamental acceleration, what a lab measures), or say why not."""
+    from rigtools.branches import measured_sweeps
+    from rigtools.recording import open_recording
+    from rigtools.report.sections import study_axis
+    from rigtools.vocabulary import FEM
+
+    axis = study_axis(analysis)
+    if axis is None:
+        return
+    param = KIND_PARAM[axis[0]]
+    matching = [bf for bf in files if bf.param == param]
+    if not matching:
+        return
+    with open_recording(analysis.path) as rec:
+        rig = rec.rig
+    measure = "contact" if analysis.source == FEM else "accel1"
+    for bf in matching:
+        reason = why_not(bf, analysis, rig)
+        if reason:
+            section.note(reason)
+            continue
+        bf.used = True
+        add_branches(
+            section,
+            bf.branches,
+            measured_sweeps([analysis.path], param, measure),
+            measure=measure,
+            what=f"{bf.path.name} ({str(bf.experiment.get('model', 'fem')).upper()}, {fixed_text(bf.experiment)})",
+        )
+
+
+def add_unmatched_branches(report, files: list[BranchFile]) -> None:
+    """A section for each branch file drawn over no recording: its branches alone."""
+    for bf in files:
+        if bf.used:
+            continue
+        sec = report.section(f"{bf.path.name}: model branches")
+        sec.text(
+            f"Continued in {bf.param} ({fixed_text(bf.experiment)}); drawn over no recording of this "
+            f"report (none sweeps {bf.param} on the branches' rig at these quantities)."
+        )
+        add_branches(
+            sec,
+            bf.branches,
+            [],
+            measure="contact",
+            what=f"{bf.path.name} ({str(bf.experiment.get('model', 'fem')).upper()}, {fixed_text(bf.experiment)})",
+        )
