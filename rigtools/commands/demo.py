@@ -14,9 +14,11 @@ Runs, on the built-in simulated rig (no hardware): the modal check (FEM, AM and 
 rig), the linear harmonic response, a force-controlled dwell (60 Hz, 15 N, gap 0.5 mm), the gap,
 force and frequency studies measured on the rig and simulated by the FEM, and model updating on the
 identified modes; each at the paper's point (60 Hz = 1.13 f1) and at the equivalent
-impact-oscillator point (fe = 1.8 f1, F0 scaled to keep the free amplitude). Writes the recordings
-(HDF5), report.html, findings.json and gap-trend.png into --out, prints the findings C1-C7 ticked or crossed from the data, and
-ends with the report's path.
+impact-oscillator point (fe = 1.8 f1, F0 scaled to keep the free amplitude). At the paper's point
+also the FEM's branches (rig continuation) in fe, with their fold, over the rig's stepped sine up
+and down, and in gap, with their period doubling, beside the studies they explain. Writes the
+recordings (HDF5), the branch files, report.html, findings.json and gap-trend.png into --out,
+prints the findings C1-C7 ticked or crossed from the data, and ends with the report's path.
 
 --out must be new, empty, or a folder a previous demo wrote (its files are then replaced).
 Duration, measured on a 2-core machine (numba kernels already compiled; a first run compiles

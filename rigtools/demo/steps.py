@@ -483,33 +483,31 @@ def branches_step(cfg, out_dir: Path, settings: DemoSettings, point: OperatingPo
 
     _, system = load_system_cached(cfg, "fem")
     fe_values = study_plan_values("frequency", point, settings)["values"]
-    runs = {
-        "frequency": (
-            "fe",
-            min(fe_values),
-            max(fe_values),
-            {"fe": point.fe, "force": point.force, "gap": STUDY_GAP},
-            False,
-            None,
-        ),
+    gap0 = min(settings.gap_values)
+    runs = {  # kind: (param, from, to, fixed gap, period-2 branches, step settings)
+        "frequency": ("fe", min(fe_values), max(fe_values), STUDY_GAP, False, None),
         "gap": (
             "gap",
-            min(settings.gap_values),
+            gap0,
             BRANCH_GAP_MAX,
-            {"fe": point.fe, "force": point.force, "gap": min(settings.gap_values)},
+            gap0,
             True,
             ContinuationSettings(initial_step=GAP_BRANCH_STEP, max_step=GAP_BRANCH_STEP),
         ),
     }
     out = {}
-    for kind, (param, start, stop, fixed, switch, cont) in runs.items():
-        branches = trace(system, param, start, stop, **fixed, switch=switch, settings=cont)
+    for kind, (param, start, stop, gap, switch, steps) in runs.items():
+        branches = trace(
+            system, param, start, stop, fe=point.fe, force=point.force, gap=gap, switch=switch, settings=steps
+        )
         experiment = {
             "procedure": "continuation",
             "param": param,
             "from": start,
             "to": stop,
-            **fixed,
+            "fe": point.fe,
+            "force": point.force,
+            "gap": gap,
             "model": "fem",
             "measured": [],
         }

@@ -203,7 +203,11 @@ def add_branches(
         "bifurcations labelled (LP fold, PD period doubling, NS Neimark-Sacker, G grazing)"
         + (f"; on the same axes {names} (up ^, down v), their jumps shaded." if measured else "."),
     )
-    section.table(bifurcation_rows(branches), caption=f"{what}: bifurcations of the branches", digits=6)
+    rows = bifurcation_rows(branches)
+    if rows:
+        section.table(rows, caption=f"{what}: bifurcations of the branches", digits=6)
+    else:
+        section.note(f"{what}: no bifurcation along the branches")
     if explanations:
         section.table(
             jump_rows(explanations, param),
@@ -270,7 +274,7 @@ def why_not(bf: BranchFile, analysis, rig: str) -> str:
         if values and abs(float(np.median(values)) / want - 1.0) > FIXED_TOLERANCE:
             return (
                 f"{name}: continued at {FIXED_NAMES[q]} {_fmt(want, q)}, this recording runs at "
-                f"{_fmt(float(np.median(values)), q)}: not drawn over it"
+                f"{FIXED_NAMES[q]} {_fmt(float(np.median(values)), q)}: not drawn over it"
             )
     return ""
 

@@ -8,6 +8,7 @@ blank.
 
 from __future__ import annotations
 
+import html
 import re
 import shutil
 import subprocess
@@ -50,7 +51,8 @@ def find_chromium() -> str:
 
 @dataclass(frozen=True)
 class FigureBox:
-    """Where a figure was laid out (CSS px) and the size it was made at."""
+    """Where a figure was laid out (CSS px), the size it was made at, and its ``alt`` text and
+    ``caption`` (its ``figcaption``) as the browser's DOM holds them."""
 
     left: float
     top: float
@@ -59,15 +61,20 @@ class FigureBox:
     natural_width: int
     natural_height: int
     loaded: bool
+    alt: str = ""
+    caption: str = ""
 
 
 @dataclass
 class PageShot:
-    """A full-page screenshot (``image``: height x width x 3 floats 0..1) and the figures on it."""
+    """A full-page screenshot (``image``: height x width x 3 floats 0..1), the figures on it and
+    the page's DOM after load as the browser serialises it (``dom``: what a test reads the
+    tables and text from)."""
 
     image: np.ndarray
     figures: list[FigureBox]
     page_height: int
+    dom: str = ""
 
     def crop(self, box: FigureBox) -> np.ndarray:
         l, t = round(box.left), round(box.top)
@@ -93,8 +100,14 @@ def screenshot_page(page: str | Path, width: int = 1300, timeout: float = 60.0) 
         m = re.search(r'data-height="(\d+)"', dom)
         height = int(m.group(1)) if m else 1000
         boxes = []
-        for rect in re.findall(r'data-rect="([^"]+)"', dom):
-            v = rect.split(",")
+        # an attribute value may hold ">" (quoted): the tag ends at the first ">" outside quotes
+        img = r'(<img\b(?:[^>"]|"[^"]*")*>)(?:\s*<figcaption>(.*?)</figcaption>)?'
+        for tag, caption in re.findall(img, dom, re.DOTALL):
+            rect = re.search(r'data-rect="([^"]+)"', tag)
+            if rect is None:
+                continue
+            v = rect.group(1).split(",")
+            alt = re.search(r'alt="([^"]*)"', tag)
             boxes.append(
                 FigureBox(
                     float(v[0]),
@@ -104,12 +117,14 @@ def screenshot_page(page: str | Path, width: int = 1300, timeout: float = 60.0) 
                     int(float(v[4])),
                     int(float(v[5])),
                     v[6] == "true",
+                    html.unescape(alt.group(1)) if alt else "",
+                    html.unescape(caption),
                 )
             )
         shot = Path(tmp) / "page.png"
         _run([exe, *FLAGS, *profile, f"--window-size={width},{height}", f"--screenshot={shot}", url], timeout)
         image = mpimg.imread(str(shot))[..., :3]
-    return PageShot(image=np.asarray(image, dtype=float), figures=boxes, page_height=height)
+    return PageShot(image=np.asarray(image, dtype=float), figures=boxes, page_height=height, dom=dom)
 
 
 def figure_is_drawn(crop: np.ndarray, min_ink: float = 0.01, min_colours: int = 3) -> bool:

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import csv
 import json
+import re
 
 import h5py
 import numpy as np
@@ -138,3 +139,42 @@ def test_measured_overlay_reads_the_sweep(sweep, tmp_path):
     # a rig recording has no contact force: refused in one line before any work
     code, _, err = run_cli(["continuation", *SHORT, "--measured", sweep, "--out", tmp_path / "c.h5"])
     assert code == 2 and "--measure accel1" in err and len(err.strip().splitlines()) == 1
+
+
+def test_report_draws_branches_over_matching_recordings_only(no_contact, sweep, tmp_path):
+    """``rig report --branches``: a branch file continued at the sweep's fixed quantities is drawn
+    in the sweep's section with its jump-free overlay; one at another force is not drawn over it
+    (a note says why, with both forces) and gets a section of its own; an imported recording
+    or another rig's is never drawn over the rig's branches."""
+    from types import SimpleNamespace
+
+    import rigtools
+    from rigtools.branches import write_branches
+    from rigtools.config import load_rig
+    from rigtools.report.branches import load_branch_files, why_not
+
+    _, b15, _ = no_contact
+    cfg = load_rig(None)
+    other = rigtools.continuation("fe", "56 Hz", "57 Hz", force="10 N", gap="5 mm", switch=False)
+    experiment = {"procedure": "continuation", "param": "fe", "from": 56.0, "to": 57.0}
+    experiment |= {"fe": 60.0, "force": 10.0, "gap": 5e-3, "model": "fem", "measured": []}
+    b10 = write_branches(tmp_path / "b10.h5", other, cfg.to_json(), experiment)
+    code, _, err = run_cli(["report", sweep, "--branches", b15, b10, "--out", tmp_path / "rep"])
+    assert code == 0, err
+    page = (tmp_path / "rep" / "report.html").read_text()
+    sections = page.split("<section>")
+    (mine,) = [s for s in sections if s.startswith("<h2>sw.h5")]
+    assert 'alt="b.h5 (FEM, F0 15 N, gap 5 mm): the model&#x27;s periodic orbits continued in fe' in mine
+    assert "sw (up), sw (down) (up ^, down v)" in mine and "The sweeps drawn show no jump." in mine
+    assert "b10.h5: continued at F0 10 N, this recording runs at F0 15 N: not drawn over it" in mine
+    (own,) = [s for s in sections if s.startswith("<h2>b10.h5: model branches</h2>")]
+    assert "drawn over no recording of this report" in own and 'alt="b10.h5 (FEM, F0 10 N, gap 5 mm)' in own
+    assert len(re.findall(r'<img class="figure"[^>]* alt="b(?:10)?\.h5 \(FEM', page)) == 2
+    # the rule: an imported recording does not describe this rig; another rig's neither
+    (bf,) = load_branch_files([b15])
+    imported = SimpleNamespace(procedure="import", periodic=[])
+    assert "imported recording, it does not describe this rig" in why_not(bf, imported, cfg.to_json())
+    longer = cfg.model_copy(update={"blade": cfg.blade.model_copy(update={"length": cfg.blade.length * 1.1})})
+    own_rig = SimpleNamespace(procedure="stepped sine", periodic=[])
+    assert why_not(bf, own_rig, cfg.to_json()) == ""
+    assert "another rig description" in why_not(bf, own_rig, longer.to_json())

@@ -16,7 +16,9 @@ import pytest
 from rigtools.recording import open_recording
 from rigtools.report.browser import figure_is_drawn, screenshot_page
 
-N_FIGURES = 2 + 2 * 2 + 1 + 6  # FRF, harmonic; waveforms + spectra per point; the gap trend, six studies
+# FRF, harmonic; waveforms + spectra per point; the gap trend, six studies; the FEM's branches in fe
+# and in gap at the paper's point
+N_FIGURES = 2 + 2 * 2 + 1 + 6 + 2
 
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -107,13 +109,57 @@ def test_demo_writes_recordings_and_judges_every_finding(demo):
     assert v["C1"]["paper"]["holds"] is True and v["C2"]["paper"]["holds"] is True
     assert v["C3"]["paper"]["holds"] is True and v["C3"]["equivalent"]["holds"] is True
     assert v["C6"]["paper"]["holds"] is False  # impacts grow with fe until the orbit folds
-    assert len(doc["files"]) == 1 + 2 * 2 + 2 * 6
+    assert len(doc["files"]) == 1 + 2 * 2 + 2 * 6 + 1  # and the rig's stepped sine up and down
     for f in doc["files"]:  # named relative to the demo's folder: two folders, one findings.json
         assert not Path(f).is_absolute()
         with open_recording(out / f) as rec:
             assert rec.points and all(p.complete for p in rec.points)
     assert (out / "report.html").exists() and doc["report"] == "report.html"
     assert (out / ".rig-demo").exists() and (out / "gap-trend.png").stat().st_size > 10_000
+
+
+def test_demo_branches_explain_the_frequency_and_gap_findings(demo):
+    """The FEM's branches at the paper's point (tests/sim/test_continuation.py holds them against
+    settled runs): in fe the impacting orbit's fold and the grazing corner, each beside the jump
+    of the simulated rig's stepped sine it explains; in gap the period doublings and the stable
+    period-2 orbit; the report's text quotes the branch files' numbers."""
+    from rigtools.branches import read_branches
+    from rigtools.procedures import detect_jumps
+    from rigtools.recording import open_recording
+
+    out, doc = demo
+    fe, gap = doc["branches"]["frequency"], doc["branches"]["gap"]
+    assert fe["status"] == ["complete"] and gap["status"] == ["complete"] * 3
+    (fold,) = [t for t in fe["turning_points"] if t["label"] == "fold"]
+    (corner,) = [t for t in fe["turning_points"] if t["label"] == "grazing"]
+    assert fold["upper"] and fold["value"] == pytest.approx(71.64, abs=0.01)
+    assert not corner["upper"] and corner["value"] == pytest.approx(64.41, abs=0.01)
+    assert np.allclose(gap["period_doublings"], [1.532e-3, 2.405e-3], atol=5e-6)
+    _, stored = read_branches(out / gap["file"])
+    p2 = [b for b in stored if b.periods == 2 and b.stable.any()]
+    assert p2 and max(b.value[b.stable].max() for b in p2) > 2.3e-3  # born at the 2nd doubling
+    assert min(b.value[b.stable].min() for b in p2) == pytest.approx(0.3e-3)  # runs down to 0.3 mm
+    # the rig's jumps lie at most 1.5 Hz below the FEM's turning points (its natural frequencies
+    # lie 1.4-2.3 % below the FEM's): up past the fold, down past the grazing corner
+    (sweep,) = [f for f in doc["files"] if f.startswith("sweep_")]
+    with open_recording(out / sweep) as rec:
+        runs: dict[str, tuple[list, list]] = {}
+        for p in rec.complete_points:
+            f, a = runs.setdefault(str(p.params["direction"]), ([], []))
+            f.append(float(p.params["fe"]))
+            a.append(float(p.params["active_shroud_accel_harmonic_amplitude"][0]))
+    (up,) = detect_jumps(*runs["up"], 0.3)
+    (down,) = detect_jumps(*runs["down"], 0.3)
+    assert 0.0 <= fold["value"] - max(up["from_hz"], up["to_hz"]) < 1.5
+    assert 0.0 <= corner["value"] - max(down["from_hz"], down["to_hz"]) < 1.5
+    text = (out / "report.html").read_text()
+    assert f"fold (LP) at {fold['value']:.4g} Hz" in text
+    assert f"grazing corner at {corner['value']:.4g} Hz" in text
+    assert (
+        f"jumps between {min(up['from_hz'], up['to_hz']):g} Hz and {max(up['from_hz'], up['to_hz']):g} Hz"
+        in text
+    )
+    assert "period-doubles (PD) at 1.532 mm, 2.405 mm" in text
 
 
 def test_demo_report_in_chromium_every_figure_drawn_with_labels(demo, chromium):

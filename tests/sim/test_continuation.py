@@ -29,14 +29,9 @@ from rigtools.sim.vibro_impact import run_harmonic
 
 
 @pytest.fixture(scope="module")
-def fem():
-    from rigtools.config import load_rig
-    from rigtools.sim.reduction import reduced_system
-    from rigtools.sim.rig_model import build_rig_model
-
-    params = load_rig(None).to_params()
-    rig = build_rig_model(params)
-    return rig, reduced_system(params, "fem", rig_model=rig)
+def fem(fem_model):
+    """``(rig model, FEM reduced system)`` (tests/conftest.py)."""
+    return fem_model[1], fem_model[2]
 
 
 # ----------------------------------------------------------------------------- (a) no contact
@@ -175,8 +170,9 @@ def test_one_mode_impact_oscillator_matches_its_exact_solution():
 
 
 @pytest.fixture(scope="module")
-def frequency_branch(fem):
-    return C.continue_orbits(fem[1], "fe", 55.0, 80.0, force=15.0, gap=0.7e-3)
+def frequency_branch(fem_frequency_branch):
+    """55-80 Hz, 15 N, 0.7 mm (tests/conftest.py: shared with the report's browser test)."""
+    return fem_frequency_branch
 
 
 @pytest.fixture(scope="module")
