@@ -22,17 +22,18 @@ prints the findings C1-C7 ticked or crossed from the data, and ends with the rep
 
 --out must be new, empty, or a folder a previous demo wrote (its files are then replaced).
 Duration, measured on a 2-core machine (numba kernels already compiled; a first run compiles
-them, seconds more): --quick (the same steps at reduced resolution) 20 s, the full demo 55 s.
+them, seconds more): --quick (the same steps at reduced resolution) 21 s, the full demo 42 s.
 The demo is deterministic: the simulated rig's noise and the FRF excitation come from --seed
 (default 0), so two demos write the same findings.json; another seed gives other noise.
---json prints {"report", "files", "findings": [{"id", "claim", "verdicts": {point:
-{"holds", "why"}}}]}.
+--json prints {"report", "files", "branches": {"frequency", "gap": {"file", "turning_points",
+"period_doublings", "status"}}, "findings": [{"id", "claim", "verdicts": {point: {"holds",
+"why"}}}]}.
 
 Exit status: 0 done (whatever the findings), 2 bad input (--out), 4 a write error, 130 Ctrl-C.
 
 examples:
-  rig demo                                   # the full demo into rig-demo/ (55 s)
-  rig demo --quick --out demo-run --json     # reduced resolution (20 s), findings as JSON
+  rig demo                                   # the full demo into rig-demo/ (42 s)
+  rig demo --quick --out demo-run --json     # reduced resolution (21 s), findings as JSON
 """
 
 
@@ -46,7 +47,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--out", default="rig-demo", metavar="DIR", help='output folder (default "rig-demo")')
     p.add_argument(
-        "--quick", action="store_true", help="reduced resolution (measured: 20 s; the full demo 55 s)"
+        "--quick", action="store_true", help="reduced resolution (measured: 21 s; the full demo 42 s)"
     )
     p.add_argument(
         "--seed",

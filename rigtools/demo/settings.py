@@ -46,19 +46,19 @@ class DemoSettings:
     # period doubling) and the simulated rig's stepped sine up and down over the frequency
     # study's range in ``sweep_step`` steps beside them; ``tiny`` leaves them out
     branches: bool = True
-    sweep_step: float = 0.5  # Hz
+    sweep_step: float = 1.0  # Hz
     # the simulated rig's sensor noise and the FRF test's excitation: fixed by default, so two demos
     # give the same recordings and the same findings (``rig demo --seed`` changes it)
     seed: int = 0
 
 
 def full() -> DemoSettings:
-    """The demo at full resolution (measured: 55 s on a 2-core machine, kernels compiled)."""
+    """The demo at full resolution (measured: 42 s on a 2-core machine, kernels compiled)."""
     return DemoSettings(name="full", frf_frame=1.0, frf_averages=10)
 
 
 def quick() -> DemoSettings:
-    """``--quick``: the same steps at reduced resolution (measured: 20 s on a 2-core machine)."""
+    """``--quick``: the same steps at reduced resolution (measured: 21 s on a 2-core machine)."""
     return DemoSettings(
         name="quick",
         frf_frame=0.5,
@@ -71,7 +71,7 @@ def quick() -> DemoSettings:
         frequency_ratios=(1.0, 64 / 60, 68 / 60, 72 / 60, 76 / 60),
         equivalent_force_ratios=(0.2, 0.6, 1.0),
         model_settle_time=8.0,
-        sweep_step=1.0,
+        sweep_step=2.0,
     )
 
 
