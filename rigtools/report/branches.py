@@ -70,7 +70,7 @@ def jump_sentences(explanations: list, param: str) -> list[str]:
         elif e.inside:
             out.append(
                 f"{where}: the jump is the model's {LABEL_WORDS[t.label]} at {_fmt(t.value, param)}, "
-                f"where the {t.branch} branch the sweep followed turns back."
+                f"where the {t.branch.replace(' ', '-')} branch the sweep followed turns back."
             )
         else:
             side = "above" if e.offset > 0 else "below"
