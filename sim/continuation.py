@@ -28,10 +28,15 @@ consecutive points the test functions are
 * Neimark-Sacker: the number of complex multipliers outside the unit circle changes;
 * grazing: the smallest distance between the shrouds over the orbit (``min_gap``) changes sign.
 
-Each is located by regula falsi along the arclength and inserted as a labelled point. At a
-period doubling, :func:`switch_period_doubling` starts the period-2 branch (the map over two periods
-has a pitchfork there; its new direction is the -1 eigenvector). A point that does not converge is
-reported (``Branch.status``, ``Branch.message``) and the branch ends at the last good point.
+Each is located by regula falsi along the arclength and inserted as a labelled point. Where an
+impact grazes the map has a kink, and the branch may turn there sharply: past a grazing where
+impacts begin or end (``_Tracer.cross_grazing_corner``), or at a hairpin where a sheet with
+one more impact meets one without it (``_Tracer.turn_at_hairpin``: labelled fold and
+grazing). At a period doubling, :func:`switch_period_doubling` starts the period-2 branch (the map
+over two periods has a pitchfork there; its new direction is the -1 eigenvector); a switched
+branch is followed out of the range and back (``_followed_range``). A point that does not
+converge is reported (``Branch.status``, ``Branch.message``) and the branch ends at the last good
+point.
 """
 
 from __future__ import annotations
@@ -60,6 +65,11 @@ UNITS = {"fe": "Hz", "force": "N", "gap": "m"}
 FD_RELATIVE_STEP = 1e-6
 # a branch passing this close to its first point (scaled arclength units) has closed
 CLOSURE_TOLERANCE = 2e-3
+# a closure maximum this close to the gap (relative to the tip amplitude) grazes
+GRAZING_TOLERANCE = 1e-3
+# period doublings closer than this (fraction of the range) are one: a multiplier lingering at -1
+# makes det(M + I) change sign several times; one period-2 branch is switched onto per cluster
+PD_CLUSTER = 1e-2
 N_HARMONICS = 10
 # labels a point may carry
 FOLD, PERIOD_DOUBLING, NEIMARK_SACKER, GRAZING = "fold", "period-doubling", "neimark-sacker", "grazing"
@@ -192,11 +202,13 @@ class BranchPoint:
 class Branch:
     """A continued branch: points in arclength order, how it ended.
 
-    ``status`` is ``"complete"`` (reached the end value), ``"failed"`` (a point did not converge;
+    ``status`` is ``"complete"`` (reached the end value; a switched branch: left the range for the
+    last time, after coming back into it if it went out), ``"failed"`` (a point did not converge;
     ``message`` says where and why, the last point is the last good one), ``"left range"`` (the
-    branch turned back out of the range), ``"max points"``, ``"merged"`` (a period-2 branch
-    returned onto the period-1 branch) or ``"closed"`` (the branch came back to its first point:
-    a closed loop, its last point that first orbit again).
+    branch turned back out of the range; a switched branch: went out and did not come back where
+    it is followed, see :func:`switch_period_doubling`), ``"max points"``, ``"merged"`` (a period-2
+    branch returned onto the period-1 branch) or ``"closed"`` (the branch came back to its first
+    point: a closed loop, its last point that first orbit again).
     """
 
     param: str
@@ -656,6 +668,7 @@ class _Tracer:
         settings: ContinuationSettings,
         progress: Callable[[int, float], None] | None,
         bounds: tuple[float, float],
+        window: tuple[float, float] | None = None,
     ):
         self.pmap = pmap
         self.param = param
@@ -664,6 +677,10 @@ class _Tracer:
         self.settings = settings
         self.progress = progress
         self.bounds = bounds
+        # a switched branch is followed within ``bounds`` (wider) and ends where it leaves the
+        # ``window`` (the range asked for) for the second time, or for good
+        self.window = window
+        self._crossings: list[float] = []
         self.solver = _Solver(pmap, param, forcing, 1.0, lam_scale)
         self.y_floor = 1e-12
         self._left_start = False
@@ -761,6 +778,9 @@ class _Tracer:
                         branch.points.append(corner.point)
                         h = h_max / 10.0
                         continue
+                    if self.turn_at_hairpin(entries, branch):
+                        h = h_max / 10.0
+                        continue
                 if h < st.min_step:
                     branch.status = "failed"
                     branch.message = (
@@ -773,7 +793,17 @@ class _Tracer:
             # step control on the corrector's work
             it = nxt.sol.iterations
             lam_next = nxt.sol.lam
-            past_end = (lam_next - self.stop) * direction_sign > 0
+            if self.window is not None and not (lam_next < lo - margin or lam_next > hi + margin):
+                edge = self.window_edge(prev, nxt, h, branch)
+                if edge is not None:
+                    entries.append(edge)
+                    branch.points.append(edge.point)
+                    if len(self._crossings) >= 3:  # out, back in, and out again: the end
+                        _relabel(branch, -1, END)
+                        branch.message = self._excursion_message()
+                        break
+                    continue
+            past_end = self.window is None and (lam_next - self.stop) * direction_sign > 0
             outside = lam_next < lo - margin or lam_next > hi + margin
             if past_end or outside:
                 target = self.stop if past_end else (lo if lam_next < lo else hi)
@@ -800,6 +830,12 @@ class _Tracer:
                     branch.message = (
                         f"the branch turned back and left the range at {target:.6g} {UNITS[self.param]}"
                     )
+                    if self.window is not None:
+                        branch.message = (
+                            f"the branch left the range at {self._crossings[0]:.6g} {UNITS[self.param]} "
+                            f"and had not returned at {target:.6g} {UNITS[self.param]}, where it is "
+                            "followed no further"
+                        )
                 break
             if self.pmap.periods > 1 and _half_difference(prev) @ _half_difference(nxt) < 0:
                 # through a period doubling of the period-1 branch (the map over two periods has a
@@ -865,6 +901,73 @@ class _Tracer:
         self.solver.Y = y_new
         e.tangent = t / np.linalg.norm(t)
 
+    def window_edge(self, prev: _Entry, nxt: _Entry, h: float, branch: Branch) -> _Entry | None:
+        """The orbit exactly at the edge of :attr:`window` where the step ``prev -> nxt`` crosses
+        it (its bifurcations detected and appended to the branch), the crossing recorded; ``None``
+        if the step stays on one side or no orbit converges at the edge value (the crossing is then
+        recorded at ``nxt``)."""
+        assert self.window is not None
+        a, b = prev.sol.lam, nxt.sol.lam
+        edges = [e for e in self.window if min(a, b) < e <= max(a, b) and e != a]
+        if not edges:
+            return None
+        target = min(edges, key=lambda e: abs(e - a))
+        self._crossings.append(target)
+        w = (target - a) / (b - a)
+        res = self.solver.fixed(prev.sol.y + w * (nxt.sol.y - prev.sol.y), target, prev.sol.jac)
+        if res is None:
+            return None
+        sol = self.solver.finish(res[0], target, res[1])
+        edge = self.entry(sol, self.solver.tangent(sol, prev.tangent))
+        self._detect(prev, edge, w * h, branch)
+        return edge
+
+    def _excursion_message(self) -> str:
+        u = UNITS[self.param]
+        x = self._crossings
+        return (
+            f"the branch left the range at {x[0]:.6g} {u}, came back at {x[1]:.6g} {u} and ends where "
+            f"it leaves it again, at {x[2]:.6g} {u}"
+        )
+
+    def turn_at_hairpin(self, entries: list[_Entry], branch: Branch) -> bool:
+        """Turn back at a grazing hairpin: where an impact (a local maximum of the closure) grazes,
+        two sheets of the branch, one with that impact and one without, end in a sharp turning
+        point. Approaching it the corrector steps from the first sheet onto the second (the
+        impacts per period change while the parameter keeps its direction) and then fails at the
+        grazing orbit. The points since that change lie on the returning sheet, taken towards the
+        turning point: they are dropped, the last point (the grazing orbit) is labelled fold and
+        grazing, and the branch goes on from it along the returning sheet (its tangent reversed).
+        ``False`` if the last point does not graze or no such change precedes it."""
+        last = entries[-1]
+        if _grazing_margin(last) > GRAZING_TOLERANCE:
+            return False
+        lam = [e.sol.lam for e in entries]
+        travel = math.copysign(1.0, lam[-1] - lam[-2])
+        k = len(entries) - 1
+        while k > 0 and (lam[k] - lam[k - 1]) * travel > 0:
+            if (
+                entries[k].point.measures.impacts_per_period
+                != entries[k - 1].point.measures.impacts_per_period
+            ):
+                break
+            k -= 1
+        else:
+            return False
+        # entries[k:] are on the returning sheet; entries[k].tangent is smooth there
+        first_dropped = next((i for i, p in enumerate(branch.points) if p is entries[k].point), None)
+        if first_dropped is None:
+            return False
+        del branch.points[first_dropped:]
+        tangent = -entries[k].tangent
+        tip = _Entry(
+            last.sol, tangent, replace(last.point, labels=(FOLD, GRAZING), tangent_param=float(tangent[-1]))
+        )
+        del entries[k:]
+        entries.append(tip)
+        branch.points.append(tip.point)
+        return True
+
     def cross_grazing_corner(self, entries: list[_Entry]) -> _Entry | None:
         """Past a grazing point where the branch turns back sharply (impacts begin or end with
         a kink in the map: no arclength plane meets the continuing branch), the orbit on the other
@@ -923,6 +1026,19 @@ class _Tracer:
         located = [e for _, e in sorted(found, key=lambda f: f[0])]
         branch.points.extend(e.point for e in located)
         return located
+
+
+def _grazing_margin(e: _Entry) -> float:
+    """Smallest distance between a local maximum of the closure (active minus passive shroud
+    displacement, sampled) and the gap over the orbit, relative to the active tip amplitude: zero
+    where an impact, the first or another one, grazes."""
+    data = e.sol.data
+    closure = data[:, _COL["active_tip_displacement"]] - data[:, _COL["passive_tip_displacement"]]
+    peaks = closure[(closure > np.roll(closure, 1)) & (closure >= np.roll(closure, -1))]
+    if not peaks.size:
+        return math.inf
+    amplitude = max(e.point.measures.tip_amplitude_active, 1e-300)
+    return float(np.min(np.abs(peaks - e.point.forcing.gap)) / amplitude)
 
 
 def _near_last(branch: Branch, label: str, value: float, tol: float) -> bool:
@@ -1068,8 +1184,15 @@ def switch_period_doubling(
     (a pitchfork); the new branch leaves along the eigenvector ``v`` of the multiplier nearest
     -1. The first point is corrected on the plane ``v . (u - u_pd - h v) = 0`` at ``h = offset``
     (scaled arclength; halved until it converges onto an orbit that does not repeat after one
-    period), then continued within ``[start, stop]`` (the period-1 branch's range) in the
-    direction leaving the period-1 branch.
+    period), then continued in the direction leaving the period-1 branch.
+
+    ``[start, stop]`` is the period-1 branch's range. A period-2 branch may leave it and come
+    back (a subcritical period doubling's branch that turns at a fold outside): it is followed
+    up to the range's width beyond it where the time step chosen for the range holds (the gap
+    either way, the frequency upwards, the force downwards; none below zero), its points out
+    there kept in order, and it ends where it leaves the range the second time (``"complete"``,
+    the message naming the crossings), merges, closes, or at the end of where it is followed
+    (``"left range"``).
 
     Raises
     ------
@@ -1087,7 +1210,8 @@ def switch_period_doubling(
     j = int(np.argmin(np.abs(mu + 1.0)))
     v = vecs[:, j].real
     v /= np.linalg.norm(v)
-    tracer = _Tracer(pmap, param, point.forcing, stop, hi - lo, settings, progress, (start, stop))
+    followed = _followed_range(param, lo, hi)
+    tracer = _Tracer(pmap, param, point.forcing, stop, hi - lo, settings, progress, followed, (lo, hi))
     solver = tracer.solver
     solver.Y = max(float(np.linalg.norm(y_pd)), 1e-12)
     tracer.y_floor = 0.1 * solver.Y
@@ -1121,6 +1245,20 @@ def switch_period_doubling(
     return tracer.run(first, branch, 1.0 if going_up else -1.0)
 
 
+def _followed_range(param: str, lo: float, hi: float) -> tuple[float, float]:
+    """Where a switched branch is followed when it leaves the range ``[lo, hi]``: the range's
+    width beyond it on either side where the map's time step (chosen for the range: steps per
+    period from the lowest frequency, the contact scale from the largest force) still holds, so
+    the gap both ways, the frequency upwards, the force downwards, none below zero."""
+    width = hi - lo
+    below = max(lo - width, 0.0)
+    if param == "gap":
+        return below, hi + width
+    if param == "fe":
+        return lo, hi + width
+    return below, hi
+
+
 def _fixed(point: BranchPoint) -> tuple[float, float, float]:
     f = point.forcing
     return f.fe, f.force, f.gap
@@ -1144,7 +1282,9 @@ def trace(
     at each of its period doublings (:func:`continue_orbits`, :func:`switch_period_doubling`).
 
     A period-2 branch that cannot be started is returned empty with ``status = "failed"`` and
-    the reason in its ``message``.
+    the reason in its ``message``. Period doublings within :data:`PD_CLUSTER` of the range of each
+    other are one (the best located is switched at), and one where an earlier period-2 branch
+    merged is not switched at again.
     """
     main = continue_orbits(
         system,
@@ -1162,10 +1302,13 @@ def trace(
     if not switch:
         return branches
     seen: list[float] = []
-    for p in main.labelled(PERIOD_DOUBLING):
+    tol = PD_CLUSTER * abs(stop - start)
+    for cluster in _clusters(main.labelled(PERIOD_DOUBLING), tol):
         # a period-2 branch that ends on another period doubling of the same branch joins them
-        if any(abs(p.value - s) <= 1e-3 * abs(stop - start) for s in seen):
+        values = [q.value for q in cluster]
+        if any(min(values) - tol <= s <= max(values) + tol for s in seen):
             continue
+        p = min(cluster, key=lambda q: float(np.min(np.abs(q.multipliers + 1.0))))
         try:
             b = switch_period_doubling(
                 system, p, start, stop, shaker=shaker, settings=settings, progress=progress
@@ -1182,6 +1325,17 @@ def trace(
         if b.points and b.status == "merged":
             seen.append(b.points[-1].value)
     return branches
+
+
+def _clusters(points: list[BranchPoint], tol: float) -> list[list[BranchPoint]]:
+    """Consecutive points (branch order) within ``tol`` of the one before, grouped."""
+    out: list[list[BranchPoint]] = []
+    for p in points:
+        if out and abs(p.value - out[-1][-1].value) <= tol:
+            out[-1].append(p)
+        else:
+            out.append([p])
+    return out
 
 
 def orbit_at(

@@ -21,7 +21,7 @@ jumps shaded.
 
 examples:
   rig continuation --param fe --from 55 --to 80 --force 15 --gap "0.7 mm" --out branches-fe.h5
-  rig continuation --param gap --from "0.5 mm" --to "2.5 mm" --fe 60 --force 15 --out branches-gap.h5 --json
+  rig continuation --param gap --from "0.5 mm" --to "2 mm" --fe 60 --force 15 --out branches-gap.h5 --json
   rig continuation --param fe --from 60 --to 75 --measure accel1 --measured sweep.h5 --no-switch --out branches-sweep.h5
 """
 
