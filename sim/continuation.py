@@ -51,6 +51,7 @@ from rigtools.sim.contact import law, law_code
 from rigtools.sim.reduction import ReducedSystem
 from rigtools.sim.vibro_impact import (
     OUT_COLUMNS,
+    RunState,
     ShakerCoupling,
     SimulationInputError,
     StepperState,
@@ -771,14 +772,14 @@ class _Tracer:
             if nxt is None:
                 h *= 0.5
                 if h < st.min_step and len(entries) > 1:
+                    if self.turn_at_hairpin(entries, branch):
+                        h = h_max / 10.0
+                        continue
                     corner = self.cross_grazing_corner(entries)
                     if corner is not None:
                         self._detect(prev, corner, h, branch)
                         entries.append(corner)
                         branch.points.append(corner.point)
-                        h = h_max / 10.0
-                        continue
-                    if self.turn_at_hairpin(entries, branch):
                         h = h_max / 10.0
                         continue
                 if h < st.min_step:
@@ -954,6 +955,8 @@ class _Tracer:
             k -= 1
         else:
             return False
+        if abs(lam[-1] - lam[k]) > abs(lam[k] - lam[k - 1]):
+            return False  # a long way on since: impacts changed at a grazing it went through
         # entries[k:] are on the returning sheet; entries[k].tangent is smooth there
         first_dropped = next((i for i, p in enumerate(branch.points) if p is entries[k].point), None)
         if first_dropped is None:
@@ -1017,6 +1020,8 @@ class _Tracer:
             if _near_last(branch, kind, nxt.sol.lam, 1e-4 * self.solver.L):
                 continue
             e = self.locate(prev, nxt, h, kind) if self.settings.locate else None
+            if e is not None and _near_last(branch, kind, e.sol.lam, 1e-4 * self.solver.L):
+                continue
             if e is None:
                 nxt.point = replace(nxt.point, labels=(*nxt.point.labels, kind))
                 continue
@@ -1325,6 +1330,22 @@ def trace(
         if b.points and b.status == "merged":
             seen.append(b.points[-1].value)
     return branches
+
+
+def initial_state(
+    system: ReducedSystem, point: BranchPoint, *, shaker: ShakerCoupling | None = None
+) -> RunState:
+    """The orbit of ``point`` as the state a time integration starts from (``initial`` of
+    :func:`rigtools.sim.vibro_impact.run_harmonic` and the study runners): its modal state at
+    force phase zero with the loads the kernel carries, so that a run started there and forced
+    at the point's frequency and amplitude (``run_harmonic(system.with_contact(gap=...), fe,
+    force, initial=initial_state(system, point))``) stays on the orbit if it is stable.
+    """
+    pmap = PeriodMap(system, 1, point.periods, shaker)
+    x = np.asarray(point.state, dtype=float)
+    n = pmap.n_modes
+    scalars = pmap._scalars(x, point.forcing.gap)
+    return RunState(StepperState(x[:n].copy(), x[n : 2 * n].copy(), scalars, 0.0), 0.0)
 
 
 def _clusters(points: list[BranchPoint], tol: float) -> list[list[BranchPoint]]:

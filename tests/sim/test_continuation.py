@@ -7,8 +7,9 @@
   transition matrices, exact for a continuous force law): amplitude 1e-4, period-doubling
   boundary 1e-4 relative;
 * FEM at 15 N, gap 0.7 mm, 55-80 Hz: settled time integrations of an up/down frequency study
-  (0.5 Hz steps) on the stable parts, 0.5 % in the first ten harmonics; the fold inside the
-  study's jump interval;
+  (0.5 Hz steps) on the stable parts, 0.5 % in the first ten harmonics; the upper fold inside the
+  up sweep's jump interval; the lower turning point one step below the down sweep's (a run
+  started on the orbit stays, a sweep in 0.05 Hz steps brackets it);
 * gap 0.5-2 mm at 60 Hz, 15 N: the period doubling, the period-2 branch (out of the range, round
   its grazing hairpin at 0.1436 mm and back), and the settled time integration at 1.8 mm (peak
   contact forces 106.7 / 98.9 N), 1 %.
@@ -219,25 +220,61 @@ def _jumps(study, direction: str) -> list[tuple[float, float]]:
     return out
 
 
-def test_fem_frequency_fold_lies_in_the_up_sweep_jump(frequency_branch, frequency_study):
-    folds = frequency_branch.labelled(C.FOLD)
-    assert len(folds) == 1
-    up = _jumps(frequency_study, "up")
-    assert len(up) == 1
-    lo, hi = up[0]
-    assert lo <= folds[0].value <= hi  # 71.64 Hz in (71.5, 72)
-    # the branch's lower turning point is where impacts end (a grazing corner), below the down
-    # sweep's jump: the 0.5 Hz steps jump early, out of the non-impacting orbit's basin
-    down = _jumps(frequency_study, "down")
-    assert len(down) == 1
-    grazings = [p for p in frequency_branch.labelled(C.GRAZING)]
-    assert grazings and all(down[0][0] - 0.5 <= g.value <= down[0][1] for g in grazings)
-    # the middle part, from the fold back to the grazing corner, is unstable (a saddle)
+def test_fem_frequency_folds_and_the_study_jumps(fem, frequency_branch, frequency_study):
+    """The upper fold (71.64 Hz) lies in the up sweep's jump (71.5, 72) Hz. The lower turning point
+    (64.405 Hz) is a grazing hairpin, where the unstable impacting sheet meets the stable
+    non-impacting orbit: it lies 0.1 Hz below the down sweep's jump (64.5, 65) Hz, inside that
+    interval widened by one 0.5 Hz step, because the sweep leaves a stable orbit early: 65 ->
+    64.5 Hz is a transient larger than the orbit's 6.3 um margin to the gap. Started on the orbit
+    at 64.5 Hz a run stays; swept down in 0.05 Hz steps it meets contact within (64.40, 64.45)."""
+    from rigtools.sim.studies import StudyPlan, iter_study
+
+    system = fem[1]
+    upper, lower = frequency_branch.labelled(C.FOLD)
+    ((lo, hi),) = _jumps(frequency_study, "up")
+    assert lo <= upper.value <= hi  # 71.64 Hz in (71.5, 72)
+    assert C.GRAZING in lower.labels and lower.value == pytest.approx(64.405, abs=2e-3)
+    ((dlo, dhi),) = _jumps(frequency_study, "down")
+    assert (dlo, dhi) == (64.5, 65.0)
+    assert dlo - 0.5 < lower.value < dlo
+    # the middle part, from the fold back to the hairpin, is unstable (a saddle); from the hairpin
+    # up past the down sweep's jump the orbit does not touch and is stable
     pts = frequency_branch.points
-    i_fold = pts.index(folds[0])
-    i_graze = next(i for i, p in enumerate(pts) if C.GRAZING in p.labels)
-    assert i_graze > i_fold + 10
-    assert not any(p.stable for p in pts[i_fold + 1 : i_graze])
+    i_up, i_low = pts.index(upper), pts.index(lower)
+    assert i_low > i_up + 10 and not any(p.stable for p in pts[i_up + 1 : i_low])
+    after = [p for p in pts[i_low + 1 :] if p.value <= dhi]
+    assert len(after) > 5 and all(p.stable and p.measures.peak_contact_force == 0 for p in after)
+    assert max(p.max_multiplier for p in after) < 0.951  # the linear modes' exp(-zeta w T)
+    n = frequency_branch.steps_per_period
+
+    def free(fe):
+        (o,) = [o for o in C.orbit_at(system, frequency_branch, fe) if o.measures.peak_contact_force == 0]
+        return o
+
+    on = free(dlo)
+    assert on.measures.min_gap == pytest.approx(6.3e-6, abs=0.3e-6)
+    run = run_harmonic(
+        system.with_contact(gap=0.7e-3),
+        dlo,
+        15.0,
+        initial=C.initial_state(system, on),
+        steps_per_period=n,
+        min_settle_periods=200,
+    )
+    assert run.steady_state and run.period_multiple == 1 and run.outputs["contact_force"].max() == 0.0
+    tip = 0.5 * np.ptp(run.outputs["active_tip_displacement"])
+    assert tip == pytest.approx(on.measures.tip_amplitude_active, rel=1e-6)
+    # smaller steps leave it later: from the orbit at 65 Hz in 0.05 Hz steps the first point
+    # with contact is the first below the turning point
+    plan = StudyPlan(
+        "frequency", tuple(np.round(np.arange(64.0, 65.001, 0.05), 2)), "down", force=15.0, gap=0.7e-3
+    )
+    swept = [
+        (p.value, r.peak_contact_force)
+        for p, r in iter_study(system, plan, initial=C.initial_state(system, free(65.0)), steps_per_period=n)
+    ]
+    first = next(i for i, (_, f) in enumerate(swept) if f > 0)
+    assert swept[first][0] < lower.value < swept[first - 1][0]  # 64.40 < 64.405 < 64.45
 
 
 # ----------------------------------------------------------------------------- (d) gap, period 2
