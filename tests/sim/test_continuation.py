@@ -141,10 +141,15 @@ class ExactImpactOscillator:
         return z, np.linalg.eigvals(mono), xmax
 
 
-def test_one_mode_impact_oscillator_matches_its_exact_solution():
-    system = _one_mode()
+@pytest.fixture(scope="module")
+def one_mode_branches():
+    """The period-1 branch, 8-10 Hz, and the period-2 branch of its period doublings."""
     settings = C.ContinuationSettings(steps_per_period=2000)
-    branch = C.continue_orbits(system, "fe", 8.0, 10.0, force=F0, gap=GAP, settings=settings)
+    return C.trace(_one_mode(), "fe", 8.0, 10.0, force=F0, gap=GAP, settings=settings)
+
+
+def test_one_mode_impact_oscillator_matches_its_exact_solution(one_mode_branches):
+    branch = one_mode_branches[0]
     assert branch.status == "complete"
     # amplitude and multipliers at a few points against the exact orbit
     for p in branch.points[:: max(1, len(branch.points) // 3)]:
@@ -171,6 +176,73 @@ def test_one_mode_impact_oscillator_matches_its_exact_solution():
     v, stable = branch.values(), branch.stable()
     inside = (v > pds[0].value + 0.01) & (v < pds[1].value - 0.01)
     assert not stable[inside].any() and stable[(v < pds[0].value - 0.01)].all()
+
+
+def test_one_mode_period_two_branch_merges_at_the_other_period_doubling(one_mode_branches):
+    """The period-2 branch born at the lower period doubling is an exact period-2 orbit along its
+    way (two periods of the exact solution: 1e-4) and returns onto the period-1 branch at the
+    upper one: status "merged", its last point that period doubling (1e-4 Hz)."""
+    main, p2 = one_mode_branches
+    low, high = main.labelled(C.PERIOD_DOUBLING)
+    assert p2.periods == 2 and p2.points[0].labels == (C.SWITCH,)
+    assert p2.points[0].value == pytest.approx(low.value, abs=1e-3)
+    assert p2.status == "merged" and C.END in p2.points[-1].labels
+    assert p2.points[-1].value == pytest.approx(high.value, abs=1e-4)  # 9.5137 Hz
+    a, b = p2.points[-1].measures.peak_contact_force_per_period
+    assert a == pytest.approx(b, rel=5e-3)  # both periods alike again (the last point before the crossing)
+    p = min(p2.points, key=lambda q: abs(q.value - 8.8))
+    exact = ExactImpactOscillator(p.value)
+
+    def two_periods(z):
+        z1, m1, x1 = exact.period(z)
+        z2, m2, x2 = exact.period(z1)
+        return z2, m2 @ m1, max(x1, x2)
+
+    z = scipy.optimize.fsolve(lambda z: two_periods(z)[0] - z, p.state, xtol=1e-13, full_output=True)[0]
+    z2, mono, xmax = two_periods(z)
+    assert np.max(np.abs(z2 - z)) < 1e-10 * np.max(np.abs(z))  # (fsolve's progress check aside)
+    assert np.max(np.abs(exact.period(z)[0] - z)) > 1e-2 * np.max(np.abs(z))  # not period 1
+    np.testing.assert_allclose(p.state, z, rtol=1e-4, atol=1e-4 * np.abs(z).max())
+    assert GAP - p.measures.min_gap == pytest.approx(xmax, rel=1e-4)
+    # an unstable orbit (a multiplier -4.18): 1e-4 relative
+    mu = np.sort_complex(np.linalg.eigvals(mono))
+    np.testing.assert_allclose(np.sort_complex(p.multipliers), mu, rtol=1e-4, atol=1e-4)
+
+
+class _CircleMap(C.PeriodMap):
+    """A stand-in for the shooting map whose fixed points form the closed curve
+    ``(fe - 5)^2 + y0^2 = 1, y1 = 0`` (an isola; no reduced system has one this cheaply): the
+    tracer's loop logic on its own, with folds at 4 and 6 Hz (multiplier ``1 - y0`` there 1)."""
+
+    def __init__(self):  # no reduced system: only what the tracer reads
+        self.periods, self.steps_per_period, self.scale, self.evaluations = 1, 64, np.ones(2), 0
+        self._data = np.zeros((64, len(C.OUT_COLUMNS)))
+
+    def flow(self, y, p):
+        g = (p.fe - 5.0) ** 2 + y[0] ** 2 - 1.0
+        return np.array([y[0] - 0.5 * g, 0.5 * y[1]]), self._data
+
+
+def test_closed_loop_is_reported_closed():
+    pmap = _CircleMap()
+    tracer = C._Tracer(
+        pmap, "fe", C.Forcing(5.0, 1.0, 1e-3), 7.0, 4.0, C.ContinuationSettings(), None, (3.0, 7.0)
+    )
+    tracer.solver.Y, tracer.y_floor = 1.0, 0.1
+    sol = tracer.solver.finish(np.array([1.0, 0.0]), 5.0, 0)
+    first = tracer.entry(sol, tracer.solver.tangent(sol, None, 1.0), (C.START,))
+    branch = tracer.run(first, C.Branch("fe", 1), 1.0)
+    assert branch.status == "closed" and "closed on itself" in branch.message
+    assert branch.points[-1].labels == (C.END,) and branch.points[-1].value == 5.0
+    v = branch.values()
+    y0 = np.array([p.state[0] for p in branch.points])
+    np.testing.assert_allclose((v - 5.0) ** 2 + y0**2, 1.0, atol=1e-9)  # every point on the loop
+    assert v.min() == pytest.approx(4.0, abs=1e-6) and v.max() == pytest.approx(6.0, abs=1e-6)
+    folds = sorted(p.value for p in branch.labelled(C.FOLD))
+    np.testing.assert_allclose(folds, [4.0, 6.0], atol=1e-6)
+    # the lower half (y0 < 0, multiplier 1 - y0 > 1) unstable, the upper half stable
+    st = branch.stable()
+    assert np.all(st[y0 > 1e-3]) and not np.any(st[y0 < -1e-3])
 
 
 # ----------------------------------------------------------------------------- (c) FEM frequency
