@@ -5,7 +5,9 @@ The orbit is the fixed point of the map over ``periods`` forcing periods of
 :class:`rigtools.sim.vibro_impact.VibroImpactStepper` (the same compiled kernel as every time
 integration in the toolkit, so a branch and a settled run differ only by how they find the orbit).
 The state is taken at force phase zero: the modal displacements and velocities of the reduced
-system (plus the coil current when a shaker drives it). The contact force and the other loads the
+system (plus the coil current when a shaker drives it, :class:`ShakerDrive`; under force control
+the drive amplitude too, corrected after the periods by ``F0 / |F1|`` so that a fixed point holds
+the force fundamental as the rig's procedures do). The contact force and the other loads the
 kernel carries from step to step are functions of that state (the penalty force is consistent
 with the closure at each step end), so the map depends on ``(q, v)`` alone and is smooth except
 where an impact moves across a step boundary, a change of the order of the time step's own error.
@@ -86,8 +88,8 @@ class ContinuationError(SimulationInputError):
 
 @dataclass(frozen=True)
 class Forcing:
-    """The fixed quantities of a forced orbit (SI): frequency, force amplitude (coil voltage
-    amplitude, V, with a shaker), gap."""
+    """The fixed quantities of a forced orbit (SI): frequency, force amplitude (with a shaker the
+    force fundamental held or the drive amplitude, V, :class:`ShakerDrive`), gap."""
 
     fe: float
     force: float
@@ -100,6 +102,39 @@ class Forcing:
         if param not in PARAMETERS:
             raise ValueError(f"parameter must be one of {PARAMETERS}, got {param!r}")
         return replace(self, **{param: float(value)})
+
+
+@dataclass(frozen=True)
+class ShakerDrive:
+    """The simulated rig's model: the blades driven through the electrodynamic shaker.
+
+    Attributes
+    ----------
+    coupling
+        The shaker at the force point (armature and suspension added to the active blade, coil
+        current a state, back-EMF), as the simulated rig integrates it.
+    amplifier_gain
+        Coil volts per drive volt (the power amplifier).
+    force_control
+        ``True``: the forcing amplitude is the force fundamental the drive is adjusted to (N), as
+        the rig's procedures hold it, and the drive amplitude is solved with the orbit (one
+        more unknown and equation: after the periods the drive is scaled by ``F0 / |F1|``).
+        ``False``: the forcing amplitude is the drive amplitude (V).
+
+    Notes
+    -----
+    Stability is the orbit's at a fixed drive (the rig holds the drive during a dwell and
+    corrects it between measurements): the Floquet multipliers are those of the blades and the
+    coil, never of the correction.
+    """
+
+    coupling: ShakerCoupling
+    amplifier_gain: float = 1.0
+    force_control: bool = True
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.amplifier_gain) and self.amplifier_gain > 0):
+            raise SimulationInputError(f"amplifier gain must be > 0, got {self.amplifier_gain!r}")
 
 
 @dataclass(frozen=True)
@@ -126,6 +161,8 @@ class OrbitMeasures:
         penalty contact; zero: grazing).
     force_fundamental
         Fundamental amplitude of the force into the blade (the sensor's), N.
+    drive_amplitude
+        Drive amplitude (V) with a shaker (:class:`ShakerDrive`), 0 without.
     """
 
     accel_harmonics_active: np.ndarray
@@ -137,6 +174,7 @@ class OrbitMeasures:
     impacts_per_period: float
     min_gap: float
     force_fundamental: float
+    drive_amplitude: float = 0.0
 
     def as_dict(self) -> dict:
         return {
@@ -149,6 +187,7 @@ class OrbitMeasures:
             "impacts_per_period": self.impacts_per_period,
             "min_gap": self.min_gap,
             "force_fundamental": self.force_fundamental,
+            "drive_amplitude": self.drive_amplitude,
         }
 
 
@@ -165,8 +204,8 @@ class BranchPoint:
     periods
         Forcing periods of the orbit (1, or 2 on a period-2 branch).
     state
-        ``(q, v)`` (plus the coil current with a shaker) at force phase zero, modal coordinates
-        of :attr:`PeriodMap.system`.
+        ``(q, v)`` (plus the coil current with a shaker, and the drive amplitude under force
+        control) at force phase zero, modal coordinates of :attr:`PeriodMap.system`.
     multipliers
         Floquet multipliers (eigenvalues of the monodromy matrix), sorted by decreasing modulus.
     stable
@@ -251,15 +290,17 @@ class PeriodMap:
     periods
         Forcing periods of the map.
     shaker
-        With a shaker the forcing amplitude is the coil voltage (V) and the coil current is part
-        of the state.
+        With a shaker (:class:`ShakerDrive`) the coil current is part of the state; the forcing
+        amplitude is the drive amplitude (V) or, under force control, the force fundamental (N),
+        the drive amplitude then the state's last component.
     force_scale
         Force (N) at which a Hertz contact's tangent stiffness is taken for the step check.
 
     Notes
     -----
-    The map works on the scaled state ``y = (omega q, v[, i])`` (all in velocity units), which
-    keeps Newton and the arclength norm balanced between slow and fast modes.
+    The map works on the scaled state ``y = (omega q, v[, i[, a]])`` (all in velocity units but
+    the coil current, A, and the drive, V), which keeps Newton and the arclength norm balanced
+    between slow and fast modes.
     """
 
     def __init__(
@@ -267,7 +308,7 @@ class PeriodMap:
         system: ReducedSystem,
         steps_per_period: int,
         periods: int = 1,
-        shaker: ShakerCoupling | None = None,
+        shaker: ShakerDrive | None = None,
         force_scale: float = 100.0,
     ):
         validate_contact(system)
@@ -276,15 +317,19 @@ class PeriodMap:
         self.periods = int(periods)
         self.shaker = shaker
         self.force_scale = float(force_scale)
+        coupling = shaker.coupling if shaker is not None else None
         self.system = (
             system
-            if shaker is None
-            else system.with_attached(shaker.armature_mass, shaker.suspension_stiffness)
+            if coupling is None
+            else system.with_attached(coupling.armature_mass, coupling.suspension_stiffness)
         )
         n = self.system.n_modes
         self.n_modes = n
-        self.dim = 2 * n + (1 if shaker is not None else 0)
-        self.scale = np.concatenate([self.system.omega, np.ones(n), np.ones(1 if shaker else 0)])
+        # the physical state (modes, coil current) and, under force control, the drive amplitude
+        self.n_physical = 2 * n + (1 if shaker is not None else 0)
+        self.force_control = shaker is not None and shaker.force_control
+        self.dim = self.n_physical + (1 if self.force_control else 0)
+        self.scale = np.concatenate([self.system.omega, np.ones(n), np.ones(self.dim - 2 * n)])
         shapes = self.system.shapes
         self._d = shapes[0] - shapes[1]
         self._phi_f = shapes[2]
@@ -293,7 +338,8 @@ class PeriodMap:
         self._key: tuple[float, float] | None = None
         self._stepper: VibroImpactStepper | None = None
         k = np.arange(1, self.steps_per_period * self.periods + 1)
-        self._unit_drive = np.sin(2.0 * np.pi * k / self.steps_per_period)
+        gain = shaker.amplifier_gain if shaker is not None else 1.0
+        self._unit_drive = gain * np.sin(2.0 * np.pi * k / self.steps_per_period)
         self._out = np.empty((k.size, len(OUT_COLUMNS)))
         self.evaluations = 0
 
@@ -306,7 +352,10 @@ class PeriodMap:
             validate_harmonic_input(p.fe, abs(p.force), p.gap)
             dt = 1.0 / (p.fe * self.steps_per_period)
             self._stepper = VibroImpactStepper(
-                self.base.with_contact(gap=p.gap), dt, self.shaker, self.force_scale
+                self.base.with_contact(gap=p.gap),
+                dt,
+                self.shaker.coupling if self.shaker is not None else None,
+                self.force_scale,
             )
             self._key = key
         return self._stepper
@@ -320,11 +369,23 @@ class PeriodMap:
         s = np.zeros(5)
         s[1] = fc
         if self.shaker is not None:
+            coupling = self.shaker.coupling
             vf = float(self._phi_f @ v)
             s[2] = x[2 * n]
             s[4] = vf
-            s[0] = self.shaker.force_factor * x[2 * n] - self.shaker.suspension_damping * vf
+            s[0] = coupling.force_factor * x[2 * n] - coupling.suspension_damping * vf
         return s
+
+    def drive(self, y: np.ndarray, p: Forcing) -> float:
+        """Drive amplitude (V) of the scaled state ``y`` at ``p`` (0 without a shaker)."""
+        if self.shaker is None:
+            return 0.0
+        return float(y[-1] / self.scale[-1]) if self.force_control else float(p.force)
+
+    def force_fundamental(self, data: np.ndarray) -> float:
+        """Fundamental amplitude of the force into the blade over the outputs of one flow, N."""
+        n_total = data.shape[0]
+        return float(np.abs(np.fft.rfft(data[:, _COL["excitation_force"]])[self.periods]) * 2.0 / n_total)
 
     def flow(self, y: np.ndarray, p: Forcing) -> tuple[np.ndarray, np.ndarray]:
         """``(y after the periods, outputs (steps, len(OUT_COLUMNS)))``; the outputs array is
@@ -333,11 +394,18 @@ class PeriodMap:
         x = np.asarray(y, dtype=float) / self.scale
         n = self.n_modes
         st.state = StepperState(x[:n].copy(), x[n : 2 * n].copy(), self._scalars(x, p.gap), 0.0)
-        o = st.step(p.force * self._unit_drive, self._out)
+        a = x[-1] if self.force_control else p.force
+        o = st.step(a * self._unit_drive, self._out)
         self.evaluations += 1
         end = [st.state.q, st.state.v]
         if self.shaker is not None:
             end.append(st.state.scalars[2:3])
+        if self.force_control:
+            # the drive corrected towards the force: a fixed point holds |F1| = F0
+            f1 = self.force_fundamental(o.data)
+            if not f1 > 0:
+                raise SimulationInputError("no force into the blade: the drive amplitude is zero")
+            end.append(np.array([a * p.force / f1]))
         return np.concatenate(end) * self.scale, o.data
 
     def jacobian(
@@ -362,19 +430,38 @@ class PeriodMap:
         return f0, jac, dpar
 
     def linear_orbit(self, p: Forcing) -> np.ndarray:
-        """Scaled state of the steady response without contact (force ``F0 sin``, phase zero);
-        with a shaker, rest (the settling in :func:`solve_orbit` finds the orbit)."""
-        if self.shaker is not None:
-            return np.zeros(self.dim)
+        """Scaled state of the steady response without contact (force ``F0 sin``, or drive
+        ``a sin`` through the shaker, phase zero)."""
         s = self.system
         w = 2.0 * np.pi * p.fe
-        # q_j = Im(a_j exp(i w t)), a_j = phi_F,j F0 / (w_j^2 - w^2 + 2 i zeta_j w_j w)
-        a = self._phi_f * p.force / (s.omega**2 - w**2 + 2j * s.zeta * s.omega * w)
-        x = np.concatenate([a.imag, (1j * w * a).imag])
-        return x * self.scale
+        den = s.omega**2 - w**2 + 2j * s.zeta * s.omega * w
+        if self.shaker is None:
+            # q_j = Im(a_j exp(i w t)), a_j = phi_F,j F0 / (w_j^2 - w^2 + 2 i zeta_j w_j w)
+            a = self._phi_f * p.force / den
+            return np.concatenate([a.imag, (1j * w * a).imag]) * self.scale
+        # the coupled harmonic balance: D Q = phi_F (Bl I - c_s i w X_F), X_F = phi_F . Q,
+        # (R + i w L) I + Bl i w X_F = G a, with a unit drive first
+        c = self.shaker.coupling
+        h = np.sum(self._phi_f**2 / den)
+        coil = (
+            c.coil_resistance
+            + 1j * w * c.coil_inductance
+            + 1j * w * c.force_factor**2 * h / (1.0 + 1j * w * c.suspension_damping * h)
+        )
+        current = self.shaker.amplifier_gain / coil
+        x_f = h * c.force_factor * current / (1.0 + 1j * w * c.suspension_damping * h)
+        load = c.force_factor * current - 1j * w * c.suspension_damping * x_f
+        sensor = load + (c.armature_mass * w**2 - c.suspension_stiffness) * x_f
+        drive = p.force / abs(sensor) if self.force_control else p.force
+        q = self._phi_f * load / den * drive
+        x = [q.imag, (1j * w * q).imag, [(current * drive).imag]]
+        if self.force_control:
+            x.append([drive])
+        return np.concatenate(x) * self.scale
 
-    def measures(self, data: np.ndarray, p: Forcing) -> OrbitMeasures:
-        """:class:`OrbitMeasures` of the outputs of one :meth:`flow` over the orbit."""
+    def measures(self, data: np.ndarray, p: Forcing, drive: float = 0.0) -> OrbitMeasures:
+        """:class:`OrbitMeasures` of the outputs of one :meth:`flow` over the orbit (``drive``:
+        its drive amplitude, V, :meth:`drive`)."""
         n_total = data.shape[0]
         per = self.periods
         w = 2.0 * np.pi * p.fe
@@ -401,6 +488,7 @@ class PeriodMap:
             impacts_per_period=onsets / per,
             min_gap=p.gap - _periodic_max(closure),
             force_fundamental=float(np.abs(force[per])),
+            drive_amplitude=float(drive),
         )
 
 
@@ -568,7 +656,8 @@ def _point(
     pmap: PeriodMap, param: str, sol: _Solution, forcing: Forcing, tangent_param: float, labels=()
 ) -> BranchPoint:
     p = forcing.with_value(param, sol.lam)
-    mult = np.linalg.eigvals(sol.jac)
+    k = pmap.n_physical  # the blades and the coil at a fixed drive, never the force control
+    mult = np.linalg.eigvals(sol.jac[:k, :k])
     mult = mult[np.argsort(-np.abs(mult))]
     return BranchPoint(
         param=param,
@@ -579,7 +668,7 @@ def _point(
         multipliers=mult,
         stable=bool(np.max(np.abs(mult)) < 1.0),
         labels=tuple(labels),
-        measures=pmap.measures(sol.data, p),
+        measures=pmap.measures(sol.data, p, pmap.drive(sol.y, p)),
         tangent_param=float(tangent_param),
         newton_iterations=sol.iterations,
     )
@@ -1083,7 +1172,7 @@ def _prepare(
     force: float,
     gap: float,
     periods: int,
-    shaker: ShakerCoupling | None,
+    shaker: ShakerDrive | None,
     settings: ContinuationSettings,
 ) -> tuple[PeriodMap, Forcing]:
     if param not in PARAMETERS:
@@ -1101,7 +1190,8 @@ def _prepare(
     # n ~ 1 / fe keeps the time step: the lowest frequency needs the most steps per period
     fe_min = min(start, stop) if param == "fe" else fe
     force_max = max(abs(start), abs(stop)) if param == "force" else abs(force)
-    force_scale = max(100.0, 10.0 * force_max) if shaker is None else 100.0
+    # the contact scale from the force (a drive in volts says nothing of it: 100 N)
+    force_scale = 100.0 if shaker is not None and not shaker.force_control else max(100.0, 10.0 * force_max)
     n = settings.steps_per_period or steps_per_period_for(system, fe_min, force_scale=force_scale)
     return PeriodMap(system, n, periods, shaker, force_scale=force_scale), forcing
 
@@ -1116,7 +1206,7 @@ def continue_orbits(
     force: float = 15.0,
     gap: float = 0.7e-3,
     periods: int = 1,
-    shaker: ShakerCoupling | None = None,
+    shaker: ShakerDrive | None = None,
     y0: np.ndarray | None = None,
     settings: ContinuationSettings | None = None,
     progress: Callable[[int, float], None] | None = None,
@@ -1129,8 +1219,8 @@ def continue_orbits(
     system
         Reduced system (FEM or AM, :func:`rigtools.sim.reduction.reduced_system`).
     param
-        ``"fe"`` (Hz), ``"force"`` (force amplitude, N; coil voltage amplitude, V, with
-        ``shaker``) or ``"gap"`` (m).
+        ``"fe"`` (Hz), ``"force"`` (force amplitude, N; with ``shaker`` the force fundamental
+        held, N, or the drive amplitude, V, see :class:`ShakerDrive`) or ``"gap"`` (m).
     start, stop
         Parameter range; the branch starts at ``start`` and ends where it reaches ``stop``, turns
         back out of the range, fails to converge (reported in ``Branch.status``/``message``), or
@@ -1140,7 +1230,7 @@ def continue_orbits(
     periods
         Forcing periods of the orbits (1; 2 for a period-2 branch).
     shaker
-        Drive through a shaker (the simulated rig's model).
+        Drive through a shaker (the simulated rig's model, :class:`ShakerDrive`).
     y0
         Scaled starting state (:class:`PeriodMap` convention); default: the response without
         contact, settled if Newton does not converge from it.
@@ -1178,7 +1268,7 @@ def switch_period_doubling(
     start: float,
     stop: float,
     *,
-    shaker: ShakerCoupling | None = None,
+    shaker: ShakerDrive | None = None,
     settings: ContinuationSettings | None = None,
     progress: Callable[[int, float], None] | None = None,
     offset: float = 0.02,
@@ -1211,9 +1301,11 @@ def switch_period_doubling(
     pmap = pmap1.with_periods(2)
     y_pd = point.state * pmap.scale
     _, jac1, _ = pmap1.jacobian(y_pd, point.forcing)
-    mu, vecs = np.linalg.eig(jac1)
+    k = pmap1.n_physical  # under force control the drive does not take part (the doubled
+    # orbit's force fundamental changes at second order only)
+    mu, vecs = np.linalg.eig(jac1[:k, :k])
     j = int(np.argmin(np.abs(mu + 1.0)))
-    v = vecs[:, j].real
+    v = np.concatenate([vecs[:, j].real, np.zeros(y_pd.size - k)])
     v /= np.linalg.norm(v)
     followed = _followed_range(param, lo, hi)
     tracer = _Tracer(pmap, param, point.forcing, stop, hi - lo, settings, progress, followed, (lo, hi))
@@ -1278,7 +1370,7 @@ def trace(
     fe: float = 60.0,
     force: float = 15.0,
     gap: float = 0.7e-3,
-    shaker: ShakerCoupling | None = None,
+    shaker: ShakerDrive | None = None,
     switch: bool = True,
     settings: ContinuationSettings | None = None,
     progress: Callable[[int, float], None] | None = None,
@@ -1288,8 +1380,8 @@ def trace(
 
     A period-2 branch that cannot be started is returned empty with ``status = "failed"`` and
     the reason in its ``message``. Period doublings within :data:`PD_CLUSTER` of the range of each
-    other are one (the best located is switched at), and one where an earlier period-2 branch
-    merged is not switched at again.
+    other are one (the best located is switched at); the one nearest to where an earlier
+    period-2 branch merged is not switched at again.
     """
     main = continue_orbits(
         system,
@@ -1306,12 +1398,13 @@ def trace(
     branches = [main]
     if not switch:
         return branches
-    seen: list[float] = []
-    tol = PD_CLUSTER * abs(stop - start)
-    for cluster in _clusters(main.labelled(PERIOD_DOUBLING), tol):
-        # a period-2 branch that ends on another period doubling of the same branch joins them
-        values = [q.value for q in cluster]
-        if any(min(values) - tol <= s <= max(values) + tol for s in seen):
+    clusters = _clusters(main.labelled(PERIOD_DOUBLING), PD_CLUSTER * abs(stop - start))
+    spans = [(min(q.value for q in c), max(q.value for q in c)) for c in clusters]
+    done: set[int] = set()
+    for i, cluster in enumerate(clusters):
+        # a period-2 branch that returns onto the period-1 branch does so at a period doubling:
+        # the one nearest to where it merged is covered by it
+        if i in done:
             continue
         p = min(cluster, key=lambda q: float(np.min(np.abs(q.multipliers + 1.0))))
         try:
@@ -1328,12 +1421,13 @@ def trace(
             )
         branches.append(b)
         if b.points and b.status == "merged":
-            seen.append(b.points[-1].value)
+            m = b.points[-1].value
+            done.add(min(range(len(spans)), key=lambda j: max(spans[j][0] - m, m - spans[j][1], 0.0)))
     return branches
 
 
 def initial_state(
-    system: ReducedSystem, point: BranchPoint, *, shaker: ShakerCoupling | None = None
+    system: ReducedSystem, point: BranchPoint, *, shaker: ShakerDrive | None = None
 ) -> RunState:
     """The orbit of ``point`` as the state a time integration starts from (``initial`` of
     :func:`rigtools.sim.vibro_impact.run_harmonic` and the study runners): its modal state at
@@ -1360,7 +1454,7 @@ def _clusters(points: list[BranchPoint], tol: float) -> list[list[BranchPoint]]:
 
 
 def orbit_at(
-    system: ReducedSystem, branch: Branch, value: float, *, shaker: ShakerCoupling | None = None
+    system: ReducedSystem, branch: Branch, value: float, *, shaker: ShakerDrive | None = None
 ) -> list[BranchPoint]:
     """Every orbit of ``branch`` at the parameter ``value``: Newton at that value from each pair
     of consecutive points that brackets it (with the branch's steps per period and periods).
