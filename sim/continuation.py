@@ -1025,13 +1025,16 @@ class _Tracer:
         two sheets of the branch, one with that impact and one without, end in a sharp turning
         point. Approaching it the corrector steps from the first sheet onto the second (the
         impacts per period change while the parameter keeps its direction) and then fails at the
-        grazing orbit. The points since that change lie on the returning sheet, taken towards the
-        turning point: they are dropped, the last point (the grazing orbit) is labelled fold and
-        grazing, and the branch goes on from it along the returning sheet (its tangent reversed).
-        ``False`` if the last point does not graze or no such change precedes it."""
+        grazing orbit (or it reaches the grazing orbit itself, the change in its last step). The
+        points since that change lie on the returning sheet, taken towards the turning point: they
+        are dropped, the last point (the grazing orbit) is labelled fold and grazing, and the branch
+        goes on from it along the returning sheet, with the tangent of its first point there
+        reversed or, if the grazing orbit is the only one, of an orbit of the returning sheet found
+        by Newton a little back from it. ``False`` if the last point does not graze or no such
+        change precedes it."""
         last = entries[-1]
-        if _grazing_margin(last) > GRAZING_TOLERANCE:
-            return False
+        if _grazing_margin(last) > GRAZING_TOLERANCE or FOLD in last.point.labels:
+            return False  # no grazing, or turned here already and no way on
         lam = [e.sol.lam for e in entries]
         travel = math.copysign(1.0, lam[-1] - lam[-2])
         k = len(entries) - 1
@@ -1046,19 +1049,49 @@ class _Tracer:
             return False
         if abs(lam[-1] - lam[k]) > abs(lam[k] - lam[k - 1]):
             return False  # a long way on since: impacts changed at a grazing it went through
-        # entries[k:] are on the returning sheet; entries[k].tangent is smooth there
+        # entries[k:] are on the returning sheet; entries[k].tangent is smooth there unless it is
+        # the grazing orbit itself
         first_dropped = next((i for i, p in enumerate(branch.points) if p is entries[k].point), None)
         if first_dropped is None:
             return False
+        back = None
+        if k == len(entries) - 1:
+            back = self._returning_orbit(last, entries[k - 1], travel)
+            if back is None:
+                return False
+        tangent = -entries[k].tangent if back is None else back.tangent
         del branch.points[first_dropped:]
-        tangent = -entries[k].tangent
         tip = _Entry(
             last.sol, tangent, replace(last.point, labels=(FOLD, GRAZING), tangent_param=float(tangent[-1]))
         )
         del entries[k:]
         entries.append(tip)
         branch.points.append(tip.point)
+        if back is not None:
+            entries.append(back)
+            branch.points.append(back.point)
         return True
+
+    def _returning_orbit(self, tip: _Entry, before: _Entry, travel: float) -> _Entry | None:
+        """An orbit with the grazing orbit's impacts (not those of ``before``, the sheet that led
+        to it) at a parameter a little back from the grazing orbit, with its tangent leaving it."""
+        impacts = tip.point.measures.impacts_per_period
+        delta = max(abs(tip.sol.lam - before.sol.lam), 1e-4 * self.solver.L)
+        for scale in (0.25, 1.0, 4.0):
+            lam = tip.sol.lam - travel * scale * delta
+            if not min(self.bounds) <= lam <= max(self.bounds):
+                continue
+            res = self.solver.fixed(tip.sol.y, lam)
+            if res is None:
+                continue
+            try:
+                sol = self.solver.finish(res[0], lam, res[1])
+                e = self.entry(sol, self.solver.tangent(sol, None, -travel))
+            except (SimulationInputError, np.linalg.LinAlgError):
+                continue
+            if e.point.measures.impacts_per_period == impacts != before.point.measures.impacts_per_period:
+                return e
+        return None
 
     def cross_grazing_corner(self, entries: list[_Entry]) -> _Entry | None:
         """Past a grazing point where the branch turns back sharply (impacts begin or end with
