@@ -54,17 +54,27 @@ DIMENSION = {"fe": "frequency", "force": "force", "gap": "length"}
 
 
 def parse_inputs(
-    param: str, start: str | float, stop: str | float, fe: str | float, force: str | float, gap: str | float
+    param: str,
+    start: str | float,
+    stop: str | float,
+    fe: str | float,
+    force: str | float,
+    gap: str | float,
+    drive: str | float | None = None,
 ) -> tuple[float, float, dict[str, float]]:
     """``(start, stop, {"fe", "force", "gap"})`` in SI from quantity strings (``"0.7 mm"``; a
-    plain number is SI); one-line :class:`UserError` naming the option otherwise."""
+    plain number is SI); one-line :class:`UserError` naming the option otherwise. With
+    ``drive`` (the simulated rig's model driven at a fixed drive amplitude) ``"force"`` is that
+    amplitude in peak volts, and so is a ``"force"`` range."""
+    from rigtools.options import drive_amplitude, positive_finite
     from rigtools.options import gap as gap_value
-    from rigtools.options import positive_finite
 
     if param not in DIMENSION:
         raise UserError(f"--param = {param!r}: one of {', '.join(DIMENSION)}")
     if param == "gap":
         lo, hi = gap_value(start, "--from"), gap_value(stop, "--to")
+    elif param == "force" and drive is not None:
+        lo, hi = drive_amplitude(str(start), "--from"), drive_amplitude(str(stop), "--to")
     else:
         lo = positive_finite(start, DIMENSION[param], "--from")
         hi = positive_finite(stop, DIMENSION[param], "--to")
@@ -72,7 +82,11 @@ def parse_inputs(
         raise UserError(f"--from and --to are both {start!r}: give a range")
     fixed = {
         "fe": positive_finite(fe, "frequency", "--fe"),
-        "force": positive_finite(force, "force", "--force"),
+        "force": (
+            positive_finite(force, "force", "--force")
+            if drive is None
+            else drive_amplitude(str(drive), "--drive")
+        ),
         "gap": gap_value(gap),
     }
     return lo, hi, fixed
@@ -89,6 +103,7 @@ def continuation(
     model: str = "fem",
     rig: str | None = None,
     switch: bool = True,
+    drive: str | float | None = None,
 ) -> list[Branch]:
     """Branches of the rig model's periodic orbits continued in ``param`` (what ``rig
     continuation`` computes, without the file).
@@ -102,11 +117,16 @@ def continuation(
     fe, force, gap
         The fixed quantities (the continued one is ignored).
     model
-        ``"fem"`` or ``"am"`` reduction of the rig's test article.
+        ``"fem"`` or ``"am"`` reduction of the rig; ``"rig"``: the simulated rig's model (the
+        FEM of its test article driven through the shaker and amplifier, as ``--backend sim``
+        integrates it), under force control at ``force`` as the rig's procedures hold it.
     rig
         Rig file (TOML); default the calibrated default rig.
     switch
         Also the period-2 branch of each period doubling.
+    drive
+        With ``model="rig"``: hold this drive amplitude (``"1 V"``, peak) instead of the force;
+        ``"force"`` then means the drive amplitude (a ``"force"`` range too).
 
     Returns
     -------
@@ -125,8 +145,10 @@ def continuation(
     >>> b.points[-1].max_multiplier < 1.0
     True
     """
-    lo, hi, fixed = parse_inputs(param, start, stop, fe, force, gap)
-    return continue_model(param, lo, hi, **fixed, model=model, rig=rig, switch=switch)[1]
+    lo, hi, fixed = parse_inputs(param, start, stop, fe, force, gap, drive)
+    return continue_model(
+        param, lo, hi, **fixed, model=model, rig=rig, switch=switch, drive=drive is not None
+    )[1]
 
 
 def continue_model(
@@ -141,27 +163,58 @@ def continue_model(
     rig: str | None = None,
     switch: bool = True,
     progress=None,
+    drive: bool = False,
 ):
     """``(rig config, branches)``: the period-1 branch of the rig's reduced model over
     ``[start, stop]`` and the period-2 branches of its period doublings
-    (:func:`rigtools.sim.continuation.trace`). Bad input becomes a :class:`UserError`."""
+    (:func:`rigtools.sim.continuation.trace`). ``model="rig"``: the simulated rig's model
+    (:func:`simulated_rig_model`), ``force`` the force fundamental held or, with ``drive``, the
+    drive amplitude (V). Bad input becomes a :class:`UserError`."""
     from rigtools.sim.continuation import trace
     from rigtools.sim.params import SimulationInputError
     from rigtools.simulation import load_system
 
-    if model not in ("fem", "am"):
-        raise UserError(
-            f"--model = {model!r}: continuation runs on 'fem' or 'am'; the simulated rig's model "
-            "(shaker, drive voltage, force control) is not built for it yet"
-        )
-    cfg, system = load_system(rig, model)
+    if model not in ("fem", "am", "rig"):
+        raise UserError(f"--model = {model!r}: one of fem, am, rig")
+    if drive and model != "rig":
+        raise UserError("--drive holds the simulated rig's drive: use it with --model rig")
+    shaker = None
+    if model == "rig":
+        cfg, system, shaker = simulated_rig_model(rig, force_control=not drive)
+    else:
+        cfg, system = load_system(rig, model)
     try:
         branches = trace(
-            system, param, start, stop, fe=fe, force=force, gap=gap, switch=switch, progress=progress
+            system,
+            param,
+            start,
+            stop,
+            fe=fe,
+            force=force,
+            gap=gap,
+            shaker=shaker,
+            switch=switch,
+            progress=progress,
         )
     except SimulationInputError as exc:
         raise UserError(str(exc)) from None
     return cfg, branches
+
+
+def simulated_rig_model(rig: str | None, force_control: bool = True):
+    """``(rig config, reduced system, shaker drive)`` of the simulated rig (``--backend sim``):
+    the rig file's ``[test_article]`` applied to its nominal parameters, reduced as the
+    simulated rig's vibro-impact physics reduces it, and its ``[shaker]`` with the amplifier
+    gain (:class:`rigtools.sim.continuation.ShakerDrive`)."""
+    from rigtools.config import load_rig
+    from rigtools.sim.continuation import ShakerDrive
+    from rigtools.sim.reduction import reduced_system
+
+    cfg = load_rig(rig)
+    article = cfg.test_article.to_params().apply(cfg.to_params())
+    shaker = cfg.shaker.to_params()
+    drive = ShakerDrive(shaker.coupling(), shaker.amplifier_gain, force_control)
+    return cfg, reduced_system(article, "fem"), drive
 
 
 def write_branches(path: str | Path, branches, rig_text: str, experiment: dict) -> Path:
@@ -305,12 +358,17 @@ def branch_curves(branches: list[StoredBranch], measure: str = "contact") -> lis
     return curves
 
 
-def branches_figure(branches: list[StoredBranch], measure: str = "contact", title: str = "", measured=()):
+def branches_figure(
+    branches: list[StoredBranch], measure: str = "contact", title: str = "", measured=(), drive: bool = False
+):
     """:func:`rigtools.analysis.branches.branch_figure` of stored branches, with the
-    :func:`measured_sweeps` given on the same axes."""
+    :func:`measured_sweeps` given on the same axes (``drive``: a ``"force"`` axis is the drive
+    amplitude, V)."""
     from rigtools.analysis.branches import branch_figure
 
     xlabel, scale = X_LABELS[branches[0].param] if branches else ("", 1.0)
+    if drive and branches and branches[0].param == "force":
+        xlabel = "drive amplitude (V)"
     return branch_figure(
         branch_curves(branches, measure),
         xlabel,

@@ -5,7 +5,9 @@ The orbit is the fixed point of the map over ``periods`` forcing periods of
 :class:`rigtools.sim.vibro_impact.VibroImpactStepper` (the same compiled kernel as every time
 integration in the toolkit, so a branch and a settled run differ only by how they find the orbit).
 The state is taken at force phase zero: the modal displacements and velocities of the reduced
-system (plus the coil current when a shaker drives it). The contact force and the other loads the
+system (plus the coil current when a shaker drives it, :class:`ShakerDrive`; under force control
+the drive amplitude too, corrected after the periods by ``F0 / |F1|`` so that a fixed point holds
+the force fundamental as the rig's procedures do). The contact force and the other loads the
 kernel carries from step to step are functions of that state (the penalty force is consistent
 with the closure at each step end), so the map depends on ``(q, v)`` alone and is smooth except
 where an impact moves across a step boundary, a change of the order of the time step's own error.
@@ -28,10 +30,15 @@ consecutive points the test functions are
 * Neimark-Sacker: the number of complex multipliers outside the unit circle changes;
 * grazing: the smallest distance between the shrouds over the orbit (``min_gap``) changes sign.
 
-Each is located by regula falsi along the arclength and inserted as a labelled point. At a
-period doubling, :func:`switch_period_doubling` starts the period-2 branch (the map over two periods
-has a pitchfork there; its new direction is the -1 eigenvector). A point that does not converge is
-reported (``Branch.status``, ``Branch.message``) and the branch ends at the last good point.
+Each is located by regula falsi along the arclength and inserted as a labelled point. Where an
+impact grazes the map has a kink, and the branch may turn there sharply: past a grazing where
+impacts begin or end (``_Tracer.cross_grazing_corner``), or at a hairpin where a sheet with
+one more impact meets one without it (``_Tracer.turn_at_hairpin``: labelled fold and
+grazing). At a period doubling, :func:`switch_period_doubling` starts the period-2 branch (the map
+over two periods has a pitchfork there; its new direction is the -1 eigenvector); a switched
+branch is followed out of the range and back (``_followed_range``). A point that does not
+converge is reported (``Branch.status``, ``Branch.message``) and the branch ends at the last good
+point.
 """
 
 from __future__ import annotations
@@ -46,6 +53,7 @@ from rigtools.sim.contact import law, law_code
 from rigtools.sim.reduction import ReducedSystem
 from rigtools.sim.vibro_impact import (
     OUT_COLUMNS,
+    RunState,
     ShakerCoupling,
     SimulationInputError,
     StepperState,
@@ -60,6 +68,11 @@ UNITS = {"fe": "Hz", "force": "N", "gap": "m"}
 FD_RELATIVE_STEP = 1e-6
 # a branch passing this close to its first point (scaled arclength units) has closed
 CLOSURE_TOLERANCE = 2e-3
+# a closure maximum this close to the gap (relative to the tip amplitude) grazes
+GRAZING_TOLERANCE = 1e-3
+# period doublings closer than this (fraction of the range) are one: a multiplier lingering at -1
+# makes det(M + I) change sign several times; one period-2 branch is switched onto per cluster
+PD_CLUSTER = 1e-2
 N_HARMONICS = 10
 # labels a point may carry
 FOLD, PERIOD_DOUBLING, NEIMARK_SACKER, GRAZING = "fold", "period-doubling", "neimark-sacker", "grazing"
@@ -75,8 +88,8 @@ class ContinuationError(SimulationInputError):
 
 @dataclass(frozen=True)
 class Forcing:
-    """The fixed quantities of a forced orbit (SI): frequency, force amplitude (coil voltage
-    amplitude, V, with a shaker), gap."""
+    """The fixed quantities of a forced orbit (SI): frequency, force amplitude (with a shaker the
+    force fundamental held or the drive amplitude, V, :class:`ShakerDrive`), gap."""
 
     fe: float
     force: float
@@ -89,6 +102,39 @@ class Forcing:
         if param not in PARAMETERS:
             raise ValueError(f"parameter must be one of {PARAMETERS}, got {param!r}")
         return replace(self, **{param: float(value)})
+
+
+@dataclass(frozen=True)
+class ShakerDrive:
+    """The simulated rig's model: the blades driven through the electrodynamic shaker.
+
+    Attributes
+    ----------
+    coupling
+        The shaker at the force point (armature and suspension added to the active blade, coil
+        current a state, back-EMF), as the simulated rig integrates it.
+    amplifier_gain
+        Coil volts per drive volt (the power amplifier).
+    force_control
+        ``True``: the forcing amplitude is the force fundamental the drive is adjusted to (N), as
+        the rig's procedures hold it, and the drive amplitude is solved with the orbit (one
+        more unknown and equation: after the periods the drive is scaled by ``F0 / |F1|``).
+        ``False``: the forcing amplitude is the drive amplitude (V).
+
+    Notes
+    -----
+    Stability is the orbit's at a fixed drive (the rig holds the drive during a dwell and
+    corrects it between measurements): the Floquet multipliers are those of the blades and the
+    coil, never of the correction.
+    """
+
+    coupling: ShakerCoupling
+    amplifier_gain: float = 1.0
+    force_control: bool = True
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.amplifier_gain) and self.amplifier_gain > 0):
+            raise SimulationInputError(f"amplifier gain must be > 0, got {self.amplifier_gain!r}")
 
 
 @dataclass(frozen=True)
@@ -115,6 +161,8 @@ class OrbitMeasures:
         penalty contact; zero: grazing).
     force_fundamental
         Fundamental amplitude of the force into the blade (the sensor's), N.
+    drive_amplitude
+        Drive amplitude (V) with a shaker (:class:`ShakerDrive`), 0 without.
     """
 
     accel_harmonics_active: np.ndarray
@@ -126,6 +174,7 @@ class OrbitMeasures:
     impacts_per_period: float
     min_gap: float
     force_fundamental: float
+    drive_amplitude: float = 0.0
 
     def as_dict(self) -> dict:
         return {
@@ -138,6 +187,7 @@ class OrbitMeasures:
             "impacts_per_period": self.impacts_per_period,
             "min_gap": self.min_gap,
             "force_fundamental": self.force_fundamental,
+            "drive_amplitude": self.drive_amplitude,
         }
 
 
@@ -154,8 +204,8 @@ class BranchPoint:
     periods
         Forcing periods of the orbit (1, or 2 on a period-2 branch).
     state
-        ``(q, v)`` (plus the coil current with a shaker) at force phase zero, modal coordinates
-        of :attr:`PeriodMap.system`.
+        ``(q, v)`` (plus the coil current with a shaker, and the drive amplitude under force
+        control) at force phase zero, modal coordinates of :attr:`PeriodMap.system`.
     multipliers
         Floquet multipliers (eigenvalues of the monodromy matrix), sorted by decreasing modulus.
     stable
@@ -192,11 +242,13 @@ class BranchPoint:
 class Branch:
     """A continued branch: points in arclength order, how it ended.
 
-    ``status`` is ``"complete"`` (reached the end value), ``"failed"`` (a point did not converge;
+    ``status`` is ``"complete"`` (reached the end value; a switched branch: left the range for the
+    last time, after coming back into it if it went out), ``"failed"`` (a point did not converge;
     ``message`` says where and why, the last point is the last good one), ``"left range"`` (the
-    branch turned back out of the range), ``"max points"``, ``"merged"`` (a period-2 branch
-    returned onto the period-1 branch) or ``"closed"`` (the branch came back to its first point:
-    a closed loop, its last point that first orbit again).
+    branch turned back out of the range; a switched branch: went out and did not come back where
+    it is followed, see :func:`switch_period_doubling`), ``"max points"``, ``"merged"`` (a period-2
+    branch returned onto the period-1 branch) or ``"closed"`` (the branch came back to its first
+    point: a closed loop, its last point that first orbit again).
     """
 
     param: str
@@ -238,15 +290,17 @@ class PeriodMap:
     periods
         Forcing periods of the map.
     shaker
-        With a shaker the forcing amplitude is the coil voltage (V) and the coil current is part
-        of the state.
+        With a shaker (:class:`ShakerDrive`) the coil current is part of the state; the forcing
+        amplitude is the drive amplitude (V) or, under force control, the force fundamental (N),
+        the drive amplitude then the state's last component.
     force_scale
         Force (N) at which a Hertz contact's tangent stiffness is taken for the step check.
 
     Notes
     -----
-    The map works on the scaled state ``y = (omega q, v[, i])`` (all in velocity units), which
-    keeps Newton and the arclength norm balanced between slow and fast modes.
+    The map works on the scaled state ``y = (omega q, v[, i[, a]])`` (all in velocity units but
+    the coil current, A, and the drive, V), which keeps Newton and the arclength norm balanced
+    between slow and fast modes.
     """
 
     def __init__(
@@ -254,7 +308,7 @@ class PeriodMap:
         system: ReducedSystem,
         steps_per_period: int,
         periods: int = 1,
-        shaker: ShakerCoupling | None = None,
+        shaker: ShakerDrive | None = None,
         force_scale: float = 100.0,
     ):
         validate_contact(system)
@@ -263,15 +317,19 @@ class PeriodMap:
         self.periods = int(periods)
         self.shaker = shaker
         self.force_scale = float(force_scale)
+        coupling = shaker.coupling if shaker is not None else None
         self.system = (
             system
-            if shaker is None
-            else system.with_attached(shaker.armature_mass, shaker.suspension_stiffness)
+            if coupling is None
+            else system.with_attached(coupling.armature_mass, coupling.suspension_stiffness)
         )
         n = self.system.n_modes
         self.n_modes = n
-        self.dim = 2 * n + (1 if shaker is not None else 0)
-        self.scale = np.concatenate([self.system.omega, np.ones(n), np.ones(1 if shaker else 0)])
+        # the physical state (modes, coil current) and, under force control, the drive amplitude
+        self.n_physical = 2 * n + (1 if shaker is not None else 0)
+        self.force_control = shaker is not None and shaker.force_control
+        self.dim = self.n_physical + (1 if self.force_control else 0)
+        self.scale = np.concatenate([self.system.omega, np.ones(n), np.ones(self.dim - 2 * n)])
         shapes = self.system.shapes
         self._d = shapes[0] - shapes[1]
         self._phi_f = shapes[2]
@@ -280,7 +338,8 @@ class PeriodMap:
         self._key: tuple[float, float] | None = None
         self._stepper: VibroImpactStepper | None = None
         k = np.arange(1, self.steps_per_period * self.periods + 1)
-        self._unit_drive = np.sin(2.0 * np.pi * k / self.steps_per_period)
+        gain = shaker.amplifier_gain if shaker is not None else 1.0
+        self._unit_drive = gain * np.sin(2.0 * np.pi * k / self.steps_per_period)
         self._out = np.empty((k.size, len(OUT_COLUMNS)))
         self.evaluations = 0
 
@@ -293,7 +352,10 @@ class PeriodMap:
             validate_harmonic_input(p.fe, abs(p.force), p.gap)
             dt = 1.0 / (p.fe * self.steps_per_period)
             self._stepper = VibroImpactStepper(
-                self.base.with_contact(gap=p.gap), dt, self.shaker, self.force_scale
+                self.base.with_contact(gap=p.gap),
+                dt,
+                self.shaker.coupling if self.shaker is not None else None,
+                self.force_scale,
             )
             self._key = key
         return self._stepper
@@ -307,11 +369,23 @@ class PeriodMap:
         s = np.zeros(5)
         s[1] = fc
         if self.shaker is not None:
+            coupling = self.shaker.coupling
             vf = float(self._phi_f @ v)
             s[2] = x[2 * n]
             s[4] = vf
-            s[0] = self.shaker.force_factor * x[2 * n] - self.shaker.suspension_damping * vf
+            s[0] = coupling.force_factor * x[2 * n] - coupling.suspension_damping * vf
         return s
+
+    def drive(self, y: np.ndarray, p: Forcing) -> float:
+        """Drive amplitude (V) of the scaled state ``y`` at ``p`` (0 without a shaker)."""
+        if self.shaker is None:
+            return 0.0
+        return float(y[-1] / self.scale[-1]) if self.force_control else float(p.force)
+
+    def force_fundamental(self, data: np.ndarray) -> float:
+        """Fundamental amplitude of the force into the blade over the outputs of one flow, N."""
+        n_total = data.shape[0]
+        return float(np.abs(np.fft.rfft(data[:, _COL["excitation_force"]])[self.periods]) * 2.0 / n_total)
 
     def flow(self, y: np.ndarray, p: Forcing) -> tuple[np.ndarray, np.ndarray]:
         """``(y after the periods, outputs (steps, len(OUT_COLUMNS)))``; the outputs array is
@@ -320,11 +394,18 @@ class PeriodMap:
         x = np.asarray(y, dtype=float) / self.scale
         n = self.n_modes
         st.state = StepperState(x[:n].copy(), x[n : 2 * n].copy(), self._scalars(x, p.gap), 0.0)
-        o = st.step(p.force * self._unit_drive, self._out)
+        a = x[-1] if self.force_control else p.force
+        o = st.step(a * self._unit_drive, self._out)
         self.evaluations += 1
         end = [st.state.q, st.state.v]
         if self.shaker is not None:
             end.append(st.state.scalars[2:3])
+        if self.force_control:
+            # the drive corrected towards the force: a fixed point holds |F1| = F0
+            f1 = self.force_fundamental(o.data)
+            if not f1 > 0:
+                raise SimulationInputError("no force into the blade: the drive amplitude is zero")
+            end.append(np.array([a * p.force / f1]))
         return np.concatenate(end) * self.scale, o.data
 
     def jacobian(
@@ -349,19 +430,38 @@ class PeriodMap:
         return f0, jac, dpar
 
     def linear_orbit(self, p: Forcing) -> np.ndarray:
-        """Scaled state of the steady response without contact (force ``F0 sin``, phase zero);
-        with a shaker, rest (the settling in :func:`solve_orbit` finds the orbit)."""
-        if self.shaker is not None:
-            return np.zeros(self.dim)
+        """Scaled state of the steady response without contact (force ``F0 sin``, or drive
+        ``a sin`` through the shaker, phase zero)."""
         s = self.system
         w = 2.0 * np.pi * p.fe
-        # q_j = Im(a_j exp(i w t)), a_j = phi_F,j F0 / (w_j^2 - w^2 + 2 i zeta_j w_j w)
-        a = self._phi_f * p.force / (s.omega**2 - w**2 + 2j * s.zeta * s.omega * w)
-        x = np.concatenate([a.imag, (1j * w * a).imag])
-        return x * self.scale
+        den = s.omega**2 - w**2 + 2j * s.zeta * s.omega * w
+        if self.shaker is None:
+            # q_j = Im(a_j exp(i w t)), a_j = phi_F,j F0 / (w_j^2 - w^2 + 2 i zeta_j w_j w)
+            a = self._phi_f * p.force / den
+            return np.concatenate([a.imag, (1j * w * a).imag]) * self.scale
+        # the coupled harmonic balance: D Q = phi_F (Bl I - c_s i w X_F), X_F = phi_F . Q,
+        # (R + i w L) I + Bl i w X_F = G a, with a unit drive first
+        c = self.shaker.coupling
+        h = np.sum(self._phi_f**2 / den)
+        coil = (
+            c.coil_resistance
+            + 1j * w * c.coil_inductance
+            + 1j * w * c.force_factor**2 * h / (1.0 + 1j * w * c.suspension_damping * h)
+        )
+        current = self.shaker.amplifier_gain / coil
+        x_f = h * c.force_factor * current / (1.0 + 1j * w * c.suspension_damping * h)
+        load = c.force_factor * current - 1j * w * c.suspension_damping * x_f
+        sensor = load + (c.armature_mass * w**2 - c.suspension_stiffness) * x_f
+        drive = p.force / abs(sensor) if self.force_control else p.force
+        q = self._phi_f * load / den * drive
+        x = [q.imag, (1j * w * q).imag, [(current * drive).imag]]
+        if self.force_control:
+            x.append([drive])
+        return np.concatenate(x) * self.scale
 
-    def measures(self, data: np.ndarray, p: Forcing) -> OrbitMeasures:
-        """:class:`OrbitMeasures` of the outputs of one :meth:`flow` over the orbit."""
+    def measures(self, data: np.ndarray, p: Forcing, drive: float = 0.0) -> OrbitMeasures:
+        """:class:`OrbitMeasures` of the outputs of one :meth:`flow` over the orbit (``drive``:
+        its drive amplitude, V, :meth:`drive`)."""
         n_total = data.shape[0]
         per = self.periods
         w = 2.0 * np.pi * p.fe
@@ -388,6 +488,7 @@ class PeriodMap:
             impacts_per_period=onsets / per,
             min_gap=p.gap - _periodic_max(closure),
             force_fundamental=float(np.abs(force[per])),
+            drive_amplitude=float(drive),
         )
 
 
@@ -555,7 +656,8 @@ def _point(
     pmap: PeriodMap, param: str, sol: _Solution, forcing: Forcing, tangent_param: float, labels=()
 ) -> BranchPoint:
     p = forcing.with_value(param, sol.lam)
-    mult = np.linalg.eigvals(sol.jac)
+    k = pmap.n_physical  # the blades and the coil at a fixed drive, never the force control
+    mult = np.linalg.eigvals(sol.jac[:k, :k])
     mult = mult[np.argsort(-np.abs(mult))]
     return BranchPoint(
         param=param,
@@ -566,7 +668,7 @@ def _point(
         multipliers=mult,
         stable=bool(np.max(np.abs(mult)) < 1.0),
         labels=tuple(labels),
-        measures=pmap.measures(sol.data, p),
+        measures=pmap.measures(sol.data, p, pmap.drive(sol.y, p)),
         tangent_param=float(tangent_param),
         newton_iterations=sol.iterations,
     )
@@ -656,6 +758,7 @@ class _Tracer:
         settings: ContinuationSettings,
         progress: Callable[[int, float], None] | None,
         bounds: tuple[float, float],
+        window: tuple[float, float] | None = None,
     ):
         self.pmap = pmap
         self.param = param
@@ -664,6 +767,10 @@ class _Tracer:
         self.settings = settings
         self.progress = progress
         self.bounds = bounds
+        # a switched branch is followed within ``bounds`` (wider) and ends where it leaves the
+        # ``window`` (the range asked for) for the second time, or for good
+        self.window = window
+        self._crossings: list[float] = []
         self.solver = _Solver(pmap, param, forcing, 1.0, lam_scale)
         self.y_floor = 1e-12
         self._left_start = False
@@ -754,6 +861,9 @@ class _Tracer:
             if nxt is None:
                 h *= 0.5
                 if h < st.min_step and len(entries) > 1:
+                    if self.turn_at_hairpin(entries, branch):
+                        h = h_max / 10.0
+                        continue
                     corner = self.cross_grazing_corner(entries)
                     if corner is not None:
                         self._detect(prev, corner, h, branch)
@@ -773,7 +883,17 @@ class _Tracer:
             # step control on the corrector's work
             it = nxt.sol.iterations
             lam_next = nxt.sol.lam
-            past_end = (lam_next - self.stop) * direction_sign > 0
+            if self.window is not None and not (lam_next < lo - margin or lam_next > hi + margin):
+                edge = self.window_edge(prev, nxt, h, branch)
+                if edge is not None:
+                    entries.append(edge)
+                    branch.points.append(edge.point)
+                    if len(self._crossings) >= 3:  # out, back in, and out again: the end
+                        _relabel(branch, -1, END)
+                        branch.message = self._excursion_message()
+                        break
+                    continue
+            past_end = self.window is None and (lam_next - self.stop) * direction_sign > 0
             outside = lam_next < lo - margin or lam_next > hi + margin
             if past_end or outside:
                 target = self.stop if past_end else (lo if lam_next < lo else hi)
@@ -800,6 +920,12 @@ class _Tracer:
                     branch.message = (
                         f"the branch turned back and left the range at {target:.6g} {UNITS[self.param]}"
                     )
+                    if self.window is not None:
+                        branch.message = (
+                            f"the branch left the range at {self._crossings[0]:.6g} {UNITS[self.param]} "
+                            f"and had not returned at {target:.6g} {UNITS[self.param]}, where it is "
+                            "followed no further"
+                        )
                 break
             if self.pmap.periods > 1 and _half_difference(prev) @ _half_difference(nxt) < 0:
                 # through a period doubling of the period-1 branch (the map over two periods has a
@@ -865,6 +991,108 @@ class _Tracer:
         self.solver.Y = y_new
         e.tangent = t / np.linalg.norm(t)
 
+    def window_edge(self, prev: _Entry, nxt: _Entry, h: float, branch: Branch) -> _Entry | None:
+        """The orbit exactly at the edge of :attr:`window` where the step ``prev -> nxt`` crosses
+        it (its bifurcations detected and appended to the branch), the crossing recorded; ``None``
+        if the step stays on one side or no orbit converges at the edge value (the crossing is then
+        recorded at ``nxt``)."""
+        assert self.window is not None
+        a, b = prev.sol.lam, nxt.sol.lam
+        edges = [e for e in self.window if min(a, b) < e <= max(a, b) and e != a]
+        if not edges:
+            return None
+        target = min(edges, key=lambda e: abs(e - a))
+        self._crossings.append(target)
+        w = (target - a) / (b - a)
+        res = self.solver.fixed(prev.sol.y + w * (nxt.sol.y - prev.sol.y), target, prev.sol.jac)
+        if res is None:
+            return None
+        sol = self.solver.finish(res[0], target, res[1])
+        edge = self.entry(sol, self.solver.tangent(sol, prev.tangent))
+        self._detect(prev, edge, w * h, branch)
+        return edge
+
+    def _excursion_message(self) -> str:
+        u = UNITS[self.param]
+        x = self._crossings
+        return (
+            f"the branch left the range at {x[0]:.6g} {u}, came back at {x[1]:.6g} {u} and ends where "
+            f"it leaves it again, at {x[2]:.6g} {u}"
+        )
+
+    def turn_at_hairpin(self, entries: list[_Entry], branch: Branch) -> bool:
+        """Turn back at a grazing hairpin: where an impact (a local maximum of the closure) grazes,
+        two sheets of the branch, one with that impact and one without, end in a sharp turning
+        point. Approaching it the corrector steps from the first sheet onto the second (the
+        impacts per period change while the parameter keeps its direction) and then fails at the
+        grazing orbit (or it reaches the grazing orbit itself, the change in its last step). The
+        points since that change lie on the returning sheet, taken towards the turning point: they
+        are dropped, the last point (the grazing orbit) is labelled fold and grazing, and the branch
+        goes on from it along the returning sheet, with the tangent of its first point there
+        reversed or, if the grazing orbit is the only one, of an orbit of the returning sheet found
+        by Newton a little back from it. ``False`` if the last point does not graze or no such
+        change precedes it."""
+        last = entries[-1]
+        if _grazing_margin(last) > GRAZING_TOLERANCE or FOLD in last.point.labels:
+            return False  # no grazing, or turned here already and no way on
+        lam = [e.sol.lam for e in entries]
+        travel = math.copysign(1.0, lam[-1] - lam[-2])
+        k = len(entries) - 1
+        while k > 0 and (lam[k] - lam[k - 1]) * travel > 0:
+            if (
+                entries[k].point.measures.impacts_per_period
+                != entries[k - 1].point.measures.impacts_per_period
+            ):
+                break
+            k -= 1
+        else:
+            return False
+        if abs(lam[-1] - lam[k]) > abs(lam[k] - lam[k - 1]):
+            return False  # a long way on since: impacts changed at a grazing it went through
+        # entries[k:] are on the returning sheet; entries[k].tangent is smooth there unless it is
+        # the grazing orbit itself
+        first_dropped = next((i for i, p in enumerate(branch.points) if p is entries[k].point), None)
+        if first_dropped is None:
+            return False
+        back = None
+        if k == len(entries) - 1:
+            back = self._returning_orbit(last, entries[k - 1], travel)
+            if back is None:
+                return False
+        tangent = -entries[k].tangent if back is None else back.tangent
+        del branch.points[first_dropped:]
+        tip = _Entry(
+            last.sol, tangent, replace(last.point, labels=(FOLD, GRAZING), tangent_param=float(tangent[-1]))
+        )
+        del entries[k:]
+        entries.append(tip)
+        branch.points.append(tip.point)
+        if back is not None:
+            entries.append(back)
+            branch.points.append(back.point)
+        return True
+
+    def _returning_orbit(self, tip: _Entry, before: _Entry, travel: float) -> _Entry | None:
+        """An orbit with the grazing orbit's impacts (not those of ``before``, the sheet that led
+        to it) at a parameter a little back from the grazing orbit, with its tangent leaving it."""
+        impacts = tip.point.measures.impacts_per_period
+        delta = max(abs(tip.sol.lam - before.sol.lam), 1e-4 * self.solver.L)
+        for scale in (0.25, 1.0, 4.0):
+            lam = tip.sol.lam - travel * scale * delta
+            if not min(self.bounds) <= lam <= max(self.bounds):
+                continue
+            res = self.solver.fixed(tip.sol.y, lam)
+            if res is None:
+                continue
+            try:
+                sol = self.solver.finish(res[0], lam, res[1])
+                e = self.entry(sol, self.solver.tangent(sol, None, -travel))
+            except (SimulationInputError, np.linalg.LinAlgError):
+                continue
+            if e.point.measures.impacts_per_period == impacts != before.point.measures.impacts_per_period:
+                return e
+        return None
+
     def cross_grazing_corner(self, entries: list[_Entry]) -> _Entry | None:
         """Past a grazing point where the branch turns back sharply (impacts begin or end with
         a kink in the map: no arclength plane meets the continuing branch), the orbit on the other
@@ -914,6 +1142,8 @@ class _Tracer:
             if _near_last(branch, kind, nxt.sol.lam, 1e-4 * self.solver.L):
                 continue
             e = self.locate(prev, nxt, h, kind) if self.settings.locate else None
+            if e is not None and _near_last(branch, kind, e.sol.lam, 1e-4 * self.solver.L):
+                continue
             if e is None:
                 nxt.point = replace(nxt.point, labels=(*nxt.point.labels, kind))
                 continue
@@ -923,6 +1153,19 @@ class _Tracer:
         located = [e for _, e in sorted(found, key=lambda f: f[0])]
         branch.points.extend(e.point for e in located)
         return located
+
+
+def _grazing_margin(e: _Entry) -> float:
+    """Smallest distance between a local maximum of the closure (active minus passive shroud
+    displacement, sampled) and the gap over the orbit, relative to the active tip amplitude: zero
+    where an impact, the first or another one, grazes."""
+    data = e.sol.data
+    closure = data[:, _COL["active_tip_displacement"]] - data[:, _COL["passive_tip_displacement"]]
+    peaks = closure[(closure > np.roll(closure, 1)) & (closure >= np.roll(closure, -1))]
+    if not peaks.size:
+        return math.inf
+    amplitude = max(e.point.measures.tip_amplitude_active, 1e-300)
+    return float(np.min(np.abs(peaks - e.point.forcing.gap)) / amplitude)
 
 
 def _near_last(branch: Branch, label: str, value: float, tol: float) -> bool:
@@ -962,7 +1205,7 @@ def _prepare(
     force: float,
     gap: float,
     periods: int,
-    shaker: ShakerCoupling | None,
+    shaker: ShakerDrive | None,
     settings: ContinuationSettings,
 ) -> tuple[PeriodMap, Forcing]:
     if param not in PARAMETERS:
@@ -980,7 +1223,8 @@ def _prepare(
     # n ~ 1 / fe keeps the time step: the lowest frequency needs the most steps per period
     fe_min = min(start, stop) if param == "fe" else fe
     force_max = max(abs(start), abs(stop)) if param == "force" else abs(force)
-    force_scale = max(100.0, 10.0 * force_max) if shaker is None else 100.0
+    # the contact scale from the force (a drive in volts says nothing of it: 100 N)
+    force_scale = 100.0 if shaker is not None and not shaker.force_control else max(100.0, 10.0 * force_max)
     n = settings.steps_per_period or steps_per_period_for(system, fe_min, force_scale=force_scale)
     return PeriodMap(system, n, periods, shaker, force_scale=force_scale), forcing
 
@@ -995,7 +1239,7 @@ def continue_orbits(
     force: float = 15.0,
     gap: float = 0.7e-3,
     periods: int = 1,
-    shaker: ShakerCoupling | None = None,
+    shaker: ShakerDrive | None = None,
     y0: np.ndarray | None = None,
     settings: ContinuationSettings | None = None,
     progress: Callable[[int, float], None] | None = None,
@@ -1008,8 +1252,8 @@ def continue_orbits(
     system
         Reduced system (FEM or AM, :func:`rigtools.sim.reduction.reduced_system`).
     param
-        ``"fe"`` (Hz), ``"force"`` (force amplitude, N; coil voltage amplitude, V, with
-        ``shaker``) or ``"gap"`` (m).
+        ``"fe"`` (Hz), ``"force"`` (force amplitude, N; with ``shaker`` the force fundamental
+        held, N, or the drive amplitude, V, see :class:`ShakerDrive`) or ``"gap"`` (m).
     start, stop
         Parameter range; the branch starts at ``start`` and ends where it reaches ``stop``, turns
         back out of the range, fails to converge (reported in ``Branch.status``/``message``), or
@@ -1019,7 +1263,7 @@ def continue_orbits(
     periods
         Forcing periods of the orbits (1; 2 for a period-2 branch).
     shaker
-        Drive through a shaker (the simulated rig's model).
+        Drive through a shaker (the simulated rig's model, :class:`ShakerDrive`).
     y0
         Scaled starting state (:class:`PeriodMap` convention); default: the response without
         contact, settled if Newton does not converge from it.
@@ -1057,7 +1301,7 @@ def switch_period_doubling(
     start: float,
     stop: float,
     *,
-    shaker: ShakerCoupling | None = None,
+    shaker: ShakerDrive | None = None,
     settings: ContinuationSettings | None = None,
     progress: Callable[[int, float], None] | None = None,
     offset: float = 0.02,
@@ -1068,8 +1312,15 @@ def switch_period_doubling(
     (a pitchfork); the new branch leaves along the eigenvector ``v`` of the multiplier nearest
     -1. The first point is corrected on the plane ``v . (u - u_pd - h v) = 0`` at ``h = offset``
     (scaled arclength; halved until it converges onto an orbit that does not repeat after one
-    period), then continued within ``[start, stop]`` (the period-1 branch's range) in the
-    direction leaving the period-1 branch.
+    period), then continued in the direction leaving the period-1 branch.
+
+    ``[start, stop]`` is the period-1 branch's range. A period-2 branch may leave it and come
+    back (a subcritical period doubling's branch that turns at a fold outside): it is followed
+    up to the range's width beyond it where the time step chosen for the range holds (the gap
+    either way, the frequency upwards, the force downwards; none below zero), its points out
+    there kept in order, and it ends where it leaves the range the second time (``"complete"``,
+    the message naming the crossings), merges, closes, or at the end of where it is followed
+    (``"left range"``).
 
     Raises
     ------
@@ -1083,11 +1334,14 @@ def switch_period_doubling(
     pmap = pmap1.with_periods(2)
     y_pd = point.state * pmap.scale
     _, jac1, _ = pmap1.jacobian(y_pd, point.forcing)
-    mu, vecs = np.linalg.eig(jac1)
+    k = pmap1.n_physical  # under force control the drive does not take part (the doubled
+    # orbit's force fundamental changes at second order only)
+    mu, vecs = np.linalg.eig(jac1[:k, :k])
     j = int(np.argmin(np.abs(mu + 1.0)))
-    v = vecs[:, j].real
+    v = np.concatenate([vecs[:, j].real, np.zeros(y_pd.size - k)])
     v /= np.linalg.norm(v)
-    tracer = _Tracer(pmap, param, point.forcing, stop, hi - lo, settings, progress, (start, stop))
+    followed = _followed_range(param, lo, hi)
+    tracer = _Tracer(pmap, param, point.forcing, stop, hi - lo, settings, progress, followed, (lo, hi))
     solver = tracer.solver
     solver.Y = max(float(np.linalg.norm(y_pd)), 1e-12)
     tracer.y_floor = 0.1 * solver.Y
@@ -1121,6 +1375,20 @@ def switch_period_doubling(
     return tracer.run(first, branch, 1.0 if going_up else -1.0)
 
 
+def _followed_range(param: str, lo: float, hi: float) -> tuple[float, float]:
+    """Where a switched branch is followed when it leaves the range ``[lo, hi]``: the range's
+    width beyond it on either side where the map's time step (chosen for the range: steps per
+    period from the lowest frequency, the contact scale from the largest force) still holds, so
+    the gap both ways, the frequency upwards, the force downwards, none below zero."""
+    width = hi - lo
+    below = max(lo - width, 0.0)
+    if param == "gap":
+        return below, hi + width
+    if param == "fe":
+        return lo, hi + width
+    return below, hi
+
+
 def _fixed(point: BranchPoint) -> tuple[float, float, float]:
     f = point.forcing
     return f.fe, f.force, f.gap
@@ -1135,7 +1403,7 @@ def trace(
     fe: float = 60.0,
     force: float = 15.0,
     gap: float = 0.7e-3,
-    shaker: ShakerCoupling | None = None,
+    shaker: ShakerDrive | None = None,
     switch: bool = True,
     settings: ContinuationSettings | None = None,
     progress: Callable[[int, float], None] | None = None,
@@ -1144,7 +1412,9 @@ def trace(
     at each of its period doublings (:func:`continue_orbits`, :func:`switch_period_doubling`).
 
     A period-2 branch that cannot be started is returned empty with ``status = "failed"`` and
-    the reason in its ``message``.
+    the reason in its ``message``. Period doublings within :data:`PD_CLUSTER` of the range of each
+    other are one (the best located is switched at); the one nearest to where an earlier
+    period-2 branch merged is not switched at again.
     """
     main = continue_orbits(
         system,
@@ -1161,11 +1431,15 @@ def trace(
     branches = [main]
     if not switch:
         return branches
-    seen: list[float] = []
-    for p in main.labelled(PERIOD_DOUBLING):
-        # a period-2 branch that ends on another period doubling of the same branch joins them
-        if any(abs(p.value - s) <= 1e-3 * abs(stop - start) for s in seen):
+    clusters = _clusters(main.labelled(PERIOD_DOUBLING), PD_CLUSTER * abs(stop - start))
+    spans = [(min(q.value for q in c), max(q.value for q in c)) for c in clusters]
+    done: set[int] = set()
+    for i, cluster in enumerate(clusters):
+        # a period-2 branch that returns onto the period-1 branch does so at a period doubling:
+        # the one nearest to where it merged is covered by it
+        if i in done:
             continue
+        p = min(cluster, key=lambda q: float(np.min(np.abs(q.multipliers + 1.0))))
         try:
             b = switch_period_doubling(
                 system, p, start, stop, shaker=shaker, settings=settings, progress=progress
@@ -1180,12 +1454,40 @@ def trace(
             )
         branches.append(b)
         if b.points and b.status == "merged":
-            seen.append(b.points[-1].value)
+            m = b.points[-1].value
+            done.add(min(range(len(spans)), key=lambda j: max(spans[j][0] - m, m - spans[j][1], 0.0)))
     return branches
 
 
+def initial_state(
+    system: ReducedSystem, point: BranchPoint, *, shaker: ShakerDrive | None = None
+) -> RunState:
+    """The orbit of ``point`` as the state a time integration starts from (``initial`` of
+    :func:`rigtools.sim.vibro_impact.run_harmonic` and the study runners): its modal state at
+    force phase zero with the loads the kernel carries, so that a run started there and forced
+    at the point's frequency and amplitude (``run_harmonic(system.with_contact(gap=...), fe,
+    force, initial=initial_state(system, point))``) stays on the orbit if it is stable.
+    """
+    pmap = PeriodMap(system, 1, point.periods, shaker)
+    x = np.asarray(point.state, dtype=float)
+    n = pmap.n_modes
+    scalars = pmap._scalars(x, point.forcing.gap)
+    return RunState(StepperState(x[:n].copy(), x[n : 2 * n].copy(), scalars, 0.0), 0.0)
+
+
+def _clusters(points: list[BranchPoint], tol: float) -> list[list[BranchPoint]]:
+    """Consecutive points (branch order) within ``tol`` of the one before, grouped."""
+    out: list[list[BranchPoint]] = []
+    for p in points:
+        if out and abs(p.value - out[-1][-1].value) <= tol:
+            out[-1].append(p)
+        else:
+            out.append([p])
+    return out
+
+
 def orbit_at(
-    system: ReducedSystem, branch: Branch, value: float, *, shaker: ShakerCoupling | None = None
+    system: ReducedSystem, branch: Branch, value: float, *, shaker: ShakerDrive | None = None
 ) -> list[BranchPoint]:
     """Every orbit of ``branch`` at the parameter ``value``: Newton at that value from each pair
     of consecutive points that brackets it (with the branch's steps per period and periods).

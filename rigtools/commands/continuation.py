@@ -10,8 +10,14 @@ from pathlib import Path
 HELP = "continue the model's periodic orbits in fe, force or gap: branches, stability, bifurcations"
 EPILOG = """\
 Shooting on the reduced model's own integrator with pseudo-arclength continuation; Floquet
-multipliers at every point; folds (LP), period doublings (PD, then the period-2 branch),
-Neimark-Sacker (NS) and grazing (G: impacts begin or end) located and labelled.
+multipliers at every point; folds (LP), period doublings (PD, then the period-2 branch, followed
+out of the range and back if it turns outside), Neimark-Sacker (NS) and grazing (G: impacts begin
+or end) located and labelled.
+
+--model rig continues the simulated rig's model (the FEM of [test_article] driven through the
+[shaker] and amplifier, as --backend sim runs it) holding the force fundamental at --force, as
+the rig's procedures do (the drive amplitude is solved with each orbit, stability is at a fixed
+drive); --drive holds a drive amplitude instead (then --param force is the drive, in V).
 
 The file (kind "branches", docs/recording-format.md) holds each branch's points in order with
 stability, multipliers, labels and response measures; FILE.png plots --measure against the
@@ -21,8 +27,9 @@ jumps shaded.
 
 examples:
   rig continuation --param fe --from 55 --to 80 --force 15 --gap "0.7 mm" --out branches-fe.h5
-  rig continuation --param gap --from "0.5 mm" --to "2.5 mm" --fe 60 --force 15 --out branches-gap.h5 --json
+  rig continuation --param gap --from "0.5 mm" --to "2 mm" --fe 60 --force 15 --out branches-gap.h5 --json
   rig continuation --param fe --from 60 --to 75 --measure accel1 --measured sweep.h5 --no-switch --out branches-sweep.h5
+  rig continuation --param fe --from 60 --to 62 --model rig --gap "5 mm" --no-switch --out branches-rig.h5
 """
 
 
@@ -41,6 +48,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--force", default="15 N", help='fixed force amplitude (default "15 N")')
     p.add_argument("--gap", default="0.7 mm", help='fixed gap (default "0.7 mm")')
     p.add_argument("--model", default="fem", choices=("fem", "am", "rig"), help="model (default fem)")
+    p.add_argument("--drive", help='--model rig: hold this drive amplitude ("1 V", peak) instead of --force')
     p.add_argument("--rig", metavar="FILE", help="rig file (TOML); default: the calibrated default rig")
     p.add_argument("--measure", default="contact", choices=("contact", "accel1", "tip", "impacts"))
     p.add_argument("--no-switch", action="store_true", help="no period-2 branches")
@@ -72,10 +80,20 @@ def run(args: argparse.Namespace) -> int:
     from rigtools.options import check_out
 
     out = check_out(args)
-    start, stop, fixed = parse_inputs(args.param, args.start, args.stop, args.fe, args.force, args.gap)
+    start, stop, fixed = parse_inputs(
+        args.param, args.start, args.stop, args.fe, args.force, args.gap, args.drive
+    )
     measured = measured_sweeps(args.measured, args.param, args.measure)  # bad files before the work
+    drive = args.drive is not None
     cfg, branches = continue_model(
-        args.param, start, stop, **fixed, model=args.model, rig=args.rig, switch=not args.no_switch
+        args.param,
+        start,
+        stop,
+        **fixed,
+        model=args.model,
+        rig=args.rig,
+        switch=not args.no_switch,
+        drive=drive,
     )
     experiment = {
         "procedure": "continuation",
@@ -84,11 +102,12 @@ def run(args: argparse.Namespace) -> int:
         "to": stop,
         **fixed,
         "model": args.model,
+        "drive": drive,  # "force" is then the drive amplitude, V (--model rig)
         "measured": [str(m) for m in args.measured],
     }
     write_branches(out, branches, cfg.to_json(), experiment)
     _, stored = read_branches(out)
-    fig = branches_figure(stored, args.measure, cfg.name, measured)
+    fig = branches_figure(stored, args.measure, cfg.name, measured, drive=drive)
     png = save_figure(fig, plot_path(out), dpi=120)
     doc = summary(branches)
     if args.json:

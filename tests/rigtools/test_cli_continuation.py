@@ -106,7 +106,9 @@ def test_json_document(no_contact, tmp_path):
         (["--param", "fe", "--from", "60", "--to", "60 Hz"], "give a range"),
         (["--param", "fe", "--from", "fast", "--to", "60"], "--from"),
         (["--param", "gap", "--from", "-1 mm", "--to", "1 mm"], "--from"),
-        (["--param", "fe", "--from", "55", "--to", "60", "--model", "rig"], "--model"),
+        (["--param", "fe", "--from", "55", "--to", "60", "--drive", "1 V"], "--model rig"),
+        (["--param", "fe", "--from", "55", "--to", "60", "--model", "rig", "--drive", "-1 V"], "--drive"),
+        (["--param", "force", "--from", "1 N", "--to", "2 N", "--model", "rig", "--drive", "1 V"], "--from"),
         (["--param", "fe", "--from", "55", "--to", "60", "--measured", "missing.h5"], "missing.h5"),
     ],
 )
@@ -178,3 +180,32 @@ def test_report_draws_branches_over_matching_recordings_only(no_contact, sweep, 
     own_rig = SimpleNamespace(procedure="stepped sine", periodic=[])
     assert why_not(bf, own_rig, cfg.to_json()) == ""
     assert "another rig description" in why_not(bf, own_rig, longer.to_json())
+
+
+def test_rig_model_held_drive(tmp_path):
+    """--model rig --drive: the simulated rig's model at a held drive, continued in the drive
+    amplitude (5 mm gap, no contact): the force fundamental is proportional to the drive, and
+    equals the shaker's closed-form force per drive volt with the test article's receptance
+    (all FE modes), 0.1 %."""
+    from rigtools.config import load_rig
+    from rigtools.sim.harmonic import fem_harmonic_response
+    from rigtools.sim.rig_model import build_rig_model
+
+    out = tmp_path / "rig.h5"
+    args = ["--param", "force", "--from", "0.4 V", "--to", "600 mV", "--fe", "57 Hz", "--gap", "5 mm"]
+    code, _, err = run_cli(
+        ["continuation", *args, "--model", "rig", "--drive", "0.5 V", "--no-switch", "--out", out]
+    )
+    assert code == 0, err
+    with h5py.File(out) as f:
+        exp = json.loads(f.attrs["experiment"])
+        g = f["branches/00"]
+        drive, f1 = g["value"][()], g["measures/force_fundamental"][()]
+        np.testing.assert_allclose(g["measures/drive_amplitude"][()], drive)
+    assert exp["model"] == "rig" and exp["drive"] is True and exp["from"] == 0.4 and exp["to"] == 0.6
+    assert drive[0] == pytest.approx(0.4) and drive[-1] == pytest.approx(0.6)
+    cfg = load_rig(None)
+    article = build_rig_model(cfg.test_article.to_params().apply(cfg.to_params()))
+    receptance = fem_harmonic_response(article, np.array([57.0]), 1.0).displacement["active_force_point"]
+    per_volt = abs(cfg.shaker.to_params().sensor_force_per_drive(np.array([57.0]), receptance)[0])
+    np.testing.assert_allclose(f1, drive * per_volt, rtol=1e-3)
