@@ -193,7 +193,8 @@ def analysis_figures(
                         f"point{p.index}-{r}-stabilisation",
                         fig,
                         f"Point {p.index}: LSCF poles per model order over |H1| of {r}; "
-                        "filled: stable in frequency and damping; dashed: identified modes.",
+                        "filled: stable in frequency and damping; red: the poles of the reported "
+                        "modes, judged over the shaded converged orders; dashed: the modes.",
                     )
                 )
     return figs
