@@ -448,7 +448,7 @@ def identify(
     f_max: float | None = None,
     method: str = "lscf",
     n_modes: int | None = None,
-    orders: Sequence[int] = (40, 80, 120, 160),
+    orders: Sequence[int] = (20, 40, 80, 120, 160),
     freq_tol: float = 0.001,
     damping_tol: float = 0.05,
     min_mac: float = 0.9,

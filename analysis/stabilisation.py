@@ -18,7 +18,7 @@ response is weak, has low coherence). The mode's frequency and damping ratio are
 those orders (their interquartile ranges are its evidence); peaks are taken by prominence, and a
 pole supports one mode only. Stable poles that explain no peak are listed as not reported.
 
-**Order** (:func:`converged_selection`): the selection at highest orders P = 40, 80, 120, 160
+**Order** (:func:`converged_selection`): the selection at highest orders P = 20, 40, 80, 120, 160
 (sdypy-EMA's ``pol_order_high``; each judged on its own upper half, polynomial orders P+2..2P);
 the first P whose set of modes (by the peaks they explain) the next P repeats is taken: the
 result no longer depends on the model order. Where none repeats, the highest is taken and
@@ -379,7 +379,7 @@ def converged_selection(
     kind: FRFKind,
     band: tuple[float, float],
     coherence: np.ndarray | None = None,
-    orders: Sequence[int] = (40, 80, 120, 160),
+    orders: Sequence[int] = (20, 40, 80, 120, 160),
     freq_tol: float = 0.001,
     damping_tol: float = 0.05,
     min_mac: float = 0.9,
@@ -410,6 +410,7 @@ def converged_selection(
     coh = None if coherence is None else np.max(np.atleast_2d(np.asarray(coherence, float)), axis=0)
     indicator = mode_indicator(h)
     orders = sorted(int(p) for p in orders)
+    runs = sorted({orders[min(1, len(orders) - 1)], orders[min(2, len(orders) - 1)], orders[-1]})
     run_to = 0
     model = chart = None
     previous: set[float] = set()
@@ -432,8 +433,10 @@ def converged_selection(
 
     for i, top in enumerate(orders):
         if run_to < top:
-            # first up to the second order (most FRFs settle there); then once up to the highest
-            run_to = orders[1] if run_to == 0 and len(orders) > 1 else orders[-1]
+            # LSCF runs up to the second order (most FRFs settle there), then the third, then the
+            # highest: a run costs about the cube of its order (poles at one order do not depend on
+            # the highest, so a longer run repeats the shorter one's)
+            run_to = next(r for r in runs if r >= top)
             model, chart = lscf_stabilisation(
                 f,
                 h,

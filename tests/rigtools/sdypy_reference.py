@@ -21,7 +21,7 @@ Procedure (every setting with its reason):
 6. The FRF is measured well there: coherence >= 0.9 over the mode's half-power band (a bump
    between two anti-resonances, where the response is weak, is not a resonance; 0.9 is the usual
    floor for a usable FRF).
-7. Model order: P = 40, 80, 120, 160 in turn; the first P whose set of modes (the peaks they
+7. Model order: P = 20, 40, 80, 120, 160 in turn; the first P whose set of modes (the peaks they
    explain) the next P repeats: the set no longer depends on the order.
 
 Poles at one order do not depend on ``pol_order_high`` (sdypy builds order j from the first j+1
@@ -39,7 +39,8 @@ import numpy as np
 from scipy import signal
 from threadpoolctl import threadpool_limits
 
-ORDERS = (40, 80, 120, 160)
+ORDERS = (20, 40, 80, 120, 160)
+RUNS = (40, 80, 160)  # the lengths of sdypy runs made (a run costs about the cube of its order)
 FREQ_TOL, DAMPING_TOL = 0.001, 0.05  # sdypy-EMA's defaults (select_closest_poles, stability chart)
 MAX_DAMPING = 0.10
 PEAK_DB = 3.0
@@ -120,7 +121,7 @@ def reference_modes(f, h, coh, band, *, kind="accelerance") -> ReferenceModes:
     run_to, found = 0, []
     for i, order in enumerate(ORDERS):
         if run_to < order:
-            run_to = ORDERS[1] if run_to == 0 else ORDERS[-1]
+            run_to = next(r for r in RUNS if r >= order)
             poles = _stability(f, h, band, run_to, kind)
         found.append(_modes_at(f, h, coh, band, *poles, order))
         if i > 0 and set(found[-1]) == set(found[-2]):
