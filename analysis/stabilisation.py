@@ -119,8 +119,8 @@ def lscf_stabilisation(
     max_order: int = 40,
     freq_tol: float = 0.001,
     damping_tol: float = 0.05,
-    max_damping: float = 1.0,
     min_mac: float = 0.9,
+    max_damping: float = 1.0,
 ):
     """LSCF poles of ``h`` at orders 2..2*max_order (sdypy-EMA) and their stabilisation chart.
 
@@ -279,8 +279,9 @@ def select_modes(
                 {
                     "frequency_hz": fp,
                     "damping_ratio": float("nan"),
-                    "reason": f"no stable pole: a peak of {prom[p]:.1f} dB with a stable pole whose half-power band "
-                    f"holds it at {len(pick)} of {n_judged} converged orders (need {need})",
+                    "reason": f"no stable pole: the peak ({prom[p]:.1f} dB) is in the half-power band of a "
+                    f"stable pole with damping in (0, {max_damping:g}] at {len(pick)} of {n_judged} converged "
+                    f"orders (need {need})",
                 }
             )
             continue
