@@ -53,6 +53,8 @@ class StabilisationChart:
     mac
         (n_poles,) MAC of the pole's shape with the matched pole of the previous order (several
         responses), else None.
+    highest
+        The highest polynomial order run (orders 2, 4, ..., ``highest``).
     judged
         ``(lowest, highest)`` polynomial orders the modes were judged over (0, 0 when none).
     mode
@@ -65,6 +67,7 @@ class StabilisationChart:
     damping_ratio: np.ndarray
     stable: np.ndarray
     mac: np.ndarray | None = None
+    highest: int = 0
     judged: tuple[int, int] = (0, 0)
     mode: np.ndarray | None = None
 
@@ -192,6 +195,7 @@ def lscf_stabilisation(
         np.array(xi),
         np.array(stable, bool),
         np.array(macs) if several else None,
+        2 * len(model.all_poles),
     )
     return model, chart
 
@@ -259,7 +263,8 @@ def select_modes(
     df = float(f[1] - f[0])
     lo, hi = band
     judged = (chart.orders > top_order / 2) & (chart.orders <= top_order)
-    n_judged = int(np.unique(chart.orders[judged]).size)
+    last = chart.highest or int(chart.orders.max(initial=0))
+    n_judged = len([o for o in range(2, min(top_order, last) + 1, 2) if o > top_order / 2])
     fn, zeta = chart.frequency_hz, chart.damping_ratio
     cand = chart.stable & judged & (fn >= lo) & (fn <= hi) & (zeta > 0) & (zeta <= max_damping)
     peaks, prom = peaks_of(f, indicator, lo, hi, min_peak_db)
