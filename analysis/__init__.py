@@ -11,6 +11,8 @@ arrays and small dataclasses out):
   random, burst random and periodic chirp; block-by-block spectra (bounded memory).
 - :mod:`rigtools.analysis.modal_id`: :func:`~rigtools.analysis.modal_id.identify` (data check, sdypy-EMA LSCF with a
   stabilisation chart and LSFD, or peak picking with half-power damping).
+- :mod:`rigtools.analysis.stabilisation`: the LSCF stabilisation chart (frequency, damping and, with
+  several responses, shape stability) and the modes it supports over the converged orders.
 - :mod:`rigtools.analysis.impacts`: impacts from shroud accelerations (count, levels, contact duration,
   period multiple).
 - :mod:`rigtools.analysis.correlation`: natural-frequency and harmonic tables, agreement score, the

@@ -21,12 +21,14 @@ The FRF convention is that of :mod:`rigtools.analysis.frf` (``exp(+i w t)``).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy import optimize, signal
 
 from rigtools.analysis.frf import FRFKind
+from rigtools.analysis.stabilisation import StabilisationChart
 
 _ORDER = {"receptance": 0, "mobility": 1, "accelerance": 2}
 
@@ -51,14 +53,19 @@ class IdentifiedMode:
         Relative RMS misfit of the local fit, ``|H - H_fit| / |H|`` over the fitted band.
     method
         ``"sdof-fit"``, ``"parabolic"`` or ``"lscf"``.
-    orders_stable
-        LSCF: number of model orders at which the pole is stable (frequency and damping).
+    orders_stable, orders_judged
+        LSCF: converged model orders with a stable pole that explains the peak / converged
+        orders judged (:mod:`rigtools.analysis.stabilisation`).
     frequency_spread, damping_spread
-        LSCF: relative spread (max - min) / median over those orders.
+        LSCF: interquartile range / median over those poles.
     coherence
-        Coherence at the peak the mode explains (NaN when unknown).
+        LSCF: lowest coherence over its half-power band (NaN when unknown).
     peak_db
-        Prominence of that peak of ``|H|`` in dB (NaN when unknown).
+        Prominence of the peak of ``|H|`` it explains, dB (NaN when unknown).
+    mac_min
+        LSCF with several responses: lowest MAC of its poles' shapes between consecutive orders.
+    shape
+        LSCF: the residue (as ``residue``) at every response, in the order of the FRF's rows.
     """
 
     frequency_hz: float
@@ -72,16 +79,21 @@ class IdentifiedMode:
     damping_spread: float = float("nan")
     coherence: float = float("nan")
     peak_db: float = float("nan")
+    orders_judged: int = 0
+    mac_min: float = float("nan")
+    shape: tuple[complex, ...] = ()
 
     def evidence(self) -> dict:
         """The evidence for this mode, plain Python (``--json``)."""
         return {
             "orders_stable": self.orders_stable,
+            "orders_judged": self.orders_judged,
             "frequency_spread": self.frequency_spread,
             "damping_spread": self.damping_spread,
             "peak_hz": self.peak_frequency_hz,
             "peak_prominence_db": self.peak_db,
             "coherence": self.coherence,
+            "mac_min": self.mac_min,
         }
 
 
@@ -348,27 +360,6 @@ def excitation_support(
 
 
 @dataclass(frozen=True)
-class StabilisationChart:
-    """Poles of the LSCF estimator at increasing model order, classified.
-
-    Attributes
-    ----------
-    orders
-        (n_poles,) model order of each pole.
-    frequency_hz, damping_ratio
-        (n_poles,) pole natural frequency and damping ratio.
-    stable
-        (n_poles,) True when a pole of the previous order lies within ``freq_tol`` (relative) in
-        frequency and ``damping_tol`` (relative) in damping: "s" in a stabilisation chart.
-    """
-
-    orders: np.ndarray
-    frequency_hz: np.ndarray
-    damping_ratio: np.ndarray
-    stable: np.ndarray
-
-
-@dataclass(frozen=True)
 class ModalIdentification:
     """Result of :func:`identify`.
 
@@ -434,148 +425,6 @@ def excitation_band(
     return float(f[pos[lo]]), float(f[pos[hi]])
 
 
-def lscf_stabilisation(
-    frequency_hz: np.ndarray,
-    h: np.ndarray,
-    *,
-    kind: FRFKind,
-    f_min: float,
-    f_max: float,
-    max_order: int = 40,
-    freq_tol: float = 0.005,
-    damping_tol: float = 0.05,
-    max_damping: float = 0.2,
-):
-    """LSCF poles of ``h`` at orders 2..2*max_order (sdypy-EMA) and their stabilisation chart.
-
-    Returns ``(model, chart)``: the :class:`sdypy.EMA.Model` (for LSFD) and a
-    :class:`StabilisationChart` of the poles inside ``[f_min, f_max]`` with
-    ``0 < zeta < max_damping``.
-    """
-    from sdypy import EMA  # imported here: it loads matplotlib.pyplot and tqdm
-
-    f = np.asarray(frequency_hz, dtype=float)
-    h = np.atleast_2d(np.asarray(h, dtype=complex))
-    # LSCF leaves out the bins below f_min, but sdypy-EMA transforms the whole FRF first: a
-    # receptance or mobility has nan at 0 Hz (divided by i w) and would make every pole nan
-    h = np.where((f < f_min) & ~np.isfinite(h), 0.0, h)
-    model = EMA.Model(frf=h, freq=f, lower=f_min, upper=f_max, pol_order_high=int(max_order), frf_form=kind)
-    model.get_poles(method="lscf", show_progress=False)
-    orders, fr, xi, stable = [], [], [], []
-    prev_f = prev_x = np.array([])
-    for j, (pf, px) in enumerate(zip(model.pole_freq, model.pole_xi, strict=True)):
-        pf, px = np.asarray(pf, float), np.asarray(px, float)
-        keep = np.isfinite(pf) & (pf >= f_min) & (pf <= f_max) & (px > 0) & (px < max_damping)
-        pf, px = pf[keep], px[keep]
-        for a, b in zip(pf, px, strict=True):
-            near = (np.abs(prev_f - a) <= freq_tol * a) & (np.abs(prev_x - b) <= damping_tol * b)
-            orders.append(2 * (j + 1))
-            fr.append(a)
-            xi.append(b)
-            stable.append(bool(np.any(near)))
-        prev_f, prev_x = pf, px
-    chart = StabilisationChart(np.array(orders, int), np.array(fr), np.array(xi), np.array(stable, bool))
-    return model, chart
-
-
-def _stable_clusters(chart: StabilisationChart, freq_tol: float, min_stable: int) -> list[np.ndarray]:
-    """Groups of stable poles: sorted by frequency, a new group starts where the gap to the next
-    stable pole exceeds ``freq_tol`` (relative); a group counts with poles at ``min_stable`` or
-    more distinct orders."""
-    idx = np.flatnonzero(chart.stable)
-    idx = idx[np.argsort(chart.frequency_hz[idx])]
-    clusters: list[np.ndarray] = []
-    current: list[int] = []
-    for i in idx:
-        if current and chart.frequency_hz[i] > chart.frequency_hz[current[-1]] * (1 + freq_tol):
-            clusters.append(np.array(current))
-            current = []
-        current.append(int(i))
-    if current:
-        clusters.append(np.array(current))
-    return [c for c in clusters if np.unique(chart.orders[c]).size >= min_stable]
-
-
-def _peaks(
-    f: np.ndarray, h: np.ndarray, f_lo: float, f_hi: float, min_db: float
-) -> tuple[np.ndarray, np.ndarray]:
-    """Indices and prominences (dB) of the local maxima of ``|h|`` in the band."""
-    mag_db = 20.0 * np.log10(np.maximum(np.abs(h), np.finfo(float).tiny))
-    band = np.flatnonzero((f >= f_lo) & (f <= f_hi) & np.isfinite(mag_db))
-    if band.size < 3:
-        return np.array([], int), np.array([])
-    idx, props = signal.find_peaks(mag_db[band], prominence=min_db)
-    return band[idx], np.asarray(props["prominences"])
-
-
-def _explained_peak(f: np.ndarray, peaks: np.ndarray, prom: np.ndarray, fn: float, zeta: float) -> int | None:
-    """Position in ``peaks`` of the peak a mode at ``fn`` explains: the most prominent peak within
-    its half-power band (at least two bins either side), else None."""
-    df = float(f[1] - f[0])
-    half = max(2.0 * zeta * fn, 2.0 * df)
-    near = np.flatnonzero(np.abs(f[peaks] - fn) <= half)
-    return None if near.size == 0 else int(near[np.argmax(prom[near])])
-
-
-def _judge(
-    candidates: list[IdentifiedMode],
-    f: np.ndarray,
-    h: np.ndarray,
-    coherence: np.ndarray | None,
-    f_lo: float,
-    f_hi: float,
-    *,
-    max_damping: float,
-    min_coherence: float,
-    min_peak_db: float,
-    max_frequency_spread: float,
-) -> tuple[list[IdentifiedMode], list[dict]]:
-    """Keep the candidates with physical damping, inside the band, that explain a peak of |h| with
-    coherent excitation (one candidate per peak: the one stable at most orders)."""
-    peaks, prom = _peaks(f, h, f_lo, f_hi, min_peak_db)
-    kept: dict[int, IdentifiedMode] = {}
-    dropped: list[dict] = []
-
-    def drop(m: IdentifiedMode, reason: str) -> None:
-        dropped.append({"frequency_hz": m.frequency_hz, "damping_ratio": m.damping_ratio, "reason": reason})
-
-    # reasons start with a fixed phrase (the summary counts by it), details follow after ": "
-
-    for m in candidates:
-        if not f_lo <= m.frequency_hz <= f_hi:
-            drop(m, "outside the band")
-            continue
-        if not 0.0 < m.damping_ratio <= max_damping:
-            drop(m, f"damping out of bounds: {m.damping_ratio:.3g} not in (0, {max_damping:g}]")
-            continue
-        if m.frequency_spread > max_frequency_spread:
-            drop(
-                m,
-                f"frequency not steady: {m.frequency_spread:.2%} over the orders (> {max_frequency_spread:.2%})",
-            )
-            continue
-        j = _explained_peak(f, peaks, prom, m.frequency_hz, m.damping_ratio)
-        if j is None:
-            drop(m, f"no peak of |H|: none of {min_peak_db:g} dB prominence within its half-power band")
-            continue
-        i = int(peaks[j])
-        coh = float(coherence[i]) if coherence is not None else float("nan")
-        if coherence is not None and np.isfinite(coh) and coh < min_coherence:
-            drop(m, f"incoherent: coherence {coh:.2f} at its peak (< {min_coherence:g})")
-            continue
-        m = replace(m, peak_frequency_hz=float(f[i]), coherence=coh, peak_db=float(prom[j]))
-        other = kept.get(j)
-        if other is not None:
-            loser = m if other.orders_stable >= m.orders_stable else other
-            drop(loser, f"second pole of a peak: {f[i]:.4g} Hz")
-            if loser is other:
-                kept[j] = m
-            continue
-        kept[j] = m
-    modes = sorted(kept.values(), key=lambda m: m.frequency_hz)
-    return modes, dropped
-
-
 def _dropped_summary(dropped: list[dict]) -> str:
     """At most one line on the candidates not reported."""
     if not dropped:
@@ -599,14 +448,13 @@ def identify(
     f_max: float | None = None,
     method: str = "lscf",
     n_modes: int | None = None,
-    max_order: int = 40,
-    min_stable: int = 5,
-    freq_tol: float = 0.005,
+    orders: Sequence[int] = (20, 40, 80, 120, 160),
+    freq_tol: float = 0.001,
     damping_tol: float = 0.05,
+    min_mac: float = 0.9,
     max_damping: float = 0.1,
-    min_coherence: float = 0.5,
+    min_coherence: float = 0.9,
     min_peak_db: float = 3.0,
-    max_frequency_spread: float = 0.002,
     dynamic_range_db: float = 40.0,
 ) -> ModalIdentification:
     """Natural frequencies and damping ratios the data support, with the reason for what is not.
@@ -617,24 +465,26 @@ def identify(
        has energy (:func:`excitation_band`); else the grid above 0 Hz.
     2. **Data check** (when ``excitation_psd`` is given, as it should be for measured FRFs):
        :func:`excitation_support`. A dwell or other narrow-band force returns no mode and a note.
-    3. **Candidates**. ``method="lscf"``: poles of sdypy-EMA's LSCF at orders 2..2*max_order;
-       a pole is *stable* when the previous order has one within ``freq_tol`` in frequency and
-       ``damping_tol`` in damping; a candidate is a group of stable poles (no gap over ``freq_tol``)
-       at ``min_stable`` or more orders; its frequency and damping are those of its pole at the
-       highest order (the spreads over the group are its evidence).
-       LSFD (sdypy-EMA) gives the modal constants of the modes kept. ``method="peak"``:
-       :func:`identify_modes` (peak picking and local SDOF fits; no stabilisation).
-    4. **Judgement** of each candidate: damping ratio in ``(0, max_damping]``, inside the band,
-       frequency steady over the stable orders (spread at most ``max_frequency_spread``),
-       explaining a peak of ``|H|`` (prominence ``min_peak_db``, within its half-power band) whose
-       coherence is at least ``min_coherence``; one mode per peak. Dropped candidates are listed
-       in :attr:`ModalIdentification.dropped` and summarised in one note.
+    3. ``method="lscf"``: :func:`rigtools.analysis.stabilisation.converged_selection`. Poles of
+       sdypy-EMA's LSCF are *stable* when the previous order has one within ``freq_tol`` in
+       frequency and ``damping_tol`` in damping (and, with several responses, a shape with a MAC
+       of at least ``min_mac``); over the converged orders (the upper half of each highest order
+       in ``orders``, the first whose set of modes the next repeats), a peak of ``|H|`` (prominence
+       ``min_peak_db``) is a mode when a stable pole with damping in ``(0, max_damping]`` has it
+       in its half-power band at half those orders or more and the coherence over its
+       half-power band is at least ``min_coherence``; frequency and damping are the medians over
+       those orders. LSFD (sdypy-EMA) gives the modal constants of the modes kept.
+       ``method="peak"``: :func:`identify_modes` (peak picking and local SDOF fits), kept with
+       damping in ``(0, max_damping]`` and the same coherence check.
+    4. Candidates not reported are listed in :attr:`ModalIdentification.dropped` with the reason
+       and summarised in one note.
 
     Parameters
     ----------
     frequency_hz, h
         One-sided grid (uniform, starting at 0 Hz or above) and complex FRF (e.g.
-        :attr:`rigtools.analysis.frf.FRFEstimate.h1`).
+        :attr:`rigtools.analysis.frf.FRFEstimate.h1`): (n_freq,), or (n_responses, n_freq) of
+        one reference identified together (LSCF; a mode's ``shape`` holds its residue at each).
     kind
         What ``h`` is (receptance, mobility, accelerance).
     excitation_psd, coherence
@@ -644,15 +494,20 @@ def identify(
     n_modes
         Keep at most this many (the most strongly stable for LSCF, the most prominent peaks
         otherwise).
+    orders
+        Highest LSCF orders tried (sdypy-EMA ``pol_order_high``), increasing.
 
     Returns
     -------
     ModalIdentification
     """
+    from rigtools.analysis.stabilisation import converged_selection
+
     f = np.asarray(frequency_hz, dtype=float)
-    h = np.asarray(h, dtype=complex)
+    h2 = np.atleast_2d(np.asarray(h, dtype=complex))
     if coherence is not None and not np.any(np.isfinite(coherence)):
         coherence = None
+    coh2 = None if coherence is None else np.atleast_2d(np.asarray(coherence, dtype=float))
     auto_lo, auto_hi = float(f[f > 0][0]), float(f[-1])
     if excitation_psd is not None and (f_min is None or f_max is None):
         auto_lo, auto_hi = excitation_band(f, excitation_psd)
@@ -666,65 +521,70 @@ def identify(
         support = excitation_support(
             f,
             excitation_psd,
-            coherence,
+            None if coh2 is None else np.max(coh2, axis=0),
             f_min=f_lo,
             f_max=f_hi,
             dynamic_range_db=dynamic_range_db,
-            min_coherence=min_coherence,
         )
         if not support.ok:
             return ModalIdentification([], method, [f"no modes identified: {support.reason}"], band=band)
-    chart, rec, model = None, None, None
+    chart, rec = None, None
     if method == "peak":
-        candidates = identify_modes(f, h, kind=kind, f_min=f_lo, f_max=f_hi, min_prominence_db=min_peak_db)
-    elif method == "lscf":
-        model, chart = lscf_stabilisation(
+        if h2.shape[0] != 1:
+            raise ValueError("method 'peak' identifies one FRF at a time")
+        modes, dropped = _judge_peaks(
+            identify_modes(f, h2[0], kind=kind, f_min=f_lo, f_max=f_hi, min_prominence_db=min_peak_db),
             f,
-            h,
+            None if coh2 is None else coh2[0],
+            max_damping=max_damping,
+            min_coherence=min_coherence,
+        )
+    elif method == "lscf":
+        sel = converged_selection(
+            f,
+            h2,
             kind=kind,
-            f_min=f_lo,
-            f_max=f_hi,
-            max_order=max_order,
+            band=band,
+            coherence=coh2,
+            orders=orders,
             freq_tol=freq_tol,
             damping_tol=damping_tol,
-            max_damping=1.0,
+            min_mac=min_mac,
+            max_damping=max_damping,
+            min_coherence=min_coherence,
+            min_peak_db=min_peak_db,
         )
-        candidates = []
-        for c in _stable_clusters(chart, freq_tol, min_stable):
-            fr, xi = chart.frequency_hz[c], chart.damping_ratio[c]
-            # the pole of the highest stable order: the most converged model (the spreads below
-            # say how much the lower orders differ)
-            top = int(np.argmax(chart.orders[c]))
-            fn, zeta = float(fr[top]), float(xi[top])
-            candidates.append(
-                IdentifiedMode(
-                    fn,
-                    zeta,
-                    complex("nan"),
-                    fn,
-                    float("nan"),
-                    "lscf",
-                    orders_stable=int(np.unique(chart.orders[c]).size),
-                    frequency_spread=float(np.ptp(fr) / np.median(fr)),
-                    damping_spread=float(np.ptp(xi) / np.median(xi)) if np.median(xi) > 0 else float("nan"),
-                )
+        chart, dropped = sel.chart, sel.dropped
+        modes = [
+            IdentifiedMode(
+                m.frequency_hz,
+                m.damping_ratio,
+                complex("nan"),
+                m.peak_hz,
+                float("nan"),
+                "lscf",
+                orders_stable=m.orders_stable,
+                frequency_spread=m.frequency_spread,
+                damping_spread=m.damping_spread,
+                coherence=m.coherence,
+                peak_db=m.peak_db,
+                orders_judged=m.orders_judged,
+                mac_min=m.mac_min,
             )
-        if not candidates:
-            notes.append(f"no pole stable over {min_stable} model orders between {f_lo:g} and {f_hi:g} Hz")
+            for m in sel.modes
+        ]
+        if not sel.converged:
+            notes.append(
+                f"the set of modes still changed at LSCF order {2 * sel.order} (the highest tried): "
+                f"modes from orders {chart.judged[0]}-{chart.judged[1]}"
+            )
+        if not modes:
+            notes.append(
+                f"no peak of |H| explained by a stable pole between {f_lo:g} and {f_hi:g} Hz "
+                f"(LSCF orders {chart.judged[0]}-{chart.judged[1]})"
+            )
     else:
         raise ValueError(f"method must be 'lscf' or 'peak', got {method!r}")
-    modes, dropped = _judge(
-        candidates,
-        f,
-        h,
-        coherence,
-        f_lo,
-        f_hi,
-        max_damping=max_damping,
-        min_coherence=min_coherence,
-        min_peak_db=min_peak_db,
-        max_frequency_spread=max_frequency_spread,
-    )
     if n_modes is not None and len(modes) > n_modes:
         key = (lambda m: m.orders_stable) if method == "lscf" else (lambda m: m.peak_db)
         keep = sorted(modes, key=key, reverse=True)[:n_modes]
@@ -737,41 +597,83 @@ def identify(
                         "reason": f"beyond n_modes: {n_modes}",
                     }
                 )
-        modes = sorted(keep, key=lambda m: m.frequency_hz)
-    if model is not None and chart is not None and modes:
-        modes, rec = _lsfd(model, modes, f, h, f_lo, f_hi)
+        kept = sorted(keep, key=lambda m: m.frequency_hz)
+        if chart is not None and chart.mode is not None:
+            # the chart marks the poles of the modes reported, numbered as reported
+            index = {i: kept.index(m) for i, m in enumerate(modes) if m in keep}
+            chart = replace(chart, mode=np.array([index.get(int(k), -1) for k in chart.mode], int))
+        modes = kept
+    if method == "lscf" and modes:
+        modes, rec = _lsfd(modes, f, h2, kind, f_lo, f_hi)
     summary = _dropped_summary(dropped)
     if summary:
         notes.append(summary)
     return ModalIdentification(modes, method, notes, chart, rec, band, dropped)
 
 
-def _lsfd(model, modes: list[IdentifiedMode], f, h, f_lo, f_hi):
-    """Modal constants of the kept modes by sdypy-EMA's LSFD (the pole of the highest order
-    closest to each mode)."""
-    pole_ind = []
-    for m in modes:
-        best = None
-        for j in range(len(model.all_poles) - 1, -1, -1):
-            pf = np.asarray(model.pole_freq[j], dtype=float)
-            if pf.size and np.any(np.isfinite(pf)):
-                i = int(np.nanargmin(np.abs(pf - m.frequency_hz)))
-                if abs(pf[i] - m.frequency_hz) <= 0.01 * m.frequency_hz:
-                    best = [j, i]
-                    break
-        if best is None:
-            return modes, None
-        pole_ind.append(best)
-    model.pole_ind = np.asarray(pole_ind, dtype=int)
-    rec, consts = model.get_constants(method="lsfd", f_lower=f_lo, f_upper=min(f_hi, float(model.freq[-1])))
-    rec = np.asarray(rec)[0]
-    band = (f >= f_lo) & (f <= f_hi)
-    n = min(rec.size, f.size)
-    err = float(np.linalg.norm(rec[:n][band[:n]] - h[:n][band[:n]]) / np.linalg.norm(h[:n][band[:n]]))
+def _judge_peaks(
+    candidates: list[IdentifiedMode],
+    f: np.ndarray,
+    coherence: np.ndarray | None,
+    *,
+    max_damping: float,
+    min_coherence: float,
+) -> tuple[list[IdentifiedMode], list[dict]]:
+    """Peak picking's modes with damping in ``(0, max_damping]`` and coherent data over their
+    half-power band (the check :mod:`rigtools.analysis.stabilisation` makes)."""
+    kept: list[IdentifiedMode] = []
+    dropped: list[dict] = []
+    df = float(f[1] - f[0])
+    for m in candidates:
+        reason = ""
+        if not 0.0 < m.damping_ratio <= max_damping:
+            reason = f"damping out of bounds: {m.damping_ratio:.3g} not in (0, {max_damping:g}]"
+        elif coherence is not None:
+            near = (f >= m.frequency_hz * (1 - m.damping_ratio) - df) & (
+                f <= m.frequency_hz * (1 + m.damping_ratio) + df
+            )
+            coh = float(np.nanmin(coherence[near]))
+            m = replace(m, coherence=coh)
+            if coh < min_coherence:
+                reason = (
+                    f"incoherent: coherence down to {coh:.2f} over its half-power band (< {min_coherence:g})"
+                )
+        if reason:
+            dropped.append(
+                {"frequency_hz": m.frequency_hz, "damping_ratio": m.damping_ratio, "reason": reason}
+            )
+        else:
+            kept.append(m)
+    return kept, dropped
+
+
+def _lsfd(modes: list[IdentifiedMode], f: np.ndarray, h: np.ndarray, kind: FRFKind, f_lo: float, f_hi: float):
+    """Modal constants of the kept modes by sdypy-EMA's LSFD (with lower and upper residuals) on
+    their poles; returns the modes with ``residue``, ``shape`` and ``fit_error``, and the first
+    response's reconstruction."""
+    from sdypy.EMA.EMA import LSFD
+
+    from rigtools.sim.threads import single_blas_thread
+
+    wn = 2.0 * np.pi * np.array([m.frequency_hz for m in modes])
+    zeta = np.array([m.damping_ratio for m in modes])
+    wd = wn * np.sqrt(1.0 - zeta**2)
+    poles = -zeta * wn + 1j * wd
+    sel = f <= f_hi
+    lo = int(np.argmin(np.abs(f[sel] - f_lo)))
+    hi = int(np.count_nonzero(sel))
+    hb = np.where(np.isfinite(h[:, sel]), h[:, sel], 0.0)
+    with single_blas_thread(), np.errstate(divide="ignore", invalid="ignore"):
+        consts, rec, *_ = LSFD(poles, hb, f[sel], True, True, lo, hi, frf_form=kind)
+    consts, rec = np.asarray(consts), np.asarray(rec)
+    band = slice(lo, hi)
+    err = float(np.linalg.norm(rec[0, band] - hb[0, band]) / np.linalg.norm(hb[0, band]))
     out = []
-    for m, (j, i), a in zip(modes, pole_ind, np.asarray(consts)[0], strict=True):
-        wd = abs(model.all_poles[j][i].imag)
+    for j, m in enumerate(modes):
         # sdypy's term A / (i w - s) + conj: the single-mode form (i w)^k R / (wn^2 - w^2 + 2 i zeta wn w)
         # has R = 2 i w_d A
-        out.append(replace(m, residue=complex(2j * wd * a), fit_error=err))
-    return out, rec
+        shape = tuple(complex(2j * wd[j] * a) for a in consts[:, j])
+        out.append(replace(m, residue=shape[0], shape=shape, fit_error=err))
+    full = np.full(f.size, np.nan, dtype=complex)
+    full[: rec.shape[1]] = rec[0]
+    return out, full

@@ -600,22 +600,32 @@ def stabilisation_figure(
     natural_frequencies_hz: Sequence[float] | None = None,
     title: str = "",
 ) -> Figure:
-    """Stabilisation chart: LSCF poles per model order (stable filled, others open) over ``|H|``.
+    """Stabilisation chart: LSCF poles per model order over ``|H|``, the selection marked.
 
-    ``chart`` is an :class:`rigtools.analysis.modal_id.StabilisationChart`. ``fig.axes[0]`` holds the
-    poles (left axis: model order), ``fig.axes[1]`` the FRF magnitude (right axis, log).
+    ``chart`` is a :class:`rigtools.analysis.stabilisation.StabilisationChart`. Unstable poles are
+    open, stable ones filled; the poles that make the reported modes (``chart.mode``) are drawn
+    as "pole of a reported mode", the converged orders judged (``chart.judged``) shaded, and each
+    of ``natural_frequencies_hz`` as a dashed line. ``fig.axes[0]`` holds the poles (left axis:
+    model order), ``fig.axes[1]`` the FRF magnitude (right axis, log).
     """
     fig = Figure(figsize=(11, 5), layout="constrained")
     ax = fig.add_subplot()
     st = np.asarray(chart.stable, bool)
+    kept = np.zeros_like(st) if chart.mode is None else np.asarray(chart.mode) >= 0
+    lo, hi = chart.judged
+    if hi > 0:
+        ax.axhspan(lo - 1, hi + 1, color="0.92", zorder=0, label=f"orders judged ({lo}-{hi})")
     ax.plot(chart.frequency_hz[~st], chart.orders[~st], "o", ms=3, mfc="none", color="0.6", label="pole")
     ax.plot(
-        chart.frequency_hz[st],
-        chart.orders[st],
+        chart.frequency_hz[st & ~kept],
+        chart.orders[st & ~kept],
         "o",
-        ms=4,
+        ms=3,
         color="C0",
         label="stable pole (frequency and damping)",
+    )
+    ax.plot(
+        chart.frequency_hz[kept], chart.orders[kept], "o", ms=4, color="C3", label="pole of a reported mode"
     )
     ax.set_xlabel("frequency (Hz)")
     ax.set_ylabel("model order (-)")

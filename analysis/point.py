@@ -167,6 +167,7 @@ class FRFTestAnalysis:
                 r: {
                     "method": m.method,
                     "band_hz": list(m.band) if m.band else None,
+                    "orders_judged": list(m.chart.judged) if m.chart is not None else None,
                     "notes": list(m.notes),
                     "modes": [
                         {

@@ -1060,17 +1060,33 @@ def analyze_frf_set(
     band = (options or FRFOptions()).band
     responses = [fs.responses[i] for i in rows]
     modes = {}
+    together = method == "lscf" and len(responses) > 1
     try:
-        for i, r in enumerate(responses):
-            modes[r] = identify(
+        if together:
+            # one reference, several responses: one LSCF over all of them (common poles, the
+            # shapes checked between orders); each response keeps its own residues
+            both = identify(
                 f,
-                est.h1[i],
+                est.h1,
                 kind=kind_out,
-                coherence=est.coherence[i] if with_coherence else None,
+                coherence=est.coherence if with_coherence else None,
                 f_min=band[0] if band else None,
                 f_max=band[1] if band else None,
                 method=method,
             )
+            for i, r in enumerate(responses):
+                modes[r] = replace(both, modes=[replace(m, residue=m.shape[i]) for m in both.modes])
+        else:
+            for i, r in enumerate(responses):
+                modes[r] = identify(
+                    f,
+                    est.h1[i],
+                    kind=kind_out,
+                    coherence=est.coherence[i] if with_coherence else None,
+                    f_min=band[0] if band else None,
+                    f_max=band[1] if band else None,
+                    method=method,
+                )
     except ValueError as exc:
         raise UserError(f"{path}: {exc}") from None
     first = next(iter(modes.values()), None)
@@ -1083,8 +1099,14 @@ def analyze_frf_set(
     ]
     if not with_coherence:
         notes.append("no coherence in the FRF set: peaks are not checked against it")
-    for r, m in modes.items():
-        notes.extend(f"{r}: {t}" for t in m.notes)
+    if together:
+        notes.append(
+            f"the {len(responses)} FRFs identified together (common poles; shapes stable between orders)"
+        )
+        notes.extend(next(iter(modes.values())).notes)
+    else:
+        for r, m in modes.items():
+            notes.extend(f"{r}: {t}" for t in m.notes)
     units = {r: {"accelerance": "m/s^2", "mobility": "m/s", "receptance": "m"}[fs.kind] for r in responses}
     point = PointAnalysis(
         0,

@@ -26,10 +26,12 @@ Per point, by what it is:
   chirp whole periods (both rectangular); a record written elsewhere by its force: one frame
   per hammer hit (rectangular; --force-window/--exponential as pyFRF's windows) or continuous
   random (Hann, 50 % overlap). rig export uff writes the same FRF.
-  A mode is reported when its LSCF pole is stable over 5+ model orders in frequency and
-  damping, its frequency steady within 0.2 %, its damping ratio in (0, 0.1], and it explains a
-  peak of |H| with coherence >= 0.5 inside the band; one line says how many candidates were not
-  reported (--verbose or --json list them).
+  A mode is a peak of |H| (3 dB) inside the band that a stable LSCF pole (within 0.1 % in
+  frequency and 5 % in damping of the previous order) with damping ratio in (0, 0.1] holds in
+  its half-power band at half the converged orders or more (the upper half of the orders,
+  raised until the set of modes stops changing), with coherence >= 0.9 over that band; its
+  frequency and damping are the medians over those orders. One line says how many candidates
+  were not reported (--verbose or --json list them, --json with each mode's evidence).
   points without a force (operational logs): PSD (units^2/Hz, Welch, Hann), peak-amplitude
   spectrum (flattop), its peaks and, with --fe, the harmonics k*fe.
 Records are read in blocks: memory stays bounded for long recordings. Amplitudes are peak

@@ -158,6 +158,7 @@ def analysis_figures(
     for p in analysis.broadband:
         est = p.frf.estimate
         band = p._band()
+        charts: list = []  # responses identified together share one chart: drawn once
         f = est.frequency_hz[band]
         for i, r in enumerate(p.frf.responses):
             m = p.frf.modes[r]
@@ -180,20 +181,24 @@ def analysis_figures(
                     f"{est.resolution_hz:.3g} Hz resolution.",
                 )
             )
-            if m.chart is not None and len(m.chart.orders):
+            if m.chart is not None and len(m.chart.orders) and not any(m.chart is c for c in charts):
+                charts.append(m.chart)
+                shared = sum(p.frf.modes[x].chart is m.chart for x in p.frf.responses)
+                of = f"the {shared} responses" if shared > 1 else r.replace("_", " ")
                 fig = stabilisation_figure(
                     m.chart,
                     f,
                     np.abs(est.h1[i][band]),
                     natural_frequencies_hz=fn or None,
-                    title=f"{stem} point {p.index}: stabilisation chart of {r.replace('_', ' ')}",
+                    title=f"{stem} point {p.index}: stabilisation chart of {of}",
                 )
                 figs.append(
                     NamedFigure(
                         f"point{p.index}-{r}-stabilisation",
                         fig,
-                        f"Point {p.index}: LSCF poles per model order over |H1| of {r}; "
-                        "filled: stable in frequency and damping; dashed: identified modes.",
+                        f"Point {p.index}: LSCF poles per model order of {of}, over |H1| of {r}; "
+                        "filled: stable in frequency and damping; red: the poles of the reported "
+                        "modes, judged over the shaded converged orders; dashed: the modes.",
                     )
                 )
     return figs

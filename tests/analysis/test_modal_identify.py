@@ -107,3 +107,23 @@ def test_broadband_support_is_complete():
     est = _h1(n=2**16)
     support = excitation_support(est.frequency_hz, est.sxx, est.coherence, f_min=10, f_max=250)
     assert support.ok and support.fraction > 0.9  # the anti-resonance bins lose coherence
+
+
+def test_two_responses_identified_together_with_stable_shapes():
+    """Both responses of the 2-DOF (one reference) in one LSCF: exact poles (1e-6), each mode's
+    residues at the two points equal phi_out * phi_in of the mass-normalised modes (1e-5), and
+    its poles' shapes agree between consecutive orders (MAC >= 0.9 is the stability test; here
+    1 - 1e-9). A MAC threshold no shape can meet leaves no stable pole: the shape check is made."""
+    f = np.arange(0, 256.001, 0.25)
+    h = np.vstack([-((2 * np.pi * f) ** 2) * receptance(f, out) for out in (0, 1)])
+    res = identify(f, h, kind="accelerance", f_min=10, f_max=250)
+    fn, zeta = exact_modes()
+    np.testing.assert_allclose([m.frequency_hz for m in res.modes], fn, rtol=1e-6)
+    np.testing.assert_allclose([m.damping_ratio for m in res.modes], zeta, rtol=1e-5)
+    _, phi = linalg.eigh(K, M)
+    shapes = np.array([m.shape for m in res.modes]).real  # (mode, response)
+    np.testing.assert_allclose(shapes, (phi * phi[0]).T, rtol=1e-5)
+    assert all(m.mac_min > 1 - 1e-9 for m in res.modes)
+    assert res.chart.mac is not None and np.all(res.chart.mac[res.chart.stable] >= 0.9)
+    none = identify(f, h, kind="accelerance", f_min=10, f_max=250, min_mac=1.01)
+    assert none.modes == [] and not none.chart.stable.any()

@@ -122,13 +122,20 @@ def test_stabilisation_figure():
     from rigtools.analysis.modal_id import StabilisationChart
 
     chart = StabilisationChart(
-        np.array([2, 4, 4]),
-        np.array([100.0, 100.1, 150.0]),
-        np.array([0.02, 0.02, 0.1]),
-        np.array([False, True, False]),
+        np.array([2, 4, 4, 6]),
+        np.array([100.0, 100.1, 150.0, 180.0]),
+        np.array([0.02, 0.02, 0.1, 0.05]),
+        np.array([False, True, False, True]),
+        judged=(4, 6),
+        mode=np.array([-1, 0, -1, -1]),
     )
     f = np.linspace(1, 200, 200)
     fig = stabilisation_figure(chart, f, sdof_frf(f, 100.0, 0.02), natural_frequencies_hz=[100.1])
     ax = fig.axes[0]
-    np.testing.assert_array_equal(ax.lines[1].get_xdata(), [100.1])
+    lines = {line.get_label(): line for line in ax.lines}
+    np.testing.assert_array_equal(lines["pole"].get_xdata(), [100.0, 150.0])
+    np.testing.assert_array_equal(lines["stable pole (frequency and damping)"].get_xdata(), [180.0])
+    np.testing.assert_array_equal(lines["pole of a reported mode"].get_xdata(), [100.1])
+    np.testing.assert_array_equal(lines["identified mode"].get_xdata(), [100.1, 100.1])
+    assert ax.patches[0].get_label() == "orders judged (4-6)"
     assert ax.get_ylabel() == "model order (-)" and isinstance(fig, Figure)

@@ -290,3 +290,38 @@ def test_tap_test_record_without_frames_gives_the_mode(tmp_path):
         assert modes[0].frequency_hz == pytest.approx(fn, rel=0.005)
         assert modes[0].damping_ratio == pytest.approx(zeta, rel=0.05)
         assert any("4 hit(s), one 8200-sample frame per hit" in n for n in p.notes), p.notes
+
+
+def test_frf_set_of_several_responses_is_identified_together(tmp_path):
+    """An FRF set of three responses over one reference, exact two-mode accelerances with modal
+    constants phi_r * phi_0: rig analyze fits the three together (one LSCF, shapes checked between
+    orders): the same two modes at every response (frequency 1e-6, damping 1e-5), each response's
+    own modal constant (1e-5), shapes stable (MAC > 0.999), one note and one stabilisation chart
+    for the three."""
+    from rigtools.analyze import analyze_recording
+    from rigtools.frf_set import FRFSet, write_frf_set
+    from rigtools.report.sections import analysis_figures
+
+    f = np.arange(0, 400.001, 0.25)
+    fn, zeta = np.array([61.0, 147.0]), np.array([0.01, 0.02])
+    phi = np.array([[1.0, 0.8], [0.6, -0.9], [-0.4, 0.5]])  # (response, mode); force at response 0
+    w, wn = 2 * np.pi * f[:, None], 2 * np.pi * fn
+    h = ((phi * phi[0]) @ (-(w**2) / (wn**2 - w**2 + 2j * zeta * wn * w)).T).astype(complex)
+    path = tmp_path / "three.h5"
+    write_frf_set(path, FRFSet(f, h, np.ones(h.shape), ["a", "b", "c"], "force", "accelerance"))
+    ana = analyze_recording(path)
+    (p,) = ana.broadband
+    for r, row in zip("abc", phi * phi[0], strict=True):
+        got = p.frf.modes[r].modes
+        np.testing.assert_allclose([m.frequency_hz for m in got], fn, rtol=1e-6)
+        np.testing.assert_allclose([m.damping_ratio for m in got], zeta, rtol=1e-5)
+        np.testing.assert_allclose([m.residue.real for m in got], row, rtol=1e-5)
+        assert all(m.mac_min > 0.999 for m in got)
+    assert sum("identified together" in n for n in p.notes) == 1
+    assert sum(nf.name.endswith("-stabilisation") for nf in analysis_figures(ana)) == 1
+    code, out, err = run_cli(["analyze", path, "--json"])
+    assert code == 0, err
+    doc = json.loads(out)["points"][0]["frf"]["modes"]
+    assert {r: [round(m["frequency_hz"], 3) for m in doc[r]["modes"]] for r in "abc"} == {
+        r: [61.0, 147.0] for r in "abc"
+    }
