@@ -127,7 +127,8 @@ def turning_points(curve: BranchCurve) -> list[TurningPoint]:
     tiny = 1e-3 * float(np.ptp(v)) if v.size else 0.0
     out = []
     for i, labs in enumerate(curve.labels):
-        label = next((lab for lab in labs if lab in TURNING_LABELS), None)
+        # a grazing hairpin is labelled fold and grazing: it is named for its grazing
+        label = next((lab for lab in reversed(TURNING_LABELS) if lab in labs), None)
         if label is None:
             continue
         before = next((v[j] for j in range(i - 1, -1, -1) if abs(v[j] - v[i]) > tiny), None)

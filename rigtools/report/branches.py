@@ -136,7 +136,9 @@ def bifurcation_rows(branches: list[StoredBranch]) -> list[dict[str, Any]]:
                         "bifurcation": f"{lab} ({SHORT[lab]})",
                         unit: float(b.value[i]) * scale,
                         "stable": bool(b.stable[i]),
-                        "turning point": "" if t is None else ("upper" if t.upper else "lower"),
+                        "turning point": ""
+                        if t is None or t.label != lab
+                        else ("upper" if t.upper else "lower"),
                         "largest |multiplier|": float(np.nanmax(mod[i])) if mod.shape[1] else float("nan"),
                     }
                 )
