@@ -28,6 +28,7 @@ import scipy.sparse.linalg as spla
 from scipy.sparse.csgraph import connected_components
 
 from rigtools.sim.blade import BladeModel
+from rigtools.sim.blade_stiffness import BladeStiffness, blade_stiffness, deformation_form
 from rigtools.sim.threads import single_blas_thread
 
 KINDS = ("axial", "flexural", "edgewise", "torsional")
@@ -35,6 +36,12 @@ KINDS = ("axial", "flexural", "edgewise", "torsional")
 DENSE_GROUP_MAX = 600
 # shift of the shift-invert solver, (rad/s)^2: just below zero, so a (nearly) singular K is safe
 _SIGMA = -1.0
+# subspace iteration that polishes the modes (_refine): at least this many guard vectors, stop
+# when the wanted shapes move less than this (M-norm; the frequencies then move ~its square), or
+# after this many steps (a step costs a few passes over the mesh)
+_GUARD_MIN = 4
+_REFINE_TOL = 1e-9
+_REFINE_MAX_STEPS = 30
 # component (ux, uy, uz, rx, ry, rz) -> index into KINDS
 _KIND_OF_COMPONENT = np.array([0, 1, 2, 3, 2, 1])
 
@@ -107,13 +114,17 @@ def _all_modes(blade: BladeModel) -> Modes:
     return blade._cache["modes"]
 
 
-def _group_lowest(kg, mg, n: int | None, below_w2: float | None) -> tuple[np.ndarray, np.ndarray]:
-    """The lowest modes of one group: ``n`` of them, or all below ``below_w2`` (at least one)."""
+def _group_lowest(kg, mg, n: int | None, below_w2: float | None, guard: int = 0):
+    """First approximations of the lowest modes of one group: ``n`` of them, or all below
+    ``below_w2`` (at least one), plus up to ``guard`` more when the solver found them.
+
+    Returns ``(w^2, vectors, wanted)``: ascending, the first ``wanted`` are the modes asked for.
+    """
     size = kg.shape[0]
     if size <= DENSE_GROUP_MAX:
         vals, vecs = scipy.linalg.eigh(kg.toarray(), mg.toarray())
     else:
-        k = min(size - 2, max(8, n or 8))
+        k = min(size - 2, max(8, (n or 8) + guard))
         kg, mg = kg.tocsc(), mg.tocsc()
         # one factorisation of K - sigma M serves every try
         op = spla.splu((kg - _SIGMA * mg).tocsc())
@@ -126,12 +137,86 @@ def _group_lowest(kg, mg, n: int | None, below_w2: float | None) -> tuple[np.nda
             if enough or k >= size - 2:
                 break
             k = min(size - 2, 2 * k)
-    if n is not None:
-        vals, vecs = vals[:n], vecs[:, :n]
+    wanted = vals.size if n is None else min(n, vals.size)
     if below_w2 is not None:
-        keep = max(1, int(np.searchsorted(vals, below_w2)))
-        vals, vecs = vals[:keep], vecs[:, :keep]
-    return vals, vecs
+        wanted = max(1, int(np.searchsorted(vals, below_w2)))
+    keep = min(vals.size, wanted + guard)
+    return vals[:keep], vecs[:, :keep], wanted
+
+
+def _guard(wanted: int) -> int:
+    """Extra vectors carried by the subspace iteration beside the ``wanted`` modes."""
+    return max(_GUARD_MIN, wanted // 2)
+
+
+def _refine(
+    stiffness: BladeStiffness, idx: np.ndarray, mg, vecs: np.ndarray, wanted: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """Polish the lowest ``wanted`` modes of one DOF group by subspace (block inverse) iteration.
+
+    The first approximations (LAPACK or Lanczos on the assembled matrices) carry the round-off of
+    the assembled stiffness (relative ~n^4 eps: 1e-8 in frequency at 100 elements, 4e-5 at 6400).
+    Each step applies ``K^-1 M`` through the element deformations
+    (:meth:`rigtools.sim.blade_stiffness.BladeStiffness.solve_deformations`: no factorisation, no
+    cancellation) and takes the Rayleigh-Ritz pairs with the projected stiffness summed per
+    element (``y_i^T K y_j = z_i^T g_j``, every term an element's own energy). The error of mode
+    ``i`` shrinks by ``w_i^2 / w_(p+1)^2`` per step (``p`` vectors in all); the steps stop when
+    the wanted shapes move less than :data:`_REFINE_TOL` (M-norm), or stall.
+
+    Returns ``(w^2, mass-normalised vectors)`` of the ``wanted`` modes.
+    """
+    size = len(idx)
+    p = wanted + _guard(wanted)
+    if p >= size:  # a group this small is solved densely at round-off already (a few elements)
+        return _rayleigh_ritz(stiffness, idx, mg, vecs[:, :wanted])
+    v = vecs[:, :p]
+    if v.shape[1] < p:  # random guard vectors: the iteration turns them into the next modes
+        rng = np.random.default_rng(0)
+        v = np.hstack([v, rng.standard_normal((size, p - v.shape[1]))])
+    previous = np.inf
+    w2 = np.empty(0)
+    for _ in range(_REFINE_MAX_STEPS):
+        w2, new = _rayleigh_ritz(stiffness, idx, mg, v, inverse_step=True)
+        d = (new - v)[:, :wanted]
+        s = (new + v)[:, :wanted]
+        moved = np.sqrt(np.minimum(np.sum(d * (mg @ d), axis=0), np.sum(s * (mg @ s), axis=0))).max()
+        v = new
+        if moved < _REFINE_TOL or moved > 0.5 * previous:
+            break
+        previous = moved
+    return w2[:wanted], v[:, :wanted]
+
+
+def _rayleigh_ritz(
+    stiffness: BladeStiffness, idx: np.ndarray, mg, v: np.ndarray, inverse_step: bool = False
+) -> tuple[np.ndarray, np.ndarray]:
+    """Ritz pairs of (K, M) in span(v), or in span(K^-1 M v) with ``inverse_step``, with the
+    projected stiffness from the element deformations (ascending, mass-normalised)."""
+    b = np.zeros((stiffness.free_dofs.size, v.shape[1]))
+    b[idx] = mg @ v
+    if inverse_step:
+        z, g = stiffness.solve_deformations(b)
+        y = stiffness.displacements(z)[idx]
+        kp = deformation_form(z, g)
+    else:
+        y = v
+        full = np.zeros_like(b)
+        full[idx] = y
+        kp = stiffness.form(full)
+    my = mg @ y
+    # unit M-norm columns: the projected matrices stay well scaled whatever the spread of w
+    scale = 1.0 / np.sqrt(np.einsum("ij,ij->j", y, my))
+    y = y * scale
+    kp = kp * np.outer(scale, scale)
+    mp = (y.T @ (my * scale)).T
+    kp, mp = 0.5 * (kp + kp.T), 0.5 * (mp + mp.T)
+    _, q = scipy.linalg.eigh(kp, mp)
+    # eigh's eigenvalues carry eps * w_p^2 in absolute terms (1e-12 of w_1^2 when w_p is 10 w_1);
+    # the Rayleigh quotients of its vectors are accurate to eps relative to each w^2 (second
+    # order in the vectors' error)
+    w2 = np.einsum("ji,jk,ki->i", q, kp, q) / np.einsum("ji,jk,ki->i", q, mp, q)
+    order = np.argsort(w2)
+    return w2[order], y @ q[:, order]
 
 
 def lowest_modes(
@@ -169,10 +254,14 @@ def lowest_modes(
             groups = [g for g in groups if wanted.intersection(g.tolist())]
         below_w2 = None if below_hz is None else (2.0 * np.pi * float(below_hz)) ** 2
         K, M = blade.stiffness, blade.mass
+        accurate = blade_stiffness(blade)
         parts = []
         with single_blas_thread():
             for idx in groups:
-                vals, vecs = _group_lowest(K[idx][:, idx], M[idx][:, idx], n_modes, below_w2)
+                mg = M[idx][:, idx]
+                guard = _guard(n_modes or 8)
+                _, vecs, wanted = _group_lowest(K[idx][:, idx], mg, n_modes, below_w2, guard)
+                vals, vecs = _refine(accurate, idx, mg, vecs, wanted)
                 parts.append((idx, vals, vecs))
         modes = _assemble(blade, parts)
         if n_modes is not None:
