@@ -172,6 +172,69 @@ def element_types(
     return np.array(lengths), k, m, kind
 
 
+def blade_matrices(
+    params: BladeParams,
+    node_x: np.ndarray,
+    masses: list[LumpedMass] | tuple[LumpedMass, ...],
+    root: RootParams,
+    rotary_inertia: bool = True,
+) -> tuple[sp.csr_matrix, sp.csr_matrix, np.ndarray]:
+    """Assembled stiffness and mass over the free DOFs of a meshed blade (see :func:`build_blade`).
+
+    Returns
+    -------
+    (K, M, free_dofs)
+        Sparse matrices and the full DOF number (``node * 6 + component``) of each free DOF.
+    """
+    _, k_types, m_types, kind = element_types(params, node_x, rotary_inertia)
+    free, lumped, springs = _nodal_terms(node_x, masses, root)
+    return _assemble(k_types, kind, springs, free), _assemble(m_types, kind, lumped, free), free
+
+
+def blade_mass_matrix(
+    params: BladeParams,
+    node_x: np.ndarray,
+    masses: list[LumpedMass] | tuple[LumpedMass, ...],
+    root: RootParams,
+    rotary_inertia: bool = True,
+) -> sp.csr_matrix:
+    """The mass of :func:`blade_matrices` alone."""
+    _, _, m_types, kind = element_types(params, node_x, rotary_inertia)
+    free, lumped, _ = _nodal_terms(node_x, masses, root)
+    return _assemble(m_types, kind, lumped, free)
+
+
+def _nodal_terms(
+    node_x: np.ndarray, masses: list[LumpedMass] | tuple[LumpedMass, ...], root: RootParams
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Free DOFs, lumped masses and root springs on the diagonal, over all DOFs."""
+    n_full = len(node_x) * N_DOF_NODE
+    if root.kind not in ("springs", "clamped"):
+        raise ValueError(f"unknown root kind {root.kind!r}")
+    free = np.arange(n_full) if root.kind == "springs" else np.arange(N_DOF_NODE, n_full)
+    lumped = np.zeros(n_full)
+    for m in masses:
+        node = int(np.argmin(np.abs(node_x - m.position)))
+        lumped[node * N_DOF_NODE + np.arange(6)] += [m.mass] * 3 + [m.rotary_inertia] * 3
+    springs = np.zeros(n_full)
+    if root.kind == "springs":
+        springs[:6] = [root.translational_stiffness] * 3 + [root.rotational_stiffness] * 3
+    return free, lumped, springs
+
+
+def _assemble(matrices: np.ndarray, kind: np.ndarray, diagonal: np.ndarray, free: np.ndarray) -> sp.csr_matrix:
+    """Element ``e`` (``matrices[kind[e]]``, nodes e and e + 1) plus ``diagonal``, over the free DOFs."""
+    n_full = diagonal.size
+    index = np.full(n_full, -1)
+    index[free] = np.arange(free.size)
+    dofs = index[np.arange(kind.size)[:, None] * N_DOF_NODE + np.arange(12)]
+    rows = np.r_[np.repeat(dofs, 12, axis=1).ravel(), index]
+    cols = np.r_[np.tile(dofs, (1, 12)).ravel(), index]
+    vals = np.r_[matrices[kind].ravel(), diagonal]
+    keep = (rows >= 0) & (cols >= 0) & (vals != 0.0)
+    return sp.coo_matrix((vals[keep], (rows[keep], cols[keep])), shape=(free.size, free.size)).tocsr()
+
+
 def build_blade(
     name: str,
     params: BladeParams,
@@ -208,46 +271,8 @@ def build_blade(
             raise ValueError(f"lumped mass at x = {m.position} m is not on the blade (0, {params.length}]")
     x = mesh_nodes(params.length, params.elements, [m.position for m in masses])
     n_nodes = len(x)
-    n_full = n_nodes * N_DOF_NODE
 
-    _, k_types, m_types, kind = element_types(params, x, rotary_inertia)
-    rows, cols, kv, mv = [], [], [], []
-    local = np.arange(12)
-    for e, t in enumerate(kind):
-        dofs = e * N_DOF_NODE + local
-        rows.append(np.repeat(dofs, 12))
-        cols.append(np.tile(dofs, 12))
-        kv.append(k_types[t].ravel())
-        mv.append(m_types[t].ravel())
-
-    lump_rows, lump_m = [], []
-    for m in masses:
-        node = int(np.argmin(np.abs(x - m.position)))
-        lump_rows.append(node * N_DOF_NODE + np.arange(6))
-        lump_m.append(np.array([m.mass] * 3 + [m.rotary_inertia] * 3))
-    spring_rows, spring_k = [], []
-    if root.kind == "springs":
-        spring_rows.append(np.arange(6))
-        spring_k.append(np.array([root.translational_stiffness] * 3 + [root.rotational_stiffness] * 3))
-    elif root.kind != "clamped":
-        raise ValueError(f"unknown root kind {root.kind!r}")
-
-    r = np.concatenate(rows + lump_rows + spring_rows)
-    c = np.concatenate(cols + lump_rows + spring_rows)
-    n_lump = sum(len(a) for a in lump_rows)
-    n_spring = sum(len(a) for a in spring_rows)
-    K = sp.coo_matrix(
-        (np.concatenate(kv + [np.zeros(n_lump)] + spring_k), (r, c)), shape=(n_full, n_full)
-    ).tocsr()
-    M = sp.coo_matrix(
-        (np.concatenate(mv + lump_m + [np.zeros(n_spring)]), (r, c)), shape=(n_full, n_full)
-    ).tocsr()
-
-    free = np.arange(n_full) if root.kind == "springs" else np.arange(N_DOF_NODE, n_full)
-    K = K[free][:, free].tocsr()
-    M = M[free][:, free].tocsr()
-    K.eliminate_zeros()
-    M.eliminate_zeros()
+    K, M, free = blade_matrices(params, x, masses, root, rotary_inertia)
     sensor_node = None if sensor is None else int(np.argmin(np.abs(x - sensor.position)))
     return BladeModel(
         name=name,

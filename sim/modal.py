@@ -28,18 +28,30 @@ import scipy.sparse.linalg as spla
 from scipy.sparse.csgraph import connected_components
 
 from rigtools.sim.blade import BladeModel
-from rigtools.sim.blade_stiffness import BladeStiffness, blade_stiffness, deformation_form
+from rigtools.sim.deformation import (
+    BladeInertia,
+    BladeStiffness,
+    blade_inertia,
+    blade_stiffness,
+    deformation_form,
+)
+from rigtools.sim.params import SimulationInputError
 from rigtools.sim.threads import single_blas_thread
 
 KINDS = ("axial", "flexural", "edgewise", "torsional")
 #: DOF groups up to this size are solved densely (all their modes): faster than Lanczos there.
 DENSE_GROUP_MAX = 600
+#: Every mode of a blade (dense LAPACK: O(n^3) time, O(n^2) memory) only up to this many elements
+#: per blade (about 1 min and 2.5 GB at 2000; the sparse paths reach MAX_ELEMENTS).
+DENSE_MAX_ELEMENTS = 2000
 # shift of the shift-invert solver, (rad/s)^2: just below zero, so a (nearly) singular K is safe
 _SIGMA = -1.0
 # subspace iteration that polishes the modes (_refine): at least this many guard vectors, stop
 # when the wanted shapes move less than this (M-norm; the frequencies then move ~its square), or
 # after this many steps (a step costs a few passes over the mesh)
 _GUARD_MIN = 4
+# columns of the flexibility built per pass in _all_modes (bounds the temporary arrays)
+_FLEX_COLUMNS = 256
 _REFINE_TOL = 1e-9
 _REFINE_MAX_STEPS = 30
 # component (ux, uy, uz, rx, ry, rz) -> index into KINDS
@@ -101,14 +113,48 @@ def _assemble(blade: BladeModel, parts: list[tuple[np.ndarray, np.ndarray, np.nd
     return Modes(np.sqrt(w2) / (2.0 * np.pi), phi, classify_modes(blade, phi))
 
 
+def check_dense(blade: BladeModel, what: str) -> None:
+    """Refuse every mode of a blade finer than :data:`DENSE_MAX_ELEMENTS` (one line naming ``what``).
+
+    Raises
+    ------
+    SimulationInputError
+        The dense eigen-solve would take minutes to hours and gigabytes.
+    """
+    elements = len(blade.node_x) - 1
+    if elements > DENSE_MAX_ELEMENTS:
+        raise SimulationInputError(
+            f"{what} needs every mode of the {blade.name} blade, a dense eigen-solve that grows as "
+            f"elements^3: at most {DENSE_MAX_ELEMENTS} elements per blade, got {elements}"
+        )
+
+
 def _all_modes(blade: BladeModel) -> Modes:
-    """Every mode of the blade (dense, per DOF group), cached on it."""
+    """Every mode of the blade (dense, per DOF group), cached on it.
+
+    Solved for ``mu = 1 / w^2`` of the flexibility, ``M F M y = mu M y`` with ``F = K^-1`` built
+    column by column through the element deformations (:meth:`BladeStiffness.solve`): LAPACK's
+    error is ~eps times the largest ``mu``, so the low modes, which carry the response, are
+    accurate to round-off relative to themselves (``eigh(K, M)`` puts that error on the highest
+    ``w^2`` instead, ~n^4 eps relative on the lowest: 1e-8 at 100 elements, 1e-3 at 2000).
+    """
     if "modes" not in blade._cache:
-        K, M = blade.stiffness, blade.mass
+        check_dense(blade, "this computation (full-order model, harmonic response over all modes)")
+        stiffness, M = blade_stiffness(blade), blade.mass
         parts = []
         with single_blas_thread():
             for idx in _groups(blade):
-                vals, vecs = scipy.linalg.eigh(K[idx][:, idx].toarray(), M[idx][:, idx].toarray())
+                flex = np.empty((idx.size, idx.size))
+                for start in range(0, idx.size, _FLEX_COLUMNS):
+                    cols = idx[start : start + _FLEX_COLUMNS]
+                    unit = np.zeros((blade.n_dofs, cols.size))
+                    unit[cols, np.arange(cols.size)] = 1.0
+                    flex[:, start : start + cols.size] = stiffness.solve(unit)[idx]
+                mg = M[idx][:, idx].toarray()
+                mu, vecs = scipy.linalg.eigh(mg @ (0.5 * (flex + flex.T)) @ mg, mg)
+                mu, vecs = mu[::-1], vecs[:, ::-1]
+                # the highest modes of a fine mesh without rotary inertia can reach mu ~ eps mu_1
+                vals = 1.0 / np.maximum(mu, np.finfo(float).eps * mu[0])
                 parts.append((idx, vals, vecs))
         blade._cache["modes"] = _assemble(blade, parts)
     return blade._cache["modes"]
@@ -150,14 +196,14 @@ def _guard(wanted: int) -> int:
 
 
 def _refine(
-    stiffness: BladeStiffness, idx: np.ndarray, mg, vecs: np.ndarray, wanted: int
+    stiffness: BladeStiffness, inertia: BladeInertia, idx: np.ndarray, mg, vecs: np.ndarray, wanted: int
 ) -> tuple[np.ndarray, np.ndarray]:
     """Polish the lowest ``wanted`` modes of one DOF group by subspace (block inverse) iteration.
 
     The first approximations (LAPACK or Lanczos on the assembled matrices) carry the round-off of
     the assembled stiffness (relative ~n^4 eps: 1e-8 in frequency at 100 elements, 4e-5 at 6400).
     Each step applies ``K^-1 M`` through the element deformations
-    (:meth:`rigtools.sim.blade_stiffness.BladeStiffness.solve_deformations`: no factorisation, no
+    (:meth:`rigtools.sim.deformation.BladeStiffness.solve_deformations`: no factorisation, no
     cancellation) and takes the Rayleigh-Ritz pairs with the projected stiffness summed per
     element (``y_i^T K y_j = z_i^T g_j``, every term an element's own energy). The error of mode
     ``i`` shrinks by ``w_i^2 / w_(p+1)^2`` per step (``p`` vectors in all); the steps stop when
@@ -168,7 +214,7 @@ def _refine(
     size = len(idx)
     p = wanted + _guard(wanted)
     if p >= size:  # a group this small is solved densely at round-off already (a few elements)
-        return _rayleigh_ritz(stiffness, idx, mg, vecs[:, :wanted])
+        return _rayleigh_ritz(stiffness, inertia, idx, mg, vecs[:, :wanted])
     v = vecs[:, :p]
     if v.shape[1] < p:  # random guard vectors: the iteration turns them into the next modes
         rng = np.random.default_rng(0)
@@ -176,7 +222,7 @@ def _refine(
     previous = np.inf
     w2 = np.empty(0)
     for _ in range(_REFINE_MAX_STEPS):
-        w2, new = _rayleigh_ritz(stiffness, idx, mg, v, inverse_step=True)
+        w2, new = _rayleigh_ritz(stiffness, inertia, idx, mg, v, inverse_step=True)
         d = (new - v)[:, :wanted]
         s = (new + v)[:, :wanted]
         moved = np.sqrt(np.minimum(np.sum(d * (mg @ d), axis=0), np.sum(s * (mg @ s), axis=0))).max()
@@ -188,10 +234,17 @@ def _refine(
 
 
 def _rayleigh_ritz(
-    stiffness: BladeStiffness, idx: np.ndarray, mg, v: np.ndarray, inverse_step: bool = False
+    stiffness: BladeStiffness,
+    inertia: BladeInertia,
+    idx: np.ndarray,
+    mg,
+    v: np.ndarray,
+    inverse_step: bool = False,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Ritz pairs of (K, M) in span(v), or in span(K^-1 M v) with ``inverse_step``, with the
-    projected stiffness from the element deformations (ascending, mass-normalised)."""
+    projected stiffness from the element deformations and the projected mass with the rotary
+    inertia summed per element (:class:`rigtools.sim.deformation.BladeInertia`); ascending,
+    mass-normalised."""
     b = np.zeros((stiffness.free_dofs.size, v.shape[1]))
     b[idx] = mg @ v
     if inverse_step:
@@ -203,12 +256,14 @@ def _rayleigh_ritz(
         full = np.zeros_like(b)
         full[idx] = y
         kp = stiffness.form(full)
-    my = mg @ y
+    full = np.zeros((inertia.free_dofs.size, y.shape[1]))
+    full[idx] = y
+    mp = inertia.form(full)
     # unit M-norm columns: the projected matrices stay well scaled whatever the spread of w
-    scale = 1.0 / np.sqrt(np.einsum("ij,ij->j", y, my))
+    scale = 1.0 / np.sqrt(np.diag(mp))
     y = y * scale
     kp = kp * np.outer(scale, scale)
-    mp = (y.T @ (my * scale)).T
+    mp = mp * np.outer(scale, scale)
     kp, mp = 0.5 * (kp + kp.T), 0.5 * (mp + mp.T)
     _, q = scipy.linalg.eigh(kp, mp)
     # eigh's eigenvalues carry eps * w_p^2 in absolute terms (1e-12 of w_1^2 when w_p is 10 w_1);
@@ -254,14 +309,14 @@ def lowest_modes(
             groups = [g for g in groups if wanted.intersection(g.tolist())]
         below_w2 = None if below_hz is None else (2.0 * np.pi * float(below_hz)) ** 2
         K, M = blade.stiffness, blade.mass
-        accurate = blade_stiffness(blade)
+        accurate, inertia = blade_stiffness(blade), blade_inertia(blade)
         parts = []
         with single_blas_thread():
             for idx in groups:
                 mg = M[idx][:, idx]
                 guard = _guard(n_modes or 8)
                 _, vecs, wanted = _group_lowest(K[idx][:, idx], mg, n_modes, below_w2, guard)
-                vals, vecs = _refine(accurate, idx, mg, vecs, wanted)
+                vals, vecs = _refine(accurate, inertia, idx, mg, vecs, wanted)
                 parts.append((idx, vals, vecs))
         modes = _assemble(blade, parts)
         if n_modes is not None:

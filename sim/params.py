@@ -16,15 +16,15 @@ Theory = Literal["euler-bernoulli", "timoshenko"]
 ContactLaw = Literal["linear", "hertz", "hunt-crossley"]
 THEORIES = ("euler-bernoulli", "timoshenko")
 CONTACT_LAWS = ("linear", "hertz", "hunt-crossley")
-# Elements per blade. Not a question of time (the model builds and reduces in linear time: 0.7 s
-# at 6400 elements) but of round-off: the stiffness matrix's condition number grows as n^4, and
-# the FE static tip deflection of the default blade (exact for these elements) is off by 1e-9 at
-# 100 elements, 2e-7 at 400, 2e-5 at 1600 and 3e-3 at 6400 (double precision, any ordering or
-# scaling of the sparse factorisation; benchmarks/bench_model_build.py). The discretisation error
-# of the first flexural frequencies is below 1e-7 at 100 elements: beyond a few hundred elements a
-# finer mesh only adds round-off, and past 2000 it exceeds 1e-4 (a mesh-convergence study would
-# mislead).
-MAX_ELEMENTS = 2000
+# Elements per blade: what builds in a few seconds. The model builds and reduces in about linear
+# time and memory (benchmarks/bench_model_build.py: ~4 s and ~0.3 GB at 20 000 elements per blade
+# on a loaded 2-core machine; 16 s and 0.7 GB at 50 000). Round-off no longer limits it: the
+# stiffness is applied through the element deformations (rigtools.sim.deformation), so the
+# frequencies converge to ~1e-15 and the static deflection to ~1e-13 at any of these meshes (the
+# assembled matrix alone lost ~n^4 eps: 7.5e-4 of the static deflection at 6400 elements).
+# Computing every mode (dense, O(n^3): the full-order integrator, the harmonic response over all
+# modes, an FRF fit) has its own, lower limit: rigtools.sim.modal.DENSE_MAX_ELEMENTS.
+MAX_ELEMENTS = 20000
 # a root spring stiffer than this many times the root element's own stiffness brings nothing a
 # clamp does not, and ruins the FE eigen-solve (measured: 1e6 times agrees with the clamp to
 # 4e-8; 1e7 times gives a first flexural frequency 43 % high, 1e11 times 0 Hz)

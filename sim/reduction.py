@@ -24,7 +24,7 @@ from rigtools.sim.params import ContactParams, DampingParams, RigParams, Simulat
 
 if TYPE_CHECKING:  # imported lazily at run time: these build on the FE and AM modules
     from rigtools.sim.analytical import AssumedModesBlade
-    from rigtools.sim.blade_stiffness import BladeStiffness
+    from rigtools.sim.deformation import BladeStiffness
     from rigtools.sim.rig_model import RigModel
 
 ROWS = ("active_tip", "passive_tip", "force_point")
@@ -200,7 +200,7 @@ def _blade_ritz(
         # Solving for the load with the kept modes' share removed, K r = e - M Phi Phi^T e (the
         # same r, no cancellation), then removing what the kept modes' own round-off leaks back,
         # gives r M-orthogonal to round-off. The solve and the projected stiffness go through the
-        # element deformations (rigtools.sim.blade_stiffness): a sparse LU of K, and r^T K r
+        # element deformations (rigtools.sim.deformation): a sparse LU of K, and r^T K r
         # formed with K, lose ~n^4 eps (7.5e-4 of the static deflection at 6400 elements).
         resid = stiffness.solve(e - mass @ (phi @ phi[load_dofs, :].T))
         resid -= phi @ (phi.T @ (mass @ resid))
@@ -291,7 +291,7 @@ def reduce_rig_model(
     (sparse shift-invert, :func:`rigtools.sim.modal.lowest_modes`): time and memory grow linearly
     with the element count, and the kept modes do not depend on the mesh once it resolves them.
     """
-    from rigtools.sim.blade_stiffness import blade_stiffness
+    from rigtools.sim.deformation import blade_stiffness
     from rigtools.sim.modal import lowest_modes
     from rigtools.sim.threads import single_blas_thread
 

@@ -37,8 +37,9 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg
+import scipy.sparse as sp
 
-from rigtools.sim.blade import N_DOF_NODE, BladeModel, element_types
+from rigtools.sim.blade import N_DOF_NODE, BladeModel, blade_mass_matrix, element_types
 
 
 @dataclass(frozen=True)
@@ -135,14 +136,14 @@ class BladeStiffness:
         """``Kz z``: nodal generalised loads from nodal deformations."""
         g = np.empty_like(z)
         g[0] = 0.0 if self.root_springs is None else self.root_springs[:, None] * z[0]
-        g[1:] = np.einsum("eij,ejk->eik", self.blocks, z[1:])
+        g[1:] = np.matmul(self.blocks, z[1:])
         return g
 
     def _flex(self, g: np.ndarray) -> np.ndarray:
         """``Kz^-1 g``: nodal deformations from nodal generalised loads."""
         z = np.empty_like(g)
         z[0] = 0.0 if self.root_springs is None else g[0] / self.root_springs[:, None]
-        z[1:] = np.einsum("eij,ejk->eik", self.flexibilities, g[1:])
+        z[1:] = np.matmul(self.flexibilities, g[1:])
         return z
 
     # ------------------------------------------------------------------ public operations
@@ -216,3 +217,71 @@ def _spd_inverse(a: np.ndarray) -> np.ndarray:
     """Inverse of a symmetric positive-definite matrix by its Cholesky factor, symmetrised."""
     inv = scipy.linalg.cho_solve(scipy.linalg.cho_factor(a), np.eye(a.shape[0]))
     return 0.5 * (inv + inv.T)
+
+
+# element DOFs (of 12) of the coordinates the rotary inertia depends on: u_b (u_a enters only as
+# u_b - u_a), theta_a, theta_b
+_ROTARY_DOFS = np.array([6, 7, 8, 3, 4, 5, 9, 10, 11])
+
+
+@dataclass(frozen=True)
+class BladeInertia:
+    """A blade's mass as a quadratic form without the rotary inertia's round-off.
+
+    The distributed rotary inertia of a bending element, ``rho I int theta^2 dx``, depends on the
+    nodal translations only through ``u_b - u_a`` (``theta = dv/dx``): its matrix has entries
+    ~``rho I / h`` that cancel on smooth motions, ``(I / A h^2)`` times the translational mass
+    entries (1400x for the default blade at 6400 elements), so ``x^T M x`` of the assembled mass
+    loses ~n^2 (I / A L^2) eps. Here the rest of the mass (consistent translational and torsional
+    mass, lumped masses: well conditioned) stays an assembled matrix, and the rotary part is summed
+    per element in the coordinates ``(u_b - u_a, theta_a, theta_b)``.
+
+    Attributes
+    ----------
+    plain
+        Sparse mass over the free DOFs without the sections' rotary inertia.
+    rotary
+        (n_elements, 9, 9) each element's rotary inertia in ``(u_b - u_a, theta_a, theta_b)``, or
+        ``None`` (a model without it).
+    free_dofs
+        Full DOF number of each free DOF, as on the blade.
+    """
+
+    plain: sp.csr_matrix
+    rotary: np.ndarray | None
+    free_dofs: np.ndarray
+
+    def form(self, x: np.ndarray, y: np.ndarray | None = None) -> np.ndarray:
+        """``x^T M y`` (``y = x`` if omitted) for ``(n_dofs, kx)`` and ``(n_dofs, ky)`` arrays."""
+        x2 = _columns(x)
+        y2 = x2 if y is None else _columns(y)
+        out = x2.T @ (self.plain @ y2)
+        if self.rotary is not None:
+            wx = self._coordinates(x2)
+            wy = wx if y is None else self._coordinates(y2)
+            out = out + np.einsum("eik,eil->kl", wx, np.matmul(self.rotary, wy))
+        return out
+
+    def _coordinates(self, x: np.ndarray) -> np.ndarray:
+        n_nodes = (int(self.free_dofs.max()) + 1) // N_DOF_NODE
+        full = np.zeros((n_nodes * N_DOF_NODE, x.shape[1]))
+        full[self.free_dofs] = x
+        xn = full.reshape(n_nodes, N_DOF_NODE, x.shape[1])
+        return np.concatenate([xn[1:, :3] - xn[:-1, :3], xn[:-1, 3:], xn[1:, 3:]], axis=1)
+
+
+def blade_inertia(blade: BladeModel) -> BladeInertia:
+    """The mass of ``blade`` as a form with the rotary inertia summed per element (cached on the blade).
+
+    Its ``form(x, y)`` equals ``x^T blade.mass y`` to round-off (the same element matrices).
+    """
+    if "deformation_inertia" not in blade._cache:
+        plain = blade_mass_matrix(blade.params, blade.node_x, blade.masses, blade.root, False)
+        rotary = None
+        if blade.rotary_inertia:
+            _, _, with_rot, kind = element_types(blade.params, blade.node_x, True)
+            _, _, without, _ = element_types(blade.params, blade.node_x, False)
+            diff = (with_rot - without)[:, _ROTARY_DOFS][:, :, _ROTARY_DOFS]
+            rotary = (0.5 * (diff + np.transpose(diff, (0, 2, 1))))[kind]
+        blade._cache["deformation_inertia"] = BladeInertia(plain=plain, rotary=rotary, free_dofs=blade.free_dofs)
+    return blade._cache["deformation_inertia"]
