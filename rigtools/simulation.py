@@ -434,7 +434,9 @@ def model_build_estimate(params, model: str = "fem") -> tuple[float, int]:
 
     if model != "fem":
         return 0.0, 0
-    peak = int(FE_BUILD_BYTES_PER_DOF * sum(6 * (int(b.elements) + 1) for b in (params.active, params.passive)))
+    peak = int(
+        FE_BUILD_BYTES_PER_DOF * sum(6 * (int(b.elements) + 1) for b in (params.active, params.passive))
+    )
     return estimate_reduction_seconds(params), peak
 
 

@@ -222,7 +222,9 @@ def _nodal_terms(
     return free, lumped, springs
 
 
-def _assemble(matrices: np.ndarray, kind: np.ndarray, diagonal: np.ndarray, free: np.ndarray) -> sp.csr_matrix:
+def _assemble(
+    matrices: np.ndarray, kind: np.ndarray, diagonal: np.ndarray, free: np.ndarray
+) -> sp.csr_matrix:
     """Element ``e`` (``matrices[kind[e]]``, nodes e and e + 1) plus ``diagonal``, over the free DOFs."""
     n_full = diagonal.size
     index = np.full(n_full, -1)

@@ -153,15 +153,15 @@ class BladeStiffness:
         out = self._nodal_forces(self._stiffen(self.deformations(x2)))
         return out.reshape(np.shape(x))
 
-    def form(self, x: np.ndarray, y: np.ndarray | None = None) -> np.ndarray | float:
+    def form(self, x: np.ndarray, y: np.ndarray | None = None) -> np.ndarray:
         """``x^T K y`` (``y = x`` if omitted) summed per element from the deformations.
 
-        Returns a float for vectors, ``(kx, ky)`` for ``(n_dofs, kx)`` and ``(n_dofs, ky)`` arrays.
+        Returns ``(kx, ky)`` for ``(n_dofs, kx)`` and ``(n_dofs, ky)`` arrays (a vector counts as
+        one column).
         """
         zx = self.deformations(_columns(x))
         zy = zx if y is None else self.deformations(_columns(y))
-        out = deformation_form(zx, self._stiffen(zy))
-        return float(out[0, 0]) if np.ndim(x) == 1 and (y is None or np.ndim(y) == 1) else out
+        return deformation_form(zx, self._stiffen(zy))
 
     def solve(self, b: np.ndarray) -> np.ndarray:
         """``K^-1 b`` through the section loads and the element flexibilities (no factorisation)."""
@@ -283,5 +283,7 @@ def blade_inertia(blade: BladeModel) -> BladeInertia:
             _, _, without, _ = element_types(blade.params, blade.node_x, False)
             diff = (with_rot - without)[:, _ROTARY_DOFS][:, :, _ROTARY_DOFS]
             rotary = (0.5 * (diff + np.transpose(diff, (0, 2, 1))))[kind]
-        blade._cache["deformation_inertia"] = BladeInertia(plain=plain, rotary=rotary, free_dofs=blade.free_dofs)
+        blade._cache["deformation_inertia"] = BladeInertia(
+            plain=plain, rotary=rotary, free_dofs=blade.free_dofs
+        )
     return blade._cache["deformation_inertia"]

@@ -245,18 +245,16 @@ def _rayleigh_ritz(
     projected stiffness from the element deformations and the projected mass with the rotary
     inertia summed per element (:class:`rigtools.sim.deformation.BladeInertia`); ascending,
     mass-normalised."""
-    b = np.zeros((stiffness.free_dofs.size, v.shape[1]))
-    b[idx] = mg @ v
+    full = np.zeros((stiffness.free_dofs.size, v.shape[1]))
     if inverse_step:
-        z, g = stiffness.solve_deformations(b)
+        full[idx] = mg @ v
+        z, g = stiffness.solve_deformations(full)
         y = stiffness.displacements(z)[idx]
         kp = deformation_form(z, g)
     else:
         y = v
-        full = np.zeros_like(b)
         full[idx] = y
         kp = stiffness.form(full)
-    full = np.zeros((inertia.free_dofs.size, y.shape[1]))
     full[idx] = y
     mp = inertia.form(full)
     # unit M-norm columns: the projected matrices stay well scaled whatever the spread of w

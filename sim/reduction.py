@@ -205,7 +205,7 @@ def _blade_ritz(
         resid = stiffness.solve(e - mass @ (phi @ phi[load_dofs, :].T))
         resid -= phi @ (phi.T @ (mass @ resid))
         mr = resid.T @ (mass @ resid)
-        kr = np.atleast_2d(stiffness.form(resid))
+        kr = stiffness.form(resid)
         # drop directions with no residual flexibility left (all relevant modes already kept)
         flex = np.diag(resid[load_dofs, :])
         static = flex + np.sum(phi[load_dofs, :] ** 2 / om**2, axis=1)
@@ -423,11 +423,11 @@ def reduced_system(
     raise ValueError(f"model must be 'fem' or 'am', got {model!r}")
 
 
-# Rough cost of building and reducing the FE model (sparse, only the modes kept), measured on the
-# reference machine (2 shared cores under load, 2026, benchmarks/bench_model_build.py): 0.11 /
-# 0.24 / 0.46 / 2.0 s at 100 / 400 / 1600 / 6400 elements per blade (the dense all-modes build
-# it replaced took 0.5 / 13 s at 100 / 400, issue 8 saw 230 s at 2000). Only for telling a user
-# up front.
+# Rough cost of building and reducing the FE model (sparse, only the modes kept, polished through
+# the element deformations), measured on the reference machine (2 shared cores under load, 2026,
+# benchmarks/bench_model_build.py): 0.04-0.10 / 0.06-0.17 / 0.16-0.44 / 0.56-1.55 s at 100 / 400 /
+# 1600 / 6400 elements per blade, 3.6-4.5 s at 20000 (the dense all-modes build it replaced took
+# 0.5 / 13 s at 100 / 400, issue 8 saw 230 s at 2000). Only for telling a user up front.
 _REDUCTION_SECONDS_AT_100 = 0.1
 _REDUCTION_EXPONENT = 0.7
 
