@@ -214,7 +214,8 @@ def _refine(
     size = len(idx)
     p = wanted + _guard(wanted)
     if p >= size:  # a group this small is solved densely at round-off already (a few elements)
-        return _rayleigh_ritz(stiffness, inertia, idx, mg, vecs[:, :wanted])
+        w2, v = _rayleigh_ritz(stiffness, inertia, idx, mg, vecs[:, :wanted])
+        return w2, _same_signs(v, vecs[:, :wanted], mg)
     v = vecs[:, :p]
     if v.shape[1] < p:  # random guard vectors: the iteration turns them into the next modes
         rng = np.random.default_rng(0)
@@ -230,7 +231,14 @@ def _refine(
         if moved < _REFINE_TOL or moved > 0.5 * previous:
             break
         previous = moved
-    return w2[:wanted], v[:, :wanted]
+    return w2[:wanted], _same_signs(v[:, :wanted], vecs[:, :wanted], mg)
+
+
+def _same_signs(polished: np.ndarray, first: np.ndarray, mg) -> np.ndarray:
+    """``polished`` with each column's sign that of its first approximation (a shape's sign is
+    arbitrary, but what is built on the modes -- e.g. a continuation's branch switching -- should
+    not move with the polish)."""
+    return polished * np.where(np.einsum("ij,ij->j", polished, mg @ first) < 0, -1.0, 1.0)
 
 
 def _rayleigh_ritz(
