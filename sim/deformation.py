@@ -21,14 +21,18 @@ stiffness is block-diagonal with 6x6 blocks, each well conditioned up to a diago
 
 * ``K^-1 b = T Kz^-1 T^T b``: ``T^T b`` are the section loads (running sums of the nodal loads
   and their moments from the tip), ``Kz^-1`` the flexibility of each element as a cantilever, ``T``
-  the running sum back to the tip -- no cancellation anywhere for a smooth load; a static solve
-  accurate to ~n eps at any mesh, without a factorisation;
+  the running sum from the root out to the tip -- no cancellation anywhere for a smooth load; a
+  static solve accurate to ~n eps at any mesh, without a factorisation;
 * ``x^T K y = (T^-1 x)^T Kz (T^-1 y)``: the energy summed per element from its deformation, and
   ``K x = T^-T Kz T^-1 x``: exactly zero on every rigid-body motion the root leaves free.
 
-:func:`blade_stiffness` builds it from a :class:`rigtools.sim.blade.BladeModel` (same elements as
-its assembled ``stiffness``, cached on the blade). :mod:`rigtools.sim.modal` refines its
-eigenpairs with it and :mod:`rigtools.sim.reduction` solves its static shapes with it.
+The sections' rotary inertia has the same trouble on a finer scale (:class:`BladeInertia`: the mass
+as a form, its rotary part summed per element from node differences).
+
+:func:`blade_stiffness` and :func:`blade_inertia` build them from a
+:class:`rigtools.sim.blade.BladeModel` (the same elements as its assembled ``stiffness`` and
+``mass``, cached on the blade). :mod:`rigtools.sim.modal` polishes its eigenpairs with them and
+:mod:`rigtools.sim.reduction` solves its static shapes with them.
 """
 
 from __future__ import annotations
@@ -54,8 +58,8 @@ class BladeStiffness:
     arm
         (n_elements,) length of each element as in its matrix (the lever of its rigid motion), m.
     blocks, flexibilities
-        (n_elements, 6, 6) ``K_e[b, b]`` of each element and its inverse (views of a few
-        distinct matrices: one per element length).
+        (n_elements, 6, 6) ``K_e[b, b]`` of each element and its inverse (copies of a few
+        distinct matrices: one per run of equal elements).
     root_springs
         (6,) spring stiffness on the root node's (ux, uy, uz, rx, ry, rz), or ``None`` (clamped).
     free_dofs
