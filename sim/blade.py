@@ -172,34 +172,25 @@ def element_types(
     return np.array(lengths), k, m, kind
 
 
-def blade_matrices(
-    params: BladeParams,
-    node_x: np.ndarray,
-    masses: list[LumpedMass] | tuple[LumpedMass, ...],
-    root: RootParams,
-    rotary_inertia: bool = True,
-) -> tuple[sp.csr_matrix, sp.csr_matrix, np.ndarray]:
-    """Assembled stiffness and mass over the free DOFs of a meshed blade (see :func:`build_blade`).
-
-    Returns
-    -------
-    (K, M, free_dofs)
-        Sparse matrices and the full DOF number (``node * 6 + component``) of each free DOF.
-    """
-    _, k_types, m_types, kind = element_types(params, node_x, rotary_inertia)
-    free, lumped, springs = _nodal_terms(node_x, masses, root)
-    return _assemble(k_types, kind, springs, free), _assemble(m_types, kind, lumped, free), free
-
-
-def blade_mass_matrix(
-    params: BladeParams,
-    node_x: np.ndarray,
-    masses: list[LumpedMass] | tuple[LumpedMass, ...],
-    root: RootParams,
-    rotary_inertia: bool = True,
+def assemble_stiffness(
+    node_x: np.ndarray, types: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray], root: RootParams
 ) -> sp.csr_matrix:
-    """The mass of :func:`blade_matrices` alone."""
-    _, _, m_types, kind = element_types(params, node_x, rotary_inertia)
+    """Assembled stiffness over the free DOFs: the elements of ``types`` (:func:`element_types`)
+    and the root springs (see :func:`build_blade`)."""
+    _, k_types, _, kind = types
+    free, _, springs = _nodal_terms(node_x, (), root)
+    return _assemble(k_types, kind, springs, free)
+
+
+def assemble_mass(
+    node_x: np.ndarray,
+    types: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+    masses: list[LumpedMass] | tuple[LumpedMass, ...],
+    root: RootParams,
+) -> sp.csr_matrix:
+    """Assembled mass over the free DOFs: the elements of ``types`` (:func:`element_types`) and
+    the lumped masses (see :func:`build_blade`)."""
+    _, _, m_types, kind = types
     free, lumped, _ = _nodal_terms(node_x, masses, root)
     return _assemble(m_types, kind, lumped, free)
 
@@ -274,14 +265,15 @@ def build_blade(
     x = mesh_nodes(params.length, params.elements, [m.position for m in masses])
     n_nodes = len(x)
 
-    K, M, free = blade_matrices(params, x, masses, root, rotary_inertia)
+    types = element_types(params, x, rotary_inertia)
+    free, _, _ = _nodal_terms(x, (), root)
     sensor_node = None if sensor is None else int(np.argmin(np.abs(x - sensor.position)))
-    return BladeModel(
+    blade = BladeModel(
         name=name,
         params=params,
         node_x=x,
-        mass=M,
-        stiffness=K,
+        mass=assemble_mass(x, types, masses, root),
+        stiffness=assemble_stiffness(x, types, root),
         free_dofs=free,
         tip_node=n_nodes - 1,
         sensor_node=sensor_node,
@@ -289,3 +281,5 @@ def build_blade(
         root=root,
         rotary_inertia=rotary_inertia,
     )
+    blade._cache[("element_types", rotary_inertia)] = types
+    return blade

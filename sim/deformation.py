@@ -43,7 +43,7 @@ import numpy as np
 import scipy.linalg
 import scipy.sparse as sp
 
-from rigtools.sim.blade import N_DOF_NODE, BladeModel, blade_mass_matrix, element_types
+from rigtools.sim.blade import N_DOF_NODE, BladeModel, assemble_mass, element_types
 
 
 @dataclass(frozen=True)
@@ -197,7 +197,7 @@ def blade_stiffness(blade: BladeModel) -> BladeStiffness:
     round-off.
     """
     if "deformation_stiffness" not in blade._cache:
-        lengths, k_types, _, kind = element_types(blade.params, blade.node_x, blade.rotary_inertia)
+        lengths, k_types, _, kind = _element_types(blade, blade.rotary_inertia)
         bb = k_types[:, N_DOF_NODE:, N_DOF_NODE:]
         bb = 0.5 * (bb + np.transpose(bb, (0, 2, 1)))
         # each block is (axial, torsion, two 2x2 bending planes) up to a diagonal scaling: Cholesky
@@ -215,6 +215,14 @@ def blade_stiffness(blade: BladeModel) -> BladeStiffness:
             free_dofs=blade.free_dofs,
         )
     return blade._cache["deformation_stiffness"]
+
+
+def _element_types(blade: BladeModel, rotary_inertia: bool):
+    """:func:`rigtools.sim.blade.element_types` of the blade's mesh, cached on it."""
+    key = ("element_types", rotary_inertia)
+    if key not in blade._cache:
+        blade._cache[key] = element_types(blade.params, blade.node_x, rotary_inertia)
+    return blade._cache[key]
 
 
 def _spd_inverse(a: np.ndarray) -> np.ndarray:
@@ -280,12 +288,12 @@ def blade_inertia(blade: BladeModel) -> BladeInertia:
     Its ``form(x, y)`` equals ``x^T blade.mass y`` to round-off (the same element matrices).
     """
     if "deformation_inertia" not in blade._cache:
-        plain = blade_mass_matrix(blade.params, blade.node_x, blade.masses, blade.root, False)
+        without = _element_types(blade, False)
+        plain = assemble_mass(blade.node_x, without, blade.masses, blade.root)
         rotary = None
         if blade.rotary_inertia:
-            _, _, with_rot, kind = element_types(blade.params, blade.node_x, True)
-            _, _, without, _ = element_types(blade.params, blade.node_x, False)
-            diff = (with_rot - without)[:, _ROTARY_DOFS][:, :, _ROTARY_DOFS]
+            _, _, with_rot, kind = _element_types(blade, True)
+            diff = (with_rot - without[2])[:, _ROTARY_DOFS][:, :, _ROTARY_DOFS]
             rotary = (0.5 * (diff + np.transpose(diff, (0, 2, 1))))[kind]
         blade._cache["deformation_inertia"] = BladeInertia(
             plain=plain, rotary=rotary, free_dofs=blade.free_dofs

@@ -4,9 +4,10 @@ The generalized symmetric eigenproblem ``K phi = w^2 M phi`` is solved one uncou
 a time (for a symmetric section: axial, the two bending planes, torsion):
 
 * :func:`lowest_modes` -- only the modes asked for (the lowest ``n``, or those below a frequency),
-  first by the sparse shift-invert Lanczos solver (:func:`scipy.sparse.linalg.eigsh`, factorising
-  the banded ``K - sigma M`` once; small groups densely by LAPACK), then polished by subspace
-  iteration through the element deformations (:mod:`rigtools.sim.deformation`): time and memory
+  first by the shift-invert Lanczos solver (:func:`scipy.sparse.linalg.eigsh` at 0, ``K^-1``
+  applied through the element deformations of :mod:`rigtools.sim.deformation`, no factorisation;
+  small groups densely by LAPACK), then polished by subspace iteration through the same
+  deformations (Rayleigh-Ritz with energies summed per element): time and memory
   grow linearly with the element count, and the modes are accurate to ~1e-15 relative at any
   mesh (the assembled stiffness alone leaves ~n^4 eps: 3e-8 at 100 elements, 4e-5 at 6400). The
   model build and the reduction use this.
@@ -41,14 +42,13 @@ from rigtools.sim.params import SimulationInputError
 from rigtools.sim.threads import single_blas_thread
 
 KINDS = ("axial", "flexural", "edgewise", "torsional")
-#: DOF groups up to this size are solved densely (all their modes): faster than Lanczos there.
-DENSE_GROUP_MAX = 600
+#: DOF groups up to this size (or asked for a third of their modes) get their first approximations
+#: densely (all their modes): faster than Lanczos there.
+DENSE_GROUP_MAX = 120
 #: Every mode of a blade (dense LAPACK: O(n^3) time, O(n^2) memory) only up to this many elements
 #: per blade (one blade of the default rig, measured: 1.5 s and 0.3 GB at 500 elements, 7.4 s and
 #: 1.1 GB at 1000, so about a minute and 4 GB at 2000); the sparse paths reach MAX_ELEMENTS.
 DENSE_MAX_ELEMENTS = 2000
-# shift of the shift-invert solver, (rad/s)^2: just below zero, so a (nearly) singular K is safe
-_SIGMA = -1.0
 # subspace iteration that polishes the modes (_refine): at least this many guard vectors, stop
 # when the wanted shapes move less than this (M-norm; the frequencies then move ~its square), or
 # after this many steps (a step costs a few passes over the mesh)
@@ -112,7 +112,7 @@ def _assemble(blade: BladeModel, parts: list[tuple[np.ndarray, np.ndarray, np.nd
         col += vecs.shape[1]
     order = np.argsort(w2, kind="stable")
     w2 = np.clip(w2[order], 0.0, None)
-    phi = phi[:, order]
+    phi = _signed(phi[:, order])
     return Modes(np.sqrt(w2) / (2.0 * np.pi), phi, classify_modes(blade, phi))
 
 
@@ -130,6 +130,16 @@ def check_dense(blade: BladeModel, what: str) -> None:
             f"{what} needs every mode of the {blade.name} blade, a dense eigen-solve that grows as "
             f"elements^3: at most {DENSE_MAX_ELEMENTS} elements per blade, got {elements}"
         )
+
+
+def _signed(phi: np.ndarray) -> np.ndarray:
+    """Each shape with the sign that makes its first clearly nonzero entry (above 1e-6 of its
+    largest) positive: near a clamped root the displacement, or on fine meshes the rotation --
+    both the sign of the root curvature. A shape's sign is arbitrary, but whatever is built on
+    the modes (a continuation's branch switching, for one) should not depend on the solver."""
+    big = np.abs(phi) > 1e-6 * np.abs(phi).max(axis=0)
+    first = phi[np.argmax(big, axis=0), np.arange(phi.shape[1])]
+    return phi * np.where(first < 0, -1.0, 1.0)
 
 
 def _all_modes(blade: BladeModel) -> Modes:
@@ -163,23 +173,22 @@ def _all_modes(blade: BladeModel) -> Modes:
     return blade._cache["modes"]
 
 
-def _group_lowest(kg, mg, n: int | None, below_w2: float | None, guard: int = 0):
+def _group_lowest(kg, mg, n: int | None, below_w2: float | None, guard: int, solve):
     """First approximations of the lowest modes of one group: ``n`` of them, or all below
     ``below_w2`` (at least one), plus up to ``guard`` more when the solver found them.
 
+    ``solve`` applies the group's ``K^-1`` (through the element deformations: no factorisation).
     Returns ``(w^2, vectors, wanted)``: ascending, the first ``wanted`` are the modes asked for.
     """
     size = kg.shape[0]
-    if size <= DENSE_GROUP_MAX:
+    k = min(size - 2, max(8, (n or 8) + guard))
+    if size <= DENSE_GROUP_MAX or 3 * k >= size:
         vals, vecs = scipy.linalg.eigh(kg.toarray(), mg.toarray())
     else:
-        k = min(size - 2, max(8, (n or 8) + guard))
-        kg, mg = kg.tocsc(), mg.tocsc()
-        # one factorisation of K - sigma M serves every try
-        op = spla.splu((kg - _SIGMA * mg).tocsc())
-        opinv = spla.LinearOperator(kg.shape, matvec=op.solve, dtype=float)
+        mg = mg.tocsc()
+        opinv = spla.LinearOperator(kg.shape, matvec=solve, dtype=float)
         while True:
-            vals, vecs = spla.eigsh(kg, k=k, M=mg, sigma=_SIGMA, which="LM", OPinv=opinv)
+            vals, vecs = spla.eigsh(kg, k=k, M=mg, sigma=0.0, which="LM", OPinv=opinv)
             order = np.argsort(vals)
             vals, vecs = vals[order], vecs[:, order]
             enough = (n is not None and vals.size >= n) or (below_w2 is not None and vals[-1] >= below_w2)
@@ -191,6 +200,17 @@ def _group_lowest(kg, mg, n: int | None, below_w2: float | None, guard: int = 0)
         wanted = max(1, int(np.searchsorted(vals, below_w2)))
     keep = min(vals.size, wanted + guard)
     return vals[:keep], vecs[:, :keep], wanted
+
+
+def _group_solve(stiffness: BladeStiffness, idx: np.ndarray):
+    """``x -> (K^-1 x)[idx]`` for ``x`` over the DOF group ``idx`` (the groups are uncoupled)."""
+
+    def solve(x: np.ndarray) -> np.ndarray:
+        full = np.zeros(stiffness.free_dofs.size)
+        full[idx] = x
+        return stiffness.solve(full)[idx]
+
+    return solve
 
 
 def _guard(wanted: int) -> int:
@@ -217,8 +237,7 @@ def _refine(
     size = len(idx)
     p = wanted + _guard(wanted)
     if p >= size:  # a group this small is solved densely at round-off already (a few elements)
-        w2, v = _rayleigh_ritz(stiffness, inertia, idx, mg, vecs[:, :wanted])
-        return w2, _same_signs(v, vecs[:, :wanted], mg)
+        return _rayleigh_ritz(stiffness, inertia, idx, mg, vecs[:, :wanted])
     v = vecs[:, :p]
     if v.shape[1] < p:  # random guard vectors: the iteration turns them into the next modes
         rng = np.random.default_rng(0)
@@ -234,14 +253,7 @@ def _refine(
         if moved < _REFINE_TOL or moved > 0.5 * previous:
             break
         previous = moved
-    return w2[:wanted], _same_signs(v[:, :wanted], vecs[:, :wanted], mg)
-
-
-def _same_signs(polished: np.ndarray, first: np.ndarray, mg) -> np.ndarray:
-    """``polished`` with each column's sign that of its first approximation (a shape's sign is
-    arbitrary, but what is built on the modes -- e.g. a continuation's branch switching -- should
-    not move with the polish)."""
-    return polished * np.where(np.einsum("ij,ij->j", polished, mg @ first) < 0, -1.0, 1.0)
+    return w2[:wanted], v[:, :wanted]
 
 
 def _rayleigh_ritz(
@@ -324,7 +336,8 @@ def lowest_modes(
             for idx in groups:
                 mg = M[idx][:, idx]
                 guard = _guard(n_modes or 8)
-                _, vecs, wanted = _group_lowest(K[idx][:, idx], mg, n_modes, below_w2, guard)
+                solve = _group_solve(accurate, idx)
+                _, vecs, wanted = _group_lowest(K[idx][:, idx], mg, n_modes, below_w2, guard, solve)
                 vals, vecs = _refine(accurate, inertia, idx, mg, vecs, wanted)
                 parts.append((idx, vals, vecs))
         modes = _assemble(blade, parts)

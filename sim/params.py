@@ -19,9 +19,10 @@ CONTACT_LAWS = ("linear", "hertz", "hunt-crossley")
 # Elements per blade: what builds in a few seconds. The model builds and reduces in about linear
 # time and memory (benchmarks/bench_model_build.py: ~4 s and ~0.3 GB at 20 000 elements per blade
 # on a loaded 2-core machine; 16 s and 0.7 GB at 50 000). Round-off no longer limits it: the
-# stiffness is applied through the element deformations (rigtools.sim.deformation), so the
-# frequencies converge to ~1e-15 and the static deflection to ~1e-13 at any of these meshes (the
-# assembled matrix alone lost ~n^4 eps: 7.5e-4 of the static deflection at 6400 elements).
+# stiffness is applied through the element deformations (rigtools.sim.deformation): measured up to
+# 25 600 elements, the frequencies of the clamped beam within 5e-15 of the closed form and its
+# static tip deflection within 5e-13 (the assembled matrix alone lost ~n^4 eps: 3e-8 of the first
+# frequency at 100 elements, 7.5e-4 of the static deflection at 6400).
 # Computing every mode (dense, O(n^3): the full-order integrator, the harmonic response over all
 # modes, an FRF fit) has its own, lower limit: rigtools.sim.modal.DENSE_MAX_ELEMENTS.
 MAX_ELEMENTS = 20000
