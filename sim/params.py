@@ -17,8 +17,8 @@ ContactLaw = Literal["linear", "hertz", "hunt-crossley"]
 THEORIES = ("euler-bernoulli", "timoshenko")
 CONTACT_LAWS = ("linear", "hertz", "hunt-crossley")
 # Elements per blade: what builds in a few seconds. The model builds and reduces in about linear
-# time and memory (benchmarks/bench_model_build.py: ~4 s and ~0.3 GB at 20 000 elements per blade
-# on a loaded 2-core machine; 16 s and 0.7 GB at 50 000). Round-off no longer limits it: the
+# time and memory (benchmarks/bench_model_build.py: 1.4-4.5 s and 0.34 GB at 20 000 elements per
+# blade on a shared 2-core machine; 16 s and 0.7 GB at 50 000). Round-off no longer limits it: the
 # stiffness is applied through the element deformations (rigtools.sim.deformation): measured up to
 # 25 600 elements, the frequencies of the clamped beam within 5e-15 of the closed form and its
 # static tip deflection within 5e-13 (the assembled matrix alone lost ~n^4 eps: 3e-8 of the first

@@ -425,8 +425,8 @@ def reduced_system(
 
 # Rough cost of building and reducing the FE model (sparse, only the modes kept, polished through
 # the element deformations), measured on the reference machine (2 shared cores under load, 2026,
-# benchmarks/bench_model_build.py): 0.04-0.10 / 0.06-0.17 / 0.16-0.44 / 0.56-1.55 s at 100 / 400 /
-# 1600 / 6400 elements per blade, 3.6-4.5 s at 20000 (the dense all-modes build it replaced took
+# benchmarks/bench_model_build.py): 0.03-0.10 / 0.05-0.17 / 0.13-0.44 / 0.51-1.55 s at 100 / 400 /
+# 1600 / 6400 elements per blade, 1.4-4.5 s at 20000 (the dense all-modes build it replaced took
 # 0.5 / 13 s at 100 / 400, issue 8 saw 230 s at 2000). Only for telling a user up front.
 _REDUCTION_SECONDS_AT_100 = 0.1
 _REDUCTION_EXPONENT = 0.7
