@@ -920,9 +920,21 @@ class _Tracer:
                     branch.message = (
                         f"the branch turned back and left the range at {target:.6g} {UNITS[self.param]}"
                     )
-                    if self.window is not None:
+                    if self.window is not None and target in self.window:
+                        # the range asked for ends here on this side too (fe is followed upwards
+                        # only, force downwards only): left in one step, from inside
                         branch.message = (
-                            f"the branch left the range at {self._crossings[0]:.6g} {UNITS[self.param]} "
+                            f"the branch left the range at {target:.6g} {UNITS[self.param]}, "
+                            "where it is followed no further"
+                        )
+                    elif self.window is not None:
+                        if min(self.window) <= prev.sol.lam <= max(self.window):
+                            # out of the range asked for and of the bounds in this one step
+                            self._crossings.append(
+                                min(self.window) if target < prev.sol.lam else max(self.window)
+                            )
+                        branch.message = (
+                            f"the branch left the range at {self._crossings[-1]:.6g} {UNITS[self.param]} "
                             f"and had not returned at {target:.6g} {UNITS[self.param]}, where it is "
                             "followed no further"
                         )

@@ -209,3 +209,16 @@ def test_rig_model_held_drive(tmp_path):
     receptance = fem_harmonic_response(article, np.array([57.0]), 1.0).displacement["active_force_point"]
     per_volt = abs(cfg.shaker.to_params().sensor_force_per_drive(np.array([57.0]), receptance)[0])
     np.testing.assert_allclose(f1, drive * per_volt, rtol=1e-3)
+
+
+def test_period_two_branch_leaving_a_range_edge_it_is_not_followed_past(tmp_path):
+    """60.3-61 Hz: the period-2 branches born in the range run down through 60.3 Hz in one step (fe
+    is followed upwards only); each ends there, named, instead of an IndexError's traceback."""
+    out = tmp_path / "b.h5"
+    code, text, err = run_cli(["continuation", "--param", "fe", "--from", "60.3", "--to", "61", "--out", out])
+    assert code == 0, err
+    ends = [line for line in text.splitlines() if "left the range at 60.3 Hz" in line]
+    assert len(ends) == 2, text
+    assert all(
+        "left range the branch left the range at 60.3 Hz, where it is followed no further" in e for e in ends
+    )
