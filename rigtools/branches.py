@@ -198,7 +198,28 @@ def continue_model(
         )
     except SimulationInputError as exc:
         raise UserError(str(exc)) from None
+    check_plausible_branches(branches, drive)
     return cfg, branches
+
+
+def check_plausible_branches(branches, drive: bool = False) -> None:
+    """Refuse branches on which a shroud moves farther than any blade of the rig can (more than
+    :data:`rigtools.units.MAX_GAP`), as :func:`rigtools.simulation.check_plausible` refuses such a
+    run: the linear beam model is meaningless there (a typical cause: ``"1 MN"`` for ``"1 mN"``)."""
+    from rigtools.units import MAX_GAP
+
+    for b in branches:
+        for name in ("active", "passive"):
+            amplitude = b.measure(f"tip_amplitude_{name}")
+            if amplitude.size and float(np.max(amplitude)) > MAX_GAP:
+                p = b.points[int(np.argmax(amplitude))]
+                what = "--drive and its unit (mV, V)" if drive else "--force and its unit (mN, N, kN)"
+                unit = "V" if drive and b.param == "force" else X_UNITS[b.param]
+                raise UserError(
+                    f"at {b.param} = {p.value * X_LABELS[b.param][1]:.6g} {unit} the {name} shroud "
+                    f"moves {float(np.max(amplitude)):.3g} m, more than any blade of the rig can "
+                    f"({MAX_GAP * 1e3:g} mm): not a physical orbit; check {what}"
+                )
 
 
 def simulated_rig_model(rig: str | None, force_control: bool = True):

@@ -110,6 +110,23 @@ def test_json_document(no_contact, tmp_path):
         (["--param", "fe", "--from", "55", "--to", "60", "--model", "rig", "--drive", "-1 V"], "--drive"),
         (["--param", "force", "--from", "1 N", "--to", "2 N", "--model", "rig", "--drive", "1 V"], "--from"),
         (["--param", "fe", "--from", "55", "--to", "60", "--measured", "missing.h5"], "missing.h5"),
+        # "1 MN" for "1 mN": the rig's model continues a 40 m orbit unless refused (as rig simulate)
+        (
+            [
+                "--param",
+                "fe",
+                "--from",
+                "60",
+                "--to",
+                "60.2",
+                "--model",
+                "rig",
+                "--force",
+                "1 MN",
+                "--no-switch",
+            ],
+            "moves 39.6 m, more than any blade",
+        ),
     ],
 )
 def test_bad_input_is_one_line_exit_2(tmp_path, args, words):
