@@ -164,12 +164,14 @@ def continue_model(
     switch: bool = True,
     progress=None,
     drive: bool = False,
+    found: list | None = None,
 ):
     """``(rig config, branches)``: the period-1 branch of the rig's reduced model over
     ``[start, stop]`` and the period-2 branches of its period doublings
     (:func:`rigtools.sim.continuation.trace`). ``model="rig"``: the simulated rig's model
     (:func:`simulated_rig_model`), ``force`` the force fundamental held or, with ``drive``, the
-    drive amplitude (V). Bad input becomes a :class:`UserError`."""
+    drive amplitude (V). Bad input becomes a :class:`UserError`. ``found``: the branches grow
+    there as they are computed (kept when interrupted, :func:`rigtools.sim.continuation.trace`)."""
     from rigtools.sim.continuation import trace
     from rigtools.sim.params import SimulationInputError
     from rigtools.simulation import load_system
@@ -195,10 +197,53 @@ def continue_model(
             shaker=shaker,
             switch=switch,
             progress=progress,
+            found=found,
         )
     except SimulationInputError as exc:
         raise UserError(str(exc)) from None
     check_plausible_branches(branches, drive)
+    return cfg, branches
+
+
+def continue_to_file(
+    out: Path,
+    param: str,
+    start: float,
+    stop: float,
+    fixed: dict[str, float],
+    *,
+    model: str,
+    rig: str | None,
+    switch: bool,
+    drive: bool,
+    measured: list[str],
+    found: list,
+):
+    """``(rig config, branches)`` of :func:`continue_model`, written to ``out``
+    (:func:`write_branches`, ``experiment`` naming the inputs). Interrupted (Ctrl-C, SIGTERM), the
+    branches computed so far (``found``, the one in progress ``"interrupted"``) are written before
+    the interrupt goes on."""
+    from rigtools.config import load_rig
+
+    experiment = {
+        "procedure": "continuation",
+        "param": param,
+        "from": start,
+        "to": stop,
+        **fixed,
+        "model": model,
+        "drive": drive,  # "force" is then the drive amplitude, V (--model rig)
+        "measured": [str(m) for m in measured],
+    }
+    try:
+        cfg, branches = continue_model(
+            param, start, stop, **fixed, model=model, rig=rig, switch=switch, drive=drive, found=found
+        )
+    except KeyboardInterrupt:
+        if any(b.points for b in found):
+            write_branches(out, [b for b in found if b.points], load_rig(rig).to_json(), experiment)
+        raise
+    write_branches(out, branches, cfg.to_json(), experiment)
     return cfg, branches
 
 

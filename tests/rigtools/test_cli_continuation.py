@@ -239,3 +239,31 @@ def test_period_two_branch_leaving_a_range_edge_it_is_not_followed_past(tmp_path
     assert all(
         "left range the branch left the range at 60.3 Hz, where it is followed no further" in e for e in ends
     )
+
+
+def test_ctrl_c_keeps_the_points_computed(tmp_path, monkeypatch):
+    """Ctrl-C after 30 corrector steps (KeyboardInterrupt raised in the corrector, as the signal
+    handler raises it): exit 130, and the file holds the branch's points so far, "interrupted",
+    its last point where the message says; no .partial left."""
+    from rigtools.branches import read_branches
+    from rigtools.sim import continuation as sim_continuation
+
+    correct, calls = sim_continuation._Tracer.correct, []
+
+    def interrupted(self, prev, h):
+        calls.append(h)
+        if len(calls) > 30:
+            raise KeyboardInterrupt
+        return correct(self, prev, h)
+
+    monkeypatch.setattr(sim_continuation._Tracer, "correct", interrupted)
+    out = tmp_path / "b.h5"
+    code, _, err = run_cli(["continuation", *SHORT, "--out", out])
+    assert code == 130, err
+    assert re.search(r"kept (\d+) points of 1 branch\(es\) computed so far in", err), err
+    _, (b,) = read_branches(out)
+    assert b.status == "interrupted" and 10 <= len(b.value) <= 31
+    assert f"interrupted after fe = {b.value[-1]:.6g} Hz" in b.message
+    assert b.value[0] == 55.0 and np.all(np.diff(b.value) > 0) and b.value[-1] < 58.0
+    assert f"kept {len(b.value)} points" in err
+    assert not list(tmp_path.glob("*.partial"))
