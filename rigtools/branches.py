@@ -325,33 +325,39 @@ def write_branches(path: str | Path, branches, rig_text: str, experiment: dict) 
 
 
 def read_branches(path: str | Path) -> tuple[dict, list[StoredBranch]]:
-    """``(experiment, branches)`` of a file written by :func:`write_branches`."""
-    import h5py
+    """``(experiment, branches)`` of a file written by :func:`write_branches`; a missing,
+    unreadable, foreign or damaged file is a one-line :class:`UserError`."""
+    from rigtools.errors import one_line
+    from rigtools.recording.reader import open_h5
 
-    try:
-        f = h5py.File(path, "r")
-    except OSError as exc:
-        raise UserError(f"{path}: not a readable HDF5 file ({exc})") from None
+    f, _ = open_h5(path, wait=False)
     with f:
         if f.attrs.get("schema") != BRANCHES_SCHEMA:
             raise UserError(f"{path}: not a branches file (schema {f.attrs.get('schema')!r})")
-        out = []
-        for name in sorted(f["branches"]):
-            g = f["branches"][name]
-            out.append(
-                StoredBranch(
-                    param=str(g.attrs["param"]),
-                    periods=int(g.attrs["periods"]),
-                    status=str(g.attrs["status"]),
-                    message=str(g.attrs["message"]),
-                    value=g["value"][()],
-                    stable=g["stable"][()],
-                    multipliers=g["multipliers_real"][()] + 1j * g["multipliers_imag"][()],
-                    labels=[tuple(lab) for lab in json.loads(g.attrs["labels"])],
-                    measures={k: g["measures"][k][()] for k in g["measures"]},
-                )
+        try:
+            return _read_branches(f)
+        except (KeyError, ValueError, TypeError, OSError) as exc:  # a group, dataset or attr gone
+            raise UserError(f"{path}: damaged branches file ({one_line(exc, 200)})") from None
+
+
+def _read_branches(f) -> tuple[dict, list[StoredBranch]]:
+    out = []
+    for name in sorted(f["branches"]):
+        g = f["branches"][name]
+        out.append(
+            StoredBranch(
+                param=str(g.attrs["param"]),
+                periods=int(g.attrs["periods"]),
+                status=str(g.attrs["status"]),
+                message=str(g.attrs["message"]),
+                value=g["value"][()],
+                stable=g["stable"][()],
+                multipliers=g["multipliers_real"][()] + 1j * g["multipliers_imag"][()],
+                labels=[tuple(lab) for lab in json.loads(g.attrs["labels"])],
+                measures={k: g["measures"][k][()] for k in g["measures"]},
             )
-        return json.loads(f.attrs["experiment"]), out
+        )
+    return json.loads(f.attrs["experiment"]), out
 
 
 def measured_sweeps(paths, param: str, measure: str = "contact") -> list:

@@ -267,3 +267,33 @@ def test_ctrl_c_keeps_the_points_computed(tmp_path, monkeypatch):
     assert b.value[0] == 55.0 and np.all(np.diff(b.value) > 0) and b.value[-1] < 58.0
     assert f"kept {len(b.value)} points" in err
     assert not list(tmp_path.glob("*.partial"))
+
+
+@pytest.mark.parametrize(
+    ("damage", "words"),
+    [
+        ("stable", "damaged branches file (\"Unable to synchronously open object (object 'stable'"),
+        ("branches", "damaged branches file (\"Unable to synchronously open object (object 'branches'"),
+        ("missing", "x.h5: no such file"),
+        ("folder", "x.h5: not a file"),
+        ("half", "truncated HDF5 file"),
+    ],
+)
+def test_report_refuses_a_damaged_branch_file_in_one_line(no_contact, sweep, tmp_path, damage, words):
+    """A branches file with a dataset or group gone, missing, a folder or cut in half: one line,
+    exit 2 (a KeyError's traceback, h5py's whole error text before)."""
+    _, good, _ = no_contact
+    bad = tmp_path / "x.h5"
+    if damage == "folder":
+        bad.mkdir()
+    elif damage == "half":
+        data = good.read_bytes()
+        bad.write_bytes(data[: len(data) // 2])
+    elif damage != "missing":
+        bad.write_bytes(good.read_bytes())
+        with h5py.File(bad, "a") as f:
+            del f["branches/00/stable" if damage == "stable" else "branches"]
+    code, _, err = run_cli(["report", sweep, "--branches", bad, "--out", tmp_path / "rep"])
+    assert code == 2 and "Traceback" not in err, err
+    (line,) = err.strip().splitlines()
+    assert words in line, line
