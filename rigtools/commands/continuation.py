@@ -79,7 +79,7 @@ def run(args: argparse.Namespace) -> int:
     from rigtools.figures import save_figure
     from rigtools.options import check_out
 
-    out = check_out(args)
+    out = check_out(args, inputs=args.measured)  # a recording read is never replaced
     start, stop, fixed = parse_inputs(
         args.param, args.start, args.stop, args.fe, args.force, args.gap, args.drive
     )

@@ -160,6 +160,20 @@ def test_measured_overlay_reads_the_sweep(sweep, tmp_path):
     assert code == 2 and "--measure accel1" in err and len(err.strip().splitlines()) == 1
 
 
+def test_out_is_never_a_measured_recording(sweep, tmp_path):
+    """--overwrite or not, --out naming a --measured recording (also by another spelling) is
+    refused before any work, the recording unchanged (it was replaced by the branches before)."""
+    rec = tmp_path / "sw.h5"
+    rec.write_bytes(sweep.read_bytes())
+    before = rec.read_bytes()
+    for out in (rec, tmp_path / "." / "sw.h5"):
+        code, _, err = run_cli(
+            ["continuation", *SHORT, "--measure", "accel1", "--measured", rec, "--out", out, "--overwrite"]
+        )
+        assert code == 2 and "is an input of this command" in err and len(err.strip().splitlines()) == 1
+    assert rec.read_bytes() == before
+
+
 def test_report_draws_branches_over_matching_recordings_only(no_contact, sweep, tmp_path):
     """``rig report --branches``: a branch file continued at the sweep's fixed quantities is drawn
     in the sweep's section with its jump-free overlay; one at another force is not drawn over it
