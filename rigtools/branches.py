@@ -51,6 +51,7 @@ class StoredBranch:
 
 
 DIMENSION = {"fe": "frequency", "force": "force", "gap": "length"}
+DEFAULT_FORCE = "15 N"  # the force held when none is given
 
 
 def parse_inputs(
@@ -58,14 +59,15 @@ def parse_inputs(
     start: str | float,
     stop: str | float,
     fe: str | float,
-    force: str | float,
+    force: str | float | None,
     gap: str | float,
     drive: str | float | None = None,
 ) -> tuple[float, float, dict[str, float]]:
     """``(start, stop, {"fe", "force", "gap"})`` in SI from quantity strings (``"0.7 mm"``; a
     plain number is SI); one-line :class:`UserError` naming the option otherwise. With
     ``drive`` (the simulated rig's model driven at a fixed drive amplitude) ``"force"`` is that
-    amplitude in peak volts, and so is a ``"force"`` range."""
+    amplitude in peak volts, and so is a ``"force"`` range; ``force`` None is 15 N, and a force
+    given with ``drive`` is refused (it would not be held)."""
     from rigtools.options import drive_amplitude, positive_finite
     from rigtools.options import gap as gap_value
 
@@ -80,6 +82,12 @@ def parse_inputs(
         hi = positive_finite(stop, DIMENSION[param], "--to")
     if lo == hi:
         raise UserError(f"--from and --to are both {start!r}: give a range")
+    if drive is not None and force is not None:
+        raise UserError(
+            f"--force = {force!r} with --drive = {drive!r}: the model holds either the force or the "
+            "drive amplitude; give one"
+        )
+    force = DEFAULT_FORCE if force is None else force
     fixed = {
         "fe": positive_finite(fe, "frequency", "--fe"),
         "force": (
@@ -98,7 +106,7 @@ def continuation(
     stop: str | float,
     *,
     fe: str | float = "60 Hz",
-    force: str | float = "15 N",
+    force: str | float | None = None,
     gap: str | float = "0.7 mm",
     model: str = "fem",
     rig: str | None = None,
@@ -115,7 +123,8 @@ def continuation(
     start, stop
         The range of ``param`` (``"55 Hz"``, ``"0.5 mm"``; a plain number is SI).
     fe, force, gap
-        The fixed quantities (the continued one is ignored).
+        The fixed quantities (the continued one is ignored); ``force`` None: 15 N (not with
+        ``drive``).
     model
         ``"fem"`` or ``"am"`` reduction of the rig; ``"rig"``: the simulated rig's model (the
         FEM of its test article driven through the shaker and amplifier, as ``--backend sim``

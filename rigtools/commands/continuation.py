@@ -46,7 +46,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--from", dest="start", required=True, help="first value (units accepted)")
     p.add_argument("--to", dest="stop", required=True, help="last value")
     p.add_argument("--fe", default="60 Hz", help='fixed excitation frequency (default "60 Hz")')
-    p.add_argument("--force", default="15 N", help='fixed force amplitude (default "15 N")')
+    p.add_argument("--force", help='fixed force amplitude (default "15 N"; not with --drive)')
     p.add_argument("--gap", default="0.7 mm", help='fixed gap (default "0.7 mm")')
     p.add_argument("--model", default="fem", choices=("fem", "am", "rig"), help="model (default fem)")
     p.add_argument("--drive", help='--model rig: hold this drive amplitude ("1 V", peak) instead of --force')

@@ -110,6 +110,24 @@ def test_json_document(no_contact, tmp_path):
         (["--param", "fe", "--from", "55", "--to", "60", "--model", "rig", "--drive", "-1 V"], "--drive"),
         (["--param", "force", "--from", "1 N", "--to", "2 N", "--model", "rig", "--drive", "1 V"], "--from"),
         (["--param", "fe", "--from", "55", "--to", "60", "--measured", "missing.h5"], "missing.h5"),
+        # the force was silently not held
+        (
+            [
+                "--param",
+                "fe",
+                "--from",
+                "55",
+                "--to",
+                "60",
+                "--model",
+                "rig",
+                "--drive",
+                "1 V",
+                "--force",
+                "3 N",
+            ],
+            "--force = '3 N' with --drive = '1 V': the model holds either",
+        ),
         # "1 MN" for "1 mN": the rig's model continues a 40 m orbit unless refused (as rig simulate)
         (
             [
