@@ -197,3 +197,23 @@ def test_analyze_takes_the_grid_part_of_a_band_reaching_past_it(frf_set):
     assert code == 0 and err == "", err
     (point,) = json.loads(out)["points"]
     assert (point["params"]["band_low"], point["params"]["band_high"]) == (90.0, 500.0)
+
+
+@pytest.mark.parametrize(
+    ("case", "words"),
+    [
+        ("reference", "--reference: "),  # ignored silently before
+        ("folder", "two.uff: not a file"),  # "no such file" before
+    ],
+)
+def test_import_uff_frfs_bad_input_is_one_line(frf_set, tmp_path, case, words):
+    src = frf_set.parent / "two.uff"
+    if case == "folder":
+        src = tmp_path / "two.uff"
+        src.mkdir()
+    extra = ["--reference", "root"] if case == "reference" else []
+    code, _, err = run_cli(["import", "uff", src, tmp_path / "x.h5", *extra])
+    assert code == 2, err
+    (line,) = err.strip().splitlines()
+    assert words in line, line
+    assert not (tmp_path / "x.h5").exists()
