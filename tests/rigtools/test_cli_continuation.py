@@ -329,3 +329,14 @@ def test_report_refuses_a_damaged_branch_file_in_one_line(no_contact, sweep, tmp
     assert code == 2 and "Traceback" not in err, err
     (line,) = err.strip().splitlines()
     assert words in line, line
+
+
+@pytest.mark.parametrize("command", [["info"], ["analyze"], ["export", "uff"], ["report"]])
+def test_a_branches_file_where_a_recording_is_expected_is_named(no_contact, tmp_path, command):
+    """One line saying what the file is and what reads it, exit 2 (the schema names only before)."""
+    _, path, _ = no_contact
+    tail = {"export": [tmp_path / "x.uff"], "report": ["--out", tmp_path / "rep"]}.get(command[0], [])
+    code, _, err = run_cli([*command, path, *tail])
+    assert code == 2 and "Traceback" not in err, err
+    (line,) = err.strip().splitlines()
+    assert "a branches file of rig continuation (rig report --branches draws it)" in line, line
