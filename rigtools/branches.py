@@ -156,7 +156,16 @@ def continuation(
     """
     lo, hi, fixed = parse_inputs(param, start, stop, fe, force, gap, drive)
     return continue_model(
-        param, lo, hi, **fixed, model=model, rig=rig, switch=switch, drive=drive is not None
+        param,
+        lo,
+        hi,
+        fe=fixed["fe"],
+        force=fixed["force"],
+        gap=fixed["gap"],
+        model=model,
+        rig=rig,
+        switch=switch,
+        drive=drive is not None,
     )[1]
 
 
@@ -246,7 +255,17 @@ def continue_to_file(
     }
     try:
         cfg, branches = continue_model(
-            param, start, stop, **fixed, model=model, rig=rig, switch=switch, drive=drive, found=found
+            param,
+            start,
+            stop,
+            fe=fixed["fe"],
+            force=fixed["force"],
+            gap=fixed["gap"],
+            model=model,
+            rig=rig,
+            switch=switch,
+            drive=drive,
+            found=found,
         )
     except KeyboardInterrupt:
         if any(b.points for b in found):
