@@ -31,6 +31,8 @@ from rigtools.analysis.frf import FRFKind
 from rigtools.analysis.stabilisation import StabilisationChart
 
 _ORDER = {"receptance": 0, "mobility": 1, "accelerance": 2}
+#: Fewest FRF lines in an identification band (with 3 the LSCF's least squares are singular).
+MIN_BAND_LINES = 5
 
 
 @dataclass(frozen=True)
@@ -515,6 +517,16 @@ def identify(
     f_hi = auto_hi if f_max is None else float(f_max)
     if not f_hi > f_lo:
         raise ValueError(f"band {f_lo:g}-{f_hi:g} Hz is empty")
+    # a band reaching past the grid is the grid's part of it; one holding too few lines is
+    # refused (the LSCF's least squares are singular on it)
+    f_lo, f_hi = max(f_lo, float(f[f > 0][0])), min(f_hi, float(f[-1]))
+    lines = int(np.count_nonzero((f >= f_lo) & (f <= f_hi)))
+    if lines < MIN_BAND_LINES:
+        asked = f"{f_min if f_min is not None else f_lo:g}-{f_max if f_max is not None else f_hi:g} Hz"
+        raise ValueError(
+            f"band {asked} holds {lines} of the FRF's lines ({f[0]:g}-{f[-1]:g} Hz, every "
+            f"{f[1] - f[0]:g} Hz): give one over at least {MIN_BAND_LINES} lines"
+        )
     band = (f_lo, f_hi)
     notes: list[str] = []
     if excitation_psd is not None:

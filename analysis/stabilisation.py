@@ -416,6 +416,16 @@ def converged_selection(
     coh = None if coherence is None else np.max(np.atleast_2d(np.asarray(coherence, float)), axis=0)
     indicator = mode_indicator(h)
     orders = sorted(int(p) for p in orders)
+    # sdypy-EMA's LSCF of order P transforms the FRF from 0 Hz to the band's top: it needs more
+    # than P + 2 lines there (a coarse FRF under a low band has too few: an IndexError inside)
+    lines = int(np.floor(band[1] / (f[1] - f[0]) + 1e-9)) + 1
+    if orders[0] >= lines - 2:
+        raise ValueError(
+            f"the FRF has {lines} lines from 0 Hz to the band's top {band[1]:g} Hz (every "
+            f"{f[1] - f[0]:g} Hz), too few for LSCF orders from {orders[0]} (over {orders[0] + 2}): "
+            "a finer FRF (longer frames) or a band reaching higher"
+        )
+    orders = [p for p in orders if p < lines - 2]
     runs = sorted({orders[min(1, len(orders) - 1)], orders[min(2, len(orders) - 1)], orders[-1]})
     run_to = 0
     model = chart = None

@@ -841,19 +841,22 @@ def analyze_tap_test(
         tuple(0 for _ in accepted),
         reason="rig acquire tap: one recorded frame per accepted hit",
     )
-    res = analyze_frf_test(
-        blocks,
-        rate,
-        frf_method=frf_method,
-        responses=(response,),
-        force="force",
-        measured=measured,
-        kind=frf_kind(kind),
-        method=method,
-        f_min=f_min,
-        f_max=f_max,
-        n_modes=n_modes,
-    )
+    try:
+        res = analyze_frf_test(
+            blocks,
+            rate,
+            frf_method=frf_method,
+            responses=(response,),
+            force="force",
+            measured=measured,
+            kind=frf_kind(kind),
+            method=method,
+            f_min=f_min,
+            f_max=f_max,
+            n_modes=n_modes,
+        )
+    except ValueError as exc:  # a band the FRF cannot be identified over
+        raise UserError(f"tap test: {exc}") from None
     notes = [
         (
             f"tap test: {len(accepted)} accepted hits of {len(points)} averaged (H1 of {response} over "

@@ -51,6 +51,7 @@ class StoredBranch:
 
 
 DIMENSION = {"fe": "frequency", "force": "force", "gap": "length"}
+DEFAULT_FORCE = "15 N"  # the force held when none is given
 
 
 def parse_inputs(
@@ -58,14 +59,15 @@ def parse_inputs(
     start: str | float,
     stop: str | float,
     fe: str | float,
-    force: str | float,
+    force: str | float | None,
     gap: str | float,
     drive: str | float | None = None,
 ) -> tuple[float, float, dict[str, float]]:
     """``(start, stop, {"fe", "force", "gap"})`` in SI from quantity strings (``"0.7 mm"``; a
     plain number is SI); one-line :class:`UserError` naming the option otherwise. With
     ``drive`` (the simulated rig's model driven at a fixed drive amplitude) ``"force"`` is that
-    amplitude in peak volts, and so is a ``"force"`` range."""
+    amplitude in peak volts, and so is a ``"force"`` range; ``force`` None is 15 N, and a force
+    given with ``drive`` is refused (it would not be held)."""
     from rigtools.options import drive_amplitude, positive_finite
     from rigtools.options import gap as gap_value
 
@@ -80,6 +82,12 @@ def parse_inputs(
         hi = positive_finite(stop, DIMENSION[param], "--to")
     if lo == hi:
         raise UserError(f"--from and --to are both {start!r}: give a range")
+    if drive is not None and force is not None:
+        raise UserError(
+            f"--force = {force!r} with --drive = {drive!r}: the model holds either the force or the "
+            "drive amplitude; give one"
+        )
+    force = DEFAULT_FORCE if force is None else force
     fixed = {
         "fe": positive_finite(fe, "frequency", "--fe"),
         "force": (
@@ -98,7 +106,7 @@ def continuation(
     stop: str | float,
     *,
     fe: str | float = "60 Hz",
-    force: str | float = "15 N",
+    force: str | float | None = None,
     gap: str | float = "0.7 mm",
     model: str = "fem",
     rig: str | None = None,
@@ -115,7 +123,8 @@ def continuation(
     start, stop
         The range of ``param`` (``"55 Hz"``, ``"0.5 mm"``; a plain number is SI).
     fe, force, gap
-        The fixed quantities (the continued one is ignored).
+        The fixed quantities (the continued one is ignored); ``force`` None: 15 N (not with
+        ``drive``).
     model
         ``"fem"`` or ``"am"`` reduction of the rig; ``"rig"``: the simulated rig's model (the
         FEM of its test article driven through the shaker and amplifier, as ``--backend sim``
@@ -147,7 +156,16 @@ def continuation(
     """
     lo, hi, fixed = parse_inputs(param, start, stop, fe, force, gap, drive)
     return continue_model(
-        param, lo, hi, **fixed, model=model, rig=rig, switch=switch, drive=drive is not None
+        param,
+        lo,
+        hi,
+        fe=fixed["fe"],
+        force=fixed["force"],
+        gap=fixed["gap"],
+        model=model,
+        rig=rig,
+        switch=switch,
+        drive=drive is not None,
     )[1]
 
 
@@ -164,12 +182,14 @@ def continue_model(
     switch: bool = True,
     progress=None,
     drive: bool = False,
+    found: list | None = None,
 ):
     """``(rig config, branches)``: the period-1 branch of the rig's reduced model over
     ``[start, stop]`` and the period-2 branches of its period doublings
     (:func:`rigtools.sim.continuation.trace`). ``model="rig"``: the simulated rig's model
     (:func:`simulated_rig_model`), ``force`` the force fundamental held or, with ``drive``, the
-    drive amplitude (V). Bad input becomes a :class:`UserError`."""
+    drive amplitude (V). Bad input becomes a :class:`UserError`. ``found``: the branches grow
+    there as they are computed (kept when interrupted, :func:`rigtools.sim.continuation.trace`)."""
     from rigtools.sim.continuation import trace
     from rigtools.sim.params import SimulationInputError
     from rigtools.simulation import load_system
@@ -195,10 +215,84 @@ def continue_model(
             shaker=shaker,
             switch=switch,
             progress=progress,
+            found=found,
         )
     except SimulationInputError as exc:
         raise UserError(str(exc)) from None
+    check_plausible_branches(branches, drive)
     return cfg, branches
+
+
+def continue_to_file(
+    out: Path,
+    param: str,
+    start: float,
+    stop: float,
+    fixed: dict[str, float],
+    *,
+    model: str,
+    rig: str | None,
+    switch: bool,
+    drive: bool,
+    measured: list[str],
+    found: list,
+):
+    """``(rig config, branches)`` of :func:`continue_model`, written to ``out``
+    (:func:`write_branches`, ``experiment`` naming the inputs). Interrupted (Ctrl-C, SIGTERM), the
+    branches computed so far (``found``, the one in progress ``"interrupted"``) are written before
+    the interrupt goes on."""
+    from rigtools.config import load_rig
+
+    experiment = {
+        "procedure": "continuation",
+        "param": param,
+        "from": start,
+        "to": stop,
+        **fixed,
+        "model": model,
+        "drive": drive,  # "force" is then the drive amplitude, V (--model rig)
+        "measured": [str(m) for m in measured],
+    }
+    try:
+        cfg, branches = continue_model(
+            param,
+            start,
+            stop,
+            fe=fixed["fe"],
+            force=fixed["force"],
+            gap=fixed["gap"],
+            model=model,
+            rig=rig,
+            switch=switch,
+            drive=drive,
+            found=found,
+        )
+    except KeyboardInterrupt:
+        if any(b.points for b in found):
+            write_branches(out, [b for b in found if b.points], load_rig(rig).to_json(), experiment)
+        raise
+    write_branches(out, branches, cfg.to_json(), experiment)
+    return cfg, branches
+
+
+def check_plausible_branches(branches, drive: bool = False) -> None:
+    """Refuse branches on which a shroud moves farther than any blade of the rig can (more than
+    :data:`rigtools.units.MAX_GAP`), as :func:`rigtools.simulation.check_plausible` refuses such a
+    run: the linear beam model is meaningless there (a typical cause: ``"1 MN"`` for ``"1 mN"``)."""
+    from rigtools.units import MAX_GAP
+
+    for b in branches:
+        for name in ("active", "passive"):
+            amplitude = b.measure(f"tip_amplitude_{name}")
+            if amplitude.size and float(np.max(amplitude)) > MAX_GAP:
+                p = b.points[int(np.argmax(amplitude))]
+                what = "--drive and its unit (mV, V)" if drive else "--force and its unit (mN, N, kN)"
+                unit = "V" if drive and b.param == "force" else X_UNITS[b.param]
+                raise UserError(
+                    f"at {b.param} = {p.value * X_LABELS[b.param][1]:.6g} {unit} the {name} shroud "
+                    f"moves {float(np.max(amplitude)):.3g} m, more than any blade of the rig can "
+                    f"({MAX_GAP * 1e3:g} mm): not a physical orbit; check {what}"
+                )
 
 
 def simulated_rig_model(rig: str | None, force_control: bool = True):
@@ -259,33 +353,39 @@ def write_branches(path: str | Path, branches, rig_text: str, experiment: dict) 
 
 
 def read_branches(path: str | Path) -> tuple[dict, list[StoredBranch]]:
-    """``(experiment, branches)`` of a file written by :func:`write_branches`."""
-    import h5py
+    """``(experiment, branches)`` of a file written by :func:`write_branches`; a missing,
+    unreadable, foreign or damaged file is a one-line :class:`UserError`."""
+    from rigtools.errors import one_line
+    from rigtools.recording.reader import open_h5
 
-    try:
-        f = h5py.File(path, "r")
-    except OSError as exc:
-        raise UserError(f"{path}: not a readable HDF5 file ({exc})") from None
+    f, _ = open_h5(path, wait=False)
     with f:
         if f.attrs.get("schema") != BRANCHES_SCHEMA:
             raise UserError(f"{path}: not a branches file (schema {f.attrs.get('schema')!r})")
-        out = []
-        for name in sorted(f["branches"]):
-            g = f["branches"][name]
-            out.append(
-                StoredBranch(
-                    param=str(g.attrs["param"]),
-                    periods=int(g.attrs["periods"]),
-                    status=str(g.attrs["status"]),
-                    message=str(g.attrs["message"]),
-                    value=g["value"][()],
-                    stable=g["stable"][()],
-                    multipliers=g["multipliers_real"][()] + 1j * g["multipliers_imag"][()],
-                    labels=[tuple(lab) for lab in json.loads(g.attrs["labels"])],
-                    measures={k: g["measures"][k][()] for k in g["measures"]},
-                )
+        try:
+            return _read_branches(f)
+        except (KeyError, ValueError, TypeError, OSError) as exc:  # a group, dataset or attr gone
+            raise UserError(f"{path}: damaged branches file ({one_line(exc, 200)})") from None
+
+
+def _read_branches(f) -> tuple[dict, list[StoredBranch]]:
+    out = []
+    for name in sorted(f["branches"]):
+        g = f["branches"][name]
+        out.append(
+            StoredBranch(
+                param=str(g.attrs["param"]),
+                periods=int(g.attrs["periods"]),
+                status=str(g.attrs["status"]),
+                message=str(g.attrs["message"]),
+                value=g["value"][()],
+                stable=g["stable"][()],
+                multipliers=g["multipliers_real"][()] + 1j * g["multipliers_imag"][()],
+                labels=[tuple(lab) for lab in json.loads(g.attrs["labels"])],
+                measures={k: g["measures"][k][()] for k in g["measures"]},
             )
-        return json.loads(f.attrs["experiment"]), out
+        )
+    return json.loads(f.attrs["experiment"]), out
 
 
 def measured_sweeps(paths, param: str, measure: str = "contact") -> list:

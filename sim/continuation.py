@@ -247,8 +247,9 @@ class Branch:
     ``message`` says where and why, the last point is the last good one), ``"left range"`` (the
     branch turned back out of the range; a switched branch: went out and did not come back where
     it is followed, see :func:`switch_period_doubling`), ``"max points"``, ``"merged"`` (a period-2
-    branch returned onto the period-1 branch) or ``"closed"`` (the branch came back to its first
-    point: a closed loop, its last point that first orbit again).
+    branch returned onto the period-1 branch), ``"closed"`` (the branch came back to its first
+    point: a closed loop, its last point that first orbit again) or ``"interrupted"``
+    (:class:`KeyboardInterrupt` while it was followed: its points so far).
     """
 
     param: str
@@ -842,6 +843,19 @@ class _Tracer:
         return best
 
     def run(self, first: _Entry, branch: Branch, direction_sign: float) -> Branch:
+        try:
+            return self._follow(first, branch, direction_sign)
+        except KeyboardInterrupt:
+            # the caller may keep the points followed so far (``found`` of :func:`trace`)
+            branch.status = "interrupted"
+            if branch.points:
+                branch.message = (
+                    f"interrupted after {self.param} = {branch.points[-1].value:.6g} "
+                    f"{UNITS[self.param]}; the branch ends at the last point computed"
+                )
+            raise
+
+    def _follow(self, first: _Entry, branch: Branch, direction_sign: float) -> Branch:
         st = self.settings
         lam_span = abs(self.bounds[1] - self.bounds[0])
         h_max = st.max_step if st.max_step is not None else 1.0 / 50.0
@@ -920,9 +934,21 @@ class _Tracer:
                     branch.message = (
                         f"the branch turned back and left the range at {target:.6g} {UNITS[self.param]}"
                     )
-                    if self.window is not None:
+                    if self.window is not None and target in self.window:
+                        # the range asked for ends here on this side too (fe is followed upwards
+                        # only, force downwards only): left in one step, from inside
                         branch.message = (
-                            f"the branch left the range at {self._crossings[0]:.6g} {UNITS[self.param]} "
+                            f"the branch left the range at {target:.6g} {UNITS[self.param]}, "
+                            "where it is followed no further"
+                        )
+                    elif self.window is not None:
+                        if min(self.window) <= prev.sol.lam <= max(self.window):
+                            # out of the range asked for and of the bounds in this one step
+                            self._crossings.append(
+                                min(self.window) if target < prev.sol.lam else max(self.window)
+                            )
+                        branch.message = (
+                            f"the branch left the range at {self._crossings[-1]:.6g} {UNITS[self.param]} "
                             f"and had not returned at {target:.6g} {UNITS[self.param]}, where it is "
                             "followed no further"
                         )
@@ -1243,6 +1269,7 @@ def continue_orbits(
     y0: np.ndarray | None = None,
     settings: ContinuationSettings | None = None,
     progress: Callable[[int, float], None] | None = None,
+    found: list[Branch] | None = None,
 ) -> Branch:
     """Continue the periodic orbits of the forced reduced system in ``param`` from ``start`` to
     ``stop``.
@@ -1271,6 +1298,10 @@ def continue_orbits(
         :class:`ContinuationSettings`.
     progress
         ``progress(points_so_far, parameter_value)`` after each point.
+    found
+        The branch is appended to this list once its first orbit is found and grows there point
+        by point: interrupted (:class:`KeyboardInterrupt`), the caller keeps the points computed,
+        the branch's status ``"interrupted"``.
 
     Returns
     -------
@@ -1292,6 +1323,8 @@ def continue_orbits(
     sol = tracer.solver.finish(y, start, orbit.newton_iterations)
     t = tracer.solver.tangent(sol, None, 1.0 if stop > start else -1.0)
     branch = Branch(param=param, periods=pmap.periods, steps_per_period=pmap.steps_per_period)
+    if found is not None:
+        found.append(branch)
     return tracer.run(tracer.entry(sol, t, (START,)), branch, 1.0 if stop > start else -1.0)
 
 
@@ -1305,6 +1338,7 @@ def switch_period_doubling(
     settings: ContinuationSettings | None = None,
     progress: Callable[[int, float], None] | None = None,
     offset: float = 0.02,
+    found: list[Branch] | None = None,
 ) -> Branch:
     """The period-2 branch born at a period doubling ``point`` of a period-1 branch.
 
@@ -1372,6 +1406,8 @@ def switch_period_doubling(
     going_up = first.tangent[-1] >= 0
     tracer.stop = hi if going_up else lo
     branch = Branch(param=param, periods=2, steps_per_period=pmap.steps_per_period)
+    if found is not None:
+        found.append(branch)
     return tracer.run(first, branch, 1.0 if going_up else -1.0)
 
 
@@ -1407,6 +1443,7 @@ def trace(
     switch: bool = True,
     settings: ContinuationSettings | None = None,
     progress: Callable[[int, float], None] | None = None,
+    found: list[Branch] | None = None,
 ) -> list[Branch]:
     """The period-1 branch over ``[start, stop]`` and, with ``switch``, the period-2 branch born
     at each of its period doublings (:func:`continue_orbits`, :func:`switch_period_doubling`).
@@ -1414,8 +1451,10 @@ def trace(
     A period-2 branch that cannot be started is returned empty with ``status = "failed"`` and
     the reason in its ``message``. Period doublings within :data:`PD_CLUSTER` of the range of each
     other are one (the best located is switched at); the one nearest to where an earlier
-    period-2 branch merged is not switched at again.
+    period-2 branch merged is not switched at again. ``found``: the branches are appended to
+    this list as they start and grow there point by point (see :func:`continue_orbits`).
     """
+    branches: list[Branch] = [] if found is None else found
     main = continue_orbits(
         system,
         param,
@@ -1427,10 +1466,10 @@ def trace(
         shaker=shaker,
         settings=settings,
         progress=progress,
+        found=branches,
     )
-    branches = [main]
     if not switch:
-        return branches
+        return list(branches)
     clusters = _clusters(main.labelled(PERIOD_DOUBLING), PD_CLUSTER * abs(stop - start))
     spans = [(min(q.value for q in c), max(q.value for q in c)) for c in clusters]
     done: set[int] = set()
@@ -1442,7 +1481,7 @@ def trace(
         p = min(cluster, key=lambda q: float(np.min(np.abs(q.multipliers + 1.0))))
         try:
             b = switch_period_doubling(
-                system, p, start, stop, shaker=shaker, settings=settings, progress=progress
+                system, p, start, stop, shaker=shaker, settings=settings, progress=progress, found=branches
             )
         except ContinuationError as exc:
             b = Branch(
@@ -1452,11 +1491,11 @@ def trace(
                 message=str(exc),
                 steps_per_period=main.steps_per_period,
             )
-        branches.append(b)
+            branches.append(b)
         if b.points and b.status == "merged":
             m = b.points[-1].value
             done.add(min(range(len(spans)), key=lambda j: max(spans[j][0] - m, m - spans[j][1], 0.0)))
-    return branches
+    return list(branches)
 
 
 def initial_state(

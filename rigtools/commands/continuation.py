@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from pathlib import Path
 
 HELP = "continue the model's periodic orbits in fe, force or gap: branches, stability, bifurcations"
@@ -45,7 +46,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--from", dest="start", required=True, help="first value (units accepted)")
     p.add_argument("--to", dest="stop", required=True, help="last value")
     p.add_argument("--fe", default="60 Hz", help='fixed excitation frequency (default "60 Hz")')
-    p.add_argument("--force", default="15 N", help='fixed force amplitude (default "15 N")')
+    p.add_argument("--force", help='fixed force amplitude (default "15 N"; not with --drive)')
     p.add_argument("--gap", default="0.7 mm", help='fixed gap (default "0.7 mm")')
     p.add_argument("--model", default="fem", choices=("fem", "am", "rig"), help="model (default fem)")
     p.add_argument("--drive", help='--model rig: hold this drive amplitude ("1 V", peak) instead of --force')
@@ -68,44 +69,44 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     from rigtools.branches import (
         branches_figure,
-        continue_model,
+        continue_to_file,
         measured_sweeps,
         parse_inputs,
         read_branches,
         summary,
-        write_branches,
     )
     from rigtools.derived_files import plot_path
     from rigtools.figures import save_figure
     from rigtools.options import check_out
 
-    out = check_out(args)
+    out = check_out(args, inputs=args.measured)  # a recording read is never replaced
     start, stop, fixed = parse_inputs(
         args.param, args.start, args.stop, args.fe, args.force, args.gap, args.drive
     )
     measured = measured_sweeps(args.measured, args.param, args.measure)  # bad files before the work
     drive = args.drive is not None
-    cfg, branches = continue_model(
-        args.param,
-        start,
-        stop,
-        **fixed,
-        model=args.model,
-        rig=args.rig,
-        switch=not args.no_switch,
-        drive=drive,
-    )
-    experiment = {
-        "procedure": "continuation",
-        "param": args.param,
-        "from": start,
-        "to": stop,
-        **fixed,
-        "model": args.model,
-        "drive": drive,  # "force" is then the drive amplitude, V (--model rig)
-        "measured": [str(m) for m in args.measured],
-    }
-    write_branches(out, branches, cfg.to_json(), experiment)
+    found: list = []  # the branches as they grow: written if interrupted
+    try:
+        cfg, branches = continue_to_file(
+            out,
+            args.param,
+            start,
+            stop,
+            fixed,
+            model=args.model,
+            rig=args.rig,
+            switch=not args.no_switch,
+            drive=drive,
+            measured=args.measured,
+            found=found,
+        )
+    except KeyboardInterrupt:
+        kept = [len(b.points) for b in found if b.points]
+        if kept:
+            print(
+                f"kept {sum(kept)} points of {len(kept)} branch(es) computed so far in {out}", file=sys.stderr
+            )
+        raise
     _, stored = read_branches(out)
     fig = branches_figure(stored, args.measure, cfg.name, measured, drive=drive)
     png = save_figure(fig, plot_path(out), dpi=120)

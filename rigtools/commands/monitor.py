@@ -40,7 +40,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--allow-stop", action="store_true", help="show the stop control")
     p.add_argument(
         "--linger",
-        type=float,
         default=None,
         metavar="SECONDS",
         help="exit SECONDS after the recording ended (default: run until Ctrl-C)",
@@ -51,10 +50,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     import sys
 
-    from rigtools.errors import UserError
+    from rigtools.errors import EXIT_SIGINT, UserError
     from rigtools.monitor.server import run_until_done, serve
+    from rigtools.options import duration
     from rigtools.runtime import configure_process
 
+    linger = None if args.linger is None else duration(args.linger, "--linger", allow_zero=True)
     configure_process()  # one BLAS thread: the fits are small, and the run needs the cores
     try:
         served = serve(args.file, host=args.host, port=args.port, allow_stop=args.allow_stop)
@@ -67,8 +68,8 @@ def run(args: argparse.Namespace) -> int:
         flush=True,
     )
     try:
-        run_until_done(served, args.linger)
-    except KeyboardInterrupt:
+        run_until_done(served, linger)
+    except KeyboardInterrupt as exc:
         served.stop()
-        return 130  # Ctrl-C, as for every command (rig --help: exit codes)
+        return getattr(exc, "exit_code", EXIT_SIGINT)  # 130 Ctrl-C, 143 SIGTERM: rig --help
     return 0

@@ -390,7 +390,7 @@ def read_uff_sets(source: str | Path) -> list[dict]:
 
     source = Path(source)
     if not source.is_file():
-        raise UserError(f"{source}: no such file")
+        raise UserError(f"{source}: {'not a file' if source.exists() else 'no such file'}")
     try:
         sets = pyuff.UFF(str(source)).read_sets()
     except Exception as exc:  # noqa: BLE001 -- pyuff raises many types on a foreign file: one line
@@ -568,6 +568,11 @@ def import_uff(
         check_known(option, given, names)
     sets = [s for s in sets if not chosen or record_name(s) in chosen]
     if any(int(s["func_type"]) == FUNC_FRF for s in sets):
+        if reference is not None:  # never ignored silently
+            raise UserError(
+                f"--reference: {source} holds FRFs, each over the reference its record names; "
+                "--reference chooses the excitation among time records"
+            )
         return _import_frfs(source, out, sets, mapping=mapping, units=units, overwrite=overwrite)
     every: list[ForeignChannel] = []
     kept: list[tuple[ForeignChannel, int, float]] = []

@@ -194,8 +194,13 @@ def serve(
     from bokeh.application.handlers.function import FunctionHandler
     from bokeh.server.server import Server
 
+    from rigtools.errors import UserError
     from rigtools.monitor import page
 
+    if not 0 <= port <= 65535:
+        raise UserError(f"--port = {port}: a TCP port is 0 (a free one) to 65535")
+    if Path(path).exists() and not Path(path).is_file():
+        raise UserError(f"{path}: not a file (a recording, or where one will be written)")
     hub = Hub(path, poll_s)
     token = None if is_loopback(host) else secrets.token_urlsafe(24)
     recording = Path(path)

@@ -123,6 +123,14 @@ def _check_attr(
     return python_value(value)
 
 
+#: rigtools' other HDF5 files, named when one is given where a recording is expected (the schema
+#: names of rigtools.branches.BRANCHES_SCHEMA and rigtools.frf_set.SCHEMA).
+OTHER_RIGTOOLS_FILES = {
+    "rigtools-branches": "a branches file of rig continuation (rig report --branches draws it)",
+    "rigtools.frfset": "an FRF set of rig import uff (rig info, rig check and rig analyze read it)",
+}
+
+
 def find_problems(f: h5py.File, cache: AttrCache | None = None) -> list[Problem]:
     """Everything wrong with an open file as a schema v1 recording (metadata only).
 
@@ -142,9 +150,13 @@ def find_problems(f: h5py.File, cache: AttrCache | None = None) -> list[Problem]
             )
         ]
     if schema != SCHEMA_NAME:
+        what = OTHER_RIGTOOLS_FILES.get(schema)
         return [
             Problem(
-                "/", f"not a rigtools recording: schema is '{schema}' (expected '{SCHEMA_NAME}')", fatal=True
+                "/",
+                f"not a rigtools recording: schema is '{schema}' (expected '{SCHEMA_NAME}')"
+                + (f": {what}" if what else ""),
+                fatal=True,
             )
         ]
     version = _check_attr(attrs, "schema_version", "int", "/", out)

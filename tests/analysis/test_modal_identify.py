@@ -127,3 +127,23 @@ def test_two_responses_identified_together_with_stable_shapes():
     assert res.chart.mac is not None and np.all(res.chart.mac[res.chart.stable] >= 0.9)
     none = identify(f, h, kind="accelerance", f_min=10, f_max=250, min_mac=1.01)
     assert none.modes == [] and not none.chart.stable.any()
+
+
+def test_a_band_too_narrow_or_too_coarse_for_the_fit_is_one_value_error():
+    """Exact accelerance on a coarse 4 Hz grid: a band of 3 lines, or one whose top leaves fewer
+    lines from 0 Hz than the lowest LSCF order needs, is a ValueError naming the band and the
+    grid (sdypy-EMA's IndexError or "Singular matrix" before); the 2-DOF's modes are found once
+    the band reaches high enough (the orders the grid cannot hold are left out)."""
+    f = np.arange(0, 256.001, 4.0)
+    h = -((2 * np.pi * f) ** 2) * receptance(f, 1)
+    with pytest.raises(
+        ValueError, match=r"band 100-108 Hz holds 3 of the FRF's lines \(0-256 Hz, every 4 Hz\)"
+    ):
+        identify(f, h, kind="accelerance", f_min=100, f_max=108)
+    with pytest.raises(
+        ValueError, match=r"the FRF has 22 lines from 0 Hz to the band's top 84 Hz \(every 4 Hz\)"
+    ):
+        identify(f, h, kind="accelerance", f_min=10, f_max=84)
+    res = identify(f, h, kind="accelerance", f_min=10, f_max=250)
+    fn, _ = exact_modes()
+    np.testing.assert_allclose(sorted(m.frequency_hz for m in res.modes), fn, rtol=1e-3)

@@ -110,6 +110,41 @@ def test_json_document(no_contact, tmp_path):
         (["--param", "fe", "--from", "55", "--to", "60", "--model", "rig", "--drive", "-1 V"], "--drive"),
         (["--param", "force", "--from", "1 N", "--to", "2 N", "--model", "rig", "--drive", "1 V"], "--from"),
         (["--param", "fe", "--from", "55", "--to", "60", "--measured", "missing.h5"], "missing.h5"),
+        # the force was silently not held
+        (
+            [
+                "--param",
+                "fe",
+                "--from",
+                "55",
+                "--to",
+                "60",
+                "--model",
+                "rig",
+                "--drive",
+                "1 V",
+                "--force",
+                "3 N",
+            ],
+            "--force = '3 N' with --drive = '1 V': the model holds either",
+        ),
+        # "1 MN" for "1 mN": the rig's model continues a 40 m orbit unless refused (as rig simulate)
+        (
+            [
+                "--param",
+                "fe",
+                "--from",
+                "60",
+                "--to",
+                "60.2",
+                "--model",
+                "rig",
+                "--force",
+                "1 MN",
+                "--no-switch",
+            ],
+            "moves 39.6 m, more than any blade",
+        ),
     ],
 )
 def test_bad_input_is_one_line_exit_2(tmp_path, args, words):
@@ -141,6 +176,20 @@ def test_measured_overlay_reads_the_sweep(sweep, tmp_path):
     # a rig recording has no contact force: refused in one line before any work
     code, _, err = run_cli(["continuation", *SHORT, "--measured", sweep, "--out", tmp_path / "c.h5"])
     assert code == 2 and "--measure accel1" in err and len(err.strip().splitlines()) == 1
+
+
+def test_out_is_never_a_measured_recording(sweep, tmp_path):
+    """--overwrite or not, --out naming a --measured recording (also by another spelling) is
+    refused before any work, the recording unchanged (it was replaced by the branches before)."""
+    rec = tmp_path / "sw.h5"
+    rec.write_bytes(sweep.read_bytes())
+    before = rec.read_bytes()
+    for out in (rec, tmp_path / "." / "sw.h5"):
+        code, _, err = run_cli(
+            ["continuation", *SHORT, "--measure", "accel1", "--measured", rec, "--out", out, "--overwrite"]
+        )
+        assert code == 2 and "is an input of this command" in err and len(err.strip().splitlines()) == 1
+    assert rec.read_bytes() == before
 
 
 def test_report_draws_branches_over_matching_recordings_only(no_contact, sweep, tmp_path):
@@ -209,3 +258,85 @@ def test_rig_model_held_drive(tmp_path):
     receptance = fem_harmonic_response(article, np.array([57.0]), 1.0).displacement["active_force_point"]
     per_volt = abs(cfg.shaker.to_params().sensor_force_per_drive(np.array([57.0]), receptance)[0])
     np.testing.assert_allclose(f1, drive * per_volt, rtol=1e-3)
+
+
+def test_period_two_branch_leaving_a_range_edge_it_is_not_followed_past(tmp_path):
+    """60.3-61 Hz: the period-2 branches born in the range run down through 60.3 Hz in one step (fe
+    is followed upwards only); each ends there, named, instead of an IndexError's traceback."""
+    out = tmp_path / "b.h5"
+    code, text, err = run_cli(["continuation", "--param", "fe", "--from", "60.3", "--to", "61", "--out", out])
+    assert code == 0, err
+    ends = [line for line in text.splitlines() if "left the range at 60.3 Hz" in line]
+    assert len(ends) == 2, text
+    assert all(
+        "left range the branch left the range at 60.3 Hz, where it is followed no further" in e for e in ends
+    )
+
+
+def test_ctrl_c_keeps_the_points_computed(tmp_path, monkeypatch):
+    """Ctrl-C after 30 corrector steps (KeyboardInterrupt raised in the corrector, as the signal
+    handler raises it): exit 130, and the file holds the branch's points so far, "interrupted",
+    its last point where the message says; no .partial left."""
+    from rigtools.branches import read_branches
+    from rigtools.sim import continuation as sim_continuation
+
+    correct, calls = sim_continuation._Tracer.correct, []
+
+    def interrupted(self, prev, h):
+        calls.append(h)
+        if len(calls) > 30:
+            raise KeyboardInterrupt
+        return correct(self, prev, h)
+
+    monkeypatch.setattr(sim_continuation._Tracer, "correct", interrupted)
+    out = tmp_path / "b.h5"
+    code, _, err = run_cli(["continuation", *SHORT, "--out", out])
+    assert code == 130, err
+    assert re.search(r"kept (\d+) points of 1 branch\(es\) computed so far in", err), err
+    _, (b,) = read_branches(out)
+    assert b.status == "interrupted" and 10 <= len(b.value) <= 31
+    assert f"interrupted after fe = {b.value[-1]:.6g} Hz" in b.message
+    assert b.value[0] == 55.0 and np.all(np.diff(b.value) > 0) and b.value[-1] < 58.0
+    assert f"kept {len(b.value)} points" in err
+    assert not list(tmp_path.glob("*.partial"))
+
+
+@pytest.mark.parametrize(
+    ("damage", "words"),
+    [
+        ("stable", "damaged branches file (\"Unable to synchronously open object (object 'stable'"),
+        ("branches", "damaged branches file (\"Unable to synchronously open object (object 'branches'"),
+        ("missing", "x.h5: no such file"),
+        ("folder", "x.h5: not a file"),
+        ("half", "truncated HDF5 file"),
+    ],
+)
+def test_report_refuses_a_damaged_branch_file_in_one_line(no_contact, sweep, tmp_path, damage, words):
+    """A branches file with a dataset or group gone, missing, a folder or cut in half: one line,
+    exit 2 (a KeyError's traceback, h5py's whole error text before)."""
+    _, good, _ = no_contact
+    bad = tmp_path / "x.h5"
+    if damage == "folder":
+        bad.mkdir()
+    elif damage == "half":
+        data = good.read_bytes()
+        bad.write_bytes(data[: len(data) // 2])
+    elif damage != "missing":
+        bad.write_bytes(good.read_bytes())
+        with h5py.File(bad, "a") as f:
+            del f["branches/00/stable" if damage == "stable" else "branches"]
+    code, _, err = run_cli(["report", sweep, "--branches", bad, "--out", tmp_path / "rep"])
+    assert code == 2 and "Traceback" not in err, err
+    (line,) = err.strip().splitlines()
+    assert words in line, line
+
+
+@pytest.mark.parametrize("command", [["info"], ["analyze"], ["export", "uff"], ["report"]])
+def test_a_branches_file_where_a_recording_is_expected_is_named(no_contact, tmp_path, command):
+    """One line saying what the file is and what reads it, exit 2 (the schema names only before)."""
+    _, path, _ = no_contact
+    tail = {"export": [tmp_path / "x.uff"], "report": ["--out", tmp_path / "rep"]}.get(command[0], [])
+    code, _, err = run_cli([*command, path, *tail])
+    assert code == 2 and "Traceback" not in err, err
+    (line,) = err.strip().splitlines()
+    assert "a branches file of rig continuation (rig report --branches draws it)" in line, line

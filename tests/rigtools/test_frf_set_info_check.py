@@ -171,3 +171,49 @@ def test_public_ufffiles_frf(tmp_path):
     assert doc["responses"][0]["entity"] == ".1.Z-" and doc["references"][0]["name"] == ".56.Z"
     assert doc["source"]["file"] == "dataset58_FRF.unv"
     assert run_cli(["check", out])[0] == 0
+
+
+@pytest.mark.parametrize(
+    ("band", "words"),
+    [
+        (
+            "0.1 Hz:0.2 Hz",
+            "band 0.1-0.2 Hz holds 0 of the FRF's lines (0-500 Hz, every 0.5 Hz)",
+        ),  # IndexError
+        ("600 Hz:1 kHz", "band 600-1000 Hz holds 0 of the FRF's lines"),  # "Singular matrix"
+        ("100 Hz:101 Hz", "band 100-101 Hz holds 3 of the FRF's lines"),  # "Singular matrix"
+    ],
+)
+def test_analyze_refuses_a_band_with_too_few_lines(frf_set, band, words):
+    code, _, err = run_cli(["analyze", frf_set, "--band", band])
+    assert code == 2 and "Traceback" not in err, err
+    (line,) = err.strip().splitlines()
+    assert words in line and "give one over at least 5 lines" in line, line
+
+
+def test_analyze_takes_the_grid_part_of_a_band_reaching_past_it(frf_set):
+    """90 Hz-1 kHz over a 0-500 Hz grid: the 100 Hz mode over 90-500 Hz, no warning on stderr."""
+    code, out, err = run_cli(["analyze", frf_set, "--band", "90 Hz:1 kHz", "--json"])
+    assert code == 0 and err == "", err
+    (point,) = json.loads(out)["points"]
+    assert (point["params"]["band_low"], point["params"]["band_high"]) == (90.0, 500.0)
+
+
+@pytest.mark.parametrize(
+    ("case", "words"),
+    [
+        ("reference", "--reference: "),  # ignored silently before
+        ("folder", "two.uff: not a file"),  # "no such file" before
+    ],
+)
+def test_import_uff_frfs_bad_input_is_one_line(frf_set, tmp_path, case, words):
+    src = frf_set.parent / "two.uff"
+    if case == "folder":
+        src = tmp_path / "two.uff"
+        src.mkdir()
+    extra = ["--reference", "root"] if case == "reference" else []
+    code, _, err = run_cli(["import", "uff", src, tmp_path / "x.h5", *extra])
+    assert code == 2, err
+    (line,) = err.strip().splitlines()
+    assert words in line, line
+    assert not (tmp_path / "x.h5").exists()

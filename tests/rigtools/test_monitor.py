@@ -245,6 +245,50 @@ def test_beyond_loopback_every_request_without_the_token_is_refused(dwell):
         proc.wait()
 
 
+def test_sigterm_ends_the_monitor_with_143(dwell):
+    """SIGTERM (kill, a job scheduler) ends it with 128 + 15, as every command (130 before)."""
+    cmd = [sys.executable, "-m", "rigtools.cli", "monitor", str(dwell), "--port", "0"]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+    timer = threading.Timer(60, proc.kill)
+    timer.start()
+    try:
+        assert proc.stdout.readline().startswith("http://127.0.0.1:")  # serving: the handlers are set
+        proc.send_signal(signal.SIGTERM)
+        assert proc.wait(timeout=30) == 143
+    finally:
+        timer.cancel()
+        proc.kill()
+        proc.wait()
+
+
+@pytest.mark.parametrize(
+    ("args", "words"),
+    [
+        (
+            ["--port", "99999"],
+            "--port = 99999: a TCP port is 0 (a free one) to 65535",
+        ),  # bokeh's AssertionError
+        (["--linger", "nan"], "--linger = 'nan'"),  # served forever
+        (["--linger", "-1"], "--linger = '-1': must be >= 0"),
+        (
+            ["--file-is-a-folder"],
+            "not a file (a recording, or where one will be written)",
+        ),  # followed forever
+    ],
+)
+def test_bad_monitor_options_are_one_line(tmp_path, args, words):
+    from cli_helpers import run_cli
+
+    target = tmp_path / "run.h5"
+    if args == ["--file-is-a-folder"]:
+        target.mkdir()
+        args = []
+    code, out, err = run_cli(["monitor", target, "--port", "0", *args])
+    assert code == 2 and out == "" and "Traceback" not in err, err
+    (line,) = err.strip().splitlines()
+    assert words in line, line
+
+
 # -- in the browser (one test: the suite's budget) -------------------------------------------------
 def test_page_shows_the_numbers_in_chromium(dwell, chromium, tmp_path):
     """``rig monitor`` on the finished dwell, looked at in headless Chromium by two viewers: both
