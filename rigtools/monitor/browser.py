@@ -10,9 +10,13 @@ from __future__ import annotations
 
 import asyncio
 import base64
+import contextlib
 import itertools
 import json
+import os
 import re
+import shutil
+import signal
 import subprocess
 import tempfile
 import time
@@ -103,7 +107,7 @@ class Chromium:
         self.exe = exe or find_chromium()
         self.size = (width, height)
         self.loop = asyncio.new_event_loop()
-        self._tmp = tempfile.TemporaryDirectory(prefix="rig-cdp-")
+        self._profile = tempfile.mkdtemp(prefix="rig-cdp-")
         self._proc: subprocess.Popen | None = None
         self.port = 0
 
@@ -111,11 +115,14 @@ class Chromium:
         args = [
             self.exe,
             *FLAGS,
-            f"--user-data-dir={self._tmp.name}",
+            f"--user-data-dir={self._profile}",
             f"--window-size={self.size[0]},{self.size[1]}",
         ]
         args += ["--remote-debugging-port=0", "about:blank"]
-        self._proc = subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+        # its own session: close() ends Chromium's helper processes with it
+        self._proc = subprocess.Popen(
+            args, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, start_new_session=True
+        )
         assert self._proc.stderr is not None
         deadline = time.monotonic() + 30
         while time.monotonic() < deadline:
@@ -154,7 +161,22 @@ class Chromium:
                 self._proc.wait(timeout=10)
             except subprocess.TimeoutExpired:
                 self._proc.kill()
-        self._tmp.cleanup()
+                self._proc.wait()
+        if self._proc is not None:
+            # helpers (crashpad, zygote) may outlive the browser and still write into the profile,
+            # which made removing it fail now and then ("Directory not empty")
+            with contextlib.suppress(ProcessLookupError, PermissionError):
+                os.killpg(self._proc.pid, signal.SIGKILL)
+        for attempt in range(20):
+            try:
+                shutil.rmtree(self._profile)
+                break
+            except FileNotFoundError:
+                break
+            except OSError:
+                if attempt == 19:
+                    raise
+                time.sleep(0.1)
         self.loop.close()
 
     def __exit__(self, *exc: object) -> None:
