@@ -428,7 +428,7 @@ def fit_contact(
     # of the minimum (the model's last bits alone moved the fitted damping by up to 21 %). A
     # derivative-free polish from there, on a simplex of 2 % steps, finishes the descent.
     polish = scipy.optimize.minimize(
-        lambda x: 0.5 * float(residuals(x) @ residuals(x)),
+        lambda x: 0.5 * float(np.sum(residuals(x) ** 2)),
         x,
         method="Nelder-Mead",
         bounds=list(zip(lo, hi, strict=True)),
