@@ -56,7 +56,7 @@ def parts() -> None:
     from rigtools.figures import save_figure
 
     c2 = t()
-    fig = simu.run_figure(run, system, "bench")
+    fig = simu.run_figure(run, system, "bench")()
     c3 = t()
     with tempfile.TemporaryDirectory() as tmp:
         save_figure(fig, Path(tmp) / "run.png")

@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import sys
 from collections.abc import Callable, Sequence
+from contextlib import AbstractContextManager, nullcontext
 from pathlib import Path
 from typing import Any
 
@@ -193,11 +194,26 @@ def long_work_line(system: Any, points, estimates, expected: float, most: float,
     )
 
 
-def write_plot(no_plot: bool, out: Path, make_figure: Callable[[], Any]) -> Path | None:
-    """``make_figure()`` saved beside ``out`` (:func:`rigtools.derived_files.plot_path`), unless ``no_plot``."""
+def plot_ahead(no_plot: bool, modules: tuple[str, ...] = ()) -> AbstractContextManager[Any]:
+    """A :class:`rigtools.plot_process.PlotProcess` importing the plotting code (and ``modules``)
+    while the command works, ended on leaving the block; ``None`` with ``no_plot``."""
+    if no_plot:
+        return nullcontext(None)
+    from rigtools.plot_process import PlotProcess
+
+    return PlotProcess(modules)
+
+
+def write_plot(no_plot: bool, out: Path, make_figure: Callable[[], Any], helper: Any = None) -> Path | None:
+    """``make_figure()`` saved beside ``out`` (:func:`rigtools.derived_files.plot_path`), unless
+    ``no_plot``: by ``helper`` (:func:`plot_ahead`'s; ``make_figure`` then picklable, e.g. a
+    :func:`functools.partial`) if given and able, else in this process."""
     if no_plot:
         return None
     from rigtools.derived_files import plot_path
     from rigtools.figures import save_figure
 
-    return save_figure(make_figure(), plot_path(out))
+    path = plot_path(out)
+    if helper is not None and helper.write(make_figure, path):
+        return path
+    return save_figure(make_figure(), path)

@@ -26,6 +26,7 @@ from rigtools.errors import UserError
 from rigtools.vocabulary import CHANNELS
 
 if TYPE_CHECKING:
+    from rigtools.plot_process import FigureCall
     from rigtools.sim.studies import PlannedPoint
     from rigtools.sim.vibro_impact import VibroImpactRun
 
@@ -270,13 +271,17 @@ def point_summary(run) -> dict:
     }
 
 
-def run_figure(run, system, title: str):
-    """:func:`rigtools.analysis.plots.vibro_impact_figure` of one settled run."""
-    from rigtools.analysis.plots import vibro_impact_figure
+def run_figure(run, system, title: str) -> FigureCall:
+    """:func:`rigtools.analysis.plots.vibro_impact_figure` of one settled run, as a call to make:
+    picklable, holding only the arrays it draws, and made without importing matplotlib (the
+    figure is drawn by :mod:`rigtools.plot_process`, or in this process by calling it)."""
+    from rigtools.plot_process import FigureCall
     from rigtools.sim.natural_frequencies import reduced_natural_frequencies
 
     o = run.outputs
-    return vibro_impact_figure(
+    return FigureCall(
+        "rigtools.analysis.plots",
+        "vibro_impact_figure",
         run.time,
         o["active_tip_displacement"],
         o["passive_tip_displacement"],

@@ -100,23 +100,26 @@ def _run(args: argparse.Namespace, stops, written: list) -> int:
     fe, force = mo.excitation(args.fe, args.force)
     new_gap = None if args.gap is None else gap(args.gap)
     settings = mo.settings_of(args, [fe])
-    cfg, system = mo.load_model(args.rig, args.model, quiet=args.json)
-    if new_gap is not None:
-        system = system.with_contact(gap=new_gap)
-    mo.announce_work(system, [(fe, force)], settings, quiet=args.json)
-    with simulated_time_bar(
-        f"{fe:g} Hz, {force:g} N, gap {system.contact.gap * 1e3:g} mm",
-        (max(math.ceil(settings.max_settle_time * fe), 5) + settings.record_periods(fe)) / fe,
-        args.json,
-    ) as progress:
-        result = simu.simulate_point(system, fe, force, settings, progress=progress)
-    experiment = {"procedure": "simulate", "model": args.model, "cli": "rig simulate"}
-    with stops.protected():  # a stop request waits until the file is complete
-        with RecordingWriter(
-            out, backend="fem", rig=cfg.to_json(), experiment=experiment, overwrite=args.overwrite
-        ) as rec:
-            simu.write_point(rec, result, args.model)
-        written.append(out)
+    with mo.plot_ahead(args.no_plot) as helper:
+        cfg, system = mo.load_model(args.rig, args.model, quiet=args.json)
+        if new_gap is not None:
+            system = system.with_contact(gap=new_gap)
+        mo.announce_work(system, [(fe, force)], settings, quiet=args.json)
+        with simulated_time_bar(
+            f"{fe:g} Hz, {force:g} N, gap {system.contact.gap * 1e3:g} mm",
+            (max(math.ceil(settings.max_settle_time * fe), 5) + settings.record_periods(fe)) / fe,
+            args.json,
+        ) as progress:
+            result = simu.simulate_point(system, fe, force, settings, progress=progress)
+        experiment = {"procedure": "simulate", "model": args.model, "cli": "rig simulate"}
+        with stops.protected():  # a stop request waits until the file is complete
+            with RecordingWriter(
+                out, backend="fem", rig=cfg.to_json(), experiment=experiment, overwrite=args.overwrite
+            ) as rec:
+                simu.write_point(rec, result, args.model)
+            written.append(out)
+        title = f"{cfg.name} ({args.model.upper()})"
+        png = mo.write_plot(args.no_plot, out, simu.run_figure(result, system, title), helper)
     doc = {
         "harmonics": simu.harmonics_of(result),
         "contact": {
@@ -125,8 +128,6 @@ def _run(args: argparse.Namespace, stops, written: list) -> int:
         },
         "steady_state": bool(result.steady_state),
     }
-    title = f"{cfg.name} ({args.model.upper()})"
-    png = mo.write_plot(args.no_plot, out, lambda: simu.run_figure(result, system, title))
     doc["plot"] = None if png is None else str(png)
     if args.json:
         print(json_values.dumps(doc))
