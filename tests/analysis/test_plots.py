@@ -237,3 +237,21 @@ def test_vibro_impact_figure_times_from_the_force_zero_crossing():
         1.2 * np.sin(2 * np.pi * FE * x[0] * 1e-3 - 0.7), abs=1.2 * 2 * np.pi * FE / RATE
     )
     assert ax_f.get_xlabel() == "time from the upward zero crossing of the force fundamental (ms)"
+
+
+def test_log_spectrum_ticks_are_plain_text_powers_of_ten():
+    """``10⁻³`` drawn from the font, not mathtext's ``$10^{-3}$`` (no TeX parser built)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    from rigtools.analysis.plots import power_label
+
+    assert [power_label(v) for v in (1e-3, 1.0, 10.0, 1e12, 2e-3, 0.0, -1.0, np.inf)] == [
+        "10⁻³", "1", "10¹", "10¹²", "0.002", "", "", "",
+    ]  # fmt: skip
+    fig = vibro_impact_figure(*_signals(), FE, k_max=10)
+    FigureCanvasAgg(fig).draw()
+    for ax in fig.axes[2:]:
+        labels = [t.get_text() for t in ax.get_yticklabels() if t.get_text()]
+        assert len(labels) >= 3 and all(s == "1" or s.startswith("10") and "$" not in s for s in labels)
+        values = [float(t.get_position()[1]) for t in ax.get_yticklabels() if t.get_text()]
+        assert labels == [power_label(v) for v in values]
