@@ -194,14 +194,14 @@ def long_work_line(system: Any, points, estimates, expected: float, most: float,
     )
 
 
-def plot_ahead(no_plot: bool, modules: tuple[str, ...] = ()) -> AbstractContextManager[Any]:
-    """A :class:`rigtools.plot_process.PlotProcess` importing the plotting code (and ``modules``)
-    while the command works, ended on leaving the block; ``None`` with ``no_plot``."""
+def plot_ahead(no_plot: bool) -> AbstractContextManager[Any]:
+    """A :class:`rigtools.plot_process.PlotProcess` importing the plotting code while the command
+    works, ended on leaving the block; ``None`` with ``no_plot``."""
     if no_plot:
         return nullcontext(None)
     from rigtools.plot_process import PlotProcess
 
-    return PlotProcess(modules)
+    return PlotProcess()
 
 
 def write_plot(no_plot: bool, out: Path, make_figure: Callable[[], Any], helper: Any = None) -> Path | None:

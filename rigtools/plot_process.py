@@ -13,8 +13,7 @@ as before (an error in the figure code then surfaces here, the one way errors ar
 helper runs in its own session, so a Ctrl-C at the terminal reaches only the command, which
 ends it; it also ends by itself when the command's end closes its input.
 
-Run as ``python -m rigtools.plot_process [MODULE ...]``: imports the plotting code and the
-modules named (those the figure's callable lives in), then reads one pickled
+Run as ``python -m rigtools.plot_process``: imports the plotting code, then reads one pickled
 ``(callable, path)`` from standard input, writes the figure with
 :func:`rigtools.figures.save_figure` and prints ``ok`` (or one line of error) on standard output.
 """
@@ -26,7 +25,7 @@ import pickle
 import signal
 import subprocess
 import sys
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from pathlib import Path
 from types import TracebackType
 from typing import Any, Self
@@ -50,25 +49,21 @@ class FigureCall:
         return getattr(importlib.import_module(self.module), self.function)(*self.args, **self.kwargs)
 
 
+TIMEOUT_S = 120.0  # a figure takes seconds; a helper still busy after this is stuck
+
 WARM = ("rigtools.analysis.plots", "rigtools.figures", "matplotlib.backends.backend_agg")
 
 
 class PlotProcess:
-    """The helper process for one figure (see the module), started on construction.
+    """The helper process for one figure (see the module), started on construction."""
 
-    Parameters
-    ----------
-    modules
-        Modules the figure's callable needs, imported by the helper while it waits.
-    """
-
-    def __init__(self, modules: Sequence[str] = ()) -> None:
+    def __init__(self) -> None:
         self._proc: subprocess.Popen[bytes] | None
         try:
             self._proc = subprocess.Popen(
                 # -P: not the current folder first on the import path (a lab folder's own
                 # numpy.py or sim.py); the same interpreter and environment as the command
-                [sys.executable, "-P", "-m", "rigtools.plot_process", *modules],
+                [sys.executable, "-P", "-m", "rigtools.plot_process"],
                 stdin=subprocess.PIPE,
                 stdout=subprocess.PIPE,
                 stderr=subprocess.DEVNULL,
@@ -81,15 +76,15 @@ class PlotProcess:
         """Have the helper save ``make_figure()`` as PNG to ``path`` (with
         :func:`rigtools.figures.save_figure`) and wait for it. Returns whether it did: ``False``
         if it could not be started, died, could not be sent ``make_figure`` (not picklable) or
-        reported an error; the caller then draws the figure itself. The helper has ended either
-        way."""
+        reported an error, or did not answer within :data:`TIMEOUT_S`; the caller then draws the
+        figure itself. The helper has ended either way."""
         proc, self._proc = self._proc, None
         if proc is None:
             return False
         try:
-            answer, _ = proc.communicate(pickle.dumps((make_figure, str(path))))
-        except (OSError, pickle.PicklingError, AttributeError, TypeError):
-            answer = b""  # not picklable (a lambda, a local object) or the helper is gone
+            answer, _ = proc.communicate(pickle.dumps((make_figure, str(path))), timeout=TIMEOUT_S)
+        except (OSError, pickle.PicklingError, AttributeError, TypeError, subprocess.TimeoutExpired):
+            answer = b""  # not picklable (a lambda, a local object), the helper is gone or stuck
         finally:
             _end(proc)
         return answer.strip() == b"ok"
@@ -127,11 +122,11 @@ def _end(proc: subprocess.Popen[bytes]) -> None:
         proc.stdout.close()
 
 
-def main(modules: Sequence[str]) -> int:
+def main() -> int:
     """The helper's side (see the module)."""
     # SIGTERM from the command: unwind, so save_figure removes its temporary file
     signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))
-    for name in (*WARM, *modules):
+    for name in WARM:
         importlib.import_module(name)
     from rigtools.figures import save_figure
 
@@ -149,4 +144,4 @@ def main(modules: Sequence[str]) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main(sys.argv[1:]))
+    sys.exit(main())
