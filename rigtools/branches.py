@@ -6,7 +6,7 @@ draw (:func:`branches_figure`)."""
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -386,6 +386,195 @@ def _read_branches(f) -> tuple[dict, list[StoredBranch]]:
             )
         )
     return json.loads(f.attrs["experiment"]), out
+
+
+def is_branches_file(path: str | Path) -> bool:
+    """True if ``path`` is an HDF5 file with the branches schema (:data:`BRANCHES_SCHEMA`)."""
+    import h5py
+
+    try:
+        with h5py.File(path, "r") as f:
+            return f.attrs.get("schema") == BRANCHES_SCHEMA
+    except (OSError, ValueError):
+        return False
+
+
+@dataclass
+class BranchesCheck:
+    """Outcome of :func:`check_branches`; ``valid`` when no problem is an error."""
+
+    path: str
+    problems: list = field(default_factory=list)
+    n_branches: int = 0
+    n_points: int = 0
+
+    @property
+    def valid(self) -> bool:
+        """True when no problem has severity error."""
+        return not any(p.severity == "error" for p in self.problems)
+
+    def to_dict(self) -> dict:
+        """``rig check --json`` of a branches file."""
+        from dataclasses import asdict
+
+        return {
+            "path": self.path,
+            "kind": "branches",
+            "valid": self.valid,
+            "branches": self.n_branches,
+            "points": self.n_points,
+            "problems": [asdict(p) for p in self.problems],
+        }
+
+
+def check_branches(path: str | Path, read_data: bool = True) -> BranchesCheck:
+    """Validate a branches file (:func:`write_branches`) against what :func:`read_branches` and
+    ``rig report --branches`` rely on: root attributes (schema, version, kind, a rig description,
+    the experiment as a JSON object naming its parameter), and per ``/branches/NN`` its
+    attributes (param, periods >= 1, status, message, one label list per point), datasets of one
+    point count (value, stable, multipliers, every measure; the measures the figure draws
+    present) and (with ``read_data``) finite parameter values and no infinite multiplier or
+    measure (NaN pads the multipliers of a smaller system).
+
+    Raises
+    ------
+    RecordingError
+        The file cannot be opened as HDF5, is not a branches file, or was written by a newer
+        rigtools (``schema_version`` above :data:`BRANCHES_VERSION`): ``rig check`` exits 2.
+    """
+    import h5py
+
+    from rigtools.errors import one_line
+    from rigtools.recording import RecordingError
+    from rigtools.recording.validate import Problem, rig_problems
+
+    out = BranchesCheck(str(path))
+
+    def error(where: str, message: str) -> None:
+        out.problems.append(Problem(where, message))
+
+    try:
+        f = h5py.File(path, "r")
+    except (OSError, ValueError) as exc:
+        raise RecordingError(f"{path}: cannot open as HDF5 ({one_line(exc, 200)})") from None
+    with f:
+        attrs = dict(f.attrs)
+        if attrs.get("schema") != BRANCHES_SCHEMA:
+            raise RecordingError(f"{path}: not a branches file (schema {attrs.get('schema')!r})")
+        version = attrs.get("schema_version")
+        if not isinstance(version, (int, np.integer)):
+            error("/", f"schema_version must be an integer, got {version!r}")
+        elif version > BRANCHES_VERSION:
+            raise RecordingError(
+                f"{path}: branches schema_version {version} is newer than this rigtools reads "
+                f"({BRANCHES_VERSION}): upgrade rigtools"
+            )
+        if attrs.get("kind") != "branches":
+            error("/", f"kind must be 'branches', got {attrs.get('kind')!r}")
+        if isinstance(attrs.get("rig"), str):
+            out.problems.extend(rig_problems(attrs["rig"]))
+        else:
+            error("/", "attribute rig (the rig description) is missing")
+        try:
+            experiment = json.loads(attrs.get("experiment", ""))
+        except (TypeError, ValueError):
+            experiment = None
+        param = experiment.get("param") if isinstance(experiment, dict) else None
+        if param not in POINT_PARAM:
+            error(
+                "/",
+                f"attribute experiment must be a JSON object naming param (one of {', '.join(POINT_PARAM)})",
+            )
+        if "branches" not in f or not isinstance(f["branches"], h5py.Group):
+            error("/branches", "missing")
+            return out
+        for name in sorted(f["branches"]):
+            out.n_points += _branch_problems(
+                f["branches"][name], f"/branches/{name}", param, read_data, error
+            )
+            out.n_branches += 1
+    return out
+
+
+def _branch_problems(g, where: str, param: str | None, read_data: bool, error) -> int:
+    """Problems of one branch group (see :func:`check_branches`); returns its point count."""
+    import h5py
+
+    if not isinstance(g, h5py.Group):
+        error(where, "is not a group")
+        return 0
+    a = dict(g.attrs)
+    if a.get("param") != param and param is not None:
+        error(where, f"param {a.get('param')!r} is not the experiment's {param!r}")
+    periods = a.get("periods")
+    if not isinstance(periods, (int, np.integer)) or periods < 1:
+        error(where, f"periods must be a whole number >= 1, got {periods!r}")
+    for key in ("status", "message"):
+        if not isinstance(a.get(key), str):
+            error(where, f"attribute {key} must be text, got {a.get(key)!r}")
+    shapes = {}
+    for key, kind in (("value", "f"), ("stable", "b"), ("multipliers_real", "f"), ("multipliers_imag", "f")):
+        d = g.get(key)
+        if not isinstance(d, h5py.Dataset):
+            error(f"{where}/{key}", "missing")
+        elif d.dtype.kind != kind:
+            error(f"{where}/{key}", f"must hold {'floats' if kind == 'f' else 'booleans'}, holds {d.dtype}")
+        else:
+            shapes[key] = d.shape
+    n = shapes["value"][0] if len(shapes.get("value", ())) == 1 else None
+    if "value" in shapes and n is None:
+        error(f"{where}/value", f"must be one-dimensional, shape {shapes['value']}")
+    if n is None:
+        return 0
+    if "stable" in shapes and shapes["stable"] != (n,):
+        error(f"{where}/stable", f"shape {shapes['stable']}, expected ({n},) (one per point)")
+    for key in ("multipliers_real", "multipliers_imag"):
+        if key in shapes and (len(shapes[key]) != 2 or shapes[key][0] != n):
+            error(f"{where}/{key}", f"shape {shapes[key]}, expected ({n}, m) (points, multipliers)")
+    real, imag = shapes.get("multipliers_real"), shapes.get("multipliers_imag")
+    if real is not None and imag is not None and real != imag:
+        error(
+            f"{where}/multipliers_imag", f"shape differs from multipliers_real's {shapes['multipliers_real']}"
+        )
+    try:
+        labels = json.loads(a.get("labels", ""))
+    except (TypeError, ValueError):
+        labels = None
+    if not (isinstance(labels, list) and all(isinstance(x, list) for x in labels)):
+        error(where, "attribute labels must be a JSON list of lists (one per point)")
+    elif len(labels) != n:
+        error(where, f"labels holds {len(labels)} entries for {n} points")
+    measures = g.get("measures")
+    if not isinstance(measures, h5py.Group):
+        error(f"{where}/measures", "missing")
+        measures = {}
+    for key, d in measures.items():
+        if not isinstance(d, h5py.Dataset) or d.dtype.kind != "f" or d.ndim not in (1, 2) or d.shape[0] != n:
+            error(f"{where}/measures/{key}", f"must be floats of shape ({n},) or ({n}, k)")
+    drawn = sorted({m[0] for m in MEASURES.values()} - set(measures)) if n else []
+    if drawn and isinstance(g.get("measures"), h5py.Group):
+        error(f"{where}/measures", f"{', '.join(drawn)} missing (rig report --branches draws them)")
+    if read_data and n:
+        _branch_values(g, where, measures, error)
+    return n
+
+
+def _branch_values(g, where: str, measures, error) -> None:
+    """Values of one branch: finite parameter values, no infinite multiplier or measure."""
+    import h5py
+
+    if "value" in g and g["value"].dtype.kind == "f":
+        bad = ~np.isfinite(g["value"][()])
+        if bad.any():
+            error(
+                f"{where}/value",
+                f"{int(bad.sum())} non-finite value(s), first at point {int(np.argmax(bad))}",
+            )
+    datasets = [(k, g[k]) for k in ("multipliers_real", "multipliers_imag") if k in g]
+    datasets += [(f"measures/{k}", d) for k, d in measures.items() if isinstance(d, h5py.Dataset)]
+    for key, d in datasets:
+        if d.dtype.kind == "f" and np.isinf(d[()]).any():
+            error(f"{where}/{key}", f"{int(np.isinf(d[()]).sum())} infinite value(s)")
 
 
 def measured_sweeps(paths, param: str, measure: str = "contact") -> list:

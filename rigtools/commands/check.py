@@ -1,4 +1,4 @@
-"""``rig check FILE``: validate a recording against the HDF5 schema (v1)."""
+"""``rig check FILE``: validate a recording, an FRF set or a branches file against its HDF5 schema."""
 
 from __future__ import annotations
 
@@ -21,6 +21,10 @@ An FRF set (rig import uff of UFF 58 FRFs) is checked against its own schema: at
 dataset shapes, and (unless --quick) finite FRFs and coherence (NaN only for a whole response
 without one), coherence within [0, 1], and a uniform increasing frequency grid.
 
+A branches file (rig continuation) is checked against its own schema: root attributes, each
+branch's attributes and datasets of one point count, the measures rig report --branches draws,
+and (unless --quick) finite parameter values and no infinite multiplier or measure.
+
 Exit status: 0 valid (notes such as "incomplete: status is 'recording'" may be printed),
 1 invalid (one line per problem), 2 unreadable (missing, truncated, not HDF5) or written by a
 newer rigtools (schema_version above the one this version reads: upgrade rigtools).
@@ -34,11 +38,11 @@ examples:
 def register(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser(
         "check",
-        help="validate a recording or FRF set (exit 0 valid, 1 invalid, 2 unreadable)",
+        help="validate a recording, FRF set or branches file (exit 0 valid, 1 invalid, 2 unreadable)",
         description=HELP,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    parser.add_argument("file", metavar="FILE", help="recording or FRF set (.h5) to check")
+    parser.add_argument("file", metavar="FILE", help="recording, FRF set or branches file (.h5) to check")
     parser.add_argument("--quick", action="store_true", help="check metadata only; do not read the samples")
     parser.add_argument(
         "--json",
@@ -50,12 +54,19 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from rigtools.branches import BranchesCheck, check_branches, is_branches_file
     from rigtools.frf_set import FRFSetCheck, check_frf_set, is_frf_set
     from rigtools.recording import RecordingError, check_recording
 
-    frf_set = is_frf_set(args.file)
+    what, check = (
+        ("FRF set", check_frf_set)
+        if is_frf_set(args.file)
+        else ("branches file", check_branches)
+        if is_branches_file(args.file)
+        else ("recording", check_recording)
+    )
     try:
-        result = (check_frf_set if frf_set else check_recording)(args.file, read_data=not args.quick)
+        result = check(args.file, read_data=not args.quick)
     except RecordingError as exc:
         if args.json:
             print(
@@ -76,13 +87,17 @@ def run(args: argparse.Namespace) -> int:
         return 0 if result.valid else 1
     errors = [p for p in result.problems if p.severity == "error"]
     notes = [p for p in result.problems if p.severity != "error"]
-    what = "FRF set" if frf_set else "recording"
     if errors:
         print(f"{args.file}: INVALID {what} ({len(errors)} problem{'s' * (len(errors) != 1)})")
         for problem in errors:
             print(f"  error: {problem.line()}")
     elif isinstance(result, FRFSetCheck):
         print(f"{args.file}: valid rigtools FRF set ({result.n_frfs} FRF(s), {result.lines} lines)")
+    elif isinstance(result, BranchesCheck):
+        print(
+            f"{args.file}: valid rigtools branches file of rig continuation ({result.n_branches} "
+            f"branch(es), {result.n_points} points; rig report --branches draws them)"
+        )
     else:
         print(
             f"{args.file}: valid rigtools recording (status {result.status}, "

@@ -197,7 +197,7 @@ def find_problems(f: h5py.File, cache: AttrCache | None = None) -> list[Problem]
     if root.get("backend") == "":
         out.append(Problem("/", "backend is empty"))
     if root.get("rig") is not None:
-        out.extend(_rig_problems(root["rig"]))
+        out.extend(rig_problems(root["rig"]))
     if root.get("experiment") is not None:
         try:
             experiment = json.loads(root["experiment"])
@@ -289,7 +289,7 @@ def _end_status_problems(
     return out
 
 
-def _rig_problems(text: str) -> list[Problem]:
+def rig_problems(text: str) -> list[Problem]:
     """The ``rig`` attribute must be a rig description (JSON or TOML) that validates: readers
     that simulate or compare build the FE model from it."""
     import tomllib

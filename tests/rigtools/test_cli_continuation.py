@@ -340,3 +340,78 @@ def test_a_branches_file_where_a_recording_is_expected_is_named(no_contact, tmp_
     assert code == 2 and "Traceback" not in err, err
     (line,) = err.strip().splitlines()
     assert "a branches file of rig continuation (rig report --branches draws it)" in line, line
+
+
+def test_check_passes_a_branches_file(no_contact):
+    """``rig check`` knows a branches file (it said "INVALID recording", exit 1, before)."""
+    doc, path, _ = no_contact
+    n = doc["branches"][0]["points"]
+    code, out, _ = run_cli(["check", path])
+    assert code == 0 and out.strip() == (
+        f"{path}: valid rigtools branches file of rig continuation (1 branch(es), {n} points; "
+        "rig report --branches draws them)"
+    )
+    code, out, _ = run_cli(["check", path, "--json"])
+    got = json.loads(out)
+    assert code == 0 and (got["kind"], got["valid"], got["branches"], got["points"], got["problems"]) == (
+        "branches",
+        True,
+        1,
+        n,
+        [],
+    )
+
+
+def _drop_stable(f):
+    del f["branches/00/stable"]
+
+
+def _short_labels(f):
+    f["branches/00"].attrs["labels"] = json.dumps([["start"]])
+
+
+def _inf_value(f):
+    f["branches/00/value"][3] = np.inf
+
+
+def _no_contact_measure(f):
+    del f["branches/00/measures/peak_contact_force"]
+
+
+@pytest.mark.parametrize(
+    ("damage", "where", "message"),
+    [
+        (_drop_stable, "/branches/00/stable", "missing"),
+        (_short_labels, "/branches/00", "labels holds 1 entries for {n} points"),
+        (_inf_value, "/branches/00/value", "1 non-finite value(s), first at point 3"),
+        (
+            _no_contact_measure,
+            "/branches/00/measures",
+            "peak_contact_force missing (rig report --branches draws them)",
+        ),
+    ],
+)
+def test_check_finds_each_damage_of_a_branches_file(no_contact, tmp_path, damage, where, message):
+    doc, good, _ = no_contact
+    bad = tmp_path / "bad.h5"
+    bad.write_bytes(good.read_bytes())
+    with h5py.File(bad, "a") as f:
+        damage(f)
+    code, out, err = run_cli(["check", bad])
+    lines = out.splitlines()
+    assert code == 1 and "Traceback" not in err, out + err
+    assert lines[0] == f"{bad}: INVALID branches file (1 problem)"
+    assert lines[1] == f"  error: {where}: {message.format(n=doc['branches'][0]['points'])}"
+    if damage is _inf_value:  # --quick reads no values
+        assert run_cli(["check", bad, "--quick"])[0] == 0
+
+
+def test_check_of_a_newer_branches_file_is_unreadable(no_contact, tmp_path):
+    _, good, _ = no_contact
+    newer = tmp_path / "newer.h5"
+    newer.write_bytes(good.read_bytes())
+    with h5py.File(newer, "a") as f:
+        f.attrs["schema_version"] = 2
+    code, _, err = run_cli(["check", newer])
+    (line,) = err.strip().splitlines()
+    assert code == 2 and "branches schema_version 2 is newer than this rigtools reads (1)" in line, line
