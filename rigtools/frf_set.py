@@ -29,6 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from rigtools.errors import UserError, one_line
+from rigtools.interop.uff import direction_text
 
 SCHEMA = "rigtools.frfset"
 SCHEMA_VERSION = 1
@@ -155,14 +156,6 @@ def read_frf_set(path: str | Path) -> FRFSet:
 
 #: SI units of the response of each FRF kind (the reference is a force, N)
 RESPONSE_UNITS = {"accelerance": "m/s^2", "mobility": "m/s", "receptance": "m"}
-
-
-def direction_text(code: int | None) -> str:
-    """A UFF direction code as text: 1..6 are X, Y, Z, RX, RY, RZ, the sign the sense
-    (``-3`` is ``"-Z"``); 0 (scalar) and None are ``""``."""
-    if not code or abs(int(code)) > 6:
-        return ""
-    return ("+" if code > 0 else "-") + ("X", "Y", "Z", "RX", "RY", "RZ")[abs(int(code)) - 1]
 
 
 def _where(point: dict | None, name: str, units: str) -> dict:

@@ -44,8 +44,19 @@ QUANTITY_CODES = {
     "voltage": (DATA_GENERAL, 0, 0),
 }
 FIXED_NODES = {"force": 1, "drive": 100}
+#: UFF direction codes (record 6, fields 6 and 9): 1..6 are +X, +Y, +Z, +RX, +RY, +RZ, a negative
+#: code the opposite sense (-3 is -Z), 0 a scalar (no direction)
+DIRECTIONS = ("X", "Y", "Z", "RX", "RY", "RZ")
 DIRECTION_Y = 2
 SI_UNITS_CODE = 1
+
+
+def direction_text(code: int | None) -> str:
+    """A UFF direction code as text (:data:`DIRECTIONS`): ``3`` is ``"+Z"``, ``-4`` is ``"-RX"``;
+    0 (scalar), None and codes outside -6..6 are ``""``."""
+    if not code or abs(int(code)) > len(DIRECTIONS):
+        return ""
+    return ("+" if code > 0 else "-") + DIRECTIONS[abs(int(code)) - 1]
 
 
 def node_of(channel: str, order: int) -> int:
@@ -80,6 +91,11 @@ class UffFunction:
         Ordinate values: real, or complex for FRFs.
     units_label
         Ordinate units label, e.g. ``"m/s^2"`` or ``"m/s^2/N"``.
+    date
+        ID line 4 (``DD-MMM-YY HH:MM:SS``, :func:`uff_date`).
+    response_direction, reference_direction
+        UFF direction codes (:data:`DIRECTIONS`: 1..6 for +X..+RZ, negative for the opposite
+        sense, 0 scalar); +Y (the blades' impact direction) unless given.
     """
 
     func_type: int
@@ -92,6 +108,13 @@ class UffFunction:
     data: np.ndarray
     units_label: str
     date: str = ""
+    response_direction: int = DIRECTION_Y
+    reference_direction: int = DIRECTION_Y
+
+    def __post_init__(self) -> None:
+        for code in (self.response_direction, self.reference_direction):
+            if not -len(DIRECTIONS) <= int(code) <= len(DIRECTIONS):
+                raise ValueError(f"UFF direction code {code} is not one of -6..6")
 
     def dataset(self) -> dict:
         """The pyuff dataset dict (every field of dataset 58 filled in)."""
@@ -119,10 +142,10 @@ class UffFunction:
             "load_case_id": 0,
             "rsp_ent_name": self.response[0][:10],
             "rsp_node": self.response[1],
-            "rsp_dir": DIRECTION_Y,
+            "rsp_dir": int(self.response_direction),
             "ref_ent_name": self.reference[0][:10],
             "ref_node": self.reference[1],
-            "ref_dir": DIRECTION_Y,
+            "ref_dir": int(self.reference_direction),
             "ord_data_type": 6 if complex_data else 4,
             "num_pts": int(x.size),
             "abscissa_spacing": 1,
@@ -413,13 +436,14 @@ def read_uff_sets(source: str | Path) -> list[dict]:
 
 def record_name(s: dict) -> str:
     """The name of a record's response: its entity name, then ``:<node><direction>`` when the
-    node is not 0 (``acc:2+Z``, ``node:2+Z`` without entity name)."""
+    node is not 0 (``acc:2+Z``, ``node:2+Z`` without entity name, ``acc:5-RX`` for a rotation:
+    :func:`direction_text`)."""
     name = str(s.get("rsp_ent_name", "")).strip()
     if name.lower() in _NONE:
         name = "node"
     node, direction = int(s.get("rsp_node", 0)), int(s.get("rsp_dir", 0))
     if node:
-        axis = f"{'+' if direction > 0 else '-'}{'XYZ'[min(abs(direction), 3) - 1]}" if direction else ""
+        axis = direction_text(direction) or (f"dir{direction}" if direction else "")
         name += f":{node}{axis}"
     return name
 

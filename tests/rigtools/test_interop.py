@@ -188,3 +188,52 @@ def test_export_bad_input(tmp_path, recording, capsys, case):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("rig export: error:"), err
     assert recording.read_bytes() == before
+
+
+def test_uff_direction_codes_round_trip_through_pyuff(tmp_path):
+    """Every UFF direction code is written as given and read back by pyuff (rotations 4-6 were
+    written and named as Z), and an import names each record by it (``acc:5+RX``)."""
+    from rigtools.interop.uff import FUNC_FRF, UffFunction, direction_text, record_name, write_uff
+
+    codes = [1, 2, 3, 4, 5, 6, -1, -2, -3, -4, -5, -6]
+    f = np.linspace(0.0, 100.0, 11)
+    functions = [
+        UffFunction(
+            FUNC_FRF,
+            f"dir {c}",
+            ("acc", 5),
+            ("hammer", 1),
+            "acceleration",
+            "force",
+            f,
+            np.full(f.size, 1.0 + 1j * c),
+            "m/s^2/N",
+            response_direction=c,
+            reference_direction=-c,
+        )
+        for c in codes
+    ]
+    write_uff(tmp_path / "d.uff", functions)
+    got = [s for s in _read(tmp_path / "d.uff") if s["type"] == 58]
+    assert [(s["rsp_dir"], s["ref_dir"]) for s in got] == [(c, -c) for c in codes]
+    assert [record_name(s) for s in got] == [
+        "acc:5+X",
+        "acc:5+Y",
+        "acc:5+Z",
+        "acc:5+RX",
+        "acc:5+RY",
+        "acc:5+RZ",
+        "acc:5-X",
+        "acc:5-Y",
+        "acc:5-Z",
+        "acc:5-RX",
+        "acc:5-RY",
+        "acc:5-RZ",
+    ]
+    assert (direction_text(0), direction_text(7), record_name({"rsp_node": 5, "rsp_dir": 9})) == (
+        "",
+        "",
+        "node:5dir9",
+    )
+    with pytest.raises(ValueError, match="UFF direction code 7 is not one of -6..6"):
+        UffFunction(FUNC_FRF, "", ("a", 2), ("f", 1), "acceleration", "force", f, f, "", response_direction=7)
