@@ -1,4 +1,4 @@
-"""``rig export``: a recording in another tool's format (UFF 58 for modal software, SEP005 JSON)."""
+"""``rig export``: a recording or FRF set in another tool's format (UFF 58 for modal software)."""
 
 from __future__ import annotations
 
@@ -9,7 +9,9 @@ from rigtools.errors import UserError
 from rigtools.frf_options import add_frf_arguments, frf_options
 from rigtools.options import output_path
 
-HELP = "export a recording as UFF 58 (time records, spectra, FRFs with coherence) for modal software"
+HELP = (
+    "export a recording or FRF set as UFF 58 (time records, spectra, FRFs with coherence) for modal software"
+)
 EPILOG = """\
 rig export uff FILE.h5 OUT.uff writes, with pyuff, one UFF 58 function per channel and point:
 FRFs first: H1 of every response over the force (type 4) with its coherence (type 6), the very
@@ -23,6 +25,10 @@ starts with a units dataset 164 (SI: m, N, s, K); each 58 record carries the spe
 Nodes: force sensor 1, active shroud 2, passive shroud 3, drive 100, other channels 101+;
 direction 2 (+Y, the blades' impact direction) for all. Binary, double precision values; the
 abscissa increment is stored in the format's E13.5 field (6 significant digits).
+
+An FRF set (rig import uff of an analyser's FRFs) is written back as its FRFs, one type 4
+record per response with its coherence (type 6) where it has one, each with the entity names,
+nodes and direction codes (1..6 = +X..+RZ, negative the opposite sense) it was imported with.
 
 examples:
   rig export uff run.h5 run.uff
@@ -42,7 +48,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("format", choices=("uff",), help="output format")
-    p.add_argument("file", metavar="FILE.h5", help="the recording")
+    p.add_argument("file", metavar="FILE.h5", help="the recording or FRF set")
     p.add_argument("out", metavar="OUT", help="file to write")
     p.add_argument(
         "--what",
@@ -57,8 +63,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from rigtools.interop.uff import WHAT, recording_functions, write_uff
-    from rigtools.recording import open_recording
+    from rigtools.interop.uff import WHAT, file_functions, write_uff
 
     what = tuple(w.strip() for w in args.what.split(",") if w.strip())
     unknown = [w for w in what if w not in WHAT]
@@ -66,13 +71,7 @@ def run(args: argparse.Namespace) -> int:
         raise UserError(f"--what = {args.what!r}: use a comma list of {', '.join(WHAT)}")
     options = frf_options(args)
     out = output_path(args.out, args.overwrite, "OUT", inputs=[args.file])
-    with open_recording(args.file) as rec:
-        skipped = [p.index for p in rec.points if not p.complete]  # cut off: never passed on as data
-        if len(skipped) == len(rec.points):
-            raise UserError(f"{args.file}: the recording has no complete points to export")
-        functions = recording_functions(
-            rec, what, frf_options=options, reference=args.reference, complete_only=True
-        )
+    functions, skipped = file_functions(args.file, what, frf_options=options, reference=args.reference)
     if not functions:
         raise UserError(
             f"{args.file}: nothing to export for --what {args.what!r} "

@@ -359,6 +359,102 @@ def recording_functions(
     return frfs + others
 
 
+def frf_set_functions(frf_set, what: tuple[str, ...] = WHAT, *, source: str = "") -> list[UffFunction]:
+    """The UFF functions of an FRF set (:class:`rigtools.frf_set.FRFSet`): one FRF (type 4) per
+    response, followed by its coherence (type 6) where the set has one.
+
+    Each record carries the response's and the reference's UFF entity name, node and direction
+    code as the set holds them (an import of UFF 58 keeps them, :func:`import_uff`); a set
+    without them gets reference node 1 and response nodes 101, 102, ... in +Y, as
+    :func:`recording_functions` numbers channels. Values are the set's, in SI; the quantity of
+    the response follows the set's kind (accelerance: acceleration, ...). ID line 4 holds the
+    set's date.
+
+    Parameters
+    ----------
+    frf_set
+        The set, as :func:`rigtools.frf_set.read_frf_set` returns it.
+    what
+        Must name ``"frf"``: an FRF set holds no time records or spectra.
+    source
+        The set's file name, for the one-line refusal.
+
+    Raises
+    ------
+    UserError
+        ``what`` lacks ``"frf"``.
+    """
+    from rigtools.frf_set import RESPONSE_UNITS
+
+    if "frf" not in what:
+        raise UserError(f"{source}: an FRF set holds FRFs only (no {', '.join(what)}): use --what frf")
+    quantity = {kind: q for q, kind in _KIND_OF.items()}[frf_set.kind]
+    units = f"{RESPONSE_UNITS[frf_set.kind]}/N"
+    date = uff_date(frf_set.created)
+    points = frf_set.points if len(frf_set.points) == len(frf_set.responses) else []
+    out: list[UffFunction] = []
+    for i, name in enumerate(frf_set.responses):
+        rsp = points[i].get("response", {}) if points else {"node": 101 + i, "direction": DIRECTION_Y}
+        ref = points[i].get("reference", {}) if points else {"node": 1, "direction": DIRECTION_Y}
+        records = [(FUNC_FRF, "FRF, " + frf_set.kind, quantity, "force", frf_set.frf[i], units)]
+        if np.all(np.isfinite(frf_set.coherence[i])):
+            records.append((FUNC_COHERENCE, "coherence", "coherence", "", frf_set.coherence[i], "-"))
+        for func_type, what_it_is, numerator, denominator, data, label in records:
+            out.append(
+                UffFunction(
+                    func_type,
+                    f"{name}/{frf_set.reference} {what_it_is}",
+                    (str(rsp.get("entity") or name), int(rsp.get("node", 0))),
+                    (str(ref.get("entity") or frf_set.reference), int(ref.get("node", 0))),
+                    numerator,
+                    denominator,
+                    frf_set.frequency_hz,
+                    data,
+                    label,
+                    date,
+                    response_direction=int(rsp.get("direction", 0)),
+                    reference_direction=int(ref.get("direction", 0)),
+                )
+            )
+    return out
+
+
+def file_functions(
+    path: str | Path, what: tuple[str, ...] = WHAT, *, frf_options=None, reference: str | None = None
+) -> tuple[list[UffFunction], list[int]]:
+    """``(functions, points left out)`` of what ``rig export uff`` writes of ``path``: a recording's
+    (:func:`recording_functions`, complete points only; the cut-off points' indices returned) or
+    an FRF set's (:func:`frf_set_functions`: its FRFs are estimated already, so FRF options and
+    ``reference`` are refused in one line).
+
+    Raises
+    ------
+    UserError
+        An unreadable file, a recording without a complete point, options the file does not use.
+    """
+    from rigtools.frf_set import is_frf_set, read_frf_set
+    from rigtools.recording import open_recording
+
+    if Path(path).is_file() and is_frf_set(path):
+        given = ([] if frf_options is None else frf_options.estimate_options()) + (
+            ["--reference"] if reference is not None else []
+        )
+        if given:
+            raise UserError(
+                f"{' and '.join(given)}: {path} is an FRF set, its FRFs estimated already "
+                f"(each over its reference), so {'it' if len(given) == 1 else 'they'} would be ignored"
+            )
+        return frf_set_functions(read_frf_set(path), what, source=str(path)), []
+    with open_recording(path) as rec:
+        skipped = [p.index for p in rec.points if not p.complete]  # cut off: never passed on as data
+        if len(skipped) == len(rec.points):
+            raise UserError(f"{path}: the recording has no complete points to export")
+        functions = recording_functions(
+            rec, what, frf_options=frf_options, reference=reference, complete_only=True
+        )
+    return functions, skipped
+
+
 def uff_date(created: str) -> str:
     """ISO time (``2024-05-01T12:00:00+00:00``) as UFF's ``01-May-24 12:00:00``; empty if unreadable."""
     from datetime import datetime

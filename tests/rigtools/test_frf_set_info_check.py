@@ -217,3 +217,49 @@ def test_import_uff_frfs_bad_input_is_one_line(frf_set, tmp_path, case, words):
     (line,) = err.strip().splitlines()
     assert words in line, line
     assert not (tmp_path / "x.h5").exists()
+
+
+def test_export_uff_writes_the_frf_set_back(frf_set, tmp_path):
+    """``rig export uff SET.h5`` (refused before): one FRF per response, the coherence where the
+    set has one, each with its entity, node and direction codes; the values the set's (binary
+    doubles: exact), and an import of the export gives the same set."""
+    out = tmp_path / "back.uff"
+    code, text, err = run_cli(["export", "uff", frf_set, out])
+    assert code == 0, err
+    assert text.strip() == f"wrote {out}: 2 frf, 1 coherence (UFF 58, SI)"
+    records = [s for s in pyuff.UFF(str(out)).read_sets() if s["type"] == 58]
+    got = [
+        (s["func_type"], s["rsp_ent_name"], s["rsp_node"], s["rsp_dir"], s["ref_ent_name"], s["ref_node"])
+        + (s["ref_dir"], s["ordinate_spec_data_type"], s["orddenom_spec_data_type"])
+        for s in records
+    ]
+    assert got == [
+        (FUNC_FRF, "tip", 2, 3, "hammer", 1, 3, 12, 13),
+        (FUNC_COHERENCE, "tip", 2, 3, "hammer", 1, 3, 1, 0),
+        (FUNC_FRF, "root", 3, -2, "hammer", 1, 3, 12, 13),
+    ]
+    h = sdof_frf(F, 100.0, 0.02, kind="accelerance")
+    np.testing.assert_array_equal(records[0]["data"], h)
+    np.testing.assert_array_equal(records[1]["data"], np.full(F.size, 0.98))
+    np.testing.assert_array_equal(records[2]["data"], 0.5 * h)
+    assert records[0]["abscissa_inc"] == 0.5 and records[0]["num_pts"] == F.size
+    again = tmp_path / "again.h5"
+    assert run_cli(["import", "uff", out, again])[0] == 0
+    first, second = (json.loads(run_cli(["info", p, "--json"])[1]) for p in (frf_set, again))
+    for key in ("frf_kind", "n_frfs", "references", "responses", "frequency"):
+        assert first[key] == second[key], key
+
+
+@pytest.mark.parametrize(
+    ("extra", "words"),
+    [
+        (["--what", "time"], "an FRF set holds FRFs only (no time): use --what frf"),
+        (["--excitation", "random"], "--excitation: "),
+        (["--reference", "hammer"], "--reference: "),
+    ],
+)
+def test_export_uff_of_an_frf_set_refuses_what_it_cannot_use(frf_set, tmp_path, extra, words):
+    code, _, err = run_cli(["export", "uff", frf_set, tmp_path / "x.uff", *extra])
+    (line,) = err.strip().splitlines()
+    assert code == 2 and words in line, line
+    assert not (tmp_path / "x.uff").exists()
