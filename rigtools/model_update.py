@@ -836,7 +836,7 @@ def update_rig_file(
     import datetime as _dt
 
     from rigtools.config import default_rig_text, load_rig, read_rig_text
-    from rigtools.options import band_option, output_path
+    from rigtools.options import RIG_FILE_SUFFIXES, band_option, output_path
 
     show = status or _no_status
     names = parse_names(parameters if isinstance(parameters, str) else ",".join(parameters), PARAMETER_NAMES)
@@ -851,7 +851,7 @@ def update_rig_file(
     tests = [str(p) for p in recordings]
     dwell_files = [str(p) for p in contact]
     inputs = [*tests, *dwell_files] + ([str(rig)] if rig else [])
-    out_path = output_path(str(out), overwrite, "--out", suffixes=(".toml",), inputs=inputs)
+    out_path = output_path(str(out), overwrite, "--out", suffixes=RIG_FILE_SUFFIXES, inputs=inputs)
     for path in inputs:
         if not Path(path).exists():
             raise UserError(f"{path}: no such file")

@@ -188,6 +188,14 @@ def seed(value: str | int | None, option: str = "--seed") -> int | None:
     return number
 
 
+#: Suffixes of the files rigtools writes, by kind (``output_path(..., suffixes=HDF5_SUFFIXES)``):
+#: a name that says another format (``--out run.txt``) is refused before any work is done.
+HDF5_SUFFIXES = (".h5", ".hdf5")
+UFF_SUFFIXES = (".uff", ".unv")
+TABLE_SUFFIXES = (".csv", ".json")
+RIG_FILE_SUFFIXES = (".toml",)
+
+
 def output_path(
     text: str,
     overwrite: bool = False,
@@ -207,7 +215,7 @@ def output_path(
     option
         The option's name for the message.
     suffixes
-        Allowed suffixes, e.g. ``(".h5", ".hdf5")``, compared case-insensitively; ``None``: any.
+        Allowed suffixes, compared case-insensitively (:data:`HDF5_SUFFIXES`, ...); ``None``: any.
     inputs
         Files this command reads (a recording, a rig file): the output may never be one of them,
         ``--overwrite`` or not.
@@ -231,10 +239,6 @@ def output_path(
     name_fits(out, where)
     if out.is_dir() or str(text).endswith(("/", os.sep)):
         raise UserError(f"{where} is a directory; give a file name")
-    if suffixes is not None:
-        allowed = tuple(s.lower() for s in suffixes)
-        if out.suffix.lower() not in allowed:
-            raise UserError(f"{where}: the file name must end in {' or '.join(allowed)}")
     folder = out.parent
     if not folder.exists():
         raise UserError(f"{where}: folder {str(folder)!r} does not exist")
@@ -246,6 +250,10 @@ def output_path(
     for source in inputs:
         if same_file(out, Path(source)):
             raise UserError(f"{where} is an input of this command ({str(source)!r}); give another file name")
+    if suffixes is not None:
+        allowed = tuple(s.lower() for s in suffixes)
+        if out.suffix.lower() not in allowed:
+            raise UserError(f"{where}: the file name must end in {' or '.join(allowed)}")
     if out.exists():
         if not overwrite:
             raise UserError(f"{where} exists; give --overwrite to replace it")
@@ -380,10 +388,11 @@ def output_folder(
 
 
 def check_out(
-    args: argparse.Namespace, *, suffixes: Iterable[str] | None = None, inputs: Iterable[str | Path] = ()
+    args: argparse.Namespace, *, suffixes: Iterable[str], inputs: Iterable[str | Path] = ()
 ) -> Path:
     """``args.out`` checked by :func:`output_path` (``args.overwrite`` if the command has it); the
-    rig file ``args.rig`` (if any) is always one of the ``inputs``."""
+    rig file ``args.rig`` (if any) is always one of the ``inputs``; ``suffixes`` (the file kind's:
+    :data:`HDF5_SUFFIXES`, ...) always given, so every ``--out FILE`` says what it writes."""
     rig = getattr(args, "rig", None)
     sources = [*inputs, *([rig] if rig else [])]
     return output_path(

@@ -273,9 +273,9 @@ def simulate_point(
     cfg, system = _system(rig, model, gap)
     target = None
     if out is not None:
-        from rigtools.options import output_path
+        from rigtools.options import HDF5_SUFFIXES, output_path
 
-        target = output_path(str(out), overwrite, "out")
+        target = output_path(str(out), overwrite, "out", suffixes=HDF5_SUFFIXES)
     run = simu.simulate_point(system, f, F, settings)
     if target is not None:
         from rigtools.recording import RecordingWriter
@@ -363,8 +363,8 @@ def simulate_study(
     """
     from rigtools.errors import UserError
     from rigtools.model_study import record_study
+    from rigtools.options import HDF5_SUFFIXES, output_path, quantity
     from rigtools.options import gap as gap_option
-    from rigtools.options import output_path, quantity
     from rigtools.procedures.base import validate
     from rigtools.procedures.rig_study import StudyParameters
     from rigtools.sim.studies import StudyPlan
@@ -382,7 +382,7 @@ def simulate_study(
         plan = StudyPlan(kind, tuple(swept), direction, carry_state=carry_state, **fixed)
     except SimulationInputError as exc:
         raise UserError(str(exc)) from None
-    target = output_path(str(out), overwrite, "out")
+    target = output_path(str(out), overwrite, "out", suffixes=HDF5_SUFFIXES)
     settings = _settings(duration, max_settle_time, sorted({p.fe for p in plan.points()}))
     cfg, system = _system(rig, model, None)
     experiment = {

@@ -12,7 +12,7 @@ import sys
 from rigtools import json_values
 from rigtools.errors import EXIT_SIGINT, UserError
 from rigtools.monitor.beside import OPTIONS as MONITOR_OPTIONS
-from rigtools.options import check_out, seed
+from rigtools.options import HDF5_SUFFIXES, check_out, seed
 from rigtools.procedure_help import COMMON_EPILOG, PROCEDURE_HELP, PROCEDURE_OPTIONS, epilog
 
 # literal here: `rig --help` reads each command's HELP from its source without importing it
@@ -70,7 +70,7 @@ def run(args: argparse.Namespace) -> int:
     from rigtools.progress import ProcedureProgress
 
     resume = getattr(args, "resume", False)
-    out = check_out(args) if not resume else _resume_out(args.out)
+    out = check_out(args, suffixes=HDF5_SUFFIXES) if not resume else _resume_out(args.out)
     cfg = load_rig(args.rig)
     faults = parse_faults(args.fault, args.backend)
     run_options = {"backend": args.backend, "overwrite": args.overwrite, "pace": args.pace, "seed": args.seed}

@@ -77,9 +77,9 @@ def run(args: argparse.Namespace) -> int:
     )
     from rigtools.derived_files import plot_path
     from rigtools.figures import save_figure
-    from rigtools.options import check_out
+    from rigtools.options import HDF5_SUFFIXES, check_out
 
-    out = check_out(args, inputs=args.measured)  # a recording read is never replaced
+    out = check_out(args, suffixes=HDF5_SUFFIXES, inputs=args.measured)  # a recording read is never replaced
     start, stop, fixed = parse_inputs(
         args.param, args.start, args.stop, args.fe, args.force, args.gap, args.drive
     )

@@ -7,7 +7,7 @@ import argparse
 from rigtools import json_values
 from rigtools.errors import UserError
 from rigtools.frf_options import add_frf_arguments, frf_options
-from rigtools.options import output_path
+from rigtools.options import UFF_SUFFIXES, output_path
 
 HELP = (
     "export a recording or FRF set as UFF 58 (time records, spectra, FRFs with coherence) for modal software"
@@ -70,7 +70,7 @@ def run(args: argparse.Namespace) -> int:
     if unknown or not what:
         raise UserError(f"--what = {args.what!r}: use a comma list of {', '.join(WHAT)}")
     options = frf_options(args)
-    out = output_path(args.out, args.overwrite, "OUT", inputs=[args.file])
+    out = output_path(args.out, args.overwrite, "OUT", suffixes=UFF_SUFFIXES, inputs=[args.file])
     functions, skipped = file_functions(args.file, what, frf_options=options, reference=args.reference)
     if not functions:
         raise UserError(

@@ -6,7 +6,7 @@ import argparse
 import sys
 
 from rigtools.harmonic_curves import MAX_POINTS, MIN_POINTS
-from rigtools.options import check_out
+from rigtools.options import TABLE_SUFFIXES, check_out
 
 HELP = "linear amplitude-frequency curves (no contact), FEM and AM, written as CSV or JSON plus a PNG plot"
 EPILOG = """\
@@ -68,7 +68,7 @@ def run(args: argparse.Namespace) -> int:
     from rigtools.model_options import announce_model
     from rigtools.progress import working
 
-    out = check_out(args, suffixes=(".csv", ".json"))
+    out = check_out(args, suffixes=TABLE_SUFFIXES)
     rig_config = load_rig(args.rig)
     params = rig_config.to_params()
     elements = announce_model(params)

@@ -6,7 +6,7 @@ import argparse
 
 from rigtools import json_values
 from rigtools.errors import UserError
-from rigtools.options import output_path, positive_finite
+from rigtools.options import HDF5_SUFFIXES, output_path, positive_finite
 
 HELP = "import a TDMS log, a LabVIEW measurement file or UFF 58 records as a recording"
 EPILOG = """\
@@ -77,7 +77,11 @@ def run(args: argparse.Namespace) -> int:
     if args.group and args.format != "tdms":
         raise UserError("--group is for TDMS files (their groups)")
     out = output_path(
-        args.out, args.overwrite, "OUT", inputs=[args.source, *([args.rig] if args.rig else [])]
+        args.out,
+        args.overwrite,
+        "OUT",
+        suffixes=HDF5_SUFFIXES,
+        inputs=[args.source, *([args.rig] if args.rig else [])],
     )
     common = {
         "rig": load_rig(args.rig).to_json(),

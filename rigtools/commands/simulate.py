@@ -14,7 +14,7 @@ from pathlib import Path
 
 from rigtools import json_values
 from rigtools import model_options as mo
-from rigtools.options import check_out, gap
+from rigtools.options import HDF5_SUFFIXES, check_out, gap
 from rigtools.vocabulary import channel_names, describe_channels
 
 HELP = "simulate the vibro-impact response (FE or assumed-modes model) and record it as HDF5"
@@ -96,7 +96,7 @@ def _run(args: argparse.Namespace, stops, written: list) -> int:
     from rigtools.progress import simulated_time_bar
     from rigtools.recording import RecordingWriter
 
-    out = check_out(args)
+    out = check_out(args, suffixes=HDF5_SUFFIXES)
     fe, force = mo.excitation(args.fe, args.force)
     new_gap = None if args.gap is None else gap(args.gap)
     settings = mo.settings_of(args, [fe])

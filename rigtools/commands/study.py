@@ -13,7 +13,7 @@ from rigtools.model_study import EPILOG
 
 # literal here: `rig --help` reads each command's HELP from its source without importing it
 HELP = "run a gap, force or frequency study of the vibro-impact model and record every point"
-from rigtools.options import check_out, scheduler_address
+from rigtools.options import HDF5_SUFFIXES, check_out, scheduler_address
 from rigtools.progress import StudyProgress
 
 
@@ -75,7 +75,7 @@ def _run(args: argparse.Namespace, stops) -> int:
     from rigtools import model_study as ms
     from rigtools.study_runner import StudyRunner
 
-    out = check_out(args)
+    out = check_out(args, suffixes=HDF5_SUFFIXES)
     plan, values = ms.study_plan(
         args.kind,
         args.values,

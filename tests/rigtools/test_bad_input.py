@@ -14,6 +14,7 @@ import contextlib
 import hashlib
 import io
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -912,15 +913,19 @@ def test_hertz_units_are_read(lab, lab_digest, tmp_path):
     assert load_rig(tmp_path / "rig.toml").contact.stiffness == pytest.approx(1e3 / 1e-3**1.5, rel=1e-12)
 
 
-def test_a_recording_named_png_survives_its_own_plot(lab, lab_digest, tmp_path):
-    out = tmp_path / "run.png"
+def test_a_recording_named_png_survives_a_plot(lab, lab_digest, tmp_path):
+    """A recording named run.png (another program's, or an older rigtools') beside run.h5 keeps
+    its bytes when rig simulate plots run.h5: the plot takes run.plot.png. rig simulate itself
+    names a recording .h5 or .hdf5 only (--out run.png: one line, nothing written)."""
+    code, _, err = run_cli(["simulate", "--out", str(tmp_path / "run.png"), "--duration", "0.05 s"])
+    assert code == 2 and "the file name must end in .h5 or .hdf5" in err and not any(tmp_path.iterdir())
+    shutil.copy(lab / "run.png", tmp_path / "run.png")
+    out = tmp_path / "run.h5"
     code, _, err = run_cli(["simulate", "--out", str(out), "--duration", "0.05 s"])
     assert_clean_failure(code, err, 0, lab, lab_digest)
-    assert check_recording(out).valid
-    plots = sorted(p.name for p in tmp_path.iterdir() if p != out)
-    assert plots and all(p.endswith(".png") for p in plots)
-    code, _, err = run_cli(["simulate", "--out", str(out), "--duration", "0.05 s", "--overwrite"])
-    assert code == 0 and check_recording(out).valid
+    assert check_recording(out).valid and check_recording(tmp_path / "run.png").valid
+    assert (tmp_path / "run.png").read_bytes() == (lab / "run.png").read_bytes()
+    assert (tmp_path / "run.plot.png").is_file()
 
 
 # --------------------------------------------------------- subprocesses: signals, pipes, console

@@ -211,12 +211,49 @@ def test_output_path_read_only_folder_simulated(tmp_path, monkeypatch):
 def test_check_out_is_output_path(tmp_path):
     existing = tmp_path / "a.h5"
     existing.write_bytes(b"")
-    assert options.check_out(argparse.Namespace(out=str(tmp_path / "b.h5"))) == tmp_path / "b.h5"
-    assert "exists; give --overwrite" in _refused(options.check_out, argparse.Namespace(out=str(existing)))
-    assert options.check_out(argparse.Namespace(out=str(existing), overwrite=True)) == existing
-    assert "is a directory" in _refused(
-        options.check_out, argparse.Namespace(out=str(tmp_path), overwrite=True)
+    h5 = {"suffixes": options.HDF5_SUFFIXES}
+    assert options.check_out(argparse.Namespace(out=str(tmp_path / "b.h5")), **h5) == tmp_path / "b.h5"
+    assert "exists; give --overwrite" in _refused(
+        options.check_out, argparse.Namespace(out=str(existing)), **h5
     )
+    assert options.check_out(argparse.Namespace(out=str(existing), overwrite=True), **h5) == existing
+    assert "is a directory" in _refused(
+        options.check_out, argparse.Namespace(out=str(tmp_path), overwrite=True), **h5
+    )
+    assert "must end in .h5 or .hdf5" in _refused(
+        options.check_out, argparse.Namespace(out=str(tmp_path / "a.txt")), **h5
+    )
+
+
+@pytest.mark.parametrize(
+    ("argv", "option", "suffixes"),
+    [
+        (["simulate", "--out"], "--out", ".h5 or .hdf5"),
+        (["study", "gap", "--values", "0.5 mm", "--out"], "--out", ".h5 or .hdf5"),
+        (["continuation", "--param", "fe", "--from", "60", "--to", "61", "--out"], "--out", ".h5 or .hdf5"),
+        (
+            ["acquire", "dwell", "--backend", "sim", "--fe", "60", "--force", "15", "--out"],
+            "--out",
+            ".h5 or .hdf5",
+        ),
+        (["import", "uff", "in.uff"], "OUT", ".h5 or .hdf5"),
+        (["export", "uff", "run.h5"], "OUT", ".uff or .unv"),
+        (["harmonic", "--out"], "--out", ".csv or .json"),
+    ],
+)
+def test_an_output_named_for_another_format_is_one_line(tmp_path, argv, option, suffixes):
+    """``--out a.txt`` of a command writing HDF5, UFF or a table: refused before any work with the
+    suffixes its kind takes (HDF5 was written under any name before)."""
+    from cli_helpers import run_cli
+
+    out = tmp_path / "a.txt"
+    code, stdout, err = run_cli([*argv, out])
+    assert (code, stdout, err.strip().splitlines()) == (
+        2,
+        "",
+        [f"rig {argv[0]}: error: {option} = {str(out)!r}: the file name must end in {suffixes}"],
+    )
+    assert list(tmp_path.iterdir()) == []
 
 
 # ------------------------------------------------------------------ memory (rigtools.memory)
