@@ -52,6 +52,14 @@ from scipy import signal
 FRFKind = Literal["receptance", "mobility", "accelerance"]
 _KINDS = ("receptance", "mobility", "accelerance")
 
+#: Fewest samples in a frame of a measured FRF (``rig acquire frf``/``tap`` ``--frame``, ``rig analyze``
+#: and ``rig export uff`` ``--frame-samples``). A frame of N samples gives N/2 + 1 lines from 0 Hz
+#: to half the sample rate, of which the anti-alias margin (0.45 of the rate) leaves 0.9 N/2: 64
+#: samples give 28 usable lines, room for a band of the 5 lines a modal fit needs on either side of
+#: a resonance; fewer give an FRF of a handful of lines (3 samples: 2, at 0 Hz and half the rate)
+#: that shows no resonance at all.
+MIN_FRAME_SAMPLES = 64
+
 
 @dataclass(frozen=True)
 class FRFEstimate:

@@ -573,7 +573,9 @@ class FRFOptions:
         ``(f_min, f_max)`` Hz for the modal identification; None: the procedure's band, else where
         the force has energy (:func:`rigtools.analysis.modal_id.excitation_band`).
     excitation, frame_samples, force_window, exponential
-        Overrides of the FRF estimate (:func:`frf_method_of`).
+        Overrides of the FRF estimate (:func:`frf_method_of`); ``frame_samples`` at least
+        :data:`rigtools.analysis.frf.MIN_FRAME_SAMPLES` (a shorter frame is one
+        :class:`UserError` line naming the minimum).
     """
 
     band: tuple[float, float] | None = None
@@ -581,6 +583,16 @@ class FRFOptions:
     frame_samples: int | None = None
     force_window: float | None = None
     exponential: float | None = None
+
+    def __post_init__(self) -> None:
+        from rigtools.analysis.frf import MIN_FRAME_SAMPLES
+
+        n = self.frame_samples
+        if n is not None and n < MIN_FRAME_SAMPLES:
+            raise UserError(
+                f"--frame-samples = {n}: an FRF frame needs at least {MIN_FRAME_SAMPLES} samples "
+                "(N samples give N/2 + 1 lines from 0 Hz to half the sample rate)"
+            )
 
     def estimate_options(self) -> list[str]:
         """The command-line names of the estimate overrides given (``--excitation``, ...)."""

@@ -75,7 +75,9 @@ def frf_options(args: argparse.Namespace) -> FRFOptions:
     Returns
     -------
     FRFOptions
-        Band in Hz, excitation, frame length (>= 2 samples) and the impact windows.
+        Band in Hz, excitation, frame length (at least
+        :data:`rigtools.analysis.frf.MIN_FRAME_SAMPLES` samples, checked by ``FRFOptions``) and
+        the impact windows.
 
     Raises
     ------
@@ -89,7 +91,7 @@ def frf_options(args: argparse.Namespace) -> FRFOptions:
     return FRFOptions(
         band=band_option(band, "--band") if band else None,
         excitation=args.excitation,
-        frame_samples=count(frame, "--frame-samples", minimum=2) if frame is not None else None,
+        frame_samples=count(frame, "--frame-samples", minimum=1) if frame is not None else None,
         force_window=_fraction(getattr(args, "force_window", None), "--force-window"),
         exponential=_fraction(getattr(args, "exponential", None), "--exponential"),
     )

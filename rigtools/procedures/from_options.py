@@ -14,6 +14,7 @@ from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+from rigtools.analysis.frf import MIN_FRAME_SAMPLES
 from rigtools.errors import UserError
 from rigtools.options import band_option, quantity, value_list
 from rigtools.options import gap as _gap_text
@@ -59,7 +60,6 @@ def _grid(text: str, kind: str, option: str) -> list[float]:
 
 #: Highest excitation or analysis frequency as a fraction of the sample rate (anti-alias margin).
 NYQUIST_FRACTION = 0.45
-MIN_FRAME_SAMPLES = 64  # an FRF/tap frame shorter than this holds no usable spectrum
 
 
 def below_nyquist(values: list[float] | float, rate: float, option: str, text: Any) -> None:

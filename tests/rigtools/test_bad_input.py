@@ -628,9 +628,9 @@ OPTION_CASES = [
     # rig export / import / devices
     Case("export:what-unknown", ["export", "uff", "{lab}/run.h5", "{tmp}/o.uff", "--what", "movies"]),
     Case(
-        "export:frame-samples-one",
-        ["export", "uff", "{lab}/run.h5", "{tmp}/o.uff", "--excitation", "random", "--frame-samples", "1"],
-        expect="--frame-samples = '1': must be >= 2",
+        "export:frame-samples-three",
+        ["export", "uff", "{lab}/run.h5", "{tmp}/o.uff", "--excitation", "random", "--frame-samples", "3"],
+        expect="--frame-samples = 3: an FRF frame needs at least 64 samples (N samples give N/2 + 1 lines",
     ),
     Case(
         "export:frame-samples-text",

@@ -133,3 +133,41 @@ def test_an_override_that_would_be_ignored_is_refused(files, extra, message):
             continue  # rig export takes no impact windows
         code, _, err = run_cli([*command, *extra])
         assert code == 2 and message in err and len(err.strip().splitlines()) == 1, err
+
+
+@pytest.mark.parametrize("frame", ["3", "63"])
+def test_a_frame_too_short_for_an_frf_is_refused(files, frame):
+    """``--excitation burst --frame-samples 3`` wrote a 2-line FRF before; now one line naming
+    the minimum (analysis.frf.MIN_FRAME_SAMPLES, the acquisition's --frame rule too), exit 2,
+    nothing written. 64 samples are taken."""
+    out = files["folder"] / f"short-{frame}.uff"
+    for command in (["analyze", files["burst"]], ["export", "uff", files["burst"], out, "--what", "frf"]):
+        code, stdout, err = run_cli([*command, "--excitation", "burst", "--frame-samples", frame])
+        assert (code, stdout, err.strip().splitlines()) == (
+            2,
+            "",
+            [
+                (
+                    f"rig {command[0]}: error: --frame-samples = {frame}: an FRF frame needs at least 64 "
+                    "samples (N samples give N/2 + 1 lines from 0 Hz to half the sample rate)"
+                )
+            ],
+        )
+        assert not out.exists()
+    code, _, err = run_cli(
+        [
+            "export",
+            "uff",
+            files["burst"],
+            out,
+            "--what",
+            "frf",
+            "--excitation",
+            "burst",
+            "--frame-samples",
+            "64",
+        ]
+    )
+    assert code == 0, err
+    (record, *_) = [s for s in pyuff.UFF(str(out)).read_sets() if s["type"] == 58]
+    assert record["num_pts"] == 33
