@@ -95,12 +95,16 @@ def gap(text: str | float, option: str = "--gap") -> float:
 
 STUDY_DIMENSION = {"gap": "length", "force": "force", "frequency": "frequency"}
 MAX_POINTS = 10_000  # values in one list or grid
+#: a value list of each kind as the messages show one
+LIST_EXAMPLE = {"gap": "0.5 mm:2 mm:0.5 mm", "force": "5 N:20 N:5 N", "frequency": "55 Hz:80 Hz:1 Hz"}
+_PLURAL = {"gap": "gaps", "force": "forces", "frequency": "frequencies"}
 
 
-def value_list(text: str, kind: str, option: str = "--values") -> list[float]:
+def value_list(text: str, kind: str, option: str = "--values", *, minimum: int = 1) -> list[float]:
     """The one grammar of value lists: ``"a,b,c"`` or ``"start:stop:step"`` (stop included) with
     units, of a ``kind`` (``"gap"``, ``"force"``, ``"frequency"``) in SI units, each checked (a gap
-    by :func:`gap`; forces ``>= 0``; frequencies ``> 0``), at most :data:`MAX_POINTS` values."""
+    by :func:`gap`; forces ``>= 0``; frequencies ``> 0``), at least ``minimum`` different values
+    (a stepped sine: 2) and at most :data:`MAX_POINTS`."""
     dimension = STUDY_DIMENSION[kind]
 
     def one(part: str) -> float:
@@ -132,6 +136,11 @@ def value_list(text: str, kind: str, option: str = "--values") -> list[float]:
             "frequency": "frequencies must be > 0",
         }[kind]
         raise UserError(f"{option} = {text!r}: {what} (got {bad[0]:g})")
+    if len(set(values)) < minimum:
+        raise UserError(
+            f"{option} = {text!r}: give at least {minimum} different {_PLURAL[kind]}, "
+            f'as "a,b,c" or "start:stop:step", e.g. "{LIST_EXAMPLE[kind]}"'
+        )
     return values
 
 

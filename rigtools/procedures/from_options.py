@@ -54,8 +54,8 @@ def _control(options: Mapping[str, Any]) -> dict:
     return {"max_updates": n}
 
 
-def _grid(text: str, kind: str, option: str) -> list[float]:
-    return value_list(text, kind, option)
+def _grid(text: str, kind: str, option: str, minimum: int = 1) -> list[float]:
+    return value_list(text, kind, option, minimum=minimum)
 
 
 #: Highest excitation or analysis frequency as a fraction of the sample rate (anti-alias margin).
@@ -138,7 +138,7 @@ def build_procedure(
         return P.SineDwell(cfg, _periods(params, o), out, **run_options)
     if name == "sweep":
         params = {
-            "frequencies": _grid(o["frequencies"], "frequency", "--frequencies"),
+            "frequencies": _grid(o["frequencies"], "frequency", "--frequencies", minimum=2),
             "force": quantity(o["force"], "force", "--force"),
             "gap": _gap(o),
             "direction": o.get("direction", "up"),

@@ -49,6 +49,8 @@ class SweepParameters(BaseModel):
     def _positive(cls, v):
         if any(not (math.isfinite(f) and f > 0) for f in v):
             raise ValueError("every frequency must be > 0 Hz")
+        if len({float(f) for f in v}) < 2:
+            raise ValueError("a stepped sine needs at least 2 different frequencies")
         return tuple(sorted({float(f) for f in v}))
 
 

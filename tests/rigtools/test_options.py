@@ -283,3 +283,38 @@ def test_options_import_is_light():
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"
+
+
+@pytest.mark.parametrize("text", ["60 Hz", "60 Hz, 60 Hz", "60 Hz:60 Hz:1 Hz"])
+def test_a_sweep_of_one_frequency_is_one_line_naming_the_form(tmp_path, text):
+    """``rig acquire sweep --frequencies "60 Hz"``: the option, the value and the form (pydantic's
+    "frequencies = [60.0]: Tuple should have at least 2 items after validation, not 1" before;
+    "60 Hz, 60 Hz" ran a one-step sweep)."""
+    from cli_helpers import run_cli
+
+    argv = ["acquire", "sweep", "--backend", "sim", "--frequencies", text, "--force", "15 N"]
+    code, stdout, err = run_cli([*argv, "--out", tmp_path / "s.h5"])
+    assert (code, stdout, err.strip().splitlines()) == (
+        2,
+        "",
+        [
+            (
+                f"rig acquire: error: --frequencies = {text!r}: give at least 2 different frequencies, "
+                'as "a,b,c" or "start:stop:step", e.g. "55 Hz:80 Hz:1 Hz"'
+            )
+        ],
+    )
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_front_door_sweep_of_one_frequency_is_one_line(tmp_path):
+    import rigtools
+
+    for given, words in (
+        (["60 Hz"], "frequencies = ('60 Hz',): give at least 2 values"),
+        (["60 Hz", "60 Hz"], "a stepped sine needs at least 2 different frequencies"),
+    ):
+        with pytest.raises(rigtools.UserError) as info:
+            rigtools.stepped_sine(given, "15 N", gap="5 mm", out=tmp_path / "s.h5")
+        assert words in str(info.value) and "\n" not in str(info.value)
+    assert list(tmp_path.iterdir()) == []
