@@ -659,6 +659,32 @@ def stabilisation_figure(
     return fig
 
 
+def log_bar_axis(ax, heights: Sequence[np.ndarray] | np.ndarray) -> bool:
+    """Put the bars of ``heights`` (every bar drawn on ``ax``) on a log y axis, limits a third of
+    the smallest positive height to ten times the largest (room for the legend).
+
+    Matplotlib's autoscaling of a log axis warns and draws a meaningless range when every bar has
+    one height (a run without contact compared with its model: k = 1 alone, equal on both sides)
+    or none is positive (all harmonics zero); the limits are set here before the scale, so it
+    never autoscales. Without a positive finite height the axis stays linear, 0 to 1, and says
+    "all harmonics zero".
+
+    Returns
+    -------
+    bool
+        True if the axis is logarithmic.
+    """
+    values = np.concatenate([np.ravel(np.asarray(h, dtype=float)) for h in heights] + [np.empty(0)])
+    positive = values[np.isfinite(values) & (values > 0)]
+    if positive.size == 0:
+        ax.set_ylim(0.0, 1.0)
+        ax.text(0.5, 0.5, "all harmonics zero", transform=ax.transAxes, ha="center", va="center")
+        return False
+    ax.set_ylim(float(positive.min()) / 3.0, float(positive.max()) * 10.0)  # room for the legend
+    ax.set_yscale("log")
+    return True
+
+
 def harmonic_bars_figure(
     em: Mapping[str, np.ndarray],
     fem: Mapping[str, np.ndarray],
@@ -703,7 +729,7 @@ def harmonic_bars_figure(
         ax.bar(
             k + 0.2, b[:n], width=0.4, color="C3", alpha=0.8, label=model_label, hatch="//", edgecolor="C3"
         )
-        ax.set_yscale("log")
+        log_bar_axis(ax, [a[:n], b[:n]])
         unit = units.get(ch, "").replace("^2", "²")
         ax.set_ylabel(f"peak amplitude ({unit})")
         ax.set_title(ch.replace("_", " "), fontsize=9)

@@ -115,12 +115,16 @@ def waveform_figure(d: dict, title: str):
 def spectrum_figure(d: dict, title: str):
     plt = _plt()
     fig, axes = plt.subplots(1, 2, figsize=(10, 3.6))
+    from rigtools.analysis.plots import log_bar_axis
+
     for ax, ch in zip(axes, SHROUD_ACCELS, strict=True):
+        bars = []
         for j, (key, name) in enumerate((("em", "EM"), ("fem", "FEM"), ("am", "AM"))):
             a = np.asarray(d[key]["harmonics"][ch])
             k = np.arange(1, a.size + 1)
             ax.bar(k + (j - 1) * 0.27, a, width=0.27, label=name)
-        ax.set_yscale("log")
+            bars.append(a)
+        log_bar_axis(ax, bars)
         ax.set_xlabel("harmonic k (frequency k·fe)")
         ax.set_ylabel(f"{ch.replace('_accel', '').replace('_', ' ')} accel. (m/s²)", fontsize=9)
     _legend(axes[-1])

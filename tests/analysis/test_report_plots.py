@@ -61,6 +61,34 @@ def test_harmonic_bars_show_both_sides():
     assert ax.get_title() == "active shroud acceleration"  # full name, not cut
 
 
+def test_harmonic_bars_of_a_run_without_contact_draw_without_warning():
+    """k = 1 alone and equal on both sides (a linear run against its model: a 100 m/s^2 fundamental
+    of ``rig compare run.h5 run.h5``, on which matplotlib warned "identical low and high ylims")
+    and a channel all zero (the contact force without contact; the demo's bars warned "no
+    positive values"): drawn with no warning, the log axis a third of the bar to ten times it,
+    the zero channel linear and said."""
+    import warnings
+
+    from rigtools.demo.report import spectrum_figure
+    from rigtools.sim.channel_names import SHROUD_ACCELS
+
+    em = {"passive_shroud_accel": np.r_[100.00000000000003, 5.6e-14, 2e-13], "contact_force": np.zeros(3)}
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        fig = harmonic_bars_figure(em, em, {"passive_shroud_accel": "m/s^2", "contact_force": "N"}, 61.0)
+        _png_size(fig)
+        zeros = {"harmonics": {ch: np.zeros(10) for ch in SHROUD_ACCELS}}
+        demo = spectrum_figure({"em": zeros, "fem": zeros, "am": zeros}, "no contact")
+        _png_size(demo)
+    accel, contact = fig.axes
+    assert accel.get_yscale() == "log"
+    np.testing.assert_allclose(accel.get_ylim(), (100 / 3, 1000.0), rtol=1e-12)
+    assert contact.get_yscale() == "linear" and contact.get_ylim() == (0.0, 1.0)
+    assert [t.get_text() for t in contact.texts] == ["all harmonics zero"]
+    for ax in demo.axes:
+        assert ax.get_yscale() == "linear" and [t.get_text() for t in ax.texts] == ["all harmonics zero"]
+
+
 def test_trend_figure_em_and_fem_on_the_same_axes():
     gaps = np.array([0.7e-3, 0.3e-3, 0.5e-3])
     q = {
