@@ -296,12 +296,32 @@ def name_fits(path: Path, where: str) -> None:
             )
 
 
+def read_only(path: str | os.PathLike) -> bool:
+    """True if the permission bits of ``path`` let no one write it (``dr-xr-xr-x``, ``-r--r--r--``).
+
+    Such a folder or file was made read-only on purpose (a folder of published data sets, a
+    recording kept as it was measured). The operating system lets root write there anyway, and
+    ``os.access`` says so; rigtools goes by the bits, so a lab account running as root (a
+    container, a DAQ PC) cannot write into its input data by mistake.
+    """
+    try:
+        return not os.stat(path).st_mode & (stat.S_IWUSR | stat.S_IWGRP | stat.S_IWOTH)
+    except OSError:
+        return False
+
+
+def _mode(path: str | os.PathLike) -> str:
+    return stat.filemode(os.stat(path).st_mode)
+
+
 def writable_target(path: str | os.PathLike, where: str | None = None) -> None:
     """The one rule of what rigtools writes: a regular file or a new name in an ordinary folder.
 
     Refused in one :class:`UserError` line: a name longer than the file system allows, a path in
-    ``/proc`` or ``/sys``, an existing device node, FIFO, socket or other non-regular file, and a
-    symbolic link pointing outside its own folder. Used by :func:`output_path`,
+    ``/proc`` or ``/sys``, a folder (the nearest existing one, for a folder still to be made) or
+    existing file whose permission bits let no one write (:func:`read_only`, root included), an
+    existing device node, FIFO, socket or other non-regular file, and a symbolic link pointing
+    outside its own folder. Used by :func:`output_path`,
     :func:`output_folder` and every derived file (:func:`rigtools.derived_files.write_derived`).
     """
     p = Path(path)
@@ -314,6 +334,12 @@ def writable_target(path: str | os.PathLike, where: str | None = None) -> None:
         raise UserError(f"{where}: cannot resolve the path (a symbolic link loop?)") from None
     if any(real == Path(s) or Path(s) in real.parents for s in SYSTEM_FOLDERS):
         raise UserError(f"{where} is in a kernel file system ({real}); give a file in an ordinary folder")
+    folder_of = next((a for a in real.parents if a.exists()), None)  # the folder written into
+    if folder_of is not None and read_only(folder_of):
+        raise UserError(
+            f"{where}: folder {str(folder_of)!r} is not writable ({_mode(folder_of)}: "
+            "its permission bits let no one write there)"
+        )
     try:
         link = os.lstat(p)
     except FileNotFoundError:
@@ -326,6 +352,8 @@ def writable_target(path: str | os.PathLike, where: str | None = None) -> None:
         if not real.exists():
             return
     info = os.stat(p) if stat.S_ISLNK(link.st_mode) else link
+    if stat.S_ISREG(info.st_mode) and read_only(p):
+        raise UserError(f"{where} exists and is read-only ({_mode(p)}); not replaced")
     if not stat.S_ISREG(info.st_mode):
         kind = (
             "a device"

@@ -184,8 +184,10 @@ def test_output_path_never_one_of_the_inputs(tmp_path):
     assert recording.read_bytes() == b"recording"
 
 
-@pytest.mark.skipif(os.name != "posix" or os.geteuid() == 0, reason="root writes anywhere")
+@pytest.mark.skipif(os.name != "posix", reason="POSIX permission bits")
 def test_output_path_read_only(tmp_path):
+    """Refused by the permission bits, root included (the OS lets root write there: the tests
+    skipped as root before, and /work/shared/data, r-xr-xr-x, took outputs)."""
     folder = tmp_path / "ro"
     folder.mkdir()
     target = tmp_path / "ro_file.h5"
@@ -193,11 +195,53 @@ def test_output_path_read_only(tmp_path):
     target.chmod(0o444)
     folder.chmod(0o555)
     try:
-        assert "is not writable" in _refused(options.output_path, str(folder / "run.h5"))
-        assert "exists and is read-only" in _refused(options.output_path, str(target), True)
+        assert _refused(options.output_path, str(folder / "run.h5")) == (
+            f"--out = {str(folder / 'run.h5')!r}: folder {str(folder)!r} is not writable "
+            "(dr-xr-xr-x: its permission bits let no one write there)"
+        )
+        assert _refused(options.output_path, str(target), True) == (
+            f"--out = {str(target)!r} exists and is read-only (-r--r--r--); not replaced"
+        )
+        # a folder still to be made in a read-only one, and a derived file beside an input
+        assert "is not writable" in _refused(options.output_folder, folder / "new" / "figs")
+        from rigtools.derived_files import atomic_write
+
+        assert "is not writable" in _refused(atomic_write, folder / "run.png", lambda tmp: None)
+        assert sorted(p.name for p in folder.iterdir()) == []
     finally:
         folder.chmod(0o755)
         target.chmod(0o644)
+
+
+@pytest.mark.skipif(os.name != "posix", reason="POSIX permission bits")
+def test_commands_write_nothing_into_a_read_only_data_folder(tmp_path):
+    """A folder of input data sets made read-only (as ../shared/data is): every writer refuses it
+    in one line before any work, root included; the data stay as they were."""
+    from cli_helpers import run_cli
+
+    data = tmp_path / "data"
+    data.mkdir()
+    (data / "in.h5").write_bytes(b"measured")
+    data.chmod(0o555)
+    try:
+        for argv, where in (
+            (["simulate", "--out", data / "x.h5"], f"--out = {str(data / 'x.h5')!r}:"),
+            (["demo", "--quick", "--out", data / "demo"], f"--out {data / 'demo'}:"),
+        ):
+            code, out, err = run_cli(argv)
+            assert (code, out, err.strip().splitlines()) == (
+                2,
+                "",
+                [
+                    (
+                        f"rig {argv[0]}: error: {where} folder {str(data)!r} is not writable "
+                        "(dr-xr-xr-x: its permission bits let no one write there)"
+                    )
+                ],
+            )
+        assert [p.name for p in data.iterdir()] == ["in.h5"] and (data / "in.h5").read_bytes() == b"measured"
+    finally:
+        data.chmod(0o755)
 
 
 def test_output_path_read_only_folder_simulated(tmp_path, monkeypatch):
