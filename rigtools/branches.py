@@ -388,6 +388,53 @@ def _read_branches(f) -> tuple[dict, list[StoredBranch]]:
     return json.loads(f.attrs["experiment"]), out
 
 
+def branches_info(path: str | Path) -> dict:
+    """``rig info`` of a branches file: how it was computed and, per branch, its periods, status,
+    points, parameter range and bifurcations. Values in SI (the parameter's unit: Hz, N, or m
+    for a gap; volts for a force parameter under ``drive``); a damaged file is a
+    :class:`UserError` (:func:`read_branches`)."""
+    import h5py
+
+    experiment, branches = read_branches(path)
+    with h5py.File(path, "r") as f:
+        root = {k: f.attrs.get(k) for k in ("schema_version", "software_version")}
+        rig_text = str(f.attrs.get("rig", ""))
+    try:
+        rig_name = json.loads(rig_text).get("name")
+    except (ValueError, AttributeError):
+        rig_name = None
+    rows = []
+    for b in branches:
+        value = np.asarray(b.value, float)
+        rows.append(
+            {
+                "periods": b.periods,
+                "status": b.status,
+                "message": b.message,
+                "points": int(value.size),
+                "from": float(value[0]) if value.size else None,
+                "to": float(value[-1]) if value.size else None,
+                "stable_points": int(np.count_nonzero(b.stable)),
+                "bifurcations": [
+                    {"label": lab, "value": float(v)}
+                    for v, labels in zip(value, b.labels, strict=True)
+                    for lab in labels
+                    if lab not in ("start", "end")
+                ],
+            }
+        )
+    return {
+        "path": str(path),
+        "kind": "branches",
+        "schema_version": None if root["schema_version"] is None else int(root["schema_version"]),
+        "software_version": None if root["software_version"] is None else str(root["software_version"]),
+        "rig": rig_name,
+        "experiment": experiment,
+        "param": experiment.get("param"),
+        "branches": rows,
+    }
+
+
 def is_branches_file(path: str | Path) -> bool:
     """True if ``path`` is an HDF5 file with the branches schema (:data:`BRANCHES_SCHEMA`)."""
     import h5py

@@ -1,7 +1,8 @@
 """The tables the commands print, for a person to read: lines and rich tables built from an
 analysis (``rig analyze``, :mod:`rigtools.analyze`), a comparison (``rig compare``,
 :mod:`rigtools.recording_comparison`), a model update (``rig update``, :mod:`rigtools.model_update`)
-and a simulated run (``rig simulate``). The commands print them in order."""
+a simulated run (``rig simulate``), and ``rig info`` of FRF sets and branches files. The commands
+print them in order."""
 
 from __future__ import annotations
 
@@ -324,3 +325,67 @@ def run_tables(doc: dict, result: Any, out: Any) -> list[Any]:
         + (f" and {doc['plot']}" if doc.get("plot") else "")
     )
     return out_items
+
+
+def frf_set_tables(info: dict) -> list[Any]:
+    """``rig info`` of an FRF set (:func:`rigtools.frf_set.summary`): two lines and the FRFs."""
+    from rich.table import Table
+
+    f, src = info["frequency"], info["source"]
+    head = [
+        f"[bold]{info['path']}[/bold]  FRF set: {info['n_frfs']} {info['frf_kind']} FRF(s), {info['frf_units']}",
+        (
+            f"{f['lines']} lines {f['min_hz']:g}-{f['max_hz']:g} Hz, {f['resolution_hz']:g} Hz resolution; "
+            f"from {src.get('file', '?')} ({src.get('format', '?')}), created {info['created']}, "
+            f"schema v{info['schema_version']}"
+        ),
+    ]
+    table = Table(title="FRFs (UFF node and direction)")
+    for column in ("response", "at", "units", "reference", "at", "coherence"):
+        table.add_column(column)
+    at = lambda p: "" if p["node"] is None else f"{p['node']} {p['direction']}".strip()
+    refs = {r["name"]: r for r in info["references"]}
+    for r in info["responses"]:
+        ref = refs[r["reference"]]
+        units = f"{r['units']} per {ref['units']}"
+        table.add_row(r["name"], at(r), units, ref["name"], at(ref), "yes" if r["coherence"] else "no")
+    return [*head, table]
+
+
+def branches_tables(info: dict) -> list[Any]:
+    """``rig info`` of a branches file (:func:`rigtools.branches.branches_info`): what was
+    continued, at which fixed quantities, and a row per branch."""
+    from rich.table import Table
+
+    from rigtools.branches import X_LABELS, X_UNITS
+
+    e, param = info["experiment"], info["param"]
+    unit = "V" if e.get("drive") and param == "force" else X_UNITS.get(param, "")
+    scale = X_LABELS.get(param, ("", 1.0))[1]
+    show = lambda v: "–" if v is None else f"{v * scale:.6g}"
+    fixed = {"fe": ("fe", "Hz", 1.0), "force": ("force", "V" if e.get("drive") else "N", 1.0),
+             "gap": ("gap", "mm", 1e3)}  # fmt: skip
+    held = ", ".join(
+        f"{name} {e[k] * f:g} {u}" for k, (name, u, f) in fixed.items() if k != param and e.get(k) is not None
+    )
+    head = [
+        (
+            f"[bold]{info['path']}[/bold]  branches of rig continuation ({(e.get('model') or '?').upper()} "
+            f"model{', rig ' + info['rig'] if info['rig'] else ''})"
+        ),
+        (
+            f"{param} from {show(e.get('from'))} to {show(e.get('to'))} {unit}; {held}; "
+            f"rigtools {info['software_version']}, schema v{info['schema_version']}"
+        ),
+    ]
+    table = Table(title=f"branches ({param} in {unit})")
+    for column in ("branch", "period", "status", "points", "stable", "from", "to", "bifurcations"):
+        table.add_column(column, justify="right" if column in ("points", "stable", "from", "to") else "left")
+    for i, b in enumerate(info["branches"]):
+        marks = ", ".join(f"{x['label']} {show(x['value'])}" for x in b["bifurcations"]) or "none"
+        status = b["status"] + (f" ({b['message']})" if b["message"] else "")
+        table.add_row(
+            f"{i:02d}", str(b["periods"]), status, str(b["points"]), str(b["stable_points"]),
+            show(b["from"]), show(b["to"]), marks,
+        )  # fmt: skip
+    return [*head, table]

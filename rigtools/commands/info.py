@@ -1,8 +1,11 @@
-"""``rig info FILE``: summary of a recording (status, channels, points, durations)."""
+"""``rig info FILE``: summary of a recording (status, channels, points, durations), an FRF set
+or a branches file."""
 
 from __future__ import annotations
 
 import argparse
+from collections.abc import Callable
+from typing import Any
 
 from rigtools import json_values
 
@@ -13,6 +16,9 @@ units, sample rate, sensor) and one row per point with its parameters, samples a
 A point shown "incomplete" was cut off (writer killed or a write error): do not count it.
 An FRF set (rig import uff of UFF 58 FRFs) is described by its FRF kind and units, its
 references and responses (node, direction, units), frequency range and resolution, source file.
+A branches file (rig continuation) by its parameter and range, the quantities held fixed, and
+one row per branch: period, status, points (stable ones), range and bifurcations (fold, period
+doubling, ...), the parameter in the unit its figure uses (Hz, N, mm; V under --drive).
 
 examples:
   rig info run.h5
@@ -23,11 +29,11 @@ examples:
 def register(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser(
         "info",
-        help="summarise a recording (points, channels, durations, status) or an FRF set",
+        help="summarise a recording (points, channels, durations, status), an FRF set or a branches file",
         description=HELP,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    parser.add_argument("file", metavar="FILE", help="recording or FRF set (.h5)")
+    parser.add_argument("file", metavar="FILE", help="recording, FRF set or branches file (.h5)")
     parser.add_argument(
         "--json", action="store_true", help="print the summary as JSON (root attributes, channels, points)"
     )
@@ -35,12 +41,21 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from rigtools.branches import is_branches_file
     from rigtools.frf_set import is_frf_set
     from rigtools.recording import open_recording
     from rigtools.recording.summary import format_params, summary
 
     if is_frf_set(args.file):
-        return frf_set_info(args)
+        from rigtools.frf_set import summary as frf_set_summary
+        from rigtools.tables import frf_set_tables
+
+        return print_info(args, frf_set_summary(args.file), frf_set_tables)
+    if is_branches_file(args.file):
+        from rigtools.branches import branches_info
+        from rigtools.tables import branches_tables
+
+        return print_info(args, branches_info(args.file), branches_tables)
     with open_recording(args.file) as rec:
         info = summary(rec)
     if args.json:
@@ -102,35 +117,14 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def frf_set_info(args: argparse.Namespace) -> int:
-    """``rig info`` of an FRF set (:func:`rigtools.frf_set.summary`)."""
-    from rich.console import Console
-    from rich.table import Table
-
-    from rigtools.frf_set import summary
-
-    info = summary(args.file)
+def print_info(args: argparse.Namespace, info: dict, tables: Callable[[dict], list[Any]]) -> int:
+    """``info`` as JSON or as the lines and tables ``tables(info)`` makes."""
     if args.json:
         print(json_values.dumps(info, indent=1))
         return 0
-    f, src = info["frequency"], info["source"]
+    from rich.console import Console
+
     console = Console()
-    console.print(
-        f"[bold]{info['path']}[/bold]  FRF set: {info['n_frfs']} {info['frf_kind']} FRF(s), {info['frf_units']}"
-    )
-    console.print(
-        f"{f['lines']} lines {f['min_hz']:g}-{f['max_hz']:g} Hz, {f['resolution_hz']:g} Hz resolution; "
-        f"from {src.get('file', '?')} ({src.get('format', '?')}), created {info['created']}, "
-        f"schema v{info['schema_version']}"
-    )
-    table = Table(title="FRFs (UFF node and direction)")
-    for column in ("response", "at", "units", "reference", "at", "coherence"):
-        table.add_column(column)
-    at = lambda p: "" if p["node"] is None else f"{p['node']} {p['direction']}".strip()
-    refs = {r["name"]: r for r in info["references"]}
-    for r in info["responses"]:
-        ref = refs[r["reference"]]
-        units = f"{r['units']} per {ref['units']}"
-        table.add_row(r["name"], at(r), units, ref["name"], at(ref), "yes" if r["coherence"] else "no")
-    console.print(table)
+    for item in tables(info):
+        console.print(item)
     return 0

@@ -331,7 +331,7 @@ def test_report_refuses_a_damaged_branch_file_in_one_line(no_contact, sweep, tmp
     assert words in line, line
 
 
-@pytest.mark.parametrize("command", [["info"], ["analyze"], ["export", "uff"], ["report"]])
+@pytest.mark.parametrize("command", [["analyze"], ["export", "uff"], ["report"]])
 def test_a_branches_file_where_a_recording_is_expected_is_named(no_contact, tmp_path, command):
     """One line saying what the file is and what reads it, exit 2 (the schema names only before)."""
     _, path, _ = no_contact
@@ -340,6 +340,34 @@ def test_a_branches_file_where_a_recording_is_expected_is_named(no_contact, tmp_
     assert code == 2 and "Traceback" not in err, err
     (line,) = err.strip().splitlines()
     assert "a branches file of rig continuation (rig report --branches draws it)" in line, line
+
+
+def test_info_describes_a_branches_file(no_contact, tmp_path):
+    """``rig info`` of a branches file (exit 2 "not a rigtools recording" before): the range, the
+    quantities held, a row per branch with its bifurcations (here one fold written into a copy)."""
+    doc, path, _ = no_contact
+    marked = tmp_path / "fold.h5"
+    marked.write_bytes(path.read_bytes())
+    with h5py.File(marked, "a") as f:
+        g = f["branches/00"]
+        labels = json.loads(g.attrs["labels"])
+        labels[10] = ["fold"]
+        g.attrs["labels"] = json.dumps(labels)
+        fold_hz = float(g["value"][10])
+        n, stable = g["value"].size, int(np.count_nonzero(g["stable"][()]))
+    code, out, err = run_cli(["info", marked, "--json"])
+    info = json.loads(out)
+    assert code == 0, err
+    assert (info["kind"], info["param"], info["rig"]) == ("branches", "fe", "default steel rig")
+    (b,) = info["branches"]
+    assert (b["periods"], b["points"], b["stable_points"], b["from"], b["to"]) == (1, n, stable, 55.0, 58.0)
+    assert b["bifurcations"] == [{"label": "fold", "value": fold_hz}]
+    assert b["points"] == doc["branches"][0]["points"]
+    code, out, err = run_cli(["info", marked])
+    words = " ".join(out.split())  # however the console wraps it
+    assert code == 0 and "branches of rig continuation (FEM model, rig default steel rig)" in words
+    assert "fe from 55 to 58 Hz; force 15 N, gap 5 mm;" in words
+    assert f"fold {fold_hz:.6g}" in words
 
 
 def test_check_passes_a_branches_file(no_contact):
