@@ -726,7 +726,8 @@ class SimulatedRig(AcquisitionDevice):
     signal_map
         Input channel name -> one of :data:`SIGNALS`, overriding :func:`default_signal`.
     seed
-        Noise seed.
+        Noise seed (``None``: the operating system's entropy, another draw every run;
+        :func:`rigtools.procedures.rig.open_device` gives 0).
     keep_truth
         Keep the physical signals of every block (interval means as the sampler sees them,
         before the sensors) in :attr:`truth_log` (grows with the run: tests only).
@@ -932,6 +933,7 @@ class SimulatedRig(AcquisitionDevice):
         details = {
             "model": self.model_kind,
             "pace": str(self.pace),
+            "seed": str(self.seed),  # the noise draw: "None" is the operating system's entropy
             "test_article": repr(self.test_article),
             "shaker": repr(self.shaker),
         }

@@ -303,7 +303,7 @@ def dwell(
     progress
         Called with each :class:`rigtools.procedures.ProgressEvent`.
     seed
-        Noise seed of the simulated rig.
+        Noise seed of the simulated rig (``None``: 0, so that two runs record the same noise).
     **params
         More :class:`rigtools.procedures.DwellParameters` (``k_max``, ``control={...}``).
 

@@ -5,7 +5,7 @@ HELP = "lab procedures on the rig: force-controlled dwell, stepped sine, study, 
 BACKENDS = """\
 Backends: --backend nidaq (default) drives the NI-DAQmx rig of the rig file's [daq]; --backend sim
 runs the simulated rig (the FE model of [test_article] through the [shaker] model), as fast as
-it can (--pace: in real time; --seed: sensor noise; --fault KIND@TIME[:CHANNEL] injects a fault:
+it can (--pace: in real time; --seed: the sensor noise, 0 by default, so runs repeat; --fault KIND@TIME[:CHANNEL] injects a fault:
 input-overflow, amplifier-timeout, sensor-overload, nan-samples; TIME is seconds from the start,
 "1.5", "1.5 s" or "250 ms", never a block: rigtools.drivers.simulated.Fault.parse).
 """

@@ -33,7 +33,7 @@ COMMON_OPTIONS: tuple[tuple[str, dict], ...] = (
     ("--overwrite", {"action": "store_true", "help": "replace --out if it exists"}),
     ("--json", {"action": "store_true", "help": "print the results as JSON"}),
     ("--pace", {"action": "store_true", "help": "simulated rig: real time"}),
-    ("--seed", {"type": seed, "default": None, "help": "simulated rig: noise seed"}),
+    ("--seed", {"type": seed, "default": None, "help": "simulated rig: noise seed (default 0: runs repeat)"}),
     (
         "--fault",
         {

@@ -33,7 +33,8 @@ def open_device(
     backend
         ``"nidaq"`` (NI-DAQmx hardware) or ``"sim"`` (the simulated rig of ``cfg``).
     pace, faults, seed, model
-        Simulated rig only: real-time pacing, injected faults, noise seed, physics model.
+        Simulated rig only: real-time pacing, injected faults, noise seed (``None``: 0, so that
+        two runs record the same noise, as the demo's do), physics model.
 
     Raises
     ------
@@ -45,6 +46,7 @@ def open_device(
     if backend == "sim":
         from rigtools.drivers.simulated import SimulatedRig
 
+        seed = 0 if seed is None else seed
         return SimulatedRig.from_config(cfg, pace=pace, faults=list(faults), seed=seed, model=model)
     if backend != "nidaq":
         raise UserError(f"--backend = {backend!r}: use one of {', '.join(BACKENDS)}")
