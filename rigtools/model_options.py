@@ -211,9 +211,10 @@ def write_plot(no_plot: bool, out: Path, make_figure: Callable[[], Any], helper:
     if no_plot:
         return None
     from rigtools.derived_files import plot_path
-    from rigtools.figures import save_figure
 
     path = plot_path(out)
     if helper is not None and helper.write(make_figure, path):
         return path
+    from rigtools.figures import save_figure  # matplotlib: imported here only when drawn here
+
     return save_figure(make_figure(), path)

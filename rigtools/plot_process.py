@@ -13,7 +13,9 @@ as before (an error in the figure code then surfaces here, the one way errors ar
 helper runs in its own session, so a Ctrl-C at the terminal reaches only the command, which
 ends it; it also ends by itself when the command's end closes its input.
 
-Run as ``python -m rigtools.plot_process``: imports the plotting code, then reads one pickled
+The helper imports the command's own ``rigtools`` (:func:`import_path`). Run as
+``python -m rigtools.plot_process`` (the helper's :func:`main`): imports the plotting code, then
+reads one pickled
 ``(callable, path)`` from standard input, writes the figure with
 :func:`rigtools.figures.save_figure` and prints ``ok`` (or one line of error) on standard output.
 """
@@ -55,6 +57,23 @@ TIMEOUT_S = 120.0  # a figure takes seconds; a helper still busy after this is s
 WARM = ("rigtools.analysis.plots", "rigtools.figures", "matplotlib.backends.backend_agg")
 
 
+# the helper's import path is set before anything is imported (see import_path)
+_START = "import sys; sys.path[:] = sys.argv[1:]; from rigtools.plot_process import main; sys.exit(main())"
+
+
+def import_path() -> list[str]:
+    """The helper's import path: this process's, the folder it imported ``rigtools`` from first
+    (a source checkout run as ``python -m rigtools.cli`` from its root, a path a script added),
+    without the current folder (a lab folder's own ``numpy.py`` or ``matplotlib.py``, which the
+    command itself does not import either when started as ``rig``)."""
+    import rigtools
+
+    root = os.path.dirname(os.path.dirname(os.path.abspath(rigtools.__file__)))
+    here = os.path.realpath(os.getcwd())
+    rest = [str(p) for p in sys.path if os.path.realpath(str(p) or ".") != here]
+    return [root, *(p for p in rest if p != root)]
+
+
 class PlotProcess:
     """The helper process for one figure (see the module), started on construction."""
 
@@ -62,9 +81,7 @@ class PlotProcess:
         self._proc: subprocess.Popen[bytes] | None
         try:
             self._proc = subprocess.Popen(
-                # -P: not the current folder first on the import path (a lab folder's own
-                # numpy.py or sim.py); the same interpreter and environment as the command
-                [sys.executable, "-P", "-m", "rigtools.plot_process"],
+                [sys.executable, "-P", "-c", _START, *import_path()],
                 stdin=subprocess.PIPE,
                 stdout=subprocess.PIPE,
                 stderr=subprocess.DEVNULL,

@@ -111,3 +111,61 @@ def test_the_helper_ignores_a_lab_folders_own_modules(tmp_path):
             assert helper.write(_run_figure(), tmp_path / "run.png") is True
     finally:
         os.chdir(cwd)
+
+
+def test_the_helper_imports_the_commands_own_rigtools(tmp_path):
+    """A command whose rigtools comes from a folder the environment does not name (a checkout run
+    as ``python -m rigtools.cli`` from its root, a path added at run time): the helper draws with
+    that rigtools, not with the one installed or on PYTHONPATH."""
+    import subprocess
+    import sys
+
+    import rigtools
+
+    repo = Path(rigtools.__file__).resolve().parent.parent
+    checkout = tmp_path / "checkout"
+    checkout.mkdir()
+    for name in ("rigtools", "sim", "analysis", "drivers"):
+        (checkout / name).symlink_to(repo / name, target_is_directory=True)
+    seen = tmp_path / "seen.txt"
+    script = f"""
+import sys
+sys.path.insert(0, {str(checkout)!r})
+from pathlib import Path
+import rigtools
+from rigtools.plot_process import FigureCall, PlotProcess
+assert rigtools.__file__.startswith({str(checkout)!r}), rigtools.__file__
+probe = "import rigtools; open({str(seen)!r}, 'w').write(rigtools.__file__)"
+with PlotProcess() as helper:
+    helper.write(FigureCall("builtins", "exec", probe), Path({str(tmp_path / "probe.png")!r}))
+"""
+    subprocess.run([sys.executable, "-c", script], cwd=tmp_path, check=True, timeout=120)
+    assert seen.read_text() == str(checkout / "rigtools" / "__init__.py")
+
+
+def test_a_figure_the_helper_draws_leaves_matplotlib_unimported_here(tmp_path):
+    """The helper exists so that the command never pays matplotlib's import: nothing of it is
+    imported here when the helper draws (nor when a lab folder holds its own ``matplotlib.py``)."""
+    import subprocess
+    import sys
+
+    (tmp_path / "matplotlib.py").write_text("raise ImportError('the lab folder was imported')\n")
+    script = """
+import sys
+from pathlib import Path
+sys.path.insert(0, "")  # the lab folder first, as python -m rigtools.cli has it
+from rigtools.model_options import plot_ahead, write_plot
+from rigtools.plot_process import FigureCall
+import numpy as np
+t = np.arange(2000) / 20000.0
+u = 1e-3 * np.sin(2 * np.pi * 60 * t)
+call = FigureCall("rigtools.analysis.plots", "vibro_impact_figure", t, u, u, u, u, u, 60.0)
+with plot_ahead(False) as helper:
+    png = write_plot(False, Path("run.h5"), call, helper)
+print(png, sorted(m for m in sys.modules if m.split(".")[0] == "matplotlib"))
+"""
+    done = subprocess.run(
+        [sys.executable, "-c", script], check=False, cwd=tmp_path, capture_output=True, text=True, timeout=120
+    )
+    assert (done.returncode, done.stdout, done.stderr) == (0, "run.png []\n", "")
+    assert (tmp_path / "run.png").read_bytes()[:8] == PNG
