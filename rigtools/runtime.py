@@ -20,6 +20,7 @@ and worker processes call :func:`configure_process` themselves (it is cheap and 
 
 from __future__ import annotations
 
+import _thread
 import contextlib
 import ctypes
 import ctypes.util
@@ -100,21 +101,45 @@ class StopRequests:
         self._previous: dict[int, Any] = {}
         self._depth = 0
         self._held: Interrupted | None = None
+        self._previous_hook = sys.unraisablehook
+        self._reporting = False
 
     def __enter__(self) -> Self:
         if threading.current_thread() is threading.main_thread():
             for sig in self.signals:
                 self._previous[sig] = signal.signal(sig, self._handler)
+            self._previous_hook = sys.unraisablehook
+            sys.unraisablehook = self._unraisable
         return self
 
     def __exit__(self, *exc: object) -> None:
         for sig, old in self._previous.items():
             with contextlib.suppress(Exception):
                 signal.signal(sig, old if old is not None else signal.SIG_DFL)
+        if self._previous:
+            sys.unraisablehook = self._previous_hook
         self._previous.clear()
+
+    def _unraisable(self, unraisable: Any) -> None:
+        """A stop raised where Python can only report it (a C library's callback: numba's
+        compiler calls back into Python through ctypes while it loads kernels; a ``__del__``)
+        is not lost: it is delivered again once this thread has left that code."""
+        stop = unraisable.exc_value
+        if not isinstance(stop, Interrupted):
+            self._previous_hook(unraisable)
+            return
+        self.first = None  # not a repeat: the same request, delivered again
+        self._reporting = True
+        try:
+            _deliver_later(stop.signum)
+        finally:
+            self._reporting = False
 
     def _handler(self, signum: int, frame: Any) -> None:
         global last_stop
+        if self._reporting:  # still inside _unraisable: raised there, it would be lost again
+            _deliver_later(signum)
+            return
         now = time.monotonic()
         if self.first is not None and now - self.first < REPEAT_GRACE_S:
             return
@@ -136,6 +161,22 @@ class StopRequests:
         if not self._depth and self._held is not None:
             held, self._held = self._held, None
             raise held
+
+
+def _deliver_later(signum: int, delay_s: float = 0.01) -> None:
+    """Send ``signum`` to the main thread again after ``delay_s``, from another thread (raised
+    from the main thread itself, it is handled at the main thread's next call: still inside the
+    code that lost it); a wait in the main thread (``select``, ``sleep``) is interrupted by it."""
+    main = threading.main_thread().ident
+
+    def deliver() -> None:
+        time.sleep(delay_s)
+        if hasattr(signal, "pthread_kill") and main is not None:
+            signal.pthread_kill(main, signum)
+        else:  # Windows: the handler runs at the main thread's next bytecode
+            _thread.interrupt_main(signal.Signals(signum))
+
+    threading.Thread(target=deliver, name="stop-request", daemon=True).start()
 
 
 def handle_stop_signals(signals: tuple[int, ...] = STOP_SIGNALS) -> StopRequests:

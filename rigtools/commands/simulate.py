@@ -85,8 +85,12 @@ def run(args: argparse.Namespace) -> int:
         try:
             code = _run(args, stops, written)
         except Stopped as exc:
-            what = f"{written[0]} is complete (no summary or plot)" if written else "nothing written"
-            print(f"rig simulate: {exc.reason}; {what}", file=sys.stderr)
+            what = (
+                "nothing written",
+                "{} is complete (no summary or plot)",
+                "{} and {} are complete (no summary)",
+            )
+            print(f"rig simulate: {exc.reason}; {what[len(written)].format(*written)}", file=sys.stderr)
             code = exc.exit_code
     return code
 
@@ -120,6 +124,7 @@ def _run(args: argparse.Namespace, stops, written: list) -> int:
             written.append(out)
         title = f"{cfg.name} ({args.model.upper()})"
         png = mo.write_plot(args.no_plot, out, simu.run_figure(result, system, title), helper)
+        written += [png] if png is not None else []
     doc = {
         "harmonics": simu.harmonics_of(result),
         "contact": {

@@ -232,6 +232,29 @@ def test_handler_raises_once_ignores_repeats_and_restores():
     assert signal.getsignal(signal.SIGTERM) == before
 
 
+def test_a_stop_inside_a_c_librarys_callback_is_not_lost(capsys):
+    """A signal handled while a C library runs a Python callback (numba's compiler notifying its
+    object cache, through ctypes, while ``rig simulate`` loads its kernels): the library swallows
+    the exception ("Exception ignored on calling ctypes callback function") and the command ran
+    on to exit 0. The stop is raised again once back in Python code, and nothing is printed."""
+    import ctypes
+
+    def callback() -> int:
+        os.kill(os.getpid(), signal.SIGTERM)
+        for _ in range(1000):  # the handler runs here, inside the callback
+            pass
+        return 0
+
+    call = ctypes.CFUNCTYPE(ctypes.c_int)(callback)
+    before = sys.unraisablehook
+    with pytest.raises(Interrupted) as info, runtime.handle_stop_signals():
+        call()
+        time.sleep(10)  # raised here, back in Python code (the sleep is interrupted)
+    assert info.value.signal_name == "SIGTERM"
+    assert capsys.readouterr().err == ""
+    assert sys.unraisablehook is before
+
+
 def _wait_for(predicate, timeout: float = 60.0) -> None:
     end = time.monotonic() + timeout
     while not predicate():

@@ -426,6 +426,7 @@ def test_sigterm_during_simulate_writes_nothing_and_exits_143(tmp_path):
     assert stderr.decode().strip().splitlines()[-1] in (
         said + "nothing written",
         said + f"{out} is complete (no summary or plot)",
+        said + f"{out} and {out.with_suffix('.png')} are complete (no summary)",
     )
     assert "Traceback" not in stderr.decode()
 
@@ -451,3 +452,24 @@ def test_json_contact_force_harmonics_are_the_exact_ones(tmp_path, capsys):
     np.testing.assert_allclose(got, np.abs(contact_force_harmonics(run, 30)), rtol=1e-12)
     fit = harmonic_amplitudes(run.outputs["contact_force"], run.sample_rate, 60.0, 30)
     assert abs(fit.amplitude[0] / got[0] - 1) > 1e-3  # the sampled fit really differs
+
+
+def test_a_stop_after_the_plot_says_the_plot_is_written(tmp_path, capsys, monkeypatch):
+    """Ctrl-C while the summary prints (rich's import and the tables take a fifth of a short run):
+    the recording and the plot are both complete, and the one line says so."""
+    import signal
+
+    from rigtools import tables
+    from rigtools.errors import Interrupted
+
+    def stopped(*args, **kwargs):
+        raise Interrupted(signal.SIGINT)
+
+    monkeypatch.setattr(tables, "run_tables", stopped)
+    out = tmp_path / "run.h5"
+    assert main(["simulate", "--out", str(out), *FAST]) == 130
+    assert capsys.readouterr().err == (
+        f"rig simulate: SIGINT: interrupted (Ctrl-C); {out} and {tmp_path / 'run.png'} are complete "
+        "(no summary)\n"
+    )
+    assert_png(tmp_path / "run.png", 1200, 900)
