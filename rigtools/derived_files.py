@@ -4,7 +4,7 @@ their safe, atomic writing. Standard library only.
 Naming rule for derived files (docs/recording-format.md, "Derived files"): the derived file of
 ``DIR/STEM.SUFFIX`` is ``DIR/STEM.png`` (``run.h5`` -> ``run.png``), unless that name is the
 source itself (a source named ``x.png``) or an existing file that is not a rigtools plot (a
-recording, a user's image, anything else); then ``STEM.plot.png``, ``STEM.plot-2.png``, ... the
+recording, a user's image, anything else) or was made read-only (``-r--r--r--``); then ``STEM.plot.png``, ``STEM.plot-2.png``, ... the
 first that is free or a rigtools plot. ``STEM.plot.png`` can never equal the source's name (a
 suffix holds no dot), and :func:`write_derived` checks again when writing, replaces a file only
 atomically and never replaces the source or a file that is not a derived file.
@@ -82,8 +82,11 @@ def derived_path(
     Returns
     -------
     Path
-        Never ``source`` itself, never an existing file ``replaceable`` refuses.
+        Never ``source`` itself, never an existing file ``replaceable`` refuses or whose
+        permission bits let no one write it (:func:`rigtools.options.read_only`).
     """
+    from rigtools.options import read_only
+
     source = Path(source)
     stem = source.stem
     candidates = [source.with_name(stem + ext), source.with_name(f"{stem}.{kind}{ext}")]
@@ -93,7 +96,7 @@ def derived_path(
             continue
         if not path.exists() and not path.is_symlink():
             return path
-        if path.is_file() and not path.is_symlink() and replaceable(path):
+        if path.is_file() and not path.is_symlink() and replaceable(path) and not read_only(path):
             return path
     raise UserError(f"no free name for the {kind} of {source} ({candidates[-1].name} taken)")
 

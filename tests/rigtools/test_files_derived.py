@@ -92,3 +92,15 @@ def test_plots_are_marked(tmp_path):
     path = save_figure(_figure(), tmp_path / "f.png")
     assert png_software(path).startswith("rigtools ")
     assert png_software(tmp_path / "absent.png") is None
+
+
+def test_a_read_only_plot_is_kept_and_the_next_name_used(tmp_path):
+    """A rigtools plot made read-only (-r--r--r--, kept as it was): the new plot takes the next
+    name, as for a file rigtools did not make; rig simulate refused after the whole run (exit 2,
+    no summary) because the name was chosen without the rule that then refused to write it."""
+    kept = save_figure(_figure(), tmp_path / "run.png")
+    kept.chmod(0o444)
+    data = kept.read_bytes()
+    assert plot_path(tmp_path / "run.h5") == tmp_path / "run.plot.png"
+    assert save_figure(_figure(), plot_path(tmp_path / "run.h5")) == tmp_path / "run.plot.png"
+    assert kept.read_bytes() == data
