@@ -263,10 +263,10 @@ def output_path(
         allowed = tuple(s.lower() for s in suffixes)
         if out.suffix.lower() not in allowed:
             raise UserError(f"{where}: the file name must end in {' or '.join(allowed)}")
-    if out.exists():
+    if out.exists() or out.is_symlink():  # a link to a file still to be made is a name taken too
         if not overwrite:
             raise UserError(f"{where} exists; give --overwrite to replace it")
-        if not os.access(out, os.W_OK):
+        if out.exists() and not os.access(out, os.W_OK):
             raise UserError(f"{where} exists and is read-only")
     return out
 

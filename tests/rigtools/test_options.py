@@ -184,6 +184,18 @@ def test_output_path_never_one_of_the_inputs(tmp_path):
     assert recording.read_bytes() == b"recording"
 
 
+def test_output_path_a_link_to_a_file_still_to_be_made_exists(tmp_path):
+    """``run.h5 -> elsewhere.h5`` (a link in the same folder to a file not there yet) is a name
+    taken: refused without --overwrite up front, as any existing name (HDF5 refused to create
+    over it after the whole run, in a line of h5py's internals), written through with it."""
+    link = tmp_path / "run.h5"
+    link.symlink_to("elsewhere.h5")
+    assert _refused(options.output_path, str(link)) == (
+        f"--out = {str(link)!r} exists; give --overwrite to replace it"
+    )
+    assert options.output_path(str(link), overwrite=True) == link
+
+
 @pytest.mark.skipif(os.name != "posix", reason="POSIX permission bits")
 def test_output_path_read_only(tmp_path):
     """Refused by the permission bits, root included (the OS lets root write there: the tests
