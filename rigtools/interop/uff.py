@@ -92,7 +92,8 @@ class UffFunction:
     units_label
         Ordinate units label, e.g. ``"m/s^2"`` or ``"m/s^2/N"``.
     date
-        ID line 4 (``DD-MMM-YY HH:MM:SS``, :func:`uff_date`).
+        ID line 3, where dataset 58 keeps when the function was created (``DD-MMM-YY HH:MM:SS``,
+        :func:`uff_date`).
     response_direction, reference_direction
         UFF direction codes (:data:`DIRECTIONS`: 1..6 for +X..+RZ, negative for the opposite
         sense, 0 scalar); +Y (the blades' impact direction) unless given.
@@ -134,8 +135,8 @@ class UffFunction:
             "binary": 1,
             "id1": self.description[:80],
             "id2": "shrouded-blade-rig export",
-            "id3": "",
-            "id4": self.date[:80],
+            "id3": self.date[:80],
+            "id4": "",
             "id5": "",
             "func_type": self.func_type,
             "ver_num": 0,
@@ -254,7 +255,7 @@ def recording_functions(
 
     Notes
     -----
-    Time records and spectra carry reference node 0 (they have no reference). ID line 4 holds
+    Time records and spectra carry reference node 0 (they have no reference). ID line 3 holds
     the recording's date (``DD-MMM-YY HH:MM:SS``, UTC).
     """
     from rigtools.analysis.spectra import amplitude_spectrum
@@ -367,7 +368,7 @@ def frf_set_functions(frf_set, what: tuple[str, ...] = WHAT, *, source: str = ""
     code as the set holds them (an import of UFF 58 keeps them, :func:`import_uff`); a set
     without them gets reference node 1 and response nodes 101, 102, ... in +Y, as
     :func:`recording_functions` numbers channels. Values are the set's, in SI; the quantity of
-    the response follows the set's kind (accelerance: acceleration, ...). ID line 4 holds the
+    the response follows the set's kind (accelerance: acceleration, ...). ID line 3 holds the
     set's date.
 
     Parameters
