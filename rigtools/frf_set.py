@@ -177,8 +177,8 @@ def summary(path: str | Path) -> dict:
     -------
     dict
         ``kind`` (``"frf set"``), ``frf_kind`` and ``frf_units``, ``n_frfs``, ``references`` and
-        ``responses`` (name, UFF entity, node, direction, units; a response also its reference
-        and whether it has a coherence), ``frequency`` (``lines``, ``min_hz``, ``max_hz``,
+        ``responses`` (name, UFF entity, node, direction, units; a response also its
+        reference's name, node and direction, and whether it has a coherence), ``frequency`` (``lines``, ``min_hz``, ``max_hz``,
         ``resolution_hz``), ``source`` (file and format), ``created``, ``schema_version``.
     """
     fs = read_frf_set(path)
@@ -195,6 +195,8 @@ def summary(path: str | Path) -> dict:
             {
                 **_where(point.get("response"), name, units),
                 "reference": ref["name"],
+                "reference_node": ref["node"],  # the name alone does not say which of its directions
+                "reference_direction": ref["direction"],
                 "coherence": bool(np.any(np.isfinite(fs.coherence[row]))),
             }
         )

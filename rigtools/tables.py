@@ -343,12 +343,11 @@ def frf_set_tables(info: dict) -> list[Any]:
     table = Table(title="FRFs (UFF node and direction)")
     for column in ("response", "at", "units", "reference", "at", "coherence"):
         table.add_column(column)
-    at = lambda p: "" if p["node"] is None else f"{p['node']} {p['direction']}".strip()
-    refs = {r["name"]: r for r in info["references"]}
-    for r in info["responses"]:
-        ref = refs[r["reference"]]
-        units = f"{r['units']} per {ref['units']}"
-        table.add_row(r["name"], at(r), units, ref["name"], at(ref), "yes" if r["coherence"] else "no")
+    at = lambda node, code: "" if node is None else f"{node} {code}".strip()
+    for r in info["responses"]:  # the reference's direction is the response's own (one name, two ways)
+        ref = at(r["reference_node"], r["reference_direction"])
+        row = (r["name"], at(r["node"], r["direction"]), f"{r['units']} per N", r["reference"], ref)
+        table.add_row(*row, "yes" if r["coherence"] else "no")
     return [*head, table]
 
 

@@ -89,6 +89,31 @@ def test_info_describes_the_frf_set(frf_set):
     assert "from two.uff" in out and "tip_2_Z" in out and "3 -Y" in out
 
 
+def test_info_shows_each_frfs_own_reference_direction(tmp_path):
+    """One reference point hit in two directions (a roving-response test with the hammer at node
+    1 in +Z and in -X): each FRF's row shows its own reference direction (the table looked the
+    reference up by name and showed the last one, -X, for both)."""
+    h = sdof_frf(F, 100.0, 0.02, kind="accelerance")
+    src = tmp_path / "two_ways.uff"
+    pyuff.UFF(str(src)).write_sets(
+        [_record(FUNC_FRF, "tip", 2, 3, h), {**_record(FUNC_FRF, "side", 2, 1, h), "ref_dir": -1}], "add"
+    )
+    assert run_cli(["import", "uff", src, tmp_path / "two_ways.h5"])[0] == 0
+    code, out, err = run_cli(["info", tmp_path / "two_ways.h5", "--json"])
+    assert code == 0, err
+    got = [
+        (r["name"], r["reference"], r["reference_node"], r["reference_direction"])
+        for r in json.loads(out)["responses"]
+    ]
+    assert got == [("tip_2_Z", "hammer", 1, "+Z"), ("side_2_X", "hammer", 1, "-X")]
+    code, out, err = run_cli(["info", tmp_path / "two_ways.h5"])
+    rows = [line.split("│")[1:-1] for line in out.splitlines() if "hammer" in line]
+    assert [[cell.strip() for cell in row] for row in rows] == [
+        ["tip_2_Z", "2 +Z", "m/s^2 per N", "hammer", "1 +Z", "no"],
+        ["side_2_X", "2 +X", "m/s^2 per N", "hammer", "1 -X", "no"],
+    ]
+
+
 def test_check_passes_a_good_frf_set(frf_set):
     code, out, _ = run_cli(["check", frf_set])
     assert code == 0 and out.strip() == f"{frf_set}: valid rigtools FRF set (2 FRF(s), 1001 lines)"
