@@ -2,9 +2,12 @@
 
 Runs ``rig simulate`` (default rig, 60 Hz, 15 N, 1 s recorded) as a subprocess with and without
 ``--no-plot``, alternating, ``--repeats`` times each, and prints the best wall and CPU time of each
-(CPU time: the child's user + system time, robust to a busy machine), the plot's cost (with minus
-without) and its ratio to the run without the plot, in wall time (as issue 20 measured it: 3.3 s
-with, 1.5 s without) and in CPU time. Goal: the plot costs less than half the simulation, < 0.5.
+(CPU time: the child's user + system time, its plot helper's included), the plot's cost (with
+minus without) and its ratio to the run without the plot, in wall time (as issue 20 measured it:
+3.3 s with, 1.5 s without). Goal: the plot costs less than half the simulation in the time the
+user waits, < 0.5. The CPU ratio is printed for information: the figure is drawn by a second
+interpreter (rigtools.plot_process) that imports matplotlib while the command works, so on a
+machine with a free core the import costs CPU but no time; on one core it costs both.
 
 Then, in this process, the parts of the plot: importing the figure code, building the figure,
 saving the PNG, against the simulation itself (model build + settle + record).
@@ -89,8 +92,8 @@ def main() -> int:
     wall_ratio, cpu_ratio = (w1 - w0) / w0, (c1 - c0) / c0
     print(
         f"  plot costs {w1 - w0:.2f} s wall = {wall_ratio:.2f}x the run without it "
-        f"(goal < 0.5: {'met' if wall_ratio < 0.5 else 'NOT met'}); {c1 - c0:.2f} s CPU = "
-        f"{cpu_ratio:.2f}x its CPU ({'met' if cpu_ratio < 0.5 else 'NOT met'})"
+        f"(goal < 0.5: {'met' if wall_ratio < 0.5 else 'NOT met'}; {os.cpu_count()} cores); "
+        f"{c1 - c0:.2f} s CPU = {cpu_ratio:.2f}x its CPU (for information, no goal)"
     )
     parts()
     return 0
