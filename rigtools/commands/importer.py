@@ -17,7 +17,10 @@ channel saying what it did with it (kept: name, quantity, SI units and conversio
   lvm   LabVIEW measurement files (.lvm or .lvm.gz; decimal comma, several segments, multi
         headings): every segment a point; rate from Delta_X, units from Y_Unit_Label.
   uff   UFF 58: time records become a recording; FRFs (with their coherence) an FRF set
-        (an .h5 that rig analyze identifies modes from).
+        (an .h5 that rig analyze identifies modes from). A record is named by its entity,
+        node and direction (acc:2+Y; :acceleration etc. added where only the quantity tells
+        two apart; the full channel name in files rig export uff wrote); recordN (the file's
+        N-th record 58) names one record alone in --map, --units and --channel.
 Units are converted to SI (g -> m/s^2, lbf -> N, mV -> V, degC -> K, ...). A channel without
 units takes those of the toolkit channel of its name (force -> N), else is skipped: supply them
 with --units NAME=UNIT. Channels of unequal length or rate are kept whole in points of their own.

@@ -239,13 +239,16 @@ def known_units() -> str:
 
 def check_names(channels: Sequence[ForeignChannel], where: str) -> None:
     """Refuse two kept channels of one point under one name (a ``--map`` mistake, or two file
-    names that read alike)."""
+    names that read alike); the advice names ``extra["key"]`` of the second (a UFF record's
+    ``recordN``) where it has one."""
     seen: dict[str, str] = {}
     for ch in channels:
         if ch.kept and ch.name in seen:
+            key = ch.extra.get("key")  # the name --map takes of this channel alone, where the file has one
+            advice = f"--map {key}=NEW_NAME" if key else "--map"
             raise UserError(
                 f"{where}: {seen[ch.name]} and {ch.source} both become channel {ch.name!r}; "
-                "map one to another name (--map)"
+                f"map one to another name ({advice})"
             )
         seen[ch.name] = ch.source
 

@@ -22,6 +22,7 @@ force, doubled for auto spectra (units squared); an FRF carries the response in 
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -49,6 +50,10 @@ FIXED_NODES = {"force": 1, "drive": 100}
 DIRECTIONS = ("X", "Y", "Z", "RX", "RY", "RZ")
 DIRECTION_Y = 2
 SI_UNITS_CODE = 1
+#: ID line 2 of every record ``rig export uff`` writes: the importer reads ID line 4 of such files
+EXPORT_MARK = "shrouded-blade-rig export"
+_NAME = r"[A-Za-z0-9_][A-Za-z0-9_.\-]*"  # a recording channel name (rigtools.recording.schema)
+_ID_LINE_4 = re.compile(rf"channel ({_NAME})(?:; reference ({_NAME}))?")
 
 
 def direction_text(code: int | None) -> str:
@@ -57,6 +62,24 @@ def direction_text(code: int | None) -> str:
     if not code or abs(int(code)) > len(DIRECTIONS):
         return ""
     return ("+" if code > 0 else "-") + DIRECTIONS[abs(int(code)) - 1]
+
+
+def id_line_4(channel: str, reference: str = "") -> str:
+    """ID line 4 of an exported record: ``channel NAME`` (``channel NAME; reference NAME`` for
+    FRFs and coherence), the full channel names the 10-character entity names cut; ``""`` when a
+    name is no channel name or the line would pass the format's 80 characters (the importer then
+    names the record by entity, node and direction)."""
+    line = f"channel {channel}" + (f"; reference {reference}" if reference else "")
+    return line if len(line) <= 80 and _ID_LINE_4.fullmatch(line) else ""
+
+
+def exported_names(s: dict) -> tuple[str, str] | None:
+    """``(channel, reference)`` a record ``rig export uff`` wrote names in ID line 4
+    (:func:`id_line_4`; reference ``""`` when none), or None for any other record."""
+    if str(s.get("id2", "")).strip() != EXPORT_MARK:
+        return None
+    hit = _ID_LINE_4.fullmatch(str(s.get("id4", "")).strip())
+    return (hit.group(1), hit.group(2) or "") if hit else None
 
 
 def node_of(channel: str, order: int) -> int:
@@ -97,6 +120,11 @@ class UffFunction:
     response_direction, reference_direction
         UFF direction codes (:data:`DIRECTIONS`: 1..6 for +X..+RZ, negative for the opposite
         sense, 0 scalar); +Y (the blades' impact direction) unless given.
+    channel, reference_channel
+        The full names of the response and reference channels (``""``: none), written to ID
+        line 4 (:func:`id_line_4`) where the import names the record by them: the entity name
+        fields keep 10 characters only, so ``active_shroud_accel`` and ``active_shroud_disp``
+        (one node) read alike there.
     """
 
     func_type: int
@@ -111,6 +139,8 @@ class UffFunction:
     date: str = ""
     response_direction: int = DIRECTION_Y
     reference_direction: int = DIRECTION_Y
+    channel: str = ""
+    reference_channel: str = ""
 
     def __post_init__(self) -> None:
         for code in (self.response_direction, self.reference_direction):
@@ -134,9 +164,9 @@ class UffFunction:
             "type": 58,
             "binary": 1,
             "id1": self.description[:80],
-            "id2": "shrouded-blade-rig export",
+            "id2": EXPORT_MARK,
             "id3": self.date[:80],
-            "id4": "",
+            "id4": id_line_4(self.channel, self.reference_channel) if self.channel else "",
             "id5": "",
             "func_type": self.func_type,
             "ver_num": 0,
@@ -293,6 +323,7 @@ def recording_functions(
                         ch[:n],
                         ch.units,
                         date,
+                        channel=name,
                     )
                 )
             if "spectra" in what:
@@ -309,6 +340,7 @@ def recording_functions(
                         amp**2 / 2,
                         f"({ch.units})^2",
                         date,
+                        channel=name,
                     )
                 )
         broadband = point.sample_rate is not None and ("fe" not in point.params or procedure in PROCEDURE_FRF)
@@ -338,6 +370,8 @@ def recording_functions(
                         est.h1[i],
                         f"{ch.units}/{ref.units}",
                         date,
+                        channel=name,
+                        reference_channel=force,
                     )
                 )
                 if est.n_averages > 1:
@@ -353,6 +387,8 @@ def recording_functions(
                             est.coherence[i],
                             "-",
                             date,
+                            channel=name,
+                            reference_channel=force,
                         )
                     )
     if frf_options is not None and "frf" in what and not estimated:
@@ -415,6 +451,8 @@ def frf_set_functions(frf_set, what: tuple[str, ...] = WHAT, *, source: str = ""
                     date,
                     response_direction=int(rsp.get("direction", 0)),
                     reference_direction=int(ref.get("direction", 0)),
+                    channel=name,
+                    reference_channel=frf_set.reference,
                 )
             )
     return out
@@ -532,9 +570,13 @@ def read_uff_sets(source: str | Path) -> list[dict]:
 
 
 def record_name(s: dict) -> str:
-    """The name of a record's response: its entity name, then ``:<node><direction>`` when the
-    node is not 0 (``acc:2+Z``, ``node:2+Z`` without entity name, ``acc:5-RX`` for a rotation:
-    :func:`direction_text`)."""
+    """The name of a record's response: the channel name ID line 4 holds in a file ``rig export
+    uff`` wrote (:func:`exported_names`), else its entity name, then ``:<node><direction>`` when
+    the node is not 0 (``acc:2+Z``, ``node:2+Z`` without entity name, ``acc:5-RX`` for a
+    rotation: :func:`direction_text`)."""
+    names = exported_names(s)
+    if names is not None:
+        return names[0]
     name = str(s.get("rsp_ent_name", "")).strip()
     if name.lower() in _NONE:
         name = "node"
@@ -543,6 +585,45 @@ def record_name(s: dict) -> str:
         axis = direction_text(direction) or (f"dir{direction}" if direction else "")
         name += f":{node}{axis}"
     return name
+
+
+def _quantity_word(s: dict) -> str:
+    code = int(s.get("ordinate_spec_data_type", 0))
+    return _QUANTITY_OF_CODE.get(code) or f"data{code}"
+
+
+def record_names(sets: list[dict]) -> list[str]:
+    """The names of ``sets`` (:func:`record_name`); records of one function type that would share
+    a name but differ in what they measure (their ordinate's specific data type: the
+    acceleration, velocity and displacement of one node) get ``:<quantity>`` appended
+    (``acc:2+Y:acceleration``, ``acc:2+Y:displacement``)."""
+    names = [record_name(s) for s in sets]
+    groups: dict[tuple[int, str], set[str]] = {}
+    for s, name in zip(sets, names, strict=True):
+        groups.setdefault((int(s["func_type"]), name), set()).add(_quantity_word(s))
+    return [
+        name + f":{_quantity_word(s)}" if len(groups[(int(s["func_type"]), name)]) > 1 else name
+        for s, name in zip(sets, names, strict=True)
+    ]
+
+
+def record_key(number: int) -> str:
+    """How ``--map``, ``--units`` and ``--channel`` name record ``number`` (1 = the file's first
+    record 58) when names do not tell records apart: ``record7``."""
+    return f"record{number}"
+
+
+def _check_keys(option: str, given, names: set[str], n_records: int) -> None:
+    """Refuse ``option`` entries naming no record: neither a record's name nor ``recordN``."""
+    from rigtools.interop.channels import check_known
+
+    numbers = {record_key(i) for i in range(1, n_records + 1)}
+    bad = [k for k in given if k.startswith("record") and k[6:].isdigit() and k not in numbers]
+    if bad:
+        raise UserError(
+            f"{option}: no {', '.join(bad)} in the file (its records 58: record1..record{n_records})"
+        )
+    check_known(option, [k for k in given if k not in numbers], names)
 
 
 def _label(s: dict, key: str) -> str:
@@ -640,16 +721,16 @@ def frf_kind_from_data(f: np.ndarray, h: np.ndarray) -> str | None:
     return None
 
 
-def rate_of_increment(inc: float, *, ascii_file: bool) -> float:
-    """The sample rate of an abscissa increment. An ASCII file writes the increment with 6
-    significant digits (``9.76562E-04`` for 1024 Hz): the rate is then the roundest number (whole
-    Hz, then 0.1, 0.01, 0.001 Hz) whose increment rounds to the written one."""
+def rate_of_increment(inc: float) -> float:
+    """The sample rate of an abscissa increment. Dataset 58 writes the increment in its ASCII
+    header with 6 significant digits (``9.76562E-04`` for 1024 Hz), in binary files (58b) too:
+    the rate is the roundest number (whole Hz, then 0.1, 0.01, 0.001 Hz) whose increment rounds
+    to the written one."""
     rate = 1.0 / inc
-    if ascii_file:
-        for decimals in range(4):
-            candidate = round(rate, decimals)
-            if candidate > 0 and abs(1.0 / candidate - inc) <= 5e-6 * abs(inc):
-                return float(candidate)
+    for decimals in range(4):
+        candidate = round(rate, decimals)
+        if candidate > 0 and abs(1.0 / candidate - inc) <= 5e-6 * abs(inc):
+            return float(candidate)
     return rate
 
 
@@ -678,36 +759,39 @@ def import_uff(
         ``{"channels": [...], "points": [...], "lines": [...]}`` as every import (FRFs: one
         entry and line per record).
     """
-    from rigtools.interop.channels import ForeignChannel, check_known, check_names, resolve
+    from rigtools.interop.channels import ForeignChannel, check_names, resolve
     from rigtools.interop.imported import ForeignPoint, rows_reader, split_by_timing, write_imported
 
     source = Path(source)
     mapping, units, chosen = dict(mapping or {}), dict(units or {}), list(channels or [])
     sets = read_uff_sets(source)
-    names = {record_name(s) for s in sets}
+    names = record_names(sets)
     for option, given in (("--channel", chosen), ("--map", mapping), ("--units", units)):
-        check_known(option, given, names)
-    sets = [s for s in sets if not chosen or record_name(s) in chosen]
-    if any(int(s["func_type"]) == FUNC_FRF for s in sets):
+        _check_keys(option, given, set(names), len(sets))
+    records = [
+        (number, name, s)
+        for number, (name, s) in enumerate(zip(names, sets, strict=True), start=1)
+        if not chosen or name in chosen or record_key(number) in chosen
+    ]
+    if any(int(s["func_type"]) == FUNC_FRF for _, _, s in records):
         if reference is not None:  # never ignored silently
             raise UserError(
                 f"--reference: {source} holds FRFs, each over the reference its record names; "
                 "--reference chooses the excitation among time records"
             )
-        return _import_frfs(source, out, sets, mapping=mapping, units=units, overwrite=overwrite)
+        return _import_frfs(source, out, records, mapping=mapping, units=units, overwrite=overwrite)
     every: list[ForeignChannel] = []
     kept: list[tuple[ForeignChannel, int, float]] = []
     data: list[tuple[np.ndarray, float]] = []
-    for number, s in enumerate(sets, start=1):
-        name = record_name(s)
+    for number, name, s in records:
         where = f"record {number} ({name})"
         if int(s["func_type"]) != FUNC_TIME:
             every.append(
                 ForeignChannel(where, reason=f"function type {s['func_type']}: neither time record nor FRF")
             )
             continue
-        fc = resolve(where, name, _time_units(s), mapping=mapping, units=units)
-        fc.extra["file_name"] = name
+        fc = resolve(where, name, _time_units(s), mapping=mapping, units=units, path=record_key(number))
+        fc.extra["file_name"], fc.extra["key"] = name, record_key(number)
         every.append(fc)
         inc = float(s.get("abscissa_inc", 0.0))
         fc.samples = len(s["data"])
@@ -717,7 +801,7 @@ def import_uff(
             fc.si, fc.name, fc.reason = None, "", "complex values in a time record"
         if not fc.kept:
             continue
-        fc.sample_rate = rate_of_increment(inc, ascii_file=not s.get("binary", 0))
+        fc.sample_rate = rate_of_increment(inc)
         if fc.sample_rate != 1.0 / inc:
             fc.reason = "; ".join(
                 [
@@ -766,21 +850,31 @@ def _point_of(s: dict, side: str) -> dict:
     }
 
 
-def _import_frfs(source: Path, out: str | Path, sets: list[dict], *, mapping, units, overwrite) -> dict:
+def _reference_name(s: dict) -> str:
+    """The reference channel of an FRF record: ID line 4's in a file ``rig export uff`` wrote,
+    else the reference entity name."""
+    names = exported_names(s)
+    return (names[1] if names and names[1] else "") or str(s.get("ref_ent_name", "")).strip()
+
+
+def _import_frfs(
+    source: Path, out: str | Path, records: list[tuple[int, str, dict]], *, mapping, units, overwrite
+) -> dict:
     from rigtools.frf_set import FRFSet, write_frf_set
     from rigtools.interop.channels import storable_name
 
     lines, entries = [], []
     frfs, grid, kinds = [], None, set()
     points: list[dict] = []
+    taken: dict[str, str] = {}
     coherence = {
-        (record_name(s), str(s.get("ref_ent_name", "")).strip(), int(s.get("ref_node", 0))): s
-        for s in sets
+        (name, _reference_name(s), int(s.get("ref_node", 0))): s
+        for _, name, s in records
         if int(s["func_type"]) == FUNC_COHERENCE
     }
-    for number, s in enumerate(sets, start=1):
-        name = record_name(s)
+    for number, name, s in records:
         where = f"record {number} ({name})"
+        keys = (record_key(number), name)
         ftype = int(s["func_type"])
         if ftype == FUNC_COHERENCE:
             continue
@@ -788,7 +882,7 @@ def _import_frfs(source: Path, out: str | Path, sets: list[dict], *, mapping, un
             lines.append(f"skipped {where}: function type {ftype}; this file's FRFs are imported")
             entries.append({"source": where, "action": "skipped"})
             continue
-        kind, factor, how = _frf_kind(s, next((units[k] for k in (name,) if k in units), None))
+        kind, factor, how = _frf_kind(s, next((units[k] for k in keys if k in units), None))
         x = np.asarray(s["x"], dtype=float)
         if kind is None or (grid is not None and (x.size != grid.size or not np.allclose(x, grid))):
             why = how if kind is None else "another frequency grid than the first FRF's"
@@ -796,24 +890,28 @@ def _import_frfs(source: Path, out: str | Path, sets: list[dict], *, mapping, un
             entries.append({"source": where, "action": "skipped", "reason": why})
             continue
         grid = x
-        key = (name, str(s.get("ref_ent_name", "")).strip(), int(s.get("ref_node", 0)))
-        coh = coherence.get(key)
+        coh = coherence.get((name, _reference_name(s), int(s.get("ref_node", 0))))
         c = (
             np.asarray(coh["data"], float)
             if coh is not None and len(coh["data"]) == x.size
             else np.full(x.size, np.nan)
         )
-        frfs.append(
-            (mapping.get(name, storable_name(name)), np.asarray(s["data"], complex) * factor, c, kind)
-        )
+        stored = next((mapping[k] for k in keys if k in mapping), storable_name(name))
+        if stored in taken:
+            raise UserError(
+                f"{source}: {taken[stored]} and {where} both become FRF {stored!r}; "
+                f"name one by its record number: --map {record_key(number)}=NEW_NAME"
+            )
+        taken[stored] = where
+        frfs.append((stored, np.asarray(s["data"], complex) * factor, c, kind))
         points.append({side: _point_of(s, side) for side in ("response", "reference")})
         kinds.add(kind)
-        text = f"kept    {where} -> {frfs[-1][0]}: FRF, {how}, {x.size} lines {x[0]:g}-{x[-1]:g} Hz, " + (
+        text = f"kept    {where} -> {stored}: FRF, {how}, {x.size} lines {x[0]:g}-{x[-1]:g} Hz, " + (
             "with its coherence" if coh is not None else "no coherence record"
         )
         lines.append(text)
         entries.append(
-            {"source": where, "action": "kept", "name": frfs[-1][0], "kind": kind, "how": how, "text": text}
+            {"source": where, "action": "kept", "name": stored, "kind": kind, "how": how, "text": text}
         )
     if not frfs:
         raise UserError(f"{source}: no FRF to import: " + "; ".join(lines))
@@ -821,10 +919,7 @@ def _import_frfs(source: Path, out: str | Path, sets: list[dict], *, mapping, un
         raise UserError(
             f"{source}: FRFs of different kinds ({', '.join(sorted(kinds))}); import them separately (--channel)"
         )
-    ref = (
-        next((str(s.get("ref_ent_name", "")).strip() for s in sets if int(s["func_type"]) == FUNC_FRF), "")
-        or "force"
-    )
+    ref = next((_reference_name(s) for _, _, s in records if int(s["func_type"]) == FUNC_FRF), "") or "force"
     assert grid is not None
     frf_set = FRFSet(
         frequency_hz=grid,

@@ -76,7 +76,8 @@ def test_uff_round_trip_equals_source(recording, tmp_path, capsys):
     # dataset 58 keeps "when the function was created" (DD-MMM-YY HH:MM:SS; it was in line 4)
     assert t_acc["ref_node"] == 0 and t_force["ref_node"] == 0
     assert re.fullmatch(r"\d\d-[A-Z][a-z]{2}-\d\d \d\d:\d\d:\d\d", t_acc["id3"].strip())
-    assert t_acc["id4"].strip() in ("", "NONE")
+    # ID line 4: the full channel names (the entity fields keep 10 characters); the reference's for FRFs
+    assert t_acc["id4"].strip() == "channel active_shroud_accel"
     # FRFs first: readers that take the FRF kind from the first record (sdypy-EMA) read accelerance
     assert f58[0]["func_type"] == 4
     # spectra equal the analysis layer's
@@ -92,6 +93,7 @@ def test_uff_round_trip_equals_source(recording, tmp_path, capsys):
     np.testing.assert_allclose(coh["data"], est.coherence[0], rtol=1e-12, atol=1e-15)
     assert (frf["ref_node"], frf["orddenom_spec_data_type"], frf["orddenom_force_unit_exp"]) == (1, 13, 1)
     assert frf["abscissa_spec_data_type"] == 18
+    assert frf["id4"].strip() == "channel active_shroud_accel; reference force"
     # and the physics: the known FRF 0.5 + 0.25 exp(-i w / fs) where coherent
     w = 2 * np.pi * est.frequency_hz / FS
     np.testing.assert_allclose(est.h1[0][1:-1], (0.5 + 0.25 * np.exp(-1j * w))[1:-1], atol=2e-3)
