@@ -477,7 +477,7 @@ class BranchesCheck:
 def check_branches(path: str | Path, read_data: bool = True) -> BranchesCheck:
     """Validate a branches file (:func:`write_branches`) against what :func:`read_branches` and
     ``rig report --branches`` rely on: root attributes (schema, version, kind, a rig description,
-    the experiment as a JSON object naming its parameter), and per ``/branches/NN`` its
+    the experiment as a JSON object naming its parameter), at least one branch, and per ``/branches/NN`` its
     attributes (param, periods >= 1, status, message, one label list per point), datasets of one
     point count (value, stable, multipliers, every measure; the measures the figure draws
     present) and (with ``read_data``) finite parameter values and no infinite multiplier or
@@ -540,6 +540,8 @@ def check_branches(path: str | Path, read_data: bool = True) -> BranchesCheck:
                 f["branches"][name], f"/branches/{name}", param, read_data, error
             )
             out.n_branches += 1
+        if not out.n_branches:
+            error("/branches", "holds no branch (rig report --branches would draw nothing)")
     return out
 
 

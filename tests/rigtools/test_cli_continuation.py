@@ -406,9 +406,14 @@ def _no_contact_measure(f):
     del f["branches/00/measures/peak_contact_force"]
 
 
+def _no_branch(f):
+    del f["branches/00"]  # an empty /branches group: was "valid ... (0 branch(es), 0 points ...)"
+
+
 @pytest.mark.parametrize(
     ("damage", "where", "message"),
     [
+        (_no_branch, "/branches", "holds no branch (rig report --branches would draw nothing)"),
         (_drop_stable, "/branches/00/stable", "missing"),
         (_short_labels, "/branches/00", "labels holds 1 entries for {n} points"),
         (_inf_value, "/branches/00/value", "1 non-finite value(s), first at point 3"),
