@@ -15,8 +15,7 @@ ends it; it also ends by itself when the command's end closes its input.
 
 The helper imports the command's own ``rigtools`` (:func:`import_path`). Run as
 ``python -m rigtools.plot_process`` (the helper's :func:`main`): imports the plotting code, then
-reads one pickled
-``(callable, path)`` from standard input, writes the figure with
+reads one pickled ``(callable, path)`` from standard input, writes the figure with
 :func:`rigtools.figures.save_figure` and prints ``ok`` (or one line of error) on standard output.
 """
 
