@@ -112,6 +112,7 @@ def continuation(
     rig: str | None = None,
     switch: bool = True,
     drive: str | float | None = None,
+    found: list | None = None,
 ) -> list[Branch]:
     """Branches of the rig model's periodic orbits continued in ``param`` (what ``rig
     continuation`` computes, without the file).
@@ -136,6 +137,9 @@ def continuation(
     drive
         With ``model="rig"``: hold this drive amplitude (``"1 V"``, peak) instead of the force;
         ``"force"`` then means the drive amplitude (a ``"force"`` range too).
+    found
+        A list the branches grow in as they are computed: after a Ctrl-C (KeyboardInterrupt)
+        it holds what was computed so far, the branch being traced marked "interrupted".
 
     Returns
     -------
@@ -153,6 +157,15 @@ def continuation(
     ('complete', 56.0, 57.0, True)
     >>> b.points[-1].max_multiplier < 1.0
     True
+
+    A long continuation stopped with Ctrl-C keeps its points in ``found`` (minutes of work:
+    not run here):
+
+    >>> found = []
+    >>> try:  # doctest: +SKIP
+    ...     branches = rigtools.continuation("fe", "15 Hz", "80 Hz", found=found)
+    ... except KeyboardInterrupt:
+    ...     branches = found
     """
     lo, hi, fixed = parse_inputs(param, start, stop, fe, force, gap, drive)
     return continue_model(
@@ -166,6 +179,7 @@ def continuation(
         rig=rig,
         switch=switch,
         drive=drive is not None,
+        found=found,
     )[1]
 
 

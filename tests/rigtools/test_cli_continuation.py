@@ -448,3 +448,27 @@ def test_check_of_a_newer_branches_file_is_unreadable(no_contact, tmp_path):
     code, _, err = run_cli(["check", newer])
     (line,) = err.strip().splitlines()
     assert code == 2 and "branches schema_version 2 is newer than this rigtools reads (1)" in line, line
+
+
+def test_ctrl_c_in_a_script_keeps_the_points_in_found(monkeypatch):
+    """``rigtools.continuation(..., found=found)`` from Python: a KeyboardInterrupt after 30
+    corrector steps leaves the branch so far in ``found``, marked "interrupted" (they were lost)."""
+    import rigtools
+    from rigtools.sim import continuation as sim_continuation
+
+    correct, calls = sim_continuation._Tracer.correct, []
+
+    def interrupted(self, prev, h):
+        calls.append(h)
+        if len(calls) > 30:
+            raise KeyboardInterrupt
+        return correct(self, prev, h)
+
+    monkeypatch.setattr(sim_continuation._Tracer, "correct", interrupted)
+    found: list = []
+    with pytest.raises(KeyboardInterrupt):
+        rigtools.continuation("fe", "55 Hz", "58 Hz", force="15 N", gap="5 mm", switch=False, found=found)
+    (b,) = found
+    values = [p.value for p in b.points]
+    assert b.status == "interrupted" and 10 <= len(values) <= 31
+    assert values[0] == 55.0 and np.all(np.diff(values) > 0) and values[-1] < 58.0
