@@ -158,6 +158,7 @@ def atomic_write(path: str | os.PathLike, write: Callable[[Path], object]) -> Pa
 
     path = Path(path)
     writable_target(path)
+    existed = path.exists()
     try:
         fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name[:200]}.", suffix=".tmp", dir=path.parent)
     except OSError as exc:
@@ -174,8 +175,10 @@ def atomic_write(path: str | os.PathLike, write: Callable[[Path], object]) -> Pa
         tmp.unlink(missing_ok=True)
         cause = _os_error(exc)
         if cause is not None:
+            # the file's own name: "nothing written" read as if the recording it derives from were lost
+            kept = " (the one there is unchanged)" if existed else ""
             raise FaultError(
-                f"cannot write {path}: {cause.strerror or one_line(cause)}; nothing written"
+                f"cannot write {path}: {cause.strerror or one_line(cause)}; {path.name} not written{kept}"
             ) from None
         raise
     return path

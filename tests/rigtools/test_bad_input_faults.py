@@ -229,12 +229,15 @@ def _old_uff(tmp: Path) -> None:
 
 
 FULL_DISK = [
-    Case("export:new", ["export", "uff", "{lab}/run.h5", "{tmp}/o.uff"], code=4, expect="o.uff"),
+    Case(
+        "export:new", ["export", "uff", "{lab}/run.h5", "{tmp}/o.uff"], code=4, expect="; o.uff not written"
+    ),
     Case(
         "export:over-existing",
         ["export", "uff", "{lab}/run.h5", "{tmp}/old.uff", "--overwrite"],
         code=4,
         setup=_old_uff,
+        expect="; old.uff not written (the one there is unchanged)",
     ),
     Case("harmonic:csv", ["harmonic", "--points", "400", "--out", "{tmp}/h.csv"], code=4),
     Case("harmonic:json", ["harmonic", "--points", "400", "--out", "{tmp}/h.json"], code=4),
@@ -253,6 +256,7 @@ def test_disk_full(case, lab, tmp_path):
     code, _, err = _limited(_fill(case.argv, lab, tmp_path))
     check_case(code, err, case.code, before, lab, tmp_path)
     assert "error" in err and ("too large" in err.lower() or "space" in err.lower()), err
+    assert case.expect is None or case.expect in err, err
     for folder in [tmp_path, *(p for p in tmp_path.iterdir() if p.is_dir())]:
         partial = [p.name for p in folder.iterdir() if p.suffix in (".uff", ".html") and str(p) not in before]
         assert not partial, f"a partial file was left: {partial}"
