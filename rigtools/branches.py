@@ -169,17 +169,7 @@ def continuation(
     """
     lo, hi, fixed = parse_inputs(param, start, stop, fe, force, gap, drive)
     return continue_model(
-        param,
-        lo,
-        hi,
-        fe=fixed["fe"],
-        force=fixed["force"],
-        gap=fixed["gap"],
-        model=model,
-        rig=rig,
-        switch=switch,
-        drive=drive is not None,
-        found=found,
+        param, lo, hi, **fixed, model=model, rig=rig, switch=switch, drive=drive is not None, found=found
     )[1]
 
 
@@ -269,17 +259,7 @@ def continue_to_file(
     }
     try:
         cfg, branches = continue_model(
-            param,
-            start,
-            stop,
-            fe=fixed["fe"],
-            force=fixed["force"],
-            gap=fixed["gap"],
-            model=model,
-            rig=rig,
-            switch=switch,
-            drive=drive,
-            found=found,
+            param, start, stop, **fixed, model=model, rig=rig, switch=switch, drive=drive, found=found
         )
     except KeyboardInterrupt:
         if any(b.points for b in found):

@@ -139,28 +139,12 @@ def _end(proc: subprocess.Popen[bytes]) -> None:
         proc.stdout.close()
 
 
-def _warm_drawing() -> None:
-    """Draw a small figure with text and a log axis, unsaved, while the command still works:
-    the first drawing loads the fonts and fills matplotlib's caches (a third of drawing cold)."""
-    import io
-
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=(2, 2))
-    ax = fig.add_subplot()
-    ax.semilogy([1.0, 2.0], [1.0, 10.0])
-    ax.set_title("warm-up")
-    ax.set_xlabel("frequency (Hz)")
-    fig.savefig(io.BytesIO(), format="png", dpi=20)
-
-
 def main() -> int:
     """The helper's side (see the module)."""
     # SIGTERM from the command: unwind, so save_figure removes its temporary file
     signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))
     for name in WARM:
         importlib.import_module(name)
-    _warm_drawing()
     from rigtools.figures import save_figure
 
     try:

@@ -273,11 +273,10 @@ def test_period_two_branch_leaving_a_range_edge_it_is_not_followed_past(tmp_path
     )
 
 
-def test_ctrl_c_keeps_the_points_computed(tmp_path, monkeypatch):
-    """Ctrl-C after 30 corrector steps (KeyboardInterrupt raised in the corrector, as the signal
-    handler raises it): exit 130, and the file holds the branch's points so far, "interrupted",
-    its last point where the message says; no .partial left."""
-    from rigtools.branches import read_branches
+@pytest.fixture
+def ctrl_c_after_30_steps(monkeypatch):
+    """A KeyboardInterrupt raised in the corrector after 30 corrector steps, as the signal
+    handler raises it."""
     from rigtools.sim import continuation as sim_continuation
 
     correct, calls = sim_continuation._Tracer.correct, []
@@ -289,6 +288,14 @@ def test_ctrl_c_keeps_the_points_computed(tmp_path, monkeypatch):
         return correct(self, prev, h)
 
     monkeypatch.setattr(sim_continuation._Tracer, "correct", interrupted)
+
+
+def test_ctrl_c_keeps_the_points_computed(tmp_path, ctrl_c_after_30_steps):
+    """Ctrl-C after 30 corrector steps (KeyboardInterrupt raised in the corrector, as the signal
+    handler raises it): exit 130, and the file holds the branch's points so far, "interrupted",
+    its last point where the message says; no .partial left."""
+    from rigtools.branches import read_branches
+
     out = tmp_path / "b.h5"
     code, _, err = run_cli(["continuation", *SHORT, "--out", out])
     assert code == 130, err
@@ -450,21 +457,11 @@ def test_check_of_a_newer_branches_file_is_unreadable(no_contact, tmp_path):
     assert code == 2 and "branches schema_version 2 is newer than this rigtools reads (1)" in line, line
 
 
-def test_ctrl_c_in_a_script_keeps_the_points_in_found(monkeypatch):
+def test_ctrl_c_in_a_script_keeps_the_points_in_found(ctrl_c_after_30_steps):
     """``rigtools.continuation(..., found=found)`` from Python: a KeyboardInterrupt after 30
     corrector steps leaves the branch so far in ``found``, marked "interrupted" (they were lost)."""
     import rigtools
-    from rigtools.sim import continuation as sim_continuation
 
-    correct, calls = sim_continuation._Tracer.correct, []
-
-    def interrupted(self, prev, h):
-        calls.append(h)
-        if len(calls) > 30:
-            raise KeyboardInterrupt
-        return correct(self, prev, h)
-
-    monkeypatch.setattr(sim_continuation._Tracer, "correct", interrupted)
     found: list = []
     with pytest.raises(KeyboardInterrupt):
         rigtools.continuation("fe", "55 Hz", "58 Hz", force="15 N", gap="5 mm", switch=False, found=found)
