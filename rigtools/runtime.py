@@ -8,7 +8,7 @@ and worker processes call :func:`configure_process` themselves (it is cheap and 
   recording ``aborted`` with the signal as its reason) covers ``kill``, ``timeout``, a job
   scheduler and a closed terminal too.
 * :func:`configure_console` lets stdout/stderr print any text on any console ("m/s²" on an
-  ASCII or cp1252 console becomes ``m/s\\xb2`` instead of a UnicodeEncodeError).
+  ASCII console or a plain C locale becomes ``m/s^2`` instead of a UnicodeEncodeError).
 * :func:`configure_process` sets the BLAS thread count (small dense problems: threads only add
   overhead) and a writable numba cache directory.
 * :func:`configure_allocator` gives back glibc's adaptive allocator behaviour to a process started
@@ -21,6 +21,7 @@ and worker processes call :func:`configure_process` themselves (it is cheap and 
 from __future__ import annotations
 
 import _thread
+import codecs
 import contextlib
 import ctypes
 import ctypes.util
@@ -185,19 +186,80 @@ def handle_stop_signals(signals: tuple[int, ...] = STOP_SIGNALS) -> StopRequests
 
 
 # -- console ---------------------------------------------------------------------------------
+#: ASCII spellings of the non-ASCII characters the toolkit prints (units, arrows, signs), used
+#: where the console's encoding lacks them; anything else is escaped (``\\xb2``-style).
+ASCII_SPELLINGS = {
+    "\u00b2": "^2",
+    "\u00b3": "^3",
+    "\u00b0": " deg",
+    "\u00b5": "u",
+    "\u03bc": "u",
+    "\u00b7": "*",
+    "\u00d7": "x",
+    "\u00b1": "+/-",
+    "\u2212": "-",
+    "\u2013": "-",
+    "\u2014": "--",
+    "\u2192": "->",
+    "\u2190": "<-",
+    "\u2264": "<=",
+    "\u2265": ">=",
+    "\u2248": "~",
+    "\u2260": "!=",
+    "\u2026": "...",
+    "\u2018": "'",
+    "\u2019": "'",
+    "\u201c": '"',
+    "\u201d": '"',
+    "\u03a9": "Ohm",
+    "\u221a": "sqrt",
+    "\u00bd": "1/2",
+    "\u2022": "*",
+    "\u2502": "|",
+    "\u2500": "-",
+    "\u2501": "-",
+    "\u2588": "#",
+    "\u2591": ".",
+    "\u2593": "#",
+    "\u2714": "ok",
+    "\u2718": "x",
+}
+CONSOLE_ERRORS = "rigtools.ascii"
+
+
+def _ascii_fallback(exc: UnicodeError) -> tuple[str, int]:
+    """Codec error handler: ASCII spellings where known, surrogate-escaped bytes back, else escapes."""
+    if not isinstance(exc, UnicodeEncodeError):
+        raise exc
+    out = []
+    for char in exc.object[exc.start : exc.end]:
+        if char in ASCII_SPELLINGS:
+            out.append(ASCII_SPELLINGS[char])
+        elif 0xDC80 <= ord(char) <= 0xDCFF:  # a byte the locale could not decode (surrogateescape)
+            out.append(f"\\x{ord(char) - 0xDC00:02x}")
+        else:
+            out.append(char.encode("ascii", "backslashreplace").decode("ascii"))
+    return "".join(out), exc.end
+
+
+codecs.register_error(CONSOLE_ERRORS, _ascii_fallback)
+
+
 def configure_console(*streams: TextIO) -> None:
     """Let ``streams`` (default stdout and stderr) print any character.
 
-    Characters the console's encoding cannot show are written as ``\\xb2``-style escapes
-    (``errors="backslashreplace"``) instead of raising :class:`UnicodeEncodeError`. Streams
-    without ``reconfigure`` (captured or replaced streams) are left alone.
+    Characters the console's encoding cannot show are written in ASCII: units and signs by their
+    usual spelling (``m/s²`` as ``m/s^2``, ``≥`` as ``>=``; :data:`ASCII_SPELLINGS`), anything
+    else as a ``\\xb2``-style escape, instead of raising :class:`UnicodeEncodeError`. A plain C
+    locale (stdout's errors ``surrogateescape``) included. Streams without ``reconfigure``
+    (captured or replaced streams) are left alone.
     """
     for stream in streams or (sys.stdout, sys.stderr):
         reconfigure = getattr(stream, "reconfigure", None)
-        if reconfigure is None or getattr(stream, "errors", None) not in ("strict", None):
+        if reconfigure is None or getattr(stream, "errors", None) not in ("strict", "surrogateescape", None):
             continue
         with contextlib.suppress(Exception):
-            reconfigure(errors="backslashreplace")
+            reconfigure(errors=CONSOLE_ERRORS)
     # Output into a file or pipe has no terminal width; rich would wrap tables at 80 columns and
     # cut channel names. Give it room unless the user set COLUMNS.
     with contextlib.suppress(Exception):
