@@ -25,6 +25,7 @@ import numpy as np
 
 from rigtools.errors import UserError, one_line
 from rigtools.interop.channels import ForeignChannel, check_known, check_names, resolve
+from rigtools.interop.checks import non_finite_reason
 from rigtools.interop.imported import ForeignPoint, rows_reader, split_by_timing, write_imported
 
 _HEADINGS = ("Samples", "Delta_X", "X0", "Y_Unit_Label")
@@ -34,8 +35,33 @@ class LvmImportError(UserError):
     """A LabVIEW measurement file that cannot become a recording (one line)."""
 
 
-def read_lvm(source: str | Path) -> dict:
-    """The file as ``lvm_read`` reads it (gzip recognised by its first bytes)."""
+def _decimal_separator_held(text: str) -> tuple[str, str | None]:
+    """The text with its ``Decimal_Separator`` held against the numbers of its first data row.
+
+    A tab-separated file whose header says ``.`` while its numbers carry a decimal comma (and no
+    point) is read with ``,``; the returned note says so. Anything else is returned as is.
+    """
+    head, sep, rest = text.partition("***End_of_Header***")
+    declared = dict(line.split("\t", 1)[:2] for line in head.splitlines() if "\t" in line)
+    if declared.get("Separator", "").strip() != "Tab" or declared.get("Decimal_Separator", "").strip() != ".":
+        return text, None
+    rows = rest.split("***End_of_Header***")[-1].splitlines()
+    data = [r for r in rows[2:] if r.strip()][:1]  # after the blank line and the column heading
+    fields = [f.strip() for f in (data[0].split("\t") if data else []) if f.strip()]
+    if not fields or not all("," in f and "." not in f for f in fields):
+        return text, None
+    fixed = head.replace("Decimal_Separator\t.", "Decimal_Separator\t,", 1) + sep + rest
+    return fixed, "the header says Decimal_Separator '.', the numbers use ',' (e.g. " + fields[
+        0
+    ] + "): read with ','"
+
+
+def read_lvm(source: str | Path, notes: list[str] | None = None) -> dict:
+    """The file as ``lvm_read`` reads it (gzip recognised by its first bytes).
+
+    A wrong ``Decimal_Separator`` is corrected from the data (:func:`_decimal_separator_held`)
+    and said in ``notes`` when a list is given.
+    """
     import lvm_read
 
     source = Path(source)
@@ -53,6 +79,9 @@ def read_lvm(source: str | Path) -> dict:
         text = raw.decode("cp1252", errors="replace")  # LabVIEW on Windows writes its code page
     if not text.startswith("LabVIEW Measurement"):
         raise LvmImportError(f"{source}: not a LabVIEW measurement file (no 'LabVIEW Measurement' heading)")
+    text, note = _decimal_separator_held(text)
+    if note is not None and notes is not None:
+        notes.append(f"{source.name}: {note}")
     try:
         return lvm_read.read_str(text)
     except (ValueError, SyntaxError, KeyError, IndexError) as exc:
@@ -67,6 +96,14 @@ def _numbers(values: Any, count: int) -> list[float]:
         except (TypeError, ValueError):
             out.append(math.nan)
     return out + [math.nan] * (count - len(out))
+
+
+def _rows(data: Any) -> np.ndarray:
+    """The segment's data as rows x columns (one column read as a 1-D array; none as 0 x 0)."""
+    arr = np.asarray(data, dtype=float)
+    if arr.ndim == 1:
+        arr = arr.reshape(arr.size, 1) if arr.size else arr.reshape(0, 0)
+    return arr
 
 
 def segments(lvm: dict) -> list[dict]:
@@ -92,7 +129,7 @@ def segments(lvm: dict) -> list[dict]:
                 "delta_x": _numbers(heads["Delta_X"], count),
                 "x0": _numbers(heads["X0"], count),
                 "units": units + [""] * (count - len(units)),
-                "data": np.asarray(seg["data"], dtype=float),
+                "data": _rows(seg["data"]),
             }
         )
     return out
@@ -122,10 +159,16 @@ def import_lvm(
     """
     source = Path(source)
     mapping, units, chosen = dict(mapping or {}), dict(units or {}), list(channels or [])
-    lvm = read_lvm(source)
+    notes: list[str] = []
+    lvm = read_lvm(source, notes)
     segs = segments(lvm)
     if not segs:
         raise LvmImportError(f"{source}: no data segment")
+    for number, seg in enumerate(segs, start=1):
+        if seg["data"].size == 0:
+            raise LvmImportError(
+                f"{source}: segment {number} has no data rows after its column heading (a cut file?)"
+            )
     names = {n for s in segs for n in s["names"]}
     for option, given in (("--channel", chosen), ("--map", mapping), ("--units", units)):
         check_known(option, given, names)
@@ -142,23 +185,16 @@ def import_lvm(
             fc = resolve(f"segment {number}/{name}", name, seg["units"][k], mapping=mapping, units=units)
             fc.extra["file_name"] = name
             every.append(fc)
-            column = seg["data"][:, seg["columns"][k]]
-            n = (
-                int(seg["samples"][k])
-                if math.isfinite(seg["samples"][k])
-                else int(np.sum(np.isfinite(column)))
-            )
-            n = min(n, column.size)
+            n, reason = _samples_held(seg, k, number, name, notes)
             dx = seg["delta_x"][k]
-            fc.samples = n
-            if fc.kept and not (math.isfinite(dx) and dx > 0):
-                fc.si, fc.name, fc.reason = None, "", f"Delta_X {dx!r} is not a positive sample interval"
-            elif fc.kept and (n == 0 or not np.all(np.isfinite(column[:n]))):
-                fc.si, fc.name, fc.reason = (
-                    None,
-                    "",
-                    "non-numeric or missing values in its first Samples rows",
-                )
+            fc.samples = max(n, 0)
+            if fc.kept and reason is None and not (math.isfinite(dx) and dx > 0):
+                reason = f"Delta_X {dx!r} is not a positive sample interval"
+            if fc.kept and reason is None:
+                column = seg["data"][: fc.samples, seg["columns"][k]]
+                reason = non_finite_reason(rows_reader(column[None, :]), column.size)
+            if fc.kept and reason is not None:
+                fc.si, fc.name, fc.reason = None, "", reason
             if not fc.kept:
                 continue
             fc.sample_rate = 1.0 / dx
@@ -199,4 +235,34 @@ def import_lvm(
         every=every,
         reference=reference,
         overwrite=overwrite,
+        notes=notes,
     )
+
+
+def _samples_held(seg: dict, k: int, number: int, name: str, notes: list[str]) -> tuple[int, str | None]:
+    """Channel ``k``'s sample count held against its column: ``(count, reason it is skipped)``.
+
+    A header ``Samples`` over more rows than the column holds imports the rows there are and says
+    so in ``notes``; a count that is not a positive whole number, or a column the data rows lack,
+    skips the channel with the reason.
+    """
+    data = seg["data"]
+    column_index = seg["columns"][k]
+    if column_index >= data.shape[1]:
+        return 0, (
+            f"its column ({column_index + 1}) is missing from the data rows ({data.shape[1]} column(s): "
+            "does the header's X_Columns match the data?)"
+        )
+    column = data[:, column_index]
+    declared = seg["samples"][k]
+    if not math.isfinite(declared):
+        return int(np.sum(np.isfinite(column))), None
+    if declared < 1 or declared != int(declared):
+        return 0, f"Samples {declared:g} is not a positive whole count"
+    if declared > column.size:
+        notes.append(
+            f"segment {number}/{name}: the header declares {declared:g} samples, the data hold "
+            f"{column.size}: imported {column.size} (a cut file?)"
+        )
+        return column.size, None
+    return int(declared), None

@@ -26,6 +26,7 @@ import numpy as np
 
 from rigtools.errors import UserError, one_line
 from rigtools.interop.channels import LBF, ForeignChannel, G, check_known, check_names, resolve
+from rigtools.interop.checks import non_finite_reason, number, parser_notes
 from rigtools.interop.imported import ForeignPoint, split_by_timing, write_imported
 
 __all__ = ["LBF", "G", "TdmsImportError", "import_tdms"]
@@ -44,9 +45,10 @@ def _rate(channel: Any, sample_rate: float | None) -> tuple[float | None, str]:
         if sample_rate is None:
             return None, "no wf_increment (no waveform timing); give the sample rate (--sample-rate)"
         return float(sample_rate), ""
-    inc = float(inc)
-    if not (math.isfinite(inc) and inc > 0):
+    seconds = number(inc)
+    if not (math.isfinite(seconds) and seconds > 0):
         return None, f"wf_increment {inc!r} is not a positive number of seconds"
+    inc = seconds
     return 1.0 / inc, ""
 
 
@@ -132,6 +134,27 @@ def import_tdms(
         One line: not a TDMS file, no channel left to import, an option naming no channel.
     """
     source = Path(source)
+    notes: list[str] = []
+    with parser_notes(notes, "npTDMS", ("nptdms",)):
+        return _import(
+            source, out, rig, overwrite, mapping, units, groups, channels, reference, sample_rate, notes
+        )
+
+
+def _import(
+    source: Path,
+    out: str | Path,
+    rig: Any,
+    overwrite: bool,
+    mapping: dict[str, str] | None,
+    units: dict[str, str] | None,
+    groups: list[str] | None,
+    channels: list[str] | None,
+    reference: str | None,
+    sample_rate: float | None,
+    notes: list[str],
+) -> dict:
+    """:func:`import_tdms`'s work, its parser's warnings collected into ``notes``."""
     mapping, units = dict(mapping or {}), dict(units or {})
     with _open(source) as tdms:
         chosen = _selected(tdms, list(groups or []), list(channels or []))
@@ -145,7 +168,6 @@ def import_tdms(
             check_known("--reference", [reference], names | paths | {mapping.get(n, n) for n in names})
         points: list[ForeignPoint] = []
         every: list[ForeignChannel] = []
-        notes: list[str] = []
         for group, chans in chosen:
             kept: list[tuple[ForeignChannel, int, float]] = []
             objects = []
@@ -168,6 +190,8 @@ def import_tdms(
                     fc.si, fc.name, fc.reason = None, "", f"its data are {np.dtype(ch.dtype)}, not numbers"
                 elif fc.kept and len(ch) == 0:
                     fc.si, fc.name, fc.reason = None, "", "no samples"
+                elif fc.kept and (bad := non_finite_reason(_reader([ch]), len(ch))) is not None:
+                    fc.si, fc.name, fc.reason = None, "", bad
                 every.append(fc)
                 if not fc.kept:
                     continue
@@ -191,7 +215,7 @@ def import_tdms(
                         samples=kept[part[0]][1],
                         sample_rate=kept[part[0]][2],
                         read=_reader(objs),
-                        t0=[float(o.properties.get("wf_start_offset", 0.0)) for o in objs],
+                        t0=[_offset(o) for o in objs],
                         physical=[str(o.properties.get("NI_ChannelName", o.name)) for o in objs],
                     )
                 )
@@ -212,6 +236,12 @@ def import_tdms(
             overwrite=overwrite,
             notes=notes,
         )
+
+
+def _offset(channel: Any) -> float:
+    """The channel's ``wf_start_offset`` in seconds (0 where absent or not a number)."""
+    offset = number(channel.properties.get("wf_start_offset", 0.0))
+    return offset if math.isfinite(offset) else 0.0
 
 
 def _reader(objects: list[Any]):

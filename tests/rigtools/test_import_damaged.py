@@ -1,0 +1,138 @@
+"""Imports that trust nothing they can check (issue 30, item 2): declared counts, increments and
+separators held against the data; one policy for NaN/inf; the parsers' warnings kept off the screen.
+Each damaged file is built here from a known array, so the expected result is exact."""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+import pytest
+from cli_helpers import run_cli
+from nptdms import ChannelObject, GroupObject, RootObject, TdmsWriter
+from test_imports import _lvm_text
+
+from rigtools.interop.checks import number, parser_notes
+from rigtools.recording import open_recording
+
+G = 9.80665
+
+
+def _lvm(tmp_path, data, *, edit=lambda text: text):
+    src = tmp_path / "t.lvm"
+    src.write_text(edit(_lvm_text([(["Force", "Acceleration"], ["N", "g"], 1e-4, data)])))
+    return src
+
+
+def _import(kind, src, out):
+    return run_cli(["import", kind, str(src), str(out)])
+
+
+@pytest.fixture
+def data():
+    return np.random.default_rng(3).standard_normal((200, 2))
+
+
+def test_lvm_declaring_more_samples_than_rows_imports_the_rows_and_says_so(tmp_path, data):
+    src = _lvm(tmp_path, data, edit=lambda t: t.replace("Samples\t200\t200", "Samples\t5000\t5000"))
+    code, stdout, err = _import("lvm", src, tmp_path / "t.h5")
+    assert code == 0, err
+    assert "the header declares 5000 samples, the data hold 200: imported 200" in stdout
+    with open_recording(tmp_path / "t.h5") as rec:
+        np.testing.assert_array_equal(rec.points[0].channels["Force"][:], data[:, 0])
+
+
+@pytest.mark.parametrize("declared", ["-5", "0", "2,5"])
+def test_lvm_sample_count_that_is_no_count_is_refused_by_name(tmp_path, data, declared):
+    src = _lvm(
+        tmp_path, data, edit=lambda t: t.replace("Samples\t200\t200", f"Samples\t{declared}\t{declared}")
+    )
+    code, _, err = _import("lvm", src, tmp_path / "t.h5")
+    assert code == 2
+    assert err.count("\n") == 1 and "is not a positive whole count" in err
+    assert not (tmp_path / "t.h5").exists()
+
+
+def test_lvm_cut_after_its_column_heading_is_one_line(tmp_path, data):
+    def cut(text):
+        head, _, _ = text.partition("X_Value")
+        return head + "X_Value\tForce\tAcceleration\tComment\n"
+
+    code, _, err = _import("lvm", _lvm(tmp_path, data, edit=cut), tmp_path / "t.h5")
+    assert code == 2 and "Traceback" not in err
+    assert "segment 1 has no data rows after its column heading" in err
+
+
+def test_lvm_wrong_decimal_separator_is_read_from_the_data(tmp_path, data):
+    src = _lvm(tmp_path, data, edit=lambda t: t.replace("Decimal_Separator\t,", "Decimal_Separator\t."))
+    code, stdout, err = _import("lvm", src, tmp_path / "t.h5")
+    assert code == 0, err
+    assert "the header says Decimal_Separator '.', the numbers use ','" in stdout
+    with open_recording(tmp_path / "t.h5") as rec:
+        point = rec.points[0]
+        assert point.sample_rate == pytest.approx(1e4, rel=1e-12)  # Delta_X 1e-4 read with the comma
+        np.testing.assert_allclose(point.channels["Acceleration"][:], data[:, 1] * G, rtol=1e-15)
+
+
+def _tdms(path, values, **props):
+    group = GroupObject("g")
+    channels = [
+        ChannelObject(
+            "g", name, v, properties={"unit_string": unit, "wf_increment": props.get("inc", 1 / 51200)}
+        )
+        for (name, unit), v in zip((("force", "N"), ("accel", "m/s^2")), values, strict=True)
+    ]
+    with TdmsWriter(path) as writer:
+        writer.write_segment([RootObject(), group, *channels])
+
+
+def test_tdms_increment_written_as_text_with_a_decimal_comma(tmp_path, data):
+    src = tmp_path / "t.tdms"
+    _tdms(src, data.T, inc="0,0000195312")
+    code, _, err = _import("tdms", src, tmp_path / "t.h5")
+    assert code == 0, err
+    with open_recording(tmp_path / "t.h5") as rec:
+        assert rec.points[0].sample_rate == pytest.approx(1 / 0.0000195312, rel=1e-12)
+
+
+def test_tdms_nan_skips_the_channel_with_its_count_as_lvm_does(tmp_path, data):
+    values = data.T.copy()
+    values[1, [17, 40, 41]] = [np.nan, np.inf, -np.inf]
+    src = tmp_path / "t.tdms"
+    _tdms(src, values)
+    code, stdout, err = _import("tdms", src, tmp_path / "t.h5")
+    assert code == 0, err
+    skipped = [line for line in stdout.splitlines() if line.startswith("skipped")]
+    assert (
+        len(skipped) == 1
+        and "3 non-finite value(s) (NaN or inf) among its 200 samples, the first at sample 17" in skipped[0]
+    )
+    with open_recording(tmp_path / "t.h5") as rec:
+        assert list(rec.points[0].channels) == ["force"]
+    # the same policy in LVM: the same damage, the same line
+    lvm_data = data.copy()
+    lvm_data[[17, 40, 41], 1] = [np.nan, np.inf, -np.inf]
+    src = _lvm(tmp_path, lvm_data, edit=lambda t: t.replace("nan", "NaN"))
+    code, stdout, err = _import("lvm", src, tmp_path / "l.h5")
+    assert code == 0, err
+    assert "3 non-finite value(s) (NaN or inf) among its 200 samples, the first at sample 17" in stdout
+
+
+def test_parser_warnings_become_notes_not_screen_output(capsys):
+    log = logging.getLogger("nptdms.fake_module")
+    log.addHandler(logging.StreamHandler())  # npTDMS gives each module's logger a console handler
+    notes: list[str] = []
+    with parser_notes(notes, "npTDMS", ("nptdms",)):
+        log.warning("Segment at position 1234 is\ntruncated")
+        log.warning("Segment at position 1234 is\ntruncated")
+    assert notes == ["npTDMS: Segment at position 1234 is truncated"]  # once, on one line
+    assert capsys.readouterr().err == ""
+    assert len(log.handlers) == 1  # its own handler given back
+
+
+@pytest.mark.parametrize(
+    ("text", "value"),
+    [("0,0000195312", 1.95312e-5), ("1.5e-3", 1.5e-3), (2e-5, 2e-5), ("1,5,2", np.nan), (None, np.nan)],
+)
+def test_number_reads_decimal_commas_and_nothing_else(text, value):
+    np.testing.assert_equal(number(text), value)
