@@ -221,6 +221,16 @@ def resolve(
         if si is None:
             ch.reason = f"units {ch.declared!r} not known ({known_units()}); give --units {file_name}=UNIT"
             ch.name = ""
+        elif (
+            (role := named_quantity(name)) is not None
+            and role != si.quantity
+            and not any(k in mapping for k in keys)
+        ):
+            ch.reason = (
+                f"its name says {role}, its units {ch.declared!r} say {si.quantity}: give --units "
+                f"{file_name}=UNIT if the units are wrong, or --map {file_name}=NAME if the name is"
+            )
+            ch.name, si = "", None
         ch.si = si
         return ch
     if name in CHANNELS and si_units(CHANNELS[name].units) is not None:
@@ -230,6 +240,27 @@ def resolve(
     ch.reason = f"no units in the file; give --units {file_name}=UNIT"
     ch.name = ""
     return ch
+
+
+_ROLE_WORDS = {
+    "force": ("force", "kraft", "hammer", "load"),
+    "acceleration": ("acc", "accel", "acceleration", "accelerometer"),
+    "velocity": ("vel", "velocity"),
+    "displacement": ("disp", "displacement"),
+}
+
+
+def named_quantity(name: str) -> str | None:
+    """The quantity a channel's name claims, or ``None``: the toolkit's own channel names by their
+    definition, other names by a word of theirs (``force``, ``accel``, ...; words split at ``_``,
+    spaces and case changes). A name claiming two quantities claims none."""
+    from rigtools.vocabulary import CHANNELS
+
+    if name in CHANNELS:
+        return CHANNELS[name].quantity
+    words = {w.lower() for w in re.findall(r"[A-Z]?[a-z]+|[A-Z]+(?![a-z])", name)}
+    claims = {q for q, terms in _ROLE_WORDS.items() if words & set(terms)}
+    return claims.pop() if len(claims) == 1 else None
 
 
 def known_units() -> str:

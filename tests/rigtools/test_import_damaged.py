@@ -136,3 +136,49 @@ def test_parser_warnings_become_notes_not_screen_output(capsys):
 )
 def test_number_reads_decimal_commas_and_nothing_else(text, value):
     np.testing.assert_equal(number(text), value)
+
+
+@pytest.mark.parametrize(
+    ("names", "units", "skipped"),
+    [
+        (
+            ("force", "accel"),
+            ("m/s^2", "m/s^2"),
+            "force: its name says force, its units 'm/s^2' say acceleration",
+        ),
+        (
+            ("Force", "shroud_accel"),
+            ("N", "N"),
+            "shroud_accel: its name says acceleration, its units 'N' say force",
+        ),
+    ],
+)
+def test_a_unit_that_contradicts_the_name_skips_the_channel_saying_both(
+    tmp_path, data, names, units, skipped
+):
+    group = GroupObject("g")
+    channels = [
+        ChannelObject("g", n, v, properties={"unit_string": u, "wf_increment": 1e-4})
+        for n, u, v in zip(names, units, data.T, strict=True)
+    ]
+    with TdmsWriter(tmp_path / "t.tdms") as writer:
+        writer.write_segment([RootObject(), group, *channels])
+    code, stdout, err = _import("tdms", tmp_path / "t.tdms", tmp_path / "t.h5")
+    assert code == 0, err
+    lines = [line for line in stdout.splitlines() if line.startswith("skipped")]
+    assert len(lines) == 1 and skipped in lines[0] and "--units" in lines[0] and "--map" in lines[0]
+    # the user's word settles it: --map names the channel anew, kept with the file's units
+    code, stdout, err = run_cli(
+        ["import", "tdms", str(tmp_path / "t.tdms"), str(tmp_path / "m.h5"), "--map", f"{names[0]}=probe"]
+        if units[0] == "m/s^2"
+        else [
+            "import",
+            "tdms",
+            str(tmp_path / "t.tdms"),
+            str(tmp_path / "m.h5"),
+            "--map",
+            f"{names[1]}=load_cell",
+        ]
+    )
+    assert code == 0, err
+    assert not [line for line in stdout.splitlines() if line.startswith("skipped")]
