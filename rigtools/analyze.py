@@ -951,6 +951,12 @@ def analyze_recording(
     from rigtools.vocabulary import source_of
 
     checked_kind = frf_kind(kind)
+    if fe is not None:
+        from rigtools.options import quantity
+
+        fe = quantity(fe, "frequency", "fe")
+        if not fe > 0:
+            raise UserError(f"fe = {fe!r}: the excitation frequency must be > 0 Hz")
     if method not in METHODS:
         raise UserError(f"--method {method!r}: use one of {', '.join(METHODS)}")
     if Path(path).is_file() and is_frf_set(path):

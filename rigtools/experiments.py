@@ -248,9 +248,11 @@ def _run(
 ) -> RunResult:
     from rigtools import procedures
     from rigtools.errors import UserError
+    from rigtools.options import seed as seed_option
 
     if backend not in ("sim", "nidaq"):
         raise UserError(f"backend = {backend!r}: use 'sim' (the simulated rig) or 'nidaq' (the NI rig)")
+    seed = seed_option(seed, "seed")
     cls = getattr(procedures, cls_name)
     params = {k: v for k, v in params.items() if v is not None}
     proc = cls(

@@ -144,14 +144,22 @@ def load_model(rig: str | None, model: str, quiet: bool) -> tuple[Any, Any]:
         return cfg, reduced_system(params, model)
 
 
-def announce_work(system: Any, points: list[tuple[float, float]], settings: Any, quiet: bool) -> None:
+def announce_work(
+    system: Any,
+    points: list[tuple[float, float]],
+    settings: Any,
+    quiet: bool,
+    *,
+    names: tuple[str, str] = ("--fe", "--duration"),
+) -> None:
     """Refuse a run that needs more memory than available or an excitation far above the model
     (:func:`rigtools.simulation.check_model_range`); say so, in one line on stderr with the
     estimate, when the runs may take longer than :data:`rigtools.simulation.LONG_WORK_SECONDS`.
 
     ``points``: (fe, force) of each run. The estimate (:func:`rigtools.simulation.run_time_estimate`)
     covers the steps per period (contact, fe), the periods to settle (growing with fe), the
-    recorded periods and the model's size (its modes)."""
+    recorded periods and the model's size (its modes). ``names``: how the messages name the
+    frequency and the recorded duration (the CLI's options, or the front door's arguments)."""
     from rigtools.simulation import (
         LONG_WORK_SECONDS,
         check_model_range,
@@ -161,15 +169,21 @@ def announce_work(system: Any, points: list[tuple[float, float]], settings: Any,
         steps_per_period,
     )
 
+    fe_name, duration_name = names
     for fe, _ in points:
-        check_model_range(system, fe)
+        check_model_range(system, fe, fe_name)
     worst = max(points, key=lambda p: run_memory_estimate(system, p[0], p[1], settings))
     need = run_memory_estimate(system, *worst, settings)
     n = steps_per_period(system, *worst, settings)
     check_memory(
         need,
         f"a run of {n} steps per period x {settings.record_periods(worst[0])} recorded periods",
-        "shorten --duration (or give fewer --steps-per-period, or a softer contact)",
+        f"shorten {duration_name}"
+        + (
+            " (or give fewer --steps-per-period, or a softer contact)"
+            if duration_name.startswith("--")
+            else ""
+        ),
     )
     estimates = [run_time_estimate(system, fe, f, settings) for fe, f in points]
     expected = sum(e.seconds for e in estimates)

@@ -419,14 +419,15 @@ def run_time_estimate(system, fe: float, force: float, settings: RunSettings):
     )
 
 
-def check_model_range(system, fe: float) -> None:
+def check_model_range(system, fe: float, name: str = "--fe") -> None:
     """Refuse an excitation more than :data:`MODEL_RANGE_FACTOR` times above the model's highest
     mode (kept modes and static-correction shapes): no answer there can be useful (the blades'
-    modes that respond there are not in the model, and the rig's DAQ cannot drive it)."""
+    modes that respond there are not in the model, and the rig's DAQ cannot drive it). ``name``:
+    how the message names the frequency (the CLI's option, or the front door's argument)."""
     top = float(np.max(system.omega)) / (2.0 * math.pi)
     if fe > MODEL_RANGE_FACTOR * top:
         raise UserError(
-            f"--fe = {fe / 1e3:.4g} kHz is more than {MODEL_RANGE_FACTOR:g} x the model's highest mode "
+            f"{name} = {fe / 1e3:.4g} kHz is more than {MODEL_RANGE_FACTOR:g} x the model's highest mode "
             f"({top / 1e3:.4g} kHz): its response there is not the blades'; "
             f"excite below {MODEL_RANGE_FACTOR * top / 1e3:.4g} kHz"
         )

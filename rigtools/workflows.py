@@ -60,7 +60,18 @@ class Spectrum:
     window: str = "flattop"
 
     def at(self, frequency_hz: float) -> float:
-        """Largest amplitude within two bins of ``frequency_hz`` (a flat-top peak spans bins)."""
+        """Largest amplitude within two bins of ``frequency_hz`` (a flat-top peak spans bins).
+
+        A frequency outside the spectrum (NaN, negative, above its last bin: the Nyquist
+        frequency) is a :class:`rigtools.errors.UserError` naming it.
+        """
+        from rigtools.errors import UserError
+
+        top = float(self.frequency_hz[-1]) if len(self.frequency_hz) else 0.0
+        if not (isinstance(frequency_hz, int | float) and 0.0 <= frequency_hz <= top):
+            raise UserError(
+                f"frequency_hz = {frequency_hz!r}: not in this spectrum (0 to {top:g} Hz, its last bin)"
+            )
         i = int(np.argmin(np.abs(self.frequency_hz - frequency_hz)))
         return float(np.max(self.amplitude[max(0, i - 2) : i + 3]))
 
@@ -102,6 +113,8 @@ def spectrum(point: Point, channel: str, *, window: str = "flattop", amplitude: 
     from rigtools.analysis.spectra import amplitude_spectrum
     from rigtools.errors import UserError
 
+    if not hasattr(point, "channels") or not hasattr(point, "settled"):
+        raise UserError(f"point = {point!r}: give a recorded point (rigtools.open_recording(path).points[i])")
     if channel not in point.channels:
         raise UserError(
             f"channel = {channel!r}: not in point {point.index} (channels: {', '.join(point.channels)})"
@@ -266,11 +279,12 @@ def simulate_point(
     5.0
     """
     from rigtools import simulation as simu
-    from rigtools.model_options import excitation
+    from rigtools.model_options import announce_work, excitation
 
     f, F = excitation(fe, force, names=("fe", "force"))
     settings = _settings(duration, max_settle_time, [f])
     cfg, system = _system(rig, model, gap)
+    announce_work(system, [(f, F)], settings, quiet=True, names=("fe", "duration"))
     target = None
     if out is not None:
         from rigtools.options import HDF5_SUFFIXES, output_path
@@ -385,6 +399,11 @@ def simulate_study(
     target = output_path(str(out), overwrite, "out", suffixes=HDF5_SUFFIXES)
     settings = _settings(duration, max_settle_time, sorted({p.fe for p in plan.points()}))
     cfg, system = _system(rig, model, None)
+    from rigtools.model_options import announce_work
+
+    announce_work(
+        system, [(p.fe, p.force) for p in plan.points()], settings, quiet=True, names=("fe", "duration")
+    )
     experiment = {
         "procedure": f"{kind} study",
         "model": model,
@@ -466,9 +485,12 @@ def compare_with_model(
     >>> bool(0.8 < a1.fem / a1.em < 1.25)  # the active shroud's fundamental agrees within 25 %
     True
     """
+    from rigtools.errors import UserError
     from rigtools.options import duration
     from rigtools.recording_comparison import compare_recordings
 
+    if isinstance(k_max, bool) or not isinstance(k_max, int) or k_max < 1:
+        raise UserError(f"k_max = {k_max!r}: the harmonics compared are k = 1..k_max, a whole number >= 1")
     return compare_recordings(
         str(em),
         None if model_recording is None else str(model_recording),
@@ -485,7 +507,7 @@ def compare_with_model(
 
 
 def update_model(
-    recordings: Sequence[str | Path],
+    recordings: str | Path | Sequence[str | Path],
     out: str | Path,
     *,
     rig: str | Path | None = None,
@@ -536,14 +558,18 @@ def update_model(
     >>> done.out.name, rigtools.load_rig(done.out).name != ""
     ('updated.toml', True)
     """
+    from rigtools.errors import UserError
     from rigtools.model_update import DEFAULT_PARAMETERS, update_rig_file
     from rigtools.options import quantity
 
+    files = [recordings] if isinstance(recordings, str | Path) else list(recordings)
+    if not files:
+        raise UserError("recordings = []: give at least one test recording (an FRF test or a dwell)")
     span = None
     if band is not None:
         span = (quantity(band[0], "frequency", "band"), quantity(band[1], "frequency", "band"))
     return update_rig_file(
-        list(recordings),
+        files,
         out,
         rig=rig,
         parameters=DEFAULT_PARAMETERS if parameters is None else parameters,

@@ -1,0 +1,63 @@
+"""The front door validates as the CLI does (issue 30, item 4): the same checks, one line naming
+the argument by its Python name, before any work."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import rigtools
+from rigtools.errors import UserError
+from rigtools.workflows import Spectrum
+
+
+@pytest.fixture
+def spec():
+    return Spectrum("force", "N", np.linspace(0.0, 1000.0, 101), np.ones(101))
+
+
+@pytest.mark.parametrize("f", [float("nan"), -1.0, 1000.1, 1e6, "60 Hz", None])
+def test_spectrum_at_outside_its_bins_names_the_frequency(spec, f):
+    with pytest.raises(UserError, match=r"^frequency_hz = .*not in this spectrum \(0 to 1000 Hz"):
+        spec.at(f)
+
+
+def test_spectrum_at_its_edges_answers(spec):
+    assert spec.at(0.0) == spec.at(1000.0) == 1.0
+
+
+def test_spectrum_of_no_point_names_the_argument():
+    with pytest.raises(UserError, match=r"^point = None: give a recorded point"):
+        rigtools.spectrum(None, "force")
+
+
+@pytest.mark.parametrize("fe", [-60, 0, float("nan"), "-60 Hz"])
+def test_analyze_recording_refuses_a_frequency_that_is_none(tmp_path, fe):
+    with pytest.raises(UserError, match=r"^fe = "):
+        rigtools.analyze_recording(tmp_path / "never-opened.h5", fe=fe)
+
+
+def test_simulate_point_refuses_a_run_larger_than_the_memory_up_front():
+    # 1e9 s at 60 Hz and hundreds of steps per period is ~1e13 samples: the CLI's memory check
+    # (one line with the estimate) instead of numpy's MemoryError after the model is built
+    with pytest.raises(UserError, match=r"needs about .*shorten duration") as info:
+        rigtools.simulate_point(60, 15, duration="1e9 s")
+    assert "--" not in str(info.value)  # Python names, not the CLI's options
+
+
+@pytest.mark.parametrize("seed", [-1, 1.5, "x", 2**63])
+def test_a_seed_that_is_no_seed_names_seed(tmp_path, seed):
+    with pytest.raises(UserError, match=r"^seed = .*a seed is a whole number"):
+        rigtools.dwell("60 Hz", "5 N", tmp_path / "d.h5", seed=seed)
+    assert not (tmp_path / "d.h5").exists()
+
+
+@pytest.mark.parametrize("k_max", [0, -3, 2.5, True])
+def test_compare_with_model_k_max_names_k_max(tmp_path, k_max):
+    with pytest.raises(UserError, match=r"^k_max = "):
+        rigtools.compare_with_model(tmp_path / "em.h5", k_max=k_max)
+
+
+def test_update_model_without_recordings_says_so(tmp_path):
+    with pytest.raises(UserError, match=r"^recordings = \[\]: give at least one"):
+        rigtools.update_model([], tmp_path / "u.toml")
