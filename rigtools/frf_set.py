@@ -129,15 +129,18 @@ def is_frf_set(path: str | Path) -> bool:
 
 
 def read_frf_set(path: str | Path) -> FRFSet:
-    """Read an FRF set (one line :class:`UserError` if it is not one)."""
+    """Read an FRF set: one line :class:`UserError` if it is not one, or if :func:`check_frf_set`
+    finds an error in it (the reader relies on exactly what ``rig check`` verifies, so a file
+    ``check`` rejects is refused here with its first problem, and one it passes reads whole)."""
     import h5py
 
+    check = check_frf_set(path)
+    errors = [p for p in check.problems if p.severity == "error"]
+    if errors:
+        more = f" and {len(errors) - 1} more" if len(errors) > 1 else ""
+        raise UserError(f"{path}: a damaged FRF set: {errors[0].line()}{more} (rig check {path} lists them)")
     try:
         with h5py.File(path, "r") as f:
-            if f.attrs.get("schema") != SCHEMA:
-                raise UserError(f"{path}: not an FRF set (schema {f.attrs.get('schema')!r})")
-            if int(f.attrs["schema_version"]) > SCHEMA_VERSION:
-                raise UserError(f"{path}: FRF set version {f.attrs['schema_version']}: upgrade rigtools")
             return FRFSet(
                 frequency_hz=np.asarray(f["frequency"][:], dtype=float),
                 frf=np.asarray(f["frf_real"][:]) + 1j * np.asarray(f["frf_imag"][:]),
@@ -302,6 +305,9 @@ def check_frf_set(path: str | Path, read_data: bool = True) -> FRFSetCheck:
         n = len(responses) if responses else None
         if points is not None and n is not None and len(points) != n:
             error("/", f"points holds {len(points)} entries for {n} responses")
+        for i, entry in enumerate(points or []):
+            if problem := _place_problem(entry):
+                error("/", f"points entry {i}: {problem}")
         shapes = {}
         for name in ("frequency", "frf_real", "frf_imag", "coherence"):
             if name not in f or not isinstance(f[name], h5py.Dataset):
@@ -321,6 +327,25 @@ def check_frf_set(path: str | Path, read_data: bool = True) -> FRFSetCheck:
         if read_data and out.valid:
             _data_problems(f, error)
     return out
+
+
+def _place_problem(entry: object) -> str | None:
+    """What is wrong with a ``points`` entry (``{"response": PLACE, "reference": PLACE}``, each
+    place ``{"entity", "node", "direction"}`` or null), or ``None``."""
+    if not isinstance(entry, dict):
+        return f"must be a JSON object, got {entry!r}"
+    for side in ("response", "reference"):
+        place = entry.get(side)
+        if place is None:
+            continue
+        if not isinstance(place, dict):
+            return f"{side} must be a JSON object, got {place!r}"
+        node, code = place.get("node"), place.get("direction")
+        if node is not None and (isinstance(node, bool) or not isinstance(node, int)):
+            return f"{side} node must be a whole number, got {node!r}"
+        if code is not None and (isinstance(code, bool) or not isinstance(code, int) or not -6 <= code <= 6):
+            return f"{side} direction must be a UFF direction code -6..6, got {code!r}"
+    return None
 
 
 def _json_attr(attrs: dict, name: str, kind: type, error, *, required: bool = True):

@@ -1,0 +1,101 @@
+"""One reader contract per file kind (issue 30, item 1): what ``rig check`` verifies is what every
+reader relies on. Each damage is run through every reader of its kind: ``rig check`` reports it
+(exit 1), and ``info``, ``info --json``, ``analyze``, ``export uff`` and the front door refuse the
+file with one line and a non-zero exit (2), never a traceback and never an answer from a file
+``check`` rejects."""
+
+from __future__ import annotations
+
+import json
+import shutil
+
+import h5py
+import numpy as np
+import pytest
+from cli_helpers import run_cli
+from test_frf_set_info_check import frf_set  # noqa: F401 -- the pytest fixture: a good FRF set
+
+import rigtools
+from rigtools.errors import UserError
+
+
+def _attr(name, value):
+    def damage(f):
+        f.attrs[name] = value
+
+    return damage
+
+
+def _resize(lines):
+    def damage(f):
+        for name in ("frf_real", "frf_imag", "coherence"):
+            data = f[name][:, :lines]
+            del f[name]
+            f[name] = data
+        freq = f["frequency"][:lines]
+        del f["frequency"]
+        f["frequency"] = freq
+
+    return damage
+
+
+def _one_d_frf(f):
+    row = f["frf_real"][0]
+    del f["frf_real"]
+    f["frf_real"] = row
+
+
+def _coherence_five(f):
+    f["coherence"][0, :] = np.linspace(0.0, 5.0, f["coherence"].shape[1])
+
+
+def _frequency_group(f):
+    del f["frequency"]
+    f.create_group("frequency")
+
+
+FRF_SET_DAMAGES = {
+    "schema_version text": _attr("schema_version", "two"),
+    "responses a string": _attr("responses", json.dumps("abc")),
+    "responses longer than the rows": _attr("responses", json.dumps(["a", "b", "c"])),
+    "responses not JSON": _attr("responses", "[a, b"),
+    "points of numbers": _attr("points", json.dumps([1, 2])),
+    "kind unknown": _attr("kind", "inertance?"),
+    "one line": _resize(1),
+    "no line": _resize(0),
+    "1-D FRF": _one_d_frf,
+    "coherence up to 5": _coherence_five,
+    "frequency a group": _frequency_group,
+}
+READERS = {
+    "info": lambda p, tmp: ["info", p],
+    "info --json": lambda p, tmp: ["info", p, "--json"],
+    "analyze": lambda p, tmp: ["analyze", p],
+    "export uff": lambda p, tmp: ["export", "uff", p, tmp / "out.uff"],
+}
+
+
+@pytest.mark.parametrize("damage", list(FRF_SET_DAMAGES))
+def test_every_frf_set_reader_refuses_what_check_rejects(frf_set, tmp_path, damage):  # noqa: F811
+    bad = tmp_path / "bad.h5"
+    shutil.copy(frf_set, bad)
+    with h5py.File(bad, "r+") as f:
+        FRF_SET_DAMAGES[damage](f)
+    code, out, err = run_cli(["check", bad])
+    assert code == 1 and "INVALID FRF set" in out, (out, err)
+    for reader, argv in READERS.items():
+        code, out, err = run_cli(argv(bad, tmp_path))
+        assert code == 2, (reader, code, out, err)
+        assert "Traceback" not in err and len(err.strip().splitlines()) == 1, (reader, err)
+        assert str(bad) in err and ("damaged FRF set" in err or "not an FRF set" in err), (reader, err)
+    assert not (tmp_path / "out.uff").exists()
+    with pytest.raises(UserError, match="damaged FRF set"):
+        rigtools.analyze_recording(bad)
+
+
+def test_every_frf_set_reader_reads_what_check_passes(frf_set, tmp_path):  # noqa: F811
+    code, out, _ = run_cli(["check", frf_set])
+    assert code == 0, out
+    for reader, argv in READERS.items():
+        code, out, err = run_cli(argv(frf_set, tmp_path))
+        assert code == 0, (reader, err)
