@@ -32,6 +32,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from rigtools.errors import UserError
+from rigtools.recording.schema import SINE_PROCEDURES
 from rigtools.vocabulary import excitation_frequency
 
 if TYPE_CHECKING:
@@ -1002,6 +1003,10 @@ def analyze_recording(
                     out.skipped.append(f"point {point.index}: no samples")
                 elif point.sample_rate is None:
                     out.skipped.append(f"point {point.index}: channels at different sample rates")
+                elif procedure in SINE_PROCEDURES and "fe" not in point.params:
+                    out.skipped.append(
+                        f"point {point.index}: a sine point without fe (its excitation frequency)"
+                    )
                 elif _no_frequency_no_frames(point, procedure):
                     out.skipped.append(
                         f"point {point.index}: fe = 0 (no single excitation frequency) and no frames: "

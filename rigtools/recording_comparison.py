@@ -431,6 +431,18 @@ def _window(point) -> tuple[int, int]:
     return a, b
 
 
+def too_short(point, k_max: int, who: str) -> str | None:
+    """The note that leaves ``point`` out when a compared channel's record window holds fewer
+    samples than a fit of ``k_max`` harmonics needs (``2 k_max + 1``), or ``None``."""
+    a, b = _window(point)
+    lengths = {c: min(b, len(point.channels[c])) - a for c in COMPARED if c in point.channels}
+    short = {c: n for c, n in lengths.items() if n < 2 * k_max + 1}
+    if not short:
+        return None
+    what = ", ".join(f"{c} {max(n, 0)}" for c, n in short.items())
+    return f"{who} point {point.index}: too few samples to fit {k_max} harmonics ({what}; need {2 * k_max + 1}), left out"
+
+
 def _is_frf_point(point) -> bool:
     return "frame_samples" in point.params and "signal" in point.params
 
@@ -822,8 +834,14 @@ def compare_recordings(
                 continue
             params = current_parameters(p.params)
             if not excitation_frequency(params):
-                if "fe" in params:
-                    notes.append(f"EM point {p.index}: fe = 0 (no single excitation frequency), left out")
+                notes.append(
+                    f"EM point {p.index}: "
+                    + ("fe = 0 (no single excitation frequency)" if "fe" in params else "no fe")
+                    + ", left out"
+                )
+                continue
+            if (short := too_short(p, k_max, "EM")) is not None:
+                notes.append(short)
                 continue
             ana, waves, fs = em_point_analysis(p, k_max)
             if FORCE not in ana.harmonics:
@@ -913,6 +931,9 @@ def compare_recordings(
                         notes.append(
                             f"model point {p.index}: fe = 0 (no single excitation frequency), left out"
                         )
+                    continue
+                if (short := too_short(p, k_max, "model")) is not None:
+                    notes.append(short)
                     continue
                 ana, waves, fs = model_point_analysis(p, k_max)
                 model_items.append((p.index, params, ana, waves, fs))

@@ -35,6 +35,9 @@ STATUSES = (STATUS_RECORDING, STATUS_COMPLETE, STATUS_ABORTED)
 # "model": a model recording holding runs of more than one model (the demo's FEM and AM points,
 # each naming its model in the point parameter "model"). Others are allowed: an import source.
 KNOWN_BACKENDS = ("nidaqmx", "simulated", *MODEL_BACKENDS)
+#: Procedures whose every point is a sine run at its parameter ``fe`` (as is every point of a
+#: model recording): ``rig check`` refuses such a point without ``fe > 0``.
+SINE_PROCEDURES = ("sine dwell", "stepped sine", "rig study")
 
 POINTS_GROUP = "points"
 

@@ -35,6 +35,7 @@ from rigtools.recording.schema import (
     ROOT_ATTRS,
     SCHEMA_NAME,
     SCHEMA_VERSION,
+    SINE_PROCEDURES,
     STATUS_ABORTED,
     STATUS_COMPLETE,
     STATUSES,
@@ -44,6 +45,7 @@ from rigtools.recording.schema import (
     point_index,
     python_value,
 )
+from rigtools.vocabulary import MODEL_BACKENDS
 
 ERROR = "error"
 NOTE = "note"
@@ -180,6 +182,7 @@ def find_problems(f: h5py.File, cache: AttrCache | None = None) -> list[Problem]
         if name not in ("schema", "schema_version")
     }
     status = root.get("status")
+    sine = False
     if status is not None and status not in STATUSES:
         out.append(Problem("/", f"status '{status}' is not one of {', '.join(STATUSES)}", fatal=True))
     if status == STATUS_ABORTED and not root.get("abort_reason"):
@@ -205,6 +208,8 @@ def find_problems(f: h5py.File, cache: AttrCache | None = None) -> list[Problem]
             experiment = None
         if not isinstance(experiment, dict):
             out.append(Problem("/", "attribute 'experiment' is not a JSON object", fatal=True))
+        else:
+            sine = experiment.get("procedure") in SINE_PROCEDURES or root.get("backend") in MODEL_BACKENDS
 
     if POINTS_GROUP not in f:
         out.append(Problem("/", f"missing group '/{POINTS_GROUP}'", fatal=True))
@@ -231,7 +236,7 @@ def find_problems(f: h5py.File, cache: AttrCache | None = None) -> list[Problem]
             why = f"point group cannot be read ({one_line(exc, None)})"
             out.append(Problem(f"/{POINTS_GROUP}/{name}", why, fatal=True))
             continue
-        out.extend(_point_problems(group, f"/{POINTS_GROUP}/{name}", status, cache))
+        out.extend(_point_problems(group, f"/{POINTS_GROUP}/{name}", status, cache, sine=sine))
     indices.sort()
     if indices != list(range(len(indices))):
         out.append(
@@ -306,10 +311,23 @@ def rig_problems(text: str) -> list[Problem]:
             return [Problem("/", "attribute 'rig' is neither JSON nor TOML")]
     if not isinstance(data, dict):
         return [Problem("/", f"attribute 'rig' is not a rig description (a {type(data).__name__})")]
+    if not data:  # a writer without a rig description (tests, other software): nothing claimed
+        return [
+            Problem(
+                "/", "attribute 'rig' is empty: readers that build the model need --rig FILE", severity=NOTE
+            )
+        ]
     try:
         parse_rig(data, source="rig attribute")
-    except UserError as exc:  # partial descriptions exist (other writers); readers needing one refuse
-        return [Problem("/", f"attribute 'rig' does not validate: {one_line(exc, 300)}", severity=NOTE)]
+    except UserError as exc:
+        # an error, not fatal: readers that need no model (info, analyze, export) read the data;
+        # those that build the model from it (compare --simulate, update) refuse, naming --rig
+        return [
+            Problem(
+                "/",
+                f"attribute 'rig' does not validate: {one_line(exc, 300)}; those readers that build the model need --rig FILE",
+            )
+        ]
     return []
 
 
@@ -342,11 +360,23 @@ def _parameter_problems(attrs: dict[str, Any], where: str, rate: float | None) -
     return out
 
 
-def _point_problems(group: Any, where: str, status: str | None, cache: AttrCache) -> list[Problem]:
+def _point_problems(
+    group: Any, where: str, status: str | None, cache: AttrCache, *, sine: bool = False
+) -> list[Problem]:
+    """A point's problems; ``sine``: the file's points are sine runs, so each needs ``fe > 0``
+    (every reader computes their harmonics at it)."""
     out: list[Problem] = []
     if not isinstance(group, h5py.Group):
         return [Problem(where, "is not a group", fatal=True)]
     attrs = cache.of(group)
+    fe = _scalar(attrs.get("fe", 0.0)) if not isinstance(attrs.get("fe"), Unreadable) else None
+    if sine and _is_number(fe) and float(fe) == 0.0:
+        why = "has no parameter 'fe'" if "fe" not in attrs else "has fe = 0"
+        out.append(
+            Problem(
+                where, f"a sine point that {why}: its excitation frequency is unknown (readers leave it out)"
+            )
+        )
     for name, (kind, _) in POINT_ATTRS.items():
         text = _check_attr(attrs, name, kind, where, out)
         if text:
@@ -421,6 +451,9 @@ def _point_problems(group: Any, where: str, status: str | None, cache: AttrCache
             _check_attr(dattrs, key, kind, cwhere, out, required=False)
         if "sensitivity" in dattrs and "sensitivity_units" not in dattrs:
             out.append(Problem(cwhere, "has 'sensitivity' but no 'sensitivity_units'"))
+    empty = [k for k, v in lengths.items() if v == 0]
+    if empty and status == STATUS_COMPLETE:
+        out.append(Problem(where, f"channel(s) {', '.join(empty)} hold no samples (readers leave it out)"))
     if len(set(lengths.values())) > 1:
         detail = ", ".join(f"{k}={v}" for k, v in lengths.items())
         if status == STATUS_COMPLETE:
