@@ -365,8 +365,13 @@ ORDERS = (20, 40, 80, 120, 160)
 #: Lines of the band per unit of ``pol_order_high`` (2 poles): more poles than the band's lines
 #: can place wander between orders (see the module docstring).
 LINES_PER_ORDER = 10
+#: Lowest ``pol_order_high`` tried: its converged half (orders P+2..2P) holds two orders.
+MIN_ORDER = 4
 #: Band lines at and above which the stability tolerances are sdypy-EMA's own (0.1 %, 5 %).
 TOLERANCE_LINES = 1000
+#: Largest widening of the tolerances (1 % in frequency, 50 % in damping: a pole that moves
+#: more between orders is not one pole).
+MAX_TOLERANCE_SCALE = 10.0
 
 
 @dataclass(frozen=True)
@@ -404,8 +409,9 @@ def band_schedule(
 ) -> BandSchedule:
     """The orders and stability tolerances for ``band`` from the lines it holds (module docstring).
 
-    ``orders`` (default :data:`ORDERS`) are capped at ``lines / LINES_PER_ORDER`` (at least 1);
-    ``freq_tol`` and ``damping_tol`` are multiplied by ``max(1, TOLERANCE_LINES / lines)``.
+    ``orders`` (default :data:`ORDERS`) are capped at ``lines / LINES_PER_ORDER`` (at least
+    :data:`MIN_ORDER`); ``freq_tol`` and ``damping_tol`` are multiplied by
+    ``TOLERANCE_LINES / lines``, between 1 and :data:`MAX_TOLERANCE_SCALE`.
 
     Examples
     --------
@@ -418,9 +424,9 @@ def band_schedule(
     """
     f = np.asarray(frequency_hz, dtype=float)
     lines = int(np.count_nonzero((f >= band[0]) & (f <= band[1])))
-    cap = max(1, lines // LINES_PER_ORDER)
+    cap = max(MIN_ORDER, lines // LINES_PER_ORDER)
     tried = tuple(sorted({min(int(p), cap) for p in (ORDERS if orders is None else orders)}))
-    scale = max(1.0, TOLERANCE_LINES / max(lines, 1))
+    scale = min(max(1.0, TOLERANCE_LINES / max(lines, 1)), MAX_TOLERANCE_SCALE)
     peaks = peaks_of(f, indicator, band[0], band[1], min_peak_db)[0].size
     return BandSchedule(lines, peaks, tried, freq_tol * scale, damping_tol * scale)
 
