@@ -409,7 +409,7 @@ def band_schedule(
 ) -> BandSchedule:
     """The orders and stability tolerances for ``band`` from the lines it holds (module docstring).
 
-    ``orders`` (default :data:`ORDERS`) are capped at ``lines / LINES_PER_ORDER`` (at least
+    ``orders`` (default :data:`ORDERS`) are capped at ``lines / LINES_PER_ORDER`` (rounded, at least
     :data:`MIN_ORDER`); ``freq_tol`` and ``damping_tol`` are multiplied by
     ``TOLERANCE_LINES / lines``, between 1 and :data:`MAX_TOLERANCE_SCALE`.
 
@@ -424,7 +424,7 @@ def band_schedule(
     """
     f = np.asarray(frequency_hz, dtype=float)
     lines = int(np.count_nonzero((f >= band[0]) & (f <= band[1])))
-    cap = max(MIN_ORDER, lines // LINES_PER_ORDER)
+    cap = max(MIN_ORDER, round(lines / LINES_PER_ORDER))
     tried = tuple(sorted({min(int(p), cap) for p in (ORDERS if orders is None else orders)}))
     scale = min(max(1.0, TOLERANCE_LINES / max(lines, 1)), MAX_TOLERANCE_SCALE)
     peaks = peaks_of(f, indicator, band[0], band[1], min_peak_db)[0].size
