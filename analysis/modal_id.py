@@ -383,6 +383,12 @@ class ModalIdentification:
         ``(f_min, f_max)`` identified in, Hz.
     dropped
         Candidates not reported: ``{"frequency_hz", "damping_ratio", "reason"}`` each.
+    no_mode
+        Empty when a mode was found; else one sentence: what was tried and what would help
+        (``--json`` carries it, so a script can test for an empty result).
+    tried
+        What the identification tried (LSCF: the band's lines and peaks, the orders and the
+        stability tolerances, :class:`rigtools.analysis.stabilisation.BandSchedule`), plain Python.
     """
 
     modes: list[IdentifiedMode]
@@ -392,6 +398,8 @@ class ModalIdentification:
     reconstruction: np.ndarray | None = None
     band: tuple[float, float] | None = None
     dropped: list[dict] = field(default_factory=list)
+    no_mode: str = ""
+    tried: dict = field(default_factory=dict)
 
 
 def excitation_band(
@@ -450,7 +458,7 @@ def identify(
     f_max: float | None = None,
     method: str = "lscf",
     n_modes: int | None = None,
-    orders: Sequence[int] = (20, 40, 80, 120, 160),
+    orders: Sequence[int] | None = None,
     freq_tol: float = 0.001,
     damping_tol: float = 0.05,
     min_mac: float = 0.9,
@@ -497,7 +505,9 @@ def identify(
         Keep at most this many (the most strongly stable for LSCF, the most prominent peaks
         otherwise).
     orders
-        Highest LSCF orders tried (sdypy-EMA ``pol_order_high``), increasing.
+        Highest LSCF orders tried (sdypy-EMA ``pol_order_high``); default
+        :data:`rigtools.analysis.stabilisation.ORDERS`. They and ``freq_tol``, ``damping_tol``
+        follow the band's lines (:func:`rigtools.analysis.stabilisation.band_schedule`).
 
     Returns
     -------
@@ -539,8 +549,10 @@ def identify(
             dynamic_range_db=dynamic_range_db,
         )
         if not support.ok:
-            return ModalIdentification([], method, [f"no modes identified: {support.reason}"], band=band)
+            reason = f"no modes identified: {support.reason}"
+            return ModalIdentification([], method, [reason], band=band, no_mode=reason)
     chart, rec = None, None
+    tried: dict = {"lines": lines}
     if method == "peak":
         if h2.shape[0] != 1:
             raise ValueError("method 'peak' identifies one FRF at a time")
@@ -567,6 +579,14 @@ def identify(
             min_peak_db=min_peak_db,
         )
         chart, dropped = sel.chart, sel.dropped
+        if sel.schedule is not None:
+            tried = {
+                "lines": sel.schedule.lines,
+                "peaks": sel.schedule.peaks,
+                "orders": list(sel.schedule.orders),
+                "freq_tol": sel.schedule.freq_tol,
+                "damping_tol": sel.schedule.damping_tol,
+            }
         modes = [
             IdentifiedMode(
                 m.frequency_hz,
@@ -590,11 +610,6 @@ def identify(
                 f"the set of modes still changed at LSCF order {2 * sel.order} (the highest tried): "
                 f"modes from orders {chart.judged[0]}-{chart.judged[1]}"
             )
-        if not modes:
-            notes.append(
-                f"no peak of |H| explained by a stable pole between {f_lo:g} and {f_hi:g} Hz "
-                f"(LSCF orders {chart.judged[0]}-{chart.judged[1]})"
-            )
     else:
         raise ValueError(f"method must be 'lscf' or 'peak', got {method!r}")
     if n_modes is not None and len(modes) > n_modes:
@@ -617,10 +632,49 @@ def identify(
         modes = kept
     if method == "lscf" and modes:
         modes, rec = _lsfd(modes, f, h2, kind, f_lo, f_hi)
+    no_mode = "" if modes else no_mode_reason(method, band, tried, dropped, chart)
+    if no_mode:
+        notes.append(no_mode)
     summary = _dropped_summary(dropped)
     if summary:
         notes.append(summary)
-    return ModalIdentification(modes, method, notes, chart, rec, band, dropped)
+    return ModalIdentification(modes, method, notes, chart, rec, band, dropped, no_mode, tried)
+
+
+def no_mode_reason(
+    method: str,
+    band: tuple[float, float],
+    tried: dict,
+    dropped: list[dict],
+    chart: StabilisationChart | None,
+) -> str:
+    """One sentence for an identification that found no mode: what was tried, why nothing
+    passed and what would help.
+
+    Examples
+    --------
+    >>> no_mode_reason("lscf", (50.0, 60.0), {"lines": 21, "peaks": 0}, [], None)
+    'no mode between 50 and 60 Hz: the band (21 lines) holds no peak of |H| of 3 dB; a band around a resonance peak would help'
+    """
+    where = f"no mode between {band[0]:g} and {band[1]:g} Hz"
+    lines = tried.get("lines")
+    if tried.get("peaks") == 0 or (method == "peak" and not dropped):
+        return f"{where}: the band ({lines} lines) holds no peak of |H| of 3 dB; a band around a resonance peak would help"
+    if dropped and all(d["reason"].startswith("incoherent") for d in dropped):
+        return (
+            f"{where}: every candidate's coherence is too low over its half-power band; more averages "
+            "(or a cleaner force) would help"
+        )
+    if method == "peak":
+        return f"{where}: no peak with damping in bounds and coherent data; --method lscf or a finer FRF would help"
+    orders = ", ".join(str(p) for p in tried.get("orders", []))
+    judged = f"judged over polynomial orders {chart.judged[0]}-{chart.judged[1]}" if chart is not None else ""
+    return (
+        f"{where}: {tried.get('peaks')} peak(s) of |H| over {lines} lines, none held by a stable LSCF pole "
+        f"(pol_order_high {orders}, {judged}, stable within {100 * tried.get('freq_tol', 0):.2g} % in "
+        f"frequency and {100 * tried.get('damping_tol', 0):.2g} % in damping); a band holding each peak "
+        "with a few half-power bandwidths to spare, a finer FRF (more lines) or --method peak would help"
+    )
 
 
 def _judge_peaks(

@@ -169,6 +169,9 @@ class FRFTestAnalysis:
                     "band_hz": list(m.band) if m.band else None,
                     "orders_judged": list(m.chart.judged) if m.chart is not None else None,
                     "notes": list(m.notes),
+                    "n_modes": len(m.modes),
+                    "no_mode": m.no_mode or None,
+                    "tried": dict(m.tried),
                     "modes": [
                         {
                             "frequency_hz": x.frequency_hz,

@@ -23,6 +23,14 @@ pole supports one mode only. Stable poles that explain no peak are listed as not
 the first P whose set of modes (by the peaks they explain) the next P repeats is taken: the
 result no longer depends on the model order. Where none repeats, the highest is taken and
 :func:`rigtools.analysis.modal_id.identify` says so.
+
+**The band decides** (:func:`band_schedule`): the orders and the stability tolerances follow
+what the band holds, not where it sits. A band of L lines is fitted at orders P <= L / 10 (a
+higher order has more poles than the band's lines can place: on the 300 lines of a 50-200 Hz
+band of a 0.5 Hz FRF, orders 82-160 put spurious poles beside every mode and none stayed put);
+the tolerances are sdypy-EMA's for 1000 lines or more and grow as 1000 / L below (fewer lines
+fix a pole less: its frequency and damping wander more between orders while their medians stay
+put). A mode of the whole grid is then found in a band that holds it.
 """
 
 from __future__ import annotations
@@ -352,6 +360,77 @@ def _columns(chart: StabilisationChart, mask: np.ndarray, freq_tol: float, need:
     return [np.array(g) for g in groups if np.unique(chart.orders[g]).size >= need]
 
 
+#: sdypy-EMA ``pol_order_high`` values tried for a band that holds enough lines.
+ORDERS = (20, 40, 80, 120, 160)
+#: Lines of the band per unit of ``pol_order_high`` (2 poles): more poles than the band's lines
+#: can place wander between orders (see the module docstring).
+LINES_PER_ORDER = 10
+#: Lowest ``pol_order_high`` tried: its converged half (orders P+2..2P) holds two orders.
+MIN_ORDER = 4
+#: Band lines at and above which the stability tolerances are sdypy-EMA's own (0.1 %, 5 %).
+TOLERANCE_LINES = 1000
+#: Largest widening of the tolerances (1 % in frequency, 50 % in damping: a pole that moves
+#: more between orders is not one pole).
+MAX_TOLERANCE_SCALE = 10.0
+
+
+@dataclass(frozen=True)
+class BandSchedule:
+    """What :func:`converged_selection` tries in a band.
+
+    Attributes
+    ----------
+    lines
+        FRF lines in the band.
+    peaks
+        Peaks of the mode indicator in the band (prominence ``min_peak_db``).
+    orders
+        sdypy-EMA ``pol_order_high`` values tried, increasing.
+    freq_tol, damping_tol
+        Stability tolerances (relative) between consecutive orders.
+    """
+
+    lines: int
+    peaks: int
+    orders: tuple[int, ...]
+    freq_tol: float
+    damping_tol: float
+
+
+def band_schedule(
+    frequency_hz: np.ndarray,
+    indicator: np.ndarray,
+    band: tuple[float, float],
+    *,
+    orders: Sequence[int] | None = None,
+    freq_tol: float = 0.001,
+    damping_tol: float = 0.05,
+    min_peak_db: float = 3.0,
+) -> BandSchedule:
+    """The orders and stability tolerances for ``band`` from the lines it holds (module docstring).
+
+    ``orders`` (default :data:`ORDERS`) are capped at ``lines / LINES_PER_ORDER`` (rounded, at least
+    :data:`MIN_ORDER`); ``freq_tol`` and ``damping_tol`` are multiplied by
+    ``TOLERANCE_LINES / lines``, between 1 and :data:`MAX_TOLERANCE_SCALE`.
+
+    Examples
+    --------
+    >>> f = np.arange(1600) * 0.5
+    >>> s = band_schedule(f, np.ones(f.size), (50.0, 200.0))
+    >>> s.lines, s.orders, round(s.freq_tol, 5), round(s.damping_tol, 4)
+    (301, (20, 30), 0.00332, 0.1661)
+    >>> band_schedule(f, np.ones(f.size), (0.5, 799.5)).orders
+    (20, 40, 80, 120, 160)
+    """
+    f = np.asarray(frequency_hz, dtype=float)
+    lines = int(np.count_nonzero((f >= band[0]) & (f <= band[1])))
+    cap = max(MIN_ORDER, round(lines / LINES_PER_ORDER))
+    tried = tuple(sorted({min(int(p), cap) for p in (ORDERS if orders is None else orders)}))
+    scale = min(max(1.0, TOLERANCE_LINES / max(lines, 1)), MAX_TOLERANCE_SCALE)
+    peaks = peaks_of(f, indicator, band[0], band[1], min_peak_db)[0].size
+    return BandSchedule(lines, peaks, tried, freq_tol * scale, damping_tol * scale)
+
+
 @dataclass(frozen=True)
 class ConvergedSelection:
     """Result of :func:`converged_selection`.
@@ -376,6 +455,7 @@ class ConvergedSelection:
     dropped: list[dict]
     order: int
     converged: bool
+    schedule: BandSchedule | None = None
 
 
 def converged_selection(
@@ -385,7 +465,7 @@ def converged_selection(
     kind: FRFKind,
     band: tuple[float, float],
     coherence: np.ndarray | None = None,
-    orders: Sequence[int] = (20, 40, 80, 120, 160),
+    orders: Sequence[int] | None = None,
     freq_tol: float = 0.001,
     damping_tol: float = 0.05,
     min_mac: float = 0.9,
@@ -405,8 +485,10 @@ def converged_selection(
     coherence
         (n_freq,) or (n_responses, n_freq); with several responses a bin counts with the best.
     orders
-        Increasing sdypy-EMA ``pol_order_high`` values tried.
-    freq_tol, damping_tol, min_mac
+        sdypy-EMA ``pol_order_high`` values tried (default :data:`ORDERS`); with ``freq_tol``
+        and ``damping_tol`` (:func:`lscf_stabilisation`) fitted to the band by
+        :func:`band_schedule`.
+    min_mac
         :func:`lscf_stabilisation`.
     max_damping, min_presence, min_coherence, min_peak_db
         :func:`select_modes`.
@@ -415,7 +497,11 @@ def converged_selection(
     h = np.atleast_2d(np.asarray(h, dtype=complex))
     coh = None if coherence is None else np.max(np.atleast_2d(np.asarray(coherence, float)), axis=0)
     indicator = mode_indicator(h)
-    orders = sorted(int(p) for p in orders)
+    schedule = band_schedule(
+        f, indicator, band, orders=orders, freq_tol=freq_tol, damping_tol=damping_tol, min_peak_db=min_peak_db
+    )
+    orders = list(schedule.orders)
+    freq_tol, damping_tol = schedule.freq_tol, schedule.damping_tol
     # sdypy-EMA's LSCF of order P transforms the FRF from 0 Hz to the band's top: it needs more
     # than P + 2 lines there (a coarse FRF under a low band has too few: an IndexError inside)
     lines = int(np.floor(band[1] / (f[1] - f[0]) + 1e-9)) + 1
@@ -466,12 +552,12 @@ def converged_selection(
             )
         peaks = {m.peak_hz for m in select(top)[0]}
         if i > 0 and peaks == previous:
-            return _taken(model, chart, select(orders[i - 1]), orders[i - 1], True)
+            return _taken(model, chart, select(orders[i - 1]), orders[i - 1], True, schedule)
         previous = peaks
-    return _taken(model, chart, select(orders[-1]), orders[-1], len(orders) == 1)
+    return _taken(model, chart, select(orders[-1]), orders[-1], len(orders) == 1, schedule)
 
 
-def _taken(model, chart, sel, top: int, converged: bool) -> ConvergedSelection:
+def _taken(model, chart, sel, top: int, converged: bool, schedule: BandSchedule) -> ConvergedSelection:
     modes, dropped, support = sel
     chart = replace(chart, judged=(top + 2, 2 * top), mode=support)
-    return ConvergedSelection(model, chart, modes, dropped, top, converged)
+    return ConvergedSelection(model, chart, modes, dropped, top, converged, schedule)

@@ -32,6 +32,12 @@ Per point, by what it is:
   raised until the set of modes stops changing), with coherence >= 0.9 over that band; its
   frequency and damping are the medians over those orders. One line says how many candidates
   were not reported (--verbose or --json list them, --json with each mode's evidence).
+  The orders and tolerances follow the band's lines (at most lines/10; the tolerances widen as
+  1000/lines below 1000 lines, at most 10x): a mode of the whole grid is found in a band that
+  holds it with a few half-power bandwidths to spare. No mode in a band is a note saying what
+  was tried and what would help, and in --json "no_mode" (null when modes were found),
+  "n_modes" and "tried" per response; the exit status stays 0 (the analysis ran, and the other
+  responses and points keep their results): a script tests "no_mode".
   points without a force (operational logs): PSD (units^2/Hz, Welch, Hann), peak-amplitude
   spectrum (flattop), its peaks and, with --fe, the harmonics k*fe.
 Records are read in blocks: memory stays bounded for long recordings. Amplitudes are peak
