@@ -253,15 +253,16 @@ def check_names(channels: Sequence[ForeignChannel], where: str) -> None:
         seen[ch.name] = ch.source
 
 
-def check_known(option: str, given: Iterable[str], known: Iterable[str]) -> None:
+def check_known(option: str, given: Iterable[str], known: Iterable[str], what: str = "channel") -> None:
     """Refuse ``--map``/``--units``/``--reference`` entries naming no channel of the file (a typo
-    would otherwise import the channel unchanged without a word)."""
+    would otherwise import the channel unchanged without a word); ``what`` names the kind of
+    name (``"group"`` for ``--group``)."""
     known = set(known)
     unknown = sorted(set(given) - known)
     if unknown:
         raise UserError(
-            f"{option}: no channel {', '.join(repr(u) for u in unknown)} in the file "
-            f"(channels: {', '.join(sorted(known)) or 'none'})"
+            f"{option}: no {what} {', '.join(repr(u) for u in unknown)} in the file "
+            f"({what}s: {', '.join(sorted(known)) or 'none'})"
         )
 
 

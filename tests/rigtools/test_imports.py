@@ -152,14 +152,18 @@ def test_group_channel_selection_map_and_reference(tmp_path):
         (p,) = rec.points
         assert sorted(p.channels) == ["Force", "hammer"] and p.params["reference_channel"] == "hammer"
     assert "excitation hammer (named with --reference)" in stdout
-    for bad in (
-        ["--group", "Nope"],
-        ["--channel", "Nope"],
-        ["--units", "Force=furlongs"],
-        ["--map", "Nope=x"],
+    for bad, named in (
+        (["--group", "Nope"], "--group: no group 'Nope' in the file (groups: Log)"),
+        (["--channel", "Nope"], "Nope"),
+        (["--units", "Force=furlongs"], "furlongs"),
+        (["--map", "Nope=x"], "Nope"),
     ):
         code, _, err = _import("tdms", src, tmp_path / "bad.h5", *bad)
-        assert code == 2 and len(err.strip().splitlines()) == 1 and "Nope" in err or "furlongs" in err, err
+        # every case: exit 2, one line, naming the bad value (each checked on its own)
+        assert code == 2, (bad, code, err)
+        assert len(err.strip().splitlines()) == 1, (bad, err)
+        assert named in err, (bad, err)
+        assert not (tmp_path / "bad.h5").exists(), bad
 
 
 def test_labview_named_log_analyses(tmp_path):
