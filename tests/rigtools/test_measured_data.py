@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import json
 import warnings
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -33,22 +32,13 @@ from rigtools.analyze import analyze_recording, point_frf
 from rigtools.config import load_rig
 from rigtools.recording import ChannelSpec, RecordingWriter, open_recording
 
-DATA = Path(__file__).resolve().parents[2].parent / "shared" / "data"
-BEAM = DATA / "ladisk-impact-beam"
-HAMMER = DATA / "ufffiles-hammer"
 G = 9.80665
 
 
-def _need(folder: Path) -> None:
-    if not folder.is_dir():
-        pytest.skip(f"public data folder {folder} is absent (a clone without ../shared)")
-
-
 @pytest.fixture(scope="module")
-def beam_file(tmp_path_factory):
+def beam_file(tmp_path_factory, public_data):
     """The two hits as one record of a foreign recording (LabVIEW's channel names)."""
-    _need(BEAM)
-    d = np.load(BEAM / "two_hits.npz")
+    d = np.load(public_data("ladisk-impact-beam", "two_hits.npz"))
     fs = float(d["fs"])
     path = tmp_path_factory.mktemp("beam") / "beam.h5"
     with RecordingWriter(
@@ -170,14 +160,14 @@ def test_beam_modes_equal_sdypy_ema(beam_analysis):
 
 
 @pytest.fixture(scope="module")
-def hammer(tmp_path_factory):
+def hammer(tmp_path_factory, public_data):
     """The ufffiles-hammer FRF and its coherence as one UFF file (the two files of the data set
     joined), imported with rig import uff and analysed; with the sdypy-EMA reference on the same
     arrays and band."""
-    _need(HAMMER)
+    data = public_data("ufffiles-hammer")
     folder = tmp_path_factory.mktemp("hammer")
     both = folder / "hammer.unv"
-    parts = [(HAMMER / n).read_text() for n in ("dataset58_FRF.unv", "dataset58_coh.unv")]
+    parts = [(data / n).read_text() for n in ("dataset58_FRF.unv", "dataset58_coh.unv")]
     both.write_text(parts[0].rstrip("\n") + "\n" + parts[1])
     path = folder / "hammer.h5"
     code, out, err = run_cli(["import", "uff", both, path])
