@@ -164,6 +164,8 @@ class NiDaqDevice(AcquisitionDevice):
     ...     daq.write(drive.next_block(daq.block_size))
     ...     daq.start()
     ...     block = daq.read()  # (input channels, block_size), SI units
+    >>> block.shape == (len(cfg.daq.input_specs()), daq.block_size)  # doctest: +SKIP
+    True
     """
 
     backend = "nidaqmx"

@@ -143,6 +143,8 @@ class BlockStream:
     >>> cfg = load_rig()
     >>> device = open_device(cfg, "sim", seed=1)
     >>> rate = configure(device, cfg)
+    >>> rate  # samples per second, as the device runs it
+    51200.0
     >>> drive = SineDrive(rate, 60.0, max_drive=cfg.safety.max_drive, ramp_time=0.05)
     >>> drive.set_target(0.2)
     >>> sink = BlockCollector()
@@ -150,8 +152,8 @@ class BlockStream:
     ...     while stream.stats.duration < 0.5:
     ...         block = stream.read()      # (channels, samples), also given to the sink
     ...     stats = stream.finish()
-    >>> [channel.name for channel in device.input_channels]
-    ['force', 'active_shroud_accel', 'passive_shroud_accel']
+    >>> [channel.name for channel in device.input_channels], block.shape[0]
+    (['force', 'active_shroud_accel', 'passive_shroud_accel'], 3)
     >>> sink.data.shape[1] == stats.samples, stats.duration >= 0.5, stats.warnings
     (True, True, [])
     """

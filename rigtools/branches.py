@@ -166,6 +166,8 @@ def continuation(
     ...     branches = rigtools.continuation("fe", "15 Hz", "80 Hz", found=found)
     ... except KeyboardInterrupt:
     ...     branches = found
+    >>> branches[-1].status  # after a Ctrl-C  # doctest: +SKIP
+    'interrupted'
     """
     lo, hi, fixed = parse_inputs(param, start, stop, fe, force, gap, drive)
     return continue_model(

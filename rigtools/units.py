@@ -110,12 +110,12 @@ def _build_table() -> dict[str, tuple[float, str]]:
                 add(f"{n}{joint}s/{m}^2.5", fn / fm**2.5, "hertz_damping")
     for g, fg in _prefixed("g", ("k",)).items():
         for m, fm in _prefixed("m", ("c", "m")).items():
-            for power in ("^2", "2"):
+            for power in ("^2", "2", "²"):
                 add(f"{g}*{m}{power}", 1e-3 * fg * fm**2, "inertia")
-            for power in ("^3", "3"):
+            for power in ("^3", "3", "³"):
                 add(f"{g}/{m}{power}", 1e-3 * fg / fm**3, "density")
     for m, fm in _prefixed("m", ("m",)).items():
-        for power in ("^2", "2"):
+        for power in ("^2", "2", "²"):
             add(f"{m}/s{power}", fm, "acceleration")
     add("N/A", 1.0, "force_factor")
     add("V*s/m", 1.0, "force_factor")

@@ -3,14 +3,45 @@
 The dense eigen-solves of the FE model are small (about 600 DOFs per blade); multithreaded BLAS
 only adds contention on a loaded 2-core machine, so tests run BLAS on one thread. This must be
 set before numpy is imported.
+
+What a test needs from outside the repository (a headless browser, the public measured data in
+``../shared/data``, the ``h5dump`` tool) is found by one rule, :func:`missing`: absent, the test
+is skipped saying what is missing and how to get it; with the environment variable that asks for
+it set to 1 (``.ci/run`` sets all three) the skip becomes a failure, so CI never passes by
+skipping.
+
+========================== ============================================ =======================
+fixture                    what                                         variable
+========================== ============================================ =======================
+``chromium``               a headless Chromium (report, live monitor)   RIGTOOLS_REQUIRE_BROWSER
+``public_data``            a folder or file under ``../shared/data``    RIGTOOLS_REQUIRE_DATA
+``h5dump``                 HDF5's command-line reader (hdf5-tools)      RIGTOOLS_REQUIRE_H5DUMP
+========================== ============================================ =======================
 """
 
 import os
+import shutil
+from collections.abc import Callable
+from pathlib import Path
+from typing import NoReturn
 
 import pytest  # pytest does not import numpy: the BLAS settings below still come first
 
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
+
+PUBLIC_DATA = Path(
+    os.environ.get("RIGTOOLS_PUBLIC_DATA") or Path(__file__).resolve().parents[1].parent / "shared" / "data"
+)
+"""The public measured data sets: ``../shared/data`` next to the project root (README there), or
+the folder ``RIGTOOLS_PUBLIC_DATA`` names (a git worktree elsewhere)."""
+
+
+def missing(what: str, variable: str) -> NoReturn:
+    """Skip the test because ``what`` is missing, or fail it when ``variable`` is set to 1."""
+    if os.environ.get(variable) == "1":
+        pytest.fail(f"{what} ({variable}=1 asks for it)")
+    pytest.skip(f"{what}; set {variable}=1 to make this a failure")
 
 
 @pytest.fixture
@@ -26,9 +57,35 @@ def chromium() -> str:
     try:
         return find_chromium()
     except BrowserUnavailable as exc:
-        if os.environ.get("RIGTOOLS_REQUIRE_BROWSER") == "1":
-            pytest.fail(f"{exc} (RIGTOOLS_REQUIRE_BROWSER=1 asks for the real browser)")
-        pytest.skip(f"{exc}; set RIGTOOLS_REQUIRE_BROWSER=1 to make this a failure")
+        missing(str(exc), "RIGTOOLS_REQUIRE_BROWSER")
+
+
+@pytest.fixture(scope="session")
+def public_data() -> Callable[..., Path]:
+    """``public_data("ufffiles-hammer", "dataset58_FRF.unv")``: the path of a public data set (a
+    folder or a file under ``../shared/data``), the one rule for when it is absent.
+
+    Absent (a user's clone has no ``../shared``), the test is skipped naming the path; with
+    ``RIGTOOLS_REQUIRE_DATA=1`` (``.ci/run`` sets it) the skip becomes a failure.
+    """
+
+    def need(*parts: str) -> Path:
+        path = PUBLIC_DATA.joinpath(*parts)
+        if not path.exists():
+            missing(f"public data {path} is absent (a clone without ../shared)", "RIGTOOLS_REQUIRE_DATA")
+        return path
+
+    return need
+
+
+@pytest.fixture(scope="session")
+def h5dump() -> str:
+    """Path of HDF5's ``h5dump`` (Debian's hdf5-tools), the one rule for when it is missing:
+    skipped, or a failure with ``RIGTOOLS_REQUIRE_H5DUMP=1`` (``.ci/run`` installs it and sets it)."""
+    path = shutil.which("h5dump")
+    if path is None:
+        missing("h5dump is not installed (apt-get install hdf5-tools)", "RIGTOOLS_REQUIRE_H5DUMP")
+    return path
 
 
 @pytest.fixture(scope="session")

@@ -81,10 +81,20 @@ UNITS: dict[str, SIUnits] = _table()
 _BAD_NAME_CHARS = re.compile(r"[^A-Za-z0-9_.\-]+")
 
 
+# declared units whose first letter is an SI prefix that case tells apart (m milli, M mega): the
+# case the table's entry means; the other case is refused (unknown), never read 10^9 off
+_PREFIX_CASE = {"mv": "m", "ma": "m", "mm": "m", "mm/s": "m", "mm/s^2": "m", "mm/s2": "m", "mpa": "M"}
+
+
 def si_units(text: str) -> SIUnits | None:
-    """The SI conversion of a declared unit (case and spaces ignored), None if unknown."""
-    key = str(text).strip().lower().replace(" ", "")
-    return UNITS.get(key) or UNITS.get(str(text).strip().lower())
+    """The SI conversion of a declared unit (case and spaces ignored, except the case of an m/M
+    prefix: ``mV`` is millivolt, ``MV`` unknown; ``MPa`` megapascal, ``mPa`` unknown), None if
+    unknown."""
+    plain = str(text).strip()
+    key = plain.lower().replace(" ", "")
+    if key in _PREFIX_CASE and plain[0] != _PREFIX_CASE[key]:
+        return None
+    return UNITS.get(key) or UNITS.get(plain.lower())
 
 
 def storable_name(text: str) -> str:
@@ -284,15 +294,16 @@ def check_names(channels: Sequence[ForeignChannel], where: str) -> None:
         seen[ch.name] = ch.source
 
 
-def check_known(option: str, given: Iterable[str], known: Iterable[str]) -> None:
+def check_known(option: str, given: Iterable[str], known: Iterable[str], what: str = "channel") -> None:
     """Refuse ``--map``/``--units``/``--reference`` entries naming no channel of the file (a typo
-    would otherwise import the channel unchanged without a word)."""
+    would otherwise import the channel unchanged without a word); ``what`` names the kind of
+    name (``"group"`` for ``--group``)."""
     known = set(known)
     unknown = sorted(set(given) - known)
     if unknown:
         raise UserError(
-            f"{option}: no channel {', '.join(repr(u) for u in unknown)} in the file "
-            f"(channels: {', '.join(sorted(known)) or 'none'})"
+            f"{option}: no {what} {', '.join(repr(u) for u in unknown)} in the file "
+            f"({what}s: {', '.join(sorted(known)) or 'none'})"
         )
 
 

@@ -68,7 +68,7 @@ def _open(source: Path) -> Any:
 def _selected(tdms: Any, groups: list[str], channels: list[str]) -> list[tuple[Any, list[Any]]]:
     """``(group, channels)`` chosen by ``--group``/``--channel`` (names or ``group/channel``)."""
     all_groups = [g for g in tdms.groups() if g.channels()]
-    check_known("--group", groups, [g.name for g in all_groups])
+    check_known("--group", groups, [g.name for g in all_groups], "group")
     names = {c.name for g in all_groups for c in g.channels()}
     check_known(
         "--channel", channels, names | {f"{g.name}/{c.name}" for g in all_groups for c in g.channels()}

@@ -3,6 +3,17 @@
 See ``docs/recording-format.md`` for the file layout.
 
 >>> from rigtools.recording import RecordingWriter, ChannelSpec, open_recording, RecordingError
+>>> spec = ChannelSpec("force", "N", "force", 51200.0)
+>>> with RecordingWriter("run.h5", backend="simulated", rig="{}", experiment={}) as rec:
+...     rec.begin_point({"fe": 60.0}, [spec]).end()
+>>> with open_recording("run.h5") as run:
+...     run.status, run.points[0].channels["force"].units
+('complete', 'N')
+>>> try:
+...     open_recording("missing.h5")
+... except RecordingError as exc:  # one line, for the user
+...     print(exc)
+missing.h5: no such file
 """
 
 from rigtools.recording.lock import writer_alive

@@ -80,6 +80,31 @@ def _stability(f, h, band, order, kind):
     return fn, xi, (test_fn > 0) & (test_xi > 0) & (xi > 0)
 
 
+def lscf_poles(f, h, band, order, kind="accelerance") -> list[tuple[np.ndarray, np.ndarray]]:
+    """sdypy-EMA's LSCF poles of one FRF, ``[(fn_hz, zeta), ...]`` for polynomial orders 2, 4, ...,
+    2 * ``order`` (sdypy's ``all_poles`` in its own order), each the poles with a positive
+    imaginary part: ``fn = |s| / 2 pi``, ``zeta = -Re(s) / |s|``."""
+    with warnings.catch_warnings(), threadpool_limits(1, "blas"):
+        warnings.simplefilter("ignore")
+        from sdypy import EMA
+
+        model = EMA.Model(
+            frf=np.asarray(h, complex)[None],
+            freq=np.asarray(f, float),
+            lower=band[0],
+            upper=band[1],
+            pol_order_high=order,
+            frf_form=kind,
+        )
+        model.get_poles(method="lscf", show_progress=False)
+    out = []
+    for poles in model.all_poles:
+        s = np.asarray(poles, complex)
+        s = s[s.imag > 0]
+        out.append((np.abs(s) / (2 * np.pi), -s.real / np.abs(s)))
+    return out
+
+
 def _modes_at(f, h, coh, band, fn, xi, stable, order) -> dict:
     df = float(f[1] - f[0])
     lo, hi = band

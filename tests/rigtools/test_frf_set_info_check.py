@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import json
 import shutil
-from pathlib import Path
 
 import h5py
 import numpy as np
@@ -22,9 +21,6 @@ from cli_helpers import run_cli
 from rigtools.analysis.frf import sdof_frf
 from rigtools.interop.uff import FUNC_COHERENCE, FUNC_FRF, UffFunction
 
-PUBLIC = (
-    Path(__file__).resolve().parents[2].parent / "shared" / "data" / "ufffiles-hammer" / "dataset58_FRF.unv"
-)
 F = np.arange(0.0, 500.25, 0.5)
 
 
@@ -178,11 +174,10 @@ def test_check_of_a_newer_frf_set_is_unreadable(frf_set, tmp_path):
     assert len(err.strip().splitlines()) == 1
 
 
-def test_public_ufffiles_frf(tmp_path):
-    if not PUBLIC.is_file():
-        pytest.skip(f"public data file {PUBLIC} is absent (a clone without ../shared)")
+def test_public_ufffiles_frf(tmp_path, public_data):
+    frf = public_data("ufffiles-hammer", "dataset58_FRF.unv")
     out = tmp_path / "hammer.h5"
-    code, _, err = run_cli(["import", "uff", PUBLIC, out])
+    code, _, err = run_cli(["import", "uff", frf, out])
     assert code == 0, err
     code, js, err = run_cli(["info", out, "--json"])
     assert code == 0, err

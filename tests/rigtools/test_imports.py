@@ -27,13 +27,7 @@ from rigtools.recording import open_recording
 from rigtools.recording.validate import check_recording
 
 NPTDMS_DATA = Path(__import__("nptdms").__file__).parent / "test" / "data"
-DATA = Path(__file__).resolve().parents[2].parent / "shared" / "data"
 G = 9.80665
-
-
-def _need(folder: Path) -> None:
-    if not folder.is_dir():
-        pytest.skip(f"public data folder {folder} is absent (a clone without ../shared)")
 
 
 def _import(*args):
@@ -152,20 +146,23 @@ def test_group_channel_selection_map_and_reference(tmp_path):
         (p,) = rec.points
         assert sorted(p.channels) == ["Force", "hammer"] and p.params["reference_channel"] == "hammer"
     assert "excitation hammer (named with --reference)" in stdout
-    for bad in (
-        ["--group", "Nope"],
-        ["--channel", "Nope"],
-        ["--units", "Force=furlongs"],
-        ["--map", "Nope=x"],
+    for bad, named in (
+        (["--group", "Nope"], "--group: no group 'Nope' in the file (groups: Log)"),
+        (["--channel", "Nope"], "Nope"),
+        (["--units", "Force=furlongs"], "furlongs"),
+        (["--map", "Nope=x"], "Nope"),
     ):
         code, _, err = _import("tdms", src, tmp_path / "bad.h5", *bad)
-        assert code == 2 and len(err.strip().splitlines()) == 1 and "Nope" in err or "furlongs" in err, err
+        # every case: exit 2, one line, naming the bad value (each checked on its own)
+        assert code == 2, (bad, code, err)
+        assert len(err.strip().splitlines()) == 1, (bad, err)
+        assert named in err, (bad, err)
+        assert not (tmp_path / "bad.h5").exists(), bad
 
 
-def test_labview_named_log_analyses(tmp_path):
+def test_labview_named_log_analyses(tmp_path, public_data):
     """Channels named as LabVIEW names them keep their names; the force is found by its quantity."""
-    _need(DATA / "ladisk-impact-beam")
-    d = np.load(DATA / "ladisk-impact-beam" / "two_hits.npz")
+    d = np.load(public_data("ladisk-impact-beam", "two_hits.npz"))
     src, out = tmp_path / "beam.tdms", tmp_path / "beam.h5"
     props = {"wf_increment": 1 / float(d["fs"]), "wf_start_offset": 0.0}
     with TdmsWriter(str(src)) as w:
@@ -255,16 +252,16 @@ def test_lvm_round_trip_two_segments_decimal_comma(tmp_path):
     assert code == 2 and "not a LabVIEW measurement file" in err
 
 
-def test_ladisk_lvm_imports_equal_and_analyses(tmp_path):
-    _need(DATA / "ladisk-impact-beam")
+def test_ladisk_lvm_imports_equal_and_analyses(tmp_path, public_data):
+    beam = public_data("ladisk-impact-beam")
     out = tmp_path / "beam.h5"
-    code, stdout, err = _import("lvm", DATA / "ladisk-impact-beam" / "acceleration_hit1.lvm.gz", out)
+    code, stdout, err = _import("lvm", beam / "acceleration_hit1.lvm.gz", out)
     assert code == 0, err
     assert (
         "kept    segment 1/Force (Trigger) -> Force_Trigger: force in N, Newtons -> N, the excitation"
         in stdout
     )
-    d = np.load(DATA / "ladisk-impact-beam" / "two_hits.npz")
+    d = np.load(beam / "two_hits.npz")
     with open_recording(out) as rec:
         (p,) = rec.points
         assert p.n_samples == 50030 and p.sample_rate == pytest.approx(50000.0)
@@ -359,13 +356,10 @@ def test_our_export_reads_as_accelerance_in_sdypy(tmp_path):
     np.testing.assert_allclose(model.freq, first["x"][: model.freq.size], rtol=1e-12)
 
 
-HAMMER = DATA / "ufffiles-hammer"
-
-
-def test_ufffiles_time_record(tmp_path):
-    _need(HAMMER)
+def test_ufffiles_time_record(tmp_path, public_data):
+    hammer = public_data("ufffiles-hammer")
     out = tmp_path / "t.h5"
-    code, stdout, err = _import("uff", HAMMER / "dataset58_time.unv", out)
+    code, stdout, err = _import("uff", hammer / "dataset58_time.unv", out)
     assert code == 0, err
     with open_recording(out) as rec:
         (p,) = rec.points
@@ -373,22 +367,22 @@ def test_ufffiles_time_record(tmp_path):
         ch = p.channels[name]
         assert (ch.units, ch.quantity, len(ch)) == ("N", "force", 4096)  # num_pts, not pyuff's padding
         assert ch.sample_rate == 2048.0  # 1/4.88281E-04 within its 6 written digits
-        ref = pyuff.UFF(str(HAMMER / "dataset58_time.unv")).read_sets()
+        ref = pyuff.UFF(str(hammer / "dataset58_time.unv")).read_sets()
         np.testing.assert_array_equal(ch[:], ref["data"][:4096])
     assert "excitation" in stdout
 
 
-def test_ufffiles_frf_kind_checked_against_data(tmp_path):
-    _need(HAMMER)
+def test_ufffiles_frf_kind_checked_against_data(tmp_path, public_data):
+    frf = public_data("ufffiles-hammer", "dataset58_FRF.unv")
     out = tmp_path / "frf.h5"
-    code, stdout, err = _import("uff", HAMMER / "dataset58_FRF.unv", out)
+    code, stdout, err = _import("uff", frf, out)
     assert code == 0, err
     fs = read_frf_set(out)
     # the labels disagree (axis 'Receptance', units '(m/s)/N'); the data are accelerance: peaks
     # near +-90 deg (not mobility) and |H| rising with frequency away from the peaks
     assert fs.kind == "accelerance" and "from the data" in stdout
     assert fs.frequency_hz.size == 1600 and fs.frequency_hz[-1] == 799.5
-    code, stdout, err = _import("uff", HAMMER / "dataset58_FRF.unv", tmp_path / "r.h5", "--units", ".1.Z-=m")
+    code, stdout, err = _import("uff", frf, tmp_path / "r.h5", "--units", ".1.Z-=m")
     assert code == 0 and read_frf_set(tmp_path / "r.h5").kind == "receptance", err
 
 

@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import json
 import warnings
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -33,22 +32,13 @@ from rigtools.analyze import analyze_recording, point_frf
 from rigtools.config import load_rig
 from rigtools.recording import ChannelSpec, RecordingWriter, open_recording
 
-DATA = Path(__file__).resolve().parents[2].parent / "shared" / "data"
-BEAM = DATA / "ladisk-impact-beam"
-HAMMER = DATA / "ufffiles-hammer"
 G = 9.80665
 
 
-def _need(folder: Path) -> None:
-    if not folder.is_dir():
-        pytest.skip(f"public data folder {folder} is absent (a clone without ../shared)")
-
-
 @pytest.fixture(scope="module")
-def beam_file(tmp_path_factory):
+def beam_file(tmp_path_factory, public_data):
     """The two hits as one record of a foreign recording (LabVIEW's channel names)."""
-    _need(BEAM)
-    d = np.load(BEAM / "two_hits.npz")
+    d = np.load(public_data("ladisk-impact-beam", "two_hits.npz"))
     fs = float(d["fs"])
     path = tmp_path_factory.mktemp("beam") / "beam.h5"
     with RecordingWriter(
@@ -170,14 +160,14 @@ def test_beam_modes_equal_sdypy_ema(beam_analysis):
 
 
 @pytest.fixture(scope="module")
-def hammer(tmp_path_factory):
+def hammer(tmp_path_factory, public_data):
     """The ufffiles-hammer FRF and its coherence as one UFF file (the two files of the data set
     joined), imported with rig import uff and analysed; with the sdypy-EMA reference on the same
     arrays and band."""
-    _need(HAMMER)
+    data = public_data("ufffiles-hammer")
     folder = tmp_path_factory.mktemp("hammer")
     both = folder / "hammer.unv"
-    parts = [(HAMMER / n).read_text() for n in ("dataset58_FRF.unv", "dataset58_coh.unv")]
+    parts = [(data / n).read_text() for n in ("dataset58_FRF.unv", "dataset58_coh.unv")]
     both.write_text(parts[0].rstrip("\n") + "\n" + parts[1])
     path = folder / "hammer.h5"
     code, out, err = run_cli(["import", "uff", both, path])
@@ -205,32 +195,89 @@ def test_ufffiles_frf_modes_equal_sdypy_ema(hammer):
         assert abs(m.peak_frequency_hz - m.frequency_hz) <= max(m.damping_ratio * m.frequency_hz, 0.5)
 
 
-def test_stabilisation_diagram_marks_the_modes_rig_analyze_reports(beam_file, beam_analysis):
-    """The report's stabilisation diagram marks as kept exactly the poles of the modes that
-    ``rig analyze --json`` reports (their medians are the reported frequencies, at as many orders
-    as the evidence says, inside the orders judged), and the mode lines stand at those
-    frequencies."""
+def test_stabilisation_diagram_draws_sdypy_emas_poles_and_the_reference_modes(beam_file, beam_analysis):
+    """The report's stabilisation diagram against references computed in this test, not by the
+    code that drew it:
+
+    - every pole drawn (open, filled or red) is one of sdypy-EMA's LSCF poles of the same FRF at
+      that order, in the band, with damping in (0, 1), and each of those is drawn: 1e-9 relative
+      (the same library on the same numbers);
+    - a pole is drawn filled (stable) exactly when the previous order has one pole within 0.1 % in
+      frequency and 5 % in damping (sdypy-EMA's tolerances, both on the same pole), by the rule
+      written here; each such pole is stable by sdypy-EMA's own looser classification too (it
+      matches frequency and damping on possibly different poles);
+    - the dashed lines (reported modes) stand within 0.1 % of sdypy-EMA's reference modes
+      (``sdypy_reference``: its mode count and frequencies), and each mode's red poles are stable,
+      inside the orders judged, at half of them or more, and inside the reference mode's
+      half-power band ``fn (1 +- zeta)``."""
+    from sdypy_reference import lscf_poles
+
     from rigtools.report.sections import analysis_figures
 
     code, out, err = run_cli(["analyze", beam_file, "--json"])
     assert code == 0, err
-    doc = json.loads(out)["points"][0]["frf"]["modes"]["Acceleration"]
-    reported = np.array([m["frequency_hz"] for m in doc["modes"]])
-    assert reported.size == 5
+    reported = np.array(
+        [m["frequency_hz"] for m in json.loads(out)["points"][0]["frf"]["modes"]["Acceleration"]["modes"]]
+    )
+    ident = beam_analysis.broadband[0].frf.modes["Acceleration"]
+    est = beam_analysis.broadband[0].frf.estimate
     (fig,) = [nf.figure for nf in analysis_figures(beam_analysis) if nf.name.endswith("-stabilisation")]
     ax = fig.axes[0]
     lines = {line.get_label(): line for line in ax.lines}
-    marked = [line.get_xdata()[0] for line in ax.lines if line.get_linestyle() == "--"]
-    np.testing.assert_allclose(marked, reported, rtol=1e-12)
-    kept = lines["pole of a reported mode"]
-    fk, ok = np.asarray(kept.get_xdata()), np.asarray(kept.get_ydata())
-    nearest = np.argmin(np.abs(fk[:, None] - reported[None, :]), axis=1)
-    for j, m in enumerate(doc["modes"]):
-        assert np.median(fk[nearest == j]) == pytest.approx(m["frequency_hz"], rel=1e-12)
-        assert np.unique(ok[nearest == j]).size == m["evidence"]["orders_stable"]
-    lo, hi = beam_analysis.broadband[0].frf.modes["Acceleration"].chart.judged
-    assert lo <= ok.min() and ok.max() <= hi
-    assert ax.patches[0].get_label() == f"orders judged ({lo}-{hi})"
+    drawn = {
+        label: (np.asarray(lines[label].get_xdata(), float), np.asarray(lines[label].get_ydata(), int))
+        for label in ("pole", "stable pole (frequency and damping)", "pole of a reported mode")
+    }
+    marked = np.array([line.get_xdata()[0] for line in ax.lines if line.get_linestyle() == "--"])
+
+    lo, hi = ident.band
+    highest = int(max(o.max() for _, o in drawn.values()))
+    poles = lscf_poles(est.frequency_hz, est.h1[0], ident.band, highest // 2)
+    prev = (np.empty(0), np.empty(0))
+    for j, (fn, zeta) in enumerate(poles):
+        order = 2 * (j + 1)
+        keep = (fn >= lo) & (fn <= hi) & (zeta > 0) & (zeta < 1)
+        fn, zeta = fn[keep], zeta[keep]
+        stable = np.array(
+            [
+                np.any((np.abs(prev[0] - a) <= 1e-3 * a) & (np.abs(prev[1] - b) <= 0.05 * b))
+                for a, b in zip(fn, zeta, strict=True)
+            ],
+            bool,
+        )
+        at = {label: np.sort(f[o == order]) for label, (f, o) in drawn.items()}
+        filled = np.sort(
+            np.concatenate([at["stable pole (frequency and damping)"], at["pole of a reported mode"]])
+        )
+        np.testing.assert_allclose(np.sort(np.concatenate([at["pole"], filled])), np.sort(fn), rtol=1e-9)
+        np.testing.assert_allclose(filled, np.sort(fn[stable]), rtol=1e-9)
+        np.testing.assert_allclose(at["pole"], np.sort(fn[~stable]), rtol=1e-9)
+        prev = (fn, zeta)
+
+    # sdypy-EMA's own classification holds every pole we call stable (its test is looser)
+    fn_s, _, ok_s = _sdypy_stable(est, ident.band, highest // 2)
+    for label in ("stable pole (frequency and damping)", "pole of a reported mode"):
+        for f, o in zip(*drawn[label], strict=True):
+            col = o // 2 - 2  # sdypy's column of polynomial order o (sdypy_reference._modes_at)
+            assert np.any(ok_s[:, col] & np.isclose(fn_s[:, col], f, rtol=1e-9)), (f, o)
+
+    ref = reference_modes(est.frequency_hz, est.h1[0], est.coherence[0], ident.band)
+    assert marked.size == reported.size == ref.frequency_hz.size == 5
+    np.testing.assert_allclose(np.sort(marked), ref.frequency_hz, rtol=1e-3)  # _compare's 0.1 %
+    kf, ko = drawn["pole of a reported mode"]
+    j_lo, j_hi = ident.chart.judged
+    n_judged = (j_hi - j_lo) // 2 + 1
+    for fr, zr in zip(ref.frequency_hz, ref.damping_ratio, strict=True):
+        mine = np.abs(kf - fr) <= zr * fr
+        assert mine.sum() >= n_judged / 2, (fr, mine.sum(), n_judged)
+        assert np.all((ko[mine] >= j_lo) & (ko[mine] <= j_hi))
+    assert ax.patches[0].get_label() == f"orders judged ({j_lo}-{j_hi})"
+
+
+def _sdypy_stable(est, band, order):
+    from sdypy_reference import _stability
+
+    return _stability(est.frequency_hz, est.h1[0], band, order, "accelerance")
 
 
 def test_beam_analyze_text_is_short(beam_file):

@@ -11,7 +11,6 @@ exactly).
 
 from __future__ import annotations
 
-import shutil
 import subprocess
 import zlib
 from pathlib import Path
@@ -82,13 +81,12 @@ def test_direct_chunks_read_back_bit_for_bit_with_standard_filters(tmp_path, flu
                 np.testing.assert_array_equal(_bits(values[: stop - start]), _bits(expected[row, start:stop]))
 
 
-@pytest.mark.skipif(shutil.which("h5dump") is None, reason="h5dump (hdf5-tools) is not installed")
-def test_h5dump_reads_the_directly_written_chunks(tmp_path):
+def test_h5dump_reads_the_directly_written_chunks(tmp_path, h5dump):
     path = tmp_path / "deflated.h5"
     expected = _write(path, flush_interval=0.0)
     out = tmp_path / "force.txt"
     subprocess.run(
-        ["h5dump", "-d", "/points/0000/force", "-m", "%.17g", "-y", "-w", "0", "-o", str(out), str(path)],
+        [h5dump, "-d", "/points/0000/force", "-m", "%.17g", "-y", "-w", "0", "-o", str(out), str(path)],
         check=True,
         capture_output=True,
         timeout=60,
