@@ -110,7 +110,7 @@ def unplaced_line(nodes: list[int]) -> str:
     """One line for the channels of an imported recording the export numbered itself."""
     span = f"node {nodes[0]}" if len(set(nodes)) == 1 else f"nodes {min(nodes)}-{max(nodes)}"
     return (
-        f"{len(nodes)} record(s) of channels without node or direction (the file they were imported "
+        f"{len(nodes)} channel(s) without node or direction (the file they were imported "
         f"from gave none): written as {span} in channel order, direction 0 (none)"
     )
 

@@ -182,14 +182,25 @@ def test_tdms_import_without_places_exports_direction_none_with_one_line(tmp_pat
     code, out, err = run_cli(["export", "uff", rec, uff, "--what", "time"])
     assert code == 0, err
     assert (
-        "3 record(s) of channels without node or direction (the file they were imported from gave none): "
+        "3 channel(s) without node or direction (the file they were imported from gave none): "
         "written as nodes 101-103 in channel order, direction 0 (none)"
     ) in out
     assert [(s["rsp_node"], s["rsp_dir"], s["id4"].strip()) for s in _records(uff)] == [
         (101 + i, 0, f"channel s{i}_X") for i in range(3)
     ]
-    # and a re-import keeps them: the second export writes the same places
+    # and a re-import keeps them: the same arrays, units and quantities (binary doubles both
+    # ways: bit-identical), and a second export writes the same places
     assert run_cli(["import", "uff", uff, tmp_path / "back.h5"])[0] == 0
+    with open_recording(rec) as a, open_recording(tmp_path / "back.h5") as b:
+        (pa,), (pb,) = a.points, b.points
+        assert list(pb.channels) == list(pa.channels)
+        for name, ch in pa.channels.items():
+            assert (
+                (pb.channels[name].units, pb.channels[name].quantity)
+                == (ch.units, ch.quantity)
+                == ("m/s^2", "acceleration")
+            )
+            np.testing.assert_array_equal(pb.channels[name][:], ch[:])
     code, out, err = run_cli(["export", "uff", tmp_path / "back.h5", tmp_path / "back.uff", "--what", "time"])
     assert code == 0 and "without node or direction" not in out, err
     assert [_place(s) for s in _records(tmp_path / "back.uff")] == [_place(s) for s in _records(uff)]
