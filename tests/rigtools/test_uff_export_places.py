@@ -12,6 +12,7 @@
   a made-up +Y, and one line says so.
 - Property (hypothesis): node numbers and direction codes drawn for foreign UFF time records
   written by pyuff survive rig import uff -> rig export uff -> pyuff.
+- The recording schema refuses a node or direction code out of range (writer and rig check).
 """
 
 from __future__ import annotations
@@ -269,3 +270,29 @@ def test_drawn_nodes_and_directions_survive_import_and_export(dofs, one_entity, 
         assert [_place(s) for s in back] == [_place(s) for s in original]
         for o, b in zip(original, back, strict=True):
             np.testing.assert_array_equal(b["data"], o["data"])
+
+
+# --------------------------------------------------------------------------------- the schema
+@pytest.mark.parametrize(
+    "field, value",
+    [("direction", 7), ("direction", -7), ("direction", True), ("node", -1), ("node", 2**31), ("node", 1.0)],
+)
+def test_channel_place_out_of_range_is_refused(field, value):
+    with pytest.raises(ValueError, match=f"{field} .* must be an integer in"):
+        ChannelSpec("a", "m/s^2", "acceleration", 100.0, **{field: value})
+
+
+def test_check_flags_a_direction_code_another_tool_wrote_out_of_range(tmp_path):
+    import h5py
+
+    from rigtools.recording.validate import check_recording
+
+    path = tmp_path / "r.h5"
+    _response_only(path, 1.0, 64.0, 1024.0, 256)
+    assert check_recording(path).valid
+    with h5py.File(path, "r+") as f:
+        f["points/0000/a1"].attrs["direction"] = np.int64(9)
+        f["points/0000/a2"].attrs["node"] = "one"
+    problems = [(p.where, p.message) for p in check_recording(path).problems]
+    assert ("/points/0000/a1", "direction 9 is not a UFF direction code (-6..6)") in problems
+    assert ("/points/0000/a2", "attribute 'node' = 'one' is not int") in problems
