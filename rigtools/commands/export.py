@@ -23,8 +23,13 @@ starts with a units dataset 164 (SI: m, N, s, K); each 58 record carries the spe
 (12 acceleration, 13 force, 8 displacement, ...), the unit exponents and the recording's date.
 
 Nodes: force sensor 1, active shroud 2, passive shroud 3, drive 100, other channels 101+;
-direction 2 (+Y, the blades' impact direction) for all. Binary, double precision values; the
+direction 2 (+Y, the blades' impact direction) for all. A channel rig import uff read keeps the
+node, direction, entity name and ID line 1 of its record; other channels of an imported recording
+get nodes 101+ and direction 0 (none), said in one line. Binary, double precision values; the
 abscissa increment is stored in the format's E13.5 field (6 significant digits).
+
+A recording without a force channel (response-only, e.g. an imported ambient or operational
+record) gets its time records and spectra, and one line saying no FRF was written.
 
 An FRF set (rig import uff of an analyser's FRFs) is written back as its FRFs, one type 4
 record per response with its coherence (type 6) where it has one, each with the entity names,
@@ -71,20 +76,24 @@ def run(args: argparse.Namespace) -> int:
         raise UserError(f"--what = {args.what!r}: use a comma list of {', '.join(WHAT)}")
     options = frf_options(args)
     out = output_path(args.out, args.overwrite, "OUT", suffixes=UFF_SUFFIXES, inputs=[args.file])
-    functions, skipped = file_functions(args.file, what, frf_options=options, reference=args.reference)
+    notes: list[str] = []
+    functions, skipped = file_functions(
+        args.file, what, frf_options=options, reference=args.reference, notes=notes
+    )
     if not functions:
-        raise UserError(
-            f"{args.file}: nothing to export for --what {args.what!r} "
-            "(FRFs need a broadband point with a force channel)"
-        )
+        why = notes[0] if notes else "FRFs need a broadband point with a force channel"
+        raise UserError(f"{args.file}: nothing to export for --what {args.what!r}: {why}")
     write_uff(out, functions)
     counts: dict[str, int] = {}
     for f in functions:
         key = {1: "time", 2: "spectra", 4: "frf", 6: "coherence"}[f.func_type]
         counts[key] = counts.get(key, 0) + 1
     if args.json:
-        print(json_values.dumps({"file": str(out), "datasets": counts, "skipped_incomplete_points": skipped}))
+        doc = {"file": str(out), "datasets": counts, "skipped_incomplete_points": skipped, "notes": notes}
+        print(json_values.dumps(doc))
     else:
+        for line in notes:
+            print(line)
         note = f"; incomplete point(s) {skipped} not exported" if skipped else ""
         print(f"wrote {out}: " + ", ".join(f"{v} {k}" for k, v in counts.items()) + f" (UFF 58, SI){note}")
     return 0

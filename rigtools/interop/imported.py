@@ -91,6 +91,7 @@ def write_imported(
         for i, ch in enumerate(p.channels):
             assert ch.si is not None
             ch.point, ch.samples, ch.sample_rate = index, p.samples, p.sample_rate
+            place = ch.extra.get("place") or {}  # node, direction, entity, description (UFF)
             try:
                 specs.append(
                     ChannelSpec(
@@ -100,6 +101,7 @@ def write_imported(
                         sample_rate=p.sample_rate,
                         t0=p.t0[i] if p.t0 else 0.0,
                         physical_channel=(p.physical[i] if p.physical else None) or None,
+                        **{k: place.get(k) for k in ("node", "direction", "entity", "description")},
                     )
                 )
             except ValueError as exc:

@@ -14,7 +14,10 @@ anything else          101+  in channel order
 =====================  ====  =================================================
 
 Direction 2 (+Y) for every channel: the blades' thin (impact) direction, the axis the sensors
-measure (``rigtools.sim.params``: x along the blade, y thin). A UFF file is in SI (a dataset 164 with units
+measure (``rigtools.sim.params``: x along the blade, y thin). A channel an import placed keeps
+its place: the node, direction code, entity name and ID line 1 of the record it came from
+(:mod:`rigtools.interop.uff_places`); another channel of an imported recording, one the table
+does not name, gets node 101+ and direction 0 (none), said in one line. A UFF file is in SI (a dataset 164 with units
 code 1, m/N/s/K, comes first); the exponents of each 58 record say what the ordinate is: length 1
 for displacement, velocity and acceleration (the specific data type tells which), force 1 for
 force, doubled for auto spectra (units squared); an FRF carries the response in the numerator and the force in the denominator record.
@@ -30,6 +33,14 @@ from typing import Any
 import numpy as np
 
 from rigtools.errors import UserError, one_line
+from rigtools.interop.uff_data import FRF_DATA_RULE, frf_kind_from_data, rate_of_increment
+from rigtools.interop.uff_places import (  # the rig's numbering (node_of, FIXED_NODES) lives there
+    DIRECTION_Y,
+    channel_place,
+    record_place,
+    told_apart,
+    unplaced_line,
+)
 
 # UFF 58 function types (record 6, field 1)
 FUNC_TIME, FUNC_AUTO_SPECTRUM, FUNC_FRF, FUNC_COHERENCE = 1, 2, 4, 6  # the types pyuff writes
@@ -44,11 +55,9 @@ QUANTITY_CODES = {
     "force": (DATA_FORCE, 0, 1),
     "voltage": (DATA_GENERAL, 0, 0),
 }
-FIXED_NODES = {"force": 1, "drive": 100}
 #: UFF direction codes (record 6, fields 6 and 9): 1..6 are +X, +Y, +Z, +RX, +RY, +RZ, a negative
 #: code the opposite sense (-3 is -Z), 0 a scalar (no direction)
 DIRECTIONS = ("X", "Y", "Z", "RX", "RY", "RZ")
-DIRECTION_Y = 2
 SI_UNITS_CODE = 1
 #: ID line 2 of every record ``rig export uff`` writes: the importer reads ID line 4 of such files
 EXPORT_MARK = "shrouded-blade-rig export"
@@ -80,17 +89,6 @@ def exported_names(s: dict) -> tuple[str, str] | None:
         return None
     hit = _ID_LINE_4.fullmatch(str(s.get("id4", "")).strip())
     return (hit.group(1), hit.group(2) or "") if hit else None
-
-
-def node_of(channel: str, order: int) -> int:
-    """The UFF node number of a channel (see the module docstring); ``order`` is its position."""
-    if channel in FIXED_NODES:
-        return FIXED_NODES[channel]
-    if channel.startswith("active_shroud"):
-        return 2
-    if channel.startswith("passive_shroud"):
-        return 3
-    return 101 + order
 
 
 @dataclass(frozen=True)
@@ -256,6 +254,7 @@ def recording_functions(
     frf_options=None,
     reference: str | None = None,
     complete_only: bool = False,
+    notes: list[str] | None = None,
 ) -> list[UffFunction]:
     """The UFF functions of an open recording.
 
@@ -277,6 +276,10 @@ def recording_functions(
         The excitation channel of the FRFs (default: the recording's force channel).
     complete_only
         Leave out points that did not end (a run cut off mid-point): never exported as data.
+    notes
+        Where given, the lines to print are appended: a response-only point (no force channel)
+        gets time records and spectra but no FRF (:func:`no_frf_line`); channels of an imported
+        recording without node and direction (:func:`rigtools.interop.uff_places.unplaced_line`).
 
     Returns
     -------
@@ -285,11 +288,13 @@ def recording_functions(
 
     Notes
     -----
-    Time records and spectra carry reference node 0 (they have no reference). ID line 3 holds
+    Time records and spectra carry reference node 0, direction 0 (they have no reference). Each
+    record carries its channel's place (:func:`rigtools.interop.uff_places.channel_place`): node,
+    direction, entity name and ID line 1 as imported, else the rig's numbering. ID line 3 holds
     the recording's date (``DD-MMM-YY HH:MM:SS``, UTC).
     """
     from rigtools.analysis.spectra import amplitude_spectrum
-    from rigtools.analyze import PROCEDURE_FRF, point_frf_estimate
+    from rigtools.analyze import PROCEDURE_FRF
 
     procedure = str((recording.experiment or {}).get("procedure", ""))
     if frf_options is not None and "frf" not in what:
@@ -298,31 +303,38 @@ def recording_functions(
     estimated = False
     frfs: list[UffFunction] = []
     others: list[UffFunction] = []
-    none = ("", 0)
+    unplaced: list[int] = []  # nodes given here to an imported recording's unplaced channels
+    response_only: list[int] = []
     for point in recording.points:
         if complete_only and not point.complete:
             continue
-        names = list(point.channels)
         n = point.n_samples
         if n < 2:
             continue
         label = f"point {point.index:04d}"
-        for order, name in enumerate(names):
+        places = {
+            name: channel_place(name, order, point.channels[name], foreign=procedure == "import")
+            for order, name in enumerate(point.channels)
+        }
+        unplaced += [p.node for p in places.values() if not p.kept and p.direction == 0]
+        for name, place in places.items():
             ch = point.channels[name]
-            where = (name, node_of(name, order))
+            where = (place.entity, place.node)
             if "time" in what:
                 others.append(
                     UffFunction(
                         FUNC_TIME,
-                        f"{label} {name} time record",
+                        place.description or f"{label} {name} time record",
                         where,
-                        none,
+                        ("", 0),
                         ch.quantity,
                         "",
                         ch.t0 + np.arange(n) / ch.sample_rate,
                         ch[:n],
                         ch.units,
                         date,
+                        response_direction=place.direction,
+                        reference_direction=0,
                         channel=name,
                     )
                 )
@@ -331,69 +343,115 @@ def recording_functions(
                 others.append(
                     UffFunction(
                         FUNC_AUTO_SPECTRUM,
-                        f"{label} {name} auto spectrum, RMS^2 per bin (flattop)",
+                        (f"{place.description}: " if place.description else f"{label} {name} ")
+                        + "auto spectrum, RMS^2 per bin (flattop)",
                         where,
-                        none,
+                        ("", 0),
                         ch.quantity,
                         "",
                         f,
                         amp**2 / 2,
                         f"({ch.units})^2",
                         date,
+                        response_direction=place.direction,
+                        reference_direction=0,
                         channel=name,
                     )
                 )
         broadband = point.sample_rate is not None and ("fe" not in point.params or procedure in PROCEDURE_FRF)
         if "frf" in what and broadband:
-            if reference is not None and reference in point.channels:
+            if reference is not None:
+                if reference not in point.channels:
+                    raise UserError(
+                        f"--reference {reference}: point {point.index} has no such channel "
+                        f"(channels: {', '.join(point.channels)})"
+                    )
                 point = _with_force(point, reference)
-            est, resp, force, method, _ = point_frf_estimate(point, options=frf_options)
+            elif _response_only(point):
+                response_only.append(point.index)
+                continue
+            frfs += _point_frfs(point, label, places, date, frf_options)
             estimated = True
-            ref = point.channels[force]
-            ref_where = (
-                force,
-                node_of("force", 0) if force == "force" else node_of(force, names.index(force)),
-            )
-            for i, name in enumerate(resp):
-                ch = point.channels[name]
-                where = (name, node_of(name, names.index(name)))
-                text = method.describe(float(point.sample_rate))
-                frfs.append(
-                    UffFunction(
-                        FUNC_FRF,
-                        f"{label} H1 {name}/{force}; {text}",
-                        where,
-                        ref_where,
-                        ch.quantity,
-                        ref.quantity,
-                        est.frequency_hz,
-                        est.h1[i],
-                        f"{ch.units}/{ref.units}",
-                        date,
-                        channel=name,
-                        reference_channel=force,
-                    )
-                )
-                if est.n_averages > 1:
-                    frfs.append(
-                        UffFunction(
-                            FUNC_COHERENCE,
-                            f"{label} coherence {name}/{force}",
-                            where,
-                            ref_where,
-                            "coherence",
-                            "",
-                            est.frequency_hz,
-                            est.coherence[i],
-                            "-",
-                            date,
-                            channel=name,
-                            reference_channel=force,
-                        )
-                    )
     if frf_options is not None and "frf" in what and not estimated:
-        frf_options.refuse_unused(f"{recording.path} holds no broadband point to estimate an FRF of")
+        held = "no point with a force channel" if response_only else "no broadband point"
+        frf_options.refuse_unused(f"{recording.path} holds {held} to estimate an FRF of")
+    if notes is not None:
+        if response_only:
+            notes.append(no_frf_line(response_only, len(recording.points)))
+        if unplaced:
+            notes.append(unplaced_line(unplaced))
     return frfs + others
+
+
+def _response_only(point) -> bool:
+    """True for a point with no excitation: no ``reference_channel``, no channel of quantity force
+    (one with two force channels is not: ``--reference`` names its excitation)."""
+    from rigtools.analyze import force_channel
+
+    return force_channel(point) is None and not any(c.quantity == "force" for c in point.channels.values())
+
+
+def no_frf_line(points: list[int], total: int) -> str:
+    """The one line ``rig export uff`` says when response-only points get no FRF."""
+    which = (
+        "the recording holds"
+        if len(points) == total
+        else f"point{'s' if len(points) > 1 else ''} {', '.join(map(str, points))} "
+        + ("hold" if len(points) > 1 else "holds")
+    )
+    return f"no FRF written: {which} no force channel (response-only); an FRF needs the measured excitation"
+
+
+def _point_frfs(point, label: str, places: dict, date: str, frf_options) -> list[UffFunction]:
+    """H1 of every response of a broadband point over its force, each with its coherence where
+    the estimate averages (:func:`rigtools.analyze.point_frf_estimate`)."""
+    from rigtools.analyze import point_frf_estimate
+
+    est, resp, force, method, _ = point_frf_estimate(point, options=frf_options)
+    ref, ref_place = point.channels[force], places[force]
+    out = []
+    for i, name in enumerate(resp):
+        ch, place = point.channels[name], places[name]
+        common = {
+            "response_direction": place.direction,
+            "reference_direction": ref_place.direction,
+            "channel": name,
+            "reference_channel": force,
+        }
+        where, ref_where = (place.entity, place.node), (ref_place.entity, ref_place.node)
+        text = method.describe(float(point.sample_rate))
+        out.append(
+            UffFunction(
+                FUNC_FRF,
+                f"{label} H1 {name}/{force}; {text}",
+                where,
+                ref_where,
+                ch.quantity,
+                ref.quantity,
+                est.frequency_hz,
+                est.h1[i],
+                f"{ch.units}/{ref.units}",
+                date,
+                **common,
+            )
+        )
+        if est.n_averages > 1:
+            out.append(
+                UffFunction(
+                    FUNC_COHERENCE,
+                    f"{label} coherence {name}/{force}",
+                    where,
+                    ref_where,
+                    "coherence",
+                    "",
+                    est.frequency_hz,
+                    est.coherence[i],
+                    "-",
+                    date,
+                    **common,
+                )
+            )
+    return out
 
 
 def frf_set_functions(frf_set, what: tuple[str, ...] = WHAT, *, source: str = "") -> list[UffFunction]:
@@ -459,12 +517,17 @@ def frf_set_functions(frf_set, what: tuple[str, ...] = WHAT, *, source: str = ""
 
 
 def file_functions(
-    path: str | Path, what: tuple[str, ...] = WHAT, *, frf_options=None, reference: str | None = None
+    path: str | Path,
+    what: tuple[str, ...] = WHAT,
+    *,
+    frf_options=None,
+    reference: str | None = None,
+    notes: list[str] | None = None,
 ) -> tuple[list[UffFunction], list[int]]:
     """``(functions, points left out)`` of what ``rig export uff`` writes of ``path``: a recording's
-    (:func:`recording_functions`, complete points only; the cut-off points' indices returned) or
-    an FRF set's (:func:`frf_set_functions`: its FRFs are estimated already, so FRF options and
-    ``reference`` are refused in one line).
+    (:func:`recording_functions`, complete points only; the cut-off points' indices returned;
+    the lines to print appended to ``notes``) or an FRF set's (:func:`frf_set_functions`: its
+    FRFs are estimated already, so FRF options and ``reference`` are refused in one line).
 
     Raises
     ------
@@ -489,7 +552,7 @@ def file_functions(
         if len(skipped) == len(rec.points):
             raise UserError(f"{path}: the recording has no complete points to export")
         functions = recording_functions(
-            rec, what, frf_options=frf_options, reference=reference, complete_only=True
+            rec, what, frf_options=frf_options, reference=reference, complete_only=True, notes=notes
         )
     return functions, skipped
 
@@ -573,7 +636,7 @@ def record_name(s: dict) -> str:
     """The name of a record's response: the channel name ID line 4 holds in a file ``rig export
     uff`` wrote (:func:`exported_names`), else its entity name, then ``:<node><direction>`` when
     the node is not 0 (``acc:2+Z``, ``node:2+Z`` without entity name, ``acc:5-RX`` for a
-    rotation: :func:`direction_text`)."""
+    rotation: :func:`direction_text`), unless the entity name says just that (``1+Z``)."""
     names = exported_names(s)
     if names is not None:
         return names[0]
@@ -582,8 +645,8 @@ def record_name(s: dict) -> str:
         name = "node"
     node, direction = int(s.get("rsp_node", 0)), int(s.get("rsp_dir", 0))
     if node:
-        axis = direction_text(direction) or (f"dir{direction}" if direction else "")
-        name += f":{node}{axis}"
+        where = f"{node}" + (direction_text(direction) or (f"dir{direction}" if direction else ""))
+        name += "" if name == where else f":{where}"
     return name
 
 
@@ -596,15 +659,20 @@ def record_names(sets: list[dict]) -> list[str]:
     """The names of ``sets`` (:func:`record_name`); records of one function type that would share
     a name but differ in what they measure (their ordinate's specific data type: the
     acceleration, velocity and displacement of one node) get ``:<quantity>`` appended
-    (``acc:2+Y:acceleration``, ``acc:2+Y:displacement``)."""
+    (``acc:2+Y:acceleration``, ``acc:2+Y:displacement``); records that still share a name are
+    told apart by their ID lines (:func:`rigtools.interop.uff_places.told_apart`: ``1+Z:Dof1``
+    and ``1+Z:Dof4`` for the two records of one DOF in the MPSTD file)."""
     names = [record_name(s) for s in sets]
     groups: dict[tuple[int, str], set[str]] = {}
     for s, name in zip(sets, names, strict=True):
         groups.setdefault((int(s["func_type"]), name), set()).add(_quantity_word(s))
-    return [
-        name + f":{_quantity_word(s)}" if len(groups[(int(s["func_type"]), name)]) > 1 else name
-        for s, name in zip(sets, names, strict=True)
-    ]
+    return told_apart(
+        sets,
+        [
+            name + f":{_quantity_word(s)}" if len(groups[(int(s["func_type"]), name)]) > 1 else name
+            for s, name in zip(sets, names, strict=True)
+        ],
+    )
 
 
 def record_key(number: int) -> str:
@@ -682,58 +750,6 @@ def _frf_kind(s: dict, given: str | None) -> tuple[str | None, float, str]:
     )
 
 
-FRF_DATA_RULE = "peaks of |H| near +-90 deg: not mobility; |H| away from the peaks rising with frequency: accelerance, falling: receptance"
-
-
-def frf_kind_from_data(f: np.ndarray, h: np.ndarray) -> str | None:
-    """What an FRF measures, read from the data, or None when they do not tell.
-
-    A lightly damped mode's receptance and accelerance are near +-90 deg at its peak, its mobility
-    near 0/180 deg (the median over the largest peaks decides). Between receptance and accelerance,
-    ``|H|`` away from the peaks (the lower quartile of each end third of the grid) rises with frequency
-    for accelerance (x omega^2) and falls for receptance; a change under 10 dB decides nothing.
-    """
-    from scipy.signal import find_peaks
-
-    keep = f > 0
-    f, h = f[keep], h[keep]
-    mag = np.abs(h)
-    if f.size < 30 or not np.all(np.isfinite(mag)) or mag.max() == 0:
-        return None
-    peaks, props = find_peaks(mag, prominence=0.05 * mag.max())
-    if peaks.size == 0:
-        return None
-    top = peaks[np.argsort(props["prominences"])[::-1][:8]]
-    off_real = float(np.median(np.abs(np.sin(np.angle(h[top])))))
-    if off_real < 0.5:
-        return "mobility"
-    if off_real < 0.8:
-        return None
-    third = f.size // 3
-    low, high = np.percentile(mag[:third], 25), np.percentile(mag[-third:], 25)
-    if low <= 0 or high <= 0:
-        return None
-    change_db = 20 * np.log10(high / low)
-    if change_db > 10:
-        return "accelerance"
-    if change_db < -10:
-        return "receptance"
-    return None
-
-
-def rate_of_increment(inc: float) -> float:
-    """The sample rate of an abscissa increment. Dataset 58 writes the increment in its ASCII
-    header with 6 significant digits (``9.76562E-04`` for 1024 Hz), in binary files (58b) too:
-    the rate is the roundest number (whole Hz, then 0.1, 0.01, 0.001 Hz) whose increment rounds
-    to the written one."""
-    rate = 1.0 / inc
-    for decimals in range(4):
-        candidate = round(rate, decimals)
-        if candidate > 0 and abs(1.0 / candidate - inc) <= 5e-6 * abs(inc):
-            return float(candidate)
-    return rate
-
-
 def import_uff(
     source: str | Path,
     out: str | Path,
@@ -792,6 +808,7 @@ def import_uff(
             continue
         fc = resolve(where, name, _time_units(s), mapping=mapping, units=units, path=record_key(number))
         fc.extra["file_name"], fc.extra["key"] = name, record_key(number)
+        fc.extra["place"] = record_place(s)
         every.append(fc)
         inc = float(s.get("abscissa_inc", 0.0))
         fc.samples = len(s["data"])

@@ -139,6 +139,10 @@ class Channel:
         Time of the first sample, s from the start of the point.
     sensitivity : float or None
         In ``sensitivity_units``; ``physical_channel`` and ``location`` likewise None if not set.
+    node, direction : int or None
+        Where an imported file put the sensor: node number and UFF direction code (1..6 = +X..+RZ,
+        negative the opposite sense, 0 none); ``entity`` and ``description`` what it called the
+        point and the record (UFF entity name, ID line 1). None if not set.
     """
 
     def __init__(self, dataset: h5py.Dataset, path: str, cache: AttrCache | None = None):
@@ -154,6 +158,10 @@ class Channel:
         self.sensitivity_units: str | None = self.attrs.get("sensitivity_units")
         self.physical_channel: str | None = self.attrs.get("physical_channel")
         self.location: str | None = self.attrs.get("location")
+        self.node: int | None = self.attrs.get("node")
+        self.direction: int | None = self.attrs.get("direction")
+        self.entity: str | None = self.attrs.get("entity")
+        self.description: str | None = self.attrs.get("description")
 
     def __repr__(self) -> str:
         return (

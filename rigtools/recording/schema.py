@@ -100,7 +100,15 @@ MEASURED_CHANNEL_ATTRS: dict[str, tuple[str, str]] = {
     "sensitivity_units": ("text", 'units of sensitivity, e.g. "mV/g", "mV/N"'),
     "physical_channel": ("text", 'DAQ channel, e.g. "Dev1/ai0"'),
     "location": ("text", 'where the sensor sits, e.g. "active blade, x=0.180 m"'),
+    "node": ("int", "the sensor's point number in a test geometry (UFF node), as an imported file gave it"),
+    "direction": ("int", "what the sensor measures, a UFF direction code (-6..6: 1..6 = +X..+RZ, 0 none)"),
+    "entity": ("text", "the file's name of the sensor's point (UFF entity name, 10 characters at most)"),
+    "description": ("text", 'what the file calls the record (UFF ID line 1, e.g. "MPS set1 Dof1")'),
 }
+#: UFF node numbers are written in a 10-character integer field; readers take them as int32
+NODE_MAX = 2**31 - 1
+#: direction codes: +-1..6 (+X..+RZ and the opposite senses) and 0 (none)
+DIRECTION_MAX = 6
 
 RESERVED_POINT_NAMES = frozenset(POINT_ATTRS)
 _POINT_NAME = re.compile(r"^\d{4,}$")
@@ -170,6 +178,10 @@ def parse_utc(text: str) -> datetime:
     return value
 
 
+#: the optional text fields of :class:`ChannelSpec`
+TEXT_FIELDS = ("sensitivity_units", "physical_channel", "location", "entity", "description")
+
+
 @dataclass(frozen=True)
 class ChannelSpec:
     """What one recorded channel holds.
@@ -189,6 +201,10 @@ class ChannelSpec:
     sensitivity, sensitivity_units, physical_channel, location
         For measured channels: the sensor's sensitivity (e.g. ``10.0`` with ``"mV/g"``), the DAQ
         channel (``"Dev1/ai1"``) and where the sensor sits (``"active blade, x=0.180 m"``).
+    node, direction, entity, description
+        Where an imported file put the sensor and what it called the record: node number
+        (0..2**31-1), UFF direction code (-6..6: 1..6 = +X..+RZ, negative the opposite sense, 0
+        none), entity name and ID line 1 (``rig export uff`` writes them back).
     """
 
     name: str
@@ -200,6 +216,10 @@ class ChannelSpec:
     sensitivity_units: str | None = None
     physical_channel: str | None = None
     location: str | None = None
+    node: int | None = None
+    direction: int | None = None
+    entity: str | None = None
+    description: str | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not _CHANNEL_NAME.match(self.name):
@@ -219,10 +239,20 @@ class ChannelSpec:
             raise ValueError(
                 f"channel {self.name!r}: sensitivity {self.sensitivity!r} must be a finite non-zero number"
             )
-        for key in ("sensitivity_units", "physical_channel", "location"):
+        for key in TEXT_FIELDS:
             value = getattr(self, key)
             if value is not None and not isinstance(value, str):
                 raise ValueError(f"channel {self.name!r}: {key} must be text")
+        for key, low, high in (("node", 0, NODE_MAX), ("direction", -DIRECTION_MAX, DIRECTION_MAX)):
+            value = getattr(self, key)
+            if value is not None and not (
+                isinstance(value, Integral)
+                and not isinstance(value, (bool, np.bool_))
+                and low <= value <= high
+            ):
+                raise ValueError(
+                    f"channel {self.name!r}: {key} {value!r} must be an integer in {low}..{high}"
+                )
 
     def attrs(self) -> dict[str, Any]:
         """The dataset attributes of this channel (optional ones only when set)."""
@@ -234,10 +264,14 @@ class ChannelSpec:
         }
         if self.sensitivity is not None:
             out["sensitivity"] = float(self.sensitivity)
-        for key in ("sensitivity_units", "physical_channel", "location"):
+        for key in TEXT_FIELDS:
             value = getattr(self, key)
             if value is not None:
                 out[key] = value
+        for key in ("node", "direction"):
+            value = getattr(self, key)
+            if value is not None:
+                out[key] = np.int64(value)
         return out
 
 

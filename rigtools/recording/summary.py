@@ -39,6 +39,8 @@ def summary(rec: Recording) -> dict[str, Any]:
                     "sensitivity_units": ch.sensitivity_units,
                     "physical_channel": ch.physical_channel,
                     "location": ch.location,
+                    "node": ch.node,
+                    "direction": ch.direction,
                 },
             )
     return {

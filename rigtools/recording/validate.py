@@ -25,6 +25,7 @@ from rigtools.errors import one_line
 from rigtools.recording.schema import (
     CHANNEL_ATTRS,
     CHANNEL_UNITS,
+    DIRECTION_MAX,
     END_FINISHED,
     END_STATUSES,
     MEASURED_CHANNEL_ATTRS,
@@ -447,8 +448,14 @@ def _point_problems(
         t0 = values.get("t0")
         if t0 is not None and not math.isfinite(t0):
             out.append(Problem(cwhere, f"t0 {t0!r} is not finite", fatal=True))
-        for key, (kind, _) in MEASURED_CHANNEL_ATTRS.items():
-            _check_attr(dattrs, key, kind, cwhere, out, required=False)
+        measured = {
+            key: _check_attr(dattrs, key, kind, cwhere, out, required=False)
+            for key, (kind, _) in MEASURED_CHANNEL_ATTRS.items()
+        }
+        if measured["direction"] is not None and abs(measured["direction"]) > DIRECTION_MAX:
+            out.append(
+                Problem(cwhere, f"direction {measured['direction']} is not a UFF direction code (-6..6)")
+            )
         if "sensitivity" in dattrs and "sensitivity_units" not in dattrs:
             out.append(Problem(cwhere, "has 'sensitivity' but no 'sensitivity_units'"))
     empty = [k for k, v in lengths.items() if v == 0]

@@ -1,0 +1,58 @@
+"""What the values of a UFF 58 record say, checked against its labels by the import
+(:func:`rigtools.interop.uff.import_uff`): the kind of an FRF, the sample rate of a time record
+whose increment the format wrote with 6 digits."""
+
+from __future__ import annotations
+
+import numpy as np
+
+FRF_DATA_RULE = "peaks of |H| near +-90 deg: not mobility; |H| away from the peaks rising with frequency: accelerance, falling: receptance"
+
+
+def frf_kind_from_data(f: np.ndarray, h: np.ndarray) -> str | None:
+    """What an FRF measures, read from the data, or None when they do not tell.
+
+    A lightly damped mode's receptance and accelerance are near +-90 deg at its peak, its mobility
+    near 0/180 deg (the median over the largest peaks decides). Between receptance and accelerance,
+    ``|H|`` away from the peaks (the lower quartile of each end third of the grid) rises with frequency
+    for accelerance (x omega^2) and falls for receptance; a change under 10 dB decides nothing.
+    """
+    from scipy.signal import find_peaks
+
+    keep = f > 0
+    f, h = f[keep], h[keep]
+    mag = np.abs(h)
+    if f.size < 30 or not np.all(np.isfinite(mag)) or mag.max() == 0:
+        return None
+    peaks, props = find_peaks(mag, prominence=0.05 * mag.max())
+    if peaks.size == 0:
+        return None
+    top = peaks[np.argsort(props["prominences"])[::-1][:8]]
+    off_real = float(np.median(np.abs(np.sin(np.angle(h[top])))))
+    if off_real < 0.5:
+        return "mobility"
+    if off_real < 0.8:
+        return None
+    third = f.size // 3
+    low, high = np.percentile(mag[:third], 25), np.percentile(mag[-third:], 25)
+    if low <= 0 or high <= 0:
+        return None
+    change_db = 20 * np.log10(high / low)
+    if change_db > 10:
+        return "accelerance"
+    if change_db < -10:
+        return "receptance"
+    return None
+
+
+def rate_of_increment(inc: float) -> float:
+    """The sample rate of an abscissa increment. Dataset 58 writes the increment in its ASCII
+    header with 6 significant digits (``9.76562E-04`` for 1024 Hz), in binary files (58b) too:
+    the rate is the roundest number (whole Hz, then 0.1, 0.01, 0.001 Hz) whose increment rounds
+    to the written one."""
+    rate = 1.0 / inc
+    for decimals in range(4):
+        candidate = round(rate, decimals)
+        if candidate > 0 and abs(1.0 / candidate - inc) <= 5e-6 * abs(inc):
+            return float(candidate)
+    return rate
