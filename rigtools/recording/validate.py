@@ -371,7 +371,7 @@ def _point_problems(
         return [Problem(where, "is not a group", fatal=True)]
     attrs = cache.of(group)
     fe = _scalar(attrs.get("fe", 0.0)) if not isinstance(attrs.get("fe"), Unreadable) else None
-    if sine and _is_number(fe) and float(fe) == 0.0:
+    if sine and fe is not None and _is_number(fe) and float(fe) == 0.0:
         why = "has no parameter 'fe'" if "fe" not in attrs else "has fe = 0"
         out.append(
             Problem(

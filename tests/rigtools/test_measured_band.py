@@ -17,15 +17,16 @@ from pathlib import Path
 import numpy as np
 import pytest
 from cli_helpers import run_cli
+from conftest import PUBLIC_DATA, missing
 
-DATA = Path(__file__).resolve().parents[2].parent / "shared" / "data"
+DATA = PUBLIC_DATA
 HAMMER = DATA / "ufffiles-hammer"
 BANDS = {"50 Hz:200 Hz": (50.0, 200.0), "40 Hz:260 Hz": (40.0, 260.0), "55 Hz:130 Hz": (55.0, 130.0)}
 
 
 def _need(folder: Path) -> None:
     if not folder.is_dir():
-        pytest.skip(f"public data folder {folder} is absent (a clone without ../shared)")
+        missing(f"public data {folder} is absent (a clone without ../shared)", "RIGTOOLS_REQUIRE_DATA")
 
 
 def _modes(path, *band) -> dict:

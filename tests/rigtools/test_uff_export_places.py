@@ -24,6 +24,7 @@ import numpy as np
 import pytest
 import pyuff
 from cli_helpers import run_cli
+from conftest import PUBLIC_DATA, missing
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from nptdms import ChannelObject, GroupObject, TdmsWriter
@@ -31,7 +32,7 @@ from nptdms import ChannelObject, GroupObject, TdmsWriter
 from rigtools.config import load_rig
 from rigtools.recording import ChannelSpec, RecordingWriter, open_recording
 
-DATA = Path(__file__).resolve().parents[2].parent / "shared" / "data"
+DATA = PUBLIC_DATA
 MPSTD = DATA / "pyuff-mpstd-58b" / "MPSTD#Set001_2024_10_08_10_27_07.uff"
 #: what a record says of its response (sensor) and reference
 PLACE_FIELDS = ("rsp_ent_name", "rsp_node", "rsp_dir", "ref_node", "ref_dir", "id1")
@@ -40,7 +41,7 @@ NO_FRF = "no FRF written: the recording holds no force channel (response-only); 
 
 def _need(folder: Path) -> None:
     if not folder.is_dir():
-        pytest.skip(f"public data folder {folder} is absent (a clone without ../shared)")
+        missing(f"public data {folder} is absent (a clone without ../shared)", "RIGTOOLS_REQUIRE_DATA")
 
 
 def _records(path, func_type: int | None = None) -> list[dict]:
