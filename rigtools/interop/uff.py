@@ -735,14 +735,26 @@ def _frf_kind(s: dict, given: str | None) -> tuple[str | None, float, str]:
     data = frf_kind_from_data(np.asarray(s["x"], float), np.asarray(s["data"], complex))
     kinds = {k for k, _ in claims.values()}
     said = ", ".join(f"{w} says {k}" for w, (k, _) in claims.items())
+
+    def scale(kind: str) -> tuple[float, str]:
+        # only the units label carries a scale (g/N is 9.80665 (m/s^2)/N); the data-type code and
+        # the axis label name the kind alone
+        unit_claims = [(w, f) for w, (k, f) in claims.items() if w.startswith("units") and k == kind]
+        if unit_claims and unit_claims[0][1] != 1.0:
+            return unit_claims[0][1], f", x {unit_claims[0][1]:g} from its {unit_claims[0][0]}"
+        return 1.0, ""
+
     if len(kinds) == 1 and (data is None or data in kinds):
-        (where, (kind, factor)) = next(iter(claims.items()))
-        return kind, factor, f"{kind} from its {where}" + (", as the data show" if data else "")
+        (where, (kind, _)) = next(iter(claims.items()))
+        factor, how = scale(kind)
+        return kind, factor, f"{kind} from its {where}" + (", as the data show" if data else "") + how
     if data is not None:
-        return data, 1.0, f"{data} from the data ({FRF_DATA_RULE}){'; ' + said if said else ''}"
+        factor, how = scale(data)
+        return data, factor, f"{data} from the data ({FRF_DATA_RULE}){'; ' + said if said else ''}{how}"
     if len(kinds) == 1:
-        (where, (kind, factor)) = next(iter(claims.items()))
-        return kind, factor, f"{kind} from its {where}"
+        (where, (kind, _)) = next(iter(claims.items()))
+        factor, how = scale(kind)
+        return kind, factor, f"{kind} from its {where}{how}"
     return (
         None,
         1.0,
@@ -776,6 +788,7 @@ def import_uff(
         entry and line per record).
     """
     from rigtools.interop.channels import ForeignChannel, check_names, resolve
+    from rigtools.interop.checks import non_finite_reason
     from rigtools.interop.imported import ForeignPoint, rows_reader, split_by_timing, write_imported
 
     source = Path(source)
@@ -799,6 +812,7 @@ def import_uff(
     every: list[ForeignChannel] = []
     kept: list[tuple[ForeignChannel, int, float]] = []
     data: list[tuple[np.ndarray, float]] = []
+    notes: list[str] = []
     for number, name, s in records:
         where = f"record {number} ({name})"
         if int(s["func_type"]) != FUNC_TIME:
@@ -816,8 +830,14 @@ def import_uff(
             fc.si, fc.name, fc.reason = None, "", f"abscissa increment {inc!r} is not a positive time step"
         if fc.kept and np.iscomplexobj(s["data"]):
             fc.si, fc.name, fc.reason = None, "", "complex values in a time record"
+        if fc.kept and (bad := non_finite_reason(rows_reader(np.asarray(s["data"])[None, :]), fc.samples)):
+            fc.si, fc.name, fc.reason = None, "", bad
         if not fc.kept:
             continue
+        if fc.samples < (declared := int(s.get("num_pts", fc.samples))):
+            notes.append(
+                f"{where}: declares {declared} values, holds {fc.samples}: imported {fc.samples} (a cut file?)"
+            )
         fc.sample_rate = rate_of_increment(inc)
         if fc.sample_rate != 1.0 / inc:
             fc.reason = "; ".join(
@@ -853,6 +873,7 @@ def import_uff(
         every=every,
         reference=reference,
         overwrite=overwrite,
+        notes=notes,
     )
 
 

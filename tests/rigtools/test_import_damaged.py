@@ -5,6 +5,7 @@ Each damaged file is built here from a known array, so the expected result is ex
 from __future__ import annotations
 
 import logging
+import struct
 
 import numpy as np
 import pytest
@@ -182,3 +183,71 @@ def test_a_unit_that_contradicts_the_name_skips_the_channel_saying_both(
     )
     assert code == 0, err
     assert not [line for line in stdout.splitlines() if line.startswith("skipped")]
+
+
+@pytest.mark.parametrize("code", [12, 0])  # 12: acceleration, as analysers write it; 0: unknown
+def test_uff_frf_in_g_per_newton_keeps_the_labels_factor_whatever_the_data_type_code(tmp_path, code):
+    """A 58 FRF labelled g/N is stored in (m/s^2)/N, x 9.80665, whether or not its data-type code
+    also says acceleration (with code 12 the code's factor 1 was kept: 9.81x too small)."""
+    import pyuff
+
+    from rigtools.analysis.frf import sdof_frf
+    from rigtools.frf_set import read_frf_set
+    from rigtools.interop.uff import FUNC_FRF, UffFunction
+
+    f = np.arange(0.0, 500.25, 0.5)
+    h_si = sdof_frf(f, 100.0, 0.02, kind="accelerance")
+    d = UffFunction(
+        FUNC_FRF, "tip over hammer", ("tip", 2), ("hammer", 1), "acceleration", "force", f, h_si / G, "g/N"
+    ).dataset()
+    d.update(ordinate_spec_data_type=code, ordinate_axis_units_lab="g/N", rsp_dir=3, ref_dir=3)
+    src = tmp_path / "g.uff"
+    pyuff.UFF(str(src)).write_sets([d], "add")
+    code_, stdout, err = _import("uff", src, tmp_path / "g.h5")
+    assert code_ == 0, err
+    assert "x 9.80665 from its units 'g/N'" in stdout
+    fs = read_frf_set(tmp_path / "g.h5")
+    np.testing.assert_allclose(fs.frf[0], h_si, rtol=1e-6, atol=1e-9 * np.abs(h_si).max())  # ASCII digits
+
+
+def _uff_time(tmp_path, values, *, num_pts=None, binary=False):
+    import pyuff
+
+    from rigtools.interop.uff import FUNC_TIME, UffFunction
+
+    t = np.arange(values.shape[1]) / 1000.0
+    sets = []
+    for name, unit, quantity, v in zip(
+        ("hammer", "acc"), ("N", "m/s^2"), ("force", "acceleration"), values, strict=True
+    ):
+        d = UffFunction(FUNC_TIME, name, (name, 1), ("none", 0), quantity, "none", t, v, unit).dataset()
+        sets.append({**d, "binary": int(binary)})
+    src = tmp_path / "t.uff"
+    pyuff.UFF(str(src)).write_sets(sets, "add")
+    if num_pts is not None:  # the header's count edited as a cut file would leave it
+        text = src.read_text().replace(f"{values.shape[1]:>10d}", f"{num_pts:>10d}", 2)
+        src.write_text(text)
+    return src
+
+
+def test_uff_time_record_with_nan_is_skipped_as_tdms_and_lvm_do(tmp_path, data):
+    values = data.T.copy()
+    values[1, [17, 40, 41]] = [np.nan, np.inf, -np.inf]
+    # pyuff writes NaN as 0.0 (and reads an ASCII 'nan' as 0.0): the NaN bytes go into a binary
+    # 58b file as a foreign writer would leave them, after the sample before them
+    src = _uff_time(tmp_path, values, binary=True)
+    raw = bytearray(src.read_bytes())
+    for i in (17, 40, 41):
+        at = raw.index(struct.pack("<d", values[1, i - 1])) + 8
+        raw[at : at + 8] = struct.pack("<d", values[1, i])
+    src.write_bytes(bytes(raw))
+    code, stdout, err = _import("uff", src, tmp_path / "u.h5")
+    assert code == 0, err
+    assert "3 non-finite value(s) (NaN or inf) among its 200 samples, the first at sample 17" in stdout
+
+
+def test_uff_record_declaring_more_values_than_it_holds_says_so(tmp_path, data):
+    src = _uff_time(tmp_path, data.T, num_pts=400)
+    code, stdout, err = _import("uff", src, tmp_path / "u.h5")
+    assert code == 0, err  # pyuff reads the 200 values there are: imported, and said
+    assert stdout.count("declares 400 values, holds 200: imported 200 (a cut file?)") == 2
