@@ -294,13 +294,14 @@ def recording_functions(
     the recording's date (``DD-MMM-YY HH:MM:SS``, UTC).
     """
     from rigtools.analysis.spectra import amplitude_spectrum
-    from rigtools.analyze import PROCEDURE_FRF
+    from rigtools.analyze import PROCEDURE_FRF, is_hit_per_point_tap_test
 
     procedure = str((recording.experiment or {}).get("procedure", ""))
     if frf_options is not None and "frf" not in what:
         frf_options.refuse_unused(f"--what {','.join(what)} writes no FRF")
     date = uff_date(getattr(recording, "created", ""))
     estimated = False
+    tap = is_hit_per_point_tap_test(procedure, recording.points)
     frfs: list[UffFunction] = []
     others: list[UffFunction] = []
     unplaced: list[int] = []  # nodes given here to an imported recording's unplaced channels
@@ -359,7 +360,10 @@ def recording_functions(
                     )
                 )
         broadband = point.sample_rate is not None and ("fe" not in point.params or procedure in PROCEDURE_FRF)
-        if "frf" in what and broadband:
+        if "frf" in what and tap and not estimated:  # one FRF of all its hits, once
+            frfs += _point_frfs(point, "tap test", places, date, frf_options, tap=recording)
+            estimated = True
+        elif "frf" in what and broadband and not tap:
             if reference is not None:
                 if reference not in point.channels:
                     raise UserError(
@@ -402,12 +406,26 @@ def no_frf_line(points: list[int], total: int) -> str:
     return f"no FRF written: {which} no force channel (response-only); an FRF needs the measured excitation"
 
 
-def _point_frfs(point, label: str, places: dict, date: str, frf_options) -> list[UffFunction]:
-    """H1 of every response of a broadband point over its force, each with its coherence where
-    the estimate averages (:func:`rigtools.analyze.point_frf_estimate`)."""
-    from rigtools.analyze import point_frf_estimate
+def _point_frfs(point, label: str, places: dict, date: str, frf_options, tap=None) -> list[UffFunction]:
+    """H1 and coherence of every response of a broadband point over its force (the estimate of
+    :func:`~rigtools.analyze.point_frf_estimate`; of :func:`~rigtools.analyze.analyze_tap_test` for ``tap``)."""
+    from rigtools.analyze import _frf_kind_of, analyze_tap_test, point_frf_estimate
 
-    est, resp, force, method, _ = point_frf_estimate(point, options=frf_options)
+    if tap is not None:
+        try:
+            res = analyze_tap_test(tap.points, dict(tap.experiment or {}), method="peak").frf
+            measured = _frf_kind_of(point.channels[res.responses[0]].units) if res else None
+            if res is not None and measured not in (None, res.kind):  # in the response's own units
+                res = analyze_tap_test(
+                    tap.points, dict(tap.experiment or {}), kind=measured, method="peak"
+                ).frf
+        except UserError as exc:
+            raise UserError(f"{tap.path}: {exc}; --what time,spectra writes its records") from None
+        assert res is not None and res.frf_method is not None
+        est, resp, method = res.estimate, res.responses, res.frf_method
+        force = str((tap.experiment or {}).get("hammer_channel") or "hammer")
+    else:
+        est, resp, force, method, _ = point_frf_estimate(point, options=frf_options)
     ref, ref_place = point.channels[force], places[force]
     out = []
     for i, name in enumerate(resp):
