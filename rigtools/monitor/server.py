@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import hmac
 import ipaddress
+import logging
 import secrets
 import socket
 import threading
@@ -171,6 +172,24 @@ def _free_port(host: str) -> int:
         return int(probe.getsockname()[1])
 
 
+class OneLineErrors(logging.Filter):
+    """Tornado's "Uncaught exception" of a request the monitor refuses (a bare websocket upgrade
+    without bokeh's subprotocol, a peer gone mid-handshake) as one line, without its traceback:
+    a stranger's malformed request is not the monitor's error; the server goes on."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        if record.exc_info and record.exc_info[1] is not None:
+            exc = record.exc_info[1]
+            request = (
+                getattr(record.args[0], "uri", "") if isinstance(record.args, tuple) and record.args else ""
+            )
+            record.msg = "rig monitor: refused a request%s: %s: %s"
+            record.args = (f" for {request}" if request else "", type(exc).__name__, exc)
+            record.exc_info = None
+            record.exc_text = None
+        return True
+
+
 def serve(
     path: str | Path,
     *,
@@ -201,6 +220,10 @@ def serve(
         raise UserError(f"--port = {port}: a TCP port is 0 (a free one) to 65535")
     if Path(path).exists() and not Path(path).is_file():
         raise UserError(f"{path}: not a file (a recording, or where one will be written)")
+    one_line = OneLineErrors()
+    for name in ("tornado.application", "tornado.general", "bokeh.server.views.ws"):
+        if not any(isinstance(f, OneLineErrors) for f in logging.getLogger(name).filters):
+            logging.getLogger(name).addFilter(one_line)
     hub = Hub(path, poll_s)
     token = None if is_loopback(host) else secrets.token_urlsafe(24)
     recording = Path(path)

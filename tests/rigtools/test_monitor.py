@@ -272,6 +272,38 @@ def test_beyond_loopback_every_request_without_the_token_is_refused(dwell):
         proc.wait()
 
 
+def test_a_bare_websocket_upgrade_is_one_line_and_the_monitor_serves_on(dwell):
+    """A websocket upgrade without bokeh's subprotocol (a port scanner, curl) printed tornado's
+    full traceback of bokeh's ProtocolError: now one line; the page still loads; Ctrl-C is 130."""
+    cmd = [sys.executable, "-m", "rigtools.cli", "monitor", str(dwell), "--port", "0"]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    timer = threading.Timer(60, proc.kill)
+    timer.start()
+    try:
+        url = proc.stdout.readline().strip()
+        port = int(url.rsplit(":", 1)[1].split("/")[0])
+        conn = http.client.HTTPConnection("127.0.0.1", port, timeout=20)
+        upgrade = {
+            "Connection": "Upgrade",
+            "Upgrade": "websocket",
+            "Sec-WebSocket-Version": "13",
+            "Sec-WebSocket-Key": "dGhlIHNhbXBsZSBub25jZQ==",
+        }
+        conn.request("GET", "/monitor/ws", headers=upgrade)
+        conn.getresponse()
+        conn.close()
+        assert _status(f"http://127.0.0.1:{port}/monitor") == 200
+        proc.send_signal(signal.SIGINT)
+        assert proc.wait(timeout=30) == 130
+        err = proc.stderr.read()
+        assert "Traceback" not in err, err
+        assert "rig monitor: refused a request: ProtocolError: Subprotocol header is not 'bokeh'" in err
+    finally:
+        timer.cancel()
+        proc.kill()
+        proc.wait()
+
+
 def test_sigterm_ends_the_monitor_with_143(dwell):
     """SIGTERM (kill, a job scheduler) ends it with 128 + 15, as every command (130 before)."""
     cmd = [sys.executable, "-m", "rigtools.cli", "monitor", str(dwell), "--port", "0"]
