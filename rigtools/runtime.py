@@ -96,8 +96,9 @@ class StopRequests:
     [1, 2]
     """
 
-    def __init__(self, signals: tuple[int, ...] = STOP_SIGNALS) -> None:
+    def __init__(self, signals: tuple[int, ...] = STOP_SIGNALS, *, ignore_after_stop: bool = False) -> None:
         self.signals = signals
+        self.ignore_after_stop = ignore_after_stop
         self.first: float | None = None
         self._previous: dict[int, Any] = {}
         self._depth = 0
@@ -114,9 +115,13 @@ class StopRequests:
         return self
 
     def __exit__(self, *exc: object) -> None:
+        # after a stop, a process about to exit ignores further stop signals (a Ctrl-C then a
+        # kill 30 ms later, as a scheduler sends): its exit status stays the first one's, not
+        # a death by the second; otherwise the previous handlers come back
+        stopped = self.ignore_after_stop and self.first is not None
         for sig, old in self._previous.items():
             with contextlib.suppress(Exception):
-                signal.signal(sig, old if old is not None else signal.SIG_DFL)
+                signal.signal(sig, signal.SIG_IGN if stopped else old if old is not None else signal.SIG_DFL)
         if self._previous:
             sys.unraisablehook = self._previous_hook
         self._previous.clear()
@@ -180,9 +185,12 @@ def _deliver_later(signum: int, delay_s: float = 0.01) -> None:
     threading.Thread(target=deliver, name="stop-request", daemon=True).start()
 
 
-def handle_stop_signals(signals: tuple[int, ...] = STOP_SIGNALS) -> StopRequests:
-    """:class:`StopRequests` for ``signals`` (what ``rig`` installs around every command)."""
-    return StopRequests(signals)
+def handle_stop_signals(
+    signals: tuple[int, ...] = STOP_SIGNALS, *, ignore_after_stop: bool = False
+) -> StopRequests:
+    """:class:`StopRequests` for ``signals`` (what ``rig`` installs around every command, with
+    ``ignore_after_stop``: once stopped, the exiting process ignores the next stop signals)."""
+    return StopRequests(signals, ignore_after_stop=ignore_after_stop)
 
 
 # -- console ---------------------------------------------------------------------------------

@@ -187,3 +187,42 @@ def test_repeated_signals_against_the_ni_driver_contract(monkeypatch, at):
     assert np.max(np.abs(written)) > 0.5  # driven before the stop
     assert written[-1] == 0.0 and np.all(rig.written[-1][-100:] == 0.0)
     assert reads["n"] < 200  # the stop ended the stream
+
+
+def test_ctrl_c_then_a_kill_30_ms_later_ends_130_with_the_branches_kept(tmp_path):
+    """A Ctrl-C, then SIGTERM 30 ms later (as a scheduler sends) while the continuation writes
+    what it has: the branches are kept and the status is the first signal's 130; the process
+    died by the SIGTERM (-15) once the handlers were restored for the exit (issue 30)."""
+    out = tmp_path / "b.h5"
+    cmd = [
+        sys.executable,
+        "-m",
+        "rigtools.cli",
+        "continuation",
+        "--param",
+        "fe",
+        "--from",
+        "55",
+        "--to",
+        "80",
+    ]
+    proc = subprocess.Popen(
+        [*cmd, "--gap", "0.5 mm", "--force", "15", "--out", str(out)],
+        stdin=subprocess.DEVNULL,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    time.sleep(8.0)  # into the tracing (the branch takes about a minute); any moment gives 130
+    proc.send_signal(signal.SIGINT)
+    time.sleep(0.03)
+    if proc.poll() is None:
+        proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=240)
+    assert proc.returncode == 130, (proc.returncode, err)
+    assert "Traceback" not in err and "SIGINT: interrupted" in err
+    check = subprocess.run(
+        [sys.executable, "-m", "rigtools.cli", "check", str(out)], capture_output=True, text=True, check=False
+    )
+    assert check.returncode == 0 and "branch" in check.stdout, check.stdout + check.stderr
+    assert not list(tmp_path.glob("*.partial"))
