@@ -84,7 +84,14 @@ def read_lvm(source: str | Path, notes: list[str] | None = None) -> dict:
         notes.append(f"{source.name}: {note}")
     try:
         return lvm_read.read_str(text)
-    except (ValueError, SyntaxError, KeyError, IndexError) as exc:
+    except KeyError as exc:
+        if exc.args == ("data",):  # lvm_read found a segment header and no data rows under it
+            raise LvmImportError(
+                f"{source}: a segment header with no data rows under it (a file cut after its header, "
+                "or a column heading missing)"
+            ) from None
+        raise LvmImportError(f"{source}: cannot read the LabVIEW data (no {one_line(exc, 200)})") from None
+    except (ValueError, SyntaxError, IndexError) as exc:
         raise LvmImportError(f"{source}: cannot read the LabVIEW data ({one_line(exc, 200)})") from None
 
 

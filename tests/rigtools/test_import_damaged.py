@@ -251,3 +251,17 @@ def test_uff_record_declaring_more_values_than_it_holds_says_so(tmp_path, data):
     code, stdout, err = _import("uff", src, tmp_path / "u.h5")
     assert code == 0, err  # pyuff reads the 200 values there are: imported, and said
     assert stdout.count("declares 400 values, holds 200: imported 200 (a cut file?)") == 2
+
+
+@pytest.mark.parametrize("cut", ["heading", "no-x-value"])
+def test_lvm_whose_rows_lvm_read_cannot_place_is_one_line(tmp_path, data, cut):
+    """lvm_read's KeyError('data') was shown bare: "cannot read the LabVIEW data ('data')"."""
+
+    def edit(text):
+        if cut == "heading":  # the file ends after the segment header, before its column heading
+            return text[: text.index("X_Value")]
+        return text.replace("X_Value\t", "")  # a column heading without the X column's name
+
+    code, _, err = _import("lvm", _lvm(tmp_path, data, edit=edit), tmp_path / "t.h5")
+    assert code == 2 and len(err.strip().splitlines()) == 1
+    assert "a segment header with no data rows under it" in err and "t.lvm" in err
