@@ -7,11 +7,11 @@ responses averaged over the loads, so their covariances decay as the modes do.
 
 1. **Band and rate.** The band is ``band`` or the whole record up to 80 % of the Nyquist
    frequency. Every channel is scaled to unit RMS (the identification weighs channels by their
-   covariances; shapes are scaled back). A band wider than :data:`MAX_BAND_RATIO` times its
-   lowest peak is identified in sub-bands of equal frequency ratio (each overlapping its
-   neighbours by 15 %, each keeping the poles of its own part), so that each is sampled and
-   lagged for what it holds: decimated (anti-alias filtered, zero phase) so its top sits at
-   60 % or less of the new Nyquist frequency.
+   covariances; shapes are scaled back). The record is decimated (anti-alias filtered, zero
+   phase) so the band's top sits at 60 % or less of the new Nyquist frequency. A band too wide
+   for one Hankel matrix to lag one period of its lowest peak at that rate
+   (:func:`sub_bands`) is identified in parts of equal frequency ratio (each overlapping its
+   neighbours by 15 %, each keeping the poles of its own part), each decimated for its own top.
 2. **Averaged spectra.** The cross-spectral matrix of all channels (Welch, Hann, 50 % overlap,
    16 averages or more) and its singular values; the peaks of the first (at least
    :data:`PEAK_PROMINENCE_DB` prominent) are the record's spectral peaks. One averaged spectrum
@@ -19,7 +19,7 @@ responses averaged over the loads, so their covariances decay as the modes do.
    gives several noise spikes.
 3. **SSI-cov** (:mod:`rigtools.analysis.ssi`) at model orders 2, 4, ... up to
    ``4 x peaks + 20`` (what the band holds sets the order), with block rows spanning one
-   period of the lowest peak (at least 20); poles stable in frequency (1 %), damping (25 %) and shape (MAC
+   period of the lowest peak (at least 30); poles stable in frequency (1 %), damping (25 %) and shape (MAC
    0.95), with damping below 20 %, are grouped by frequency and shape (relative frequency
    difference + 1 - MAC below 0.03, average linkage), one pole per order. A group stable at
    :data:`MIN_STABLE_FRACTION` of the converged orders (the upper half of the orders run) or
@@ -61,12 +61,13 @@ PEAK_PROMINENCE_DB = 3.0  # a peak of the averaged spectrum: both half-power poi
 MAX_DAMPING = 0.2
 MIN_DAMPING = -0.002  # a tone's pole may come out a hair unstable; it is judged, not dropped
 CLUSTER_DISTANCE = 0.03
-MIN_STABLE_FRACTION = 0.6  # of the converged orders, for a group to be a candidate
+MIN_STABLE_FRACTION = 0.5  # of the converged orders, for a group to be a candidate (as the FRF path)
 MAX_HANKEL_ROWS = 640  # block rows x channels: the SVD's size
-MIN_BLOCK_ROWS = 20
+MIN_BLOCK_ROWS = 30
 LOW_LINES = 10  # the lowest peak of interest sits this many lines of the averaged spectrum above 0 Hz
 MAX_ORDER = 160
-MAX_BAND_RATIO = 12.0  # top / lowest peak of one identification (two periods of lag: 40 block rows)
+MIN_ORDER = 40  # at least 10 converged orders to judge stability over
+MAX_BAND_RATIO = 12.0  # top / lowest peak of one part of a split band
 OVERLAP = 1.15
 
 
@@ -231,13 +232,16 @@ def _block_rows(sample_rate: float, f_low: float, channels: int, max_order: int,
     return max(br, int(np.ceil((max_order + channels) / channels)), 4)
 
 
-def sub_bands(lo: float, hi: float, f_low: float) -> list[tuple[float, float]]:
-    """The band split into parts of equal frequency ratio, each at most
-    :data:`MAX_BAND_RATIO` from its lowest frequency of interest (``f_low`` for the first)."""
+def sub_bands(lo: float, hi: float, f_low: float, channels: int) -> list[tuple[float, float]]:
+    """The band split into parts of equal frequency ratio when one block Hankel matrix of at
+    most :data:`MAX_HANKEL_ROWS` rows cannot lag one period of ``f_low`` at the rate the top
+    needs (``hi / f_low`` above ``0.3 MAX_HANKEL_ROWS / channels``, with
+    :data:`MAX_BAND_RATIO` the most a part spans)."""
     start = max(lo, f_low)
-    if hi <= MAX_BAND_RATIO * start:
+    ratio = min(MAX_BAND_RATIO, 0.3 * MAX_HANKEL_ROWS / channels)
+    if hi <= 0.3 * MAX_HANKEL_ROWS / channels * start:
         return [(lo, hi)]
-    k = int(np.ceil(np.log(hi / start) / np.log(MAX_BAND_RATIO)))
+    k = int(np.ceil(np.log(hi / start) / np.log(ratio)))
     edges = start * (hi / start) ** (np.arange(k + 1) / k)
     edges[0], edges[-1] = lo, hi
     return [(float(a), float(b)) for a, b in itertools.pairwise(edges)]
@@ -272,7 +276,7 @@ def _identify_part(
     peak_idx = _peaks(f, sv[:, 0], lo / OVERLAP, top)
     low = peak_idx[f[peak_idx] >= LOW_LINES * f[1]]
     f_low = max(lo / OVERLAP, LOW_LINES * f[1], f[low[0]] if low.size else 0.0)
-    order = max_order or int(min(MAX_ORDER, max(20, 4 * peak_idx.size + 20)))
+    order = max_order or int(min(MAX_ORDER, max(MIN_ORDER, 4 * peak_idx.size + 20)))
     order += order % 2
     br = block_rows or _block_rows(fs, f_low, l, order, n)
     order = min(order, (br * l) // 2 * 2)
@@ -431,7 +435,7 @@ def operational_modes(
     f_low = max(lo, LOW_LINES * f[1], f[low[0]] if low.size else lo)
     runs = [
         _identify_part(ys, scale, sample_rate, part, nyq, max_order=max_order, block_rows=block_rows)
-        for part in sub_bands(lo, hi, f_low)
+        for part in sub_bands(lo, hi, f_low, y.shape[0])
     ]
     candidates = [c for r in runs for c in r.candidates]
     modes, harmonics, f0, mode_of, dropped = select(

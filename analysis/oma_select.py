@@ -298,7 +298,9 @@ def select(
     f0 = fe
     if f0 is None and anchors:
         f0 = harmonic_family(anchors, df / 2, min_members=1)[0]
-    _, ks = harmonic_family([c.frequency_hz for c in cands], df / 2, fundamental_hz=f0)
+    ks: list[int | None] = [None] * len(cands)
+    if f0 is not None:  # without fe or a tone, no family (2, 5, 7.5 Hz are 4, 10, 15 x 0.5 Hz)
+        ks = harmonic_family([c.frequency_hz for c in cands], df / 2, fundamental_hz=f0)[1]
     harmonics: list[Harmonic] = []
     kept: list[tuple[int, Candidate]] = []
     for i, c, k in zip(order, cands, ks, strict=True):

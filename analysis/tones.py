@@ -90,11 +90,14 @@ def harmonic_family(
     frequencies_hz
         Candidate line frequencies (the sharp ones).
     tolerance_hz
-        How far a line may sit from ``k f0`` (the frequency resolution of the record).
+        How far a line may sit from ``k f0`` (half a line of the averaged spectrum), the same
+        for every ``k`` (a tolerance growing with ``k`` lets a low sub-multiple explain any
+        line).
     fundamental_hz
         The shaft or drive frequency when known (``fe``); else each line and its integer
         fractions ``f / 2 .. f / 6`` are tried, and the one that puts the most lines on its
-        multiples (at least ``min_members``; the highest fundamental among equals) is taken.
+        multiples (at least ``min_members``; the highest fundamental among equals: 3P rather
+        than 1P when only 3P's multiples are there) is taken.
     min_members
         Lines a found fundamental must explain.
 
@@ -110,7 +113,7 @@ def harmonic_family(
 
     def multiples(f0: float) -> list[int | None]:
         k = np.rint(f / f0)
-        ok = (k >= 1) & (np.abs(f - k * f0) <= tolerance_hz * np.maximum(k, 1) ** 0.5)
+        ok = (k >= 1) & (np.abs(f - k * f0) <= tolerance_hz)
         return [int(j) if o else None for j, o in zip(k, ok, strict=True)]
 
     if fundamental_hz is not None:
