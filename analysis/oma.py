@@ -66,6 +66,7 @@ MAX_HANKEL_ROWS = 640  # block rows x channels: the SVD's size
 MIN_BLOCK_ROWS = 30
 LOW_LINES = 10  # the lowest peak of interest sits this many lines of the averaged spectrum above 0 Hz
 MAX_ORDER = 160
+MIN_SAMPLES = 200  # after decimation: 16 Welch averages of 24 samples at the least
 MIN_ORDER = 40  # at least 10 converged orders to judge stability over
 MAX_BAND_RATIO = 12.0  # top / lowest peak of one part of a split band
 OVERLAP = 1.15
@@ -423,9 +424,14 @@ def operational_modes(
     ys = y / scale[:, None]
     yd, fs, _ = decimate_to(ys, sample_rate, hi)
     seconds = y.shape[1] / sample_rate
+    if yd.shape[1] < MIN_SAMPLES:
+        raise ValueError(
+            f"{y.shape[1]} samples ({seconds:.3g} s) are too few for modes in {lo:g}-{hi:g} Hz "
+            f"(at least {MIN_SAMPLES} at {fs:.4g} S/s)"
+        )
     nper = welch_segment(yd.shape[1])
     f, sv = averaged_spectra(yd, fs, nper)
-    if (hi - lo) < 4 * f[1] or yd.shape[1] < 200:
+    if (hi - lo) < 4 * f[1]:
         raise ValueError(
             f"band {lo:g}-{hi:g} Hz holds fewer than 4 lines of the averaged spectrum "
             f"({f[1]:.3g} Hz apart from {seconds:.3g} s): widen the band or give a longer record"
