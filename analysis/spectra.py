@@ -23,6 +23,7 @@ WINDOWS = ("flattop", "hann", "boxcar")
 
 
 AMPLITUDES = ("peak", "rms")
+PSD_PEAK_DB = 3.0  # a peak of the averaged PSD has both half-power points
 
 
 def amplitude_label(quantity: str, unit: str, amplitude: str = "peak") -> str:
@@ -98,8 +99,10 @@ class ResponseSpectra:
         Peak-amplitude spectrum of the whole record (:func:`amplitude_spectrum`, flattop): a
         sine of peak amplitude A reads A.
     peaks
-        The strongest peaks of the amplitude spectrum: ``{"frequency_hz", "amplitude"}``
-        (peak amplitude), descending in amplitude.
+        The strongest peaks of the averaged PSD (at least 3 dB prominent: one per resonance,
+        where an unaveraged spectrum shows several noise spikes): ``{"frequency_hz", "psd",
+        "amplitude"}`` (PSD in units²/Hz; ``amplitude`` the flattop spectrum's highest value
+        within one PSD line, the peak amplitude of a tone), descending in PSD.
     harmonics
         With ``fe``: ``{"k", "frequency_hz", "amplitude", "phase"}`` of k·fe by exact least
         squares (:func:`rigtools.analysis.harmonics.harmonic_amplitudes`); else empty.
@@ -146,7 +149,7 @@ def response_spectra(
     fe
         Excitation (e.g. shaft or mains) frequency, Hz, or None.
     n_peaks
-        Number of peaks reported (at least 6 dB prominent in the amplitude spectrum).
+        Number of peaks reported (at least 3 dB prominent in the averaged PSD).
     k_max
         Highest harmonic of ``fe`` (lowered below the Nyquist frequency).
     nperseg
@@ -161,11 +164,21 @@ def response_spectra(
         nperseg = int(min(2 ** np.floor(np.log2(max(x.size / 8.5, 16))), 1 << 16, x.size))
     f, psd = welch(x, fs=sample_rate, window="hann", nperseg=nperseg, noverlap=nperseg // 2)
     fa, amp = amplitude_spectrum(x, sample_rate)
-    db = 20 * np.log10(np.maximum(amp, np.finfo(float).tiny))
-    idx, _ = find_peaks(db, prominence=6.0)
-    idx = idx[fa[idx] > 0]
-    idx = idx[np.argsort(amp[idx])[::-1][:n_peaks]]
-    peaks = [{"frequency_hz": float(fa[i]), "amplitude": float(amp[i])} for i in idx]
+    db = 10 * np.log10(np.maximum(psd, np.finfo(float).tiny))
+    idx, _ = find_peaks(db, prominence=PSD_PEAK_DB)
+    idx = idx[f[idx] > 0]
+    idx = idx[np.argsort(psd[idx])[::-1][:n_peaks]]
+    df = float(f[1])
+    peaks = []
+    for i in idx:
+        near = np.abs(fa - f[i]) <= df
+        peaks.append(
+            {
+                "frequency_hz": float(f[i]),
+                "psd": float(psd[i]),
+                "amplitude": float(np.max(amp[near])) if np.any(near) else float("nan"),
+            }
+        )
     harmonics: list[dict] = []
     if fe:
         k = max(1, min(int(k_max), int(np.floor(sample_rate / 2 / fe - 1e-9))))

@@ -86,6 +86,11 @@ class PointAnalysis:
         ``"random"``; ``"measured FRF"`` for an FRF set).
     notes
         Sentences on what was not done and why.
+    spectra
+        Per channel :class:`rigtools.analysis.spectra.ResponseSpectra` (points without a force).
+    oma
+        :class:`rigtools.analysis.oma.OMAResult` of the motion channels of a point without a
+        force (modes and harmonic tones), None when it has none.
     """
 
     index: int
@@ -99,6 +104,7 @@ class PointAnalysis:
     excitation: str = ""
     notes: list[str] = field(default_factory=list)
     spectra: dict[str, Any] | None = None
+    oma: Any = None
 
     @property
     def fe(self) -> float | None:
@@ -126,6 +132,8 @@ class PointAnalysis:
             out["modes"] = None
         if self.spectra is not None:
             out["spectra"] = _plain({c: s.to_dict() for c, s in self.spectra.items()})
+        if self.kind == "operational":
+            out["oma"] = None if self.oma is None else _plain(self.oma.to_dict())
         if self.frf is not None:
             out["frf"] = self.frf_dict()
         return out
@@ -533,12 +541,18 @@ def frf_blocks(point, names: Sequence[str], start: int, n: int, method) -> Itera
 
 
 def analyze_operational(
-    point, *, fe: float | None = None, channels: Sequence[str] | None = None
+    point,
+    *,
+    fe: float | None = None,
+    channels: Sequence[str] | None = None,
+    band: tuple[float, float] | None = None,
 ) -> PointAnalysis:
     """A point without a force channel (an operational log): per channel the PSD, the
-    peak-amplitude spectrum, its peaks and, with ``fe``, the harmonics k·fe
-    (:func:`rigtools.analysis.spectra.response_spectra`)."""
+    peak-amplitude spectrum, the peaks of the PSD and, with ``fe``, the harmonics k·fe
+    (:func:`rigtools.analysis.spectra.response_spectra`); the modes of its motion channels
+    together, harmonic tones flagged, in ``band`` (:func:`rigtools.operational.point_modes`)."""
     from rigtools.analysis.spectra import response_spectra
+    from rigtools.operational import point_modes
 
     rate = float(point.sample_rate)
     start, n = record_window(point)
@@ -549,7 +563,13 @@ def analyze_operational(
         c: response_spectra(np.asarray(point.channels[c][start : start + n], dtype=float), rate, fe=fe)
         for c in names
     }
-    notes = ["no force channel: spectra only (PSD in units²/Hz, Hann, Welch; amplitudes are peak, flattop)"]
+    spectra_note = (
+        "no force channel: PSD in units²/Hz (Welch, Hann; its peaks are the spectral peaks), "
+        "amplitudes are peak (flattop)"
+    )
+    notes = [spectra_note]
+    oma, oma_notes = point_modes(point, (start, n), names, band=band, fe=fe)
+    notes += oma_notes
     if fe is None:
         notes.append("give --fe to read the harmonics of an excitation frequency")
     return PointAnalysis(
@@ -561,6 +581,7 @@ def analyze_operational(
         (start, n),
         spectra=spectra,
         notes=notes,
+        oma=oma,
     )
 
 
@@ -1024,7 +1045,8 @@ def analyze_recording(
                         )
                     out.points.append(analyze_periodic(point, channels=names))
                 elif force_channel(point) is None:
-                    out.points.append(analyze_operational(point, fe=fe, channels=channels))
+                    band = (options or FRFOptions()).band
+                    out.points.append(analyze_operational(point, fe=fe, channels=channels, band=band))
                 else:
                     resp = [c for c in channels if c != force_channel(point)] if channels else None
                     out.points.append(
@@ -1036,8 +1058,13 @@ def analyze_recording(
                     progress(i + 1, len(points))
         except RecordingError as exc:
             raise UserError(str(exc)) from None
-    if not out.broadband:
-        (options or FRFOptions()).refuse_unused(f"{path} holds no broadband point (FRF, tap or impact test)")
+    if not out.broadband:  # --band also sets the band of the modes of points without a force
+        (options or FRFOptions()).refuse_unused(
+            f"{path} holds no broadband point (FRF, tap or impact test)", band=not out.operational
+        )
+        if (options or FRFOptions()).band and all(p.oma is None for p in out.operational):
+            why = next((n for n in out.operational[0].notes if n.startswith(("no modes", "no motion"))), "")
+            raise UserError(f"--band: no point of {path} could be identified in it ({why})")
     foreign = is_foreign(rec.experiment)
     if compare_fem is None:
         compare_fem = not foreign

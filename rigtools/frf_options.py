@@ -44,7 +44,7 @@ def add_frf_arguments(p: argparse.ArgumentParser, *, analysis: bool) -> None:
         "--band",
         metavar="LOW:HIGH",
         help='modal identification band, e.g. "100 Hz:4 kHz" (default: the procedure\'s band, else '
-        "where the force spectrum has energy)",
+        "where the force spectrum has energy; without a force, up to 80 %% of the Nyquist frequency)",
     )
     p.add_argument(
         "--force-window", metavar="FRACTION", help="impact: force window, a fraction (0, 1] of the frame"

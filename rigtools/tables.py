@@ -74,14 +74,20 @@ def analysis_tables(analysis: Any, verbose: bool = False) -> list[Any]:
             "modes: none from sine points (a sine excites one frequency at a time; use rig acquire frf)"
         )
     for p in analysis.operational:
-        table = Table(title=f"point {p.index}: spectra (no force channel)")
-        for col in ("channel", "RMS", "peaks, Hz (peak amplitude)", "harmonics k·fe"):
+        table = Table(
+            title=f"point {p.index}: spectra (no force channel)",
+            caption="peaks of the averaged PSD; m: a mode's, h: a harmonic tone's",
+        )
+        for col in ("channel", "RMS", "PSD peaks, Hz", "harmonics k·fe"):
             table.add_column(col, justify="right")
         for c, sp in p.spectra.items():
-            peaks = ", ".join(f"{q['frequency_hz']:.4g} ({q['amplitude']:.3g})" for q in sp.peaks[:3])
+            peaks = ", ".join(
+                f"{q['frequency_hz']:.4g}{_peak_mark(p.oma, q['frequency_hz'])}" for q in sp.peaks[:4]
+            )
             harmonics = ", ".join(f"{h['k']}: {h['amplitude']:.3g}" for h in sp.harmonics[:4]) or "–"
             table.add_row(f"{c} ({p.units.get(c, '')})", f"{sp.rms:.3g}", peaks or "–", harmonics)
         out.append(table)
+        out.extend(_oma_tables(p, verbose))
         for n in p.notes:
             out.append(f"note: {n}")
     for p in analysis.broadband:
@@ -388,3 +394,54 @@ def branches_tables(info: dict) -> list[Any]:
             show(b["from"]), show(b["to"]), marks,
         )  # fmt: skip
     return [*head, table]
+
+
+def _peak_mark(oma: Any, frequency_hz: float) -> str:
+    """`` m`` / `` h`` after a PSD peak a mode / a harmonic tone of ``oma`` explains."""
+    if oma is None:
+        return ""
+    df = float(oma.frequency_hz[1])
+    if any(abs(frequency_hz - h.frequency_hz) <= 2 * df for h in oma.harmonics):
+        return " h"
+    if any(
+        abs(frequency_hz - m.frequency_hz) <= max(m.damping_ratio * m.frequency_hz, df) for m in oma.modes
+    ):
+        return " m"
+    return ""
+
+
+def _oma_tables(p: Any, verbose: bool) -> list[Any]:
+    """The modes of a point without a force (operational modal analysis) and its harmonic
+    tones, each with the reason it is a tone."""
+    from rich.table import Table
+
+    oma = p.oma
+    if oma is None:
+        return []
+    lo, hi = oma.band
+    table = Table(
+        title=f"point {p.index}: modes without a force (SSI-cov, {lo:.4g}-{hi:.4g} Hz)",
+        caption="±: spread (model orders and the record's statistical spread); harmonics are not modes",
+    )
+    for col in ("mode", "f (Hz)", "± (Hz)", "ζ (%)", "± (%)", "orders"):
+        table.add_column(col, justify="right")
+    for j, m in enumerate(oma.modes):
+        table.add_row(
+            str(j + 1),
+            f"{m.frequency_hz:.4f}",
+            f"{m.frequency_spread_hz:.2g}",
+            f"{100 * m.damping_ratio:.2f}",
+            f"{100 * m.damping_spread:.2g}",
+            f"{m.orders_stable}/{m.orders_judged}",
+        )
+    if not oma.modes:
+        table.add_row("–", "–", "–", "–", "–", "–")
+    out: list[Any] = [table]
+    for h in oma.harmonics:
+        out.append(f"harmonic {h.frequency_hz:.4f} Hz (not a mode): {h.reason}")
+    if verbose:
+        for d in oma.dropped:
+            out.append(
+                f"  not reported: {d['frequency_hz']:.5g} Hz, ζ {100 * d['damping_ratio']:.3g} %: {d['reason']}"
+            )
+    return out

@@ -38,15 +38,21 @@ Per point, by what it is:
   was tried and what would help, and in --json "no_mode" (null when modes were found),
   "n_modes" and "tried" per response; the exit status stays 0 (the analysis ran, and the other
   responses and points keep their results): a script tests "no_mode".
-  points without a force (operational logs): PSD (units^2/Hz, Welch, Hann), peak-amplitude
-  spectrum (flattop), its peaks and, with --fe, the harmonics k*fe.
+  points without a force (operational logs): PSD (units^2/Hz, Welch, Hann) and its peaks,
+  peak-amplitude spectrum (flattop), with --fe the harmonics k*fe; and the modes of the motion
+  channels together (operational modal analysis: covariance-driven SSI in --band, default up to
+  80 % of the Nyquist frequency), each with its spread. Harmonic tones of a drive or rotor (a
+  steady sine: kurtosis well below a random resonance's 3, damping < 1 %; or on a multiple of
+  --fe or of such a tone) are flagged with the reason, never called modes; --json's "oma" says
+  "found" and lists modes, harmonics, the averaged spectrum's peaks and what was dropped.
 Records are read in blocks: memory stays bounded for long recordings. Amplitudes are peak
 amplitudes (RMS = peak / sqrt 2 for a sine).
 
 --out DIR writes the figures as PNG (never over a recording or a file rigtools did not make).
 
 Exit status: 0 analysed, 2 bad input (unreadable file, unknown channel, options; an FRF option
-that would change nothing, such as --band on a recording without a broadband point), 130 Ctrl-C.
+that would change nothing, such as --band on a recording with neither a broadband point nor a
+point without a force), 130 Ctrl-C.
 
 examples:
   rig analyze dwell.h5

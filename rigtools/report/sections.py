@@ -252,9 +252,43 @@ def add_analysis(report, analysis: RecordingAnalysis, branches=()) -> None:
             sec.note(f"point {p.index}: {n}")
         if not any(p.frf.modes[r].modes for r in p.frf.responses):
             sec.note(f"point {p.index}: no mode identified from any response")
+    for p in analysis.operational:
+        _add_operational(sec, p)
     for nf in analysis_figures(analysis):
         sec.figure(nf.figure, nf.caption)
     if branches:
         from rigtools.report.branches import add_recording_branches
 
         add_recording_branches(sec, analysis, list(branches))
+
+
+def _add_operational(sec, p) -> None:
+    """A point without a force: its modes (operational modal analysis) and the harmonic tones
+    flagged, each with its reason, then its notes."""
+    oma = p.oma
+    if oma is not None and oma.modes:
+        rows = [
+            {
+                "mode": j + 1,
+                "natural frequency (Hz)": m.frequency_hz,
+                "spread (Hz)": m.frequency_spread_hz,
+                "damping ratio (%)": 100 * m.damping_ratio,
+                "spread (%)": 100 * m.damping_spread,
+                "stable orders": f"{m.orders_stable}/{m.orders_judged}",
+            }
+            for j, m in enumerate(oma.modes)
+        ]
+        sec.table(
+            rows,
+            caption=f"Point {p.index}: modes without a force (SSI-cov, {oma.band[0]:.4g}-{oma.band[1]:.4g} Hz); "
+            "spread: model orders and the record's statistical spread",
+            digits=5,
+        )
+    if oma is not None and oma.harmonics:
+        sec.table(
+            [{"harmonic (Hz)": h.frequency_hz, "why a tone, not a mode": h.reason} for h in oma.harmonics],
+            caption=f"Point {p.index}: harmonic tones flagged (never modes)",
+            digits=5,
+        )
+    for n in p.notes:
+        sec.note(f"point {p.index}: {n}")
