@@ -143,9 +143,9 @@ def find_jumps(
                 if o is not None and abs(o - yi) / max(min(o, yi), 1e-300) > threshold:
                     evidence = "hysteresis"
                     break
-        if not evidence and c0 and c1:
-            if all(d[i - 1] > CONTRAST * d[j] for j in (i - 2, i) if 0 <= j < d.size):
-                evidence = "discontinuity in contact"
+        stands_out = all(d[i - 1] > CONTRAST * d[j] for j in (i - 2, i) if 0 <= j < d.size)
+        if not evidence and c0 and c1 and stands_out:
+            evidence = "discontinuity in contact"
         if evidence:
             out.append(Jump(x[i - 1], x[i], change, "up" if a1 > a0 else "down", evidence))
     return out
