@@ -7,8 +7,10 @@ that change says the rig is not responding linearly across it (:func:`find_jumps
 * ``"contact vanishes"`` / ``"contact appears"``: the shrouds touch on one side of the step and not
   on the other (the contact of each point: the model's impacts per period, or, on the rig,
   :func:`contact_seen` from the harmonics of the shroud accelerations);
-* ``"hysteresis"``: the sweep in the other direction, at the step's two frequencies, differs from
-  this one by more than the threshold at either of them;
+* ``"hysteresis"``: the sweep in the other direction differs from this one by more than the
+  threshold where the step leaves and agrees with it where the step lands (the jump takes the
+  sweep onto the branch the other direction followed; a steep step that stays on its own branch
+  inside the hysteresis loop is none);
 * ``"discontinuity in contact"``: the shrouds touch on both sides and the step's change of
   log-response is :data:`CONTRAST` times that of each neighbouring step (a discontinuity between
   two impacting regimes, not the steep flank of a resonance).
@@ -96,6 +98,10 @@ def _other_at(other: tuple[Sequence[float], Sequence[float]] | None, x: float) -
     return float(np.exp(np.interp(x, ox, np.log(oy))))
 
 
+def _differ(a: float, b: float, threshold: float) -> bool:
+    return abs(a - b) / max(min(a, b), 1e-300) > threshold
+
+
 def find_jumps(
     values: Sequence[float],
     measure: Sequence[float],
@@ -138,11 +144,14 @@ def find_jumps(
         if c0 is not None and c1 is not None and c0 != c1:
             evidence = "contact vanishes" if c0 else "contact appears"
         if not evidence:
-            for xi, yi in ((x[i - 1], a0), (x[i], a1)):
-                o = _other_at(other, xi)
-                if o is not None and abs(o - yi) / max(min(o, yi), 1e-300) > threshold:
-                    evidence = "hysteresis"
-                    break
+            o0, o1 = _other_at(other, x[i - 1]), _other_at(other, x[i])
+            if (
+                o0 is not None
+                and o1 is not None
+                and _differ(o0, a0, threshold)
+                and not _differ(o1, a1, threshold)
+            ):
+                evidence = "hysteresis"
         stands_out = all(d[i - 1] > CONTRAST * d[j] for j in (i - 2, i) if 0 <= j < d.size)
         if not evidence and c0 and c1 and stands_out:
             evidence = "discontinuity in contact"

@@ -117,5 +117,10 @@ def run(args: argparse.Namespace) -> int:
     for b in doc["branches"]:
         marks = ", ".join(f"{x['label']} {x['value']:.6g}" for x in b["bifurcations"]) or "none"
         print(f"period {b['periods']}: {b['points']} points, {b['status']} {b['message']}; {marks}")
+    if measured:
+        from rigtools.report.branches import measured_jump_sentences
+
+        for line in measured_jump_sentences(stored, measured, args.measure):
+            print(line)
     print(f"wrote {out} and {Path(png)}")
     return 0

@@ -133,6 +133,18 @@ def jump_sentences(explanations: list, param: str) -> list[str]:
     return out
 
 
+def measured_jump_sentences(branches: list[StoredBranch], measured: list, measure: str) -> list[str]:
+    """:func:`jump_sentences` of ``measured`` (:func:`rigtools.branches.measured_sweeps`) against
+    stored branches in ``measure``, or one line saying the sweeps show no jump."""
+    from rigtools.analysis.branches import explain_jumps
+    from rigtools.branches import branch_curves
+
+    if not branches or not measured:
+        return []
+    sentences = jump_sentences(explain_jumps(branch_curves(branches, measure), measured), branches[0].param)
+    return sentences or [f"{', '.join(m.name for m in measured)}: no jump."]
+
+
 def period_two_sentence(branches: list[StoredBranch]) -> str:
     """Where the period-2 branches born at the period doublings are stable, or ``""``."""
     p1 = next((b for b in branches if b.periods == 1 and b.value.size), None)
