@@ -1,7 +1,8 @@
 """Continued branches beside measured sweeps: the figure (a response measure against the continued
 parameter, stable parts solid, unstable dashed, bifurcations labelled, measured sweeps on the same
-axes), the branches' turning points (:func:`turning_points`) and which of them each measured jump
-sits at (:func:`explain_jumps`). Arrays in, a matplotlib figure or small dataclasses out; no file
+axes), the branches' turning points (:func:`turning_points`) and how each measured jump comes
+about (:func:`explain_jumps`: where the stable run the sweep followed ends, by which mechanism,
+:mod:`rigtools.analysis.branch_exits`). Arrays in, a matplotlib figure or small dataclasses out; no file
 I/O."""
 
 from __future__ import annotations

@@ -24,7 +24,8 @@ The file (kind "branches", docs/recording-format.md) holds each branch's points 
 stability, multipliers, labels and response measures; FILE.png plots --measure against the
 parameter (stable solid, unstable dashed); --measured overlays recorded up/down sweeps and
 studies in the same measure (a rig recording has accelerations only: --measure accel1), their
-jumps shaded.
+jumps shaded, and prints a sentence per jump: the mechanism by which the sweep leaves the branch
+it followed and how far from the jump, and the nearest turning point.
 
 examples:
   rig continuation --param fe --from 55 --to 80 --force 15 --gap "0.7 mm" --out branches-fe.h5

@@ -1,8 +1,8 @@
 """The model's continued branches in the HTML report, where they explain measured jumps.
 
 :func:`add_branches` puts into a report section what a branch file says about a measured sweep:
-one or two sentences (each measured jump and the branch's turning point it sits at, or how far
-from it), the figure (:func:`rigtools.branches.branches_figure`: stable solid, unstable dashed,
+one or two sentences per measured jump (the mechanism by which the sweep leaves the branch it
+followed and how far from the jump; the nearest turning point), the figure (:func:`rigtools.branches.branches_figure`: stable solid, unstable dashed,
 bifurcations labelled, the measured up/down steps on the same axes, their jumps shaded), and two
 tables (the branches' bifurcations; the jumps against the turning points) holding the numbers
 the sentences quote. ``rig report --branches`` (:func:`load_branch_files`,
