@@ -115,6 +115,11 @@ def _name(labels: list[str], turning: bool) -> tuple[str, str, str]:
     return (*mechanism_of(ranked[0]), ranked[0])
 
 
+def _extreme(v: np.ndarray, i: int, sign: float) -> bool:
+    """Point ``i`` is a turning point of the branch in the sweep's sense (both neighbours behind)."""
+    return 0 < i < v.size - 1 and sign * (v[i] - v[i - 1]) >= 0 and sign * (v[i] - v[i + 1]) >= 0
+
+
 def branch_exits(curve, direction: str) -> list[BranchExit]:
     """The ends of the stable runs of ``curve`` in a sweep's ``direction`` (``"up"``: increasing
     parameter), where the branch continues (turning back or unstable); a run that reaches the
@@ -139,6 +144,10 @@ def branch_exits(curve, direction: str) -> list[BranchExit]:
         mechanism, words, label = _name(labels, turning)
         # the bifurcation where the branch locates it (the labelled point), else the run's end
         at = min((i for i in range(lo, hi) if label in curve.labels[i]), key=lambda i: abs(i - k), default=k)
+        if not turning and label in ("fold", "grazing") and _extreme(v, at, sign):
+            # a fold located on the first unstable point past the last stable one: the branch turns there
+            turning = True
+            mechanism, words, _ = _name(labels, True)
         again = None
         if beyond:
             step = beyond[0] - k

@@ -159,3 +159,17 @@ def test_a_period_doubling_followed_by_another_is_a_cascade():
     (e,) = explain_jumps([p1, p2], [fem_up_sweep()])
     assert e.exit is not None and e.exit.mechanism == "period-doubling cascade"
     assert e.exit.value == 72.61
+
+
+def test_a_fold_labelled_on_its_first_unstable_point_is_a_turning_point():
+    """The continuation labels a fold where the multiplier has crossed +1: often the first
+    unstable point, past the run's last stable one. The exit is still the fold, a turning
+    point, at the labelled 71.64 Hz (the 0.7 mm branch of the demo does this)."""
+    from rigtools.analysis.branch_exits import branch_exits
+
+    c = s_curve()
+    stable = np.asarray(c.stable).copy()
+    stable[59] = False  # the labelled fold itself unstable
+    c = BranchCurve(c.value, c.measure, stable, c.labels)
+    (fold,) = [e for e in branch_exits(c, "up") if e.mechanism == "fold"]
+    assert fold.turning and fold.value == 71.64 and fold.span == (0, 58)

@@ -164,10 +164,11 @@ def test_demo_branches_explain_the_frequency_and_gap_findings(demo):
     text = (out / "report.html").read_text()
     assert f"fold (LP) at {fold['value']:.4g} Hz" in text
     assert f"grazing corner at {corner['value']:.4g} Hz" in text
+    # the up sweep's sentence says it leaves contact (its evidence above) and where it jumps
     assert (
-        f"jumps between {min(up['from_hz'], up['to_hz']):g} Hz and {max(up['from_hz'], up['to_hz']):g} Hz"
-        in text
-    )
+        f"leaves contact in a jump between {min(up['from_hz'], up['to_hz']):g} Hz and "
+        f"{max(up['from_hz'], up['to_hz']):g} Hz"
+    ) in text
     assert "period-doubles (PD) at 1.532 mm, 2.405 mm" in text
 
 
