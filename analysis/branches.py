@@ -1,16 +1,19 @@
 """Continued branches beside measured sweeps: the figure (a response measure against the continued
 parameter, stable parts solid, unstable dashed, bifurcations labelled, measured sweeps on the same
-axes), the branches' turning points (:func:`turning_points`) and which of them each measured jump
-sits at (:func:`explain_jumps`). Arrays in, a matplotlib figure or small dataclasses out; no file
+axes), the branches' turning points (:func:`turning_points`) and how each measured jump comes
+about (:func:`explain_jumps`: where the stable run the sweep followed ends, by which mechanism,
+:mod:`rigtools.analysis.branch_exits`). Arrays in, a matplotlib figure or small dataclasses out; no file
 I/O."""
 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from matplotlib.figure import Figure
+
+from rigtools.analysis.branch_exits import BranchExit, branch_exits, run_measure_at
 
 SHORT = {"fold": "LP", "period-doubling": "PD", "neimark-sacker": "NS", "grazing": "G"}
 TURNING_LABELS = ("fold", "grazing")  # a branch turns back at a fold, or at a grazing corner
@@ -26,6 +29,7 @@ class BranchCurve:
     stable: np.ndarray
     labels: Sequence[Sequence[str]]
     name: str = "period 1"
+    contact: np.ndarray | None = None  # impacts per period at each point (None: not known)
 
 
 @dataclass
@@ -37,6 +41,7 @@ class MeasuredSweep:
     direction: str = "up"
     name: str = "measured"
     jumps: list[tuple[float, float]] = field(default_factory=list)
+    contact: Sequence[bool | None] | None = None  # the shrouds touch at each point (None: unknown)
 
 
 def branch_figure(
@@ -139,15 +144,25 @@ def turning_points(curve: BranchCurve) -> list[TurningPoint]:
     return out
 
 
+MATCH = 0.1  # a measured point lies on a stable run if its measure is within 10 % of the run's there
+LOOK_BACK = 6  # measured points before a jump searched for the stable run the sweep followed
+
+
 @dataclass(frozen=True)
 class JumpExplanation:
-    """A measured jump and the branches' turning point nearest to it.
+    """A measured jump, the mechanism by which the branches say the sweep leaves there, and the
+    branches' turning point nearest to it.
 
     ``start``, ``stop``: the jump's interval (the two steps between which it happens, ordered);
     ``turning``: the nearest turning point of the kind a sweep in that direction meets (upper for
     up, lower for down; any kind if the branches have none of it), ``None`` without any;
     ``offset``: 0 inside the interval, else the turning point's distance from its nearer end
-    (positive above the interval).
+    (positive above the interval); ``exit``: where the stable run the sweep followed ends in its
+    direction and by which mechanism (:class:`rigtools.analysis.branch_exits.BranchExit`), ``None``
+    if the branches have no such end; ``distance``: the exit's offset from the interval, as
+    ``offset``; ``followed``: the sweep's own points were found on that run (else the exit is
+    the one nearest to the jump); ``contact``: ``"leaves contact"``, ``"makes contact"`` or
+    ``""`` (the measured contact across the jump).
     """
 
     sweep: str
@@ -156,30 +171,111 @@ class JumpExplanation:
     stop: float
     turning: TurningPoint | None
     offset: float
+    exit: BranchExit | None = None
+    distance: float = float("nan")
+    followed: bool = False
+    contact: str = ""
 
     @property
     def inside(self) -> bool:
         return self.turning is not None and self.offset == 0.0
 
+    @property
+    def exit_inside(self) -> bool:
+        return self.exit is not None and self.distance == 0.0
+
+
+def _offset(value: float, lo: float, hi: float) -> float:
+    return 0.0 if lo <= value <= hi else (value - hi if value > hi else value - lo)
+
+
+def _followed_exit(curves: Sequence[BranchCurve], m: MeasuredSweep, first: int, direction: str):
+    """The exit of the stable run the sweep's points before the jump (``first``: the index of
+    the jump's first point) lie on, the nearest such point first; ``None`` if none does."""
+    by_curve = [(c, branch_exits(c, direction)) for c in curves]
+    for i in range(first, max(-1, first - LOOK_BACK), -1):
+        x, y = float(m.value[i]), float(m.measure[i])
+        best, err = None, MATCH
+        for c, exits in by_curve:
+            for e in exits:
+                at = run_measure_at(c, e.span, x)
+                if at is None:
+                    continue
+                rel = abs(at - y) / max(abs(at), abs(y), 1e-300)
+                if rel <= err:
+                    best, err = e, rel
+        if best is not None:
+            return best
+    return None
+
+
+def _contact_change(m: MeasuredSweep, i: int) -> str:
+    if m.contact is None or i + 1 >= len(m.contact):
+        return ""
+    a, b = m.contact[i], m.contact[i + 1]
+    if a is None or b is None or a == b:
+        return ""
+    return "leaves contact" if a else "makes contact"
+
+
+def _cascade(curves: Sequence[BranchCurve], ex: BranchExit, lo: float, hi: float) -> BranchExit:
+    """A period doubling past which another branch (the doubled one) doubles again before the
+    jump is named a period-doubling cascade."""
+    if ex.mechanism != "period-doubling":
+        return ex
+    a, b = sorted((ex.value, hi if ex.direction == "up" else lo))
+    again = any(
+        "period-doubling" in labs and a <= v <= b
+        for c in curves
+        if c.name != ex.branch
+        for v, labs in zip(c.value, c.labels, strict=True)
+    )
+    if not again:
+        return ex
+    return replace(
+        ex,
+        mechanism="period-doubling cascade",
+        words="period doubling (PD) and cascade (the doubled orbit doubles again)",
+    )
+
 
 def explain_jumps(curves: Sequence[BranchCurve], measured: Sequence[MeasuredSweep]) -> list[JumpExplanation]:
-    """For every jump of every measured sweep, the turning point of the branches that explains
-    it (:class:`JumpExplanation`): a sweep up leaves a stable branch where the branch turns back
-    at an upper turning point (a fold), a sweep down at a lower one."""
+    """For every jump of every measured sweep, how the branches say the sweep leaves there
+    (:class:`JumpExplanation`): the end, in the sweep's direction, of the stable run its points
+    lie on (a fold, a grazing hairpin, a Neimark-Sacker point, a period doubling, another labelled
+    event: :func:`rigtools.analysis.branch_exits.branch_exits`), else the end nearest to the jump,
+    with its distance from the jump; and the nearest turning point of the direction's kind (a
+    sweep up leaves a branch that turns back at an upper turning point, a sweep down at a lower
+    one)."""
     points = [t for c in curves for t in turning_points(c)]
     out = []
     for m in measured:
+        direction = "down" if m.direction == "down" else "up"
+        values = [float(v) for v in m.value]
         for a, b in m.jumps:
             lo, hi = min(a, b), max(a, b)
-            want = [t for t in points if t.upper == (m.direction != "down")] or points
-
-            def offset(t: TurningPoint, lo: float = lo, hi: float = hi) -> float:
-                return 0.0 if lo <= t.value <= hi else (t.value - hi if t.value > hi else t.value - lo)
-
-            best = min(want, key=lambda t: abs(offset(t)), default=None)
+            want = [t for t in points if t.upper == (direction == "up")] or points
+            best = min(want, key=lambda t: abs(_offset(t.value, lo, hi)), default=None)
+            first = next((i for i in range(len(values) - 1) if values[i] == a and values[i + 1] == b), None)
+            ex = None if first is None else _followed_exit(curves, m, first, direction)
+            followed = ex is not None
+            if ex is None:
+                exits = [e for c in curves for e in branch_exits(c, direction)]
+                ex = min(exits, key=lambda e: abs(_offset(e.value, lo, hi)), default=None)
+            if ex is not None:
+                ex = _cascade(curves, ex, lo, hi)
             out.append(
                 JumpExplanation(
-                    m.name, m.direction, lo, hi, best, offset(best) if best is not None else float("nan")
+                    m.name,
+                    m.direction,
+                    lo,
+                    hi,
+                    best,
+                    _offset(best.value, lo, hi) if best is not None else float("nan"),
+                    ex,
+                    _offset(ex.value, lo, hi) if ex is not None else float("nan"),
+                    followed,
+                    "" if first is None else _contact_change(m, first),
                 )
             )
     return out

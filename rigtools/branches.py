@@ -625,8 +625,10 @@ def _branch_values(g, where: str, measures, error) -> None:
 def measured_sweeps(paths, param: str, measure: str = "contact") -> list:
     """The recorded sweeps of ``paths`` (stepped sines of ``rig acquire sweep``, studies of
     ``rig study`` / ``rig acquire study``) as :class:`rigtools.analysis.branches.MeasuredSweep`,
-    one per file and direction, points in run order, with their jumps (a change above
-    :data:`JUMP_THRESHOLD` between neighbouring steps, :func:`rigtools.procedures.detect_jumps`).
+    one per file and direction, points in run order, with the contact of each point
+    (:func:`point_contact`) and their jumps (a change above :data:`JUMP_THRESHOLD` between
+    neighbouring steps that the contact or the other direction confirms,
+    :func:`rigtools.procedures.detect_jumps`).
 
     ``measure`` is read as the branches have it: ``accel1`` the fundamental of the active shroud
     acceleration (fitted over each point's record window), ``contact`` and ``impacts`` the
@@ -657,20 +659,41 @@ def measured_sweeps(paths, param: str, measure: str = "contact") -> list:
     out = []
     for path in paths:
         with open_recording(path) as rec:
-            runs: dict[str, tuple[list[float], list[float]]] = {}
+            runs: dict[str, tuple[list[float], list[float], list[bool | None]]] = {}
             for point in rec.complete_points:
                 if POINT_PARAM[param] not in point.params or "fe" not in point.params:
                     raise UserError(f"--measured {path}: point {point.index} has no {POINT_PARAM[param]}")
-                x, y = runs.setdefault(str(point.params.get("direction", "up")), ([], []))
+                x, y, touch = runs.setdefault(str(point.params.get("direction", "up")), ([], [], []))
                 x.append(float(point.params[POINT_PARAM[param]]))
                 y.append(value(path, point))
+                touch.append(point_contact(point.params))
         if not runs:
             raise UserError(f"--measured {path}: no complete point to overlay")
-        for direction, (x, y) in runs.items():
-            jumps = [(j["from_hz"], j["to_hz"]) for j in detect_jumps(x, y, JUMP_THRESHOLD)]
+        for direction, (x, y, touch) in runs.items():
+            other = next(((ox, oy) for d, (ox, oy, _) in runs.items() if d != direction), None)
+            jumps = [
+                (j["from_hz"], j["to_hz"])
+                for j in detect_jumps(x, y, JUMP_THRESHOLD, contact=touch, other=other)
+            ]
             name = f"{Path(path).stem} ({direction})"
-            out.append(MeasuredSweep(np.array(x), np.array(y), direction, name, jumps))
+            out.append(MeasuredSweep(np.array(x), np.array(y), direction, name, jumps, touch))
     return out
+
+
+def point_contact(params: dict) -> bool | None:
+    """Whether the shrouds touch at a recorded point: a model point's impacts per period (or peak
+    contact force), a rig point's shroud acceleration harmonics
+    (:func:`rigtools.analysis.jumps.contact_seen`); ``None`` if the point says neither."""
+    from rigtools.analysis.jumps import contact_seen
+    from rigtools.sim.channel_names import ACTIVE_SHROUD_ACCEL, PASSIVE_SHROUD_ACCEL
+
+    for key in ("impacts_per_period", "peak_contact_force"):
+        if key in params:
+            return bool(float(params[key]) > 0)
+    active = params.get(f"{ACTIVE_SHROUD_ACCEL}_harmonic_amplitude")
+    if active is None:
+        return None
+    return contact_seen(active, params.get(f"{PASSIVE_SHROUD_ACCEL}_harmonic_amplitude"))
 
 
 def branch_curves(branches: list[StoredBranch], measure: str = "contact") -> list:
@@ -686,7 +709,12 @@ def branch_curves(branches: list[StoredBranch], measure: str = "contact") -> lis
         y = b.measures[field_name]
         curves.append(
             BranchCurve(
-                b.value, y[:, index] if index is not None else y, b.stable, b.labels, f"period {b.periods}"
+                b.value,
+                y[:, index] if index is not None else y,
+                b.stable,
+                b.labels,
+                f"period {b.periods}",
+                b.measures.get("impacts_per_period"),
             )
         )
     return curves

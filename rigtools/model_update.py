@@ -612,9 +612,11 @@ def rig_file_update(
     modes_used: str = "",
     contact_sources: Sequence[str] = (),
     when: str = "",
+    notes: Sequence[str] = (),
 ) -> str:
     """The updated rig-file text from an :class:`rigtools.sim.parameter_fit.UpdateResult` and/or a
-    :class:`rigtools.sim.contact_fit.ContactFitResult`, each key commented with recording, modes and residual."""
+    :class:`rigtools.sim.contact_fit.ContactFitResult`, each key commented with recording, modes and residual;
+    ``notes`` go into the header (what the fit moved that its data did not measure)."""
     values: dict[str, float | str] = {}
     comments: dict[str, str] = {}
     remove: list[str] = []
@@ -646,10 +648,11 @@ def rig_file_update(
         for key, v in contact.rig_file_values().items():
             values[key] = v
             comments[key] = why
-    header = (
+    first = (
         f"updated by rig update{(' on ' + when) if when else ''}: fitted keys are marked; "
         "the original lines follow them as '# was:'"
     )
+    header = "\n".join([first, *notes])
     return updated_rig_text(text, values, comments, remove=remove, header=header)
 
 
@@ -714,7 +717,12 @@ class UpdateOutcome:
         EM-versus-FEM agreement score (1 = identical harmonics) of each dwell: step name
         (``"nominal"``, ``"linear update"``, ``"contact fit"``) -> one score per dwell.
     warnings
-        One line each: a fit that does not explain the modes, parameters the data do not determine.
+        One line each: a fit that does not explain the modes, parameters the data do not
+        determine, modes the fit moved that the data did not measure.
+    unmeasured
+        The modes the fit moved that no target measured
+        (:class:`rigtools.sim.unmeasured_modes.UnmeasuredMode`: the other blade's, those outside
+        the band, edgewise and torsional ones).
     """
 
     out: Path
@@ -728,6 +736,7 @@ class UpdateOutcome:
     other_laws: list[Any] = field(default_factory=list)
     scores: dict[str, list[float]] = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
+    unmeasured: list[Any] = field(default_factory=list)
 
     def to_dict(self) -> dict:
         """The ``rig update --json`` document (numbers in SI, frequencies in Hz)."""
@@ -765,6 +774,7 @@ class UpdateOutcome:
             ],
             "notes": self.notes,
             "fit": self.fit.as_dict(),
+            "moved_not_measured": [m.as_dict() for m in self.unmeasured],
         }
         if self.dwells:
             doc["contact_fit"] = self.contact_fit.as_dict()
@@ -897,10 +907,21 @@ def update_rig_file(
                 agreement(d, model_dwell(cres.params, d, system=linear_system)).score for d in dwells
             ]
 
+    from rigtools.sim.unmeasured_modes import header_lines, moved_not_measured, summary_line
+
+    bands = [r.band for r in found if r.band is not None]
+    fitted_band = (f_min, f_max) if f_min is not None and f_max is not None else None
+    if fitted_band is None and bands:
+        fitted_band = (min(b[0] for b in bands), max(b[1] for b in bands))
+    with show("modes the fit moved that the data did not measure"):
+        unmeasured = moved_not_measured(
+            nominal, res.params, [(p.blade, p.order) for p in paired], fitted_band
+        )
     new_text = rig_file_update(
         text,
         res,
         cres,
+        notes=header_lines(unmeasured),
         sources=[Path(p).name for p in tests],
         modes_used=", ".join(f"{p.blade} f{p.order} {p.frequency_hz:.2f} Hz" for p in paired),
         contact_sources=[Path(p).name for p in dwell_files],
@@ -921,6 +942,8 @@ def update_rig_file(
             "(try the root springs or the masses)"
         )
     warnings += [f"not determined by the data: {line}" for line in res.identifiability.unresolved]
+    if unmeasured:
+        warnings.append(summary_line(unmeasured))
     return UpdateOutcome(
         out=out_path,
         text=new_text,
@@ -933,4 +956,5 @@ def update_rig_file(
         other_laws=others,
         scores=scores,
         warnings=warnings,
+        unmeasured=unmeasured,
     )

@@ -174,7 +174,12 @@ EPILOGS = {
   rig acquire sweep --backend sim --frequencies "55 Hz:80 Hz:1 Hz" --force "15 N" --gap "0.7 mm" --direction both --out sweep.h5
 
 Jumps: neighbouring steps whose response fundamental differs by more than --jump-threshold
-(relative), reported per direction with the frequencies between which they happen.
+(relative) AND where something else says the rig is not linear: the contact vanishes or appears
+across the step (the passive shroud, driven only through the contact, and the active shroud's
+harmonics k >= 2 above 5 % of the active fundamental), the sweep the other way disagrees there
+(hysteresis), or, in contact on both sides, the step stands out from its neighbours. A step
+without contact on either side is never a jump (a resonance passing between coarse steps).
+Reported per direction with the frequencies between which they happen and that evidence.
 """,
     "study": """examples:
   rig acquire study gap --backend sim --values "0.3 mm:0.9 mm:0.2 mm" --force "15 N" --fe 60 --out study.h5 --yes

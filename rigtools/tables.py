@@ -297,6 +297,20 @@ def update_tables(o: Any) -> list[Any]:
                 *[f"{o.scores[k][i]:.4f}" for k in o.scores],
             )
         out.append(s)
+    if getattr(o, "unmeasured", None):
+        u = Table(title="modes moved by the fit, not measured (the data did not determine them)")
+        for col in ("blade", "mode", "before (Hz)", "after (Hz)", "change %", "why not measured"):
+            u.add_column(col, justify="right" if "(" in col or "%" in col else "left")
+        for m in o.unmeasured:
+            u.add_row(
+                m.blade,
+                f"{m.kind} {m.order}",
+                f"{m.before_hz:.2f}",
+                f"{m.after_hz:.2f}",
+                f"{100 * m.change:+.2f}",
+                m.why,
+            )
+        out.append(u)
     out.append(f"wrote {o.out} (check: rig modal --rig {o.out})")
     if o.warnings and o.warnings[0].startswith("the fitted"):
         out.append(f"[yellow]warning:[/] {o.warnings[0]}")

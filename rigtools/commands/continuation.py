@@ -24,7 +24,8 @@ The file (kind "branches", docs/recording-format.md) holds each branch's points 
 stability, multipliers, labels and response measures; FILE.png plots --measure against the
 parameter (stable solid, unstable dashed); --measured overlays recorded up/down sweeps and
 studies in the same measure (a rig recording has accelerations only: --measure accel1), their
-jumps shaded.
+jumps shaded, and prints a sentence per jump: the mechanism by which the sweep leaves the branch
+it followed and how far from the jump, and the nearest turning point.
 
 examples:
   rig continuation --param fe --from 55 --to 80 --force 15 --gap "0.7 mm" --out branches-fe.h5
@@ -117,5 +118,10 @@ def run(args: argparse.Namespace) -> int:
     for b in doc["branches"]:
         marks = ", ".join(f"{x['label']} {x['value']:.6g}" for x in b["bifurcations"]) or "none"
         print(f"period {b['periods']}: {b['points']} points, {b['status']} {b['message']}; {marks}")
+    if measured:
+        from rigtools.report.branches import measured_jump_sentences
+
+        for line in measured_jump_sentences(stored, measured, args.measure):
+            print(line)
     print(f"wrote {out} and {Path(png)}")
     return 0

@@ -18,8 +18,9 @@ recording (rigtools.recording_comparison) is added when that module is installed
 --branches B.h5 (files of rig continuation): in the section of each stepped sine or study
 swept in the branches' parameter, the model's branches (stable solid, unstable dashed, folds
 and period doublings labelled) with the recording's up/down steps on the same axes, its jumps
-shaded, and a sentence per jump naming the model's turning point it is (or how far it lies from
-it); rig recordings are drawn in the active shroud's fundamental acceleration, model recordings
+shaded, and a sentence per jump naming the mechanism by which the sweep leaves the branch it
+followed (fold, grazing hairpin, Neimark-Sacker point and torus, period doubling or cascade,
+another labelled event), how far from the jump, and the nearest turning point; rig recordings are drawn in the active shroud's fundamental acceleration, model recordings
 in peak contact force. Drawn only over a recording of the branches' rig at their fixed
 quantities, never over an imported one (rig continuation --measured overlays any recording);
 a branch file drawn over nothing gets a section of its own.

@@ -53,8 +53,9 @@ def summary_tables(doc: dict) -> list[Any]:
         out.append(table)
         for d, jumps in doc.get("jumps", {}).items():
             for j in jumps:
+                why = f"; {j['evidence']}" if j.get("evidence") else ""
                 out.append(
-                    f"jump {d}: {j['from_hz']:g} -> {j['to_hz']:g} Hz ({j['kind']}, {j['change'] * 100:.0f} %)"
+                    f"jump {d}: {j['from_hz']:g} -> {j['to_hz']:g} Hz ({j['kind']}, {j['change'] * 100:.0f} %{why})"
                 )
         if "peak_hz" in doc:
             out.append(f"response peak per newton at {doc['peak_hz']:.4g} Hz")

@@ -9,6 +9,7 @@ relative to the force fundamental) as point parameters.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Literal
 
 import numpy as np
@@ -70,33 +71,36 @@ def response_channel(device, name: str | None) -> int:
     return 0
 
 
+def passive_channel(device) -> int | None:
+    """Row of the passive shroud's accelerometer (driven only through the contact), or ``None``."""
+    for i, spec in enumerate(device.input_channels):
+        if spec.kind == "accel" and "passive" in spec.name.lower():
+            return i
+    return None
+
+
 def detect_jumps(
-    freqs: list[float], amps: list[float], threshold: float, contrast: float = 2.0
+    freqs: Sequence[float],
+    amps: Sequence[float],
+    threshold: float,
+    *,
+    contact: Sequence[bool | None] | None = None,
+    other: tuple[Sequence[float], Sequence[float]] | None = None,
 ) -> list[dict]:
-    """Jumps between neighbouring steps of one sweep direction (in run order).
+    """Jumps between neighbouring steps of one sweep direction (in run order), as the sweep's
+    summary lists them (:meth:`rigtools.analysis.jumps.Jump.as_dict`).
 
     A jump is a step where the response changes by more than ``threshold`` (relative to the
-    smaller of the two) AND its change of log-amplitude is ``contrast`` times larger than the
-    steps on either side: a discontinuity, not the steep flank of a resonance.
+    smaller of the two) AND something independent says it is not a linear response: the contact
+    appears or vanishes across it (``contact``: per step, see
+    :func:`rigtools.analysis.jumps.contact_seen`), the sweep the other way (``other``: its
+    ``(freqs, amps)``) differs there (hysteresis), or, in contact on both sides, the step stands
+    out from its neighbours (:func:`rigtools.analysis.jumps.find_jumps`). A step with no contact
+    on either side is never a jump.
     """
-    a = np.log(np.maximum(np.asarray(amps, dtype=float), 1e-300))
-    d = np.abs(np.diff(a))
-    out = []
-    for i in range(1, len(freqs)):
-        a0, a1 = amps[i - 1], amps[i]
-        change = abs(a1 - a0) / max(min(a0, a1), 1e-300)
-        neighbours = [d[j] for j in (i - 2, i) if 0 <= j < d.size]
-        if change > threshold and all(d[i - 1] > contrast * x for x in neighbours):
-            out.append(
-                {
-                    "from_hz": freqs[i - 1],
-                    "to_hz": freqs[i],
-                    "frequency_hz": 0.5 * (freqs[i - 1] + freqs[i]),
-                    "change": change,
-                    "kind": "up" if a1 > a0 else "down",
-                }
-            )
-    return out
+    from rigtools.analysis.jumps import find_jumps
+
+    return [j.as_dict() for j in find_jumps(freqs, amps, threshold, contact=contact, other=other)]
 
 
 class SteppedSine(SineProcedure):
@@ -130,10 +134,12 @@ class SteppedSine(SineProcedure):
         p = self.params
         gap = self.set_gap(p.gap)
         row = response_channel(self.device, p.response)
+        passive = passive_channel(self.device)
         session = self.running_session()
         name = session.names[row]
         n = len(self.order)
         curves: dict[str, tuple[list, list]] = {"up": ([], []), "down": ([], [])}
+        touch: dict[str, list[bool | None]] = {"up": [], "down": []}
         for i, (fe, direction) in enumerate(self.order):
             self.emit("point", point=i + 1, n_points=n, text=f"{fe:g} Hz ({direction})")
             self.begin_point(
@@ -158,18 +164,36 @@ class SteppedSine(SineProcedure):
             self.result.points.append(res)
             curves[direction][0].append(fe)
             curves[direction][1].append(amp)
+            touch[direction].append(_contact(res, name, None if passive is None else session.names[passive]))
             self.emit("point_done", point=i + 1, n_points=n)
             if missed is not None:
                 raise missed  # every further step would run at the same limit, not at --force
         session.finish()
         self.result.summary = {
             "response_channel": name,
-            "jumps": {d: detect_jumps(f, a, p.jump_threshold) for d, (f, a) in curves.items() if f},
+            "jumps": {
+                d: detect_jumps(
+                    f, a, p.jump_threshold, contact=touch[d], other=curves["down" if d == "up" else "up"]
+                )
+                for d, (f, a) in curves.items()
+                if f
+            },
         }
         pts = [r for r in self.result.points if r["direction"] == self.order[0][1]]
         per_n = [r["response_per_newton"] for r in pts]
         k = int(np.argmax(per_n))
         self.result.summary["peak_hz"] = peak_frequency([r["fe"] for r in pts], per_n, k)
+
+
+def _contact(res: dict, active: str, passive: str | None) -> bool | None:
+    """Whether the shrouds touch at a step, from its harmonics (:func:`rigtools.analysis.jumps.contact_seen`)."""
+    from rigtools.analysis.jumps import contact_seen
+
+    harmonics = res.get("harmonics", {})
+    if active not in harmonics:
+        return None
+    passive_amps = harmonics[passive]["amplitude"] if passive in harmonics else None
+    return contact_seen(harmonics[active]["amplitude"], passive_amps)
 
 
 def peak_frequency(freqs: list[float], values: list[float], k: int) -> float:

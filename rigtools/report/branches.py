@@ -1,8 +1,8 @@
 """The model's continued branches in the HTML report, where they explain measured jumps.
 
 :func:`add_branches` puts into a report section what a branch file says about a measured sweep:
-one or two sentences (each measured jump and the branch's turning point it sits at, or how far
-from it), the figure (:func:`rigtools.branches.branches_figure`: stable solid, unstable dashed,
+one or two sentences per measured jump (the mechanism by which the sweep leaves the branch it
+followed and how far from the jump; the nearest turning point), the figure (:func:`rigtools.branches.branches_figure`: stable solid, unstable dashed,
 bifurcations labelled, the measured up/down steps on the same axes, their jumps shaded), and two
 tables (the branches' bifurcations; the jumps against the turning points) holding the numbers
 the sentences quote. ``rig report --branches`` (:func:`load_branch_files`,
@@ -59,13 +59,64 @@ def fixed_text(experiment: dict) -> str:
     return ", ".join(parts)
 
 
+LOSS_WORDS = {  # mechanism -> what the branch the sweep followed does there
+    "neimark-sacker": "loses stability to a torus (quasi-periodic motion)",
+    "period-doubling": "loses stability to a period-2 orbit",
+    "period-doubling cascade": "loses stability to a period-2 orbit",
+}
+
+
+def _exit_sentence(e, param: str) -> str:
+    """The mechanism by which the sweep of ``e`` leaves the branch, and how far from the jump."""
+    x = e.exit
+    jump = f"between {_fmt(e.start, param)} and {_fmt(e.stop, param)}"
+    where = f"{e.sweep} {e.contact} in a jump {jump}" if e.contact else f"{e.sweep} jumps {jump}"
+    branch = (
+        f"the {x.branch.replace(' ', '-')} branch the sweep followed"
+        if e.followed
+        else f"the {x.branch} branch"
+    )
+    does = "turns back" if x.turning else LOSS_WORDS.get(x.mechanism, "loses stability")
+    if x.mechanism == "neimark-sacker" and x.stable_again is not None:
+        does += (
+            f", unstable up to {_fmt(x.stable_again, param)}"
+            if x.direction == "up"
+            else (f", unstable down to {_fmt(x.stable_again, param)}")
+        )
+    if e.distance == 0.0:
+        return (
+            f"{where}: the model's {x.words} at {_fmt(x.value, param)} lies inside it; there {branch} {does}."
+        )
+    how = "after" if (e.distance < 0) == (x.direction == "up") else "before"  # along the sweep
+    return (
+        f"{where}, {_fmt(abs(e.distance), param)} {how} the model's {x.words} at {_fmt(x.value, param)}, "
+        f"where {branch} {does}."
+    )
+
+
 def jump_sentences(explanations: list, param: str) -> list[str]:
-    """One sentence per measured jump: the turning point it is, or the nearest one and how far."""
+    """One or two sentences per measured jump: the mechanism by which the sweep leaves the branch
+    it followed (:attr:`rigtools.analysis.branches.JumpExplanation.exit`) and how far from the
+    jump; the nearest turning point and how far, if that is not it."""
     out = []
     for e in explanations:
         where = f"{e.sweep} jumps between {_fmt(e.start, param)} and {_fmt(e.stop, param)}"
         t = e.turning
-        if t is None:
+        x = e.exit
+        if x is not None:
+            out.append(_exit_sentence(e, param))
+            if t is not None and not (x.turning and abs(x.value - t.value) < 1e-12 * max(1.0, abs(t.value))):
+                side = (
+                    "inside the jump"
+                    if e.inside
+                    else f"{_fmt(abs(e.offset), param)} {'above' if e.offset > 0 else 'below'} it"
+                )
+                kind = "upper" if t.upper else "lower"
+                out.append(
+                    f"The model's nearest {kind} turning point, its {LABEL_WORDS[t.label]} at "
+                    f"{_fmt(t.value, param)}, lies {side}."
+                )
+        elif t is None:
             out.append(where + "; the model's branches have no turning point to explain it.")
         elif e.inside:
             out.append(
@@ -80,6 +131,18 @@ def jump_sentences(explanations: list, param: str) -> list[str]:
                 f"{_fmt(t.value, param)}, lies {_fmt(abs(e.offset), param)} {side} that interval."
             )
     return out
+
+
+def measured_jump_sentences(branches: list[StoredBranch], measured: list, measure: str) -> list[str]:
+    """:func:`jump_sentences` of ``measured`` (:func:`rigtools.branches.measured_sweeps`) against
+    stored branches in ``measure``, or one line saying the sweeps show no jump."""
+    from rigtools.analysis.branches import explain_jumps
+    from rigtools.branches import branch_curves
+
+    if not branches or not measured:
+        return []
+    sentences = jump_sentences(explain_jumps(branch_curves(branches, measure), measured), branches[0].param)
+    return sentences or [f"{', '.join(m.name for m in measured)}: no jump."]
 
 
 def period_two_sentence(branches: list[StoredBranch]) -> str:
@@ -161,6 +224,10 @@ def jump_rows(explanations: list, param: str) -> list[dict[str, Any]]:
                 f"at ({unit})": float("nan") if t is None else t.value * scale,
                 "inside the jump": e.inside,
                 f"offset ({unit})": e.offset * scale,
+                "mechanism": "" if e.exit is None else e.exit.mechanism,
+                f"mechanism at ({unit})": float("nan") if e.exit is None else e.exit.value * scale,
+                f"mechanism offset ({unit})": e.distance * scale,
+                "contact": e.contact,
             }
         )
     return rows

@@ -123,7 +123,7 @@ def test_demo_branches_explain_the_frequency_and_gap_findings(demo):
     settled runs): in fe the impacting orbit's fold and the grazing corner, each beside the jump
     of the simulated rig's stepped sine it explains; in gap the period doublings and the stable
     period-2 orbit; the report's text quotes the branch files' numbers."""
-    from rigtools.branches import read_branches
+    from rigtools.branches import point_contact, read_branches
     from rigtools.procedures import detect_jumps
     from rigtools.recording import open_recording
 
@@ -150,22 +150,25 @@ def test_demo_branches_explain_the_frequency_and_gap_findings(demo):
     # grazing corner
     (sweep,) = [f for f in doc["files"] if f.startswith("sweep_")]
     with open_recording(out / sweep) as rec:
-        runs: dict[str, tuple[list, list]] = {}
+        runs: dict[str, tuple[list, list, list]] = {}
         for p in rec.complete_points:
-            f, a = runs.setdefault(str(p.params["direction"]), ([], []))
+            f, a, c = runs.setdefault(str(p.params["direction"]), ([], [], []))
             f.append(float(p.params["fe"]))
             a.append(float(p.params["active_shroud_accel_harmonic_amplitude"][0]))
-    (up,) = detect_jumps(*runs["up"], 0.3)
-    (down,) = detect_jumps(*runs["down"], 0.3)
+            c.append(point_contact(p.params))
+    (up,) = detect_jumps(*runs["up"][:2], 0.3, contact=runs["up"][2], other=runs["down"][:2])
+    (down,) = detect_jumps(*runs["down"][:2], 0.3, contact=runs["down"][2], other=runs["up"][:2])
+    assert up["evidence"] == "contact vanishes" and down["evidence"] == "contact appears"
     assert min(up["from_hz"], up["to_hz"]) <= fold["value"] <= max(up["from_hz"], up["to_hz"]) + 1.5
     assert min(down["from_hz"], down["to_hz"]) <= corner["value"] <= max(down["from_hz"], down["to_hz"]) + 1.5
     text = (out / "report.html").read_text()
     assert f"fold (LP) at {fold['value']:.4g} Hz" in text
     assert f"grazing corner at {corner['value']:.4g} Hz" in text
+    # the up sweep's sentence says it leaves contact (its evidence above) and where it jumps
     assert (
-        f"jumps between {min(up['from_hz'], up['to_hz']):g} Hz and {max(up['from_hz'], up['to_hz']):g} Hz"
-        in text
-    )
+        f"leaves contact in a jump between {min(up['from_hz'], up['to_hz']):g} Hz and "
+        f"{max(up['from_hz'], up['to_hz']):g} Hz"
+    ) in text
     assert "period-doubles (PD) at 1.532 mm, 2.405 mm" in text
 
 

@@ -114,7 +114,7 @@ def test_branches_over_the_rigs_stepped_sine_in_chromium(branches_report, chromi
     file's bifurcations (6 digits) and the recording's jumps, and the fold the text names lies
     inside the up sweep's jump as the tables say."""
     from rigtools.analysis.branches import SHORT
-    from rigtools.branches import read_branches
+    from rigtools.branches import point_contact, read_branches
     from rigtools.procedures import detect_jumps
     from rigtools.recording import open_recording
 
@@ -147,15 +147,16 @@ def test_branches_over_the_rigs_stepped_sine_in_chromium(branches_report, chromi
 
     # the jumps the table shows are the recording's: its own fundamentals, in run order
     with open_recording(sweep) as rec:
-        runs: dict[str, tuple[list, list]] = {}
+        runs: dict[str, tuple[list, list, list]] = {}
         for p in rec.complete_points:
-            f, a = runs.setdefault(str(p.params["direction"]), ([], []))
+            f, a, c = runs.setdefault(str(p.params["direction"]), ([], [], []))
             f.append(float(p.params["fe"]))
             a.append(float(p.params["active_shroud_accel_harmonic_amplitude"][0]))
+            c.append(point_contact(p.params))
     recorded = sorted(
         (d, min(j["from_hz"], j["to_hz"]), max(j["from_hz"], j["to_hz"]))
-        for d, (f, a) in runs.items()
-        for j in detect_jumps(f, a, 0.3)
+        for d, (f, a, c) in runs.items()
+        for j in detect_jumps(f, a, 0.3, contact=c, other=runs["down" if d == "up" else "up"][:2])
     )
     jumps = tables["Measured jumps and the model's turning points (offset 0: inside the jump)"]
     shown = sorted((r["direction"], float(r["jump from (Hz)"]), float(r["jump to (Hz)"])) for r in jumps)

@@ -146,6 +146,59 @@ def test_updated_rig_file_loads_and_rig_modal_gives_the_fitted_frequencies(updat
     assert np.max(np.abs(np.array(flex) / ident - 1)) < 0.003
 
 
+def test_modes_the_fit_moved_but_the_data_did_not_see_are_named(updated):
+    """The FRF test sees the active blade's flexural modes 1-3 in 20 Hz-2 kHz; the fitted root
+    spring moves every mode of both blades. Listed as moved by the fit, not measured: every
+    moved passive-blade mode (the blade has no measured mode), the active blade's edgewise mode
+    (663 -> 234 Hz, as the issue measured with rig modal) and torsional ones (another direction),
+    its flexural 4 (2131 Hz, outside the band); never a target. The passive flexural frequencies
+    before and after are the analytical model's (exact Euler-Bernoulli, an independent solution)
+    of the nominal and the updated rig within 0.1 % (the FEM-AM difference of rig modal: <= 0.05 %
+    for modes 1-3); the list is in --json, in the rig file's header and in the printed table."""
+    from rigtools.sim.natural_frequencies import analytical_natural_frequencies
+
+    doc, out = updated
+    moved = doc["moved_not_measured"]
+    listed = {(m["blade"], m["kind"], m["order"]) for m in moved}
+    targets = {("active", "flexural", t["order"]) for t in doc["targets"]}
+    assert targets == {("active", "flexural", k) for k in (1, 2, 3)} and not targets & listed
+    for k in (1, 2, 3, 4):
+        assert ("passive", "flexural", k) in listed
+    assert {("passive", "edgewise", 1), ("active", "edgewise", 1), ("active", "torsional", 1)} <= listed
+    assert ("active", "flexural", 4) in listed
+    edge = next(m for m in moved if (m["blade"], m["kind"]) == ("active", "edgewise"))
+    assert edge["before_hz"] == pytest.approx(663.0, rel=1e-3) and edge["after_hz"] == pytest.approx(
+        234.3, rel=1e-3
+    )
+    why = {(m["blade"], m["kind"], m["order"]): m["why"] for m in moved}
+    assert why[("passive", "flexural", 1)] == "no mode of the passive blade was measured"
+    assert why[("active", "flexural", 4)].startswith("outside the band fitted")
+    assert all(abs(m["change"]) > 1e-3 for m in moved)
+    before = analytical_natural_frequencies(load_rig(None).to_params(), 3)["passive"]
+    after = analytical_natural_frequencies(load_rig(out).to_params(), 3)["passive"]
+    for k in (1, 2, 3):
+        m = next(m for m in moved if (m["blade"], m["kind"], m["order"]) == ("passive", "flexural", k))
+        assert m["before_hz"] == pytest.approx(before[k - 1], rel=1e-3)
+        assert m["after_hz"] == pytest.approx(after[k - 1], rel=1e-3)
+    assert any(w.startswith("moved by the fit, not measured: ") for w in doc["warnings"])
+    header = out.read_text().split("\nname = ")[0]
+    assert "# moved by the fit, not measured (the data did not determine them):" in header
+    assert "#   passive flexural 1: " in header and "#   active flexural 1: " not in header
+
+
+def test_the_printed_update_names_what_the_data_did_not_determine(folder, frf):
+    """The table rig update prints lists the passive blade's modes and the active edgewise one,
+    none of the three active flexural modes the FRF test measured."""
+    code, text, err = run_cli(["update", frf, "--out", folder / "printed.toml"])
+    assert code == 0, err
+    table = text.split("modes moved by the fit, not measured (the data did not determine them)")[1]
+    assert (
+        "passive" in table and "edgewise 1" in table and "no mode of the passive blade was measured" in table
+    )
+    active = [row for row in table.splitlines() if row.startswith("│ active")]
+    assert active and not any(f"flexural {k} " in row for row in active for k in (1, 2, 3))  # the targets
+
+
 def test_too_many_parameters_for_one_blades_modes_are_named(folder, frf, article):
     """Root stiffness, shroud and sensor masses from the active blade's three modes: the report names
     the pairs the data cannot separate (correlations ~ +0.999) instead of passing the values as fitted."""
