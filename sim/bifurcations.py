@@ -210,6 +210,15 @@ def mark_turning_points(points: Sequence[Any], relabel: Callable[[int, str], Non
                 # the event's labelled point is the first of the new structure in branch order
                 at = max(i, k)
                 break
+        else:
+            # an event labelled a step or two away at the same value (the sampled structure
+            # changed there, the turning is the same kink)
+            events = [
+                k
+                for k in range(lo, hi)
+                if set(points[k].labels) & set(EVENTS) and abs(v[k] - v[i]) <= 1e-4 * span
+            ]
+            at = min(events, key=lambda k: abs(k - i)) if events else i
         relabel(at, FOLD)
 
 

@@ -1520,8 +1520,28 @@ def _finish_branch(tracer: _Tracer, branch: Branch) -> Branch:
             out = r
         if not r.smooth:
             done[r.index] = out
+        twin = _same_converged(branch.bifurcations, out, st.refine_tolerance)
+        if twin is not None:
+            # two sign changes of one test at the branch's step (a multiplier lingering at its
+            # value) that refine to one location are one bifurcation
+            _unlabel(branch, out.index, out.label)
+            continue
         branch.bifurcations.append(out)
     return branch
+
+
+def _same_converged(done: list[Bifurcation], r: Bifurcation, tolerance: float) -> Bifurcation | None:
+    """The smooth bifurcation of ``r``'s kind already recorded on the same contact structure, with
+    no event between them, whose converged location is ``r``'s (within twice the refinement
+    tolerance), or ``None``."""
+    if not (r.smooth and r.converged_ok):
+        return None
+    for j, q in enumerate(done):
+        same = q.smooth and q.converged_ok and q.label == r.label and q.contact_after == r.contact_after
+        between = any(not x.smooth for x in done[j + 1 :])
+        if same and not between and abs(q.converged - r.converged) <= 2.0 * tolerance * abs(r.converged):
+            return q
+    return None
 
 
 def _followed_range(param: str, lo: float, hi: float) -> tuple[float, float]:

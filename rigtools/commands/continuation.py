@@ -70,6 +70,7 @@ def run(args: argparse.Namespace) -> int:
     from rigtools.branches import (
         branches_figure,
         continue_to_file,
+        located_lines,
         measured_sweeps,
         parse_inputs,
         read_branches,
@@ -114,8 +115,10 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps({**doc, "out": str(out), "plot": str(png)}))
         return 0
-    for b in doc["branches"]:
+    for b, branch in zip(doc["branches"], branches, strict=True):
         marks = ", ".join(f"{x['label']} {x['value']:.6g}" for x in b["bifurcations"]) or "none"
         print(f"period {b['periods']}: {b['points']} points, {b['status']} {b['message']}; {marks}")
+        for line in located_lines(branch, args.param):
+            print(line)
     print(f"wrote {out} and {Path(png)}")
     return 0
