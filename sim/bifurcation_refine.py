@@ -36,6 +36,7 @@ from rigtools.sim.bifurcations import Bifurcation
 # about three times the remaining error, so half of that)
 REFINE_TOLERANCE = 5e-4
 MAX_REFINEMENTS = 4  # up to 16 times the branch's steps per period
+START_POINTS = 6  # points either side of a labelled one tried as starts at a finer step
 _SEARCH = tuple(1e-4 * 2.0**j for j in range(10))  # arclengths tried to bracket an event
 
 
@@ -64,9 +65,12 @@ def refine(
     before = points[i - 1].contact if i > 0 else point.contact
     approach = float(np.sign(point.value - points[i - 1].value)) if i > 0 else 0.0
     turning = bif.FOLD in point.labels  # the branch turns at the event: either way along it
-    starts = [(np.asarray(point.state, float), float(point.value))]
-    if i > 0:
-        starts.append((np.asarray(points[i - 1].state, float), float(points[i - 1].value)))
+    # where the refined branch no longer reaches the point (a hairpin's tip moves with the step),
+    # the points beside it, nearest first
+    near = sorted(
+        range(max(0, i - START_POINTS), min(len(points), i + START_POINTS + 1)), key=lambda k: abs(k - i)
+    )
+    starts = [(np.asarray(points[k].state, float), float(points[k].value)) for k in near]
     multiplier = record.multiplier
     ok = False
     for k in range(1, max_refinements + 1):
