@@ -108,10 +108,9 @@ def crossed(kind: str, a: Any, b: Any) -> bool:
 
 def accepted(kind: str, entry: Any) -> bool:
     """A located orbit is the bifurcation its test says: the critical multiplier within
-    :data:`CRITICAL_TOLERANCE` (a fold located on the tangent needs no multiplier test: the
-    branch turns there)."""
-    if kind == FOLD:
-        return True
+    :data:`CRITICAL_TOLERANCE` of -1, the unit circle or +1 (a fold: where the tangent turns at a
+    kink of the map, next to a grazing, no multiplier is at +1; that turning is labelled from the
+    values, :func:`mark_turning_points`)."""
     return critical_distance(kind, entry.point.multipliers) <= CRITICAL_TOLERANCE
 
 
@@ -182,13 +181,19 @@ def bisect_event(
     return last, first, lo, hi
 
 
-def mark_turning_points(points: Sequence[Any], relabel: Callable[[int, str], None]) -> None:
+def mark_turning_points(
+    points: Sequence[Any], relabel: Callable[[int, str], None], unlabel: Callable[[int, str], None]
+) -> None:
     """Label ``fold`` every point where the branch turns in the parameter (a strict local extreme
     of the values, neighbours within a millionth of the span not counted) unless a fold is
-    labelled within :data:`TURNING_NEIGHBOURS` points and 1e-4 of the span of it: a turning point is a fold wherever it
-    happens, whichever way the tracer reached it. Where the extreme point's neighbour has another
-    contact structure the branch turns at that event (no multiplier at +1): the fold goes on the
-    event's labelled point."""
+    labelled within :data:`TURNING_NEIGHBOURS` points and 1e-4 of the span of it: a turning point
+    is a fold wherever it happens, whichever way the tracer reached it.
+
+    Where the branch turns at a contact event (no multiplier at +1) the fold goes with the event:
+    on the event's point if the extreme point's neighbour has another structure; at a grazing
+    hairpin, whose sampled contact ends up to :data:`HAIRPIN_POINTS` points before the tip (the
+    grazing impact grows shorter than a step), the event's label moves to the tip, as the tracer
+    labels a hairpin it turns at (both refine to one location)."""
     v = np.array([p.value for p in points], float)
     if v.size < 3:
         return
@@ -204,22 +209,30 @@ def mark_turning_points(points: Sequence[Any], relabel: Callable[[int, str], Non
         lo, hi = max(0, i - TURNING_NEIGHBOURS), min(v.size, i + TURNING_NEIGHBOURS + 1)
         if any(FOLD in points[k].labels and abs(v[k] - v[i]) <= 1e-4 * span for k in range(lo, hi)):
             continue
-        at = i
-        for k in (i + 1, i - 1):
-            if points[k].contact != points[i].contact:
-                # the event's labelled point is the first of the new structure in branch order
-                at = max(i, k)
-                break
-        else:
-            # an event labelled a step or two away at the same value (the sampled structure
-            # changed there, the turning is the same kink)
-            events = [
-                k
-                for k in range(lo, hi)
-                if set(points[k].labels) & set(EVENTS) and abs(v[k] - v[i]) <= 1e-4 * span
-            ]
-            at = min(events, key=lambda k: abs(k - i)) if events else i
-        relabel(at, FOLD)
+        neighbour = next((k for k in (i + 1, i - 1) if points[k].contact != points[i].contact), None)
+        if neighbour is not None:
+            # the event's labelled point is the first of the new structure in branch order
+            relabel(max(i, neighbour), FOLD)
+            continue
+        relabel(i, FOLD)
+        k = _hairpin_event(points, i)
+        if k is not None:
+            for label in set(points[k].labels) & set(EVENTS):
+                unlabel(k, label)
+                relabel(i, label)
+
+
+def _hairpin_event(points: Sequence[Any], i: int) -> int | None:
+    """The event labelled on the way into the turning point ``i`` (within :data:`HAIRPIN_POINTS`
+    points, every point from it to ``i`` of ``i``'s contact structure), or ``None``."""
+    for k in range(i - 1, max(-1, i - HAIRPIN_POINTS - 1), -1):
+        if points[k].contact != points[i].contact:
+            return None
+        if set(points[k].labels) & set(EVENTS):
+            return k
+        if set(points[k].labels) & set(SMOOTH):
+            return None
+    return None
 
 
 @dataclass(frozen=True)

@@ -1487,7 +1487,11 @@ def _finish_branch(tracer: _Tracer, branch: Branch) -> Branch:
     and record every bifurcation and event (:attr:`Branch.bifurcations`), each relocated at a
     converged time step unless ``settings.refine`` is off (a failure there keeps it unrefined)."""
     bif.merge_hairpin_grazing(branch.points, lambda i, label: _unlabel(branch, i, label))
-    bif.mark_turning_points(branch.points, lambda i, label: _relabel(branch, i, label))
+    bif.mark_turning_points(
+        branch.points,
+        lambda i, label: _relabel(branch, i, label),
+        lambda i, label: _unlabel(branch, i, label),
+    )
     st = tracer.settings
 
     def make(n: int) -> _Tracer:

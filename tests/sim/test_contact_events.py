@@ -97,7 +97,10 @@ def _turning(values, contacts=None, labels=None):
     def relabel(i, label):
         pts[i].labels = (*pts[i].labels, label)
 
-    bif.mark_turning_points(pts, relabel)
+    def unlabel(i, label):
+        pts[i].labels = tuple(lab for lab in pts[i].labels if lab != label)
+
+    bif.mark_turning_points(pts, relabel, unlabel)
     return [i for i, p in enumerate(pts) if bif.FOLD in p.labels]
 
 
@@ -111,3 +114,7 @@ def test_turning_points_are_folds_and_a_turning_at_an_event_is_labelled_there():
     new = ContactStructure((1, 1))
     assert _turning([3.0, 2.0, 1.0, 1.01, 2.0], contacts={3: new, 4: new}, labels={3: (GRAZING,)}) == [3]
     assert _turning([1.0, 2.0, 3.0, 4.0]) == []
+    # a hairpin whose sampled contact ended two points before the tip: the grazing moves there
+    none = ContactStructure()
+    pts = {2: none, 3: none, 4: none, 5: none}
+    assert _turning([3.0, 2.0, 1.02, 1.01, 1.0, 1.5], contacts=pts, labels={2: (GRAZING,)}) == [4]
