@@ -21,7 +21,7 @@ SHORT = {
     "sticking": "ST",
 }
 # labels nearer than this (fraction of the axes) are stacked, not printed over each other
-LABEL_SPACING = (0.07, 0.045)
+LABEL_SPACING = (0.04, 0.045)
 TURNING_LABELS = ("fold", "grazing")  # a branch turns back at a fold, or at a grazing corner
 
 
@@ -120,18 +120,23 @@ def branch_figure(
 def label_offsets(
     positions: Sequence[tuple[float, float]], spacing: tuple[float, float] = LABEL_SPACING
 ) -> list[int]:
-    """The stacking level of each label at ``positions`` (axes fractions), left to right: its text
-    is drawn ``level`` lines (``spacing[1]`` each) above its point, at the lowest level whose text
-    lies no nearer than ``spacing`` (x, y) to a text placed before it."""
+    """The line of each label at ``positions`` (axes fractions), left to right: its text is drawn
+    ``level`` lines (``spacing[1]`` each; negative: below) from its point, at the nearest line
+    (0, -1, 1, -2, 2, ...) whose text lies no nearer than ``spacing`` (x, y) to a text placed
+    before it."""
     placed: list[tuple[float, float]] = []
     levels = [0] * len(positions)
+    tried = [0] + [k * sign for k in range(1, len(positions) + 1) for sign in (-1, 1)]
     for i in sorted(range(len(positions)), key=lambda k: positions[k]):
         x, y = positions[i]
-        level = 0
-        while any(
-            abs(px - x) < spacing[0] and abs(py - (y + level * spacing[1])) < spacing[1] for px, py in placed
-        ):
-            level += 1
+        level = next(
+            lev
+            for lev in tried
+            if not any(
+                abs(px - x) < spacing[0] and abs(py - (y + lev * spacing[1])) < spacing[1] * (1 - 1e-9)
+                for px, py in placed
+            )
+        )
         levels[i] = level
         placed.append((x, y + level * spacing[1]))
     return levels
@@ -149,8 +154,12 @@ def _annotate(ax, marks: list[tuple[float, float, str]]) -> None:
             text,
             (x, y),
             textcoords="offset points",
-            xytext=(4, 4 + 13 * level),  # 13 points: about LABEL_SPACING[1] of the axes
+            xytext=(
+                4,
+                4 + 13 * level if level >= 0 else -4 + 13 * (level + 1),
+            ),  # 13 points: about LABEL_SPACING[1] of the axes
             fontsize=8,
+            va="bottom" if level >= 0 else "top",
             arrowprops=None if level == 0 else {"arrowstyle": "-", "color": "0.5", "lw": 0.5},
         )
 

@@ -23,14 +23,20 @@ Continuation is pseudo-arclength in the scaled vector ``(y / Y, lambda / L)`` (`
 displacements times their mode's frequency, ``Y`` its size at the start, ``L`` the parameter range):
 a tangent predictor, a chord-Newton corrector on the arclength plane (the previous point's
 Jacobian, refreshed when it converges slowly), step control on the iteration count. Between
-consecutive points the test functions are
+consecutive points the labels follow their definitions (:mod:`rigtools.sim.bifurcations`):
 
-* fold: the parameter component of the tangent changes sign;
-* period doubling: ``det(M + I)`` changes sign (a real multiplier crosses -1);
-* Neimark-Sacker: the number of complex multipliers outside the unit circle changes;
-* grazing: the smallest distance between the shrouds over the orbit (``min_gap``) changes sign.
+* a non-smooth event where the orbit's contact-event structure changes
+  (:mod:`rigtools.sim.contact_events`: grazing, contact-split, sticking), bracketed by bisection;
+  the monodromy matrix jumps there, so no smooth test is taken across it;
+* on one structure: period doubling where a real multiplier crosses -1 (``det(M + I)`` changes
+  sign), Neimark-Sacker where a complex pair crosses the unit circle, fold where the tangent's
+  parameter component changes sign, each kept only where the located orbit's critical
+  multiplier is at -1, on the circle or at +1;
+* every turning of the branch in the parameter is a fold (at a grazing hairpin too).
 
-Each is located by regula falsi along the arclength and inserted as a labelled point. Where an
+Each bifurcation is then relocated with the steps per period doubled until it moves by less than
+``ContinuationSettings.refine_tolerance`` (:mod:`rigtools.sim.bifurcation_refine`; ``Branch.bifurcations``).
+Smooth ones are located by regula falsi along the arclength and inserted as labelled points. Where an
 impact grazes the map has a kink, and the branch may turn there sharply: past a grazing where
 impacts begin or end (``_Tracer.cross_grazing_corner``), or at a hairpin where a sheet with
 one more impact meets one without it (``_Tracer.turn_at_hairpin``: labelled fold and

@@ -58,3 +58,13 @@ def test_a_branch_without_turning_points_explains_nothing():
     assert turning_points(flat) == []
     (e,) = explain_jumps([flat], [MeasuredSweep(v, v, "up", "x", [(56.0, 57.0)])])
     assert e.turning is None and not e.inside and np.isnan(e.offset)
+
+
+def test_labels_near_each_other_are_stacked_not_printed_over_each_other():
+    """Issue 29: three PD labels at 60.6 Hz printed over each other. Labels within the spacing
+    (axes fractions) of one placed before go a line below or above; labels apart stay put."""
+    from rigtools.analysis.branches import LABEL_SPACING, label_offsets
+
+    dx = LABEL_SPACING[0]
+    assert label_offsets([(0.5, 0.5), (0.5, 0.5), (0.501, 0.5)]) == [0, -1, 1]
+    assert label_offsets([(0.1, 0.5), (0.1 + 2 * dx, 0.5), (0.9, 0.1)]) == [0, 0, 0]
