@@ -15,7 +15,16 @@ from matplotlib.figure import Figure
 
 from rigtools.analysis.branch_exits import BranchExit, branch_exits, run_measure_at
 
-SHORT = {"fold": "LP", "period-doubling": "PD", "neimark-sacker": "NS", "grazing": "G"}
+SHORT = {
+    "fold": "LP",
+    "period-doubling": "PD",
+    "neimark-sacker": "NS",
+    "grazing": "G",
+    "contact-split": "CS",
+    "sticking": "ST",
+}
+# labels nearer than this (fraction of the axes) are stacked, not printed over each other
+LABEL_SPACING = (0.04, 0.045)
 TURNING_LABELS = ("fold", "grazing")  # a branch turns back at a fold, or at a grazing corner
 
 
@@ -53,13 +62,15 @@ def branch_figure(
     title: str = "",
 ) -> Figure:
     """The branches (stable solid, unstable dashed, bifurcations marked and named: LP fold, PD
-    period doubling, NS Neimark-Sacker, G grazing) and the measured sweeps (up ``^``, down ``v``,
-    their jumps shaded). ``x_scale`` multiplies the parameter for display (1e3: m -> mm)."""
+    period doubling, NS Neimark-Sacker, G grazing, CS contact split, ST sticking; names that would
+    print over each other stacked) and the measured sweeps (up ``^``, down ``v``, their jumps
+    shaded). ``x_scale`` multiplies the parameter for display (1e3: m -> mm)."""
     fig = Figure(figsize=(8, 5))
     ax = fig.add_subplot(1, 1, 1)
     colours = ["C0", "C3", "C2", "C4", "C5"]
     colour_of: dict[str, str] = {}  # one colour and one legend entry per name (period 1, period 2)
     in_legend: set[tuple[str, bool]] = set()
+    marks: list[tuple[float, float, str]] = []
     for c in curves:
         x = np.asarray(c.value, float) * x_scale
         y = np.asarray(c.measure, float)
@@ -81,7 +92,7 @@ def branch_figure(
             names = [SHORT[lab] for lab in labs if lab in SHORT]
             if names:
                 ax.plot(xi, yi, "o", color="k", ms=4)
-                ax.annotate("/".join(names), (xi, yi), textcoords="offset points", xytext=(4, 4), fontsize=8)
+                marks.append((float(xi), float(yi), "/".join(names)))
     shaded = False
     others = ["C1", "C6", "C8", "C9", "C7"]  # measured sweeps in colours no branch takes
     for i, m in enumerate(measured):
@@ -100,6 +111,7 @@ def branch_figure(
             label = "_nolegend_" if shaded else "measured jump"
             ax.axvspan(lo * x_scale, hi * x_scale, color="0.8", alpha=0.5, lw=0, label=label)
             shaded = True
+    _annotate(ax, marks)
     ax.set_xlabel(xlabel)
     ax.set_ylabel(ylabel)
     if title:
@@ -108,6 +120,53 @@ def branch_figure(
     ax.legend(fontsize=8, loc="best")
     fig.tight_layout()
     return fig
+
+
+def label_offsets(
+    positions: Sequence[tuple[float, float]], spacing: tuple[float, float] = LABEL_SPACING
+) -> list[int]:
+    """The line of each label at ``positions`` (axes fractions), left to right: its text is drawn
+    ``level`` lines (``spacing[1]`` each; negative: below) from its point, at the nearest line
+    (0, -1, 1, -2, 2, ...) whose text lies no nearer than ``spacing`` (x, y) to a text placed
+    before it."""
+    placed: list[tuple[float, float]] = []
+    levels = [0] * len(positions)
+    tried = [0] + [k * sign for k in range(1, len(positions) + 1) for sign in (-1, 1)]
+    for i in sorted(range(len(positions)), key=lambda k: positions[k]):
+        x, y = positions[i]
+        level = next(
+            lev
+            for lev in tried
+            if not any(
+                abs(px - x) < spacing[0] and abs(py - (y + lev * spacing[1])) < spacing[1] * (1 - 1e-9)
+                for px, py in placed
+            )
+        )
+        levels[i] = level
+        placed.append((x, y + level * spacing[1]))
+    return levels
+
+
+def _annotate(ax, marks: list[tuple[float, float, str]]) -> None:
+    """The labels at their points, stacked where they would print over each other."""
+    if not marks:
+        return
+    ax.autoscale_view()
+    (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+    pos = [((x - x0) / ((x1 - x0) or 1.0), (y - y0) / ((y1 - y0) or 1.0)) for x, y, _ in marks]
+    for (x, y, text), level in zip(marks, label_offsets(pos), strict=True):
+        ax.annotate(
+            text,
+            (x, y),
+            textcoords="offset points",
+            xytext=(
+                4,
+                4 + 13 * level if level >= 0 else -4 + 13 * (level + 1),
+            ),  # 13 points: about LABEL_SPACING[1] of the axes
+            fontsize=8,
+            va="bottom" if level >= 0 else "top",
+            arrowprops=None if level == 0 else {"arrowstyle": "-", "color": "0.5", "lw": 0.5},
+        )
 
 
 @dataclass(frozen=True)

@@ -48,6 +48,10 @@ class StoredBranch:
     multipliers: np.ndarray  # (n, m) complex
     labels: list[tuple[str, ...]]
     measures: dict[str, np.ndarray]
+    # one dict per labelled bifurcation or event (rigtools.sim.bifurcations.Bifurcation.as_dict:
+    # critical multiplier, contact structures, location at a converged time step); empty in a
+    # file written before they were stored
+    bifurcations: list[dict] = field(default_factory=list)
 
 
 DIMENSION = {"fe": "frequency", "force": "force", "gap": "length"}
@@ -338,6 +342,7 @@ def write_branches(path: str | Path, branches, rig_text: str, experiment: dict) 
                 mult[j, : p.multipliers.size] = p.multipliers
             g["multipliers_real"], g["multipliers_imag"] = mult.real, mult.imag
             g.attrs["labels"] = json.dumps([list(p.labels) for p in pts])
+            g.attrs["bifurcations"] = json.dumps([r.as_dict() for r in getattr(b, "bifurcations", [])])
             meas = g.create_group("measures")
             for name in pts[0].measures.as_dict() if pts else ():
                 if name == "peak_contact_force_per_period":
@@ -379,6 +384,7 @@ def _read_branches(f) -> tuple[dict, list[StoredBranch]]:
                 multipliers=g["multipliers_real"][()] + 1j * g["multipliers_imag"][()],
                 labels=[tuple(lab) for lab in json.loads(g.attrs["labels"])],
                 measures={k: g["measures"][k][()] for k in g["measures"]},
+                bifurcations=json.loads(g.attrs.get("bifurcations", "[]")),
             )
         )
     return json.loads(f.attrs["experiment"]), out
@@ -589,6 +595,15 @@ def _branch_problems(g, where: str, param: str | None, read_data: bool, error) -
         error(where, "attribute labels must be a JSON list of lists (one per point)")
     elif len(labels) != n:
         error(where, f"labels holds {len(labels)} entries for {n} points")
+    if "bifurcations" in a:  # written since the labels carry their converged location
+        try:
+            located = json.loads(a["bifurcations"])
+        except (TypeError, ValueError):
+            located = None
+        if not (isinstance(located, list) and all(isinstance(x, dict) for x in located)):
+            error(
+                where, "attribute bifurcations must be a JSON list of objects (one per labelled bifurcation)"
+            )
     measures = g.get("measures")
     if not isinstance(measures, h5py.Group):
         error(f"{where}/measures", "missing")
@@ -742,7 +757,10 @@ def branches_figure(
 
 
 def summary(branches) -> dict:
-    """The ``--json`` document: per branch its periods, status, points and bifurcations."""
+    """The ``--json`` document: per branch its periods, status, points, labels (``bifurcations``:
+    every label of every point, start and end included) and the labelled bifurcations and events
+    with their critical multiplier and converged location (``located``,
+    :meth:`rigtools.sim.bifurcations.Bifurcation.as_dict`)."""
     return {
         "branches": [
             {
@@ -750,12 +768,36 @@ def summary(branches) -> dict:
                 "status": b.status,
                 "message": b.message,
                 "points": len(b.points),
+                "steps_per_period": b.steps_per_period,
                 "bifurcations": [
                     {"label": lab, "value": p.value, "stable": p.stable, "max_multiplier": p.max_multiplier}
                     for p in b.points
                     for lab in p.labels
                 ],
+                "located": [r.as_dict() for r in b.bifurcations],
             }
             for b in branches
         ]
     }
+
+
+def located_lines(branch, param: str) -> list[str]:
+    """One line per labelled bifurcation or event of a branch (``Branch`` or
+    :class:`StoredBranch`): label, value at the branch's time step, converged value and its last
+    change, critical multiplier, contact structures of an event."""
+    unit, scale = X_UNITS[param], X_LABELS[param][1]
+    out = []
+    for r in [x if isinstance(x, dict) else x.as_dict() for x in branch.bifurcations]:
+        mu = r["multiplier_converged"] if r["converged"] is not None else r["multiplier"]
+        mu_text = "" if mu[0] is None else f", multiplier {complex(mu[0], mu[1] or 0.0):.4f}"
+        text = f"  {r['label']} at {r['value'] * scale:.6g} {unit}"
+        if r["converged"] is not None:
+            text += (
+                f" -> {r['converged'] * scale:.6g} {unit} at {r['steps_per_period']} steps/period "
+                f"(last change {r['change'] * scale:+.2g} {unit}{'' if r['converged_ok'] else ', not converged'})"
+            )
+        text += mu_text
+        if not r["smooth"]:
+            text += f"; contact {r['contact_before']} -> {r['contact_after']}"
+        out.append(text)
+    return out

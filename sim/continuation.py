@@ -23,14 +23,20 @@ Continuation is pseudo-arclength in the scaled vector ``(y / Y, lambda / L)`` (`
 displacements times their mode's frequency, ``Y`` its size at the start, ``L`` the parameter range):
 a tangent predictor, a chord-Newton corrector on the arclength plane (the previous point's
 Jacobian, refreshed when it converges slowly), step control on the iteration count. Between
-consecutive points the test functions are
+consecutive points the labels follow their definitions (:mod:`rigtools.sim.bifurcations`):
 
-* fold: the parameter component of the tangent changes sign;
-* period doubling: ``det(M + I)`` changes sign (a real multiplier crosses -1);
-* Neimark-Sacker: the number of complex multipliers outside the unit circle changes;
-* grazing: the smallest distance between the shrouds over the orbit (``min_gap``) changes sign.
+* a non-smooth event where the orbit's contact-event structure changes
+  (:mod:`rigtools.sim.contact_events`: grazing, contact-split, sticking), bracketed by bisection;
+  the monodromy matrix jumps there, so no smooth test is taken across it;
+* on one structure: period doubling where a real multiplier crosses -1 (``det(M + I)`` changes
+  sign), Neimark-Sacker where a complex pair crosses the unit circle, fold where the tangent's
+  parameter component changes sign, each kept only where the located orbit's critical
+  multiplier is at -1, on the circle or at +1;
+* every turning of the branch in the parameter is a fold (at a grazing hairpin too).
 
-Each is located by regula falsi along the arclength and inserted as a labelled point. Where an
+Each bifurcation is then relocated with the steps per period doubled until it moves by less than
+``ContinuationSettings.refine_tolerance`` (:mod:`rigtools.sim.bifurcation_refine`; ``Branch.bifurcations``).
+Smooth ones are located by regula falsi along the arclength and inserted as labelled points. Where an
 impact grazes the map has a kink, and the branch may turn there sharply: past a grazing where
 impacts begin or end (``_Tracer.cross_grazing_corner``), or at a hairpin where a sheet with
 one more impact meets one without it (``_Tracer.turn_at_hairpin``: labelled fold and
@@ -43,13 +49,25 @@ point.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from rigtools.sim import bifurcations as bif
+from rigtools.sim.bifurcation_refine import MAX_REFINEMENTS, REFINE_TOLERANCE, refine
+from rigtools.sim.bifurcations import FOLD, NEIMARK_SACKER, PERIOD_DOUBLING, SMOOTH, Bifurcation
 from rigtools.sim.contact import law, law_code
+from rigtools.sim.contact_events import (
+    CONTACT_SPLIT,
+    GRAZING,
+    STICKING,
+    ContactStructure,
+    contact_structure,
+    event_kind,
+)
 from rigtools.sim.reduction import ReducedSystem
 from rigtools.sim.vibro_impact import (
     OUT_COLUMNS,
@@ -70,14 +88,17 @@ FD_RELATIVE_STEP = 1e-6
 CLOSURE_TOLERANCE = 2e-3
 # a closure maximum this close to the gap (relative to the tip amplitude) grazes
 GRAZING_TOLERANCE = 1e-3
+# a contact event is bracketed to this scaled arclength, and the orbits on its two sides are taken
+# that far outside it: 100 times the finite-difference step of the monodromy matrix (1e-6)
+EVENT_BRACKET = 1e-4
 # period doublings closer than this (fraction of the range) are one: a multiplier lingering at -1
 # makes det(M + I) change sign several times; one period-2 branch is switched onto per cluster
 PD_CLUSTER = 1e-2
 N_HARMONICS = 10
-# labels a point may carry
-FOLD, PERIOD_DOUBLING, NEIMARK_SACKER, GRAZING = "fold", "period-doubling", "neimark-sacker", "grazing"
+# labels a point may carry: the smooth bifurcations (rigtools.sim.bifurcations), the non-smooth
+# events (rigtools.sim.contact_events: grazing, contact-split, sticking) and these
 START, END, FAILED, SWITCH = "start", "end", "failed", "branch-switch"
-BIFURCATIONS = (FOLD, PERIOD_DOUBLING, NEIMARK_SACKER, GRAZING)
+BIFURCATIONS = (FOLD, PERIOD_DOUBLING, NEIMARK_SACKER, GRAZING, CONTACT_SPLIT, STICKING)
 
 _COL = {name: i for i, name in enumerate(OUT_COLUMNS)}
 
@@ -211,14 +232,17 @@ class BranchPoint:
     stable
         Every multiplier has modulus below 1.
     labels
-        ``start``, ``end``, ``failed`` (last good point before a failure), ``branch-switch`` and the
-        bifurcations (``fold``, ``period-doubling``, ``neimark-sacker``, ``grazing``).
+        ``start``, ``end``, ``failed`` (last good point before a failure), ``branch-switch``, the
+        smooth bifurcations (``fold``, ``period-doubling``, ``neimark-sacker``) and the non-smooth
+        events (``grazing``, ``contact-split``, ``sticking``), see :data:`BIFURCATIONS`.
     measures
         :class:`OrbitMeasures`.
     tangent_param
         Parameter component of the unit tangent (scaled), which changes sign at a fold.
     newton_iterations
         Corrector iterations it took.
+    contact
+        The orbit's contact-event structure (:class:`rigtools.sim.contact_events.ContactStructure`).
     """
 
     param: str
@@ -232,6 +256,7 @@ class BranchPoint:
     measures: OrbitMeasures = field(repr=False)
     tangent_param: float = 0.0
     newton_iterations: int = 0
+    contact: ContactStructure = field(default=ContactStructure(), repr=False)
 
     @property
     def max_multiplier(self) -> float:
@@ -249,7 +274,12 @@ class Branch:
     it is followed, see :func:`switch_period_doubling`), ``"max points"``, ``"merged"`` (a period-2
     branch returned onto the period-1 branch), ``"closed"`` (the branch came back to its first
     point: a closed loop, its last point that first orbit again) or ``"interrupted"``
-    (:class:`KeyboardInterrupt` while it was followed: its points so far).
+    (:class:`KeyboardInterrupt` while it was followed: its points so far). A failure inside the
+    tracer (a diverged integration, a singular matrix) is ``"failed"`` too, with its reason.
+
+    ``bifurcations`` holds one :class:`rigtools.sim.bifurcations.Bifurcation` per labelled
+    bifurcation or event, in branch order, with its critical multiplier and its location refined
+    to a converged time step (:mod:`rigtools.sim.bifurcation_refine`).
     """
 
     param: str
@@ -258,6 +288,7 @@ class Branch:
     status: str = "complete"
     message: str = ""
     steps_per_period: int = 0
+    bifurcations: list[Bifurcation] = field(default_factory=list)
 
     def values(self) -> np.ndarray:
         return np.array([p.value for p in self.points])
@@ -346,6 +377,16 @@ class PeriodMap:
 
     def with_periods(self, periods: int) -> PeriodMap:
         return PeriodMap(self.base, self.steps_per_period, periods, self.shaker, self.force_scale)
+
+    def with_steps(self, steps_per_period: int) -> PeriodMap:
+        """The same map at another time step."""
+        return PeriodMap(self.base, steps_per_period, self.periods, self.shaker, self.force_scale)
+
+    def contact_structure(self, data: np.ndarray, p: Forcing) -> ContactStructure:
+        """The contact-event structure of the orbit whose :meth:`flow` outputs are ``data``."""
+        st = self._stepper_for(p)
+        closure = data[:, _COL["active_tip_displacement"]] - data[:, _COL["passive_tip_displacement"]]
+        return contact_structure(closure, data[:, _COL["contact_force"]], p.gap, st.contact_period / st.dt)
 
     def _stepper_for(self, p: Forcing) -> VibroImpactStepper:
         key = (p.fe, p.gap)
@@ -552,14 +593,18 @@ class _Solver:
     def fixed(
         self, y: np.ndarray, lam: float, jac: np.ndarray | None = None
     ) -> tuple[np.ndarray, int] | None:
-        """Newton on ``Phi(y) - y = 0`` at a fixed parameter; ``None`` if it does not converge."""
+        """Newton on ``Phi(y) - y = 0`` at a fixed parameter; ``None`` if it does not converge
+        (an integration that diverges on the way included: a Newton step that ran away)."""
         p = self.at(lam)
         eye = np.eye(y.size)
         for it in range(1, self.max_iter + 1):
-            if jac is None or it % 4 == 0:
-                fy, jac, _ = self.pmap.jacobian(y, p)
-            else:
-                fy = self.pmap.flow(y, p)[0]
+            try:
+                if jac is None or it % 4 == 0:
+                    fy, jac, _ = self.pmap.jacobian(y, p)
+                else:
+                    fy = self.pmap.flow(y, p)[0]
+            except SimulationInputError:
+                return None
             r = fy - y
             try:
                 dy = np.linalg.solve(jac - eye, -r)
@@ -672,6 +717,7 @@ def _point(
         measures=pmap.measures(sol.data, p, pmap.drive(sol.y, p)),
         tangent_param=float(tangent_param),
         newton_iterations=sol.iterations,
+        contact=pmap.contact_structure(sol.data, p),
     )
 
 
@@ -710,28 +756,6 @@ class _Entry:
     point: BranchPoint
 
 
-def _tests(entry: _Entry) -> dict[str, float]:
-    """Test functions whose sign changes mark a bifurcation between two points."""
-    mu = entry.point.multipliers
-    cplx = np.abs(mu.imag) > 1e-9 * np.maximum(np.abs(mu), 1e-300)
-    return {
-        FOLD: float(entry.tangent[-1]),
-        PERIOD_DOUBLING: float(np.prod(1.0 + mu).real),
-        NEIMARK_SACKER: float(np.count_nonzero(cplx & (np.abs(mu) > 1.0))),
-        GRAZING: float(entry.point.measures.min_gap),
-    }
-
-
-def _ns_distance(entry: _Entry) -> float:
-    """|mu| - 1 of the complex multiplier closest to the unit circle (located on for NS)."""
-    mu = entry.point.multipliers
-    cplx = np.abs(mu.imag) > 1e-9 * np.maximum(np.abs(mu), 1e-300)
-    if not np.any(cplx):
-        return math.nan
-    d = np.abs(mu[cplx]) - 1.0
-    return float(d[np.argmin(np.abs(d))])
-
-
 @dataclass
 class ContinuationSettings:
     """Step control and limits (step lengths in the scaled arclength, see the module docstring).
@@ -746,6 +770,11 @@ class ContinuationSettings:
     locate: bool = True
     locate_iterations: int = 12
     steps_per_period: int | None = None
+    # each labelled point relocated at doubled steps per period until it moves less than this
+    # (relative), :mod:`rigtools.sim.bifurcation_refine`; ``refine=False``: not at all
+    refine: bool = True
+    refine_tolerance: float = REFINE_TOLERANCE
+    max_refinements: int = MAX_REFINEMENTS
 
 
 class _Tracer:
@@ -779,6 +808,28 @@ class _Tracer:
     def entry(self, sol: _Solution, tangent: np.ndarray, labels=()) -> _Entry:
         return _Entry(sol, tangent, _point(self.pmap, self.param, sol, self.forcing, tangent[-1], labels))
 
+    def enter(self, state: np.ndarray, value: float) -> _Entry | None:
+        """The orbit of this tracer's map on the arclength plane through ``(state, value)``
+        (unscaled state), normal to this map's branch there: a point of a branch traced at another
+        time step carried onto this one (:mod:`rigtools.sim.bifurcation_refine`); ``None`` if
+        none converges."""
+        s = self.solver
+        y = np.asarray(state, dtype=float) * self.pmap.scale
+        s.Y = max(float(np.linalg.norm(y)), 1e-12)
+        try:
+            fy, jac, dpar = self.pmap.jacobian(y, s.at(value), self.param)
+            assert dpar is not None
+            t = s.tangent(_Solution(y, value, fy, jac, dpar, np.empty((0, 0)), 0), None)
+            res = s.arclength(s.scaled(y, value), t, jac, dpar) or s.arclength(
+                s.scaled(y, value), t, None, None, full=True
+            )
+            if res is None:
+                return None
+            sol = s.finish(*res)
+            return self.entry(sol, s.tangent(sol, t))
+        except (SimulationInputError, np.linalg.LinAlgError):
+            return None
+
     def correct(self, prev: _Entry, h: float) -> _Entry | None:
         """The point at arclength ``h`` from ``prev`` along its tangent."""
         s = self.solver
@@ -798,53 +849,23 @@ class _Tracer:
             return None
         return self.entry(sol, t)
 
-    def locate(self, prev: _Entry, nxt: _Entry, h: float, kind: str) -> _Entry | None:
-        """Regula falsi (Illinois) on the arclength from ``prev`` for the test ``kind``."""
-
-        def value(e: _Entry) -> float:
-            return _ns_distance(e) if kind == NEIMARK_SACKER else _tests(e)[kind]
-
-        f0, f1 = value(prev), value(nxt)
-        if not (math.isfinite(f0) and math.isfinite(f1)) or f0 * f1 > 0:
-            return None
-        small = 1e-8 * (abs(f0) + abs(f1))
-        a, b = 0.0, h
-        best: _Entry | None = None
-        best_f = math.inf
-        side = 0
-        for _ in range(self.settings.locate_iterations):
-            s = (a * f1 - b * f0) / (f1 - f0) if f1 != f0 else 0.5 * (a + b)
-            if not (min(a, b) < s < max(a, b)):
-                s = 0.5 * (a + b)
-            e = self.correct(prev, s)
-            if e is None:
-                break
-            fs = value(e)
-            if not math.isfinite(fs):
-                break
-            if abs(fs) < best_f:
-                best, best_f = e, abs(fs)
-            if abs(fs) <= small or abs(b - a) < 1e-5 * h:
-                break
-            if fs * f0 > 0:
-                a, f0 = s, fs
-                if side == -1:
-                    f1 *= 0.5
-                side = -1
-            else:
-                b, f1 = s, fs
-                if side == 1:
-                    f0 *= 0.5
-                side = 1
-        # accepted only where the test function has come down to a thousandth of its values at
-        # the two ends (or the bracket has closed)
-        if best is None or (best_f > 1e-3 * (abs(f0) + abs(f1)) and abs(b - a) >= 1e-5 * h):
-            return None
-        return best
-
     def run(self, first: _Entry, branch: Branch, direction_sign: float) -> Branch:
+        """Follow the branch from ``first``; any failure inside (an integration that diverges, a
+        singular matrix, a non-finite value) ends it ``"failed"`` with the reason in one line and
+        the points so far kept."""
         try:
             return self._follow(first, branch, direction_sign)
+        except (SimulationInputError, np.linalg.LinAlgError, FloatingPointError, ValueError) as exc:
+            last = branch.points[-1].value if branch.points else first.sol.lam
+            reason = " ".join(str(exc).split()) or type(exc).__name__
+            branch.status = "failed"
+            branch.message = (
+                f"failed after {self.param} = {last:.6g} {UNITS[self.param]}: {reason}; the branch ends "
+                "at the last good point"
+            )
+            if branch.points:
+                _relabel(branch, -1, FAILED)
+            return branch
         except KeyboardInterrupt:
             # the caller may keep the points followed so far (``found`` of :func:`trace`)
             branch.status = "interrupted"
@@ -1148,37 +1169,86 @@ class _Tracer:
                     return e
         return None
 
-    def _detect(self, prev: _Entry, nxt: _Entry, h: float, branch: Branch) -> list[_Entry]:
-        """Append the located bifurcations between ``prev`` and ``nxt`` to the branch (``nxt`` is
-        appended by the caller) and return them; one not located is labelled on ``nxt``. A
-        bifurcation of the kind just found within 1e-4 of the range is the same one (a test
-        function's sign flickering at it, or a grazing corner crossed in several steps)."""
-        t0, t1 = _tests(prev), _tests(nxt)
-        found: list[tuple[float, _Entry]] = []
-        # where impacts begin or end the map has a kink and the multipliers jump: the other test
-        # functions change sign there without a smooth bifurcation
-        kinds = (GRAZING,) if t0[GRAZING] * t1[GRAZING] < 0 else BIFURCATIONS
-        for kind in kinds:
-            if kind == NEIMARK_SACKER:
-                crossed = t0[kind] != t1[kind] and _ns_distance(prev) * _ns_distance(nxt) < 0
+    def _along(self, a: _Entry, b: _Entry) -> float:
+        """The arclength of ``b`` from ``a`` along ``a``'s tangent (where its predictor meets it)."""
+        s = self.solver
+        return float((s.scaled(b.sol.y, b.sol.lam) - s.scaled(a.sol.y, a.sol.lam)) @ a.tangent)
+
+    def _detect(self, prev: _Entry, nxt: _Entry, h: float, branch: Branch, depth: int = 0) -> list[_Entry]:
+        """Append the located bifurcations and events between ``prev`` and ``nxt`` to the branch
+        (``nxt`` is appended by the caller) and return them (:mod:`rigtools.sim.bifurcations`).
+
+        Where the contact structure changes, the event is bracketed by bisection and its two
+        sides inserted (the first orbit of the new structure labelled with the event); the
+        smooth tests run on each side of it, never across it (the monodromy matrix jumps there).
+        A smooth bifurcation of the kind just found within 1e-4 of the range is the same one.
+        ``h`` is unused: the arclength is measured from the two points."""
+        located: list[_Entry] = []
+        if prev.point.contact != nxt.point.contact:
+            h = self._along(prev, nxt)
+            if self.settings.locate and depth < 3 and h > 0:
+                last, first = self._bracket_event(prev, nxt, h)
             else:
-                crossed = t0[kind] * t1[kind] < 0
-            if not crossed:
+                last, first = prev, None
+            after = first if first is not None else nxt
+            kind = _event(last, after)
+            after.point = replace(after.point, labels=(*after.point.labels, kind))
+            located += self._smooth(prev, last, branch)
+            if last is not prev:
+                located.append(last)
+            if after is not nxt:
+                located.append(after)
+                located += self._detect(after, nxt, 0.0, branch, depth + 1)
+            else:
+                located += self._smooth(after, nxt, branch)
+        else:
+            located += self._smooth(prev, nxt, branch)
+        if depth == 0:
+            branch.points.extend(e.point for e in located)
+        return located
+
+    def _bracket_event(self, prev: _Entry, nxt: _Entry, h: float) -> tuple[_Entry, _Entry | None]:
+        """The orbits on either side of the contact event between ``prev`` and ``nxt`` (``None``
+        for the second where no orbit converges past it): bisected to :data:`EVENT_BRACKET` and
+        taken a bracket's width outside it, so that the finite differences of their monodromy
+        matrices do not straddle the event (the matrix jumps there)."""
+        correct = functools.partial(self.correct, prev)
+        last, first, lo, hi = bif.bisect_event(correct, prev, h, 14, EVENT_BRACKET)
+        if first is None:
+            return last, None
+        w = hi - lo
+        if lo > 0.0:
+            e = correct(lo - w) if lo - w > 0.0 else prev
+            last = e if e is not None and e.point.contact == prev.point.contact else last
+        e = correct(hi + w) if hi + w < h else nxt
+        if e is not None and e.point.contact == first.point.contact:
+            first = e
+        return last, first
+
+    def _smooth(self, a: _Entry, b: _Entry, branch: Branch) -> list[_Entry]:
+        """The smooth bifurcations between two orbits of one contact structure, located and
+        checked on their critical multiplier (:func:`rigtools.sim.bifurcations.accepted`)."""
+        if a is b or a.point.contact != b.point.contact:
+            return []
+        h = self._along(a, b)
+        tol = 1e-4 * self.solver.L
+        found: list[tuple[float, _Entry]] = []
+        for kind in SMOOTH:
+            if not bif.crossed(kind, a, b) or _near_last(branch, kind, b.sol.lam, tol):
                 continue
-            if _near_last(branch, kind, nxt.sol.lam, 1e-4 * self.solver.L):
-                continue
-            e = self.locate(prev, nxt, h, kind) if self.settings.locate else None
-            if e is not None and _near_last(branch, kind, e.sol.lam, 1e-4 * self.solver.L):
-                continue
-            if e is None:
-                nxt.point = replace(nxt.point, labels=(*nxt.point.labels, kind))
+            e = bif.locate(lambda s: self.correct(a, s), a, b, h, kind, self.settings.locate_iterations)
+            if e is None or not self.settings.locate:
+                continue  # the test jumps: no bifurcation (a turning is labelled from the values)
+            if not bif.accepted(kind, e) or _near_last(branch, kind, e.sol.lam, tol):
                 continue
             e.point = replace(e.point, labels=(kind,))
-            u0 = self.solver.scaled(prev.sol.y, prev.sol.lam)
-            found.append((float(np.linalg.norm(self.solver.scaled(e.sol.y, e.sol.lam) - u0)), e))
-        located = [e for _, e in sorted(found, key=lambda f: f[0])]
-        branch.points.extend(e.point for e in located)
-        return located
+            found.append((self._along(a, e), e))
+        return [e for _, e in sorted(found, key=lambda f: f[0])]
+
+
+def _event(a: _Entry, b: _Entry) -> str:
+    """The non-smooth event between two orbits of different contact structures."""
+    return event_kind(a.point.contact, b.point.contact) or GRAZING
 
 
 def _grazing_margin(e: _Entry) -> float:
@@ -1203,6 +1273,11 @@ def _relabel(branch: Branch, index: int, label: str) -> None:
     p = branch.points[index]
     if label not in p.labels:
         branch.points[index] = replace(p, labels=(*p.labels, label))
+
+
+def _unlabel(branch: Branch, index: int, label: str) -> None:
+    p = branch.points[index]
+    branch.points[index] = replace(p, labels=tuple(lab for lab in p.labels if lab != label))
 
 
 def _half_difference(e: _Entry) -> np.ndarray:
@@ -1325,7 +1400,8 @@ def continue_orbits(
     branch = Branch(param=param, periods=pmap.periods, steps_per_period=pmap.steps_per_period)
     if found is not None:
         found.append(branch)
-    return tracer.run(tracer.entry(sol, t, (START,)), branch, 1.0 if stop > start else -1.0)
+    tracer.run(tracer.entry(sol, t, (START,)), branch, 1.0 if stop > start else -1.0)
+    return _finish_branch(tracer, branch)
 
 
 def switch_period_doubling(
@@ -1408,7 +1484,74 @@ def switch_period_doubling(
     branch = Branch(param=param, periods=2, steps_per_period=pmap.steps_per_period)
     if found is not None:
         found.append(branch)
-    return tracer.run(first, branch, 1.0 if going_up else -1.0)
+    tracer.run(first, branch, 1.0 if going_up else -1.0)
+    return _finish_branch(tracer, branch)
+
+
+def _finish_branch(tracer: _Tracer, branch: Branch) -> Branch:
+    """Label the branch's turning points ``fold`` (:func:`rigtools.sim.bifurcations.mark_turning_points`)
+    and record every bifurcation and event (:attr:`Branch.bifurcations`), each relocated at a
+    converged time step unless ``settings.refine`` is off (a failure there keeps it unrefined)."""
+    bif.merge_hairpin_grazing(branch.points, lambda i, label: _unlabel(branch, i, label))
+    bif.mark_turning_points(
+        branch.points,
+        lambda i, label: _relabel(branch, i, label),
+        lambda i, label: _unlabel(branch, i, label),
+    )
+    st = tracer.settings
+
+    def make(n: int) -> _Tracer:
+        pmap = tracer.pmap.with_steps(n)
+        return _Tracer(
+            pmap, tracer.param, tracer.forcing, tracer.stop, tracer.solver.L, st, None, tracer.bounds
+        )
+
+    done: dict[int, Bifurcation] = {}  # the non-smooth labels of one point share one location
+    for r in bif.records(branch.points):
+        if not st.refine:
+            branch.bifurcations.append(r)
+            continue
+        if not r.smooth and r.index in done:
+            d = done[r.index]
+            names = ("converged", "change", "steps_per_period", "refinements", "multiplier_converged")
+            shared = {k: getattr(d, k) for k in names}
+            branch.bifurcations.append(replace(r, **shared, converged_ok=d.converged_ok))
+            continue
+        try:
+            out = refine(
+                r,
+                branch.points,
+                make,
+                branch.steps_per_period,
+                st.refine_tolerance,
+                st.max_refinements,
+            )
+        except (SimulationInputError, np.linalg.LinAlgError, FloatingPointError, ValueError):
+            out = r
+        if not r.smooth:
+            done[r.index] = out
+        twin = _same_converged(branch.bifurcations, out, st.refine_tolerance)
+        if twin is not None:
+            # two sign changes of one test at the branch's step (a multiplier lingering at its
+            # value) that refine to one location are one bifurcation
+            _unlabel(branch, out.index, out.label)
+            continue
+        branch.bifurcations.append(out)
+    return branch
+
+
+def _same_converged(done: list[Bifurcation], r: Bifurcation, tolerance: float) -> Bifurcation | None:
+    """The smooth bifurcation of ``r``'s kind already recorded on the same contact structure, with
+    no event between them, whose converged location is ``r``'s (within twice the refinement
+    tolerance), or ``None``."""
+    if not (r.smooth and r.converged_ok):
+        return None
+    for j, q in enumerate(done):
+        same = q.smooth and q.converged_ok and q.label == r.label and q.contact_after == r.contact_after
+        between = any(not x.smooth for x in done[j + 1 :])
+        if same and not between and abs(q.converged - r.converged) <= 2.0 * tolerance * abs(r.converged):
+            return q
+    return None
 
 
 def _followed_range(param: str, lo: float, hi: float) -> tuple[float, float]:

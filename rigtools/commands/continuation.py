@@ -11,9 +11,14 @@ from pathlib import Path
 HELP = "continue the model's periodic orbits in fe, force or gap: branches, stability, bifurcations"
 EPILOG = """\
 Shooting on the reduced model's own integrator with pseudo-arclength continuation; Floquet
-multipliers at every point; folds (LP), period doublings (PD, then the period-2 branch, followed
-out of the range and back if it turns outside), Neimark-Sacker (NS) and grazing (G: impacts begin
-or end) located and labelled.
+multipliers at every point; folds (LP: the branch turns), period doublings (PD: a real multiplier
+at -1; then the period-2 branch, followed out of the range and back if it turns outside) and
+Neimark-Sacker (NS: a complex pair on the unit circle) located on one contact structure; the
+non-smooth events where the orbit's contacts change labelled as such: grazing (G: an impact
+begins or ends), contact split (CS: the force releases and re-engages while the shrouds overlap),
+sticking (ST). Each is relocated at doubled steps per period until it moves less than 0.05 %:
+printed "label at VALUE -> CONVERGED at N steps/period (last change)", with its critical
+multiplier. A failure inside the tracer ends the branch "failed" with its points written.
 
 --model rig continues the simulated rig's model (the FEM of [test_article] driven through the
 [shaker] and amplifier, as --backend sim runs it) holding the force fundamental at --force, as
@@ -71,6 +76,7 @@ def run(args: argparse.Namespace) -> int:
     from rigtools.branches import (
         branches_figure,
         continue_to_file,
+        located_lines,
         measured_sweeps,
         parse_inputs,
         read_branches,
@@ -115,9 +121,11 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps({**doc, "out": str(out), "plot": str(png)}))
         return 0
-    for b in doc["branches"]:
+    for b, branch in zip(doc["branches"], branches, strict=True):
         marks = ", ".join(f"{x['label']} {x['value']:.6g}" for x in b["bifurcations"]) or "none"
         print(f"period {b['periods']}: {b['points']} points, {b['status']} {b['message']}; {marks}")
+        for line in located_lines(branch, args.param):
+            print(line)
     if measured:
         from rigtools.report.branches import measured_jump_sentences
 

@@ -156,6 +156,9 @@ def findings_doc(
                 if "period-doubling" in labs
             ],
             "status": [b.status for b in stored],
+            # every labelled bifurcation and event with its critical multiplier and its location
+            # at a converged time step (rigtools.sim.bifurcations.Bifurcation.as_dict)
+            "located": [{**r, "periods": b.periods} for b in stored for r in b.bifurcations],
         }
 
     return {

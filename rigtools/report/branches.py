@@ -188,20 +188,28 @@ def bifurcation_rows(branches: list[StoredBranch]) -> list[dict[str, Any]]:
             continue
         turning = {t.value: t for t in turning_points(next(curves))}
         mod = np.abs(b.multipliers)
+        located = {(r["index"], r["label"]): r for r in b.bifurcations}
         for i, labs in enumerate(b.labels):
             for lab in labs:
                 if lab not in SHORT:
                     continue
                 t = turning.get(float(b.value[i]))
+                r = located.get((i, lab), {})
+                mu = r.get("multiplier") or [None, None]
                 rows.append(
                     {
                         "branch": f"period {b.periods}",
                         "bifurcation": f"{lab} ({SHORT[lab]})",
                         unit: float(b.value[i]) * scale,
+                        # at a converged time step (rigtools.sim.bifurcation_refine), NaN if not refined
+                        f"converged ({X_UNITS[param]})": float("nan")
+                        if r.get("converged") is None
+                        else r["converged"] * scale,
                         "stable": bool(b.stable[i]),
                         "turning point": ""
                         if t is None or t.label != lab
                         else ("upper" if t.upper else "lower"),
+                        "critical multiplier": "" if mu[0] is None else f"{complex(mu[0], mu[1] or 0.0):.4f}",
                         "largest |multiplier|": float(np.nanmax(mod[i])) if mod.shape[1] else float("nan"),
                     }
                 )

@@ -173,3 +173,13 @@ def test_a_fold_labelled_on_its_first_unstable_point_is_a_turning_point():
     c = BranchCurve(c.value, c.measure, stable, c.labels)
     (fold,) = [e for e in branch_exits(c, "up") if e.mechanism == "fold"]
     assert fold.turning and fold.value == 71.64 and fold.span == (0, 58)
+
+
+def test_labels_near_each_other_are_stacked_not_printed_over_each_other():
+    """Issue 29: three PD labels at 60.6 Hz printed over each other. Labels within the spacing
+    (axes fractions) of one placed before go a line below or above; labels apart stay put."""
+    from rigtools.analysis.branches import LABEL_SPACING, label_offsets
+
+    dx = LABEL_SPACING[0]
+    assert label_offsets([(0.5, 0.5), (0.5, 0.5), (0.501, 0.5)]) == [0, -1, 1]
+    assert label_offsets([(0.1, 0.5), (0.1 + 2 * dx, 0.5), (0.9, 0.1)]) == [0, 0, 0]
