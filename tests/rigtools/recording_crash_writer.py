@@ -17,6 +17,7 @@ import time
 
 import numpy as np
 
+from rigtools.config import default_rig_text
 from rigtools.recording import ChannelSpec, RecordingWriter
 
 SAMPLE_RATE = 20000.0
@@ -48,7 +49,7 @@ def main(path: str, seed: int, point_blocks: int) -> None:
     with RecordingWriter(
         path,
         backend="simulated",
-        rig='name = "crash test rig"',
+        rig=default_rig_text(),  # a whole rig description: rig check holds the rig attribute
         experiment={"procedure": "crash-test", "seed": seed},
     ) as rec:
         print("S", time.time(), flush=True)
