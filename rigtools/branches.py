@@ -355,14 +355,24 @@ def write_branches(path: str | Path, branches, rig_text: str, experiment: dict) 
 
 def read_branches(path: str | Path) -> tuple[dict, list[StoredBranch]]:
     """``(experiment, branches)`` of a file written by :func:`write_branches`; a missing,
-    unreadable, foreign or damaged file is a one-line :class:`UserError`."""
+    unreadable, foreign or damaged file is a one-line :class:`UserError`: the reader relies on
+    exactly what :func:`check_branches` verifies (``rig check``), so a file it rejects is
+    refused here with its first problem, and one it passes reads whole."""
     from rigtools.errors import one_line
     from rigtools.recording.reader import open_h5
 
-    f, _ = open_h5(path, wait=False)
+    f, _ = open_h5(path, wait=False)  # the file-level errors: missing, a folder, truncated
     with f:
         if f.attrs.get("schema") != BRANCHES_SCHEMA:
             raise UserError(f"{path}: not a branches file (schema {f.attrs.get('schema')!r})")
+    errors = [p for p in check_branches(path).problems if p.severity == "error"]
+    if errors:
+        more = f" and {len(errors) - 1} more" if len(errors) > 1 else ""
+        raise UserError(
+            f"{path}: a damaged branches file: {errors[0].line()}{more} (rig check {path} lists them)"
+        )
+    f, _ = open_h5(path, wait=False)
+    with f:
         try:
             return _read_branches(f)
         except (KeyError, ValueError, TypeError, OSError) as exc:  # a group, dataset or attr gone

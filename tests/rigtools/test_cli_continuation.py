@@ -314,8 +314,8 @@ def test_ctrl_c_keeps_the_points_computed(tmp_path, ctrl_c_after_30_steps):
 @pytest.mark.parametrize(
     ("damage", "words"),
     [
-        ("stable", "damaged branches file (\"Unable to synchronously open object (object 'stable'"),
-        ("branches", "damaged branches file (\"Unable to synchronously open object (object 'branches'"),
+        ("stable", "a damaged branches file: /branches/00/stable: missing"),
+        ("branches", "a damaged branches file: /branches: missing"),
         ("missing", "x.h5: no such file"),
         ("folder", "x.h5: not a file"),
         ("half", "truncated HDF5 file"),

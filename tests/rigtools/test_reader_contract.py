@@ -13,6 +13,7 @@ import h5py
 import numpy as np
 import pytest
 from cli_helpers import run_cli
+from test_cli_continuation import no_contact, sweep  # noqa: F401 -- fixtures: a good branches file, a sweep
 from test_frf_set_info_check import frf_set  # noqa: F401 -- the pytest fixture: a good FRF set
 
 import rigtools
@@ -99,3 +100,58 @@ def test_every_frf_set_reader_reads_what_check_passes(frf_set, tmp_path):  # noq
     for reader, argv in READERS.items():
         code, out, err = run_cli(argv(frf_set, tmp_path))
         assert code == 0, (reader, err)
+
+
+# ---------------------------------------------------------------------------- branches files
+def _branches_dataset(f):
+    del f["branches"]
+    f["branches"] = np.zeros(3)
+
+
+def _short_values(f):
+    value = f["branches/00/value"][:-2]
+    del f["branches/00/value"]
+    f["branches/00/value"] = value
+
+
+def _two_d_values(f):
+    value = f["branches/00/value"][()]
+    del f["branches/00/value"]
+    f["branches/00/value"] = np.vstack([value, value])
+
+
+def _short_labels(f):
+    f["branches/00"].attrs["labels"] = json.dumps(json.loads(f["branches/00"].attrs["labels"])[:-3])
+
+
+BRANCHES_DAMAGES = {
+    "schema_version text": _attr("schema_version", "two"),
+    "experiment null": _attr("experiment", "null"),
+    "experiment a list": _attr("experiment", json.dumps(["fe"])),
+    "branches a dataset": _branches_dataset,
+    "values shorter than the points": _short_values,
+    "2-D values": _two_d_values,
+    "labels shorter than the points": _short_labels,
+}
+
+
+@pytest.mark.parametrize("damage", list(BRANCHES_DAMAGES))
+def test_every_branches_reader_refuses_what_check_rejects(no_contact, sweep, tmp_path, damage):  # noqa: F811 -- the fixture
+    _, good, _ = no_contact
+    bad = tmp_path / "bad.h5"
+    shutil.copy(good, bad)
+    with h5py.File(bad, "r+") as f:
+        BRANCHES_DAMAGES[damage](f)
+    code, out, err = run_cli(["check", bad])
+    assert code == 1 and "INVALID" in out, (out, err)
+    readers = {
+        "info": ["info", bad],
+        "info --json": ["info", bad, "--json"],
+        "report --branches": ["report", sweep, "--branches", bad, "--out", tmp_path / "rep"],
+    }
+    for reader, argv in readers.items():
+        code, out, err = run_cli(argv)
+        assert code == 2, (reader, code, out, err)
+        assert "Traceback" not in err and len(err.strip().splitlines()) == 1, (reader, err)
+        assert "a damaged branches file" in err and str(bad) in err, (reader, err)
+    assert not (tmp_path / "rep").exists()
