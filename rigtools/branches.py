@@ -193,13 +193,16 @@ def continue_model(
     progress=None,
     drive: bool = False,
     found: list | None = None,
+    announce=None,
 ):
     """``(rig config, branches)``: the period-1 branch of the rig's reduced model over
     ``[start, stop]`` and the period-2 branches of its period doublings
     (:func:`rigtools.sim.continuation.trace`). ``model="rig"``: the simulated rig's model
     (:func:`simulated_rig_model`), ``force`` the force fundamental held or, with ``drive``, the
     drive amplitude (V). Bad input becomes a :class:`UserError`. ``found``: the branches grow
-    there as they are computed (kept when interrupted, :func:`rigtools.sim.continuation.trace`)."""
+    there as they are computed (kept when interrupted, :func:`rigtools.sim.continuation.trace`).
+    The range is held against the model and the memory first (:func:`check_continuation_resources`);
+    ``announce(line)`` is told when the work will be long."""
     from rigtools.sim.continuation import trace
     from rigtools.sim.params import SimulationInputError
     from rigtools.simulation import load_system
@@ -213,6 +216,7 @@ def continue_model(
         cfg, system, shaker = simulated_rig_model(rig, force_control=not drive)
     else:
         cfg, system = load_system(rig, model)
+    check_continuation_resources(system, param, start, stop, fe=fe, force=force, announce=announce)
     try:
         branches = trace(
             system,
@@ -233,6 +237,34 @@ def continue_model(
     return cfg, branches
 
 
+def check_continuation_resources(
+    system, param: str, start: float, stop: float, *, fe: float, force: float, announce=None
+) -> None:
+    """Refuse, before any orbit, a continuation the model cannot answer or the memory cannot
+    hold: a frequency more than the model's range above its highest mode
+    (:func:`rigtools.simulation.check_model_range`), or one orbit at the lowest frequency (the
+    most steps per period) larger than the memory (:func:`rigtools.memory.check_memory`), each
+    in one line with the estimate; ``announce`` gets one line when a point takes long."""
+    from rigtools.memory import check_memory
+    from rigtools.simulation import LONG_WORK_SECONDS, check_model_range, continuation_cost, human_seconds
+
+    lo, hi = sorted((start, stop))
+    fe_lo, fe_hi = (lo, hi) if param == "fe" else (fe, fe)
+    check_model_range(system, fe_hi, "--to" if param == "fe" else "--fe")
+    force_max = hi if param == "force" else force
+    steps, need, seconds = continuation_cost(system, fe_lo, abs(force_max))
+    check_memory(
+        need,
+        f"an orbit at {fe_lo:g} Hz ({steps} steps per period)",
+        "start the range at a higher frequency (the steps per period grow as 1/fe)",
+    )
+    if announce is not None and seconds * 100 > LONG_WORK_SECONDS:
+        announce(
+            f"each point at {fe_lo:g} Hz takes about {human_seconds(seconds)} ({steps} steps per period); "
+            "a branch holds up to 2000 points"
+        )
+
+
 def continue_to_file(
     out: Path,
     param: str,
@@ -246,6 +278,7 @@ def continue_to_file(
     drive: bool,
     measured: list[str],
     found: list,
+    announce=None,
 ):
     """``(rig config, branches)`` of :func:`continue_model`, written to ``out``
     (:func:`write_branches`, ``experiment`` naming the inputs). Interrupted (Ctrl-C, SIGTERM), the
@@ -265,7 +298,16 @@ def continue_to_file(
     }
     try:
         cfg, branches = continue_model(
-            param, start, stop, **fixed, model=model, rig=rig, switch=switch, drive=drive, found=found
+            param,
+            start,
+            stop,
+            **fixed,
+            model=model,
+            rig=rig,
+            switch=switch,
+            drive=drive,
+            found=found,
+            announce=announce,
         )
     except KeyboardInterrupt:
         if any(b.points for b in found):
@@ -313,14 +355,13 @@ def simulated_rig_model(rig: str | None, force_control: bool = True):
 
 def write_branches(path: str | Path, branches, rig_text: str, experiment: dict) -> Path:
     """Write branches to HDF5: root attrs ``schema`` = "rigtools-branches", ``schema_version``,
-    ``kind`` = "branches", ``rig``, ``experiment`` (JSON); one group ``/branches/NN`` per branch."""
-    import h5py
-
+    ``kind`` = "branches", ``rig``, ``experiment`` (JSON); one group ``/branches/NN`` per branch.
+    Whole or not at all (:func:`rigtools.derived_files.atomic_write_hdf5`): a full disk is a
+    :class:`rigtools.errors.FaultError` (exit 4) with nothing left behind."""
     import rigtools
+    from rigtools.derived_files import atomic_write_hdf5
 
-    path = Path(path)
-    tmp = path.with_name(path.name + ".partial")
-    with h5py.File(tmp, "w") as f:
+    def fill(f) -> None:
         f.attrs.update(
             schema=BRANCHES_SCHEMA,
             schema_version=BRANCHES_VERSION,
@@ -349,8 +390,8 @@ def write_branches(path: str | Path, branches, rig_text: str, experiment: dict) 
                     meas[name] = np.array([p.measures.peak_contact_force_per_period for p in pts], float)
                 else:
                     meas[name] = np.array([getattr(p.measures, name) for p in pts], float)
-    tmp.replace(path)
-    return path
+
+    return atomic_write_hdf5(path, fill)
 
 
 def read_branches(path: str | Path) -> tuple[dict, list[StoredBranch]]:

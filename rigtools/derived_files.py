@@ -17,6 +17,7 @@ import struct
 import tempfile
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 from rigtools.errors import FaultError, UserError, one_line
 
@@ -182,6 +183,24 @@ def atomic_write(path: str | os.PathLike, write: Callable[[Path], object]) -> Pa
             ) from None
         raise
     return path
+
+
+def atomic_write_hdf5(path: str | os.PathLike, fill: Callable[[Any], object]) -> Path:
+    """Write a small HDF5 file whole or not at all: ``fill(f)`` fills an h5py file built in
+    memory, whose bytes :func:`atomic_write` then writes. A full disk is then an ordinary
+    ``OSError`` of a plain write (exit 4, nothing left behind), never the HDF5 library failing
+    inside its own close (a segmentation fault that left ``NAME.partial``)."""
+    import io
+
+    import h5py
+
+    def write(tmp: Path) -> None:
+        buffer = io.BytesIO()
+        with h5py.File(buffer, "w") as f:
+            fill(f)
+        tmp.write_bytes(buffer.getbuffer())
+
+    return atomic_write(path, write)
 
 
 def _os_error(exc: BaseException) -> OSError | None:

@@ -85,9 +85,8 @@ def write_frf_set(path: str | Path, frf_set: FRFSet, *, overwrite: bool = False)
     FaultError
         The write failed (disk full, ...), in one line; nothing is left behind.
     """
-    import h5py
 
-    from rigtools.derived_files import atomic_write
+    from rigtools.derived_files import atomic_write_hdf5
 
     path = Path(path)
     if path.exists() and not overwrite:
@@ -95,26 +94,25 @@ def write_frf_set(path: str | Path, frf_set: FRFSet, *, overwrite: bool = False)
     if frf_set.kind not in KINDS:
         raise ValueError(f"kind must be one of {KINDS}, got {frf_set.kind!r}")
 
-    def write(tmp: Path) -> None:
-        with h5py.File(tmp, "w") as f:
-            f.attrs.update(
-                {
-                    "schema": SCHEMA,
-                    "schema_version": SCHEMA_VERSION,
-                    "created": datetime.now(UTC).isoformat(),
-                    "kind": frf_set.kind,
-                    "reference": frf_set.reference,
-                    "responses": json.dumps(list(frf_set.responses)),
-                    "source": json.dumps(frf_set.source),
-                    **({"points": json.dumps(frf_set.points)} if frf_set.points else {}),
-                }
-            )
-            h = np.atleast_2d(np.asarray(frf_set.frf, dtype=complex))
-            f["frequency"] = np.asarray(frf_set.frequency_hz, dtype=float)
-            f["frf_real"], f["frf_imag"] = h.real, h.imag
-            f["coherence"] = np.atleast_2d(np.asarray(frf_set.coherence, dtype=float))
+    def fill(f) -> None:
+        f.attrs.update(
+            {
+                "schema": SCHEMA,
+                "schema_version": SCHEMA_VERSION,
+                "created": datetime.now(UTC).isoformat(),
+                "kind": frf_set.kind,
+                "reference": frf_set.reference,
+                "responses": json.dumps(list(frf_set.responses)),
+                "source": json.dumps(frf_set.source),
+                **({"points": json.dumps(frf_set.points)} if frf_set.points else {}),
+            }
+        )
+        h = np.atleast_2d(np.asarray(frf_set.frf, dtype=complex))
+        f["frequency"] = np.asarray(frf_set.frequency_hz, dtype=float)
+        f["frf_real"], f["frf_imag"] = h.real, h.imag
+        f["coherence"] = np.atleast_2d(np.asarray(frf_set.coherence, dtype=float))
 
-    atomic_write(path, write)
+    atomic_write_hdf5(path, fill)
 
 
 def is_frf_set(path: str | Path) -> bool:

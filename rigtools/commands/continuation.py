@@ -106,6 +106,7 @@ def run(args: argparse.Namespace) -> int:
             drive=drive,
             measured=args.measured,
             found=found,
+            announce=lambda line: print(line, file=sys.stderr),
         )
     except KeyboardInterrupt:
         kept = [len(b.points) for b in found if b.points]

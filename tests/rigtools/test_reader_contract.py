@@ -7,7 +7,10 @@ file with one line and a non-zero exit (2), never a traceback and never an answe
 from __future__ import annotations
 
 import json
+import os
 import shutil
+import subprocess
+import sys
 
 import h5py
 import numpy as np
@@ -155,3 +158,64 @@ def test_every_branches_reader_refuses_what_check_rejects(no_contact, sweep, tmp
         assert "Traceback" not in err and len(err.strip().splitlines()) == 1, (reader, err)
         assert "a damaged branches file" in err and str(bad) in err, (reader, err)
     assert not (tmp_path / "rep").exists()
+
+
+# ------------------------------------------------------------------ continuation resources
+def test_a_continuation_beyond_the_model_or_the_memory_is_refused_up_front(tmp_path):
+    """1 Hz to 1 MHz ran silently past 1.8 GB: now one line before any orbit (the model's range;
+    an orbit at 0.001 Hz would need millions of steps per period: the memory estimate)."""
+    out = tmp_path / "b.h5"
+    code, _, err = run_cli(
+        ["continuation", "--param", "fe", "--from", "1 Hz", "--to", "1 MHz", "--gap", "5 mm", "--out", out]
+    )
+    assert code == 2 and len(err.strip().splitlines()) == 1
+    assert "--to = 1000 kHz is more than 10 x the model's highest mode" in err
+    code, _, err = run_cli(
+        [
+            "continuation",
+            "--param",
+            "fe",
+            "--from",
+            "0.001 Hz",
+            "--to",
+            "50 Hz",
+            "--gap",
+            "5 mm",
+            "--out",
+            out,
+        ]
+    )
+    assert code == 2 and "an orbit at 0.001 Hz" in err and "of memory" in err and "higher frequency" in err
+    assert not list(tmp_path.iterdir())
+
+
+@pytest.mark.skipif(os.geteuid() != 0, reason="mounting a small tmpfs needs root")
+def test_branches_on_a_full_disk_exit_4_and_leave_nothing(tmp_path):
+    """The branches writer on a full disk ended in a segmentation fault and left b.h5.partial:
+    now the file is built in memory and written whole or not at all (exit 4, one line)."""
+    full = tmp_path / "full"
+    full.mkdir()
+    if subprocess.run(["mount", "-t", "tmpfs", "-o", "size=12k", "tmpfs", str(full)], check=False).returncode:
+        pytest.skip("cannot mount a tmpfs here")
+    try:
+        cmd = [
+            sys.executable,
+            "-m",
+            "rigtools.cli",
+            "continuation",
+            "--param",
+            "fe",
+            "--from",
+            "60",
+            "--to",
+            "61",
+        ]
+        proc = subprocess.run(
+            [*cmd, "--gap", "5 mm", "--no-switch", "--out", str(full / "b.h5")],
+            capture_output=True, text=True, timeout=600, check=False,
+        )  # fmt: skip
+        assert proc.returncode == 4, proc.stderr
+        assert "cannot write" in proc.stderr and "No space left on device" in proc.stderr
+        assert "Traceback" not in proc.stderr and list(full.iterdir()) == []
+    finally:
+        subprocess.run(["umount", str(full)], check=False)
