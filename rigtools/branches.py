@@ -642,8 +642,11 @@ def _branch_problems(g, where: str, param: str | None, read_data: bool, error) -
         labels = json.loads(a.get("labels", ""))
     except (TypeError, ValueError):
         labels = None
-    if not (isinstance(labels, list) and all(isinstance(x, list) for x in labels)):
-        error(where, "attribute labels must be a JSON list of lists (one per point)")
+    if not (
+        isinstance(labels, list)
+        and all(isinstance(x, list) and all(isinstance(t, str) for t in x) for x in labels)
+    ):
+        error(where, "attribute labels must be a JSON list of lists of names (one list per point)")
     elif len(labels) != n:
         error(where, f"labels holds {len(labels)} entries for {n} points")
     if "bifurcations" in a:  # written since the labels carry their converged location

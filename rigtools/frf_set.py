@@ -375,6 +375,8 @@ def _data_problems(f, error) -> None:
     if not np.all(np.isfinite(freq)):
         error("/frequency", f"{int(np.sum(~np.isfinite(freq)))} non-finite value(s)")
         return
+    if freq.size and freq[0] < 0:
+        error("/frequency", f"starts at {freq[0]:g} Hz, below 0 Hz")
     step = np.diff(freq)
     if np.any(step <= 0):
         i = int(np.argmax(step <= 0))

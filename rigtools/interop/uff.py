@@ -33,7 +33,13 @@ from typing import Any
 import numpy as np
 
 from rigtools.errors import UserError, one_line
-from rigtools.interop.uff_data import FRF_DATA_RULE, frf_kind_from_data, rate_of_increment
+from rigtools.interop.uff_data import (
+    FRF_DATA_RULE,
+    _with_force,
+    frf_kind_from_data,
+    rate_of_increment,
+    uff_date,
+)
 from rigtools.interop.uff_places import (  # the rig's numbering (node_of, FIXED_NODES) lives there
     DIRECTION_Y,
     channel_place,
@@ -295,6 +301,8 @@ def recording_functions(
     """
     from rigtools.analysis.spectra import amplitude_spectrum
     from rigtools.analyze import PROCEDURE_FRF, is_hit_per_point_tap_test
+    from rigtools.interop.checks import non_finite_reason
+    from rigtools.interop.imported import rows_reader
 
     procedure = str((recording.experiment or {}).get("procedure", ""))
     if frf_options is not None and "frf" not in what:
@@ -321,6 +329,10 @@ def recording_functions(
         for name, place in places.items():
             ch = point.channels[name]
             where = (place.entity, place.node)
+            if bad := non_finite_reason(rows_reader(np.asarray(ch[:n])[None, :]), n):
+                raise UserError(
+                    f"{recording.path}: point {point.index} {name}: {bad.split(':')[0]}: UFF cannot carry them"
+                )
             if "time" in what:
                 others.append(
                     UffFunction(
@@ -573,32 +585,6 @@ def file_functions(
             rec, what, frf_options=frf_options, reference=reference, complete_only=True, notes=notes
         )
     return functions, skipped
-
-
-def uff_date(created: str) -> str:
-    """ISO time (``2024-05-01T12:00:00+00:00``) as UFF's ``01-May-24 12:00:00``; empty if unreadable."""
-    from datetime import datetime
-
-    try:
-        return datetime.fromisoformat(str(created)).strftime("%d-%b-%y %H:%M:%S")
-    except ValueError:
-        return ""
-
-
-class _ForceNamed:
-    """A point view whose force channel is ``name`` (``--reference``): the other force-quantity
-    channels are left out of it."""
-
-    def __init__(self, point, name: str) -> None:
-        self._point = point
-        self.channels = {c: ch for c, ch in point.channels.items() if c == name or ch.quantity != "force"}
-
-    def __getattr__(self, attr):
-        return getattr(self._point, attr)
-
-
-def _with_force(point, name: str):
-    return _ForceNamed(point, name)
 
 
 # ------------------------------------------------------------------------------------ import

@@ -56,3 +56,29 @@ def rate_of_increment(inc: float) -> float:
         if candidate > 0 and abs(1.0 / candidate - inc) <= 5e-6 * abs(inc):
             return float(candidate)
     return rate
+
+
+def uff_date(created: str) -> str:
+    """ISO time (``2024-05-01T12:00:00+00:00``) as UFF's ``01-May-24 12:00:00``; empty if unreadable."""
+    from datetime import datetime
+
+    try:
+        return datetime.fromisoformat(str(created)).strftime("%d-%b-%y %H:%M:%S")
+    except ValueError:
+        return ""
+
+
+class _ForceNamed:
+    """A point view whose force channel is ``name`` (``--reference``): the other force-quantity
+    channels are left out of it."""
+
+    def __init__(self, point, name: str) -> None:
+        self._point = point
+        self.channels = {c: ch for c, ch in point.channels.items() if c == name or ch.quantity != "force"}
+
+    def __getattr__(self, attr):
+        return getattr(self._point, attr)
+
+
+def _with_force(point, name: str):
+    return _ForceNamed(point, name)

@@ -38,6 +38,9 @@ KNOWN_BACKENDS = ("nidaqmx", "simulated", *MODEL_BACKENDS)
 #: Procedures whose every point is a sine run at its parameter ``fe`` (as is every point of a
 #: model recording): ``rig check`` refuses such a point without ``fe > 0``.
 SINE_PROCEDURES = ("sine dwell", "stepped sine", "rig study")
+#: The highest sample rate a channel may have (Hz): 1 GS/s is far above any DAQ that records
+#: vibration; a rate above it is a header error (an increment of 1e-300 s), never a record.
+MAX_SAMPLE_RATE = 1e9
 
 POINTS_GROUP = "points"
 
@@ -228,9 +231,14 @@ class ChannelSpec:
             if not isinstance(getattr(self, key), str):  # every bad field: ValueError (config.py catches it)
                 raise ValueError(f"channel {self.name!r}: {key} must be text")  # noqa: TRY004 - see the if
         if not (
-            isinstance(self.sample_rate, Real) and math.isfinite(self.sample_rate) and self.sample_rate > 0
+            isinstance(self.sample_rate, Real)
+            and math.isfinite(self.sample_rate)
+            and 0 < self.sample_rate <= MAX_SAMPLE_RATE
         ):
-            raise ValueError(f"channel {self.name!r}: sample_rate {self.sample_rate!r} must be > 0 Hz")
+            raise ValueError(
+                f"channel {self.name!r}: sample_rate {self.sample_rate!r} must be > 0 Hz and at most "
+                f"{MAX_SAMPLE_RATE:g} Hz"
+            )
         if not (isinstance(self.t0, Real) and math.isfinite(self.t0)):
             raise ValueError(f"channel {self.name!r}: t0 {self.t0!r} must be a finite number of s")
         if self.sensitivity is not None and not (

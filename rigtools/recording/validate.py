@@ -28,6 +28,7 @@ from rigtools.recording.schema import (
     DIRECTION_MAX,
     END_FINISHED,
     END_STATUSES,
+    MAX_SAMPLE_RATE,
     MEASURED_CHANNEL_ATTRS,
     NUMERIC_POINT_PARAMS,
     OPTIONAL_ROOT_ATTRS,
@@ -430,9 +431,13 @@ def _point_problems(
         }
         rate = values.get("sample_rate")
         if rate is not None:
-            if not (math.isfinite(rate) and rate > 0):
+            if not (math.isfinite(rate) and 0 < rate <= MAX_SAMPLE_RATE):
                 out.append(
-                    Problem(cwhere, f"sample_rate {rate!r} is not a positive number of Hz", fatal=True)
+                    Problem(
+                        cwhere,
+                        f"sample_rate {rate!r} is not a positive number of Hz up to {MAX_SAMPLE_RATE:g}",
+                        fatal=True,
+                    )
                 )
             else:
                 rates[name] = float(rate)

@@ -219,3 +219,24 @@ def test_branches_on_a_full_disk_exit_4_and_leave_nothing(tmp_path):
         assert "Traceback" not in proc.stderr and list(full.iterdir()) == []
     finally:
         subprocess.run(["umount", str(full)], check=False)
+
+
+def test_export_uff_refuses_nan_samples_it_would_write_as_numbers(tmp_path):
+    """NaN samples went into the UFF as 0.0 and inf as 1.797e308, exit 0 (pyuff's writer)."""
+    from test_bad_input import _write_recording
+
+    src = _write_recording(tmp_path / "nan.h5", nan=True)
+    code, _, err = run_cli(["export", "uff", src, tmp_path / "o.uff"])
+    assert code == 2 and len(err.strip().splitlines()) == 1, err
+    assert "point 1 active_shroud_accel: 4 non-finite value(s)" in err and "UFF cannot carry them" in err
+    assert not (tmp_path / "o.uff").exists()
+
+
+def test_a_frf_set_starting_below_0_hz_or_labels_not_names_are_rejected(frf_set, tmp_path):  # noqa: F811
+    bad = tmp_path / "neg.h5"
+    shutil.copy(frf_set, bad)
+    with h5py.File(bad, "r+") as f:
+        f["frequency"][:] = f["frequency"][:] - 1000.0
+    code, out, _ = run_cli(["check", bad])
+    assert code == 1 and "/frequency: starts at -1000 Hz, below 0 Hz" in out
+    assert run_cli(["analyze", bad])[0] == 2
