@@ -36,7 +36,7 @@ EXIT_STATUSES: dict[int, str] = {
     EXIT_STOPPED: f"stopped from the monitor's page (--monitor --allow-stop; {_KEPT})",
     EXIT_SIGHUP: f"{SIGNAL_NAMES[EXIT_SIGHUP]}; a run: {_KEPT}",
     EXIT_SIGINT: f"{SIGNAL_NAMES[EXIT_SIGINT]}; a run: {_KEPT}",
-    EXIT_SIGPIPE: "stdout closed by its reader (rig ... | head)",
+    EXIT_SIGPIPE: "stdout closed by its reader (rig ... piped into head)",
     EXIT_SIGTERM: f"{SIGNAL_NAMES[EXIT_SIGTERM]}; a run: {_KEPT}",
 }
 #: The statuses of a stop by a signal, which every command answers.

@@ -31,6 +31,29 @@ NATURAL_HZ = ".2f"  # a natural frequency, Hz (0.01 Hz: the resolution a mode ta
 NATURAL_PCT = "+.2f"  # a natural frequency's difference, %
 HARMONIC_PCT = "+.1f"  # a harmonic amplitude's difference, %
 SCORE = ".3f"  # an agreement score or error in decades
+SMALL_PCT = "+.3f"  # a difference in % between two models of one blade (hundredths of a percent)
+#: The natural-frequency tables' columns (``rig analyze``, ``rig compare`` and the report alike).
+FREQUENCY_TABLE = {
+    "fem_hz": NATURAL_HZ,
+    "am_hz": NATURAL_HZ,
+    "em_hz": NATURAL_HZ,
+    "article_hz": NATURAL_HZ,
+    "fem_vs_em_pct": NATURAL_PCT,
+    "am_vs_em_pct": NATURAL_PCT,
+    "am_vs_fem_pct": SMALL_PCT,
+    "em_vs_article_pct": SMALL_PCT,
+}
+
+
+class Shown(str):
+    """A number already written by these rules: a table sets it as a number (right-aligned)."""
+
+    __slots__ = ()
+
+
+def shown(value: Any, spec: str | None = None) -> Shown:
+    """:func:`number` as a :class:`Shown` (for a table that would format a number itself)."""
+    return Shown(number(value, spec))
 
 
 def _finite(value: Any) -> float | None:

@@ -138,20 +138,7 @@ def analysis_tables(analysis: Any, verbose: bool = False) -> list[Any]:
         for _, h in cols:
             table.add_column(h, justify="right", no_wrap=True)
         for r in analysis.frequency_table:
-            table.add_row(
-                *(
-                    f"{r[k]:.1f}"
-                    if isinstance(r[k], float) and k.endswith("hz") and r[k] == r[k]
-                    else f"{r[k]:+.3f}"
-                    if k == "em_vs_article_pct" and r[k] == r[k]
-                    else f"{r[k]:+.2f}"
-                    if isinstance(r[k], float) and r[k] == r[k]
-                    else "–"
-                    if isinstance(r[k], float)
-                    else str(r[k])
-                    for k, _ in cols
-                )
-            )
+            table.add_row(*(readable.number(r[k], readable.FREQUENCY_TABLE.get(k)) for k, _ in cols))
         out.append(table)
     return out
 
@@ -185,12 +172,10 @@ def comparison_tables(cmp: Any, k_show: int) -> list[Any]:
             t.add_row(
                 r["blade"],
                 str(r["mode"]),
-                _fmt_spec(r["fem_hz"], ".2f"),
-                _fmt_spec(r["am_hz"], ".2f"),
-                _fmt_spec(r["em_hz"], ".2f"),
-                _fmt_spec(r["fem_vs_em_pct"], "+.2f"),
-                _fmt_spec(r["am_vs_em_pct"], "+.2f"),
-                _fmt_spec(r["am_vs_fem_pct"], "+.3f"),
+                *(
+                    readable.number(r[k], readable.FREQUENCY_TABLE[k])
+                    for k in ("fem_hz", "am_hz", "em_hz", "fem_vs_em_pct", "am_vs_em_pct", "am_vs_fem_pct")
+                ),
             )
         out.append(t)
     for p in cmp.points:
@@ -198,15 +183,17 @@ def comparison_tables(cmp: Any, k_show: int) -> list[Any]:
         for col in ("channel", "k", "f Hz", "EM", ml, "diff %"):
             t.add_column(col, justify="left" if col == "channel" else "right")
         for ch in dict.fromkeys(p.table["channel"]):
-            sub = p.table[(p.table["channel"] == ch) & ((p.table["k"] <= k_show) | (p.table["k"] == 22))]
+            whole = p.table[p.table["channel"] == ch]
+            top_em, top_model = readable.largest(whole["em"]), readable.largest(whole["fem"])
+            sub = whole[(whole["k"] <= k_show) | (whole["k"] == 22)]
             for i, r in enumerate(sub.itertuples(index=False)):
                 t.add_row(
                     ch if i == 0 else "",
                     str(r.k),
-                    _fmt_spec(r.frequency_hz, ".0f"),
-                    _fmt_spec(r.em),
-                    _fmt_spec(r.fem),
-                    _fmt_spec(r.diff_pct, "+.1f"),
+                    readable.number(r.frequency_hz, ".0f"),
+                    readable.harmonic(r.em, top_em),
+                    readable.harmonic(r.fem, top_model),
+                    readable.number(r.diff_pct, readable.HARMONIC_PCT),
                 )
             t.add_section()
         out.append(t)
@@ -327,11 +314,12 @@ def run_tables(doc: dict, result: Any, out: Any) -> list[Any]:
     for name in names:
         table.add_column(name + (" (m/s²)" if "accel" in name else " (N)"), justify="right")
     h = doc["harmonics"]
+    tops = {name: readable.largest(x["amplitude"] for x in h[name]) for name in names}
     for i in range(10):
         table.add_row(
             str(i + 1),
             f"{h['force'][i]['frequency_hz']:g}",
-            *(f"{h[name][i]['amplitude']:.4g}" for name in names),
+            *(readable.harmonic(h[name][i]["amplitude"], tops[name]) for name in names),
         )
     out_items.append(table)
     c = doc["contact"]

@@ -8,8 +8,10 @@ from collections.abc import Callable
 from typing import Any
 
 from rigtools import json_values
+from rigtools.errors import exit_status_help
 
-HELP = """\
+HELP = (
+    """\
 Summarise a recording: status (complete / aborted with its reason / recording = being written
 now, or its writer was killed), backend, software and schema versions, the channels (quantity,
 units, sample rate, sensor) and one row per point with its parameters, samples and duration.
@@ -23,10 +25,17 @@ A branches file (rig continuation) by its parameter and range, the quantities he
 one row per branch: period, status, points (stable ones), range and bifurcations (fold, period
 doubling, ...), the parameter in the unit its figure uses (Hz, N, mm; V under --drive).
 
+"""
+    + exit_status_help(
+        0, 2, notes={0: "summarised", 2: "unreadable file (missing, not HDF5, not written by rigtools)"}
+    )
+    + """
+
 examples:
   rig info run.h5
   rig info --json run.h5 | python -m json.tool
 """
+)
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

@@ -4,7 +4,10 @@ from __future__ import annotations
 
 import argparse
 
-HELP = """\
+from rigtools.errors import exit_status_help
+
+HELP = (
+    """\
 Serve a page that follows a recording while it is written, and shows a finished one the same
 way: time traces of the force and both shroud accelerations over the last periods (min/max
 envelopes: no impact disappears), the amplitude spectrum with the k·fe harmonics marked and the
@@ -26,11 +29,23 @@ rig acquire ... --monitor passes: its own process id) also that long after proce
 however it ended (a kill leaves the recording unfinished), so the monitor never outlives its
 run by more than SECONDS.
 
+"""
+    + exit_status_help(
+        0,
+        2,
+        notes={
+            0: "the recording ended and --linger passed",
+            2: "bad input (options, the address cannot be served)",
+        },
+    )
+    + """
+
 examples:
   rig monitor run.h5
   rig monitor run.h5 --host 0.0.0.0 --port 5006 --allow-stop
   rig acquire dwell --backend sim --pace --fe 60 --force "15 N" --out live.h5 --monitor
 """
+)
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

@@ -139,19 +139,40 @@ def token_ok(handler: Any, token: str) -> bool:
     return hmac.compare_digest(given.encode(), token.encode())
 
 
+#: What a request without the token is told (the page of the 403 answer says it, not Tornado's bare one).
+REFUSED = (
+    "This monitor needs the token of its printed address: open the address rig monitor (or rig "
+    "acquire ... --monitor) printed, with its ?token=..., in this browser. A monitor served on "
+    "127.0.0.1 needs none."
+)
+
+
+def _refuse(handler: Any) -> None:
+    """Answer 403 with :data:`REFUSED` as a small page, then end the request."""
+    from tornado.web import Finish
+
+    handler.set_status(403)
+    handler.set_header("Content-Type", "text/html; charset=utf-8")
+    handler.finish(
+        "<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'><title>rig monitor: 403</title>"
+        f"</head><body style='font-family:sans-serif;margin:2em'><h1>403: no access</h1>"
+        f"<p id='refused'>{REFUSED}</p></body></html>"
+    )
+    raise Finish()
+
+
 def _auth_provider(token: str):
     from bokeh.server.auth_provider import AuthProvider
-    from tornado.web import HTTPError
 
     class TokenAuth(AuthProvider):
-        """Every request without the token is refused (403)."""
+        """Every request without the token is refused (403, with :data:`REFUSED`)."""
 
         @property
         def get_user_async(self):
             # called in prepare(), before a websocket is upgraded: refused requests get no further
             async def get_user(handler):
                 if not token_ok(handler, token):
-                    raise HTTPError(403, "this monitor needs the token of its printed address")
+                    _refuse(handler)
                 if handler.get_argument("token", None) and not hasattr(handler, "ws_connection"):
                     handler.set_cookie(TOKEN_COOKIE, token, httponly=True, samesite="Strict")
                 return "viewer"
@@ -160,10 +181,7 @@ def _auth_provider(token: str):
 
         @property
         def get_login_url(self):
-            def refuse(handler):
-                raise HTTPError(403, "this monitor needs the token of its printed address")
-
-            return refuse
+            return _refuse
 
     return TokenAuth()
 
