@@ -10,9 +10,9 @@ import argparse
 import sys
 
 from rigtools import json_values
-from rigtools.errors import EXIT_SIGINT, EXIT_STOPPED, UserError
+from rigtools.errors import EXIT_SIGINT, UserError
 from rigtools.monitor.beside import OPTIONS as MONITOR_OPTIONS
-from rigtools.monitor.control_files import STOP_REASON
+from rigtools.monitor.beside import stopped_from_monitor
 from rigtools.options import HDF5_SUFFIXES, check_out, seed
 from rigtools.procedure_help import COMMON_EPILOG, PROCEDURE_HELP, PROCEDURE_OPTIONS, epilog
 
@@ -101,16 +101,7 @@ def run(args: argparse.Namespace) -> int:
             console.print(item)
     if result.status is Status.FINISHED:
         return 0
-    return _stopped_from_monitor(proc) if result.reason == STOP_REASON else EXIT_SIGINT
-
-
-def _stopped_from_monitor(proc) -> int:
-    """A stop pressed on the monitor's page: said in one line, exit status 6 (rig --help)."""
-    print(
-        f"rig acquire: {STOP_REASON}; drive ramped to zero; {proc.out} kept with status aborted",
-        file=sys.stderr,
-    )
-    return EXIT_STOPPED
+    return stopped_from_monitor(result.reason, proc.out) or EXIT_SIGINT
 
 
 def _exit_interrupted(proc, code: int) -> None:

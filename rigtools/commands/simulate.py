@@ -19,8 +19,7 @@ from rigtools.options import HDF5_SUFFIXES, check_out, gap
 from rigtools.vocabulary import channel_names, describe_channels
 
 HELP = "simulate the vibro-impact response (FE or assumed-modes model) and record it as HDF5"
-EPILOG = (
-    f"""\
+EPILOG = f"""\
 A force F0 sin(2 pi fe t) acts at the force-sensor position of the active blade; the shrouds
 hit each other across the gap (penalty contact of the rig file's [contact]). The reduced model
 (low flexural modes plus static correction) is stepped exactly per mode with the contact solved
@@ -53,9 +52,7 @@ x the periods to settle, which grow with fe, x the model's modes; a large [blade
 the model build) is announced on stderr with its estimate. An --fe more than 10 x the model's
 highest mode is refused: the model's response there is not the blades'.
 
-"""
-    + exit_status_help(0, 2, notes={0: "written", 2: "bad input (options, rig file, --out)"})
-    + """
+{exit_status_help(0, 2, notes={0: "written", 2: "bad input (options, rig file, --out)"})}
 A signal before the run is written: nothing is written; once it is, the file is completed.
 
 examples:
@@ -63,7 +60,6 @@ examples:
   rig simulate --fe 60 --force 15 --gap "0.5 mm" --duration 1 --out fem.h5 --json
   rig simulate --model am --gap "0.7 mm" --out am.h5 --overwrite
 """
-)
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

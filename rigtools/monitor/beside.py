@@ -133,3 +133,18 @@ def monitor_beside(
             live.event(event)
 
         yield both
+
+
+def stopped_from_monitor(reason: str, out: Any) -> int | None:
+    """A run ended by the monitor's stop (its reason :data:`.control_files.STOP_REASON`): say so
+    in one line on stderr and return exit status 6 (:data:`rigtools.errors.EXIT_STOPPED`);
+    another end: None."""
+    from rigtools.errors import EXIT_STOPPED
+    from rigtools.monitor.control_files import STOP_REASON
+
+    if reason != STOP_REASON:
+        return None
+    print(
+        f"rig acquire: {STOP_REASON}; drive ramped to zero; {out} kept with status aborted", file=sys.stderr
+    )
+    return EXIT_STOPPED
