@@ -618,8 +618,11 @@ def stabilisation_figure(
     *,
     natural_frequencies_hz: Sequence[float] | None = None,
     title: str = "",
+    kind: str = "accelerance",
 ) -> Figure:
     """Stabilisation chart: LSCF poles per model order over ``|H|``, the selection marked.
+
+    ``kind`` names the FRF's kind and so the units of its right axis (:data:`FRF_UNITS`).
 
     ``chart`` is a :class:`rigtools.analysis.stabilisation.StabilisationChart`. Unstable poles are
     open, stable ones filled; the poles that make the reported modes (``chart.mode``) are drawn
@@ -650,7 +653,9 @@ def stabilisation_figure(
     ax.set_ylabel("model order (-)")
     ax2 = ax.twinx()
     ax2.semilogy(frequency_hz, np.abs(h), color="k", lw=0.8, label="|H|")
-    ax2.set_ylabel("FRF magnitude (FRF units)")
+    if kind not in FRF_UNITS:
+        raise ValueError(f"kind must be one of {', '.join(FRF_UNITS)}, got {kind!r}")
+    ax2.set_ylabel(f"|H|, {kind} ({FRF_UNITS[kind]})")
     if natural_frequencies_hz is not None:
         for j, fn in enumerate(natural_frequencies_hz):
             ax.axvline(fn, color="C3", ls="--", lw=0.9, label="identified mode" if j == 0 else None)

@@ -10,12 +10,9 @@ errors therefore stay fast as long as command modules keep heavy imports inside 
 Errors a user can cause (:class:`rigtools.errors.UserError`) end in one line on stderr and a
 non-zero exit status; programming errors still raise.
 
-Exit status: 0 success, 1 a check found problems, 2 bad input (rig file, arguments, recording
-file), 3 hardware or its driver not available, 4 a hardware fault, safety abort or write error
-stopped the run, 5 the force target cannot be reached within the rig's limits, 129 SIGHUP (terminal closed), 130 Ctrl-C (SIGINT), 141 stdout closed by its
-reader (``rig ... | head``), 143 SIGTERM (``kill``, ``timeout``, a job scheduler). On every
-signal the drive ramps to zero and a recording being written ends with status ``aborted`` and
-the signal in its ``abort_reason``.
+Exit statuses: the one table :data:`rigtools.errors.EXIT_STATUSES` (``rig --help`` prints it).
+On every signal the drive ramps to zero and a recording being written ends with status
+``aborted`` and the signal in its ``abort_reason``.
 """
 
 from __future__ import annotations
@@ -44,16 +41,9 @@ with the FE model, and compare. Every command uses the calibrated default rig un
 is given. Units are SI; lengths and other quantities may be given as strings like "0.5 mm".
 """
 
-EPILOG = """\
+EPILOG = f"""\
 exit status:
-  0    success
-  1    a check found problems (rig check)
-  2    bad input: arguments, rig file, recording file
-  3    hardware or its driver not available
-  4    a hardware fault, safety abort or write error stopped the run
-  5    the force target cannot be reached within the rig's limits (recording kept, status failed)
-  129  SIGHUP (terminal closed)   130  Ctrl-C (SIGINT)   143  SIGTERM (kill, timeout, scheduler)
-  141  stdout closed by its reader (rig ... | head)
+{errors.exit_status_table()}
   On a signal the drive ramps to zero and a recording ends with status "aborted", the signal
   named in its abort_reason; everything recorded before is kept.
 

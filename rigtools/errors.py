@@ -11,10 +11,67 @@ EXIT_USAGE = 2  # bad input: arguments, rig file, recording file
 EXIT_HARDWARE = 3  # hardware or its driver not available
 EXIT_FAULT = 4  # a hardware fault, safety abort or write error stopped the run
 EXIT_NOT_REACHED = 5  # the force target cannot be reached within the rig's limits (status failed)
+EXIT_STOPPED = 6  # stopped from the monitor's page (rig acquire --monitor --allow-stop; status aborted)
 EXIT_SIGHUP = 128 + 1  # 129: terminal closed (SIGHUP)
 EXIT_SIGINT = 128 + 2  # 130: Ctrl-C (SIGINT)
 EXIT_SIGPIPE = 128 + 13  # 141: the reader of stdout went away (`rig ... | head`)
 EXIT_SIGTERM = 128 + 15  # 143: terminated (SIGTERM: kill, timeout, a job scheduler)
+
+_KEPT = "drive ramped to zero, recording kept as aborted"
+#: How each signal's exit status is named (``rig`` answers 130, 143 and 129 by signal).
+SIGNAL_NAMES: dict[int, str] = {
+    EXIT_SIGINT: "Ctrl-C (SIGINT)",
+    EXIT_SIGTERM: "SIGTERM (kill, timeout, a job scheduler)",
+    EXIT_SIGHUP: "SIGHUP (terminal closed)",
+}
+#: The one table of exit statuses: ``rig --help``, every command's help (:func:`exit_status_help`)
+#: and the README show these words (a test holds the README to it).
+EXIT_STATUSES: dict[int, str] = {
+    EXIT_OK: "success",
+    EXIT_PROBLEMS: "a check found problems",
+    EXIT_USAGE: "bad input: arguments, rig file, recording file (one line naming it)",
+    EXIT_HARDWARE: "hardware or its driver not available (use --backend sim)",
+    EXIT_FAULT: "a hardware fault, safety abort or write error stopped the run (status failed, file kept)",
+    EXIT_NOT_REACHED: "the force target cannot be reached within the rig's limits (status failed, file kept)",
+    EXIT_STOPPED: f"stopped from the monitor's page (--monitor --allow-stop; {_KEPT})",
+    EXIT_SIGHUP: f"{SIGNAL_NAMES[EXIT_SIGHUP]}; a run: {_KEPT}",
+    EXIT_SIGINT: f"{SIGNAL_NAMES[EXIT_SIGINT]}; a run: {_KEPT}",
+    EXIT_SIGPIPE: "stdout closed by its reader (rig ... piped into head)",
+    EXIT_SIGTERM: f"{SIGNAL_NAMES[EXIT_SIGTERM]}; a run: {_KEPT}",
+}
+#: The statuses of a stop by a signal, which every command answers.
+SIGNAL_STATUSES = (EXIT_SIGINT, EXIT_SIGTERM, EXIT_SIGHUP)
+
+
+def exit_status_table(indent: str = "  ") -> str:
+    """:data:`EXIT_STATUSES` as the lines of ``rig --help`` (``  130  Ctrl-C, SIGINT (...)``)."""
+    return "\n".join(f"{indent}{code:<4} {text}" for code, text in EXIT_STATUSES.items())
+
+
+def exit_status_help(
+    *codes: int, notes: dict[int, str] | None = None, run: bool = False, width: int = 96
+) -> str:
+    """A command's ``Exit status:`` paragraph: ``codes`` (then 130, 143, 129, which every command
+    answers) in the words of :data:`EXIT_STATUSES`, or in a command's own words ``notes[code]``
+    (what "success" or "bad input" means for it); ``run``: the command drives the rig (a signal
+    ramps the drive to zero and keeps the recording as aborted), else a signal is only named.
+
+    Examples
+    --------
+    >>> text = exit_status_help(0, 2, notes={0: "written"}, width=1000)
+    >>> text.split("; ")[:3]
+    ['Exit status: 0 written', '2 bad input: arguments, rig file, recording file (one line naming it)', \
+'130 Ctrl-C (SIGINT)']
+    """
+    import textwrap
+
+    notes = notes or {}
+    shown = list(dict.fromkeys([*codes, *SIGNAL_STATUSES]))
+    words = {**EXIT_STATUSES, **({} if run else SIGNAL_NAMES), **notes}
+    # a no-break space keeps each status with its first word when the paragraph is wrapped
+    parts = [f"{c}\u00a0{words[c]}" for c in shown]
+    text = textwrap.fill("Exit status: " + "; ".join(parts) + ".", width=width, break_on_hyphens=False)
+    return text.replace("\u00a0", " ")
 
 
 def one_line(

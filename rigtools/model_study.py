@@ -13,10 +13,11 @@ from contextlib import AbstractContextManager, nullcontext
 from pathlib import Path
 from typing import Any
 
-from rigtools.errors import Interrupted, UserError, one_line
+from rigtools.errors import Interrupted, UserError, exit_status_help, one_line
 from rigtools.options import MAX_POINTS, gap, quantity, value_list
 
-EPILOG = """\
+EPILOG = (
+    """\
 The paper's studies (Figures 10-16): each value is run to a steady state and recorded as one
 point of a single HDF5 file (backend "fem", the channels and point parameters of
 `rig simulate`, plus direction and study_value). Fixed parameters default to the paper's: gap
@@ -46,8 +47,10 @@ colour) of both shroud accelerations per point in run order.
 Work that may take over a minute is announced on stderr with its estimate, as rig simulate
 does; an --fe more than 10 x the model's highest mode is refused.
 
-Exit status: 0 written, 2 bad input (options, rig file, --out), 130 Ctrl-C, 143 SIGTERM,
-129 SIGHUP (the file keeps every finished point, status "aborted").
+"""
+    + exit_status_help(0, 2, notes={0: "written", 2: "bad input (options, rig file, --out)"})
+    + """
+A signal: the file keeps every finished point, status "aborted".
 
 Maps and clusters: `rig study map --gap "0.3 mm:0.7 mm:0.2 mm" --force "10 N,15 N,20 N" --fe
 "58 Hz:62 Hz:2 Hz"` runs every (gap, F0) pair as a frequency sweep (no plot; rig report). Points
@@ -62,6 +65,7 @@ examples:
   rig study force --values "5 N,10 N,15 N,20 N,25 N" --out force.h5
   rig study frequency --values "60 Hz:80 Hz:1 Hz" --direction both --out frequency.h5
 """
+)
 
 KINDS = ("gap", "force", "frequency", "map")
 UNIT = {"gap": ("mm", 1e3), "force": ("N", 1.0), "frequency": ("Hz", 1.0)}

@@ -1,6 +1,15 @@
 """The lab procedures' help texts and options for ``rig acquire`` (light: no package imports, so
 ``rig acquire --help`` stays fast; the procedures package itself loads numpy)."""
 
+from rigtools.errors import (
+    EXIT_FAULT,
+    EXIT_HARDWARE,
+    EXIT_NOT_REACHED,
+    EXIT_STOPPED,
+    EXIT_USAGE,
+    exit_status_help,
+)
+
 HELP = "lab procedures on the rig: force-controlled dwell, stepped sine, study, FRF test, tap test"
 BACKENDS = """\
 Backends: --backend nidaq (default) drives the NI-DAQmx rig of the rig file's [daq]; --backend sim
@@ -20,18 +29,32 @@ written, and parameters fe, force_amplitude (target), force_amplitude_measured, 
 drive_amplitude, control_updates, settled, harmonics k = 1..K of every channel (amplitude and
 phase relative to the force fundamental).
 """
-QUANTITIES_AND_EXIT = """\
+QUANTITIES_AND_EXIT = (
+    """\
 The drive ramps up and down over [safety] ramp_time; on a stop, Ctrl-C, SIGTERM or SIGHUP it
 ramps to zero over abort_ramp_time while still recording (status aborted), on a fault or safety
 abort at once (status failed); everything recorded is kept.
 
 Quantities take units ("60 Hz", "15 N", "0.5 mm", "2 s"); a plain number is SI.
-Exit status: 0 finished, 2 bad input, 3 NI-DAQmx not available (use --backend sim), 4 a fault,
-safety abort or write error ended the run (status failed, file kept), 5 the force target cannot be
-reached within the rig's limits (max drive, 80 % of a warning level): dwell, sweep and study stop
-at the first such point, drive ramped to zero, status failed with the reason, every point written
-kept; 130 Ctrl-C or a signal (status aborted, file kept).
 """
+    + exit_status_help(
+        0,
+        EXIT_USAGE,
+        EXIT_HARDWARE,
+        EXIT_FAULT,
+        EXIT_NOT_REACHED,
+        EXIT_STOPPED,
+        notes={
+            0: "finished",
+            EXIT_HARDWARE: "NI-DAQmx not available (use --backend sim)",
+            EXIT_NOT_REACHED: "the force target cannot be reached within the rig's limits (max drive, 80 % "
+            "of a warning level): dwell, sweep and study stop at the first such point, drive ramped "
+            "to zero, status failed with the reason, every point written kept",
+        },
+        run=True,
+    )
+    + "\n"
+)
 COMMON_EPILOG = BACKENDS + "\n" + FORCE_CONTROL + "\n" + QUANTITIES_AND_EXIT
 FORCE_CONTROLLED = ("dwell", "sweep", "study")
 

@@ -51,6 +51,7 @@ from typing import Any
 import numpy as np
 
 from rigtools.errors import UserError
+from rigtools.readable import FREQUENCY_TABLE, HARMONIC_PCT, SCORE, Shown, harmonic, largest, shown
 from rigtools.sim.channel_names import ACTIVE_SHROUD_ACCEL as ACTIVE
 from rigtools.sim.channel_names import FORCE, VELOCITY_OF
 from rigtools.sim.channel_names import PASSIVE_SHROUD_ACCEL as PASSIVE
@@ -322,8 +323,20 @@ class Comparison:
         for n in self.notes:
             sec.note(n)
         if self.natural is not None:
+            heading = {
+                "fem_hz": "FEM (Hz)",
+                "am_hz": "AM (Hz)",
+                "em_hz": "EM (Hz)",
+                "fem_vs_em_pct": "FEM vs EM (%)",
+                "am_vs_em_pct": "AM vs EM (%)",
+                "am_vs_fem_pct": "AM vs FEM (%)",
+            }
+            spec = FREQUENCY_TABLE
             sec.table(
-                self.natural,
+                [
+                    {heading.get(k, k): shown(v, spec[k]) if k in spec else v for k, v in r.items()}
+                    for r in self.natural.to_dict("records")
+                ],
                 caption="Natural frequencies, Hz, and differences in % (as the paper's Tables 2 and 3)",
             )
         sec.table(
@@ -335,9 +348,9 @@ class Comparison:
                     "F0 target N": p.params.get("force_amplitude"),
                     "F1 EM N": p.em.force_amplitude,
                     f"F1 {self.model_label} N": p.model.force_amplitude,
-                    "score": p.score,
-                    "active error (decades)": p.agreement.per_channel.get(ACTIVE),
-                    "passive error (decades)": p.agreement.per_channel.get(PASSIVE),
+                    "score": shown(p.score, SCORE),
+                    "active error (decades)": shown(p.agreement.per_channel.get(ACTIVE), SCORE),
+                    "passive error (decades)": shown(p.agreement.per_channel.get(PASSIVE), SCORE),
                 }
                 for p in self.points
             ],
@@ -384,17 +397,23 @@ def _records(frame) -> list[dict]:
 
 
 def _wide_table(table, model_label: str, k_show: int = 12, extra_k: Sequence[int] = (22,)) -> list[dict]:
-    """Rows k with EM, model and diff % of every channel side by side."""
+    """Rows k with EM, model and diff % of every channel side by side, written as the terminal's
+    table writes them (:mod:`rigtools.readable`: a zero harmonic's round-off shown as such)."""
     rows = []
+    tops = {
+        (ch, side): largest(table.loc[table["channel"] == ch, side])
+        for ch in set(table["channel"])
+        for side in ("em", "fem")
+    }
     ks = sorted({k for k in table["k"] if k <= k_show or k in extra_k})
     for k in ks:
         sub = table[table["k"] == k]
-        row = {"k": int(k), "f Hz": float(sub["frequency_hz"].iloc[0])}
+        row: dict[str, Any] = {"k": int(k), "f Hz": shown(sub["frequency_hz"].iloc[0], ".0f")}
         for r in sub.itertuples(index=False):
             short = r.channel.replace("_shroud_accel", "").replace("_", " ")
-            row[f"{short} EM"] = float(r.em)
-            row[f"{short} {model_label}"] = float(r.fem)
-            row[f"{short} diff %"] = float(r.diff_pct)
+            row[f"{short} EM"] = Shown(harmonic(r.em, tops[(r.channel, "em")]))
+            row[f"{short} {model_label}"] = Shown(harmonic(r.fem, tops[(r.channel, "fem")]))
+            row[f"{short} diff %"] = shown(r.diff_pct, HARMONIC_PCT)
         rows.append(row)
     return rows
 

@@ -1,23 +1,20 @@
 """The tables the commands print, for a person to read: lines and rich tables built from an
 analysis (``rig analyze``, :mod:`rigtools.analyze`), a comparison (``rig compare``,
 :mod:`rigtools.recording_comparison`), a model update (``rig update``, :mod:`rigtools.model_update`)
-a simulated run (``rig simulate``), and ``rig info`` of FRF sets and branches files. The commands
-print them in order."""
+a simulated run (``rig simulate``), and ``rig info`` of recordings, FRF sets and branches files.
+The commands print them in order. Every number goes through :mod:`rigtools.readable` (the one rule:
+significant digits, round-off of a zero harmonic, no ``-0``)."""
 
 from __future__ import annotations
 
 import math
 from typing import Any
 
+from rigtools import readable
 
-def _fmt(x, digits: int = 4) -> str:
-    if x is None or (isinstance(x, float) and not math.isfinite(x)):
-        return "–"
-    if isinstance(x, bool):
-        return "yes" if x else "no"
-    if isinstance(x, float):
-        return f"{x:.{digits}g}"
-    return str(x)
+
+def _fmt(x, digits: int = readable.DIGITS) -> str:
+    return readable.number(x, None if digits == readable.DIGITS else f".{digits}g")
 
 
 def analysis_tables(analysis: Any, verbose: bool = False) -> list[Any]:
@@ -141,20 +138,7 @@ def analysis_tables(analysis: Any, verbose: bool = False) -> list[Any]:
         for _, h in cols:
             table.add_column(h, justify="right", no_wrap=True)
         for r in analysis.frequency_table:
-            table.add_row(
-                *(
-                    f"{r[k]:.1f}"
-                    if isinstance(r[k], float) and k.endswith("hz") and r[k] == r[k]
-                    else f"{r[k]:+.3f}"
-                    if k == "em_vs_article_pct" and r[k] == r[k]
-                    else f"{r[k]:+.2f}"
-                    if isinstance(r[k], float) and r[k] == r[k]
-                    else "–"
-                    if isinstance(r[k], float)
-                    else str(r[k])
-                    for k, _ in cols
-                )
-            )
+            table.add_row(*(readable.number(r[k], readable.FREQUENCY_TABLE.get(k)) for k, _ in cols))
         out.append(table)
     return out
 
@@ -188,12 +172,10 @@ def comparison_tables(cmp: Any, k_show: int) -> list[Any]:
             t.add_row(
                 r["blade"],
                 str(r["mode"]),
-                _fmt_spec(r["fem_hz"], ".2f"),
-                _fmt_spec(r["am_hz"], ".2f"),
-                _fmt_spec(r["em_hz"], ".2f"),
-                _fmt_spec(r["fem_vs_em_pct"], "+.2f"),
-                _fmt_spec(r["am_vs_em_pct"], "+.2f"),
-                _fmt_spec(r["am_vs_fem_pct"], "+.3f"),
+                *(
+                    readable.number(r[k], readable.FREQUENCY_TABLE[k])
+                    for k in ("fem_hz", "am_hz", "em_hz", "fem_vs_em_pct", "am_vs_em_pct", "am_vs_fem_pct")
+                ),
             )
         out.append(t)
     for p in cmp.points:
@@ -201,15 +183,17 @@ def comparison_tables(cmp: Any, k_show: int) -> list[Any]:
         for col in ("channel", "k", "f Hz", "EM", ml, "diff %"):
             t.add_column(col, justify="left" if col == "channel" else "right")
         for ch in dict.fromkeys(p.table["channel"]):
-            sub = p.table[(p.table["channel"] == ch) & ((p.table["k"] <= k_show) | (p.table["k"] == 22))]
+            whole = p.table[p.table["channel"] == ch]
+            top_em, top_model = readable.largest(whole["em"]), readable.largest(whole["fem"])
+            sub = whole[(whole["k"] <= k_show) | (whole["k"] == 22)]
             for i, r in enumerate(sub.itertuples(index=False)):
                 t.add_row(
                     ch if i == 0 else "",
                     str(r.k),
-                    _fmt_spec(r.frequency_hz, ".0f"),
-                    _fmt_spec(r.em),
-                    _fmt_spec(r.fem),
-                    _fmt_spec(r.diff_pct, "+.1f"),
+                    readable.number(r.frequency_hz, ".0f"),
+                    readable.harmonic(r.em, top_em),
+                    readable.harmonic(r.fem, top_model),
+                    readable.number(r.diff_pct, readable.HARMONIC_PCT),
                 )
             t.add_section()
         out.append(t)
@@ -330,11 +314,12 @@ def run_tables(doc: dict, result: Any, out: Any) -> list[Any]:
     for name in names:
         table.add_column(name + (" (m/s²)" if "accel" in name else " (N)"), justify="right")
     h = doc["harmonics"]
+    tops = {name: readable.largest(x["amplitude"] for x in h[name]) for name in names}
     for i in range(10):
         table.add_row(
             str(i + 1),
             f"{h['force'][i]['frequency_hz']:g}",
-            *(f"{h[name][i]['amplitude']:.4g}" for name in names),
+            *(readable.harmonic(h[name][i]["amplitude"], tops[name]) for name in names),
         )
     out_items.append(table)
     c = doc["contact"]
@@ -459,3 +444,178 @@ def _oma_tables(p: Any, verbose: bool) -> list[Any]:
                 f"  not reported: {d['frequency_hz']:.5g} Hz, ζ {100 * d['damping_ratio']:.3g} %: {d['reason']}"
             )
     return out
+
+
+# ``rig info`` of a recording: point parameters shown in columns with their units.
+#: parameter -> (column heading with units, SI factor, format spec or None: significant digits)
+INFO_COLUMNS: dict[str, tuple[str, float, str | None]] = {
+    "fe": ("fe (Hz)", 1.0, None),
+    "direction": ("dir", 1.0, None),
+    "force_amplitude": ("F0 (N)", 1.0, None),
+    "force_amplitude_measured": ("F1 (N)", 1.0, None),
+    "gap": ("gap (mm)", 1e3, None),
+    "drive_amplitude": ("drive (V)", 1.0, None),
+    "control_updates": ("updates", 1.0, None),
+    "settled": ("settled", 1.0, None),
+    "control_limited_by": ("limited by", 1.0, None),
+    "safety_warnings": ("warnings", 1.0, None),
+    "record_start": ("record from (s)", 1.0, None),
+    "record_samples": ("record samples", 1.0, None),
+    "response_per_newton": ("response/F1", 1.0, None),
+    "model": ("model", 1.0, None),
+    "steps_per_period": ("steps/T", 1.0, None),
+    "time_step": ("Δt (µs)", 1e6, None),
+    "settle_time": ("settle (s)", 1.0, None),
+    "period_multiple": ("period ×", 1.0, None),
+    "peak_contact_force": ("contact peak (N)", 1.0, None),
+    "impacts_per_period": ("imp/T", 1.0, None),
+}
+#: The legend of the short headings (those of the columns shown).
+INFO_LEGEND = {
+    "force_amplitude": "F0: force target (peak)",
+    "force_amplitude_measured": "F1: measured force fundamental (peak)",
+    "safety_warnings": "warnings: safety warnings",
+    "response_per_newton": "response/F1: response fundamental per N",
+    "steps_per_period": "T: a period",
+    "impacts_per_period": "imp/T: impacts per period",
+}
+#: Parameters ``rig info`` does not show in a column: the state column says it, or the harmonics
+#: table shows them.
+_INFO_HIDDEN = ("point_complete", "study_value")
+_HARMONIC_SUFFIX = "_harmonic_amplitude"
+
+
+def _info_cell(value: Any, factor: float, spec: str | None) -> str:
+    if isinstance(value, (int, float)) and not isinstance(value, bool) and factor != 1.0:
+        value = value * factor
+    if value is None or value == "":
+        return "–"
+    return readable.number(value, spec)
+
+
+def recording_tables(info: dict) -> list[Any]:
+    """``rig info`` of a recording (:func:`rigtools.recording.summary.summary`): the status lines,
+    the channels, the points with their parameters in columns with units, and each point's
+    harmonic amplitudes (fundamental and largest k >= 2, round-off shown as such)."""
+    from rich.table import Table
+
+    from rigtools.recording.summary import format_value
+
+    colour = {"complete": "green", "aborted": "red"}.get(info["status"], "yellow")
+    status = f"[{colour}]{info['status']}[/{colour}]"
+    if info["status"] == "aborted":
+        status += f" ({info['abort_reason']})"
+    elif info["status"] == "recording" and info["writer"]:
+        status += f" (being written now: {info['writer']}; showing what is there)"
+    elif info["status"] == "recording":
+        status += " (incomplete: the writer stopped without closing the file)"
+    if info["end_status"]:
+        status += f"; procedure {info['end_status']}" + (
+            f" ({info['end_reason']})" if info["end_reason"] and info["status"] != "aborted" else ""
+        )
+    out: list[Any] = [
+        f"[bold]{info['path']}[/bold]  status {status}",
+        f"backend {info['backend']}, created {info['created']}, "
+        f"rigtools {info['software_version']}, schema v{info['schema_version']}"
+        + (f", opened as {info['opened_as']}" if info["opened_as"] != "clean" else ""),
+        f"{len(info['points'])} point(s), {readable.number(info['total_duration_s'])} s recorded",
+    ]
+    table = Table(title="channels")
+    for column in ("name", "quantity", "units", "rate (Hz)", "sensitivity", "physical", "location"):
+        table.add_column(column)
+    units: dict[str, str] = {}
+    for ch in info["channels"]:
+        units[ch["name"]] = ch["units"] or ""
+        sens = (
+            ""
+            if ch["sensitivity"] is None
+            else readable.number(ch["sensitivity"], unit=ch["sensitivity_units"] or "")
+        )
+        table.add_row(
+            ch["name"],
+            ch["quantity"],
+            ch["units"],
+            readable.number(ch["sample_rate"]),
+            sens,
+            ch["physical_channel"] or "",
+            ch["location"] or "",
+        )
+    out.append(table)
+    out.append(_points_table(info, format_value))
+    harmonics = _harmonics_table(info, units)
+    if harmonics is not None:
+        out.append(harmonics)
+    return out
+
+
+def _points_table(info: dict, format_value) -> Any:
+    from rich.table import Table
+
+    points = info["points"]
+    present = [k for k in INFO_COLUMNS if any(p["params"].get(k) not in (None, "") for p in points)]
+    other = lambda params: ", ".join(
+        f"{k}={format_value(v)}"
+        for k, v in params.items()
+        if k not in INFO_COLUMNS and k not in _INFO_HIDDEN and "_harmonic_" not in k and v not in (None, "")
+    )
+    others = [other(p["params"]) for p in points]
+    legend = "; ".join(INFO_LEGEND[k] for k in present if k in INFO_LEGEND)
+    table = Table(title="points", caption=legend or None)
+    table.add_column("point")
+    for k in present:
+        table.add_column(INFO_COLUMNS[k][0], justify="right")
+    if any(others):
+        table.add_column("other parameters")
+    for column in ("samples", "duration (s)", "state"):
+        table.add_column(column, justify="left" if column == "state" else "right")
+    for p, more in zip(points, others, strict=True):
+        cells = [_info_cell(p["params"].get(k), *INFO_COLUMNS[k][1:]) for k in present]
+        state = p["state"] if p["complete"] else f"[yellow]{p['state']}[/yellow]"
+        table.add_row(
+            f"{p['index']:04d}",
+            *cells,
+            *([more] if any(others) else []),
+            str(p["n_samples"]),
+            readable.number(p["duration_s"]),
+            state,
+        )
+    return table
+
+
+def _harmonics_table(info: dict, units: dict[str, str]) -> Any:
+    """Each point's harmonic amplitudes (peak), a row per channel: the fundamental and the largest
+    k >= 2 (its k), a round-off shown as such (:func:`rigtools.readable.harmonic`)."""
+    from rich.table import Table
+
+    rows = []
+    for p in info["points"]:
+        for key, amps in p["params"].items():
+            if key.endswith(_HARMONIC_SUFFIX) and amps is not None and len(amps):
+                rows.append((p["index"], key[: -len(_HARMONIC_SUFFIX)], [float(a) for a in amps]))
+    if not rows:
+        return None
+    table = Table(
+        title="harmonic amplitudes k·fe, peak",
+        caption=f"{readable.ROUND_OFF_TEXT}: below 1e-9 of the channel's largest harmonic",
+    )
+    for column in ("point", "channel", "units", "1×fe", "largest k ≥ 2"):
+        table.add_column(column, justify="right" if column[0] in "1l" else "left")
+    last = None
+    for index, channel, amps in rows:
+        if last is not None and index != last:
+            table.add_section()
+        top = readable.largest(amps)
+        largest_k = "–"
+        if len(amps) > 1:
+            k = 2 + max(range(len(amps) - 1), key=lambda i: abs(amps[i + 1]))
+            text = readable.harmonic(amps[k - 1], top)
+            largest_k = text if text == readable.ROUND_OFF_TEXT else f"{text} (k = {k})"
+        table.add_row(
+            f"{index:04d}" if index != last else "",
+            channel,
+            units.get(channel, ""),
+            readable.harmonic(amps[0], top),
+            largest_k,
+        )
+        last = index
+    return table

@@ -12,6 +12,7 @@ import sys
 from rigtools import json_values
 from rigtools.errors import EXIT_SIGINT, UserError
 from rigtools.monitor.beside import OPTIONS as MONITOR_OPTIONS
+from rigtools.monitor.beside import stopped_from_monitor
 from rigtools.options import HDF5_SUFFIXES, check_out, seed
 from rigtools.procedure_help import COMMON_EPILOG, PROCEDURE_HELP, PROCEDURE_OPTIONS, epilog
 
@@ -98,7 +99,9 @@ def run(args: argparse.Namespace) -> int:
         console = Console()
         for item in summary_tables(doc):
             console.print(item)
-    return 0 if result.status is Status.FINISHED else EXIT_SIGINT
+    if result.status is Status.FINISHED:
+        return 0
+    return stopped_from_monitor(result.reason, proc.out) or EXIT_SIGINT
 
 
 def _exit_interrupted(proc, code: int) -> None:

@@ -5,11 +5,12 @@ from __future__ import annotations
 import argparse
 
 from rigtools import json_values
+from rigtools.errors import exit_status_help
 from rigtools.frf_options import add_frf_arguments, frf_options
 from rigtools.options import output_folder, positive_finite
 
 HELP = "analyse a recording: harmonics and impacts per point; FRFs (H1, H2, Hv) and modes of FRF tests"
-EPILOG = """\
+EPILOG = f"""\
 Per point, by what it is:
   periodic points (sine dwell, stepped-sine step, study point, rig simulate/study run; they have
   fe): harmonics k = 1..30 of every channel (peak amplitude and phase, least squares over the
@@ -50,9 +51,7 @@ amplitudes (RMS = peak / sqrt 2 for a sine).
 
 --out DIR writes the figures as PNG (never over a recording or a file rigtools did not make).
 
-Exit status: 0 analysed, 2 bad input (unreadable file, unknown channel, options; an FRF option
-that would change nothing, such as --band on a recording with neither a broadband point nor a
-point without a force), 130 Ctrl-C.
+{exit_status_help(0, 2, notes={0: "analysed", 2: "bad input (unreadable file, unknown channel, options; an FRF option that would change nothing, such as --band on a recording with neither a broadband point nor a point without a force)"})}
 
 examples:
   rig analyze dwell.h5

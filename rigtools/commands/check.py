@@ -6,8 +6,10 @@ import argparse
 import sys
 
 from rigtools import json_values
+from rigtools.errors import exit_status_help
 
-HELP = """\
+HELP = (
+    """\
 Check that FILE is a valid rigtools recording (docs/recording-format.md): schema name and
 version, root/point/channel attributes, point numbering, equal channel lengths and sample rates
 within each point, and (unless --quick) that every sample can be read and is finite.
@@ -25,14 +27,24 @@ A branches file (rig continuation) is checked against its own schema: root attri
 branch's attributes and datasets of one point count, the measures rig report --branches draws,
 and (unless --quick) finite parameter values and no infinite multiplier or measure.
 
-Exit status: 0 valid (notes such as "incomplete: status is 'recording'" may be printed),
-1 invalid (one line per problem), 2 unreadable (missing, truncated, not HDF5) or written by a
-newer rigtools (schema_version above the one this version reads: upgrade rigtools).
+"""
+    + exit_status_help(
+        0,
+        1,
+        2,
+        notes={
+            0: "valid (notes such as \"incomplete: status is 'recording'\" may be printed)",
+            1: "invalid (one line per problem)",
+            2: "unreadable (missing, truncated, not HDF5) or written by a newer rigtools (schema_version above the one this version reads: upgrade rigtools)",
+        },
+    )
+    + """
 
 examples:
   rig check run.h5
   rig check --json run.h5
 """
+)
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

@@ -6,11 +6,12 @@ import argparse
 from pathlib import Path
 
 from rigtools import json_values
-from rigtools.errors import UserError
+from rigtools.errors import UserError, exit_status_help
 from rigtools.options import output_folder
 
 HELP = "EM vs FEM/AM side by side: harmonic tables, agreement scores, natural frequencies, figures"
-EPILOG = """\
+EPILOG = (
+    """\
 Pairs the points of EM.h5 (rig acquire dwell | sweep | study) by meaning (fe, gap, force target)
 with those of a model recording FEM.h5 (rig simulate | rig study), or with --simulate runs the
 model at every EM point at the measured fe, gap and force:
@@ -31,7 +32,9 @@ that frequency that explains it, and one agreement score per point:
 waveform/spectrum overlay in the paper's Figures 8-16 layout and harmonic bars) as
 DIR/EMSTEM.compare-*.png; never over a recording or a file rigtools did not write.
 
-Exit status: 0 compared, 2 bad input (files, options, nothing to pair), 130 Ctrl-C.
+"""
+    + exit_status_help(0, 2, notes={0: "compared", 2: "bad input (files, options, nothing to pair)"})
+    + """
 
 examples:
   rig compare dwell.h5 --simulate                       # FEM driven by the measured force
@@ -40,6 +43,7 @@ examples:
   rig compare dwell.h5 --simulate --json > cmp.json     # scores, tables, explanations
   rig compare dwell.h5 --simulate --workers 2           # model points on 2 local processes
 """
+)
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

@@ -5,11 +5,12 @@ from __future__ import annotations
 import argparse
 
 from rigtools import json_values
-from rigtools.errors import FaultError
+from rigtools.errors import FaultError, exit_status_help
 from rigtools.options import output_folder, seed
 
 HELP = "the paper's study end to end on the simulated rig: recordings, one HTML report, findings C1-C7"
-EPILOG = """\
+EPILOG = (
+    """\
 Runs, on the built-in simulated rig (no hardware): the modal check (FEM, AM and an FRF test on the
 rig), the linear harmonic response, a force-controlled dwell (60 Hz, 15 N, gap 0.5 mm), the gap,
 force and frequency studies measured on the rig and simulated by the FEM, and model updating on the
@@ -29,12 +30,17 @@ The demo is deterministic: the simulated rig's noise and the FRF excitation come
 "period_doublings", "status"}}, "findings": [{"id", "claim", "verdicts": {point: {"holds",
 "why"}}}]}.
 
-Exit status: 0 done (whatever the findings), 2 bad input (--out), 4 a write error, 130 Ctrl-C.
+"""
+    + exit_status_help(
+        0, 2, 4, notes={0: "done (whatever the findings)", 2: "bad input (--out)", 4: "a write error"}
+    )
+    + """
 
 examples:
   rig demo                                   # the full demo into rig-demo/ (42 s)
   rig demo --quick --out demo-run --json     # reduced resolution (21 s), findings as JSON
 """
+)
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

@@ -6,11 +6,12 @@ import argparse
 from pathlib import Path
 
 from rigtools import json_values
-from rigtools.errors import UserError
+from rigtools.errors import UserError, exit_status_help
 
 SIMULATED_HINT = "use --backend sim to run on the simulated rig (no hardware needed)"
 
-HELP = f"""\
+HELP = (
+    f"""\
 List the acquisition hardware this machine can see:
 
   NI-DAQmx  devices from the local NI-DAQmx system (name, product type, serial number,
@@ -21,8 +22,18 @@ List the acquisition hardware this machine can see:
 When a backend cannot be listed (NI-DAQmx driver or VISA library not installed), one line says
 why. Without hardware, {SIMULATED_HINT}.
 
-Exit status: 0 at least one backend could be listed (even if it found nothing),
-3 neither NI-DAQmx nor VISA is available on this machine, 2 bad usage.
+"""
+    + exit_status_help(
+        0,
+        2,
+        3,
+        notes={
+            0: "at least one backend could be listed (even if it found nothing)",
+            2: "bad usage",
+            3: "neither NI-DAQmx nor VISA is available on this machine",
+        },
+    )
+    + """
 
 examples:
   rig devices
@@ -30,6 +41,7 @@ examples:
   rig devices --visa-backend @py                 # pyvisa-py instead of NI-VISA/Keysight VISA
   rig devices --visa-backend simulated           # the simulated generator shipped with rigtools
 """
+)
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

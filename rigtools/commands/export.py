@@ -5,14 +5,15 @@ from __future__ import annotations
 import argparse
 
 from rigtools import json_values
-from rigtools.errors import UserError
+from rigtools.errors import UserError, exit_status_help
 from rigtools.frf_options import add_frf_arguments, frf_options
 from rigtools.options import UFF_SUFFIXES, output_path
 
 HELP = (
     "export a recording or FRF set as UFF 58 (time records, spectra, FRFs with coherence) for modal software"
 )
-EPILOG = """\
+EPILOG = (
+    """\
 rig export uff FILE.h5 OUT.uff writes, with pyuff, one UFF 58 function per channel and point:
 FRFs first: H1 of every response over the force (type 4) with its coherence (type 6), the very
 estimate rig analyze reports (burst: frame per burst period; chirp: whole periods; impacts: a
@@ -39,9 +40,18 @@ examples:
   rig export uff run.h5 run.uff
   rig export uff frf.h5 frf.uff --what frf --json
 
-Exit status: 0 written, 2 bad input (unreadable recording, existing OUT without --overwrite,
---excitation/--frame-samples where no FRF is estimated: --what without frf, no broadband point).
 """
+    + exit_status_help(
+        0,
+        2,
+        notes={
+            0: "written",
+            2: "bad input (unreadable recording, existing OUT without --overwrite, --excitation/--frame-samples where no FRF is estimated: --what without frf, no broadband point)",
+        },
+    )
+    + """
+"""
+)
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

@@ -5,11 +5,13 @@ from __future__ import annotations
 import argparse
 import sys
 
+from rigtools.errors import exit_status_help
 from rigtools.harmonic_curves import MAX_POINTS, MIN_POINTS
 from rigtools.options import TABLE_SUFFIXES, check_out
 
 HELP = "linear amplitude-frequency curves (no contact), FEM and AM, written as CSV or JSON plus a PNG plot"
-EPILOG = """\
+EPILOG = (
+    """\
 A force F0 sin(2 pi f t) acts at the force-sensor position. The gap stays open (linear response),
 so each blade is driven on its own: the active blade through its force sensor, the passive blade
 (no sensor) at the same position. Curves: displacement (m) and acceleration (m/s^2) peak
@@ -22,12 +24,15 @@ Columns of the CSV: frequency_hz, then <model>_<location>_displacement_m and
 active_force_point, passive_shroud, passive_force_point. The PNG is written next to the output
 (same name, .png). An existing output is replaced only with --overwrite.
 
-Exit status: 0 written, 2 bad input (options, rig file, --out), 130 Ctrl-C.
+"""
+    + exit_status_help(0, 2, notes={0: "written", 2: "bad input (options, rig file, --out)"})
+    + """
 
 examples:
   rig harmonic --out fig7.csv
   rig harmonic --force "10 N" --fmin 20 --fmax "2 kHz" --points 4000 --out curves.json
 """
+)
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

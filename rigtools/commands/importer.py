@@ -5,11 +5,12 @@ from __future__ import annotations
 import argparse
 
 from rigtools import json_values
-from rigtools.errors import UserError
+from rigtools.errors import UserError, exit_status_help
 from rigtools.options import HDF5_SUFFIXES, output_path, positive_finite
 
 HELP = "import a TDMS log, a LabVIEW measurement file or UFF 58 records as a recording"
-EPILOG = """\
+EPILOG = (
+    """\
 rig import FORMAT IN OUT.h5 writes a recording of another tool's file and prints one line per
 channel saying what it did with it (kept: name, quantity, SI units and conversion; skipped: why).
   tdms  NI-DAQmx / LabVIEW logs (npTDMS): every group a point; rate from wf_increment (or
@@ -31,9 +32,18 @@ examples:
   rig import tdms log.tdms log.h5
   rig import tdms log.tdms log.h5 --rename "Dev1/ai0=force,Dev1/ai1=active_shroud_accel" --rig lab.toml --overwrite
 
-Exit status: 0 written, 2 bad input (unreadable file, nothing to import, an option naming no
-channel, existing OUT).
 """
+    + exit_status_help(
+        0,
+        2,
+        notes={
+            0: "written",
+            2: "bad input (unreadable file, nothing to import, an option naming no channel, existing OUT)",
+        },
+    )
+    + """
+"""
+)
 FORMATS = ("tdms", "lvm", "uff")
 
 

@@ -5,23 +5,27 @@ from __future__ import annotations
 import argparse
 
 from rigtools import json_values
-from rigtools.errors import UserError
+from rigtools.errors import UserError, exit_status_help
 
 HELP = "natural frequencies of both blades: FEM vs analytical model (AM), differences in %%"
-EPILOG = """\
+EPILOG = (
+    """\
 The FEM lists the lowest N modes of each blade with their kind: flexural (bending in the thin,
 impact direction y), edgewise (bending in the chord direction z), torsional or axial. The AM is
 the exact Euler-Bernoulli solution of the blade with its shroud (and, on the active blade, the
 force sensor); it has flexural modes only, and the table sets the k-th AM mode beside the k-th
 FEM flexural mode: diff % = (FEM - AM) / AM * 100.
 
-Exit status: 0 listed, 2 bad input (options, rig file), 130 Ctrl-C.
+"""
+    + exit_status_help(0, 2, notes={0: "listed", 2: "bad input (options, rig file)"})
+    + """
 
 examples:
   rig modal                        # the calibrated default rig
   rig modal --rig lab.toml --modes 10
   rig modal --json > modes.json    # {"fem": {"active": [...], "passive": [...]}, "am": {...}}
 """
+)
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

@@ -4,7 +4,10 @@ from __future__ import annotations
 
 import argparse
 
-HELP = """\
+from rigtools.errors import exit_status_help
+
+HELP = (
+    """\
 Serve a page that follows a recording while it is written, and shows a finished one the same
 way: time traces of the force and both shroud accelerations over the last periods (min/max
 envelopes: no impact disappears), the amplitude spectrum with the k·fe harmonics marked and the
@@ -16,13 +19,33 @@ reason). It only reads the recording (SWMR, 4 looks a second, new samples only).
 Served on 127.0.0.1 unless --host is given; any other address needs the random token of the
 printed address (every request without it is refused). --allow-stop shows a stop button: the
 run (started with rig acquire ... --monitor) ramps the drive to zero and ends aborted, reason
-"stopped from the monitor". Ctrl-C ends the monitor, never the run.
+"stopped from the monitor" (rig acquire then says so and exits with status 6). On loopback
+--allow-stop lets anyone logged in on this machine stop the run: the address needs no token
+there; served beyond loopback only a holder of the printed address (with its token) can.
+Ctrl-C ends the monitor, never the run.
+
+--linger SECONDS: exit that long after the recording ended; with --parent PID (what
+rig acquire ... --monitor passes: its own process id) also that long after process PID ended,
+however it ended (a kill leaves the recording unfinished), so the monitor never outlives its
+run by more than SECONDS.
+
+"""
+    + exit_status_help(
+        0,
+        2,
+        notes={
+            0: "the recording ended and --linger passed",
+            2: "bad input (options, the address cannot be served)",
+        },
+    )
+    + """
 
 examples:
   rig monitor run.h5
   rig monitor run.h5 --host 0.0.0.0 --port 5006 --allow-stop
   rig acquire dwell --backend sim --pace --fe 60 --force "15 N" --out live.h5 --monitor
 """
+)
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -44,10 +67,18 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         metavar="SECONDS",
         help="exit SECONDS after the recording ended (default: run until Ctrl-C)",
     )
+    p.add_argument(
+        "--parent",
+        type=int,
+        default=None,
+        metavar="PID",
+        help="with --linger: the run ended when process PID ended (rig acquire --monitor passes its own)",
+    )
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
+    import os
     import sys
 
     from rigtools.errors import EXIT_SIGINT, UserError
@@ -58,7 +89,9 @@ def run(args: argparse.Namespace) -> int:
     linger = None if args.linger is None else duration(args.linger, "--linger", allow_zero=True)
     configure_process()  # one BLAS thread: the fits are small, and the run needs the cores
     try:
-        served = serve(args.file, host=args.host, port=args.port, allow_stop=args.allow_stop)
+        served = serve(
+            args.file, host=args.host, port=args.port, allow_stop=args.allow_stop, parent=args.parent
+        )
     except OSError as exc:
         raise UserError(f"cannot serve on {args.host}:{args.port} ({exc.strerror or exc})") from None
     print(served.url, flush=True)
@@ -67,9 +100,16 @@ def run(args: argparse.Namespace) -> int:
         file=sys.stderr,
         flush=True,
     )
+    code = 0
     try:
         run_until_done(served, linger)
     except KeyboardInterrupt as exc:
         served.stop()
-        return getattr(exc, "exit_code", EXIT_SIGINT)  # 130 Ctrl-C, 143 SIGTERM: rig --help
-    return 0
+        code = getattr(exc, "exit_code", EXIT_SIGINT)  # 130 Ctrl-C, 143 SIGTERM: rig --help
+    if not served.close():
+        # a look at the recording still under way holds h5py's lock: the interpreter's teardown
+        # would wait for it for ever; nothing is left to write, so leave now
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(code)
+    return code

@@ -4,11 +4,12 @@ from __future__ import annotations
 
 import argparse
 
-from rigtools.errors import UserError
+from rigtools.errors import UserError, exit_status_help
 from rigtools.options import output_folder
 
 HELP = "one self-contained HTML page (figures embedded, works offline) of the analyses of recordings"
-EPILOG = """\
+EPILOG = (
+    """\
 For each recording: the tables and figures of rig analyze (periodic points: force and harmonic
 amplitudes, waveforms and spectra; stepped sines and studies: response curves; FRF tests: H1,
 H2, Hv with phase and coherence, stabilisation charts, identified modes). Every amplitude is a
@@ -28,12 +29,15 @@ a branch file drawn over nothing gets a section of its own.
 The page is DIR/report.html (DIR is made if missing); an existing report.html is replaced only
 if rigtools made it. Open it in any browser, no network needed.
 
-Exit status: 0 written, 2 bad input (unreadable file, --out), 130 Ctrl-C.
+"""
+    + exit_status_help(0, 2, notes={0: "written", 2: "bad input (unreadable file, --out)"})
+    + """
 
 examples:
   rig report dwell.h5 frf.h5 --out report/
   rig report study.h5 --simulate --branches branches-gap.h5 --out report/
 """
+)
 
 PAGE = "report.html"
 MARKER = "querySelectorAll('img.figure')"  # in the page script of rigtools.report.html

@@ -14,6 +14,7 @@ from pathlib import Path
 
 from rigtools import json_values
 from rigtools import model_options as mo
+from rigtools.errors import exit_status_help
 from rigtools.options import HDF5_SUFFIXES, check_out, gap
 from rigtools.vocabulary import channel_names, describe_channels
 
@@ -51,8 +52,8 @@ x the periods to settle, which grow with fe, x the model's modes; a large [blade
 the model build) is announced on stderr with its estimate. An --fe more than 10 x the model's
 highest mode is refused: the model's response there is not the blades'.
 
-Exit status: 0 written, 2 bad input (options, rig file, --out), 130 Ctrl-C, 143 SIGTERM, 129 SIGHUP
-(before the run is written: nothing is written; once it is, the file is completed).
+{exit_status_help(0, 2, notes={0: "written", 2: "bad input (options, rig file, --out)"})}
+A signal before the run is written: nothing is written; once it is, the file is completed.
 
 examples:
   rig simulate --out run.h5

@@ -8,11 +8,13 @@ from __future__ import annotations
 import argparse
 
 from rigtools import json_values
+from rigtools.errors import exit_status_help
 from rigtools.model_update import CONTACT_LAWS, PARAMETER_NAMES
 from rigtools.model_update import DEFAULT_PARAMETERS as DEFAULT_PARAMS
 
 HELP = "fit the rig file's model to FRF/tap tests (and contact to dwells); write an updated rig file"
-EPILOG = f"""\
+EPILOG = (
+    f"""\
 Steps:
   1. identify natural frequencies and damping ratios in each recording's broadband test (LSCF on
      H1 = acceleration / force; an FRF test 'rig acquire frf' gives the active blade, a tap test
@@ -34,8 +36,16 @@ Parameters (rig-file keys, SI): {", ".join(PARAMETER_NAMES)}.
 damping.ratio (modal) or damping.alpha + damping.beta (Rayleigh), not both. Fitting a root spring
 turns a clamped root into springs (the other spring stays stiff unless fitted too).
 
-Exit status: 0 written, 2 bad input (unknown parameter, unreadable recording, a recording without
-usable modes such as a dwell given as a test, --out existing or a recording), 130 Ctrl-C.
+"""
+    + exit_status_help(
+        0,
+        2,
+        notes={
+            0: "written",
+            2: "bad input (unknown parameter, unreadable recording, a recording without usable modes such as a dwell given as a test, --out existing or a recording)",
+        },
+    )
+    + """
 
 examples:
   rig acquire frf --backend sim --band "20 Hz:2 kHz" --level "0.3 V" --out frf.h5
@@ -44,6 +54,7 @@ examples:
   rig update frf.h5 --contact dwell.h5 --out contact.toml --json
   rig modal --rig updated.toml
 """
+)
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

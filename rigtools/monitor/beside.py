@@ -2,8 +2,9 @@
 
 The monitor runs in its own process (``rig monitor``), so drawing never competes with the
 acquisition for the interpreter; it is started in its own session, so a Ctrl-C in the terminal
-stops the run and not the view of how it ended. It keeps serving :data:`LINGER_S` after the run
-ended, then exits. The acquiring process publishes its control events and honours the stop
+stops the run and not the view of how it ended. It keeps serving ``--monitor-linger`` (default
+:data:`LINGER_S`) after the run ended, then exits; it is given this process's id, so it ends as
+well when the run's process ended without closing the recording (killed). The acquiring process publishes its control events and honours the stop
 control through :class:`rigtools.monitor.control_files.LiveStatus`.
 """
 
@@ -45,7 +46,19 @@ OPTIONS: tuple[tuple[str, dict], ...] = (
     ),
     (
         "--allow-stop",
-        {"action": "store_true", "help": "--monitor: the page may stop the run (drive ramps to zero)"},
+        {
+            "action": "store_true",
+            "help": "--monitor: the page may stop the run (drive ramps to zero; exit status 6); on "
+            "loopback (the default host) anyone logged in on this machine may press it",
+        },
+    ),
+    (
+        "--monitor-linger",
+        {
+            "default": None,
+            "metavar": "SECONDS",
+            "help": f"--monitor: the monitor exits this long after the run ended (default {LINGER_S:g} s)",
+        },
     ),
 )
 
@@ -58,7 +71,10 @@ def start_monitor(
     allow_stop: bool = False,
     linger: float = LINGER_S,
 ) -> tuple[subprocess.Popen, str]:
-    """Start ``rig monitor`` on ``recording`` in its own process; returns it and its address."""
+    """Start ``rig monitor`` on ``recording`` in its own process; returns it and its address.
+
+    The monitor is told this process's id (``--parent``): it exits ``linger`` s after the
+    recording ended or this process ended, whichever it sees first."""
     cmd = [
         sys.executable,
         "-m",
@@ -70,7 +86,7 @@ def start_monitor(
         "--port",
         str(port),
     ]
-    cmd += ["--linger", str(linger)] + (["--allow-stop"] if allow_stop else [])
+    cmd += ["--linger", str(linger), "--parent", str(os.getpid())] + (["--allow-stop"] if allow_stop else [])
     # the monitor's own messages, kept only to say why it did not start
     with tempfile.TemporaryFile(mode="w+") as log:
         proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=log, text=True, start_new_session=True)
@@ -102,10 +118,13 @@ def monitor_beside(
         yield progress
         return
     from rigtools.monitor.control_files import LiveStatus
+    from rigtools.options import duration
 
+    given = getattr(args, "monitor_linger", None)
+    linger = LINGER_S if given is None else duration(given, "--monitor-linger", allow_zero=True)
     with LiveStatus(out, proc.stop) as live:
         _child, url = start_monitor(
-            out, host=args.monitor_host, port=args.monitor_port, allow_stop=args.allow_stop
+            out, host=args.monitor_host, port=args.monitor_port, allow_stop=args.allow_stop, linger=linger
         )
         print(f"rig acquire: monitor at {url}", file=sys.stderr, flush=True)
 
@@ -114,3 +133,18 @@ def monitor_beside(
             live.event(event)
 
         yield both
+
+
+def stopped_from_monitor(reason: str, out: Any) -> int | None:
+    """A run ended by the monitor's stop (its reason :data:`.control_files.STOP_REASON`): say so
+    in one line on stderr and return exit status 6 (:data:`rigtools.errors.EXIT_STOPPED`);
+    another end: None."""
+    from rigtools.errors import EXIT_STOPPED
+    from rigtools.monitor.control_files import STOP_REASON
+
+    if reason != STOP_REASON:
+        return None
+    print(
+        f"rig acquire: {STOP_REASON}; drive ramped to zero; {out} kept with status aborted", file=sys.stderr
+    )
+    return EXIT_STOPPED

@@ -361,7 +361,7 @@ def _end_text(rec, word: str, reason: str) -> str:
             n = p.n_samples
             tail = np.asarray(p.channels[DRIVE][max(0, n - int(0.01 * p.sample_rate)) : n], dtype=float)
             text += (
-                f"; drive {float(np.max(np.abs(tail))):.3g} V at the end of point {p.index} "
+                f"; drive {float(np.max(np.abs(tail))):.3g} V at the end of point {p.index + 1} "
                 f"(t = {n / p.sample_rate:.3f} s)"
             )
     return text
@@ -443,6 +443,8 @@ def _row(point, analysis: dict | None) -> dict[str, Any]:
         "f1": p.get("force_amplitude_measured"),
         "drive": p.get("drive_amplitude"),
         "settled": p.get("settled"),
+        "direction": p.get("direction"),
+        "response": None,
         "impacts_per_period": None,
         "state": "complete" if point.complete else "incomplete",
     }
@@ -476,6 +478,13 @@ def _analyse_point(point) -> dict[str, Any]:
                 np.asarray(chans[FORCE][start : start + n], dtype=float), rate, fe, 1
             ).amplitude[0]
         )
+    response = None
+    if ACTIVE_SHROUD_ACCEL in chans:  # the response a stepped sine's jumps show in: its fundamental
+        response = float(
+            harmonic_amplitudes(
+                np.asarray(chans[ACTIVE_SHROUD_ACCEL][start : start + n], dtype=float), rate, fe, 1
+            ).amplitude[0]
+        )
     ipp = None
     if ACTIVE_SHROUD_ACCEL in chans:
         per = rate / fe  # the window rig analyze takes impacts from
@@ -507,5 +516,5 @@ def _analyse_point(point) -> dict[str, Any]:
     view["control"]["error"] = (
         f1 / view["control"]["target"] - 1.0 if f1 and view["control"]["target"] else None
     )
-    row = _row(point, {"f1": f1, "impacts_per_period": ipp})
+    row = _row(point, {"f1": f1, "impacts_per_period": ipp, "response": response})
     return {"row": row, "view": view}

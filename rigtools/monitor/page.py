@@ -19,16 +19,34 @@ import numpy as np
 from rigtools.monitor.follow import Snapshot
 
 REFRESH_MS = 1000  # a fallback: new snapshots are pushed
+#: The traces' axis labels (the channel's name is the plot's title).
+SHORT = {"force": "force", "active_shroud_accel": "active", "passive_shroud_accel": "passive"}
 COLOURS = {"force": "#1f77b4", "active_shroud_accel": "#d62728", "passive_shroud_accel": "#2ca02c"}
 STATUS_COLOURS = {"recording": "#1a7f37", "finished": "#0550ae", "aborted": "#cf222e", "failed": "#cf222e"}
 
 
-def _num(value: Any, fmt: str = ".4g", unit: str = "") -> str:
-    if value is None or (isinstance(value, float) and not np.isfinite(value)):
-        return "–"
-    if isinstance(value, bool):
-        return "yes" if value else "no"
-    return f"{value:{fmt}}" + (f" {unit}" if unit else "")
+def _num(value: Any, fmt: str | None = None, unit: str = "") -> str:
+    """A number as every table of rig shows it (:func:`rigtools.readable.number`)."""
+    from rigtools.readable import number
+
+    return number(value, None if fmt in (None, ".4g") else fmt, unit)
+
+
+def _unit(units: dict[str, str], channel: str) -> str:
+    u = units.get(channel) or ""
+    return u.replace("m/s^2", "m/s²")
+
+
+def settled_text(c: dict) -> str:
+    """The settled line, consistent with the phase: "no"/"yes" once the point has ended; while it
+    records, the steadiness is judged at its end; before that, "not yet"."""
+    if c.get("settled") is not None:
+        return _num(c.get("settled"))
+    if c.get("phase") == "recording":
+        return "judged at the end of the record"
+    if c.get("phase") == "stopped":
+        return "– (stopped before its record)"
+    return "not yet"
 
 
 def header_html(s: Snapshot) -> str:
@@ -51,13 +69,13 @@ def control_html(s: Snapshot) -> str:
     err = c.get("error")
     rows = [
         ("target F0", _num(c.get("target"), unit="N"), "mon-target"),
-        ("measured F1", _num(c.get("f1"), ".5g", "N"), "mon-f1"),
-        ("drive", _num(c.get("drive"), ".4g", "V"), "mon-drive"),
-        ("error", "–" if err is None else f"{err * 100:+.2f} %", "mon-error"),
-        ("updates", _num(c.get("updates"), "d"), "mon-updates"),
-        ("settled", _num(c.get("settled")) if c.get("settled") is not None else "not yet", "mon-settled"),
+        ("measured F1", _num(c.get("f1"), unit="N"), "mon-f1"),
+        ("drive", _num(c.get("drive"), unit="V"), "mon-drive"),
+        ("error", "–" if err is None else _num(err * 100, "+.2f", "%"), "mon-error"),
+        ("updates", _num(c.get("updates")), "mon-updates"),
+        ("settled", settled_text(c), "mon-settled"),
         ("phase", html.escape(str(c.get("phase") or "–")), "mon-phase"),
-        ("impacts per period", _num(s.impacts_per_period, ".4g"), "mon-ipp"),
+        ("impacts per period", _num(s.impacts_per_period), "mon-ipp"),
     ]
     body = "".join(
         f"<tr><td>{k}</td><td id='{i}' style='text-align:right'><b>{v}</b></td></tr>" for k, v, i in rows
@@ -72,12 +90,12 @@ def control_html(s: Snapshot) -> str:
 
 def _peak_row(p: dict) -> str:
     warning, abort, peak = p.get("warning"), p.get("abort"), p["peak"]
-    share = "" if not abort else f"{peak / abort * 100:.0f} % of abort"
+    share = "" if not abort else f"{_num(peak / abort * 100, '.0f')} % of abort"
     colour = "#cf222e" if warning and peak >= warning else "inherit"
-    u = html.escape(p["units"])
+    u = html.escape(p["units"].replace("m/s^2", "m/s²"))
     return (
-        f"<tr style='color:{colour}'><td>{html.escape(p['channel'])}</td><td>{peak:.4g} {u}</td>"
-        f"<td>{_num(warning)}</td><td>{_num(abort)}</td><td>{share}</td></tr>"
+        f"<tr style='color:{colour}'><td>{html.escape(p['channel'])}</td><td>{_num(peak, unit=u)}</td>"
+        f"<td>{_num(warning, unit=u)}</td><td>{_num(abort, unit=u)}</td><td>{share}</td></tr>"
     )
 
 
@@ -93,6 +111,8 @@ def points_html(s: Snapshot) -> str:
             "F0 (N)",
             "F1 (N)",
             "drive (V)",
+            "response (m/s²)",
+            "dir",
             "impacts/period",
             "settled",
             "state",
@@ -106,9 +126,11 @@ def points_html(s: Snapshot) -> str:
             _num(r.get("fe")),
             _num(gap),
             _num(r.get("target")),
-            _num(r.get("f1"), ".5g"),
+            _num(r.get("f1")),
             _num(r.get("drive")),
-            _num(r.get("impacts_per_period"), ".3g"),
+            _num(r.get("response")),
+            html.escape(r.get("direction") or ""),
+            _num(r.get("impacts_per_period")),
             _num(r.get("settled")),
             html.escape(r.get("state", "")),
         )
@@ -128,6 +150,25 @@ def trend_axis(rows: list[dict]) -> tuple[str, str, float]:
         if len(values) > 1 and None not in values:
             return key, label, factor
     return "point", "point", 1.0
+
+
+#: The trend's series: a stepped sine's up and down sweeps (a study's points: "points").
+TREND_SERIES = {
+    "up": ("#1f77b4", "circle", "solid"),
+    "down": ("#d62728", "triangle", "dashed"),
+    "points": ("#555555", "square", "solid"),
+}
+
+
+def trend_series(rows: list[dict], key: str, factor: float) -> dict[str, dict[str, list]]:
+    """The response fundamental of each ended point against ``key`` (in run order), split by the
+    sweep's direction: the up and down curves where a jump shows."""
+    out: dict[str, dict[str, list]] = {d: {"x": [], "y": []} for d in TREND_SERIES}
+    for r in rows:
+        d = r.get("direction") if r.get("direction") in ("up", "down") else "points"
+        out[d]["x"].append(r[key] * factor if key != "point" else r["point"] + 1)
+        out[d]["y"].append(r["response"])
+    return out
 
 
 def build(doc, get_snapshot: Callable[[], Snapshot], stop: Callable[[], str] | None) -> Callable[[], None]:
@@ -151,7 +192,7 @@ def build(doc, get_snapshot: Callable[[], Snapshot], stop: Callable[[], str] | N
     spec_src = {c: ColumnDataSource(data={"f": [], "a": []}) for c in names}
     harm_src = ColumnDataSource(data={"f": [], "top": [], "bottom": []})
     named_src = ColumnDataSource(data={"f": [], "a": [], "text": []})
-    trend_src = ColumnDataSource(data={"x": [], "f1": [], "ipp": []})
+    trend_src = {d: ColumnDataSource(data={"x": [], "y": []}) for d in TREND_SERIES}
 
     traces = []
     x_range = DataRange1d()  # shared: the three traces scroll together
@@ -164,9 +205,9 @@ def build(doc, get_snapshot: Callable[[], Snapshot], stop: Callable[[], str] | N
             tools="pan,wheel_zoom,box_zoom,reset",
         )
         p.line("t", "y", source=trace_src[c], color=COLOURS[c], line_width=1)
-        p.yaxis.axis_label = c
+        p.yaxis.axis_label = SHORT.get(c, c)
+        p.xaxis.axis_label = "time in point (s)"
         traces.append(p)
-    traces[-1].xaxis.axis_label = "time in point (s)"
     spectrum = figure(
         height=300,
         width=820,
@@ -177,6 +218,7 @@ def build(doc, get_snapshot: Callable[[], Snapshot], stop: Callable[[], str] | N
     spectrum.segment("f", "bottom", "f", "top", source=harm_src, color="#888888", line_dash="dashed")
     for c in names:
         spectrum.line("f", "a", source=spec_src[c], color=COLOURS[c], legend_label=c)
+    legend_items = dict(zip(names, spectrum.legend.items, strict=True))
     spectrum.add_layout(
         LabelSet(x="f", y="a", text="text", source=named_src, text_font_size="11px", y_offset=4)
     )
@@ -184,11 +226,20 @@ def build(doc, get_snapshot: Callable[[], Snapshot], stop: Callable[[], str] | N
     spectrum.legend.location = "top_right"
     freq_range = Range1d(start=0, end=1000)
     spectrum.x_range = freq_range
-    trend = figure(height=220, width=720, title="points: F1 (N, blue) and impacts per period (red)", tools="")
-    trend.scatter("x", "f1", source=trend_src, color="#1f77b4", size=7)
-    trend.line("x", "f1", source=trend_src, color="#1f77b4")
-    trend.scatter("x", "ipp", source=trend_src, color="#d62728", size=7, marker="square")
+    spectrum.yaxis.axis_label = "peak amplitude"
+    trend = figure(
+        height=260,
+        width=720,
+        title="response: active shroud acceleration 1×fe (peak) at each point",
+        tools="",
+    )
+    for d, (colour, marker, dash) in TREND_SERIES.items():
+        trend.line("x", "y", source=trend_src[d], color=colour, line_dash=dash, legend_label=d)
+        trend.scatter("x", "y", source=trend_src[d], color=colour, size=7, marker=marker, legend_label=d)
+    trend.legend.location = "top_left"
+    trend.legend.orientation = "horizontal"
     trend.xaxis.axis_label = "point"
+    trend.yaxis.axis_label = "active shroud 1×fe, peak (m/s²)"
 
     widgets: list[Any] = [control]
     if stop is not None:
@@ -204,7 +255,7 @@ def build(doc, get_snapshot: Callable[[], Snapshot], stop: Callable[[], str] | N
     doc.add_root(
         column(
             header,
-            row(column(*traces, spectrum), column(*widgets, points, trend)),
+            row(column(*traces, spectrum), column(*widgets, trend, points)),
             sizing_mode="stretch_width",
         )
     )
@@ -219,6 +270,12 @@ def build(doc, get_snapshot: Callable[[], Snapshot], stop: Callable[[], str] | N
         header.text = header_html(s)
         control.text = control_html(s)
         points.text = points_html(s)
+        for c, p in zip(names, traces, strict=True):
+            p.yaxis.axis_label = f"{SHORT.get(c, c)} ({_unit(s.units, c)})" if s.units.get(c) else c
+        shown_units = list(dict.fromkeys(_unit(s.units, c) for c in names if s.units.get(c)))
+        spectrum.yaxis.axis_label = "peak amplitude" + (f" ({'; '.join(shown_units)})" if shown_units else "")
+        for c, item in legend_items.items():
+            item.label = {"value": f"{c} ({_unit(s.units, c)})" if s.units.get(c) else c}
         for c in names:
             t, y = s.traces.get(c, (np.empty(0), np.empty(0)))
             trace_src[c].data = {"t": t, "y": y}
@@ -239,15 +296,11 @@ def build(doc, get_snapshot: Callable[[], Snapshot], stop: Callable[[], str] | N
         }
         if s.fe:
             freq_range.end = min(s.fe * (len(s.harmonics) + 1.5), 25_000)
-        rows = [r for r in s.points if r.get("f1") is not None]
+        rows = [r for r in s.points if r.get("response") is not None]
         key, label, factor = trend_axis(rows)
-        xs = [r[key] * factor if key != "point" else r["point"] + 1 for r in rows]
         trend.xaxis.axis_label = label
-        trend_src.data = {
-            "x": xs,
-            "f1": [r["f1"] for r in rows],
-            "ipp": [r.get("impacts_per_period") for r in rows],
-        }
+        for d, series in trend_series(rows, key, factor).items():
+            trend_src[d].data = series
 
     refresh()
     doc.add_periodic_callback(refresh, REFRESH_MS)

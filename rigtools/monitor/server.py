@@ -16,6 +16,7 @@ from __future__ import annotations
 import hmac
 import ipaddress
 import logging
+import os
 import secrets
 import socket
 import threading
@@ -28,6 +29,8 @@ from rigtools.monitor.control_files import request_stop
 from rigtools.monitor.follow import Follower, Snapshot
 
 POLL_S = 0.25
+#: Seconds the monitor waits, when it ends, for a look at the recording under way to end.
+CLOSE_WAIT_S = 10.0
 APP_PATH = "/monitor"
 TOKEN_COOKIE = "rig_monitor_token"
 
@@ -35,13 +38,14 @@ TOKEN_COOKIE = "rig_monitor_token"
 class Hub:
     """Polls the recording in a thread; :attr:`snapshot` is the latest view (thread-safe read)."""
 
-    def __init__(self, path: str | Path, poll_s: float = POLL_S) -> None:
+    def __init__(self, path: str | Path, poll_s: float = POLL_S, parent: int | None = None) -> None:
         self.follower = Follower(path)
         self.poll_s = poll_s
+        self.parent = parent
         self.error = ""
         self._done = threading.Event()
         self._thread = threading.Thread(target=self._run, name="monitor-follower", daemon=True)
-        self.finished_at: float | None = None  # when the recording was first seen ended
+        self.finished_at: float | None = None  # when the recording (or its run) was first seen ended
         self._viewers: dict[Any, Any] = {}  # document -> its refresh
         self._lock = threading.Lock()
 
@@ -69,8 +73,29 @@ class Hub:
     def start(self) -> None:
         self._thread.start()
 
-    def stop(self) -> None:
+    def stop(self, wait: float = 0.0) -> bool:
+        """Stop polling; wait at most ``wait`` s for a look under way to end. True once the
+        follower thread has ended (it holds h5py's lock while it reads: an interpreter that exits
+        under it deadlocks in h5py's teardown, the monitor then outliving its run for ever)."""
         self._done.set()
+        if wait > 0 and self._thread.is_alive():
+            self._thread.join(wait)
+        return not self._thread.is_alive()
+
+    def parent_gone(self) -> bool:
+        """True when the process that started the monitor (``parent``) has ended: this process
+        is no longer its child, or it no longer exists."""
+        if self.parent is None:
+            return False
+        if os.getppid() != self.parent:
+            return True
+        try:
+            os.kill(self.parent, 0)
+        except ProcessLookupError:
+            return True
+        except PermissionError:
+            return False
+        return False
 
     def _run(self) -> None:
         # the analysis modules load now, not on the first look at a run's first samples
@@ -92,6 +117,9 @@ class Hub:
                     self.finished_at = time.monotonic()
                 if s.version != version:
                     self._push()
+            if self.finished_at is None and self.parent_gone():
+                # the run's process is gone however it ended (a kill leaves the file "recording")
+                self.finished_at = time.monotonic()
             self._done.wait(max(0.0, self.poll_s - (time.monotonic() - start)))
 
 
@@ -111,19 +139,40 @@ def token_ok(handler: Any, token: str) -> bool:
     return hmac.compare_digest(given.encode(), token.encode())
 
 
+#: What a request without the token is told (the page of the 403 answer says it, not Tornado's bare one).
+REFUSED = (
+    "This monitor needs the token of its printed address: open the address rig monitor (or rig "
+    "acquire ... --monitor) printed, with its ?token=..., in this browser. A monitor served on "
+    "127.0.0.1 needs none."
+)
+
+
+def _refuse(handler: Any) -> None:
+    """Answer 403 with :data:`REFUSED` as a small page, then end the request."""
+    from tornado.web import Finish
+
+    handler.set_status(403)
+    handler.set_header("Content-Type", "text/html; charset=utf-8")
+    handler.finish(
+        "<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'><title>rig monitor: 403</title>"
+        f"</head><body style='font-family:sans-serif;margin:2em'><h1>403: no access</h1>"
+        f"<p id='refused'>{REFUSED}</p></body></html>"
+    )
+    raise Finish()
+
+
 def _auth_provider(token: str):
     from bokeh.server.auth_provider import AuthProvider
-    from tornado.web import HTTPError
 
     class TokenAuth(AuthProvider):
-        """Every request without the token is refused (403)."""
+        """Every request without the token is refused (403, with :data:`REFUSED`)."""
 
         @property
         def get_user_async(self):
             # called in prepare(), before a websocket is upgraded: refused requests get no further
             async def get_user(handler):
                 if not token_ok(handler, token):
-                    raise HTTPError(403, "this monitor needs the token of its printed address")
+                    _refuse(handler)
                 if handler.get_argument("token", None) and not hasattr(handler, "ws_connection"):
                     handler.set_cookie(TOKEN_COOKIE, token, httponly=True, samesite="Strict")
                 return "viewer"
@@ -132,10 +181,7 @@ def _auth_provider(token: str):
 
         @property
         def get_login_url(self):
-            def refuse(handler):
-                raise HTTPError(403, "this monitor needs the token of its printed address")
-
-            return refuse
+            return _refuse
 
     return TokenAuth()
 
@@ -153,6 +199,11 @@ class Served:
         self.hub.stop()
         self.server.stop()
         self.server.io_loop.stop()
+
+    def close(self, wait: float = CLOSE_WAIT_S) -> bool:
+        """After serving: stop the follower and wait for it (at most ``wait`` s). True when it
+        ended; False: the caller must leave without the interpreter's teardown (``os._exit``)."""
+        return self.hub.stop(wait)
 
 
 def _origins(host: str, port: int) -> list[str]:
@@ -197,6 +248,7 @@ def serve(
     port: int = 5006,
     allow_stop: bool = False,
     poll_s: float = POLL_S,
+    parent: int | None = None,
 ) -> Served:
     """Start the monitor of recording ``path`` (call ``served.server.io_loop.start()`` to run).
 
@@ -208,6 +260,9 @@ def serve(
         TCP port; 0 picks a free one.
     allow_stop
         Show the stop control (it asks the acquiring process to stop, as Ctrl-C does).
+    parent
+        The process id of the run that started the monitor (``rig acquire ... --monitor``): when
+        it has ended, the run has ended, whatever the recording says.
     """
     from bokeh.application import Application
     from bokeh.application.handlers.function import FunctionHandler
@@ -224,7 +279,7 @@ def serve(
     for name in ("tornado.application", "tornado.general", "bokeh.server.views.ws"):
         if not any(isinstance(f, OneLineErrors) for f in logging.getLogger(name).filters):
             logging.getLogger(name).addFilter(one_line)
-    hub = Hub(path, poll_s)
+    hub = Hub(path, poll_s, parent)
     token = None if is_loopback(host) else secrets.token_urlsafe(24)
     recording = Path(path)
 
@@ -268,7 +323,8 @@ def serve(
 
 
 def run_until_done(served: Served, linger: float | None) -> None:
-    """Serve until Ctrl-C, or until ``linger`` s after the recording ended (None: until Ctrl-C)."""
+    """Serve until Ctrl-C, or until ``linger`` s after the recording ended or the run's process
+    (``parent``) was seen gone (None: until Ctrl-C)."""
     from tornado.ioloop import PeriodicCallback
 
     def check() -> None:

@@ -5,6 +5,16 @@ from __future__ import annotations
 
 from typing import Any
 
+from rigtools.readable import ROUND_OFF_TEXT, harmonic, largest, number
+
+
+def _largest_k(top: dict | None, biggest: float) -> str:
+    """The largest k >= 2 harmonic and its k; a round-off (every k >= 2 is then) without a k."""
+    if top is None:
+        return "–"
+    text = harmonic(top["amplitude"], biggest)
+    return text if text == ROUND_OFF_TEXT else f"{text} (k = {top['k']})"
+
 
 def summary_tables(doc: dict) -> list[Any]:
     """What ``rig acquire`` prints of a :func:`rigtools.procedures.from_options.result_document`:
@@ -22,17 +32,18 @@ def summary_tables(doc: dict) -> list[Any]:
         for channel, ch in doc["channels"].items():
             h = ch["harmonics"]
             top = max(h[1:], key=lambda r: r["amplitude"]) if len(h) > 1 else None
+            biggest = largest(r["amplitude"] for r in h)
             table.add_row(
                 channel,
                 ch["units"],
-                f"{h[0]['amplitude']:.4g}",
-                f"{top['amplitude']:.4g} (k = {top['k']})" if top else "-",
-                f"{ch['peak']:.4g}",
+                harmonic(h[0]["amplitude"], biggest),
+                _largest_k(top, biggest),
+                number(ch["peak"]),
             )
         out.append(table)
         out.append(
-            f"force {doc['force_amplitude_measured']:.4g} N (target {doc['force_amplitude']:g} N) at "
-            f"{doc['drive_amplitude']:.4g} V after {doc['control_updates']} updates; settled: "
+            f"force {number(doc['force_amplitude_measured'])} N (target {doc['force_amplitude']:g} N) at "
+            f"{number(doc['drive_amplitude'])} V after {doc['control_updates']} updates; settled: "
             f"{'yes' if doc['settled'] else 'NO'}; wrote {doc['file']} ({doc['status']})"
         )
     elif name in ("sweep", "study"):
@@ -44,9 +55,9 @@ def summary_tables(doc: dict) -> list[Any]:
                 f"{p['fe']:g}",
                 p.get("direction", ""),
                 f"{p['force_amplitude']:g}",
-                f"{p['force_amplitude_measured']:.4g}",
-                f"{p['gap'] * 1e3:.3g}",
-                f"{p['drive_amplitude']:.3g}",
+                number(p["force_amplitude_measured"]),
+                number(p["gap"] * 1e3),
+                number(p["drive_amplitude"]),
                 str(p["control_updates"]),
                 "yes" if p["settled"] else "NO",
             )

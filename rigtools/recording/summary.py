@@ -1,6 +1,6 @@
 """What a recording holds, for a person or a script (``rig info``): status, backend, versions, the
 channels and one entry per point, as plain data; and parameter values written for reading
-(4-5 significant digits, long arrays summarised)."""
+(:mod:`rigtools.readable`'s significant digits, long arrays summarised)."""
 
 from __future__ import annotations
 
@@ -9,7 +9,8 @@ from typing import TYPE_CHECKING, Any
 if TYPE_CHECKING:
     from rigtools.recording.reader import Point, Recording
 
-DIGITS = 5  # significant digits of a number shown to a person
+from rigtools.readable import number
+
 ARRAY_ITEMS = 6  # longer lists and arrays are summarised
 
 # How to show well-known parameters: label, SI factor, unit.
@@ -97,14 +98,14 @@ def format_value(value: Any) -> str:
     if isinstance(value, bool):
         return "yes" if value else "no"
     if isinstance(value, float):
-        return f"{value:.{DIGITS}g}"
+        return number(value)
     if isinstance(value, (list, tuple)) or hasattr(value, "tolist"):
         items = value.tolist() if hasattr(value, "tolist") else list(value)
         if not isinstance(items, list):
             return format_value(items)
         numbers = [v for v in items if isinstance(v, (int, float)) and not isinstance(v, bool)]
         if len(items) > ARRAY_ITEMS and len(numbers) == len(items):
-            return f"[{len(items)} values, {min(numbers):.{DIGITS}g} .. {max(numbers):.{DIGITS}g}]"
+            return f"[{len(items)} values, {number(float(min(numbers)))} .. {number(float(max(numbers)))}]"
         if len(items) > ARRAY_ITEMS:
             return f"[{len(items)} items: {', '.join(format_value(v) for v in items[:2])}, ...]"
         return "[" + ", ".join(format_value(v) for v in items) + "]"
@@ -116,7 +117,7 @@ def format_params(params: dict[str, Any]) -> str:
     for key, value in params.items():
         if key in _DISPLAY and isinstance(value, (int, float)) and not isinstance(value, bool):
             label, factor, unit = _DISPLAY[key]
-            parts.append(f"{label}={value * factor:.{DIGITS}g} {unit}")
+            parts.append(f"{label}={number(float(value * factor))} {unit}")
         else:
             parts.append(f"{key}={format_value(value)}")
     return ", ".join(parts)

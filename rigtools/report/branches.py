@@ -282,14 +282,13 @@ def add_branches(
     )
     rows = bifurcation_rows(branches)
     if rows:
-        section.table(rows, caption=f"{what}: bifurcations of the branches", digits=6)
+        section.table(rows, caption=f"{what}: bifurcations of the branches")
     else:
         section.note(f"{what}: no bifurcation along the branches")
     if explanations:
         section.table(
             jump_rows(explanations, param),
             caption="Measured jumps and the model's turning points (offset 0: inside the jump)",
-            digits=6,
         )
     return explanations
 

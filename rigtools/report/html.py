@@ -11,7 +11,6 @@ from __future__ import annotations
 import base64
 import html
 import io
-import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
@@ -63,15 +62,16 @@ def figure_png(fig: Any, dpi: int = DPI) -> tuple[bytes, int, int]:
 
 
 def _cell(value: Any, digits: int) -> tuple[str, bool]:
-    """Text of a table cell and whether it is text (left-aligned)."""
+    """Text of a table cell and whether it is text (left-aligned): numbers as the terminal shows
+    them (:func:`rigtools.readable.number`: significant digits, no ``-0``)."""
+    from rigtools.readable import DIGITS, Shown, number
+
+    if isinstance(value, Shown):
+        return str(value), False
     if isinstance(value, bool):
         return ("yes" if value else "no"), True
-    if isinstance(value, float):
-        if math.isnan(value):
-            return "–", False
-        return f"{value:.{digits}g}", False
-    if isinstance(value, int):
-        return str(value), False
+    if isinstance(value, (float, int)):
+        return number(value, None if digits == DIGITS else f".{digits}g"), False
     return ("" if value is None else str(value)), True
 
 
@@ -98,9 +98,11 @@ class Section:
         rows: Sequence[Mapping[str, Any]] | Any,
         caption: str = "",
         columns: Sequence[str] | None = None,
-        digits: int = 5,
+        digits: int = 4,
     ) -> Section:
-        """A table from a list of dicts (or a pandas DataFrame); column names should carry units."""
+        """A table from a list of dicts (or a pandas DataFrame); column names should carry units.
+        Numbers to ``digits`` significant digits (4: as the terminal shows them); a cell given as
+        :class:`rigtools.readable.Shown` is set as it is."""
         if hasattr(rows, "to_dict"):
             rows = rows.to_dict("records")
         rows = list(rows)

@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from rigtools.analyze import TABLE_HARMONICS, RecordingAnalysis, point_window
+from rigtools.readable import FREQUENCY_TABLE, shown
 
 MAX_WAVEFORM_FIGURES = 4  # periodic points drawn as waveforms (first, last and between)
 WAVEFORM_CHANNELS = ("force", "active_shroud_accel", "passive_shroud_accel", "contact_force")
@@ -191,6 +192,7 @@ def analysis_figures(
                     np.abs(est.h1[i][band]),
                     natural_frequencies_hz=fn or None,
                     title=f"{stem} point {p.index}: stabilisation chart of {of}",
+                    kind=analysis.frf_kind,
                 )
                 figs.append(
                     NamedFigure(
@@ -240,12 +242,18 @@ def add_analysis(report, analysis: RecordingAnalysis, branches=()) -> None:
             "article_hz": "simulated test article (Hz)",
             "em_vs_article_pct": "EM vs article (%)",
         }
-        rows = [{t: r.get(k) for k, t in cols.items() if k in r} for r in analysis.frequency_table]
+        rows = [
+            {
+                t: shown(r[k], FREQUENCY_TABLE[k]) if k in FREQUENCY_TABLE else r[k]
+                for k, t in cols.items()
+                if k in r
+            }
+            for r in analysis.frequency_table
+        ]
         sec.table(
             rows,
             caption="Flexural natural frequencies, FEM, AM and EM (identified), as the paper's "
             "Table 2; differences 100 (model - EM) / EM",
-            digits=6,
         )
     for p in analysis.broadband:
         for n in p.notes:
@@ -282,13 +290,11 @@ def _add_operational(sec, p) -> None:
             rows,
             caption=f"Point {p.index}: modes without a force (SSI-cov, {oma.band[0]:.4g}-{oma.band[1]:.4g} Hz); "
             "spread: model orders and the record's statistical spread",
-            digits=5,
         )
     if oma is not None and oma.harmonics:
         sec.table(
             [{"harmonic (Hz)": h.frequency_hz, "why a tone, not a mode": h.reason} for h in oma.harmonics],
             caption=f"Point {p.index}: harmonic tones flagged (never modes)",
-            digits=5,
         )
     for n in p.notes:
         sec.note(f"point {p.index}: {n}")

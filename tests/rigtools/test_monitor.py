@@ -25,6 +25,7 @@ from rigtools.monitor.control_files import STOP_REASON, LiveStatus, live_path, r
 from rigtools.monitor.envelope import max_envelope, min_max_envelope
 from rigtools.monitor.follow import Follower
 from rigtools.procedures import RigStudy, SineDwell, Status
+from rigtools.readable import number
 from rigtools.recording import open_recording
 
 RATE = 51200.0
@@ -370,7 +371,7 @@ def test_page_shows_the_numbers_in_chromium(dwell, chromium, tmp_path):
             for page in pages:
                 page.wait_text("mon-status", 60, "finished")
                 shown = page.texts("mon-f1", "mon-ipp", "mon-status")
-                assert shown["mon-f1"] == f"{ref.force_amplitude:.5g} N"
+                assert shown["mon-f1"] == number(ref.force_amplitude, unit="N")
                 assert float(shown["mon-ipp"]) == pytest.approx(ref.impacts.impacts_per_period)
             shot = mpimg.imread(str(pages[0].screenshot(tmp_path / "page.png")))[..., :3]
     finally:

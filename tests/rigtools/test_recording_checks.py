@@ -119,12 +119,12 @@ def test_info_json_into_a_closed_pipe_prints_no_traceback(tmp_path):
     assert "Traceback" not in run.stderr and "BrokenPipe" not in run.stderr
 
 
-def test_info_shows_numbers_to_five_digits_and_summarises_arrays():
+def test_info_shows_numbers_to_four_digits_and_summarises_arrays():
     from rigtools.recording.summary import format_params, format_value
 
-    assert format_value(0.123456789) == "0.12346"
+    assert format_value(0.123456789) == "0.1235"  # rigtools.readable.DIGITS, as every table
     assert format_value(list(range(100))) == "[100 values, 0 .. 99]"
     assert format_value([1.0, 2.5]) == "[1, 2.5]"
     assert format_params({"gap": 0.000512345, "fe": 60.000001, "settled": True}) == (
-        "gap=0.51234 mm, fe=60 Hz, settled=yes"
+        "gap=0.5123 mm, fe=60 Hz, settled=yes"
     )
