@@ -165,7 +165,7 @@ def trend_series(rows: list[dict], key: str, factor: float) -> dict[str, dict[st
     sweep's direction: the up and down curves where a jump shows."""
     out: dict[str, dict[str, list]] = {d: {"x": [], "y": []} for d in TREND_SERIES}
     for r in rows:
-        d = r.get("direction") if r.get("direction") in ("up", "down") else "points"
+        d = str(r["direction"]) if r.get("direction") in ("up", "down") else "points"
         out[d]["x"].append(r[key] * factor if key != "point" else r["point"] + 1)
         out[d]["y"].append(r["response"])
     return out
@@ -275,7 +275,7 @@ def build(doc, get_snapshot: Callable[[], Snapshot], stop: Callable[[], str] | N
         shown_units = list(dict.fromkeys(_unit(s.units, c) for c in names if s.units.get(c)))
         spectrum.yaxis.axis_label = "peak amplitude" + (f" ({'; '.join(shown_units)})" if shown_units else "")
         for c, item in legend_items.items():
-            item.label = {"value": f"{c} ({_unit(s.units, c)})" if s.units.get(c) else c}
+            item.label = {"value": f"{c} ({_unit(s.units, c)})" if s.units.get(c) else c}  # type: ignore[attr-defined]  # a bokeh LegendItem
         for c in names:
             t, y = s.traces.get(c, (np.empty(0), np.empty(0)))
             trace_src[c].data = {"t": t, "y": y}
@@ -300,7 +300,7 @@ def build(doc, get_snapshot: Callable[[], Snapshot], stop: Callable[[], str] | N
         key, label, factor = trend_axis(rows)
         trend.xaxis.axis_label = label
         for d, series in trend_series(rows, key, factor).items():
-            trend_src[d].data = series
+            trend_src[d].data = series  # type: ignore[assignment]  # bokeh takes a dict of columns
 
     refresh()
     doc.add_periodic_callback(refresh, REFRESH_MS)
