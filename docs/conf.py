@@ -1,4 +1,4 @@
-"""Sphinx configuration of the documentation site (build: ``sphinx-build -W -b html docs build/docs-html``).
+"""Sphinx configuration of the documentation site (build: ``sphinx-build -W -n -b html docs build/docs-html``).
 
 The user guide is the repository's markdown pages (MyST), the API reference is generated from the
 docstrings (autosummary + numpydoc), and the scripts of ``docs/examples/`` run as a sphinx-gallery.
@@ -162,10 +162,15 @@ _EXTERNAL = (
 nitpick_ignore_regex = [
     (r"py:.*", rf"({_EXTERNAL})(\..+)?"),
     # Python's builtins as they appear in docstrings and signatures
-    (r"py:.*", r"(int|float|str|bytes|bool|dict|list|tuple|set|object|None|type|Exception|ValueError|OSError)"),
+    (
+        r"py:.*",
+        r"(int|float|str|bytes|bool|dict|list|tuple|set|object|None|type|Exception|ValueError|OSError)",
+    ),
     (r"py:class", r"rigtools\..*\._\w+"),  # a private base class named by show-inheritance
 ]
-autodoc_typehints = "none"  # signatures stay short; signature_types.py writes each type into the parameter list
+autodoc_typehints = (
+    "none"  # signatures stay short; signature_types.py writes each type into the parameter list
+)
 autodoc_member_order = "bysource"
 autodoc_mock_imports: list[str] = []
 

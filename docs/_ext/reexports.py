@@ -26,16 +26,22 @@ def import_name(name: str) -> Any:
     """The object a dotted name imports as, or ``_MISSING``."""
     parts = name.split(".")
     for split in range(len(parts), 0, -1):
-        try:
-            obj: Any = importlib.import_module(".".join(parts[:split]))
-        except Exception:  # noqa: BLE001 (not a module: try a shorter prefix)
-            continue
+        obj: Any = _module(".".join(parts[:split]))
+        if obj is _MISSING:
+            continue  # not a module: try a shorter prefix
         for attribute in parts[split:]:
             obj = getattr(obj, attribute, _MISSING)
             if obj is _MISSING:
                 return _MISSING
         return obj
     return _MISSING
+
+
+def _module(name: str) -> Any:
+    try:
+        return importlib.import_module(name)
+    except ImportError:
+        return _MISSING
 
 
 def canonical(obj: Any) -> str | None:
@@ -55,7 +61,9 @@ def _documented(env: BuildEnvironment) -> dict[str, str]:
             if entry.objtype not in ("class", "exception", "function", "method", "property"):
                 continue
             key = canonical(import_name(name))
-            if key is not None and (key not in cached or name.startswith("rigtools.") and name.count(".") == 1):
+            if key is not None and (
+                key not in cached or name.startswith("rigtools.") and name.count(".") == 1
+            ):
                 cached[key] = name  # the front door's name wins over any other
     return cached
 
