@@ -108,7 +108,7 @@ def _public_names() -> set[str]:
             listing = True
         elif listing and line.strip() and not line.startswith("   "):
             listing = False
-        elif listing and line.strip() and not line.strip().startswith(":"):
+        elif listing and module and line.strip() and not line.strip().startswith(":"):
             names.add(canonical(import_name(f"{module}.{line.strip()}")))
     return {name for name in names if name}
 

@@ -11,6 +11,7 @@ same object. A reference to something that is not documented anywhere still fail
 from __future__ import annotations
 
 import importlib
+import inspect
 from typing import Any
 
 from docutils import nodes
@@ -40,7 +41,7 @@ def import_name(name: str) -> Any:
 def _module(name: str) -> Any:
     try:
         return importlib.import_module(name)
-    except ImportError:
+    except (ImportError, TypeError, ValueError):  # not a module, or not a name at all
         return _MISSING
 
 
@@ -77,11 +78,26 @@ def _candidates(node: pending_xref) -> list[str]:
     page_object = import_name(node["refdoc"].rsplit("/", 1)[-1])
     modules.append(getattr(page_object, "__module__", None))
     names = [target]
+    if inspect.isclass(page_object):  # a class's page: its methods and attributes by their short names
+        names.append(f"{page_object.__module__}.{page_object.__qualname__}.{target}")
     for module in filter(None, modules):
         if node.get("py:class"):
             names.append(f"{module}.{node['py:class']}.{target}")
         names.append(f"{module}.{target}")
     return names
+
+
+def _instance_attribute(name: str) -> bool:
+    """Whether ``module.Class.attr`` names an attribute the class's code sets on its instances."""
+    owner, _, attribute = name.rpartition(".")
+    cls = import_name(owner)
+    if not inspect.isclass(cls):
+        return False
+    try:
+        source = inspect.getsource(cls)
+    except (OSError, TypeError):
+        return False
+    return f"self.{attribute} " in source or f"self.{attribute}:" in source
 
 
 def resolve(app: Sphinx, env: BuildEnvironment, node: pending_xref, contnode: nodes.Element) -> Any:
@@ -92,6 +108,9 @@ def resolve(app: Sphinx, env: BuildEnvironment, node: pending_xref, contnode: no
     domain = env.domains["py"]
     for name in _candidates(node):
         obj = import_name(name)
+        if obj is _MISSING and _instance_attribute(name):
+            obj = import_name(name.rsplit(".", 1)[0])  # link to the class that sets it
+            name = name.rsplit(".", 1)[0]
         if obj is _MISSING:
             continue
         key = canonical(obj)
