@@ -1,4 +1,4 @@
-"""Sphinx configuration of the documentation site (build: ``sphinx-build -W -b html docs build/docs-html``).
+"""Sphinx configuration of the documentation site (build: ``sphinx-build -W -n -b html docs build/docs-html``).
 
 The user guide is the repository's markdown pages (MyST), the API reference is generated from the
 docstrings (autosummary + numpydoc), and the scripts of ``docs/examples/`` run as a sphinx-gallery.
@@ -9,6 +9,7 @@ import pkgutil
 import shutil
 import sys
 from pathlib import Path
+from typing import Any
 
 DOCS = Path(__file__).resolve().parent
 ROOT = DOCS.parent
@@ -31,6 +32,8 @@ extensions = [
     "numpydoc",
     "myst_parser",
     "sphinx_gallery.gen_gallery",
+    "signature_types",
+    "reexports",
 ]
 
 source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
@@ -57,33 +60,117 @@ if not _PARAMETERS_PAGE.exists() or _PARAMETERS_PAGE.read_text(encoding="utf-8")
     _PARAMETERS_PAGE.write_text(reference_table(), encoding="utf-8")  # rewritten only when it changed
 
 # --- API reference ---------------------------------------------------------------------------------
+# Two parts. The reference (api/index.rst) is the public API: the front door's names (``rigtools.__all__``,
+# one page each), what they take and return, and the main functions of rigtools.analysis and
+# rigtools.sim, each listed by hand in api/index.rst. The internals (api/internals.rst) are every other
+# module, one page per module (its members on it), for whoever changes the toolkit; an object on a
+# public page is not documented again there (one page per object: reexports.py sends references to it).
 autosummary_generate = True
 # autosummary never removes the page of a module that was renamed or deleted, and the stale page
 # then fails the build: start every build from no generated pages.
 shutil.rmtree(DOCS / "api" / "generated", ignore_errors=True)
+shutil.rmtree(DOCS / "api" / "internals", ignore_errors=True)
 # A module's __all__ says what it offers: the front door ``rigtools`` lists its names (loaded lazily
 # through the module's __getattr__) although they are defined in other modules.
 autosummary_ignore_module_all = False
 autosummary_imported_members = False
-# The packages of the reference and their modules (every module but private ones, found on disk, so
-# a new module appears without editing the docs); the template "package" lists them.
-API_PACKAGES = [
-    "rigtools.procedures",
-    "rigtools.recording",
-    "rigtools.interop",
-    "rigtools.sim",
-    "rigtools.analysis",
-    "rigtools.drivers",
+# The internals: every module of these packages but private ones (found on disk, so a new module
+# appears without editing the docs). The CLI's command modules are not in it: `rig --help` is their
+# documentation and they only parse, call the front door and print.
+INTERNAL_PACKAGES = ["rigtools", "rigtools.sim", "rigtools.analysis", "rigtools.drivers"]
+INTERNAL_EXCLUDED = ("rigtools.cli", "rigtools.commands")
+
+
+def _internal_modules() -> list[str]:
+    names = []
+    for package in INTERNAL_PACKAGES:
+        for info in pkgutil.walk_packages(importlib.import_module(package).__path__, f"{package}."):
+            parts = info.name.split(".")
+            if any(part.startswith("_") for part in parts) or info.name.startswith(INTERNAL_EXCLUDED):
+                continue
+            if package == "rigtools" and parts[1] in ("sim", "analysis", "drivers"):
+                continue  # reached as rigtools.sim etc. through their own entry
+            names.append(info.name)
+    return sorted(names)
+
+
+def _public_names() -> set[str]:
+    """module.qualname of every object api/index.rst lists (and of the front door's names)."""
+    from reexports import canonical, import_name
+
+    names = {canonical(getattr(rigtools, name)) for name in rigtools.__all__}
+    module = ""
+    listing = False
+    for line in (DOCS / "api" / "index.rst").read_text(encoding="utf-8").splitlines():
+        if line.startswith(".. currentmodule::"):
+            module = line.split("::", 1)[1].strip()
+        elif line.startswith(".. autosummary::"):
+            listing = True
+        elif listing and line.strip() and not line.startswith("   "):
+            listing = False
+        elif listing and module and line.strip() and not line.strip().startswith(":"):
+            names.add(canonical(import_name(f"{module}.{line.strip()}")))
+    return {name for name in names if name}
+
+
+PUBLIC = _public_names()
+
+
+def _write_internals() -> None:
+    folder = DOCS / "api" / "internals"
+    folder.mkdir(parents=True, exist_ok=True)
+    for name in _internal_modules():
+        is_package = hasattr(importlib.import_module(name), "__path__")
+        # a package's page is its docstring: the names its __init__ re-exports are documented once,
+        # in the module that defines them
+        members = "" if is_package else "   :members:\n   :undoc-members:\n   :show-inheritance:\n"
+        public = sorted(p.rsplit(".", 1)[1] for p in PUBLIC if p.rsplit(".", 1)[0] == name)
+        if members and public:  # documented on a public page
+            members += f"   :exclude-members: {', '.join(public)}\n"
+        title = f"``{name}``"
+        text = f"{title}\n{'=' * len(title)}\n\n.. automodule:: {name}\n{members}"
+        (folder / f"{name}.rst").write_text(text, encoding="utf-8")
+
+
+_write_internals()
+
+
+def _skip_foreign(app: object, what: str, name: str, obj: object, skip: bool, options: object) -> bool | None:
+    """Leave out a member another library defined (a scipy function a module imported is scipy's)."""
+    if what != "module" or not callable(obj):
+        return None  # a constant's __module__ is its type's ("builtins" for a float)
+    module = getattr(obj, "__module__", None)
+    if isinstance(module, str) and not module.startswith("rigtools"):
+        return True
+    return None
+
+
+def setup(app: Any) -> None:
+    app.connect("autodoc-skip-member", _skip_foreign)
+
+
+# nitpicky: every cross-reference must resolve. Sphinx's intersphinx would link the names of Python,
+# numpy, scipy, matplotlib, h5py, pandas... to their sites, but it downloads their inventories at
+# build time and neither this machine nor CI reaches the network beyond the package registry. So
+# intersphinx is off, and a reference to another package's name (or a private base class shown by
+# show-inheritance) is accepted as plain text; any reference into rigtools must resolve.
+nitpicky = True
+_EXTERNAL = (
+    "numpy|scipy|matplotlib|pandas|h5py|pydantic|sdypy|pyvisa|nidaqmx|numba|rich|distributed|dask|tornado"
+    "|abc|enum|io|logging|functools|pathlib|typing|collections|os|threading|concurrent|subprocess|json"
+)
+nitpick_ignore_regex = [
+    (r"py:.*", rf"({_EXTERNAL})(\..+)?"),
+    # Python's builtins as they appear in docstrings and signatures
+    (
+        r"py:.*",
+        r"(int|float|str|bytes|bool|dict|list|tuple|set|object|None|type|Exception|ValueError|OSError)",
+    ),
+    (r"py:class", r"rigtools\..*\._\w+"),  # a private base class named by show-inheritance
 ]
-
-
-def _submodules(package: str) -> list[str]:
-    path = importlib.import_module(package).__path__
-    return [f"{package}.{m.name}" for m in pkgutil.iter_modules(path) if not m.name.startswith("_")]
-
-
-autosummary_context = {"api_submodules": {name: _submodules(name) for name in API_PACKAGES}}
-autodoc_typehints = "none"  # numpydoc shows the documented types; signatures stay short
+autodoc_typehints = (
+    "none"  # signatures stay short; signature_types.py writes each type into the parameter list
+)
 autodoc_member_order = "bysource"
 autodoc_mock_imports: list[str] = []
 

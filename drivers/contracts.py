@@ -426,8 +426,11 @@ class AcquisitionDevice(abc.ABC):
         Raises
         ------
         DaqFault
-            A subclass naming the fault (:class:`InputOverflow`, :class:`SamplesNoLongerAvailable`,
-            :class:`OutputUnderflow`, :class:`SensorOverload`, :class:`InvalidSamples`, ...). The
+            A subclass naming the fault (:class:`~rigtools.drivers.contracts.InputOverflow`,
+            :class:`~rigtools.drivers.contracts.SamplesNoLongerAvailable`,
+            :class:`~rigtools.drivers.contracts.OutputUnderflow`,
+            :class:`~rigtools.drivers.contracts.SensorOverload`,
+            :class:`~rigtools.drivers.contracts.InvalidSamples`, ...). The
             device has already driven the output to zero and stopped.
         """
 

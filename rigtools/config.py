@@ -417,7 +417,7 @@ class SignalSourceConfig(_Section):
 
 
 class ChannelLimitConfig(_Section):
-    """Warning and abort limits on |value| in the channel's SI units (N, m/s^2, V)."""
+    """Warning and abort limits on ``|value|`` in the channel's SI units (N, m/s^2, V)."""
 
     warning: Annotated[float, BeforeValidator(parse_quantity)] = Field(gt=0)
     abort: Annotated[float, BeforeValidator(parse_quantity)] = Field(gt=0)

@@ -79,7 +79,7 @@ class PointResult:
 
     @classmethod
     def from_procedure(cls, index: int, values: Mapping[str, Any]) -> PointResult:
-        """A point of :attr:`rigtools.procedures.ProcedureResult.points` (a plain mapping)."""
+        """A point of ``points`` of a :class:`rigtools.procedures.ProcedureResult` (a plain mapping)."""
         known = {
             "fe",
             "force_amplitude",

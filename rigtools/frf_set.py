@@ -2,18 +2,18 @@
 
 An FRF set is one HDF5 file, text and numbers only:
 
-==========================  ==================================================================
-``/`` attributes            ``schema`` = ``"rigtools.frfset"``, ``schema_version`` = 1,
-                            ``created`` (ISO UTC), ``kind`` (``accelerance``, ``mobility`` or
-                            ``receptance``), ``reference`` (the excitation's name),
-                            ``responses`` (JSON list of names), ``source`` (JSON object: file,
-                            format, what the import assumed); optional ``points`` (JSON list,
-                            one per response: ``{"response": {"entity", "node", "direction"},
-                            "reference": {...}}``, UFF node numbers and direction codes)
-``/frequency``              (n_freq,) float64, Hz, uniform, increasing
-``/frf_real``, ``/frf_imag``  (n_responses, n_freq) float64, SI (response units per N)
-``/coherence``              (n_responses, n_freq) float64, NaN where the source had none
-==========================  ==================================================================
+==============================  ==================================================================
+``/`` attributes                ``schema`` = ``"rigtools.frfset"``, ``schema_version`` = 1,
+                                ``created`` (ISO UTC), ``kind`` (``accelerance``, ``mobility`` or
+                                ``receptance``), ``reference`` (the excitation's name),
+                                ``responses`` (JSON list of names), ``source`` (JSON object: file,
+                                format, what the import assumed); optional ``points`` (JSON list,
+                                one per response: ``{"response": {"entity", "node", "direction"},
+                                "reference": {...}}``, UFF node numbers and direction codes)
+``/frequency``                  (n_freq,) float64, Hz, uniform, increasing
+``/frf_real``, ``/frf_imag``    (n_responses, n_freq) float64, SI (response units per N)
+``/coherence``                  (n_responses, n_freq) float64, NaN where the source had none
+==============================  ==================================================================
 
 :func:`summary` describes a set (``rig info``); :func:`check_frf_set` validates one (``rig
 check``).

@@ -74,7 +74,7 @@ MAP_EXAMPLE = '--gap "0.3 mm:0.7 mm:0.2 mm" --force "10 N,15 N,20 N" --fe "58 Hz
 
 class StudyStopped(Exception):
     """A stop request (Ctrl-C, SIGTERM, SIGHUP) ended a study whose recording was created: the
-    recording keeps :attr:`done` finished points and ends with status ``aborted``."""
+    recording keeps its ``done`` finished points and ends with status ``aborted``."""
 
     def __init__(self, stop: Interrupted, done: int, planned: int) -> None:
         super().__init__(f"{stop.reason} after {done} of {planned} points")

@@ -343,7 +343,7 @@ def configure_process(blas_threads: int | None = 1, *, numba_cache: bool = True)
     """Set the process-wide settings the toolkit's numerical work expects. Idempotent.
 
     Call it where a process starts work: ``rig`` does; a script or a worker process using
-    :mod:`sim` or :mod:`rigtools` directly should too.
+    :mod:`rigtools.sim` or :mod:`rigtools` directly should too.
 
     Parameters
     ----------

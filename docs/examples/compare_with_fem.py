@@ -1,24 +1,19 @@
-"""Compare a recording with the FE model
-=======================================
+"""Compare a dwell with the finite-element model
+================================================
 
-    python docs/examples/compare_with_fem.py [EM.h5]
-
-Runs the FE model at every point of an EM recording (driven by the measured force harmonics,
-at the recorded gap) and prints the harmonics side by side with their differences; by default
-it first makes a short dwell with impacts on the simulated rig.
+The FE model runs at every point of a recording (driven by the measured force harmonics, at the
+recorded gap) and the harmonics are set side by side. Here the recording is a short dwell with
+impacts on the simulated rig; give your own recording's path instead. The figure overlays the
+measured (EM) and simulated (FEM) waveforms and spectra.
 """
 
-import sys
 import tempfile
 from pathlib import Path
 
 import rigtools
 
-if len(sys.argv) > 1:
-    path = Path(sys.argv[1])
-else:
-    path = Path(tempfile.mkdtemp()) / "dwell.h5"
-    rigtools.dwell("60 Hz", "15 N", path, gap="0.5 mm", record_periods=20, seed=1)
+path = Path(tempfile.mkdtemp()) / "dwell.h5"
+rigtools.dwell("60 Hz", "15 N", path, gap="0.5 mm", record_periods=20, seed=1)
 
 comparison = rigtools.compare_with_model(path)
 for point in comparison.points:
@@ -28,3 +23,5 @@ for point in comparison.points:
     print(shown[["channel", "k", "frequency_hz", "em", "fem", "diff_pct"]].to_string(index=False))
 for line in comparison.notes:
     print("note:", line)
+
+overlay = next(fig for name, fig, _ in comparison.figures() if "overlay" in name)

@@ -1,29 +1,20 @@
 """Spectrum of a recorded point
 ==============================
 
-    python docs/examples/spectrum_of_a_point.py [RECORDING.h5]
-
 The amplitude spectrum (flat-top window, peak amplitudes in SI units) of the force and the
 active shroud acceleration over the settled window of the first point; with impacts the
 acceleration shows harmonics k * fe far above the fundamental.
 """
 
-import sys
 import tempfile
 from pathlib import Path
 
-import matplotlib
-
-matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 
 import rigtools
 
-if len(sys.argv) > 1:
-    path = Path(sys.argv[1])
-else:
-    path = Path(tempfile.mkdtemp()) / "dwell.h5"
-    rigtools.dwell("60 Hz", "15 N", path, gap="0.5 mm", record_periods=20, seed=1)
+path = Path(tempfile.mkdtemp()) / "dwell.h5"  # or the path of your own recording (then skip the next line)
+rigtools.dwell("60 Hz", "15 N", path, gap="0.5 mm", record_periods=20, seed=1)
 
 with rigtools.open_recording(path) as rec:
     point = rec.points[0]
@@ -37,5 +28,3 @@ for ax, s in zip(axes, spectra, strict=True):
     print(s.channel, " ".join(f"k={k}: {s.at(k * fe):.3g}" for k in (1, 2, 3, 5)), s.units)
 axes[-1].set_xlim(0, 20 * fe)
 axes[-1].set_xlabel("frequency (Hz)")
-fig.savefig(path.with_suffix(".spectrum.png"))
-print("figure:", path.with_suffix(".spectrum.png"))

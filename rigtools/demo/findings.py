@@ -122,7 +122,7 @@ def c1_frequencies(fem: dict, am: dict, em_active: list[float]) -> Verdict:
 
 
 def c2_harmonic(fem: dict, am: dict) -> Verdict:
-    """Median |ln(FEM/AM)| of the linear shroud acceleration curves."""
+    """Median ``|ln(FEM/AM)|`` of the linear shroud acceleration curves."""
     worst = 0.0
     for loc, fem_curve in fem.items():
         r = np.abs(np.log(np.asarray(fem_curve) / np.asarray(am[loc])))

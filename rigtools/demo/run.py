@@ -37,7 +37,7 @@ def run_demo(
 
     One demo writes a folder at a time: the writer lock of the folder's marker (the recordings'
     lock, :mod:`rigtools.recording.lock`) is held for the whole run; a second demo into the same
-    folder is refused in one line (:class:`UserError`) before it touches anything.
+    folder is refused in one line (:class:`rigtools.UserError`) before it touches anything.
     """
     from rigtools.errors import UserError
     from rigtools.recording.lock import LockBusy, WriterLock

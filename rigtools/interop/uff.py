@@ -104,7 +104,7 @@ class UffFunction:
     Attributes
     ----------
     func_type
-        :data:`FUNC_TIME`, :data:`FUNC_SPECTRUM`, :data:`FUNC_FRF`, :data:`FUNC_COHERENCE`, ...
+        :data:`FUNC_TIME`, :data:`FUNC_AUTO_SPECTRUM`, :data:`FUNC_FRF`, :data:`FUNC_COHERENCE`, ...
     description
         ID line 1 (80 characters at most are kept by the format).
     response, reference

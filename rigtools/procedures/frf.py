@@ -5,7 +5,7 @@ ramp down); ``record_start`` and ``frame_samples`` say where the averaged frames
 quick check (:func:`quick_check`) is H1 of the response over the force with whole frames as
 segments (rectangular window: a burst has decayed and a periodic chirp is periodic in a frame),
 the estimate ``rig analyze`` reports, and the coherence at its peaks; the analysis of the raw
-record belongs to :mod:`analysis`.
+record belongs to :mod:`rigtools.analysis`.
 """
 
 from __future__ import annotations

@@ -294,7 +294,7 @@ class Point:
 
 
 class Recording:
-    """An open recording; use as a context manager or call :meth:`close`.
+    """An open recording; use as a context manager or call :meth:`Recording.close`.
 
     Attributes
     ----------
