@@ -255,7 +255,7 @@ class Bifurcation:
         A smooth bifurcation (located on its test function); ``False``: a non-smooth event, or a
         fold at one (the branch turns at a grazing, no multiplier at +1).
     contact_before, contact_after
-        The contact structure on either side (:meth:`ContactStructure.describe`; equal for a smooth
+        The contact structure on either side (:meth:`rigtools.sim.contact_events.ContactStructure.describe`; equal for a smooth
         bifurcation).
     converged, change, steps_per_period
         The location at the finest time step refined to, its change from the refinement before,

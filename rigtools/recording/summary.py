@@ -91,7 +91,7 @@ def point_state(rec: Recording, point: Point) -> str:
 def format_value(value: Any) -> str:
     """A parameter value written for a person.
 
-    Numbers to :data:`DIGITS` significant digits, booleans as yes/no, and an array or list longer
+    Numbers to :data:`rigtools.readable.DIGITS` significant digits, booleans as yes/no, and an array or list longer
     than :data:`ARRAY_ITEMS` summarised by its length, smallest and largest value
     (``[100 values, 0 .. 99]``).
     """
