@@ -63,7 +63,15 @@ PROCEDURE_OPTIONS: tuple[tuple[tuple[str, ...], tuple[str, ...], dict], ...] = (
     (("study",), ("--fe",), {"help": 'excitation frequency, e.g. "60 Hz"'}),
     (("dwell", "sweep"), ("--force",), {"required": True, "help": 'force amplitude F0, e.g. "15 N"'}),
     (("study",), ("--force",), {"help": 'force amplitude F0, e.g. "15 N"'}),
-    (_SINE, ("--periods",), {"type": int, "default": None, "help": "whole periods recorded per point"}),
+    (
+        _SINE,
+        ("--periods", "--record-periods"),
+        {
+            "type": int,
+            "default": None,
+            "help": "whole periods recorded per point (record_periods= in Python)",
+        },
+    ),
     (
         _SINE,
         ("--max-updates",),
