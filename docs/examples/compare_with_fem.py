@@ -18,7 +18,7 @@ if len(sys.argv) > 1:
     path = Path(sys.argv[1])
 else:
     path = Path(tempfile.mkdtemp()) / "dwell.h5"
-    rigtools.dwell("60 Hz", "15 N", path, gap="0.5 mm", record_periods=20, seed=1)
+    rigtools.dwell("60 Hz", "15 N", path, gap="0.5 mm", record_periods=20, backend="sim", seed=1)
 
 comparison = rigtools.compare_with_model(path)
 for point in comparison.points:

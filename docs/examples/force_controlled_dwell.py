@@ -33,12 +33,12 @@ def main() -> None:
             e.kind == "control" and print(f"update {e.update}: force error {e.control_error * 100:+.2f} %")
         ),
     )
-    result = dwell.run()
+    result = dwell.run()  # a RunResult, as rigtools.dwell returns
     point = result.points[0]
     print(
-        f"{result.status.value}: F1 = {point['force_amplitude_measured']:.3f} N at "
-        f"{point['drive_amplitude']:.3f} V after {point['control_updates']} updates, "
-        f"settled {point['settled']}"
+        f"{result.status}: F1 = {point.force_amplitude_measured:.3f} N at "
+        f"{point.drive_amplitude:.3f} V after {point.control_updates} updates, "
+        f"settled {point.settled}"
     )
 
 

@@ -23,7 +23,7 @@ if len(sys.argv) > 1:
     path = Path(sys.argv[1])
 else:
     path = Path(tempfile.mkdtemp()) / "frf.h5"
-    rigtools.frf_test(("20 Hz", "500 Hz"), "1 V", path, averages=4, gap="5 mm", seed=1)
+    rigtools.frf_test("20 Hz:500 Hz", "1 V", path, averages=4, gap="5 mm", backend="sim", seed=1)
 
 point = rigtools.analyze_recording(path).broadband[0]
 est = point.frf.estimate

@@ -36,14 +36,14 @@ def main() -> None:
         confirm_gap=ask_operator,
         progress=lambda e: e.kind == "point_done" and print(f"point {e.point}/{e.n_points} done"),
     )
-    result = study.run()
+    result = study.run()  # a RunResult, as rigtools.acquire_study returns
     for pt in result.points:
-        h = pt["harmonics"]["passive_shroud_accel"]["amplitude"]
+        h = pt.harmonics["passive_shroud_accel"]  # peak amplitudes of k = 1, 2, ...
         print(
-            f"gap {pt['gap'] * 1e3:.2f} mm: F1 {pt['force_amplitude_measured']:.2f} N, "
+            f"gap {pt.gap * 1e3:.2f} mm: F1 {pt.force_amplitude_measured:.2f} N, "
             f"passive shroud k=1..3: {', '.join(f'{a:.1f}' for a in h[:3])} m/s^2"
         )
-    print(result.status.value)
+    print(result.status)
 
 
 if __name__ == "__main__":

@@ -33,12 +33,12 @@ def main() -> None:
         backend=args.backend,
         overwrite=True,
     )
-    result = sweep.run()
+    result = sweep.run()  # a RunResult, as rigtools.stepped_sine returns
     for pt in result.points:
         print(
-            f"{pt['fe']:5.1f} Hz {pt['direction']:>4}: active shroud "
-            f"{pt['harmonics']['active_shroud_accel']['amplitude'][0]:7.1f} m/s^2 at F1 "
-            f"{pt['force_amplitude_measured']:.2f} N"
+            f"{pt.fe:5.1f} Hz {pt.extra['direction']:>4}: active shroud "
+            f"{pt.harmonics['active_shroud_accel'][0]:7.1f} m/s^2 at F1 "
+            f"{pt.force_amplitude_measured:.2f} N"
         )
     for direction, jumps in result.summary["jumps"].items():
         for j in jumps:

@@ -45,8 +45,8 @@ def main() -> None:
         overwrite=True,
         progress=lambda e: print(e.text) if e.kind in ("message", "point_done") else None,
     )
-    result = test.run()
-    print(f"{result.summary['accepted']} of {result.summary['hits']} hits accepted; {result.status.value}")
+    result = test.run()  # a RunResult, as rigtools.tap_test returns
+    print(f"{result.summary['accepted']} of {result.summary['hits']} hits accepted; {result.status}")
     res = tap_analysis(out, f_min=20, f_max=1600, n_modes=3)
     for m in res.modes[result.summary["response"]].modes:
         print(f"mode {m.frequency_hz:8.2f} Hz  damping {m.damping_ratio * 100:.2f} %")
