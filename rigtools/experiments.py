@@ -119,7 +119,12 @@ _MODELS = {
 def _did_you_mean(backend: object) -> str:
     from rigtools.keywords import did_you_mean
 
-    return did_you_mean(backend, ("sim", "nidaq")) if isinstance(backend, str) else ""
+    if not isinstance(backend, str):
+        return ""
+    for word in ("sim", "nidaq"):  # the recordings' names of the backends: "simulated", "nidaqmx"
+        if backend.lower().startswith(word):
+            return f"; did you mean {word!r}?"
+    return did_you_mean(backend, ("sim", "nidaq"))
 
 
 def dwell(
