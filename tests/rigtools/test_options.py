@@ -190,8 +190,14 @@ def test_output_path_a_link_to_a_file_still_to_be_made_exists(tmp_path):
     over it after the whole run, in a line of h5py's internals), written through with it."""
     link = tmp_path / "run.h5"
     link.symlink_to("elsewhere.h5")
-    assert _refused(options.output_path, str(link)) == (
-        f"--out = {str(link)!r} exists; give --overwrite to replace it"
+    from rigtools.errors import command_line
+
+    with command_line():  # the command's words (a script's: overwrite=True)
+        assert _refused(options.output_path, str(link)) == (
+            f"--out = {str(link)!r} exists; give --overwrite to replace it"
+        )
+    assert _refused(options.output_path, str(link), False, "out").endswith(
+        "exists; give overwrite=True to replace it"
     )
     assert options.output_path(str(link), overwrite=True) == link
 
