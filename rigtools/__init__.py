@@ -24,11 +24,11 @@ _API: dict[str, tuple[str, str]] = {
     "load_rig": ("rigtools.config", "load_rig"),
     "dwell": ("rigtools.experiments", "dwell"),
     "stepped_sine": ("rigtools.experiments", "stepped_sine"),
-    "study": ("rigtools.experiments", "study"),
+    "acquire_study": ("rigtools.experiments", "acquire_study"),
     "frf_test": ("rigtools.experiments", "frf_test"),
     "tap_test": ("rigtools.experiments", "tap_test"),
-    "RunResult": ("rigtools.experiments", "RunResult"),
-    "PointResult": ("rigtools.experiments", "PointResult"),
+    "RunResult": ("rigtools.procedures.result", "RunResult"),
+    "PointResult": ("rigtools.procedures.result", "PointResult"),
     "open_recording": ("rigtools.recording", "open_recording"),
     "analyze_recording": ("rigtools.analyze", "analyze_recording"),
     "spectrum": ("rigtools.workflows", "spectrum"),
@@ -42,6 +42,11 @@ _API: dict[str, tuple[str, str]] = {
     "UserError": ("rigtools.errors", "UserError"),
 }
 __all__ = list(_API)
+# Old names kept working, with a DeprecationWarning on use: name -> (module, attribute, why).
+_DEPRECATED: dict[str, tuple[str, str]] = {
+    # `rig study` is the model's study (simulate_study): `rigtools.study` named the rig's
+    "study": ("rigtools.experiments", "study"),
+}
 
 
 def __getattr__(name: str) -> object:
@@ -52,6 +57,11 @@ def __getattr__(name: str) -> object:
         value = getattr(importlib.import_module(module), attribute)
         globals()[name] = value  # the next look-up is a plain attribute
         return value
+    if name in _DEPRECATED:  # not cached: the function warns at each call
+        import importlib
+
+        module, attribute = _DEPRECATED[name]
+        return getattr(importlib.import_module(module), attribute)
     raise AttributeError(f"module 'rigtools' has no attribute {name!r}")
 
 

@@ -962,7 +962,7 @@ def analyze_recording(
     --------
     >>> import rigtools, tempfile, pathlib
     >>> out = pathlib.Path(tempfile.mkdtemp()) / "frf.h5"
-    >>> run = rigtools.frf_test(("20 Hz", "500 Hz"), "1 V", out, frame="0.5 s", averages=2, gap="5 mm")
+    >>> run = rigtools.frf_test(("20 Hz", "500 Hz"), "1 V", out, frame="0.5 s", averages=2, gap="5 mm", backend="sim")
     >>> run.status
     'finished'
     >>> analysis = rigtools.analyze_recording(run.file)

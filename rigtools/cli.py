@@ -316,7 +316,7 @@ def main(argv: list[str] | None = None) -> int:
             sys.stdout = open(os.devnull, "w")  # noqa: SIM115 - lives as long as the process
         configure_console()
         try:
-            with handle_stop_signals(ignore_after_stop=True):
+            with handle_stop_signals(ignore_after_stop=True), errors.command_line():
                 code = _run(argv)
                 sys.stdout.flush()
             return code

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import signal as _signal
+from collections.abc import Iterator
+from contextlib import contextmanager
 
 #: Exit statuses of ``rig`` (also in ``rig --help``).
 EXIT_OK = 0
@@ -112,6 +114,86 @@ def one_line(
     return text if limit is None or len(text) <= limit else text[: limit - 3] + "..."
 
 
+# Errors advise in the caller's language: `rig`'s entry point (rigtools.cli.main) runs the command
+# inside command_line(); everything else (a script, a notebook, the tests) is a script. A plain
+# flag, not a context variable: the advice may be written in a worker thread of the command.
+_command_line = False
+
+
+@contextmanager
+def command_line() -> Iterator[None]:
+    """Within it, errors advise in ``rig``'s words (``--backend sim``); outside, in a script's
+    (``backend="sim"``). ``rig``'s entry point runs every command inside it."""
+    global _command_line
+    before, _command_line = _command_line, True
+    try:
+        yield
+    finally:
+        _command_line = before
+
+
+def on_command_line() -> bool:
+    """True while ``rig`` runs a command (:func:`command_line`), False in a script."""
+    return _command_line
+
+
+def option(name: str, value: object = None, *, flag: str | None = None) -> str:
+    """How the caller gives option ``name``, for an error's advice: ``--name VALUE`` on the
+    command line, ``name=VALUE`` in a script.
+
+    Parameters
+    ----------
+    name
+        The keyword of the Python function (``"backend"``, ``"record_periods"``).
+    value
+        The value advised; ``True``: a switch (``--overwrite`` / ``overwrite=True``); ``None``:
+        the name alone (``--rig`` / ``rig``).
+    flag
+        The command line's option when it is not ``--`` and the name with ``-`` for ``_``
+        (``"--periods"`` for ``record_periods``).
+
+    Examples
+    --------
+    >>> from rigtools.errors import option, command_line
+    >>> option("backend", "sim"), option("overwrite", True), option("frf", "FRF.h5")
+    ('backend="sim"', 'overwrite=True', 'frf="FRF.h5"')
+    >>> with command_line():
+    ...     option("backend", "sim"), option("gap", "0.5 mm"), option("record_periods", 10, flag="--periods")
+    ('--backend sim', '--gap "0.5 mm"', '--periods 10')
+    """
+    if _command_line:
+        cli = flag or "--" + name.replace("_", "-")
+        if value is None or value is True:
+            return cli
+        text = str(value)
+        return f'{cli} "{text}"' if " " in text else f"{cli} {text}"
+    if value is None:
+        return name
+    return f"{name}={value!r}".replace("'", '"') if isinstance(value, str) else f"{name}={value!r}"
+
+
+# Advice the drivers write in rig's words (they cannot import this module): a script's words.
+_SCRIPT_WORDS = {"--backend sim": 'backend="sim"', "--backend nidaq": 'backend="nidaq"'}
+
+
+def in_callers_words(text: str) -> str:
+    """``text`` with the command line's advice (``use --backend sim``) in a script's words
+    (``use backend="sim"``) when the caller is a script; unchanged on the command line."""
+    if _command_line:
+        return text
+    for cli, script in _SCRIPT_WORDS.items():
+        text = text.replace(cli, script)
+    return text
+
+
+def reword(error: BaseException) -> BaseException:
+    """``error`` with its one-argument message in the caller's words (:func:`in_callers_words`),
+    for the doors of a script to re-raise."""
+    if len(error.args) == 1 and isinstance(error.args[0], str):
+        error.args = (in_callers_words(error.args[0]),)
+    return error
+
+
 class UserError(Exception):
     """Bad input from the user (config, command line, file). Exit status 2 by default.
 
@@ -121,7 +203,7 @@ class UserError(Exception):
     --------
     >>> import rigtools
     >>> try:
-    ...     rigtools.dwell("60 Hz", "15 Hz", "never-written.h5")
+    ...     rigtools.dwell("60 Hz", "15 Hz", "never-written.h5", backend="sim")
     ... except rigtools.UserError as exc:
     ...     print(exc)
     force = '15 Hz': '15 Hz' is a frequency, expected a force

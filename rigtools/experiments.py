@@ -1,231 +1,55 @@
 """Experiments on the rig, as a lab script runs them: one function per procedure.
 
-:func:`dwell`, :func:`stepped_sine`, :func:`study`, :func:`frf_test` and :func:`tap_test` run
-the procedures of :mod:`rigtools.procedures` on the NI rig (``backend="nidaq"``) or on the
-simulated rig (``backend="sim"``, the FE model behind a simulated shaker and DAQ), write one
-recording each and return a :class:`RunResult`. Every parameter takes a quantity string as the
-CLI does (``"60 Hz"``, ``"0.5 mm"``, ``"1 V"``) or an SI float; a bad one is one
-:class:`rigtools.errors.UserError` line naming the parameter, the value and the allowed range.
-The parameters, their units, defaults and bounds: :func:`rigtools.procedures.reference_table`.
+:func:`dwell`, :func:`stepped_sine`, :func:`acquire_study`, :func:`frf_test` and :func:`tap_test`
+(``rig acquire dwell|sweep|study|frf|tap``) run the procedures of :mod:`rigtools.procedures` on
+the NI rig (``backend="nidaq"``) or on the simulated rig (``backend="sim"``, the FE model behind
+a simulated shaker and DAQ), write one recording each and return a :class:`RunResult`, the
+result every procedure returns.
+
+The backend has no default here: a script that measures names it. A script moves between a
+laptop and the lab machine; a default either way runs the wrong thing on one of them (a
+simulation recorded where a measurement was meant, or the shaker driven by a script written
+for the simulated rig), so a missing ``backend`` is one error naming both. (``rig acquire``
+defaults to ``--backend nidaq``: its operator stands at the rig; without NI-DAQmx it says so in
+one line and offers ``--backend sim``.)
+
+Every parameter takes a quantity string as the CLI does (``"60 Hz"``, ``"0.5 mm"``, ``"1 V"``)
+or an SI float; the CLI's range strings (``frequencies="62 Hz:72 Hz:2 Hz"``,
+``band="20 Hz:500 Hz"``) and its words (``periods=``, ``max_updates=``) are accepted too
+(:mod:`rigtools.keywords`). A bad value is one :class:`rigtools.errors.UserError` line naming
+the parameter, the value and the allowed range; an unknown keyword names the accepted ones and
+the closest. The parameters, their units, defaults and bounds:
+:func:`rigtools.procedures.reference_table`.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from rigtools.procedures.result import PointResult, RunResult
+
 if TYPE_CHECKING:
-    import pandas as pd
-
-    from rigtools.analyze import RecordingAnalysis
     from rigtools.config import RigConfig
-    from rigtools.procedures.base import ProcedureResult, ProgressEvent
-    from rigtools.recording.reader import Recording
+    from rigtools.procedures.base import ProgressEvent
 
+__all__ = [
+    "PointResult",
+    "RunResult",
+    "acquire_study",
+    "dwell",
+    "frf_test",
+    "stepped_sine",
+    "study",
+    "tap_test",
+]
 
-@dataclass(frozen=True)
-class PointResult:
-    """What one recorded point measured (SI units).
-
-    Attributes
-    ----------
-    index
-        Point number in the recording (0-based).
-    fe
-        Excitation frequency, Hz (``None`` for broadband points: FRF and tap tests).
-    force
-        Force amplitude asked for (F0, fundamental), N, or ``None``.
-    gap
-        Shroud gap, m, or ``None`` when not set by the procedure.
-    force_amplitude_measured
-        Fundamental of the measured force, N (peak), or ``None``.
-    drive_amplitude
-        Drive voltage amplitude at the end of force control, V peak, or ``None``.
-    settled
-        The response reached its steady state before the record (``None`` if not judged).
-    control_updates
-        Force-control updates made, or ``None``.
-    record_start
-        Start of the settled record window in the point, s (``None``: the whole point).
-    record_samples
-        Samples in the settled record window (``None``: the whole point).
-    harmonics
-        ``{channel: (peak amplitudes of k = 1, 2, ...)}`` in the channel's SI unit (sine points).
-    extra
-        Every other parameter the procedure reported, by its vocabulary name.
-
-    Examples
-    --------
-    >>> from rigtools.experiments import PointResult
-    >>> p = PointResult.from_procedure(0, {"fe": 60.0, "force_amplitude": 15.0, "record_start": 1.5})
-    >>> p.fe, p.force, p.record_start
-    (60.0, 15.0, 1.5)
-    """
-
-    index: int
-    fe: float | None = None
-    force: float | None = None
-    gap: float | None = None
-    force_amplitude_measured: float | None = None
-    drive_amplitude: float | None = None
-    settled: bool | None = None
-    control_updates: int | None = None
-    record_start: float | None = None
-    record_samples: int | None = None
-    harmonics: Mapping[str, tuple[float, ...]] = field(default_factory=dict)
-    extra: Mapping[str, Any] = field(default_factory=dict)
-
-    @classmethod
-    def from_procedure(cls, index: int, values: Mapping[str, Any]) -> PointResult:
-        """A point of ``points`` of a :class:`rigtools.procedures.ProcedureResult` (a plain mapping)."""
-        known = {
-            "fe",
-            "force_amplitude",
-            "gap",
-            "force_amplitude_measured",
-            "drive_amplitude",
-            "settled",
-            "control_updates",
-            "record_start",
-            "record_samples",
-            "harmonics",
-        }
-
-        def number(name: str) -> float | None:
-            v = values.get(name)
-            return None if v is None else float(v)
-
-        harmonics = {
-            str(name): tuple(float(a) for a in h["amplitude"])
-            for name, h in (values.get("harmonics") or {}).items()
-            if isinstance(h, Mapping) and "amplitude" in h
-        }
-        return cls(
-            index=index,
-            fe=number("fe"),
-            force=number("force_amplitude"),
-            gap=number("gap"),
-            force_amplitude_measured=number("force_amplitude_measured"),
-            drive_amplitude=number("drive_amplitude"),
-            settled=None if values.get("settled") is None else bool(values["settled"]),
-            control_updates=None if values.get("control_updates") is None else int(values["control_updates"]),
-            record_start=number("record_start"),
-            record_samples=None if values.get("record_samples") is None else int(values["record_samples"]),
-            harmonics=harmonics,
-            extra={k: v for k, v in values.items() if k not in known},
-        )
-
-    def to_dict(self) -> dict[str, Any]:
-        """Plain Python (JSON-ready apart from what ``extra`` holds)."""
-        return {
-            "index": self.index,
-            "fe": self.fe,
-            "force": self.force,
-            "gap": self.gap,
-            "force_amplitude_measured": self.force_amplitude_measured,
-            "drive_amplitude": self.drive_amplitude,
-            "settled": self.settled,
-            "control_updates": self.control_updates,
-            "record_start": self.record_start,
-            "record_samples": self.record_samples,
-            "harmonics": {k: list(v) for k, v in self.harmonics.items()},
-            **dict(self.extra),
-        }
-
-
-@dataclass(frozen=True)
-class RunResult:
-    """How a procedure ended and what it recorded.
-
-    Attributes
-    ----------
-    procedure
-        ``"dwell"``, ``"stepped sine"``, ``"study"``, ``"frf test"`` or ``"tap test"``.
-    status
-        ``"finished"``, ``"aborted"`` (a stop request) or ``"failed"``.
-    reason
-        Why it stopped early (empty when finished).
-    file
-        The recording written.
-    points
-        :class:`PointResult` of each point, in recording order.
-    summary
-        What the procedure concluded (e.g. ``jumps`` of a stepped sine, ``modes`` of a tap test).
-
-    Examples
-    --------
-    >>> import rigtools, tempfile, pathlib
-    >>> out = pathlib.Path(tempfile.mkdtemp()) / "sweep.h5"
-    >>> run = rigtools.stepped_sine(["55 Hz", "60 Hz"], "5 N", out, gap="5 mm", record_periods=5)
-    >>> table = run.to_dataframe()  # one row per point, SI units
-    >>> list(table["fe"]), bool(table["settled"].all())
-    ([55.0, 60.0], True)
-    """
-
-    procedure: str
-    status: str
-    reason: str
-    file: Path
-    points: tuple[PointResult, ...]
-    summary: Mapping[str, Any] = field(default_factory=dict)
-
-    @classmethod
-    def from_procedure(cls, procedure: str, result: ProcedureResult, out: str | Path) -> RunResult:
-        """The typed form of a :class:`rigtools.procedures.ProcedureResult`; the points of a
-        procedure that reports none (FRF and tap tests) are read back from its recording."""
-        file = Path(result.file or out)
-        points = list(result.points)
-        if not points and file.is_file():
-            from rigtools.recording import RecordingError, open_recording
-
-            try:
-                with open_recording(file) as rec:
-                    points = [dict(p.params) for p in rec.points if p.complete]
-            except RecordingError:
-                points = []
-        return cls(
-            procedure=procedure,
-            status=result.status.value,
-            reason=result.reason,
-            file=file,
-            points=tuple(PointResult.from_procedure(i, p) for i, p in enumerate(points)),
-            summary=dict(result.summary),
-        )
-
-    def open(self) -> Recording:
-        """The recording (:func:`rigtools.open_recording`); use it in a ``with`` block."""
-        from rigtools.recording import open_recording
-
-        return open_recording(self.file)
-
-    def analyze(self, **options: Any) -> RecordingAnalysis:
-        """:func:`rigtools.analyze` of the recording."""
-        from rigtools.analyze import analyze_recording
-
-        return analyze_recording(self.file, **options)
-
-    def to_dict(self) -> dict[str, Any]:
-        """Plain Python: the fields, each point by :meth:`PointResult.to_dict`."""
-        return {
-            "procedure": self.procedure,
-            "status": self.status,
-            "reason": self.reason,
-            "file": str(self.file),
-            "points": [p.to_dict() for p in self.points],
-            "summary": dict(self.summary),
-        }
-
-    def to_dataframe(self) -> pd.DataFrame:
-        """One row per point: the scalar fields (SI units), indexed by point."""
-        import pandas as pd
-
-        rows = [
-            {k: v for k, v in p.to_dict().items() if not isinstance(v, (dict, list, tuple))}
-            for p in self.points
-        ]
-        return pd.DataFrame(rows).set_index("index") if rows else pd.DataFrame()
+#: What a missing backend says (a script: the front door is not the command line).
+NO_BACKEND = (
+    'backend: not given; a measurement names its backend: backend="nidaq" (the NI rig) or '
+    'backend="sim" (the simulated rig)'
+)
 
 
 def _config(rig: Any) -> RigConfig:
@@ -234,38 +58,73 @@ def _config(rig: Any) -> RigConfig:
     return rig if isinstance(rig, RigConfig) else load_rig(rig)
 
 
+# the keywords every procedure of the front door takes besides its parameter model's fields
+_NAMED = ("out", "rig", "backend", "overwrite", "progress", "seed")
+
+
 def _run(
-    procedure: str,
+    function: str,
     cls_name: str,
     params: dict[str, Any],
     out: str | Path,
     rig: Any,
-    backend: str,
+    backend: str | None,
     overwrite: bool,
     progress: Callable[[ProgressEvent], None] | None,
     seed: int | None,
     **kwargs: Any,
 ) -> RunResult:
     from rigtools import procedures
-    from rigtools.errors import UserError
+    from rigtools.errors import UserError, reword
+    from rigtools.keywords import in_front_door_words
     from rigtools.options import seed as seed_option
 
-    if backend not in ("sim", "nidaq"):
-        raise UserError(f"backend = {backend!r}: use 'sim' (the simulated rig) or 'nidaq' (the NI rig)")
-    seed = seed_option(seed, "seed")
     cls = getattr(procedures, cls_name)
-    params = {k: v for k, v in params.items() if v is not None}
-    proc = cls(
-        _config(rig),
-        params,
-        out,
-        backend=backend,
-        overwrite=overwrite,
-        progress=progress,
-        seed=seed,
-        **kwargs,
-    )
-    return RunResult.from_procedure(procedure, proc.run(), out)
+    model = getattr(procedures, _MODELS[cls_name])
+    params = in_front_door_words(f"rigtools.{function}", params, model.model_fields, (*_NAMED, *kwargs))
+    if backend is None:
+        raise UserError(NO_BACKEND)
+    if backend not in ("sim", "nidaq"):
+        raise UserError(
+            f'backend = {backend!r}: use "sim" (the simulated rig) or "nidaq" (the NI rig)'
+            f"{_did_you_mean(backend)}"
+        )
+    seed = seed_option(seed, "seed")
+    try:
+        proc = cls(
+            _config(rig),
+            params,
+            out,
+            backend=backend,
+            overwrite=overwrite,
+            progress=progress,
+            seed=seed,
+            **kwargs,
+        )
+        return proc.run()
+    except Exception as exc:  # re-raised, its advice in a script's words
+        reword(exc)
+        raise
+
+
+_MODELS = {
+    "SineDwell": "DwellParameters",
+    "SteppedSine": "SweepParameters",
+    "RigStudy": "StudyParameters",
+    "FrfTest": "FrfParameters",
+    "TapTest": "TapParameters",
+}
+
+
+def _did_you_mean(backend: object) -> str:
+    from rigtools.keywords import did_you_mean
+
+    if not isinstance(backend, str):
+        return ""
+    for word in ("sim", "nidaq"):  # the recordings' names of the backends: "simulated", "nidaqmx"
+        if backend.lower().startswith(word):
+            return f"; did you mean {word!r}?"
+    return did_you_mean(backend, ("sim", "nidaq"))
 
 
 def dwell(
@@ -274,9 +133,9 @@ def dwell(
     out: str | Path,
     *,
     gap: float | str | None = None,
-    record_periods: int = 60,
+    record_periods: int | None = None,
     rig: Any = None,
-    backend: str = "sim",
+    backend: str | None = None,
     overwrite: bool = False,
     progress: Callable[[ProgressEvent], None] | None = None,
     seed: int | None = None,
@@ -295,11 +154,13 @@ def dwell(
     gap
         Shroud gap, ``"0.5 mm"`` or m; ``None``: as set (the rig file's on the simulated rig).
     record_periods
-        Periods recorded once settled.
+        Periods recorded once settled (``None``: 60); ``periods=``, the CLI's word, is the same.
     rig
         A :class:`rigtools.config.RigConfig`, a rig file, or ``None`` for the calibrated default.
     backend
-        ``"sim"`` (the simulated rig) or ``"nidaq"`` (the NI rig).
+        ``"nidaq"`` (the NI rig) or ``"sim"`` (the simulated rig); no default: a script that
+        measures names its backend (a default would run the simulation where a measurement was
+        meant, or drive the shaker from a script written for the simulated rig).
     overwrite
         Replace ``out`` if it exists.
     progress
@@ -307,7 +168,9 @@ def dwell(
     seed
         Noise seed of the simulated rig (``None``: 0, so that two runs record the same noise).
     **params
-        More :class:`rigtools.procedures.DwellParameters` (``k_max``, ``control={...}``).
+        More :class:`rigtools.procedures.DwellParameters` (``k_max``, ``control={...}``), or
+        the CLI's words (``periods``, ``max_updates``); an unknown keyword is refused naming the
+        accepted ones and the closest.
 
     Returns
     -------
@@ -318,7 +181,7 @@ def dwell(
     --------
     >>> import rigtools, tempfile, pathlib
     >>> out = pathlib.Path(tempfile.mkdtemp()) / "dwell.h5"
-    >>> run = rigtools.dwell("60 Hz", "5 N", out, gap="5 mm", record_periods=6, seed=1)
+    >>> run = rigtools.dwell("60 Hz", "5 N", out, gap="5 mm", record_periods=6, backend="sim", seed=1)
     >>> run.status, run.points[0].settled
     ('finished', True)
     >>> abs(run.points[0].force_amplitude_measured - 5.0) < 0.05  # force control within 1 %
@@ -329,15 +192,15 @@ def dwell(
 
 
 def stepped_sine(
-    frequencies: Sequence[float | str],
+    frequencies: Sequence[float | str] | str,
     force: float | str,
     out: str | Path,
     *,
     gap: float | str | None = None,
     direction: str = "up",
-    record_periods: int = 30,
+    record_periods: int | None = None,
     rig: Any = None,
-    backend: str = "sim",
+    backend: str | None = None,
     overwrite: bool = False,
     progress: Callable[[ProgressEvent], None] | None = None,
     seed: int | None = None,
@@ -348,7 +211,8 @@ def stepped_sine(
     Parameters
     ----------
     frequencies
-        Step frequencies (``["62 Hz", "64 Hz"]`` or Hz), at least two.
+        Step frequencies, at least two: ``["62 Hz", "64 Hz"]``, Hz, or the CLI's
+        ``"62 Hz:72 Hz:2 Hz"`` (start:stop:step, stop included) or ``"62 Hz,65 Hz"``.
     force
         Force amplitude F0 at every step: ``"15 N"`` or N.
     out
@@ -358,11 +222,12 @@ def stepped_sine(
     direction
         ``"up"``, ``"down"`` or ``"both"`` (up, then down: hysteresis and jumps).
     record_periods
-        Periods recorded at each step.
+        Periods recorded at each step (``None``: 30); ``periods=`` is the same.
     rig, backend, overwrite, progress, seed
-        As :func:`dwell`.
+        As :func:`dwell` (``backend`` must be given).
     **params
-        More :class:`rigtools.procedures.SweepParameters` (``jump_threshold``, ``response``, ...).
+        More :class:`rigtools.procedures.SweepParameters` (``jump_threshold``, ``response``, ...)
+        or the CLI's words (``periods``, ``max_updates``).
 
     Returns
     -------
@@ -373,47 +238,49 @@ def stepped_sine(
     --------
     >>> import rigtools, tempfile, pathlib
     >>> out = pathlib.Path(tempfile.mkdtemp()) / "sweep.h5"
-    >>> run = rigtools.stepped_sine(["55 Hz", "60 Hz"], "5 N", out, gap="5 mm", record_periods=5)
+    >>> run = rigtools.stepped_sine("55 Hz:60 Hz:5 Hz", "5 N", out, gap="5 mm", periods=5, backend="sim")
     >>> [p.fe for p in run.points]
     [55.0, 60.0]
     """
     p = {
-        "frequencies": tuple(frequencies),
+        "frequencies": frequencies if isinstance(frequencies, str) else tuple(frequencies),
         "force": force,
         "gap": gap,
         "direction": direction,
         "record_periods": record_periods,
         **params,
     }
-    return _run("stepped sine", "SteppedSine", p, out, rig, backend, overwrite, progress, seed)
+    return _run("stepped_sine", "SteppedSine", p, out, rig, backend, overwrite, progress, seed)
 
 
-def study(
+def acquire_study(
     kind: str,
-    values: Sequence[float | str],
+    values: Sequence[float | str] | str,
     out: str | Path,
     *,
     fe: float | str | None = None,
     force: float | str | None = None,
     gap: float | str | None = None,
     direction: str = "up",
-    record_periods: int = 30,
+    record_periods: int | None = None,
     resume: bool = False,
     rig: Any = None,
-    backend: str = "sim",
+    backend: str | None = None,
     overwrite: bool = False,
     progress: Callable[[ProgressEvent], None] | None = None,
     seed: int | None = None,
     **params: Any,
 ) -> RunResult:
-    """A force-controlled study over the gap, the force amplitude or the excitation frequency.
+    """A force-controlled study on the rig over the gap, the force amplitude or the excitation
+    frequency (``rig acquire study``; the model's study, ``rig study``, is :func:`rigtools.simulate_study`).
 
     Parameters
     ----------
     kind
         The swept parameter: ``"gap"``, ``"force"`` or ``"frequency"``.
     values
-        The swept values, in the unit of ``kind`` (``["0.3 mm", "0.6 mm"]``, or SI floats).
+        The swept values, in the unit of ``kind``: ``["0.3 mm", "0.6 mm"]``, SI floats, or the
+        CLI's ``"0.3 mm:0.9 mm:0.3 mm"`` (start:stop:step) or ``"0.3 mm,0.6 mm"``.
     out
         Recording to write.
     fe, force, gap
@@ -421,13 +288,14 @@ def study(
     direction
         ``"up"``, ``"down"`` or ``"both"``.
     record_periods
-        Periods recorded at each point.
+        Periods recorded at each point (``None``: 30); ``periods=`` is the same.
     resume
         Continue an aborted study in ``out`` after its last complete point.
     rig, backend, overwrite, progress, seed
-        As :func:`dwell`. On the NI rig a gap study asks the operator to set each gap.
+        As :func:`dwell` (``backend`` must be given). On the NI rig a gap study asks the
+        operator to set each gap.
     **params
-        More :class:`rigtools.procedures.StudyParameters`.
+        More :class:`rigtools.procedures.StudyParameters`, or the CLI's words.
 
     Returns
     -------
@@ -438,13 +306,13 @@ def study(
     --------
     >>> import rigtools, tempfile, pathlib
     >>> out = pathlib.Path(tempfile.mkdtemp()) / "study.h5"
-    >>> run = rigtools.study("gap", ["4 mm", "5 mm"], out, fe="60 Hz", force="5 N", record_periods=5)
+    >>> run = rigtools.acquire_study("gap", "4 mm:5 mm:1 mm", out, fe="60 Hz", force="5 N", periods=5, backend="sim")
     >>> [round(p.gap * 1e3, 3) for p in run.points]
     [4.0, 5.0]
     """
     p = {
         "kind": kind,
-        "values": tuple(values),
+        "values": values if isinstance(values, str) else tuple(values),
         "fe": fe,
         "force": force,
         "gap": gap,
@@ -452,11 +320,41 @@ def study(
         "record_periods": record_periods,
         **params,
     }
-    return _run("study", "RigStudy", p, out, rig, backend, overwrite, progress, seed, resume=resume)
+    return _run("acquire_study", "RigStudy", p, out, rig, backend, overwrite, progress, seed, resume=resume)
+
+
+def study(*args: Any, **kwargs: Any) -> RunResult:
+    """Deprecated name of :func:`acquire_study` (the study on the rig, ``rig acquire study``).
+
+    ``rig study`` is the model's study, :func:`rigtools.simulate_study`; ``rigtools.study`` was
+    the rig's, so the one word named two things. It still works, with a ``DeprecationWarning``.
+
+    Examples
+    --------
+    >>> import warnings, rigtools
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter("always")
+    ...     try:
+    ...         rigtools.study("gap", ["1 mm"], "never-written.h5")
+    ...     except rigtools.UserError as exc:
+    ...         print(exc)
+    backend: not given; a measurement names its backend: backend="nidaq" (the NI rig) or backend="sim" (the simulated rig)
+    >>> str(caught[0].message).split(":")[0]
+    'rigtools.study is deprecated'
+    """
+    import warnings
+
+    warnings.warn(
+        "rigtools.study is deprecated: the study on the rig (rig acquire study) is "
+        "rigtools.acquire_study; the model's study (rig study) is rigtools.simulate_study",
+        DeprecationWarning,
+        stacklevel=2,
+    )
+    return acquire_study(*args, **kwargs)
 
 
 def frf_test(
-    band: tuple[float | str, float | str],
+    band: tuple[float | str, float | str] | str,
     level: float | str,
     out: str | Path,
     *,
@@ -465,7 +363,7 @@ def frf_test(
     averages: int = 10,
     gap: float | str | None = None,
     rig: Any = None,
-    backend: str = "sim",
+    backend: str | None = None,
     overwrite: bool = False,
     progress: Callable[[ProgressEvent], None] | None = None,
     seed: int | None = None,
@@ -476,7 +374,7 @@ def frf_test(
     Parameters
     ----------
     band
-        ``(low, high)``: ``("20 Hz", "500 Hz")`` or Hz.
+        ``(low, high)``: ``("20 Hz", "500 Hz")``, Hz, or the CLI's ``"20 Hz:500 Hz"``.
     level
         Drive level: the chirp's peak or the burst's rms within the burst, ``"1 V"`` or V.
     out
@@ -490,32 +388,33 @@ def frf_test(
     gap
         Shroud gap; open it (e.g. ``"5 mm"``) for the linear FRF.
     rig, backend, overwrite, progress, seed
-        As :func:`dwell`.
+        As :func:`dwell` (``backend`` must be given).
     **params
         More :class:`rigtools.procedures.FrfParameters`.
 
     Returns
     -------
     RunResult
-        One point holding the frames; :func:`rigtools.analyze` gives the FRF and modes.
+        One point holding the frames; :func:`rigtools.analyze_recording` (or
+        :meth:`RunResult.analyze`) gives the FRF and modes.
 
     Examples
     --------
     >>> import rigtools, tempfile, pathlib
     >>> out = pathlib.Path(tempfile.mkdtemp()) / "frf.h5"
-    >>> run = rigtools.frf_test(("20 Hz", "500 Hz"), "1 V", out, frame="0.5 s", averages=2, gap="5 mm")
+    >>> run = rigtools.frf_test("20 Hz:500 Hz", "1 V", out, frame="0.5 s", averages=2, gap="5 mm", backend="sim")
     >>> run.status, run.points[0].extra["signal"]
     ('finished', 'chirp')
     """
     p = {
-        "band": tuple(band),
+        "band": band if isinstance(band, str) else tuple(band),
         "level": level,
         "signal": signal,
         "frame": frame,
         "averages": averages,
         "gap": gap,
     }
-    return _run("frf test", "FrfTest", {**p, **params}, out, rig, backend, overwrite, progress, seed)
+    return _run("frf_test", "FrfTest", {**p, **params}, out, rig, backend, overwrite, progress, seed)
 
 
 def tap_test(
@@ -526,7 +425,7 @@ def tap_test(
     hits: int = 5,
     gap: float | str | None = None,
     rig: Any = None,
-    backend: str = "sim",
+    backend: str | None = None,
     overwrite: bool = False,
     progress: Callable[[ProgressEvent], None] | None = None,
     seed: int | None = None,
@@ -548,7 +447,7 @@ def tap_test(
     gap
         Shroud gap; open it for the blade alone.
     rig, backend, overwrite, progress, seed
-        As :func:`dwell`.
+        As :func:`dwell` (``backend`` must be given).
     **params
         More :class:`rigtools.procedures.TapParameters` (``frame``, ``trigger``, ...).
 
@@ -561,9 +460,9 @@ def tap_test(
     --------
     >>> import rigtools, tempfile, pathlib
     >>> out = pathlib.Path(tempfile.mkdtemp()) / "tap.h5"
-    >>> run = rigtools.tap_test("85 mm", out, hits=2, gap="5 mm", seed=1)
+    >>> run = rigtools.tap_test("85 mm", out, hits=2, gap="5 mm", backend="sim", seed=1)
     >>> run.status, len(run.points), run.summary["accepted"]
     ('finished', 2, 2)
     """
     p = {"position": position, "blade": blade, "hits": hits, "gap": gap, **params}
-    return _run("tap test", "TapTest", p, out, rig, backend, overwrite, progress, seed)
+    return _run("tap_test", "TapTest", p, out, rig, backend, overwrite, progress, seed)

@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from rigtools.errors import UserError, one_line
+from rigtools.errors import UserError, one_line, option
 from rigtools.interop.uff import direction_text
 
 SCHEMA = "rigtools.frfset"
@@ -90,7 +90,7 @@ def write_frf_set(path: str | Path, frf_set: FRFSet, *, overwrite: bool = False)
 
     path = Path(path)
     if path.exists() and not overwrite:
-        raise UserError(f"{path} exists (give --overwrite to replace it)")
+        raise UserError(f"{path} exists (give {option('overwrite', True)} to replace it)")
     if frf_set.kind not in KINDS:
         raise ValueError(f"kind must be one of {KINDS}, got {frf_set.kind!r}")
 

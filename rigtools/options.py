@@ -18,6 +18,7 @@ from collections.abc import Iterable
 from pathlib import Path
 
 from rigtools.errors import UserError
+from rigtools.errors import option as advised_option
 from rigtools.units import MAX_GAP, parse_quantity, voltage_amplitude
 
 
@@ -265,7 +266,7 @@ def output_path(
             raise UserError(f"{where}: the file name must end in {' or '.join(allowed)}")
     if out.exists() or out.is_symlink():  # a link to a file still to be made is a name taken too
         if not overwrite:
-            raise UserError(f"{where} exists; give --overwrite to replace it")
+            raise UserError(f"{where} exists; give {advised_option('overwrite', True)} to replace it")
         if out.exists() and not os.access(out, os.W_OK):
             raise UserError(f"{where} exists and is read-only")
     return out

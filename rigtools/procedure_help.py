@@ -17,6 +17,9 @@ runs the simulated rig (the FE model of [test_article] through the [shaker] mode
 it can (--pace: in real time; --seed: the sensor noise, 0 by default, so runs repeat; --fault KIND@TIME[:CHANNEL] injects a fault:
 input-overflow, amplifier-timeout, sensor-overload, nan-samples; TIME is seconds from the start,
 "1.5", "1.5 s" or "250 ms", never a block: rigtools.drivers.simulated.Fault.parse).
+In Python: rigtools.dwell, rigtools.stepped_sine (sweep), rigtools.acquire_study (study),
+rigtools.frf_test (frf), rigtools.tap_test (tap) take the same words and range strings; there
+backend= has no default (a script names backend="nidaq" or backend="sim").
 """
 FORCE_CONTROL = """\
 Force control: the force sensor's fundamental (least squares over whole periods) is held at
@@ -86,7 +89,15 @@ PROCEDURE_OPTIONS: tuple[tuple[tuple[str, ...], tuple[str, ...], dict], ...] = (
     (("study",), ("--fe",), {"help": 'excitation frequency, e.g. "60 Hz"'}),
     (("dwell", "sweep"), ("--force",), {"required": True, "help": 'force amplitude F0, e.g. "15 N"'}),
     (("study",), ("--force",), {"help": 'force amplitude F0, e.g. "15 N"'}),
-    (_SINE, ("--periods",), {"type": int, "default": None, "help": "whole periods recorded per point"}),
+    (
+        _SINE,
+        ("--periods", "--record-periods"),
+        {
+            "type": int,
+            "default": None,
+            "help": "whole periods recorded per point (record_periods= in Python)",
+        },
+    ),
     (
         _SINE,
         ("--max-updates",),

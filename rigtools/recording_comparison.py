@@ -50,7 +50,7 @@ from typing import Any
 
 import numpy as np
 
-from rigtools.errors import UserError
+from rigtools.errors import UserError, option
 from rigtools.readable import FREQUENCY_TABLE, HARMONIC_PCT, SCORE, Shown, harmonic, largest, shown
 from rigtools.sim.channel_names import ACTIVE_SHROUD_ACCEL as ACTIVE
 from rigtools.sim.channel_names import FORCE, VELOCITY_OF
@@ -819,9 +819,9 @@ def compare_recordings(
         ``progress(done, total, text)`` as model runs finish.
     """
     if model not in ("fem", "am"):
-        raise UserError(f"--model must be fem or am, got {model!r}")
+        raise UserError(f"{option('model')} must be fem or am, got {model!r}")
     if excitation not in ("measured", "nominal"):
-        raise UserError(f"--excitation must be measured or nominal, got {excitation!r}")
+        raise UserError(f"{option('excitation')} must be measured or nominal, got {excitation!r}")
     if simulate and fem_path is not None:
         raise UserError("give a model recording FEM.h5 or --simulate, not both")
     if not simulate and fem_path is None:
@@ -874,13 +874,14 @@ def compare_recordings(
         if not em_modes and frf is None:
             notes.append(
                 f"{Path(em_path).name} holds no FRF data: no measured (EM) natural frequencies; "
-                "give --frf FRF.h5 (rig acquire frf) for the EM column"
+                f"give {option('frf', 'FRF.h5')} (an FRF test: rig acquire frf, rigtools.frf_test) "
+                "for the EM column"
             )
         try:
             rig_cfg_text = rig if rig is not None else rec.rig_config()
         except Exception as exc:  # noqa: BLE001 - a damaged rig attribute
             raise UserError(
-                f"{em_path}: its rig description cannot be read ({exc}); give --rig FILE"
+                f"{em_path}: its rig description cannot be read ({exc}); give {option('rig', 'FILE')}"
             ) from None
     if frf is not None:
         with _open(frf, "FRF recording") as frec:

@@ -104,7 +104,7 @@ def spectrum(point: Point, channel: str, *, window: str = "flattop", amplitude: 
     --------
     >>> import rigtools, tempfile, pathlib
     >>> out = pathlib.Path(tempfile.mkdtemp()) / "dwell.h5"
-    >>> run = rigtools.dwell("60 Hz", "5 N", out, gap="5 mm", record_periods=6, seed=1)
+    >>> run = rigtools.dwell("60 Hz", "5 N", out, gap="5 mm", record_periods=6, backend="sim", seed=1)
     >>> with rigtools.open_recording(run.file) as rec:
     ...     s = rigtools.spectrum(rec.points[0], "force")
     >>> s.units, round(s.at(60.0), 1)  # the force fundamental, N peak
@@ -319,7 +319,7 @@ def simulate_point(
 
 def simulate_study(
     kind: str,
-    values: Sequence[float | str],
+    values: Sequence[float | str] | str,
     out: str | Path,
     *,
     fe: float | str | None = None,
@@ -342,7 +342,8 @@ def simulate_study(
     kind
         ``"gap"``, ``"force"`` or ``"frequency"``.
     values
-        The swept values in the unit of ``kind`` (``["0.3 mm", "0.6 mm"]`` or SI floats).
+        The swept values in the unit of ``kind``: ``["0.3 mm", "0.6 mm"]``, SI floats, or the
+        CLI's ``"0.3 mm:0.9 mm:0.3 mm"`` (start:stop:step) or ``"0.3 mm,0.6 mm"``.
     out
         Recording to write (backend ``fem``); if the study stops early it keeps every finished
         point (status ``aborted``).
@@ -384,7 +385,8 @@ def simulate_study(
     from rigtools.sim.studies import StudyPlan
     from rigtools.sim.vibro_impact import SimulationInputError
 
-    swept = validate(StudyParameters, kind=kind, values=tuple(values), direction=direction).values
+    given = values if isinstance(values, str) else tuple(values)  # "0.3 mm:0.9 mm:0.3 mm" as the CLI
+    swept = validate(StudyParameters, kind=kind, values=given, direction=direction).values
     fixed: dict[str, float] = {}
     if fe is not None:
         fixed["fe"] = quantity(fe, "frequency", "fe")
@@ -475,7 +477,7 @@ def compare_with_model(
     --------
     >>> import rigtools, tempfile, pathlib
     >>> out = pathlib.Path(tempfile.mkdtemp()) / "dwell.h5"
-    >>> run = rigtools.dwell("60 Hz", "5 N", out, gap="5 mm", record_periods=6, seed=1)
+    >>> run = rigtools.dwell("60 Hz", "5 N", out, gap="5 mm", record_periods=6, backend="sim", seed=1)
     >>> cmp = rigtools.compare_with_model(run.file)
     >>> t = cmp.points[0].table  # one row per channel and harmonic k, peak amplitudes in SI
     >>> f1 = t[(t.channel == "force") & (t.k == 1)].iloc[0]
@@ -513,7 +515,7 @@ def update_model(
     rig: str | Path | None = None,
     parameters: str | Sequence[str] | None = None,
     modes: int = 3,
-    band: tuple[float | str, float | str] | None = None,
+    band: tuple[float | str, float | str] | str | None = None,
     damping: bool = True,
     contact: Sequence[str | Path] = (),
     law: str = "rig",
@@ -534,7 +536,8 @@ def update_model(
     modes
         Flexural modes per blade used as targets, lowest first.
     band
-        ``(low, high)`` searched for modes, e.g. ``("20 Hz", "2 kHz")``; ``None``: each test's band.
+        ``(low, high)`` searched for modes, e.g. ``("20 Hz", "2 kHz")`` or the CLI's
+        ``"20 Hz:2 kHz"``; ``None``: each test's band.
     damping
         Fit the identified damping ratios too.
     contact
@@ -553,7 +556,7 @@ def update_model(
     --------
     >>> import rigtools, tempfile, pathlib
     >>> folder = pathlib.Path(tempfile.mkdtemp())
-    >>> tap = rigtools.tap_test("85 mm", folder / "tap.h5", hits=2, gap="5 mm", seed=1)
+    >>> tap = rigtools.tap_test("85 mm", folder / "tap.h5", hits=2, gap="5 mm", backend="sim", seed=1)
     >>> done = rigtools.update_model([tap.file], folder / "updated.toml", modes=2)
     >>> done.out.name, rigtools.load_rig(done.out).name != ""
     ('updated.toml', True)
@@ -566,7 +569,11 @@ def update_model(
     if not files:
         raise UserError("recordings = []: give at least one test recording (an FRF test or a dwell)")
     span = None
-    if band is not None:
+    if isinstance(band, str):
+        from rigtools.options import band_option
+
+        span = band_option(band, "band")
+    elif band is not None:
         span = (quantity(band[0], "frequency", "band"), quantity(band[1], "frequency", "band"))
     return update_rig_file(
         files,

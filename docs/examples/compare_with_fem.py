@@ -13,7 +13,7 @@ from pathlib import Path
 import rigtools
 
 path = Path(tempfile.mkdtemp()) / "dwell.h5"
-rigtools.dwell("60 Hz", "15 N", path, gap="0.5 mm", record_periods=20, seed=1)
+rigtools.dwell("60 Hz", "15 N", path, gap="0.5 mm", record_periods=20, seed=1, backend="sim")
 
 comparison = rigtools.compare_with_model(path)
 for point in comparison.points:

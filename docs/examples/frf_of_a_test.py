@@ -15,7 +15,7 @@ import rigtools
 from rigtools.analysis.plots import frf_figure, stabilisation_figure
 
 path = Path(tempfile.mkdtemp()) / "frf.h5"  # or the path of your own recording (then skip the next line)
-rigtools.frf_test(("20 Hz", "500 Hz"), "1 V", path, averages=4, gap="5 mm", seed=1)
+rigtools.frf_test(("20 Hz", "500 Hz"), "1 V", path, averages=4, gap="5 mm", seed=1, backend="sim")
 
 point = rigtools.analyze_recording(path).broadband[0]
 est = point.frf.estimate

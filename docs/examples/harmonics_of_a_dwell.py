@@ -14,7 +14,7 @@ import numpy as np
 import rigtools
 
 path = Path(tempfile.mkdtemp()) / "dwell.h5"  # or the path of your own recording (then skip the next line)
-rigtools.dwell("60 Hz", "15 N", path, gap="0.5 mm", record_periods=20, seed=1)
+rigtools.dwell("60 Hz", "15 N", path, gap="0.5 mm", record_periods=20, seed=1, backend="sim")
 
 analysis = rigtools.analyze_recording(path)
 for point in analysis.points:

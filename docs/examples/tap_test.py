@@ -26,7 +26,7 @@ import rigtools
 from rigtools.analysis.plots import frf_figure
 
 run = rigtools.tap_test(
-    "85 mm", Path(tempfile.mkdtemp()) / "tap.h5", blade="passive", hits=5, gap="5 mm", seed=1
+    "85 mm", Path(tempfile.mkdtemp()) / "tap.h5", blade="passive", hits=5, gap="5 mm", seed=1, backend="sim"
 )
 print(f"{run.status}: {len(run.points)} hits recorded")
 

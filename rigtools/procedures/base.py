@@ -25,7 +25,6 @@ device is closed does a further signal interrupt at once.
 
 from __future__ import annotations
 
-import enum
 import signal
 import threading
 from collections.abc import Callable
@@ -34,12 +33,17 @@ from pathlib import Path
 from typing import Any
 
 from rigtools.errors import FaultError, Interrupted, UserError, one_line
+from rigtools.procedures.result import RunResult, Status
 
-
-class Status(str, enum.Enum):  # noqa: UP042 -- StrEnum would change str()/format() of members, which messages print
-    FINISHED = "finished"
-    ABORTED = "aborted"
-    FAILED = "failed"
+__all__ = [
+    "Procedure",
+    "ProcedureFailed",
+    "ProcedureResult",
+    "ProgressEvent",
+    "RunResult",
+    "Status",
+    "StopRequested",
+]
 
 
 class StopRequested(BaseException):
@@ -73,7 +77,9 @@ class ProgressEvent:
 
 @dataclass
 class ProcedureResult:
-    """How a procedure ended and what it measured."""
+    """A procedure's working record while it runs (:attr:`Procedure.result`): the points as
+    plain mappings, as the recording's attributes hold them. :meth:`Procedure.run` returns
+    the one public result made of it, :class:`rigtools.procedures.RunResult`."""
 
     status: Status
     reason: str = ""
@@ -117,7 +123,7 @@ class Procedure:
         self.stop_reason = ""
         self.stop_signal: int | None = None  # the signal that asked for the stop, if any
         self.signals_seen = 0  # stop signals received while the drive could be live
-        self.result: ProcedureResult | None = None
+        self.result: ProcedureResult | None = None  # the working record; run() returns a RunResult
         self._zeroed = False  # shutdown done: the output is at zero and the device closed
 
     # -- for scripts ---------------------------------------------------------------------------
@@ -152,8 +158,13 @@ class Procedure:
     def shutdown(self, status: Status, reason: str) -> None:
         """Drive to zero, device closed, recording ended with ``status`` and ``reason``."""
 
-    def run(self) -> ProcedureResult:
+    def run(self) -> RunResult:
         """Run start-up, execute and shut-down; returns the result.
+
+        Returns
+        -------
+        RunResult
+            The same type the front door's functions (:func:`rigtools.dwell`, ...) return.
 
         Raises
         ------
@@ -192,7 +203,7 @@ class Procedure:
         self.result = result
         if error is not None:
             raise error
-        return result
+        return RunResult.from_procedure(self.name, result, getattr(self, "out", result.file or ""))
 
     # -- signals ---------------------------------------------------------------------------------
     def _install_signal_handlers(self) -> dict:

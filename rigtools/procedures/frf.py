@@ -14,7 +14,7 @@ import math
 from typing import Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
 from rigtools.acquisition import BlockStream
 from rigtools.errors import UserError
@@ -41,6 +41,16 @@ class FrfParameters(BaseModel):
         None, description="response channel of the quick check (default: the active shroud accelerometer)"
     )
     seed: int | None = Field(None, ge=0, description="random seed of the burst signal")
+
+    @field_validator("band", mode="before")
+    @classmethod
+    def _band_string(cls, v):
+        # the CLI's "20 Hz:500 Hz", read by its one band parser
+        if isinstance(v, str):
+            from rigtools.options import band_option
+
+            return band_option(v, "band", allow_zero=False)
+        return v
 
     @model_validator(mode="after")
     def _band(self):

@@ -244,7 +244,9 @@ def point_document(p: Mapping[str, Any], units: Mapping[str, str]) -> dict:
 
 
 def result_document(name: str, backend: str, proc: Any, result: Any, f_max: str | float = "2 kHz") -> dict:
-    """The ``rig acquire --json`` document of a finished (or ended) procedure.
+    """The ``rig acquire --json`` document of a finished (or ended) procedure: ``result`` is
+    the :class:`rigtools.procedures.RunResult` its ``run()`` returned; the points are read from
+    its working record (``proc.result``), which keeps each harmonic's phase and each channel's peak.
 
     A dwell gives its point's harmonics; a sweep or study its points (without channels) and the
     summary (jumps); a finished FRF test the quick check (:func:`rigtools.procedures.frf.quick_check`);
@@ -259,13 +261,14 @@ def result_document(name: str, backend: str, proc: Any, result: Any, f_max: str 
         "procedure": name,
     }
     units = {s.name: s.units for s in getattr(proc, "specs", [])}
-    finished = result.status.value == "finished"
-    if name == "dwell" and result.points:
-        doc.update(point_document(result.points[0], units))
-        doc["warnings"] = result.points[0]["safety_warnings"]
+    finished = result.status == "finished"
+    points = proc.result.points  # the working record's points: every harmonic's phase and each peak
+    if name == "dwell" and points:
+        doc.update(point_document(points[0], units))
+        doc["warnings"] = points[0]["safety_warnings"]
     elif name in ("sweep", "study"):
         doc["points"] = [
-            {k: v for k, v in point_document(p, units).items() if k != "channels"} for p in result.points
+            {k: v for k, v in point_document(p, units).items() if k != "channels"} for p in points
         ]
         doc.update(result.summary)
     elif name == "frf" and finished:
@@ -274,7 +277,7 @@ def result_document(name: str, backend: str, proc: Any, result: Any, f_max: str 
         doc["check"] = quick_check(proc.out, proc.params.response)
     elif name == "tap":
         doc.update(result.summary)
-        doc["hits_detail"] = result.points
+        doc["hits_detail"] = points
         if finished:
             from rigtools.procedures.tap import tap_analysis
 

@@ -24,7 +24,12 @@ from rigtools.quantity_fields import field_bounds, field_unit
 PROCEDURES: tuple[tuple[str, type[BaseModel], str, str], ...] = (
     ("Sine dwell", DwellParameters, "rigtools.dwell", "rig acquire dwell"),
     ("Stepped sine", SweepParameters, "rigtools.stepped_sine", "rig acquire sweep"),
-    ("Study (gap, force or frequency)", StudyParameters, "rigtools.study", "rig acquire study"),
+    (
+        "Study on the rig (gap, force or frequency)",
+        StudyParameters,
+        "rigtools.acquire_study",
+        "rig acquire study",
+    ),
     ("FRF test", FrfParameters, "rigtools.frf_test", "rig acquire frf"),
     ("Tap test", TapParameters, "rigtools.tap_test", "rig acquire tap"),
     ("Force control (the `control` parameter of the sine procedures)", ControlParameters, "", ""),

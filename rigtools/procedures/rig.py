@@ -10,7 +10,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import asdict
 
-from rigtools.errors import UserError
+from rigtools.errors import UserError, option, reword
 
 BACKENDS = ("nidaq", "sim")
 
@@ -49,16 +49,25 @@ def open_device(
         seed = 0 if seed is None else seed
         return SimulatedRig.from_config(cfg, pace=pace, faults=list(faults), seed=seed, model=model)
     if backend != "nidaq":
-        raise UserError(f"--backend = {backend!r}: use one of {', '.join(BACKENDS)}")
+        raise UserError(
+            f"backend = {backend!r}: use {option('backend', 'nidaq')} or {option('backend', 'sim')}"
+        )
     if pace or faults or seed is not None:
-        raise UserError("--pace, --fault and --seed apply to the simulated rig only; add --backend sim")
+        asked = (
+            ("pace", "--pace", pace),
+            ("faults", "--fault", faults),
+            ("seed", "--seed", seed is not None),
+        )
+        given = [option(name, flag=flag) for name, flag, value in asked if value]
+        raise UserError(f"{', '.join(given)}: for the simulated rig only; add {option('backend', 'sim')}")
     try:
         from rigtools.drivers.nidaq import NiDaqDevice
     except ImportError:
         from rigtools.drivers.contracts import DriverUnavailable
 
         raise DriverUnavailable(
-            "NI-DAQmx (the nidaqmx package) is not installed; use --backend sim to run on the simulated rig"
+            "NI-DAQmx (the nidaqmx package) is not installed; "
+            f"use {option('backend', 'sim')} to run on the simulated rig"
         ) from None
     return NiDaqDevice(abort_ramp_time=cfg.safety.abort_ramp_time)
 
@@ -73,7 +82,7 @@ def configure(device, cfg) -> float:
         )
     except DriverUnavailable as exc:
         text = str(exc).replace("--simulated", "--backend sim")
-        raise DriverUnavailable(text) from None
+        raise reword(DriverUnavailable(text)) from None
     except ConfigurationError as exc:
         raise UserError(str(exc)) from None
 

@@ -45,7 +45,11 @@ class StudyParameters(BaseModel):
         dimension = {"gap": "length", "force": "force", "frequency": "frequency"}
         if isinstance(data, dict) and data.get("kind") in dimension and "values" in data:
             values = data["values"]
-            if isinstance(values, (str, int, float)):
+            if isinstance(values, str):  # the CLI's "0.3 mm:0.9 mm:0.3 mm" or "a,b,c", its one parser
+                from rigtools.options import value_list
+
+                values = value_list(values, data["kind"], "values")
+            if isinstance(values, (int, float)):
                 values = [values]
             try:
                 data = {**data, "values": tuple(parse_quantity(v, dimension[data["kind"]]) for v in values)}

@@ -45,6 +45,16 @@ class SweepParameters(BaseModel):
     )
     control: ControlParameters = ControlParameters()
 
+    @field_validator("frequencies", mode="before")
+    @classmethod
+    def _range_string(cls, v):
+        # the CLI's "62 Hz:72 Hz:2 Hz" or "62 Hz,65 Hz", read by its one parser
+        if isinstance(v, str):
+            from rigtools.options import value_list
+
+            return value_list(v, "frequency", "frequencies", minimum=2)
+        return v
+
     @field_validator("frequencies")
     @classmethod
     def _positive(cls, v):

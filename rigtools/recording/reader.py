@@ -487,7 +487,7 @@ def open_recording(path: str | os.PathLike, wait: bool = True) -> Recording:
     --------
     >>> import rigtools, tempfile, pathlib
     >>> out = pathlib.Path(tempfile.mkdtemp()) / "dwell.h5"
-    >>> run = rigtools.dwell("60 Hz", "5 N", out, gap="5 mm", record_periods=6, seed=1)
+    >>> run = rigtools.dwell("60 Hz", "5 N", out, gap="5 mm", record_periods=6, backend="sim", seed=1)
     >>> with rigtools.open_recording(run.file) as rec:
     ...     point = rec.points[0]
     ...     force = point.settled("force")  # N, the settled record window only

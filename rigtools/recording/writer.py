@@ -66,7 +66,7 @@ import h5py
 import numpy as np
 
 import rigtools
-from rigtools.errors import one_line
+from rigtools.errors import one_line, option
 from rigtools.json_values import json_default
 from rigtools.recording.lock import LockBusy, WriterLock, lock_path
 from rigtools.recording.schema import (
@@ -430,7 +430,7 @@ class RecordingWriter:
 
     def _create(self, overwrite: bool, backend: str, rig_text: str, experiment_text: str) -> None:
         if self.path.exists() and not overwrite:
-            raise RecordingError(f"{self.path} exists; pass overwrite=True (rig: --overwrite) to replace it")
+            raise RecordingError(f"{self.path} exists; give {option('overwrite', True)} to replace it")
         try:
             self._file = h5py.File(self.path, "w" if overwrite else "w-", libver=LIBVER, locking=False)
         except (FileExistsError, OSError) as exc:

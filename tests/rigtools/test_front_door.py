@@ -65,7 +65,7 @@ def test_quantity_strings_equal_si_floats_and_bad_ones_name_parameter_and_unit()
 
 def test_front_door_refuses_a_bad_quantity_before_touching_the_rig(tmp_path):
     with pytest.raises(UserError, match=r"^force = '15 Hz': '15 Hz' is a frequency, expected a force$"):
-        rigtools.dwell("60 Hz", "15 Hz", tmp_path / "d.h5")
+        rigtools.dwell("60 Hz", "15 Hz", tmp_path / "d.h5", backend="sim")
     assert not (tmp_path / "d.h5").exists()
     with pytest.raises(UserError, match="backend = 'usb'"):
         rigtools.dwell("60 Hz", "15 N", tmp_path / "d.h5", backend="usb")

@@ -8,7 +8,7 @@ import sys
 import pytest
 
 from rigtools import options
-from rigtools.errors import UserError
+from rigtools.errors import UserError, command_line
 from rigtools.units import MAX_GAP
 
 
@@ -159,9 +159,11 @@ def test_output_path_refusals(tmp_path):
     assert "is a directory" in _refused(options.output_path, str(tmp_path))
     assert "is a directory" in _refused(options.output_path, str(tmp_path / "new") + "/")
     assert "does not exist" in _refused(options.output_path, str(tmp_path / "nope" / "run.h5"))
-    assert f"--out = {str(existing)!r} exists; give --overwrite" in _refused(
-        options.output_path, str(existing)
-    )
+    with command_line():  # rig's words; a script's: overwrite=True
+        assert f"--out = {str(existing)!r} exists; give --overwrite" in _refused(
+            options.output_path, str(existing)
+        )
+    assert "exists; give overwrite=True" in _refused(options.output_path, str(existing))
     assert "is not a folder" in _refused(options.output_path, str(existing / "x.h5"))
     assert "must end in .csv or .json" in _refused(
         options.output_path, str(tmp_path / "a.png"), False, suffixes=(".csv", ".json")
@@ -190,8 +192,12 @@ def test_output_path_a_link_to_a_file_still_to_be_made_exists(tmp_path):
     over it after the whole run, in a line of h5py's internals), written through with it."""
     link = tmp_path / "run.h5"
     link.symlink_to("elsewhere.h5")
-    assert _refused(options.output_path, str(link)) == (
-        f"--out = {str(link)!r} exists; give --overwrite to replace it"
+    with command_line():  # the command's words (a script's: overwrite=True)
+        assert _refused(options.output_path, str(link)) == (
+            f"--out = {str(link)!r} exists; give --overwrite to replace it"
+        )
+    assert _refused(options.output_path, str(link), False, "out").endswith(
+        "exists; give overwrite=True to replace it"
     )
     assert options.output_path(str(link), overwrite=True) == link
 
@@ -269,9 +275,10 @@ def test_check_out_is_output_path(tmp_path):
     existing.write_bytes(b"")
     h5 = {"suffixes": options.HDF5_SUFFIXES}
     assert options.check_out(argparse.Namespace(out=str(tmp_path / "b.h5")), **h5) == tmp_path / "b.h5"
-    assert "exists; give --overwrite" in _refused(
-        options.check_out, argparse.Namespace(out=str(existing)), **h5
-    )
+    with command_line():
+        assert "exists; give --overwrite" in _refused(
+            options.check_out, argparse.Namespace(out=str(existing)), **h5
+        )
     assert options.check_out(argparse.Namespace(out=str(existing), overwrite=True), **h5) == existing
     assert "is a directory" in _refused(
         options.check_out, argparse.Namespace(out=str(tmp_path), overwrite=True), **h5
@@ -371,6 +378,6 @@ def test_a_front_door_sweep_of_one_frequency_is_one_line(tmp_path):
         (["60 Hz", "60 Hz"], "a stepped sine needs at least 2 different frequencies"),
     ):
         with pytest.raises(rigtools.UserError) as info:
-            rigtools.stepped_sine(given, "15 N", gap="5 mm", out=tmp_path / "s.h5")
+            rigtools.stepped_sine(given, "15 N", gap="5 mm", out=tmp_path / "s.h5", backend="sim")
         assert words in str(info.value) and "\n" not in str(info.value)
     assert list(tmp_path.iterdir()) == []

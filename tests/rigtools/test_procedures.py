@@ -46,11 +46,11 @@ def test_force_control_with_impacts_at_60_hz(cfg, tmp_path):
     ).run()
     p = r.points[0]
     assert r.status is Status.FINISHED
-    assert p["force_amplitude_measured"] == pytest.approx(15.0, rel=0.01)
-    assert p["control_updates"] <= 10 and p["settled"] and p["safety_warnings"] == 0
-    forces = [f for _, f in p["control_history"]]
+    assert p.force_amplitude_measured == pytest.approx(15.0, rel=0.01)
+    assert p.control_updates <= 10 and p.settled and p.extra["safety_warnings"] == 0
+    forces = [f for _, f in p.extra["control_history"]]
     assert max(forces[:-1]) < 15.0 * 1.05  # never far above the target
-    force_h = p["harmonics"]["force"]["amplitude"]
+    force_h = p.harmonics["force"]
     assert max(force_h[1:]) > 0.2 * force_h[0]  # impacts: force rich in harmonics
 
 
@@ -82,9 +82,9 @@ def test_force_control_at_the_measured_first_resonance(cfg, tmp_path):
         seed=1,
     ).run()
     p = r.points[0]
-    assert p["force_amplitude_measured"] == pytest.approx(2.0, rel=0.01)
-    assert p["control_updates"] <= 10 and p["settled"] and p["safety_warnings"] == 0
-    assert p["force_amplitude_measured"] / p["drive_amplitude"] < 3.0  # force drop-out
+    assert p.force_amplitude_measured == pytest.approx(2.0, rel=0.01)
+    assert p.control_updates <= 10 and p.settled and p.extra["safety_warnings"] == 0
+    assert p.force_amplitude_measured / p.drive_amplitude < 3.0  # force drop-out
     with pytest.raises(TargetNotReached, match="15 N cannot be reached"):
         SineDwell(
             cfg,
@@ -134,13 +134,13 @@ def test_force_control_reaches_15_n_at_the_first_resonance_with_raised_drive_lim
         raised, {"fe": f1, "force": 15.0, "record_periods": 12}, tmp_path / "r.h5", backend="sim", seed=1
     ).run()
     p = r.points[0]
-    assert r.status is Status.FINISHED and p["gap"] == pytest.approx(0.03)
-    assert p["force_amplitude_measured"] == pytest.approx(15.0, rel=0.01)
-    assert p["control_updates"] <= 10 and p["settled"] and p["safety_warnings"] == 0
-    assert p["drive_amplitude"] > 4.5  # beyond the default rig's warning
+    assert r.status is Status.FINISHED and p.gap == pytest.approx(0.03)
+    assert p.force_amplitude_measured == pytest.approx(15.0, rel=0.01)
+    assert p.control_updates <= 10 and p.settled and p.extra["safety_warnings"] == 0
+    assert p.drive_amplitude > 4.5  # beyond the default rig's warning
     limits = raised.safety.limits
     for name in ("active_shroud_accel", "passive_shroud_accel", "force"):
-        assert p["peaks"][name] < limits[name].warning
+        assert p.extra["peaks"][name] < limits[name].warning
 
 
 def test_stepped_sine_peak_is_the_articles_second_flexural_frequency(cfg, tmp_path):
@@ -158,7 +158,7 @@ def test_stepped_sine_peak_is_the_articles_second_flexural_frequency(cfg, tmp_pa
     ).run()
     f2 = _article_flexural(cfg, 2)[1]
     assert r.summary["peak_hz"] == pytest.approx(f2, rel=0.003)
-    assert all(abs(p["force_amplitude_measured"] / 2.0 - 1) <= 0.01 for p in r.points)
+    assert all(abs(p.force_amplitude_measured / 2.0 - 1) <= 0.01 for p in r.points)
     assert check_recording(out).valid
     with open_recording(out) as rec:
         assert [p.params["fe"] for p in rec.points] == freqs
@@ -190,7 +190,7 @@ def test_up_and_down_stepped_sine_jumps_differ(cfg, tmp_path):
     assert up[0]["evidence"] == "contact vanishes" and down[0]["evidence"] == "contact appears"
     assert up[0]["from_hz"] < up[0]["to_hz"] and down[0]["from_hz"] > down[0]["to_hz"]
     assert up[0]["frequency_hz"] > down[0]["frequency_hz"] + 2  # hysteresis
-    assert all(abs(p["force_amplitude_measured"] / 15.0 - 1) <= 0.01 for p in r.points)
+    assert all(abs(p.force_amplitude_measured / 15.0 - 1) <= 0.01 for p in r.points)
 
 
 def test_detect_jumps_needs_evidence_beyond_the_change():
@@ -222,7 +222,7 @@ def test_linear_stepped_sine_in_coarse_steps_reports_no_jump(cfg, tmp_path):
         backend="sim",
         seed=1,
     ).run()
-    amp = [p["response_per_newton"] for p in r.points]
+    amp = [p.extra["response_per_newton"] for p in r.points]
     assert amp[1] / amp[0] > 2.0 and amp[2] / amp[3] > 2.0  # steps a threshold of 0.3 sees
     assert r.summary["jumps"] == {"up": []}
 

@@ -33,7 +33,9 @@ CHANNELS = ("force", "active_shroud_accel", "passive_shroud_accel")
 def record(request, tmp_path_factory):
     """``(channels over the record window, sample rate, gap)`` of one settled dwell."""
     out = tmp_path_factory.mktemp("half") / "dwell.h5"
-    run = rigtools.dwell(f"{FE} Hz", "15 N", out, gap=request.param, record_periods=PERIODS, seed=1)
+    run = rigtools.dwell(
+        f"{FE} Hz", "15 N", out, gap=request.param, record_periods=PERIODS, backend="sim", seed=1
+    )
     assert run.points[0].settled
     with open_recording(out) as rec:
         p = rec.points[0]

@@ -96,7 +96,7 @@ def test_two_writers_in_one_process_and_the_lock_is_released(tmp_path):
     with pytest.raises(RecordingError, match="being written by another run"):
         RecordingWriter(path, backend="simulated", rig="{}", overwrite=True)
     first.close()
-    with pytest.raises(RecordingError, match="exists; pass overwrite=True"):
+    with pytest.raises(RecordingError, match="exists; give overwrite=True"):
         RecordingWriter(path, backend="simulated", rig="{}")
     RecordingWriter(path, backend="simulated", rig="{}", overwrite=True).close()
 

@@ -220,7 +220,7 @@ def test_dataframes(tmp_path):
 def test_never_overwrites_without_permission(tmp_path):
     path = tmp_path / "run.h5"
     path.write_bytes(b"precious")
-    with pytest.raises(RecordingError, match="exists; pass overwrite=True"):
+    with pytest.raises(RecordingError, match="exists; give overwrite=True"):
         RecordingWriter(path, backend="fem", rig="{}")
     assert path.read_bytes() == b"precious"
     with RecordingWriter(path, backend="fem", rig="{}", overwrite=True):
