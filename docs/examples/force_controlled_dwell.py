@@ -16,7 +16,13 @@ import matplotlib.pyplot as plt
 import rigtools
 
 run = rigtools.dwell(
-    "60 Hz", "15 N", Path(tempfile.mkdtemp()) / "dwell.h5", gap="0.5 mm", record_periods=20, seed=1, backend="sim"
+    "60 Hz",
+    "15 N",
+    Path(tempfile.mkdtemp()) / "dwell.h5",
+    gap="0.5 mm",
+    record_periods=20,
+    seed=1,
+    backend="sim",
 )
 point = run.points[0]
 print(f"{run.status}: F1 = {point.force_amplitude_measured:.2f} N with {point.drive_amplitude:.3f} V drive")

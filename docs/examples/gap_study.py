@@ -16,7 +16,14 @@ import rigtools
 
 gaps = ["0.3 mm", "0.6 mm", "0.9 mm"]
 run = rigtools.acquire_study(
-    "gap", gaps, Path(tempfile.mkdtemp()) / "gap.h5", fe="60 Hz", force="15 N", record_periods=10, seed=1, backend="sim"
+    "gap",
+    gaps,
+    Path(tempfile.mkdtemp()) / "gap.h5",
+    fe="60 Hz",
+    force="15 N",
+    record_periods=10,
+    seed=1,
+    backend="sim",
 )
 print(f"{run.status}: {len(run.points)} points")
 

@@ -16,7 +16,9 @@ from pathlib import Path
 import rigtools
 
 folder = Path(tempfile.mkdtemp())
-dwell = rigtools.dwell("60 Hz", "15 N", folder / "dwell.h5", gap="0.5 mm", record_periods=20, seed=1, backend="sim")
+dwell = rigtools.dwell(
+    "60 Hz", "15 N", folder / "dwell.h5", gap="0.5 mm", record_periods=20, seed=1, backend="sim"
+)
 print(dwell.status, f"F1 = {dwell.points[0].force_amplitude_measured:.2f} N")
 
 # %%
@@ -27,7 +29,9 @@ print(f"F1 = {force.at(60.0):.2f} N, F2 = {force.at(120.0):.3f} N")
 
 # %%
 # An FRF test with the gap opened (no impacts) and the modes identified from it.
-frf = rigtools.frf_test(("20 Hz", "500 Hz"), "1 V", folder / "frf.h5", averages=4, gap="5 mm", seed=1, backend="sim")
+frf = rigtools.frf_test(
+    ("20 Hz", "500 Hz"), "1 V", folder / "frf.h5", averages=4, gap="5 mm", seed=1, backend="sim"
+)
 modes = rigtools.analyze_recording(frf.file).points[0].frf.modes["active_shroud_accel"].modes
 print("active blade modes (Hz):", [round(m.frequency_hz, 1) for m in modes])
 
@@ -44,7 +48,13 @@ import numpy as np
 from rigtools.analysis.branches import BranchCurve, MeasuredSweep, branch_figure
 
 sweep = rigtools.stepped_sine(
-    list(np.arange(62.0, 72.5, 1.0)), "15 N", folder / "sweep.h5", gap="0.7 mm", direction="both", seed=1, backend="sim"
+    list(np.arange(62.0, 72.5, 1.0)),
+    "15 N",
+    folder / "sweep.h5",
+    gap="0.7 mm",
+    direction="both",
+    seed=1,
+    backend="sim",
 )
 branches = rigtools.continuation("fe", "62 Hz", "72 Hz", gap="0.7 mm", force="15 N", model="rig")
 curves = [

@@ -18,7 +18,13 @@ from rigtools.analysis.jumps import find_jumps
 
 frequencies = list(np.arange(62.0, 72.5, 1.0))  # Hz
 sweep = rigtools.stepped_sine(
-    frequencies, "15 N", Path(tempfile.mkdtemp()) / "sweep.h5", gap="0.7 mm", direction="both", seed=1, backend="sim"
+    frequencies,
+    "15 N",
+    Path(tempfile.mkdtemp()) / "sweep.h5",
+    gap="0.7 mm",
+    direction="both",
+    seed=1,
+    backend="sim",
 )
 print(f"{sweep.status}: {len(sweep.points)} points")
 
