@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -107,15 +108,29 @@ def write_imported(
             except ValueError as exc:
                 raise UserError(f"{ch.source}: {exc}") from None
         specs_of.append(specs)
-    with RecordingWriter(out, backend=backend, rig=rig, experiment=experiment, overwrite=overwrite) as rec:
-        for p, specs in zip(points, specs_of, strict=True):
-            writer = rec.begin_point(params=p.params, channels=specs)
-            factor = np.array([c.si.factor for c in p.channels if c.si])[:, None]
-            offset = np.array([c.si.offset for c in p.channels if c.si])[:, None]
-            for start in range(0, p.samples, CHUNK):
-                block = np.asarray(p.read(start, min(CHUNK, p.samples - start)), dtype=float)
-                writer.append(block * factor + offset)
-            writer.end()
+    # over an existing file (--overwrite) the import is written beside it and takes its name only
+    # when whole: an import stopped half-way (Ctrl-C, a full disk) leaves the old file as it was
+    target = Path(out)
+    replacing = overwrite and target.is_file()
+    path = target.with_name(f".{target.name}.importing") if replacing else target
+    try:
+        with RecordingWriter(
+            path, backend=backend, rig=rig, experiment=experiment, overwrite=overwrite
+        ) as rec:
+            for p, specs in zip(points, specs_of, strict=True):
+                writer = rec.begin_point(params=p.params, channels=specs)
+                factor = np.array([c.si.factor for c in p.channels if c.si])[:, None]
+                offset = np.array([c.si.offset for c in p.channels if c.si])[:, None]
+                for start in range(0, p.samples, CHUNK):
+                    block = np.asarray(p.read(start, min(CHUNK, p.samples - start)), dtype=float)
+                    writer.append(block * factor + offset)
+                writer.end()
+        if replacing:
+            os.replace(path, target)
+    except BaseException:
+        if replacing:
+            path.unlink(missing_ok=True)
+        raise
     channels = list(every)
     return {
         "channels": [c.to_dict() for c in channels],

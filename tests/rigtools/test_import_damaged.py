@@ -265,3 +265,29 @@ def test_lvm_whose_rows_lvm_read_cannot_place_is_one_line(tmp_path, data, cut):
     code, _, err = _import("lvm", _lvm(tmp_path, data, edit=edit), tmp_path / "t.h5")
     assert code == 2 and len(err.strip().splitlines()) == 1
     assert "a segment header with no data rows under it" in err and "t.lvm" in err
+
+
+def test_an_import_stopped_half_way_over_an_old_file_leaves_it_as_it_was(tmp_path):
+    """rig import --overwrite stopped by Ctrl-C left half the import (status 'recording') where
+    the old recording was: now the import is written beside it and renamed only when whole."""
+    import hashlib
+
+    from test_bad_input import _write_recording
+
+    from rigtools.config import default_rig_text
+    from rigtools.interop.channels import resolve
+    from rigtools.interop.imported import ForeignPoint, write_imported
+
+    old = _write_recording(tmp_path / "keep.h5")
+    digest = hashlib.sha256(old.read_bytes()).hexdigest()
+    channel = resolve("segment 1/force", "force", "N", mapping={}, units={})
+
+    def read(start, n):
+        raise KeyboardInterrupt  # Ctrl-C while the samples are copied
+
+    point = ForeignPoint(params={}, channels=[channel], samples=1000, sample_rate=1000.0, read=read)
+    with pytest.raises(KeyboardInterrupt):
+        write_imported(old, backend="lvm", rig=default_rig_text(), experiment={"procedure": "import"},
+                       points=[point], every=[channel], overwrite=True)  # fmt: skip
+    assert hashlib.sha256(old.read_bytes()).hexdigest() == digest
+    assert sorted(p.name for p in tmp_path.iterdir() if not p.name.endswith(".lock")) == ["keep.h5"]
