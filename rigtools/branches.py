@@ -173,6 +173,10 @@ def continuation(
     >>> branches[-1].status  # after a Ctrl-C  # doctest: +SKIP
     'interrupted'
     """
+    if found is not None and not isinstance(found, list):
+        raise UserError(
+            f"found = {found!r}: give a list (found=[]) to hold the branches as they are computed"
+        )
     lo, hi, fixed = parse_inputs(param, start, stop, fe, force, gap, drive)
     return continue_model(
         param, lo, hi, **fixed, model=model, rig=rig, switch=switch, drive=drive is not None, found=found

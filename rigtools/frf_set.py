@@ -113,6 +113,10 @@ def write_frf_set(path: str | Path, frf_set: FRFSet, *, overwrite: bool = False)
         f["coherence"] = np.atleast_2d(np.asarray(frf_set.coherence, dtype=float))
 
     atomic_write_hdf5(path, fill)
+    errors = [p for p in check_frf_set(path).problems if p.severity == "error"]
+    if errors:  # what rig check would reject is never left as an FRF set (an import's bad grid)
+        path.unlink(missing_ok=True)
+        raise UserError(f"{path} not written: the FRF set would be damaged: {errors[0].line()}")
 
 
 def is_frf_set(path: str | Path) -> bool:

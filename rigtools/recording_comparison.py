@@ -453,6 +453,9 @@ def _window(point) -> tuple[int, int]:
 def too_short(point, k_max: int, who: str) -> str | None:
     """The note that leaves ``point`` out when a compared channel's record window holds fewer
     samples than a fit of ``k_max`` harmonics needs (``2 k_max + 1``), or ``None``."""
+    total = {len(point.channels[c]) for c in COMPARED if c in point.channels}
+    if len(total) > 1:
+        return f"{who} point {point.index}: its channels differ in length ({min(total)} to {max(total)} samples), left out"
     a, b = _window(point)
     lengths = {c: min(b, len(point.channels[c])) - a for c in COMPARED if c in point.channels}
     short = {c: n for c, n in lengths.items() if n < 2 * k_max + 1}

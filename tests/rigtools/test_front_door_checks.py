@@ -61,3 +61,8 @@ def test_compare_with_model_k_max_names_k_max(tmp_path, k_max):
 def test_update_model_without_recordings_says_so(tmp_path):
     with pytest.raises(UserError, match=r"^recordings = \[\]: give at least one"):
         rigtools.update_model([], tmp_path / "u.toml")
+
+
+def test_continuation_found_that_is_no_list_is_refused_before_the_work():
+    with pytest.raises(UserError, match=r"^found = 'x': give a list \(found=\[\]\)"):
+        rigtools.continuation("fe", "60 Hz", "61 Hz", gap="5 mm", found="x")

@@ -291,3 +291,34 @@ def test_an_import_stopped_half_way_over_an_old_file_leaves_it_as_it_was(tmp_pat
                        points=[point], every=[channel], overwrite=True)  # fmt: skip
     assert hashlib.sha256(old.read_bytes()).hexdigest() == digest
     assert sorted(p.name for p in tmp_path.iterdir() if not p.name.endswith(".lock")) == ["keep.h5"]
+
+
+@pytest.mark.parametrize("increment", [0.0, -0.5])
+def test_uff_frfs_on_a_grid_check_would_reject_are_not_written(tmp_path, increment):
+    """An FRF record with a zero or negative increment imported with exit 0 into an FRF set
+    that rig check then rejected ('frequency not increasing')."""
+    import pyuff
+
+    from rigtools.analysis.frf import sdof_frf
+    from rigtools.interop.uff import FUNC_FRF, UffFunction
+
+    f = np.arange(0.0, 500.25, 0.5)
+    d = UffFunction(
+        FUNC_FRF, "tip over hammer", ("tip", 2), ("hammer", 1), "acceleration", "force", f,
+        sdof_frf(f, 100.0, 0.02, kind="accelerance"), "m/s^2/N",
+    ).dataset()  # fmt: skip
+    d.update(rsp_dir=3, ref_dir=3)
+    src = tmp_path / "f.uff"
+    pyuff.UFF(str(src)).write_sets([d], "add")
+    # pyuff writes the increment from the abscissa: the header's increment edited as a foreign writer's
+    raw = src.read_bytes()
+    assert raw.count(b"  5.00000e-01  ") == 1
+    src.write_bytes(raw.replace(b"  5.00000e-01  ", f"  {increment:.5e}  ".encode()))
+    code, _, err = _import("uff", src, tmp_path / "f.h5")
+    assert code == 2 and len(err.strip().splitlines()) == 1, err
+    # 0: read by pyuff, refused by the FRF set's check; negative: pyuff itself cannot read the record
+    expected = (
+        "not written: the FRF set would be damaged: /frequency" if increment == 0 else "not a readable UFF"
+    )
+    assert expected in err
+    assert not (tmp_path / "f.h5").exists()

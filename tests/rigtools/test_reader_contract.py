@@ -240,3 +240,22 @@ def test_a_frf_set_starting_below_0_hz_or_labels_not_names_are_rejected(frf_set,
     code, out, _ = run_cli(["check", bad])
     assert code == 1 and "/frequency: starts at -1000 Hz, below 0 Hz" in out
     assert run_cli(["analyze", bad])[0] == 2
+
+
+def test_compare_leaves_out_a_point_whose_channels_differ_in_length(tmp_path):
+    """rig compare of a point with one channel cut to 100 samples ended in a traceback
+    ('passive_acceleration has (141312,) samples, active_acceleration (100,)')."""
+    from test_bad_input import _write_recording
+
+    em = _write_recording(tmp_path / "em.h5")
+    other = _write_recording(tmp_path / "model.h5")
+    with h5py.File(em, "r+") as f:
+        attrs = dict(f["points/0000/active_shroud_accel"].attrs)
+        data = f["points/0000/active_shroud_accel"][:100]
+        del f["points/0000/active_shroud_accel"]
+        f["points/0000/active_shroud_accel"] = data
+        f["points/0000/active_shroud_accel"].attrs.update(attrs)
+    code, out, err = run_cli(["compare", "--json", em, other])
+    assert code == 0, err
+    notes = json.loads(out)["notes"]
+    assert any("EM point 0: its channels differ in length (100 to" in n for n in notes), notes
