@@ -77,6 +77,7 @@ def read_lvm(source: str | Path, notes: list[str] | None = None) -> dict:
         text = raw.decode("utf-8")
     except UnicodeDecodeError:
         text = raw.decode("cp1252", errors="replace")  # LabVIEW on Windows writes its code page
+    text = text.removeprefix("\ufeff")  # a byte-order mark some editors write
     if not text.startswith("LabVIEW Measurement"):
         raise LvmImportError(f"{source}: not a LabVIEW measurement file (no 'LabVIEW Measurement' heading)")
     text, note = _decimal_separator_held(text)
@@ -266,6 +267,11 @@ def _samples_held(seg: dict, k: int, number: int, name: str, notes: list[str]) -
         return int(np.sum(np.isfinite(column))), None
     if declared < 1 or declared != int(declared):
         return 0, f"Samples {declared:g} is not a positive whole count"
+    if declared < column.size and np.isfinite(column[int(declared) :]).any():
+        notes.append(
+            f"segment {number}/{name}: the header declares {declared:g} samples, its column holds "
+            f"{int(np.isfinite(column).sum())} values: imported {declared:g} (the rest read as padding)"
+        )
     if declared > column.size:
         notes.append(
             f"segment {number}/{name}: the header declares {declared:g} samples, the data hold "

@@ -176,7 +176,7 @@ def _import(
                 fc = resolve(
                     path,
                     ch.name,
-                    str(ch.properties.get("unit_string", "")),
+                    str(ch.properties.get("unit_string") or ch.properties.get("units") or ""),
                     mapping=mapping,
                     units=units,
                     path=path,

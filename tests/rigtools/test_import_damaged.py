@@ -322,3 +322,25 @@ def test_uff_frfs_on_a_grid_check_would_reject_are_not_written(tmp_path, increme
     )
     assert expected in err
     assert not (tmp_path / "f.h5").exists()
+
+
+def test_lvm_declaring_fewer_samples_than_its_column_holds_says_so(tmp_path, data):
+    src = _lvm(tmp_path, data, edit=lambda t: t.replace("Samples\t200\t200", "Samples\t100\t100"))
+    code, stdout, err = _import("lvm", src, tmp_path / "t.h5")
+    assert code == 0, err
+    assert "the header declares 100 samples, its column holds 200 values: imported 100" in stdout
+
+
+def test_lvm_with_a_byte_order_mark_reads(tmp_path, data):
+    src = _lvm(tmp_path, data, edit=lambda t: "\ufeff" + t)
+    code, _, err = _import("lvm", src, tmp_path / "t.h5")
+    assert code == 0, err
+
+
+def test_tdms_units_property_is_read_as_its_docstring_says(tmp_path, data):
+    channel = ChannelObject("g", "accel", data[:, 0], properties={"units": "g", "wf_increment": 1e-4})
+    with TdmsWriter(tmp_path / "t.tdms") as writer:
+        writer.write_segment([RootObject(), GroupObject("g"), channel])
+    code, stdout, err = _import("tdms", tmp_path / "t.tdms", tmp_path / "t.h5")
+    assert code == 0, err
+    assert "acceleration in m/s^2, g -> m/s^2 (x 9.80665)" in stdout
