@@ -401,7 +401,7 @@ def operational_modes(
     >>> rng = np.random.default_rng(1)
     >>> fs, fn, zeta = 50.0, 3.0, 0.02
     >>> wn = 2 * np.pi * fn
-    >>> b, a, _ = signal.cont2discrete(([wn**2], [1, 2 * zeta * wn, wn**2]), 1 / fs)
+    >>> b, a = signal.cont2discrete(([wn**2], [1, 2 * zeta * wn, wn**2]), 1 / fs)[:2]
     >>> y = signal.lfilter(b[0], a, rng.normal(size=30000))
     >>> res = operational_modes(y, fs, band=(1.0, 6.0))
     >>> [round(m.frequency_hz, 1) for m in res.modes], res.harmonics

@@ -37,7 +37,8 @@ SKIP = (
 
 def blocks(lang: str) -> list[str]:
     """The fenced code blocks of one language in the README draft (tagged exactly ``lang``; a
-    block tagged ``sh cluster`` or ``python cluster`` needs a compute cluster: shown, not run)."""
+    block tagged ``sh cluster`` or ``python cluster`` needs a compute cluster, ``python lab`` the
+    NI rig: shown, not run)."""
     return re.findall(rf"```{lang}\n(.*?)```", README.read_text(encoding="utf-8"), flags=re.DOTALL)
 
 
@@ -93,7 +94,9 @@ def test_readme_python_examples_run(demo):
             check=False,
         )
         assert proc.returncode == 0, proc.stderr[-2000:]
-        assert "impacts per period" in proc.stdout
+        # what each prints: the front door's dwell (force held within 1 %), or the demo's impacts
+        held = re.search(r"finished ([\d.]+) N", proc.stdout)
+        assert "impacts per period" in proc.stdout or (held and abs(float(held.group(1)) - 15.0) < 0.15)
 
 
 def test_demo_writes_recordings_and_judges_every_finding(demo):

@@ -140,7 +140,8 @@ def test_branches_over_the_rigs_stepped_sine_in_chromium(branches_report, chromi
         if lab in SHORT
     ]
     assert [r["bifurcation"] for r in bif] == [w[0] for w in want]
-    np.testing.assert_allclose([float(r["fe (Hz)"]) for r in bif], [w[1] for w in want], rtol=1e-5)
+    # shown to 4 significant digits (rigtools.readable): within half a unit of the 4th digit
+    np.testing.assert_allclose([float(r["fe (Hz)"]) for r in bif], [w[1] for w in want], rtol=5e-4)
     assert [r["stable"] for r in bif] == ["yes" if w[2] else "no" for w in want]
     (fold,) = [r for r in bif if r["bifurcation"] == "fold (LP)" and r["turning point"] == "upper"]
     assert fold["turning point"] == "upper" and 71.5 < float(fold["fe (Hz)"]) < 71.8  # 71.64 Hz
@@ -171,11 +172,11 @@ def test_branches_over_the_rigs_stepped_sine_in_chromium(branches_report, chromi
         assert r["inside the jump"] == ("yes" if inside else "no")
         offset = 0.0 if inside else (at - hi if at > hi else at - lo)
         assert float(r["offset (Hz)"]) == pytest.approx(offset, abs=1e-4)
-        assert f"jumps between {lo:g} Hz and {hi:g} Hz" in text
+        assert f"in a jump between {lo:g} Hz and {hi:g} Hz" in text  # the sweep leaves or makes contact
     # the up sweep's jump is the fold, the down sweep's the grazing corner, as the text says
     up = next(r for r in jumps if r["direction"] == "up")
     assert up["turning point"] == "fold (upper)" and up["inside the jump"] == "yes"
-    assert f"the jump is the model's fold (LP) at {float(fold['fe (Hz)']):.4g} Hz" in text
+    assert f"the model's fold (LP) at {float(fold['fe (Hz)']):.4g} Hz lies inside it" in text
     down = next(r for r in jumps if r["direction"] == "down")
     assert down["turning point"] == "grazing (lower)" and down["inside the jump"] == "yes"
     assert 64.3 < float(down["at (Hz)"]) < 64.5  # 64.41 Hz
