@@ -124,9 +124,16 @@ def _write_internals() -> None:
         # a package's page is its docstring: the names its __init__ re-exports are documented once,
         # in the module that defines them
         members = "" if is_package else "   :members:\n   :undoc-members:\n   :show-inheritance:\n"
-        public = sorted(p.rsplit(".", 1)[1] for p in PUBLIC if p.rsplit(".", 1)[0] == name)
-        if members and public:  # documented on a public page
-            members += f"   :exclude-members: {', '.join(public)}\n"
+        public = {p.rsplit(".", 1)[1] for p in PUBLIC if p.rsplit(".", 1)[0] == name}
+        # names a module re-exports (in its __all__, defined elsewhere) are documented where defined
+        module = importlib.import_module(name)
+        public |= {
+            n
+            for n in getattr(module, "__all__", [])
+            if getattr(getattr(module, n, None), "__module__", name) != name
+        }
+        if members and public:  # documented on a public page, or in the module defining them
+            members += f"   :exclude-members: {', '.join(sorted(public))}\n"
         title = f"``{name}``"
         text = f"{title}\n{'=' * len(title)}\n\n.. automodule:: {name}\n{members}"
         (folder / f"{name}.rst").write_text(text, encoding="utf-8")

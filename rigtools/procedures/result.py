@@ -1,8 +1,8 @@
 """The one result of every procedure, however it is called: :class:`RunResult`.
 
 ``rigtools.dwell(...)`` and ``SineDwell(...).run()`` return the same :class:`RunResult`: its
-``status`` a :class:`Status` (a string enum: ``run.status == "finished"`` and ``run.status is
-Status.FINISHED`` both hold, and it prints as the word), its ``points`` :class:`PointResult`
+``status`` a :class:`~rigtools.procedures.result.Status` (a string enum: ``run.status == "finished"`` and ``run.status is
+Status.FINISHED`` both hold, and it prints as the word), its ``points`` :class:`~rigtools.PointResult`
 objects with attributes in SI units (``point.fe``, ``point.harmonics["force"][0]``).
 """
 
@@ -200,14 +200,14 @@ class RunResult:
     procedure
         ``"sine dwell"``, ``"stepped sine"``, ``"rig study"``, ``"frf test"`` or ``"tap test"``.
     status
-        :class:`Status`: ``"finished"``, ``"aborted"`` (a stop request) or ``"failed"``;
+        :class:`~rigtools.procedures.result.Status`: ``"finished"``, ``"aborted"`` (a stop request) or ``"failed"``;
         compares equal to the word.
     reason
         Why it stopped early (empty when finished).
     file
         The recording written.
     points
-        :class:`PointResult` of each point, in recording order.
+        :class:`~rigtools.PointResult` of each point, in recording order.
     summary
         What the procedure concluded (e.g. ``jumps`` of a stepped sine, ``modes`` of a tap test).
 
@@ -265,7 +265,7 @@ class RunResult:
         return analyze_recording(self.file, **options)
 
     def to_dict(self) -> dict[str, Any]:
-        """Plain Python: the fields, each point by :meth:`PointResult.to_dict`."""
+        """Plain Python: the fields, each point by :meth:`~rigtools.PointResult.to_dict`."""
         return {
             "procedure": self.procedure,
             "status": self.status.value,
