@@ -72,34 +72,37 @@ def parse_inputs(
     ``drive`` (the simulated rig's model driven at a fixed drive amplitude) ``"force"`` is that
     amplitude in peak volts, and so is a ``"force"`` range; ``force`` None is 15 N, and a force
     given with ``drive`` is refused (it would not be held)."""
+    from rigtools.errors import option
     from rigtools.options import drive_amplitude, positive_finite
     from rigtools.options import gap as gap_value
 
+    # each named as the caller gives it: --from on the command line, start= in a script
+    p_, f_, t_ = option("param"), option("start", flag="--from"), option("stop", flag="--to")
+    fe_, force_, gap_, drive_ = option("fe"), option("force"), option("gap"), option("drive")
+
     if param not in DIMENSION:
-        raise UserError(f"--param = {param!r}: one of {', '.join(DIMENSION)}")
+        raise UserError(f"{p_} = {param!r}: one of {', '.join(DIMENSION)}")
     if param == "gap":
-        lo, hi = gap_value(start, "--from"), gap_value(stop, "--to")
+        lo, hi = gap_value(start, f_), gap_value(stop, t_)
     elif param == "force" and drive is not None:
-        lo, hi = drive_amplitude(str(start), "--from"), drive_amplitude(str(stop), "--to")
+        lo, hi = drive_amplitude(str(start), f_), drive_amplitude(str(stop), t_)
     else:
-        lo = positive_finite(start, DIMENSION[param], "--from")
-        hi = positive_finite(stop, DIMENSION[param], "--to")
+        lo = positive_finite(start, DIMENSION[param], f_)
+        hi = positive_finite(stop, DIMENSION[param], t_)
     if lo == hi:
-        raise UserError(f"--from and --to are both {start!r}: give a range")
+        raise UserError(f"{f_} and {t_} are both {start!r}: give a range")
     if drive is not None and force is not None:
         raise UserError(
-            f"--force = {force!r} with --drive = {drive!r}: the model holds either the force or the "
+            f"{force_} = {force!r} with {drive_} = {drive!r}: the model holds either the force or the "
             "drive amplitude; give one"
         )
     force = DEFAULT_FORCE if force is None else force
     fixed = {
-        "fe": positive_finite(fe, "frequency", "--fe"),
+        "fe": positive_finite(fe, "frequency", fe_),
         "force": (
-            positive_finite(force, "force", "--force")
-            if drive is None
-            else drive_amplitude(str(drive), "--drive")
+            positive_finite(force, "force", force_) if drive is None else drive_amplitude(str(drive), drive_)
         ),
-        "gap": gap_value(gap),
+        "gap": gap_value(gap, gap_),
     }
     return lo, hi, fixed
 

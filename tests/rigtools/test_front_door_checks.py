@@ -3,6 +3,8 @@ the argument by its Python name, before any work."""
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
@@ -66,3 +68,17 @@ def test_update_model_without_recordings_says_so(tmp_path):
 def test_continuation_found_that_is_no_list_is_refused_before_the_work():
     with pytest.raises(UserError, match=r"^found = 'x': give a list \(found=\[\]\)"):
         rigtools.continuation("fe", "60 Hz", "61 Hz", gap="5 mm", found="x")
+
+
+@pytest.mark.parametrize(
+    ("args", "kwargs", "said"),
+    [
+        (("temp", "60 Hz", "61 Hz"), {}, "param = 'temp'"),
+        (("fe", "x", "61 Hz"), {}, "start = 'x'"),
+        (("fe", "60 Hz", "60 Hz"), {}, "start and stop are both '60 Hz'"),
+    ],
+)
+def test_continuation_names_its_python_arguments(args, kwargs, said):
+    """The script's words, not the command line's (--param, --from, --to)."""
+    with pytest.raises(UserError, match=r"^" + re.escape(said)):
+        rigtools.continuation(*args, gap="5 mm", **kwargs)
