@@ -8,8 +8,10 @@ import json
 import sys
 from pathlib import Path
 
+from rigtools.errors import exit_status_help
+
 HELP = "continue the model's periodic orbits in fe, force or gap: branches, stability, bifurcations"
-EPILOG = """\
+EPILOG = f"""\
 Shooting on the reduced model's own integrator with pseudo-arclength continuation; Floquet
 multipliers at every point; folds (LP: the branch turns), period doublings (PD: a real multiplier
 at -1; then the period-2 branch, followed out of the range and back if it turns outside) and
@@ -31,6 +33,8 @@ parameter (stable solid, unstable dashed); --measured overlays recorded up/down 
 studies in the same measure (a rig recording has accelerations only: --measure accel1), their
 jumps shaded, and prints a sentence per jump: the mechanism by which the sweep leaves the branch
 it followed and how far from the jump, and the nearest turning point.
+
+{exit_status_help(0, 2, 4, notes={0: "written (a branch that failed inside the tracer is kept, status failed)", 2: "bad input (options, a range beyond the model or the memory, --measured files)", 4: "the file cannot be written (disk full): nothing is left"})}
 
 examples:
   rig continuation --param fe --from 55 --to 80 --force 15 --gap "0.7 mm" --out branches-fe.h5
