@@ -328,9 +328,15 @@ class BlockStream:
             raise exc
         fault = exc.fault if isinstance(exc, DriverError) else type(exc).__name__
         t = self.stats.samples / self.stats.sample_rate
+        # a failed write (disk full) keeps what was flushed before it, not every sample read: the
+        # writer's own sentence says so; the count read would claim samples the file never got
+        kept = (
+            ""
+            if isinstance(exc, FaultError) and "everything flushed before is kept" in str(exc)
+            else f"; {self.stats.samples} samples per channel ({t:.3f} s) kept"
+        )
         raise AcquisitionAborted(
-            f"acquisition aborted at t = {t:.3f} s: {one_line(exc, first=True)}; drive brought to zero; "
-            f"{self.stats.samples} samples per channel ({t:.3f} s) kept",
+            f"acquisition aborted at t = {t:.3f} s: {one_line(exc, first=True)}; drive brought to zero{kept}",
             fault=fault,
             cause=exc,
             samples_kept=self.stats.samples,

@@ -257,6 +257,11 @@ def mark_end_status(path: str | Path, status: Status, reason: str) -> None:
         with h5py.File(path, "r+", libver=("v110", "v110"), locking=False) as f:
             f.attrs["end_status"] = status.value
             f.attrs["end_reason"] = reason
+            # the writer may have ended the file itself first (a full disk: "RecordingWriteError:
+            # ..."): the abort reason starts with the procedure's word, as rig check holds it
+            aborted = str(f.attrs.get("abort_reason", ""))
+            if f.attrs.get("status") == "aborted" and aborted and not aborted.startswith(f"{status.value}: "):
+                f.attrs["abort_reason"] = f"{status.value}: {aborted}"
     except OSError:
         pass
     finally:

@@ -259,3 +259,31 @@ def test_compare_leaves_out_a_point_whose_channels_differ_in_length(tmp_path):
     assert code == 0, err
     notes = json.loads(out)["notes"]
     assert any("EM point 0: its channels differ in length (100 to" in n for n in notes), notes
+
+
+@pytest.mark.skipif(os.geteuid() != 0, reason="mounting a small tmpfs needs root")
+def test_acquisition_on_a_full_disk_claims_no_sample_it_did_not_keep(tmp_path):
+    """A dwell onto a 2.5 MB disk ended 'exit 4 ... 13312 samples per channel (0.260 s) kept'
+    while those samples were never flushed (NaN), and rig check rejected the file (end_status
+    'failed' but abort_reason 'RecordingWriteError: ...')."""
+    full = tmp_path / "full"
+    full.mkdir()
+    if subprocess.run(
+        ["mount", "-t", "tmpfs", "-o", "size=2500k", "tmpfs", str(full)], check=False
+    ).returncode:
+        pytest.skip("cannot mount a tmpfs here")
+    try:
+        out = full / "a.h5"
+        cmd = [sys.executable, "-m", "rigtools.cli", "acquire", "dwell", "--backend", "sim", "--fe", "60 Hz"]
+        proc = subprocess.run(
+            [*cmd, "--force", "5 N", "--gap", "5 mm", "--periods", "400", "--out", str(out)],
+            capture_output=True, text=True, timeout=600, check=False,
+        )  # fmt: skip
+        assert proc.returncode == 4 and "No space left on device" in proc.stderr, proc.stderr
+        assert "samples per channel" not in proc.stderr and "everything flushed before is kept" in proc.stderr
+        code, text, _ = run_cli(["check", out])
+        assert code == 0 and "status aborted" in text, text  # a valid aborted recording
+        with h5py.File(out, "r") as f:
+            assert str(f.attrs["abort_reason"]).startswith("failed: RecordingWriteError")
+    finally:
+        subprocess.run(["umount", str(full)], check=False)
