@@ -609,8 +609,9 @@ _KIND_WORDS = {
 _NONE = ("", "none", "unknown")
 
 
-def read_uff_sets(source: str | Path) -> list[dict]:
-    """The datasets 58 of a UFF file (pyuff), each cut to its stated ``num_pts``."""
+def read_uff_sets(source: str | Path, notes: list[str] | None = None) -> list[dict]:
+    """The datasets 58 of a UFF file (pyuff), each cut to its stated ``num_pts``; a record holding
+    more values than a padded last line explains is said in ``notes``."""
     import pyuff
 
     source = Path(source)
@@ -629,6 +630,10 @@ def read_uff_sets(source: str | Path) -> list[dict]:
             continue
         n = int(s.get("num_pts", len(s["data"])))
         if len(s["data"]) > n:  # writers pad the last line; pyuff reads the padding as values
+            if len(s["data"]) - n >= 6 and notes is not None:  # more than one line of padding
+                notes.append(
+                    f"record {len(out) + 1}: declares {n} values, holds {len(s['data'])}: imported {n}"
+                )
             s = {**s, "data": s["data"][:n], "x": s["x"][:n]}
         out.append(s)
     if not out:
@@ -797,7 +802,8 @@ def import_uff(
 
     source = Path(source)
     mapping, units, chosen = dict(mapping or {}), dict(units or {}), list(channels or [])
-    sets = read_uff_sets(source)
+    notes: list[str] = []
+    sets = read_uff_sets(source, notes)
     names = record_names(sets)
     for option, given in (("--channel", chosen), ("--map", mapping), ("--units", units)):
         _check_keys(option, given, set(names), len(sets))
@@ -816,7 +822,6 @@ def import_uff(
     every: list[ForeignChannel] = []
     kept: list[tuple[ForeignChannel, int, float]] = []
     data: list[tuple[np.ndarray, float]] = []
-    notes: list[str] = []
     for number, name, s in records:
         where = f"record {number} ({name})"
         if int(s["func_type"]) != FUNC_TIME:

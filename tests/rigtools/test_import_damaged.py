@@ -344,3 +344,12 @@ def test_tdms_units_property_is_read_as_its_docstring_says(tmp_path, data):
     code, stdout, err = _import("tdms", tmp_path / "t.tdms", tmp_path / "t.h5")
     assert code == 0, err
     assert "acceleration in m/s^2, g -> m/s^2 (x 9.80665)" in stdout
+
+
+def test_uff_record_declaring_fewer_values_than_it_holds_says_so(tmp_path, data):
+    """Cut to its declared count silently before (a padded last line holds fewer than 6 extra)."""
+    code, stdout, err = _import("uff", _uff_time(tmp_path, data.T, num_pts=100), tmp_path / "u.h5")
+    assert code == 0, err
+    assert stdout.count("declares 100 values, holds 200: imported 100") == 2
+    with open_recording(tmp_path / "u.h5") as rec:
+        np.testing.assert_allclose(rec.points[0].channels["hammer_1_Y"][:], data[:100, 0], rtol=1e-5)
