@@ -81,15 +81,17 @@ UNITS: dict[str, SIUnits] = _table()
 _BAD_NAME_CHARS = re.compile(r"[^A-Za-z0-9_.\-]+")
 
 
-# declared units whose first letter is an SI prefix that case tells apart (m milli, M mega): the
+# declared units whose first letter case tells apart (m milli, M mega; P of pascal, p pico): the
 # case the table's entry means; the other case is refused (unknown), never read 10^9 off
-_PREFIX_CASE = {"mv": "m", "ma": "m", "mm": "m", "mm/s": "m", "mm/s^2": "m", "mm/s2": "m", "mpa": "M"}
+_PREFIX_CASE = {
+    "mv": "m", "ma": "m", "mm": "m", "mm/s": "m", "mm/s^2": "m", "mm/s2": "m", "mpa": "M", "pa": "P",
+}  # fmt: skip
 
 
 def si_units(text: str) -> SIUnits | None:
     """The SI conversion of a declared unit (case and spaces ignored, except the case of an m/M
-    prefix: ``mV`` is millivolt, ``MV`` unknown; ``MPa`` megapascal, ``mPa`` unknown), None if
-    unknown."""
+    prefix: ``mV`` is millivolt, ``MV`` unknown; ``MPa`` megapascal, ``mPa`` unknown; ``Pa``
+    pascal, ``pA`` (picoampere) unknown), None if unknown."""
     plain = str(text).strip()
     key = plain.lower().replace(" ", "")
     if key in _PREFIX_CASE and plain[0] != _PREFIX_CASE[key]:

@@ -353,3 +353,14 @@ def test_uff_record_declaring_fewer_values_than_it_holds_says_so(tmp_path, data)
     assert stdout.count("declares 100 values, holds 200: imported 100") == 2
     with open_recording(tmp_path / "u.h5") as rec:
         np.testing.assert_allclose(rec.points[0].channels["hammer_1_Y"][:], data[:100, 0], rtol=1e-5)
+
+
+@pytest.mark.parametrize(
+    ("declared", "units"), [("Pa", "Pa"), ("PA", "Pa"), ("kPa", "Pa"), ("pA", None), ("pa", None)]
+)
+def test_picoampere_is_not_read_as_pascal(declared, units):
+    """'pA' was 'pressure in Pa, pA -> Pa': the case of the first letter tells them apart."""
+    from rigtools.interop.channels import si_units
+
+    si = si_units(declared)
+    assert (si.units if si else None) == units
