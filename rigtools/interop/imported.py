@@ -113,6 +113,7 @@ def write_imported(
     target = Path(out)
     replacing = overwrite and target.is_file()
     path = target.with_name(f".{target.name}.importing") if replacing else target
+    held = _hold(target) if replacing else None  # no other run writes the file it replaces
     try:
         with RecordingWriter(
             path, backend=backend, rig=rig, experiment=experiment, overwrite=overwrite
@@ -131,6 +132,9 @@ def write_imported(
         if replacing:
             path.unlink(missing_ok=True)
         raise
+    finally:
+        if held is not None:
+            held.release()
     channels = list(every)
     return {
         "channels": [c.to_dict() for c in channels],
@@ -147,3 +151,23 @@ def write_imported(
         ],
         "lines": [c.line() for c in channels] + list(notes) + point_lines,
     }
+
+
+def _hold(target: Path) -> Any:
+    """The writer lock of ``target`` taken (the one every writer takes), or the refusal every
+    writer gives when another run writes it."""
+    from rigtools.recording import RecordingError
+    from rigtools.recording.lock import LockBusy, WriterLock
+
+    lock = WriterLock(target)
+    try:
+        lock.acquire()
+    except LockBusy as busy:
+        raise RecordingError(
+            f"{target} is being written by another run ({busy.holder}); two runs cannot write one file"
+        ) from None
+    except OSError as exc:
+        raise RecordingError(
+            f"cannot replace {target}: cannot create its lock file ({exc.strerror})"
+        ) from None
+    return lock
