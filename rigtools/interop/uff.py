@@ -624,7 +624,7 @@ def read_uff_sets(source: str | Path, notes: list[str] | None = None) -> list[di
             f"{source}: not a readable UFF file ({type(exc).__name__}: {one_line(exc, 200)})"
         ) from None
     sets = sets if isinstance(sets, list) else [sets]
-    out = []
+    out: list[dict] = []
     for s in sets:
         if s.get("type") != 58:
             continue
