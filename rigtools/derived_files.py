@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from rigtools.errors import FaultError, UserError, one_line
+from rigtools.write_targets import read_only, writable_target
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 SOFTWARE_PREFIXES = ("rigtools", "Matplotlib")  # whose PNGs a new plot may replace
@@ -84,10 +85,8 @@ def derived_path(
     -------
     Path
         Never ``source`` itself, never an existing file ``replaceable`` refuses or whose
-        permission bits let no one write it (:func:`rigtools.options.read_only`).
+        permission bits let no one write it (:func:`rigtools.write_targets.read_only`).
     """
-    from rigtools.options import read_only
-
     source = Path(source)
     stem = source.stem
     candidates = [source.with_name(stem + ext), source.with_name(f"{stem}.{kind}{ext}")]
@@ -143,7 +142,7 @@ def atomic_write(path: str | os.PathLike, write: Callable[[Path], object]) -> Pa
     folder, which then takes the name ``path`` by one rename. The one way rigtools writes a
     derived file (plots, UFF, CSV, JSON, reports, rig files).
 
-    ``path`` is checked by :func:`rigtools.options.writable_target` first (no device node, FIFO,
+    ``path`` is checked by :func:`rigtools.write_targets.writable_target` first (no device node, FIFO,
     socket, kernel file system, or symbolic link out of the folder). A failed write (disk full,
     quota, a library's error on a write) removes the temporary file and leaves an existing
     ``path`` untouched.
@@ -155,8 +154,6 @@ def atomic_write(path: str | os.PathLike, write: Callable[[Path], object]) -> Pa
     FaultError
         The write failed (exit 4), in one line naming the file.
     """
-    from rigtools.options import writable_target
-
     path = Path(path)
     writable_target(path)
     existed = path.exists()

@@ -123,7 +123,7 @@ def _exit_interrupted(proc, code: int) -> None:
 def _resume_out(text: str):
     from pathlib import Path
 
-    from rigtools.options import writable_target
+    from rigtools.write_targets import writable_target
 
     out = Path(text)
     writable_target(out, f"--out = {text!r}")
