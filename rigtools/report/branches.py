@@ -16,18 +16,52 @@ why (``rig continuation --measured`` overlays any recording when asked to).
 
 from __future__ import annotations
 
+import json
+import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import h5py
 import numpy as np
 
-from rigtools.branches import POINT_PARAM, X_LABELS, X_UNITS, StoredBranch
+from rigtools.analysis.branches import SHORT, explain_jumps, turning_points
+from rigtools.analyze import RecordingAnalysis, is_foreign
+from rigtools.branches import (
+    POINT_PARAM,
+    X_LABELS,
+    X_UNITS,
+    StoredBranch,
+    branch_curves,
+    branches_figure,
+    measured_sweeps,
+    read_branches,
+)
+from rigtools.config import parse_rig
+from rigtools.errors import UserError
+from rigtools.recording import open_recording
+from rigtools.vocabulary import FEM
 
 FIXED_TOLERANCE = 0.02  # relative: a recording's fixed fe / force / gap against the branches'
 KIND_PARAM = {"frequency": "fe", "gap": "gap", "force": "force"}  # study_axis kind -> branch param
 FIXED_NAMES = {"fe": "fe", "force": "F0", "gap": "gap"}
 LABEL_WORDS = {"fold": "fold (LP)", "grazing": "grazing corner (G: impacts begin or end there)"}
+
+
+def study_axis(analysis: RecordingAnalysis) -> tuple[str, np.ndarray] | None:
+    """``(kind, values)`` of the swept parameter of a study or stepped sine, SI."""
+    pts = analysis.periodic
+    if len(pts) < 2:
+        return None
+    proc = analysis.procedure
+    for kind in ("gap", "force", "frequency"):
+        if proc.startswith(kind) and all("study_value" in p.params for p in pts):
+            return kind, np.array([float(p.params["study_value"]) for p in pts])
+    for kind, key in (("frequency", "fe"), ("gap", "gap"), ("force", "force_amplitude")):
+        vals = [float(v) for p in pts if (v := p.params.get(key)) is not None]
+        if len(vals) == len(pts) and len({round(v, 12) for v in vals}) > 1:
+            return kind, np.array(vals)
+    return None
 
 
 @dataclass
@@ -136,9 +170,6 @@ def jump_sentences(explanations: list, param: str) -> list[str]:
 def measured_jump_sentences(branches: list[StoredBranch], measured: list, measure: str) -> list[str]:
     """:func:`jump_sentences` of ``measured`` (:func:`rigtools.branches.measured_sweeps`) against
     stored branches in ``measure``, or one line saying the sweeps show no jump."""
-    from rigtools.analysis.branches import explain_jumps
-    from rigtools.branches import branch_curves
-
     if not branches or not measured:
         return []
     sentences = jump_sentences(explain_jumps(branch_curves(branches, measure), measured), branches[0].param)
@@ -173,9 +204,6 @@ def period_two_sentence(branches: list[StoredBranch]) -> str:
 
 def bifurcation_rows(branches: list[StoredBranch]) -> list[dict[str, Any]]:
     """The table of the branches' bifurcations (turning points marked upper / lower)."""
-    from rigtools.analysis.branches import SHORT, turning_points
-    from rigtools.branches import branch_curves
-
     if not branches:
         return []
     param = branches[0].param
@@ -256,9 +284,6 @@ def add_branches(
     figure of the branches with ``measured`` (:class:`rigtools.analysis.branches.MeasuredSweep`)
     overlaid, the bifurcation table and the jump table. ``what`` names the branches in the
     caption (model, fixed quantities). Returns the jump explanations."""
-    from rigtools.analysis.branches import explain_jumps
-    from rigtools.branches import branch_curves, branches_figure
-
     if not any(b.value.size for b in branches):
         section.note(f"{what}: no branch point to draw ({'; '.join(b.message for b in branches)})")
         return []
@@ -296,10 +321,6 @@ def add_branches(
 def load_branch_files(paths) -> list[BranchFile]:
     """Read every branch file (:func:`rigtools.branches.read_branches`; one-line
     :class:`rigtools.errors.UserError` on a file that is not one)."""
-    import h5py
-
-    from rigtools.branches import read_branches
-
     out = []
     for p in paths:
         experiment, branches = read_branches(p)
@@ -311,11 +332,6 @@ def load_branch_files(paths) -> list[BranchFile]:
 
 def _same_model(rig_a: str, rig_b: str) -> bool:
     """The two rig descriptions (JSON or TOML text) give the same model (``to_params``)."""
-    import json
-    import tomllib
-
-    from rigtools.config import parse_rig
-    from rigtools.errors import UserError
 
     def params(text: str):
         try:
@@ -332,8 +348,6 @@ def _same_model(rig_a: str, rig_b: str) -> bool:
 
 def why_not(bf: BranchFile, analysis, rig: str) -> str:
     """Why the branches of ``bf`` are not drawn over the recording of ``analysis``, or ``""``."""
-    from rigtools.analyze import is_foreign
-
     name = bf.path.name
     if is_foreign({"procedure": analysis.procedure}):
         return (
@@ -359,11 +373,6 @@ def add_recording_branches(section, analysis, files: list[BranchFile]) -> None:
     """Draw every branch file continued in the recording's swept parameter over the recording's
     sweeps (model recordings in peak contact force, rig recordings in the active shroud's
     fundamental acceleration, what a lab measures), or say why not."""
-    from rigtools.branches import measured_sweeps
-    from rigtools.recording import open_recording
-    from rigtools.report.sections import study_axis
-    from rigtools.vocabulary import FEM
-
     axis = study_axis(analysis)
     if axis is None:
         return

@@ -24,6 +24,7 @@ import numpy as np
 
 from rigtools.analyze import TABLE_HARMONICS, RecordingAnalysis, point_window
 from rigtools.readable import FREQUENCY_TABLE, shown
+from rigtools.report.branches import add_recording_branches, study_axis
 
 MAX_WAVEFORM_FIGURES = 4  # periodic points drawn as waveforms (first, last and between)
 WAVEFORM_CHANNELS = ("force", "active_shroud_accel", "passive_shroud_accel", "contact_force")
@@ -42,22 +43,6 @@ def _pick(n: int, m: int) -> list[int]:
     if n <= m:
         return list(range(n))
     return sorted({round(i) for i in np.linspace(0, n - 1, m)})
-
-
-def study_axis(analysis: RecordingAnalysis) -> tuple[str, np.ndarray] | None:
-    """``(kind, values)`` of the swept parameter of a study or stepped sine, SI."""
-    pts = analysis.periodic
-    if len(pts) < 2:
-        return None
-    proc = analysis.procedure
-    for kind in ("gap", "force", "frequency"):
-        if proc.startswith(kind) and all("study_value" in p.params for p in pts):
-            return kind, np.array([float(p.params["study_value"]) for p in pts])
-    for kind, key in (("frequency", "fe"), ("gap", "gap"), ("force", "force_amplitude")):
-        vals = [float(v) for p in pts if (v := p.params.get(key)) is not None]
-        if len(vals) == len(pts) and len({round(v, 12) for v in vals}) > 1:
-            return kind, np.array(vals)
-    return None
 
 
 def analysis_figures(
@@ -265,8 +250,6 @@ def add_analysis(report, analysis: RecordingAnalysis, branches=()) -> None:
     for nf in analysis_figures(analysis):
         sec.figure(nf.figure, nf.caption)
     if branches:
-        from rigtools.report.branches import add_recording_branches
-
         add_recording_branches(sec, analysis, list(branches))
 
 
