@@ -389,6 +389,16 @@ def configure_process(blas_threads: int | None = 1, *, numba_cache: bool = True)
     return ProcessSettings(blas_threads, live, str(cache) if cache is not None else None)
 
 
+#: The environment of a study's worker process (:class:`rigtools.study_runner.StudyRunner`,
+#: :class:`rigtools.worker_plugin.ProcessSettingsPlugin`): one BLAS and one numba thread each.
+WORKER_ENV = {
+    "OPENBLAS_NUM_THREADS": "1",
+    "OMP_NUM_THREADS": "1",
+    "MKL_NUM_THREADS": "1",
+    "NUMBA_NUM_THREADS": "1",
+}
+
+
 # -- the C allocator ------------------------------------------------------------------------
 #: Variables that make glibc fix its mmap and trim thresholds (turning off the adaptive mmap
 #: threshold) when present at the first malloc, whatever their value.

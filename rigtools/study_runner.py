@@ -36,20 +36,15 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 from rigtools.errors import FaultError, UserError, one_line
-from rigtools.runtime import MALLOC_TUNING_VARS, without_malloc_tuning
+from rigtools.runtime import MALLOC_TUNING_VARS, WORKER_ENV, without_malloc_tuning
 from rigtools.sim.studies import MapPlan, PlannedPoint
+from rigtools.sim.vibro_impact import run_harmonic
 
 if TYPE_CHECKING:
     from typing import Self
 
     from distributed import Client, LocalCluster
 
-WORKER_ENV = {
-    "OPENBLAS_NUM_THREADS": "1",
-    "OMP_NUM_THREADS": "1",
-    "MKL_NUM_THREADS": "1",
-    "NUMBA_NUM_THREADS": "1",
-}
 Progress = Callable[[int, int, str], None]
 
 
@@ -77,8 +72,6 @@ def run_point(
 
     The function every executor runs (in-process or on a Dask worker); ``progress(simulated_s,
     at_most_s)`` while it settles (in-process only)."""
-    from rigtools.sim.vibro_impact import run_harmonic
-
     return run_harmonic(
         system.with_contact(gap=point.gap),
         point.fe,

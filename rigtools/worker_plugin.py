@@ -11,8 +11,7 @@ from typing import Any
 
 from distributed.diagnostics.plugin import WorkerPlugin
 
-from rigtools.runtime import MALLOC_TUNING_VARS, configure_allocator, configure_process
-from rigtools.study_runner import WORKER_ENV
+from rigtools.runtime import MALLOC_TUNING_VARS, WORKER_ENV, configure_allocator, configure_process
 
 #: What :class:`ProcessSettingsPlugin` did in this process (empty outside a worker).
 WORKER_SETTINGS: dict[str, Any] = {}
