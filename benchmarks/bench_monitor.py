@@ -26,6 +26,7 @@ from pathlib import Path
 
 import psutil
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))  # headless_chromium
 GOAL = 0.25  # of one core
 
 WRITER = """
@@ -61,7 +62,7 @@ def cpu_seconds(proc: psutil.Process) -> float:
 
 def viewers(url: str, n: int):
     """Open ``n`` viewers of ``url``; returns what to close."""
-    from rigtools.report.browser import BrowserUnavailable, find_chromium
+    from headless_chromium import BrowserUnavailable, find_chromium
 
     try:
         exe = find_chromium()
@@ -69,7 +70,7 @@ def viewers(url: str, n: int):
         from bokeh.client import pull_session
 
         return "bokeh client", [pull_session(url=url.split("?")[0]) for _ in range(n)]
-    from rigtools.monitor.browser import Chromium
+    from headless_chromium import Chromium
 
     browser = Chromium(exe).__enter__()
     pages = [browser.open(url) for _ in range(n)]

@@ -33,7 +33,9 @@ from pathlib import Path
 
 import numpy as np
 
-from rigtools.monitor.browser import Chromium
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))  # headless_chromium
+
+from headless_chromium import Chromium
 
 RIG = [sys.executable, "-m", "rigtools.cli"]
 DWELL = ["acquire", "dwell", "--backend", "sim", "--pace", "--fe", "60", "--force", "15 N", "--gap", "0.5 mm"]

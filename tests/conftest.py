@@ -52,7 +52,7 @@ def chromium() -> str:
     environment variable ``RIGTOOLS_REQUIRE_BROWSER=1`` (``.ci/run`` sets it) the skip becomes a
     failure, so CI always checks reports in the real browser.
     """
-    from rigtools.report.browser import BrowserUnavailable, find_chromium
+    from headless_chromium import BrowserUnavailable, find_chromium
 
     try:
         return find_chromium()

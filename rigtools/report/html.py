@@ -3,7 +3,8 @@
 Figures are embedded as base64 PNG with their pixel size in ``width``/``height`` (so the page
 lays out before it decodes them, and a browser test can check each figure is drawn at the size it
 was made); the page carries its own CSS and needs no network. A short inline script records, after
-load, where each figure was laid out (``data-rect``) for :mod:`rigtools.report.browser`.
+load, where each figure was laid out (``data-rect``), for the tests' headless-Chromium check
+(``tests/headless_chromium.py``).
 """
 
 from __future__ import annotations

@@ -71,7 +71,7 @@ def recordings(tmp_path_factory):
 
 
 def test_report_opens_in_chromium_with_every_figure_drawn(recordings, tmp_path, monkeypatch, chromium):
-    from rigtools.report.browser import figure_is_drawn, screenshot_page
+    from headless_chromium import figure_is_drawn, screenshot_page
 
     monkeypatch.setitem(sys.modules, "rigtools.recording_comparison", None)  # comparison not installed
     files = [str(recordings[k]) for k in ("dwell", "frf", "study")]

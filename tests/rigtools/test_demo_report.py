@@ -12,9 +12,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from headless_chromium import figure_is_drawn, screenshot_page
 
 from rigtools.recording import open_recording
-from rigtools.report.browser import figure_is_drawn, screenshot_page
 
 # FRF, harmonic; waveforms + spectra per point; the gap trend, six studies; the FEM's branches in fe
 # and in gap at the paper's point

@@ -353,10 +353,8 @@ def test_bad_monitor_options_are_one_line(tmp_path, args, words):
 def test_page_shows_the_numbers_in_chromium(dwell, chromium, tmp_path):
     """``rig monitor`` on the finished dwell, looked at in headless Chromium by two viewers: both
     pages show F1 and impacts per period as rig analyze reports them, the status, and drawn plots."""
+    from headless_chromium import Chromium, figure_is_drawn
     from matplotlib import image as mpimg
-
-    from rigtools.monitor.browser import Chromium
-    from rigtools.report.browser import figure_is_drawn
 
     with open_recording(dwell) as rec:
         ref = analyze_periodic(rec.points[0]).dwell

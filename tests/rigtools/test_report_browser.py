@@ -15,10 +15,10 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 import pytest
+from headless_chromium import figure_is_drawn, screenshot_page
 from matplotlib import image as mpimg
 
 from rigtools.report import Report, write_report
-from rigtools.report.browser import figure_is_drawn, screenshot_page
 from rigtools.report.html import figure_png
 
 

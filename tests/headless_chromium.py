@@ -1,9 +1,18 @@
-"""Look at the monitor as a viewer does: a headless Chromium driven over the DevTools protocol.
+"""A headless Chromium (Debian's ``chromium``) for the tests and benchmarks that look at what a
+user sees; no ``rig`` command needs a browser, so this lives beside the tests, not in the library.
 
-The monitor's page is live (a websocket), so a one-shot ``--screenshot`` cannot wait for it;
-:class:`Chromium` starts Debian's ``chromium`` with a DevTools port, opens pages and lets a test
-or a benchmark read values off a page (the page's ids, inside Bokeh's shadow DOM) and take
-screenshots. The protocol is spoken over tornado's websocket client (Bokeh's own dependency).
+Two ways in, one executable and one set of flags (:func:`find_chromium`, :data:`FLAGS`):
+
+- a report (a static page): :func:`screenshot_page` loads the page from its file, reads back where
+  every figure was laid out (the report's own load script writes ``data-rect``), takes a full-page
+  screenshot and returns it with the figure rectangles, so a test can check that each figure is
+  drawn at its size and is not blank (:func:`figure_is_drawn`);
+- the live monitor (a websocket page a one-shot ``--screenshot`` cannot wait for):
+  :class:`Chromium` starts the browser with a DevTools port, opens pages and lets a test or a
+  benchmark read values off a page (the page's ids, inside Bokeh's shadow DOM) and take
+  screenshots. The protocol is spoken over tornado's websocket client (Bokeh's own dependency).
+
+Tests get it on ``sys.path`` from ``tests/conftest.py``'s folder; benchmarks add ``tests/``.
 """
 
 from __future__ import annotations
@@ -11,6 +20,7 @@ from __future__ import annotations
 import asyncio
 import base64
 import contextlib
+import html
 import itertools
 import json
 import os
@@ -21,11 +31,131 @@ import subprocess
 import tempfile
 import time
 import urllib.request
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Self
 
-from rigtools.report.browser import FLAGS, find_chromium
+import numpy as np
+from matplotlib import image as mpimg
+from tornado.websocket import websocket_connect
 
+FLAGS = [
+    "--headless",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-quic",
+    "--no-first-run",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--hide-scrollbars",
+    "--force-device-scale-factor=1",
+]
+CANDIDATES = ("chromium", "chromium-browser", "google-chrome", "google-chrome-stable")
+
+
+class BrowserUnavailable(RuntimeError):
+    """No Chromium on this machine."""
+
+
+def find_chromium() -> str:
+    """Path of a Chromium/Chrome executable, or :class:`BrowserUnavailable`."""
+    for name in CANDIDATES:
+        path = shutil.which(name)
+        if path:
+            return path
+    raise BrowserUnavailable(
+        "no chromium on PATH: install Debian's package 'chromium' "
+        "(.ci/run does) to check reports and the monitor in a real browser"
+    )
+
+
+@dataclass(frozen=True)
+class FigureBox:
+    """Where a figure was laid out (CSS px), the size it was made at, and its ``alt`` text and
+    ``caption`` (its ``figcaption``) as the browser's DOM holds them."""
+
+    left: float
+    top: float
+    width: float
+    height: float
+    natural_width: int
+    natural_height: int
+    loaded: bool
+    alt: str = ""
+    caption: str = ""
+
+
+@dataclass
+class PageShot:
+    """A full-page screenshot (``image``: height x width x 3 floats 0..1), the figures on it and
+    the page's DOM after load as the browser serialises it (``dom``: what a test reads the
+    tables and text from)."""
+
+    image: np.ndarray
+    figures: list[FigureBox]
+    page_height: int
+    dom: str = ""
+
+    def crop(self, box: FigureBox) -> np.ndarray:
+        l, t = round(box.left), round(box.top)
+        return self.image[t : t + round(box.height), l : l + round(box.width)]
+
+
+def _run(args: list[str], timeout: float) -> str:
+    proc = subprocess.run(args, capture_output=True, text=True, timeout=timeout, check=False)
+    if proc.returncode != 0:
+        raise RuntimeError(f"chromium failed ({proc.returncode}): {proc.stderr.strip()[-300:]}")
+    return proc.stdout
+
+
+def screenshot_page(page: str | Path, width: int = 1300, timeout: float = 60.0) -> PageShot:
+    """Open ``page`` (an HTML file) in headless Chromium; its screenshot and figure boxes."""
+    exe = find_chromium()
+    url = Path(page).resolve().as_uri()
+    with tempfile.TemporaryDirectory(prefix="rig-chromium-") as tmp:
+        profile = ["--user-data-dir=" + str(Path(tmp) / "profile")]
+        dom = _run([exe, *FLAGS, *profile, f"--window-size={width},1000", "--dump-dom", url], timeout)
+        m = re.search(r'data-height="(\d+)"', dom)
+        height = int(m.group(1)) if m else 1000
+        boxes = []
+        # an attribute value may hold ">" (quoted): the tag ends at the first ">" outside quotes
+        img = r'(<img\b(?:[^>"]|"[^"]*")*>)(?:\s*<figcaption>(.*?)</figcaption>)?'
+        for tag, caption in re.findall(img, dom, re.DOTALL):
+            rect = re.search(r'data-rect="([^"]+)"', tag)
+            if rect is None:
+                continue
+            v = rect.group(1).split(",")
+            alt = re.search(r'alt="([^"]*)"', tag)
+            boxes.append(
+                FigureBox(
+                    float(v[0]),
+                    float(v[1]),
+                    float(v[2]),
+                    float(v[3]),
+                    int(float(v[4])),
+                    int(float(v[5])),
+                    v[6] == "true",
+                    html.unescape(alt.group(1)) if alt else "",
+                    html.unescape(caption),
+                )
+            )
+        shot = Path(tmp) / "page.png"
+        _run([exe, *FLAGS, *profile, f"--window-size={width},{height}", f"--screenshot={shot}", url], timeout)
+        image = mpimg.imread(str(shot))[..., :3]
+    return PageShot(image=np.asarray(image, dtype=float), figures=boxes, page_height=height, dom=dom)
+
+
+def figure_is_drawn(crop: np.ndarray, min_ink: float = 0.01, min_colours: int = 3) -> bool:
+    """True if a figure crop is not blank: some share of non-white pixels and several colours."""
+    if crop.size == 0:
+        return False
+    ink = np.mean(np.any(crop < 0.9, axis=-1))
+    colours = len(np.unique((crop * 255).astype(np.uint8).reshape(-1, 3), axis=0))
+    return bool(ink >= min_ink and colours >= min_colours)
+
+
+# -- a live page over the DevTools protocol -------------------------------------------------
 #: JavaScript: the text of the element with id ``ID``, searched through every shadow root.
 _FIND = """
 (() => {
@@ -101,7 +231,7 @@ class Page:
 
 
 class Chromium:
-    """A headless Chromium with a DevTools port; use as a context manager."""
+    """A headless Chromium with a DevTools port (a live page); use as a context manager."""
 
     def __init__(self, exe: str | None = None, width: int = 1500, height: int = 1150) -> None:
         self.exe = exe or find_chromium()
@@ -140,8 +270,6 @@ class Chromium:
 
     def open(self, url: str) -> Page:
         """A new tab showing ``url``."""
-        from tornado.websocket import websocket_connect
-
         req = urllib.request.Request(f"http://127.0.0.1:{self.port}/json/new?{url}", method="PUT")
         with urllib.request.urlopen(req, timeout=10) as resp:
             target = json.loads(resp.read())
