@@ -22,6 +22,7 @@ import numpy as np
 
 import rigtools
 from rigtools.errors import one_line
+from rigtools.recording.opener import LIVE_RETRY_S, named, open_h5
 from rigtools.recording.schema import (
     CHANNEL_ATTRS,
     CHANNEL_UNITS,
@@ -527,7 +528,6 @@ def check_recording(path: str | os.PathLike, read_data: bool = True) -> CheckRes
         newer ``schema_version`` than this rigtools reads (it cannot be checked; exit 2).
     """
     from rigtools.recording.lock import writer_alive
-    from rigtools.recording.reader import LIVE_RETRY_S, named
 
     named(path)
     deadline = time.monotonic() + LIVE_RETRY_S
@@ -563,8 +563,6 @@ def check_recording(path: str | os.PathLike, read_data: bool = True) -> CheckRes
 
 
 def _check_once(path: str | os.PathLike, read_data: bool) -> CheckResult:
-    from rigtools.recording.reader import open_h5  # the reader's tolerant opener
-
     f, opened_as = open_h5(path)
     try:
         return _check_file(f, path, opened_as, read_data)
