@@ -14,6 +14,7 @@ from typing import Any
 
 import matplotlib
 
+import rigtools
 from rigtools.derived_files import write_derived
 from rigtools.errors import UserError
 
@@ -27,8 +28,6 @@ def save_figure(
 ) -> Path:
     """Write ``fig`` (a :class:`matplotlib.figure.Figure`) as PNG to ``path`` through
     :func:`write_derived` (marked ``Software: rigtools ...``); returns ``path``."""
-    import rigtools
-
     software = f"rigtools {rigtools.__version__} (matplotlib {matplotlib.__version__})"
     return write_derived(
         path,

@@ -13,6 +13,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from rigtools.analysis.oma import operational_modes
+
 MOTION_UNITS = ("m/s^2", "m/s", "m")
 
 
@@ -35,8 +37,6 @@ def point_modes(
     (first sample, samples). None, with a note saying why, for a point without motion
     channels, one whose rate cannot hold ``band`` or too short for it (a recording may hold
     such points beside the one with the modes, e.g. a logger's weather channels)."""
-    from rigtools.analysis.oma import operational_modes
-
     motion = motion_channels(point, names)
     if not motion:
         return None, ["no motion channel (acceleration, velocity, displacement): no modes"]

@@ -32,6 +32,9 @@ from pathlib import Path
 from types import TracebackType
 from typing import Any, Self
 
+import rigtools
+from rigtools.figures import save_figure
+
 
 class FigureCall:
     """``module.function(*args, **kwargs)``, a figure to draw, named rather than held: it pickles
@@ -65,8 +68,6 @@ def import_path() -> list[str]:
     (a source checkout run as ``python -m rigtools.cli`` from its root, a path a script added),
     without the current folder (a lab folder's own ``numpy.py`` or ``matplotlib.py``, which the
     command itself does not import either when started as ``rig``)."""
-    import rigtools
-
     root = os.path.dirname(os.path.dirname(os.path.abspath(rigtools.__file__)))
     here = os.path.realpath(os.getcwd())
     rest = [str(p) for p in sys.path if os.path.realpath(str(p) or ".") != here]
@@ -145,7 +146,6 @@ def main() -> int:
     signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))
     for name in WARM:
         importlib.import_module(name)
-    from rigtools.figures import save_figure
 
     try:
         make_figure, path = pickle.load(sys.stdin.buffer)

@@ -22,11 +22,27 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from rigtools.analysis.harmonics import derivative_harmonics, harmonic_amplitudes
+from rigtools.config import load_rig
 from rigtools.errors import UserError
+from rigtools.plot_process import FigureCall
+from rigtools.recording import ChannelSpec
+from rigtools.sim.natural_frequencies import reduced_natural_frequencies
+from rigtools.sim.reduction import estimate_reduction_seconds, reduced_system
+from rigtools.sim.vibro_impact import (
+    SimulationInputError,
+    check_time_step,
+    contact_force_harmonics,
+    estimate_steps,
+    run_harmonic,
+    steps_per_period_for,
+    validate_contact,
+)
+from rigtools.study_runner import RunOptions, StudyRunner
+from rigtools.units import MAX_GAP
 from rigtools.vocabulary import CHANNELS
 
 if TYPE_CHECKING:
-    from rigtools.plot_process import FigureCall
     from rigtools.sim.studies import PlannedPoint
     from rigtools.sim.vibro_impact import VibroImpactRun
 
@@ -96,9 +112,6 @@ class RunSettings:
 def load_system(rig: str | None, model: str = "fem"):
     """``(rig config, reduced system)`` of a rig file (``None``: the default rig) for ``model``
     (``"fem"`` or ``"am"``)."""
-    from rigtools.config import load_rig
-    from rigtools.sim.reduction import reduced_system
-
     cfg = load_rig(rig)
     return cfg, reduced_system(cfg.to_params(), model)
 
@@ -114,8 +127,6 @@ def simulate_point(
     """One settled run of ``F0 sin(2 pi fe t)`` (:func:`rigtools.sim.vibro_impact.run_harmonic`);
     :class:`rigtools.sim.vibro_impact.SimulationInputError` becomes a one-line :class:`UserError`.
     ``progress(simulated_s, at_most_s)`` is called while settling."""
-    from rigtools.sim.vibro_impact import SimulationInputError, run_harmonic
-
     try:
         run = run_harmonic(
             system,
@@ -139,8 +150,6 @@ def check_plausible(run) -> None:
     :data:`rigtools.units.MAX_GAP`, the widest gap a blade could close): the linear beam model is
     meaningless there, so it is never reported as a steady state. A typical cause is a unit slip
     (``"1 MN"`` for ``"1 mN"``)."""
-    from rigtools.units import MAX_GAP
-
     for name in ("active_tip_displacement", "passive_tip_displacement"):
         peak = float(np.max(np.abs(run.outputs[name]))) if run.outputs[name].size else 0.0
         if peak > MAX_GAP:
@@ -167,8 +176,6 @@ def check_finite(run) -> None:
 
 def channel_specs(sample_rate: float) -> list:
     """:class:`rigtools.recording.ChannelSpec` of every model channel, vocabulary order."""
-    from rigtools.recording import ChannelSpec
-
     return [
         ChannelSpec(
             name=name,
@@ -191,8 +198,6 @@ APPEND_SAMPLES = 1 << 20  # samples per appended block: no full copy of a long r
 
 def force_fundamental(run) -> float:
     """Harmonic 1 (peak) of the force channel: ``force_amplitude_measured``."""
-    from rigtools.analysis.harmonics import harmonic_amplitudes
-
     return float(harmonic_amplitudes(run.outputs["excitation_force"], run.sample_rate, run.fe, 1).at(1))
 
 
@@ -235,9 +240,6 @@ def write_point(rec, run, model: str, **extra) -> None:
 def harmonics_of(run) -> dict[str, list[dict]]:
     """k = 1..30 harmonics (peak amplitudes) of the reported channels:
     ``{channel: [{"k", "frequency_hz", "amplitude"}, ...]}``."""
-    from rigtools.analysis.harmonics import derivative_harmonics, harmonic_amplitudes
-    from rigtools.sim.vibro_impact import contact_force_harmonics
-
     out = {}
     for name, (src, order) in HARMONIC_SOURCES.items():
         if src == "contact_force":  # exact from the per-step force (it jumps between samples)
@@ -275,9 +277,6 @@ def run_figure(run, system, title: str) -> FigureCall:
     """:func:`rigtools.analysis.plots.vibro_impact_figure` of one settled run, as a call to make:
     picklable, holding only the arrays it draws, and made without importing matplotlib (the
     figure is drawn by :mod:`rigtools.plot_process`, or in this process by calling it)."""
-    from rigtools.plot_process import FigureCall
-    from rigtools.sim.natural_frequencies import reduced_natural_frequencies
-
     o = run.outputs
     return FigureCall(
         "rigtools.analysis.plots",
@@ -307,9 +306,6 @@ def iter_study_points(
     point order, through ``runner`` (a :class:`rigtools.study_runner.StudyRunner`; default
     in-process); input errors become :class:`UserError`. ``progress(simulated_s, at_most_s)``
     while each settles (in-process)."""
-    from rigtools.sim.vibro_impact import SimulationInputError
-    from rigtools.study_runner import RunOptions, StudyRunner
-
     runner = runner if runner is not None else StudyRunner()
     options = RunOptions(
         record_duration=settings.duration,
@@ -367,11 +363,7 @@ def write_study(
 
 def steps_per_period(system, fe: float, force: float, settings: RunSettings) -> int:
     """The steps per period a run will use (:func:`rigtools.sim.vibro_impact.run_harmonic`'s rule)."""
-    from rigtools.sim.vibro_impact import SimulationInputError, steps_per_period_for, validate_contact
-
     if settings.steps_per_period is not None:
-        from rigtools.sim.vibro_impact import check_time_step
-
         n = int(settings.steps_per_period)
         try:  # the contact must be resolved: refused before the first step, naming the option
             validate_contact(system)
@@ -406,8 +398,6 @@ def run_time_estimate(system, fe: float, force: float, settings: RunSettings):
     -------
     rigtools.sim.vibro_impact.CostEstimate
     """
-    from rigtools.sim.vibro_impact import estimate_steps
-
     n = steps_per_period(system, fe, force, settings)  # refuses a bad --steps-per-period by name
     return estimate_steps(
         system,
@@ -431,8 +421,6 @@ def continuation_cost(system, fe_min: float, force_max: float) -> tuple[int, int
     continuation whose lowest frequency is ``fe_min`` (the most steps per period: a period of
     the same time step) and largest force ``force_max`` (the contact's time scale), scaled from
     :data:`CONTINUATION_SECONDS_PER_STEP` by the model's states."""
-    from rigtools.sim.vibro_impact import steps_per_period_for
-
     n = steps_per_period_for(system, fe_min, force_scale=max(100.0, 10.0 * force_max))
     states = 2 * int(np.size(system.omega))
     scale = (states / 28.0) ** 2
@@ -460,8 +448,6 @@ def check_model_range(system, fe: float, name: str = "--fe") -> None:
 def model_build_estimate(params, model: str = "fem") -> tuple[float, int]:
     """(seconds, peak bytes) to build the FE model of both blades and their modes (the seconds:
     :func:`rigtools.sim.reduction.estimate_reduction_seconds`)."""
-    from rigtools.sim.reduction import estimate_reduction_seconds
-
     if model != "fem":
         return 0.0, 0
     peak = int(

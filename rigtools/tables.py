@@ -11,6 +11,8 @@ import math
 from typing import Any
 
 from rigtools import readable
+from rigtools.branches import X_LABELS, X_UNITS
+from rigtools.recording.summary import format_value
 
 
 def _fmt(x, digits: int = readable.DIGITS) -> str:
@@ -361,8 +363,6 @@ def branches_tables(info: dict) -> list[Any]:
     continued, at which fixed quantities, and a row per branch."""
     from rich.table import Table
 
-    from rigtools.branches import X_LABELS, X_UNITS
-
     e, param = info["experiment"], info["param"]
     unit = "V" if e.get("drive") and param == "force" else X_UNITS.get(param, "")
     scale = X_LABELS.get(param, ("", 1.0))[1]
@@ -498,8 +498,6 @@ def recording_tables(info: dict) -> list[Any]:
     the channels, the points with their parameters in columns with units, and each point's
     harmonic amplitudes (fundamental and largest k >= 2, round-off shown as such)."""
     from rich.table import Table
-
-    from rigtools.recording.summary import format_value
 
     colour = {"complete": "green", "aborted": "red"}.get(info["status"], "yellow")
     status = f"[{colour}]{info['status']}[/{colour}]"

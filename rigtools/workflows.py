@@ -16,6 +16,13 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from rigtools.errors import UserError
+from rigtools.model_options import announce_model, announce_work, excitation, run_settings
+from rigtools.model_study import record_study
+from rigtools.model_update import DEFAULT_PARAMETERS, update_rig_file
+from rigtools.options import HDF5_SUFFIXES, band_option, duration, output_path, quantity
+from rigtools.options import gap as gap_option
+
 if TYPE_CHECKING:
     import pandas as pd
 
@@ -65,8 +72,6 @@ class Spectrum:
         A frequency outside the spectrum (NaN, negative, above its last bin: the Nyquist
         frequency) is a :class:`rigtools.errors.UserError` naming it.
         """
-        from rigtools.errors import UserError
-
         top = float(self.frequency_hz[-1]) if len(self.frequency_hz) else 0.0
         if not (isinstance(frequency_hz, int | float) and 0.0 <= frequency_hz <= top):
             raise UserError(
@@ -111,7 +116,6 @@ def spectrum(point: Point, channel: str, *, window: str = "flattop", amplitude: 
     ('N', 5.0)
     """
     from rigtools.analysis.spectra import amplitude_spectrum
-    from rigtools.errors import UserError
 
     if not hasattr(point, "channels") or not hasattr(point, "settled"):
         raise UserError(f"point = {point!r}: give a recorded point (rigtools.open_recording(path).points[i])")
@@ -203,8 +207,6 @@ class SimulatedPoint:
 
 
 def _settings(duration: float | str, max_settle_time: float | str, fe_values: Sequence[float]):
-    from rigtools.model_options import run_settings
-
     return run_settings(
         duration, max_settle_time, None, fe_values, names=("duration", "max_settle_time", "steps_per_period")
     )
@@ -213,9 +215,6 @@ def _settings(duration: float | str, max_settle_time: float | str, fe_values: Se
 def _system(rig: Any, model: str, gap: float | str | None):
     """``(rig config, reduced system)``; a model too large for the memory is refused in one line."""
     from rigtools.config import RigConfig, load_rig
-    from rigtools.errors import UserError
-    from rigtools.model_options import announce_model
-    from rigtools.options import gap as gap_option
 
     if model not in ("fem", "am"):
         raise UserError(f"model = {model!r}: use 'fem' (finite elements) or 'am' (analytical model)")
@@ -279,7 +278,6 @@ def simulate_point(
     5.0
     """
     from rigtools import simulation as simu
-    from rigtools.model_options import announce_work, excitation
 
     f, F = excitation(fe, force, names=("fe", "force"))
     settings = _settings(duration, max_settle_time, [f])
@@ -287,8 +285,6 @@ def simulate_point(
     announce_work(system, [(f, F)], settings, quiet=True, names=("fe", "duration"))
     target = None
     if out is not None:
-        from rigtools.options import HDF5_SUFFIXES, output_path
-
         target = output_path(str(out), overwrite, "out", suffixes=HDF5_SUFFIXES)
     run = simu.simulate_point(system, f, F, settings)
     if target is not None:
@@ -376,10 +372,6 @@ def simulate_study(
     ...     rec.status, len(rec.points)
     ('complete', 2)
     """
-    from rigtools.errors import UserError
-    from rigtools.model_study import record_study
-    from rigtools.options import HDF5_SUFFIXES, output_path, quantity
-    from rigtools.options import gap as gap_option
     from rigtools.procedures.base import validate
     from rigtools.procedures.rig_study import StudyParameters
     from rigtools.sim.studies import StudyPlan
@@ -401,7 +393,6 @@ def simulate_study(
     target = output_path(str(out), overwrite, "out", suffixes=HDF5_SUFFIXES)
     settings = _settings(duration, max_settle_time, sorted({p.fe for p in plan.points()}))
     cfg, system = _system(rig, model, None)
-    from rigtools.model_options import announce_work
 
     announce_work(
         system, [(p.fe, p.force) for p in plan.points()], settings, quiet=True, names=("fe", "duration")
@@ -487,8 +478,6 @@ def compare_with_model(
     >>> bool(0.8 < a1.fem / a1.em < 1.25)  # the active shroud's fundamental agrees within 25 %
     True
     """
-    from rigtools.errors import UserError
-    from rigtools.options import duration
     from rigtools.recording_comparison import compare_recordings
 
     if isinstance(k_max, bool) or not isinstance(k_max, int) or k_max < 1:
@@ -561,17 +550,11 @@ def update_model(
     >>> done.out.name, rigtools.load_rig(done.out).name != ""
     ('updated.toml', True)
     """
-    from rigtools.errors import UserError
-    from rigtools.model_update import DEFAULT_PARAMETERS, update_rig_file
-    from rigtools.options import quantity
-
     files = [recordings] if isinstance(recordings, str | Path) else list(recordings)
     if not files:
         raise UserError("recordings = []: give at least one test recording (an FRF test or a dwell)")
     span = None
     if isinstance(band, str):
-        from rigtools.options import band_option
-
         span = band_option(band, "band")
     elif band is not None:
         span = (quantity(band[0], "frequency", "band"), quantity(band[1], "frequency", "band"))

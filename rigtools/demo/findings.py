@@ -18,6 +18,8 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
+from rigtools.demo.steps import flexural
+
 NO_IMPACT = 0.1  # impacts per period below this: no impacts
 STRENGTH = "impulse_level"  # lab measure of impact strength (m/s²)
 FEM_AM_TOL = 0.01  # C1: FEM and AM natural frequencies within 1 %
@@ -233,8 +235,6 @@ def c7_harmonics(q: dict, fe: float, active_f2: float, coupled_f2: float | None 
 
 def evaluate(data: dict) -> list[Finding]:
     """All findings from the demo's data (see :func:`rigtools.demo.run.run_demo`)."""
-    from rigtools.demo.steps import flexural
-
     m = data["modal"]
     fem = {b: flexural(m["fem"][b]) for b in ("active", "passive")}
     am = {b: flexural(m["am"][b]) for b in ("active", "passive")}

@@ -7,7 +7,13 @@ from pathlib import Path
 
 import numpy as np
 
-from rigtools.demo.findings import Finding, mark
+from rigtools.analysis.branches import explain_jumps, turning_points
+from rigtools.analysis.plots import log_bar_axis
+from rigtools.branches import branch_curves, measured_sweeps
+from rigtools.demo.findings import Finding, em_to_fem_ratios, mark
+from rigtools.demo.steps import flexural
+from rigtools.report import Report
+from rigtools.report.branches import add_branches, fixed_text
 from rigtools.sim.channel_names import FORCE, SHROUD_ACCELS
 
 CH = (
@@ -115,7 +121,6 @@ def waveform_figure(d: dict, title: str):
 def spectrum_figure(d: dict, title: str):
     plt = _plt()
     fig, axes = plt.subplots(1, 2, figsize=(10, 3.6))
-    from rigtools.analysis.plots import log_bar_axis
 
     for ax, ch in zip(axes, SHROUD_ACCELS, strict=True):
         bars = []
@@ -193,8 +198,6 @@ def gap_trend_figure(data: dict):
 
 def _frequency_lead(curves) -> str:
     """What the frequency branch explains of C6 at the paper's point: where the impacts end."""
-    from rigtools.analysis.branches import turning_points
-
     turns = [t for t in turning_points(curves[0])] if curves else []
     upper = [t for t in turns if t.upper]
     lower = [t for t in turns if not t.upper]
@@ -235,9 +238,6 @@ def _shift_sentence(explanations, modal: dict) -> str:
     """The rig's jumps against the FEM's turning points lowered by the rig's own offset from the
     FEM in natural frequency (C1): a softer rig moves its resonance and, to first order, its
     turning points down by the same ratio."""
-    from rigtools.demo.findings import em_to_fem_ratios
-    from rigtools.demo.steps import flexural
-
     em = [e for e in explanations if e.sweep.startswith("EM") and e.turning is not None and not e.inside]
     ratios = em_to_fem_ratios(
         flexural(modal["fem"]["active"]), [m["frequency_hz"] for m in modal["em"]["active"]]
@@ -274,10 +274,6 @@ def study_branches(
     above)."""
     from dataclasses import replace
 
-    from rigtools.analysis.branches import explain_jumps
-    from rigtools.branches import branch_curves, measured_sweeps
-    from rigtools.report.branches import add_branches, fixed_text
-
     stored = branch["branches"]
     if kind == "frequency":
         measure = "accel1"
@@ -311,8 +307,6 @@ def study_branches(
 
 def build_report(data: dict, findings: list[Finding], out_dir: Path):
     """The :class:`rigtools.report.Report` of a demo run."""
-    from rigtools.report import Report
-
     pts = data["points"]
     rep = Report(
         "rig demo: the paper's study on the simulated rig",

@@ -16,9 +16,17 @@ from collections.abc import Callable
 from pathlib import Path
 
 from rigtools import json_values
+from rigtools.analysis.branches import turning_points
+from rigtools.branches import branch_curves
+from rigtools.config import load_rig
 from rigtools.demo import steps
 from rigtools.demo.findings import evaluate
+from rigtools.demo.report import build_report, gap_trend_figure
 from rigtools.demo.settings import DemoSettings
+from rigtools.errors import UserError
+from rigtools.recording.lock import LockBusy, WriterLock
+from rigtools.report import write_report
+from rigtools.report.html import figure_png
 
 STUDIES = steps.STUDY_KINDS
 MARKER = ".rig-demo"  # written first into a demo's folder: a later demo may replace its files
@@ -39,9 +47,6 @@ def run_demo(
     lock, :mod:`rigtools.recording.lock`) is held for the whole run; a second demo into the same
     folder is refused in one line (:class:`rigtools.UserError`) before it touches anything.
     """
-    from rigtools.errors import UserError
-    from rigtools.recording.lock import LockBusy, WriterLock
-
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     lock = WriterLock(out / MARKER)
@@ -58,10 +63,6 @@ def run_demo(
 
 
 def _run_demo(out: Path, settings: DemoSettings, progress: Callable[[str], None] | None, cfg) -> dict:
-    from rigtools.config import load_rig
-    from rigtools.demo.report import build_report, gap_trend_figure
-    from rigtools.report import write_report
-
     say = progress or (lambda text: None)
     (out / MARKER).write_text(f"written by rig demo ({settings.name})\n", encoding="utf-8")
     cfg = cfg if cfg is not None else load_rig(None)
@@ -134,8 +135,6 @@ def findings_doc(
     the demo's folder, so two demos into two folders write the same document). ``branches``:
     the branch files (``rig continuation``'s kind) of :func:`rigtools.demo.steps.branches_step`
     and their turning points and period doublings."""
-    from rigtools.analysis.branches import turning_points
-    from rigtools.branches import branch_curves
 
     def name(path: str | Path) -> str:
         return str(Path(path).relative_to(relative_to)) if relative_to is not None else str(path)
@@ -173,8 +172,6 @@ def findings_doc(
 
 def save_png(fig, path: Path) -> Path:
     """Write a figure as PNG (closed afterwards)."""
-    from rigtools.report.html import figure_png
-
     data, _, _ = figure_png(fig)
     path.write_bytes(data)
     return path

@@ -16,6 +16,12 @@ from typing import Any
 
 import numpy as np
 
+from rigtools.analysis.harmonics import harmonic_amplitudes
+from rigtools.analysis.impacts import detect_impacts
+from rigtools.analysis.plots import force_zero_crossing_time
+from rigtools.analyze import FRFOptions, analyze_broadband
+from rigtools.branches import read_branches, write_branches
+from rigtools.config import ChannelLimitConfig
 from rigtools.demo.settings import (
     BRANCH_GAP_MAX,
     DWELL_GAP,
@@ -27,9 +33,21 @@ from rigtools.demo.settings import (
     DemoSettings,
     OperatingPoint,
 )
+from rigtools.procedures import RigStudy, SineDwell, SteppedSine
+from rigtools.procedures.frf import FrfTest
+from rigtools.recording import RecordingWriter, open_recording
 from rigtools.sim.channel_names import ACTIVE_SHROUD_ACCEL as ACTIVE
 from rigtools.sim.channel_names import FORCE
 from rigtools.sim.channel_names import PASSIVE_SHROUD_ACCEL as PASSIVE
+from rigtools.sim.continuation import ContinuationSettings, trace
+from rigtools.sim.harmonic import fem_harmonic_response, harmonic_curves
+from rigtools.sim.modal import flexural_frequencies
+from rigtools.sim.natural_frequencies import blade_mode_table
+from rigtools.sim.parameter_fit import pair_modes, update_model
+from rigtools.sim.reduction import reduced_system
+from rigtools.sim.rig_model import build_rig_model
+from rigtools.sim.studies import StudyPlan
+from rigtools.simulation import RunSettings, iter_study_points, simulate_point, write_point
 
 K_MAX = 30
 STUDY_KINDS = ("gap", "force", "frequency")
@@ -41,9 +59,6 @@ MAX_DRIVE = 9.5  # V
 
 def first_flexural(cfg) -> float:
     """FEM first flexural frequency of the active blade, Hz."""
-    from rigtools.sim.modal import flexural_frequencies
-    from rigtools.sim.rig_model import build_rig_model
-
     return float(flexural_frequencies(build_rig_model(cfg.to_params()).blade("active"), 1)[0])
 
 
@@ -52,9 +67,6 @@ def coupled_active_f2(cfg) -> float:
     its force sensor (as on the rig, where the stinger carries the armature), Hz."""
     from dataclasses import replace
 
-    from rigtools.sim.modal import flexural_frequencies
-    from rigtools.sim.rig_model import build_rig_model
-
     p = cfg.to_params()
     p = replace(p, force_sensor=replace(p.force_sensor, mass=p.force_sensor.mass + cfg.shaker.armature_mass))
     return float(flexural_frequencies(build_rig_model(p).blade("active"), 2)[1])
@@ -62,9 +74,6 @@ def coupled_active_f2(cfg) -> float:
 
 def free_amplitude(cfg, fe: float, force: float) -> float:
     """Linear (open-gap) displacement amplitude of the active shroud at ``fe``, ``force``, m."""
-    from rigtools.sim.harmonic import fem_harmonic_response
-    from rigtools.sim.rig_model import build_rig_model
-
     res = fem_harmonic_response(build_rig_model(cfg.to_params()), np.array([fe]), force)
     return float(res.displacement_amplitude("active_shroud")[0])
 
@@ -97,8 +106,6 @@ def operating_points(cfg) -> tuple[OperatingPoint, OperatingPoint, dict]:
 def lab_config(cfg, force: float):
     """The rig file with its [safety] limits and max drive scaled for a point driven at ``force``
     (above the paper's 15 N only). Only the safety settings change, never the rig's physics."""
-    from rigtools.config import ChannelLimitConfig
-
     s = max(1.0, force / PAPER_FORCE)
     if s == 1.0:
         return cfg
@@ -121,9 +128,6 @@ def lab_quantities(
     """What a lab measures on one steady record: peaks of the force sensor and the shroud
     accelerometers, impacts per period (from the accelerations, :func:`rigtools.analysis.impacts.detect_impacts`)
     and the acceleration harmonics k = 1..30 (peak, m/s²)."""
-    from rigtools.analysis.harmonics import harmonic_amplitudes
-    from rigtools.analysis.impacts import detect_impacts
-
     imp = detect_impacts(active, rate, fe, passive_acceleration=passive, force=force)
     k_max = int(min(K_MAX, np.floor(0.45 * rate / fe)))
     harm = {
@@ -150,8 +154,6 @@ def _record_window(point) -> tuple[dict, float]:
 
 def recording_points(path: str | Path) -> list[dict]:
     """Lab quantities of every complete point of a procedure recording, with its parameters."""
-    from rigtools.recording import open_recording
-
     out = []
     with open_recording(path) as rec:
         for point in rec.points:
@@ -198,11 +200,6 @@ def run_quantities(run) -> dict:
 def modal_step(cfg, out_dir: Path, settings: DemoSettings) -> dict:
     """FEM and AM natural frequencies (``rig modal``) and the simulated rig's, identified from an
     FRF test (periodic chirp, gap wide open) on the active shroud: the paper's Tables 2-3, Fig 6."""
-    from rigtools.analyze import FRFOptions, analyze_broadband
-    from rigtools.procedures.frf import FrfTest
-    from rigtools.recording import open_recording
-    from rigtools.sim.natural_frequencies import blade_mode_table
-
     res = blade_mode_table(cfg.to_params(), 6)
     path = out_dir / "frf_test.h5"
     FrfTest(
@@ -256,9 +253,6 @@ def flexural(entries: list[dict]) -> list[float]:
 
 def harmonic_step(cfg, settings: DemoSettings, force: float = PAPER_FORCE) -> dict:
     """FEM and AM linear amplitude-frequency curves (the paper's Figure 7)."""
-    from rigtools.sim.harmonic import harmonic_curves
-    from rigtools.sim.rig_model import build_rig_model
-
     f = np.linspace(10.0, 1500.0, settings.harmonic_points)
     fem, am = harmonic_curves(build_rig_model(cfg.to_params()), f, force)
     return {
@@ -273,10 +267,6 @@ def dwell_step(
 ) -> dict:
     """A force-controlled dwell on the simulated rig and the FEM and AM runs at the same point;
     the waveforms (last periods) and lab quantities of each (Figures 8-9)."""
-    from rigtools.procedures import SineDwell
-    from rigtools.recording import RecordingWriter, open_recording
-    from rigtools.simulation import RunSettings, simulate_point, write_point
-
     path = out_dir / f"dwell_{point.key}.h5"
     SineDwell(
         lab_config(cfg, point.force),
@@ -333,8 +323,6 @@ _SYSTEMS: dict = {}
 def load_system_cached(cfg, model: str):
     """``(cfg, reduced system)`` of a rig config for ``model`` ("fem" or "am"), built once per
     process and rig (the demo runs many points on the same two systems)."""
-    from rigtools.sim.reduction import reduced_system
-
     key = (cfg.to_json(), model)
     if key not in _SYSTEMS:
         _SYSTEMS[key] = (cfg, reduced_system(cfg.to_params(), model))
@@ -344,8 +332,6 @@ def load_system_cached(cfg, model: str):
 def _last_periods(force, active, passive, rate, fe, contact=None, periods: int = 3) -> dict:
     """The last ``periods`` whole periods, starting at an upward zero crossing of the force's
     fundamental (the common time origin of EM and model waveforms)."""
-    from rigtools.analysis.plots import force_zero_crossing_time
-
     n = round(periods * rate / fe)
     m = min(len(force), n + int(np.ceil(rate / fe)) + 1)  # one period more to find the origin
     lead = round(force_zero_crossing_time(np.asarray(force[-m:]), rate, fe) * rate)
@@ -384,8 +370,6 @@ def rig_study_step(
 ) -> dict:
     """A gap, force or frequency study measured on the simulated rig (force-controlled
     :class:`rigtools.procedures.RigStudy`), each point reduced to lab quantities."""
-    from rigtools.procedures import RigStudy
-
     plan = study_plan_values(kind, point, settings)
     path = out_dir / f"study_{kind}_{point.key}_rig.h5"
     top_force = max(plan["values"]) if kind == "force" else point.force
@@ -412,10 +396,6 @@ def rig_study_step(
 def model_study_step(cfg, out_dir: Path, settings: DemoSettings, kind: str, point: OperatingPoint) -> dict:
     """The same study on the FEM (:func:`rigtools.simulation.iter_study_points`), each point
     written to a recording and reduced to the same lab quantities, with the contact force."""
-    from rigtools.recording import RecordingWriter
-    from rigtools.sim.studies import StudyPlan
-    from rigtools.simulation import RunSettings, iter_study_points, write_point
-
     prm = study_plan_values(kind, point, settings)
     plan = StudyPlan(kind, prm.pop("values"), "up", **prm)
     _, system = load_system_cached(cfg, "fem")
@@ -442,8 +422,6 @@ def sweep_step(cfg, out_dir: Path, settings: DemoSettings, point: OperatingPoint
     """The simulated rig's force-controlled stepped sine up and down (``rig acquire sweep``,
     :class:`rigtools.procedures.SteppedSine`) over the frequency study's range at its gap, in
     ``settings.sweep_step`` steps: the measured jumps the FEM's frequency branch explains."""
-    from rigtools.procedures import SteppedSine
-
     values = study_plan_values("frequency", point, settings)["values"]
     lo, hi = min(values), max(values)
     n = round((hi - lo) / settings.sweep_step)
@@ -478,9 +456,6 @@ def branches_step(cfg, out_dir: Path, settings: DemoSettings, point: OperatingPo
     "branches"}``. In frequency over the frequency study's range at its gap (period 1: the fold
     where the impacting orbit ends, the grazing corner where it begins); in gap from the gap
     study's first gap to :data:`BRANCH_GAP_MAX` with the period-2 branches of its doublings."""
-    from rigtools.branches import read_branches, write_branches
-    from rigtools.sim.continuation import ContinuationSettings, trace
-
     _, system = load_system_cached(cfg, "fem")
     fe_values = study_plan_values("frequency", point, settings)["values"]
     gap0 = min(settings.gap_values)
@@ -523,8 +498,6 @@ def update_step(cfg, em_active: list[float]) -> dict:
     """Model updating on the FRF-identified modes of the active blade: the root's rotational
     stiffness (the simulated rig's root is bolted, the model's clamped) fitted to them;
     frequencies before and after."""
-    from rigtools.sim.parameter_fit import pair_modes, update_model
-
     params = cfg.to_params()
     pairing = pair_modes(params, "active", em_active, frequency_sigma=5e-3)
     if not pairing.targets:

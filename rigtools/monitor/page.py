@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from rigtools.monitor.follow import Snapshot
+from rigtools.readable import number
 
 REFRESH_MS = 1000  # a fallback: new snapshots are pushed
 #: The traces' axis labels (the channel's name is the plot's title).
@@ -27,8 +28,6 @@ STATUS_COLOURS = {"recording": "#1a7f37", "finished": "#0550ae", "aborted": "#cf
 
 def _num(value: Any, fmt: str | None = None, unit: str = "") -> str:
     """A number as every table of rig shows it (:func:`rigtools.readable.number`)."""
-    from rigtools.readable import number
-
     return number(value, None if fmt in (None, ".4g") else fmt, unit)
 
 

@@ -25,6 +25,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from rigtools.errors import UserError, one_line
+from rigtools.monitor import page
 from rigtools.monitor.control_files import request_stop
 from rigtools.monitor.follow import Follower, Snapshot
 
@@ -109,8 +111,6 @@ class Hub:
             try:
                 s = self.follower.poll()
             except Exception as exc:  # noqa: BLE001 - the view must outlive any one bad look; the error is kept
-                from rigtools.errors import one_line
-
                 self.error = one_line(exc)
             else:
                 if s.status not in ("waiting", "recording") and self.finished_at is None:
@@ -267,9 +267,6 @@ def serve(
     from bokeh.application import Application
     from bokeh.application.handlers.function import FunctionHandler
     from bokeh.server.server import Server
-
-    from rigtools.errors import UserError
-    from rigtools.monitor import page
 
     if not 0 <= port <= 65535:
         raise UserError(f"--port = {port}: a TCP port is 0 (a free one) to 65535")

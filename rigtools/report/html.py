@@ -18,6 +18,9 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
+from rigtools.derived_files import atomic_write
+from rigtools.readable import DIGITS, Shown, number
+
 DPI = 100
 
 CSS = """
@@ -65,8 +68,6 @@ def figure_png(fig: Any, dpi: int = DPI) -> tuple[bytes, int, int]:
 def _cell(value: Any, digits: int) -> tuple[str, bool]:
     """Text of a table cell and whether it is text (left-aligned): numbers as the terminal shows
     them (:func:`rigtools.readable.number`: significant digits, no ``-0``)."""
-    from rigtools.readable import DIGITS, Shown, number
-
     if isinstance(value, Shown):
         return str(value), False
     if isinstance(value, bool):
@@ -175,7 +176,5 @@ class Report:
 
 def write_report(report: Report, path: str | Path) -> Path:
     """Write the report's page to ``path`` (UTF-8); returns the path."""
-    from rigtools.derived_files import atomic_write
-
     text = report.html()
     return atomic_write(path, lambda tmp: tmp.write_text(text, encoding="utf-8"))

@@ -200,3 +200,40 @@ def functions(path: Path) -> list[tuple[str, int]]:
 
     visit(tree, "")
     return out
+
+
+#: The doors, where an import inside a function buys start-up time: the front door (``import
+#: rigtools`` stays light), ``rig`` itself and the command modules (only the command being run is
+#: imported), and what the command modules import at their heads (``rig CMD --help`` loads it).
+FRONT_DOORS = ("rigtools", "rigtools.cli", "rigtools.__main__")
+COMMANDS = "rigtools.commands"
+#: Modules whose lazy imports are the point of the module, each with its reason.
+LAZY_ON_PURPOSE = {
+    "rigtools.runtime": "rig imports it first to set BLAS threads and the numba cache before numpy "
+    "and numba load; what it runs later (kernel warm-up) it imports then",
+    "rigtools.monitor.follow": "the live monitor serves its page at once; the analysis it draws "
+    "loads in the server's background thread (rigtools.monitor.server)",
+    "rigtools.monitor.server": "its background thread loads the analysis modules after the page is "
+    "served, not on the first look at a run's first samples",
+}
+
+
+def doors(modules: Mapping[str, Path]) -> set[str]:
+    """The door modules of the tree: the front door, ``rig``, the command modules, and every module
+    those reach through imports at module heads (with the packages that holds them)."""
+    heads = {
+        name: {_owner(i.target, modules) for i in imports(name, path, modules) if not i.in_function}
+        for name, path in modules.items()
+    }
+    start = [n for n in modules if n in FRONT_DOORS or n == COMMANDS or n.startswith(COMMANDS + ".")]
+    seen: set[str] = set()
+    while start:
+        name = start.pop()
+        if name in seen or name not in modules:
+            continue
+        seen.add(name)
+        parts = name.split(".")
+        start += [".".join(parts[:k]) for k in range(1, len(parts))]
+        if name not in FRONT_DOORS or name == "rigtools.cli":  # the front door's own head is its finder
+            start += [t for t in heads[name] if t is not None]
+    return seen
