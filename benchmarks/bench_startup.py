@@ -1,4 +1,4 @@
-"""Start-up of the library and the command line: ``python -c "import rigtools"`` and ``rig --help``.
+"""Start-up of the library and the command line: ``import rigtools``, ``rig --help``, ``rig CMD --help``.
 
 The front door (``rigtools/__init__.py``) and the command modules import lazily on purpose
 (issue 32); this prints what that buys, so a change that moves imports can be checked against it:
@@ -28,7 +28,11 @@ CASES = {
     "python -c pass": "pass",
     "import rigtools": "import rigtools",
     "rig --help": RIG,
+    "rig simulate --help": RIG,
+    "rig acquire dwell --help": RIG,
 }
+ARGS = {"rig --help": ["--help"], "rig simulate --help": ["simulate", "--help"]}
+ARGS["rig acquire dwell --help"] = ["acquire", "dwell", "--help"]
 REPORT = (
     "import sys, json; m = list(sys.modules); "
     "print(json.dumps([len(m), sum(x.split('.')[0] == 'rigtools' for x in m), 'numpy' in m]))"
@@ -52,7 +56,8 @@ def main() -> int:
     parser.add_argument("--json", action="store_true", help="print the figures as JSON")
     args = parser.parse_args()
     argv = {name: [sys.executable, "-c", code] for name, code in CASES.items()}
-    argv["rig --help"].append("--help")
+    for name, extra in ARGS.items():
+        argv[name] += extra
     for cmd in argv.values():  # warm the file cache and the .pyc files
         wall(cmd)
     times: dict[str, list[float]] = {name: [] for name in CASES}
@@ -84,7 +89,7 @@ def main() -> int:
     print(f"start-up: median of {args.repeats} runs each, interleaved")
     for r in rows:
         print(
-            f"  {r['case']:<16} {r['median_s']:6.3f} s  {r['ratio_to_python']:5.1f}x python -c pass"
+            f"  {r['case']:<26} {r['median_s']:6.3f} s  {r['ratio_to_python']:5.1f}x python -c pass"
             f"  {r['modules']:4d} modules ({r['rigtools_modules']} rigtools.*"
             f"{', numpy' if r['numpy_loaded'] else ''})"
         )
