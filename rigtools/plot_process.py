@@ -33,7 +33,6 @@ from types import TracebackType
 from typing import Any, Self
 
 import rigtools
-from rigtools.figures import save_figure
 
 
 class FigureCall:
@@ -146,6 +145,7 @@ def main() -> int:
     signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))
     for name in WARM:
         importlib.import_module(name)
+    from rigtools.figures import save_figure  # matplotlib: only in the helper process
 
     try:
         make_figure, path = pickle.load(sys.stdin.buffer)
