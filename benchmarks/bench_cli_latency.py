@@ -67,6 +67,27 @@ def wall(argv: list[str]) -> tuple[float, int]:
     return time.perf_counter() - t0, code
 
 
+def interleaved_medians(cases: dict[str, list[str]], repeats: int) -> dict[str, float]:
+    """Median wall time of each command over ``repeats`` rounds, the commands interleaved so a
+    busy machine slows all alike, after one warm-up run each (file cache, .pyc and numba caches).
+
+    Raises
+    ------
+    RuntimeError
+        A command that exits non-zero, naming it.
+    """
+    for argv in cases.values():
+        wall(argv)
+    times: dict[str, list[float]] = {name: [] for name in cases}
+    for _ in range(repeats):
+        for name, argv in cases.items():
+            seconds, code = wall(argv)
+            if code != 0:
+                raise RuntimeError(f"{name}: exit status {code}")
+            times[name].append(seconds)
+    return {name: statistics.median(v) for name, v in times.items()}
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=7, help="runs per command (median)")
@@ -81,19 +102,13 @@ def main() -> int:
             "rig info FILE": [sys.executable, "-c", RIG, "info", str(path)],
             "rig check FILE": [sys.executable, "-c", RIG, "check", str(path)],
         }
-        for argv in cases.values():  # warm the OS file cache and numba/pyc caches
-            wall(argv)
-        times: dict[str, list[float]] = {name: [] for name in cases}
-        for _ in range(args.repeats):
-            for name, argv in cases.items():
-                seconds, code = wall(argv)
-                if code != 0:
-                    print(f"{name}: exit status {code}", file=sys.stderr)
-                    return 1
-                times[name].append(seconds)
+        try:
+            median = interleaved_medians(cases, args.repeats)
+        except RuntimeError as exc:
+            print(exc, file=sys.stderr)
+            return 1
         size = os.path.getsize(path)
 
-    median = {name: statistics.median(v) for name, v in times.items()}
     base = median["python -c pass"]
     rows = []
     for name, seconds in median.items():

@@ -17,11 +17,10 @@ from __future__ import annotations
 
 import argparse
 import json
-import statistics
 import subprocess
 import sys
 
-from bench_cli_latency import RIG, wall
+from bench_cli_latency import RIG, interleaved_medians
 
 # what each case runs after the interpreter has started; the last line reports sys.modules
 CASES = {
@@ -58,21 +57,16 @@ def main() -> int:
     argv = {name: [sys.executable, "-c", code] for name, code in CASES.items()}
     for name, extra in ARGS.items():
         argv[name] += extra
-    for cmd in argv.values():  # warm the file cache and the .pyc files
-        wall(cmd)
-    times: dict[str, list[float]] = {name: [] for name in CASES}
-    for _ in range(args.repeats):
-        for name, cmd in argv.items():
-            seconds, code = wall(cmd)
-            if code != 0:
-                print(f"{name}: exit status {code}", file=sys.stderr)
-                return 1
-            times[name].append(seconds)
-    base = statistics.median(times["python -c pass"])
+    try:
+        medians = interleaved_medians(argv, args.repeats)
+    except RuntimeError as exc:
+        print(exc, file=sys.stderr)
+        return 1
+    base = medians["python -c pass"]
     rows = []
     for name, code in CASES.items():
         total, own, numpy = loaded(code, argv[name][3:])
-        median = statistics.median(times[name])
+        median = medians[name]
         rows.append(
             {
                 "case": name,
