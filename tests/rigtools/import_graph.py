@@ -10,6 +10,7 @@ from __future__ import annotations
 import ast
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
+from functools import lru_cache
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -53,32 +54,64 @@ def _is_type_checking(node: ast.AST) -> bool:
     return isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test)
 
 
+@lru_cache(maxsize=4096)
+def _parsed(path: Path, stamp: tuple[int, int]) -> ast.Module:
+    """A file's syntax tree, parsed once per version of the file (``stamp``: mtime and size)."""
+    return ast.parse(path.read_text(encoding="utf-8"), str(path))
+
+
+def _stamp(path: Path) -> tuple[int, int]:
+    st = path.stat()
+    return st.st_mtime_ns, st.st_size
+
+
+def parse(path: Path) -> ast.Module:
+    """The syntax tree of ``path`` (cached while the file is unchanged; do not modify it)."""
+    return _parsed(path, _stamp(path))
+
+
+# one import statement as written: (module or "" for ``import x``, names, level, line, in function)
+_Raw = tuple[str | None, tuple[str, ...], int, int, bool]
+
+
+@lru_cache(maxsize=4096)
+def _raw_imports(path: Path, stamp: tuple[int, int]) -> tuple[_Raw, ...]:
+    tree = _parsed(path, stamp)
+    skipped: set[int] = set()
+    for node in ast.walk(tree):
+        if _is_type_checking(node):
+            skipped.update(id(n) for child in node.body for n in ast.walk(child))
+    found: list[_Raw] = []
+    for node, in_function in _walk(tree, False):
+        if id(node) in skipped:
+            continue
+        if isinstance(node, ast.Import):
+            found.append((None, tuple(a.name for a in node.names), 0, node.lineno, in_function))
+        elif isinstance(node, ast.ImportFrom):
+            names = tuple(a.name for a in node.names)
+            found.append((node.module or "", names, node.level, node.lineno, in_function))
+    return tuple(found)
+
+
 def imports(name: str, path: Path, modules: Mapping[str, Path]) -> list[Import]:
     """Every import statement of a module, one :class:`Import` a name.
 
     Relative imports are resolved; ``from a import b`` gives ``a.b`` when that is a module of the
     tree, else ``a``. Imports under ``if TYPE_CHECKING:`` do not run, so they are left out.
     """
-    tree = ast.parse(path.read_text(encoding="utf-8"), str(path))
-    skipped: set[int] = set()
-    for node in ast.walk(tree):
-        if _is_type_checking(node):
-            skipped.update(id(n) for child in node.body for n in ast.walk(child))
     package = name if path.name == "__init__.py" else name.rpartition(".")[0]
     found = []
-    for node, in_function in _walk(tree, False):
-        if id(node) in skipped:
+    for module, names, level, line, in_function in _raw_imports(path, _stamp(path)):
+        if module is None:
+            found.extend(Import(n, line, in_function) for n in names)
             continue
-        if isinstance(node, ast.Import):
-            found.extend(Import(alias.name, node.lineno, in_function) for alias in node.names)
-        elif isinstance(node, ast.ImportFrom):
-            base = node.module or ""
-            if node.level:
-                parent = package.split(".")[: len(package.split(".")) - node.level + 1]
-                base = ".".join([*parent, base] if base else parent)
-            for alias in node.names:
-                full = f"{base}.{alias.name}"
-                found.append(Import(full if full in modules else base, node.lineno, in_function))
+        base = module
+        if level:
+            parent = package.split(".")[: len(package.split(".")) - level + 1]
+            base = ".".join([*parent, base] if base else parent)
+        for alias in names:
+            full = f"{base}.{alias}"
+            found.append(Import(full if full in modules else base, line, in_function))
     return found
 
 
@@ -184,7 +217,7 @@ def cycle_path(group: list[str], graph: Mapping[str, set[str]]) -> list[str]:
 
 def functions(path: Path) -> list[tuple[str, int]]:
     """(qualified name, lines from ``def`` to its last line) of every function of a file."""
-    tree = ast.parse(path.read_text(encoding="utf-8"), str(path))
+    tree = parse(path)
     out = []
 
     def visit(node: ast.AST, prefix: str) -> None:
