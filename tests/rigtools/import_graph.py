@@ -270,3 +270,38 @@ def doors(modules: Mapping[str, Path]) -> set[str]:
         if name not in FRONT_DOORS or name == "rigtools.cli":  # the front door's own head is its finder
             start += [t for t in heads[name] if t is not None]
     return seen
+
+
+# heavy optional packages: imported inside a function anywhere, as is a rigtools module that
+# imports one of them at its head (rigtools.analysis.plots holds matplotlib: importing it lazily
+# is importing matplotlib lazily)
+HEAVY = ("matplotlib", "dask", "distributed", "bokeh", "tornado", "pyuff", "nptdms", "pyoma2", "sdypy")
+
+
+def heavy_wrappers(modules: Mapping[str, Path]) -> set[str]:
+    """The modules of the tree that import a heavy optional package at their head."""
+    return {
+        name
+        for name, path in modules.items()
+        if any(not i.in_function and i.target.split(".")[0] in HEAVY for i in imports(name, path, modules))
+    }
+
+
+def lazy_findings(modules: Mapping[str, Path]) -> dict[str, list[str]]:
+    """Module outside the doors (:func:`doors`, :data:`LAZY_ON_PURPOSE`) -> its
+    in-function imports of rigtools modules (but of those that hold a heavy optional package,
+    :func:`heavy_wrappers`)."""
+    heavy = heavy_wrappers(modules)
+    door = doors(modules)
+    found: dict[str, list[str]] = {}
+    for name, path in modules.items():
+        if name in door or name in LAZY_ON_PURPOSE:
+            continue
+        for imp in imports(name, path, modules):
+            target = imp.target if imp.target in modules else imp.target.rpartition(".")[0]
+            if imp.in_function and imp.target.split(".")[0] == "rigtools" and target not in heavy:
+                found.setdefault(name, []).append(
+                    f"{name} ({path.name}:{imp.line}) imports {imp.target} inside a function: "
+                    "move it to the module's head"
+                )
+    return found

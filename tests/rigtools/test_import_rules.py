@@ -19,16 +19,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from import_graph import (
-    LAZY_ON_PURPOSE,
-    ROOT,
-    circles,
-    cycle_path,
-    doors,
-    file_graph,
-    find_modules,
-    imports,
-)
+from import_graph import ROOT, circles, cycle_path, file_graph, find_modules, imports, lazy_findings
 
 COMMANDS = "rigtools.commands"
 
@@ -202,41 +193,6 @@ def driver_findings(modules: dict[str, Path]) -> dict[str, list[str]]:
             if _in(t, "rigtools") and not (_in(t, "rigtools.drivers") or _in(t, "rigtools.sim")):
                 found.setdefault(name, []).append(
                     f"{path.name}:{imp.line} imports {t}: a driver imports the orchestration"
-                )
-    return found
-
-
-# heavy optional packages: imported inside a function anywhere, as is a rigtools module that
-# imports one of them at its head (rigtools.analysis.plots holds matplotlib: importing it lazily
-# is importing matplotlib lazily)
-HEAVY = ("matplotlib", "dask", "distributed", "bokeh", "tornado", "pyuff", "nptdms", "pyoma2", "sdypy")
-
-
-def heavy_wrappers(modules: dict[str, Path]) -> set[str]:
-    """The modules of the tree that import a heavy optional package at their head."""
-    return {
-        name
-        for name, path in modules.items()
-        if any(not i.in_function and i.target.split(".")[0] in HEAVY for i in imports(name, path, modules))
-    }
-
-
-def lazy_findings(modules: dict[str, Path]) -> dict[str, list[str]]:
-    """Module outside the doors (:func:`import_graph.doors`, ``LAZY_ON_PURPOSE``) -> its
-    in-function imports of rigtools modules (but of those that hold a heavy optional package,
-    :func:`heavy_wrappers`)."""
-    heavy = heavy_wrappers(modules)
-    door = doors(modules)
-    found: dict[str, list[str]] = {}
-    for name, path in modules.items():
-        if name in door or name in LAZY_ON_PURPOSE:
-            continue
-        for imp in imports(name, path, modules):
-            target = imp.target if imp.target in modules else imp.target.rpartition(".")[0]
-            if imp.in_function and _in(imp.target, "rigtools") and target not in heavy:
-                found.setdefault(name, []).append(
-                    f"{name} ({path.name}:{imp.line}) imports {imp.target} inside a function: "
-                    "move it to the module's head"
                 )
     return found
 
