@@ -230,6 +230,22 @@ def update_model(
     ------
     ValueError
         Unknown or conflicting names, no targets, bad bounds, or a mode the model does not have.
+
+    Examples
+    --------
+    The root's rotational stiffness of the default rig fitted to the first two flexural modes of both
+    blades of the simulated rig's test article (its blades sit on a bolted root, not the clamp):
+
+    >>> import rigtools
+    >>> from rigtools.sim.parameter_fit import mode_targets, update_model
+    >>> cfg = rigtools.load_rig()
+    >>> nominal = cfg.to_params()
+    >>> measured = cfg.test_article.to_params().apply(nominal)
+    >>> fit = update_model(nominal, mode_targets(measured, 2), ["root.rotational_stiffness"])
+    >>> fit.success, round(fit.fitted["root.rotational_stiffness"], -2)
+    (True, 10800.0)
+    >>> round(100 * fit.max_frequency_error_before, 2), round(100 * fit.max_frequency_error_after, 2)
+    (2.31, 0.25)
     """
     t0 = time.perf_counter()
     names = _check_names(names)
