@@ -302,27 +302,10 @@ def run_harmonic(
         phase0 = 0.0
     t_start = stepper.time
     ramp = _force_period(stepper, fe, force_amplitude, harmonics, phase0, n)
-    chunk = np.tile(ramp, check_every)
-    keep = max(check_every, 3 + 4) * n  # enough periods for m <= 4 with 3 compared
-    hist = _TipHistory(keep, chunk.size)
-    out = np.empty((chunk.size, N_OUT))
-    periods_run = 0
-    steady = False
-    per = None
     max_periods = max(math.ceil(max_settle_time * fe), check_every)
-    while periods_run < max_periods:
-        stepper.advance(chunk, out)
-        periods_run += check_every
-        if progress is not None:
-            progress(periods_run / fe, (max_periods + record_periods) / fe)
-        hist.append(out)
-        if periods_run < min_settle_periods:
-            continue
-        tips = hist.view()
-        per = check_periodic(tips, n, tol, scale=_pair_scale(tips, n))
-        if per.steady:
-            steady = True
-            break
+    hist, out, periods_run = _settle(
+        stepper, ramp, fe, tol, check_every, max_periods, min_settle_periods, record_periods, progress
+    )
     settle_time = stepper.time - t_start
     rec_u = np.tile(ramp, record_periods)
     # samples at t = 0, dt, ..., (P n - 1) dt of the record, the force phase being phase0 at t = 0:
@@ -353,6 +336,41 @@ def run_harmonic(
         contact_period=stepper.contact_period,
         final_state=RunState(stepper.state.copy(), phase0),
     )
+
+
+def _settle(
+    stepper: VibroImpactStepper,
+    ramp: np.ndarray,
+    fe: float,
+    tol: float,
+    check_every: int,
+    max_periods: int,
+    min_settle_periods: int,
+    record_periods: int,
+    progress: Callable[[float, float], None] | None,
+) -> tuple[_TipHistory, np.ndarray, int]:
+    """Run whole periods of the force ``ramp`` (one period of step-end samples at ``fe``), ``check_every``
+    at a time, until the tips repeat to ``tol`` (:func:`rigtools.sim.steady_state.check_periodic`)
+    or ``max_periods`` have run; ``(the tips' recent history, the last chunk's outputs, periods
+    run)``."""
+    n = ramp.size
+    chunk = np.tile(ramp, check_every)
+    keep = max(check_every, 3 + 4) * n  # enough periods for m <= 4 with 3 compared
+    hist = _TipHistory(keep, chunk.size)
+    out = np.empty((chunk.size, N_OUT))
+    periods_run = 0
+    while periods_run < max_periods:
+        stepper.advance(chunk, out)
+        periods_run += check_every
+        if progress is not None:
+            progress(periods_run / fe, (max_periods + record_periods) / fe)
+        hist.append(out)
+        if periods_run < min_settle_periods:
+            continue
+        tips = hist.view()
+        if check_periodic(tips, n, tol, scale=_pair_scale(tips, n)).steady:
+            break
+    return hist, out, periods_run
 
 
 def _force_period(
