@@ -35,7 +35,7 @@ class BranchPoint:
         Forcing periods of the orbit (1, or 2 on a period-2 branch).
     state
         ``(q, v)`` (plus the coil current with a shaker, and the drive amplitude under force
-        control) at force phase zero, modal coordinates of :attr:`PeriodMap.system`.
+        control) at force phase zero, modal coordinates of :attr:`rigtools.sim.orbit_map.PeriodMap.system`.
     multipliers
         Floquet multipliers (eigenvalues of the monodromy matrix), sorted by decreasing modulus.
     stable
@@ -80,7 +80,7 @@ class Branch:
     last time, after coming back into it if it went out), ``"failed"`` (a point did not converge;
     ``message`` says where and why, the last point is the last good one), ``"left range"`` (the
     branch turned back out of the range; a switched branch: went out and did not come back where
-    it is followed, see :func:`switch_period_doubling`), ``"max points"``, ``"merged"`` (a period-2
+    it is followed, see :func:`rigtools.sim.branch_switching.switch_period_doubling`), ``"max points"``, ``"merged"`` (a period-2
     branch returned onto the period-1 branch), ``"closed"`` (the branch came back to its first
     point: a closed loop, its last point that first orbit again) or ``"interrupted"``
     (:class:`KeyboardInterrupt` while it was followed: its points so far). A failure inside the

@@ -36,7 +36,7 @@ class ModeComparison:
 
 @dataclass
 class UpdateResult:
-    """The outcome of :func:`update_model`.
+    """The outcome of :func:`rigtools.sim.parameter_fit.update_model`.
 
     Attributes
     ----------
@@ -59,7 +59,7 @@ class UpdateResult:
     n_evaluations
         Model evaluations (the Jacobian's included).
     wall_time
-        Seconds spent in :func:`update_model`.
+        Seconds spent in :func:`rigtools.sim.parameter_fit.update_model`.
     success, message
         From the optimiser.
     identifiability

@@ -41,7 +41,7 @@ OUT_COLUMNS = (
     # the contact force within each step (exact load of the scheme): linear from the previous
     # step's force to ``contact_force_before_split`` over the fraction ``contact_split`` of the
     # step, then linear from ``contact_force_after_split`` to ``contact_force`` (split = 1, both
-    # equal to contact_force, in a step without an event); see :func:`contact_force_harmonics`
+    # equal to contact_force, in a step without an event); see :func:`rigtools.sim.contact_harmonics.contact_force_harmonics`
     "contact_split",
     "contact_force_before_split",
     "contact_force_after_split",

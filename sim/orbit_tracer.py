@@ -150,7 +150,7 @@ class BranchTracer:
                 relabel(branch, -1, FAILED)
             return branch
         except KeyboardInterrupt:
-            # the caller may keep the points followed so far (``found`` of :func:`trace`)
+            # the caller may keep the points followed so far (``found`` of :func:`rigtools.sim.continuation.trace`)
             branch.status = "interrupted"
             if branch.points:
                 branch.message = (
@@ -255,7 +255,7 @@ class BranchTracer:
         self, prev: Entry, nxt: Entry, h: float, entries: list[Entry], branch: Branch, direction_sign: float
     ) -> bool:
         """``True`` if the step ``prev -> nxt`` ends the branch: past its end value or out of its
-        bounds (the orbit there appended, :meth:`_end_at`), or a period-2 branch crossing onto the
+        bounds (the orbit there appended, ``_end_at``), or a period-2 branch crossing onto the
         period-1 one."""
         lo, hi, margin = self._range()
         lam_next = nxt.sol.lam
