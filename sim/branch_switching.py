@@ -111,7 +111,7 @@ def switch_period_doubling(
 
 def finish_branch(tracer: BranchTracer, branch: Branch) -> Branch:
     """Label the branch's turning points ``fold`` (:func:`rigtools.sim.bifurcations.mark_turning_points`)
-    and record every bifurcation and event (:attr:`Branch.bifurcations`), each relocated at a
+    and record every bifurcation and event (``bifurcations`` of :class:`rigtools.sim.continuation.Branch`), each relocated at a
     converged time step unless ``settings.refine`` is off (a failure there keeps it unrefined)."""
     bif.merge_hairpin_grazing(branch.points, lambda i, label: unlabel(branch, i, label))
     bif.mark_turning_points(
