@@ -73,6 +73,7 @@ from rigtools.sim.bifurcations import FOLD, NEIMARK_SACKER, PERIOD_DOUBLING
 from rigtools.sim.branch_points import BIFURCATIONS, END, FAILED, START, SWITCH, Branch, BranchPoint
 from rigtools.sim.branch_switching import finish_branch, switch_period_doubling
 from rigtools.sim.contact_events import CONTACT_SPLIT, GRAZING, STICKING
+from rigtools.sim.orbit_events import EVENT_BRACKET
 from rigtools.sim.orbit_map import (
     FD_RELATIVE_STEP,
     N_HARMONICS,
@@ -86,18 +87,21 @@ from rigtools.sim.orbit_map import (
     map_for_range,
 )
 from rigtools.sim.orbit_solver import Solver, orbit_point, solve_orbit
-from rigtools.sim.orbit_tracer import BranchTracer, ContinuationSettings
+from rigtools.sim.orbit_tracer import CLOSURE_TOLERANCE, GRAZING_TOLERANCE, BranchTracer, ContinuationSettings
 from rigtools.sim.reduction import ReducedSystem
 from rigtools.sim.vibro_impact import RunState, StepperState
 
 __all__ = [
     "BIFURCATIONS",
+    "CLOSURE_TOLERANCE",
     "CONTACT_SPLIT",
     "END",
+    "EVENT_BRACKET",
     "FAILED",
     "FD_RELATIVE_STEP",
     "FOLD",
     "GRAZING",
+    "GRAZING_TOLERANCE",
     "NEIMARK_SACKER",
     "N_HARMONICS",
     "PARAMETERS",
