@@ -169,6 +169,7 @@ class NiDaqDevice(AcquisitionDevice):
     """
 
     backend = "nidaqmx"
+    has_realtime_loop = False  # buffered I/O only: rigtools.drivers.realtime.NO_REALTIME_LOOP
 
     def __init__(self, abort_ramp_time: float = 0.05, max_time_to_zero: float = MAX_TIME_TO_ZERO) -> None:
         """

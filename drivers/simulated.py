@@ -72,9 +72,11 @@ from rigtools.drivers.contracts import (
 )
 from rigtools.drivers.drive_signals import raised_cosine
 from rigtools.drivers.errors import one_line
+from rigtools.drivers.realtime import HarmonicTarget, RealTimeLoop
 from rigtools.drivers.safety import MAX_TIME_TO_ZERO, output_queue_limit
 from rigtools.drivers.sensor_chain import SensorChain, SensorModel
 from rigtools.drivers.shaker import ShakerParams
+from rigtools.sim.delayed_feedback import DelayedFeedback
 from rigtools.sim.params import DampingParams, RigParams, RootParams, SimulationInputError
 from rigtools.sim.rig_model import RigModel, build_rig_model
 from rigtools.sim.rig_physics import SIGNAL_INDEX, SIGNALS, LinearModalPhysics, VibroImpactPhysics
@@ -363,6 +365,7 @@ class SimulatedRig(AcquisitionDevice):
     """
 
     backend = "simulated"
+    has_realtime_loop = True  # emulated inside the integrator: set_realtime_loop, set_loop_target
 
     def __init__(
         self,
@@ -422,7 +425,9 @@ class SimulatedRig(AcquisitionDevice):
         self._chain: SensorChain | None = None
         self._rows = np.zeros(0, dtype=int)
         self._drive_log: deque[np.ndarray] = deque()
-        self._drive_log_n = 0  # samples held in _drive_log
+        self.realtime_loop: RealTimeLoop | None = None
+        self._feedback: DelayedFeedback | None = None
+        self._loop_log: deque[np.ndarray] = deque()
         self.drive_samples = 0  # drive samples that reached the amplifier since configure
         self.truth_log: list[np.ndarray] = []
         self.fault_sample: int | None = None
@@ -496,6 +501,7 @@ class SimulatedRig(AcquisitionDevice):
                     raise ConfigurationError(f"sample rate {self._rate:g} S/s: {exc}") from None
             self._physics_dt = dt
         self._apply_hammer(self._physics)
+        self._feedback = self._make_feedback()
         self._queue_limit = (
             None
             if self.max_time_to_zero is None
@@ -544,7 +550,12 @@ class SimulatedRig(AcquisitionDevice):
         self._delay_line = np.zeros(max(0, int(line)))
         self._last_drive = 0.0
         self._drive_log, self.truth_log = deque(), []
-        self._drive_log_n = self.drive_samples = 0
+        self.drive_samples = 0
+        self._loop_log = deque()
+        if self._feedback is not None:
+            self._feedback.reset()
+            assert self.realtime_loop is not None  # a feedback is made from a loop
+            self._feedback.set_target(self.realtime_loop.target, 0.0)
         self.fault_sample = None
         self._closed = False
 
@@ -578,6 +589,60 @@ class SimulatedRig(AcquisitionDevice):
         stays bounded over long runs; sample 0 of the array is amplifier sample
         ``drive_samples - drive_log.size``)."""
         return np.concatenate(self._drive_log) if self._drive_log else np.zeros(0)
+
+    @property
+    def loop_log(self) -> np.ndarray:
+        """The real-time loop's record, ``(2, n)``, one column per amplifier sample (aligned with
+        :attr:`drive_log`, the same length kept; column ``i`` of a stream is the step ending at
+        ``(i + 1) / sample_rate``): row 0 its output ``u`` (V at the amplifier's
+        input), row 1 the active shroud's displacement at the sample's end (m, the quantity the
+        loop measures, noise-free). Empty without a loop."""
+        return np.concatenate(self._loop_log, axis=1) if self._loop_log else np.zeros((2, 0))
+
+    # ------------------------------------------------------------------ real-time loop
+
+    def set_realtime_loop(self, loop: RealTimeLoop | None) -> None:
+        """Run ``loop`` (:class:`rigtools.drivers.realtime.RealTimeLoop`) per sample inside the
+        integration from the next configure or stream start (``None``: no loop). Its target
+        starts as ``loop.target``; :meth:`set_loop_target` changes it between blocks.
+
+        Raises
+        ------
+        ConfigurationError
+            The linear model (no loop there), or a loop the integration cannot run (one line).
+        """
+        if loop is not None and self.model_kind != "vibro-impact":
+            raise ConfigurationError("the real-time loop runs in the vibro-impact model only")
+        if self._running:
+            raise ConfigurationError("stop the device before changing its real-time loop")
+        self.realtime_loop = loop
+        self._feedback = self._make_feedback()
+        if self._feedback is not None and loop is not None:
+            self._feedback.set_target(loop.target, self._feedback.time)
+
+    def set_loop_target(self, target: HarmonicTarget | None) -> None:
+        """The loop follows ``target`` for the measurement instants from now on (the samples
+        read so far; its output changes a loop delay later); ``None``: output 0 from then.
+
+        Raises
+        ------
+        ConfigurationError
+            No real-time loop set, or the device not configured.
+        """
+        if self._feedback is None:
+            raise ConfigurationError("no real-time loop: call set_realtime_loop() (and configure) first")
+        self._feedback.set_target(target)
+
+    def _make_feedback(self) -> DelayedFeedback | None:
+        loop = self.realtime_loop
+        if loop is None or self._rate <= 0:
+            return None
+        try:
+            return DelayedFeedback(
+                loop.rate_hz, loop.delay_s, loop.kp, loop.kd, self.shaker.amplifier_gain, 1.0 / self._rate
+            )
+        except SimulationInputError as exc:
+            raise ConfigurationError(str(exc)) from None
 
     @property
     def gap(self) -> float:
@@ -659,20 +724,23 @@ class SimulatedRig(AcquisitionDevice):
             out[i:] = out[i - 1] if i else self._last_drive
         return out
 
-    def _advance(self, physics: LinearModalPhysics | VibroImpactPhysics, drive: np.ndarray) -> np.ndarray:
-        """Run the drive through delay line, amplifier and physics; physical signals out."""
+    def _advance(
+        self,
+        physics: LinearModalPhysics | VibroImpactPhysics,
+        drive: np.ndarray,
+        loop_envelope: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """Run the drive through delay line, amplifier and physics (with the real-time loop's
+        output added at the amplifier's input, scaled by ``loop_envelope``); physical signals out."""
         d = self._delay_line.size
         if d:
             joined = np.concatenate([self._delay_line, drive])
             applied, self._delay_line = joined[: drive.size], joined[drive.size :]
         else:
             applied = drive
-        self._drive_log.append(applied)
-        self._drive_log_n += applied.size
-        self.drive_samples += applied.size
         keep = int(self.drive_log_seconds * self._rate)
-        while self._drive_log and self._drive_log_n - self._drive_log[0].size >= keep:
-            self._drive_log_n -= self._drive_log.popleft().size
+        _log(self._drive_log, applied, keep)
+        self.drive_samples += applied.size
         if drive.size:
             self._last_drive = float(drive[-1])
         coil = self.shaker.amplifier_gain * applied
@@ -680,7 +748,11 @@ class SimulatedRig(AcquisitionDevice):
             return physics.step(coil)
         k0 = self.drive_samples - applied.size  # amplifier samples since the stream began
         impulses = None if self.hammer is None else self.hammer.impulses(k0, applied.size, 1.0 / self._rate)
-        return physics.step(coil, impulses)
+        if self._feedback is None:
+            return physics.step(coil, impulses)
+        signals, u, x = self._feedback.step(physics, coil, impulses, loop_envelope)
+        _log(self._loop_log, np.vstack([u, x]), keep)
+        return signals
 
     def read(self, n_samples: int | None = None, timeout: float = 10.0) -> np.ndarray:
         session = self._require_configured()
@@ -779,7 +851,10 @@ class SimulatedRig(AcquisitionDevice):
         ramp = last * (1.0 - raised_cosine(r))
         ramp[-1] = 0.0
         tail = np.zeros(self._delay_line.size)
-        self._advance(self._physics, np.concatenate([queued, ramp, tail]))
+        # the real-time loop's output ramps down with the drive reaching the amplifier
+        envelope = np.concatenate([np.ones(self._delay_line.size + queued.size), 1.0 - raised_cosine(r)])
+        envelope[-1] = 0.0  # as long as the block: the delay line's d samples come out first
+        self._advance(self._physics, np.concatenate([queued, ramp, tail]), envelope)
         self._last_drive = 0.0
 
     def stop(self) -> None:
@@ -793,3 +868,12 @@ class SimulatedRig(AcquisitionDevice):
     def close(self) -> None:
         self.stop()
         self._closed = True
+
+
+def _log(log: deque[np.ndarray], block: np.ndarray, keep: int) -> None:
+    """Append ``block`` (samples along its last axis) to ``log``, dropping the oldest blocks
+    while the rest hold at least ``keep`` samples."""
+    log.append(block)
+    held = sum(b.shape[-1] for b in log)
+    while log and held - log[0].shape[-1] >= keep:
+        held -= log.popleft().shape[-1]
