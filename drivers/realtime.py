@@ -67,7 +67,7 @@ class RealTimeLoop:
     compute_samples
         Ticks spent computing and writing the output, on top of the converters.
     target
-        The target to start with (``None``: output 0 until :meth:`SimulatedRig.set_loop_target`).
+        The target to start with (``None``: output 0 until :meth:`rigtools.drivers.simulated.SimulatedRig.set_loop_target`).
     """
 
     kp: float = 0.0
