@@ -538,11 +538,11 @@ def _warm_up_simulated_rig() -> None:
     the argument types :class:`rigtools.drivers.simulated.SimulatedRig` passes (complex128 modal data)."""
     import numpy as np
 
-    from rigtools.drivers import simulated
+    from rigtools.sim import rig_physics
 
-    n, m = 2, len(simulated.SIGNALS)
+    n, m = 2, len(rig_physics.SIGNALS)
     c = np.full(n, 0.5 + 0.1j)
-    simulated._propagate(
+    rig_physics._propagate(
         c.copy(),
         c.copy(),
         c.copy(),
@@ -561,7 +561,7 @@ def _warm_up_simulated_rig() -> None:
 #: machine under load: 4 s and 3.5 s).
 KERNELS: dict[str, tuple[Callable[[], None], float]] = {
     "rigtools.sim.impact_kernel": (_warm_up_vibro_impact, 5.0),
-    "rigtools.drivers.simulated": (_warm_up_simulated_rig, 4.0),
+    "rigtools.sim.rig_physics": (_warm_up_simulated_rig, 4.0),
 }
 
 
@@ -573,7 +573,7 @@ def ensure_kernels_compiled(
     Call it before a progress bar starts on work that runs compiled kernels, so the first run
     prints "compiling the simulation kernels (first run only, ~5 s)" instead of a frozen bar:
     ``rig simulate`` and ``rig study`` with the default; ``rig acquire --simulated`` with
-    ``modules=("rigtools.sim.impact_kernel", "rigtools.drivers.simulated")``.
+    ``modules=("rigtools.sim.impact_kernel", "rigtools.sim.rig_physics")``.
 
     Parameters
     ----------
