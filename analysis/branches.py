@@ -65,7 +65,7 @@ def branch_figure(
     period doubling, NS Neimark-Sacker, G grazing, CS contact split, ST sticking; names that would
     print over each other stacked) and the measured sweeps (up ``^``, down ``v``, their jumps
     shaded). ``x_scale`` multiplies the parameter for display (1e3: m -> mm)."""
-    fig = Figure(figsize=(8, 5))
+    fig = Figure(figsize=(9.5, 5))
     ax = fig.add_subplot(1, 1, 1)
     colours = ["C0", "C3", "C2", "C4", "C5"]
     colour_of: dict[str, str] = {}  # one colour and one legend entry per name (period 1, period 2)
@@ -117,7 +117,8 @@ def branch_figure(
     if title:
         ax.set_title(title)
     ax.grid(True, alpha=0.3)
-    ax.legend(fontsize=8, loc="best")
+    # beside the axes: "best" placed it over the unstable (dashed) branch of the demo's figure
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
     fig.tight_layout()
     return fig
 

@@ -325,6 +325,9 @@ class AcquisitionDevice(abc.ABC):
     """
 
     backend: str = "abstract"
+    #: Whether the backend runs a per-sample real-time inner loop (:mod:`rigtools.drivers.realtime`):
+    #: the simulated rig does, inside its integrator; a buffered DAQ (NI-DAQmx) does not.
+    has_realtime_loop: bool = False
 
     @abc.abstractmethod
     def configure(

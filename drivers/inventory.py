@@ -9,7 +9,7 @@ from __future__ import annotations
 import contextlib
 from typing import Any
 
-from rigtools.errors import one_line
+from rigtools.drivers.errors import one_line
 
 
 def list_ni_devices() -> dict[str, Any]:

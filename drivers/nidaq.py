@@ -86,8 +86,8 @@ from rigtools.drivers.contracts import (
     SensorOverload,
 )
 from rigtools.drivers.drive_signals import raised_cosine
+from rigtools.drivers.errors import one_line
 from rigtools.drivers.safety import MAX_ABORT_RAMP, MAX_TIME_TO_ZERO, output_queue_limit
-from rigtools.errors import one_line
 
 NO_DRIVER_MESSAGE = "NI-DAQmx driver not found on this machine; use --backend sim to run on the simulated rig"
 NOT_SUPPORTED_MESSAGE = (
@@ -169,6 +169,7 @@ class NiDaqDevice(AcquisitionDevice):
     """
 
     backend = "nidaqmx"
+    has_realtime_loop = False  # buffered I/O only: rigtools.drivers.realtime.NO_REALTIME_LOOP
 
     def __init__(self, abort_ramp_time: float = 0.05, max_time_to_zero: float = MAX_TIME_TO_ZERO) -> None:
         """

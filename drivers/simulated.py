@@ -11,7 +11,7 @@ What happens to each block of drive samples (volts, as written by the procedure)
    from block to block. Near a resonance of the blade the back-EMF and the armature take up the
    coil's force, so the sensor force dips as on a real rig;
 4. the DAQ's anti-alias filter, modelled as an integrating sampler: each sample is the mean of
-   the signal over its sample interval (:func:`interval_means`), not its value at an instant.
+   the signal over its sample interval (:func:`rigtools.sim.rig_physics.interval_means`), not its value at an instant.
    The contact makes the accelerations jump at every impact; point samples would fold that
    broadband content down between the harmonics. The boxcar adds half a sample of group delay
    on every channel; :meth:`SimulatedRig.input_to_output_delay` reports the delay line plus
@@ -25,13 +25,14 @@ instead of the clamp, so the flexural frequencies come out 1-3 % low), its own d
 small mass deviations of the shroud and the force sensor, all set in the rig file's
 ``[test_article]`` section.
 
-Physics backends (``model=``):
+Physics backends (``model=``), in :mod:`rigtools.sim.rig_physics` (this module is the device
+around them: delay line, amplifier, channels, noise, faults, timing, the hammer's schedule):
 
 ``"vibro-impact"``
-    :class:`rigtools.sim.vibro_impact.VibroImpactStepper` on a reduced model of the test article, with
-    the shroud contact and the shaker coupling (the default when it is available).
+    :class:`rigtools.sim.rig_physics.VibroImpactPhysics`, the stepper on a reduced model of the
+    test article, with the shroud contact and the shaker coupling (the default).
 ``"linear"``
-    :class:`LinearModalPhysics`: exact discrete-time propagation (zero-order hold) of the active
+    :class:`rigtools.sim.rig_physics.LinearModalPhysics`: exact discrete-time propagation (zero-order hold) of the active
     blade's modes coupled to the shaker, without contact (the passive blade stays at rest). Used
     to cross-check the vibro-impact path with impacts off.
 
@@ -50,11 +51,9 @@ import time
 from collections import deque
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING, NamedTuple
+from typing import NamedTuple
 
-import numba
 import numpy as np
-import scipy.linalg
 
 from rigtools.drivers.contracts import (
     AcquisitionDevice,
@@ -72,28 +71,25 @@ from rigtools.drivers.contracts import (
     SimulationDiverged,
 )
 from rigtools.drivers.drive_signals import raised_cosine
+from rigtools.drivers.errors import one_line
+from rigtools.drivers.realtime import HarmonicTarget, RealTimeLoop
 from rigtools.drivers.safety import MAX_TIME_TO_ZERO, output_queue_limit
 from rigtools.drivers.sensor_chain import SensorChain, SensorModel
 from rigtools.drivers.shaker import ShakerParams
-
-if TYPE_CHECKING:  # built lazily: importing it costs the FE model code
-    from rigtools.sim.rig_model import RigModel
-
-# what the physics provides, per time step
-from rigtools.errors import one_line
+from rigtools.sim.delayed_feedback import DelayedFeedback
 from rigtools.sim.params import DampingParams, RigParams, RootParams, SimulationInputError
+from rigtools.sim.rig_model import RigModel, build_rig_model
+from rigtools.sim.rig_physics import SIGNAL_INDEX, SIGNALS, LinearModalPhysics, VibroImpactPhysics
 
-SIGNALS = (
-    "force",  # N, force through the sensor into the active blade
-    "active_tip_accel",  # m/s^2, active shroud, y
-    "passive_tip_accel",  # m/s^2, passive shroud, y
-    "force_point_accel",  # m/s^2, active blade at the force sensor, y
-    "coil_voltage",  # V, amplifier output
-    "coil_current",  # A
-    "contact_force",  # N, between the shrouds (>= 0)
-    "hammer_force",  # N, impact hammer's force (SimulatedHammer; 0 without one)
-)
-_INDEX = {name: i for i, name in enumerate(SIGNALS)}
+__all__ = [
+    "FAULT_KINDS",
+    "SIGNALS",
+    "Fault",
+    "SimulatedHammer",
+    "SimulatedRig",
+    "TestArticle",
+    "default_signal",
+]
 
 
 # ------------------------------------------------------------------------------ test article
@@ -301,378 +297,6 @@ class SimulatedHammer:
         return out
 
 
-# ----------------------------------------------------------------------------------- physics
-
-
-class LinearModalPhysics:
-    """Exact propagation of the linear active blade coupled to the shaker (no contact).
-
-    The active blade's modes below ``f_max`` that move the force point or the tip (mass-normalised
-    shapes ``Phi`` of the FE model, damping ``Phi^T C Phi``) and the shaker form one linear
-    state-space system ``x' = A x + B e`` in ``x = [q, q', i]`` (``i`` the coil current; without
-    inductance ``i`` is algebraic). ``A`` is diagonalised once; each step is then, per
-    eigen-coordinate, ``z1 = exp(lambda dt) z0 + g0 e0 + g1 e1``, exact for a coil voltage varying
-    linearly over the step (first-order hold). As in :class:`rigtools.sim.vibro_impact.VibroImpactStepper`,
-    ``e[k]`` is the input at the end of step ``k`` (the input before the first call is 0);
-    output ``k`` is the mean over step ``k``, exact from ``z' = lambda z + b e``:
-    ``mean z = (z1 - z0 - b (e0 + e1) dt / 2) / (lambda dt)`` (what the integrating sampler of
-    :func:`interval_means` reports). The passive blade stays at rest.
-
-    Parameters
-    ----------
-    model
-        The rig model (:class:`rigtools.sim.rig_model.RigModel`) of the test article.
-    shaker
-        Shaker parameters (the amplifier gain is applied before :meth:`step`).
-    dt
-        Time step, s.
-    f_max
-        Highest modal frequency kept, Hz (default 20 kHz; the propagation is exact for any mode).
-    """
-
-    def __init__(self, model, shaker: ShakerParams, dt: float, f_max: float | None = None) -> None:
-        from rigtools.sim.modal import lowest_modes
-        from rigtools.sim.reduction import damping_ratios
-
-        blade = model.active
-        f_max = f_max if f_max is not None else 2e4
-        # only the group of modes that can move the force point or the tip (sparse solver)
-        modes = lowest_modes(blade, below_hz=f_max, dofs=[model.force_dof, model.active_tip_dof])
-        phi_all = modes.shapes
-        pf_all, pt_all = phi_all[model.force_dof], phi_all[model.active_tip_dof]
-        scale = max(np.max(np.abs(pf_all)), np.max(np.abs(pt_all)))
-        keep = (modes.frequencies_hz < f_max) & (
-            (np.abs(pf_all) > 1e-6 * scale) | (np.abs(pt_all) > 1e-6 * scale)
-        )
-        phi = phi_all[:, keep]
-        self.frequencies_hz = modes.frequencies_hz[keep]
-        n = phi.shape[1]
-        pf, pt = phi[model.force_dof], phi[model.active_tip_dof]
-        # modal damping in modal space: the FE damping is diagonal on mass-normalised modes
-        omega = 2 * np.pi * self.frequencies_hz
-        c_modal = np.diag(2.0 * damping_ratios(omega, model.params.damping) * omega)
-        s = shaker
-        ff = np.outer(pf, pf)
-        minv = np.linalg.inv(np.eye(n) + s.armature_mass * ff)
-        k = np.diag((2 * np.pi * self.frequencies_hz) ** 2) + s.suspension_stiffness * ff
-        c = c_modal + s.suspension_damping * ff
-        bl, r, ell = s.force_factor, s.coil_resistance, s.coil_inductance
-        z = np.zeros((n, n))
-        if ell > 0:
-            ns = 2 * n + 1
-            qdd = np.hstack([-minv @ k, -minv @ c, (minv @ pf * bl)[:, None]])  # q'' = qdd @ x
-            a = np.vstack(
-                [
-                    np.hstack([z, np.eye(n), np.zeros((n, 1))]),
-                    qdd,
-                    np.concatenate([np.zeros(n), -bl * pf / ell, [-r / ell]])[None, :],
-                ]
-            )
-            b = np.zeros(ns)
-            b[-1] = 1.0 / ell
-            qdd_d = np.zeros(n)
-            cur, cur_d = np.zeros(ns), 0.0
-            cur[-1] = 1.0
-        else:  # i = (e - Bl v_f) / R
-            ns = 2 * n
-            c_eff = c + bl**2 / r * ff
-            qdd = np.hstack([-minv @ k, -minv @ c_eff])
-            a = np.vstack([np.hstack([z, np.eye(n)]), qdd])
-            qdd_d = minv @ pf * bl / r
-            b = np.concatenate([np.zeros(n), qdd_d])
-            cur = np.concatenate([np.zeros(n), -bl * pf / r])
-            cur_d = 1.0 / r
-        disp_f = np.concatenate([pf, np.zeros(ns - n)])
-        vel_f = np.concatenate([np.zeros(n), pf, np.zeros(ns - 2 * n)])
-        acc_f, acc_f_d = pf @ qdd, pf @ qdd_d
-        out = np.zeros((len(SIGNALS), ns))
-        d = np.zeros(len(SIGNALS))
-        out[_INDEX["force_point_accel"]], d[_INDEX["force_point_accel"]] = acc_f, acc_f_d
-        out[_INDEX["active_tip_accel"]], d[_INDEX["active_tip_accel"]] = pt @ qdd, pt @ qdd_d
-        out[_INDEX["coil_current"]], d[_INDEX["coil_current"]] = cur, cur_d
-        out[_INDEX["force"]] = (
-            bl * cur
-            - s.armature_mass * acc_f
-            - s.suspension_stiffness * disp_f
-            - s.suspension_damping * vel_f
-        )
-        d[_INDEX["force"]] = bl * cur_d - s.armature_mass * acc_f_d
-        d[_INDEX["coil_voltage"]] = 1.0
-        lam, vec = scipy.linalg.eig(a)
-        b_modal = np.linalg.solve(vec, b)
-        # a real system's eigenvalues come in conjugate pairs: keep one of each, weight 2
-        upper = lam.imag > 1e-9 * np.abs(lam)
-        real = np.abs(lam.imag) <= 1e-9 * np.abs(lam)
-        sel = upper | real
-        weight = np.where(upper, 2.0, 1.0)[sel]
-        lam, vec, b_modal = lam[sel], vec[:, sel], b_modal[sel]
-        h = lam * dt
-        self._mu = np.exp(h)
-        gamma1 = np.expm1(h) / lam * b_modal  # int_0^dt e^{lam (dt - s)} ds
-        gamma2 = (np.expm1(h) - h) / (lam * h) * b_modal  # same, weighted by s / dt
-        self._g0, self._g1 = gamma1 - gamma2, gamma2
-        self._hb = 0.5 * dt * b_modal  # mean z = (z1 - z0 - hb (e0 + e1)) * ih
-        self._ih = 1.0 / h
-        self._cz = (out @ vec) * weight
-        self._d = d
-        self._z = np.zeros(lam.size, dtype=complex)
-        self._e_last = np.zeros(1)
-        self.dt = dt
-
-    def reset(self) -> None:
-        """Back to rest."""
-        self._z[:] = 0.0
-        self._e_last[:] = 0.0
-
-    def step(self, coil_voltage: np.ndarray) -> np.ndarray:
-        """Advance over ``coil_voltage`` (one value per step, V); returns ``(len(SIGNALS), n)``."""
-        e = np.ascontiguousarray(coil_voltage, dtype=float)
-        y = np.empty((len(SIGNALS), e.size))
-        _propagate(
-            self._mu, self._g0, self._g1, self._hb, self._ih, self._cz, self._d, self._z, self._e_last, e, y
-        )
-        return y
-
-
-@numba.njit(cache=True)
-def _propagate(mu, g0, g1, hb, ih, cz, d, z, e_last, e, y):  # pragma: no cover - compiled
-    """Per step k: z <- mu z + g0 e[k-1] + g1 e[k]; y[:, k] = Re(cz @ mean z) + d (e[k-1] + e[k]) / 2
-    with mean z = (z_new - z_old - hb (e[k-1] + e[k])) * ih (z, e_last in place)."""
-    n_out, n_z = cz.shape
-    czr, czi = cz.real.copy(), cz.imag.copy()
-    zr, zi = z.real.copy(), z.imag.copy()
-    mr, mi = np.empty(n_z), np.empty(n_z)
-    mur, mui = mu.real, mu.imag
-    e0 = e_last[0]
-    for k in range(e.size):
-        e1 = e[k]
-        es = e0 + e1
-        for j in range(n_z):
-            br = g0[j].real * e0 + g1[j].real * e1
-            bi = g0[j].imag * e0 + g1[j].imag * e1
-            r = mur[j] * zr[j] - mui[j] * zi[j] + br
-            i = mur[j] * zi[j] + mui[j] * zr[j] + bi
-            dr = r - zr[j] - hb[j].real * es
-            di = i - zi[j] - hb[j].imag * es
-            mr[j] = dr * ih[j].real - di * ih[j].imag
-            mi[j] = dr * ih[j].imag + di * ih[j].real
-            zr[j] = r
-            zi[j] = i
-        for o in range(n_out):
-            acc = 0.5 * d[o] * es
-            for j in range(n_z):
-                acc += czr[o, j] * mr[j] - czi[o, j] * mi[j]
-            y[o, k] = acc
-        e0 = e1
-    e_last[0] = e0
-    for j in range(n_z):
-        z[j] = zr[j] + 1j * zi[j]
-
-
-class VibroImpactPhysics:
-    """The vibro-impact stepper (:class:`rigtools.sim.vibro_impact.VibroImpactStepper`) on the reduced
-    test-article model (:func:`rigtools.sim.reduction.reduce_rig_model`: modes plus static correction),
-    with the shroud contact and the shaker coupling.
-
-    Parameters
-    ----------
-    model
-        Rig model of the test article.
-    shaker
-        Shaker parameters (the amplifier gain is applied before :meth:`step`).
-    dt
-        Time step, s (the sample period); it must resolve the contact period.
-
-    Raises
-    ------
-    ConfigurationError
-        If the step is too coarse for the contact stiffness (one line from the stepper).
-    """
-
-    def __init__(self, model, shaker: ShakerParams, dt: float) -> None:
-        from rigtools.sim.reduction import reduce_rig_model
-        from rigtools.sim.vibro_impact import OUT_COLUMNS, SimulationInputError, VibroImpactStepper
-
-        self.system = reduce_rig_model(model, keep_bases=True)
-        self._model = model
-        try:
-            self._stepper = VibroImpactStepper(self.system, dt, shaker=shaker.coupling())
-        except SimulationInputError as exc:
-            raise ConfigurationError(f"sample rate {1 / dt:g} S/s: {exc}") from None
-        self._cols = [
-            OUT_COLUMNS.index(c)
-            for c in (
-                "active_tip_velocity",
-                "passive_tip_velocity",
-                "force_point_velocity",
-                "force_point_displacement",
-                "contact_force",
-                "coil_current",
-            )
-        ]
-        self._shaker = shaker.coupling()
-        self._last = np.zeros(7)  # the end values of the previous step (at rest: zero)
-        self.dt = dt
-        self._k = 0  # steps since the last reset
-        self._hammer: SimulatedHammer | None = None
-        self._kick = np.zeros(0)
-
-    def reset(self) -> None:
-        """Back to rest."""
-        self._stepper.reset()
-        self._last[:] = 0.0
-        self._k = 0
-
-    def set_hammer(self, hammer: SimulatedHammer | None) -> None:
-        """Hit a blade with ``hammer`` (``None``: no hammer).
-
-        A hit's impulse over each sample interval goes into the modal velocities at the start
-        of that interval: ``dv_j = phi_j(x_h) * I`` with ``phi_j(x_h)`` the Ritz vector ``j`` of
-        the reduced model at the hit DOF (the kept normal modes and the static-correction
-        shapes of the blade; on the active blade in the basis re-diagonalised with the shaker
-        armature, :meth:`rigtools.sim.reduction.ReducedSystem.with_attached`). Exact for modes with
-        periods much longer than a sample; the pulse (0.2-1 ms) spans tens of samples.
-        """
-        self._hammer = hammer
-        if hammer is None:
-            self._kick = np.zeros(0)
-            return
-        blade = self._model.blade(hammer.blade)
-        length = float(blade.node_x[-1])
-        if not 0 < hammer.position <= length:
-            raise ConfigurationError(
-                f"hammer position {hammer.position * 1e3:g} mm is not on the "
-                f"{hammer.blade} blade (0 .. {length * 1e3:g} mm from the root)"
-            )
-        node = blade.node_at(hammer.position)
-        assert self.system.bases is not None  # reduced with keep_bases=True
-        basis = self.system.bases[hammer.blade]
-        phi_h = basis[blade.dof(node, 1)]
-        attached = self._stepper.system
-        which = np.flatnonzero(attached.blade == (0 if hammer.blade == "active" else 1))
-        if hammer.blade == "active" and self._stepper.shaker is not None:
-            # the same re-diagonalisation as ReducedSystem.with_attached
-            sh = self._stepper.shaker
-            pf = self.system.shapes[2, which]
-            m = np.eye(which.size) + sh.armature_mass * np.outer(pf, pf)
-            k = np.diag(self.system.omega[which] ** 2) + sh.suspension_stiffness * np.outer(pf, pf)
-            _, t = scipy.linalg.eigh(k, m)
-            phi_h = phi_h @ t
-        self._kick = np.zeros(attached.n_modes)
-        self._kick[which] = phi_h
-        self._phi_f = np.ascontiguousarray(attached.shapes[2])
-
-    @property
-    def gap(self) -> float:
-        """The shroud gap in use, m."""
-        return self._stepper._contact[0]
-
-    def set_gap(self, gap: float) -> None:
-        """Change the shroud gap between steps (the state carries on), m."""
-        _, kc, cc, p, code = self._stepper._contact
-        self._stepper._contact = (float(gap), kc, cc, p, code)
-
-    def step(self, coil_voltage: np.ndarray) -> np.ndarray:
-        """Advance over ``coil_voltage`` (V, at the end of each step); ``(len(SIGNALS), n)`` out,
-        each value the mean of the signal over its step (:func:`interval_means`)."""
-        e = np.ascontiguousarray(coil_voltage, dtype=float)
-        impulses = None if self._hammer is None else self._hammer.impulses(self._k, e.size, self.dt)
-        if impulses is None or not impulses.any():
-            data = self._stepper.step(e).data
-        else:
-            data = self._hit(e, impulses)
-        self._k += e.size
-        ends = np.empty((7, e.size + 1))
-        ends[:, 0] = self._last
-        for row, c in enumerate(self._cols):
-            ends[row, 1:] = data[:, c]
-        ends[6, 1:] = e
-        self._last = ends[:, -1].copy()
-        y = interval_means(ends, self.dt, self._shaker)
-        y[_INDEX["hammer_force"]] = 0.0 if impulses is None else impulses / self.dt
-        return y
-
-    def _hit(self, e: np.ndarray, impulses: np.ndarray) -> np.ndarray:
-        """Step over ``e`` with the hammer's impulses put in at the start of their intervals."""
-        from rigtools.sim.vibro_impact import N_OUT
-
-        data = np.empty((e.size, N_OUT))
-        start = 0
-        for k in np.flatnonzero(impulses):
-            if k > start:
-                self._stepper.step(e[start:k], out=data[start:k])
-            st = self._stepper.state
-            dv = self._kick * impulses[k]
-            st.v += dv
-            if self._stepper.shaker is not None:
-                st.scalars[4] += float(self._phi_f @ dv)  # the coil sees the force point's velocity
-            start = int(k)
-        self._stepper.step(e[start:], out=data[start:])
-        return data
-
-
-def interval_means(ends: np.ndarray, dt: float, shaker) -> np.ndarray:
-    """What an integrating sampler reports: the mean of each signal over each sample interval.
-
-    A delta-sigma DSA input has an anti-alias filter; a point sample of the model would fold the
-    broadband content of the contact (the accelerations jump at each impact) down between the
-    harmonics. The interval mean (a boxcar of one sample period) has zeros at every multiple of
-    the sample rate, exactly where that content would fold from, and a group delay of half a
-    sample on every channel alike (reported in :meth:`SimulatedRig.input_to_output_delay`).
-
-    Parameters
-    ----------
-    ends
-        ``(7, n + 1)`` values at the step ends, the previous block's last step first; rows:
-        velocities of the active tip, passive tip and force point, force-point displacement,
-        contact force, coil current, coil voltage.
-    dt
-        Step, s.
-    shaker
-        The shaker (:class:`rigtools.sim.vibro_impact.ShakerCoupling`).
-
-    Returns
-    -------
-    ``(len(SIGNALS), n)``. Exact means from the end values wherever a signal is the derivative of
-    one carried: accelerations ``(v[k] - v[k-1]) / dt``; force-point velocity ``dx / dt``; coil
-    current from the mean of ``L di/dt + R i + Bl v = e`` (the voltage is a first-order hold: its
-    mean is the trapezoid); sensor force ``Bl i - c_s v - m_a a - k_s x`` from these (``x`` by the
-    cubic Hermite rule from its velocity). The contact force by the trapezoid.
-    """
-    a0, a1 = ends[:, :-1], ends[:, 1:]
-    d = (a1 - a0) / dt
-    trap = 0.5 * (a0 + a1)
-    s = shaker
-    y = np.empty((len(SIGNALS), a0.shape[1]))
-    y[_INDEX["active_tip_accel"]] = d[0]
-    y[_INDEX["passive_tip_accel"]] = d[1]
-    y[_INDEX["force_point_accel"]] = d[2]
-    x_mean = trap[3] - d[2] * (dt * dt / 12.0)
-    e_mean = trap[6]
-    i_mean = (e_mean - s.force_factor * d[3] - s.coil_inductance * d[5]) / s.coil_resistance
-    y[_INDEX["force"]] = (
-        s.force_factor * i_mean
-        - s.suspension_damping * d[3]
-        - s.armature_mass * d[2]
-        - s.suspension_stiffness * x_mean
-    )
-    y[_INDEX["contact_force"]] = trap[4]
-    y[_INDEX["coil_current"]] = i_mean
-    y[_INDEX["coil_voltage"]] = e_mean
-    y[_INDEX["hammer_force"]] = 0.0  # the hammer is not part of the shaker's physics
-    return y
-
-
-def vibro_impact_available() -> bool:
-    """True when :mod:`rigtools.sim.vibro_impact` provides the block stepper."""
-    try:
-        from rigtools.sim.reduction import reduce_rig_model  # noqa: F401
-        from rigtools.sim.vibro_impact import VibroImpactStepper  # noqa: F401
-    except ImportError:
-        return False
-    return True
-
-
 # ------------------------------------------------------------------------------ the device
 
 
@@ -741,6 +365,7 @@ class SimulatedRig(AcquisitionDevice):
     """
 
     backend = "simulated"
+    has_realtime_loop = True  # emulated inside the integrator: set_realtime_loop, set_loop_target
 
     def __init__(
         self,
@@ -764,7 +389,7 @@ class SimulatedRig(AcquisitionDevice):
         if model not in ("auto", "vibro-impact", "linear"):
             raise ConfigurationError(f"model {model!r} is not one of auto, vibro-impact, linear")
         if model == "auto":
-            model = "vibro-impact" if vibro_impact_available() else "linear"
+            model = "vibro-impact"
         self.nominal = params
         self.shaker = shaker or ShakerParams()
         self.test_article = test_article or TestArticle()
@@ -800,7 +425,9 @@ class SimulatedRig(AcquisitionDevice):
         self._chain: SensorChain | None = None
         self._rows = np.zeros(0, dtype=int)
         self._drive_log: deque[np.ndarray] = deque()
-        self._drive_log_n = 0  # samples held in _drive_log
+        self.realtime_loop: RealTimeLoop | None = None
+        self._feedback: DelayedFeedback | None = None
+        self._loop_log: deque[np.ndarray] = deque()
         self.drive_samples = 0  # drive samples that reached the amplifier since configure
         self.truth_log: list[np.ndarray] = []
         self.fault_sample: int | None = None
@@ -816,8 +443,6 @@ class SimulatedRig(AcquisitionDevice):
     def rig_model(self) -> RigModel:
         """FE model (:class:`rigtools.sim.rig_model.RigModel`) of the test article (built once)."""
         if self._rig_model is None:
-            from rigtools.sim.rig_model import build_rig_model
-
             self._rig_model = build_rig_model(self.article_params)
         return self._rig_model
 
@@ -840,11 +465,11 @@ class SimulatedRig(AcquisitionDevice):
         rows = []
         for spec in inputs:
             sig = self.signal_map.get(spec.name, default_signal(spec))
-            if sig not in _INDEX:
+            if sig not in SIGNAL_INDEX:
                 raise ConfigurationError(
                     f"channel {spec.name!r}: signal {sig!r} unknown (known: {', '.join(SIGNALS)})"
                 )
-            rows.append(_INDEX[sig])
+            rows.append(SIGNAL_INDEX[sig])
         for fault in self.faults:
             if fault.channel is not None and fault.channel not in names:
                 raise ConfigurationError(f"fault {fault.kind}: no input channel {fault.channel!r}")
@@ -866,12 +491,17 @@ class SimulatedRig(AcquisitionDevice):
         self._chain = SensorChain(sensors, self._rate, seed=self.seed)
         dt = 1.0 / self._rate
         if self._physics is None or self._physics_dt != dt:
+            coupling = self.shaker.coupling()
             if self.model_kind == "linear":
-                self._physics = LinearModalPhysics(self.rig_model(), self.shaker, dt)
+                self._physics = LinearModalPhysics(self.rig_model(), coupling, dt)
             else:
-                self._physics = VibroImpactPhysics(self.rig_model(), self.shaker, dt)
+                try:
+                    self._physics = VibroImpactPhysics(self.rig_model(), coupling, dt)
+                except SimulationInputError as exc:
+                    raise ConfigurationError(f"sample rate {self._rate:g} S/s: {exc}") from None
             self._physics_dt = dt
         self._apply_hammer(self._physics)
+        self._feedback = self._make_feedback()
         self._queue_limit = (
             None
             if self.max_time_to_zero is None
@@ -895,7 +525,13 @@ class SimulatedRig(AcquisitionDevice):
                     "hammer needs the vibro-impact model"
                 )
             return
-        physics.set_hammer(self.hammer)
+        hammer = self.hammer
+        try:
+            physics.set_hit_point(
+                None if hammer is None else hammer.blade, 0.0 if hammer is None else hammer.position
+            )
+        except SimulationInputError as exc:
+            raise ConfigurationError(str(exc)) from None
 
     @property
     def output_queue_limit(self) -> int | None:
@@ -914,7 +550,12 @@ class SimulatedRig(AcquisitionDevice):
         self._delay_line = np.zeros(max(0, int(line)))
         self._last_drive = 0.0
         self._drive_log, self.truth_log = deque(), []
-        self._drive_log_n = self.drive_samples = 0
+        self.drive_samples = 0
+        self._loop_log = deque()
+        if self._feedback is not None:
+            self._feedback.reset()
+            assert self.realtime_loop is not None  # a feedback is made from a loop
+            self._feedback.set_target(self.realtime_loop.target, 0.0)
         self.fault_sample = None
         self._closed = False
 
@@ -948,6 +589,60 @@ class SimulatedRig(AcquisitionDevice):
         stays bounded over long runs; sample 0 of the array is amplifier sample
         ``drive_samples - drive_log.size``)."""
         return np.concatenate(self._drive_log) if self._drive_log else np.zeros(0)
+
+    @property
+    def loop_log(self) -> np.ndarray:
+        """The real-time loop's record, ``(2, n)``, one column per amplifier sample (aligned with
+        :attr:`drive_log`, the same length kept; column ``i`` of a stream is the step ending at
+        ``(i + 1) / sample_rate``): row 0 its output ``u`` (V at the amplifier's
+        input), row 1 the active shroud's displacement at the sample's end (m, the quantity the
+        loop measures, noise-free). Empty without a loop."""
+        return np.concatenate(self._loop_log, axis=1) if self._loop_log else np.zeros((2, 0))
+
+    # ------------------------------------------------------------------ real-time loop
+
+    def set_realtime_loop(self, loop: RealTimeLoop | None) -> None:
+        """Run ``loop`` (:class:`rigtools.drivers.realtime.RealTimeLoop`) per sample inside the
+        integration from the next configure or stream start (``None``: no loop). Its target
+        starts as ``loop.target``; :meth:`set_loop_target` changes it between blocks.
+
+        Raises
+        ------
+        ConfigurationError
+            The linear model (no loop there), or a loop the integration cannot run (one line).
+        """
+        if loop is not None and self.model_kind != "vibro-impact":
+            raise ConfigurationError("the real-time loop runs in the vibro-impact model only")
+        if self._running:
+            raise ConfigurationError("stop the device before changing its real-time loop")
+        self.realtime_loop = loop
+        self._feedback = self._make_feedback()
+        if self._feedback is not None and loop is not None:
+            self._feedback.set_target(loop.target, self._feedback.time)
+
+    def set_loop_target(self, target: HarmonicTarget | None) -> None:
+        """The loop follows ``target`` for the measurement instants from now on (the samples
+        read so far; its output changes a loop delay later); ``None``: output 0 from then.
+
+        Raises
+        ------
+        ConfigurationError
+            No real-time loop set, or the device not configured.
+        """
+        if self._feedback is None:
+            raise ConfigurationError("no real-time loop: call set_realtime_loop() (and configure) first")
+        self._feedback.set_target(target)
+
+    def _make_feedback(self) -> DelayedFeedback | None:
+        loop = self.realtime_loop
+        if loop is None or self._rate <= 0:
+            return None
+        try:
+            return DelayedFeedback(
+                loop.rate_hz, loop.delay_s, loop.kp, loop.kd, self.shaker.amplifier_gain, 1.0 / self._rate
+            )
+        except SimulationInputError as exc:
+            raise ConfigurationError(str(exc)) from None
 
     @property
     def gap(self) -> float:
@@ -1029,23 +724,35 @@ class SimulatedRig(AcquisitionDevice):
             out[i:] = out[i - 1] if i else self._last_drive
         return out
 
-    def _advance(self, physics: LinearModalPhysics | VibroImpactPhysics, drive: np.ndarray) -> np.ndarray:
-        """Run the drive through delay line, amplifier and physics; physical signals out."""
+    def _advance(
+        self,
+        physics: LinearModalPhysics | VibroImpactPhysics,
+        drive: np.ndarray,
+        loop_envelope: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """Run the drive through delay line, amplifier and physics (with the real-time loop's
+        output added at the amplifier's input, scaled by ``loop_envelope``); physical signals out."""
         d = self._delay_line.size
         if d:
             joined = np.concatenate([self._delay_line, drive])
             applied, self._delay_line = joined[: drive.size], joined[drive.size :]
         else:
             applied = drive
-        self._drive_log.append(applied)
-        self._drive_log_n += applied.size
-        self.drive_samples += applied.size
         keep = int(self.drive_log_seconds * self._rate)
-        while self._drive_log and self._drive_log_n - self._drive_log[0].size >= keep:
-            self._drive_log_n -= self._drive_log.popleft().size
+        _log(self._drive_log, applied, keep)
+        self.drive_samples += applied.size
         if drive.size:
             self._last_drive = float(drive[-1])
-        return physics.step(self.shaker.amplifier_gain * applied)
+        coil = self.shaker.amplifier_gain * applied
+        if not isinstance(physics, VibroImpactPhysics):
+            return physics.step(coil)
+        k0 = self.drive_samples - applied.size  # amplifier samples since the stream began
+        impulses = None if self.hammer is None else self.hammer.impulses(k0, applied.size, 1.0 / self._rate)
+        if self._feedback is None:
+            return physics.step(coil, impulses)
+        signals, u, x = self._feedback.step(physics, coil, impulses, loop_envelope)
+        _log(self._loop_log, np.vstack([u, x]), keep)
+        return signals
 
     def read(self, n_samples: int | None = None, timeout: float = 10.0) -> np.ndarray:
         session = self._require_configured()
@@ -1144,7 +851,10 @@ class SimulatedRig(AcquisitionDevice):
         ramp = last * (1.0 - raised_cosine(r))
         ramp[-1] = 0.0
         tail = np.zeros(self._delay_line.size)
-        self._advance(self._physics, np.concatenate([queued, ramp, tail]))
+        # the real-time loop's output ramps down with the drive reaching the amplifier
+        envelope = np.concatenate([np.ones(self._delay_line.size + queued.size), 1.0 - raised_cosine(r)])
+        envelope[-1] = 0.0  # as long as the block: the delay line's d samples come out first
+        self._advance(self._physics, np.concatenate([queued, ramp, tail]), envelope)
         self._last_drive = 0.0
 
     def stop(self) -> None:
@@ -1158,3 +868,12 @@ class SimulatedRig(AcquisitionDevice):
     def close(self) -> None:
         self.stop()
         self._closed = True
+
+
+def _log(log: deque[np.ndarray], block: np.ndarray, keep: int) -> None:
+    """Append ``block`` (samples along its last axis) to ``log``, dropping the oldest blocks
+    while the rest hold at least ``keep`` samples."""
+    log.append(block)
+    held = sum(b.shape[-1] for b in log)
+    while log and held - log[0].shape[-1] >= keep:
+        held -= log.popleft().shape[-1]

@@ -38,7 +38,7 @@ from rigtools.drivers.contracts import (
     SourceLimits,
     SourceState,
 )
-from rigtools.errors import one_line
+from rigtools.drivers.errors import one_line
 
 SIMULATED_RESOURCE = "TCPIP0::192.168.1.20::inst0::INSTR"
 TERMINATION = "\n"

@@ -6,6 +6,12 @@ import signal as _signal
 from collections.abc import Iterator
 from contextlib import contextmanager
 
+from rigtools.drivers import errors as _driver_errors
+
+#: The one rule of an error's one line (:func:`rigtools.drivers.errors.one_line`): it lives where
+#: the drivers, which import nothing of the orchestration, can use it too.
+one_line = _driver_errors.one_line
+
 #: Exit statuses of ``rig`` (also in ``rig --help``).
 EXIT_OK = 0
 EXIT_PROBLEMS = 1  # a check found problems
@@ -74,44 +80,6 @@ def exit_status_help(
     parts = [f"{c}\u00a0{words[c]}" for c in shown]
     text = textwrap.fill("Exit status: " + "; ".join(parts) + ".", width=width, break_on_hyphens=False)
     return text.replace("\u00a0", " ")
-
-
-def one_line(
-    error: BaseException | str, limit: int | None = 500, *, first: bool = False, typed: bool = False
-) -> str:
-    """The one line an error is shown as (a message, a recording's abort reason): the one rule.
-
-    Parameters
-    ----------
-    error
-        An exception or its text.
-    limit
-        At most this many characters (cut with ``...``); ``None``: no limit.
-    first
-        Keep only the first non-blank line (driver messages put details on the lines after);
-        otherwise every line joined, white space folded.
-    typed
-        Prefix ``"TypeName: "`` (abort reasons: what failed).
-
-    Returns
-    -------
-    str
-        The line; the exception's type name when it has no text; a Ctrl-C without text
-        ``"KeyboardInterrupt: interrupted by the user"``.
-    """
-    text = str(error)
-    if first:
-        text = next((line for line in text.splitlines() if line.strip()), "")
-    text = " ".join(text.split())
-    if isinstance(error, BaseException):
-        name = type(error).__name__
-        if isinstance(error, KeyboardInterrupt):  # rigtools.errors.Interrupted names its signal
-            text = text or "KeyboardInterrupt: interrupted by the user"
-        elif not text:
-            text = name
-        elif typed:
-            text = f"{name}: {text}"
-    return text if limit is None or len(text) <= limit else text[: limit - 3] + "..."
 
 
 # Errors advise in the caller's language: `rig`'s entry point (rigtools.cli.main) runs the command

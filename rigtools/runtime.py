@@ -507,7 +507,7 @@ def _index_exists(dispatcher: Any) -> bool:
         return False
 
 
-def kernels_cached(module_name: str = "rigtools.sim.vibro_impact") -> bool:
+def kernels_cached(module_name: str = "rigtools.sim.impact_kernel") -> bool:
     """True if the numba kernels of ``module_name`` are in numba's on-disk cache.
 
     A kernel counts once an index file exists for it that matches the current source (numba
@@ -548,11 +548,11 @@ def _warm_up_simulated_rig() -> None:
     the argument types :class:`rigtools.drivers.simulated.SimulatedRig` passes (complex128 modal data)."""
     import numpy as np
 
-    from rigtools.drivers import simulated
+    from rigtools.sim import rig_physics
 
-    n, m = 2, len(simulated.SIGNALS)
+    n, m = 2, len(rig_physics.SIGNALS)
     c = np.full(n, 0.5 + 0.1j)
-    simulated._propagate(
+    rig_physics._propagate(
         c.copy(),
         c.copy(),
         c.copy(),
@@ -570,20 +570,20 @@ def _warm_up_simulated_rig() -> None:
 #: Module -> (what compiles its kernels, first-run compile time in s measured on the 2-core CI
 #: machine under load: 4 s and 3.5 s).
 KERNELS: dict[str, tuple[Callable[[], None], float]] = {
-    "rigtools.sim.vibro_impact": (_warm_up_vibro_impact, 5.0),
-    "rigtools.drivers.simulated": (_warm_up_simulated_rig, 4.0),
+    "rigtools.sim.impact_kernel": (_warm_up_vibro_impact, 5.0),
+    "rigtools.sim.rig_physics": (_warm_up_simulated_rig, 4.0),
 }
 
 
 def ensure_kernels_compiled(
-    console: Any = None, modules: tuple[str, ...] = ("rigtools.sim.vibro_impact",)
+    console: Any = None, modules: tuple[str, ...] = ("rigtools.sim.impact_kernel",)
 ) -> bool:
     """Compile the numba kernels of ``modules`` now if numba has not cached them, saying so.
 
     Call it before a progress bar starts on work that runs compiled kernels, so the first run
     prints "compiling the simulation kernels (first run only, ~5 s)" instead of a frozen bar:
     ``rig simulate`` and ``rig study`` with the default; ``rig acquire --simulated`` with
-    ``modules=("rigtools.sim.vibro_impact", "rigtools.drivers.simulated")``.
+    ``modules=("rigtools.sim.impact_kernel", "rigtools.sim.rig_physics")``.
 
     Parameters
     ----------

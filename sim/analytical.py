@@ -178,6 +178,20 @@ def exact_flexural_frequencies(
     -------
     np.ndarray
         The first ``n`` natural frequencies, Hz.
+
+    Examples
+    --------
+    The default rig's active blade with its force sensor and shroud (the finite elements give
+    53.2, 361.9 and 1270.6 Hz, :func:`rigtools.sim.modal.flexural_frequencies`):
+
+    >>> import numpy as np
+    >>> import rigtools
+    >>> from rigtools.sim.analytical import exact_flexural_frequencies
+    >>> from rigtools.sim.rig_model import blade_masses
+    >>> params = rigtools.load_rig().to_params()
+    >>> f = exact_flexural_frequencies(params.active, blade_masses(params, "active"), 3, params.root)
+    >>> np.round(f, 1)
+    array([  53.2,  361.9, 1271.2])
     """
     root = root or RootParams()
     rho_a, ei = _flexural_scales(blade)

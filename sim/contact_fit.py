@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Literal
 
@@ -29,13 +29,13 @@ import numpy as np
 import scipy.optimize
 
 from rigtools.sim.channel_names import ACTIVE_SHROUD_ACCEL, PASSIVE_SHROUD_ACCEL
-from rigtools.sim.parameter_fit import (
+from rigtools.sim.fit_identifiability import (
     Identifiability,
-    UpdateParameter,
-    _central_jacobian,
-    _forward_jacobian,
-    _identifiability,
+    central_jacobian,
+    forward_jacobian,
+    identifiability,
 )
+from rigtools.sim.fit_parameters import UpdateParameter
 from rigtools.sim.params import ContactLaw, ContactParams, RigParams
 from rigtools.sim.reduction import ReducedSystem, reduced_system
 from rigtools.sim.vibro_impact import run_harmonic, steps_per_period_for
@@ -334,32 +334,13 @@ def fit_contact(
     ContactFitResult
     """
     t0 = time.perf_counter()
-    names = list(dict.fromkeys(names))
-    if not names or any(n not in CONTACT_PARAMETERS for n in names):
-        bad = [n for n in names if n not in CONTACT_PARAMETERS]
-        raise ValueError(
-            f"unknown contact parameter {bad[0] if bad else ''!r} (known: {', '.join(CONTACT_PARAMETERS)})"
-        )
-    targets = list(targets)
-    if not targets:
-        raise ValueError("give at least one dwell target")
+    names, targets = _checked(names, targets)
     fit_law: ContactLaw = law if law is not None else params.contact.law
     base = params
     if fit_law != params.contact.law:
         base = replace(params, contact=_equivalent_contact(params.contact, fit_law))
-    start = dict(start or {})
     specs = [CONTACT_PARAMETERS[n] for n in names]
-    v0 = np.array([float(start.get(n, s.get(base))) for n, s in zip(names, specs, strict=True)])
-    if np.any(v0 <= 0):
-        raise ValueError("contact stiffness and damping must start > 0 to be fitted in log scale")
-    b_all: dict[str, tuple[float, float]] = {}
-    for n, s, v in zip(names, specs, v0, strict=True):
-        lo_n, hi_n = (bounds or {}).get(n, s.default_bounds(v))
-        b_all[n] = (float(lo_n), float(hi_n))
-    for n, (lo_n, hi_n) in b_all.items():
-        if not 0 < lo_n < hi_n:
-            raise ValueError(f"{n}: bounds ({lo_n}, {hi_n}) must satisfy 0 < low < high")
-    v0 = np.array([min(max(v, b_all[n][0]), b_all[n][1]) for n, v in zip(names, v0, strict=True)])
+    v0, b_all = _start_and_bounds(base, names, specs, start or {}, bounds or {})
     for s, v in zip(specs, v0, strict=True):
         base = s.set(base, float(v))
     linear = system if system is not None else reduced_system(base, "fem")
@@ -372,48 +353,154 @@ def fit_contact(
     )
     if len(steps) != len(targets):
         raise ValueError("give one steps_per_period per target")
+    prob = _ContactProblem(base, linear, specs, v0, targets, steps, record_periods)
+    x0 = np.zeros(len(names))
+    lo = np.log(np.array([b_all[n][0] for n in names]) / v0)
+    hi = np.log(np.array([b_all[n][1] for n in names]) / v0)
+    lo, hi = np.minimum(lo, -1e-12), np.maximum(hi, 1e-12)
+    r0, h0, _ = prob.evaluate(x0)
+    x, sol = _minimise(prob.residuals, x0, lo, hi, max_evaluations)
+    r1, h1, steady1 = prob.evaluate(x)
+    ident = identifiability(central_jacobian(prob.residuals, x, lo, hi, FD_STEP), names, specs, x, v0, 1.0, 0)
+    fitted = {n: float(v) for n, v in zip(names, prob.to_v(x), strict=True)}
+    out_params = base
+    for s, n in zip(specs, names, strict=True):
+        out_params = s.set(out_params, fitted[n])
+    return ContactFitResult(
+        names=names,
+        units=[CONTACT_PARAMETERS[n].unit for n in names],
+        law=fit_law,
+        initial={n: float(v) for n, v in zip(names, v0, strict=True)},
+        fitted=fitted,
+        bounds=b_all,
+        params=out_params,
+        residual_labels=_residual_labels(targets),
+        residuals_before=r0,
+        residuals_after=r1,
+        harmonics_before=h0,
+        harmonics_after=h1,
+        steady=bool(steady1),
+        n_evaluations=prob.n_evaluations,
+        n_runs=prob.n_runs,
+        wall_time=time.perf_counter() - t0,
+        success=bool(sol.success),
+        message=str(sol.message),
+        identifiability=ident,
+        targets=targets,
+    )
 
-    counts = {"evaluations": 0, "runs": 0}
-    cache: dict[bytes, tuple[np.ndarray, list[dict[str, np.ndarray]], bool]] = {}
 
-    def to_v(x):
-        return v0 * np.exp(x)
+def _checked(
+    names: Sequence[str], targets: Sequence[HarmonicTarget]
+) -> tuple[list[str], list[HarmonicTarget]]:
+    """The names (duplicates dropped) and targets of a contact fit, or a one-line ``ValueError``."""
+    names = list(dict.fromkeys(names))
+    if not names or any(n not in CONTACT_PARAMETERS for n in names):
+        bad = [n for n in names if n not in CONTACT_PARAMETERS]
+        raise ValueError(
+            f"unknown contact parameter {bad[0] if bad else ''!r} (known: {', '.join(CONTACT_PARAMETERS)})"
+        )
+    targets = list(targets)
+    if not targets:
+        raise ValueError("give at least one dwell target")
+    return names, targets
 
-    def system_at(x) -> ReducedSystem:
-        p = base
-        for s, v in zip(specs, to_v(x), strict=True):
+
+def _start_and_bounds(
+    base: RigParams,
+    names: list[str],
+    specs: list[UpdateParameter],
+    start: dict[str, float],
+    bounds: dict[str, tuple[float, float]],
+) -> tuple[np.ndarray, dict[str, tuple[float, float]]]:
+    """Start values (clipped into the bounds) and bounds by name (default: the parameter's)."""
+    v0 = np.array([float(start.get(n, s.get(base))) for n, s in zip(names, specs, strict=True)])
+    if np.any(v0 <= 0):
+        raise ValueError("contact stiffness and damping must start > 0 to be fitted in log scale")
+    b_all: dict[str, tuple[float, float]] = {}
+    for n, s, v in zip(names, specs, v0, strict=True):
+        lo_n, hi_n = bounds.get(n, s.default_bounds(v))
+        b_all[n] = (float(lo_n), float(hi_n))
+    for n, (lo_n, hi_n) in b_all.items():
+        if not 0 < lo_n < hi_n:
+            raise ValueError(f"{n}: bounds ({lo_n}, {hi_n}) must satisfy 0 < low < high")
+    v0 = np.array([min(max(v, b_all[n][0]), b_all[n][1]) for n, v in zip(names, v0, strict=True)])
+    return v0, b_all
+
+
+class _ContactProblem:
+    """The fit's residuals at scaled values ``x = ln(v / v0)``: one settled run per target, each
+    ``x`` evaluated once (cached), the evaluations and runs counted."""
+
+    def __init__(
+        self,
+        base: RigParams,
+        linear: ReducedSystem,
+        specs: list[UpdateParameter],
+        v0: np.ndarray,
+        targets: list[HarmonicTarget],
+        steps: list[int],
+        record_periods: int,
+    ) -> None:
+        self.base, self.linear, self.specs, self.v0 = base, linear, specs, v0
+        self.targets, self.steps, self.record_periods = targets, steps, record_periods
+        self.n_evaluations = 0
+        self.n_runs = 0
+        self._cache: dict[bytes, tuple[np.ndarray, list[dict[str, np.ndarray]], bool]] = {}
+
+    def to_v(self, x: np.ndarray) -> np.ndarray:
+        return self.v0 * np.exp(x)
+
+    def system_at(self, x: np.ndarray) -> ReducedSystem:
+        p = self.base
+        for s, v in zip(self.specs, self.to_v(x), strict=True):
             p = s.set(p, float(v))
-        return replace(linear, contact=p.contact)
+        return replace(self.linear, contact=p.contact)
 
-    def evaluate(x):
+    def evaluate(self, x: np.ndarray) -> tuple[np.ndarray, list[dict[str, np.ndarray]], bool]:
+        """``(residuals, harmonics per target, every run steady)`` at ``x``."""
         key = np.asarray(x, dtype=float).tobytes()
-        if key not in cache:
-            counts["evaluations"] += 1
-            sysx = system_at(x)
+        if key not in self._cache:
+            self.n_evaluations += 1
+            sysx = self.system_at(x)
             res, harms, all_steady = [], [], True
-            for t, n in zip(targets, steps, strict=True):
-                amps, steady = harmonic_amplitudes(sysx, t, steps_per_period=n, record_periods=record_periods)
-                counts["runs"] += 1
+            for t, n in zip(self.targets, self.steps, strict=True):
+                amps, steady = harmonic_amplitudes(
+                    sysx, t, steps_per_period=n, record_periods=self.record_periods
+                )
+                self.n_runs += 1
                 all_steady &= steady
                 harms.append(amps)
                 for loc, a in t.amplitudes.items():
                     m = t.mask(loc)
                     res.append(np.log(np.maximum(amps[loc][m], 1e-300) / a[m]) / t.sigma)
-            cache[key] = (np.concatenate(res), harms, all_steady)
-        return cache[key]
+            self._cache[key] = (np.concatenate(res), harms, all_steady)
+        return self._cache[key]
 
-    def residuals(x):
-        return evaluate(x)[0]
+    def residuals(self, x: np.ndarray) -> np.ndarray:
+        return self.evaluate(x)[0]
 
-    x0 = np.zeros(len(names))
-    lo = np.log(np.array([b_all[n][0] for n in names]) / v0)
-    hi = np.log(np.array([b_all[n][1] for n in names]) / v0)
-    lo, hi = np.minimum(lo, -1e-12), np.maximum(hi, 1e-12)
-    r0, h0, _ = evaluate(x0)
+
+def _minimise(
+    residuals: Callable[[np.ndarray], np.ndarray],
+    x0: np.ndarray,
+    lo: np.ndarray,
+    hi: np.ndarray,
+    max_evaluations: int,
+) -> tuple[np.ndarray, scipy.optimize.OptimizeResult]:
+    """Least squares from ``x0`` within ``[lo, hi]``, then a derivative-free polish; ``(x, the
+    least-squares result)``.
+
+    The harmonics of a vibro-impact orbit are a slightly jittery function of the contact (impact
+    times fall between time steps): finite-difference gradients can stop the trust region short
+    of the minimum (the model's last bits alone moved the fitted damping by up to 21 %). A
+    derivative-free polish from there, on a simplex of :data:`POLISH_STEP` steps, finishes the
+    descent.
+    """
     sol = scipy.optimize.least_squares(
         residuals,
         x0,
-        jac=lambda x: _forward_jacobian(residuals, x, hi, FD_STEP),
+        jac=lambda x: forward_jacobian(residuals, x, hi, FD_STEP),
         bounds=(lo, hi),
         method="trf",
         x_scale=1.0,
@@ -423,10 +510,6 @@ def fit_contact(
         gtol=1e-8,
     )
     x = sol.x
-    # The harmonics of a vibro-impact orbit are a slightly jittery function of the contact (impact
-    # times fall between time steps): finite-difference gradients can stop the trust region short
-    # of the minimum (the model's last bits alone moved the fitted damping by up to 21 %). A
-    # derivative-free polish from there, on a simplex of 2 % steps, finishes the descent.
     polish = scipy.optimize.minimize(
         lambda x: 0.5 * float(np.sum(residuals(x) ** 2)),
         x,
@@ -441,40 +524,17 @@ def fit_contact(
     )
     if polish.fun < sol.cost:
         x = polish.x
-    r1, h1, steady1 = evaluate(x)
-    ident = _identifiability(_central_jacobian(residuals, x, lo, hi, FD_STEP), names, specs, x, v0, 1.0, 0)
-    fitted = {n: float(v) for n, v in zip(names, to_v(x), strict=True)}
-    out_params = base
-    for s, n in zip(specs, names, strict=True):
-        out_params = s.set(out_params, fitted[n])
-    labels = [
+    return x, sol
+
+
+def _residual_labels(targets: list[HarmonicTarget]) -> list[str]:
+    """One label per residual, in the residuals' order."""
+    return [
         f"{t.fe:g} Hz {t.force_amplitude:g} N gap {1e3 * t.gap:g} mm {loc} k={k}"
         for t in targets
         for loc in t.amplitudes
         for k in np.flatnonzero(t.mask(loc)) + 1
     ]
-    return ContactFitResult(
-        names=names,
-        units=[CONTACT_PARAMETERS[n].unit for n in names],
-        law=fit_law,
-        initial={n: float(v) for n, v in zip(names, v0, strict=True)},
-        fitted=fitted,
-        bounds=b_all,
-        params=out_params,
-        residual_labels=labels,
-        residuals_before=r0,
-        residuals_after=r1,
-        harmonics_before=h0,
-        harmonics_after=h1,
-        steady=bool(steady1),
-        n_evaluations=counts["evaluations"],
-        n_runs=counts["runs"],
-        wall_time=time.perf_counter() - t0,
-        success=bool(sol.success),
-        message=str(sol.message),
-        identifiability=ident,
-        targets=targets,
-    )
 
 
 def fit_steps_per_period(

@@ -34,17 +34,16 @@ import scipy.sparse as sp
 from numba import njit
 
 from rigtools.sim.contact import law_code, solve_contact
-from rigtools.sim.params import ContactParams
-from rigtools.sim.rig_model import RigModel
-from rigtools.sim.vibro_impact import (
-    DIVERGED_DISPLACEMENT,
-    N_OUT,
-    OUT_COLUMNS,
+from rigtools.sim.impact_kernel import DIVERGED_DISPLACEMENT, N_OUT, NO_SUMS, OUT_COLUMNS, add_mode
+from rigtools.sim.impact_stepper import (
     SimulationDivergedError,
     SimulationInputError,
     check_time_step,
     diverged_message,
 )
+from rigtools.sim.modal import blade_modes
+from rigtools.sim.params import ContactParams
+from rigtools.sim.rig_model import RigModel
 
 # outputs: the same columns as the fast stepper (coil current always zero)
 
@@ -72,8 +71,6 @@ class FullOrderSystem:
 
 def full_modal_system(model: RigModel) -> FullOrderSystem:
     """All modes of both blades that move a load DOF (exact modal form of the full model)."""
-    from rigtools.sim.modal import blade_modes
-
     omegas, cds, rows = [], [], []
     worst = 0.0
     n_a = model.active.n_dofs
@@ -141,16 +138,7 @@ def _hht_modal(omega, cdiag, rA, rP, rF, u, v, a, s, force, out, dt, alpha, gap,
         g1 = -beta * dt * dt * (1.0 - alpha) * dz
         v1 = -gamma * dt * (1.0 - alpha) * dz
         lam = solve_contact(g0, g1, gd0, v1, kc, cc, pexp, code)
-        xa = 0.0
-        va = 0.0
-        aa = 0.0
-        xp = 0.0
-        vpp = 0.0
-        ap = 0.0
-        xF = 0.0
-        vF = 0.0
-        aF = 0.0
-        pd = 0.0
+        sums = NO_SUMS
         for j in range(n):
             aj = a0[j] - (1.0 - alpha) * lam * d[j] / sdiag[j]
             uj = up[j] + beta * dt * dt * aj
@@ -158,16 +146,8 @@ def _hht_modal(omega, cdiag, rA, rP, rF, u, v, a, s, force, out, dt, alpha, gap,
             u[j] = uj
             v[j] = vj
             a[j] = aj
-            xa += rA[j] * uj
-            va += rA[j] * vj
-            aa += rA[j] * aj
-            xp += rP[j] * uj
-            vpp += rP[j] * vj
-            ap += rP[j] * aj
-            xF += rF[j] * uj
-            vF += rF[j] * vj
-            aF += rF[j] * aj
-            pd += cdiag[j] * vj * vj
+            sums = add_mode(sums, rA[j], rP[j], rF[j], cdiag[j], uj, vj, aj)
+        xa, va, aa, xp, vpp, ap, xF, vF, aF, pd = sums
         s[0] = F_new
         s[1] = lam
         out[i, 0] = xa

@@ -170,7 +170,24 @@ def am_harmonic_response(
 def harmonic_curves(
     rig: RigModel, frequencies_hz: np.ndarray, force_amplitude: float, n_terms: int = 40
 ) -> tuple[HarmonicResponse, HarmonicResponse]:
-    """FEM and AM amplitude-frequency curves on the same grid (the paper's Figure 7)."""
+    """FEM and AM amplitude-frequency curves on the same grid (the paper's Figure 7).
+
+    Examples
+    --------
+    The active shroud's displacement per newton at 50 and 60 Hz, mm, from the finite elements and
+    from the assumed modes:
+
+    >>> import numpy as np
+    >>> import rigtools
+    >>> from rigtools.sim.harmonic import harmonic_curves
+    >>> from rigtools.sim.rig_model import build_rig_model
+    >>> rig = build_rig_model(rigtools.load_rig().to_params())
+    >>> fem, am = harmonic_curves(rig, np.array([50.0, 60.0]), 1.0)
+    >>> np.round(fem.displacement_amplitude("active_shroud") * 1e3, 4)
+    array([0.1806, 0.0794])
+    >>> np.round(am.displacement_amplitude("active_shroud") * 1e3, 4)
+    array([0.1805, 0.0794])
+    """
     return (
         fem_harmonic_response(rig, frequencies_hz, force_amplitude),
         am_harmonic_response(rig.params, frequencies_hz, force_amplitude, n_terms),

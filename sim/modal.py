@@ -372,13 +372,41 @@ def blade_modes(blade: BladeModel, n_modes: int | None = None) -> Modes:
     -------
     Modes
         Frequencies (Hz, ascending), mass-normalised shapes over the blade's free DOFs, kinds.
+
+    Examples
+    --------
+    The four lowest modes of the default rig's active blade:
+
+    >>> import numpy as np
+    >>> import rigtools
+    >>> from rigtools.sim.modal import blade_modes
+    >>> from rigtools.sim.rig_model import build_rig_model
+    >>> rig = build_rig_model(rigtools.load_rig().to_params())
+    >>> modes = blade_modes(rig.blade("active"), 4)
+    >>> np.round(modes.frequencies_hz, 1)
+    array([ 53.2, 361.9, 532.7, 663. ])
+    >>> modes.kinds
+    ['flexural', 'flexural', 'torsional', 'edgewise']
     """
     modes = _all_modes(blade) if n_modes is None else lowest_modes(blade, min(int(n_modes), blade.n_dofs))
     return Modes(modes.frequencies_hz.copy(), modes.shapes.copy(), list(modes.kinds))
 
 
 def flexural_frequencies(blade: BladeModel, n: int) -> np.ndarray:
-    """The first ``n`` flexural (thin-direction bending) natural frequencies of a blade, Hz."""
+    """The first ``n`` flexural (thin-direction bending) natural frequencies of a blade, Hz.
+
+    Examples
+    --------
+    The first three flexural (impact-direction) frequencies of the default rig's active blade, Hz:
+
+    >>> import numpy as np
+    >>> import rigtools
+    >>> from rigtools.sim.modal import flexural_frequencies
+    >>> from rigtools.sim.rig_model import build_rig_model
+    >>> rig = build_rig_model(rigtools.load_rig().to_params())
+    >>> np.round(flexural_frequencies(rig.blade("active"), 3), 1)
+    array([  53.2,  361.9, 1270.6])
+    """
     k = n
     while True:
         flex = lowest_modes(blade, min(k, blade.n_dofs)).of_kind("flexural")

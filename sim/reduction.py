@@ -406,6 +406,17 @@ def reduced_system(
         Assumed modes per blade (AM only).
     rig_model
         An already built :class:`rigtools.sim.rig_model.RigModel` of ``params`` (FEM only).
+
+    Examples
+    --------
+    The default rig's finite elements reduced to the modes below 6 kHz (and the static correction):
+
+    >>> import numpy as np
+    >>> import rigtools
+    >>> from rigtools.sim.reduction import reduced_system
+    >>> system = reduced_system(rigtools.load_rig().to_params(), "fem")
+    >>> system.n_modes, np.round(system.omega[:2] / (2 * np.pi), 2)
+    (14, array([ 53.21, 361.88]))
     """
     if model == "fem":
         from rigtools.sim.rig_model import build_rig_model

@@ -141,6 +141,16 @@ def build_rig_model(params: RigParams, rotary_inertia: bool = True) -> RigModel:
     Returns
     -------
     RigModel
+
+    Examples
+    --------
+    The finite-element model of the default rig (both blades, their shrouds, the force sensor):
+
+    >>> import rigtools
+    >>> from rigtools.sim.rig_model import build_rig_model
+    >>> rig = build_rig_model(rigtools.load_rig().to_params())
+    >>> rig.n_dofs
+    1200
     """
     active = build_blade(
         "active",

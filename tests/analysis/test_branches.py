@@ -183,3 +183,24 @@ def test_labels_near_each_other_are_stacked_not_printed_over_each_other():
     dx = LABEL_SPACING[0]
     assert label_offsets([(0.5, 0.5), (0.5, 0.5), (0.501, 0.5)]) == [0, -1, 1]
     assert label_offsets([(0.1, 0.5), (0.1 + 2 * dx, 0.5), (0.9, 0.1)]) == [0, 0, 0]
+
+
+def test_branch_figure_legend_is_beside_the_axes_never_over_a_branch():
+    """#31: the legend was placed by matplotlib's "best" over the unstable (dashed) part of the
+    demo's branch figure. It now sits outside the axes: its drawn box and the axes' box must not
+    overlap at all (pixel extents after a draw; no tolerance needed, disjoint or not)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    from rigtools.analysis.branches import BranchCurve, MeasuredSweep, branch_figure
+
+    f = np.linspace(60.0, 70.0, 41)
+    a = 1.0 / np.abs(65.0 - f + 0.5j)  # a resonance-like hump filling the axes
+    curve = BranchCurve(f, a, f < 65.0, [() for _ in f])
+    sweep = MeasuredSweep(f[::4], a[::4], jumps=[(64.0, 65.0)])
+    fig = branch_figure([curve], "fe (Hz)", "A (mm)", measured=[sweep])
+    FigureCanvasAgg(fig).draw()
+    ax = fig.axes[0]
+    legend_box = ax.get_legend().get_window_extent()
+    axes_box = ax.get_window_extent()
+    assert legend_box.x0 >= axes_box.x1  # entirely to the right of the plotting area
+    assert fig.bbox.contains(legend_box.x1 - 1, legend_box.y0 + 1)  # and still inside the figure

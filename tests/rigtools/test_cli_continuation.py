@@ -280,9 +280,9 @@ def test_period_two_branch_leaving_a_range_edge_it_is_not_followed_past(tmp_path
 def ctrl_c_after_30_steps(monkeypatch):
     """A KeyboardInterrupt raised in the corrector after 30 corrector steps, as the signal
     handler raises it."""
-    from rigtools.sim import continuation as sim_continuation
+    from rigtools.sim.orbit_tracer import BranchTracer
 
-    correct, calls = sim_continuation._Tracer.correct, []
+    correct, calls = BranchTracer.correct, []
 
     def interrupted(self, prev, h):
         calls.append(h)
@@ -290,7 +290,7 @@ def ctrl_c_after_30_steps(monkeypatch):
             raise KeyboardInterrupt
         return correct(self, prev, h)
 
-    monkeypatch.setattr(sim_continuation._Tracer, "correct", interrupted)
+    monkeypatch.setattr(BranchTracer, "correct", interrupted)
 
 
 def test_ctrl_c_keeps_the_points_computed(tmp_path, ctrl_c_after_30_steps):

@@ -380,14 +380,14 @@ def test_simulation_diverging_mid_acquisition_is_a_fault(cfg, tmp_path):
     rig = SimulatedRig.from_config(cfg, seed=1)
     rig.configure(cfg.daq.input_specs(), cfg.daq.output_spec(), cfg.daq.sample_rate, cfg.daq.block_size())
     stepper = rig._physics._stepper
-    real_step = stepper.step
+    real_advance = stepper.advance
 
-    def step(u, out=None):
+    def advance(u, out):
         if stepper.time > 0.5:
             raise SimulationDivergedError(diverged_message(stepper.system, stepper.dt, stepper.time))
-        return real_step(u, out)
+        return real_advance(u, out)
 
-    stepper.step = step
+    stepper.advance = advance
     out = tmp_path / "div.h5"
     with pytest.raises(Exception) as info:
         SineDwell(cfg, {"fe": 60.0, "force": 15.0, "gap": 5e-4}, out, device=rig).run()

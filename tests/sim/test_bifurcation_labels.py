@@ -20,6 +20,7 @@ import numpy as np
 import pytest
 
 from rigtools.sim import continuation as C
+from rigtools.sim import orbit_tracer
 from rigtools.sim.bifurcations import CRITICAL_TOLERANCE
 from rigtools.sim.vibro_impact import SimulationDivergedError, run_harmonic
 
@@ -34,7 +35,7 @@ def test_a_failure_inside_the_tracer_ends_the_branch_failed_with_its_points(syst
     grazing-corner crossing and the diverged integration's error escaped, losing the branch):
     any error inside the tracer now ends the branch "failed", one line, the points kept."""
     calls = {"n": 0}
-    point = C._point
+    point = orbit_tracer.orbit_point
 
     def failing(*args, **kwargs):  # the orbit's outputs of a run that diverged
         calls["n"] += 1
@@ -44,7 +45,7 @@ def test_a_failure_inside_the_tracer_ends_the_branch_failed_with_its_points(syst
             )
         return point(*args, **kwargs)
 
-    monkeypatch.setattr(C, "_point", failing)
+    monkeypatch.setattr(orbit_tracer, "orbit_point", failing)
     found: list = []
     b = C.continue_orbits(system, "fe", 56.0, 57.0, gap=5e-3, found=found)
     assert found == [b] and b.status == "failed" and len(b.points) > 1

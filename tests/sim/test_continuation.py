@@ -30,9 +30,10 @@ import scipy.optimize
 
 from rigtools.sim import continuation as C
 from rigtools.sim.contact_events import ContactStructure
+from rigtools.sim.orbit_tracer import BranchTracer
 from rigtools.sim.params import ContactParams, DampingParams
 from rigtools.sim.reduction import ReducedSystem
-from rigtools.sim.vibro_impact import run_harmonic
+from rigtools.sim.vibro_impact import OUT_COLUMNS, run_harmonic
 
 
 @pytest.fixture(scope="module")
@@ -217,7 +218,7 @@ class _CircleMap(C.PeriodMap):
     def __init__(self):  # no reduced system: only what the tracer reads
         self.periods, self.steps_per_period, self.scale, self.evaluations = 1, 64, np.ones(2), 0
         self.n_physical, self.shaker, self.force_control = 2, None, False
-        self._data = np.zeros((64, len(C.OUT_COLUMNS)))
+        self._data = np.zeros((64, len(OUT_COLUMNS)))
 
     def flow(self, y, p):
         g = (p.fe - 5.0) ** 2 + y[0] ** 2 - 1.0
@@ -229,7 +230,7 @@ class _CircleMap(C.PeriodMap):
 
 def test_closed_loop_is_reported_closed():
     pmap = _CircleMap()
-    tracer = C._Tracer(
+    tracer = BranchTracer(
         pmap, "fe", C.Forcing(5.0, 1.0, 1e-3), 7.0, 4.0, C.ContinuationSettings(), None, (3.0, 7.0)
     )
     tracer.solver.Y, tracer.y_floor = 1.0, 0.1

@@ -15,6 +15,7 @@ import pytest
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
+from rigtools.sim.impact_kernel import _props, foh_propagators
 from rigtools.sim.params import ContactParams, DampingParams
 from rigtools.sim.reduction import ReducedSystem
 from rigtools.sim.vibro_impact import (
@@ -23,8 +24,6 @@ from rigtools.sim.vibro_impact import (
     SimulationInputError,
     VibroImpactRun,
     VibroImpactStepper,
-    _props,
-    foh_propagators,
 )
 
 
