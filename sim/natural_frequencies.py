@@ -14,7 +14,11 @@ from typing import Any
 
 import numpy as np
 
+from rigtools.sim.analytical import exact_flexural_frequencies
+from rigtools.sim.modal import blade_modes
 from rigtools.sim.params import RigParams
+from rigtools.sim.reduction import ACTIVE, PASSIVE
+from rigtools.sim.rig_model import blade_masses, build_rig_model
 
 BLADES = ("active", "passive")
 
@@ -22,8 +26,6 @@ BLADES = ("active", "passive")
 def reduced_natural_frequencies(system: Any) -> dict[str, np.ndarray]:
     """The kept (not static-correction) mode frequencies of each blade of a reduced system, Hz:
     its flexural natural frequencies, ``{"active": ..., "passive": ...}`` ascending."""
-    from rigtools.sim.reduction import ACTIVE, PASSIVE
-
     real = np.ones(system.n_modes, bool) if system.pseudo is None else ~np.asarray(system.pseudo, bool)
     f = system.frequencies_hz
     return {
@@ -35,9 +37,6 @@ def reduced_natural_frequencies(system: Any) -> dict[str, np.ndarray]:
 def analytical_natural_frequencies(params: RigParams, n_modes: int) -> dict[str, np.ndarray]:
     """The ``n_modes`` lowest flexural natural frequencies (Hz) of each blade by the exact
     Euler-Bernoulli solution with its shroud (and, on the active blade, the force sensor)."""
-    from rigtools.sim.analytical import exact_flexural_frequencies
-    from rigtools.sim.rig_model import blade_masses
-
     return {
         b: np.asarray(
             exact_flexural_frequencies(params.blade(b), blade_masses(params, b), n_modes, params.root_of(b))
@@ -50,9 +49,6 @@ def blade_mode_table(params: RigParams, n_modes: int) -> dict[str, dict[str, lis
     """FEM and AM modes of both blades: ``{"fem": {blade: [{"mode", "frequency_hz", "kind"}]},
     "am": {blade: [...]}}``. FEM: the ``n_modes`` lowest modes of each blade's full FE model with
     their kind (flexural, edgewise, torsional, axial); AM: its ``n_modes`` lowest flexural modes."""
-    from rigtools.sim.modal import blade_modes
-    from rigtools.sim.rig_model import build_rig_model
-
     rig = build_rig_model(params)
     am = analytical_natural_frequencies(params, n_modes)
     out: dict[str, dict[str, list[dict]]] = {"fem": {}, "am": {}}

@@ -15,17 +15,16 @@ at the active tip, the passive tip and the force point (:data:`ROWS`).
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
-from typing import TYPE_CHECKING
 
 import numpy as np
 import scipy.linalg
 
+from rigtools.sim.analytical import AssumedModesBlade, assumed_modes_blade
+from rigtools.sim.deformation import BladeStiffness, blade_stiffness
+from rigtools.sim.modal import lowest_modes
 from rigtools.sim.params import ContactParams, DampingParams, RigParams, SimulationInputError
-
-if TYPE_CHECKING:  # imported lazily at run time: these build on the FE and AM modules
-    from rigtools.sim.analytical import AssumedModesBlade
-    from rigtools.sim.deformation import BladeStiffness
-    from rigtools.sim.rig_model import RigModel
+from rigtools.sim.rig_model import RigModel, blade_masses, build_rig_model
+from rigtools.sim.threads import single_blas_thread
 
 ROWS = ("active_tip", "passive_tip", "force_point")
 ACTIVE, PASSIVE = 0, 1
@@ -291,10 +290,6 @@ def reduce_rig_model(
     (sparse shift-invert, :func:`rigtools.sim.modal.lowest_modes`): time and memory grow linearly
     with the element count, and the kept modes do not depend on the mesh once it resolves them.
     """
-    from rigtools.sim.deformation import blade_stiffness
-    from rigtools.sim.modal import lowest_modes
-    from rigtools.sim.threads import single_blas_thread
-
     parts = []
     # small dense solves and banded factorisations: BLAS threads only add overhead (and make
     # the time erratic on a busy machine), whatever the caller's process set
@@ -419,13 +414,8 @@ def reduced_system(
     (14, array([ 53.21, 361.88]))
     """
     if model == "fem":
-        from rigtools.sim.rig_model import build_rig_model
-
         return reduce_rig_model(rig_model if rig_model is not None else build_rig_model(params), cutoff_hz)
     if model == "am":
-        from rigtools.sim.analytical import assumed_modes_blade
-        from rigtools.sim.rig_model import blade_masses
-
         passive_root = params.root_of("passive")
         act = assumed_modes_blade(params.active, blade_masses(params, "active"), params.root, n_terms)
         pas = assumed_modes_blade(params.passive, blade_masses(params, "passive"), passive_root, n_terms)

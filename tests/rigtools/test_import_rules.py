@@ -121,15 +121,9 @@ NOT_YET_AT_HEAD = {
     "rigtools.analysis.stabilisation",
     "rigtools.experiments",
     "rigtools.recording_comparison",
-    # h-simsplit (issue 32: sim splits)
-    "rigtools.sim.full_order",
-    "rigtools.sim.natural_frequencies",
-    "rigtools.sim.reduction",
-    "rigtools.sim.vibro_impact",
     # h-rt (issue 33: drivers)
     "rigtools.drivers.inventory",
     "rigtools.drivers.shaker",
-    "rigtools.drivers.simulated",
     # h-30 (issue 30: recordings, importers, check preambles of branches/frf_set)
     "rigtools.branches",
     "rigtools.frf_set",
@@ -164,13 +158,6 @@ KNOWN_CIRCLES = {
     # h-split: analyze -> frf_set -> interop.uff -> analyze
     frozenset({"rigtools.analyze", "rigtools.frf_set", "rigtools.interop.uff"}),
 }
-# driver modules that still import rigtools.errors (h-rt, issue 33, moves the one-line error text)
-DRIVERS_NOT_YET = {
-    "rigtools.drivers.inventory",
-    "rigtools.drivers.nidaq",
-    "rigtools.drivers.simulated",
-    "rigtools.drivers.visa_source",
-}
 
 
 def circle_findings(modules: dict[str, Path]) -> dict[frozenset[str], str]:
@@ -204,7 +191,7 @@ def test_no_circle_of_files():
 
 def test_drivers_import_no_orchestration():
     found = driver_findings(MODULES)
-    assert [line for name, lines in found.items() if name not in DRIVERS_NOT_YET for line in lines] == []
+    assert [line for lines in found.values() for line in lines] == []
 
 
 def test_rigtools_imports_sit_at_the_module_head():
@@ -215,7 +202,6 @@ def test_rigtools_imports_sit_at_the_module_head():
 def test_allow_lists_only_shrink():
     """An allow-listed file or circle that no longer has its finding must leave the list."""
     stale = sorted(NOT_YET_AT_HEAD - set(lazy_findings(MODULES)))
-    stale += sorted(DRIVERS_NOT_YET - set(driver_findings(MODULES)))
     stale += sorted(" ".join(sorted(c)) for c in KNOWN_CIRCLES - set(circle_findings(MODULES)))
     assert stale == [], "fixed: remove from the allow-list in test_import_rules.py"
 
