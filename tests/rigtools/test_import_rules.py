@@ -121,7 +121,8 @@ NOT_YET_AT_HEAD = {
     "rigtools.analysis.stabilisation",
     "rigtools.experiments",
     "rigtools.recording_comparison",
-    # h-rt (issue 33: drivers)
+    # drivers (h-rt, merged): inventory loads visa_source (pyvisa) and shaker sim.vibro_impact
+    # (numba) lazily; to measure before hoisting (config loads shaker, rig devices inventory)
     "rigtools.drivers.inventory",
     "rigtools.drivers.shaker",
     # h-30 (issue 30: recordings, importers, check preambles of branches/frf_set)
