@@ -67,8 +67,8 @@ class CBCParameters(BaseModel):
     fe: Frequency = Field(gt=0, le=25000, description="excitation frequency, Hz")
     amplitudes: tuple[Length, ...] = Field(min_length=1, description="target fundamental amplitudes A, m")
     gap: Length | None = Field(None, ge=0, le=MAX_GAP, description="shroud gap, m (None: as set)")
-    kp: float = Field(-600.0, ge=-1e6, le=1e6, description="proportional gain, V/m")
-    kd: float = Field(2.5, ge=-1e4, le=1e4, description="derivative gain, V s/m")
+    kp: float = Field(300.0, ge=-1e6, le=1e6, description="proportional gain, V/m")
+    kd: float = Field(0.0, ge=-1e4, le=1e4, description="derivative gain, V s/m")
     feedback_harmonics: int = Field(1, ge=0, le=10, description="harmonics 1..n of the error fed back")
     harmonics: int = Field(10, ge=2, le=20, description="harmonics of target, drive and analysis")
     tolerance: float = Field(0.01, gt=0, le=0.5, description="drive harmonics 2-10 over its fundamental")
@@ -76,7 +76,7 @@ class CBCParameters(BaseModel):
     max_iterations: int = Field(8, ge=1, le=50, description="outer iterations per point")
     window_periods: int = Field(5, ge=1, le=50, description="periods the control estimates from")
     settle_time: Time = Field(0.4, gt=0, le=20, description="wait after each change, s")
-    ramp_time: Time = Field(0.1, gt=0, le=20, description="ramp of each change of target and feedforward, s")
+    ramp_time: Time = Field(0.3, gt=0, le=20, description="ramp of each change of target and feedforward, s")
     measure_periods: int = Field(10, ge=2, le=1000, description="periods of each measurement")
     approach_from: Frequency | None = Field(None, gt=0, description="sweep start, Hz (None: fe - 8 Hz)")
     approach_drive: VoltageAmplitude = Field(0.42, gt=0, le=10, description="drive of the sweep, V peak")
@@ -98,6 +98,7 @@ class CBCPoint:
     measurement: LoopMeasurement
     tip_amplitude: float  # half the peak-to-peak of the displacement (harmonics 1..H), m
     history: list[dict[str, float]] = field(default_factory=list)
+    channel_names: tuple[str, ...] = ()  # the rows of ``measurement.channels``
 
     def attrs(self) -> dict[str, Any]:
         """The recording point's attributes (SI; complex harmonics as amplitude and phase lists)."""
@@ -108,8 +109,14 @@ class CBCPoint:
         def rel(z: np.ndarray) -> list[float]:
             return np.angle(z * np.exp(-1j * k * ref)).tolist()
 
+        channels = {}
+        if m.channels is not None:
+            for name, h in zip(self.channel_names, m.channels, strict=False):
+                channels[f"{name}_harmonic_amplitude"] = np.abs(h).tolist()
+                channels[f"{name}_harmonic_phase"] = rel(h)
         return {
             **self.point.to_dict(),
+            **channels,
             "force_amplitude_measured": self.point.force_fundamental_n,
             "drive_amplitude": float(abs(m.drive[0])),
             "control_effort": self.control_effort,
@@ -120,10 +127,6 @@ class CBCPoint:
             "feedforward_amplitude": float(abs(self.feedforward[0])),
             "response_harmonic_amplitude": np.abs(m.response).tolist(),
             "response_harmonic_phase": rel(m.response),
-            "force_harmonic_amplitude": np.abs(m.force).tolist(),
-            "force_harmonic_phase": rel(m.force),
-            "drive_harmonic_amplitude": np.abs(m.drive).tolist(),
-            "drive_harmonic_phase": rel(m.drive),
             "iteration_drive_ratio": [h["drive_harmonics_ratio"] for h in self.history],
             "iteration_amplitude_error": [h["amplitude_error"] for h in self.history],
         }
@@ -293,12 +296,13 @@ class ControlBasedContinuation(SineProcedure):
             target, ff = predicted(self.points, first, amplitude)
             secant = FeedforwardSecant(secant.jacobian)  # the slope learnt so far, a fresh history
             pt = cbc_point(loop, p, target, ff, secant)
+            pt.channel_names = tuple(s.name for s in self.specs)
             self.points.append(pt)
             if i == n - 1 and p.release_seconds > 0:
                 self.release = self._release(loop, p)
             attrs = {**pt.attrs(), **{f"release_{k}": v for k, v in self.release.items()}}
             self.end_point({k: v for k, v in attrs.items() if not isinstance(v, list) or v})
-            self.result.points.append({"fe": p.fe, "gap": gap, **attrs})
+            self.result.points.append({"fe": p.fe, "gap": gap, "amplitude_target": amplitude, **attrs})
             self.emit("point_done", point=i + 1, n_points=n, text=_line(pt))
         self.result.summary["points"] = [pt.point.to_dict() for pt in self.points]
         loop.finish()
@@ -469,12 +473,10 @@ def parse_gains(gains: Any) -> dict[str, float]:
         values = [float(v) for v in parts]
     except (TypeError, ValueError):
         raise UserError(
-            f'--gains = {gains!r}: write KP[,KD] in V/m and V s/m, e.g. "-600,2.5" (0: open loop)'
+            f'--gains = {gains!r}: write KP[,KD] in V/m and V s/m, e.g. "300,0" (0: open loop)'
         ) from None
     if not 1 <= len(values) <= 2 or not all(math.isfinite(v) for v in values):
-        raise UserError(
-            f'--gains = {gains!r}: write KP[,KD] in V/m and V s/m, e.g. "-600,2.5" (0: open loop)'
-        )
+        raise UserError(f'--gains = {gains!r}: write KP[,KD] in V/m and V s/m, e.g. "300,0" (0: open loop)')
     return {"kp": values[0], "kd": values[1] if len(values) > 1 else 0.0}
 
 

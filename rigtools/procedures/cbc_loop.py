@@ -159,7 +159,8 @@ class LoopMeasurement:
 
     ``response`` the displacement (m), ``drive`` the drive as written (V), ``force`` the force
     sensor (N), ``accel`` the acceleration (m/s^2); ``steady`` whether two successive windows
-    agreed; ``start``/``samples`` the window in stream samples.
+    agreed; ``start``/``samples`` the window in stream samples; ``channels`` every input's
+    harmonics in the device's order, then the drive's.
     """
 
     response: np.ndarray
@@ -169,6 +170,7 @@ class LoopMeasurement:
     steady: bool
     start: int
     samples: int
+    channels: np.ndarray | None = None  # (rows, H): every row's harmonics, the drive last
 
 
 class BufferedHarmonicLoop:
@@ -338,6 +340,7 @@ class BufferedHarmonicLoop:
             steady=False,
             start=start,
             samples=data.shape[1],
+            channels=h,
         )
 
     def free_run(self, seconds: float, period_samples: int | None = None) -> tuple[np.ndarray, np.ndarray]:
