@@ -81,6 +81,9 @@ class CBCParameters(BaseModel):
     approach_from: Frequency | None = Field(None, gt=0, description="sweep start, Hz (None: fe - 8 Hz)")
     approach_drive: VoltageAmplitude = Field(0.42, gt=0, le=10, description="drive of the sweep, V peak")
     approach_time: Time = Field(6.0, gt=0, le=600, description="sweep duration, s")
+    walk_step: Length = Field(
+        0.005e-3, gt=0, description="largest step from the approach's orbit to a leg's first point, m"
+    )
     release_seconds: Time = Field(0.0, ge=0, le=60, description="gains at zero after the last point, s")
 
     def gains(self) -> Gains:
@@ -182,12 +185,12 @@ def start_state(params: CBCParameters, m: LoopMeasurement) -> tuple[np.ndarray, 
     return target, ff
 
 
-def measuring_order(amplitudes: tuple[float, ...], start: float) -> list[float]:
-    """The amplitudes in the order they are measured: from the approach's orbit (amplitude
-    ``start``) outwards, the leg that holds more points first, then the other leg."""
+def legs(amplitudes: tuple[float, ...], start: float) -> tuple[list[float], list[float]]:
+    """The amplitudes in the order they are measured, as two legs from the approach's orbit
+    (amplitude ``start``) outwards: upwards first, then downwards."""
     up = sorted(a for a in amplitudes if a >= start)
     down = sorted((a for a in amplitudes if a < start), reverse=True)
-    return up + down if len(up) >= len(down) else down + up
+    return up, down
 
 
 def predicted(
@@ -223,6 +226,7 @@ class ControlBasedContinuation(SineProcedure):
         self.points: list[CBCPoint] = []
         self.release: dict[str, Any] = {}
         self.note = ""  # the line rig acquire prints first (the NI backend: REAL_TIME_NOTE)
+        self._leg: list[CBCPoint] = []  # the points of the leg being measured
 
     def first_frequency(self) -> float:
         return self.params.fe
@@ -268,44 +272,73 @@ class ControlBasedContinuation(SineProcedure):
         loop = self.session
         gap = self.set_gap(p.gap)
         self.result.summary["inner_loop"] = loop.name
-        # the approach: a sweep up to fe at a fixed drive, open loop
+        first = self._approach(loop, p)
+        up, down = legs(p.amplitudes, abs(first[0][0]))
+        n, done, skipped = len(up) + len(down), 0, []
+        for leg_index, leg in enumerate((up, down)):
+            if not leg:
+                continue
+            if leg_index:  # the second leg starts from the approach's orbit again
+                first = self._approach(loop, p)
+            secant = self._probe(loop, p, *first)
+            secant = self._walk(loop, p, first, leg[0], secant)
+            for j, amplitude in enumerate(leg):
+                done += 1
+                self.emit("point", point=done, n_points=n, text=f"A = {amplitude * 1e3:.4g} mm")
+                self.begin_point({"fe": p.fe, "amplitude_target": amplitude, "gap": gap})
+                target, ff = predicted(self._leg, first, amplitude)
+                secant = FeedforwardSecant(secant.jacobian)  # the slope learnt so far, a fresh history
+                pt = cbc_point(loop, p, target, ff, secant)
+                pt.channel_names = tuple(spec.name for spec in self.specs)
+                self.points.append(pt)
+                self._leg.append(pt)
+                last = j == len(leg) - 1 or not pt.point.converged
+                release = {}
+                if last and leg_index == 0 and pt.point.converged and p.release_seconds > 0:
+                    release = self.release = self._release(loop, p)
+                attrs = {**pt.attrs(), **{f"release_{k}": v for k, v in release.items()}}
+                self.end_point({k: v for k, v in attrs.items() if not isinstance(v, list) or v})
+                self.result.points.append({"fe": p.fe, "gap": gap, "amplitude_target": amplitude, **attrs})
+                self.emit("point_done", point=done, n_points=n, text=_line(pt))
+                if not pt.point.converged:  # the orbit is lost: the rest of this leg is not measured
+                    skipped.extend(leg[j + 1 :])
+                    done += len(leg) - j - 1
+                    break
+            self._leg = []
+        self.result.summary["points"] = [pt.point.to_dict() for pt in self.points]
+        self.result.summary["skipped_amplitudes"] = skipped
+        loop.finish()
+
+    def _walk(
+        self, loop, p: CBCParameters, first: tuple[np.ndarray, np.ndarray], amplitude: float, secant
+    ) -> FeedforwardSecant:
+        """From the approach's orbit to the leg's first amplitude in steps of at most
+        ``walk_step`` (continuation points not recorded), so that each step starts near its orbit."""
+        a0 = abs(first[0][0])
+        steps = math.ceil(abs(amplitude - a0) / p.walk_step - 1e-9)
+        for a in np.linspace(a0, amplitude, steps + 1)[1:-1]:
+            self.emit("message", text=f"walking to {amplitude * 1e3:.4g} mm: {a * 1e3:.4g} mm")
+            target, ff = predicted(self._leg, first, float(a))
+            secant = FeedforwardSecant(secant.jacobian)
+            pt = cbc_point(loop, p, target, ff, secant)
+            if pt.point.converged:
+                self._leg.append(pt)
+        return secant
+
+    def _approach(self, loop, p: CBCParameters) -> tuple[np.ndarray, np.ndarray]:
+        """Open loop, sweep the drive up to fe at ``approach_drive``; engage the feedback on the
+        orbit found (its response the target, its drive the feedforward: no kick)."""
         self.emit("message", text=f"approach: sweep to {p.fe:g} Hz at {p.approach_drive:g} V")
         loop.set_gains(Gains(0.0))
         loop.drive.sweep_from(p.approach_from or max(1.0, p.fe - 8.0), p.approach_time)
         ff = np.zeros(p.harmonics, complex)
         ff[0] = p.approach_drive
-        first = start_state(
-            p, loop.hold(np.zeros(p.harmonics, complex), ff, ramp_time=0.3, settle_time=p.approach_time + 0.5)
-        )
-        # engage: the target and feedforward of the orbit found, at once, then the gains (no kick)
+        zero = np.zeros(p.harmonics, complex)
+        first = start_state(p, loop.hold(zero, ff, ramp_time=0.3, settle_time=p.approach_time + 0.5))
         loop.set_point(*first, ramp_time=0.0)
         loop.set_gains(p.gains())
-        secant = self._probe(loop, p, *first)
-        order = measuring_order(p.amplitudes, abs(first[0][0]))
-        n = len(order)
-        for i, amplitude in enumerate(order):
-            self.emit("point", point=i + 1, n_points=n, text=f"A = {amplitude * 1e3:.4g} mm")
-            if (
-                i
-                and (amplitude - order[i - 1])
-                * (order[i - 1] - (order[i - 2] if i > 1 else abs(first[0][0])))
-                < 0
-            ):
-                self._walk_back(loop, p, amplitude)  # the second leg starts from the approach's side
-            self.begin_point({"fe": p.fe, "amplitude_target": amplitude, "gap": gap})
-            target, ff = predicted(self.points, first, amplitude)
-            secant = FeedforwardSecant(secant.jacobian)  # the slope learnt so far, a fresh history
-            pt = cbc_point(loop, p, target, ff, secant)
-            pt.channel_names = tuple(s.name for s in self.specs)
-            self.points.append(pt)
-            if i == n - 1 and p.release_seconds > 0:
-                self.release = self._release(loop, p)
-            attrs = {**pt.attrs(), **{f"release_{k}": v for k, v in self.release.items()}}
-            self.end_point({k: v for k, v in attrs.items() if not isinstance(v, list) or v})
-            self.result.points.append({"fe": p.fe, "gap": gap, "amplitude_target": amplitude, **attrs})
-            self.emit("point_done", point=i + 1, n_points=n, text=_line(pt))
-        self.result.summary["points"] = [pt.point.to_dict() for pt in self.points]
-        loop.finish()
+        self._leg = []
+        return first
 
     @staticmethod
     def _probe(loop, p: CBCParameters, target: np.ndarray, ff: np.ndarray) -> FeedforwardSecant:
@@ -323,15 +356,6 @@ class ControlBasedContinuation(SineProcedure):
                 ).response[0]
             )
         return FeedforwardSecant.from_probes(complex(x0), complex(xs[0]), complex(xs[1]), delta)
-
-    def _walk_back(self, loop, p: CBCParameters, amplitude: float) -> None:
-        """Back along the converged points towards ``amplitude`` (one hold at each), so that the
-        second leg starts next to the orbit it continues from."""
-        for pt in sorted(self.points, key=lambda q: abs(abs(q.target[0]) - amplitude), reverse=True):
-            if pt.point.converged:
-                loop.hold(
-                    pt.target, pt.feedforward, settle_time=p.settle_time, measure_periods=2, max_wait=0.5
-                )
 
     @staticmethod
     def _release(loop, p: CBCParameters) -> dict[str, Any]:
@@ -376,6 +400,7 @@ def json_document(proc: ControlBasedContinuation) -> dict[str, Any]:
     doc: dict[str, Any] = {
         "inner_loop": getattr(proc.session, "name", ""),
         "points": [{**pt.point.to_dict(), "control_effort": pt.control_effort} for pt in proc.points],
+        "skipped_amplitudes": proc.result.summary.get("skipped_amplitudes", []),
     }
     if proc.release:
         doc["release"] = {k: v for k, v in proc.release.items() if k != "deviation"}

@@ -73,21 +73,24 @@ def test_model_table_is_todays_model():
 
 
 @pytest.fixture(scope="module")
-def stable_run(tmp_path_factory):
-    """Three points on the stable side of the F1 minimum (the buffered loop's home ground)."""
+def sheet_run(tmp_path_factory):
+    """Six points through the F1 minimum onto the unstable part, then the gains at zero for 2 s."""
     from rigtools.procedures.cbc import control_based_continuation
 
     out = tmp_path_factory.mktemp("cbc") / "cbc.h5"
-    run = control_based_continuation("64 Hz", "0.320 mm:0.330 mm:0.005 mm", out, gap="0.5 mm", backend="sim")
+    run = control_based_continuation(
+        "64 Hz", "0.325 mm:0.350 mm:0.005 mm", out, gap="0.5 mm", backend="sim", release_seconds=2.0
+    )
     return run, out
 
 
-def test_cbc_points_lie_on_the_model_curve(stable_run):
+def test_cbc_points_lie_on_the_model_curve(sheet_run):
     """Each point: converged, F1 within 2 % of the model at its measured A (the S-curve: the
-    shrouds impact), drive harmonics 2-10 at most 1 % of the fundamental, at most 8 iterations."""
-    run, _ = stable_run
+    shrouds impact), drive harmonics 2-10 at most 1 % of the fundamental, at most 8 iterations,
+    A within the target's tolerance (0.5 %)."""
+    run, _ = sheet_run
     assert run.status == "finished"
-    assert len(run.points) == 3
+    assert len(run.points) == 6
     for p in run.points:
         x = p.extra
         impacting = x["passive_shroud_accel_harmonic_amplitude"][0] > PASSIVE_IMPACTING
@@ -96,21 +99,70 @@ def test_cbc_points_lie_on_the_model_curve(stable_run):
         assert abs(x["force_fundamental_n"] / expected - 1) <= F1_TOLERANCE, (x["amplitude_m"], expected)
         assert x["converged"] and x["iterations"] <= 8
         assert x["drive_harmonics_ratio"] <= 0.01
-        assert abs(x["amplitude_m"] / x["amplitude_target"] - 1) <= 0.005  # the target's tolerance
+        assert abs(x["amplitude_m"] / x["amplitude_target"] - 1) <= 0.005
 
 
-def test_cbc_recording_is_checked_and_read(stable_run):
+def test_f1_minimum_as_the_issue_states_it(sheet_run):
+    """The smallest F1 measured within 2 % of the model's 4.656 N, at A 0.328 +- 0.005 mm in the
+    issue's measure of A (half the peak-to-peak displacement: the model's minimum is at 0.3277 mm
+    there, at 0.3333 mm in the fundamental's amplitude)."""
+    run, _ = sheet_run
+    best = min(run.points, key=lambda p: p.extra["force_fundamental_n"])
+    assert abs(best.extra["force_fundamental_n"] / 4.656 - 1) <= 0.02
+    assert abs(best.extra["tip_amplitude_active"] - 0.328e-3) <= 0.005e-3
+
+
+def test_release_leaves_at_the_floquet_rate(sheet_run):
+    """Gains at zero at the last (unstable) point: the response's departure grows at fe ln|mu|
+    of the model's largest multiplier at the measured A, within the issue's 25 %. Measured (seed 0):
+    4.07 1/s at A 0.3503 mm against 3.29 1/s (|mu| 1.053), +24 %: close to the goal's edge, because
+    the table's |mu| scatters by +-0.02 there (its time step) and the departure starts linear (the
+    control term is 1e-4 of the drive when released, not zero)."""
+    run, _ = sheet_run
+    last = run.points[-1].extra
+    a, _f, mu = s_curve()
+    m = float(np.interp(last["amplitude_m"], a, mu))
+    assert m > 1.0
+    assert abs(last["release_growth_rate"] / (FE * math.log(m)) - 1) <= 0.25
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="the buffered loop (50-65 ms from data to correction, Kp 300 V/m) holds the unstable "
+    "part up to A 0.3499 mm (|mu| 1.04); the target 0.355 mm (|mu| ~1.10, growth 6 1/s) is lost in "
+    "its first hold: 1 converged point where |mu| > 1, the goal is 3",
+)
+def test_three_unstable_points_held(tmp_path):
+    """At least three converged points where the model's orbit is unstable (A 0.3425-0.360 mm)."""
+    from rigtools.procedures.cbc import control_based_continuation
+
+    run = control_based_continuation(
+        "64 Hz", "0.345 mm:0.360 mm:0.005 mm", tmp_path / "u.h5", gap="0.5 mm", backend="sim"
+    )
+    a, _f, mu = s_curve()
+    held = [
+        p
+        for p in run.points
+        if p.extra["converged"]
+        and float(np.interp(p.extra["amplitude_m"], a, mu)) > 1.0
+        and abs(p.extra["force_fundamental_n"] / model_force(p.extra["amplitude_m"], True) - 1)
+        <= F1_TOLERANCE
+    ]
+    assert len(held) >= 3
+
+
+def test_cbc_recording_is_checked_and_read(sheet_run):
     """rig check passes the file; the reader gives each point's ControlledPoint fields."""
     from rigtools.recording import open_recording
     from rigtools.recording.validate import check_recording
 
-    _, out = stable_run
+    _, out = sheet_run
     report = check_recording(out)
     assert report.valid, report.problems
     with open_recording(out) as rec:
         names = [p.params.get("amplitude_target") for p in rec.points]
         attrs = rec.points[0].params
-    assert names == pytest.approx([0.32e-3, 0.325e-3, 0.33e-3])
+    assert names == pytest.approx([0.325e-3, 0.33e-3, 0.335e-3, 0.34e-3, 0.345e-3, 0.35e-3])
     for key in ("fe_hz", "amplitude_m", "force_fundamental_n", "phase_deg", "converged", "iterations"):
         assert key in attrs
     assert "control_effort" in attrs and "drive_harmonics_ratio" in attrs
