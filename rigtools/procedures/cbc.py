@@ -45,7 +45,7 @@ from rigtools.procedures.cbc_iteration import (
     picard_update,
     secant_predict,
 )
-from rigtools.procedures.cbc_loop import BufferedHarmonicLoop, LoopMeasurement
+from rigtools.procedures.cbc_loop import BufferedHarmonicLoop, InnerLoop, LoopMeasurement
 from rigtools.procedures.controlled_point import ControlledPoint
 from rigtools.procedures.sine import SineProcedure
 from rigtools.quantity_fields import Frequency, Length, Time, VoltageAmplitude
@@ -220,7 +220,9 @@ class ControlBasedContinuation(SineProcedure):
     name = "cbc"
 
     def __init__(self, cfg, params: CBCParameters | dict, out: str | Path, **kwargs: Any) -> None:
-        self.inner_loop_factory: Callable[..., Any] | None = kwargs.pop("inner_loop", None)
+        # the inner loop: the buffered one by default; a per-sample loop (real-time hook) fits
+        # the same InnerLoop protocol
+        self.inner_loop_factory: Callable[..., InnerLoop] | None = kwargs.pop("inner_loop", None)
         super().__init__(cfg, out, **kwargs)
         self.params = params if isinstance(params, CBCParameters) else validate(CBCParameters, **params)
         self.points: list[CBCPoint] = []
@@ -330,7 +332,7 @@ class ControlBasedContinuation(SineProcedure):
         orbit found (its response the target, its drive the feedforward: no kick)."""
         self.emit("message", text=f"approach: sweep to {p.fe:g} Hz at {p.approach_drive:g} V")
         loop.set_gains(Gains(0.0))
-        loop.drive.sweep_from(p.approach_from or max(1.0, p.fe - 8.0), p.approach_time)
+        loop.sweep_from(p.approach_from or max(1.0, p.fe - 8.0), p.approach_time)
         ff = np.zeros(p.harmonics, complex)
         ff[0] = p.approach_drive
         zero = np.zeros(p.harmonics, complex)

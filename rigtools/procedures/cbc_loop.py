@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 
@@ -31,6 +32,41 @@ from rigtools.procedures.cbc_iteration import Gains, control_drive, displacement
 from rigtools.procedures.session import PointSink
 
 STEADY_TOLERANCE = 0.002  # successive windows of the response's fundamental agree this well
+
+
+class InnerLoop(Protocol):
+    """What the outer iteration (:mod:`rigtools.procedures.cbc`) needs of an inner loop: the
+    buffered harmonic-domain loop here, or a per-sample loop (the simulated rig's real-time hook,
+    a hardware target). Constructed as ``factory(device, cfg, monitor, procedure, fe, rows,
+    n_harmonics=..., window_periods=...)``; ``sink`` (a :class:`PointSink`) and ``stream`` (its
+    :class:`~rigtools.acquisition.BlockStream`) let the procedure record points and end the stream."""
+
+    name: str
+    sink: PointSink
+    stream: BlockStream
+
+    def set_gains(self, gains: Gains) -> None: ...
+
+    def set_point(self, target: np.ndarray, feedforward: np.ndarray, ramp_time: float) -> None: ...
+
+    def sweep_from(self, f_start: float, seconds: float) -> None: ...
+
+    def hold(
+        self,
+        target: np.ndarray,
+        feedforward: np.ndarray,
+        *,
+        ramp_time: float = ...,
+        settle_time: float = ...,
+        measure_periods: int = ...,
+        max_wait: float = ...,
+    ) -> LoopMeasurement: ...
+
+    def free_run(
+        self, seconds: float, period_samples: int | None = None
+    ) -> tuple[np.ndarray, np.ndarray]: ...
+
+    def finish(self, ramp_time: float | None = None) -> None: ...
 
 
 class HarmonicDrive:
@@ -288,6 +324,10 @@ class BufferedHarmonicLoop:
 
     def set_gains(self, gains: Gains) -> None:
         self.gains = gains
+
+    def sweep_from(self, f_start: float, seconds: float) -> None:
+        """Sweep the drive's frequency from ``f_start`` up to fe over ``seconds`` (the approach)."""
+        self.drive.sweep_from(f_start, seconds)
 
     def set_point(self, target: np.ndarray, feedforward: np.ndarray, ramp_time: float) -> None:
         """Move the target and the feedforward to new harmonics along a raised cosine of ``ramp_time`` s."""
