@@ -27,6 +27,7 @@ _API: dict[str, tuple[str, str]] = {
     "acquire_study": ("rigtools.experiments", "acquire_study"),
     "frf_test": ("rigtools.experiments", "frf_test"),
     "tap_test": ("rigtools.experiments", "tap_test"),
+    "control_based_continuation": ("rigtools.procedures.cbc", "control_based_continuation"),
     "RunResult": ("rigtools.procedures.result", "RunResult"),
     "PointResult": ("rigtools.procedures.result", "PointResult"),
     "open_recording": ("rigtools.recording", "open_recording"),

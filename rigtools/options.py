@@ -95,11 +95,16 @@ def gap(text: str | float, option: str = "--gap") -> float:
     return value
 
 
-STUDY_DIMENSION = {"gap": "length", "force": "force", "frequency": "frequency"}
+STUDY_DIMENSION = {"gap": "length", "force": "force", "frequency": "frequency", "amplitude": "length"}
 MAX_POINTS = 10_000  # values in one list or grid
 #: a value list of each kind as the messages show one
-LIST_EXAMPLE = {"gap": "0.5 mm:2 mm:0.5 mm", "force": "5 N:20 N:5 N", "frequency": "55 Hz:80 Hz:1 Hz"}
-_PLURAL = {"gap": "gaps", "force": "forces", "frequency": "frequencies"}
+LIST_EXAMPLE = {
+    "gap": "0.5 mm:2 mm:0.5 mm",
+    "force": "5 N:20 N:5 N",
+    "frequency": "55 Hz:80 Hz:1 Hz",
+    "amplitude": "0.300 mm:0.360 mm:0.005 mm",
+}
+_PLURAL = {"gap": "gaps", "force": "forces", "frequency": "frequencies", "amplitude": "amplitudes"}
 
 
 def value_list(text: str, kind: str, option: str = "--values", *, minimum: int = 1) -> list[float]:
@@ -130,12 +135,13 @@ def value_list(text: str, kind: str, option: str = "--values", *, minimum: int =
             raise UserError(f"{option}: give at least one value")
         if len(values) > MAX_POINTS:
             raise UserError(f"{option}: {len(values)} points is too many (at most {MAX_POINTS})")
-    bad = [v for v in values if (v <= 0 if kind == "frequency" else v < 0)]
+    bad = [v for v in values if (v <= 0 if kind in ("frequency", "amplitude") else v < 0)]
     if bad:
         what = {
             "gap": "gaps must be >= 0",
             "force": "force amplitudes must be >= 0",
             "frequency": "frequencies must be > 0",
+            "amplitude": "displacement amplitudes must be > 0",
         }[kind]
         raise UserError(f"{option} = {text!r}: {what} (got {bad[0]:g})")
     if len(set(values)) < minimum:

@@ -77,6 +77,7 @@ PROCEDURE_HELP = {
     "study": "force-controlled gap / force / frequency study (the paper's form)",
     "frf": "burst random or periodic chirp FRF test, recorded raw",
     "tap": "impact-hammer (tap) test of a blade, one frame per hit, recorded raw",
+    "cbc": "control-based continuation at one frequency: F1(A) through the folds, unstable orbits too",
 }
 _SINE = FORCE_CONTROLLED
 # The options of each procedure: (procedures, flags, argparse keywords); "%(default)s" shows defaults.
@@ -85,7 +86,28 @@ PROCEDURE_OPTIONS: tuple[tuple[tuple[str, ...], tuple[str, ...], dict], ...] = (
     (("study",), ("--values",), {"required": True, "help": '"a,b,c" or "start:stop:step", with units'}),
     (("study",), ("--yes",), {"action": "store_true", "help": "do not wait for the operator to set the gap"}),
     (("study",), ("--resume",), {"action": "store_true", "help": "continue an interrupted study in --out"}),
-    (("dwell",), ("--fe",), {"required": True, "help": 'excitation frequency, e.g. "60 Hz"'}),
+    (("dwell", "cbc"), ("--fe",), {"required": True, "help": 'excitation frequency, e.g. "60 Hz"'}),
+    (
+        ("cbc",),
+        ("--amplitude",),
+        {"required": True, "help": 'target fundamental amplitudes A, e.g. "0.300 mm:0.360 mm:0.005 mm"'},
+    ),
+    (("cbc",), ("--gains",), {"default": None, "help": 'feedback "KP,KD" in V/m and V s/m (0: open loop)'}),
+    (
+        ("cbc",),
+        ("--max-iterations",),
+        {"type": int, "default": None, "help": "outer iterations per point (8)"},
+    ),
+    (
+        ("cbc",),
+        ("--tolerance",),
+        {"type": float, "default": None, "help": "drive harmonics 2-10 / fundamental (0.01)"},
+    ),
+    (
+        ("cbc",),
+        ("--release",),
+        {"default": None, "help": 'after the last point: gains 0 for this long, e.g. "1 s"'},
+    ),
     (("study",), ("--fe",), {"help": 'excitation frequency, e.g. "60 Hz"'}),
     (("dwell", "sweep"), ("--force",), {"required": True, "help": 'force amplitude F0, e.g. "15 N"'}),
     (("study",), ("--force",), {"help": 'force amplitude F0, e.g. "15 N"'}),
@@ -194,6 +216,20 @@ PROCEDURE_OPTIONS: tuple[tuple[tuple[str, ...], tuple[str, ...], dict], ...] = (
 )
 
 EPILOGS = {
+    "cbc": """examples:
+  rig acquire cbc --backend sim --gap "0.5 mm" --fe "64 Hz" --amplitude "0.320 mm:0.330 mm:0.005 mm" --out cbc.h5
+  rig acquire cbc --backend sim --gap "0.5 mm" --fe "64 Hz" --amplitude "0.34 mm,0.345 mm" --release "1 s" --out c.h5 --json
+
+A harmonic-domain feedback on the active shroud's displacement (u = u_ff + Kp (x* - x) + Kd (x*' - x'))
+holds the rig at a target amplitude A at --fe; an outer iteration on the target's harmonics and the
+feedforward makes the drive a pure sine (harmonics 2-10 below --tolerance of its fundamental), so
+each converged point is an orbit of the rig without control, stable or not; F1 is measured. The rig
+is brought onto the branch by a sweep up to --fe first. On the buffered path a correction is played
+50-65 ms after its data: orbits with |mu| up to about 1.15 can be held; the full unstable sheet
+needs a real-time inner loop (--backend nidaq says so and runs the buffered variant). --json lists
+each point: fe_hz, amplitude_m, force_fundamental_n, phase_deg, converged, iterations,
+drive_harmonics_ratio, control_effort.
+""",
     "dwell": """examples:
   rig acquire dwell --backend sim --fe 60 --force "15 N" --gap "0.5 mm" --out dwell.h5
   rig acquire dwell --backend sim --fe 60 --force "15 N" --gap "0.5 mm" --out d.h5 --json

@@ -79,6 +79,8 @@ def run(args: argparse.Namespace) -> int:
     proc = build_procedure(
         args.procedure, cfg, out, vars(args), confirm_gap=confirm, faults=faults, **run_options
     )
+    if getattr(proc, "note", ""):
+        print(f"rig acquire {args.procedure}: {proc.note}", file=sys.stderr)
     try:
         with (
             ProcedureProgress(args.procedure, enabled=not args.json) as display,

@@ -19,7 +19,7 @@ from rigtools.errors import UserError
 from rigtools.options import band_option, quantity, value_list
 from rigtools.options import gap as _gap_text
 
-PROCEDURES = ("dwell", "sweep", "study", "frf", "tap")
+PROCEDURES = ("dwell", "sweep", "study", "frf", "tap", "cbc")
 TAP_F_MIN_HZ = 5.0
 
 
@@ -195,6 +195,11 @@ def build_procedure(
             )
         below_nyquist(f_max, rate, "--f-max", o.get("f_max"))
         return TapTest(cfg, params, out, **run_options)
+    if name == "cbc":
+        from rigtools.procedures.cbc import from_options as cbc_from_options
+
+        below_nyquist(quantity(o["fe"], "frequency", "--fe"), rate, "--fe", o["fe"])
+        return cbc_from_options(cfg, out, o, **run_options)
     if name != "frf":
         raise UserError(f"unknown procedure {name!r} (known: {', '.join(PROCEDURES)})")
     from rigtools.procedures.frf import FrfTest
@@ -271,6 +276,10 @@ def result_document(name: str, backend: str, proc: Any, result: Any, f_max: str 
             {k: v for k, v in point_document(p, units).items() if k != "channels"} for p in points
         ]
         doc.update(result.summary)
+    elif name == "cbc":
+        from rigtools.procedures.cbc import json_document
+
+        doc.update(json_document(proc))
     elif name == "frf" and finished:
         from rigtools.procedures.frf import quick_check
 

@@ -71,6 +71,36 @@ def summary_tables(doc: dict) -> list[Any]:
         if "peak_hz" in doc:
             out.append(f"response peak per newton at {doc['peak_hz']:.4g} Hz")
         out.append(f"wrote {doc['file']} ({doc['status']})")
+    elif name == "cbc":
+        table = Table(
+            title=f"control-based continuation ({doc['backend']}, {doc.get('inner_loop', '')} loop)"
+        )
+        for col in (
+            "fe Hz",
+            "A mm",
+            "F1 N",
+            "phase deg",
+            "converged",
+            "iterations",
+            "drive 2-10 %",
+            "effort V",
+        ):
+            table.add_column(col)
+        for p in doc["points"]:
+            table.add_row(
+                f"{p['fe_hz']:g}",
+                f"{p['amplitude_m'] * 1e3:.4f}",
+                number(p["force_fundamental_n"]),
+                f"{p['phase_deg']:.1f}",
+                "yes" if p["converged"] else "NO",
+                str(p["iterations"]),
+                f"{p['drive_harmonics_ratio'] * 100:.2f}",
+                number(p["control_effort"]),
+            )
+        out.append(table)
+        if doc.get("release"):
+            out.append(f"gains at zero: the response leaves at {doc['release']['growth_rate']:.3g} 1/s")
+        out.append(f"wrote {doc['file']} ({doc['status']})")
     elif name == "tap":
         out.append(
             f"{doc.get('accepted', 0)} of {doc.get('hits', 0)} hits accepted on "

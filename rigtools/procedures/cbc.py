@@ -1,0 +1,536 @@
+"""Control-based continuation (CBC) in the harmonic domain on the buffered path: ``rig acquire cbc``.
+
+At a fixed excitation frequency ``fe`` a feedback on the active shroud's displacement (a PD law
+with a multi-harmonic target, :mod:`rigtools.procedures.cbc_iteration`) holds the rig on an orbit
+whose fundamental is the target's; an outer iteration on the target's higher harmonics and the
+feedforward makes the control non-invasive (the drive voltage a pure sine: its harmonics 2..10
+below ``tolerance`` of its fundamental). The converged point is then an orbit of the rig without
+control, stable or not, and the force fundamental F1 it needs is measured. The target's
+fundamental amplitude A is the continuation parameter: point after point along ``amplitudes``,
+each started from a secant predictor through the last two converged points, so the S-shaped
+curve F1(A) through the folds comes out point by point.
+
+The rig is first brought onto the branch to be followed by a slow sweep of the drive frequency up
+to ``fe`` at ``approach_drive`` (a stepped sine's path: the impacting branch of the hardening
+resonance), then the feedback is switched on with the orbit it found as its first target.
+
+The buffered path plays a correction 50-65 ms after the data it comes from (the device's output
+queue); the loop then holds an unstable orbit only while its growth rate times that delay stays
+well under 1 (|mu| up to about 1.15 at 64 Hz, see :mod:`rigtools.procedures.cbc_loop`). On the NI
+backend the procedure says so in one line: the whole unstable sheet needs a real-time inner loop.
+
+With ``release_seconds`` the gains are set to zero after the last point (the drive held at its
+converged harmonics) and the departure of the response from the orbit is recorded: its growth
+rate, s^-1, is ``fe ln|mu|`` of the orbit's largest Floquet multiplier.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
+
+from rigtools.procedures.base import ProcedureResult, ProgressEvent, Status, validate
+from rigtools.procedures.cbc_iteration import (
+    FeedforwardSecant,
+    Gains,
+    drive_harmonics_ratio,
+    growth_rate,
+    half_peak_to_peak,
+    picard_update,
+    secant_predict,
+)
+from rigtools.procedures.cbc_loop import BufferedHarmonicLoop, InnerLoop, LoopMeasurement
+from rigtools.procedures.controlled_point import ControlledPoint
+from rigtools.procedures.sine import SineProcedure
+from rigtools.quantity_fields import Frequency, Length, Time, VoltageAmplitude
+from rigtools.units import MAX_GAP
+
+#: The line the NI backend prints: the buffered loop cannot hold the whole unstable sheet.
+REAL_TIME_NOTE = (
+    "the full unstable sheet needs a real-time inner loop (a real-time target: FPGA, cRIO or a "
+    "microcontroller, 1-2 ms of delay); running the buffered variant, which holds orbits up to |mu| ~ 1.15"
+)
+RESPONSE_CHANNEL = "active_shroud_accel"  # the controlled response: the active shroud
+
+
+class CBCParameters(BaseModel):
+    """A control-based continuation at a fixed frequency (SI: Hz, m, V)."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    fe: Frequency = Field(gt=0, le=25000, description="excitation frequency, Hz")
+    amplitudes: tuple[Length, ...] = Field(min_length=1, description="target fundamental amplitudes A, m")
+    gap: Length | None = Field(None, ge=0, le=MAX_GAP, description="shroud gap, m (None: as set)")
+    kp: float = Field(300.0, ge=-1e6, le=1e6, description="proportional gain, V/m")
+    kd: float = Field(0.0, ge=-1e4, le=1e4, description="derivative gain, V s/m")
+    feedback_harmonics: int = Field(1, ge=0, le=10, description="harmonics 1..n of the error fed back")
+    harmonics: int = Field(10, ge=2, le=20, description="harmonics of target, drive and analysis")
+    tolerance: float = Field(0.01, gt=0, le=0.5, description="drive harmonics 2-10 over its fundamental")
+    amplitude_tolerance: float = Field(0.005, gt=0, le=0.5, description="|X1 - X1*| / A at convergence")
+    max_iterations: int = Field(8, ge=1, le=50, description="outer iterations per point")
+    window_periods: int = Field(5, ge=1, le=50, description="periods the control estimates from")
+    settle_time: Time = Field(0.4, gt=0, le=20, description="wait after each change, s")
+    ramp_time: Time = Field(0.3, gt=0, le=20, description="ramp of each change of target and feedforward, s")
+    measure_periods: int = Field(10, ge=2, le=1000, description="periods of each measurement")
+    approach_from: Frequency | None = Field(None, gt=0, description="sweep start, Hz (None: fe - 8 Hz)")
+    approach_drive: VoltageAmplitude = Field(0.42, gt=0, le=10, description="drive of the sweep, V peak")
+    approach_time: Time = Field(6.0, gt=0, le=600, description="sweep duration, s")
+    walk_step: Length = Field(
+        0.005e-3, gt=0, description="largest step from the approach's orbit to a leg's first point, m"
+    )
+    release_seconds: Time = Field(0.0, ge=0, le=60, description="gains at zero after the last point, s")
+
+    def gains(self) -> Gains:
+        return Gains(self.kp, self.kd, self.feedback_harmonics)
+
+
+@dataclass
+class CBCPoint:
+    """One point of the continuation: the shared record and what CBC adds."""
+
+    point: ControlledPoint
+    control_effort: float  # RMS of the control term u - u_ff over the measurement, V
+    target: np.ndarray  # the target's harmonics, m (complex, k = 1..H)
+    feedforward: np.ndarray  # V (complex)
+    measurement: LoopMeasurement
+    tip_amplitude: float  # half the peak-to-peak of the displacement (harmonics 1..H), m
+    history: list[dict[str, float]] = field(default_factory=list)
+    channel_names: tuple[str, ...] = ()  # the rows of ``measurement.channels``
+
+    def attrs(self) -> dict[str, Any]:
+        """The recording point's attributes (SI; complex harmonics as amplitude and phase lists)."""
+        m = self.measurement
+        ref = np.angle(m.force[0])
+        k = np.arange(1, m.force.size + 1)
+
+        def rel(z: np.ndarray) -> list[float]:
+            return np.angle(z * np.exp(-1j * k * ref)).tolist()
+
+        channels = {}
+        if m.channels is not None:
+            for name, h in zip(self.channel_names, m.channels, strict=False):
+                channels[f"{name}_harmonic_amplitude"] = np.abs(h).tolist()
+                channels[f"{name}_harmonic_phase"] = rel(h)
+        return {
+            **self.point.to_dict(),
+            **channels,
+            "force_amplitude_measured": self.point.force_fundamental_n,
+            "drive_amplitude": float(abs(m.drive[0])),
+            "control_effort": self.control_effort,
+            "tip_amplitude_active": self.tip_amplitude,
+            "steady": bool(m.steady),
+            "target_harmonic_amplitude": np.abs(self.target).tolist(),
+            "target_harmonic_phase": rel(self.target),
+            "feedforward_amplitude": float(abs(self.feedforward[0])),
+            "response_harmonic_amplitude": np.abs(m.response).tolist(),
+            "response_harmonic_phase": rel(m.response),
+            "iteration_drive_ratio": [h["drive_harmonics_ratio"] for h in self.history],
+            "iteration_amplitude_error": [h["amplitude_error"] for h in self.history],
+        }
+
+
+def cbc_point(
+    loop, params: CBCParameters, target: np.ndarray, feedforward: np.ndarray, secant: FeedforwardSecant
+) -> CBCPoint:
+    """Iterate at one target fundamental until the control is non-invasive: the target's harmonics
+    2..H by Picard steps, the feedforward's fundamental by ``secant`` (see the module docstring)."""
+    fe, a_target = params.fe, abs(target[0])
+    history: list[dict[str, float]] = []
+    m: LoopMeasurement | None = None
+    converged = False
+    for it in range(1, params.max_iterations + 1):
+        m = loop.hold(
+            target,
+            feedforward,
+            ramp_time=params.ramp_time,
+            settle_time=params.settle_time,
+            measure_periods=params.measure_periods,
+        )
+        ratio = drive_harmonics_ratio(m.drive)
+        error = float(abs(m.response[0] - target[0]) / a_target)
+        history.append({"drive_harmonics_ratio": ratio, "amplitude_error": error})
+        converged = bool(m.steady and ratio <= params.tolerance and error <= params.amplitude_tolerance)
+        if converged or it == params.max_iterations:
+            break
+        new_ff = secant.step(complex(feedforward[0]), complex(m.response[0]), complex(target[0]))
+        target, feedforward = picard_update(target, feedforward, m.response, m.drive)
+        feedforward[0] = new_ff
+    assert m is not None
+    x1, f1 = m.response[0], m.force[0]
+    point = ControlledPoint(
+        fe_hz=fe,
+        amplitude_m=float(abs(x1)),
+        force_fundamental_n=float(abs(f1)),
+        phase_deg=float(np.degrees(np.angle(x1 / f1))) if f1 != 0 else math.nan,
+        converged=converged,
+        iterations=len(history),
+        drive_harmonics_ratio=history[-1]["drive_harmonics_ratio"],
+    )
+    effort = float(np.sqrt(np.sum(np.abs(m.drive - feedforward) ** 2) / 2))
+    return CBCPoint(point, effort, target, feedforward, m, half_peak_to_peak(m.response), history)
+
+
+def start_state(params: CBCParameters, m: LoopMeasurement) -> tuple[np.ndarray, np.ndarray]:
+    """``(target, feedforward)`` of the orbit the approach found: the target its response, the
+    feedforward its drive's fundamental."""
+    target = np.array(m.response, complex)
+    ff = np.zeros_like(target)
+    ff[0] = m.drive[0]
+    return target, ff
+
+
+def legs(amplitudes: tuple[float, ...], start: float) -> tuple[list[float], list[float]]:
+    """The amplitudes in the order they are measured, as two legs from the approach's orbit
+    (amplitude ``start``) outwards: upwards first, then downwards."""
+    up = sorted(a for a in amplitudes if a >= start)
+    down = sorted((a for a in amplitudes if a < start), reverse=True)
+    return up, down
+
+
+def predicted(
+    done: list[CBCPoint], first: tuple[np.ndarray, np.ndarray], amplitude: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """The secant predictor: ``(target, feedforward)`` at ``amplitude`` through the last two
+    converged points (the approach's orbit before there is one), the target's fundamental set to
+    ``amplitude`` at the predicted phase."""
+    # the two converged points nearest in amplitude, nearest last
+    good = sorted((p for p in done if p.point.converged), key=lambda q: -abs(abs(q.target[0]) - amplitude))
+    if good:
+        amps = [abs(p.target[0]) for p in good[-2:]]
+        states = [np.concatenate([p.target, p.feedforward]) for p in good[-2:]]
+        s = secant_predict(amps, states, amplitude)
+        n = s.size // 2
+        target, ff = s[:n].copy(), s[n:].copy()
+    else:
+        target, ff = (a.copy() for a in first)
+    target[0] = amplitude * np.exp(1j * np.angle(target[0]))
+    return target, ff
+
+
+class ControlBasedContinuation(SineProcedure):
+    """``rig acquire cbc``: see the module docstring. Each point is written as it converges
+    (or gives up); :attr:`points` holds the :class:`CBCPoint` objects."""
+
+    name = "cbc"
+
+    def __init__(self, cfg, params: CBCParameters | dict, out: str | Path, **kwargs: Any) -> None:
+        # the inner loop: the buffered one by default; a per-sample loop (real-time hook) fits
+        # the same InnerLoop protocol
+        self.inner_loop_factory: Callable[..., InnerLoop] | None = kwargs.pop("inner_loop", None)
+        super().__init__(cfg, out, **kwargs)
+        self.params = params if isinstance(params, CBCParameters) else validate(CBCParameters, **params)
+        self.points: list[CBCPoint] = []
+        self.release: dict[str, Any] = {}
+        self.note = ""  # the line rig acquire prints first (the NI backend: REAL_TIME_NOTE)
+        self._leg: list[CBCPoint] = []  # the points of the leg being measured
+
+    def first_frequency(self) -> float:
+        return self.params.fe
+
+    def parameters_doc(self) -> dict:
+        return self.params.model_dump()
+
+    def startup(self) -> None:
+        from rigtools.procedures import rig
+
+        if self.device is None:
+            self.device = rig.open_device(self.cfg, self.backend, **self._device_opts)
+        rate = rig.configure(self.device, self.cfg)
+        if self.params.harmonics * self.params.fe >= 0.45 * rate:
+            from rigtools.errors import UserError
+
+            raise UserError(
+                f"fe = {self.params.fe:g} Hz: harmonic {self.params.harmonics} is above 0.45 x the sample rate"
+            )
+        if self.device.backend != "simulated":
+            self.emit("message", text=REAL_TIME_NOTE)
+        monitor = rig.safety_monitor(self.cfg, self.device)
+        self.specs = rig.channel_specs(self.device, self.cfg, rate)
+        names = [s.name for s in self.device.input_channels]
+        rows = {"force": rig.force_row(self.device), "accel": names.index(RESPONSE_CHANNEL)}
+        make = self.inner_loop_factory or BufferedHarmonicLoop
+        self.session = make(
+            self.device,
+            self.cfg,
+            monitor,
+            self,
+            self.params.fe,
+            rows,
+            n_harmonics=self.params.harmonics,
+            window_periods=self.params.window_periods,
+        )
+        self.open_writer(
+            rig.experiment_metadata(self.name, self.device, self.parameters_doc(), inner_loop=make.name)
+        )
+
+    def execute(self) -> None:
+        p = self.params
+        loop = self.session
+        gap = self.set_gap(p.gap)
+        self.result.summary["inner_loop"] = loop.name
+        first = self._approach(loop, p)
+        up, down = legs(p.amplitudes, abs(first[0][0]))
+        n, done, skipped = len(up) + len(down), 0, []
+        for leg_index, leg in enumerate((up, down)):
+            if not leg:
+                continue
+            if leg_index:  # the second leg starts from the approach's orbit again
+                first = self._approach(loop, p)
+            secant = self._probe(loop, p, *first)
+            secant = self._walk(loop, p, first, leg[0], secant)
+            for j, amplitude in enumerate(leg):
+                done += 1
+                self.emit("point", point=done, n_points=n, text=f"A = {amplitude * 1e3:.4g} mm")
+                self.begin_point({"fe": p.fe, "amplitude_target": amplitude, "gap": gap})
+                target, ff = predicted(self._leg, first, amplitude)
+                secant = FeedforwardSecant(secant.jacobian)  # the slope learnt so far, a fresh history
+                pt = cbc_point(loop, p, target, ff, secant)
+                pt.channel_names = tuple(spec.name for spec in self.specs)
+                self.points.append(pt)
+                self._leg.append(pt)
+                last = j == len(leg) - 1 or not pt.point.converged
+                release = {}
+                if last and leg_index == 0 and pt.point.converged and p.release_seconds > 0:
+                    release = self.release = self._release(loop, p)
+                attrs = {**pt.attrs(), **{f"release_{k}": v for k, v in release.items()}}
+                self.end_point({k: v for k, v in attrs.items() if not isinstance(v, list) or v})
+                self.result.points.append({"fe": p.fe, "gap": gap, "amplitude_target": amplitude, **attrs})
+                self.emit("point_done", point=done, n_points=n, text=_line(pt))
+                if not pt.point.converged:  # the orbit is lost: the rest of this leg is not measured
+                    skipped.extend(leg[j + 1 :])
+                    done += len(leg) - j - 1
+                    break
+            self._leg = []
+        self.result.summary["points"] = [pt.point.to_dict() for pt in self.points]
+        self.result.summary["skipped_amplitudes"] = skipped
+        loop.finish()
+
+    def _walk(
+        self, loop, p: CBCParameters, first: tuple[np.ndarray, np.ndarray], amplitude: float, secant
+    ) -> FeedforwardSecant:
+        """From the approach's orbit to the leg's first amplitude in steps of at most
+        ``walk_step`` (continuation points not recorded), so that each step starts near its orbit."""
+        a0 = abs(first[0][0])
+        steps = math.ceil(abs(amplitude - a0) / p.walk_step - 1e-9)
+        for a in np.linspace(a0, amplitude, steps + 1)[1:-1]:
+            self.emit("message", text=f"walking to {amplitude * 1e3:.4g} mm: {a * 1e3:.4g} mm")
+            target, ff = predicted(self._leg, first, float(a))
+            secant = FeedforwardSecant(secant.jacobian)
+            pt = cbc_point(loop, p, target, ff, secant)
+            if pt.point.converged:
+                self._leg.append(pt)
+        return secant
+
+    def _approach(self, loop, p: CBCParameters) -> tuple[np.ndarray, np.ndarray]:
+        """Open loop, sweep the drive up to fe at ``approach_drive``; engage the feedback on the
+        orbit found (its response the target, its drive the feedforward: no kick)."""
+        self.emit("message", text=f"approach: sweep to {p.fe:g} Hz at {p.approach_drive:g} V")
+        loop.set_gains(Gains(0.0))
+        loop.sweep_from(p.approach_from or max(1.0, p.fe - 8.0), p.approach_time)
+        ff = np.zeros(p.harmonics, complex)
+        ff[0] = p.approach_drive
+        zero = np.zeros(p.harmonics, complex)
+        first = start_state(p, loop.hold(zero, ff, ramp_time=0.3, settle_time=p.approach_time + 0.5))
+        loop.set_point(*first, ramp_time=0.0)
+        loop.set_gains(p.gains())
+        self._leg = []
+        return first
+
+    @staticmethod
+    def _probe(loop, p: CBCParameters, target: np.ndarray, ff: np.ndarray) -> FeedforwardSecant:
+        """The closed loop's ``d X1 / d Uff1`` by finite differences at the approach's orbit
+        (1 % of the feedforward, in phase and in quadrature): the first Newton steps' slope."""
+        delta = 0.01 * abs(ff[0])
+        x0 = loop.hold(target, ff, settle_time=p.settle_time, measure_periods=p.measure_periods).response[0]
+        xs = []
+        for step in (delta, 1j * delta):
+            probe = ff.copy()
+            probe[0] += step
+            xs.append(
+                loop.hold(
+                    target, probe, settle_time=p.settle_time, measure_periods=p.measure_periods
+                ).response[0]
+            )
+        return FeedforwardSecant.from_probes(complex(x0), complex(xs[0]), complex(xs[1]), delta)
+
+    @staticmethod
+    def _release(loop, p: CBCParameters) -> dict[str, Any]:
+        """Gains to zero, drive held: the response's departure from the orbit and its growth rate."""
+        times, x1 = loop.free_run(p.release_seconds)
+        x0 = x1[0]
+        deviation = np.abs(x1 - x0) / abs(x0)
+        rate, used = growth_rate(times, deviation, 0.005, 0.1)
+        return {
+            "seconds": p.release_seconds,
+            "growth_rate": rate,
+            "samples_fitted": used,
+            "deviation": deviation.tolist(),
+        }
+
+
+def from_options(cfg: Any, out: str | Path, o: Any, **run_options: Any) -> ControlBasedContinuation:
+    """``rig acquire cbc``: the procedure from the command's options (quantities as text)."""
+    from rigtools.options import gap as gap_text
+    from rigtools.options import quantity, value_list
+
+    params: dict[str, Any] = {
+        "fe": quantity(o["fe"], "frequency", "--fe"),
+        "amplitudes": value_list(o["amplitude"], "amplitude", "--amplitude"),
+        **parse_gains(o.get("gains")),
+    }
+    if o.get("gap") is not None:
+        params["gap"] = gap_text(o["gap"], "--gap")
+    for key in ("max_iterations", "tolerance"):
+        if o.get(key) is not None:
+            params[key] = o[key]
+    if o.get("release") is not None:
+        params["release_seconds"] = quantity(o["release"], "time", "--release")
+    proc = ControlBasedContinuation(cfg, params, out, **run_options)
+    proc.note = REAL_TIME_NOTE if run_options.get("backend") == "nidaq" else ""
+    return proc
+
+
+def json_document(proc: ControlBasedContinuation) -> dict[str, Any]:
+    """The ``--json`` part of a CBC run: each point as :class:`ControlledPoint` fields plus its
+    control effort, the inner loop, and the release's growth rate if one was measured."""
+    doc: dict[str, Any] = {
+        "inner_loop": getattr(proc.session, "name", ""),
+        "points": [
+            {**pt.point.to_dict(), "control_effort": pt.control_effort, "tip_amplitude_m": pt.tip_amplitude}
+            for pt in proc.points
+        ],
+        "skipped_amplitudes": proc.result.summary.get("skipped_amplitudes", []),
+    }
+    if proc.release:
+        doc["release"] = {k: v for k, v in proc.release.items() if k != "deviation"}
+    if getattr(proc, "note", ""):
+        doc["note"] = proc.note
+    return doc
+
+
+def _line(pt: CBCPoint) -> str:
+    q = pt.point
+    state = "converged" if q.converged else "not converged"
+    return (
+        f"A {q.amplitude_m * 1e3:.4f} mm, F1 {q.force_fundamental_n:.4f} N, {q.phase_deg:.1f} deg, "
+        f"{state} in {q.iterations}, drive harmonics {q.drive_harmonics_ratio * 100:.2f} %"
+    )
+
+
+def control_based_continuation(
+    fe: float | str,
+    amplitudes: Any,
+    out: str | Path,
+    *,
+    gap: float | str | None = None,
+    gains: Any = None,
+    rig: Any = None,
+    backend: str | None = None,
+    overwrite: bool = False,
+    progress: Callable[[ProgressEvent], None] | None = None,
+    seed: int | None = None,
+    **params: Any,
+):
+    """Control-based continuation of the rig's orbits in the target amplitude at one frequency.
+
+    Parameters
+    ----------
+    fe
+        Excitation frequency, ``"64 Hz"`` or Hz.
+    amplitudes
+        Target fundamental amplitudes of the active shroud: ``"0.300 mm:0.360 mm:0.005 mm"``,
+        ``"0.3 mm,0.32 mm"`` or a sequence of m.
+    out
+        Recording to write (HDF5; procedure ``cbc``).
+    gap
+        Shroud gap (``"0.5 mm"`` or m); ``None``: as set.
+    gains
+        ``(kp V/m, kd V s/m)``, ``"KP,KD"`` or ``None`` (the defaults of :class:`CBCParameters`);
+        ``0`` for none (open loop).
+    rig, backend, overwrite, progress, seed
+        As :func:`rigtools.dwell` (``backend`` ``"nidaq"`` or ``"sim"``, no default).
+    **params
+        More :class:`CBCParameters` (``tolerance``, ``max_iterations``, ``release_seconds``, ...).
+
+    Returns
+    -------
+    RunResult
+        Its points carry the :class:`~rigtools.procedures.controlled_point.ControlledPoint`
+        fields and the control effort (``point.extra``).
+
+    Examples
+    --------
+    One point on the stable side of the F1 minimum at 64 Hz (the model: 4.93 N at A 0.3196 mm):
+
+    >>> import rigtools, tempfile, pathlib
+    >>> out = pathlib.Path(tempfile.mkdtemp()) / "cbc.h5"
+    >>> run = rigtools.control_based_continuation("64 Hz", "0.32 mm", out, gap="0.5 mm", backend="sim")
+    >>> p = run.points[0].extra
+    >>> p["converged"], round(p["force_fundamental_n"], 1), p["drive_harmonics_ratio"] < 0.01
+    (True, 4.9, True)
+    """
+    from rigtools.config import load_rig
+    from rigtools.errors import UserError
+    from rigtools.options import quantity, value_list
+
+    if backend not in ("nidaq", "sim"):
+        raise UserError(f"backend = {backend!r}: name backend='nidaq' or backend='sim'")
+    cfg = rig if hasattr(rig, "safety") else load_rig(rig)
+    values = (
+        value_list(amplitudes, "amplitude", "amplitudes") if isinstance(amplitudes, str) else list(amplitudes)
+    )
+    p: dict[str, Any] = {
+        "fe": quantity(fe, "frequency", "fe") if isinstance(fe, str) else fe,
+        "amplitudes": values,
+    }
+    if gap is not None:
+        p["gap"] = quantity(gap, "length", "gap") if isinstance(gap, str) else gap
+    p.update(parse_gains(gains))
+    p.update(params)
+    proc = ControlBasedContinuation(
+        cfg, p, out, backend=backend, overwrite=overwrite, progress=progress, seed=seed
+    )
+    return proc.run()
+
+
+def parse_gains(gains: Any) -> dict[str, float]:
+    """``{"kp": ..., "kd": ...}`` of ``"KP[,KD]"`` (V/m, V s/m), a number or a pair; ``{}`` for ``None``."""
+    from rigtools.errors import UserError
+
+    if gains is None:
+        return {}
+    parts = (
+        gains.split(",")
+        if isinstance(gains, str)
+        else (list(gains) if isinstance(gains, (list, tuple)) else [gains])
+    )
+    try:
+        values = [float(v) for v in parts]
+    except (TypeError, ValueError):
+        raise UserError(
+            f'--gains = {gains!r}: write KP[,KD] in V/m and V s/m, e.g. "300,0" (0: open loop)'
+        ) from None
+    if not 1 <= len(values) <= 2 or not all(math.isfinite(v) for v in values):
+        raise UserError(f'--gains = {gains!r}: write KP[,KD] in V/m and V s/m, e.g. "300,0" (0: open loop)')
+    return {"kp": values[0], "kd": values[1] if len(values) > 1 else 0.0}
+
+
+__all__ = [
+    "REAL_TIME_NOTE",
+    "CBCParameters",
+    "CBCPoint",
+    "ControlBasedContinuation",
+    "ProcedureResult",
+    "Status",
+    "cbc_point",
+    "control_based_continuation",
+    "from_options",
+    "json_document",
+    "parse_gains",
+]
