@@ -9,6 +9,7 @@ from rigtools.errors import (
     EXIT_USAGE,
     exit_status_help,
 )
+from rigtools.pll_help import PLL_EPILOG, PLL_HELP, PLL_OPTIONS
 
 HELP = "lab procedures on the rig: force-controlled dwell, stepped sine, study, FRF test, tap test"
 BACKENDS = """\
@@ -77,6 +78,7 @@ PROCEDURE_HELP = {
     "study": "force-controlled gap / force / frequency study (the paper's form)",
     "frf": "burst random or periodic chirp FRF test, recorded raw",
     "tap": "impact-hammer (tap) test of a blade, one frame per hit, recorded raw",
+    "pll": PLL_HELP,
 }
 _SINE = FORCE_CONTROLLED
 # The options of each procedure: (procedures, flags, argparse keywords); "%(default)s" shows defaults.
@@ -191,7 +193,7 @@ PROCEDURE_OPTIONS: tuple[tuple[tuple[str, ...], tuple[str, ...], dict], ...] = (
         ("--f-max",),
         {"default": "2 kHz", "help": 'highest frequency identified, default "%(default)s"'},
     ),
-)
+) + PLL_OPTIONS
 
 EPILOGS = {
     "dwell": """examples:
@@ -250,4 +252,5 @@ hit; the simulated rig hits a half-sine of --pulse (default "0.5 ms") and --hit-
 "20 N") peak every frame + 0.5 s. Prints the modes identified from H1 (response / hammer) over the
 accepted hits (rectangular window per frame) up to --f-max.
 """,
+    "pll": PLL_EPILOG,
 }

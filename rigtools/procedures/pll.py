@@ -58,8 +58,8 @@ class PllParameters(BaseModel):
     f_max: Frequency | None = Field(
         None, gt=0, description="highest drive frequency, Hz (default 1.5 fe_start)"
     )
-    kp: float = Field(0.019, ge=0, le=1, description="proportional gain, Hz/deg")
-    ki: float = Field(0.1, gt=0, le=100, description="integral gain, Hz/(deg s)")
+    kp: float = Field(0.009, ge=0, le=1, description="proportional gain, Hz/deg")
+    ki: float = Field(0.07, gt=0, le=100, description="integral gain, Hz/(deg s)")
     max_step: Frequency = Field(0.05, gt=0, description="largest frequency change per update, Hz")
     force_periods: int = Field(
         8, ge=1, le=1000, description="periods between two outer-loop (force) updates at least"
