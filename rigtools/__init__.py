@@ -27,6 +27,7 @@ _API: dict[str, tuple[str, str]] = {
     "acquire_study": ("rigtools.experiments", "acquire_study"),
     "frf_test": ("rigtools.experiments", "frf_test"),
     "tap_test": ("rigtools.experiments", "tap_test"),
+    "phase_locked_loop": ("rigtools.phase_locked", "phase_locked_loop"),
     "RunResult": ("rigtools.procedures.result", "RunResult"),
     "PointResult": ("rigtools.procedures.result", "PointResult"),
     "open_recording": ("rigtools.recording", "open_recording"),

@@ -147,7 +147,7 @@ class PhaseLockedLoop(SineProcedure):
                 self.running_session().finish()  # the ramp to zero goes into the last point
             self.end_point(point_attrs(res))
             self.result.points.append(res)
-            self.points.append(res["controlled_point"])
+            self.points.append(controlled_point(res))
             self.emit("point_done", point=i + 1, n_points=len(targets))
             if not res["converged"]:
                 self.emit("message", point=i + 1, n_points=len(targets), text=res["lock_message"])
@@ -157,10 +157,15 @@ class PhaseLockedLoop(SineProcedure):
         self.result.summary["points"] = [c.to_dict() for c in self.points]
 
 
+def controlled_point(res: dict) -> ControlledPoint:
+    """The :class:`ControlledPoint` of a PLL point's result."""
+    return ControlledPoint(**{name: res[name] for name in ControlledPoint.__dataclass_fields__})
+
+
 def point_attrs(res: dict) -> dict:
     """The recording point attributes of a PLL point: the :class:`ControlledPoint` fields, how it
     locked, and the harmonics of every channel as a sine point has them."""
-    attrs = {k: v for k, v in res["controlled_point"].to_dict().items()}
+    attrs = controlled_point(res).to_dict()
     for key in (
         "fe",
         "force_amplitude_measured",

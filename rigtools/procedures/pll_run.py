@@ -278,5 +278,5 @@ class PllRun:
             "safety_warnings": len(s.stream.stats.warnings) - warnings0,
             "harmonics": harmonics_table(det, s.names, s.force_row),
             "peaks": dict(zip(s.names, np.max(np.abs(s.sink.last(n)), axis=1).tolist(), strict=True)),
-            "controlled_point": cp,
+            **cp.to_dict(),
         }
