@@ -62,7 +62,7 @@ class PllParameters(BaseModel):
     ki: float = Field(0.07, gt=0, le=100, description="integral gain, Hz/(deg s)")
     max_step: Frequency = Field(0.05, gt=0, description="largest frequency change per update, Hz")
     force_periods: int = Field(
-        8, ge=1, le=1000, description="periods between two outer-loop (force) updates at least"
+        16, ge=1, le=1000, description="periods between two outer-loop (force) updates at least"
     )
     phase_rate: float = Field(
         30.0, gt=0, le=3600, description="how fast the target moves between points, deg/s"
