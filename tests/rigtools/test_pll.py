@@ -1,0 +1,137 @@
+"""The phase-locked loop on the simulated rig (gap 0.5 mm) against the model (issue 33's must-show).
+
+The references are the model's, computed independently of the loop: the linear phase resonance in
+closed form from the modal model (:func:`rigtools.sim.phase_points.linear_phase_resonance`), and
+the orbits at a set phase on the toolkit's own continuation of the simulated rig (test article plus
+shaker, force fundamental held): ``REFERENCE`` below is what ``benchmarks/pll_model_reference.py``
+prints (two minutes of continuation; tests/rigtools/test_pll_model.py holds the phase-point
+machinery against the closed form on the linear branch).
+"""
+
+from __future__ import annotations
+
+import json
+
+import h5py
+import pytest
+from cli_helpers import run_cli
+
+import rigtools
+from rigtools.branches import simulated_rig_model
+from rigtools.sim.phase_points import linear_phase_resonance
+
+# benchmarks/pll_model_reference.py (fe Hz, A m: amplitude of the active shroud's fundamental)
+BACKBONE = {  # -90 deg, F1 held
+    1.0: (52.48074949359244, 0.0007801395698644563),
+    2.0: (52.65784901654468, 0.0012704035202396342),
+    5.0: (52.74371566332817, 0.0026685300179564004),
+    10.0: (52.76649490809312, 0.004978371185153974),
+}
+STEPPED_5N = {  # F1 = 5 N, past the fold (64.586 Hz): orbits unstable at a fixed frequency
+    -152.0: (64.20972816654283, 0.00035193846527641624),
+    -156.0: (63.85983813487441, 0.00035661792905644396),
+    -165.0: (62.4281688671882, 0.00037292044061462074),
+}
+
+
+@pytest.fixture(scope="module")
+def linear_resonance() -> float:
+    _, system, _ = simulated_rig_model(None)
+    return linear_phase_resonance(system)
+
+
+def test_must_show_linear_lock(tmp_path, linear_resonance):
+    """``rig acquire pll --backend sim --gap "0.5 mm" --force "0.2 N" --phase "-90 deg"``: locks
+    within 0.1 % of the model's linear phase resonance (52.0128 Hz; measured 52.0119, -0.002 %)
+    in at most 150 periods (measured 94, from the nominal model's 53.21 Hz, the default start),
+    the phase error's RMS over the recorded periods at most 1 deg; the --json lists the
+    ControlledPoint fields; rig check passes the recording and its point carries them."""
+    out = tmp_path / "pll.h5"
+    argv = ["acquire", "pll", "--backend", "sim", "--gap", "0.5 mm", "--force", "0.2 N"]
+    code, stdout, err = run_cli([*argv, "--phase", "-90 deg", "--out", out, "--json"])
+    assert code == 0, err
+    doc = json.loads(stdout)
+    assert doc["procedure"] == "pll" and doc["status"] == "finished"
+    (p,) = doc["points"]
+    assert set(p) == {
+        "fe_hz",
+        "amplitude_m",
+        "force_fundamental_n",
+        "phase_deg",
+        "converged",
+        "iterations",
+        "drive_harmonics_ratio",
+    }
+    assert p["converged"]
+    assert abs(p["fe_hz"] / linear_resonance - 1) <= 1e-3  # the must-show's 0.1 %
+    assert p["iterations"] <= 150  # the must-show's periods to lock
+    assert abs(p["force_fundamental_n"] / 0.2 - 1) <= 0.01  # the lock's force tolerance
+    assert p["drive_harmonics_ratio"] < 1e-3  # a phase-continuous sine
+    with h5py.File(out, "r") as f:
+        attrs = f["points/0000"].attrs
+        assert float(attrs["phase_error_rms"]) <= 1.0  # the must-show's phase RMS, deg
+        assert abs(float(attrs["fe_hz"]) - p["fe_hz"]) < 1e-9 and str(attrs["procedure_kind"]) == "pll"
+    code, _, err = run_cli(["check", out])
+    assert code == 0, err
+
+
+def test_backbone_beside_the_model(tmp_path):
+    """Backbone at F1 = 1, 2, 5, 10 N (-90 deg, stepped force, one run): each point within 0.2 %
+    in fe and 3 % in A of the model's -90 deg orbit (the must-show's tolerances; measured within
+    0.005 % and 0.4 %)."""
+    run = rigtools.phase_locked_loop("1 N,2 N,5 N,10 N", tmp_path / "bb.h5", gap="0.5 mm", backend="sim")
+    assert run.status == "finished"
+    for point, (force, (fe, amp)) in zip(run.points, BACKBONE.items(), strict=True):
+        x = point.extra
+        assert x["converged"], (force, x)
+        assert abs(x["fe_hz"] / fe - 1) <= 2e-3, (force, x["fe_hz"], fe)
+        assert abs(x["amplitude_m"] / amp - 1) <= 0.03, (force, x["amplitude_m"], amp)
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="#33 must-show not met: at 5 N the loop does not hold the phases past the fold (-152, "
+    "-156, -165 deg; the model's orbits there are unstable at a fixed frequency, |mu| 1.04-1.45): "
+    "from the nominal start it follows the stable impacting branch to its lag maximum (-149.1 deg "
+    "at 54.46 Hz, A 0.856 mm, held and converged: the deepest phase held), then through the phase "
+    "valley to the fold (64.6 Hz, -140 deg) and falls off the impacting sheet onto the "
+    "non-impacting orbit (-177 deg); no lock in 600 periods, fe off by several Hz",
+)
+def test_stepped_phase_past_the_fold(tmp_path):
+    """``--force "5 N" --phase "-152 deg"``: within 0.1 % in fe and 2 % in A of the model's orbit."""
+    run = rigtools.phase_locked_loop(
+        "5 N", tmp_path / "fr.h5", phases="-152 deg", gap="0.5 mm", backend="sim"
+    )
+    x = run.points[0].extra
+    fe, amp = STEPPED_5N[-152.0]
+    assert x["converged"]
+    assert abs(x["fe_hz"] / fe - 1) <= 1e-3
+    assert abs(x["amplitude_m"] / amp - 1) <= 0.02
+
+
+def test_lock_loss_stops_with_the_drive_at_zero(tmp_path):
+    """A point that cannot lock in its periods (10) is written marked not converged with one line
+    saying why; on_lock_loss="stop" ends the run there, finished, the later point never started,
+    and the drive as written ends at exactly 0 V (ramped down)."""
+    out = tmp_path / "loss.h5"
+    run = rigtools.phase_locked_loop(
+        "0.2 N,0.3 N", out, gap="0.5 mm", backend="sim", max_periods=10, on_lock_loss="stop"
+    )
+    assert run.status == "finished" and len(run.points) == 1
+    x = run.points[0].extra
+    assert not x["converged"]
+    assert "no lock within 10 periods" in x["lock_message"] and "the run stops" in x["lock_message"]
+    assert "\n" not in x["lock_message"]
+    with h5py.File(out, "r") as f:
+        point = f["points/0000"]
+        assert not bool(point.attrs["converged"])
+        drive = point["drive"][...]
+    assert drive[-1] == 0.0 and abs(drive[:-1]).max() > 0.01  # the drive ran, then ramped to 0 V
+
+
+def test_phase_needs_a_unit(tmp_path):
+    """A phase without its unit is refused in one line (degrees or radians would be a guess)."""
+    code, _, err = run_cli(
+        ["acquire", "pll", "--backend", "sim", "--force", "1 N", "--phase", "-90", "--out", tmp_path / "x.h5"]
+    )
+    assert code == 2 and "give an angle with its unit" in err and len(err.strip().splitlines()) == 1
