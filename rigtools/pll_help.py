@@ -6,7 +6,7 @@ PLL_HELP = "phase-locked loop: backbone (-90 deg, stepped force) or stepped phas
 PLL_EPILOG = """examples:
   rig acquire pll --backend sim --gap "0.5 mm" --force "0.2 N" --phase "-90 deg" --out pll.h5
   rig acquire pll --backend sim --gap "0.5 mm" --force "1 N,2 N,5 N,10 N" --out backbone.h5
-  rig acquire pll --backend sim --gap "0.5 mm" --force "5 N" --phase "-140 deg,-146 deg,-150 deg" --fe-start "64.3 Hz" --out fr.h5
+  rig acquire pll --backend sim --gap "0.5 mm" --force "5 N" --phase "-120 deg,-140 deg" --out fr.h5
 
 What it does: the drive frequency is adjusted until the active shroud's displacement fundamental
 (from its accelerometer, X1 = -A1/w^2) lags the force fundamental by --phase. The phase detector
