@@ -45,7 +45,8 @@ def test_must_show_linear_lock(tmp_path, linear_resonance):
     within 0.1 % of the model's linear phase resonance (52.0128 Hz; measured 52.0119, -0.002 %)
     in at most 150 periods (measured 94, from the nominal model's 53.21 Hz, the default start),
     the phase error's RMS over the recorded periods at most 1 deg; the --json lists the
-    ControlledPoint fields; rig check passes the recording and its point carries them."""
+    ControlledPoint fields; rig check passes the recording and its point carries them; rig info
+    and rig report read it (the report's controlled-points table)."""
     out = tmp_path / "pll.h5"
     argv = ["acquire", "pll", "--backend", "sim", "--gap", "0.5 mm", "--force", "0.2 N"]
     code, stdout, err = run_cli([*argv, "--phase", "-90 deg", "--out", out, "--json"])
@@ -73,6 +74,11 @@ def test_must_show_linear_lock(tmp_path, linear_resonance):
         assert abs(float(attrs["fe_hz"]) - p["fe_hz"]) < 1e-9 and str(attrs["procedure_kind"]) == "pll"
     code, _, err = run_cli(["check", out])
     assert code == 0, err
+    code, info, err = run_cli(["info", out])
+    assert code == 0 and "1 point(s)" in info, err
+    code, _, err = run_cli(["report", out, "--out", tmp_path / "report"])
+    assert code == 0, err
+    assert "Controlled points" in (tmp_path / "report" / "report.html").read_text()
 
 
 def test_backbone_beside_the_model(tmp_path):
@@ -135,3 +141,45 @@ def test_phase_needs_a_unit(tmp_path):
         ["acquire", "pll", "--backend", "sim", "--force", "1 N", "--phase", "-90", "--out", tmp_path / "x.h5"]
     )
     assert code == 2 and "give an angle with its unit" in err and len(err.strip().splitlines()) == 1
+
+
+def test_report_draws_points_over_stable_and_unstable_branches(tmp_path):
+    """The report's figure (rigtools.report.controlled_branch): a branch stable, then unstable,
+    then stable is drawn as three segments (solid, dashed, solid) sharing their end points, the
+    amplitude its acceleration fundamental over (2 pi fe)^2; converged and not converged points as
+    two marker sets."""
+    import numpy as np
+
+    from rigtools.branches import StoredBranch
+    from rigtools.procedures.controlled_point import ControlledPoint
+    from rigtools.report.controlled_branch import branch_amplitude, controlled_branch_figure
+
+    fe = np.linspace(60.0, 65.0, 6)
+    accel = np.zeros((6, 10))
+    accel[:, 0] = 2e-4 * (2 * np.pi * fe) ** 2  # 0.2 mm everywhere
+    b = StoredBranch(
+        "fe",
+        1,
+        "complete",
+        "",
+        fe,
+        np.array([1, 1, 0, 0, 1, 1], bool),
+        np.zeros((6, 1)),
+        [()] * 6,
+        {"accel_harmonics_active": accel},
+    )
+    assert np.allclose(branch_amplitude(b), 2e-4)
+    pts = [
+        ControlledPoint(62.0, 2e-4, 5.0, -152.0, True, 40, 1e-4),
+        ControlledPoint(63.0, 2e-4, 5.0, -160.0, False, 600, 0),
+    ]
+    ax = controlled_branch_figure(pts, [b]).axes[0]
+    lines = ax.get_lines()
+    styles = [ln.get_linestyle() for ln in lines[:3]]
+    assert styles == ["-", "--", "-"]
+    assert [list(ln.get_xdata()) for ln in lines[:3]] == [
+        [60.0, 61.0, 62.0],
+        [62.0, 63.0, 64.0],
+        [64.0, 65.0],
+    ]
+    assert len(lines) == 5  # three segments, the converged and the not converged points
