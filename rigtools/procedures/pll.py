@@ -76,7 +76,9 @@ class PllParameters(BaseModel):
     max_amplitude: Length | None = Field(
         None, gt=0, description="active shroud amplitude limit, m (lock loss)"
     )
-    on_lock_loss: Literal["continue", "stop"] = "continue"
+    on_lock_loss: Literal["continue", "stop"] = Field(
+        "continue", description="after a point not locked: go on to the next, or end the run there"
+    )
     initial_drive: VoltageAmplitude = Field(0.2, gt=0, le=10, description="first drive amplitude, V peak")
     margin: float = Field(0.8, gt=0, le=1, description="fraction of a warning level never planned past")
 
