@@ -12,6 +12,7 @@ orbit its acceleration fundamental over ``(2 pi fe)^2``, the quantity the points
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -33,12 +34,15 @@ def controlled_points(path: str | Path) -> list[ControlledPoint]:
         for p in rec.points:
             params = dict(p.params)
             if p.complete and all(name in params for name in _FIELDS):
-                values = {name: params[name] for name in _FIELDS}
-                values["converged"] = bool(values["converged"])
-                values["iterations"] = int(values["iterations"])
                 out.append(
                     ControlledPoint(
-                        **{k: v if k in ("converged", "iterations") else float(v) for k, v in values.items()}
+                        fe_hz=float(params["fe_hz"]),
+                        amplitude_m=float(params["amplitude_m"]),
+                        force_fundamental_n=float(params["force_fundamental_n"]),
+                        phase_deg=float(params["phase_deg"]),
+                        converged=bool(params["converged"]),
+                        iterations=int(params["iterations"]),
+                        drive_harmonics_ratio=float(params["drive_harmonics_ratio"]),
                     )
                 )
     return out
@@ -53,7 +57,7 @@ def branch_amplitude(branch: StoredBranch) -> np.ndarray:
 
 
 def controlled_branch_figure(
-    points: list[ControlledPoint], branches: list[StoredBranch] = (), title: str = ""
+    points: list[ControlledPoint], branches: Sequence[StoredBranch] = (), title: str = ""
 ) -> Any:
     """The figure: ``points`` over the frequency ``branches`` (stable solid, unstable dashed)."""
     import matplotlib
@@ -78,15 +82,16 @@ def controlled_branch_figure(
                     label=("model, stable" if stable[start] else "model, unstable") if i == 0 else None,
                 )
                 start = j
-    for conv, style in ((True, {"color": "C3"}), (False, {"markerfacecolor": "none", "color": "C3"})):
+    for conv in (True, False):
         sel = [p for p in points if p.converged == conv]
         if sel:
             ax.plot(
                 [p.fe_hz for p in sel],
                 [p.amplitude_m * 1e3 for p in sel],
                 "o",
+                color="C3",
+                markerfacecolor="C3" if conv else "none",
                 label="measured" + ("" if conv else ", not converged"),
-                **style,
             )
     for p in points:
         ax.annotate(
@@ -107,7 +112,7 @@ def controlled_branch_figure(
     return fig
 
 
-def add_controlled_points(section: Any, path: str | Path, branch_files: list = ()) -> None:
+def add_controlled_points(section: Any, path: str | Path, branch_files: Sequence[Any] = ()) -> None:
     """Into a report section: the table of a recording's controlled points and the figure over
     the frequency branches among ``branch_files`` (:class:`rigtools.report.branches.BranchFile`)."""
     points = controlled_points(path)
