@@ -183,3 +183,17 @@ def test_report_draws_points_over_stable_and_unstable_branches(tmp_path):
         [64.0, 65.0],
     ]
     assert len(lines) == 5  # three segments, the converged and the not converged points
+
+
+def test_amplitude_limit_is_a_lock_loss(tmp_path):
+    """An amplitude limit below the response (0.05 mm; the 0.2 N resonance is 0.19 mm): the point
+    is given up as soon as the detector sees it pass, marked not converged, the line naming the
+    limit; the run goes on (on_lock_loss="continue") and finishes with the drive at zero."""
+    out = tmp_path / "amp.h5"
+    run = rigtools.phase_locked_loop("0.2 N", out, gap="0.5 mm", backend="sim", max_amplitude="0.05 mm")
+    assert run.status == "finished"
+    x = run.points[0].extra
+    assert not x["converged"] and "above the limit 0.05 mm" in x["lock_message"]
+    assert x["iterations"] < 100  # given up early, not after max_periods
+    with h5py.File(out, "r") as f:
+        assert f["points/0000/drive"][-1] == 0.0
