@@ -250,6 +250,11 @@ class PllRun:
         converged = bool(
             locked and not message and rms <= p.lock_tolerance and abs(f1 / force - 1) <= p.force_tolerance
         )
+        if not converged and not message:
+            message = (
+                f"lock not kept while recording: phase error RMS {rms:.3g} deg (at most "
+                f"{p.lock_tolerance:g}), force {f1:.4g} N (target {force:g} N)"
+            )
         if message:
             tail = "the run stops" if p.on_lock_loss == "stop" else "going on"
             message = f"point {index}: {message}; marked not converged, {tail}"
