@@ -27,6 +27,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "rigtools
 from test_pll import BACKBONE, STEPPED_5N
 
 
+#: the gains and pace that hold deepest past the fold (rig acquire pll --kp 0.06 --ki 0.03 --phase-rate "2 deg/s")
+FOLD_GAINS = {"kp": 0.06, "ki": 0.03, "phase_rate": 2.0, "max_periods": 2500}
+
+
 def verdict(ok: bool) -> str:
     return "met" if ok else "NOT met"
 
@@ -74,6 +78,38 @@ def main() -> None:
             f"{x['phase_deg']:.2f} deg, converged {x['converged']}: {verdict(ok)}"
         )
     print(f"  (stepped phase CPU {time.process_time() - t:.1f} s)")
+
+    # the same points approached from the fold's side, with the gains that hold deepest there
+    # (a larger proportional gain), the target moving slowly: the deepest phase held
+    t = time.process_time()
+    refs = {
+        **STEPPED_5N,
+        -150.0: (64.3370283523372, 0.0003497245381350436),
+        -160.0: (63.35614073175465, 0.0003623301621075627),
+    }
+    targets = [-130.0, -146.0, -150.0, -152.0, -156.0, -160.0, -165.0]
+    run = rigtools.phase_locked_loop(
+        "5 N",
+        folder / "fold.h5",
+        phases=",".join(f"{p:g} deg" for p in targets),
+        gap="0.5 mm",
+        fe_start="64.3 Hz",
+        backend="sim",
+        **FOLD_GAINS,
+    )
+    deepest = None
+    for point, phase in zip(run.points, targets, strict=True):
+        x = point.extra
+        text = f"5 N from the fold side, {phase:g} deg: fe {x['fe_hz']:.4f} Hz, A {x['amplitude_m'] * 1e3:.4f} mm, phase {x['phase_deg']:.2f} deg, converged {x['converged']}"
+        if phase in refs:
+            fe, amp = refs[phase]
+            e_f, e_a = x["fe_hz"] / fe - 1, x["amplitude_m"] / amp - 1
+            ok = x["converged"] and abs(e_f) <= 1e-3 and abs(e_a) <= 0.02
+            text += f" ({e_f * 100:+.3f} % in fe, {e_a * 100:+.2f} % in A): {verdict(ok)}"
+        print(text)
+        if x["converged"] and (deepest is None or x["phase_deg"] < deepest):
+            deepest = x["phase_deg"]
+    print(f"deepest phase held at 5 N: {deepest} deg  (CPU {time.process_time() - t:.1f} s)")
 
 
 if __name__ == "__main__":
