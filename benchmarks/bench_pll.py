@@ -26,8 +26,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "rigtools
 # the one copy of the model's numbers
 from test_pll import BACKBONE, STEPPED_5N
 
-#: the gains and pace that hold deepest past the fold (rig acquire pll --kp 0.06 --ki 0.03 --phase-rate "2 deg/s")
-FOLD_GAINS = {"kp": 0.06, "ki": 0.03, "phase_rate": 2.0, "max_periods": 2500}
+#: the gains and pace that hold deepest past the fold (rig acquire pll --kp 0.08 --ki 0.03 --phase-rate "2 deg/s")
+FOLD_GAINS = {"kp": 0.08, "ki": 0.03, "phase_rate": 2.0, "max_periods": 2500}
 
 
 def verdict(ok: bool) -> str:
