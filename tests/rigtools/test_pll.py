@@ -97,8 +97,8 @@ def test_backbone_beside_the_model(tmp_path):
 @pytest.mark.xfail(
     strict=True,
     reason="#33 must-show not met from the default start: at 5 N the loop (default gains, start at the "
-    "nominal model's 53.2 Hz) follows the stable impacting branch to its first lag maximum (-149.1 deg "
-    "at 54.46 Hz, A 0.856 mm, converged), cannot reach -152 deg there, is pushed through the phase "
+    "nominal model's 53.2 Hz) follows the stable impacting branch to its first lag maximum (the model's "
+    "-149.9 deg at 54.7 Hz; a -150 deg target settles there at -149.1 deg), cannot reach -152 deg, is pushed through the phase "
     "valley (-115 deg at 61 Hz) to the fold (64.6 Hz, -140 deg) and falls off the impacting sheet onto "
     "the non-impacting orbit (-177 deg): no lock in 600 periods, fe off by several Hz. From the fold's "
     "side (--fe-start 64.3 Hz, kp 0.08, ki 0.03, 2 deg/s; benchmarks/bench_pll.py) -150 deg is held "
