@@ -28,6 +28,7 @@ _API: dict[str, tuple[str, str]] = {
     "frf_test": ("rigtools.experiments", "frf_test"),
     "tap_test": ("rigtools.experiments", "tap_test"),
     "control_based_continuation": ("rigtools.procedures.cbc", "control_based_continuation"),
+    "phase_locked_loop": ("rigtools.phase_locked", "phase_locked_loop"),
     "RunResult": ("rigtools.procedures.result", "RunResult"),
     "PointResult": ("rigtools.procedures.result", "PointResult"),
     "open_recording": ("rigtools.recording", "open_recording"),

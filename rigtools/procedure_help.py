@@ -9,6 +9,7 @@ from rigtools.errors import (
     EXIT_USAGE,
     exit_status_help,
 )
+from rigtools.pll_help import PLL_EPILOG, PLL_HELP, PLL_OPTIONS
 
 HELP = "lab procedures on the rig: force-controlled dwell, stepped sine, study, FRF test, tap test"
 BACKENDS = """\
@@ -78,6 +79,7 @@ PROCEDURE_HELP = {
     "frf": "burst random or periodic chirp FRF test, recorded raw",
     "tap": "impact-hammer (tap) test of a blade, one frame per hit, recorded raw",
     "cbc": "control-based continuation at one frequency: F1(A) through the folds, unstable orbits too",
+    "pll": PLL_HELP,
 }
 _SINE = FORCE_CONTROLLED
 # The options of each procedure: (procedures, flags, argparse keywords); "%(default)s" shows defaults.
@@ -213,7 +215,7 @@ PROCEDURE_OPTIONS: tuple[tuple[tuple[str, ...], tuple[str, ...], dict], ...] = (
         ("--f-max",),
         {"default": "2 kHz", "help": 'highest frequency identified, default "%(default)s"'},
     ),
-)
+) + PLL_OPTIONS
 
 EPILOGS = {
     "cbc": """examples:
@@ -286,4 +288,5 @@ hit; the simulated rig hits a half-sine of --pulse (default "0.5 ms") and --hit-
 "20 N") peak every frame + 0.5 s. Prints the modes identified from H1 (response / hammer) over the
 accepted hits (rectangular window per frame) up to --f-max.
 """,
+    "pll": PLL_EPILOG,
 }

@@ -35,6 +35,11 @@ from typing import Any
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
+from rigtools.config import load_rig
+from rigtools.errors import UserError
+from rigtools.options import gap as gap_text
+from rigtools.options import quantity, value_list
+from rigtools.procedures import rig
 from rigtools.procedures.base import ProcedureResult, ProgressEvent, Status, validate
 from rigtools.procedures.cbc_iteration import (
     FeedforwardSecant,
@@ -217,7 +222,7 @@ class ControlBasedContinuation(SineProcedure):
     """``rig acquire cbc``: see the module docstring. Each point is written as it converges
     (or gives up); :attr:`points` holds the :class:`CBCPoint` objects."""
 
-    name = "cbc"
+    name = "control-based continuation"
 
     def __init__(self, cfg, params: CBCParameters | dict, out: str | Path, **kwargs: Any) -> None:
         # the inner loop: the buffered one by default; a per-sample loop (real-time hook) fits
@@ -234,17 +239,13 @@ class ControlBasedContinuation(SineProcedure):
         return self.params.fe
 
     def parameters_doc(self) -> dict:
-        return self.params.model_dump()
+        return {**self.params.model_dump(), "kind": "cbc"}
 
     def startup(self) -> None:
-        from rigtools.procedures import rig
-
         if self.device is None:
             self.device = rig.open_device(self.cfg, self.backend, **self._device_opts)
         rate = rig.configure(self.device, self.cfg)
         if self.params.harmonics * self.params.fe >= 0.45 * rate:
-            from rigtools.errors import UserError
-
             raise UserError(
                 f"fe = {self.params.fe:g} Hz: harmonic {self.params.harmonics} is above 0.45 x the sample rate"
             )
@@ -376,8 +377,6 @@ class ControlBasedContinuation(SineProcedure):
 
 def from_options(cfg: Any, out: str | Path, o: Any, **run_options: Any) -> ControlBasedContinuation:
     """``rig acquire cbc``: the procedure from the command's options (quantities as text)."""
-    from rigtools.options import gap as gap_text
-    from rigtools.options import quantity, value_list
 
     params: dict[str, Any] = {
         "fe": quantity(o["fe"], "frequency", "--fe"),
@@ -475,9 +474,6 @@ def control_based_continuation(
     >>> p["converged"], round(p["force_fundamental_n"], 1), p["drive_harmonics_ratio"] < 0.01
     (True, 4.9, True)
     """
-    from rigtools.config import load_rig
-    from rigtools.errors import UserError
-    from rigtools.options import quantity, value_list
 
     if backend not in ("nidaq", "sim"):
         raise UserError(f"backend = {backend!r}: name backend='nidaq' or backend='sim'")
@@ -501,7 +497,6 @@ def control_based_continuation(
 
 def parse_gains(gains: Any) -> dict[str, float]:
     """``{"kp": ..., "kd": ...}`` of ``"KP[,KD]"`` (V/m, V s/m), a number or a pair; ``{}`` for ``None``."""
-    from rigtools.errors import UserError
 
     if gains is None:
         return {}

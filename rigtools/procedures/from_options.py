@@ -18,8 +18,10 @@ from rigtools.analysis.frf import MIN_FRAME_SAMPLES
 from rigtools.errors import UserError
 from rigtools.options import band_option, quantity, value_list
 from rigtools.options import gap as _gap_text
+from rigtools.procedures.pll import PhaseLockedLoop
+from rigtools.procedures.pll_options import pll_document, pll_parameters
 
-PROCEDURES = ("dwell", "sweep", "study", "frf", "tap", "cbc")
+PROCEDURES = ("dwell", "sweep", "study", "frf", "tap", "pll", "cbc")
 TAP_F_MIN_HZ = 5.0
 
 
@@ -167,6 +169,10 @@ def build_procedure(
         return P.RigStudy(
             cfg, _periods(params, o), out, resume=resume, confirm_gap=confirm_gap, **run_options
         )
+    if name == "pll":
+        params = pll_parameters(cfg, o)
+        below_nyquist(params["fe_start"], rate, "--fe-start", o.get("fe_start"))
+        return PhaseLockedLoop(cfg, params, out, **run_options)
     if name == "tap":
         from rigtools.procedures.tap import TapTest
 
@@ -276,6 +282,10 @@ def result_document(name: str, backend: str, proc: Any, result: Any, f_max: str 
             {k: v for k, v in point_document(p, units).items() if k != "channels"} for p in points
         ]
         doc.update(result.summary)
+    elif name == "pll":
+        doc["procedure"] = "pll"
+        doc["points"] = pll_document(proc)
+        doc.update({k: v for k, v in result.summary.items() if k != "points"})
     elif name == "cbc":
         from rigtools.procedures.cbc import json_document
 

@@ -14,6 +14,7 @@ from pydantic_core import PydanticUndefined
 
 from rigtools.procedures.dwell import DwellParameters
 from rigtools.procedures.frf import FrfParameters
+from rigtools.procedures.pll import PllParameters
 from rigtools.procedures.rig_study import StudyParameters
 from rigtools.procedures.sine import ControlParameters
 from rigtools.procedures.sweep import SweepParameters
@@ -32,6 +33,7 @@ PROCEDURES: tuple[tuple[str, type[BaseModel], str, str], ...] = (
     ),
     ("FRF test", FrfParameters, "rigtools.frf_test", "rig acquire frf"),
     ("Tap test", TapParameters, "rigtools.tap_test", "rig acquire tap"),
+    ("Phase-locked loop", PllParameters, "rigtools.phase_locked_loop", "rig acquire pll"),
     ("Force control (the `control` parameter of the sine procedures)", ControlParameters, "", ""),
 )
 

@@ -117,6 +117,8 @@ def summary_tables(doc: dict) -> list[Any]:
                 table.add_row(f"{m['frequency_hz']:.2f}", f"{m['damping_ratio'] * 100:.2f}")
             out.append(table)
         out.append(f"wrote {doc['file']} ({doc['status']})")
+    elif name == "pll":
+        out.extend(pll_table(doc))
     elif name == "frf":
         chk = doc.get("check")
         if chk:
@@ -131,3 +133,27 @@ def summary_tables(doc: dict) -> list[Any]:
             out.append(table)
         out.append(f"wrote {doc['file']} ({doc['status']})")
     return out
+
+
+def pll_table(doc: dict) -> list[Any]:
+    """The points of a phase-locked-loop run (:mod:`rigtools.procedures.pll`) and its end line."""
+    from rich.table import Table
+
+    table = Table(title=f"phase-locked loop ({doc['backend']}, {len(doc['points'])} points)")
+    for col in ("fe Hz", "A mm", "F1 N", "phase deg", "locked", "periods", "drive harm."):
+        table.add_column(col)
+    for p in doc["points"]:
+        table.add_row(
+            f"{p['fe_hz']:.4f}",
+            f"{p['amplitude_m'] * 1e3:.4f}",
+            number(p["force_fundamental_n"]),
+            f"{p['phase_deg']:.2f}",
+            "yes" if p["converged"] else "NO",
+            str(p["iterations"]),
+            f"{p['drive_harmonics_ratio']:.2g}",
+        )
+    lines: list[Any] = [table]
+    if doc.get("stopped"):
+        lines.append(doc["stopped"])
+    lines.append(f"wrote {doc['file']} ({doc['status']})")
+    return lines

@@ -25,6 +25,7 @@ import numpy as np
 from rigtools.analyze import TABLE_HARMONICS, RecordingAnalysis, point_window
 from rigtools.readable import FREQUENCY_TABLE, shown
 from rigtools.report.branches import add_recording_branches, study_axis
+from rigtools.report.controlled_branch import CONTROLLED_PROCEDURES, add_controlled_points
 
 MAX_WAVEFORM_FIGURES = 4  # periodic points drawn as waveforms (first, last and between)
 WAVEFORM_CHANNELS = ("force", "active_shroud_accel", "passive_shroud_accel", "contact_force")
@@ -249,7 +250,9 @@ def add_analysis(report, analysis: RecordingAnalysis, branches=()) -> None:
         _add_operational(sec, p)
     for nf in analysis_figures(analysis):
         sec.figure(nf.figure, nf.caption)
-    if branches:
+    if analysis.procedure in CONTROLLED_PROCEDURES:
+        add_controlled_points(sec, analysis.path, list(branches))
+    elif branches:
         add_recording_branches(sec, analysis, list(branches))
 
 

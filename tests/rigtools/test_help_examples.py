@@ -166,7 +166,7 @@ def test_every_command_shows_examples():
     commands = {line[0] for line in EXAMPLES}
     assert commands == set(ORDER) and len(EXAMPLES) >= 50
     by_procedure = {line[1] for line in EXAMPLES if line[0] == "acquire"}
-    assert by_procedure == {"dwell", "sweep", "study", "frf", "tap", "cbc"}
+    assert by_procedure == {"dwell", "sweep", "study", "frf", "tap", "pll", "cbc"}
 
 
 def _monitor(args: list[str], folder: Path) -> tuple[int, str, str]:

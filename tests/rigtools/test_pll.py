@@ -1,0 +1,201 @@
+"""The phase-locked loop on the simulated rig (gap 0.5 mm) against the model (issue 33's must-show).
+
+The references are the model's, computed independently of the loop: the linear phase resonance in
+closed form from the modal model (:func:`rigtools.sim.phase_points.linear_phase_resonance`), and
+the orbits at a set phase on the toolkit's own continuation of the simulated rig (test article plus
+shaker, force fundamental held): ``REFERENCE`` below is what ``benchmarks/pll_model_reference.py``
+prints (two minutes of continuation; tests/rigtools/test_pll_model.py holds the phase-point
+machinery against the closed form on the linear branch).
+"""
+
+from __future__ import annotations
+
+import json
+
+import h5py
+import pytest
+from cli_helpers import run_cli
+
+import rigtools
+from rigtools.branches import simulated_rig_model
+from rigtools.sim.phase_points import linear_phase_resonance
+
+# benchmarks/pll_model_reference.py (fe Hz, A m: amplitude of the active shroud's fundamental)
+BACKBONE = {  # -90 deg, F1 held
+    1.0: (52.48074949359244, 0.0007801395698644563),
+    2.0: (52.65784901654468, 0.0012704035202396342),
+    5.0: (52.74371566332817, 0.0026685300179564004),
+    10.0: (52.76649490809312, 0.004978371185153974),
+}
+STEPPED_5N = {  # F1 = 5 N, past the fold (64.586 Hz): orbits unstable at a fixed frequency
+    -152.0: (64.20972816654283, 0.00035193846527641624),
+    -156.0: (63.85983813487441, 0.00035661792905644396),
+    -165.0: (62.4281688671882, 0.00037292044061462074),
+}
+
+
+@pytest.fixture(scope="module")
+def linear_resonance() -> float:
+    _, system, _ = simulated_rig_model(None)
+    return linear_phase_resonance(system)
+
+
+def test_must_show_linear_lock(tmp_path, linear_resonance):
+    """``rig acquire pll --backend sim --gap "0.5 mm" --force "0.2 N" --phase "-90 deg"``: locks
+    within 0.1 % of the model's linear phase resonance (52.0128 Hz; measured 52.0119, -0.002 %)
+    in at most 150 periods (measured 94, from the nominal model's 53.21 Hz, the default start),
+    the phase error's RMS over the recorded periods at most 1 deg; the --json lists the
+    ControlledPoint fields; rig check passes the recording and its point carries them; rig info
+    and rig report read it (the report's controlled-points table)."""
+    out = tmp_path / "pll.h5"
+    argv = ["acquire", "pll", "--backend", "sim", "--gap", "0.5 mm", "--force", "0.2 N"]
+    code, stdout, err = run_cli([*argv, "--phase", "-90 deg", "--out", out, "--json"])
+    assert code == 0, err
+    doc = json.loads(stdout)
+    assert doc["procedure"] == "pll" and doc["status"] == "finished"
+    (p,) = doc["points"]
+    assert set(p) == {
+        "fe_hz",
+        "amplitude_m",
+        "force_fundamental_n",
+        "phase_deg",
+        "converged",
+        "iterations",
+        "drive_harmonics_ratio",
+    }
+    assert p["converged"]
+    assert abs(p["fe_hz"] / linear_resonance - 1) <= 1e-3  # the must-show's 0.1 %
+    assert p["iterations"] <= 150  # the must-show's periods to lock
+    assert abs(p["force_fundamental_n"] / 0.2 - 1) <= 0.01  # the lock's force tolerance
+    assert p["drive_harmonics_ratio"] < 1e-3  # a phase-continuous sine
+    with h5py.File(out, "r") as f:
+        attrs = f["points/0000"].attrs
+        assert float(attrs["phase_error_rms"]) <= 1.0  # the must-show's phase RMS, deg
+        assert abs(float(attrs["fe_hz"]) - p["fe_hz"]) < 1e-9 and str(attrs["procedure_kind"]) == "pll"
+    code, _, err = run_cli(["check", out])
+    assert code == 0, err
+    code, info, err = run_cli(["info", out])
+    assert code == 0 and "1 point(s)" in info, err
+    code, _, err = run_cli(["report", out, "--out", tmp_path / "report"])
+    assert code == 0, err
+    assert "Controlled points" in (tmp_path / "report" / "report.html").read_text()
+
+
+def test_backbone_beside_the_model(tmp_path):
+    """Backbone at F1 = 1, 2, 5, 10 N (-90 deg, stepped force, one run): each point within 0.2 %
+    in fe and 3 % in A of the model's -90 deg orbit (the must-show's tolerances; measured within
+    0.005 % and 0.4 %)."""
+    run = rigtools.phase_locked_loop("1 N,2 N,5 N,10 N", tmp_path / "bb.h5", gap="0.5 mm", backend="sim")
+    assert run.status == "finished"
+    for point, (force, (fe, amp)) in zip(run.points, BACKBONE.items(), strict=True):
+        x = point.extra
+        assert x["converged"], (force, x)
+        assert abs(x["fe_hz"] / fe - 1) <= 2e-3, (force, x["fe_hz"], fe)
+        assert abs(x["amplitude_m"] / amp - 1) <= 0.03, (force, x["amplitude_m"], amp)
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="#33 must-show not met from the default start: at 5 N the loop (default gains, start at the "
+    "nominal model's 53.2 Hz) follows the stable impacting branch to its first lag maximum (the model's "
+    "-149.9 deg at 54.7 Hz; a -150 deg target settles there at -149.1 deg), cannot reach -152 deg, is pushed through the phase "
+    "valley (-115 deg at 61 Hz) to the fold (64.6 Hz, -140 deg) and falls off the impacting sheet onto "
+    "the non-impacting orbit (-177 deg): no lock in 600 periods, fe off by several Hz. From the fold's "
+    "side (--fe-start 64.3 Hz, kp 0.08, ki 0.03, 2 deg/s; benchmarks/bench_pll.py) -150 deg is held "
+    "(64.363 Hz, +0.04 %; A -0.01 %; |mu| 1.016 at a fixed drive) and -152 deg comes within -0.07 % "
+    "in fe and +0.35 % in A but its phase RMS is 1.18 deg (over 1); -156 and -165 deg are lost",
+)
+def test_stepped_phase_past_the_fold(tmp_path):
+    """``--force "5 N" --phase "-152 deg"``: within 0.1 % in fe and 2 % in A of the model's orbit."""
+    run = rigtools.phase_locked_loop(
+        "5 N", tmp_path / "fr.h5", phases="-152 deg", gap="0.5 mm", backend="sim"
+    )
+    x = run.points[0].extra
+    fe, amp = STEPPED_5N[-152.0]
+    assert x["converged"]
+    assert abs(x["fe_hz"] / fe - 1) <= 1e-3
+    assert abs(x["amplitude_m"] / amp - 1) <= 0.02
+
+
+def test_lock_loss_stops_with_the_drive_at_zero(tmp_path):
+    """A point that cannot lock in its periods (10) is written marked not converged with one line
+    saying why; on_lock_loss="stop" ends the run there, finished, the later point never started,
+    and the drive as written ends at exactly 0 V (ramped down)."""
+    out = tmp_path / "loss.h5"
+    run = rigtools.phase_locked_loop(
+        "0.2 N,0.3 N", out, gap="0.5 mm", backend="sim", max_periods=10, on_lock_loss="stop"
+    )
+    assert run.status == "finished" and len(run.points) == 1
+    x = run.points[0].extra
+    assert not x["converged"]
+    assert "no lock within 10 periods" in x["lock_message"] and "the run stops" in x["lock_message"]
+    assert "\n" not in x["lock_message"]
+    with h5py.File(out, "r") as f:
+        point = f["points/0000"]
+        assert not bool(point.attrs["converged"])
+        drive = point["drive"][...]
+    assert drive[-1] == 0.0 and abs(drive[:-1]).max() > 0.01  # the drive ran, then ramped to 0 V
+
+
+def test_phase_needs_a_unit(tmp_path):
+    """A phase without its unit is refused in one line (degrees or radians would be a guess)."""
+    code, _, err = run_cli(
+        ["acquire", "pll", "--backend", "sim", "--force", "1 N", "--phase", "-90", "--out", tmp_path / "x.h5"]
+    )
+    assert code == 2 and "give an angle with its unit" in err and len(err.strip().splitlines()) == 1
+
+
+def test_report_draws_points_over_stable_and_unstable_branches(tmp_path):
+    """The report's figure (rigtools.report.controlled_branch): a branch stable, then unstable,
+    then stable is drawn as three segments (solid, dashed, solid) sharing their end points, the
+    amplitude its acceleration fundamental over (2 pi fe)^2; converged and not converged points as
+    two marker sets."""
+    import numpy as np
+
+    from rigtools.branches import StoredBranch
+    from rigtools.procedures.controlled_point import ControlledPoint
+    from rigtools.report.controlled_branch import branch_amplitude, controlled_branch_figure
+
+    fe = np.linspace(60.0, 65.0, 6)
+    accel = np.zeros((6, 10))
+    accel[:, 0] = 2e-4 * (2 * np.pi * fe) ** 2  # 0.2 mm everywhere
+    b = StoredBranch(
+        "fe",
+        1,
+        "complete",
+        "",
+        fe,
+        np.array([1, 1, 0, 0, 1, 1], bool),
+        np.zeros((6, 1)),
+        [()] * 6,
+        {"accel_harmonics_active": accel},
+    )
+    assert np.allclose(branch_amplitude(b), 2e-4)
+    pts = [
+        ControlledPoint(62.0, 2e-4, 5.0, -152.0, True, 40, 1e-4),
+        ControlledPoint(63.0, 2e-4, 5.0, -160.0, False, 600, 0),
+    ]
+    ax = controlled_branch_figure(pts, [b]).axes[0]
+    lines = ax.get_lines()
+    styles = [ln.get_linestyle() for ln in lines[:3]]
+    assert styles == ["-", "--", "-"]
+    assert [list(ln.get_xdata()) for ln in lines[:3]] == [
+        [60.0, 61.0, 62.0],
+        [62.0, 63.0, 64.0],
+        [64.0, 65.0],
+    ]
+    assert len(lines) == 5  # three segments, the converged and the not converged points
+
+
+def test_amplitude_limit_is_a_lock_loss(tmp_path):
+    """An amplitude limit below the response (0.05 mm; the 0.2 N resonance is 0.19 mm): the point
+    is given up as soon as the detector sees it pass, marked not converged, the line naming the
+    limit; the run goes on (on_lock_loss="continue") and finishes with the drive at zero."""
+    out = tmp_path / "amp.h5"
+    run = rigtools.phase_locked_loop("0.2 N", out, gap="0.5 mm", backend="sim", max_amplitude="0.05 mm")
+    assert run.status == "finished"
+    x = run.points[0].extra
+    assert not x["converged"] and "above the limit 0.05 mm" in x["lock_message"]
+    assert x["iterations"] < 100  # given up early, not after max_periods
+    with h5py.File(out, "r") as f:
+        assert f["points/0000/drive"][-1] == 0.0
