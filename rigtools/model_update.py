@@ -3,7 +3,7 @@
 * :func:`identify_recording`: natural frequencies and damping ratios of every broadband point of
   a recording (an FRF test, ``rig acquire frf``; a tap/hammer test), per blade, from the
   accelerations over the force: the very FRF and modes ``rig analyze`` reports
-  (:func:`rigtools.analyze.analyze_broadband`, :func:`rigtools.analyze.analyze_tap_test`).
+  (:func:`rigtools.recording_analysis.broadband.analyze_broadband`, :func:`rigtools.recording_analysis.tap_test.analyze_tap_test`).
 * :func:`mode_targets`: those modes paired with the model's flexural modes (blade, order), the
   same mode seen by several recordings merged (mean).
 * :func:`fit_linear`: :func:`rigtools.sim.parameter_fit.update_model` with the user's errors as one line.
@@ -133,7 +133,8 @@ def identify_recording(
     UserError
         Unreadable file, or no point holding a broadband test (a dwell, a sweep).
     """
-    from rigtools.analyze import FRFOptions, analyze_broadband
+    from rigtools.recording_analysis.broadband import analyze_broadband
+    from rigtools.recording_analysis.frf_estimate import FRFOptions
 
     name = Path(path).name
     with _open(path) as rec:
@@ -142,7 +143,7 @@ def identify_recording(
         sets: list[IdentifiedSet] = []
         band = None
         usable = 0
-        from rigtools.analyze import analyze_tap_test, is_hit_per_point_tap_test
+        from rigtools.recording_analysis.tap_test import analyze_tap_test, is_hit_per_point_tap_test
 
         tap_test = is_hit_per_point_tap_test(procedure, rec.points)
         if tap_test:  # one frame per accepted hit, each its own point

@@ -1,7 +1,7 @@
 """The demo's steps, each a small function returning plain data (dicts of floats and arrays).
 
 Every step is replaceable on its own (the coordinator swaps in ``rigtools.recording_comparison`` /
-``rigtools.analyze`` when they land): the modal check (:func:`modal_step`), the linear harmonic
+``rigtools.recording_analysis`` when they land): the modal check (:func:`modal_step`), the linear harmonic
 response (:func:`harmonic_step`), the dwell (:func:`dwell_step`), the studies on the simulated rig
 (:func:`rig_study_step`) and on the FEM (:func:`model_study_step`), model updating
 (:func:`update_step`). Lab-measurable quantities of one record come from :func:`lab_quantities`
@@ -198,9 +198,10 @@ def run_quantities(run) -> dict:
 def modal_step(cfg, out_dir: Path, settings: DemoSettings) -> dict:
     """FEM and AM natural frequencies (``rig modal``) and the simulated rig's, identified from an
     FRF test (periodic chirp, gap wide open) on the active shroud: the paper's Tables 2-3, Fig 6."""
-    from rigtools.analyze import FRFOptions, analyze_broadband
     from rigtools.procedures.frf import FrfTest
     from rigtools.recording import open_recording
+    from rigtools.recording_analysis.broadband import analyze_broadband
+    from rigtools.recording_analysis.frf_estimate import FRFOptions
     from rigtools.sim.natural_frequencies import blade_mode_table
 
     res = blade_mode_table(cfg.to_params(), 6)

@@ -332,7 +332,7 @@ def _same_model(rig_a: str, rig_b: str) -> bool:
 
 def why_not(bf: BranchFile, analysis, rig: str) -> str:
     """Why the branches of ``bf`` are not drawn over the recording of ``analysis``, or ``""``."""
-    from rigtools.analyze import is_foreign
+    from rigtools.recording_analysis.dispatch import is_foreign
 
     name = bf.path.name
     if is_foreign({"procedure": analysis.procedure}):
