@@ -93,14 +93,6 @@ def analyze_operational(
     notes += oma_notes
     if fe is None:
         notes.append("give --fe to read the harmonics of an excitation frequency")
-    return PointAnalysis(
-        point.index,
-        "operational",
-        dict(point.params),
-        {c: point.channels[c].units for c in names},
-        rate,
-        (start, n),
-        spectra=spectra,
-        notes=notes,
-        oma=oma,
+    return PointAnalysis.of_point(
+        point, "operational", names, (start, n), spectra=spectra, notes=notes, oma=oma
     )

@@ -56,13 +56,4 @@ def analyze_periodic(point, *, channels: Sequence[str] | None = None, k_max: int
         )
         notes.append(f"impacts and peak levels from the last {m} of {n} samples; harmonics over all")
     notes.append(NO_MODES_PERIODIC)
-    return PointAnalysis(
-        point.index,
-        "periodic",
-        dict(point.params),
-        {c: point.channels[c].units for c in names},
-        rate,
-        (start, n),
-        dwell=dwell,
-        notes=notes,
-    )
+    return PointAnalysis.of_point(point, "periodic", names, (start, n), dwell=dwell, notes=notes)

@@ -4,6 +4,7 @@ the FRF kinds it reports."""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -76,6 +77,15 @@ class PointAnalysis:
     notes: list[str] = field(default_factory=list)
     spectra: dict[str, Any] | None = None
     oma: Any = None
+
+    @classmethod
+    def of_point(
+        cls, point, kind: str, names: Sequence[str], window: tuple[int, int], **parts: Any
+    ) -> PointAnalysis:
+        """The analysis of a recorded point (its index, parameters, sample rate and the units of
+        ``names``) holding ``parts`` (``dwell=``, ``spectra=``, ``notes=``, ...)."""
+        units = {c: point.channels[c].units for c in names}
+        return cls(point.index, kind, dict(point.params), units, float(point.sample_rate), window, **parts)
 
     @property
     def fe(self) -> float | None:
