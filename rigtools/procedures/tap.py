@@ -27,7 +27,7 @@ each accepted hit); on the simulated rig a :class:`rigtools.drivers.simulated.Si
 pulse of ``pulse`` seconds and ``hit_force`` peak at ``position`` every
 ``frame + 0.5 s``.
 
-:func:`tap_analysis` is H1 of the response over the hammer force over the accepted frames
+:func:`analyze_tap_recording` is H1 of the response over the hammer force over the accepted frames
 (rectangular window per frame: a frame holds the whole hit and the decay) and
 :func:`rigtools.analysis.modal_id.identify` on it: what ``rig analyze`` reports of the recording
 (:func:`rigtools.recording_analysis.tap_test.analyze_tap_test`).
@@ -414,7 +414,7 @@ def undecayed(response: np.ndarray, pretrigger: int = 0) -> str:
     return ""
 
 
-def tap_analysis(
+def analyze_tap_recording(
     path,
     response: str | None = None,
     *,

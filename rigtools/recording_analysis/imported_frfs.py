@@ -10,7 +10,7 @@ from typing import Any
 
 import numpy as np
 
-from rigtools.analysis.frf import FRFEstimate
+from rigtools.analysis.frf import FRFEstimate, FRFKind
 from rigtools.analysis.modal_id import identify
 from rigtools.analysis.point import FRFTestAnalysis
 from rigtools.errors import UserError
@@ -51,34 +51,11 @@ def analyze_frf_set(
     ).as_kind(frf_kind(fs.kind), kind_out)
     band = (options or FRFOptions()).band
     responses = [fs.responses[i] for i in rows]
-    modes = {}
     together = method == "lscf" and len(responses) > 1
     try:
-        if together:
-            # one reference, several responses: one LSCF over all of them (common poles, the
-            # shapes checked between orders); each response keeps its own residues
-            both = identify(
-                f,
-                est.h1,
-                kind=kind_out,
-                coherence=est.coherence if with_coherence else None,
-                f_min=band[0] if band else None,
-                f_max=band[1] if band else None,
-                method=method,
-            )
-            for i, r in enumerate(responses):
-                modes[r] = replace(both, modes=[replace(m, residue=m.shape[i]) for m in both.modes])
-        else:
-            for i, r in enumerate(responses):
-                modes[r] = identify(
-                    f,
-                    est.h1[i],
-                    kind=kind_out,
-                    coherence=est.coherence[i] if with_coherence else None,
-                    f_min=band[0] if band else None,
-                    f_max=band[1] if band else None,
-                    method=method,
-                )
+        modes = _identified(
+            f, est, responses, kind_out, band, method, together=together, coherent=with_coherence
+        )
     except ValueError as exc:
         raise UserError(f"{path}: {exc}") from None
     first = next(iter(modes.values()), None)
@@ -114,3 +91,44 @@ def analyze_frf_set(
     out = RecordingAnalysis(str(path), "frf set", "frf set", "em", "complete", kind_out, [point])
     out.notes.append("FRF set: not compared with this rig's FEM")
     return out
+
+
+def _identified(
+    f: np.ndarray,
+    est: FRFEstimate,
+    responses: list[str],
+    kind_out: FRFKind,
+    band: tuple[float, float] | None,
+    method: str,
+    *,
+    together: bool,
+    coherent: bool,
+) -> dict:
+    """``{response: ModalIdentification}`` of an FRF set's FRFs: ``together`` (one reference,
+    several responses), one LSCF over all of them (common poles, the shapes checked between orders; each response keeps its own
+    residues), else one identification per FRF."""
+    modes = {}
+    if together:
+        both = identify(
+            f,
+            est.h1,
+            kind=kind_out,
+            coherence=est.coherence if coherent else None,
+            f_min=band[0] if band else None,
+            f_max=band[1] if band else None,
+            method=method,
+        )
+        for i, r in enumerate(responses):
+            modes[r] = replace(both, modes=[replace(m, residue=m.shape[i]) for m in both.modes])
+    else:
+        for i, r in enumerate(responses):
+            modes[r] = identify(
+                f,
+                est.h1[i],
+                kind=kind_out,
+                coherence=est.coherence[i] if coherent else None,
+                f_min=band[0] if band else None,
+                f_max=band[1] if band else None,
+                method=method,
+            )
+    return modes

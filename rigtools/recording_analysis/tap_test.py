@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from rigtools.analysis.frf import FRFMethod
+from rigtools.analysis.frf import FRFKind, FRFMethod
 from rigtools.analysis.point import analyze_frf_test
 from rigtools.errors import UserError
 from rigtools.recording_analysis.results import PointAnalysis, frf_kind, frf_kind_of_units
@@ -55,29 +55,7 @@ def analyze_tap_test(
             f"a tap test needs at least two accepted hits to average; this one has {len(accepted)}"
         )
     first = accepted[0]
-    response = (
-        response
-        or experiment.get("response")
-        or next(
-            (
-                c
-                for c in ("passive_shroud_accel", "active_shroud_accel")
-                if c in first.channels and c.startswith(str(first.params.get("blade", "")))
-            ),
-            None,
-        )
-    )
-    if response is None or response not in first.channels:
-        raise UserError(
-            f"tap test: no response channel {response or ''} beside {hammer} "
-            f"(channels: {', '.join(first.channels)})"
-        )
-    measured = frf_kind_of_units(first.channels[response].units)
-    if measured is None:
-        raise UserError(
-            f"tap test: the response {response} is not an acceleration, velocity or displacement "
-            f"({first.channels[response].units})"
-        )
+    response, measured = _tap_response(first, experiment, response, hammer)
     if first.sample_rate is None:
         raise UserError(f"tap test: point {first.index} has channels at different sample rates")
     rate = float(first.sample_rate)
@@ -137,3 +115,32 @@ def analyze_tap_test(
         excitation="impact",
         notes=notes,
     )
+
+
+def _tap_response(first, experiment: dict, response: str | None, hammer: str) -> tuple[str, FRFKind]:
+    """The response of a tap test (given, else the recording's ``response``, else the hit blade's
+    shroud accelerometer) and the FRF kind it measures; one line when there is none."""
+    response = (
+        response
+        or experiment.get("response")
+        or next(
+            (
+                c
+                for c in ("passive_shroud_accel", "active_shroud_accel")
+                if c in first.channels and c.startswith(str(first.params.get("blade", "")))
+            ),
+            None,
+        )
+    )
+    if response is None or response not in first.channels:
+        raise UserError(
+            f"tap test: no response channel {response or ''} beside {hammer} "
+            f"(channels: {', '.join(first.channels)})"
+        )
+    measured = frf_kind_of_units(first.channels[response].units)
+    if measured is None:
+        raise UserError(
+            f"tap test: the response {response} is not an acceleration, velocity or displacement "
+            f"({first.channels[response].units})"
+        )
+    return response, measured
