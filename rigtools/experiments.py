@@ -105,7 +105,7 @@ def _front_door(function: _Function) -> _Function:
     signature = inspect.signature(function)
     *own, var = signature.parameters.values()
     function.__signature__ = signature.replace(parameters=[*own, *SHARED_KEYWORDS, var])  # type: ignore[attr-defined]
-    lines = []
+    lines: list[str] = []
     for line in (function.__doc__ or "").splitlines():
         key = line.strip()[2:-2] if line.strip().startswith("%(") and line.strip().endswith(")s") else None
         if key in _DOCS:

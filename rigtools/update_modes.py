@@ -188,7 +188,7 @@ def _tap_test_sets(
 
 def _broadband_point_sets(
     name: str, point, procedure: str, f_min: float | None, f_max: float | None, method: str
-) -> tuple[list[IdentifiedSet], tuple | None] | None:
+) -> tuple[list[IdentifiedSet], tuple[float, float] | None] | None:
     """``(sets, band)`` of the modes of a point holding a broadband test (its frames, averaged
     window and a force; band None when not known), None for any other point."""
     prm = point.params
@@ -212,14 +212,14 @@ def _broadband_point_sets(
     hi = f_max if f_max is not None else prm.get("band_high")
     lo = None if lo is None else float(lo)
     hi = None if hi is None else min(float(hi), 0.45 * rate)
-    band = (lo, hi) if lo is not None and hi is not None else None
+    band: tuple[float, float] | None = (lo, hi) if lo is not None and hi is not None else None
     # the recording's one FRF estimate, as rig analyze reports it
     result = analyze_broadband(
         point,
         procedure,
         method=method,
         responses=responses,
-        options=FRFOptions(band=(lo, hi)) if band is not None else None,
+        options=FRFOptions(band=band) if band is not None else None,
     ).frf
     return [_identified_set(name, point.index, blade_of[r], r, result.modes[r]) for r in responses], band
 
