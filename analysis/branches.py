@@ -306,7 +306,25 @@ def explain_jumps(curves: Sequence[BranchCurve], measured: Sequence[MeasuredSwee
     event: :func:`rigtools.analysis.branch_exits.branch_exits`), else the end nearest to the jump,
     with its distance from the jump; and the nearest turning point of the direction's kind (a
     sweep up leaves a branch that turns back at an upper turning point, a sweep down at a lower
-    one)."""
+    one).
+
+    Examples
+    --------
+    A branch that folds back at 64 Hz (stable, unstable back to 62.5 Hz, stable again) and a sweep up
+    that jumps between 64 and 65 Hz: it leaves the branch at the fold.
+
+    >>> import numpy as np
+    >>> from rigtools.analysis.branches import BranchCurve, MeasuredSweep, explain_jumps
+    >>> value = np.array([60.0, 61.0, 62.0, 63.0, 64.0, 63.5, 63.0, 62.5, 63.0, 64.0, 65.0])
+    >>> measure = np.array([1.0, 1.3, 1.7, 2.2, 3.0, 2.6, 2.0, 1.2, 0.8, 0.6, 0.5])
+    >>> stable = np.array([1, 1, 1, 1, 1, 0, 0, 0, 1, 1, 1], dtype=bool)
+    >>> labels = [(), (), (), (), ("fold",), (), (), ("fold",), (), (), ()]
+    >>> curve = BranchCurve(value, measure, stable, labels)
+    >>> sweep = MeasuredSweep(value[[0, 1, 2, 3, 4, 10]], measure[[0, 1, 2, 3, 4, 10]], "up", jumps=[(64.0, 65.0)])
+    >>> (jump,) = explain_jumps([curve], [sweep])
+    >>> jump.exit.mechanism, jump.exit.value, jump.followed
+    ('fold', 64.0, True)
+    """
     points = [t for c in curves for t in turning_points(c)]
     out = []
     for m in measured:

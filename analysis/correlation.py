@@ -63,6 +63,15 @@ def natural_frequency_table(
         One row per blade and mode: ``blade``, ``mode``, ``fem_hz``, ``am_hz``, ``em_hz`` and the
         differences ``fem_vs_em_pct``, ``am_vs_em_pct`` (``100 (model - EM) / EM``) when EM is
         given, otherwise ``am_vs_fem_pct`` (``100 (AM - FEM) / FEM``).
+
+    Examples
+    --------
+    >>> from rigtools.analysis.correlation import natural_frequency_table
+    >>> table = natural_frequency_table({"active": [62.0, 380.0]}, em={"active": [60.0, 370.0]}, n_modes=2)
+    >>> print(table[["blade", "mode", "fem_hz", "em_hz", "fem_vs_em_pct"]].round(2).to_string(index=False))
+     blade  mode  fem_hz  em_hz  fem_vs_em_pct
+    active     1    62.0   60.0           3.33
+    active     2   380.0  370.0           2.70
     """
 
     def get(src, blade, i):
@@ -117,6 +126,18 @@ def harmonic_table(
         (``100 (FEM - EM) / EM``), ``ratio`` (FEM / EM). A harmonic that is zero but for round-off
         (:func:`without_round_off`) is shown as 0 and has no ``diff_pct`` nor ``ratio`` (NaN): a
         model's exactly-zero force harmonic is not "-100 %".
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from rigtools.analysis.correlation import harmonic_table
+    >>> em = {"active_shroud_accel": np.array([10.0, 2.0])}
+    >>> fem = {"active_shroud_accel": np.array([11.0, 1.0])}
+    >>> table = harmonic_table(em, fem, 60.0)
+    >>> print(table[["k", "frequency_hz", "em", "fem", "diff_pct"]].to_string(index=False))
+     k  frequency_hz   em  fem  diff_pct
+     1          60.0 10.0 11.0      10.0
+     2         120.0  2.0  1.0     -50.0
     """
     rows = []
     for ch in em:

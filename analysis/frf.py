@@ -140,6 +140,18 @@ def sine_frf(
     Each record is fitted by least squares with ``c + a cos(w t) + b sin(w t)``; the ratio of the
     fitted complex amplitudes ``a - i b`` is exact for any record length (no leakage), provided the
     response has settled.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from rigtools.analysis.frf import sine_frf
+    >>> fs, f0 = 2000.0, 60.0
+    >>> t = np.arange(1000) / fs
+    >>> force = 2.0 * np.sin(2 * np.pi * f0 * t)
+    >>> acceleration = 10.0 * np.sin(2 * np.pi * f0 * t - np.pi / 4)
+    >>> h = sine_frf(force, acceleration, fs, f0)
+    >>> round(abs(h), 6), round(float(np.degrees(np.angle(h))), 3)
+    (5.0, -45.0)
     """
     x = np.asarray(excitation, dtype=float)
     y = np.asarray(response, dtype=float)

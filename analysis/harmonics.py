@@ -79,6 +79,21 @@ def harmonic_amplitudes(x: np.ndarray, sample_rate: float, fe: float, k_max: int
     times per period, the cos/sin columns are orthogonal and the fit equals the DFT at the
     harmonic bins (used then, it is faster); otherwise a QR least-squares solve is used. Both are
     exact for a signal made of these harmonics only.
+
+    Examples
+    --------
+    A record of 1234 samples is not a whole number of periods of 60 Hz; the fit is exact anyway:
+
+    >>> import numpy as np
+    >>> from rigtools.analysis.harmonics import harmonic_amplitudes
+    >>> fs, fe = 1000.0, 60.0
+    >>> t = np.arange(1234) / fs
+    >>> x = 3.0 * np.cos(2 * np.pi * fe * t) + 0.5 * np.sin(2 * np.pi * 3 * fe * t)
+    >>> fit = harmonic_amplitudes(x, fs, fe, k_max=3)
+    >>> fit.k, np.round(fit.amplitude, 6)
+    (array([1, 2, 3]), array([3. , 0. , 0.5]))
+    >>> round(float(fit.phase[2]), 4)  # sin = cos(... - pi/2)
+    -1.5708
     """
     x = np.asarray(x, dtype=float)
     if x.ndim != 1:

@@ -226,6 +226,20 @@ def detect_impacts(
     Returns
     -------
     ImpactAnalysis
+
+    Examples
+    --------
+    A 50 Hz response with one sharp impact per period, 1 s at 10 kHz:
+
+    >>> import numpy as np
+    >>> from rigtools.analysis.impacts import detect_impacts
+    >>> fs, fe = 10000.0, 50.0
+    >>> t = np.arange(int(fs)) / fs
+    >>> acceleration = 100.0 * np.sin(2 * np.pi * fe * t)
+    >>> acceleration[np.arange(50) * 200 + 50] += 2000.0
+    >>> found = detect_impacts(acceleration, fs, fe)
+    >>> found.impacts_per_period, found.periodic, found.period_multiple
+    (1.0, True, 1)
     """
     a = np.asarray(active_acceleration, dtype=float)
     if a.ndim != 1 or a.size < 16:

@@ -124,6 +124,16 @@ def find_jumps(
         unknown everywhere.
     other
         The sweep in the other direction, ``(values, measure)``, for the hysteresis test.
+
+    Examples
+    --------
+    A sweep up whose response falls by 73 % between 62 and 63 Hz as the shrouds stop touching:
+
+    >>> from rigtools.analysis.jumps import find_jumps
+    >>> fe = [60.0, 61.0, 62.0, 63.0, 64.0]
+    >>> amplitude = [1.0, 1.2, 1.5, 0.4, 0.35]
+    >>> find_jumps(fe, amplitude, 0.3, contact=[True, True, True, False, False])
+    [Jump(start=62.0, stop=63.0, change=2.75, kind='down', evidence='contact vanishes')]
     """
     x = [float(v) for v in values]
     y = [float(v) for v in measure]

@@ -28,7 +28,8 @@ import numpy as np
 from scipy import optimize, signal
 
 from rigtools.analysis.frf import FRFKind
-from rigtools.analysis.stabilisation import StabilisationChart
+from rigtools.analysis.stabilisation import StabilisationChart, converged_selection
+from rigtools.sim.threads import single_blas_thread
 
 _ORDER = {"receptance": 0, "mobility": 1, "accelerance": 2}
 #: Fewest FRF lines in an identification band (with 3 the LSCF's least squares are singular).
@@ -268,6 +269,19 @@ def identify_modes(
     This does not check that the data can carry modes: on the FRF of a sine dwell it returns
     peaks of noise over leakage. For measured data use :func:`identify`, which checks the
     excitation and coherence first and says why it reports nothing.
+
+    Examples
+    --------
+    The accelerance of a unit-mass oscillator of 80 Hz, 2 % damped:
+
+    >>> import numpy as np
+    >>> from rigtools.analysis.modal_id import identify_modes
+    >>> f = np.linspace(0.0, 200.0, 2001)
+    >>> w, wn, zeta = 2 * np.pi * f, 2 * np.pi * 80.0, 0.02
+    >>> h = -(w**2) / (wn**2 - w**2 + 2j * zeta * wn * w)
+    >>> (mode,) = identify_modes(f, h, kind="accelerance")
+    >>> round(mode.frequency_hz, 3), round(mode.damping_ratio, 5)
+    (80.0, 0.02)
     """
     f = np.asarray(frequency_hz, dtype=float)
     h = np.asarray(h, dtype=complex)
@@ -513,32 +527,13 @@ def identify(
     -------
     ModalIdentification
     """
-    from rigtools.analysis.stabilisation import converged_selection
-
     f = np.asarray(frequency_hz, dtype=float)
     h2 = np.atleast_2d(np.asarray(h, dtype=complex))
     if coherence is not None and not np.any(np.isfinite(coherence)):
         coherence = None
     coh2 = None if coherence is None else np.atleast_2d(np.asarray(coherence, dtype=float))
-    auto_lo, auto_hi = float(f[f > 0][0]), float(f[-1])
-    if excitation_psd is not None and (f_min is None or f_max is None):
-        auto_lo, auto_hi = excitation_band(f, excitation_psd)
-    f_lo = auto_lo if f_min is None else float(f_min)
-    f_hi = auto_hi if f_max is None else float(f_max)
-    if not f_hi > f_lo:
-        raise ValueError(f"band {f_lo:g}-{f_hi:g} Hz is empty")
-    # a band reaching past the grid is the grid's part of it; one holding too few lines is
-    # refused (the LSCF's least squares are singular on it)
-    f_lo, f_hi = max(f_lo, float(f[f > 0][0])), min(f_hi, float(f[-1]))
-    lines = int(np.count_nonzero((f >= f_lo) & (f <= f_hi)))
-    if lines < MIN_BAND_LINES:
-        asked = f"{f_min if f_min is not None else f_lo:g}-{f_max if f_max is not None else f_hi:g} Hz"
-        raise ValueError(
-            f"band {asked} holds {lines} of the FRF's lines ({f[0]:g}-{f[-1]:g} Hz, every "
-            f"{f[1] - f[0]:g} Hz): give one over at least {MIN_BAND_LINES} lines"
-        )
-    band = (f_lo, f_hi)
-    notes: list[str] = []
+    band, lines = _checked_band(f, f_min, f_max, excitation_psd)
+    f_lo, f_hi = band
     if excitation_psd is not None:
         support = excitation_support(
             f,
@@ -552,6 +547,7 @@ def identify(
             reason = f"no modes identified: {support.reason}"
             return ModalIdentification([], method, [reason], band=band, no_mode=reason)
     chart, rec = None, None
+    notes: list[str] = []
     tried: dict = {"lines": lines}
     if method == "peak":
         if h2.shape[0] != 1:
@@ -578,58 +574,11 @@ def identify(
             min_coherence=min_coherence,
             min_peak_db=min_peak_db,
         )
-        chart, dropped = sel.chart, sel.dropped
-        if sel.schedule is not None:
-            tried = {
-                "lines": sel.schedule.lines,
-                "peaks": sel.schedule.peaks,
-                "orders": list(sel.schedule.orders),
-                "freq_tol": sel.schedule.freq_tol,
-                "damping_tol": sel.schedule.damping_tol,
-            }
-        modes = [
-            IdentifiedMode(
-                m.frequency_hz,
-                m.damping_ratio,
-                complex("nan"),
-                m.peak_hz,
-                float("nan"),
-                "lscf",
-                orders_stable=m.orders_stable,
-                frequency_spread=m.frequency_spread,
-                damping_spread=m.damping_spread,
-                coherence=m.coherence,
-                peak_db=m.peak_db,
-                orders_judged=m.orders_judged,
-                mac_min=m.mac_min,
-            )
-            for m in sel.modes
-        ]
-        if not sel.converged:
-            notes.append(
-                f"the set of modes still changed at LSCF order {2 * sel.order} (the highest tried): "
-                f"modes from orders {chart.judged[0]}-{chart.judged[1]}"
-            )
+        modes, dropped, chart, tried, notes = _lscf_modes(sel, tried)
     else:
         raise ValueError(f"method must be 'lscf' or 'peak', got {method!r}")
     if n_modes is not None and len(modes) > n_modes:
-        key = (lambda m: m.orders_stable) if method == "lscf" else (lambda m: m.peak_db)
-        keep = sorted(modes, key=key, reverse=True)[:n_modes]
-        for m in modes:
-            if m not in keep:
-                dropped.append(
-                    {
-                        "frequency_hz": m.frequency_hz,
-                        "damping_ratio": m.damping_ratio,
-                        "reason": f"beyond n_modes: {n_modes}",
-                    }
-                )
-        kept = sorted(keep, key=lambda m: m.frequency_hz)
-        if chart is not None and chart.mode is not None:
-            # the chart marks the poles of the modes reported, numbered as reported
-            index = {i: kept.index(m) for i, m in enumerate(modes) if m in keep}
-            chart = replace(chart, mode=np.array([index.get(int(k), -1) for k in chart.mode], int))
-        modes = kept
+        modes, chart = _keep_strongest(modes, dropped, chart, n_modes, method)
     if method == "lscf" and modes:
         modes, rec = _lsfd(modes, f, h2, kind, f_lo, f_hi)
     no_mode = "" if modes else no_mode_reason(method, band, tried, dropped, chart)
@@ -639,6 +588,100 @@ def identify(
     if summary:
         notes.append(summary)
     return ModalIdentification(modes, method, notes, chart, rec, band, dropped, no_mode, tried)
+
+
+def _checked_band(
+    f: np.ndarray, f_min: float | None, f_max: float | None, excitation_psd: np.ndarray | None
+) -> tuple[tuple[float, float], int]:
+    """``((f_lo, f_hi), lines)``: the band identified over (given, else where the force has energy,
+    else the grid above 0 Hz), cut to the grid, and its number of lines; a ``ValueError`` for an
+    empty band or one of fewer than :data:`MIN_BAND_LINES` lines."""
+    auto_lo, auto_hi = float(f[f > 0][0]), float(f[-1])
+    if excitation_psd is not None and (f_min is None or f_max is None):
+        auto_lo, auto_hi = excitation_band(f, excitation_psd)
+    f_lo = auto_lo if f_min is None else float(f_min)
+    f_hi = auto_hi if f_max is None else float(f_max)
+    if not f_hi > f_lo:
+        raise ValueError(f"band {f_lo:g}-{f_hi:g} Hz is empty")
+    # a band reaching past the grid is the grid's part of it; one holding too few lines is
+    # refused (the LSCF's least squares are singular on it)
+    f_lo, f_hi = max(f_lo, float(f[f > 0][0])), min(f_hi, float(f[-1]))
+    lines = int(np.count_nonzero((f >= f_lo) & (f <= f_hi)))
+    if lines < MIN_BAND_LINES:
+        asked = f"{f_min if f_min is not None else f_lo:g}-{f_max if f_max is not None else f_hi:g} Hz"
+        raise ValueError(
+            f"band {asked} holds {lines} of the FRF's lines ({f[0]:g}-{f[-1]:g} Hz, every "
+            f"{f[1] - f[0]:g} Hz): give one over at least {MIN_BAND_LINES} lines"
+        )
+    return (f_lo, f_hi), lines
+
+
+def _lscf_modes(
+    sel, tried: dict
+) -> tuple[list[IdentifiedMode], list[dict], StabilisationChart, dict, list[str]]:
+    """``(modes, dropped, chart, tried, notes)`` of a
+    :func:`~rigtools.analysis.stabilisation.converged_selection` (modal constants still to fit)."""
+    notes: list[str] = []
+    if sel.schedule is not None:
+        tried = {
+            "lines": sel.schedule.lines,
+            "peaks": sel.schedule.peaks,
+            "orders": list(sel.schedule.orders),
+            "freq_tol": sel.schedule.freq_tol,
+            "damping_tol": sel.schedule.damping_tol,
+        }
+    modes = [
+        IdentifiedMode(
+            m.frequency_hz,
+            m.damping_ratio,
+            complex("nan"),
+            m.peak_hz,
+            float("nan"),
+            "lscf",
+            orders_stable=m.orders_stable,
+            frequency_spread=m.frequency_spread,
+            damping_spread=m.damping_spread,
+            coherence=m.coherence,
+            peak_db=m.peak_db,
+            orders_judged=m.orders_judged,
+            mac_min=m.mac_min,
+        )
+        for m in sel.modes
+    ]
+    if not sel.converged:
+        notes.append(
+            f"the set of modes still changed at LSCF order {2 * sel.order} (the highest tried): "
+            f"modes from orders {sel.chart.judged[0]}-{sel.chart.judged[1]}"
+        )
+    return modes, sel.dropped, sel.chart, tried, notes
+
+
+def _keep_strongest(
+    modes: list[IdentifiedMode],
+    dropped: list[dict],
+    chart: StabilisationChart | None,
+    n_modes: int,
+    method: str,
+) -> tuple[list[IdentifiedMode], StabilisationChart | None]:
+    """The ``n_modes`` most strongly stable (LSCF) or most prominent (peak) modes in ascending
+    frequency, the others added to ``dropped``; the chart renumbered to the modes kept."""
+    key = (lambda m: m.orders_stable) if method == "lscf" else (lambda m: m.peak_db)
+    keep = sorted(modes, key=key, reverse=True)[:n_modes]
+    for m in modes:
+        if m not in keep:
+            dropped.append(
+                {
+                    "frequency_hz": m.frequency_hz,
+                    "damping_ratio": m.damping_ratio,
+                    "reason": f"beyond n_modes: {n_modes}",
+                }
+            )
+    kept = sorted(keep, key=lambda m: m.frequency_hz)
+    if chart is not None and chart.mode is not None:
+        # the chart marks the poles of the modes reported, numbered as reported
+        index = {i: kept.index(m) for i, m in enumerate(modes) if m in keep}
+        chart = replace(chart, mode=np.array([index.get(int(k), -1) for k in chart.mode], int))
+    return kept, chart
 
 
 def no_mode_reason(
@@ -717,9 +760,7 @@ def _lsfd(modes: list[IdentifiedMode], f: np.ndarray, h: np.ndarray, kind: FRFKi
     """Modal constants of the kept modes by sdypy-EMA's LSFD (with lower and upper residuals) on
     their poles; returns the modes with ``residue``, ``shape`` and ``fit_error``, and the first
     response's reconstruction."""
-    from sdypy.EMA.EMA import LSFD
-
-    from rigtools.sim.threads import single_blas_thread
+    from sdypy.EMA.EMA import LSFD  # imported here: sdypy loads matplotlib.pyplot and tqdm
 
     wn = 2.0 * np.pi * np.array([m.frequency_hz for m in modes])
     zeta = np.array([m.damping_ratio for m in modes])

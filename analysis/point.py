@@ -211,7 +211,7 @@ def analyze_frf_test(
         ``impact`` method, one block per frame of exactly ``frame_samples``.
     frf_method
         The estimate (:class:`rigtools.analysis.frf.FRFMethod`), the one every reader uses;
-        a recording's is chosen by :func:`rigtools.analyze.frf_method_of`.
+        a recording's is chosen by :func:`rigtools.recording_analysis.frf_estimate.frf_method_of`.
     responses, force
         Channel names.
     measured, kind

@@ -57,6 +57,16 @@ def amplitude_spectrum(
         Bin frequencies, Hz (``scipy.fft.rfftfreq``).
     amplitude : array, shape (..., n//2 + 1)
         Peak amplitude per bin, in the units of ``x`` (see module docstring for the scaling).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from rigtools.analysis.spectra import amplitude_spectrum
+    >>> fs = 1000.0
+    >>> t = np.arange(2000) / fs
+    >>> f, a = amplitude_spectrum(2.0 * np.sin(2 * np.pi * 50.0 * t), fs)  # 2 units peak at 50 Hz
+    >>> float(f[np.argmax(a)]), round(float(a.max()), 4)
+    (50.0, 2.0)
     """
     if window not in WINDOWS:
         raise ValueError(f"window must be one of {', '.join(WINDOWS)}, got {window!r}")

@@ -154,6 +154,22 @@ def lscf_stabilisation(
     -------
     tuple
         ``(model, chart)``: the :class:`sdypy.EMA.Model` and a :class:`StabilisationChart`.
+
+    Examples
+    --------
+    Two modes, 50 and 120 Hz, 2 % damped: the stable poles up to order 20 are theirs.
+
+    >>> import numpy as np
+    >>> from rigtools.analysis.stabilisation import lscf_stabilisation
+    >>> f = np.linspace(0.0, 200.0, 801)
+    >>> w = 2 * np.pi * f
+    >>> def accelerance(fn):  # of a unit-mass oscillator of fn Hz, 2 % damped
+    ...     wn = 2 * np.pi * fn
+    ...     return -(w**2) / (wn**2 - w**2 + 2j * 0.02 * wn * w)
+    >>> h = accelerance(50.0) + accelerance(120.0)
+    >>> chart = lscf_stabilisation(f, h, kind="accelerance", f_min=20.0, f_max=180.0, max_order=10)[1]
+    >>> chart.highest, sorted({round(float(x), 1) for x in chart.frequency_hz[chart.stable]})
+    (20, [50.0, 120.0])
     """
     from sdypy import EMA  # imported here: it loads matplotlib.pyplot and tqdm
 

@@ -178,7 +178,7 @@ def main() -> None:
 def end_to_end() -> dict:
     """Record an FRF test on the simulated rig (not timed), then time ``rig update`` on it."""
     from rigtools.cli import main as rig
-    from rigtools.model_update import identify_recording
+    from rigtools.update_modes import identify_recording
 
     with tempfile.TemporaryDirectory() as tmp:
         frf = Path(tmp) / "frf.h5"

@@ -19,7 +19,7 @@ if not (_here / "sim").is_dir() and (_here.parent / "sim" / "__init__.py").is_fi
 
 # The front door: name -> (module, attribute), each imported on first use (as scipy does), so
 # `import rigtools` stays light and `import rigtools.sim` costs only sim. No name here may be
-# that of a submodule (`rigtools.analyze` is a module): importing it would rebind the attribute.
+# that of a submodule (`rigtools.procedures` is a package): importing it would rebind the attribute.
 _API: dict[str, tuple[str, str]] = {
     "load_rig": ("rigtools.config", "load_rig"),
     "dwell": ("rigtools.experiments", "dwell"),
@@ -32,7 +32,7 @@ _API: dict[str, tuple[str, str]] = {
     "RunResult": ("rigtools.procedures.result", "RunResult"),
     "PointResult": ("rigtools.procedures.result", "PointResult"),
     "open_recording": ("rigtools.recording", "open_recording"),
-    "analyze_recording": ("rigtools.analyze", "analyze_recording"),
+    "analyze_recording": ("rigtools.recording_analysis.dispatch", "analyze_recording"),
     "spectrum": ("rigtools.workflows", "spectrum"),
     "Spectrum": ("rigtools.workflows", "Spectrum"),
     "simulate_point": ("rigtools.workflows", "simulate_point"),

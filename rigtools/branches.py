@@ -712,9 +712,10 @@ def measured_sweeps(paths, param: str, measure: str = "contact") -> list:
     ``tip`` half the peak-to-peak active shroud displacement channel of a model recording.
     """
     from rigtools.analysis.branches import MeasuredSweep
-    from rigtools.analyze import analyze_periodic, record_window
     from rigtools.procedures import detect_jumps
     from rigtools.recording import open_recording
+    from rigtools.recording_analysis.periodic import analyze_periodic
+    from rigtools.recording_analysis.samples import record_window
     from rigtools.sim.channel_names import ACTIVE_SHROUD_ACCEL, ACTIVE_SHROUD_DISP, FORCE
 
     def value(path, point) -> float:

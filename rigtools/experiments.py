@@ -24,15 +24,15 @@ the closest. The parameters, their units, defaults and bounds:
 
 from __future__ import annotations
 
+import inspect
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypeVar
 
 from rigtools.procedures.result import PointResult, RunResult
 
 if TYPE_CHECKING:
     from rigtools.config import RigConfig
-    from rigtools.procedures.base import ProgressEvent
 
 __all__ = [
     "PointResult",
@@ -58,27 +58,74 @@ def _config(rig: Any) -> RigConfig:
     return rig if isinstance(rig, RigConfig) else load_rig(rig)
 
 
-# the keywords every procedure of the front door takes besides its parameter model's fields
-_NAMED = ("out", "rig", "backend", "overwrite", "progress", "seed")
+#: The keywords every procedure of the front door takes besides its own parameters, defined once:
+#: :func:`_front_door` adds them to each function's signature and their text to its docstring
+#: (``%(shared)s``; ``%(out)s`` for ``out``, which each function takes by position).
+SHARED_KEYWORDS = (
+    inspect.Parameter(
+        "rig", inspect.Parameter.KEYWORD_ONLY, default=None, annotation="RigConfig | str | Path | None"
+    ),
+    inspect.Parameter("backend", inspect.Parameter.KEYWORD_ONLY, default=None, annotation="str | None"),
+    inspect.Parameter("overwrite", inspect.Parameter.KEYWORD_ONLY, default=False, annotation="bool"),
+    inspect.Parameter(
+        "progress",
+        inspect.Parameter.KEYWORD_ONLY,
+        default=None,
+        annotation="Callable[[ProgressEvent], None] | None",
+    ),
+    inspect.Parameter("seed", inspect.Parameter.KEYWORD_ONLY, default=None, annotation="int | None"),
+)
+_DOCS = {
+    "out": """\
+out
+    Recording to write (HDF5).""",
+    "shared": """\
+rig
+    A :class:`rigtools.config.RigConfig`, a rig file, or ``None`` for the calibrated default.
+backend
+    ``"nidaq"`` (the NI rig) or ``"sim"`` (the simulated rig); no default: a script that
+    measures names its backend (a default would run the simulation where a measurement was
+    meant, or drive the shaker from a script written for the simulated rig).
+overwrite
+    Replace ``out`` if it exists.
+progress
+    Called with each :class:`rigtools.procedures.ProgressEvent`.
+seed
+    Noise seed of the simulated rig (``None``: 0, so that two runs record the same noise).""",
+}
+_NAMED = ("out", *(k.name for k in SHARED_KEYWORDS))
+_Function = TypeVar("_Function", bound=Callable[..., RunResult])
 
 
-def _run(
-    function: str,
-    cls_name: str,
-    params: dict[str, Any],
-    out: str | Path,
-    rig: Any,
-    backend: str | None,
-    overwrite: bool,
-    progress: Callable[[ProgressEvent], None] | None,
-    seed: int | None,
-    **kwargs: Any,
-) -> RunResult:
+def _front_door(function: _Function) -> _Function:
+    """A front-door procedure with the :data:`SHARED_KEYWORDS`: added to its signature before its
+    ``**params`` (what ``help()``, an IDE's call tips and the docs show; the function receives them
+    in ``**params`` and passes them to :func:`_run`), their text put for ``%(shared)s`` and
+    ``%(out)s`` in its docstring at the marker's indentation, as scipy's docstring templates do."""
+    signature = inspect.signature(function)
+    *own, var = signature.parameters.values()
+    function.__signature__ = signature.replace(parameters=[*own, *SHARED_KEYWORDS, var])  # type: ignore[attr-defined]
+    lines: list[str] = []
+    for line in (function.__doc__ or "").splitlines():
+        key = line.strip()[2:-2] if line.strip().startswith("%(") and line.strip().endswith(")s") else None
+        if key in _DOCS:
+            indent = line[: len(line) - len(line.lstrip())]
+            lines.extend(indent + text if text else text for text in _DOCS[key].splitlines())
+        else:
+            lines.append(line)
+    function.__doc__ = "\n".join(lines)
+    return function
+
+
+def _run(function: str, cls_name: str, params: dict[str, Any], out: str | Path, **kwargs: Any) -> RunResult:
+    """Run a procedure: ``params`` holds its parameters and the :data:`SHARED_KEYWORDS` given."""
     from rigtools import procedures
     from rigtools.errors import UserError, reword
     from rigtools.keywords import in_front_door_words
     from rigtools.options import seed as seed_option
 
+    params = dict(params)
+    rig, backend, overwrite, progress, seed = (params.pop(k.name, k.default) for k in SHARED_KEYWORDS)
     cls = getattr(procedures, cls_name)
     model = getattr(procedures, _MODELS[cls_name])
     params = in_front_door_words(f"rigtools.{function}", params, model.model_fields, (*_NAMED, *kwargs))
@@ -127,6 +174,7 @@ def _did_you_mean(backend: object) -> str:
     return did_you_mean(backend, ("sim", "nidaq"))
 
 
+@_front_door
 def dwell(
     fe: float | str,
     force: float | str,
@@ -134,11 +182,6 @@ def dwell(
     *,
     gap: float | str | None = None,
     record_periods: int | None = None,
-    rig: Any = None,
-    backend: str | None = None,
-    overwrite: bool = False,
-    progress: Callable[[ProgressEvent], None] | None = None,
-    seed: int | None = None,
     **params: Any,
 ) -> RunResult:
     """Hold the force amplitude at one excitation frequency and record the settled response.
@@ -149,24 +192,12 @@ def dwell(
         Excitation frequency: ``"60 Hz"`` or Hz.
     force
         Force amplitude F0 (fundamental of the force into the active blade): ``"15 N"`` or N.
-    out
-        Recording to write (HDF5).
+    %(out)s
     gap
         Shroud gap, ``"0.5 mm"`` or m; ``None``: as set (the rig file's on the simulated rig).
     record_periods
         Periods recorded once settled (``None``: 60); ``periods=``, the CLI's word, is the same.
-    rig
-        A :class:`rigtools.config.RigConfig`, a rig file, or ``None`` for the calibrated default.
-    backend
-        ``"nidaq"`` (the NI rig) or ``"sim"`` (the simulated rig); no default: a script that
-        measures names its backend (a default would run the simulation where a measurement was
-        meant, or drive the shaker from a script written for the simulated rig).
-    overwrite
-        Replace ``out`` if it exists.
-    progress
-        Called with each :class:`rigtools.procedures.ProgressEvent`.
-    seed
-        Noise seed of the simulated rig (``None``: 0, so that two runs record the same noise).
+    %(shared)s
     **params
         More :class:`rigtools.procedures.DwellParameters` (``k_max``, ``control={...}``), or
         the CLI's words (``periods``, ``max_updates``); an unknown keyword is refused naming the
@@ -188,9 +219,10 @@ def dwell(
     True
     """
     p = {"fe": fe, "force": force, "gap": gap, "record_periods": record_periods, **params}
-    return _run("dwell", "SineDwell", p, out, rig, backend, overwrite, progress, seed)
+    return _run("dwell", "SineDwell", p, out)
 
 
+@_front_door
 def stepped_sine(
     frequencies: Sequence[float | str] | str,
     force: float | str,
@@ -199,11 +231,6 @@ def stepped_sine(
     gap: float | str | None = None,
     direction: str = "up",
     record_periods: int | None = None,
-    rig: Any = None,
-    backend: str | None = None,
-    overwrite: bool = False,
-    progress: Callable[[ProgressEvent], None] | None = None,
-    seed: int | None = None,
     **params: Any,
 ) -> RunResult:
     """Step the excitation frequency at a held force amplitude; one point per step.
@@ -215,16 +242,14 @@ def stepped_sine(
         ``"62 Hz:72 Hz:2 Hz"`` (start:stop:step, stop included) or ``"62 Hz,65 Hz"``.
     force
         Force amplitude F0 at every step: ``"15 N"`` or N.
-    out
-        Recording to write.
+    %(out)s
     gap
         Shroud gap, ``"0.7 mm"`` or m; ``None``: as set.
     direction
         ``"up"``, ``"down"`` or ``"both"`` (up, then down: hysteresis and jumps).
     record_periods
         Periods recorded at each step (``None``: 30); ``periods=`` is the same.
-    rig, backend, overwrite, progress, seed
-        As :func:`dwell` (``backend`` must be given).
+    %(shared)s
     **params
         More :class:`rigtools.procedures.SweepParameters` (``jump_threshold``, ``response``, ...)
         or the CLI's words (``periods``, ``max_updates``).
@@ -250,9 +275,10 @@ def stepped_sine(
         "record_periods": record_periods,
         **params,
     }
-    return _run("stepped_sine", "SteppedSine", p, out, rig, backend, overwrite, progress, seed)
+    return _run("stepped_sine", "SteppedSine", p, out)
 
 
+@_front_door
 def acquire_study(
     kind: str,
     values: Sequence[float | str] | str,
@@ -264,11 +290,6 @@ def acquire_study(
     direction: str = "up",
     record_periods: int | None = None,
     resume: bool = False,
-    rig: Any = None,
-    backend: str | None = None,
-    overwrite: bool = False,
-    progress: Callable[[ProgressEvent], None] | None = None,
-    seed: int | None = None,
     **params: Any,
 ) -> RunResult:
     """A force-controlled study on the rig over the gap, the force amplitude or the excitation
@@ -277,12 +298,12 @@ def acquire_study(
     Parameters
     ----------
     kind
-        The swept parameter: ``"gap"``, ``"force"`` or ``"frequency"``.
+        The swept parameter: ``"gap"``, ``"force"`` or ``"frequency"``. On the NI rig a gap study
+        asks the operator to set each gap.
     values
         The swept values, in the unit of ``kind``: ``["0.3 mm", "0.6 mm"]``, SI floats, or the
         CLI's ``"0.3 mm:0.9 mm:0.3 mm"`` (start:stop:step) or ``"0.3 mm,0.6 mm"``.
-    out
-        Recording to write.
+    %(out)s
     fe, force, gap
         The parameters held fixed (the swept one is left ``None``).
     direction
@@ -291,9 +312,7 @@ def acquire_study(
         Periods recorded at each point (``None``: 30); ``periods=`` is the same.
     resume
         Continue an aborted study in ``out`` after its last complete point.
-    rig, backend, overwrite, progress, seed
-        As :func:`dwell` (``backend`` must be given). On the NI rig a gap study asks the
-        operator to set each gap.
+    %(shared)s
     **params
         More :class:`rigtools.procedures.StudyParameters`, or the CLI's words.
 
@@ -320,7 +339,7 @@ def acquire_study(
         "record_periods": record_periods,
         **params,
     }
-    return _run("acquire_study", "RigStudy", p, out, rig, backend, overwrite, progress, seed, resume=resume)
+    return _run("acquire_study", "RigStudy", p, out, resume=resume)
 
 
 def study(*args: Any, **kwargs: Any) -> RunResult:
@@ -353,6 +372,7 @@ def study(*args: Any, **kwargs: Any) -> RunResult:
     return acquire_study(*args, **kwargs)
 
 
+@_front_door
 def frf_test(
     band: tuple[float | str, float | str] | str,
     level: float | str,
@@ -362,11 +382,6 @@ def frf_test(
     frame: float | str = 1.0,
     averages: int = 10,
     gap: float | str | None = None,
-    rig: Any = None,
-    backend: str | None = None,
-    overwrite: bool = False,
-    progress: Callable[[ProgressEvent], None] | None = None,
-    seed: int | None = None,
     **params: Any,
 ) -> RunResult:
     """Broadband FRF test: periodic chirp or burst random over a band, averaged frames.
@@ -377,8 +392,7 @@ def frf_test(
         ``(low, high)``: ``("20 Hz", "500 Hz")``, Hz, or the CLI's ``"20 Hz:500 Hz"``.
     level
         Drive level: the chirp's peak or the burst's rms within the burst, ``"1 V"`` or V.
-    out
-        Recording to write.
+    %(out)s
     signal
         ``"chirp"`` or ``"burst"``.
     frame
@@ -387,8 +401,7 @@ def frf_test(
         Frames averaged.
     gap
         Shroud gap; open it (e.g. ``"5 mm"``) for the linear FRF.
-    rig, backend, overwrite, progress, seed
-        As :func:`dwell` (``backend`` must be given).
+    %(shared)s
     **params
         More :class:`rigtools.procedures.FrfParameters`.
 
@@ -414,9 +427,10 @@ def frf_test(
         "averages": averages,
         "gap": gap,
     }
-    return _run("frf_test", "FrfTest", {**p, **params}, out, rig, backend, overwrite, progress, seed)
+    return _run("frf_test", "FrfTest", {**p, **params}, out)
 
 
+@_front_door
 def tap_test(
     position: float | str,
     out: str | Path,
@@ -424,11 +438,6 @@ def tap_test(
     blade: str = "passive",
     hits: int = 5,
     gap: float | str | None = None,
-    rig: Any = None,
-    backend: str | None = None,
-    overwrite: bool = False,
-    progress: Callable[[ProgressEvent], None] | None = None,
-    seed: int | None = None,
     **params: Any,
 ) -> RunResult:
     """Impact-hammer test of one blade: triggered hits, one point each (the simulated rig's
@@ -438,16 +447,14 @@ def tap_test(
     ----------
     position
         Hit position from the blade root: ``"85 mm"`` or m.
-    out
-        Recording to write.
+    %(out)s
     blade
         ``"passive"`` or ``"active"``.
     hits
         Accepted hits (double hits and undecayed frames are refused and repeated).
     gap
         Shroud gap; open it for the blade alone.
-    rig, backend, overwrite, progress, seed
-        As :func:`dwell` (``backend`` must be given).
+    %(shared)s
     **params
         More :class:`rigtools.procedures.TapParameters` (``frame``, ``trigger``, ...).
 
@@ -465,4 +472,4 @@ def tap_test(
     ('finished', 2, 2)
     """
     p = {"position": position, "blade": blade, "hits": hits, "gap": gap, **params}
-    return _run("tap_test", "TapTest", p, out, rig, backend, overwrite, progress, seed)
+    return _run("tap_test", "TapTest", p, out)

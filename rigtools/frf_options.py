@@ -1,4 +1,4 @@
-"""The command-line options of the one FRF estimate (:class:`rigtools.analyze.FRFOptions`), shared by
+"""The command-line options of the one FRF estimate (:class:`rigtools.recording_analysis.frf_estimate.FRFOptions`), shared by
 ``rig analyze`` and ``rig export uff`` so both read a recording's FRF the same way.
 
 Each option is checked here with one :class:`~rigtools.errors.UserError` line naming it (exit 2).
@@ -13,7 +13,7 @@ from rigtools.errors import UserError
 from rigtools.options import band_option, count, quantity
 
 if TYPE_CHECKING:
-    from rigtools.analyze import FRFOptions
+    from rigtools.recording_analysis.frf_estimate import FRFOptions
 
 EXCITATIONS = ("burst", "impact", "periodic", "random")
 
@@ -64,7 +64,7 @@ def _fraction(text: str | None, option: str) -> float | None:
 
 
 def frf_options(args: argparse.Namespace) -> FRFOptions:
-    """The :class:`rigtools.analyze.FRFOptions` of parsed arguments (options a parser lacks are
+    """The :class:`rigtools.recording_analysis.frf_estimate.FRFOptions` of parsed arguments (options a parser lacks are
     None).
 
     Parameters
@@ -84,7 +84,7 @@ def frf_options(args: argparse.Namespace) -> FRFOptions:
     UserError
         One line naming the option: a bad band, frame length or window value.
     """
-    from rigtools.analyze import FRFOptions
+    from rigtools.recording_analysis.frf_estimate import FRFOptions
 
     band = getattr(args, "band", None)
     frame = args.frame_samples

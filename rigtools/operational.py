@@ -1,5 +1,5 @@
 """The modes of a point without a force channel (an operational log): what ``rig analyze`` adds
-to its spectra (:func:`rigtools.analyze.analyze_operational`).
+to its spectra (:func:`analyze_operational`).
 
 The motion channels of the point (acceleration, velocity or displacement: units m/s^2, m/s, m)
 go together into the operational modal analysis of :func:`rigtools.analysis.oma.operational_modes`
@@ -14,6 +14,9 @@ from collections.abc import Sequence
 import numpy as np
 
 from rigtools.analysis.oma import operational_modes
+from rigtools.analysis.spectra import response_spectra
+from rigtools.recording_analysis.results import PointAnalysis
+from rigtools.recording_analysis.samples import WINDOW_SAMPLES, record_window
 
 MOTION_UNITS = ("m/s^2", "m/s", "m")
 
@@ -58,3 +61,37 @@ def point_modes(
             + ", ".join(f"{h.frequency_hz:.4g} Hz" for h in res.harmonics)
         )
     return res, notes
+
+
+def analyze_operational(
+    point,
+    *,
+    fe: float | None = None,
+    channels: Sequence[str] | None = None,
+    band: tuple[float, float] | None = None,
+) -> PointAnalysis:
+    """A point without a force channel (an operational log): per channel the PSD, the
+    peak-amplitude spectrum, the peaks of the PSD and, with ``fe``, the harmonics k·fe
+    (:func:`rigtools.analysis.spectra.response_spectra`); the modes of its motion channels
+    together, harmonic tones flagged, in ``band`` (:func:`point_modes`)."""
+    rate = float(point.sample_rate)
+    start, n = record_window(point)
+    if n > WINDOW_SAMPLES:
+        start, n = start + n - WINDOW_SAMPLES, WINDOW_SAMPLES
+    names = list(channels or point.channels)
+    spectra = {
+        c: response_spectra(np.asarray(point.channels[c][start : start + n], dtype=float), rate, fe=fe)
+        for c in names
+    }
+    spectra_note = (
+        "no force channel: PSD in units²/Hz (Welch, Hann; its peaks are the spectral peaks), "
+        "amplitudes are peak (flattop)"
+    )
+    notes = [spectra_note]
+    oma, oma_notes = point_modes(point, (start, n), names, band=band, fe=fe)
+    notes += oma_notes
+    if fe is None:
+        notes.append("give --fe to read the harmonics of an excitation frequency")
+    return PointAnalysis.of_point(
+        point, "operational", names, (start, n), spectra=spectra, notes=notes, oma=oma
+    )

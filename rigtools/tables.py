@@ -1,5 +1,5 @@
 """The tables the commands print, for a person to read: lines and rich tables built from an
-analysis (``rig analyze``, :mod:`rigtools.analyze`), a comparison (``rig compare``,
+analysis (``rig analyze``, :mod:`rigtools.recording_analysis`), a comparison (``rig compare``,
 :mod:`rigtools.recording_comparison`), a model update (``rig update``, :mod:`rigtools.model_update`)
 a simulated run (``rig simulate``), and ``rig info`` of recordings, FRF sets and branches files.
 The commands print them in order. Every number goes through :mod:`rigtools.readable` (the one rule:
@@ -20,7 +20,7 @@ def _fmt(x, digits: int = readable.DIGITS) -> str:
 
 
 def analysis_tables(analysis: Any, verbose: bool = False) -> list[Any]:
-    """What ``rig analyze`` prints of a :class:`rigtools.analyze.RecordingAnalysis`: lines and rich
+    """What ``rig analyze`` prints of a :class:`rigtools.recording_analysis.results.RecordingAnalysis`: lines and rich
     tables, in order; ``verbose`` adds one line per candidate mode not reported and why."""
     from rich.table import Table
 

@@ -100,7 +100,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     from rich.console import Console
 
-    from rigtools.analyze import analyze_recording
+    from rigtools.recording_analysis.dispatch import analyze_recording
 
     channels = [c.strip() for c in args.channels.split(",") if c.strip()] if args.channels else None
     options = frf_options(args)

@@ -106,8 +106,8 @@ def run(args: argparse.Namespace) -> int:
 
     from rich.console import Console
 
-    from rigtools.analyze import analyze_recording
     from rigtools.derived_files import write_derived
+    from rigtools.recording_analysis.dispatch import analyze_recording
     from rigtools.report.branches import add_unmatched_branches, load_branch_files
     from rigtools.report.html import Report
     from rigtools.report.sections import add_analysis

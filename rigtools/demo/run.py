@@ -3,7 +3,7 @@
 Swap points (each a single call below, its data shape documented in :mod:`rigtools.demo.steps`):
 
 * ``steps.recording_points`` (offline reduction of a recording to lab quantities) -> the
-  per-point analysis of ``rigtools.analyze`` when it lands;
+  per-point analysis of ``rigtools.recording_analysis`` when it lands;
 * the dwell's EM-vs-FEM comparison (``steps.dwell_step`` + ``report.waveform_figure`` /
   ``spectrum_figure``) -> ``rigtools.recording_comparison.compare_recordings(...).add_to_report(section)``;
 * ``steps.update_step`` -> the ``rig update`` library call (same targets: the FRF-identified modes);

@@ -1,7 +1,7 @@
 """The demo's steps, each a small function returning plain data (dicts of floats and arrays).
 
 Every step is replaceable on its own (the coordinator swaps in ``rigtools.recording_comparison`` /
-``rigtools.analyze`` when they land): the modal check (:func:`modal_step`), the linear harmonic
+``rigtools.recording_analysis`` when they land): the modal check (:func:`modal_step`), the linear harmonic
 response (:func:`harmonic_step`), the dwell (:func:`dwell_step`), the studies on the simulated rig
 (:func:`rig_study_step`) and on the FEM (:func:`model_study_step`), model updating
 (:func:`update_step`). Lab-measurable quantities of one record come from :func:`lab_quantities`
@@ -19,7 +19,8 @@ import numpy as np
 from rigtools.analysis.harmonics import harmonic_amplitudes
 from rigtools.analysis.impacts import detect_impacts
 from rigtools.analysis.plots import force_zero_crossing_time
-from rigtools.analyze import FRFOptions, analyze_broadband
+from rigtools.recording_analysis.frf_estimate import FRFOptions
+from rigtools.recording_analysis.broadband import analyze_broadband
 from rigtools.branches import read_branches, write_branches
 from rigtools.config import ChannelLimitConfig
 from rigtools.demo.settings import (

@@ -270,14 +270,14 @@ def recording_functions(
         An open :class:`rigtools.recording.reader.Recording`.
     what
         Any of ``"frf"`` (H1 of every response over the force with its coherence: the very
-        estimate ``rig analyze`` reports, :func:`rigtools.analyze.point_frf_estimate`, for the
+        estimate ``rig analyze`` reports, :func:`rigtools.recording_analysis.frf_estimate.point_frf_estimate`, for the
         points it treats as broadband), ``"time"`` (every channel of every point) and
         ``"spectra"`` (auto spectra, RMS² per bin: half the square of the flattop
         peak-amplitude spectrum of :func:`rigtools.analysis.spectra.amplitude_spectrum`, so a
         sine of amplitude A reads A²/2). FRFs come first in the file, so a reader that takes
         the FRF kind from the first record (sdypy-EMA) reads them right.
     frf_options
-        :class:`rigtools.analyze.FRFOptions` (estimate overrides), as ``rig analyze`` takes them.
+        :class:`rigtools.recording_analysis.frf_estimate.FRFOptions` (estimate overrides), as ``rig analyze`` takes them.
     reference
         The excitation channel of the FRFs (default: the recording's force channel).
     complete_only
@@ -300,9 +300,10 @@ def recording_functions(
     the recording's date (``DD-MMM-YY HH:MM:SS``, UTC).
     """
     from rigtools.analysis.spectra import amplitude_spectrum
-    from rigtools.analyze import PROCEDURE_FRF, is_hit_per_point_tap_test
     from rigtools.interop.checks import non_finite_reason
     from rigtools.interop.imported import rows_reader
+    from rigtools.recording_analysis.broadband import PROCEDURE_FRF
+    from rigtools.recording_analysis.tap_test import is_hit_per_point_tap_test
 
     procedure = str((recording.experiment or {}).get("procedure", ""))
     if frf_options is not None and "frf" not in what:
@@ -402,7 +403,7 @@ def recording_functions(
 def _response_only(point) -> bool:
     """True for a point with no excitation: no ``reference_channel``, no channel of quantity force
     (one with two force channels is not: ``--reference`` names its excitation)."""
-    from rigtools.analyze import force_channel
+    from rigtools.recording_analysis.samples import force_channel
 
     return force_channel(point) is None and not any(c.quantity == "force" for c in point.channels.values())
 
@@ -420,13 +421,15 @@ def no_frf_line(points: list[int], total: int) -> str:
 
 def _point_frfs(point, label: str, places: dict, date: str, frf_options, tap=None) -> list[UffFunction]:
     """H1 and coherence of every response of a broadband point over its force (the estimate of
-    :func:`~rigtools.analyze.point_frf_estimate`; of :func:`~rigtools.analyze.analyze_tap_test` for ``tap``)."""
-    from rigtools.analyze import _frf_kind_of, analyze_tap_test, point_frf_estimate
+    :func:`~rigtools.recording_analysis.frf_estimate.point_frf_estimate`; of :func:`~rigtools.recording_analysis.tap_test.analyze_tap_test` for ``tap``)."""
+    from rigtools.recording_analysis.frf_estimate import point_frf_estimate
+    from rigtools.recording_analysis.results import frf_kind_of_units
+    from rigtools.recording_analysis.tap_test import analyze_tap_test
 
     if tap is not None:
         try:
             res = analyze_tap_test(tap.points, dict(tap.experiment or {}), method="peak").frf
-            measured = _frf_kind_of(point.channels[res.responses[0]].units) if res else None
+            measured = frf_kind_of_units(point.channels[res.responses[0]].units) if res else None
             if res is not None and measured not in (None, res.kind):  # in the response's own units
                 res = analyze_tap_test(
                     tap.points, dict(tap.experiment or {}), kind=measured, method="peak"

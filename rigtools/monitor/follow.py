@@ -8,7 +8,7 @@ state, impacts per period, peaks against the safety limits, the points done and 
 It never writes the recording; it holds the file open only while it reads (a few ms per look).
 
 Live numbers come from the last whole periods (at most :data:`ANALYSIS_SECONDS`); once a point is
-ended by its writer they are its record window's, analysed by :func:`rigtools.analyze.analyze_periodic`,
+ended by its writer they are its record window's, analysed by :func:`rigtools.recording_analysis.periodic.analyze_periodic`,
 the function ``rig analyze`` uses, so the two show the same numbers.
 """
 
@@ -455,13 +455,13 @@ def _row(point, analysis: dict | None) -> dict[str, Any]:
 
 def _analyse_point(point) -> dict[str, Any]:
     """An ended point, once: F1 and impacts per period of its record window as ``rig analyze``
-    finds them (:func:`rigtools.analyze.analyze_periodic`: the same window, the same impact
+    finds them (:func:`rigtools.recording_analysis.periodic.analyze_periodic`: the same window, the same impact
     detection). F1 is fitted alone: over whole periods the harmonics are orthogonal, so it equals
     the fit with every harmonic that ``rig analyze`` makes, at a fraction of the cost."""
     from rigtools.analysis.harmonics import harmonic_amplitudes
     from rigtools.analysis.impacts import detect_impacts
     from rigtools.analysis.spectra import amplitude_spectrum
-    from rigtools.analyze import WINDOW_SAMPLES, record_window
+    from rigtools.recording_analysis.samples import WINDOW_SAMPLES, record_window
 
     fe = point.params.get("fe")
     if not isinstance(fe, (int, float)) or fe <= 0 or not point.sample_rate:

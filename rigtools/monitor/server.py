@@ -103,7 +103,7 @@ class Hub:
         # the analysis modules load now, not on the first look at a run's first samples
         import rigtools.analysis.impacts
         import rigtools.analysis.spectra
-        import rigtools.analyze  # noqa: F401 - imported for the side effect of loading
+        import rigtools.recording_analysis.periodic  # noqa: F401 - imported for the side effect of loading
 
         while not self._done.is_set():
             start = time.monotonic()

@@ -194,11 +194,11 @@ EDGE_BINS = 2  # frequency lines next to each band edge where the quick check lo
 def quick_check(path, response: str | None = None, n_peaks: int = 5) -> dict:
     """H1 (response / force) over the averaged frames of an FRF test recording, its peaks in the
     band and their coherence: the very estimate ``rig analyze`` reports
-    (:func:`rigtools.analyze.point_frf_estimate`: whole frames, no window)."""
+    (:func:`rigtools.recording_analysis.frf_estimate.point_frf_estimate`: whole frames, no window)."""
     from scipy.signal import find_peaks
 
-    from rigtools.analyze import point_frf_estimate
     from rigtools.recording import open_recording
+    from rigtools.recording_analysis.frf_estimate import point_frf_estimate
 
     with open_recording(path) as rec:
         point = rec.points[0]

@@ -262,7 +262,7 @@ def result_document(name: str, backend: str, proc: Any, result: Any, f_max: str 
     A dwell gives its point's harmonics; a sweep or study its points (without channels) and the
     summary (jumps); a finished FRF test the quick check (:func:`rigtools.procedures.frf.quick_check`);
     a tap test its hits and the modes identified over the accepted hits up to ``f_max``
-    (:func:`rigtools.procedures.tap.tap_analysis`).
+    (:func:`rigtools.procedures.tap.analyze_tap_recording`).
     """
     doc: dict[str, Any] = {
         "file": str(proc.out),
@@ -298,10 +298,10 @@ def result_document(name: str, backend: str, proc: Any, result: Any, f_max: str 
         doc.update(result.summary)
         doc["hits_detail"] = points
         if finished:
-            from rigtools.procedures.tap import tap_analysis
+            from rigtools.procedures.tap import analyze_tap_recording
 
             top = min(quantity(f_max, "frequency", "--f-max"), 0.45 * proc.rate)
-            res = tap_analysis(proc.out, proc.response, f_min=TAP_F_MIN_HZ, f_max=top)
+            res = analyze_tap_recording(proc.out, proc.response, f_min=TAP_F_MIN_HZ, f_max=top)
             doc["modes"] = [
                 {"frequency_hz": m.frequency_hz, "damping_ratio": m.damping_ratio}
                 for m in res.modes[proc.response].modes

@@ -18,8 +18,8 @@ from typing import TYPE_CHECKING, Any
 if TYPE_CHECKING:
     import pandas as pd
 
-    from rigtools.analyze import RecordingAnalysis
     from rigtools.recording.reader import Recording
+    from rigtools.recording_analysis.results import RecordingAnalysis
 
 
 class Status(str, enum.Enum):  # noqa: UP042 -- the word is printed by str(), format() and repr() alike
@@ -260,7 +260,7 @@ class RunResult:
 
     def analyze(self, **options: Any) -> RecordingAnalysis:
         """:func:`rigtools.analyze_recording` of the recording."""
-        from rigtools.analyze import analyze_recording
+        from rigtools.recording_analysis.dispatch import analyze_recording
 
         return analyze_recording(self.file, **options)
 

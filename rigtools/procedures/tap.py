@@ -27,10 +27,10 @@ each accepted hit); on the simulated rig a :class:`rigtools.drivers.simulated.Si
 pulse of ``pulse`` seconds and ``hit_force`` peak at ``position`` every
 ``frame + 0.5 s``.
 
-:func:`tap_analysis` is H1 of the response over the hammer force over the accepted frames
+:func:`analyze_tap_recording` is H1 of the response over the hammer force over the accepted frames
 (rectangular window per frame: a frame holds the whole hit and the decay) and
 :func:`rigtools.analysis.modal_id.identify` on it: what ``rig analyze`` reports of the recording
-(:func:`rigtools.analyze.analyze_tap_test`).
+(:func:`rigtools.recording_analysis.tap_test.analyze_tap_test`).
 """
 
 from __future__ import annotations
@@ -414,7 +414,7 @@ def undecayed(response: np.ndarray, pretrigger: int = 0) -> str:
     return ""
 
 
-def tap_analysis(
+def analyze_tap_recording(
     path,
     response: str | None = None,
     *,
@@ -424,7 +424,7 @@ def tap_analysis(
 ):
     """H1 of the response over the hammer force over the accepted hits of a tap-test recording
     (rectangular window per frame) and the modes identified from it: the very analysis ``rig
-    analyze`` reports (:func:`rigtools.analyze.analyze_tap_test`).
+    analyze`` reports (:func:`rigtools.recording_analysis.tap_test.analyze_tap_test`).
 
     Parameters
     ----------
@@ -442,8 +442,8 @@ def tap_analysis(
     rigtools.analysis.point.FRFTestAnalysis
         ``.modes[response].modes`` the identified modes; ``.estimate`` the FRF.
     """
-    from rigtools.analyze import analyze_tap_test
     from rigtools.recording import open_recording
+    from rigtools.recording_analysis.tap_test import analyze_tap_test
 
     with open_recording(path) as rec:
         exp = rec.experiment or {}

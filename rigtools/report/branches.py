@@ -26,7 +26,8 @@ import h5py
 import numpy as np
 
 from rigtools.analysis.branches import SHORT, explain_jumps, turning_points
-from rigtools.analyze import RecordingAnalysis, is_foreign
+from rigtools.recording_analysis.results import RecordingAnalysis
+from rigtools.recording_analysis.dispatch import is_foreign
 from rigtools.branches import (
     POINT_PARAM,
     X_LABELS,

@@ -1,4 +1,4 @@
-"""Report sections and figures built from :class:`rigtools.analyze.RecordingAnalysis`.
+"""Report sections and figures built from :class:`rigtools.recording_analysis.results.RecordingAnalysis`.
 
 :func:`analysis_figures` makes the figures of one analysed recording (``rig analyze --out`` saves
 them as PNG, :func:`add_analysis` embeds them in a :class:`rigtools.report.html.Report`):
@@ -22,10 +22,11 @@ from typing import Any
 
 import numpy as np
 
-from rigtools.analyze import TABLE_HARMONICS, RecordingAnalysis, point_window
 from rigtools.readable import FREQUENCY_TABLE, shown
 from rigtools.report.branches import add_recording_branches, study_axis
 from rigtools.report.controlled_branch import CONTROLLED_PROCEDURES, add_controlled_points
+from rigtools.recording_analysis.results import TABLE_HARMONICS, RecordingAnalysis
+from rigtools.recording_analysis.samples import point_window
 
 MAX_WAVEFORM_FIGURES = 4  # periodic points drawn as waveforms (first, last and between)
 WAVEFORM_CHANNELS = ("force", "active_shroud_accel", "passive_shroud_accel", "contact_force")

@@ -1,4 +1,4 @@
-"""rig analyze and rigtools.analyze on real recordings (simulated rig, model runs, synthetic
+"""rig analyze and rigtools.recording_analysis on real recordings (simulated rig, model runs, synthetic
 files), checked against independent references."""
 
 from __future__ import annotations
@@ -74,8 +74,8 @@ def article_flexural(rig_config, blade: str, n: int = 3) -> np.ndarray:
 
 
 def test_frf_test_gives_the_test_articles_active_frequencies(frf_file):
-    from rigtools.analyze import analyze_recording
     from rigtools.recording import open_recording
+    from rigtools.recording_analysis.dispatch import analyze_recording
 
     a = analyze_recording(frf_file)
     with open_recording(frf_file) as rec:
@@ -107,7 +107,7 @@ def test_frf_test_gives_the_test_articles_active_frequencies(frf_file):
 
 
 def test_frf_kinds_convert_by_frequency(frf_file):
-    from rigtools.analyze import analyze_recording
+    from rigtools.recording_analysis.dispatch import analyze_recording
 
     acc = analyze_recording(frf_file, method="peak").broadband[0].frf.estimate
     rec = analyze_recording(frf_file, kind="receptance", method="peak").broadband[0]
@@ -148,8 +148,8 @@ def test_cli_analyze_frf_json_and_figures(frf_file, tmp_path):
 def test_stepped_sine_curves_match_linear_fem(study_file):
     """First-harmonic accelerance X1/F1 of a linear FEM frequency study against the FE model's
     modal superposition (rigtools.sim.harmonic) at the same frequencies: 1 %."""
-    from rigtools.analyze import analyze_recording
     from rigtools.config import load_rig
+    from rigtools.recording_analysis.dispatch import analyze_recording
     from rigtools.sim.harmonic import fem_harmonic_response
     from rigtools.sim.rig_model import build_rig_model
 
@@ -170,11 +170,11 @@ def test_chunked_harmonics_of_a_long_synthetic_record(tmp_path, monkeypatch):
     """Multi-tone signals with noise over a non-integer number of periods, read in blocks (the
     window smaller than the record): amplitudes within 0.1 %, phases within 1 mrad; a v1
     parameter name reads with today's name."""
-    from rigtools import analyze
     from rigtools.recording import ChannelSpec, RecordingWriter
+    from rigtools.recording_analysis import dispatch, periodic, samples
 
-    monkeypatch.setattr(analyze, "BLOCK_SAMPLES", 7001)
-    monkeypatch.setattr(analyze, "WINDOW_SAMPLES", 20000)
+    monkeypatch.setattr(samples, "BLOCK_SAMPLES", 7001)
+    monkeypatch.setattr(periodic, "WINDOW_SAMPLES", 20000)
     rate, fe, n = 10240.0, 37.3, 123457
     t = np.arange(n) / rate
     rng = np.random.default_rng(5)
@@ -195,7 +195,7 @@ def test_chunked_harmonics_of_a_long_synthetic_record(tmp_path, monkeypatch):
         pt.append(np.vstack([force, accel]))
         pt.set_attrs(measured_force_amplitude=12.0)
         pt.end()
-    a = analyze.analyze_recording(path)
+    a = dispatch.analyze_recording(path)
     (p,) = a.points
     assert p.params["force_amplitude_measured"] == 12.0 and "measured_force_amplitude" not in p.params
     assert any("last" in n and "harmonics over all" in n for n in p.notes)
@@ -226,7 +226,7 @@ def test_cli_bad_input_one_line_exit_2(tmp_path, frf_file):
 
 
 def test_figures_have_units_and_legends(frf_file, study_file):
-    from rigtools.analyze import analyze_recording
+    from rigtools.recording_analysis.dispatch import analyze_recording
     from rigtools.report.sections import analysis_figures
 
     for path in (frf_file, study_file):
@@ -252,8 +252,8 @@ def test_tap_test_record_without_frames_gives_the_mode(tmp_path):
     the natural frequency within 0.5 % and the damping ratio within 5 %, by LSCF and by peak."""
     from scipy import signal
 
-    from rigtools.analyze import analyze_recording
     from rigtools.recording import ChannelSpec, RecordingWriter
+    from rigtools.recording_analysis.dispatch import analyze_recording
 
     rate, n = 8192.0, 4 * 8192 + 3000
     fn, zeta, m = 143.0, 0.01, 0.2
@@ -298,8 +298,8 @@ def test_frf_set_of_several_responses_is_identified_together(tmp_path):
     orders): the same two modes at every response (frequency 1e-6, damping 1e-5), each response's
     own modal constant (1e-5), shapes stable (MAC > 0.999), one note and one stabilisation chart
     for the three."""
-    from rigtools.analyze import analyze_recording
     from rigtools.frf_set import FRFSet, write_frf_set
+    from rigtools.recording_analysis.dispatch import analyze_recording
     from rigtools.report.sections import analysis_figures
 
     f = np.arange(0, 400.001, 0.25)

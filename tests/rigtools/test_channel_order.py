@@ -23,9 +23,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from rigtools.analyze import FRFOptions, analyze_recording
 from rigtools.config import load_rig
 from rigtools.recording import ChannelSpec, RecordingWriter
+from rigtools.recording_analysis.dispatch import analyze_recording
+from rigtools.recording_analysis.frf_estimate import FRFOptions
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "analysis"))
 from _reference import modes, periodic_response, receptance

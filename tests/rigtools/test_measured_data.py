@@ -28,9 +28,10 @@ import pyuff
 from cli_helpers import run_cli
 from sdypy_reference import reference_modes
 
-from rigtools.analyze import analyze_recording, point_frf
 from rigtools.config import load_rig
 from rigtools.recording import ChannelSpec, RecordingWriter, open_recording
+from rigtools.recording_analysis.dispatch import analyze_recording
+from rigtools.recording_analysis.frf_estimate import point_frf
 
 G = 9.80665
 

@@ -19,7 +19,6 @@ import urllib.request
 import numpy as np
 import pytest
 
-from rigtools.analyze import analyze_periodic
 from rigtools.config import load_rig
 from rigtools.monitor.control_files import STOP_REASON, LiveStatus, live_path, request_stop, stop_path
 from rigtools.monitor.envelope import max_envelope, min_max_envelope
@@ -27,6 +26,7 @@ from rigtools.monitor.follow import Follower
 from rigtools.procedures import RigStudy, SineDwell, Status
 from rigtools.readable import number
 from rigtools.recording import open_recording
+from rigtools.recording_analysis.periodic import analyze_periodic
 
 RATE = 51200.0
 

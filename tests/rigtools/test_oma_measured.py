@@ -27,8 +27,9 @@ from cli_helpers import run_cli
 from conftest import PUBLIC_DATA, missing
 
 from rigtools.analysis.oma import operational_modes
-from rigtools.analyze import FRFOptions, analyze_recording
 from rigtools.recording import open_recording
+from rigtools.recording_analysis.dispatch import analyze_recording
+from rigtools.recording_analysis.frf_estimate import FRFOptions
 
 DATA = PUBLIC_DATA
 TURBINE = DATA / "owi-turbine-tdms"

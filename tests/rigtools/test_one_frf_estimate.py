@@ -133,7 +133,7 @@ def test_every_reader_reports_the_same_frf_at_the_peaks(files, signal, tmp_path)
     assert len(set(check) & set(analyzed)) >= 2
 
     # rig update's targets come from the same modes
-    from rigtools.model_update import identify_recording
+    from rigtools.update_modes import identify_recording
 
     (active,) = [s for s in identify_recording(path).sets if s.response == ACTIVE]
     ident = front.frf.modes[ACTIVE].modes

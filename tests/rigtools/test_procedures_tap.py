@@ -17,7 +17,7 @@ import pytest
 
 from rigtools.config import load_rig
 from rigtools.procedures import Status, TapTest
-from rigtools.procedures.tap import double_hit, tap_analysis, undecayed
+from rigtools.procedures.tap import analyze_tap_recording, double_hit, undecayed
 from rigtools.recording import check_recording, open_recording
 
 WIDE = 5e-3
@@ -47,7 +47,7 @@ def test_tap_test_gives_the_passive_blades_first_three_flexural_frequencies(cfg,
     ).run()
     assert r.status is Status.FINISHED and r.summary["accepted"] == 5 and r.summary["hits"] == 5
     assert r.summary["response"] == "passive_shroud_accel"
-    res = tap_analysis(out, f_min=20, f_max=1600, n_modes=3)
+    res = analyze_tap_recording(out, f_min=20, f_max=1600, n_modes=3)
     modes = res.modes["passive_shroud_accel"].modes
     em = np.array([m.frequency_hz for m in modes])
     np.testing.assert_allclose(em, _article(cfg, "passive"), rtol=5e-3)

@@ -85,8 +85,8 @@ def branches_report(tmp_path_factory, fem_model, fem_frequency_branch):
     analysis figures left out: test_cli_report.py checks those)."""
     from cli_helpers import run_cli
 
-    from rigtools.analyze import analyze_recording
     from rigtools.branches import write_branches
+    from rigtools.recording_analysis.dispatch import analyze_recording
     from rigtools.report.branches import add_recording_branches, load_branch_files
 
     d = tmp_path_factory.mktemp("branches")

@@ -105,8 +105,8 @@ def test_a_tap_response_without_a_blade_in_its_name_takes_the_hit_blade(tmp_path
     the identified mode within 0.5 % of 60 Hz."""
     import numpy as np
 
-    from rigtools.model_update import identify_recording
     from rigtools.recording import ChannelSpec, RecordingWriter
+    from rigtools.update_modes import identify_recording
 
     rate, frame = 8192.0, 8192
     t = np.arange(frame) / rate

@@ -18,8 +18,8 @@ from cli_helpers import run_cli
 
 from rigtools.config import default_rig_text, load_rig
 from rigtools.errors import UserError
-from rigtools.model_update import updated_rig_text
 from rigtools.sim.parameter_fit import mode_targets
+from rigtools.update_rig_text import updated_rig_text
 
 FRF = [
     "acquire",
