@@ -19,8 +19,6 @@ import numpy as np
 from rigtools.analysis.harmonics import harmonic_amplitudes
 from rigtools.analysis.impacts import detect_impacts
 from rigtools.analysis.plots import force_zero_crossing_time
-from rigtools.recording_analysis.frf_estimate import FRFOptions
-from rigtools.recording_analysis.broadband import analyze_broadband
 from rigtools.branches import read_branches, write_branches
 from rigtools.config import ChannelLimitConfig
 from rigtools.demo.settings import (
@@ -37,6 +35,8 @@ from rigtools.demo.settings import (
 from rigtools.procedures import RigStudy, SineDwell, SteppedSine
 from rigtools.procedures.frf import FrfTest
 from rigtools.recording import RecordingWriter, open_recording
+from rigtools.recording_analysis.broadband import analyze_broadband
+from rigtools.recording_analysis.frf_estimate import FRFOptions
 from rigtools.sim.channel_names import ACTIVE_SHROUD_ACCEL as ACTIVE
 from rigtools.sim.channel_names import FORCE
 from rigtools.sim.channel_names import PASSIVE_SHROUD_ACCEL as PASSIVE

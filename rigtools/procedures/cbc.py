@@ -228,6 +228,7 @@ class ControlBasedContinuation(SineProcedure):
         # the inner loop: the buffered one by default; a per-sample loop (real-time hook) fits
         # the same InnerLoop protocol
         self.inner_loop_factory: Callable[..., InnerLoop] | None = kwargs.pop("inner_loop", None)
+        self.loop: InnerLoop | None = None
         super().__init__(cfg, out, **kwargs)
         self.params = params if isinstance(params, CBCParameters) else validate(CBCParameters, **params)
         self.points: list[CBCPoint] = []
@@ -256,7 +257,7 @@ class ControlBasedContinuation(SineProcedure):
         names = [s.name for s in self.device.input_channels]
         rows = {"force": rig.force_row(self.device), "accel": names.index(RESPONSE_CHANNEL)}
         make = self.inner_loop_factory or BufferedHarmonicLoop
-        self.session = make(
+        self.loop = make(
             self.device,
             self.cfg,
             monitor,
@@ -266,13 +267,18 @@ class ControlBasedContinuation(SineProcedure):
             n_harmonics=self.params.harmonics,
             window_periods=self.params.window_periods,
         )
+        # the inner loop is this procedure's session: the base class ramps it to zero on every exit
+        self.session = self.loop  # type: ignore[assignment]  # InnerLoop has SineSession's shutdown API
+        loop_name = getattr(make, "name", type(self.loop).__name__)
         self.open_writer(
-            rig.experiment_metadata(self.name, self.device, self.parameters_doc(), inner_loop=make.name)
+            rig.experiment_metadata(self.name, self.device, self.parameters_doc(), inner_loop=loop_name)
         )
 
     def execute(self) -> None:
         p = self.params
-        loop = self.session
+        loop = self.loop
+        if loop is None:
+            raise RuntimeError(f"{self.name}: no inner loop; startup() has not run")
         gap = self.set_gap(p.gap)
         self.result.summary["inner_loop"] = loop.name
         first = self._approach(loop, p)

@@ -26,8 +26,6 @@ import h5py
 import numpy as np
 
 from rigtools.analysis.branches import SHORT, explain_jumps, turning_points
-from rigtools.recording_analysis.results import RecordingAnalysis
-from rigtools.recording_analysis.dispatch import is_foreign
 from rigtools.branches import (
     POINT_PARAM,
     X_LABELS,
@@ -41,6 +39,8 @@ from rigtools.branches import (
 from rigtools.config import parse_rig
 from rigtools.errors import UserError
 from rigtools.recording import open_recording
+from rigtools.recording_analysis.dispatch import is_foreign
+from rigtools.recording_analysis.results import RecordingAnalysis
 from rigtools.vocabulary import FEM
 
 FIXED_TOLERANCE = 0.02  # relative: a recording's fixed fe / force / gap against the branches'

@@ -23,10 +23,10 @@ from typing import Any
 import numpy as np
 
 from rigtools.readable import FREQUENCY_TABLE, shown
-from rigtools.report.branches import add_recording_branches, study_axis
-from rigtools.report.controlled_branch import CONTROLLED_PROCEDURES, add_controlled_points
 from rigtools.recording_analysis.results import TABLE_HARMONICS, RecordingAnalysis
 from rigtools.recording_analysis.samples import point_window
+from rigtools.report.branches import add_recording_branches, study_axis
+from rigtools.report.controlled_branch import CONTROLLED_PROCEDURES, add_controlled_points
 
 MAX_WAVEFORM_FIGURES = 4  # periodic points drawn as waveforms (first, last and between)
 WAVEFORM_CHANNELS = ("force", "active_shroud_accel", "passive_shroud_accel", "contact_force")
