@@ -422,6 +422,7 @@ def band_schedule(
     freq_tol: float = 0.001,
     damping_tol: float = 0.05,
     min_peak_db: float = 3.0,
+    lines_per_order: float = LINES_PER_ORDER,
 ) -> BandSchedule:
     """The orders and stability tolerances for ``band`` from the lines it holds (module docstring).
 
@@ -440,7 +441,7 @@ def band_schedule(
     """
     f = np.asarray(frequency_hz, dtype=float)
     lines = int(np.count_nonzero((f >= band[0]) & (f <= band[1])))
-    cap = max(MIN_ORDER, round(lines / LINES_PER_ORDER))
+    cap = max(MIN_ORDER, round(lines / lines_per_order))
     tried = tuple(sorted({min(int(p), cap) for p in (ORDERS if orders is None else orders)}))
     scale = min(max(1.0, TOLERANCE_LINES / max(lines, 1)), MAX_TOLERANCE_SCALE)
     peaks = peaks_of(f, indicator, band[0], band[1], min_peak_db)[0].size
@@ -489,8 +490,15 @@ def converged_selection(
     min_presence: float = 0.5,
     min_coherence: float = 0.9,
     min_peak_db: float = 3.0,
+    lines_per_order: float = LINES_PER_ORDER,
 ) -> ConvergedSelection:
     """Modes from the lowest highest-order in ``orders`` whose set of modes the next one repeats.
+
+    Where the band's lines cap the orders (:func:`band_schedule`) and no peak of the band is held
+    by a stable pole, the selection is tried once more with twice the cap: a pole at the border of
+    the stability tolerances at the capped order settles at a higher one (issue 30's property test
+    found a band, 81.12-126.24 Hz of a 0.25 Hz grid, capped at order 18, losing its 120 Hz mode
+    that 82-126.24 Hz kept).
 
     Parameters
     ----------
@@ -514,7 +522,29 @@ def converged_selection(
     coh = None if coherence is None else np.max(np.atleast_2d(np.asarray(coherence, float)), axis=0)
     indicator = mode_indicator(h)
     schedule = band_schedule(
-        f, indicator, band, orders=orders, freq_tol=freq_tol, damping_tol=damping_tol, min_peak_db=min_peak_db
+        f,
+        indicator,
+        band,
+        orders=orders,
+        freq_tol=freq_tol,
+        damping_tol=damping_tol,
+        min_peak_db=min_peak_db,
+        lines_per_order=lines_per_order,
+    )
+    requested = ORDERS if orders is None else orders
+    capped = max(requested) > schedule.orders[-1]
+    keywords = dict(
+        kind=kind,
+        band=band,
+        coherence=coherence,
+        orders=orders,
+        freq_tol=freq_tol,
+        damping_tol=damping_tol,
+        min_mac=min_mac,
+        max_damping=max_damping,
+        min_presence=min_presence,
+        min_coherence=min_coherence,
+        min_peak_db=min_peak_db,
     )
     orders = list(schedule.orders)
     freq_tol, damping_tol = schedule.freq_tol, schedule.damping_tol
@@ -568,9 +598,16 @@ def converged_selection(
             )
         peaks = {m.peak_hz for m in select(top)[0]}
         if i > 0 and peaks == previous:
-            return _taken(model, chart, select(orders[i - 1]), orders[i - 1], True, schedule)
+            result = _taken(model, chart, select(orders[i - 1]), orders[i - 1], True, schedule)
+            break
         previous = peaks
-    return _taken(model, chart, select(orders[-1]), orders[-1], len(orders) == 1, schedule)
+    else:
+        result = _taken(model, chart, select(orders[-1]), orders[-1], len(orders) == 1, schedule)
+    if not result.modes and schedule.peaks and capped and lines_per_order == LINES_PER_ORDER:
+        retry = converged_selection(frequency_hz, h, **keywords, lines_per_order=lines_per_order / 2)
+        if retry.modes:
+            return retry
+    return result
 
 
 def _taken(model, chart, sel, top: int, converged: bool, schedule: BandSchedule) -> ConvergedSelection:

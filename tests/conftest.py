@@ -26,6 +26,14 @@ from pathlib import Path
 from typing import NoReturn
 
 import pytest  # pytest does not import numpy: the BLAS settings below still come first
+from hypothesis import settings as _hypothesis_settings
+
+# CI runs the property tests on hypothesis's derandomized examples (the same every run, so a red CI
+# is reproducible); a developer's run explores new ones (HYPOTHESIS_PROFILE unset). A case found
+# either way is kept with @example beside its test.
+_hypothesis_settings.register_profile("ci", derandomize=True, print_blob=True)
+if os.environ.get("HYPOTHESIS_PROFILE"):
+    _hypothesis_settings.load_profile(os.environ["HYPOTHESIS_PROFILE"])
 
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")

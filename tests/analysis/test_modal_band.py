@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from rigtools.analysis.modal_id import identify
@@ -51,6 +51,9 @@ def full_band():
     below=st.floats(3.0, 40.0),
     above=st.floats(3.0, 40.0),
 )
+# found by this test in CI-like runs: the band's 180 lines capped LSCF at order 18, where the 120 Hz
+# pole missed the stability tolerances (now retried at twice the cap: converged_selection)
+@example(k=2, below=20.25, above=3.25)
 def test_a_band_around_a_mode_finds_it_as_the_whole_grid_does(full_band, k, below, above):
     """Moves the band's edges: ``below`` and ``above`` half-power bandwidths (2 zeta fn) from
     mode ``k`` (3 to 40, clipped to the grid). The mode is found in the band; its frequency is

@@ -123,8 +123,8 @@ def test_branches_over_the_rigs_stepped_sine_in_chromium(branches_report, chromi
     (box,) = [b for b in shot.figures if b.alt.startswith("branches-fe.h5")]
     assert box.loaded and (box.width, box.height) == (box.natural_width, box.natural_height)
     assert (
-        700 <= box.natural_width <= 800 and 400 <= box.natural_height <= 500
-    )  # 8 x 5 in at 100 dpi, cropped
+        850 <= box.natural_width <= 950 and 400 <= box.natural_height <= 500
+    )  # 9.5 x 5 in at 100 dpi (the legend beside the axes), cropped
     assert figure_is_drawn(shot.crop(box))
     assert box.caption == box.alt
     assert "sweep (up), sweep (down) (up ^, down v), their jumps shaded" in box.alt
