@@ -922,6 +922,7 @@ def analyze_recording(
     options: FRFOptions | None = None,
     fe: float | None = None,
     compare_fem: bool | None = None,
+    skip_damaged: bool | None = None,
 ) -> RecordingAnalysis:
     """Analyse every complete point of a recording (see the module docstring).
 
@@ -946,6 +947,9 @@ def analyze_recording(
         Add the table of this rig's FEM/AM natural frequencies beside the identified ones;
         default: yes for the rig's own recordings, no for imported ones (they do not describe
         this rig).
+    skip_damaged
+        Read a recording ``rig check`` rejects, leaving its damaged points and channels out
+        (one note each); by default such a file is refused in one line.
 
     Returns
     -------
@@ -986,7 +990,7 @@ def analyze_recording(
     if Path(path).is_file() and is_frf_set(path):
         return analyze_frf_set(path, kind=kind, method=method, channels=channels, options=options)
     try:
-        rec = open_recording(path)
+        rec = open_recording(path, skip_damaged=skip_damaged)
     except RecordingError as exc:
         raise UserError(str(exc)) from None
     with rec:
@@ -994,6 +998,7 @@ def analyze_recording(
         out = RecordingAnalysis(
             str(path), procedure, rec.backend, source_of(rec.backend), rec.status, checked_kind, []
         )
+        out.notes.extend(rec.notes)
         if rec.incomplete:
             out.notes.append(
                 f"recording status {rec.status}"

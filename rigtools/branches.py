@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from rigtools.errors import UserError
+from rigtools.options import switch as yes_no
 
 if TYPE_CHECKING:
     from rigtools.sim.continuation import Branch
@@ -182,7 +183,15 @@ def continuation(
         )
     lo, hi, fixed = parse_inputs(param, start, stop, fe, force, gap, drive)
     return continue_model(
-        param, lo, hi, **fixed, model=model, rig=rig, switch=switch, drive=drive is not None, found=found
+        param,
+        lo,
+        hi,
+        **fixed,
+        model=model,
+        rig=rig,
+        switch=yes_no(switch, "switch"),
+        drive=drive is not None,
+        found=found,
     )[1]
 
 

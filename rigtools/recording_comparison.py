@@ -848,6 +848,7 @@ def compare_recordings(
         carry = _carry_state(rec)
         dwell_points = [p for p in rec.points if not _is_frf_point(p)]
         skipped = [p.index for p in dwell_points if not p.complete]
+        notes.extend(f"EM: {n}" for n in rec.notes)  # what a damaged file read with --skip-damaged left out
         if skipped:
             notes.append(f"EM points {skipped} were cut off (not complete) and are left out")
         em_items = []
@@ -941,6 +942,7 @@ def compare_recordings(
         source = "simulated"
     else:
         with _open(fem_path, "model recording") as mrec:
+            notes.extend(f"model: {n}" for n in mrec.notes)
             if mrec.backend not in MODEL_BACKENDS:
                 notes.append(
                     f"{Path(fem_path).name} was written by backend {mrec.backend!r}, not a model run"

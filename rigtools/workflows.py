@@ -378,7 +378,7 @@ def simulate_study(
     """
     from rigtools.errors import UserError
     from rigtools.model_study import record_study
-    from rigtools.options import HDF5_SUFFIXES, output_path, quantity
+    from rigtools.options import HDF5_SUFFIXES, output_path, quantity, switch
     from rigtools.options import gap as gap_option
     from rigtools.procedures.base import validate
     from rigtools.procedures.rig_study import StudyParameters
@@ -395,7 +395,9 @@ def simulate_study(
     if gap is not None:
         fixed["gap"] = gap_option(gap, "gap")
     try:
-        plan = StudyPlan(kind, tuple(swept), direction, carry_state=carry_state, **fixed)
+        plan = StudyPlan(
+            kind, tuple(swept), direction, carry_state=switch(carry_state, "carry_state"), **fixed
+        )
     except SimulationInputError as exc:
         raise UserError(str(exc)) from None
     target = output_path(str(out), overwrite, "out", suffixes=HDF5_SUFFIXES)
@@ -441,6 +443,7 @@ def compare_with_model(
     workers: int | None = None,
     max_settle_time: float | str = "30 s",
     progress: Callable[[int, int, str], None] | None = None,
+    skip_damaged: bool = False,
 ) -> Comparison:
     """Compare an EM recording with the model: harmonics, waveforms, agreement per point.
 
@@ -467,6 +470,9 @@ def compare_with_model(
         Longest simulated settling per model run, ``"30 s"`` or s.
     progress
         ``progress(done, total, text)`` as model runs finish.
+    skip_damaged
+        Read recordings ``rig check`` rejects, leaving their damaged points and channels out
+        (one note each); by default such a file is refused in one line.
 
     Returns
     -------
@@ -488,24 +494,26 @@ def compare_with_model(
     True
     """
     from rigtools.errors import UserError
-    from rigtools.options import duration
+    from rigtools.options import duration, switch
+    from rigtools.recording import reading_damaged
     from rigtools.recording_comparison import compare_recordings
 
     if isinstance(k_max, bool) or not isinstance(k_max, int) or k_max < 1:
         raise UserError(f"k_max = {k_max!r}: the harmonics compared are k = 1..k_max, a whole number >= 1")
-    return compare_recordings(
-        str(em),
-        None if model_recording is None else str(model_recording),
-        simulate=model_recording is None,
-        model=model,
-        excitation=excitation,
-        rig=None if rig is None else str(rig),
-        frf=None if frf is None else str(frf),
-        k_max=k_max,
-        workers=workers,
-        max_settle_time=duration(max_settle_time, "max_settle_time"),
-        progress=progress,
-    )
+    with reading_damaged(switch(skip_damaged, "skip_damaged")):
+        return compare_recordings(
+            str(em),
+            None if model_recording is None else str(model_recording),
+            simulate=model_recording is None,
+            model=model,
+            excitation=excitation,
+            rig=None if rig is None else str(rig),
+            frf=None if frf is None else str(frf),
+            k_max=k_max,
+            workers=workers,
+            max_settle_time=duration(max_settle_time, "max_settle_time"),
+            progress=progress,
+        )
 
 
 def update_model(
@@ -563,7 +571,7 @@ def update_model(
     """
     from rigtools.errors import UserError
     from rigtools.model_update import DEFAULT_PARAMETERS, update_rig_file
-    from rigtools.options import quantity
+    from rigtools.options import quantity, switch
 
     files = [recordings] if isinstance(recordings, str | Path) else list(recordings)
     if not files:
@@ -582,7 +590,7 @@ def update_model(
         parameters=DEFAULT_PARAMETERS if parameters is None else parameters,
         modes=modes,
         band=span,
-        damping=damping,
+        damping=switch(damping, "damping"),
         contact=contact,
         law=law,
         overwrite=overwrite,

@@ -8,6 +8,7 @@ from __future__ import annotations
 import argparse
 
 from rigtools import json_values
+from rigtools.commands import add_skip_damaged
 from rigtools.errors import exit_status_help
 from rigtools.model_update import CONTACT_LAWS, PARAMETER_NAMES
 from rigtools.model_update import DEFAULT_PARAMETERS as DEFAULT_PARAMS
@@ -71,6 +72,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         metavar="TEST.h5",
         help="FRF test / tap test recordings (modes are identified in each)",
     )
+    add_skip_damaged(p)
     p.add_argument(
         "--rig", metavar="FILE", help="rig file (TOML) to update; default: the calibrated default rig"
     )

@@ -578,6 +578,8 @@ def file_functions(
             )
         return frf_set_functions(read_frf_set(path), what, source=str(path)), []
     with open_recording(path) as rec:
+        if notes is not None:
+            notes.extend(rec.notes)  # what --skip-damaged left out of a damaged file
         skipped = [p.index for p in rec.points if not p.complete]  # cut off: never passed on as data
         if len(skipped) == len(rec.points):
             raise UserError(f"{path}: the recording has no complete points to export")

@@ -21,7 +21,7 @@ import h5py
 import numpy as np
 
 import rigtools
-from rigtools.errors import one_line
+from rigtools.errors import one_line, option
 from rigtools.recording.schema import (
     CHANNEL_ATTRS,
     CHANNEL_UNITS,
@@ -574,7 +574,46 @@ def _check_once(path: str | os.PathLike, read_data: bool) -> CheckResult:
         f.close()
 
 
+def sample_problems(f: h5py.File, skip: frozenset[str] = frozenset()) -> list[Problem]:
+    """:func:`_data_problems` of every point group of ``f`` (not those named in ``skip``): the
+    samples ``rig check`` reads (unreadable, NaN or infinite)."""
+    out: list[Problem] = []
+    points = f.get(POINTS_GROUP)
+    if not isinstance(points, h5py.Group):
+        return out
+    for name in points:
+        if point_index(name) is None or name in skip:
+            continue
+        group = points[name]
+        if isinstance(group, h5py.Group):
+            ended = group.attrs.get("end_time", b"") not in ("", b"")
+            out.extend(_data_problems(group, f"/{POINTS_GROUP}/{name}", ended))
+    return out
+
+
+def _as_cut_off(problem: Problem) -> Problem:
+    """A problem of a point an unfinished writer cut off: noted (every reader leaves the point
+    out and keeps the others; nothing else recorded is lost)."""
+    why = f"{problem.message} (cut off by the writer that stopped: readers leave the point out)"
+    return Problem(problem.where, why, severity=NOTE)
+
+
+def damaged_line(path: str | os.PathLike, errors: list[Problem]) -> str:
+    """The one line that refuses a recording ``rig check`` rejects (non-fatal errors): the file,
+    its first problem, how many check lists, and the way out in the caller's words."""
+    first = errors[0]
+    where = "" if first.where == "/" else f"{first.where}: "
+    count = f"{len(errors)} problem{'s' * (len(errors) != 1)}"
+    way_out = option("skip_damaged", True)
+    return (
+        f"{path} is damaged: {where}{first.message} "
+        f"(rig check {path} lists {count}; {way_out} reads the rest)"
+    )
+
+
 def _check_file(f: h5py.File, path: str | os.PathLike, opened_as: str, read_data: bool) -> CheckResult:
+    from rigtools.recording.reader import _cut_off_points, _point_of  # the reader's own rule
+
     result = CheckResult(str(path), opened_as=opened_as)
     try:
         try:
@@ -583,6 +622,8 @@ def _check_file(f: h5py.File, path: str | os.PathLike, opened_as: str, read_data
             raise RecordingError(f"{path}: damaged HDF5 structure ({one_line(exc, None)})") from None
         if result.problems and result.problems[0].message.startswith(NEWER_PREFIX):
             raise RecordingError(f"{path}: {result.problems[0].message}; this rigtools cannot check it")
+        cut_off = _cut_off_points(f, [p for p in result.problems if p.fatal])
+        result.problems = [_as_cut_off(p) if _point_of(p.where) in cut_off else p for p in result.problems]
         if opened_as == "flags-cleared":
             result.problems.append(
                 Problem(
@@ -604,10 +645,9 @@ def _check_file(f: h5py.File, path: str | os.PathLike, opened_as: str, read_data
                 group = points[name]
                 if isinstance(group, h5py.Group):
                     channels.update(group)
-                    if read_data:
-                        ended = group.attrs.get("end_time", b"") not in ("", b"")
-                        result.problems.extend(_data_problems(group, f"/{POINTS_GROUP}/{name}", ended))
             result.n_channels = len(channels)
+            if read_data:
+                result.problems.extend(sample_problems(f, skip=cut_off))
     finally:
         f.close()
     return result
