@@ -31,7 +31,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from rigtools.errors import UserError
+from rigtools.errors import UserError, in_script_words
 from rigtools.recording.schema import SINE_PROCEDURES
 from rigtools.vocabulary import excitation_frequency
 
@@ -912,6 +912,7 @@ def analyze_tap_test(
     )
 
 
+@in_script_words
 def analyze_recording(
     path: str | Path,
     *,

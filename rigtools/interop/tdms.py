@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from rigtools.errors import UserError, one_line
+from rigtools.errors import UserError, in_script_words, one_line
 from rigtools.interop.channels import LBF, ForeignChannel, G, check_known, check_names, resolve
 from rigtools.interop.checks import non_finite_reason, number, parser_notes
 from rigtools.interop.imported import ForeignPoint, split_by_timing, write_imported
@@ -85,6 +85,7 @@ def _selected(tdms: Any, groups: list[str], channels: list[str]) -> list[tuple[A
     return out
 
 
+@in_script_words
 def import_tdms(
     source: str | Path,
     out: str | Path,

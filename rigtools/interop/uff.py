@@ -32,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-from rigtools.errors import UserError, one_line
+from rigtools.errors import UserError, in_script_words, one_line
 from rigtools.interop.uff_data import (
     FRF_DATA_RULE,
     _with_force,
@@ -626,6 +626,7 @@ def read_uff_sets(source: str | Path, notes: list[str] | None = None) -> list[di
             f"{source}: not a readable UFF file ({type(exc).__name__}: {one_line(exc, 200)})"
         ) from None
     sets = sets if isinstance(sets, list) else [sets]
+    cut = _cut_record(source, len(sets))
     out: list[dict] = []
     for s in sets:
         if s.get("type") != 58:
@@ -639,8 +640,23 @@ def read_uff_sets(source: str | Path, notes: list[str] | None = None) -> list[di
             s = {**s, "data": s["data"][:n], "x": s["x"][:n]}
         out.append(s)
     if not out:
-        raise UserError(f"{source}: no UFF 58 record (function records) in the file")
+        raise UserError(cut or f"{source}: no UFF 58 record (function records) in the file")
+    if cut:
+        (notes if notes is not None else []).append(cut)
     return out
+
+
+def _cut_record(source: Path, whole: int) -> str | None:
+    """A file whose last line is not a record's closing ``-1`` ends inside a record (a cut copy,
+    an interrupted export); pyuff leaves that record out without a word: say so."""
+    with source.open("rb") as f:
+        f.seek(max(0, source.stat().st_size - 512))
+        tail = f.read().rstrip()
+    if not tail or tail.rsplit(b"\n", 1)[-1].strip() == b"-1":
+        return None
+    return f"{source}: the file ends inside a record after {whole} whole record(s) (a cut file?)" + (
+        ": the partial record is left out" if whole else ""
+    )
 
 
 def record_name(s: dict) -> str:
@@ -721,6 +737,20 @@ def _time_units(s: dict) -> str:
     )
 
 
+def _code_against_label(s: dict) -> str | None:
+    """A time record whose units label and data-type code name different quantities (``N`` over
+    code 12, acceleration): which one is wrong cannot be told, so the record is not guessed."""
+    from rigtools.interop.channels import si_units
+
+    label = _label(s, "ordinate_axis_units_lab")
+    code = int(s.get("ordinate_spec_data_type", 0))
+    by_code = _QUANTITY_OF_CODE.get(code)
+    si = si_units(label) if label else None
+    if by_code is None or si is None or si.quantity == by_code:
+        return None
+    return f"its units label {label!r} says {si.quantity}, its data-type code {code} says {by_code}"
+
+
 def _frf_kind(s: dict, given: str | None) -> tuple[str | None, float, str]:
     """``(kind, factor to SI, how it was found)`` of an FRF record: ``given`` (``--units`` of the
     response) first, else the labels checked against the data."""
@@ -773,6 +803,7 @@ def _frf_kind(s: dict, given: str | None) -> tuple[str | None, float, str]:
     )
 
 
+@in_script_words
 def import_uff(
     source: str | Path,
     out: str | Path,
@@ -837,6 +868,9 @@ def import_uff(
         every.append(fc)
         inc = float(s.get("abscissa_inc", 0.0))
         fc.samples = len(s["data"])
+        given = name in units or record_key(number) in units
+        if fc.kept and not given and (conflict := _code_against_label(s)):
+            fc.si, fc.name, fc.reason = None, "", f"{conflict}: give --units {name}=UNIT to say which"
         if fc.kept and not inc > 0:
             fc.si, fc.name, fc.reason = None, "", f"abscissa increment {inc!r} is not a positive time step"
         if fc.kept and np.iscomplexobj(s["data"]):
@@ -906,6 +940,18 @@ def _reference_name(s: dict) -> str:
     return (names[1] if names and names[1] else "") or str(s.get("ref_ent_name", "")).strip()
 
 
+def _coherence_text(coh: dict | None, grid: np.ndarray) -> str:
+    """How an FRF's coherence record pairs with it: ``"with its coherence"`` only on the FRF's own
+    frequency lines; a record on another grid is left out, saying so (never paired line by line)."""
+    if coh is None:
+        return "no coherence record"
+    x = np.asarray(coh["x"], dtype=float)
+    if x.size == grid.size and np.allclose(x, grid, rtol=1e-9, atol=0.0):
+        return "with its coherence"
+    span = f"{x.size} lines {x[0]:g}-{x[-1]:g} Hz" if x.size else "no lines"
+    return f"its coherence record left out: on another frequency grid ({span})"
+
+
 def _import_frfs(
     source: Path, out: str | Path, records: list[tuple[int, str, dict]], *, mapping, units, overwrite
 ) -> dict:
@@ -940,9 +986,10 @@ def _import_frfs(
             continue
         grid = x
         coh = coherence.get((name, _reference_name(s), int(s.get("ref_node", 0))))
+        said_coherence = _coherence_text(coh, x)
         c = (
             np.asarray(coh["data"], float)
-            if coh is not None and len(coh["data"]) == x.size
+            if said_coherence == "with its coherence"
             else np.full(x.size, np.nan)
         )
         stored = next((mapping[k] for k in keys if k in mapping), storable_name(name))
@@ -955,8 +1002,8 @@ def _import_frfs(
         frfs.append((stored, np.asarray(s["data"], complex) * factor, c, kind))
         points.append({side: _point_of(s, side) for side in ("response", "reference")})
         kinds.add(kind)
-        text = f"kept    {where} -> {stored}: FRF, {how}, {x.size} lines {x[0]:g}-{x[-1]:g} Hz, " + (
-            "with its coherence" if coh is not None else "no coherence record"
+        text = (
+            f"kept    {where} -> {stored}: FRF, {how}, {x.size} lines {x[0]:g}-{x[-1]:g} Hz, {said_coherence}"
         )
         lines.append(text)
         entries.append(

@@ -10,7 +10,8 @@ FRF_DATA_RULE = "peaks of |H| near +-90 deg: not mobility; |H| away from the pea
 
 
 def frf_kind_from_data(f: np.ndarray, h: np.ndarray) -> str | None:
-    """What an FRF measures, read from the data, or None when they do not tell.
+    """What an FRF measures, read from the data, or None when they do not tell (real-valued data
+    have no phase: they tell nothing).
 
     A lightly damped mode's receptance and accelerance are near +-90 deg at its peak, its mobility
     near 0/180 deg (the median over the largest peaks decides). Between receptance and accelerance,
@@ -23,6 +24,8 @@ def frf_kind_from_data(f: np.ndarray, h: np.ndarray) -> str | None:
     f, h = f[keep], h[keep]
     mag = np.abs(h)
     if f.size < 30 or not np.all(np.isfinite(mag)) or mag.max() == 0:
+        return None
+    if not np.any(h.imag):  # real values (a magnitude or real-part record): no phase to read
         return None
     peaks, props = find_peaks(mag, prominence=0.05 * mag.max())
     if peaks.size == 0:

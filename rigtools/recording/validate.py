@@ -50,6 +50,9 @@ from rigtools.recording.schema import (
 from rigtools.vocabulary import MODEL_BACKENDS
 
 ERROR = "error"
+#: The largest sample magnitude a reader takes: a square of 1e154 overflows float64; nothing the rig
+#: or its model measures in SI units comes near (the shaker's 1000 N, accelerations ~1e5 m/s^2).
+MAX_SAMPLE_MAGNITUDE = 1e150
 NOTE = "note"
 NEWER_PREFIX = "schema_version "  # start of the one message that means "file is newer"
 
@@ -667,6 +670,7 @@ def _data_problems(group: h5py.Group, where: str, ended: bool = True, block: int
         if not isinstance(dataset, h5py.Dataset) or dataset.ndim != 1:
             continue
         n_bad = 0
+        n_huge = 0  # finite samples whose square overflows: every spectrum and fit would be inf
         last_good = -1  # index of the last finite sample
         start = 0
         try:
@@ -675,6 +679,7 @@ def _data_problems(group: h5py.Group, where: str, ended: bool = True, block: int
                 if values.dtype.kind == "f":
                     finite = np.isfinite(values)
                     n_bad += int(finite.size - np.count_nonzero(finite))
+                    n_huge += int(np.count_nonzero(np.abs(values[finite]) > MAX_SAMPLE_MAGNITUDE))
                     if finite.any():
                         last_good = start + int(np.flatnonzero(finite)[-1])
                 else:
@@ -695,6 +700,15 @@ def _data_problems(group: h5py.Group, where: str, ended: bool = True, block: int
                     f"{where}/{name}",
                     f"{inner} sample{'s' * (inner != 1)} "
                     "NaN or infinite" + ("" if ended else " before the unflushed tail"),
+                )
+            )
+        if n_huge:
+            out.append(
+                Problem(
+                    f"{where}/{name}",
+                    f"{n_huge} sample{'s' * (n_huge != 1)} beyond +-{MAX_SAMPLE_MAGNITUDE:g}: "
+                    "no measured or modelled quantity in SI units reaches that (a damaged file?); "
+                    "its squares overflow every spectrum and fit",
                 )
             )
         if tail:
