@@ -25,7 +25,7 @@ import numpy as np
 
 from rigtools.errors import UserError, in_script_words, one_line
 from rigtools.interop.channels import ForeignChannel, check_known, check_names, resolve
-from rigtools.interop.checks import non_finite_reason
+from rigtools.interop.checks import non_finite_reason, source_file
 from rigtools.interop.imported import ForeignPoint, rows_reader, split_by_timing, write_imported
 
 _HEADINGS = ("Samples", "Delta_X", "X0", "Y_Unit_Label", "X_Dimension")
@@ -64,9 +64,7 @@ def read_lvm(source: str | Path, notes: list[str] | None = None) -> dict:
     """
     import lvm_read
 
-    source = Path(source)
-    if not source.is_file():
-        raise LvmImportError(f"{source}: no such file")
+    source = source_file(source, LvmImportError)
     raw = source.read_bytes()
     if raw[:2] == b"\x1f\x8b":
         try:

@@ -32,7 +32,8 @@ from typing import Any
 
 import numpy as np
 
-from rigtools.errors import UserError, in_script_words, one_line
+from rigtools.errors import UserError, in_script_words
+from rigtools.interop.checks import parsed, source_file
 from rigtools.interop.uff_data import (
     FRF_DATA_RULE,
     _with_force,
@@ -616,15 +617,8 @@ def read_uff_sets(source: str | Path, notes: list[str] | None = None) -> list[di
     more values than a padded last line explains is said in ``notes``."""
     import pyuff
 
-    source = Path(source)
-    if not source.is_file():
-        raise UserError(f"{source}: {'not a file' if source.exists() else 'no such file'}")
-    try:
-        sets = pyuff.UFF(str(source)).read_sets()
-    except Exception as exc:  # noqa: BLE001 -- pyuff raises many types on a foreign file: one line
-        raise UserError(
-            f"{source}: not a readable UFF file ({type(exc).__name__}: {one_line(exc, 200)})"
-        ) from None
+    source = source_file(source)
+    sets = parsed(source, "UFF", lambda: pyuff.UFF(str(source)).read_sets())
     sets = sets if isinstance(sets, list) else [sets]
     cut = _cut_record(source, len(sets))
     out: list[dict] = []

@@ -126,6 +126,36 @@ def open_h5(path: str | os.PathLike, wait: bool = True) -> tuple[h5py.File, str]
     raise RecordingError(f"{p}: unreadable HDF5 file ({reason})") from None
 
 
+def open_checked(
+    path: str | os.PathLike, schema: str, what: tuple[str, str], newest: int, problems: list[Problem]
+) -> tuple[h5py.File, dict[str, Any]]:
+    """The check preamble of rigtools' own HDF5 files (branches files, FRF sets): open ``path``
+    (:func:`open_h5`: one line if missing, a folder, truncated or not HDF5), refuse another
+    ``schema`` or a ``schema_version`` above ``newest``, and add a version that is not an integer
+    to ``problems``. ``what``: the file kind with its article and alone (``("an FRF set", "FRF
+    set")``). Returns the open file (the caller closes it) and its root attributes."""
+    f, _ = open_h5(path, wait=False)
+    try:
+        attrs = dict(f.attrs)
+        if attrs.get("schema") != schema:
+            raise RecordingError(f"{path}: not {what[0]} (schema {attrs.get('schema')!r})")
+        version = attrs.get("schema_version")
+        if not isinstance(version, (int, np.integer)) or isinstance(version, (bool, np.bool_)):
+            problems.append(Problem("/", f"schema_version must be an integer, got {version!r}"))
+        elif version > newest:
+            raise RecordingError(
+                f"{path}: {what[1]} schema_version {version} is newer than this rigtools reads "
+                f"({newest}): upgrade rigtools"
+            )
+    except RecordingError:
+        f.close()
+        raise
+    except (OSError, RuntimeError, KeyError, ValueError, TypeError) as exc:
+        f.close()
+        raise RecordingError(f"{path}: damaged HDF5 structure ({_reason(exc)})") from None
+    return f, attrs
+
+
 def _flags_set(path: Path) -> bool:
     try:
         return bool(consistency_flags(path))
@@ -653,12 +683,17 @@ def _open_once(
             problems += sample_problems(f, skip=cut_off)
         # what rig check reports as errors beyond the fatal ones: the file is refused, or read
         # without the damaged parts (a point cut off by a killed writer is left out either way)
-        damaged = [
+        errors = [
             p for p in problems if p.severity == ERROR and not p.fatal and _point_of(p.where) not in cut_off
         ]
+        damaged = [p for p in errors if not p.model_only]
         if damaged and not skip_damaged:
-            raise RecordingError(damaged_line(path, damaged))
-        return Recording(f, str(path), opened_as, cache, cut_off, damaged)
+            raise RecordingError(damaged_line(path, damaged, len(errors)))
+        rec = Recording(f, str(path), opened_as, cache, cut_off, damaged)
+        # the rig description matters to the readers that build the model (they refuse it,
+        # naming --rig); the others read the intact samples and say it
+        rec.notes.extend(f"{p.message} (the samples are read)" for p in errors if p.model_only)
+        return rec
     except RecordingError:
         f.close()
         raise

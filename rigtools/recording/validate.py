@@ -65,6 +65,9 @@ class Problem:
     message: str
     severity: str = ERROR
     fatal: bool = False
+    #: An error only to the readers that build the model from the file (its ``rig`` attribute):
+    #: the others read the data with it as a note (the samples are intact).
+    model_only: bool = False
 
     def line(self) -> str:
         return f"{self.where}: {self.message}"
@@ -313,9 +316,13 @@ def rig_problems(text: str) -> list[Problem]:
         try:
             data = tomllib.loads(text)
         except tomllib.TOMLDecodeError:
-            return [Problem("/", "attribute 'rig' is neither JSON nor TOML")]
+            return [Problem("/", "attribute 'rig' is neither JSON nor TOML", model_only=True)]
     if not isinstance(data, dict):
-        return [Problem("/", f"attribute 'rig' is not a rig description (a {type(data).__name__})")]
+        return [
+            Problem(
+                "/", f"attribute 'rig' is not a rig description (a {type(data).__name__})", model_only=True
+            )
+        ]
     if not data:  # a writer without a rig description (tests, other software): nothing claimed
         return [
             Problem(
@@ -331,6 +338,7 @@ def rig_problems(text: str) -> list[Problem]:
             Problem(
                 "/",
                 f"attribute 'rig' does not validate: {one_line(exc, 300)}; those readers that build the model need --rig FILE",
+                model_only=True,
             )
         ]
     return []
@@ -601,12 +609,13 @@ def _as_cut_off(problem: Problem) -> Problem:
     return Problem(problem.where, why, severity=NOTE)
 
 
-def damaged_line(path: str | os.PathLike, errors: list[Problem]) -> str:
+def damaged_line(path: str | os.PathLike, damaged: list[Problem], listed: int) -> str:
     """The one line that refuses a recording ``rig check`` rejects (non-fatal errors): the file,
-    its first problem, how many check lists, and the way out in the caller's words."""
-    first = errors[0]
+    its first damage, how many problems check lists (``listed``), and the way out in the
+    caller's words."""
+    first = damaged[0]
     where = "" if first.where == "/" else f"{first.where}: "
-    count = f"{len(errors)} problem{'s' * (len(errors) != 1)}"
+    count = f"{listed} problem{'s' * (listed != 1)}"
     way_out = option("skip_damaged", True)
     return (
         f"{path} is damaged: {where}{first.message} "

@@ -70,11 +70,6 @@ DAMAGES: dict[str, tuple[Callable[[h5py.File], None], str, str]] = {
     "sine point without fe": (_no_fe, "has no parameter 'fe'", "point"),
     "fe = 0": (_attr("points/0001", "fe", 0.0), "has fe = 0", "point"),
     "aborted without reason": (_attr("/", "status", "aborted"), "abort_reason is empty", "file"),
-    "rig does not validate": (
-        _attr("/", "rig", json.dumps({"contact": {"gap": -1}})),
-        "does not validate",
-        "file",
-    ),
     "created not a time": (_attr("/", "created", "yesterday"), "is not ISO 8601", "file"),
     "direction code 9": (_attr("points/0001/drive", "direction", 9), "not a UFF direction code", "channel"),
 }
@@ -204,6 +199,22 @@ def test_front_door_skip_damaged(good, tmp_path):
     assert any("point 1 channel active_shroud_accel left out" in n for n in cmp.notes)
     with pytest.raises(rigtools.UserError, match="skip_damaged = 'yes': give True or False"):
         rigtools.analyze_recording(path, skip_damaged="yes")
+
+
+def test_a_rig_attribute_that_does_not_validate_matters_to_the_model_builders_only(good, tmp_path):
+    """Decision: check rejects it (exit 1); the data readers read the intact samples with a note;
+    the readers that build the model from it refuse it naming --rig."""
+    path = _write_recording(tmp_path / "bad.h5")
+    with h5py.File(path, "r+") as f:
+        f.attrs["rig"] = json.dumps({"contact": {"gap": -1}})
+    assert run_cli(["check", path])[0] == EXIT_PROBLEMS
+    code, out, err = run_cli(["info", "--json", path])
+    assert code == 0, err
+    assert any("attribute 'rig' does not validate" in n for n in json.loads(out)["notes"])
+    code, out, err = run_cli(["analyze", "--json", path])
+    assert code == 0 and any("(the samples are read)" in n for n in json.loads(out)["notes"]), err
+    code, _, err = run_cli(["compare", "--json", path, "--simulate"])
+    assert code == EXIT_USAGE and "rig" in err and len(err.strip().splitlines()) == 1, err
 
 
 def test_a_file_with_notes_only_is_read(good, tmp_path):
