@@ -211,7 +211,7 @@ def in_callers_words(text: str) -> str:
 
 def in_script_words(function: Callable[_P, _R]) -> Callable[_P, _R]:
     """A Python door whose :class:`UserError` advice is in the caller's words
-    (:func:`in_callers_words`): ``units`` and ``mapping=`` in a script, ``--units`` and ``--map``
+    (``in_callers_words``): ``units`` and ``mapping=`` in a script, ``--units`` and ``--map``
     under ``rig``."""
 
     @functools.wraps(function)

@@ -10,5 +10,5 @@ SKIP_DAMAGED_HELP = (
 
 def add_skip_damaged(parser: argparse.ArgumentParser) -> None:
     """The readers' ``--skip-damaged`` (``rig``'s entry point applies it to every recording the
-    command opens: :func:`rigtools.recording.reader.reading_damaged`)."""
+    command opens: ``rigtools.recording.reader.reading_damaged``)."""
     parser.add_argument("--skip-damaged", action="store_true", help=SKIP_DAMAGED_HELP)

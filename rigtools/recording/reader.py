@@ -130,7 +130,7 @@ def open_checked(
     path: str | os.PathLike, schema: str, what: tuple[str, str], newest: int, problems: list[Problem]
 ) -> tuple[h5py.File, dict[str, Any]]:
     """The check preamble of rigtools' own HDF5 files (branches files, FRF sets): open ``path``
-    (:func:`open_h5`: one line if missing, a folder, truncated or not HDF5), refuse another
+    (``open_h5``: one line if missing, a folder, truncated or not HDF5), refuse another
     ``schema`` or a ``schema_version`` above ``newest``, and add a version that is not an integer
     to ``problems``. ``what``: the file kind with its article and alone (``("an FRF set", "FRF
     set")``). Returns the open file (the caller closes it) and its root attributes."""
@@ -537,11 +537,11 @@ def open_recording(
         :class:`RecordingError` at once instead of being retried for up to a few seconds.
     skip_damaged
         True: read a damaged file, leaving each damaged point or channel out with one line in
-        :attr:`Recording.notes` (a damaged file-level attribute is noted and read on). None: as
-        the enclosing :func:`reading_damaged` says (``rig ... --skip-damaged``), else False.
+        ``Recording.notes`` (a damaged file-level attribute is noted and read on). None: as
+        the enclosing ``reading_damaged`` says (``rig ... --skip-damaged``), else False.
     check_samples
         False: check the metadata only, not every sample (a follower of a live file that reads
-        only what was appended: :mod:`rigtools.monitor`).
+        only what was appended: ``rigtools.monitor``).
 
     Returns
     -------

@@ -586,7 +586,7 @@ def _check_once(path: str | os.PathLike, read_data: bool) -> CheckResult:
 
 
 def sample_problems(f: h5py.File, skip: frozenset[str] = frozenset()) -> list[Problem]:
-    """:func:`_data_problems` of every point group of ``f`` (not those named in ``skip``): the
+    """``_data_problems`` of every point group of ``f`` (not those named in ``skip``): the
     samples ``rig check`` reads (unreadable, NaN or infinite)."""
     out: list[Problem] = []
     points = f.get(POINTS_GROUP)
