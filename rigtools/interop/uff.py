@@ -862,8 +862,8 @@ def import_uff(
         every.append(fc)
         inc = float(s.get("abscissa_inc", 0.0))
         fc.samples = len(s["data"])
-        given = name in units or record_key(number) in units
-        if fc.kept and not given and (conflict := _code_against_label(s)):
+        units_given = name in units or record_key(number) in units
+        if fc.kept and not units_given and (conflict := _code_against_label(s)):
             fc.si, fc.name, fc.reason = None, "", f"{conflict}: give --units {name}=UNIT to say which"
         if fc.kept and not inc > 0:
             fc.si, fc.name, fc.reason = None, "", f"abscissa increment {inc!r} is not a positive time step"
@@ -982,8 +982,8 @@ def _import_frfs(
         coh = coherence.get((name, _reference_name(s), int(s.get("ref_node", 0))))
         said_coherence = _coherence_text(coh, x)
         c = (
-            np.asarray(coh["data"], float)
-            if said_coherence == "with its coherence"
+            np.asarray(coh["data"], dtype=float)
+            if coh is not None and said_coherence == "with its coherence"
             else np.full(x.size, np.nan)
         )
         stored = next((mapping[k] for k in keys if k in mapping), storable_name(name))
