@@ -2,8 +2,10 @@
 
 :func:`find_problems` inspects an open HDF5 file (attributes, names, shapes; no sample data) and
 returns :class:`Problem` lines. Problems marked ``fatal`` stop :func:`~rigtools.recording.open_recording`
-(wrong schema, newer version, missing required attributes); the others (inconsistent lengths or
-rates, a gap in the point numbering) are reported by ``rig check`` but the file still opens.
+(wrong schema, newer version, missing required attributes) in every case; the other errors
+(inconsistent lengths or rates, a gap in the point numbering, NaN samples, ...) stop it too unless
+it is asked to ``skip_damaged`` (the reader contract: a file ``rig check`` rejects is refused by
+every reader; only a ``rig`` attribute that does not validate is ``model_only``).
 :func:`check_recording` opens a path, runs the inspection and, optionally, reads every sample.
 """
 
