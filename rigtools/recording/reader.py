@@ -665,6 +665,23 @@ def _cut_off_points(f: h5py.File, fatal: list) -> frozenset[str]:
     return frozenset(n for n in (_point_of(p.where) for p in fatal) if n is not None)
 
 
+#: Sample scans of finished files by (path, size, modification time): a command opens one file
+#: several times (analysis, tables, figures) and its samples are scanned once.
+_SCANS: dict[tuple[str, int, int], list[Problem]] = {}
+
+
+def _scanned(path: str | os.PathLike, f: h5py.File, cut_off: frozenset[str]) -> list[Problem]:
+    if f.attrs.get("status") == STATUS_RECORDING or writer_alive(path):
+        return sample_problems(f, skip=cut_off)  # still growing: scan what is there now
+    st = os.stat(path)
+    key = (os.path.realpath(path), st.st_size, st.st_mtime_ns)
+    if key not in _SCANS:
+        if len(_SCANS) > 64:
+            _SCANS.clear()
+        _SCANS[key] = sample_problems(f, skip=cut_off)
+    return _SCANS[key]
+
+
 def _open_once(
     path: str | os.PathLike, wait: bool = True, skip_damaged: bool = False, check_samples: bool = True
 ) -> Recording:
@@ -680,7 +697,7 @@ def _open_once(
             more = f" (and {len(fatal) - 1} more; run: rig check {path})" if len(fatal) > 1 else ""
             raise RecordingError(f"{path}: {where}{fatal[0].message}{more}")
         if check_samples:
-            problems += sample_problems(f, skip=cut_off)
+            problems += _scanned(path, f, cut_off)
         # what rig check reports as errors beyond the fatal ones: the file is refused, or read
         # without the damaged parts (a point cut off by a killed writer is left out either way)
         errors = [
