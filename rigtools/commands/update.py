@@ -66,12 +66,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         epilog=EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument(
-        "recordings",
-        nargs="+",
-        metavar="TEST.h5",
-        help="FRF test / tap test recordings (modes are identified in each)",
-    )
+    help_recordings = "FRF test / tap test recordings (modes are identified in each)"
+    p.add_argument("recordings", nargs="+", metavar="TEST.h5", help=help_recordings)
     add_skip_damaged(p)
     p.add_argument(
         "--rig", metavar="FILE", help="rig file (TOML) to update; default: the calibrated default rig"
