@@ -37,6 +37,9 @@ from rigtools.interop.checks import parsed, source_file
 from rigtools.interop.uff_data import (
     FRF_DATA_RULE,
     _with_force,
+    code_against_label,
+    coherence_text,
+    cut_record,
     frf_kind_from_data,
     rate_of_increment,
     uff_date,
@@ -620,7 +623,7 @@ def read_uff_sets(source: str | Path, notes: list[str] | None = None) -> list[di
     source = source_file(source)
     sets = parsed(source, "UFF", lambda: pyuff.UFF(str(source)).read_sets())
     sets = sets if isinstance(sets, list) else [sets]
-    cut = _cut_record(source, len(sets))
+    cut = cut_record(source, len(sets))
     out: list[dict] = []
     for s in sets:
         if s.get("type") != 58:
@@ -638,19 +641,6 @@ def read_uff_sets(source: str | Path, notes: list[str] | None = None) -> list[di
     if cut:
         (notes if notes is not None else []).append(cut)
     return out
-
-
-def _cut_record(source: Path, whole: int) -> str | None:
-    """A file whose last line is not a record's closing ``-1`` ends inside a record (a cut copy,
-    an interrupted export); pyuff leaves that record out without a word: say so."""
-    with source.open("rb") as f:
-        f.seek(max(0, source.stat().st_size - 512))
-        tail = f.read().rstrip()
-    if not tail or tail.rsplit(b"\n", 1)[-1].strip() == b"-1":
-        return None
-    return f"{source}: the file ends inside a record after {whole} whole record(s) (a cut file?)" + (
-        ": the partial record is left out" if whole else ""
-    )
 
 
 def record_name(s: dict) -> str:
@@ -729,20 +719,6 @@ def _time_units(s: dict) -> str:
     return {"displacement": "m", "velocity": "m/s", "acceleration": "m/s^2", "force": "N"}.get(
         quantity or "", ""
     )
-
-
-def _code_against_label(s: dict) -> str | None:
-    """A time record whose units label and data-type code name different quantities (``N`` over
-    code 12, acceleration): which one is wrong cannot be told, so the record is not guessed."""
-    from rigtools.interop.channels import si_units
-
-    label = _label(s, "ordinate_axis_units_lab")
-    code = int(s.get("ordinate_spec_data_type", 0))
-    by_code = _QUANTITY_OF_CODE.get(code)
-    si = si_units(label) if label else None
-    if by_code is None or si is None or si.quantity == by_code:
-        return None
-    return f"its units label {label!r} says {si.quantity}, its data-type code {code} says {by_code}"
 
 
 def _frf_kind(s: dict, given: str | None) -> tuple[str | None, float, str]:
@@ -863,7 +839,7 @@ def import_uff(
         inc = float(s.get("abscissa_inc", 0.0))
         fc.samples = len(s["data"])
         units_given = name in units or record_key(number) in units
-        if fc.kept and not units_given and (conflict := _code_against_label(s)):
+        if fc.kept and not units_given and (conflict := code_against_label(s, _QUANTITY_OF_CODE)):
             fc.si, fc.name, fc.reason = None, "", f"{conflict}: give --units {name}=UNIT to say which"
         if fc.kept and not inc > 0:
             fc.si, fc.name, fc.reason = None, "", f"abscissa increment {inc!r} is not a positive time step"
@@ -934,18 +910,6 @@ def _reference_name(s: dict) -> str:
     return (names[1] if names and names[1] else "") or str(s.get("ref_ent_name", "")).strip()
 
 
-def _coherence_text(coh: dict | None, grid: np.ndarray) -> str:
-    """How an FRF's coherence record pairs with it: ``"with its coherence"`` only on the FRF's own
-    frequency lines; a record on another grid is left out, saying so (never paired line by line)."""
-    if coh is None:
-        return "no coherence record"
-    x = np.asarray(coh["x"], dtype=float)
-    if x.size == grid.size and np.allclose(x, grid, rtol=1e-9, atol=0.0):
-        return "with its coherence"
-    span = f"{x.size} lines {x[0]:g}-{x[-1]:g} Hz" if x.size else "no lines"
-    return f"its coherence record left out: on another frequency grid ({span})"
-
-
 def _import_frfs(
     source: Path, out: str | Path, records: list[tuple[int, str, dict]], *, mapping, units, overwrite
 ) -> dict:
@@ -980,7 +944,7 @@ def _import_frfs(
             continue
         grid = x
         coh = coherence.get((name, _reference_name(s), int(s.get("ref_node", 0))))
-        said_coherence = _coherence_text(coh, x)
+        said_coherence = coherence_text(coh, x)
         c = (
             np.asarray(coh["data"], dtype=float)
             if coh is not None and said_coherence == "with its coherence"
