@@ -17,7 +17,7 @@ missing.h5: no such file
 """
 
 from rigtools.recording.lock import writer_alive
-from rigtools.recording.reader import Channel, Point, Recording, open_recording
+from rigtools.recording.reader import Channel, Point, Recording, open_recording, reading_damaged
 from rigtools.recording.schema import (
     SCHEMA_NAME,
     SCHEMA_VERSION,
@@ -43,5 +43,6 @@ __all__ = [
     "RecordingWriter",
     "check_recording",
     "open_recording",
+    "reading_damaged",
     "writer_alive",
 ]
