@@ -13,6 +13,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from rigtools.errors import UserError
+from rigtools.options import switch as yes_no
+from rigtools.recording.reader import open_checked
 
 if TYPE_CHECKING:
     from rigtools.sim.continuation import Branch
@@ -182,7 +184,15 @@ def continuation(
         )
     lo, hi, fixed = parse_inputs(param, start, stop, fe, force, gap, drive)
     return continue_model(
-        param, lo, hi, **fixed, model=model, rig=rig, switch=switch, drive=drive is not None, found=found
+        param,
+        lo,
+        hi,
+        **fixed,
+        model=model,
+        rig=rig,
+        switch=yes_no(switch, "switch"),
+        drive=drive is not None,
+        found=found,
     )[1]
 
 
@@ -551,8 +561,6 @@ def check_branches(path: str | Path, read_data: bool = True) -> BranchesCheck:
     """
     import h5py
 
-    from rigtools.errors import one_line
-    from rigtools.recording import RecordingError
     from rigtools.recording.validate import Problem, rig_problems
 
     out = BranchesCheck(str(path))
@@ -560,22 +568,10 @@ def check_branches(path: str | Path, read_data: bool = True) -> BranchesCheck:
     def error(where: str, message: str) -> None:
         out.problems.append(Problem(where, message))
 
-    try:
-        f = h5py.File(path, "r")
-    except (OSError, ValueError) as exc:
-        raise RecordingError(f"{path}: cannot open as HDF5 ({one_line(exc, 200)})") from None
+    f, attrs = open_checked(
+        path, BRANCHES_SCHEMA, ("a branches file", "branches"), BRANCHES_VERSION, out.problems
+    )
     with f:
-        attrs = dict(f.attrs)
-        if attrs.get("schema") != BRANCHES_SCHEMA:
-            raise RecordingError(f"{path}: not a branches file (schema {attrs.get('schema')!r})")
-        version = attrs.get("schema_version")
-        if not isinstance(version, (int, np.integer)):
-            error("/", f"schema_version must be an integer, got {version!r}")
-        elif version > BRANCHES_VERSION:
-            raise RecordingError(
-                f"{path}: branches schema_version {version} is newer than this rigtools reads "
-                f"({BRANCHES_VERSION}): upgrade rigtools"
-            )
         if attrs.get("kind") != "branches":
             error("/", f"kind must be 'branches', got {attrs.get('kind')!r}")
         if isinstance(attrs.get("rig"), str):

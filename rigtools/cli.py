@@ -270,7 +270,10 @@ def _run(argv: list[str]) -> int:
             parser.print_help()
             return errors.EXIT_USAGE
         command = f"rig {args.command}"
-        return int(args.func(args) or 0)
+        from rigtools.recording.reader import reading_damaged
+
+        with reading_damaged(bool(getattr(args, "skip_damaged", False))):
+            return int(args.func(args) or 0)
     except UserError as exc:
         _say(f"{command}: error: {errors.one_line(exc, None)}")
         return exc.exit_code

@@ -93,15 +93,12 @@ def model_run_analysis(run, k_max: int = K_MAX):
 
 
 def model_point_analysis(point, k_max: int = K_MAX):
-    """Same for a point of a model recording (whole record; velocities used when present)."""
+    """Same for a point of a model recording (its record window, the whole point where none is set,
+    as a model run's; velocities used when present)."""
     fs = point.sample_rate
-    waves = {c: np.asarray(point.channels[c][:], dtype=float) for c in COMPARED if c in point.channels}
+    waves = {c: point.settled(c) for c in COMPARED if c in point.channels}
     res = analyze_dwell(waves, fs, float(point.params["fe"]), k_max=k_max)
-    vel = {
-        c: np.asarray(point.channels[v][:], dtype=float)
-        for c, v in VELOCITY_OF.items()
-        if v in point.channels and c in waves
-    }
+    vel = {c: point.settled(v) for c, v in VELOCITY_OF.items() if v in point.channels and c in waves}
     return _with_velocity_harmonics(res, vel, fs), waves, fs
 
 

@@ -103,6 +103,7 @@ def _em_items(rec, k_max: int, notes: list[str]) -> list[Item]:
     """The complete periodic points of an EM recording, analysed over their settled windows."""
     dwell_points = [p for p in rec.points if not is_frf_point(p)]
     skipped = [p.index for p in dwell_points if not p.complete]
+    notes.extend(f"EM: {n}" for n in rec.notes)  # what a damaged file read with --skip-damaged left out
     if skipped:
         notes.append(f"EM points {skipped} were cut off (not complete) and are left out")
     items = []
@@ -193,6 +194,7 @@ def recorded_side(
     with the model point of the same fe, gap and force target."""
     items = []
     with _open(fem_path, "model recording") as mrec:
+        notes.extend(f"model: {n}" for n in mrec.notes)
         if mrec.backend not in MODEL_BACKENDS:
             notes.append(f"{Path(fem_path).name} was written by backend {mrec.backend!r}, not a model run")
         for p in mrec.points:

@@ -2,9 +2,15 @@
 
 from __future__ import annotations
 
+import functools
+import re
 import signal as _signal
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
+from typing import ParamSpec, TypeVar
+
+_P = ParamSpec("_P")
+_R = TypeVar("_R")
 
 from rigtools.drivers import errors as _driver_errors
 
@@ -142,16 +148,49 @@ def option(name: str, value: object = None, *, flag: str | None = None) -> str:
 
 # Advice the drivers write in rig's words (they cannot import this module): a script's words.
 _SCRIPT_WORDS = {"--backend sim": 'backend="sim"', "--backend nidaq": 'backend="nidaq"'}
+#: Options of the readers and importers by their keyword in the Python doors (analyze_recording,
+#: import_tdms/lvm/uff): what a message written in rig's words names in a script's.
+SCRIPT_KEYWORDS = {
+    "--kind": "kind",
+    "--method": "method",
+    "--band": "options.band",
+    "--channels": "channels",
+    "--fe": "fe",
+    "--map": "mapping",
+    "--units": "units",
+    "--channel": "channels",
+    "--group": "groups",
+    "--sample-rate": "sample_rate",
+    "--reference": "reference",
+}
+_FLAG = re.compile(r"(?<![\w-])--[a-z][a-z0-9-]*(?![\w-])")
 
 
 def in_callers_words(text: str) -> str:
-    """``text`` with the command line's advice (``use --backend sim``) in a script's words
-    (``use backend="sim"``) when the caller is a script; unchanged on the command line."""
+    """``text`` with the command line's advice (``use --backend sim``, ``give --units X=UNIT``)
+    in a script's words (``use backend="sim"``, ``give units X=UNIT``) when the caller is a
+    script; unchanged on the command line."""
     if _command_line:
         return text
     for cli, script in _SCRIPT_WORDS.items():
         text = text.replace(cli, script)
-    return text
+    return _FLAG.sub(lambda m: SCRIPT_KEYWORDS.get(m.group(0), m.group(0)), text)
+
+
+def in_script_words(function: Callable[_P, _R]) -> Callable[_P, _R]:
+    """A Python door whose :class:`UserError` advice is in the caller's words
+    (``in_callers_words``): ``units`` and ``mapping=`` in a script, ``--units`` and ``--map``
+    under ``rig``."""
+
+    @functools.wraps(function)
+    def door(*args: _P.args, **kwargs: _P.kwargs) -> _R:
+        try:
+            return function(*args, **kwargs)
+        except UserError as exc:
+            reword(exc)
+            raise
+
+    return door
 
 
 def reword(error: BaseException) -> BaseException:

@@ -30,6 +30,7 @@ import numpy as np
 
 from rigtools.errors import UserError, one_line, option
 from rigtools.interop.uff import direction_text
+from rigtools.recording.reader import open_checked
 
 SCHEMA = "rigtools.frfset"
 SCHEMA_VERSION = 1
@@ -267,7 +268,6 @@ def check_frf_set(path: str | Path, read_data: bool = True) -> FRFSetCheck:
     """
     import h5py
 
-    from rigtools.recording import RecordingError
     from rigtools.recording.validate import Problem
 
     out = FRFSetCheck(str(path))
@@ -275,22 +275,8 @@ def check_frf_set(path: str | Path, read_data: bool = True) -> FRFSetCheck:
     def error(where: str, message: str) -> None:
         out.problems.append(Problem(where, message))
 
-    try:
-        f = h5py.File(path, "r")
-    except (OSError, ValueError) as exc:
-        raise RecordingError(f"{path}: cannot open as HDF5 ({one_line(exc, 200)})") from None
+    f, attrs = open_checked(path, SCHEMA, ("an FRF set", "FRF set"), SCHEMA_VERSION, out.problems)
     with f:
-        attrs = dict(f.attrs)
-        if attrs.get("schema") != SCHEMA:
-            raise RecordingError(f"{path}: not an FRF set (schema {attrs.get('schema')!r})")
-        version = attrs.get("schema_version")
-        if not isinstance(version, (int, np.integer)):
-            error("/", f"schema_version must be an integer, got {version!r}")
-        elif version > SCHEMA_VERSION:
-            raise RecordingError(
-                f"{path}: FRF set schema_version {version} is newer than this rigtools reads "
-                f"({SCHEMA_VERSION}): upgrade rigtools"
-            )
         if attrs.get("kind") not in KINDS:
             error("/", f"kind must be one of {', '.join(KINDS)}, got {attrs.get('kind')!r}")
         if not isinstance(attrs.get("reference"), str) or not attrs["reference"]:

@@ -20,6 +20,7 @@ from rigtools.memory import check_memory
 from rigtools.options import duration as _duration
 from rigtools.options import quantity
 from rigtools.progress import working
+from rigtools.units import MAX_FORCE
 
 MAX_STEPS_PER_PERIOD = 10_000_000
 
@@ -115,6 +116,11 @@ def excitation(
     f0 = quantity(force, "force", force_name)
     if f0 < 0:
         raise UserError(f"{force_name} = {force!r}: the force amplitude must be >= 0 N")
+    if f0 > MAX_FORCE:
+        raise UserError(
+            f"{force_name} = {force!r}: outside the allowed range [0, {MAX_FORCE:g}] N "
+            "(the shaker's range, as rig acquire's)"
+        )
     return f, f0
 
 

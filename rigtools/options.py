@@ -32,6 +32,24 @@ def quantity(text: str | float, dimension: str, option: str) -> float:
         raise UserError(f"{option} = {text!r}: {exc}") from None
 
 
+def switch(value: object, name: str) -> bool:
+    """A yes/no argument of the front door: ``True``/``False`` (numpy's too), else a one-line
+    :class:`UserError` naming ``name`` (a string such as ``'no'`` is truthy, so it is refused
+    rather than taken as True).
+
+    Examples
+    --------
+    >>> switch(False, "overwrite")
+    False
+    >>> switch("no", "overwrite")
+    Traceback (most recent call last):
+    rigtools.errors.UserError: overwrite = 'no': give True or False
+    """
+    if isinstance(value, bool) or type(value).__name__ == "bool_":
+        return bool(value)
+    raise UserError(f"{name} = {value!r}: give True or False")
+
+
 def positive_finite(
     text: str | float,
     dimension: str,
@@ -249,6 +267,7 @@ def output_path(
         writable, it exists without ``overwrite`` or is read-only, has a suffix not in ``suffixes``,
         or is one of ``inputs``.
     """
+    overwrite = switch(overwrite, advised_option("overwrite"))
     if not str(text).strip():
         raise UserError(f"{option}: give a file name")
     out = Path(text)

@@ -517,6 +517,7 @@ def recording_tables(info: dict) -> list[Any]:
         f"rigtools {info['software_version']}, schema v{info['schema_version']}"
         + (f", opened as {info['opened_as']}" if info["opened_as"] != "clean" else ""),
         f"{len(info['points'])} point(s), {readable.number(info['total_duration_s'])} s recorded",
+        *(f"note: {n}" for n in info.get("notes", [])),
     ]
     table = Table(title="channels")
     for column in ("name", "quantity", "units", "rate (Hz)", "sensitivity", "physical", "location"):

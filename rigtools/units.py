@@ -25,6 +25,7 @@ refused with a one-line message naming the unit.
 from __future__ import annotations
 
 import math
+import numbers
 import re
 
 STANDARD_GRAVITY = 9.80665  # m/s^2
@@ -34,6 +35,9 @@ STANDARD_GRAVITY = 9.80665  # m/s^2
 # is refused instead of silently simulating a rig that never touches. Up to it, a large gap is the
 # way to run the rig linear (no impacts).
 MAX_GAP = 0.05  # m
+#: N: the largest force amplitude F0 of a run, measured (the procedures' ``le=1000``) or modelled
+#: (rig simulate, rigtools.simulate_point): the shaker's range
+MAX_FORCE = 1000.0
 
 # SI prefixes, case-sensitive (m milli, M mega; "u" is accepted for micro)
 PREFIXES: dict[str, float] = {
@@ -198,9 +202,9 @@ def parse_quantity(value: float | str, dimension: str | None = None) -> float:
         With a one-line message if the text or the unit is not understood, the unit is of another
         dimension, or the value is not finite.
     """
-    if isinstance(value, bool):  # every bad value is the documented ValueError (pydantic: a field error)
-        raise ValueError(f"expected a number or a quantity, got {value!r}")  # noqa: TRY004 - documented
-    if isinstance(value, (int, float)):
+    if isinstance(value, bool) or type(value).__name__ == "bool_":  # numpy's bool too
+        raise ValueError(f"expected a number or a quantity, got {value!r}")
+    if isinstance(value, numbers.Real):  # numpy's integers and floats are Real (np.float64(60.0))
         number = float(value)
         if not math.isfinite(number):
             raise ValueError(f"{value!r} is not a finite number")

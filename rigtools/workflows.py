@@ -20,8 +20,9 @@ from rigtools.errors import UserError
 from rigtools.model_options import announce_model, announce_work, excitation, run_settings
 from rigtools.model_study import record_study
 from rigtools.model_update import DEFAULT_PARAMETERS, update_rig_file
-from rigtools.options import HDF5_SUFFIXES, band_option, duration, output_path, quantity
+from rigtools.options import HDF5_SUFFIXES, band_option, duration, output_path, quantity, switch
 from rigtools.options import gap as gap_option
+from rigtools.recording import reading_damaged
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -387,7 +388,9 @@ def simulate_study(
     if gap is not None:
         fixed["gap"] = gap_option(gap, "gap")
     try:
-        plan = StudyPlan(kind, tuple(swept), direction, carry_state=carry_state, **fixed)
+        plan = StudyPlan(
+            kind, tuple(swept), direction, carry_state=switch(carry_state, "carry_state"), **fixed
+        )
     except SimulationInputError as exc:
         raise UserError(str(exc)) from None
     target = output_path(str(out), overwrite, "out", suffixes=HDF5_SUFFIXES)
@@ -432,6 +435,7 @@ def compare_with_model(
     workers: int | None = None,
     max_settle_time: float | str = "30 s",
     progress: Callable[[int, int, str], None] | None = None,
+    skip_damaged: bool = False,
 ) -> Comparison:
     """Compare an EM recording with the model: harmonics, waveforms, agreement per point.
 
@@ -458,6 +462,9 @@ def compare_with_model(
         Longest simulated settling per model run, ``"30 s"`` or s.
     progress
         ``progress(done, total, text)`` as model runs finish.
+    skip_damaged
+        Read recordings ``rig check`` rejects, leaving their damaged points and channels out
+        (one note each); by default such a file is refused in one line.
 
     Returns
     -------
@@ -482,19 +489,20 @@ def compare_with_model(
 
     if isinstance(k_max, bool) or not isinstance(k_max, int) or k_max < 1:
         raise UserError(f"k_max = {k_max!r}: the harmonics compared are k = 1..k_max, a whole number >= 1")
-    return compare_recordings(
-        str(em),
-        None if model_recording is None else str(model_recording),
-        simulate=model_recording is None,
-        model=model,
-        excitation=excitation,
-        rig=None if rig is None else str(rig),
-        frf=None if frf is None else str(frf),
-        k_max=k_max,
-        workers=workers,
-        max_settle_time=duration(max_settle_time, "max_settle_time"),
-        progress=progress,
-    )
+    with reading_damaged(switch(skip_damaged, "skip_damaged")):
+        return compare_recordings(
+            str(em),
+            None if model_recording is None else str(model_recording),
+            simulate=model_recording is None,
+            model=model,
+            excitation=excitation,
+            rig=None if rig is None else str(rig),
+            frf=None if frf is None else str(frf),
+            k_max=k_max,
+            workers=workers,
+            max_settle_time=duration(max_settle_time, "max_settle_time"),
+            progress=progress,
+        )
 
 
 def update_model(
@@ -565,7 +573,7 @@ def update_model(
         parameters=DEFAULT_PARAMETERS if parameters is None else parameters,
         modes=modes,
         band=span,
-        damping=damping,
+        damping=switch(damping, "damping"),
         contact=contact,
         law=law,
         overwrite=overwrite,

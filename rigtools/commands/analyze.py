@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 
 from rigtools import json_values
+from rigtools.commands import add_skip_damaged
 from rigtools.errors import exit_status_help
 from rigtools.frf_options import add_frf_arguments, frf_options
 from rigtools.options import output_folder, positive_finite
@@ -69,6 +70,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("file", metavar="FILE", help="recording (.h5)")
+    add_skip_damaged(p)
     p.add_argument("--json", action="store_true", help="print the results as JSON")
     p.add_argument("--out", metavar="DIR", help="write figures (PNG) into DIR (made if missing)")
     p.add_argument(

@@ -17,7 +17,10 @@ within each point, and (unless --quick) that every sample can be read and is fin
 A file being written (its writer is running) is checked as it is: "being written now" is
 noted and the open point's unflushed tail is not an error. NaN or infinite samples in a point
 its writer ended are errors; a point that never ended (writer killed, write error) is noted
-as incomplete.
+as incomplete. Every reader (info, analyze, report, export, compare, update) refuses a file
+check rejects, in one line; --skip-damaged reads the rest, leaving each damaged point or channel
+out with a note (a rig attribute that does not validate only stops the readers that build the
+model from it).
 
 An FRF set (rig import uff of UFF 58 FRFs) is checked against its own schema: attributes,
 dataset shapes, and (unless --quick) finite FRFs and coherence (NaN only for a whole response

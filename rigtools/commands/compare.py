@@ -6,6 +6,7 @@ import argparse
 from pathlib import Path
 
 from rigtools import json_values
+from rigtools.commands import add_skip_damaged
 from rigtools.errors import UserError, exit_status_help
 from rigtools.options import output_folder
 
@@ -56,6 +57,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     p.add_argument("em", metavar="EM.h5", help="experiment recording (rig acquire ...)")
     p.add_argument("fem", metavar="FEM.h5", nargs="?", help="model recording (rig simulate / rig study)")
+    add_skip_damaged(p)
     p.add_argument(
         "--simulate", action="store_true", help="run the model at every EM point instead of FEM.h5"
     )

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 
 from rigtools import json_values
+from rigtools.commands import add_skip_damaged
 from rigtools.errors import UserError, exit_status_help
 from rigtools.frf_options import add_frf_arguments, frf_options
 from rigtools.options import UFF_SUFFIXES, output_path
@@ -64,6 +65,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     p.add_argument("format", choices=("uff",), help="output format")
     p.add_argument("file", metavar="FILE.h5", help="the recording or FRF set")
+    add_skip_damaged(p)
     p.add_argument("out", metavar="OUT", help="file to write")
     p.add_argument(
         "--what",

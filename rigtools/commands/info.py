@@ -8,6 +8,7 @@ from collections.abc import Callable
 from typing import Any
 
 from rigtools import json_values
+from rigtools.commands import add_skip_damaged
 from rigtools.errors import exit_status_help
 
 HELP = (
@@ -46,6 +47,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("file", metavar="FILE", help="recording, FRF set or branches file (.h5)")
+    add_skip_damaged(parser)
     parser.add_argument(
         "--json", action="store_true", help="print the summary as JSON (root attributes, channels, points)"
     )

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 
+from rigtools.commands import add_skip_damaged
 from rigtools.errors import UserError, exit_status_help
 from rigtools.options import output_folder
 
@@ -52,6 +53,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("files", metavar="FILE", nargs="+", help="recordings (.h5)")
+    add_skip_damaged(p)
     p.add_argument("--out", required=True, metavar="DIR", help="folder of the report (report.html)")
     p.add_argument(
         "--kind",

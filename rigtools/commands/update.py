@@ -8,6 +8,7 @@ from __future__ import annotations
 import argparse
 
 from rigtools import json_values
+from rigtools.commands import add_skip_damaged
 from rigtools.errors import exit_status_help
 from rigtools.model_update import CONTACT_LAWS, PARAMETER_NAMES
 from rigtools.model_update import DEFAULT_PARAMETERS as DEFAULT_PARAMS
@@ -65,12 +66,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         epilog=EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument(
-        "recordings",
-        nargs="+",
-        metavar="TEST.h5",
-        help="FRF test / tap test recordings (modes are identified in each)",
-    )
+    help_recordings = "FRF test / tap test recordings (modes are identified in each)"
+    p.add_argument("recordings", nargs="+", metavar="TEST.h5", help=help_recordings)
+    add_skip_damaged(p)
     p.add_argument(
         "--rig", metavar="FILE", help="rig file (TOML) to update; default: the calibrated default rig"
     )

@@ -8,11 +8,36 @@ import logging
 import math
 import warnings
 from collections.abc import Callable, Iterator
-from typing import Any
+from pathlib import Path
+from typing import Any, TypeVar
 
 import numpy as np
 
+from rigtools.errors import UserError, one_line
+
+_T = TypeVar("_T")
+
 CHUNK = 1 << 20  # samples read at a time when scanning a channel
+
+
+def source_file(source: str | Path, error: type[UserError] = UserError) -> Path:
+    """The importers' first check: ``source`` is a file, else one ``error`` line."""
+    source = Path(source)
+    if not source.is_file():
+        raise error(f"{source}: {'not a file' if source.exists() else 'no such file'}")
+    return source
+
+
+def parsed(source: Path, what: str, parse: Callable[[], _T], error: type[UserError] = UserError) -> _T:
+    """``parse()`` of ``source``, a file in format ``what`` (``"TDMS"``, ``"UFF"``): the
+    parsers raise many types on a foreign or damaged file (ValueError, KeyError, struct.error,
+    ...), each becomes one ``error`` line naming the file, the format and the parser's words."""
+    try:
+        return parse()
+    except Exception as exc:  # noqa: BLE001 -- whatever the parser raises: one line
+        raise error(
+            f"{source}: not a readable {what} file ({type(exc).__name__}: {one_line(exc, 200)})"
+        ) from None
 
 
 def number(value: Any) -> float:

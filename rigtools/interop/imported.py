@@ -45,11 +45,21 @@ def rows_reader(block: np.ndarray) -> Callable[[int, int], np.ndarray]:
 def split_by_timing(items: Sequence[tuple[Any, int, float]]) -> list[list[int]]:
     """Indices of ``(item, samples, rate)`` grouped by equal length and rate, in file order: a
     point holds channels of one length and rate, so channels of unequal length are kept whole in
-    points of their own instead of being cut to the shortest."""
-    groups: dict[tuple[int, float], list[int]] = {}
+    points of their own instead of being cut to the shortest.
+
+    Rates are one rate when their clocks part by less than half a sample over the record
+    (``n * |r1 - r2| / r1 < 0.5``): one clock written as rounded increments (``1.95312E-5``) in
+    each channel, not two clocks. The point then takes the first channel's rate.
+    """
+    groups: list[tuple[int, float, list[int]]] = []
     for i, (_, n, rate) in enumerate(items):
-        groups.setdefault((int(n), round(float(rate), 9)), []).append(i)
-    return list(groups.values())
+        for length, first, members in groups:
+            if length == int(n) and abs(float(rate) - first) * length < 0.5 * first:
+                members.append(i)
+                break
+        else:
+            groups.append((int(n), float(rate), [i]))
+    return [members for _, _, members in groups]
 
 
 def write_imported(

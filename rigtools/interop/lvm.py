@@ -23,12 +23,12 @@ from typing import Any
 
 import numpy as np
 
-from rigtools.errors import UserError, one_line
+from rigtools.errors import UserError, in_script_words, one_line
 from rigtools.interop.channels import ForeignChannel, check_known, check_names, resolve
-from rigtools.interop.checks import non_finite_reason
+from rigtools.interop.checks import non_finite_reason, source_file
 from rigtools.interop.imported import ForeignPoint, rows_reader, split_by_timing, write_imported
 
-_HEADINGS = ("Samples", "Delta_X", "X0", "Y_Unit_Label")
+_HEADINGS = ("Samples", "Delta_X", "X0", "Y_Unit_Label", "X_Dimension")
 
 
 class LvmImportError(UserError):
@@ -64,9 +64,7 @@ def read_lvm(source: str | Path, notes: list[str] | None = None) -> dict:
     """
     import lvm_read
 
-    source = Path(source)
-    if not source.is_file():
-        raise LvmImportError(f"{source}: no such file")
+    source = source_file(source, LvmImportError)
     raw = source.read_bytes()
     if raw[:2] == b"\x1f\x8b":
         try:
@@ -129,6 +127,9 @@ def segments(lvm: dict) -> list[dict]:
         heads = {k: seg.get(k, previous.get(k)) for k in _HEADINGS}
         previous = {k: v for k, v in heads.items() if v is not None}
         units = list(heads["Y_Unit_Label"] or [])[:count]
+        dimensions = [str(d).strip() for d in list(heads["X_Dimension"] or [])[:count]]
+        # each channel's X column: the nearest X_Value column before it (X_Columns One or Multi)
+        x_columns = [max((i for i in range(j) if names[i] == "X_Value"), default=None) for j in columns]
         out.append(
             {
                 "names": [names[j] for j in columns],
@@ -137,12 +138,15 @@ def segments(lvm: dict) -> list[dict]:
                 "delta_x": _numbers(heads["Delta_X"], count),
                 "x0": _numbers(heads["X0"], count),
                 "units": units + [""] * (count - len(units)),
+                "x_dimension": dimensions + [""] * (count - len(dimensions)),
+                "x_columns": x_columns,
                 "data": _rows(seg["data"]),
             }
         )
     return out
 
 
+@in_script_words
 def import_lvm(
     source: str | Path,
     out: str | Path,
@@ -199,6 +203,8 @@ def import_lvm(
             if fc.kept and reason is None and not (math.isfinite(dx) and dx > 0):
                 reason = f"Delta_X {dx!r} is not a positive sample interval"
             if fc.kept and reason is None:
+                reason = _x_axis_reason(seg, k, dx, n)
+            if fc.kept and reason is None:
                 column = seg["data"][: fc.samples, seg["columns"][k]]
                 reason = non_finite_reason(rows_reader(column[None, :]), column.size)
             if fc.kept and reason is not None:
@@ -244,6 +250,32 @@ def import_lvm(
         reference=reference,
         overwrite=overwrite,
         notes=notes,
+    )
+
+
+def _x_axis_reason(seg: dict, k: int, dx: float, n: int) -> str | None:
+    """Why channel ``k``'s X axis is not its samples' time: an ``X_Dimension`` other than time
+    (a spectrum's frequency lines), or an X column whose span contradicts ``Delta_X`` (beyond
+    half a sample and 0.1 %, more than the X column's written digits explain)."""
+    dimension = seg["x_dimension"][k]
+    if dimension and dimension.lower() != "time":
+        return (
+            f"X_Dimension {dimension!r}: its rows are not samples in time (a spectrum?); "
+            "rig import lvm reads time records"
+        )
+    column = seg["x_columns"][k]
+    data = seg["data"]
+    if column is None or column >= data.shape[1] or n < 2:
+        return None
+    x = data[:n, column]
+    if not (math.isfinite(x[0]) and math.isfinite(x[n - 1])):
+        return None
+    span, expected = float(x[n - 1] - x[0]), dx * (n - 1)
+    if abs(span - expected) <= max(0.5 * dx, 1e-3 * expected):
+        return None
+    return (
+        f"its X column steps by {span / (n - 1):.6g} s on average, the header's Delta_X says "
+        f"{dx:.6g} s: correct whichever is wrong (the sample rate depends on it)"
     )
 
 

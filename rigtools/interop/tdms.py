@@ -24,9 +24,9 @@ from typing import Any
 
 import numpy as np
 
-from rigtools.errors import UserError, one_line
+from rigtools.errors import UserError, in_script_words
 from rigtools.interop.channels import LBF, ForeignChannel, G, check_known, check_names, resolve
-from rigtools.interop.checks import non_finite_reason, number, parser_notes
+from rigtools.interop.checks import non_finite_reason, number, parsed, parser_notes, source_file
 from rigtools.interop.imported import ForeignPoint, split_by_timing, write_imported
 
 __all__ = ["LBF", "G", "TdmsImportError", "import_tdms"]
@@ -55,14 +55,8 @@ def _rate(channel: Any, sample_rate: float | None) -> tuple[float | None, str]:
 def _open(source: Path) -> Any:
     from nptdms import TdmsFile
 
-    if not source.is_file():
-        raise TdmsImportError(f"{source}: no such file")
-    try:
-        return TdmsFile.open(source)
-    except Exception as exc:  # noqa: BLE001 -- npTDMS raises ValueError, KeyError, struct.error, ...: one line
-        raise TdmsImportError(
-            f"{source}: not a readable TDMS file ({type(exc).__name__}: {one_line(exc, 200)})"
-        ) from None
+    source = source_file(source, TdmsImportError)
+    return parsed(source, "TDMS", lambda: TdmsFile.open(source), TdmsImportError)
 
 
 def _selected(tdms: Any, groups: list[str], channels: list[str]) -> list[tuple[Any, list[Any]]]:
@@ -85,6 +79,7 @@ def _selected(tdms: Any, groups: list[str], channels: list[str]) -> list[tuple[A
     return out
 
 
+@in_script_words
 def import_tdms(
     source: str | Path,
     out: str | Path,

@@ -32,10 +32,14 @@ from typing import Any
 
 import numpy as np
 
-from rigtools.errors import UserError, one_line
+from rigtools.errors import UserError, in_script_words
+from rigtools.interop.checks import parsed, source_file
 from rigtools.interop.uff_data import (
     FRF_DATA_RULE,
     _with_force,
+    code_against_label,
+    coherence_text,
+    cut_record,
     frf_kind_from_data,
     rate_of_increment,
     uff_date,
@@ -581,6 +585,8 @@ def file_functions(
             )
         return frf_set_functions(read_frf_set(path), what, source=str(path)), []
     with open_recording(path) as rec:
+        if notes is not None:
+            notes.extend(rec.notes)  # what --skip-damaged left out of a damaged file
         skipped = [p.index for p in rec.points if not p.complete]  # cut off: never passed on as data
         if len(skipped) == len(rec.points):
             raise UserError(f"{path}: the recording has no complete points to export")
@@ -617,16 +623,10 @@ def read_uff_sets(source: str | Path, notes: list[str] | None = None) -> list[di
     more values than a padded last line explains is said in ``notes``."""
     import pyuff
 
-    source = Path(source)
-    if not source.is_file():
-        raise UserError(f"{source}: {'not a file' if source.exists() else 'no such file'}")
-    try:
-        sets = pyuff.UFF(str(source)).read_sets()
-    except Exception as exc:  # noqa: BLE001 -- pyuff raises many types on a foreign file: one line
-        raise UserError(
-            f"{source}: not a readable UFF file ({type(exc).__name__}: {one_line(exc, 200)})"
-        ) from None
+    source = source_file(source)
+    sets = parsed(source, "UFF", lambda: pyuff.UFF(str(source)).read_sets())
     sets = sets if isinstance(sets, list) else [sets]
+    cut = cut_record(source, len(sets))
     out: list[dict] = []
     for s in sets:
         if s.get("type") != 58:
@@ -640,7 +640,9 @@ def read_uff_sets(source: str | Path, notes: list[str] | None = None) -> list[di
             s = {**s, "data": s["data"][:n], "x": s["x"][:n]}
         out.append(s)
     if not out:
-        raise UserError(f"{source}: no UFF 58 record (function records) in the file")
+        raise UserError(cut or f"{source}: no UFF 58 record (function records) in the file")
+    if cut:
+        (notes if notes is not None else []).append(cut)
     return out
 
 
@@ -774,6 +776,7 @@ def _frf_kind(s: dict, given: str | None) -> tuple[str | None, float, str]:
     )
 
 
+@in_script_words
 def import_uff(
     source: str | Path,
     out: str | Path,
@@ -838,6 +841,9 @@ def import_uff(
         every.append(fc)
         inc = float(s.get("abscissa_inc", 0.0))
         fc.samples = len(s["data"])
+        units_given = name in units or record_key(number) in units
+        if fc.kept and not units_given and (conflict := code_against_label(s, _QUANTITY_OF_CODE)):
+            fc.si, fc.name, fc.reason = None, "", f"{conflict}: give --units {name}=UNIT to say which"
         if fc.kept and not inc > 0:
             fc.si, fc.name, fc.reason = None, "", f"abscissa increment {inc!r} is not a positive time step"
         if fc.kept and np.iscomplexobj(s["data"]):
@@ -941,9 +947,10 @@ def _import_frfs(
             continue
         grid = x
         coh = coherence.get((name, _reference_name(s), int(s.get("ref_node", 0))))
+        said_coherence = coherence_text(coh, x)
         c = (
-            np.asarray(coh["data"], float)
-            if coh is not None and len(coh["data"]) == x.size
+            np.asarray(coh["data"], dtype=float)
+            if coh is not None and said_coherence == "with its coherence"
             else np.full(x.size, np.nan)
         )
         stored = next((mapping[k] for k in keys if k in mapping), storable_name(name))
@@ -956,8 +963,8 @@ def _import_frfs(
         frfs.append((stored, np.asarray(s["data"], complex) * factor, c, kind))
         points.append({side: _point_of(s, side) for side in ("response", "reference")})
         kinds.add(kind)
-        text = f"kept    {where} -> {stored}: FRF, {how}, {x.size} lines {x[0]:g}-{x[-1]:g} Hz, " + (
-            "with its coherence" if coh is not None else "no coherence record"
+        text = (
+            f"kept    {where} -> {stored}: FRF, {how}, {x.size} lines {x[0]:g}-{x[-1]:g} Hz, {said_coherence}"
         )
         lines.append(text)
         entries.append(

@@ -157,7 +157,8 @@ class Follower:
         if not self.path.exists():
             return self.snapshot
         try:
-            rec = open_recording(self.path, wait=False)
+            # a live follower shows what is there: no sample scan per poll, damaged parts left out
+            rec = open_recording(self.path, wait=False, skip_damaged=True, check_samples=False)
         except RecordingError as exc:
             # the writer adds structure for a few ms at a time: look again at the next poll, and
             # say so only when the file stays unreadable

@@ -12,12 +12,15 @@ import json
 import os
 import time
 from collections.abc import Iterator
+from contextlib import contextmanager
+from contextvars import ContextVar
 from typing import TYPE_CHECKING, Any
 
 import h5py
 import numpy as np
 import numpy.typing as npt
 
+from rigtools.options import switch
 from rigtools.recording.lock import writer_alive
 from rigtools.recording.opener import LIVE_RETRY_S, named, open_h5
 from rigtools.recording.opener import hdf5_reason as _reason
@@ -29,11 +32,51 @@ from rigtools.recording.schema import (
     point_index,
     python_value,
 )
-from rigtools.recording.validate import AttrCache, Unreadable, find_problems
+from rigtools.recording.validate import (
+    ERROR,
+    AttrCache,
+    Problem,
+    Unreadable,
+    cut_off_points,
+    damaged_line,
+    find_problems,
+    point_of,
+    sample_problems,
+)
 from rigtools.vocabulary import current_parameters
 
 if TYPE_CHECKING:
     from typing import Self
+
+
+def open_checked(
+    path: str | os.PathLike, schema: str, what: tuple[str, str], newest: int, problems: list[Problem]
+) -> tuple[h5py.File, dict[str, Any]]:
+    """The check preamble of rigtools' own HDF5 files (branches files, FRF sets): open ``path``
+    (``open_h5``: one line if missing, a folder, truncated or not HDF5), refuse another
+    ``schema`` or a ``schema_version`` above ``newest``, and add a version that is not an integer
+    to ``problems``. ``what``: the file kind with its article and alone (``("an FRF set", "FRF
+    set")``). Returns the open file (the caller closes it) and its root attributes."""
+    f, _ = open_h5(path, wait=False)
+    try:
+        attrs = dict(f.attrs)
+        if attrs.get("schema") != schema:
+            raise RecordingError(f"{path}: not {what[0]} (schema {attrs.get('schema')!r})")
+        version = attrs.get("schema_version")
+        if not isinstance(version, (int, np.integer)) or isinstance(version, (bool, np.bool_)):
+            problems.append(Problem("/", f"schema_version must be an integer, got {version!r}"))
+        elif version > newest:
+            raise RecordingError(
+                f"{path}: {what[1]} schema_version {version} is newer than this rigtools reads "
+                f"({newest}): upgrade rigtools"
+            )
+    except RecordingError:
+        f.close()
+        raise
+    except (OSError, RuntimeError, KeyError, ValueError, TypeError) as exc:
+        f.close()
+        raise RecordingError(f"{path}: damaged HDF5 structure ({_reason(exc)})") from None
+    return f, attrs
 
 
 def _attrs(obj: h5py.HLObject, cache: AttrCache | None) -> dict[str, Any]:
@@ -132,7 +175,13 @@ class Channel:
 class Point:
     """One steady-state point: ``params`` (dict) and ``channels`` (name -> :class:`Channel`)."""
 
-    def __init__(self, group: h5py.Group, path: str, cache: AttrCache | None = None):
+    def __init__(
+        self,
+        group: h5py.Group,
+        path: str,
+        cache: AttrCache | None = None,
+        omit: frozenset[str] = frozenset(),
+    ):
         self.name = group.name.rsplit("/", 1)[-1]
         self.index = int(self.name)
         attrs = _attrs(group, cache)
@@ -140,7 +189,9 @@ class Point:
         self.end_time: str = attrs.pop("end_time")
         # v1 files written before the vocabulary read with today's names.
         self.params: dict[str, Any] = current_parameters(attrs)
-        self.channels: dict[str, Channel] = {name: Channel(group[name], path, cache) for name in group}
+        self.channels: dict[str, Channel] = {
+            name: Channel(group[name], path, cache) for name in group if name not in omit
+        }
 
     def __repr__(self) -> str:
         return f"<Point {self.name}: {self.params} channels={list(self.channels)}>"
@@ -222,6 +273,9 @@ class Recording:
         The rig description text (TOML or JSON).
     experiment : dict
     points : list of Point
+    notes : list of str
+        One line per damaged point or channel left out, or damaged file-level attribute read
+        on, when the file was opened with ``skip_damaged=True``; empty otherwise.
     opened_as : str
         How HDF5 had to open the file: ``"clean"``, ``"swmr"`` or ``"flags-cleared"``.
     writer : str or None
@@ -236,6 +290,7 @@ class Recording:
         opened_as: str,
         cache: AttrCache | None = None,
         unreadable: frozenset[str] = frozenset(),
+        damaged: list[Problem] | None = None,
     ):
         self._file = f
         self.path = path
@@ -254,6 +309,7 @@ class Recording:
         group = f[POINTS_GROUP]
         names = sorted((n for n in group if point_index(n) is not None), key=int)
         self.points: list[Point] = []
+        left_out, omit, self.notes = _left_out(damaged or [])
         #: Points of an unfinished file (status "recording": writer live or killed) whose structure
         #: cannot be read: a killed writer cut them off mid-write, or a live one is changing them.
         #: They are not in :attr:`points`; every point that can be read is (nothing else is lost).
@@ -262,8 +318,10 @@ class Recording:
             if n in unreadable:
                 self.unreadable_points.append(n)
                 continue
+            if n in left_out:
+                continue
             try:
-                self.points.append(Point(group[n], path, cache))
+                self.points.append(Point(group[n], path, cache, omit.get(n, frozenset())))
             except (OSError, RuntimeError, KeyError, ValueError):
                 if self.status != STATUS_RECORDING:
                     raise
@@ -374,8 +432,17 @@ class Recording:
         )
 
 
-def open_recording(path: str | os.PathLike, wait: bool = True) -> Recording:
+def open_recording(
+    path: str | os.PathLike,
+    wait: bool = True,
+    *,
+    skip_damaged: bool | None = None,
+    check_samples: bool = True,
+) -> Recording:
     """Open a recording (schema v1) for reading.
+
+    The file is checked as ``rig check`` checks it (its samples included): a file check rejects
+    is refused in one line naming its first problem, unless ``skip_damaged``.
 
     Parameters
     ----------
@@ -384,6 +451,13 @@ def open_recording(path: str | os.PathLike, wait: bool = True) -> Recording:
     wait
         False: one attempt; a file its live writer is changing at that moment raises
         :class:`RecordingError` at once instead of being retried for up to a few seconds.
+    skip_damaged
+        True: read a damaged file, leaving each damaged point or channel out with one line in
+        ``Recording.notes`` (a damaged file-level attribute is noted and read on). None: as
+        the enclosing ``reading_damaged`` says (``rig ... --skip-damaged``), else False.
+    check_samples
+        False: check the metadata only, not every sample (a follower of a live file that reads
+        only what was appended: ``rigtools.monitor``).
 
     Returns
     -------
@@ -395,7 +469,9 @@ def open_recording(path: str | os.PathLike, wait: bool = True) -> Recording:
     ------
     RecordingError
         One line: missing or unreadable file (truncated, not HDF5), another schema, a newer
-        ``schema_version``, or a missing/invalid required attribute.
+        ``schema_version``, or a missing/invalid required attribute; or, unless
+        ``skip_damaged``, any other problem ``rig check`` reports as an error ("FILE is damaged:
+        /points/0003: ... (rig check FILE lists 2 problems; skip_damaged=True reads the rest)").
 
     Examples
     --------
@@ -413,7 +489,7 @@ def open_recording(path: str | os.PathLike, wait: bool = True) -> Recording:
     while True:
         writer = writer_alive(path)
         try:
-            rec = _open_once(path, wait)
+            rec = _open_once(path, wait, _skip(skip_damaged), check_samples)
         except RecordingError:
             # A live writer between two states of the file (closing/reopening it between
             # points, or trimming it as it ends the run) can make one look damaged for a moment:
@@ -427,39 +503,97 @@ def open_recording(path: str | os.PathLike, wait: bool = True) -> Recording:
         return rec
 
 
-def _point_of(where: str) -> str | None:
-    """The point group name of a problem's location (``/points/0003/force`` -> ``0003``)."""
-    parts = where.strip("/").split("/")
-    return parts[1] if len(parts) >= 2 and parts[0] == POINTS_GROUP.strip("/") else None
+_SKIP_DAMAGED: ContextVar[bool] = ContextVar("skip_damaged", default=False)
 
 
-def _cut_off_points(f: h5py.File, fatal: list) -> frozenset[str]:
-    """Points whose fatal problems an unfinished writer explains (status still "recording").
-
-    A writer killed mid-write (or one changing a point while it is read) can leave that point's
-    structure unreadable; the file's other points are intact and are kept."""
+@contextmanager
+def reading_damaged(skip: bool = True) -> Iterator[None]:
+    """Inside the block, :func:`open_recording` calls that do not say ``skip_damaged`` read
+    damaged recordings leaving their damaged parts out (``skip``) or refuse them (the default).
+    ``rig``'s entry point opens one around a command given ``--skip-damaged``."""
+    token = _SKIP_DAMAGED.set(bool(skip))
     try:
-        unfinished = f.attrs.get("status") == STATUS_RECORDING
-    except (OSError, RuntimeError, KeyError):
-        return frozenset()
-    if not unfinished:
-        return frozenset()
-    return frozenset(n for n in (_point_of(p.where) for p in fatal) if n is not None)
+        yield
+    finally:
+        _SKIP_DAMAGED.reset(token)
 
 
-def _open_once(path: str | os.PathLike, wait: bool = True) -> Recording:
+def _skip(skip_damaged: bool | None) -> bool:
+    return _SKIP_DAMAGED.get() if skip_damaged is None else switch(skip_damaged, "skip_damaged")
+
+
+def _left_out(damaged: list[Problem]) -> tuple[set[str], dict[str, frozenset[str]], list[str]]:
+    """What a damaged file read with ``skip_damaged`` leaves out: point names, channel names per
+    point, and one note per point, channel or file-level problem (its first problem; the count
+    of the others)."""
+    by_place: dict[tuple[str | None, str | None], list[Problem]] = {}
+    for problem in damaged:
+        point = point_of(problem.where)
+        parts = problem.where.strip("/").split("/")
+        channel = parts[2] if point is not None and len(parts) >= 3 else None
+        by_place.setdefault((point, channel), []).append(problem)
+    points = {point for point, channel in by_place if point is not None and channel is None}
+    channels: dict[str, set[str]] = {}
+    notes: list[str] = []
+    for (point, channel), problems in by_place.items():
+        more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
+        first = problems[0].message
+        if point is None:
+            notes.append(f"{problems[0].where}: {first}{more}: read on (skip_damaged)")
+        elif channel is None:
+            notes.append(f"point {int(point)} left out: {first}{more}")
+        elif point not in points:
+            channels.setdefault(point, set()).add(channel)
+            notes.append(f"point {int(point)} channel {channel} left out: {first}{more}")
+    return points, {k: frozenset(v) for k, v in channels.items()}, notes
+
+
+#: Sample scans of finished files by (path, size, modification time): a command opens one file
+#: several times (analysis, tables, figures) and its samples are scanned once.
+_SCANS: dict[tuple[str, int, int], list[Problem]] = {}
+
+
+def _scanned(path: str | os.PathLike, f: h5py.File, cut_off: frozenset[str]) -> list[Problem]:
+    if f.attrs.get("status") == STATUS_RECORDING or writer_alive(path):
+        return sample_problems(f, skip=cut_off)  # still growing: scan what is there now
+    st = os.stat(path)
+    key = (os.path.realpath(path), st.st_size, st.st_mtime_ns)
+    if key not in _SCANS:
+        if len(_SCANS) > 64:
+            _SCANS.clear()
+        _SCANS[key] = sample_problems(f, skip=cut_off)
+    return _SCANS[key]
+
+
+def _open_once(
+    path: str | os.PathLike, wait: bool = True, skip_damaged: bool = False, check_samples: bool = True
+) -> Recording:
     f, opened_as = open_h5(path, wait)
     try:
         cache = AttrCache()
         problems = find_problems(f, cache)
         fatal = [p for p in problems if p.fatal]
-        cut_off = _cut_off_points(f, fatal)
-        fatal = [p for p in fatal if _point_of(p.where) not in cut_off]
+        cut_off = cut_off_points(f, fatal)
+        fatal = [p for p in fatal if point_of(p.where) not in cut_off]
         if fatal:
             where = "" if fatal[0].where == "/" else f"{fatal[0].where}: "
             more = f" (and {len(fatal) - 1} more; run: rig check {path})" if len(fatal) > 1 else ""
             raise RecordingError(f"{path}: {where}{fatal[0].message}{more}")
-        return Recording(f, str(path), opened_as, cache, cut_off)
+        if check_samples:
+            problems += _scanned(path, f, cut_off)
+        # what rig check reports as errors beyond the fatal ones: the file is refused, or read
+        # without the damaged parts (a point cut off by a killed writer is left out either way)
+        errors = [
+            p for p in problems if p.severity == ERROR and not p.fatal and point_of(p.where) not in cut_off
+        ]
+        damaged = [p for p in errors if not p.model_only]
+        if damaged and not skip_damaged:
+            raise RecordingError(damaged_line(path, damaged, len(errors)))
+        rec = Recording(f, str(path), opened_as, cache, cut_off, damaged)
+        # the rig description matters to the readers that build the model (they refuse it,
+        # naming --rig); the others read the intact samples and say it
+        rec.notes.extend(f"{p.message} (the samples are read)" for p in errors if p.model_only)
+        return rec
     except RecordingError:
         f.close()
         raise

@@ -76,6 +76,7 @@ def summary(rec: Recording) -> dict[str, Any]:
             for p in rec.points
         ],
         "total_duration_s": sum(p.duration for p in rec.points),
+        "notes": list(rec.notes),  # what --skip-damaged left out of a damaged file
     }
 
 

@@ -8,6 +8,11 @@ HDF5 tool ``h5clear -s FILE`` clears it in place. The reader instead opens the f
 :class:`FlagClearedFile`, a read-only file object that presents the superblock with the flags
 cleared and its checksum recomputed (superblock version 2/3 layout and Jenkins lookup3 checksum,
 as in the HDF5 file format specification, sections II.A and "checksum").
+
+Why HDF5 itself cannot do this (h5py 3.16 / HDF5 2.0, ``tests/rigtools/test_superblock.py``):
+``locking=False`` and SWMR-read mode both refuse such a file; ``h5clear`` and HDF5's "clear status
+flags" file-access property (not reachable from h5py) clear the flags in place, and a reader
+must not modify the file it reads. The view presents byte for byte what ``h5clear -s`` leaves.
 """
 
 from __future__ import annotations

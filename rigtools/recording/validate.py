@@ -2,8 +2,10 @@
 
 :func:`find_problems` inspects an open HDF5 file (attributes, names, shapes; no sample data) and
 returns :class:`Problem` lines. Problems marked ``fatal`` stop :func:`~rigtools.recording.open_recording`
-(wrong schema, newer version, missing required attributes); the others (inconsistent lengths or
-rates, a gap in the point numbering) are reported by ``rig check`` but the file still opens.
+(wrong schema, newer version, missing required attributes) in every case; the other errors
+(inconsistent lengths or rates, a gap in the point numbering, NaN samples, ...) stop it too unless
+it is asked to ``skip_damaged`` (the reader contract: a file ``rig check`` rejects is refused by
+every reader; only a ``rig`` attribute that does not validate is ``model_only``).
 :func:`check_recording` opens a path, runs the inspection and, optionally, reads every sample.
 """
 
@@ -21,7 +23,7 @@ import h5py
 import numpy as np
 
 import rigtools
-from rigtools.errors import one_line
+from rigtools.errors import one_line, option
 from rigtools.recording.opener import LIVE_RETRY_S, named, open_h5
 from rigtools.recording.schema import (
     CHANNEL_ATTRS,
@@ -41,6 +43,7 @@ from rigtools.recording.schema import (
     SINE_PROCEDURES,
     STATUS_ABORTED,
     STATUS_COMPLETE,
+    STATUS_RECORDING,
     STATUSES,
     RecordingError,
     channel_name_legal,
@@ -51,6 +54,9 @@ from rigtools.recording.schema import (
 from rigtools.vocabulary import MODEL_BACKENDS
 
 ERROR = "error"
+#: The largest sample magnitude a reader takes: a square of 1e154 overflows float64; nothing the rig
+#: or its model measures in SI units comes near (the shaker's 1000 N, accelerations ~1e5 m/s^2).
+MAX_SAMPLE_MAGNITUDE = 1e150
 NOTE = "note"
 NEWER_PREFIX = "schema_version "  # start of the one message that means "file is newer"
 
@@ -63,6 +69,9 @@ class Problem:
     message: str
     severity: str = ERROR
     fatal: bool = False
+    #: An error only to the readers that build the model from the file (its ``rig`` attribute):
+    #: the others read the data with it as a note (the samples are intact).
+    model_only: bool = False
 
     def line(self) -> str:
         return f"{self.where}: {self.message}"
@@ -311,9 +320,13 @@ def rig_problems(text: str) -> list[Problem]:
         try:
             data = tomllib.loads(text)
         except tomllib.TOMLDecodeError:
-            return [Problem("/", "attribute 'rig' is neither JSON nor TOML")]
+            return [Problem("/", "attribute 'rig' is neither JSON nor TOML", model_only=True)]
     if not isinstance(data, dict):
-        return [Problem("/", f"attribute 'rig' is not a rig description (a {type(data).__name__})")]
+        return [
+            Problem(
+                "/", f"attribute 'rig' is not a rig description (a {type(data).__name__})", model_only=True
+            )
+        ]
     if not data:  # a writer without a rig description (tests, other software): nothing claimed
         return [
             Problem(
@@ -329,6 +342,7 @@ def rig_problems(text: str) -> list[Problem]:
             Problem(
                 "/",
                 f"attribute 'rig' does not validate: {one_line(exc, 300)}; those readers that build the model need --rig FILE",
+                model_only=True,
             )
         ]
     return []
@@ -572,6 +586,64 @@ def _check_once(path: str | os.PathLike, read_data: bool) -> CheckResult:
         f.close()
 
 
+def sample_problems(f: h5py.File, skip: frozenset[str] = frozenset()) -> list[Problem]:
+    """``_data_problems`` of every point group of ``f`` (not those named in ``skip``): the
+    samples ``rig check`` reads (unreadable, NaN or infinite)."""
+    out: list[Problem] = []
+    points = f.get(POINTS_GROUP)
+    if not isinstance(points, h5py.Group):
+        return out
+    for name in points:
+        if point_index(name) is None or name in skip:
+            continue
+        group = points[name]
+        if isinstance(group, h5py.Group):
+            ended = group.attrs.get("end_time", b"") not in ("", b"")
+            out.extend(_data_problems(group, f"/{POINTS_GROUP}/{name}", ended))
+    return out
+
+
+def _as_cut_off(problem: Problem) -> Problem:
+    """A problem of a point an unfinished writer cut off: noted (every reader leaves the point
+    out and keeps the others; nothing else recorded is lost)."""
+    why = f"{problem.message} (cut off by the writer that stopped: readers leave the point out)"
+    return Problem(problem.where, why, severity=NOTE)
+
+
+def damaged_line(path: str | os.PathLike, damaged: list[Problem], listed: int) -> str:
+    """The one line that refuses a recording ``rig check`` rejects (non-fatal errors): the file,
+    its first damage, how many problems check lists (``listed``), and the way out in the
+    caller's words."""
+    first = damaged[0]
+    where = "" if first.where == "/" else f"{first.where}: "
+    count = f"{listed} problem{'s' * (listed != 1)}"
+    way_out = option("skip_damaged", True)
+    return (
+        f"{path} is damaged: {where}{first.message} "
+        f"(rig check {path} lists {count}; {way_out} reads the rest)"
+    )
+
+
+def point_of(where: str) -> str | None:
+    """The point group name of a problem's location (``/points/0003/force`` -> ``0003``)."""
+    parts = where.strip("/").split("/")
+    return parts[1] if len(parts) >= 2 and parts[0] == POINTS_GROUP.strip("/") else None
+
+
+def cut_off_points(f: h5py.File, fatal: list) -> frozenset[str]:
+    """Points whose fatal problems an unfinished writer explains (status still "recording").
+
+    A writer killed mid-write (or one changing a point while it is read) can leave that point's
+    structure unreadable; the file's other points are intact and are kept."""
+    try:
+        unfinished = f.attrs.get("status") == STATUS_RECORDING
+    except (OSError, RuntimeError, KeyError):
+        return frozenset()
+    if not unfinished:
+        return frozenset()
+    return frozenset(n for n in (point_of(p.where) for p in fatal) if n is not None)
+
+
 def _check_file(f: h5py.File, path: str | os.PathLike, opened_as: str, read_data: bool) -> CheckResult:
     result = CheckResult(str(path), opened_as=opened_as)
     try:
@@ -581,6 +653,8 @@ def _check_file(f: h5py.File, path: str | os.PathLike, opened_as: str, read_data
             raise RecordingError(f"{path}: damaged HDF5 structure ({one_line(exc, None)})") from None
         if result.problems and result.problems[0].message.startswith(NEWER_PREFIX):
             raise RecordingError(f"{path}: {result.problems[0].message}; this rigtools cannot check it")
+        cut_off = cut_off_points(f, [p for p in result.problems if p.fatal])
+        result.problems = [_as_cut_off(p) if point_of(p.where) in cut_off else p for p in result.problems]
         if opened_as == "flags-cleared":
             result.problems.append(
                 Problem(
@@ -602,10 +676,9 @@ def _check_file(f: h5py.File, path: str | os.PathLike, opened_as: str, read_data
                 group = points[name]
                 if isinstance(group, h5py.Group):
                     channels.update(group)
-                    if read_data:
-                        ended = group.attrs.get("end_time", b"") not in ("", b"")
-                        result.problems.extend(_data_problems(group, f"/{POINTS_GROUP}/{name}", ended))
             result.n_channels = len(channels)
+            if read_data:
+                result.problems.extend(sample_problems(f, skip=cut_off))
     finally:
         f.close()
     return result
@@ -625,6 +698,7 @@ def _data_problems(group: h5py.Group, where: str, ended: bool = True, block: int
         if not isinstance(dataset, h5py.Dataset) or dataset.ndim != 1:
             continue
         n_bad = 0
+        n_huge = 0  # finite samples whose square overflows: every spectrum and fit would be inf
         last_good = -1  # index of the last finite sample
         start = 0
         try:
@@ -633,6 +707,7 @@ def _data_problems(group: h5py.Group, where: str, ended: bool = True, block: int
                 if values.dtype.kind == "f":
                     finite = np.isfinite(values)
                     n_bad += int(finite.size - np.count_nonzero(finite))
+                    n_huge += int(np.count_nonzero(np.abs(values[finite]) > MAX_SAMPLE_MAGNITUDE))
                     if finite.any():
                         last_good = start + int(np.flatnonzero(finite)[-1])
                 else:
@@ -653,6 +728,15 @@ def _data_problems(group: h5py.Group, where: str, ended: bool = True, block: int
                     f"{where}/{name}",
                     f"{inner} sample{'s' * (inner != 1)} "
                     "NaN or infinite" + ("" if ended else " before the unflushed tail"),
+                )
+            )
+        if n_huge:
+            out.append(
+                Problem(
+                    f"{where}/{name}",
+                    f"{n_huge} sample{'s' * (n_huge != 1)} beyond +-{MAX_SAMPLE_MAGNITUDE:g}: "
+                    "no measured or modelled quantity in SI units reaches that (a damaged file?); "
+                    "its squares overflow every spectrum and fit",
                 )
             )
         if tail:

@@ -8,7 +8,7 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
-from rigtools.errors import UserError
+from rigtools.errors import UserError, in_script_words
 from rigtools.frf_set import is_frf_set
 from rigtools.operational import analyze_operational
 from rigtools.options import quantity
@@ -35,6 +35,7 @@ def is_foreign(experiment: dict) -> bool:
     return str((experiment or {}).get("procedure", "")) in FOREIGN_PROCEDURES
 
 
+@in_script_words
 def analyze_recording(
     path: str | Path,
     *,
@@ -45,6 +46,7 @@ def analyze_recording(
     options: FRFOptions | None = None,
     fe: float | None = None,
     compare_fem: bool | None = None,
+    skip_damaged: bool | None = None,
 ) -> RecordingAnalysis:
     """Analyse every complete point of a recording (see :mod:`rigtools.recording_analysis`).
 
@@ -69,6 +71,9 @@ def analyze_recording(
         Add the table of this rig's FEM/AM natural frequencies beside the identified ones;
         default: yes for the rig's own recordings, no for imported ones (they do not describe
         this rig).
+    skip_damaged
+        Read a recording ``rig check`` rejects, leaving its damaged points and channels out
+        (one note each); by default such a file is refused in one line.
 
     Returns
     -------
@@ -104,7 +109,7 @@ def analyze_recording(
         return analyze_frf_set(path, kind=kind, method=method, channels=channels, options=options)
     options = options or FRFOptions()
     try:
-        rec = open_recording(path)
+        rec = open_recording(path, skip_damaged=skip_damaged)
     except RecordingError as exc:
         raise UserError(str(exc)) from None
     with rec:
@@ -113,6 +118,7 @@ def analyze_recording(
         out = RecordingAnalysis(
             str(path), procedure, rec.backend, source_of(rec.backend), rec.status, checked_kind, []
         )
+        out.notes.extend(rec.notes)
         if rec.incomplete:
             out.notes.append(
                 f"recording status {rec.status}"

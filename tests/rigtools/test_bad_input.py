@@ -779,7 +779,8 @@ RECORDING_CASES = [
     Case("info:missing", ["info", "{tmp}/none.h5"]),
     Case("check:missing", ["check", "{tmp}/none.h5"]),
     Case("check:nan-samples", ["check", "{lab}/nan.h5"], code=1),
-    Case("info:nan-samples", ["info", "{lab}/nan.h5"], code=0),
+    Case("info:nan-samples", ["info", "{lab}/nan.h5"], code=2),  # the reader contract (issue 30)
+    Case("info:nan-samples-skipped", ["info", "--skip-damaged", "{lab}/nan.h5"], code=0),
     Case("info:png-named-recording", ["info", "{lab}/run.png"], code=0),
     Case("check:rig-file", ["check", "{lab}/rig.toml"]),
 ]

@@ -222,14 +222,20 @@ def test_branches_on_a_full_disk_exit_4_and_leave_nothing(tmp_path):
 
 
 def test_export_uff_refuses_nan_samples_it_would_write_as_numbers(tmp_path):
-    """NaN samples went into the UFF as 0.0 and inf as 1.797e308, exit 0 (pyuff's writer)."""
+    """NaN samples went into the UFF as 0.0 and inf as 1.797e308, exit 0 (pyuff's writer); the
+    recording is refused at open as every reader refuses it (the reader contract), and
+    --skip-damaged writes the rest without that channel."""
     from test_bad_input import _write_recording
 
     src = _write_recording(tmp_path / "nan.h5", nan=True)
     code, _, err = run_cli(["export", "uff", src, tmp_path / "o.uff"])
     assert code == 2 and len(err.strip().splitlines()) == 1, err
-    assert "point 1 active_shroud_accel: 4 non-finite value(s)" in err and "UFF cannot carry them" in err
+    assert f"{src} is damaged: /points/0001/active_shroud_accel: 4 samples NaN or infinite" in err
     assert not (tmp_path / "o.uff").exists()
+    code, out, err = run_cli(["export", "uff", src, tmp_path / "o.uff", "--skip-damaged"])
+    assert code == 0, err
+    assert "point 1 channel active_shroud_accel left out: 4 samples NaN or infinite" in out
+    assert "7 time" in out  # 4 channels of point 0, 3 of point 1
 
 
 def test_a_frf_set_starting_below_0_hz_or_labels_not_names_are_rejected(frf_set, tmp_path):  # noqa: F811
@@ -256,9 +262,11 @@ def test_compare_leaves_out_a_point_whose_channels_differ_in_length(tmp_path):
         f["points/0000/active_shroud_accel"] = data
         f["points/0000/active_shroud_accel"].attrs.update(attrs)
     code, out, err = run_cli(["compare", "--json", em, other])
+    assert code == 2 and f"{em} is damaged: /points/0000: channels differ in length" in err, err
+    code, out, err = run_cli(["compare", "--json", em, other, "--skip-damaged"])
     assert code == 0, err
     notes = json.loads(out)["notes"]
-    assert any("EM point 0: its channels differ in length (100 to" in n for n in notes), notes
+    assert any("EM: point 0 left out: channels differ in length" in n for n in notes), notes
 
 
 @pytest.mark.skipif(os.geteuid() != 0, reason="mounting a small tmpfs needs root")

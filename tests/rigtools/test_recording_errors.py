@@ -115,7 +115,7 @@ def test_missing_attributes(good, tmp_path, capsys, where, name):
     assert code == 1 and f"missing attribute '{name}'" in out
 
 
-def test_inconsistent_channels_are_reported_but_readable(good, tmp_path, capsys):
+def test_inconsistent_channels_are_reported_and_refused_unless_skipped(good, tmp_path, capsys):
     def damage(f):
         f["points/0000/accel"].attrs["sample_rate"] = 2000.0
         data = f["points/0001/accel"][:100]
@@ -130,8 +130,15 @@ def test_inconsistent_channels_are_reported_but_readable(good, tmp_path, capsys)
             ds.attrs[key] = value
 
     path = _copy(good, tmp_path / "uneven.h5", damage)
-    with open_recording(path) as rec:  # still readable: the data are there
-        assert rec.points[1].n_samples == 100
+    with pytest.raises(
+        RecordingError, match=r"uneven.h5 is damaged: /points/0000: channels differ in sample_rate"
+    ):
+        open_recording(path)  # the reader contract (issue 30): what check rejects is refused
+    with open_recording(path, skip_damaged=True) as rec:  # the rest: both points left out, said
+        assert rec.points == [] and [n.split(":")[0] for n in rec.notes] == [
+            "point 0 left out",
+            "point 1 left out",
+        ]
     code, out, _ = _rig_check(path, capsys)
     assert code == 1
     assert "/points/0000: channels differ in sample_rate: force=1000 Hz, accel=2000 Hz" in out
