@@ -36,6 +36,9 @@ from rigtools.sim.bifurcations import Bifurcation
 # about three times the remaining error, so half of that)
 REFINE_TOLERANCE = 5e-4
 MAX_REFINEMENTS = 4  # up to 16 times the branch's steps per period
+# an event's bracket is bisected until its two sides are this close in the parameter (relative):
+# a tenth of the convergence tolerance, so the bisection's own error never decides convergence
+EVENT_VALUE_PRECISION = REFINE_TOLERANCE / 10
 START_POINTS = 6  # points either side of a labelled one tried as starts at a finer step
 _SEARCH = tuple(1e-4 * 2.0**j for j in range(10))  # arclengths tried to bracket an event
 
@@ -172,7 +175,13 @@ def _event(
             wanted = wanted or (turning and {here, new} == {before, after})
             if new is not None and not wanted:
                 break  # another event first this way
-            last, first, _, _ = bif.bisect_event(lambda t: relocator.correct(start, t), start, way * s, 24)
+            last, first, _, _ = bif.bisect_event(
+                lambda t: relocator.correct(start, t),
+                start,
+                way * s,
+                24,
+                value_width=EVENT_VALUE_PRECISION * abs(float(start.point.value)),
+            )
             if first is None:
                 return last, float(last.point.value)
             return last, 0.5 * float(last.point.value + first.point.value)

@@ -161,16 +161,24 @@ def locate(
 
 
 def bisect_event(
-    correct: Callable[[float], Any | None], a: Any, h: float, iterations: int = 14, width: float = 0.0
+    correct: Callable[[float], Any | None],
+    a: Any,
+    h: float,
+    iterations: int = 14,
+    width: float = 0.0,
+    value_width: float = 0.0,
 ) -> tuple[Any, Any | None, float, float]:
     """Where the contact structure of entry ``a`` (at 0) ends along the arclength towards ``h``
     (where it differs): ``(last entry with a's structure, first with another or None where no
     orbit converges, their arclengths)``, the bracket shrunk ``iterations`` times or until it is
-    no wider than ``width``."""
+    no wider than ``width`` in arclength or, with an orbit on both sides, ``value_width`` in the
+    parameter."""
     lo, hi = 0.0, h
     last, first = a, None
     for _ in range(iterations):
         if abs(hi - lo) <= width:
+            break
+        if first is not None and abs(first.point.value - last.point.value) <= value_width:
             break
         s = 0.5 * (lo + hi)
         e = correct(s)
