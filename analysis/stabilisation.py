@@ -37,6 +37,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 from scipy import signal
@@ -533,7 +534,7 @@ def converged_selection(
     )
     requested = ORDERS if orders is None else orders
     capped = max(requested) > schedule.orders[-1]
-    keywords = dict(
+    keywords: dict[str, Any] = dict(
         kind=kind,
         band=band,
         coherence=coherence,
