@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from rigtools.errors import UserError, one_line, option
-from rigtools.interop.uff import direction_text
+from rigtools.interop.directions import direction_text
 from rigtools.recording.reader import open_checked
 
 SCHEMA = "rigtools.frfset"

@@ -32,8 +32,21 @@ from typing import Any
 
 import numpy as np
 
+from rigtools.analysis.spectra import amplitude_spectrum
+from rigtools.derived_files import atomic_write
 from rigtools.errors import UserError, in_script_words
-from rigtools.interop.checks import parsed, source_file
+from rigtools.frf_set import RESPONSE_UNITS, FRFSet, is_frf_set, read_frf_set, write_frf_set
+from rigtools.interop.channels import (
+    ForeignChannel,
+    check_known,
+    check_names,
+    resolve,
+    si_units,
+    storable_name,
+)
+from rigtools.interop.checks import non_finite_reason, parsed, source_file
+from rigtools.interop.directions import DIRECTIONS, direction_text
+from rigtools.interop.imported import ForeignPoint, rows_reader, split_by_timing, write_imported
 from rigtools.interop.uff_data import (
     FRF_DATA_RULE,
     _with_force,
@@ -51,6 +64,12 @@ from rigtools.interop.uff_places import (  # the rig's numbering (node_of, FIXED
     told_apart,
     unplaced_line,
 )
+from rigtools.recording import open_recording
+from rigtools.recording_analysis.broadband import PROCEDURE_FRF
+from rigtools.recording_analysis.frf_estimate import point_frf_estimate
+from rigtools.recording_analysis.results import frf_kind_of_units
+from rigtools.recording_analysis.samples import force_channel
+from rigtools.recording_analysis.tap_test import analyze_tap_test, is_hit_per_point_tap_test
 
 # UFF 58 function types (record 6, field 1)
 FUNC_TIME, FUNC_AUTO_SPECTRUM, FUNC_FRF, FUNC_COHERENCE = 1, 2, 4, 6  # the types pyuff writes
@@ -65,22 +84,11 @@ QUANTITY_CODES = {
     "force": (DATA_FORCE, 0, 1),
     "voltage": (DATA_GENERAL, 0, 0),
 }
-#: UFF direction codes (record 6, fields 6 and 9): 1..6 are +X, +Y, +Z, +RX, +RY, +RZ, a negative
-#: code the opposite sense (-3 is -Z), 0 a scalar (no direction)
-DIRECTIONS = ("X", "Y", "Z", "RX", "RY", "RZ")
 SI_UNITS_CODE = 1
 #: ID line 2 of every record ``rig export uff`` writes: the importer reads ID line 4 of such files
 EXPORT_MARK = "shrouded-blade-rig export"
 _NAME = r"[A-Za-z0-9_][A-Za-z0-9_.\-]*"  # a recording channel name (rigtools.recording.schema)
 _ID_LINE_4 = re.compile(rf"channel ({_NAME})(?:; reference ({_NAME}))?")
-
-
-def direction_text(code: int | None) -> str:
-    """A UFF direction code as text (:data:`DIRECTIONS`): ``3`` is ``"+Z"``, ``-4`` is ``"-RX"``;
-    0 (scalar), None and codes outside -6..6 are ``""``."""
-    if not code or abs(int(code)) > len(DIRECTIONS):
-        return ""
-    return ("+" if code > 0 else "-") + DIRECTIONS[abs(int(code)) - 1]
 
 
 def id_line_4(channel: str, reference: str = "") -> str:
@@ -242,8 +250,6 @@ def write_uff(path: str | Path, functions: list[UffFunction]) -> int:
     """
     import pyuff
 
-    from rigtools.derived_files import atomic_write
-
     sets = [units_dataset()] + [f.dataset() for f in functions]
 
     def write(tmp: Path) -> None:
@@ -303,11 +309,6 @@ def recording_functions(
     direction, entity name and ID line 1 as imported, else the rig's numbering. ID line 3 holds
     the recording's date (``DD-MMM-YY HH:MM:SS``, UTC).
     """
-    from rigtools.analysis.spectra import amplitude_spectrum
-    from rigtools.interop.checks import non_finite_reason
-    from rigtools.interop.imported import rows_reader
-    from rigtools.recording_analysis.broadband import PROCEDURE_FRF
-    from rigtools.recording_analysis.tap_test import is_hit_per_point_tap_test
 
     procedure = str((recording.experiment or {}).get("procedure", ""))
     if frf_options is not None and "frf" not in what:
@@ -407,7 +408,6 @@ def recording_functions(
 def _response_only(point) -> bool:
     """True for a point with no excitation: no ``reference_channel``, no channel of quantity force
     (one with two force channels is not: ``--reference`` names its excitation)."""
-    from rigtools.recording_analysis.samples import force_channel
 
     return force_channel(point) is None and not any(c.quantity == "force" for c in point.channels.values())
 
@@ -426,9 +426,6 @@ def no_frf_line(points: list[int], total: int) -> str:
 def _point_frfs(point, label: str, places: dict, date: str, frf_options, tap=None) -> list[UffFunction]:
     """H1 and coherence of every response of a broadband point over its force (the estimate of
     :func:`~rigtools.recording_analysis.frf_estimate.point_frf_estimate`; of :func:`~rigtools.recording_analysis.tap_test.analyze_tap_test` for ``tap``)."""
-    from rigtools.recording_analysis.frf_estimate import point_frf_estimate
-    from rigtools.recording_analysis.results import frf_kind_of_units
-    from rigtools.recording_analysis.tap_test import analyze_tap_test
 
     if tap is not None:
         try:
@@ -516,7 +513,6 @@ def frf_set_functions(frf_set, what: tuple[str, ...] = WHAT, *, source: str = ""
     UserError
         ``what`` lacks ``"frf"``.
     """
-    from rigtools.frf_set import RESPONSE_UNITS
 
     if "frf" not in what:
         raise UserError(f"{source}: an FRF set holds FRFs only (no {', '.join(what)}): use --what frf")
@@ -571,8 +567,6 @@ def file_functions(
     UserError
         An unreadable file, a recording without a complete point, options the file does not use.
     """
-    from rigtools.frf_set import is_frf_set, read_frf_set
-    from rigtools.recording import open_recording
 
     if Path(path).is_file() and is_frf_set(path):
         given = ([] if frf_options is None else frf_options.estimate_options()) + (
@@ -697,7 +691,6 @@ def record_key(number: int) -> str:
 
 def _check_keys(option: str, given, names: set[str], n_records: int) -> None:
     """Refuse ``option`` entries naming no record: neither a record's name nor ``recordN``."""
-    from rigtools.interop.channels import check_known
 
     numbers = {record_key(i) for i in range(1, n_records + 1)}
     bad = [k for k in given if k.startswith("record") and k[6:].isdigit() and k not in numbers]
@@ -727,7 +720,6 @@ def _time_units(s: dict) -> str:
 def _frf_kind(s: dict, given: str | None) -> tuple[str | None, float, str]:
     """``(kind, factor to SI, how it was found)`` of an FRF record: ``given`` (``--units`` of the
     response) first, else the labels checked against the data."""
-    from rigtools.interop.channels import si_units
 
     if given is not None:
         si = si_units(given)
@@ -802,9 +794,6 @@ def import_uff(
         ``{"channels": [...], "points": [...], "lines": [...]}`` as every import (FRFs: one
         entry and line per record).
     """
-    from rigtools.interop.channels import ForeignChannel, check_names, resolve
-    from rigtools.interop.checks import non_finite_reason
-    from rigtools.interop.imported import ForeignPoint, rows_reader, split_by_timing, write_imported
 
     source = Path(source)
     mapping, units, chosen = dict(mapping or {}), dict(units or {}), list(channels or [])
@@ -916,8 +905,6 @@ def _reference_name(s: dict) -> str:
 def _import_frfs(
     source: Path, out: str | Path, records: list[tuple[int, str, dict]], *, mapping, units, overwrite
 ) -> dict:
-    from rigtools.frf_set import FRFSet, write_frf_set
-    from rigtools.interop.channels import storable_name
 
     lines, entries = [], []
     frfs, grid, kinds = [], None, set()
