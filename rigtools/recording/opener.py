@@ -21,6 +21,9 @@ from rigtools.recording.schema import RecordingError
 from rigtools.recording.superblock import FlagClearedFile, consistency_flags
 
 _H5_REASON = re.compile(r"\((.*)\)\s*$", re.DOTALL)
+#: HDF5's words for an object beyond the file's recorded end of allocation (a writer killed between
+#: writing an object and recording the new end): read with ``open_h5(..., extend_eoa=True)``
+PAST_END = re.compile(r"addr overflow|past end of allocation|exceeds EOA")
 _TRUNCATED = re.compile(r"truncated file: eof = (\d+),.*stored_eof = (\d+)")
 
 
@@ -31,7 +34,7 @@ def hdf5_reason(exc: BaseException) -> str:
     return match.group(1) if match else text
 
 
-def open_h5(path: str | os.PathLike, wait: bool = True) -> tuple[h5py.File, str]:
+def open_h5(path: str | os.PathLike, wait: bool = True, extend_eoa: bool = False) -> tuple[h5py.File, str]:
     """Open any HDF5 file read-only, also one whose writer is running or was killed.
 
     ``wait=False`` tries once and does not wait for a live writer that is adding structure
@@ -48,12 +51,20 @@ def open_h5(path: str | os.PathLike, wait: bool = True) -> tuple[h5py.File, str]
     ------
     RecordingError
         One line if the file is missing or is not readable HDF5 (e.g. truncated).
+
+    ``extend_eoa``: open through :class:`~.superblock.FlagClearedFile` with the end of
+    allocation read as the file's size (a killed writer's objects past it), never modifying it.
     """
     p = Path(path)
     if not p.exists():
         raise RecordingError(f"{p}: no such file")
     if not p.is_file():
         raise RecordingError(f"{p}: not a file")
+    if extend_eoa:
+        try:
+            return h5py.File(FlagClearedFile(p, extend_eoa=True), "r"), "flags-cleared"
+        except OSError as exc:
+            raise RecordingError(f"{p}: unreadable HDF5 file ({hdf5_reason(exc)})") from None
     last: OSError | None = None
     # A live writer (it holds the lock) adds structure for a few ms at a time: wait for it longer.
     attempts = (40 if writer_alive(p) else 4) if wait else 1

@@ -22,7 +22,7 @@ import numpy.typing as npt
 
 from rigtools.options import switch
 from rigtools.recording.lock import writer_alive
-from rigtools.recording.opener import LIVE_RETRY_S, named, open_h5
+from rigtools.recording.opener import LIVE_RETRY_S, PAST_END, named, open_h5
 from rigtools.recording.opener import hdf5_reason as _reason
 from rigtools.recording.schema import (
     POINTS_GROUP,
@@ -490,7 +490,13 @@ def open_recording(
         writer = writer_alive(path)
         try:
             rec = _open_once(path, wait, _skip(skip_damaged), check_samples)
-        except RecordingError:
+        except RecordingError as exc:
+            if writer is None and PAST_END.search(str(exc)):
+                # a writer killed between writing an object and recording the file's new end:
+                # read it with the end at the file's size (h5clear --increment, in memory only)
+                rec = _open_once(path, wait, _skip(skip_damaged), check_samples, extend_eoa=True)
+                rec.writer = None
+                return rec
             # A live writer between two states of the file (closing/reopening it between
             # points, or trimming it as it ends the run) can make one look damaged for a moment:
             # look again. A writer that ended meanwhile left its final file: one more look (the
@@ -566,9 +572,13 @@ def _scanned(path: str | os.PathLike, f: h5py.File, cut_off: frozenset[str]) -> 
 
 
 def _open_once(
-    path: str | os.PathLike, wait: bool = True, skip_damaged: bool = False, check_samples: bool = True
+    path: str | os.PathLike,
+    wait: bool = True,
+    skip_damaged: bool = False,
+    check_samples: bool = True,
+    extend_eoa: bool = False,
 ) -> Recording:
-    f, opened_as = open_h5(path, wait)
+    f, opened_as = open_h5(path, wait, extend_eoa)
     try:
         cache = AttrCache()
         problems = find_problems(f, cache)

@@ -87,10 +87,20 @@ def consistency_flags(path: str | os.PathLike) -> int | None:
     return head[_FLAGS_OFFSET] if superblock_size(head) else None
 
 
-class FlagClearedFile(io.RawIOBase):
-    """Read-only view of an HDF5 file whose superblock consistency flags read as cleared."""
+def _eoa_offset(head: bytes) -> int:
+    """Offset of the end-of-file address in a version 2/3 superblock (after the base and the
+    superblock-extension addresses)."""
+    return 12 + 2 * head[9]
 
-    def __init__(self, path: str | os.PathLike):
+
+class FlagClearedFile(io.RawIOBase):
+    """Read-only view of an HDF5 file whose superblock consistency flags read as cleared.
+
+    ``extend_eoa``: the end-of-file address also reads as at least the file's size, as
+    ``h5clear --increment`` would write it: a writer killed between writing an object and
+    updating the superblock leaves objects past the recorded end ("addr overflow")."""
+
+    def __init__(self, path: str | os.PathLike, extend_eoa: bool = False):
         super().__init__()
         self._fh = open(path, "rb")  # noqa: SIM115 - open for this object's life; close() closes it
         head = self._fh.read(64)
@@ -100,6 +110,11 @@ class FlagClearedFile(io.RawIOBase):
             raise OSError("no version 2/3 HDF5 superblock at the start of the file")
         patched = bytearray(head[:size])
         patched[_FLAGS_OFFSET] = 0
+        if extend_eoa:
+            at, width = _eoa_offset(head), head[9]
+            eoa = int.from_bytes(patched[at : at + width], "little")
+            size_now = os.fstat(self._fh.fileno()).st_size
+            patched[at : at + width] = max(eoa, size_now).to_bytes(width, "little")
         patched[-4:] = struct.pack("<I", lookup3(bytes(patched[:-4])))
         self._head = bytes(patched)
         self._pos = 0

@@ -24,7 +24,7 @@ import numpy as np
 
 import rigtools
 from rigtools.errors import one_line, option
-from rigtools.recording.opener import LIVE_RETRY_S, named, open_h5
+from rigtools.recording.opener import LIVE_RETRY_S, PAST_END, named, open_h5
 from rigtools.recording.schema import (
     CHANNEL_ATTRS,
     CHANNEL_UNITS,
@@ -549,11 +549,25 @@ def check_recording(path: str | os.PathLike, read_data: bool = True) -> CheckRes
         writer = writer_alive(path)
         try:
             result = _check_once(path, read_data)
-        except RecordingError:
-            if writer is None or time.monotonic() > deadline:  # as open_recording: look again
+            past_end = writer is None and any(PAST_END.search(p.message) for p in result.problems)
+        except RecordingError as exc:
+            past_end = writer is None and bool(PAST_END.search(str(exc)))
+            if not past_end and (writer is None or time.monotonic() > deadline):  # as open_recording
                 raise
-            time.sleep(0.05)
-            continue
+            if not past_end:
+                time.sleep(0.05)
+                continue
+        if past_end:
+            # a killed writer's objects past the recorded end: checked as the readers read it
+            result = _check_once(path, read_data, extend_eoa=True)
+            result.problems.append(
+                Problem(
+                    "/",
+                    "the writer stopped before recording the file's end (objects past it): read "
+                    "with the end at the file's size (h5clear --increment FILE fixes the file)",
+                    severity=NOTE,
+                )
+            )
         if writer is not None and not result.valid and time.monotonic() <= deadline:
             time.sleep(0.05)
             continue
@@ -576,8 +590,8 @@ def check_recording(path: str | os.PathLike, read_data: bool = True) -> CheckRes
     return result
 
 
-def _check_once(path: str | os.PathLike, read_data: bool) -> CheckResult:
-    f, opened_as = open_h5(path)
+def _check_once(path: str | os.PathLike, read_data: bool, extend_eoa: bool = False) -> CheckResult:
+    f, opened_as = open_h5(path, extend_eoa=extend_eoa)
     try:
         return _check_file(f, path, opened_as, read_data)
     except (OSError, RuntimeError, KeyError, ValueError) as exc:

@@ -81,3 +81,48 @@ def test_the_flag_cleared_view_reads_as_h5clear_leaves_the_file(libver, tmp_path
     with h5py.File(FlagClearedFile(path), "r") as ours, h5py.File(cleared, "r") as theirs:
         for name in ("x", "points/0000"):
             np.testing.assert_array_equal(ours[name][:], theirs[name][:])
+
+
+def _with_stale_end(src, dst, short_by: int) -> bytes:
+    """``src`` copied to ``dst`` with its superblock's end-of-allocation ``short_by`` bytes before
+    the file's end (checksum recomputed): what a writer killed between writing objects and
+    recording the file's new end leaves."""
+    import struct
+
+    from rigtools.recording.superblock import lookup3, superblock_size
+
+    data = bytearray(Path(src).read_bytes())
+    n, at, width = superblock_size(bytes(data[:64])), 12 + 2 * data[9], data[9]
+    eoa = int.from_bytes(data[at : at + width], "little")
+    data[at : at + width] = (eoa - short_by).to_bytes(width, "little")
+    data[n - 4 : n] = struct.pack("<I", lookup3(bytes(data[: n - 4])))
+    Path(dst).write_bytes(bytes(data))
+    return bytes(data)
+
+
+@pytest.mark.parametrize("short_by", [100, 2000, 20000])
+def test_objects_past_the_recorded_end_are_read_and_the_file_left_as_it_is(tmp_path, short_by):
+    """A killed writer's file whose recorded end of allocation lies before objects it wrote ("addr
+    overflow", "actual len exceeds EOA": the concurrency test's SIGKILL met it under load) is read
+    as ``h5clear --increment`` would leave it, in memory only: every sample equal to the sound
+    file's (exactly: the same bytes are read), ``rig check`` valid with a note naming the fix,
+    and the file byte for byte unchanged."""
+    from rigtools.cli import main
+    from rigtools.recording import ChannelSpec, RecordingWriter, open_recording
+
+    spec = ChannelSpec("force", "N", "force", 1000.0)
+    good = tmp_path / "good.h5"
+    waves = [np.sin(np.arange(2000) * 0.1 + k) for k in range(3)]
+    with RecordingWriter(good, backend="simulated", rig="{}", experiment={}) as rec:
+        for w in waves:
+            point = rec.begin_point({"fe": 60.0}, [spec])
+            point.append(w[None, :])
+            point.end()
+    stale = tmp_path / "stale.h5"
+    before = _with_stale_end(good, stale, short_by)
+    with open_recording(stale) as run:
+        assert run.status == "complete" and len(run.points) == 3
+        for point, w in zip(run.points, waves, strict=True):
+            np.testing.assert_array_equal(point.channels["force"][:], w)
+    assert main(["check", str(stale)]) == 0
+    assert stale.read_bytes() == before
