@@ -97,6 +97,15 @@ PROCEDURE_OPTIONS: tuple[tuple[tuple[str, ...], tuple[str, ...], dict], ...] = (
     (("cbc",), ("--gains",), {"default": None, "help": 'feedback "KP,KD" in V/m and V s/m (0: open loop)'}),
     (
         ("cbc",),
+        ("--inner-loop",),
+        {
+            "choices": ("realtime", "buffered"),
+            "default": None,
+            "help": "the feedback: the backend's per-sample real-time loop (default where it has one) or buffered",
+        },
+    ),
+    (
+        ("cbc",),
         ("--max-iterations",),
         {"type": int, "default": None, "help": "outer iterations per point (8)"},
     ),
