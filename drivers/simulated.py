@@ -634,7 +634,7 @@ class SimulatedRig(AcquisitionDevice):
         """
         if self._feedback is None:
             raise ConfigurationError("no real-time loop: call set_realtime_loop() (and configure) first")
-        if at is not None and at < self._feedback.time:
+        if at is not None and at < self._feedback.time - 0.5 / self._rate:
             raise ConfigurationError(
                 f"loop target at {at:g} s: the loop is already at {self._feedback.time:g} s"
             )

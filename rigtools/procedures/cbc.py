@@ -306,7 +306,7 @@ class ControlBasedContinuation(SineProcedure):
         if callable(choice):
             return choice
         has = bool(getattr(self.device, "has_realtime_loop", False))
-        if choice != "buffered" and not has:
+        if not has and not self.note:
             self.note = NO_REALTIME_LOOP
             self.emit("message", text=NO_REALTIME_LOOP)
         if choice == "buffered" or not has:
@@ -381,10 +381,13 @@ class ControlBasedContinuation(SineProcedure):
         orbit found (its response the target, its drive the feedforward: no kick)."""
         self.emit("message", text=f"approach: sweep to {p.fe:g} Hz at {p.approach_drive:g} V")
         loop.set_gains(Gains(0.0))
+        zero = np.zeros(p.harmonics, complex)
+        if self.points:  # from the last orbit: down to rest first (a sweep's jump from it can impact hard)
+            loop.set_point(zero, zero, ramp_time=0.5)
+            loop.wait(1.5)
         loop.sweep_from(p.approach_from or max(1.0, p.fe - 8.0), p.approach_time)
         ff = np.zeros(p.harmonics, complex)
         ff[0] = p.approach_drive
-        zero = np.zeros(p.harmonics, complex)
         first = start_state(p, loop.hold(zero, ff, ramp_time=0.3, settle_time=p.approach_time + 0.5))
         loop.set_point(*first, ramp_time=0.0)
         loop.set_gains(p.gains())
@@ -451,7 +454,11 @@ def from_options(cfg: Any, out: str | Path, o: Any, **run_options: Any) -> Contr
             params[key] = o[key]
     if o.get("release") is not None:
         params["release_seconds"] = quantity(o["release"], "time", "--release")
-    return ControlBasedContinuation(cfg, params, out, inner_loop=o.get("inner_loop"), **run_options)
+    proc = ControlBasedContinuation(cfg, params, out, inner_loop=o.get("inner_loop"), **run_options)
+    proc.note = (
+        NO_REALTIME_LOOP if run_options.get("backend") == "nidaq" else ""
+    )  # said before the device opens
+    return proc
 
 
 def json_document(proc: ControlBasedContinuation) -> dict[str, Any]:
@@ -538,7 +545,9 @@ def control_based_continuation(
 
     >>> import rigtools, tempfile, pathlib
     >>> out = pathlib.Path(tempfile.mkdtemp()) / "cbc.h5"
-    >>> run = rigtools.control_based_continuation("64 Hz", "0.32 mm", out, gap="0.5 mm", backend="sim")
+    >>> run = rigtools.control_based_continuation(
+    ...     "64 Hz", "0.32 mm", out, gap="0.5 mm", backend="sim", inner_loop="buffered"
+    ... )
     >>> p = run.points[0].extra
     >>> p["converged"], round(p["force_fundamental_n"], 1), p["drive_harmonics_ratio"] < 0.01
     (True, 4.9, True)

@@ -18,8 +18,11 @@ The measured multipliers of a converged point (:meth:`RealTimeHarmonicLoop.multi
 target set to the orbit the loop measured (40 harmonics: the control is then zero), a 0.1 %
 larger target for a few periods (the probe), the target released for a few periods (open loop
 at the orbit's drive, the probe's transient free), the orbit's target again; the loop's
-displacement over the release, minus the orbit averaged over the periods before the probe,
-gives the multipliers by :func:`rigtools.analysis.floquet.floquet_multipliers`. The release is
+displacement over the release, minus the orbit averaged over the periods before the probe, and
+differenced period to period (a small mismatch of the held drive moves the rig towards a
+neighbouring orbit: a constant step, which the difference removes and which would otherwise
+show as a multiplier 1), gives the multipliers by
+:func:`rigtools.analysis.floquet.floquet_multipliers`. The release is
 kept short enough (from the last point's multiplier) that the loop catches the orbit again.
 """
 
@@ -165,30 +168,36 @@ class RealTimeHarmonicLoop(BufferedHarmonicLoop):
         self._ramp = None
         saved = (self.target, self.feedforward)
         self.active = False  # the targets below are scheduled here, not per block
-        self.drive.set_harmonics(ff)
-        self.device.set_loop_target(orbit)
-        self.wait(HOLD_PERIODS / self.fe)
-        now = self.sink.total
-        periods = _release_periods(self.last_modulus)
-        probe = _scaled(orbit, 1 + PROBE)
-        t0 = now / self.rate
-        self.device.set_loop_target(probe, at=t0)
-        self.device.set_loop_target(None, at=t0 + PROBE_PERIODS / self.fe)
-        back = t0 + (PROBE_PERIODS + periods) / self.fe
-        self.device.set_loop_target(orbit, at=back)
-        self.wait((PROBE_PERIODS + periods + 8) / self.fe)
-        n = self.sink.total - now + 16 * p
-        _, xs = self._loop_rows(self.sink.total - n, n)
+        try:
+            self.drive.set_harmonics(ff)
+            self.device.set_loop_target(orbit)
+            self.wait(HOLD_PERIODS / self.fe)
+            now = self.sink.total
+            periods = _release_periods(self.last_modulus)
+            t0 = now / self.rate
+            self.device.set_loop_target(_scaled(orbit, 1 + PROBE), at=t0)
+            self.device.set_loop_target(None, at=t0 + PROBE_PERIODS / self.fe)
+            self.device.set_loop_target(orbit, at=t0 + (PROBE_PERIODS + periods) / self.fe)
+            self.wait((PROBE_PERIODS + periods + 8) / self.fe)
+            n = self.sink.total - now + 16 * p
+            _, xs = self._loop_rows(self.sink.total - n, n)
+        finally:
+            self.active = True
+            self.set_point(*saved, 0.0)
         released = 16 * p + PROBE_PERIODS * p
-        ref = periodic_reference(xs, self.rate, self.fe, 0, 16 * p)
-        deviation = (xs - ref)[released : released + periods * p + 1]
+        deviation = xs - periodic_reference(xs, self.rate, self.fe, 0, 16 * p)
+        # period-to-period differences: z[p + 1] - z[p] follows the same map as z[p], without the
+        # step to a neighbouring orbit that any mismatch of the held drive leaves (a multiplier 1)
+        step = deviation[p:] - deviation[:-p]
         amplitude = float(abs(m.response[0]))
         fit = floquet_multipliers(
-            deviation, self.rate, self.fe, first_period=1, limit=LINEAR_LIMIT * amplitude
+            step[released : released + (periods - 1) * p + 1],
+            self.rate,
+            self.fe,
+            first_period=1,
+            limit=LINEAR_LIMIT * amplitude,
         )
         self.last_modulus = fit.max_modulus
-        self.active = True
-        self.set_point(*saved, 0.0)
         return fit, {"release_periods": float(periods), "probe": PROBE}
 
 
