@@ -190,12 +190,17 @@ class RealTimeHarmonicLoop(BufferedHarmonicLoop):
         # step to a neighbouring orbit that any mismatch of the held drive leaves (a multiplier 1)
         step = deviation[p:] - deviation[:-p]
         amplitude = float(abs(m.response[0]))
+        # the linear range: the periods before the deviation itself passes LINEAR_LIMIT of A
+        free = deviation[released : released + periods * p]
+        peaks = np.abs(free[: periods * p].reshape(periods, p)).max(axis=1)
+        over = np.flatnonzero(peaks > LINEAR_LIMIT * amplitude)
+        last = (int(over[0]) if over.size else periods) - 2  # a difference spans two periods
         fit = floquet_multipliers(
             step[released : released + (periods - 1) * p + 1],
             self.rate,
             self.fe,
             first_period=1,
-            limit=LINEAR_LIMIT * amplitude,
+            last_period=last,
         )
         self.last_modulus = fit.max_modulus
         return fit, {"release_periods": float(periods), "probe": PROBE}
