@@ -39,8 +39,9 @@ from rigtools.procedures.cbc_iteration import Gains
 from rigtools.procedures.cbc_loop import BufferedHarmonicLoop, LoopMeasurement, fit_matrix
 
 #: The real-time loop's gains by default (V/m, V s/m): they hold the unstable orbit at 64 Hz
-#: (tests/drivers/test_realtime_loop.py; Kd = 0 does not).
-REALTIME_GAINS = (2000.0, 1.0)
+#: to A 0.405 mm (|mu| 1.8; Kd 1 V s/m loses the orbit near 0.38 mm, |mu| 1.45: the controlled
+#: orbit stops being steady).
+REALTIME_GAINS = (2000.0, 2.0)
 ORBIT_HARMONICS = 40  # harmonics of the loop's target (above the CBC's H: the measured ones)
 PROBE = 1e-3  # the probe: the target this much larger, relative
 PROBE_PERIODS = 4
