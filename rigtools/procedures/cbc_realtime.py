@@ -15,7 +15,7 @@ The split of the work, as on a rig with a real-time target next to it:
   response's harmonics (in the loop's clock, the one the target is in) and the total drive's.
 
 The measured multipliers of a converged point (:meth:`RealTimeHarmonicLoop.multipliers`): the
-target set to the orbit the loop measured (40 harmonics: the control is then zero), a 0.1 %
+target set to the orbit the loop measured (40 harmonics: the control is then zero), a 0.02 %
 larger target for a few periods (the probe), the target released for a few periods (open loop
 at the orbit's drive, the probe's transient free), the orbit's target again; the loop's
 displacement over the release, minus the orbit averaged over the periods before the probe, and
@@ -43,10 +43,10 @@ from rigtools.procedures.cbc_loop import BufferedHarmonicLoop, LoopMeasurement, 
 #: orbit stops being steady).
 REALTIME_GAINS = (2000.0, 2.0)
 ORBIT_HARMONICS = 40  # harmonics of the loop's target (above the CBC's H: the measured ones)
-PROBE = 1e-3  # the probe: the target this much larger, relative
+PROBE = 2e-4  # the probe: the target this much larger, relative
 PROBE_PERIODS = 4
 HOLD_PERIODS = 24  # the orbit held before the probe (its last 16 periods: the reference)
-LINEAR_LIMIT = 0.01  # the fit ends where the deviation passes this fraction of A (the linear range)
+LINEAR_LIMIT = 0.02  # the fit ends where the growth since the release passes this fraction of A
 
 
 class RealTimeHarmonicLoop(BufferedHarmonicLoop):
@@ -192,8 +192,9 @@ class RealTimeHarmonicLoop(BufferedHarmonicLoop):
         step = deviation[p:] - deviation[:-p]
         amplitude = float(abs(m.response[0]))
         # the linear range: the periods before the deviation itself passes LINEAR_LIMIT of A
-        free = deviation[released : released + periods * p]
-        peaks = np.abs(free[: periods * p].reshape(periods, p)).max(axis=1)
+        # (the growth since the release: the step a held-drive mismatch leaves is not the transient's)
+        free = deviation[released : released + periods * p].reshape(periods, p)
+        peaks = np.abs(free - free[0]).max(axis=1)
         over = np.flatnonzero(peaks > LINEAR_LIMIT * amplitude)
         last = (int(over[0]) if over.size else periods) - 2  # a difference spans two periods
         fit = floquet_multipliers(
@@ -208,10 +209,10 @@ class RealTimeHarmonicLoop(BufferedHarmonicLoop):
 
 
 def _release_periods(last_modulus: float) -> int:
-    """Periods released: the probe's deviation grows to about 20 times (the linear limit) at the
-    last measured multiplier (a margin of 10 % on it), 5 to 16 periods."""
+    """Periods released: the probe's deviation grows about 50 times (to the linear limit) at the
+    last measured multiplier (a margin of 10 % on it), 6 to 20 periods."""
     grow = max(1.05, 1.1 * last_modulus)
-    return int(min(16, max(5, math.floor(math.log(20.0) / math.log(grow)))))
+    return int(min(20, max(6, math.floor(math.log(50.0) / math.log(grow)))))
 
 
 def _scaled(target: HarmonicTarget, factor: float) -> HarmonicTarget:
