@@ -114,3 +114,29 @@ def test_a_backend_without_a_realtime_loop_is_refused():
     with pytest.raises(ConfigurationError, match="no real-time inner loop"):
         RealTimeHarmonicLoop(NoLoop(), None, None, None, 64.0, {})
     assert "real-time" in NO_REALTIME_LOOP and "\n" not in NO_REALTIME_LOOP
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="the real-time loop (Kp 2000 V/m, Kd 2 V s/m, 10 kHz, 1.04 ms) holds the sheet up to A "
+    "~0.42 mm (|mu| 2.1) and loses it at the next target (0.4292 mm, |mu| 2.3: the controlled orbit "
+    "stops being steady); the measured |mu| strays beyond 10 % from about |mu| 1.8 (A 0.407 mm: "
+    "1.38 against 1.87; from 0.416 mm the deviation leaves the linear range within 2 periods of "
+    "the release and no fit is made). Goal: converged and within 10 % to 0.49 mm / |mu| 2",
+)
+def test_the_upper_sheet_to_049_mm(tmp_path):
+    """The issue's upper part of the sheet: every target A 0.4064-0.49 mm converged with F1 within
+    2 % of the model, and the largest measured multiplier within 10 % of the model's where
+    |mu| <= 2 (benchmarks/bench_cbc_realtime.py measures the whole 26-point sweep)."""
+    result = control_based_continuation(
+        "64 Hz", "0.4064 mm:0.49 mm:0.0076 mm", tmp_path / "up.h5", gap="0.5 mm", backend="sim"
+    )
+    a, f, mu = s_curve()
+    assert len(result.points) == 12
+    for p in result.points:
+        x = p.extra
+        assert x["converged"]
+        assert abs(x["force_fundamental_n"] / float(np.interp(x["amplitude_m"], a, f)) - 1) <= F1_TOLERANCE
+        m = float(np.interp(x["amplitude_m"], a, mu))
+        if m <= 2.0:
+            assert abs(x.get("max_multiplier", np.nan) / m - 1) <= MU_TOLERANCE
