@@ -99,6 +99,7 @@ class RealTimeHarmonicLoop(BufferedHarmonicLoop):
         """Zero: the loop's output 0 (no target); else the loop's own gains engage it."""
         if gains.zero:
             self.engaged = False
+            self.last_modulus = 1.0  # open loop (an approach): the next release's length afresh
         elif (gains.kp, gains.kd) != (self.law.kp, self.law.kd):
             raise ConfigurationError(
                 f"the real-time loop runs with kp {self.law.kp:g} V/m, kd {self.law.kd:g} V s/m; "
