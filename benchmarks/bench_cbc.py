@@ -3,7 +3,7 @@ NOT met against the model (tests/rigtools/data/cbc_model_64hz.json, benchmarks/c
 
 Run: ``PYTHONPATH=. python benchmarks/bench_cbc.py`` -- the command's own sweep
 ``rig acquire cbc --backend sim --gap "0.5 mm" --fe "64 Hz" --amplitude "0.300 mm:0.360 mm:0.005 mm"
---release "2 s"`` (about 10 s of CPU), then the figures.
+--release "2 s" --inner-loop buffered`` (about 10 s of CPU), then the figures.
 """
 
 from __future__ import annotations
@@ -46,6 +46,7 @@ def main() -> None:
     out = Path(tempfile.mkdtemp()) / "cbc.h5"
     cmd = [sys.executable, "-m", "rigtools.cli", "acquire", "cbc", "--backend", "sim", "--gap", "0.5 mm"]
     cmd += ["--fe", "64 Hz", "--amplitude", "0.300 mm:0.360 mm:0.005 mm", "--release", "2 s"]
+    cmd += ["--inner-loop", "buffered"]
     t0 = time.process_time()
     res = subprocess.run(
         [*cmd, "--out", str(out), "--json"], capture_output=True, text=True, cwd=ROOT, check=False

@@ -8,10 +8,16 @@ takes its two impacting orbits at 64 Hz, continues each in the force over the S-
 shroud's displacement A (m, from its acceleration's fundamental / w^2), half its peak-to-peak, the
 largest Floquet multiplier's modulus and stability; and the scaled state of the unstable 5 N orbit
 (so that a test re-solves that one orbit with Newton in a second and checks the table is today's model).
+
+``--sheet`` (about 1 min more) adds ``sheet_to_grazing``: the unstable 5 N orbit continued in the
+force up to 11.5 N (grazing near 11.25 N), the S-curve's unstable part up to A ~ 0.49 mm and beyond
+with its multipliers, the reference of the real-time CBC (``benchmarks/bench_cbc_realtime.py``);
+the rest of the file is kept as it is.
 """
 
 from __future__ import annotations
 
+import argparse
 import json
 import math
 from pathlib import Path
@@ -42,7 +48,37 @@ def row(p) -> dict:
     }
 
 
+def sheet() -> None:
+    """Add ``sheet_to_grazing`` to the table: the unstable 5 N orbit continued up to 11.5 N."""
+    doc = json.loads(OUT.read_text())
+    _cfg, system, shaker = simulated_rig_model(None)
+    spp = doc["steps_per_period"]
+    ref = doc["unstable_5n"]
+    b = continue_orbits(
+        system,
+        "force",
+        F_START,
+        11.5,
+        fe=FE,
+        force=F_START,
+        gap=GAP,
+        shaker=shaker,
+        y0=np.array(ref["state_scaled"]),
+        settings=ContinuationSettings(locate=False, refine=False, steps_per_period=spp, max_points=2000),
+    )
+    print(f"unstable orbit towards 11.5 N: {len(b.points)} points, {b.status} {b.message}")
+    doc["sheet_to_grazing"] = sorted(rows(b), key=lambda r: r["amplitude_m"])
+    OUT.write_text(json.dumps(doc, indent=1))
+    a = [r["amplitude_m"] for r in doc["sheet_to_grazing"]]
+    print(f"A {min(a) * 1e3:.4f} .. {max(a) * 1e3:.4f} mm; wrote {OUT}")
+
+
 def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--sheet", action="store_true", help="add sheet_to_grazing only")
+    if parser.parse_args().sheet:
+        sheet()
+        return
     _cfg, system, shaker = simulated_rig_model(None)
     quick = ContinuationSettings(locate=False, refine=False)
     fe_branch = continue_orbits(

@@ -620,9 +620,12 @@ class SimulatedRig(AcquisitionDevice):
         if self._feedback is not None and loop is not None:
             self._feedback.set_target(loop.target, self._feedback.time)
 
-    def set_loop_target(self, target: HarmonicTarget | None) -> None:
+    def set_loop_target(self, target: HarmonicTarget | None, at: float | None = None) -> None:
         """The loop follows ``target`` for the measurement instants from now on (the samples
         read so far; its output changes a loop delay later); ``None``: output 0 from then.
+        ``at`` (s on the loop's clock, not before now): from that instant instead, as a real-time
+        target takes a change time-stamped (a probe of a few periods inside one block); changes
+        scheduled at or after it are dropped.
 
         Raises
         ------
@@ -631,7 +634,11 @@ class SimulatedRig(AcquisitionDevice):
         """
         if self._feedback is None:
             raise ConfigurationError("no real-time loop: call set_realtime_loop() (and configure) first")
-        self._feedback.set_target(target)
+        if at is not None and at < self._feedback.time - 0.5 / self._rate:
+            raise ConfigurationError(
+                f"loop target at {at:g} s: the loop is already at {self._feedback.time:g} s"
+            )
+        self._feedback.set_target(target, at)
 
     def _make_feedback(self) -> DelayedFeedback | None:
         loop = self.realtime_loop

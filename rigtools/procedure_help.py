@@ -97,6 +97,15 @@ PROCEDURE_OPTIONS: tuple[tuple[tuple[str, ...], tuple[str, ...], dict], ...] = (
     (("cbc",), ("--gains",), {"default": None, "help": 'feedback "KP,KD" in V/m and V s/m (0: open loop)'}),
     (
         ("cbc",),
+        ("--inner-loop",),
+        {
+            "choices": ("realtime", "buffered"),
+            "default": None,
+            "help": "the feedback: the backend's per-sample real-time loop (default where it has one) or buffered",
+        },
+    ),
+    (
+        ("cbc",),
         ("--max-iterations",),
         {"type": int, "default": None, "help": "outer iterations per point (8)"},
     ),
@@ -220,7 +229,7 @@ PROCEDURE_OPTIONS: tuple[tuple[tuple[str, ...], tuple[str, ...], dict], ...] = (
 EPILOGS = {
     "cbc": """examples:
   rig acquire cbc --backend sim --gap "0.5 mm" --fe "64 Hz" --amplitude "0.320 mm:0.330 mm:0.005 mm" --out cbc.h5
-  rig acquire cbc --backend sim --gap "0.5 mm" --fe "64 Hz" --amplitude "0.34 mm,0.345 mm" --release "1 s" --out c.h5 --json
+  rig acquire cbc --backend sim --gap "0.5 mm" --fe "64 Hz" --amplitude "0.34 mm,0.345 mm" --release "1 s" --inner-loop buffered --out c.h5 --json
 
 A harmonic-domain feedback on the active shroud's displacement (u = u_ff + Kp (x* - x) + Kd (x*' - x'))
 holds the rig at a target amplitude A at --fe; an outer iteration on the target's harmonics and the

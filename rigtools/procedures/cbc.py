@@ -18,6 +18,10 @@ The buffered path plays a correction 50-65 ms after the data it comes from (the 
 queue); the loop then holds an unstable orbit only while its growth rate times that delay stays
 well under 1 (|mu| up to about 1.15 at 64 Hz, see :mod:`rigtools.procedures.cbc_loop`). On the NI
 backend the procedure says so in one line: the whole unstable sheet needs a real-time inner loop.
+Where the backend has one (``has_realtime_loop``: the simulated rig) the inner loop is, by
+default, that per-sample loop (:mod:`rigtools.procedures.cbc_realtime`, gains 2000 V/m and
+2 V s/m unless given), and each converged point's Floquet multipliers are measured by a probe
+and a release of its target (``multipliers``); ``inner_loop="buffered"`` keeps the buffered one.
 
 With ``release_seconds`` the gains are set to zero after the last point (the drive held at its
 converged harmonics) and the departure of the response from the orbit is recorded: its growth
@@ -36,6 +40,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 from rigtools.config import load_rig
+from rigtools.drivers.realtime import NO_REALTIME_LOOP
 from rigtools.errors import UserError
 from rigtools.options import gap as gap_text
 from rigtools.options import quantity, value_list
@@ -51,16 +56,16 @@ from rigtools.procedures.cbc_iteration import (
     secant_predict,
 )
 from rigtools.procedures.cbc_loop import BufferedHarmonicLoop, InnerLoop, LoopMeasurement
+from rigtools.procedures.cbc_realtime import REALTIME_GAINS, RealTimeHarmonicLoop
 from rigtools.procedures.controlled_point import ControlledPoint
 from rigtools.procedures.sine import SineProcedure
 from rigtools.quantity_fields import Frequency, Length, Time, VoltageAmplitude
 from rigtools.units import MAX_GAP
 
-#: The line the NI backend prints: the buffered loop cannot hold the whole unstable sheet.
-REAL_TIME_NOTE = (
-    "the full unstable sheet needs a real-time inner loop (a real-time target: FPGA, cRIO or a "
-    "microcontroller, 1-2 ms of delay); running the buffered variant, which holds orbits up to |mu| ~ 1.15"
-)
+#: The line a backend without a real-time inner loop prints (the NI backend): the buffered loop
+#: cannot hold the whole unstable sheet.
+REAL_TIME_NOTE = NO_REALTIME_LOOP
+INNER_LOOPS = ("realtime", "buffered")
 RESPONSE_CHANNEL = "active_shroud_accel"  # the controlled response: the active shroud
 
 
@@ -90,6 +95,7 @@ class CBCParameters(BaseModel):
         0.005e-3, gt=0, description="largest step from the approach's orbit to a leg's first point, m"
     )
     release_seconds: Time = Field(0.0, ge=0, le=60, description="gains at zero after the last point, s")
+    multipliers: bool = Field(True, description="measure each point's multipliers (a real-time loop only)")
 
     def gains(self) -> Gains:
         return Gains(self.kp, self.kd, self.feedback_harmonics)
@@ -107,6 +113,21 @@ class CBCPoint:
     tip_amplitude: float  # half the peak-to-peak of the displacement (harmonics 1..H), m
     history: list[dict[str, float]] = field(default_factory=list)
     channel_names: tuple[str, ...] = ()  # the rows of ``measurement.channels``
+    multipliers: np.ndarray | None = None  # measured Floquet multipliers (complex), largest first
+    stability: dict[str, float] = field(default_factory=dict)  # how they were measured
+
+    def multiplier_fields(self) -> dict[str, Any]:
+        """``multipliers`` (moduli, largest first), their angles (deg) and the fit's details;
+        empty where none were measured."""
+        if self.multipliers is None:
+            return {}
+        mu = self.multipliers
+        return {
+            "multipliers": np.abs(mu).tolist(),
+            "multipliers_phase_deg": np.degrees(np.angle(mu)).tolist(),
+            "max_multiplier": float(np.max(np.abs(mu))) if mu.size else math.nan,
+            **{f"multipliers_{k}": v for k, v in self.stability.items()},
+        }
 
     def attrs(self) -> dict[str, Any]:
         """The recording point's attributes (SI; complex harmonics as amplitude and phase lists)."""
@@ -137,6 +158,7 @@ class CBCPoint:
             "response_harmonic_phase": rel(m.response),
             "iteration_drive_ratio": [h["drive_harmonics_ratio"] for h in self.history],
             "iteration_amplitude_error": [h["amplitude_error"] for h in self.history],
+            **self.multiplier_fields(),
         }
 
 
@@ -225,12 +247,17 @@ class ControlBasedContinuation(SineProcedure):
     name = "control-based continuation"
 
     def __init__(self, cfg, params: CBCParameters | dict, out: str | Path, **kwargs: Any) -> None:
-        # the inner loop: the buffered one by default; a per-sample loop (real-time hook) fits
-        # the same InnerLoop protocol
-        self.inner_loop_factory: Callable[..., InnerLoop] | None = kwargs.pop("inner_loop", None)
+        # the inner loop: "realtime" (where the backend has one), "buffered", None (the first
+        # that the backend has) or a factory of the InnerLoop protocol
+        choice = kwargs.pop("inner_loop", None)
+        if isinstance(choice, str) and choice not in INNER_LOOPS:
+            raise UserError(f"inner loop {choice!r}: choose one of {', '.join(INNER_LOOPS)}")
+        self.inner_loop_choice: str | Callable[..., InnerLoop] | None = choice
         self.loop: InnerLoop | None = None
         super().__init__(cfg, out, **kwargs)
         self.params = params if isinstance(params, CBCParameters) else validate(CBCParameters, **params)
+        # the gains given by the caller, kept; else the chosen loop's own defaults
+        self._gains_given = isinstance(params, CBCParameters) or "kp" in params or "kd" in params
         self.points: list[CBCPoint] = []
         self.release: dict[str, Any] = {}
         self.note = ""  # the line rig acquire prints first (the NI backend: REAL_TIME_NOTE)
@@ -250,13 +277,11 @@ class ControlBasedContinuation(SineProcedure):
             raise UserError(
                 f"fe = {self.params.fe:g} Hz: harmonic {self.params.harmonics} is above 0.45 x the sample rate"
             )
-        if self.device.backend != "simulated":
-            self.emit("message", text=REAL_TIME_NOTE)
+        make = self._inner_loop()
         monitor = rig.safety_monitor(self.cfg, self.device)
         self.specs = rig.channel_specs(self.device, self.cfg, rate)
         names = [s.name for s in self.device.input_channels]
         rows = {"force": rig.force_row(self.device), "accel": names.index(RESPONSE_CHANNEL)}
-        make = self.inner_loop_factory or BufferedHarmonicLoop
         self.loop = make(
             self.device,
             self.cfg,
@@ -273,6 +298,22 @@ class ControlBasedContinuation(SineProcedure):
         self.open_writer(
             rig.experiment_metadata(self.name, self.device, self.parameters_doc(), inner_loop=loop_name)
         )
+
+    def _inner_loop(self) -> Callable[..., InnerLoop]:
+        """The factory of the inner loop chosen (see ``__init__``); the note where the backend
+        has no real-time loop; the real-time loop's gains where none were given."""
+        choice = self.inner_loop_choice
+        if callable(choice):
+            return choice
+        has = bool(getattr(self.device, "has_realtime_loop", False))
+        if not has and not self.note:
+            self.note = NO_REALTIME_LOOP
+            self.emit("message", text=NO_REALTIME_LOOP)
+        if choice == "buffered" or not has:
+            return BufferedHarmonicLoop
+        if not self._gains_given:
+            self.params = self.params.model_copy(update=dict(zip(("kp", "kd"), REALTIME_GAINS, strict=True)))
+        return RealTimeHarmonicLoop
 
     def execute(self) -> None:
         p = self.params
@@ -299,6 +340,7 @@ class ControlBasedContinuation(SineProcedure):
                 secant = FeedforwardSecant(secant.jacobian)  # the slope learnt so far, a fresh history
                 pt = cbc_point(loop, p, target, ff, secant)
                 pt.channel_names = tuple(spec.name for spec in self.specs)
+                self._stability(loop, pt)
                 self.points.append(pt)
                 self._leg.append(pt)
                 last = j == len(leg) - 1 or not pt.point.converged
@@ -339,15 +381,31 @@ class ControlBasedContinuation(SineProcedure):
         orbit found (its response the target, its drive the feedforward: no kick)."""
         self.emit("message", text=f"approach: sweep to {p.fe:g} Hz at {p.approach_drive:g} V")
         loop.set_gains(Gains(0.0))
+        zero = np.zeros(p.harmonics, complex)
+        if self.points:  # from the last orbit: down to rest first (a sweep's jump from it can impact hard)
+            loop.set_point(zero, zero, ramp_time=0.5)
+            loop.wait(1.5)
         loop.sweep_from(p.approach_from or max(1.0, p.fe - 8.0), p.approach_time)
         ff = np.zeros(p.harmonics, complex)
         ff[0] = p.approach_drive
-        zero = np.zeros(p.harmonics, complex)
         first = start_state(p, loop.hold(zero, ff, ramp_time=0.3, settle_time=p.approach_time + 0.5))
         loop.set_point(*first, ramp_time=0.0)
         loop.set_gains(p.gains())
         self._leg = []
         return first
+
+    def _stability(self, loop, pt: CBCPoint) -> None:
+        """The point's multipliers where the inner loop measures them (a real-time loop)."""
+        measure = getattr(loop, "multipliers", None)
+        if not (self.params.multipliers and pt.point.converged and callable(measure)):
+            return
+        try:
+            fit, info = measure(pt.measurement)
+        except ValueError as exc:  # too few periods in the linear range: said, not raised
+            self.emit("message", text=f"multipliers not measured: {exc}")
+            return
+        pt.multipliers = fit.multipliers
+        pt.stability = {**info, "residual": fit.residual}
 
     @staticmethod
     def _probe(loop, p: CBCParameters, target: np.ndarray, ff: np.ndarray) -> FeedforwardSecant:
@@ -396,8 +454,10 @@ def from_options(cfg: Any, out: str | Path, o: Any, **run_options: Any) -> Contr
             params[key] = o[key]
     if o.get("release") is not None:
         params["release_seconds"] = quantity(o["release"], "time", "--release")
-    proc = ControlBasedContinuation(cfg, params, out, **run_options)
-    proc.note = REAL_TIME_NOTE if run_options.get("backend") == "nidaq" else ""
+    proc = ControlBasedContinuation(cfg, params, out, inner_loop=o.get("inner_loop"), **run_options)
+    proc.note = (
+        NO_REALTIME_LOOP if run_options.get("backend") == "nidaq" else ""
+    )  # said before the device opens
     return proc
 
 
@@ -407,7 +467,12 @@ def json_document(proc: ControlBasedContinuation) -> dict[str, Any]:
     doc: dict[str, Any] = {
         "inner_loop": getattr(proc.session, "name", ""),
         "points": [
-            {**pt.point.to_dict(), "control_effort": pt.control_effort, "tip_amplitude_m": pt.tip_amplitude}
+            {
+                **pt.point.to_dict(),
+                "control_effort": pt.control_effort,
+                "tip_amplitude_m": pt.tip_amplitude,
+                **pt.multiplier_fields(),
+            }
             for pt in proc.points
         ],
         "skipped_amplitudes": proc.result.summary.get("skipped_amplitudes", []),
@@ -440,6 +505,7 @@ def control_based_continuation(
     overwrite: bool = False,
     progress: Callable[[ProgressEvent], None] | None = None,
     seed: int | None = None,
+    inner_loop: str | None = None,
     **params: Any,
 ):
     """Control-based continuation of the rig's orbits in the target amplitude at one frequency.
@@ -460,6 +526,10 @@ def control_based_continuation(
         ``0`` for none (open loop).
     rig, backend, overwrite, progress, seed
         As :func:`rigtools.dwell` (``backend`` ``"nidaq"`` or ``"sim"``, no default).
+    inner_loop
+        ``"realtime"`` (the backend's per-sample loop; gains 2000 V/m, 2 V s/m unless given;
+        each point's multipliers measured), ``"buffered"``, or ``None``: realtime where the
+        backend has one, else buffered with the one-line note.
     **params
         More :class:`CBCParameters` (``tolerance``, ``max_iterations``, ``release_seconds``, ...).
 
@@ -475,7 +545,9 @@ def control_based_continuation(
 
     >>> import rigtools, tempfile, pathlib
     >>> out = pathlib.Path(tempfile.mkdtemp()) / "cbc.h5"
-    >>> run = rigtools.control_based_continuation("64 Hz", "0.32 mm", out, gap="0.5 mm", backend="sim")
+    >>> run = rigtools.control_based_continuation(
+    ...     "64 Hz", "0.32 mm", out, gap="0.5 mm", backend="sim", inner_loop="buffered"
+    ... )
     >>> p = run.points[0].extra
     >>> p["converged"], round(p["force_fundamental_n"], 1), p["drive_harmonics_ratio"] < 0.01
     (True, 4.9, True)
@@ -496,7 +568,7 @@ def control_based_continuation(
     p.update(parse_gains(gains))
     p.update(params)
     proc = ControlBasedContinuation(
-        cfg, p, out, backend=backend, overwrite=overwrite, progress=progress, seed=seed
+        cfg, p, out, backend=backend, overwrite=overwrite, progress=progress, seed=seed, inner_loop=inner_loop
     )
     return proc.run()
 

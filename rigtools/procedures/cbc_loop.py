@@ -51,6 +51,8 @@ class InnerLoop(Protocol):
 
     def sweep_from(self, f_start: float, seconds: float) -> None: ...
 
+    def wait(self, seconds: float) -> None: ...
+
     def hold(
         self,
         target: np.ndarray,

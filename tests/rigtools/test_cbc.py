@@ -79,7 +79,13 @@ def sheet_run(tmp_path_factory):
 
     out = tmp_path_factory.mktemp("cbc") / "cbc.h5"
     run = control_based_continuation(
-        "64 Hz", "0.325 mm:0.350 mm:0.005 mm", out, gap="0.5 mm", backend="sim", release_seconds=2.0
+        "64 Hz",
+        "0.325 mm:0.350 mm:0.005 mm",
+        out,
+        gap="0.5 mm",
+        backend="sim",
+        release_seconds=2.0,
+        inner_loop="buffered",
     )
     return run, out
 
@@ -137,7 +143,12 @@ def test_three_unstable_points_held(tmp_path):
     from rigtools.procedures.cbc import control_based_continuation
 
     run = control_based_continuation(
-        "64 Hz", "0.345 mm:0.360 mm:0.005 mm", tmp_path / "u.h5", gap="0.5 mm", backend="sim"
+        "64 Hz",
+        "0.345 mm:0.360 mm:0.005 mm",
+        tmp_path / "u.h5",
+        gap="0.5 mm",
+        backend="sim",
+        inner_loop="buffered",
     )
     a, _f, mu = s_curve()
     held = [
@@ -174,7 +185,8 @@ def test_cli_json_lists_each_point(tmp_path):
     out = tmp_path / "c.h5"
     cmd = [sys.executable, "-m", "rigtools.cli", "acquire", "cbc", "--fe", "64 Hz", "--gap", "0.5 mm"]
     res = subprocess.run(
-        [*cmd, "--backend", "sim", "--amplitude", "0.32 mm", "--out", str(out), "--json"],
+        [*cmd, "--backend", "sim", "--amplitude", "0.32 mm", "--inner-loop", "buffered", "--out", str(out)]
+        + ["--json"],
         capture_output=True,
         check=False,
         text=True,

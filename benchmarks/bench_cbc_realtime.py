@@ -1,0 +1,130 @@
+"""The real-time CBC's must-show figures (issue 33) on the simulated rig, each printed with met /
+NOT met against the model (tests/rigtools/data/cbc_model_64hz.json: its S-curve and
+``sheet_to_grazing``, benchmarks/cbc_model_reference.py --sheet).
+
+Run: ``PYTHONPATH=. python benchmarks/bench_cbc_realtime.py`` -- the command's own sweep
+``rig acquire cbc --backend sim --gap "0.5 mm" --fe "64 Hz" --amplitude "0.30 mm:0.49 mm:0.0076 mm"
+--inner-loop realtime --json`` (26 points; a few minutes of CPU), then the figures: >= 25 points
+over A 0.30-0.49 mm, F1 within 2 % of the model at each, the drive's harmonics 2-10 <= 1 %, <= 8
+iterations, the measured largest multiplier within 10 % of the model's where |mu| <= 2.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+TABLE = ROOT / "tests" / "rigtools" / "data" / "cbc_model_64hz.json"
+GRID = "0.30 mm:0.49 mm:0.0076 mm"
+
+
+def model_curve() -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+    """The model's impacting S-curve F1(A) with |mu| over A 0.306-0.50 mm (single-valued in A),
+    and F1/A of the orbits without contact (N/m)."""
+    doc = json.loads(TABLE.read_text())
+    rows = [r for r in doc["points"] if r["impacts_per_period"] > 0 and r["force_n"] < 6.2]
+    rows += [r for r in doc["sheet_to_grazing"] if r["impacts_per_period"] > 0]
+    rows.sort(key=lambda r: r["amplitude_m"])
+    a = np.array([r["amplitude_m"] for r in rows])
+    keep = np.concatenate([[True], np.diff(a) > 1e-12])
+    f = np.array([r["force_n"] for r in rows])[keep]
+    mu = np.array([r["max_multiplier"] for r in rows])[keep]
+    linear = float(
+        np.median([r["force_n"] / r["amplitude_m"] for r in doc["points"] if r["impacts_per_period"] == 0])
+    )
+    return a[keep], f, mu, linear
+
+
+def model_at(amplitude: float) -> tuple[float, float]:
+    """``(F1 N, |mu|)`` of the model at A: on the S-curve, or without contact below it."""
+    a, f, mu, linear = model_curve()
+    if amplitude < a[0]:
+        return linear * amplitude, 0.9387  # the linear orbit's |mu| (the table's no-contact rows)
+    return float(np.interp(amplitude, a, f)), float(np.interp(amplitude, a, mu))
+
+
+def verdict(ok: bool) -> str:
+    return "met" if ok else "NOT met"
+
+
+def main() -> None:
+    out = Path(tempfile.mkdtemp()) / "cbc_rt.h5"
+    cmd = [sys.executable, "-m", "rigtools.cli", "acquire", "cbc", "--backend", "sim", "--gap", "0.5 mm"]
+    cmd += ["--fe", "64 Hz", "--amplitude", GRID, "--inner-loop", "realtime"]
+    print(
+        "$ rig acquire cbc --backend sim --gap '0.5 mm' --fe '64 Hz' --amplitude",
+        repr(GRID),
+        "--inner-loop realtime --json",
+    )
+    t0 = time.process_time()
+    res = subprocess.run(
+        [*cmd, "--out", str(out), "--json"], capture_output=True, text=True, cwd=ROOT, check=False
+    )
+    if res.returncode != 0:
+        print(res.stderr)
+        raise SystemExit(res.returncode)
+    doc = json.loads(res.stdout)
+    pts = doc["points"]
+    print(
+        f"inner loop {doc.get('inner_loop')}: {len(pts)} points, skipped {doc.get('skipped_amplitudes', [])}"
+    )
+    worst_f, worst_mu, n_mu, ok_points = 0.0, 0.0, 0, 0
+    for p in pts:
+        f_model, mu_model = model_at(p["amplitude_m"])
+        err = p["force_fundamental_n"] / f_model - 1
+        mu = p.get("max_multiplier", math.nan)
+        mu_err = mu / mu_model - 1 if math.isfinite(mu) else math.nan
+        good = (
+            p["converged"]
+            and abs(err) <= 0.02
+            and p["drive_harmonics_ratio"] <= 0.01
+            and p["iterations"] <= 8
+        )
+        ok_points += good
+        if p["converged"]:
+            worst_f = max(worst_f, abs(err))
+        if mu_model <= 2.0:
+            n_mu += 1
+            worst_mu = max(worst_mu, abs(mu_err) if math.isfinite(mu_err) else math.inf)
+        print(
+            f"  A {p['amplitude_m'] * 1e3:.4f} mm  F1 {p['force_fundamental_n']:.4f} N  model {f_model:.4f} N "
+            f"({err * 100:+.2f} %)  {'converged' if p['converged'] else 'NOT converged'} in {p['iterations']}  "
+            f"drive 2-10 {p['drive_harmonics_ratio'] * 100:.3f} %  |mu| {mu:.3f} model {mu_model:.3f} "
+            f"({mu_err * 100:+.1f} %)"
+        )
+    amps = [p["amplitude_m"] for p in pts if p["converged"]]
+    span = (min(amps, default=math.nan) * 1e3, max(amps, default=math.nan) * 1e3)
+    print(
+        f"converged points: {len(amps)} over A {span[0]:.4f}-{span[1]:.4f} mm -> {verdict(len(amps) >= 25)}"
+    )
+    print(
+        f"F1 within 2 % of the model at every converged point: worst {worst_f * 100:.2f} % -> {verdict(worst_f <= 0.02)}"
+    )
+    ratios = [p["drive_harmonics_ratio"] for p in pts if p["converged"]]
+    iters = [p["iterations"] for p in pts if p["converged"]]
+    print(
+        f"drive harmonics 2-10 at the converged points at most {max(ratios) * 100:.3f} % -> {verdict(max(ratios) <= 0.01)}"
+    )
+    print(f"iterations at the converged points at most {max(iters)} -> {verdict(max(iters) <= 8)}")
+    print(f"points meeting all four: {ok_points} of {len(pts)}")
+    print(
+        f"largest measured multiplier within 10 % of the model's where |mu| <= 2 ({n_mu} points): "
+        f"worst {worst_mu * 100:.1f} % -> {verdict(worst_mu <= 0.10)}"
+    )
+    child = resource.getrusage(resource.RUSAGE_CHILDREN)
+    print(
+        f"CPU: the command {child.ru_utime + child.ru_stime:.1f} s, this script {time.process_time() - t0:.1f} s"
+    )
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,228 @@
+"""The per-sample inner loop of control-based continuation: the backend's real-time loop
+(:mod:`rigtools.drivers.realtime`; the simulated rig runs it inside its integrator).
+
+The split of the work, as on a rig with a real-time target next to it:
+
+* the loop (down-link): the PD law ``u = Kp (x* - x) + Kd (v* - v)`` per sample at its rate
+  and delay, added to the drive at the amplifier's input. The host sends it the target, the
+  CBC's harmonics 1..H (:class:`~rigtools.drivers.realtime.HarmonicTarget`), between blocks;
+* the host: plays the feedforward (a pure sine, the drive's fundamental the unknown) and keeps
+  the outer iteration of :mod:`rigtools.procedures.cbc` unchanged: the target's harmonics 2..H
+  take the measured ones, the feedforward the total drive's fundamental, until the total drive
+  (host plus loop, what reaches the amplifier) has harmonics 2..10 below the stated fraction;
+* the up-link: the loop's own measurement of the displacement and its output, per sample
+  (:attr:`rigtools.drivers.simulated.SimulatedRig.loop_log`), from which the host takes the
+  response's harmonics (in the loop's clock, the one the target is in) and the total drive's.
+
+The measured multipliers of a converged point (:meth:`RealTimeHarmonicLoop.multipliers`): the
+target set to the orbit the loop measured (40 harmonics: the control is then zero), a 0.02 %
+larger target for a few periods (the probe), the target released for a few periods (open loop
+at the orbit's drive, the probe's transient free), the orbit's target again; the loop's
+displacement over the release, minus the orbit averaged over the periods before the probe, and
+differenced period to period (a small mismatch of the held drive moves the rig towards a
+neighbouring orbit: a constant step, which the difference removes and which would otherwise
+show as a multiplier 1), gives the multipliers by
+:func:`rigtools.analysis.floquet.floquet_multipliers`. The release is
+kept short enough (from the last point's multiplier) that the loop catches the orbit again.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from rigtools.analysis.floquet import MeasuredMultipliers, floquet_multipliers, periodic_reference
+from rigtools.drivers.contracts import ConfigurationError
+from rigtools.drivers.realtime import HarmonicTarget, RealTimeLoop
+from rigtools.procedures.cbc_iteration import Gains
+from rigtools.procedures.cbc_loop import BufferedHarmonicLoop, LoopMeasurement, fit_matrix
+
+#: The real-time loop's gains by default (V/m, V s/m): they hold the unstable orbit at 64 Hz
+#: to A 0.405 mm (|mu| 1.8; Kd 1 V s/m loses the orbit near 0.38 mm, |mu| 1.45: the controlled
+#: orbit stops being steady).
+REALTIME_GAINS = (2000.0, 2.0)
+ORBIT_HARMONICS = 40  # harmonics of the loop's target (above the CBC's H: the measured ones)
+PROBE = 2e-4  # the probe: the target this much larger, relative
+PROBE_PERIODS = 4
+HOLD_PERIODS = 24  # the orbit held before the probe (its last 16 periods: the reference)
+LINEAR_LIMIT = 0.02  # the fit ends where the growth since the release passes this fraction of A
+
+
+class RealTimeHarmonicLoop(BufferedHarmonicLoop):
+    """The CBC's inner loop on the backend's real-time loop (see the module docstring); the
+    :class:`~rigtools.procedures.cbc_loop.InnerLoop` protocol, constructed as the buffered loop
+    is, with ``gains`` (V/m, V s/m) fixed for the run.
+
+    Raises
+    ------
+    ConfigurationError
+        The device has no real-time loop.
+    """
+
+    name = "realtime"
+
+    def __init__(self, device, cfg, monitor, procedure, fe: float, rows: dict[str, int], **kwargs) -> None:
+        if not getattr(device, "has_realtime_loop", False):
+            raise ConfigurationError(f"the {device.backend} backend has no real-time inner loop")
+        params = getattr(procedure, "params", None)
+        kp, kd = (params.kp, params.kd) if params is not None else REALTIME_GAINS
+        self.law = RealTimeLoop(kp=kp, kd=kd)
+        device.set_realtime_loop(self.law)
+        super().__init__(device, cfg, monitor, procedure, fe, rows, **kwargs)
+        self.engaged = False
+        # the loop's target above the CBC's harmonics: the response's, as last measured (a
+        # per-sample loop feeds back every harmonic; a target truncated to H would push)
+        self.upper = np.zeros(max(0, ORBIT_HARMONICS - self.n_harmonics), complex)
+        self.mean = 0.0  # and the mean (impacts on one side shift it; a target without it pushes)
+        self.last_modulus = 1.0  # the last measured |mu|: sets the next release's length
+        rate = device.sample_rate
+        self._upper_fits: dict[int, np.ndarray] = {}
+        self._line = max(0, round(device.input_to_output_delay() * rate - 0.5))  # the delay line
+
+    # -- per block: the host's drive and the loop's target ---------------------------------------
+    def _control(self) -> None:
+        if not self.active:
+            return
+        target, ff = self._ramped()
+        self.drive.set_harmonics(ff)
+        self.device.set_loop_target(self.loop_target(target) if self.engaged else None)
+
+    def loop_target(self, target: np.ndarray) -> HarmonicTarget:
+        """The target's harmonics (stream phase) as the loop's :class:`HarmonicTarget`."""
+        z = np.concatenate([np.asarray(target, complex), self.upper])
+        k = np.arange(1, z.size + 1)
+        z = z * np.exp(1j * k * self.drive.phase_offset)
+        return HarmonicTarget(self.fe, tuple(z.real), tuple(-z.imag), self.mean)
+
+    def set_gains(self, gains: Gains) -> None:
+        """Zero: the loop's output 0 (no target); else the loop's own gains engage it."""
+        if gains.zero:
+            self.engaged = False
+            self.last_modulus = 1.0  # open loop (an approach): the next release's length afresh
+        elif (gains.kp, gains.kd) != (self.law.kp, self.law.kd):
+            raise ConfigurationError(
+                f"the real-time loop runs with kp {self.law.kp:g} V/m, kd {self.law.kd:g} V s/m; "
+                f"its gains cannot change to {gains.kp:g}, {gains.kd:g} while it runs"
+            )
+        else:
+            self.engaged = True
+        self.gains = gains
+
+    # -- measurements ----------------------------------------------------------------------------
+    def _loop_rows(self, start: int, n: int) -> tuple[np.ndarray, np.ndarray]:
+        """``(total drive, loop's displacement)`` at amplifier samples ``start..start+n``."""
+        log = self.device.loop_log
+        drive = self.device.drive_log
+        first = self.device.drive_samples - log.shape[1]
+        i = start - first
+        if i < 0 or i + n > log.shape[1]:
+            raise RuntimeError(f"the loop's record holds samples {first}..{first + log.shape[1]}")
+        return drive[i : i + n] + log[0, i : i + n], log[1, i : i + n]
+
+    def measure(self, n: int) -> LoopMeasurement:
+        """As the buffered loop's, with ``response`` the loop's own displacement (its clock: the
+        target's) and ``drive`` the total drive at the amplifier (host plus loop, in the host's
+        drive clock)."""
+        m = super().measure(n)
+        total, x = self._loop_rows(m.start, m.samples)
+        # the loop's sample i holds its value at the step's end (i + 1) / fs; the drive written
+        # as sample j reaches the amplifier as sample j + line
+        if m.samples not in self._upper_fits:
+            self._upper_fits[m.samples] = fit_matrix(m.samples, self.rate, self.fe, ORBIT_HARMONICS)
+        coef = x @ self._upper_fits[m.samples]
+        k = np.arange(1, ORBIT_HARMONICS + 1)
+        xs = (coef[:ORBIT_HARMONICS] - 1j * coef[ORBIT_HARMONICS:]) * np.exp(
+            -1j * k * float(self.drive.phase_at(m.start + 1))
+        )
+        m.response = xs[: self.n_harmonics]
+        self.upper = xs[self.n_harmonics :]
+        self.mean = float(np.mean(x))  # over whole periods
+        m.drive = self.harmonics(total[None, :], m.start - self._line)[0]
+        if m.channels is not None:
+            m.channels[-1] = m.drive
+        return m
+
+    def free_run(self, seconds: float, period_samples: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """The target released (the loop's output 0), the host's drive held: the response's
+        fundamental per period over ``seconds`` s."""
+        self.engaged = False
+        self.device.set_loop_target(None)
+        return super().free_run(seconds, period_samples)
+
+    # -- stability ---------------------------------------------------------------------------
+    def multipliers(self, m: LoopMeasurement) -> tuple[MeasuredMultipliers, dict[str, float]]:
+        """Probe and release the converged orbit of ``m`` (see the module docstring).
+
+        Returns
+        -------
+        (MeasuredMultipliers, info)
+            The fit, and ``release_periods``, ``probe`` of the run.
+        """
+        p = round(self.rate / self.fe)
+        _, x = self._loop_rows(m.start, m.samples)
+        t = (m.start + 1 + np.arange(x.size)) / self.rate
+        orbit = HarmonicTarget.fit(t, x, self.fe, ORBIT_HARMONICS)
+        # hold the orbit itself (control zero) with the whole total drive from the host, so that
+        # the release plays exactly the drive that held it (its harmonics, below the tolerance,
+        # left out would move the rig to a neighbouring orbit: a multiplier of 1 in the fit)
+        ff = np.array(m.drive, complex)
+        self._ramp = None
+        saved = (self.target, self.feedforward)
+        self.active = False  # the targets below are scheduled here, not per block
+        try:
+            self.drive.set_harmonics(ff)
+            self.device.set_loop_target(orbit)
+            self.wait(HOLD_PERIODS / self.fe)
+            now = self.sink.total
+            periods = _release_periods(self.last_modulus)
+            t0 = now / self.rate
+            self.device.set_loop_target(_scaled(orbit, 1 + PROBE), at=t0)
+            self.device.set_loop_target(None, at=t0 + PROBE_PERIODS / self.fe)
+            self.device.set_loop_target(orbit, at=t0 + (PROBE_PERIODS + periods) / self.fe)
+            self.wait((PROBE_PERIODS + periods + 8) / self.fe)
+            n = self.sink.total - now + 16 * p
+            _, xs = self._loop_rows(self.sink.total - n, n)
+        finally:
+            self.active = True
+            self.set_point(*saved, 0.0)
+        released = 16 * p + PROBE_PERIODS * p
+        deviation = xs - periodic_reference(xs, self.rate, self.fe, 0, 16 * p)
+        # period-to-period differences: z[p + 1] - z[p] follows the same map as z[p], without the
+        # step to a neighbouring orbit that any mismatch of the held drive leaves (a multiplier 1)
+        step = deviation[p:] - deviation[:-p]
+        amplitude = float(abs(m.response[0]))
+        # the linear range: the periods before the deviation itself passes LINEAR_LIMIT of A
+        # (the growth since the release: the step a held-drive mismatch leaves is not the transient's)
+        free = deviation[released : released + periods * p].reshape(periods, p)
+        peaks = np.abs(free - free[0]).max(axis=1)
+        over = np.flatnonzero(peaks > LINEAR_LIMIT * amplitude)
+        last = (int(over[0]) if over.size else periods) - 2  # a difference spans two periods
+        fit = floquet_multipliers(
+            step[released : released + (periods - 1) * p + 1],
+            self.rate,
+            self.fe,
+            first_period=1,
+            last_period=last,
+        )
+        self.last_modulus = fit.max_modulus
+        return fit, {"release_periods": float(periods), "probe": PROBE}
+
+
+def _release_periods(last_modulus: float) -> int:
+    """Periods released: the probe's deviation grows about 50 times (to the linear limit) at the
+    last measured multiplier (a margin of 10 % on it), 6 to 20 periods."""
+    grow = max(1.05, 1.1 * last_modulus)
+    return int(min(20, max(6, math.floor(math.log(50.0) / math.log(grow)))))
+
+
+def _scaled(target: HarmonicTarget, factor: float) -> HarmonicTarget:
+    return HarmonicTarget(
+        target.fe_hz,
+        tuple(factor * c for c in target.cos),
+        tuple(factor * s for s in target.sin),
+        target.mean,
+    )
+
+
+__all__ = ["REALTIME_GAINS", "RealTimeHarmonicLoop"]
