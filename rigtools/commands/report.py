@@ -109,6 +109,7 @@ def run(args: argparse.Namespace) -> int:
     from rigtools.derived_files import write_derived
     from rigtools.recording_analysis.dispatch import analyze_recording
     from rigtools.report.branches import add_unmatched_branches, load_branch_files
+    from rigtools.report.controlled_overview import add_controlled_overview
     from rigtools.report.html import Report
     from rigtools.report.sections import add_analysis
 
@@ -128,6 +129,7 @@ def run(args: argparse.Namespace) -> int:
     with console.status("building the report"):
         for a in analyses:
             add_analysis(report, a, branches)
+        add_controlled_overview(report, analyses, branches)
         add_unmatched_branches(report, branches)
         add_comparison(report, args, lambda s: print(s, file=sys.stderr))
     try:
