@@ -26,6 +26,12 @@ in peak contact force. Drawn only over a recording of the branches' rig at their
 quantities, never over an imported one (rig continuation --measured overlays any recording);
 a branch file drawn over nothing gets a section of its own.
 
+A phase-locked loop (rig acquire pll) or control-based continuation (rig acquire cbc) among the
+recordings adds one figure of everything measured: left, A (the active shroud's displacement
+fundamental) against fe with the model's frequency branches, the stepped sines up and down, the
+PLL's points and the CBC's; right, the CBC's S-curve F1 against A at its fe over a branch file
+continued in force at that fe (rig continuation --param force --fe "64 Hz" --model rig).
+
 The page is DIR/report.html (DIR is made if missing); an existing report.html is replaced only
 if rigtools made it. Open it in any browser, no network needed.
 
