@@ -27,6 +27,12 @@ in peak contact force. Drawn only over a recording of the branches' rig at their
 quantities, never over an imported one (rig continuation --measured overlays any recording);
 a branch file drawn over nothing gets a section of its own.
 
+A phase-locked loop (rig acquire pll) or control-based continuation (rig acquire cbc) among the
+recordings adds one figure of everything measured: left, A (the active shroud's displacement
+fundamental) against fe with the model's frequency branches, the stepped sines up and down, the
+PLL's points and the CBC's; right, the CBC's S-curve F1 against A at its fe over a branch file
+continued in force at that fe (rig continuation --param force --fe "64 Hz" --model rig).
+
 The page is DIR/report.html (DIR is made if missing); an existing report.html is replaced only
 if rigtools made it. Open it in any browser, no network needed.
 
@@ -111,6 +117,7 @@ def run(args: argparse.Namespace) -> int:
     from rigtools.derived_files import write_derived
     from rigtools.recording_analysis.dispatch import analyze_recording
     from rigtools.report.branches import add_unmatched_branches, load_branch_files
+    from rigtools.report.controlled_overview import add_controlled_overview
     from rigtools.report.html import Report
     from rigtools.report.sections import add_analysis
 
@@ -130,6 +137,7 @@ def run(args: argparse.Namespace) -> int:
     with console.status("building the report"):
         for a in analyses:
             add_analysis(report, a, branches)
+        add_controlled_overview(report, analyses, branches)
         add_unmatched_branches(report, branches)
         add_comparison(report, args, lambda s: print(s, file=sys.stderr))
     try:

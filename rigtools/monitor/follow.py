@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from rigtools.monitor.control_files import live_path, read_json
+from rigtools.monitor.controlled import live_phase_deg, procedure_kind, row_fields, state_text
 from rigtools.monitor.envelope import max_envelope, min_max_envelope
 from rigtools.recording.schema import RecordingError, parse_utc
 from rigtools.sim.channel_names import ACTIVE_SHROUD_ACCEL, DRIVE, FORCE, PASSIVE_SHROUD_ACCEL
@@ -74,7 +75,15 @@ class Snapshot:
     peaks
         One row per channel: ``channel``, ``units``, ``peak``, ``warning``, ``abort``.
     points
-        One row per point: headline numbers.
+        One row per point: headline numbers (a controlled test's point also its
+        :data:`rigtools.monitor.controlled.ROW_FIELDS`).
+    kind
+        ``"pll"`` or ``"cbc"`` for a controlled test (:mod:`.controlled`), else ``""``.
+    phase_deg
+        Phase of the active shroud displacement's fundamental to the force's, deg (a controlled
+        test: live over the analysis window, or as the ended point was written).
+    controlled_state
+        A controlled test's state in words: a PLL's lock, a CBC's iteration.
     """
 
     version: int
@@ -99,6 +108,9 @@ class Snapshot:
     points: list[dict[str, Any]] = field(default_factory=list)
     end: str = ""
     accepts_stop: bool = False
+    kind: str = ""
+    phase_deg: float | None = None
+    controlled_state: str = ""
 
 
 class _Buffer:
@@ -149,6 +161,7 @@ class Follower:
         self._limits: dict[str, tuple[float, float]] | None = None
         self._failing_since = 0.0
         self._key: tuple | None = None
+        self._kind: str | None = None
 
     def poll(self) -> Snapshot:
         """Read what was appended since the last look; returns (and keeps) the new snapshot."""
@@ -188,6 +201,8 @@ class Follower:
         status, status_text, end = _status(rec)
         if self._limits is None:
             self._limits = _limits(rec)
+        if self._kind is None:
+            self._kind = procedure_kind(rec)
         points = self._points(rec)
         fields: dict[str, Any] = dict(
             status=status,
@@ -196,6 +211,7 @@ class Follower:
             points=points,
             n_points=len(rec.points),
             accepts_stop=bool(live and live.get("accepts_stop")),
+            kind=self._kind,
         )
         event = dict((live or {}).get("event") or {})
         control = (live or {}).get("control") or {}
@@ -209,6 +225,10 @@ class Follower:
         if point.n_samples == 0 and len(rec.points) > 1:
             point = rec.points[-2]  # a point just begun: keep showing the one before
         fields.update(self._point_view(point, event, ended=point.complete))
+        if self._kind:
+            fields["controlled_state"] = state_text(
+                self._kind, fields.get("control") or {}, event, points, fields.get("point")
+            )
         return self._publish(**fields)
 
     def _point_view(self, point, event: dict, ended: bool) -> dict[str, Any]:
@@ -270,6 +290,10 @@ class Follower:
         if fe and DRIVE in arrays:
             drive = float(harmonic_amplitudes(arrays[DRIVE], rate, fe, 1).amplitude[0])
         out["control"] = _control(point, event, f1, drive)
+        if self._kind and fe and FORCE in arrays and ACTIVE_SHROUD_ACCEL in arrays:
+            out["phase_deg"] = live_phase_deg(
+                arrays[FORCE], arrays[ACTIVE_SHROUD_ACCEL], rate, fe, harmonic_amplitudes
+            )
         margin = int(IMPACT_MARGIN_S * rate)
         if fe and ACTIVE_SHROUD_ACCEL in arrays and have >= n + 2 * margin:
             # impacts counted in whole periods that end `margin` before the newest sample, found
@@ -448,6 +472,7 @@ def _row(point, analysis: dict | None) -> dict[str, Any]:
         "response": None,
         "impacts_per_period": None,
         "state": "complete" if point.complete else "incomplete",
+        **row_fields(p),
     }
     if analysis is not None:
         row.update(analysis)
@@ -507,6 +532,8 @@ def _analyse_point(point) -> dict[str, Any]:
         "window": f"record window ({n / rate * fe:.0f} periods)",
         "impacts_per_period": ipp,
     }
+    if isinstance(point.params.get("phase_deg"), (int, float)):
+        view["phase_deg"] = float(point.params["phase_deg"])  # as the procedure measured it
     if arrays:
         view.update(_spectrum(arrays, rate, float(fe), amplitude_spectrum))
         n_trace = min(n_spec, round(TRACE_PERIODS * rate / fe))

@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from rigtools.monitor import controlled
 from rigtools.monitor.follow import Snapshot
 from rigtools.readable import number
 
@@ -80,6 +81,13 @@ def control_html(s: Snapshot) -> str:
         f"<tr><td>{k}</td><td id='{i}' style='text-align:right'><b>{v}</b></td></tr>" for k, v, i in rows
     )
     peaks = "".join(_peak_row(p) for p in s.peaks)
+    if s.kind:
+        title = "phase-locked loop" if s.kind == "pll" else "control-based continuation"
+        more = "".join(
+            f"<tr><td>{k}</td><td id='{i}' style='text-align:right'><b>{v}</b></td></tr>"
+            for k, v, i in controlled.control_rows(s.kind, s)
+        )
+        body += f"<tr><th colspan=2>{title}</th></tr>{more}"
     return (
         f"<table style='font-size:14px'><tr><th colspan=2>force control</th></tr>{body}</table>"
         f"<table style='font-size:13px;margin-top:8px'><tr><th>channel</th><th>peak</th><th>warning</th>"
@@ -101,6 +109,8 @@ def _peak_row(p: dict) -> str:
 def points_html(s: Snapshot) -> str:
     if not s.points:
         return "<i>no point yet</i>"
+    if s.kind:
+        return controlled.points_table(s.kind, s)
     head = "".join(
         f"<th>{h}</th>"
         for h in (
@@ -157,6 +167,11 @@ TREND_SERIES = {
     "down": ("#d62728", "triangle", "dashed"),
     "points": ("#555555", "square", "solid"),
 }
+#: A controlled test's trend (:func:`rigtools.monitor.controlled.trend`): its points by convergence.
+CONTROLLED_SERIES = {
+    "converged": ("#2ca02c", "diamond", "solid"),
+    "not converged": ("#9a6700", "x", "dotted"),
+}
 
 
 def trend_series(rows: list[dict], key: str, factor: float) -> dict[str, dict[str, list]]:
@@ -191,7 +206,7 @@ def build(doc, get_snapshot: Callable[[], Snapshot], stop: Callable[[], str] | N
     spec_src = {c: ColumnDataSource(data={"f": [], "a": []}) for c in names}
     harm_src = ColumnDataSource(data={"f": [], "top": [], "bottom": []})
     named_src = ColumnDataSource(data={"f": [], "a": [], "text": []})
-    trend_src = {d: ColumnDataSource(data={"x": [], "y": []}) for d in TREND_SERIES}
+    trend_src = {d: ColumnDataSource(data={"x": [], "y": []}) for d in {**TREND_SERIES, **CONTROLLED_SERIES}}
 
     traces = []
     x_range = DataRange1d()  # shared: the three traces scroll together
@@ -232,9 +247,13 @@ def build(doc, get_snapshot: Callable[[], Snapshot], stop: Callable[[], str] | N
         title="response: active shroud acceleration 1×fe (peak) at each point",
         tools="",
     )
-    for d, (colour, marker, dash) in TREND_SERIES.items():
-        trend.line("x", "y", source=trend_src[d], color=colour, line_dash=dash, legend_label=d)
-        trend.scatter("x", "y", source=trend_src[d], color=colour, size=7, marker=marker, legend_label=d)
+    trend_renderers: dict[str, list] = {}
+    for d, (colour, marker, dash) in {**TREND_SERIES, **CONTROLLED_SERIES}.items():
+        trend_renderers[d] = [
+            trend.line("x", "y", source=trend_src[d], color=colour, line_dash=dash, legend_label=d),
+            trend.scatter("x", "y", source=trend_src[d], color=colour, size=8, marker=marker, legend_label=d),
+        ]
+    trend_items = {item.label["value"]: item for item in trend.legend.items}  # type: ignore[index]  # a bokeh value spec
     trend.legend.location = "top_left"
     trend.legend.orientation = "horizontal"
     trend.xaxis.axis_label = "point"
@@ -295,6 +314,18 @@ def build(doc, get_snapshot: Callable[[], Snapshot], stop: Callable[[], str] | N
         }
         if s.fe:
             freq_range.end = min(s.fe * (len(s.harmonics) + 1.5), 25_000)
+        shown = CONTROLLED_SERIES if s.kind else TREND_SERIES
+        for d, renderers in trend_renderers.items():
+            for r in renderers:
+                r.visible = d in shown
+            trend_items[d].visible = d in shown
+        if s.kind:
+            title, xlabel, ylabel = controlled.TRENDS[s.kind]
+            trend.title.text = title  # type: ignore[union-attr]  # a bokeh Title
+            trend.xaxis.axis_label, trend.yaxis.axis_label = xlabel, ylabel
+            for d, series in controlled.trend(s.kind, s.points).items():
+                trend_src[d].data = series  # type: ignore[assignment]  # bokeh takes a dict of columns
+            return
         rows = [r for r in s.points if r.get("response") is not None]
         key, label, factor = trend_axis(rows)
         trend.xaxis.axis_label = label

@@ -56,6 +56,28 @@ def branch_amplitude(branch: StoredBranch) -> np.ndarray:
     return first / (2 * math.pi * np.asarray(branch.value, float)) ** 2
 
 
+def draw_branch(
+    ax: Any, x: np.ndarray, y: np.ndarray, stable: np.ndarray, labelled: bool = True, color: str = "0.3"
+) -> None:
+    """One branch on ``ax``: its stable stretches solid, its unstable ones dashed (neighbouring
+    stretches share their end point, so the curve is unbroken); ``labelled``: legend entries
+    "model, stable" and "model, unstable"."""
+    x, y, stable = np.asarray(x, float), np.asarray(y, float), np.asarray(stable, bool)
+    start = 0
+    for j in range(1, x.size + 1):
+        if j == x.size or stable[j] != stable[start]:
+            seg = slice(start, min(j + 1, x.size))
+            ax.plot(
+                x[seg],
+                y[seg],
+                color=color,
+                linestyle="-" if stable[start] else "--",
+                linewidth=1.2,
+                label=("model, stable" if stable[start] else "model, unstable") if labelled else None,
+            )
+            start = j
+
+
 def controlled_branch_figure(
     points: list[ControlledPoint], branches: Sequence[StoredBranch] = (), title: str = ""
 ) -> Any:
@@ -68,20 +90,7 @@ def controlled_branch_figure(
     fig = Figure(figsize=(7.0, 4.5))
     ax = fig.add_subplot()
     for i, b in enumerate(br for br in branches if br.param == "fe" and br.value.size):
-        fe, amp, stable = np.asarray(b.value), branch_amplitude(b) * 1e3, np.asarray(b.stable, bool)
-        start = 0
-        for j in range(1, fe.size + 1):
-            if j == fe.size or stable[j] != stable[start]:
-                seg = slice(start, min(j + 1, fe.size))  # segments share their end point
-                ax.plot(
-                    fe[seg],
-                    amp[seg],
-                    color="0.3",
-                    linestyle="-" if stable[start] else "--",
-                    linewidth=1.2,
-                    label=("model, stable" if stable[start] else "model, unstable") if i == 0 else None,
-                )
-                start = j
+        draw_branch(ax, b.value, branch_amplitude(b) * 1e3, b.stable, labelled=i == 0)
     for conv in (True, False):
         sel = [p for p in points if p.converged == conv]
         if sel:

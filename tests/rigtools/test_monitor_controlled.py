@@ -1,0 +1,129 @@
+"""The monitor of a controlled test (rigtools.monitor.controlled): a PLL's phase and lock, a CBC's
+control effort and iterations, and the points growing (A against fe; F1 against A), each number
+the one its procedure wrote (read back here with h5py), the live phase against a closed form,
+and the page in headless Chromium. Simulated rig, gap 0.5 mm: one PLL point (5 N, -90 deg), two
+CBC points at 64 Hz."""
+
+from __future__ import annotations
+
+import math
+import re
+import subprocess
+import sys
+import threading
+
+import h5py
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import rigtools
+from rigtools.analysis.harmonics import harmonic_amplitudes
+from rigtools.monitor import controlled
+from rigtools.monitor.follow import Follower
+from rigtools.readable import number
+
+RATE = 51200.0
+
+
+@pytest.fixture(scope="module")
+def recordings(tmp_path_factory):
+    d = tmp_path_factory.mktemp("controlled")
+    pll = rigtools.phase_locked_loop("5 N", d / "pll.h5", gap="0.5 mm", backend="sim")
+    cbc = rigtools.control_based_continuation(
+        "64 Hz", "0.330 mm,0.335 mm", d / "cbc.h5", gap="0.5 mm", backend="sim"
+    )
+    return pll.file, cbc.file
+
+
+def _attrs(path) -> list[dict]:
+    with h5py.File(path, "r") as f:
+        return [dict(f["points"][k].attrs) for k in sorted(f["points"])]
+
+
+@settings(max_examples=20, deadline=None)
+@given(phase=st.floats(-359.0, -1.0), fe=st.floats(40.0, 80.0))
+def test_live_phase_is_the_displacements_lag_to_the_force(phase, fe):
+    """x = A cos(wt + phi) under F cos(wt): the acceleration -w^2 x gives back phi (closed form),
+    over whole periods with harmonics added to both (they must not move the fundamental's phase;
+    tolerance 1e-6 deg: round-off of a least-squares fit on whole periods)."""
+    n = round(20 * RATE / fe)
+    t = np.arange(n) / RATE
+    fe_exact = 20 * RATE / n  # whole periods in the window
+    w = 2 * math.pi * fe_exact
+    force = 5 * np.cos(w * t) + 1.5 * np.cos(2 * w * t + 0.3)
+    accel = -(w**2) * 3e-4 * np.cos(w * t + math.radians(phase)) + 40 * np.cos(3 * w * t)
+    got = controlled.live_phase_deg(force, accel, RATE, fe_exact, harmonic_amplitudes)
+    assert -360.0 < got <= 0.0
+    assert got == pytest.approx(phase, abs=1e-6)
+
+
+def test_ended_points_show_what_the_procedure_wrote(recordings):
+    """Each row holds the point's fields as written; the phase shown is the last point's; the
+    state is locked / converged; the trend holds (fe, A mm) for the PLL and (A mm, F1) for the CBC."""
+    pll, cbc = recordings
+    for path, kind, state in ((pll, "pll", "locked"), (cbc, "cbc", "converged")):
+        s = Follower(path).poll()
+        attrs = _attrs(path)
+        assert s.kind == kind and s.status == "finished" and len(s.points) == len(attrs)
+        for row, a in zip(s.points, attrs, strict=True):
+            for name in ("fe_hz", "amplitude_m", "force_fundamental_n", "phase_deg", "iterations"):
+                assert row[name] == a[name], name
+        assert s.phase_deg == attrs[-1]["phase_deg"]
+        assert s.controlled_state == (state if attrs[-1]["converged"] else f"NOT {state}")
+        series = controlled.trend(kind, s.points)
+        ok = [a for a in attrs if a["converged"]]
+        x, y = (
+            ([a["fe_hz"] for a in ok], [a["amplitude_m"] * 1e3 for a in ok])
+            if kind == "pll"
+            else ([a["amplitude_m"] * 1e3 for a in ok], [a["force_fundamental_n"] for a in ok])
+        )
+        assert series["converged"] == {"x": x, "y": y}
+    assert "control_effort" in s.points[-1] and s.points[-1]["control_effort"] == attrs[-1]["control_effort"]
+
+
+def test_pll_states_in_words():
+    """While a point runs, the PLL's events say where the loop is; once written, its convergence."""
+    assert controlled.state_text("pll", {}, {"kind": "control"}, [], 0) == "locking"
+    assert controlled.state_text("pll", {}, {"kind": "recording"}, [], 0) == "locked, recording"
+    row = {"point": 0, "converged": False}
+    assert controlled.state_text("pll", {}, {"kind": "control"}, [row], 0) == "NOT locked"
+    for title, xlabel, ylabel in controlled.TRENDS.values():  # units on every axis
+        assert all(label.endswith(("(Hz)", "(mm)", "(N)")) for label in (xlabel, ylabel)), title
+
+
+def test_page_shows_phase_lock_effort_and_iterations_in_chromium(recordings, chromium, tmp_path):
+    """``rig monitor`` on the CBC recording, then the PLL's, in headless Chromium: the panel shows the
+    last point's phase, state, control effort / periods to lock and iterations as written, and the
+    trend is drawn."""
+    from headless_chromium import Chromium, figure_is_drawn
+    from matplotlib import image as mpimg
+
+    for path, want in zip(recordings, ("pll", "cbc"), strict=True):
+        last = _attrs(path)[-1]
+        cmd = [sys.executable, "-m", "rigtools.cli", "monitor", str(path), "--port", "0"]
+        server = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+        timer = threading.Timer(90, server.kill)
+        timer.start()
+        try:
+            url = server.stdout.readline().strip()
+            with Chromium(chromium) as browser:
+                page = browser.open(url)
+                page.wait_text("mon-status", 60, "finished")
+                phase = number(last["phase_deg"], ".2f", "deg")
+                page.wait_text("mon-phase-deg", 30, re.escape(phase))  # the panel follows the header
+                shown = page.texts("mon-phase-deg", "mon-lock", "mon-iterations")
+                assert shown["mon-phase-deg"] == phase
+                assert shown["mon-iterations"] == number(int(last["iterations"]))
+                word = "locked" if want == "pll" else "converged"
+                assert shown["mon-lock"] == (word if last["converged"] else f"NOT {word}")
+                if want == "cbc":
+                    effort = page.texts("mon-effort")["mon-effort"]
+                    assert effort == number(float(last["control_effort"]), ".3g", "V")
+                shot = mpimg.imread(str(page.screenshot(tmp_path / f"monitor-{want}.png")))[..., :3]
+        finally:
+            timer.cancel()
+            server.kill()
+            server.wait()
+        assert figure_is_drawn(shot[60:560, 0:800])  # the traces
