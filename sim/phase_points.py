@@ -104,12 +104,14 @@ def points_at_phase(
 
     Parameters
     ----------
-    system, shaker
-        The model the branch was traced on.
+    system
+        The model the branch was traced on (with ``shaker``).
     branch
         A branch of ``"fe"`` with the force fundamental held.
     phase_deg
         Phase of the displacement fundamental relative to the force's, degrees (e.g. -90).
+    shaker
+        The shaker drive of ``system``.
     tolerance_deg, max_iterations
         Stop when the phase is this close, or after this many solves.
 

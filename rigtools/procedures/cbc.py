@@ -16,7 +16,7 @@ resonance), then the feedback is switched on with the orbit it found as its firs
 
 The buffered path plays a correction 50-65 ms after the data it comes from (the device's output
 queue); the loop then holds an unstable orbit only while its growth rate times that delay stays
-well under 1 (|mu| up to about 1.15 at 64 Hz, see :mod:`rigtools.procedures.cbc_loop`). On the NI
+well under 1 (abs(mu) up to about 1.15 at 64 Hz, see :mod:`rigtools.procedures.cbc_loop`). On the NI
 backend the procedure says so in one line: the whole unstable sheet needs a real-time inner loop.
 Where the backend has one (``has_realtime_loop``: the simulated rig) the inner loop is, by
 default, that per-sample loop (:mod:`rigtools.procedures.cbc_realtime`, gains 2000 V/m and
@@ -25,7 +25,7 @@ and a release of its target (``multipliers``); ``inner_loop="buffered"`` keeps t
 
 With ``release_seconds`` the gains are set to zero after the last point (the drive held at its
 converged harmonics) and the departure of the response from the orbit is recorded: its growth
-rate, s^-1, is ``fe ln|mu|`` of the orbit's largest Floquet multiplier.
+rate, s^-1, is ``fe lnabs(mu)`` of the orbit's largest Floquet multiplier.
 """
 
 from __future__ import annotations

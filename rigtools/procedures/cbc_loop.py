@@ -8,8 +8,8 @@ harmonics by the PD law (:func:`rigtools.procedures.cbc_iteration.control_drive`
 block after the two already queued, so a correction reaches the shaker 50-65 ms after the middle
 of the data it comes from (two 20 ms pieces, the window's half, the converters). A delayed loop
 holds an orbit whose own growth rate is sigma only while sigma times that delay stays well under
-1: at 64 Hz, multipliers up to about 1.15 (sigma = fe ln|mu| = 9 1/s). The whole unstable sheet
-(|mu| up to 3.8) needs a per-sample loop at a few kHz with 1-2 ms of delay: a real-time target.
+1: at 64 Hz, multipliers up to about 1.15 (sigma = fe lnabs(mu) = 9 1/s). The whole unstable sheet
+(abs(mu) up to 3.8) needs a per-sample loop at a few kHz with 1-2 ms of delay: a real-time target.
 
 :class:`BufferedHarmonicLoop` is one inner loop; the outer iteration
 (:mod:`rigtools.procedures.cbc`) talks to any object with its :meth:`~BufferedHarmonicLoop.hold`,

@@ -39,7 +39,7 @@ from rigtools.procedures.cbc_iteration import Gains
 from rigtools.procedures.cbc_loop import BufferedHarmonicLoop, LoopMeasurement, fit_matrix
 
 #: The real-time loop's gains by default (V/m, V s/m): they hold the unstable orbit at 64 Hz
-#: to A 0.405 mm (|mu| 1.8; Kd 1 V s/m loses the orbit near 0.38 mm, |mu| 1.45: the controlled
+#: to A 0.405 mm (abs(mu) 1.8; Kd 1 V s/m loses the orbit near 0.38 mm, abs(mu) 1.45: the controlled
 #: orbit stops being steady).
 REALTIME_GAINS = (2000.0, 2.0)
 ORBIT_HARMONICS = 40  # harmonics of the loop's target (above the CBC's H: the measured ones)

@@ -111,7 +111,7 @@ class PllParameters(BaseModel):
 
 
 class PhaseLockedLoop(SineProcedure):
-    """The PLL test (see the module docstring); ``run()`` returns a :class:`RunResult` whose
+    """The PLL test (see the module docstring); ``run()`` returns a :class:`~rigtools.procedures.result.RunResult` whose
     points carry the :class:`ControlledPoint` fields (``point.extra``), and :attr:`points` holds
     the :class:`ControlledPoint` of each."""
 
