@@ -253,7 +253,9 @@ def build(doc, get_snapshot: Callable[[], Snapshot], stop: Callable[[], str] | N
             trend.line("x", "y", source=trend_src[d], color=colour, line_dash=dash, legend_label=d),
             trend.scatter("x", "y", source=trend_src[d], color=colour, size=8, marker=marker, legend_label=d),
         ]
-    trend_items = {item.label["value"]: item for item in trend.legend.items}  # type: ignore[index]  # a bokeh value spec
+    # bokeh types legend items as LegendItem | tuple; these are LegendItems, labels value specs
+    trend_legend: list[Any] = list(trend.legend.items)
+    trend_items = {item.label["value"]: item for item in trend_legend}
     trend.legend.location = "top_left"
     trend.legend.orientation = "horizontal"
     trend.xaxis.axis_label = "point"
