@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import argparse
+import sys
+from pathlib import Path
 
 from rigtools.commands import add_skip_damaged
 from rigtools.errors import UserError, exit_status_help
@@ -88,8 +90,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def _is_report(path) -> bool:
     try:
-        with open(path, encoding="utf-8", errors="replace") as f:
-            return MARKER in f.read()[-4000:]
+        return MARKER in Path(path).read_text(encoding="utf-8", errors="replace")[-4000:]
     except OSError:
         return False
 
@@ -109,9 +110,6 @@ def add_comparison(report, args, say) -> dict | None:
 
 
 def run(args: argparse.Namespace) -> int:
-    import sys
-    from pathlib import Path
-
     from rich.console import Console
 
     from rigtools.derived_files import write_derived
