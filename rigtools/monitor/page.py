@@ -211,13 +211,7 @@ def build(doc, get_snapshot: Callable[[], Snapshot], stop: Callable[[], str] | N
     traces = []
     x_range = DataRange1d()  # shared: the three traces scroll together
     for c in names:
-        p = figure(
-            height=170,
-            width=820,
-            title=c,
-            x_range=x_range,
-            tools="pan,wheel_zoom,box_zoom,reset",
-        )
+        p = figure(height=170, width=820, title=c, x_range=x_range, tools="pan,wheel_zoom,box_zoom,reset")
         p.line("t", "y", source=trace_src[c], color=COLOURS[c], line_width=1)
         p.yaxis.axis_label = SHORT.get(c, c)
         p.xaxis.axis_label = "time in point (s)"
