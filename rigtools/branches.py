@@ -707,6 +707,8 @@ def measured_sweeps(paths, param: str, measure: str = "contact") -> list:
     model's point parameters (a rig recording has no contact force: a one-line error says so),
     ``tip`` half the peak-to-peak active shroud displacement channel of a model recording.
     """
+    if not paths:  # nothing to read: spare the procedures' import (scipy.signal, ~1.5 s)
+        return []
     from rigtools.analysis.branches import MeasuredSweep
     from rigtools.procedures import detect_jumps
     from rigtools.recording import open_recording
