@@ -394,3 +394,16 @@ def band_option(text: str, option: str = "--band", *, allow_zero: bool = True) -
     if not ((0 <= lo if allow_zero else 0 < lo) and lo < hi and math.isfinite(hi)):
         raise UserError(f"{option} = {text!r}: need {'0 <=' if allow_zero else '0 <'} LOW < HIGH")
     return lo, hi
+
+
+# the readers' --skip-damaged, shared by the commands that read recordings
+SKIP_DAMAGED_HELP = (
+    "read a recording rig check rejects, leaving each damaged point or channel out with a note "
+    "(without it such a file is refused in one line naming its first problem)"
+)
+
+
+def add_skip_damaged(parser: argparse.ArgumentParser) -> None:
+    """The readers' ``--skip-damaged`` (``rig``'s entry point applies it to every recording the
+    command opens: ``rigtools.recording.reader.reading_damaged``)."""
+    parser.add_argument("--skip-damaged", action="store_true", help=SKIP_DAMAGED_HELP)

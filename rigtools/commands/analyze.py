@@ -5,10 +5,9 @@ from __future__ import annotations
 import argparse
 
 from rigtools import json_values
-from rigtools.commands import add_skip_damaged
 from rigtools.errors import exit_status_help
 from rigtools.frf_options import add_frf_arguments, frf_options
-from rigtools.options import output_folder, positive_finite
+from rigtools.options import add_skip_damaged, output_folder, positive_finite
 
 HELP = "analyse a recording: harmonics and impacts per point; FRFs (H1, H2, Hv) and modes of FRF tests"
 EPILOG = f"""\

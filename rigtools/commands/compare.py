@@ -6,9 +6,8 @@ import argparse
 from pathlib import Path
 
 from rigtools import json_values
-from rigtools.commands import add_skip_damaged
 from rigtools.errors import UserError, exit_status_help
-from rigtools.options import output_folder
+from rigtools.options import add_skip_damaged, output_folder
 
 HELP = "EM vs FEM/AM side by side: harmonic tables, agreement scores, natural frequencies, figures"
 EPILOG = (

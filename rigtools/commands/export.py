@@ -5,10 +5,9 @@ from __future__ import annotations
 import argparse
 
 from rigtools import json_values
-from rigtools.commands import add_skip_damaged
 from rigtools.errors import UserError, exit_status_help
 from rigtools.frf_options import add_frf_arguments, frf_options
-from rigtools.options import UFF_SUFFIXES, output_path
+from rigtools.options import UFF_SUFFIXES, add_skip_damaged, output_path
 
 HELP = (
     "export a recording or FRF set as UFF 58 (time records, spectra, FRFs with coherence) for modal software"

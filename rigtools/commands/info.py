@@ -8,8 +8,8 @@ from collections.abc import Callable
 from typing import Any
 
 from rigtools import json_values
-from rigtools.commands import add_skip_damaged
 from rigtools.errors import exit_status_help
+from rigtools.options import add_skip_damaged
 
 HELP = (
     """\

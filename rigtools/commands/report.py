@@ -6,9 +6,8 @@ import argparse
 import sys
 from pathlib import Path
 
-from rigtools.commands import add_skip_damaged
 from rigtools.errors import UserError, exit_status_help
-from rigtools.options import output_folder
+from rigtools.options import add_skip_damaged, output_folder
 
 HELP = "one self-contained HTML page (figures embedded, works offline) of the analyses of recordings"
 EPILOG = (

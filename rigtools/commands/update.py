@@ -8,10 +8,10 @@ from __future__ import annotations
 import argparse
 
 from rigtools import json_values
-from rigtools.commands import add_skip_damaged
 from rigtools.errors import exit_status_help
 from rigtools.model_update import CONTACT_LAWS, PARAMETER_NAMES
 from rigtools.model_update import DEFAULT_PARAMETERS as DEFAULT_PARAMS
+from rigtools.options import add_skip_damaged
 
 HELP = "fit the rig file's model to FRF/tap tests (and contact to dwells); write an updated rig file"
 EPILOG = (
