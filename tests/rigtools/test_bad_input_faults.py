@@ -6,7 +6,8 @@ that every file existing before it -- in the shared ``lab`` and in the case's ow
 nodes, FIFOs and links included -- is unchanged afterwards (content hash, or type and device
 number). Device nodes are private ``mknod`` copies inside the case's folder (root only), never
 the real ``/dev/null``; a full disk is ``RLIMIT_FSIZE`` lowered around the in-process case.
-Subprocesses only where a stream needs one (closed or full stdout, an ASCII locale, two demos).
+Subprocesses only where a stream needs one (closed or full stdout, an ASCII locale); two demos
+into one folder: tests/rigtools/test_demo_report.py (beside the README's demo run).
 """
 
 from __future__ import annotations
@@ -728,28 +729,3 @@ def test_plain_c_locale_without_coercion(argv, code, lab, tmp_path):
     err = proc.stderr.decode("ascii", "replace")
     check_case(proc.returncode, err, code, before, lab)
     assert proc.stdout.isascii() and proc.stderr.isascii()
-
-
-def test_two_demos_into_one_folder(lab, tmp_path):
-    """Two ``rig demo --quick`` into one folder at once: the second is refused in one line (the
-    folder is being written), the first finishes."""
-    out = tmp_path / "demo"
-    first = subprocess.Popen(
-        [*RIG, "demo", "--quick", "--out", str(out)],
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.PIPE,
-        stdin=subprocess.DEVNULL,
-        text=True,
-        env=_env(),
-    )
-    import time
-
-    end = time.monotonic() + 120
-    while not (out / ".rig-demo").exists() and first.poll() is None and time.monotonic() < end:
-        time.sleep(0.05)
-    code, _, err = run_cli(["demo", "--quick", "--out", str(out)])
-    assert code == 2 and "Traceback" not in err and len(err.strip().splitlines()) <= 2, err
-    assert "being written" in err, err
-    _, first_err = first.communicate(timeout=600)
-    assert first.returncode == 0 and "Traceback" not in first_err, first_err
-    assert (out / "report.html").is_file()

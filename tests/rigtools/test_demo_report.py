@@ -8,6 +8,7 @@ import json
 import re
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -65,10 +66,14 @@ def demo(tmp_path_factory):
     """Run every README command in order in a fresh folder (``rig demo --quick`` among them)."""
     cwd = tmp_path_factory.mktemp("readme")
     ran = []
+    second = None
     for cmd in shell_commands():
-        proc = subprocess.run(
-            ["bash", "-c", cmd], cwd=cwd, capture_output=True, text=True, timeout=600, check=False
-        )
+        if " demo --quick" in cmd and second is None:
+            proc, second = _with_a_second_demo(cmd, cwd)
+        else:
+            proc = subprocess.run(
+                ["bash", "-c", cmd], cwd=cwd, capture_output=True, text=True, timeout=600, check=False
+            )
         hardware = "--rig lab.toml" in cmd and "--backend sim" not in cmd
         allowed = (0, 3) if hardware else (0,)  # 3: NI-DAQmx not on this machine, said in one line
         assert proc.returncode in allowed, f"{cmd}: exit {proc.returncode}\n{proc.stderr[-2000:]}"
@@ -77,11 +82,37 @@ def demo(tmp_path_factory):
         ran.append(cmd)
     assert any(" demo --quick" in c for c in ran)
     out = cwd / "rig-demo"
-    return out, json.loads((out / "findings.json").read_text())
+    return out, json.loads((out / "findings.json").read_text()), second
+
+
+def _with_a_second_demo(
+    cmd: str, cwd: Path
+) -> tuple[subprocess.CompletedProcess, subprocess.CompletedProcess]:
+    """Run the README's demo and, once it has claimed its folder, a second ``rig demo --quick``
+    into the same folder (what a lab does by pressing Enter twice): the README demo's result and
+    the second's. One demo run serves both (a demo costs about a minute of the suite)."""
+    first = subprocess.Popen(
+        ["bash", "-c", cmd], cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
+    marker = cwd / "rig-demo" / ".rig-demo"
+    end = time.monotonic() + 120
+    while not marker.exists() and first.poll() is None and time.monotonic() < end:
+        time.sleep(0.05)
+    second = subprocess.run(
+        [sys.executable, "-m", "rigtools.cli", "demo", "--quick"],
+        cwd=cwd,
+        capture_output=True,
+        text=True,
+        timeout=600,
+        check=False,
+        stdin=subprocess.DEVNULL,
+    )
+    out, err = first.communicate(timeout=600)
+    return subprocess.CompletedProcess(first.args, first.returncode, out, err), second
 
 
 def test_readme_python_examples_run(demo):
-    out, _ = demo
+    out, _, _ = demo
     code = blocks("python")
     assert code
     for block in code:
@@ -100,7 +131,7 @@ def test_readme_python_examples_run(demo):
 
 
 def test_demo_writes_recordings_and_judges_every_finding(demo):
-    out, doc = demo
+    out, doc, _ = demo
     assert [f["id"] for f in doc["findings"]] == [f"C{i}" for i in range(1, 8)]
     v = {f["id"]: f["verdicts"] for f in doc["findings"]}
     for fid in v:
@@ -130,7 +161,7 @@ def test_demo_branches_explain_the_frequency_and_gap_findings(demo):
     from rigtools.procedures import detect_jumps
     from rigtools.recording import open_recording
 
-    out, doc = demo
+    out, doc, _ = demo
     fe, gap = doc["branches"]["frequency"], doc["branches"]["gap"]
     # the period-2 branch switched at the first doubling leaves the range, turns at a grazing
     # hairpin and merges at the second doubling (tests/sim/test_continuation.py)
@@ -185,7 +216,7 @@ def test_demo_branches_explain_the_frequency_and_gap_findings(demo):
 
 
 def test_demo_report_in_chromium_every_figure_drawn_with_labels(demo, chromium):
-    out, _doc = demo
+    out, _doc, _ = demo
     shot = screenshot_page(out / "report.html")
     assert len(shot.figures) == N_FIGURES
     for box in shot.figures:
@@ -200,3 +231,14 @@ def test_demo_report_in_chromium_every_figure_drawn_with_labels(demo, chromium):
     text = (out / "report.html").read_text()
     for fid in ("C1", "C4", "C7"):
         assert f">{fid}<" in text
+
+
+def test_a_second_demo_into_the_folder_being_written_is_refused(demo):
+    """Two ``rig demo --quick`` into one folder at once: the second is refused in one line (the
+    folder is being written, exit 2), the first (the README's) finishes with its report."""
+    out, doc, second = demo
+    assert second is not None
+    assert second.returncode == 2 and "Traceback" not in second.stderr, second.stderr
+    assert len(second.stderr.strip().splitlines()) == 1, second.stderr
+    assert "being written" in second.stderr, second.stderr
+    assert (out / "report.html").is_file() and doc["report"] == "report.html"
