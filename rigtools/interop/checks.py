@@ -174,7 +174,7 @@ _Importer = TypeVar("_Importer", bound=Callable[..., dict])
 
 
 def importer(function: _Importer) -> _Importer:
-    """An importer taking the :data:`ImportKeywords` in its ``**options``: they are added to its
+    """An importer taking the :class:`ImportKeywords` in its ``**options``: they are added to its
     signature (a wrong or missing keyword raises Python's own ``TypeError``) and their text put for
     ``%(shared)s`` in its docstring at the marker's indentation, as scipy's docstring templates do."""
     signature = inspect.signature(function)
@@ -203,7 +203,7 @@ def importer(function: _Importer) -> _Importer:
 
 @dataclass
 class ImportRequest:
-    """An import's source, its :data:`ImportKeywords` with their defaults filled, and the notes it
+    """An import's source, its :class:`ImportKeywords` with their defaults filled, and the notes it
     collects (:func:`import_request`)."""
 
     source: Path
