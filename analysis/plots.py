@@ -61,6 +61,23 @@ def _last_periods(n: int, sample_rate: float, fe: float, periods: float) -> slic
     return slice(max(n - m, 0), n)
 
 
+def _mark_harmonics(ax, fe: float, k_max: int, f_max: float, size: float, **label: str) -> None:
+    """``k fe`` (k = 1..k_max, up to ``f_max``) marked by ticks along the top edge of ``ax``."""
+    harmonics = fe * np.arange(1, k_max + 1)
+    harmonics = harmonics[harmonics <= f_max]
+    ax.plot(
+        harmonics,
+        np.ones_like(harmonics),
+        ls="none",
+        marker="v",
+        ms=size,
+        color="0.35",
+        transform=ax.get_xaxis_transform(),
+        clip_on=False,
+        **label,
+    )
+
+
 def _spectrum_axes(
     ax,
     freqs: np.ndarray,
@@ -83,19 +100,7 @@ def _spectrum_axes(
     top = top if top > 0 else 1.0
     ax.set_ylim(top * SPECTRUM_FLOOR, top * 3.0)
     ax.set_xlim(0.0, f_max)
-    harmonics = fe * np.arange(1, k_max + 1)
-    harmonics = harmonics[harmonics <= f_max]
-    ax.plot(
-        harmonics,
-        np.ones_like(harmonics),
-        ls="none",
-        marker="v",
-        ms=4,
-        color="0.35",
-        transform=ax.get_xaxis_transform(),
-        clip_on=False,
-        label=f"k·fe (fe = {fe:g} Hz)",
-    )
+    _mark_harmonics(ax, fe, k_max, f_max, 4, label=f"k·fe (fe = {fe:g} Hz)")
     if natural_hz is not None:
         shown = [f for f in np.asarray(natural_hz, dtype=float) if 0 < f <= f_max]
         for i, f in enumerate(shown):
@@ -883,18 +888,7 @@ def overlay_figure(
         for ax in (ax_t, ax_s):
             ax.grid(True, alpha=0.3)
             ax.legend(fontsize=7, loc="upper right")
-        harmonics = fe * np.arange(1, k_max + 1)
-        harmonics = harmonics[harmonics <= f_max]
-        ax_s.plot(
-            harmonics,
-            np.ones_like(harmonics),
-            ls="none",
-            marker="v",
-            ms=3,
-            color="0.35",
-            transform=ax_s.get_xaxis_transform(),
-            clip_on=False,
-        )
+        _mark_harmonics(ax_s, fe, k_max, f_max, 3)
     axes[-1, 0].set_xlabel("time from the upward zero crossing of the force fundamental (ms)")
     axes[-1, 1].set_xlabel(f"frequency (Hz); ▼ marks k·fe, fe = {fe:g} Hz")
     _suptitle(fig, title or f"EM versus {model_label}: waveforms and spectra, fe = {fe:g} Hz")

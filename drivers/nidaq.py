@@ -313,27 +313,29 @@ class NiDaqDevice(AcquisitionDevice):
     def _add_input(self, ai: nidaqmx.Task, spec: InputChannelSpec) -> None:
         excitation = ExcitationSource.INTERNAL if spec.iepe else ExcitationSource.NONE
         chans = ai.ai_channels
-        if spec.kind == "accel":
-            chan = chans.add_ai_accel_chan(
+        # a sensor channel (DAQmx scales by the sensitivity): its call and units by kind
+        sensors = {
+            "accel": (
+                chans.add_ai_accel_chan,
+                AccelUnits.METERS_PER_SECOND_SQUARED,
+                AccelSensitivityUnits.MILLIVOLTS_PER_G,
+            ),
+            "force": (
+                chans.add_ai_force_iepe_chan,
+                ForceUnits.NEWTONS,
+                ForceIEPESensorSensitivityUnits.MILLIVOLTS_PER_NEWTON,
+            ),
+        }
+        if spec.kind in sensors:
+            add, units, sensitivity_units = sensors[spec.kind]
+            chan = add(
                 spec.physical_channel,
                 name_to_assign_to_channel=spec.name,
                 min_val=spec.min_value,
                 max_val=spec.max_value,
-                units=AccelUnits.METERS_PER_SECOND_SQUARED,
+                units=units,
                 sensitivity=spec.sensitivity,
-                sensitivity_units=AccelSensitivityUnits.MILLIVOLTS_PER_G,
-                current_excit_source=excitation,
-                current_excit_val=spec.excitation_current,
-            )
-        elif spec.kind == "force":
-            chan = chans.add_ai_force_iepe_chan(
-                spec.physical_channel,
-                name_to_assign_to_channel=spec.name,
-                min_val=spec.min_value,
-                max_val=spec.max_value,
-                units=ForceUnits.NEWTONS,
-                sensitivity=spec.sensitivity,
-                sensitivity_units=ForceIEPESensorSensitivityUnits.MILLIVOLTS_PER_NEWTON,
+                sensitivity_units=sensitivity_units,
                 current_excit_source=excitation,
                 current_excit_val=spec.excitation_current,
             )

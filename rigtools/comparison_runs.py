@@ -12,9 +12,9 @@ from typing import Any
 from rigtools.comparison_points import em_force_harmonics
 from rigtools.errors import UserError
 from rigtools.sim.studies import PlannedPoint
-from rigtools.sim.vibro_impact import SimulationInputError, run_harmonic
+from rigtools.sim.vibro_impact import SimulationInputError
 from rigtools.simulation import check_finite
-from rigtools.study_runner import RunOptions, StudyRunner
+from rigtools.study_runner import RunOptions, StudyRunner, run_point
 
 MODEL_RECORD_PERIODS = 10
 Progress = Callable[[int, int, str], None]
@@ -29,16 +29,7 @@ class DrivenPoint(PlannedPoint):
 
 def run_driven_point(system, point: DrivenPoint, options, previous=None):
     """:func:`rigtools.study_runner.run_point` with the point's ``force_harmonics``."""
-    return run_harmonic(
-        system.with_contact(gap=point.gap),
-        point.fe,
-        point.force,
-        record_periods=max(1, round(options.record_duration * point.fe)),
-        steps_per_period=options.steps_per_period,
-        max_settle_time=options.max_settle_time,
-        initial=None if previous is None else previous.final_state,
-        force_harmonics=point.force_harmonics,
-    )
+    return run_point(system, point, options, previous, force_harmonics=point.force_harmonics)
 
 
 def simulate_em_points(

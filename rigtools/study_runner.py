@@ -67,11 +67,13 @@ def run_point(
     options: RunOptions,
     previous: Any = None,
     progress: Callable[[float, float], None] | None = None,
+    force_harmonics: tuple | None = None,
 ) -> Any:
     """One settled point: the system at the point's gap, from ``previous.final_state`` if given.
 
     The function every executor runs (in-process or on a Dask worker); ``progress(simulated_s,
-    at_most_s)`` while it settles (in-process only)."""
+    at_most_s)`` while it settles (in-process only); ``force_harmonics``: the periodic force
+    replacing ``F0 sin`` (:func:`rigtools.sim.vibro_impact.run_harmonic`)."""
     return run_harmonic(
         system.with_contact(gap=point.gap),
         point.fe,
@@ -81,6 +83,7 @@ def run_point(
         max_settle_time=options.max_settle_time,
         initial=None if previous is None else previous.final_state,
         progress=progress,
+        force_harmonics=force_harmonics,
     )
 
 

@@ -42,6 +42,13 @@ def law_code(contact: ContactParams) -> int:
         raise ValueError(f"unknown contact law {contact.law!r} (one of {', '.join(LAWS)})") from None
 
 
+def kernel_contact(contact: ContactParams) -> tuple[float, float, float, float, int]:
+    """The contact as the compiled kernels take it: ``(gap, stiffness, damping, hertz_exponent,
+    law code)``, plain floats and an int."""
+    c = contact
+    return (float(c.gap), float(c.stiffness), float(c.damping), float(c.hertz_exponent), law_code(c))
+
+
 def contact_force(closure: np.ndarray, closure_rate: np.ndarray, contact: ContactParams) -> np.ndarray:
     """Contact force for given closure ``g`` (m) and closure rate (m/s); zero where open.
 

@@ -30,12 +30,12 @@ import scipy.optimize
 
 from rigtools.sim.channel_names import ACTIVE_SHROUD_ACCEL, PASSIVE_SHROUD_ACCEL
 from rigtools.sim.fit_identifiability import (
-    Identifiability,
     central_jacobian,
     forward_jacobian,
     identifiability,
 )
 from rigtools.sim.fit_parameters import UpdateParameter
+from rigtools.sim.fit_results import FitResult
 from rigtools.sim.params import ContactLaw, ContactParams, RigParams
 from rigtools.sim.reduction import ReducedSystem, reduced_system
 from rigtools.sim.vibro_impact import run_harmonic, steps_per_period_for
@@ -161,37 +161,17 @@ def harmonic_amplitudes(
 
 
 @dataclass
-class ContactFitResult:
-    """The outcome of :func:`fit_contact` (fields as :class:`rigtools.sim.parameter_fit.UpdateResult`)."""
+class ContactFitResult(FitResult):
+    """The outcome of :func:`fit_contact` (the fields of :class:`rigtools.sim.fit_results.FitResult`
+    as :class:`rigtools.sim.parameter_fit.UpdateResult` has them, and the contact law, the dwell
+    harmonics before and after, whether the fitted run was steady, the vibro-impact runs)."""
 
-    names: list[str]
-    units: list[str]
     law: str
-    initial: dict[str, float]
-    fitted: dict[str, float]
-    bounds: dict[str, tuple[float, float]]
-    params: RigParams
-    residual_labels: list[str]
-    residuals_before: np.ndarray
-    residuals_after: np.ndarray
     harmonics_before: list[dict[str, np.ndarray]]
     harmonics_after: list[dict[str, np.ndarray]]
     steady: bool
-    n_evaluations: int
     n_runs: int
-    wall_time: float
-    success: bool
-    message: str
-    identifiability: Identifiability
     targets: list[HarmonicTarget] = field(default_factory=list)
-
-    @property
-    def cost_before(self) -> float:
-        return 0.5 * float(self.residuals_before @ self.residuals_before)
-
-    @property
-    def cost_after(self) -> float:
-        return 0.5 * float(self.residuals_after @ self.residuals_after)
 
     @property
     def rms_log_error_after(self) -> float:
@@ -211,16 +191,7 @@ class ContactFitResult:
         ident = self.identifiability
         return {
             "law": self.law,
-            "parameters": {
-                n: {
-                    "unit": u,
-                    "start": self.initial[n],
-                    "fitted": self.fitted[n],
-                    "bounds": list(self.bounds[n]),
-                    "confidence_95": list(ident.confidence[n]),
-                }
-                for n, u in zip(self.names, self.units, strict=True)
-            },
+            "parameters": self.parameter_entries(),
             "rig_file": self.rig_file_values(),
             "cost_before": self.cost_before,
             "cost_after": self.cost_after,

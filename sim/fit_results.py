@@ -1,5 +1,6 @@
 """The outcome of a model update (:class:`UpdateResult`, one :class:`ModeComparison` per mode
-target): fitted values, residuals before and after, identifiability, a report and JSON."""
+target): fitted values, residuals before and after, identifiability, a report and JSON; what it
+shares with the contact fit's outcome (:class:`FitResult`)."""
 
 from __future__ import annotations
 
@@ -35,7 +36,50 @@ class ModeComparison:
 
 
 @dataclass
-class UpdateResult:
+class FitResult:
+    """What every fit of the model to measurements returns (:class:`UpdateResult`,
+    :class:`rigtools.sim.contact_fit.ContactFitResult`): the fields they share (described under
+    :class:`UpdateResult`), the cost before and after, and the parameters' JSON entries."""
+
+    names: list[str]
+    units: list[str]
+    initial: dict[str, float]
+    fitted: dict[str, float]
+    bounds: dict[str, tuple[float, float]]
+    params: RigParams
+    residual_labels: list[str]
+    residuals_before: np.ndarray
+    residuals_after: np.ndarray
+    n_evaluations: int
+    wall_time: float
+    success: bool
+    message: str
+    identifiability: Identifiability
+
+    @property
+    def cost_before(self) -> float:
+        return 0.5 * float(self.residuals_before @ self.residuals_before)
+
+    @property
+    def cost_after(self) -> float:
+        return 0.5 * float(self.residuals_after @ self.residuals_after)
+
+    def parameter_entries(self) -> dict[str, dict]:
+        """name -> its unit, start and fitted values, bounds and 95 % interval (JSON-ready)."""
+        return {
+            n: {
+                "unit": u,
+                "start": self.initial[n],
+                "fitted": self.fitted[n],
+                "bounds": list(self.bounds[n]),
+                "confidence_95": list(self.identifiability.confidence[n]),
+            }
+            for n, u in zip(self.names, self.units, strict=True)
+        }
+
+
+@dataclass
+class UpdateResult(FitResult):
     """The outcome of :func:`rigtools.sim.parameter_fit.update_model`.
 
     Attributes
@@ -66,30 +110,8 @@ class UpdateResult:
         :class:`Identifiability` at the optimum.
     """
 
-    names: list[str]
-    units: list[str]
-    initial: dict[str, float]
-    fitted: dict[str, float]
-    bounds: dict[str, tuple[float, float]]
-    params: RigParams
-    residual_labels: list[str]
-    residuals_before: np.ndarray
-    residuals_after: np.ndarray
     modes: list[ModeComparison]
-    n_evaluations: int
-    wall_time: float
-    success: bool
-    message: str
-    identifiability: Identifiability
     covariance: str = "stated"
-
-    @property
-    def cost_before(self) -> float:
-        return 0.5 * float(self.residuals_before @ self.residuals_before)
-
-    @property
-    def cost_after(self) -> float:
-        return 0.5 * float(self.residuals_after @ self.residuals_after)
 
     @property
     def max_frequency_error_before(self) -> float:
@@ -110,15 +132,8 @@ class UpdateResult:
         ident = self.identifiability
         return {
             "parameters": {
-                n: {
-                    "unit": u,
-                    "start": self.initial[n],
-                    "fitted": self.fitted[n],
-                    "bounds": list(self.bounds[n]),
-                    "confidence_95": list(ident.confidence[n]),
-                    "std_relative": float(ident.std_scaled[i]),
-                }
-                for i, (n, u) in enumerate(zip(self.names, self.units, strict=True))
+                n: {**entry, "std_relative": float(ident.std_scaled[i])}
+                for i, (n, entry) in enumerate(self.parameter_entries().items())
             },
             "rig_file": self.rig_file_values(),
             "modes": [

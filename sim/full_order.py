@@ -33,7 +33,7 @@ import scipy.linalg
 import scipy.sparse as sp
 from numba import njit
 
-from rigtools.sim.contact import law_code, solve_contact
+from rigtools.sim.contact import kernel_contact, solve_contact
 from rigtools.sim.impact_kernel import DIVERGED_DISPLACEMENT, N_OUT, NO_SUMS, OUT_COLUMNS, add_mode
 from rigtools.sim.impact_stepper import (
     SimulationDivergedError,
@@ -211,16 +211,9 @@ class FullOrderIntegrator:
         self.dt = float(dt)
         self.alpha = float(alpha)
         self.solver = solver
-        c = self.contact
-        self._contact = (
-            float(c.gap),
-            float(c.stiffness),
-            float(c.damping),
-            float(c.hertz_exponent),
-            law_code(c),
-        )
+        self._contact = kernel_contact(self.contact)
         self.system = full_modal_system(model)
-        _check = _ContactView(self.system.contact_effective_mass(), c)
+        _check = _ContactView(self.system.contact_effective_mass(), self.contact)
         check_time_step(_check, self.dt)
         self.time = 0.0
         if solver == "modal":

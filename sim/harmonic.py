@@ -73,6 +73,21 @@ def _superpose(omegas, zetas, out_shapes, in_shape, frequencies_hz, force) -> np
     return force * participation @ out_shapes.T  # (n_freq, n_out)
 
 
+def _add_blade(
+    out: HarmonicResponse,
+    name: str,
+    omegas: np.ndarray,
+    zetas: np.ndarray,
+    tip: np.ndarray,
+    drive: np.ndarray,
+) -> None:
+    """Blade ``name``'s shroud and force-point displacements into ``out``, by modal superposition
+    of its modes (``tip``, ``drive``: the mode shapes there) for the force at the drive point."""
+    x = _superpose(omegas, zetas, np.vstack([tip, drive]), drive, out.frequencies_hz, out.force_amplitude)
+    out.displacement[f"{name}_shroud"] = x[:, 0]
+    out.displacement[f"{name}_force_point"] = x[:, 1]
+
+
 def _passive_fe_blade(rig: RigModel, position: float) -> BladeModel:
     """The passive blade, rebuilt with a node at the drive position if it has none there."""
     blade = rig.passive
@@ -111,17 +126,7 @@ def fem_harmonic_response(
         omegas = modes.omegas
         drive_dof = blade.sensor_dof(UY) if name == "active" else blade.dof(blade.node_at(position), UY)
         tip = modes.shapes[blade.dof(blade.tip_node, UY)]
-        drive = modes.shapes[drive_dof]
-        x = _superpose(
-            omegas,
-            damping_ratios(omegas, params.damping),
-            np.vstack([tip, drive]),
-            drive,
-            out.frequencies_hz,
-            force_amplitude,
-        )
-        out.displacement[f"{name}_shroud"] = x[:, 0]
-        out.displacement[f"{name}_force_point"] = x[:, 1]
+        _add_blade(out, name, omegas, damping_ratios(omegas, params.damping), tip, modes.shapes[drive_dof])
     return out
 
 
@@ -153,17 +158,7 @@ def am_harmonic_response(
         f, vec = am.modes()
         omegas = 2.0 * np.pi * f
         tip = am.shape(bp.length) @ vec
-        drive = am.shape(position) @ vec
-        x = _superpose(
-            omegas,
-            damping_ratios(omegas, params.damping),
-            np.vstack([tip, drive]),
-            drive,
-            out.frequencies_hz,
-            force_amplitude,
-        )
-        out.displacement[f"{name}_shroud"] = x[:, 0]
-        out.displacement[f"{name}_force_point"] = x[:, 1]
+        _add_blade(out, name, omegas, damping_ratios(omegas, params.damping), tip, am.shape(position) @ vec)
     return out
 
 

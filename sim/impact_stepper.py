@@ -15,7 +15,7 @@ from typing import Protocol
 
 import numpy as np
 
-from rigtools.sim.contact import contact_period, law_code
+from rigtools.sim.contact import contact_period, kernel_contact
 from rigtools.sim.impact_kernel import DIVERGED_DISPLACEMENT, N_OUT, OUT_COLUMNS, _kernel, _props
 from rigtools.sim.params import ContactParams, SimulationInputError
 from rigtools.sim.reduction import ReducedSystem
@@ -188,14 +188,7 @@ class VibroImpactStepper:
         _props(system.omega, system.zeta, self.dt, self._P)
         self.events = True
         self._phi = [np.ascontiguousarray(system.shapes[i]) for i in range(3)]
-        c = system.contact
-        self._contact = (
-            float(c.gap),
-            float(c.stiffness),
-            float(c.damping),
-            float(c.hertz_exponent),
-            law_code(c),
-        )
+        self._contact = kernel_contact(system.contact)
         if shaker is None:
             self._shaker = np.zeros(8)
         else:

@@ -67,14 +67,18 @@ def wheel_contents(wheel: Path) -> tuple[set[str], set[str], set[str]]:
     return top, packages, names
 
 
-def build_wheel(src: Path, out: Path) -> Path:
-    """Build the wheel of the sources copied into ``src`` into ``out``; returns its path."""
+def copy_sources(src: Path) -> None:
+    """The sources a wheel is built from (:data:`SOURCES`) copied into ``src``."""
     for name in SOURCES:
         path = ROOT / name
         if path.is_dir():
             shutil.copytree(path, src / name, ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
         else:
             shutil.copy2(path, src / name)
+
+
+def build_wheel(src: Path, out: Path) -> Path:
+    """Build the wheel of the sources in ``src`` into ``out`` (asserting pip's success); its path."""
     proc = subprocess.run(
         [
             sys.executable,
@@ -100,6 +104,7 @@ def build_wheel(src: Path, out: Path) -> Path:
 @pytest.fixture(scope="module")
 def wheel(tmp_path_factory: pytest.TempPathFactory) -> Path:
     src = tmp_path_factory.mktemp("src")
+    copy_sources(src)
     return build_wheel(src, tmp_path_factory.mktemp("dist"))
 
 
@@ -117,35 +122,12 @@ def test_a_folder_left_out_is_caught(tmp_path: Path) -> None:
     """The check above fails when pyproject.toml's package list misses a folder."""
     src = tmp_path / "src"
     src.mkdir()
-    for name in SOURCES:
-        path = ROOT / name
-        if path.is_dir():
-            shutil.copytree(path, src / name, ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
-        else:
-            shutil.copy2(path, src / name)
+    copy_sources(src)
     pyproject = src / "pyproject.toml"
     text = pyproject.read_text()
     assert '"rigtools.interop", ' in text
     pyproject.write_text(text.replace('"rigtools.interop", ', "", 1))
-    proc = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "pip",
-            "wheel",
-            "--no-deps",
-            "--no-build-isolation",
-            "--no-index",
-            "-w",
-            str(tmp_path / "dist"),
-            str(src),
-        ],
-        capture_output=True,
-        text=True,
-        check=False,
-    )
-    assert proc.returncode == 0, proc.stderr[-2000:]
-    (wheel,) = (tmp_path / "dist").glob("*.whl")
+    wheel = build_wheel(src, tmp_path / "dist")
     _, packages, _ = wheel_contents(wheel)
     assert repository_packages() - packages == {"rigtools.interop"}
 

@@ -19,14 +19,14 @@ from __future__ import annotations
 import gzip
 import math
 from pathlib import Path
-from typing import Any
+from typing import Any, Unpack
 
 import numpy as np
 
 from rigtools.errors import UserError, in_script_words, one_line
 from rigtools.interop.channels import ForeignChannel, check_known, check_names, resolve
-from rigtools.interop.checks import non_finite_reason, source_file
-from rigtools.interop.imported import ForeignPoint, rows_reader, split_by_timing, write_imported
+from rigtools.interop.checks import ImportKeywords, import_request, importer, non_finite_reason, source_file
+from rigtools.interop.imported import ForeignPoint, rows_reader, split_by_timing
 
 _HEADINGS = ("Samples", "Delta_X", "X0", "Y_Unit_Label", "X_Dimension")
 
@@ -147,21 +147,17 @@ def segments(lvm: dict) -> list[dict]:
 
 
 @in_script_words
-def import_lvm(
-    source: str | Path,
-    out: str | Path,
-    *,
-    rig: Any,
-    overwrite: bool = False,
-    mapping: dict[str, str] | None = None,
-    units: dict[str, str] | None = None,
-    channels: list[str] | None = None,
-    reference: str | None = None,
-) -> dict:
+@importer
+def import_lvm(source: str | Path, out: str | Path, **options: Unpack[ImportKeywords]) -> dict:
     """Convert a LabVIEW measurement file into a recording (backend ``"lvm"``).
 
-    Parameters are those of :func:`rigtools.interop.tdms.import_tdms` (``channels`` selects by
-    the file's channel names; ``--units`` and ``--map`` name them too).
+    Parameters
+    ----------
+    source
+        The ``.lvm`` (or ``.lvm.gz``) file.
+    out
+        The recording to write (``.h5``).
+    %(shared)s
 
     Returns
     -------
@@ -169,9 +165,9 @@ def import_lvm(
         :func:`rigtools.interop.imported.write_imported`'s summary (one entry and one line per
         channel of every segment).
     """
-    source = Path(source)
-    mapping, units, chosen = dict(mapping or {}), dict(units or {}), list(channels or [])
-    notes: list[str] = []
+    request = import_request(source, options)
+    source, mapping, units, chosen = request.source, request.mapping, request.units, request.channels
+    reference, notes = request.reference, request.notes
     lvm = read_lvm(source, notes)
     segs = segments(lvm)
     if not segs:
@@ -240,17 +236,7 @@ def import_lvm(
         "source": source.name,
         "properties": {k: str(v) for k, v in lvm.items() if isinstance(k, str) and k != "Segments"},
     }
-    return write_imported(
-        out,
-        backend="lvm",
-        rig=rig,
-        experiment=experiment,
-        points=points,
-        every=every,
-        reference=reference,
-        overwrite=overwrite,
-        notes=notes,
-    )
+    return request.write(out, "lvm", experiment, points, every)
 
 
 def _x_axis_reason(seg: dict, k: int, dx: float, n: int) -> str | None:

@@ -20,14 +20,24 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Any
+from typing import Any, Unpack
 
 import numpy as np
 
 from rigtools.errors import UserError, in_script_words
 from rigtools.interop.channels import LBF, ForeignChannel, G, check_known, check_names, resolve
-from rigtools.interop.checks import non_finite_reason, number, parsed, parser_notes, source_file
-from rigtools.interop.imported import ForeignPoint, split_by_timing, write_imported
+from rigtools.interop.checks import (
+    ImportKeywords,
+    ImportRequest,
+    import_request,
+    importer,
+    non_finite_reason,
+    number,
+    parsed,
+    parser_notes,
+    source_file,
+)
+from rigtools.interop.imported import ForeignPoint, split_by_timing
 
 __all__ = ["LBF", "G", "TdmsImportError", "import_tdms"]
 
@@ -80,18 +90,14 @@ def _selected(tdms: Any, groups: list[str], channels: list[str]) -> list[tuple[A
 
 
 @in_script_words
+@importer
 def import_tdms(
     source: str | Path,
     out: str | Path,
     *,
-    rig: Any,
-    overwrite: bool = False,
-    mapping: dict[str, str] | None = None,
-    units: dict[str, str] | None = None,
     groups: list[str] | None = None,
-    channels: list[str] | None = None,
-    reference: str | None = None,
     sample_rate: float | None = None,
+    **options: Unpack[ImportKeywords],
 ) -> dict:
     """Convert a TDMS log into a recording (backend ``"tdms"``).
 
@@ -101,21 +107,11 @@ def import_tdms(
         The ``.tdms`` file.
     out
         The recording to write (``.h5``).
-    rig
-        The rig description stored in the recording (a ``RigConfig`` or its JSON text).
-    overwrite
-        Replace ``out`` if it exists.
-    mapping
-        TDMS channel name (or ``group/channel``) -> recording channel name (``--map``).
-    units
-        TDMS channel name (or ``group/channel``) -> unit (``--units``), for channels without
-        ``unit_string`` or with a wrong one.
-    groups, channels
-        Only these groups / channels (names or ``group/channel``); default all.
-    reference
-        The excitation channel (default: the one channel of quantity force).
+    groups
+        Only these groups; default all.
     sample_rate
         Hz, for logs without waveform timing (``wf_increment``).
+    %(shared)s
 
     Returns
     -------
@@ -128,31 +124,22 @@ def import_tdms(
     TdmsImportError
         One line: not a TDMS file, no channel left to import, an option naming no channel.
     """
-    source = Path(source)
-    notes: list[str] = []
-    with parser_notes(notes, "npTDMS", ("nptdms",)):
-        return _import(
-            source, out, rig, overwrite, mapping, units, groups, channels, reference, sample_rate, notes
-        )
+    request = import_request(source, options)
+    with parser_notes(request.notes, "npTDMS", ("nptdms",)):
+        return _import(request, out, list(groups or []), sample_rate)
 
 
-def _import(
-    source: Path,
-    out: str | Path,
-    rig: Any,
-    overwrite: bool,
-    mapping: dict[str, str] | None,
-    units: dict[str, str] | None,
-    groups: list[str] | None,
-    channels: list[str] | None,
-    reference: str | None,
-    sample_rate: float | None,
-    notes: list[str],
-) -> dict:
-    """:func:`import_tdms`'s work, its parser's warnings collected into ``notes``."""
-    mapping, units = dict(mapping or {}), dict(units or {})
+def _import(request: ImportRequest, out: str | Path, groups: list[str], sample_rate: float | None) -> dict:
+    """:func:`import_tdms`'s work, its parser's warnings collected into ``request.notes``."""
+    source, mapping, units, reference, notes = (
+        request.source,
+        request.mapping,
+        request.units,
+        request.reference,
+        request.notes,
+    )
     with _open(source) as tdms:
-        chosen = _selected(tdms, list(groups or []), list(channels or []))
+        chosen = _selected(tdms, groups, request.channels)
         if not chosen:
             raise TdmsImportError(f"{source}: no channels with data in any group")
         names = {c.name for _, chans in chosen for c in chans}
@@ -220,17 +207,7 @@ def _import(
             "source": source.name,
             "properties": {k: str(v) for k, v in tdms.properties.items()},
         }
-        return write_imported(
-            out,
-            backend="tdms",
-            rig=rig,
-            experiment=experiment,
-            points=points,
-            every=every,
-            reference=reference,
-            overwrite=overwrite,
-            notes=notes,
-        )
+        return request.write(out, "tdms", experiment, points, every)
 
 
 def _offset(channel: Any) -> float:

@@ -28,7 +28,7 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Unpack
 
 import numpy as np
 
@@ -44,9 +44,16 @@ from rigtools.interop.channels import (
     si_units,
     storable_name,
 )
-from rigtools.interop.checks import non_finite_reason, parsed, source_file
+from rigtools.interop.checks import (
+    ImportKeywords,
+    import_request,
+    importer,
+    non_finite_reason,
+    parsed,
+    source_file,
+)
 from rigtools.interop.directions import DIRECTIONS, direction_text
-from rigtools.interop.imported import ForeignPoint, rows_reader, split_by_timing, write_imported
+from rigtools.interop.imported import ForeignPoint, rows_reader, split_by_timing
 from rigtools.interop.uff_data import (
     FRF_DATA_RULE,
     _with_force,
@@ -769,17 +776,8 @@ def _frf_kind(s: dict, given: str | None) -> tuple[str | None, float, str]:
 
 
 @in_script_words
-def import_uff(
-    source: str | Path,
-    out: str | Path,
-    *,
-    rig: Any,
-    overwrite: bool = False,
-    mapping: dict[str, str] | None = None,
-    units: dict[str, str] | None = None,
-    channels: list[str] | None = None,
-    reference: str | None = None,
-) -> dict:
+@importer
+def import_uff(source: str | Path, out: str | Path, **options: Unpack[ImportKeywords]) -> dict:
     """Import a UFF file's datasets 58: FRFs (with their coherence) to an FRF set
     (:mod:`rigtools.frf_set`), else time records to a recording (backend ``"uff"``).
 
@@ -788,16 +786,23 @@ def import_uff(
     point. FRFs: the kind from the labels, checked against the data (:func:`frf_kind_from_data`;
     ``--units RESPONSE=UNIT`` overrides); one FRF set of the FRFs of the first grid.
 
+    Parameters
+    ----------
+    source
+        The UFF file.
+    out
+        The recording (or FRF set) to write (``.h5``).
+    %(shared)s
+
     Returns
     -------
     dict
         ``{"channels": [...], "points": [...], "lines": [...]}`` as every import (FRFs: one
         entry and line per record).
     """
-
-    source = Path(source)
-    mapping, units, chosen = dict(mapping or {}), dict(units or {}), list(channels or [])
-    notes: list[str] = []
+    request = import_request(source, options)
+    source, mapping, units, chosen = request.source, request.mapping, request.units, request.channels
+    reference, overwrite, notes = request.reference, request.overwrite, request.notes
     sets = read_uff_sets(source, notes)
     names = record_names(sets)
     for option, given in (("--channel", chosen), ("--map", mapping), ("--units", units)):
@@ -871,17 +876,7 @@ def import_uff(
             )
         )
     experiment = {"procedure": "import", "source_format": "uff", "source": source.name}
-    return write_imported(
-        out,
-        backend="uff",
-        rig=rig,
-        experiment=experiment,
-        points=points,
-        every=every,
-        reference=reference,
-        overwrite=overwrite,
-        notes=notes,
-    )
+    return request.write(out, "uff", experiment, points, every)
 
 
 def _point_of(s: dict, side: str) -> dict:

@@ -21,6 +21,20 @@ def _h1(seed=1, n=2**18, noise=0.02):
     return one_frf(x, y, FS, "random", 2048)
 
 
+def _identify_h1(est, method):
+    """identify() of an H1 estimate in 10-250 Hz, with its excitation PSD and coherence."""
+    return identify(
+        est.frequency_hz,
+        est.h1,
+        kind="accelerance",
+        excitation_psd=est.sxx,
+        coherence=est.coherence,
+        f_min=10,
+        f_max=250,
+        method=method,
+    )
+
+
 def test_lscf_exact_frf_gives_exact_poles_and_mass_normalised_constants():
     """Noise-free exact accelerance on a 0.25 Hz grid: poles to 1e-6, LSFD constants (as
     receptance-form modal constants phi_1 phi_2 of the mass-normalised modes) to 1e-5."""
@@ -56,17 +70,7 @@ def test_lscf_of_a_converted_frf_with_nan_at_0_hz(kind):
 def test_two_dof_from_noisy_h1_within_half_percent_and_five_percent(method):
     """H1 of a random test (2 % output noise, 255 averages, df = 0.25 Hz): natural frequencies
     within 0.5 %, damping ratios within 5 % of the state-space poles."""
-    est = _h1()
-    res = identify(
-        est.frequency_hz,
-        est.h1,
-        kind="accelerance",
-        excitation_psd=est.sxx,
-        coherence=est.coherence,
-        f_min=10,
-        f_max=250,
-        method=method,
-    )
+    res = _identify_h1(_h1(), method)
     fn, zeta = exact_modes()
     assert len(res.modes) == 2, res.notes
     np.testing.assert_allclose([m.frequency_hz for m in res.modes], fn, rtol=5e-3)
@@ -86,16 +90,7 @@ def test_no_mode_from_a_pure_sine_record():
     y = y + 0.01 * np.std(y) * rng.standard_normal(n)
     est = one_frf(x, y, FS, "random", 2048)
     for method in ("lscf", "peak"):
-        res = identify(
-            est.frequency_hz,
-            est.h1,
-            kind="accelerance",
-            excitation_psd=est.sxx,
-            coherence=est.coherence,
-            f_min=10,
-            f_max=250,
-            method=method,
-        )
+        res = _identify_h1(est, method)
         assert res.modes == []
         assert "sine dwell" in res.notes[0]
     support = excitation_support(est.frequency_hz, est.sxx, est.coherence, f_min=10, f_max=250)

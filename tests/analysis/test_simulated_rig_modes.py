@@ -3,8 +3,6 @@
 three flexural frequencies within 0.5 % of the simulated test article's own FEM values, and the
 natural-frequency table beside the nominal FEM."""
 
-from dataclasses import replace
-
 import numpy as np
 
 from rigtools.analysis.correlation import natural_frequency_table
@@ -12,40 +10,16 @@ from rigtools.analysis.frf import FRFMethod
 from rigtools.analysis.point import analyze_frf_test
 
 
-def test_burst_random_on_the_simulated_rig_finds_the_test_articles_frequencies():
-    from rigtools.acquisition import BlockCollector, RandomDrive, acquire
+def test_burst_random_on_the_simulated_rig_finds_the_test_articles_frequencies(burst_frf_test):
     from rigtools.config import load_rig
-    from rigtools.drivers.simulated import SimulatedRig
     from rigtools.sim.modal import flexural_frequencies
     from rigtools.sim.rig_model import build_rig_model
 
     cfg = load_rig()
-    p = cfg.to_params()
-    p = replace(p, contact=replace(p.contact, gap=0.05))
-    rig = SimulatedRig(
-        p,
-        cfg.shaker.to_params(),
-        cfg.test_article.to_params(),
-        seed=1,
-        abort_ramp_time=cfg.safety.abort_ramp_time,
-    )
-    fs = rig.configure(cfg.daq.input_specs(), cfg.daq.output_spec(), 25600.0)
-    period = 2.0
-    drive = RandomDrive(
-        fs,
-        0.5,
-        (10.0, 2000.0),
-        max_drive=cfg.safety.max_drive,
-        ramp_time=0.002,
-        burst_period=period,
-        burst_fraction=0.4,
-        seed=2,
-    )
-    sink = BlockCollector()
-    acquire(rig, drive, 8 * period, sink=sink)
+    rig, fs, period, samples = burst_frf_test
     names = [s.name for s in cfg.daq.input_specs()]
-    n = int(8 * period * fs)
-    data = {name: sink.data[i, :n] for i, name in enumerate(names)}
+    n = samples.shape[1]
+    data = {name: samples[i] for i, name in enumerate(names)}
     step = 30000
     blocks = ({k: v[i : i + step] for k, v in data.items()} for i in range(0, n, step))
     res = analyze_frf_test(

@@ -155,6 +155,15 @@ def test_channels_are_created_with_sensitivities_units_and_iepe_excitation(monke
     rig, dev = configured(monkeypatch, specs)
     # expected from the default rig file: force 11.24 mV/N +-200 N; accels 10 mV/g +-4900 m/s^2;
     # 4 mA internal IEPE excitation on all three
+    accel = {
+        "min_val": -4900.0,
+        "max_val": 4900.0,
+        "units": AccelUnits.METERS_PER_SECOND_SQUARED,
+        "sensitivity": 10.0,
+        "sensitivity_units": AccelSensitivityUnits.MILLIVOLTS_PER_G,
+        "current_excit_source": ExcitationSource.INTERNAL,
+        "current_excit_val": 0.004,
+    }
     assert rig.ai.ai_channels.mock_calls[:3] == [
         mock.call.add_ai_force_iepe_chan(
             "Dev1/ai0",
@@ -167,28 +176,8 @@ def test_channels_are_created_with_sensitivities_units_and_iepe_excitation(monke
             current_excit_source=ExcitationSource.INTERNAL,
             current_excit_val=0.004,
         ),
-        mock.call.add_ai_accel_chan(
-            "Dev1/ai1",
-            name_to_assign_to_channel="active_shroud_accel",
-            min_val=-4900.0,
-            max_val=4900.0,
-            units=AccelUnits.METERS_PER_SECOND_SQUARED,
-            sensitivity=10.0,
-            sensitivity_units=AccelSensitivityUnits.MILLIVOLTS_PER_G,
-            current_excit_source=ExcitationSource.INTERNAL,
-            current_excit_val=0.004,
-        ),
-        mock.call.add_ai_accel_chan(
-            "Dev1/ai2",
-            name_to_assign_to_channel="passive_shroud_accel",
-            min_val=-4900.0,
-            max_val=4900.0,
-            units=AccelUnits.METERS_PER_SECOND_SQUARED,
-            sensitivity=10.0,
-            sensitivity_units=AccelSensitivityUnits.MILLIVOLTS_PER_G,
-            current_excit_source=ExcitationSource.INTERNAL,
-            current_excit_val=0.004,
-        ),
+        mock.call.add_ai_accel_chan("Dev1/ai1", name_to_assign_to_channel="active_shroud_accel", **accel),
+        mock.call.add_ai_accel_chan("Dev1/ai2", name_to_assign_to_channel="passive_shroud_accel", **accel),
     ]
     assert rig.ai.ai_channels.add_ai_accel_chan.return_value.ai_coupling == Coupling.AC
     assert rig.ai.ai_channels.add_ai_force_iepe_chan.return_value.ai_coupling == Coupling.AC

@@ -30,3 +30,30 @@ def rig(*args, cwd) -> str:
     )
     assert proc.returncode == 0, proc.stderr[-2000:]
     return proc.stdout
+
+
+def acquire_dwell(*, seed=1, fe="60", force="15 N", gap="0.5 mm", periods=None, pace=False) -> list[str]:
+    """``acquire dwell`` on the simulated rig, by default the tests' usual point (15 N at 60 Hz,
+    gap 0.5 mm, seed 1); ``--gap`` left out where None (the rig file's), ``--periods`` only where
+    given, ``--pace`` (the simulated rig in real time) where asked."""
+    argv = ["acquire", "dwell", "--backend", "sim", "--seed", seed, "--fe", fe, "--force", force]
+    argv += ["--gap", gap] if gap is not None else []
+    argv += ["--pace"] if pace else []
+    argv += ["--periods", periods] if periods is not None else []
+    return [str(a) for a in argv]
+
+
+def acquire_frf(signal, *, band, averages, seed, frame="0.5 s", level="0.3 V") -> list[str]:
+    """``acquire frf`` on the simulated rig: ``signal`` (``burst``, ``chirp``, ...) over ``band``."""
+    argv = ["acquire", "frf", "--backend", "sim", "--seed", seed, "--signal", signal, "--band", band]
+    return [str(a) for a in [*argv, "--level", level, "--frame", frame, "--averages", averages]]
+
+
+def acquire_gap_study(values, *, fe, seed=1, force="15 N", periods=None, pace=False) -> list[str]:
+    """``acquire study gap`` on the simulated rig at the gaps ``values`` (``--yes``: no question
+    asked); ``--periods`` only where given, ``--pace`` where asked."""
+    argv = ["acquire", "study", "gap", "--backend", "sim", "--seed", seed, "--values", values]
+    argv += ["--force", force, "--fe", fe]
+    argv += ["--periods", periods] if periods is not None else []
+    argv += ["--pace"] if pace else []
+    return [str(a) for a in [*argv, "--yes"]]

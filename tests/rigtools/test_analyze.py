@@ -7,34 +7,16 @@ import json
 
 import numpy as np
 import pytest
-from cli_helpers import run_cli
+from cli_helpers import acquire_frf, run_cli
 
-FRF = [
-    "acquire",
-    "frf",
-    "--backend",
-    "sim",
-    "--signal",
-    "burst",
-    "--band",
-    "20 Hz:1500 Hz",
-    "--level",
-    "0.3 V",
-    "--frame",
-    "0.5 s",
-    "--averages",
-    "6",
-    "--seed",
-    "3",
-]
+FRF = acquire_frf(
+    "burst", band="20 Hz:1500 Hz", averages=6, seed=3
+)  # burst.h5, shared with test_measured_data.py
 
 
 @pytest.fixture(scope="module")
-def frf_file(tmp_path_factory):
-    path = tmp_path_factory.mktemp("frf") / "burst.h5"
-    code, _out, err = run_cli([*FRF, "--out", str(path)])
-    assert code == 0, err
-    return path
+def frf_file(sim_recording):
+    return sim_recording(FRF, "burst.h5")
 
 
 @pytest.fixture(scope="module")

@@ -28,6 +28,7 @@ import h5py
 import numpy as np
 import pytest
 import tomli_w
+from cli_helpers import acquire_dwell
 
 from rigtools.cli import main
 from rigtools.config import default_rig_text
@@ -931,19 +932,7 @@ def test_a_recording_named_png_survives_a_plot(lab, lab_digest, tmp_path):
 
 # --------------------------------------------------------- subprocesses: signals, pipes, console
 RIG_CMD = [sys.executable, "-m", "rigtools.cli"]
-PACED_DWELL = [
-    "acquire",
-    "dwell",
-    "--backend",
-    "sim",
-    "--pace",
-    "--seed",
-    "1",
-    "--fe",
-    "60 Hz",
-    "--force",
-    "15 N",
-]
+PACED_DWELL = acquire_dwell(fe="60 Hz", gap=None, pace=True)
 
 
 def _env(**extra: str) -> dict[str, str]:

@@ -9,36 +9,23 @@ import tomllib
 import numpy as np
 import pytest
 import tomli_w
-from cli_helpers import run_cli
+from cli_helpers import acquire_dwell, acquire_frf, run_cli
 
 from rigtools.cli import main
 from rigtools.config import default_rig_text, load_rig
 from rigtools.recording import check_recording, open_recording
 
 RATE = 51200.0  # [daq] sample_rate of the default rig
-DWELL = [
-    "dwell",
-    "--backend",
-    "sim",
-    "--seed",
-    "1",
-    "--fe",
-    "60",
-    "--force",
-    "15 N",
-    "--gap",
-    "0.5 mm",
-    "--periods",
-    "12",
-]
+DWELL = acquire_dwell(periods=12)
 
 
 @pytest.fixture(scope="module")
-def dwell(tmp_path_factory):
-    """The default rig (impacts at 0.5 mm), 15 N at 60 Hz, 12 periods recorded, --json."""
-    path = tmp_path_factory.mktemp("acq") / "run.h5"
-    code, out, err = run_cli(["acquire", *DWELL, "--out", str(path), "--json"])
-    return code, json.loads(out) if out else None, err, path
+def dwell(sim_recording):
+    """The default rig (impacts at 0.5 mm), 15 N at 60 Hz, 12 periods recorded, --json (the
+    session's shared recording: test_cli_report.py reads it too)."""
+    path = sim_recording([*DWELL, "--json"], "dwell.h5")
+    out, err = sim_recording.output(path)
+    return 0, json.loads(out) if out else None, err, path
 
 
 def test_dwell_holds_15_newtons_and_writes_a_complete_recording(dwell):
@@ -153,7 +140,7 @@ def test_injected_fault_exits_4_names_it_and_keeps_the_data_before_it(tmp_path):
     """An input overflow at t = 0.3 s, during the first ramp: exit 4, one line naming the fault,
     the file kept with status failed and the samples up to the fault (not 0)."""
     out = tmp_path / "fault.h5"
-    code, text, err = run_cli(["acquire", *DWELL, "--out", str(out), "--fault", "input-overflow@0.3 s"])
+    code, text, err = run_cli([*DWELL, "--out", str(out), "--fault", "input-overflow@0.3 s"])
     assert code == 4 and text == ""
     assert err.count("\n") == 1 and "input overflow" in err
     with open_recording(out) as rec:
@@ -193,7 +180,7 @@ def test_without_the_ni_driver_exit_3_in_one_line(tmp_path):
     ],
 )
 def test_bad_input_exit_2_in_one_line(tmp_path, change, message):
-    argv = ["acquire", *DWELL, *change, "--out", str(tmp_path / "x.h5")]
+    argv = [*DWELL, *change, "--out", str(tmp_path / "x.h5")]
     code, text, err = run_cli(argv)
     assert code == 2 and text == "" and err.count("\n") == 1 and message in err, err
     assert not (tmp_path / "x.h5").exists()
@@ -220,7 +207,7 @@ def test_fault_needs_the_simulated_rig(tmp_path):
 def test_existing_file_needs_overwrite(tmp_path):
     out = tmp_path / "old.h5"
     out.write_bytes(b"keep me")
-    code, _, err = run_cli(["acquire", *DWELL, "--out", str(out)])
+    code, _, err = run_cli([*DWELL, "--out", str(out)])
     assert code == 2 and err.count("\n") == 1 and "--overwrite" in err
     assert out.read_bytes() == b"keep me"
 
@@ -244,22 +231,7 @@ def test_frf_prints_the_h1_peaks_with_their_coherence(tmp_path):
     out = tmp_path / "frf.h5"
     code, text, err = run_cli(
         [
-            "acquire",
-            "frf",
-            "--backend",
-            "sim",
-            "--seed",
-            "1",
-            "--signal",
-            "chirp",
-            "--band",
-            "20 Hz:500 Hz",
-            "--level",
-            "0.3 V",
-            "--frame",
-            "0.5 s",
-            "--averages",
-            "4",
+            *acquire_frf("chirp", band="20 Hz:500 Hz", averages=4, seed=1),
             "--gap",
             "5 mm",
             "--out",
@@ -328,36 +300,10 @@ def test_sweep_json_and_resume_refusals(tmp_path):
     assert [p["fe"] for p in doc["points"]] == [100.0, 102.0, 104.0]
     assert all(abs(p["force_amplitude_measured"] / 2.0 - 1) <= 0.01 for p in doc["points"])
     assert doc["jumps"] == {"up": []}
-    code, _, err = run_cli(
-        [
-            "acquire",
-            "study",
-            "gap",
-            "--backend",
-            "sim",
-            "--values",
-            "0.3 mm,0.5 mm",
-            "--out",
-            str(tmp_path / "none.h5"),
-            "--resume",
-        ]
-    )
+    study = ["acquire", "study", "gap", "--backend", "sim", "--values", "0.3 mm,0.5 mm", "--resume"]
+    code, _, err = run_cli([*study, "--out", tmp_path / "none.h5"])
     assert code == 2 and err.count("\n") == 1 and "does not exist" in err
-    code, _, err = run_cli(
-        [
-            "acquire",
-            "study",
-            "gap",
-            "--backend",
-            "sim",
-            "--values",
-            "0.3 mm,0.5 mm",
-            "--out",
-            str(out),
-            "--resume",
-            "--yes",
-        ]
-    )
+    code, _, err = run_cli([*study, "--out", out, "--yes"])
     assert code == 2 and err.count("\n") == 1 and "different study" in err
     with open_recording(out) as rec:  # the sweep's file is untouched
         assert rec.status == "complete" and len(rec.points) == 3

@@ -7,47 +7,14 @@ import re
 import sys
 
 import pytest
-from cli_helpers import run_cli
+from cli_helpers import acquire_dwell, acquire_frf, run_cli
 
 
 @pytest.fixture(scope="module")
-def recordings(tmp_path_factory):
+def recordings(tmp_path_factory, sim_recording):
     d = tmp_path_factory.mktemp("rep")
     runs = {
-        "dwell": [
-            "acquire",
-            "dwell",
-            "--backend",
-            "sim",
-            "--seed",
-            "1",
-            "--fe",
-            "60",
-            "--force",
-            "15 N",
-            "--gap",
-            "0.5 mm",
-            "--periods",
-            "12",
-        ],
-        "frf": [
-            "acquire",
-            "frf",
-            "--backend",
-            "sim",
-            "--signal",
-            "burst",
-            "--band",
-            "20 Hz:1500 Hz",
-            "--level",
-            "0.3 V",
-            "--frame",
-            "0.5 s",
-            "--averages",
-            "4",
-            "--seed",
-            "2",
-        ],
+        "frf": acquire_frf("burst", band="20 Hz:1500 Hz", averages=4, seed=2),
         "study": [
             "study",
             "gap",
@@ -62,7 +29,8 @@ def recordings(tmp_path_factory):
             "--no-plot",
         ],
     }
-    paths = {}
+    # the dwell test_cli_acquire.py records (15 N at 60 Hz, gap 0.5 mm, 12 periods), made once
+    paths = {"dwell": sim_recording([*acquire_dwell(periods=12), "--json"], "dwell.h5")}
     for name, argv in runs.items():
         paths[name] = d / f"{name}.h5"
         code, _out, err = run_cli([*argv, "--out", str(paths[name])])

@@ -263,6 +263,20 @@ def _wait_for(predicate, timeout: float = 60.0) -> None:
         time.sleep(0.05)
 
 
+def _signal_when(proc: subprocess.Popen, ready, sig: int, settle: float = 0.0) -> str:
+    """Send ``sig`` to ``proc`` once ``ready()`` (or once it ended), ``settle`` s later; its stderr
+    (killed if still running after)."""
+    try:
+        _wait_for(lambda: proc.poll() is not None or ready())
+        time.sleep(settle)
+        proc.send_signal(sig)
+        _, stderr = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    return stderr
+
+
 def _file_has_samples(path: Path, n: int) -> bool:
     try:
         with h5py.File(path, "r", swmr=True, locking=False) as f:
@@ -366,14 +380,7 @@ def test_sigterm_during_simulation(tmp_path):
         env=_env(),
     )
     maps = Path(f"/proc/{proc.pid}/maps")
-    try:
-        _wait_for(lambda: proc.poll() is not None or "numba" in maps.read_text())
-        time.sleep(1.0)
-        proc.send_signal(signal.SIGTERM)
-        _, stderr = proc.communicate(timeout=60)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
+    stderr = _signal_when(proc, lambda: "numba" in maps.read_text(), signal.SIGTERM, settle=1.0)
     assert proc.returncode == EXIT_SIGTERM, stderr
     _stderr_ok(stderr)
     assert "SIGTERM" in stderr
@@ -392,13 +399,7 @@ def test_ctrl_c_during_start_up_is_one_line(tmp_path):
         env=_env(),
     )
     maps = Path(f"/proc/{proc.pid}/maps")
-    try:
-        _wait_for(lambda: proc.poll() is not None or "numpy" in maps.read_text())
-        proc.send_signal(signal.SIGINT)
-        _, stderr = proc.communicate(timeout=60)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
+    stderr = _signal_when(proc, lambda: "numpy" in maps.read_text(), signal.SIGINT)
     assert proc.returncode == EXIT_SIGINT, stderr
     _stderr_ok(stderr, max_lines=2)  # a first-run "compiling the kernels" line may precede
     assert "interrupted" in stderr
@@ -430,14 +431,9 @@ def test_ctrl_c_while_loading_the_rig_file_is_one_line(tmp_path):
         except OSError:
             return False
 
-    try:
-        _wait_for(lambda: proc.poll() is not None or reader_waiting())
-        time.sleep(0.2)  # rig is now blocked reading the (empty, open) FIFO
-        proc.send_signal(signal.SIGINT)
-        _, stderr = proc.communicate(timeout=60)
+    try:  # 0.2 s after a writer could open it, rig is blocked reading the (empty, open) FIFO
+        stderr = _signal_when(proc, reader_waiting, signal.SIGINT, settle=0.2)
     finally:
-        if proc.poll() is None:
-            proc.kill()
         for fd in writer:
             os.close(fd)
     assert proc.returncode == EXIT_SIGINT, stderr

@@ -7,55 +7,21 @@ better than nominal" at the paper's point, and issue 11's "compare again after u
 from __future__ import annotations
 
 import json
+import shutil
 
 import pytest
-from cli_helpers import rig
+from cli_helpers import acquire_frf, acquire_gap_study, rig
+
+#: the FRF test (burst, 20 Hz-2 kHz, 8 averages), shared with test_tap_analyze_update.py
+FRF = acquire_frf("burst", band="20 Hz:2 kHz", averages=8, seed=1)
 
 
 @pytest.fixture(scope="module")
-def scores(tmp_path_factory):
+def scores(tmp_path_factory, sim_recording):
     cwd = tmp_path_factory.mktemp("cmp60")
-    rig(
-        "acquire",
-        "frf",
-        "--backend",
-        "sim",
-        "--signal",
-        "burst",
-        "--band",
-        "20 Hz:2 kHz",
-        "--level",
-        "0.3 V",
-        "--frame",
-        "0.5 s",
-        "--averages",
-        "8",
-        "--seed",
-        "1",
-        "--out",
-        "frf.h5",
-        cwd=cwd,
-    )
+    shutil.copy(sim_recording(FRF, "frf.h5"), cwd / "frf.h5")
     rig("update", "frf.h5", "--params", "root.rotational_stiffness,damping.ratio", "--out", "u.toml", cwd=cwd)
-    rig(
-        "acquire",
-        "study",
-        "gap",
-        "--backend",
-        "sim",
-        "--seed",
-        "1",
-        "--values",
-        "0.3 mm,0.6 mm,0.9 mm",
-        "--force",
-        "15 N",
-        "--fe",
-        "60",
-        "--yes",
-        "--out",
-        "em.h5",
-        cwd=cwd,
-    )
+    rig(*acquire_gap_study("0.3 mm,0.6 mm,0.9 mm", fe="60"), "--out", "em.h5", cwd=cwd)
     out = {}
     for model in ("nominal", "updated"):
         for excitation in ("measured", "nominal"):

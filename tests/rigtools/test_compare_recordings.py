@@ -10,7 +10,7 @@ import json
 
 import numpy as np
 import pytest
-from cli_helpers import run_cli
+from cli_helpers import acquire_dwell, acquire_frf, acquire_gap_study, run_cli
 
 GAPS = "0.3 mm,0.6 mm,0.9 mm"
 
@@ -19,71 +19,12 @@ GAPS = "0.3 mm,0.6 mm,0.9 mm"
 def files(tmp_path_factory):
     d = tmp_path_factory.mktemp("cmp")
     paths = {"study65": d / "gap65.h5", "dwell60": d / "dwell60.h5", "frf": d / "frf.h5"}
-    code, _, err = run_cli(
-        [
-            "acquire",
-            "study",
-            "gap",
-            "--backend",
-            "sim",
-            "--seed",
-            "1",
-            "--values",
-            GAPS,
-            "--force",
-            "15 N",
-            "--fe",
-            "65",
-            "--periods",
-            "10",
-            "--yes",
-            "--out",
-            str(paths["study65"]),
-        ]
-    )
+    code, _, err = run_cli([*acquire_gap_study(GAPS, fe="65", periods=10), "--out", paths["study65"]])
+    assert code == 0, err
+    code, _, err = run_cli([*acquire_dwell(gap="0.6 mm", periods=10), "--out", paths["dwell60"]])
     assert code == 0, err
     code, _, err = run_cli(
-        [
-            "acquire",
-            "dwell",
-            "--backend",
-            "sim",
-            "--seed",
-            "1",
-            "--fe",
-            "60",
-            "--force",
-            "15 N",
-            "--gap",
-            "0.6 mm",
-            "--periods",
-            "10",
-            "--out",
-            str(paths["dwell60"]),
-        ]
-    )
-    assert code == 0, err
-    code, _, err = run_cli(
-        [
-            "acquire",
-            "frf",
-            "--backend",
-            "sim",
-            "--seed",
-            "1",
-            "--signal",
-            "chirp",
-            "--band",
-            "20 Hz:1 kHz",
-            "--level",
-            "0.3 V",
-            "--frame",
-            "0.5 s",
-            "--averages",
-            "4",
-            "--out",
-            str(paths["frf"]),
-        ]
+        [*acquire_frf("chirp", band="20 Hz:1 kHz", averages=4, seed=1), "--out", paths["frf"]]
     )
     assert code == 0, err
     paths["dir"] = d
@@ -173,22 +114,7 @@ def test_model_recording_is_paired_by_meaning_and_scores_as_the_same_run_simulat
     --excitation nominal``: the same model at the same point, so the same score (the F0 differs
     by the EM force's 0.1 % control error)."""
     fem = files["dir"] / "fem60.h5"
-    code, _, err = run_cli(
-        [
-            "simulate",
-            "--fe",
-            "60 Hz",
-            "--force",
-            "15 N",
-            "--gap",
-            "0.6 mm",
-            "--duration",
-            "0.2 s",
-            "--out",
-            str(fem),
-            "--no-plot",
-        ]
-    )
+    code, _, err = run_cli(_simulate_60hz("0.6 mm", "0.2 s", fem))
     assert code == 0, err
     code, out, err = run_cli(["compare", str(files["dwell60"]), str(fem), "--json"])
     assert code == 0, err
@@ -203,25 +129,16 @@ def test_model_recording_is_paired_by_meaning_and_scores_as_the_same_run_simulat
     assert a == pytest.approx(b, abs=0.01)
     # a model point at another gap does not pair: one line, exit 2
     other = files["dir"] / "fem60-gap09.h5"
-    code, _, err = run_cli(
-        [
-            "simulate",
-            "--fe",
-            "60 Hz",
-            "--force",
-            "15 N",
-            "--gap",
-            "0.9 mm",
-            "--duration",
-            "0.1 s",
-            "--out",
-            str(other),
-            "--no-plot",
-        ]
-    )
+    code, _, err = run_cli(_simulate_60hz("0.9 mm", "0.1 s", other))
     assert code == 0, err
     code, out, err = run_cli(["compare", str(files["dwell60"]), str(other)])
     assert code == 2 and "no EM point" in err and "(60.0, 0.9, 15.0)" in err and err.count("\n") == 1, err
+
+
+def _simulate_60hz(gap, duration, out):
+    """``rig simulate`` of the FEM at the EM dwell's point (60 Hz, 15 N) at ``gap``."""
+    point = ["--fe", "60 Hz", "--force", "15 N", "--gap", gap]
+    return ["simulate", *point, "--duration", duration, "--out", out, "--no-plot"]
 
 
 def test_a_study_without_frf_data_says_so(files):

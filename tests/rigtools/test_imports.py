@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import pyuff
-from cli_helpers import run_cli
+from cli_helpers import acquire_frf, run_cli
 from nptdms import ChannelObject, GroupObject, RootObject, TdmsFile, TdmsWriter
 
 from rigtools.frf_set import read_frf_set
@@ -28,6 +28,8 @@ from rigtools.recording.validate import check_recording
 
 NPTDMS_DATA = Path(__import__("nptdms").__file__).parent / "test" / "data"
 G = 9.80665
+#: a short burst-random FRF test: the UFF export tests read it (made once)
+SHORT_BURST = acquire_frf("burst", band="20 Hz:1500 Hz", frame="0.25 s", averages=3, seed=3)
 
 
 def _import(*args):
@@ -307,14 +309,9 @@ def test_uff_time_records_from_pyuff_round_trip(tmp_path):
         assert p.sample_rate == 1024.0
 
 
-def test_uff_export_frfs_and_time_round_trip(tmp_path):
+def test_uff_export_frfs_and_time_round_trip(tmp_path, sim_recording):
     """rig export uff writes; rig import uff reads back the same FRFs (an FRF set) and time records."""
-    rec_path = tmp_path / "burst.h5"
-    code, _, err = run_cli(
-        ["acquire", "frf", "--backend", "sim", "--signal", "burst", "--band", "20 Hz:1500 Hz", "--level",
-         "0.3 V", "--frame", "0.25 s", "--averages", "3", "--seed", "3", "--out", str(rec_path)]
-    )  # fmt: skip
-    assert code == 0, err
+    rec_path = sim_recording(SHORT_BURST, "burst.h5")
     uff = tmp_path / "burst.uff"
     assert run_cli(["export", "uff", str(rec_path), str(uff), "--what", "frf"])[0] == 0
     exported = [s for s in pyuff.UFF(str(uff)).read_sets() if s["type"] == 58 and s["func_type"] == 4]
@@ -336,15 +333,10 @@ def test_uff_export_frfs_and_time_round_trip(tmp_path):
             np.testing.assert_array_equal(back[:], ch[:])
 
 
-def test_our_export_reads_as_accelerance_in_sdypy(tmp_path):
+def test_our_export_reads_as_accelerance_in_sdypy(tmp_path, sim_recording):
     from sdypy import EMA
 
-    rec_path = tmp_path / "burst.h5"
-    code, _, err = run_cli(
-        ["acquire", "frf", "--backend", "sim", "--signal", "burst", "--band", "20 Hz:1500 Hz", "--level",
-         "0.3 V", "--frame", "0.25 s", "--averages", "3", "--seed", "3", "--out", str(rec_path)]
-    )  # fmt: skip
-    assert code == 0, err
+    rec_path = sim_recording(SHORT_BURST, "burst.h5")
     uff = tmp_path / "all.uff"
     assert run_cli(["export", "uff", str(rec_path), str(uff)])[0] == 0
     model = EMA.Model(lower=20, upper=1500, pol_order_high=10)

@@ -25,7 +25,7 @@ import warnings
 import numpy as np
 import pytest
 import pyuff
-from cli_helpers import run_cli
+from cli_helpers import acquire_frf, run_cli
 from sdypy_reference import reference_modes
 
 from rigtools.config import load_rig
@@ -307,30 +307,13 @@ def test_band_option_limits_modes(beam_file, beam_analysis):
     assert len(got) == len([f for f in full if 500 <= f <= 5000])
 
 
-BURST = [
-    "acquire",
-    "frf",
-    "--backend",
-    "sim",
-    "--signal",
-    "burst",
-    "--band",
-    "20 Hz:1500 Hz",
-    "--level",
-    "0.3 V",
-    "--frame",
-    "0.5 s",
-    "--averages",
-    "6",
-    "--seed",
-    "3",
-]
+BURST = acquire_frf(
+    "burst", band="20 Hz:1500 Hz", averages=6, seed=3
+)  # burst.h5, shared with test_analyze.py
 
 
-def test_burst_random_export_equals_analysis_and_pyfrf(tmp_path):
-    path = tmp_path / "burst.h5"
-    code, _, err = run_cli([*BURST, "--out", str(path)])
-    assert code == 0, err
+def test_burst_random_export_equals_analysis_and_pyfrf(tmp_path, sim_recording):
+    path = sim_recording(BURST, "burst.h5")
     ana, est = _check_export_equals_analysis(path, tmp_path)
     p = ana.broadband[0]
     assert p.frf.frf_method.excitation == "burst"

@@ -9,29 +9,13 @@ import time
 
 import numpy as np
 import pytest
+from cli_helpers import acquire_dwell, acquire_gap_study
 
 from rigtools.procedures.rig_study import complete_points
 from rigtools.recording import check_recording, open_recording
 
 RATE = 51200.0
-STUDY = [
-    "acquire",
-    "study",
-    "gap",
-    "--backend",
-    "sim",
-    "--seed",
-    "1",
-    "--values",
-    "0.3 mm:0.9 mm:0.2 mm",
-    "--force",
-    "15 N",
-    "--fe",
-    "60",
-    "--periods",
-    "12",
-    "--yes",
-]
+STUDY = acquire_gap_study("0.3 mm:0.9 mm:0.2 mm", fe="60", periods=12)
 
 
 def _rig(args, **kw):
@@ -101,26 +85,7 @@ def test_study_killed_after_two_points_resumes_with_every_point_once(tmp_path):
 @pytest.mark.parametrize("sig", ["SIGINT", "SIGTERM", "SIGHUP"])
 def test_signal_during_a_dwell_ramps_down_and_keeps_the_data(tmp_path, sig):
     out = tmp_path / "d.h5"
-    child = _rig(
-        [
-            "acquire",
-            "dwell",
-            "--backend",
-            "sim",
-            "--seed",
-            "1",
-            "--fe",
-            "60",
-            "--force",
-            "15 N",
-            "--gap",
-            "0.5 mm",
-            "--periods",
-            "6000",
-            "--out",
-            str(out),
-        ]
-    )
+    child = _rig([*acquire_dwell(periods=6000), "--out", str(out)])
     # wait until the dwell is recording (past the ramp and the force control): > 3 s on disk
     assert _wait_for(lambda: _samples(out) > 3.0 * RATE, child)
     at = _samples(out)

@@ -9,30 +9,12 @@ import subprocess
 import sys
 import time
 
-from cli_helpers import run_cli
+from cli_helpers import acquire_gap_study, run_cli
 
 from rigtools.procedures.rig_study import complete_points
 from rigtools.recording import check_recording, open_recording
 
-STUDY = [
-    "acquire",
-    "study",
-    "gap",
-    "--backend",
-    "sim",
-    "--pace",
-    "--seed",
-    "1",
-    "--values",
-    "0.5 mm:0.9 mm:0.2 mm",
-    "--force",
-    "15 N",
-    "--fe",
-    "60 Hz",
-    "--periods",
-    "12",
-    "--yes",
-]
+STUDY = acquire_gap_study("0.5 mm:0.9 mm:0.2 mm", fe="60 Hz", periods=12, pace=True)
 
 
 def test_resume_while_the_study_writes_is_refused_and_the_study_finishes(tmp_path):

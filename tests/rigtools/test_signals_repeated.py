@@ -24,25 +24,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from cli_helpers import acquire_dwell
 
 from rigtools.errors import Interrupted
 from rigtools.recording import check_recording, open_recording
 
-DWELL = [
-    "acquire",
-    "dwell",
-    "--backend",
-    "sim",
-    "--pace",
-    "--seed",
-    "1",
-    "--fe",
-    "60 Hz",
-    "--force",
-    "15 N",
-    "--periods",
-    "3000",
-]
+DWELL = acquire_dwell(fe="60 Hz", gap=None, pace=True, periods=3000)
 ORDER = [signal.SIGINT, signal.SIGTERM, signal.SIGINT]
 
 # (phase, gaps between signals in s): two and three signals 20-200 ms apart

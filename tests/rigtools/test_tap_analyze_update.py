@@ -7,40 +7,23 @@ construction) and its [test_article] values."""
 from __future__ import annotations
 
 import json
+import shutil
 
 import pytest
-from cli_helpers import rig
+from cli_helpers import acquire_frf, rig
 
 from rigtools.config import load_rig
 
 #: the test article's own first three flexural frequencies (FE eigen-solve of its blades)
 ARTICLE = {"active": (52.013, 355.625, 1252.944), "passive": (53.69, 471.24, 1296.76)}
+#: the FRF test (burst, 20 Hz-2 kHz, 8 averages), shared with test_compare_after_update.py
+FRF = acquire_frf("burst", band="20 Hz:2 kHz", averages=8, seed=1)
 
 
 @pytest.fixture(scope="module")
-def folder(tmp_path_factory):
+def folder(tmp_path_factory, sim_recording):
     cwd = tmp_path_factory.mktemp("tap")
-    rig(
-        "acquire",
-        "frf",
-        "--backend",
-        "sim",
-        "--signal",
-        "burst",
-        "--band",
-        "20 Hz:2 kHz",
-        "--level",
-        "0.3 V",
-        "--frame",
-        "0.5 s",
-        "--averages",
-        "8",
-        "--seed",
-        "1",
-        "--out",
-        "frf.h5",
-        cwd=cwd,
-    )
+    shutil.copy(sim_recording(FRF, "frf.h5"), cwd / "frf.h5")
     rig(
         "acquire",
         "tap",

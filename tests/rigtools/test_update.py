@@ -14,45 +14,15 @@ import tomllib
 
 import numpy as np
 import pytest
-from cli_helpers import run_cli
+from cli_helpers import acquire_dwell, acquire_frf, run_cli
 
 from rigtools.config import default_rig_text, load_rig
 from rigtools.errors import UserError
 from rigtools.sim.parameter_fit import mode_targets
 from rigtools.update_rig_text import updated_rig_text
 
-FRF = [
-    "acquire",
-    "frf",
-    "--backend",
-    "sim",
-    "--seed",
-    "1",
-    "--signal",
-    "chirp",
-    "--band",
-    "20 Hz:2 kHz",
-    "--level",
-    "0.3 V",
-    "--frame",
-    "1 s",
-    "--averages",
-    "4",
-]
-DWELL = [
-    "acquire",
-    "dwell",
-    "--backend",
-    "sim",
-    "--seed",
-    "2",
-    "--fe",
-    "60",
-    "--force",
-    "15 N",
-    "--gap",
-    "0.5 mm",
-]
+FRF = acquire_frf("chirp", band="20 Hz:2 kHz", frame="1 s", averages=4, seed=1)  # test_update*.py
+DWELL = acquire_dwell(seed=2)
 K_ROT = "root.rotational_stiffness"
 
 
@@ -62,11 +32,8 @@ def folder(tmp_path_factory):
 
 
 @pytest.fixture(scope="module")
-def frf(folder):
-    path = folder / "frf.h5"
-    code, _, err = run_cli([*FRF, "--out", path])
-    assert code == 0, err
-    return path
+def frf(sim_recording):
+    return sim_recording(FRF, "frf.h5")  # shared with test_update_tap.py
 
 
 @pytest.fixture(scope="module")

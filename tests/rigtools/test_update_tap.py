@@ -17,7 +17,7 @@ import json
 
 import numpy as np
 import pytest
-from cli_helpers import run_cli
+from cli_helpers import acquire_frf, run_cli
 
 from rigtools.config import default_rig_text, load_rig
 from rigtools.recording import ChannelSpec, RecordingWriter
@@ -28,24 +28,7 @@ from rigtools.sim.rig_model import build_rig_model
 RATE = 51200.0
 FRAME = 51200  # 1 s frames: 1 Hz resolution
 FRAMES = 4
-FRF = [
-    "acquire",
-    "frf",
-    "--backend",
-    "sim",
-    "--seed",
-    "1",
-    "--signal",
-    "chirp",
-    "--band",
-    "20 Hz:2 kHz",
-    "--level",
-    "0.3 V",
-    "--frame",
-    "1 s",
-    "--averages",
-    "4",
-]
+FRF = acquire_frf("chirp", band="20 Hz:2 kHz", frame="1 s", averages=4, seed=1)  # test_update*.py
 FOUR = "root.rotational_stiffness,shroud.mass,force_sensor.mass,damping.ratio"
 
 
@@ -98,11 +81,9 @@ def write_tap(path, params, seed=3):
 
 
 @pytest.fixture(scope="module")
-def both(tmp_path_factory, article):
+def both(tmp_path_factory, article, sim_recording):
     folder = tmp_path_factory.mktemp("tap")
-    frf, tap = folder / "frf.h5", folder / "tap.h5"
-    code, _, err = run_cli([*FRF, "--out", frf])
-    assert code == 0, err
+    frf, tap = sim_recording(FRF, "frf.h5"), folder / "tap.h5"  # frf.h5 shared with test_update.py
     write_tap(tap, article[1])
     out = folder / "both.toml"
     code, js, err = run_cli(["update", frf, tap, "--params", FOUR, "--out", out, "--json"])
