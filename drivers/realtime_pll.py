@@ -35,11 +35,23 @@ from rigtools.drivers.contracts import ConfigurationError
 from rigtools.drivers.realtime import CONVERTER_DELAY
 from rigtools.sim.realtime_pll import PllCommand
 
-__all__ = ["NO_REALTIME_PLL", "REALTIME_PLL_GAINS", "PllCommand", "RealTimePll"]
+__all__ = [
+    "DEEP_PHASE",
+    "NO_REALTIME_PLL",
+    "REALTIME_PLL_DEEP_GAINS",
+    "REALTIME_PLL_GAINS",
+    "PllCommand",
+    "RealTimePll",
+]
 
-#: The real-time PLL's gains by default (Hz/deg, Hz/(deg s)): a crossover near 36 rad/s
-#: (``360 kp``), under the detector's half period of delay, above the growth past the fold.
-REALTIME_PLL_GAINS = (0.1, 0.3)
+#: The real-time PLL's gains by default (Hz/deg, Hz/(deg s)) near phase resonance: crossover
+#: near 18 rad/s (``360 kp``); measured: 0.2 N locks in 94 periods (kp 0.1 there takes 192).
+REALTIME_PLL_GAINS = (0.05, 0.5)
+#: ... and past the fold (a run whose deepest target is below :data:`DEEP_PHASE`): crossover near
+#: 36 rad/s, under the detector's half period of delay (8 ms at 64 Hz), above the growth of the
+#: orbits there; measured: 5 N holds -152 and -156 deg (kp 0.05, ki 0.5 loses -156 deg).
+REALTIME_PLL_DEEP_GAINS = (0.1, 0.3)
+DEEP_PHASE = -140.0
 
 #: What the PLL says on a backend without a real-time loop (one line).
 NO_REALTIME_PLL = (

@@ -79,8 +79,8 @@ from rigtools.drivers.sensor_chain import SensorChain, SensorModel
 from rigtools.drivers.shaker import ShakerParams
 from rigtools.sim.delayed_feedback import DelayedFeedback
 from rigtools.sim.params import DampingParams, RigParams, RootParams, SimulationInputError
-from rigtools.sim.rig_model import RigModel, build_rig_model
 from rigtools.sim.realtime_pll import PllFeedback
+from rigtools.sim.rig_model import RigModel, build_rig_model
 from rigtools.sim.rig_physics import SIGNAL_INDEX, SIGNALS, LinearModalPhysics, VibroImpactPhysics
 
 __all__ = [

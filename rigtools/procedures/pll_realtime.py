@@ -29,7 +29,13 @@ import numpy as np
 
 from rigtools.acquisition import BlockStream
 from rigtools.drivers.contracts import ConfigurationError
-from rigtools.drivers.realtime_pll import REALTIME_PLL_GAINS, PllCommand, RealTimePll
+from rigtools.drivers.realtime_pll import (
+    DEEP_PHASE,
+    REALTIME_PLL_DEEP_GAINS,
+    REALTIME_PLL_GAINS,
+    PllCommand,
+    RealTimePll,
+)
 from rigtools.procedures.pll_run import PllRun
 
 
@@ -155,8 +161,10 @@ class RealTimePllRun(PllRun):
             raise ConfigurationError(f"the {device.backend} backend has no real-time inner loop")
         lo, hi = params.frequency_range()
         given = params.model_fields_set
-        kp = params.kp if "kp" in given else REALTIME_PLL_GAINS[0]
-        ki = params.ki if "ki" in given else REALTIME_PLL_GAINS[1]
+        deep = min(params.phases) < DEEP_PHASE
+        gains = REALTIME_PLL_DEEP_GAINS if deep else REALTIME_PLL_GAINS
+        kp = params.kp if "kp" in given else gains[0]
+        ki = params.ki if "ki" in given else gains[1]
         self.law = RealTimePll(f_start=float(session.fe), f_min=lo, f_max=hi, kp=kp, ki=ki)
         device.set_realtime_loop(self.law)
         first_phase = params.targets()[0][1]
