@@ -24,6 +24,11 @@ loops running. Not locked within --max-periods, the frequency at --f-min/--f-max
 amplitude past --max-amplitude: the point is written marked not converged and one line says why;
 --on-lock-loss continue (default) goes on to the next point, stop ends the run there (drive
 ramped to zero, the points kept). Between points the target phase moves at --phase-rate.
+Inner loop (--inner-loop): where the backend has a real-time loop (the simulated rig) the
+detector, the PI and the sine run per sample on it (10 kHz, 1.04 ms; gains 0.05 Hz/deg,
+0.5 Hz/(deg s), or 0.1 and 0.3 when a target lies below -140 deg), the host holding the force
+and moving the target; this holds the orbits past the fold. --backend nidaq says in one line
+that this needs a real-time target and runs the buffered PLL (the host's, every ~20 ms).
 The first point starts at --fe-start (default: the rig file's nominal model's frequency at the
 first --phase, without contact).
 
@@ -76,6 +81,15 @@ PLL_OPTIONS: tuple[tuple[tuple[str, ...], tuple[str, ...], dict], ...] = (
         _P,
         ("--max-amplitude",),
         {"default": None, "help": 'active shroud amplitude limit, e.g. "3 mm" (lock loss)'},
+    ),
+    (
+        _P,
+        ("--inner-loop",),
+        {
+            "choices": ("realtime", "buffered"),
+            "default": None,
+            "help": "the phase loop: the backend's per-sample real-time PLL (default where it has one) or buffered",
+        },
     ),
     (
         _P,
