@@ -48,9 +48,10 @@ __all__ = [
 #: near 18 rad/s (``360 kp``); measured: 0.2 N locks in 94 periods (kp 0.1 there takes 192).
 REALTIME_PLL_GAINS = (0.05, 0.5)
 #: ... and past the fold (a run whose deepest target is below :data:`DEEP_PHASE`): crossover near
-#: 36 rad/s, under the detector's half period of delay (8 ms at 64 Hz), above the growth of the
-#: orbits there; measured: 5 N holds -152 and -156 deg (kp 0.05, ki 0.5 loses -156 deg).
-REALTIME_PLL_DEEP_GAINS = (0.1, 0.3)
+#: 90 rad/s (``360 kp``), just under what the detector's half period of delay (8 ms at 64 Hz)
+#: plus the 1.04 ms latency allow, above the growth of the orbits there (ln|mu| fe, to ~23 s^-1
+#: at -165 deg); measured at 5 N: kp 0.1 holds -156 deg and loses -165 deg, 0.25 holds -165 deg.
+REALTIME_PLL_DEEP_GAINS = (0.25, 0.3)
 DEEP_PHASE = -140.0
 
 #: What the PLL says on a backend without a real-time loop (one line).

@@ -38,6 +38,11 @@ from rigtools.drivers.realtime_pll import (
 )
 from rigtools.procedures.pll_run import PllRun
 
+#: Past the fold (a target below DEEP_PHASE), unless given: the target moves at 5 deg/s between
+#: points (at 30 deg/s -165 deg is lost on the way from -156 deg), and the force is held within
+#: 0.2 % (there fe moves about 0.1 % per 0.8 % of F1: a 1 % force tolerance spends the fe budget).
+DEEP_DEFAULTS = {"phase_rate": 5.0, "force_tolerance": 0.004, "lock_tolerance": 0.5}
+
 
 class OscillatorPhase:
     """The loop's oscillator phase as the detector's phase history (the :class:`PhaseLog`
@@ -165,6 +170,9 @@ class RealTimePllRun(PllRun):
         gains = REALTIME_PLL_DEEP_GAINS if deep else REALTIME_PLL_GAINS
         kp = params.kp if "kp" in given else gains[0]
         ki = params.ki if "ki" in given else gains[1]
+        if deep:  # past the fold: the target moves slower, the force is held closer
+            update = {k: v for k, v in DEEP_DEFAULTS.items() if k not in given}
+            params = params.model_copy(update=update)
         self.law = RealTimePll(f_start=float(session.fe), f_min=lo, f_max=hi, kp=kp, ki=ki)
         device.set_realtime_loop(self.law)
         first_phase = params.targets()[0][1]
