@@ -65,12 +65,16 @@ class PllCommand:
         Time over which the amplitude moves to ``amplitude`` (linearly), s.
     phase_rate
         Rate at which the target slews to ``phase_deg``, deg/s (``inf``: at once).
+    kp, ki
+        New PI gains, Hz/deg and Hz/(deg s) (``None``: as they are): a gain schedule.
     """
 
     phase_deg: float
     amplitude: float
     ramp_s: float = 0.05
     phase_rate: float = math.inf
+    kp: float | None = None
+    ki: float | None = None
 
     def __post_init__(self) -> None:
         values = (self.phase_deg, self.amplitude, self.ramp_s)
@@ -78,6 +82,9 @@ class PllCommand:
             raise SimulationInputError(f"PLL command {self!r}: finite values, amplitude and ramp >= 0")
         if not self.phase_rate > 0:
             raise SimulationInputError(f"PLL command: phase rate {self.phase_rate!r} deg/s must be > 0")
+        for gain in (self.kp, self.ki):
+            if gain is not None and not (math.isfinite(gain) and gain >= 0):
+                raise SimulationInputError(f"PLL command: gains must be finite and >= 0, got {gain!r}")
 
 
 @njit(cache=True)
@@ -227,6 +234,10 @@ class PllFeedback:
         slew = command.phase_rate / per_tick
         step = abs(command.amplitude - self._state[_AMP]) / max(command.ramp_s * per_tick, 1.0)
         self._cmd[:4] = (command.phase_deg, slew, command.amplitude, step)
+        if command.kp is not None:
+            self._cmd[4] = command.kp
+        if command.ki is not None:
+            self._cmd[5] = command.ki
 
     def set_target(self, target: object, from_time: float | None = None) -> None:
         """The harmonic-target interface of the PD loop: a PLL has none (``None`` only)."""

@@ -74,8 +74,9 @@ class LoopDrive:
     session and the PLL use, kept by the real-time loop: amplitude and phase target go down to
     it as commands, the frequency comes up from it; the blocks written are zeros."""
 
-    def __init__(self, device: Any, sine: Any, phase_deg: float) -> None:
+    def __init__(self, device: Any, sine: Any, phase_deg: float, gains: tuple[float, float]) -> None:
         self.device = device
+        self.gains = gains  # the loop's PI gains, sent with every command
         self.sample_rate = float(sine.sample_rate)
         self.max_drive = float(sine.max_drive)
         self.ramp_time = float(sine.ramp_time)
@@ -122,7 +123,9 @@ class LoopDrive:
         self._settled_at = int(self.device.drive_samples) + math.ceil(ramp * self.sample_rate)
 
     def _send(self, amplitude: float, ramp: float) -> None:
-        self.device.set_pll_command(PllCommand(self._phase, amplitude, ramp))
+        self.device.set_pll_command(
+            PllCommand(self._phase, amplitude, ramp, kp=self.gains[0], ki=self.gains[1])
+        )
 
     def next_block(self, n: int) -> np.ndarray:
         self.samples_written += n
@@ -167,17 +170,26 @@ class RealTimePllRun(PllRun):
         lo, hi = params.frequency_range()
         given = params.model_fields_set
         deep = min(params.phases) < DEEP_PHASE
-        gains = REALTIME_PLL_DEEP_GAINS if deep else REALTIME_PLL_GAINS
-        kp = params.kp if "kp" in given else gains[0]
-        ki = params.ki if "ki" in given else gains[1]
+        # the gains by the target (a schedule), unless given: near resonance and past the fold
+        self.gains = {
+            False: (
+                params.kp if "kp" in given else REALTIME_PLL_GAINS[0],
+                params.ki if "ki" in given else REALTIME_PLL_GAINS[1],
+            ),
+            True: (
+                params.kp if "kp" in given else REALTIME_PLL_DEEP_GAINS[0],
+                params.ki if "ki" in given else REALTIME_PLL_DEEP_GAINS[1],
+            ),
+        }
+        first_phase = params.targets()[0][1]
+        kp, ki = self.gains[first_phase < DEEP_PHASE]
         if deep:  # past the fold: the target moves slower, the force is held closer
             update = {k: v for k, v in DEEP_DEFAULTS.items() if k not in given}
             params = params.model_copy(update=update)
         self.law = RealTimePll(f_start=float(session.fe), f_min=lo, f_max=hi, kp=kp, ki=ki)
         device.set_realtime_loop(self.law)
-        first_phase = params.targets()[0][1]
         old = session.stream
-        drive = LoopDrive(device, session.drive, first_phase)
+        drive = LoopDrive(device, session.drive, first_phase, (kp, ki))
         session.drive = drive
         session.stream = LoopBlockStream(
             device,
@@ -198,6 +210,7 @@ class RealTimePllRun(PllRun):
     def _steer(self, error: float, dt: float) -> None:
         """The loop follows the host's (moving) phase target."""
         assert self.target is not None  # set by _update before steering
+        self.s.drive.gains = self.gains[self.target < DEEP_PHASE]
         self.s.drive.set_phase(self.target)
 
 
