@@ -45,7 +45,7 @@ DEEP_DEFAULTS = {"phase_rate": 5.0, "force_tolerance": 0.004, "lock_tolerance": 
 
 
 class OscillatorPhase:
-    """The loop's oscillator phase as the detector's phase history (the :class:`PhaseLog`
+    """The loop's oscillator phase as the detector's phase history (the :class:`~rigtools.procedures.pll_loop.PhaseLog`
     interface of :mod:`rigtools.procedures.pll_loop`), on stream sample indices: index ``i``
     holds the phase at the end of sample ``i``."""
 
