@@ -73,11 +73,13 @@ from rigtools.drivers.contracts import (
 from rigtools.drivers.drive_signals import raised_cosine
 from rigtools.drivers.errors import one_line
 from rigtools.drivers.realtime import HarmonicTarget, RealTimeLoop
+from rigtools.drivers.realtime_pll import PllCommand, RealTimePll
 from rigtools.drivers.safety import MAX_TIME_TO_ZERO, output_queue_limit
 from rigtools.drivers.sensor_chain import SensorChain, SensorModel
 from rigtools.drivers.shaker import ShakerParams
 from rigtools.sim.delayed_feedback import DelayedFeedback
 from rigtools.sim.params import DampingParams, RigParams, RootParams, SimulationInputError
+from rigtools.sim.realtime_pll import PllFeedback
 from rigtools.sim.rig_model import RigModel, build_rig_model
 from rigtools.sim.rig_physics import SIGNAL_INDEX, SIGNALS, LinearModalPhysics, VibroImpactPhysics
 
@@ -425,8 +427,8 @@ class SimulatedRig(AcquisitionDevice):
         self._chain: SensorChain | None = None
         self._rows = np.zeros(0, dtype=int)
         self._drive_log: deque[np.ndarray] = deque()
-        self.realtime_loop: RealTimeLoop | None = None
-        self._feedback: DelayedFeedback | None = None
+        self.realtime_loop: RealTimeLoop | RealTimePll | None = None
+        self._feedback: DelayedFeedback | PllFeedback | None = None
         self._loop_log: deque[np.ndarray] = deque()
         self.drive_samples = 0  # drive samples that reached the amplifier since configure
         self.truth_log: list[np.ndarray] = []
@@ -554,8 +556,8 @@ class SimulatedRig(AcquisitionDevice):
         self._loop_log = deque()
         if self._feedback is not None:
             self._feedback.reset()
-            assert self.realtime_loop is not None  # a feedback is made from a loop
-            self._feedback.set_target(self.realtime_loop.target, 0.0)
+            if isinstance(self.realtime_loop, RealTimeLoop):
+                self._feedback.set_target(self.realtime_loop.target, 0.0)
         self.fault_sample = None
         self._closed = False
 
@@ -601,10 +603,12 @@ class SimulatedRig(AcquisitionDevice):
 
     # ------------------------------------------------------------------ real-time loop
 
-    def set_realtime_loop(self, loop: RealTimeLoop | None) -> None:
-        """Run ``loop`` (:class:`rigtools.drivers.realtime.RealTimeLoop`) per sample inside the
+    def set_realtime_loop(self, loop: RealTimeLoop | RealTimePll | None) -> None:
+        """Run ``loop`` (:class:`rigtools.drivers.realtime.RealTimeLoop`, or the phase-locked
+        loop :class:`rigtools.drivers.realtime_pll.RealTimePll`) per sample inside the
         integration from the next configure or stream start (``None``: no loop). Its target
-        starts as ``loop.target``; :meth:`set_loop_target` changes it between blocks.
+        starts as ``loop.target``; :meth:`set_loop_target` changes it between blocks (a PLL:
+        :meth:`set_pll_command`).
 
         Raises
         ------
@@ -617,7 +621,7 @@ class SimulatedRig(AcquisitionDevice):
             raise ConfigurationError("stop the device before changing its real-time loop")
         self.realtime_loop = loop
         self._feedback = self._make_feedback()
-        if self._feedback is not None and loop is not None:
+        if self._feedback is not None and isinstance(loop, RealTimeLoop):
             self._feedback.set_target(loop.target, self._feedback.time)
 
     def set_loop_target(self, target: HarmonicTarget | None, at: float | None = None) -> None:
@@ -640,13 +644,55 @@ class SimulatedRig(AcquisitionDevice):
             )
         self._feedback.set_target(target, at)
 
-    def _make_feedback(self) -> DelayedFeedback | None:
+    def set_pll_command(self, command: PllCommand) -> None:
+        """The real-time PLL follows ``command`` (phase target, amplitude) from its next tick.
+
+        Raises
+        ------
+        ConfigurationError
+            No real-time PLL set (:meth:`set_realtime_loop`), or the device not configured.
+        """
+        if not isinstance(self._feedback, PllFeedback):
+            raise ConfigurationError("no real-time PLL: call set_realtime_loop(RealTimePll(...)) first")
+        self._feedback.set_command(command)
+
+    def pll_oscillator(self, first: int, n: int) -> np.ndarray:
+        """The real-time PLL's up-link: ``(3, n)`` its oscillator's phase (rad, unwrapped) and
+        frequency (Hz) at the ends of amplifier samples ``first .. first + n - 1`` (the input
+        samples of the same indices), and its own phase estimate (deg)."""
+        if not isinstance(self._feedback, PllFeedback):
+            raise ConfigurationError("no real-time PLL: call set_realtime_loop(RealTimePll(...)) first")
+        try:
+            return self._feedback.oscillator(first, n)
+        except SimulationInputError as exc:
+            raise ConfigurationError(str(exc)) from None
+
+    def _make_feedback(self) -> DelayedFeedback | PllFeedback | None:
         loop = self.realtime_loop
         if loop is None or self._rate <= 0:
             return None
+        if isinstance(loop, RealTimePll):
+            return self._make_pll(loop)
         try:
             return DelayedFeedback(
                 loop.rate_hz, loop.delay_s, loop.kp, loop.kd, self.shaker.amplifier_gain, 1.0 / self._rate
+            )
+        except SimulationInputError as exc:
+            raise ConfigurationError(str(exc)) from None
+
+    def _make_pll(self, loop: RealTimePll) -> PllFeedback:
+        try:
+            return PllFeedback(
+                loop.rate_hz,
+                loop.delay_s,
+                loop.kp,
+                loop.ki,
+                loop.f_start,
+                loop.f_min,
+                loop.f_max,
+                loop.min_force,
+                self.shaker.amplifier_gain,
+                1.0 / self._rate,
             )
         except SimulationInputError as exc:
             raise ConfigurationError(str(exc)) from None

@@ -6,7 +6,7 @@ PLL_HELP = "phase-locked loop: backbone (-90 deg, stepped force) or stepped phas
 PLL_EPILOG = """examples:
   rig acquire pll --backend sim --gap "0.5 mm" --force "0.2 N" --phase "-90 deg" --out pll.h5
   rig acquire pll --backend sim --gap "0.5 mm" --force "1 N,2 N,5 N,10 N" --out backbone.h5
-  rig acquire pll --backend sim --gap "0.5 mm" --force "5 N" --phase "-120 deg,-140 deg" --out fr.h5
+  rig acquire pll --backend sim --gap "0.5 mm" --force "5 N" --phase "-152 deg,-156 deg,-165 deg" --out fr.h5
 
 What it does: the drive frequency is adjusted until the active shroud's displacement fundamental
 (from its accelerometer, X1 = -A1/w^2) lags the force fundamental by --phase. The phase detector
@@ -24,6 +24,12 @@ loops running. Not locked within --max-periods, the frequency at --f-min/--f-max
 amplitude past --max-amplitude: the point is written marked not converged and one line says why;
 --on-lock-loss continue (default) goes on to the next point, stop ends the run there (drive
 ramped to zero, the points kept). Between points the target phase moves at --phase-rate.
+Inner loop (--inner-loop): where the backend has a real-time loop (the simulated rig) the
+detector, the PI and the sine run per sample on it (10 kHz, 1.04 ms; gains 0.05 Hz/deg,
+0.5 Hz/(deg s), and 0.25, 0.3 while the target lies below -140 deg, where the target also moves
+at 5 deg/s, the force is held within 0.4 % and the lock needs 0.5 deg, unless given), the host
+holding the force and moving the target; this holds the orbits past the fold (to -165 deg at 5 N). --backend nidaq says in one line
+that this needs a real-time target and runs the buffered PLL (the host's, every ~20 ms).
 The first point starts at --fe-start (default: the rig file's nominal model's frequency at the
 first --phase, without contact).
 
@@ -49,8 +55,24 @@ PLL_OPTIONS: tuple[tuple[tuple[str, ...], tuple[str, ...], dict], ...] = (
     ),
     (_P, ("--f-min",), {"default": None, "help": "lowest drive frequency (default 0.7 x --fe-start)"}),
     (_P, ("--f-max",), {"default": None, "help": "highest drive frequency (default 1.5 x --fe-start)"}),
-    (_P, ("--kp",), {"type": float, "default": None, "help": "proportional gain, Hz/deg (default 0.009)"}),
-    (_P, ("--ki",), {"type": float, "default": None, "help": "integral gain, Hz/(deg s) (default 0.07)"}),
+    (
+        _P,
+        ("--kp",),
+        {
+            "type": float,
+            "default": None,
+            "help": "proportional gain, Hz/deg (buffered 0.009; real-time 0.05/0.25)",
+        },
+    ),
+    (
+        _P,
+        ("--ki",),
+        {
+            "type": float,
+            "default": None,
+            "help": "integral gain, Hz/(deg s) (buffered 0.07; real-time 0.5/0.3)",
+        },
+    ),
     (
         _P,
         ("--lock-periods",),
@@ -76,6 +98,15 @@ PLL_OPTIONS: tuple[tuple[tuple[str, ...], tuple[str, ...], dict], ...] = (
         _P,
         ("--max-amplitude",),
         {"default": None, "help": 'active shroud amplitude limit, e.g. "3 mm" (lock loss)'},
+    ),
+    (
+        _P,
+        ("--inner-loop",),
+        {
+            "choices": ("realtime", "buffered"),
+            "default": None,
+            "help": "the phase loop: the backend's per-sample real-time PLL (default where it has one) or buffered",
+        },
     ),
     (
         _P,

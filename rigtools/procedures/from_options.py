@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from rigtools.analysis.frf import MIN_FRAME_SAMPLES
+from rigtools.drivers.realtime_pll import NO_REALTIME_PLL
 from rigtools.errors import UserError
 from rigtools.options import band_option, quantity, value_list
 from rigtools.options import gap as _gap_text
@@ -172,7 +173,10 @@ def build_procedure(
     if name == "pll":
         params = pll_parameters(cfg, o)
         below_nyquist(params["fe_start"], rate, "--fe-start", o.get("fe_start"))
-        return PhaseLockedLoop(cfg, params, out, **run_options)
+        pll = PhaseLockedLoop(cfg, params, out, **run_options)
+        if run_options.get("backend") == "nidaq" and params.get("inner_loop") != "buffered":
+            pll.note = NO_REALTIME_PLL  # said before the device opens
+        return pll
     if name == "tap":
         from rigtools.procedures.tap import TapTest
 

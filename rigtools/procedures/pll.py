@@ -30,8 +30,10 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
+from rigtools.drivers.realtime_pll import NO_REALTIME_PLL
 from rigtools.procedures.base import validate
 from rigtools.procedures.controlled_point import ControlledPoint
+from rigtools.procedures.pll_realtime import RealTimePllRun
 from rigtools.procedures.pll_run import DETECT_PERIODS, PllRun
 from rigtools.procedures.sine import SineProcedure
 from rigtools.quantity_fields import Force, Frequency, Length, VoltageAmplitude
@@ -81,6 +83,11 @@ class PllParameters(BaseModel):
     )
     initial_drive: VoltageAmplitude = Field(0.2, gt=0, le=10, description="first drive amplitude, V peak")
     margin: float = Field(0.8, gt=0, le=1, description="fraction of a warning level never planned past")
+    inner_loop: Literal["realtime", "buffered"] | None = Field(
+        None,
+        description="the phase loop: the backend's real-time PLL, or the host's buffered one "
+        "(None: real-time where the backend has one)",
+    )
 
     @model_validator(mode="after")
     def _lists(self) -> PllParameters:
@@ -121,9 +128,22 @@ class PhaseLockedLoop(SineProcedure):
         super().__init__(cfg, out, **kwargs)
         self.params = params if isinstance(params, PllParameters) else validate(PllParameters, **params)
         self.points: list[ControlledPoint] = []
+        self.note = ""  # the line rig acquire prints first (a backend without a real-time loop)
 
     def first_frequency(self) -> float:
         return self.params.fe_start
+
+    def _inner_loop(self) -> type[PllRun]:
+        """The run of the inner loop chosen; the one-line note where the backend has no
+        real-time loop (the buffered PLL runs)."""
+        has = bool(getattr(self.device, "has_realtime_loop", False))
+        if not has and self.params.inner_loop != "buffered":
+            if not self.note:
+                self.note = NO_REALTIME_PLL
+            self.emit("message", text=NO_REALTIME_PLL)
+        if self.params.inner_loop == "buffered" or not has:
+            return PllRun
+        return RealTimePllRun
 
     def record_seconds(self) -> float:
         lo, _ = self.params.frequency_range()
@@ -136,7 +156,8 @@ class PhaseLockedLoop(SineProcedure):
     def execute(self) -> None:
         p = self.params
         gap = self.set_gap(p.gap)
-        run = PllRun(self, self.running_session(), p)
+        run = self._inner_loop()(self, self.running_session(), p)
+        self.result.summary["inner_loop"] = run.name
         targets = p.targets()
         for i, (force, phase) in enumerate(targets):
             text = f"{force:g} N, {phase:g} deg"

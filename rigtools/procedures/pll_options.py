@@ -85,6 +85,8 @@ def pll_parameters(cfg: Any, options: Mapping[str, Any]) -> dict:
         params["max_amplitude"] = quantity(o["max_amplitude"], "length", "--max-amplitude")
     if o.get("on_lock_loss") is not None:
         params["on_lock_loss"] = o["on_lock_loss"]
+    if o.get("inner_loop") is not None:
+        params["inner_loop"] = o["inner_loop"]
     return params
 
 

@@ -50,6 +50,8 @@ class PllRun:
         Its :class:`rigtools.procedures.pll.PllParameters`.
     """
 
+    name = "buffered"  # the inner loop: the host's, on the buffered stream
+
     def __init__(self, proc: Any, session: Any, params: Any) -> None:
         self.proc, self.s, self.p = proc, session, params
         self.rate = float(session.rate)
@@ -100,6 +102,10 @@ class PllRun:
             self.s.set_frequency(fe)
             self.log.change(self.s.drive.samples_written, fe)
 
+    def _steer(self, error: float, dt: float) -> None:
+        """One step of the phase loop: the PI's next frequency (buffered: the host runs it)."""
+        self._set_frequency(self.ctl.update(self.fe, error, dt))
+
     def _hold_force(self, det: Detection, force: float, dt: float) -> None:
         """The outer loop: the drive amplitude towards the force target, within the limits."""
         drive = self.s.drive
@@ -148,7 +154,7 @@ class PllRun:
         gap = wrap_deg(phase - self.target)
         self.target = phase if abs(gap) <= step else self.target + math.copysign(step, gap)
         error = wrap_deg(measured - self.target)
-        self._set_frequency(self.ctl.update(self.fe, error, dt))
+        self._steer(error, dt)
         self.updates += 1
         self._hold_force(det, force, dt)
         return det, error
