@@ -115,6 +115,9 @@ class CBCPoint:
     channel_names: tuple[str, ...] = ()  # the rows of ``measurement.channels``
     multipliers: np.ndarray | None = None  # measured Floquet multipliers (complex), largest first
     stability: dict[str, float] = field(default_factory=dict)  # how they were measured
+    # the measurement's window in the recording point: s from the point's start, and samples
+    record_start: float | None = None
+    record_samples: int = 0
 
     def multiplier_fields(self) -> dict[str, Any]:
         """``multipliers`` (moduli, largest first), their angles (deg) and the fit's details;
@@ -159,7 +162,15 @@ class CBCPoint:
             "iteration_drive_ratio": [h["drive_harmonics_ratio"] for h in self.history],
             "iteration_amplitude_error": [h["amplitude_error"] for h in self.history],
             **self.multiplier_fields(),
+            **self.window_fields(),
         }
+
+    def window_fields(self) -> dict[str, Any]:
+        """``record_start`` (s from the point's start) and ``record_samples``: the window the
+        point's harmonics come from, as every point of a recording states it; empty if unknown."""
+        if self.record_start is None:
+            return {}
+        return {"record_start": self.record_start, "record_samples": self.record_samples}
 
 
 def cbc_point(
@@ -262,6 +273,7 @@ class ControlBasedContinuation(SineProcedure):
         self.release: dict[str, Any] = {}
         self.note = ""  # the line rig acquire prints first (the NI backend: REAL_TIME_NOTE)
         self._leg: list[CBCPoint] = []  # the points of the leg being measured
+        self.rate = 0.0  # samples per second, once the device is configured
 
     def first_frequency(self) -> float:
         return self.params.fe
@@ -272,7 +284,7 @@ class ControlBasedContinuation(SineProcedure):
     def startup(self) -> None:
         if self.device is None:
             self.device = rig.open_device(self.cfg, self.backend, **self._device_opts)
-        rate = rig.configure(self.device, self.cfg)
+        rate = self.rate = rig.configure(self.device, self.cfg)
         if self.params.harmonics * self.params.fe >= 0.45 * rate:
             raise UserError(
                 f"fe = {self.params.fe:g} Hz: harmonic {self.params.harmonics} is above 0.45 x the sample rate"
@@ -340,6 +352,8 @@ class ControlBasedContinuation(SineProcedure):
                 secant = FeedforwardSecant(secant.jacobian)  # the slope learnt so far, a fresh history
                 pt = cbc_point(loop, p, target, ff, secant)
                 pt.channel_names = tuple(spec.name for spec in self.specs)
+                pt.record_start = (pt.measurement.start - loop.sink.point_start) / self.rate
+                pt.record_samples = pt.measurement.samples
                 self._stability(loop, pt)
                 self.points.append(pt)
                 self._leg.append(pt)

@@ -179,6 +179,25 @@ def test_cbc_recording_is_checked_and_read(sheet_run):
     assert "control_effort" in attrs and "drive_harmonics_ratio" in attrs
 
 
+def test_cbc_points_state_their_record_window(sheet_run):
+    """Each point's record_start/record_samples (the window its harmonics come from, as sine and
+    PLL points state it): whole periods inside the point, and the force fundamental fitted anew
+    on those samples of the file (rigtools.analysis.harmonics, a second fit) equals the point's
+    F1 to 1e-6 relative (the same samples: only round-off differs)."""
+    from rigtools.analysis.harmonics import harmonic_amplitudes
+    from rigtools.recording import open_recording
+
+    _, out = sheet_run
+    with open_recording(out) as rec:
+        for p in rec.points:
+            start, count = p.record_window
+            assert {"record_start", "record_samples"} <= set(p.params)
+            assert count == p.params["record_samples"] and start + count <= p.n_samples
+            assert count * FE / p.sample_rate == pytest.approx(round(count * FE / p.sample_rate), abs=0.02)
+            fit = harmonic_amplitudes(p.settled("force"), p.sample_rate, FE, 10)
+            assert fit.amplitude[0] == pytest.approx(p.params["force_fundamental_n"], rel=1e-6)
+
+
 def test_cli_json_lists_each_point(tmp_path):
     """rig acquire cbc --json: each point with the issue's keys; --backend nidaq says in one line
     that the full sheet needs a real-time inner loop before it looks for the hardware."""
