@@ -16,7 +16,9 @@ resonance), then the feedback is switched on with the orbit it found as its firs
 
 The buffered path plays a correction 50-65 ms after the data it comes from (the device's output
 queue); the loop then holds an unstable orbit only while its growth rate times that delay stays
-well under 1 (abs(mu) up to about 1.15 at 64 Hz, see :mod:`rigtools.procedures.cbc_loop`). On the NI
+well under 1 (abs(mu) up to about 1.15-1.2 at 64 Hz, see :mod:`rigtools.procedures.cbc_loop`; the
+default law on the fundamental, ``law="delay"``, is designed for that delay,
+:mod:`rigtools.procedures.cbc_delay`; gains given by the caller select the PD law). On the NI
 backend the procedure says so in one line: the whole unstable sheet needs a real-time inner loop.
 Where the backend has one (``has_realtime_loop``: the simulated rig) the inner loop is, by
 default, that per-sample loop (:mod:`rigtools.procedures.cbc_realtime`, gains 2000 V/m and
@@ -34,7 +36,7 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
@@ -47,6 +49,7 @@ from rigtools.options import quantity, value_list
 from rigtools.procedures import rig
 from rigtools.procedures.base import ProcedureResult, ProgressEvent, Status, validate
 from rigtools.procedures.cbc_iteration import (
+    DELAY_GAINS,
     FeedforwardSecant,
     Gains,
     drive_harmonics_ratio,
@@ -80,6 +83,10 @@ class CBCParameters(BaseModel):
     kp: float = Field(300.0, ge=-1e6, le=1e6, description="proportional gain, V/m")
     kd: float = Field(0.0, ge=-1e4, le=1e4, description="derivative gain, V s/m")
     feedback_harmonics: int = Field(1, ge=0, le=10, description="harmonics 1..n of the error fed back")
+    law: Literal["delay", "pd"] = Field(
+        "delay",
+        description="the buffered loop's law on the fundamental: the delay-aware one (DELAY_GAINS) or PD",
+    )
     harmonics: int = Field(10, ge=2, le=20, description="harmonics of target, drive and analysis")
     tolerance: float = Field(0.01, gt=0, le=0.5, description="drive harmonics 2-10 over its fundamental")
     amplitude_tolerance: float = Field(0.005, gt=0, le=0.5, description="|X1 - X1*| / A at convergence")
@@ -98,7 +105,8 @@ class CBCParameters(BaseModel):
     multipliers: bool = Field(True, description="measure each point's multipliers (a real-time loop only)")
 
     def gains(self) -> Gains:
-        return Gains(self.kp, self.kd, self.feedback_harmonics)
+        envelope = DELAY_GAINS if self.law == "delay" else None
+        return Gains(self.kp, self.kd, self.feedback_harmonics, envelope)
 
 
 @dataclass
@@ -269,6 +277,8 @@ class ControlBasedContinuation(SineProcedure):
         self.params = params if isinstance(params, CBCParameters) else validate(CBCParameters, **params)
         # the gains given by the caller, kept; else the chosen loop's own defaults
         self._gains_given = isinstance(params, CBCParameters) or "kp" in params or "kd" in params
+        if not isinstance(params, CBCParameters) and self._gains_given and "law" not in params:
+            self.params = self.params.model_copy(update={"law": "pd"})  # gains given: the PD law
         self.points: list[CBCPoint] = []
         self.release: dict[str, Any] = {}
         self.note = ""  # the line rig acquire prints first (the NI backend: REAL_TIME_NOTE)
