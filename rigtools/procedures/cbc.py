@@ -48,6 +48,7 @@ from rigtools.options import gap as gap_text
 from rigtools.options import quantity, value_list
 from rigtools.procedures import rig
 from rigtools.procedures.base import ProcedureResult, ProgressEvent, Status, validate
+from rigtools.procedures.cbc_arclength import ArcStep, extrapolate
 from rigtools.procedures.cbc_iteration import (
     DELAY_GAINS,
     FeedforwardSecant,
@@ -102,6 +103,9 @@ class CBCParameters(BaseModel):
         0.005e-3, gt=0, description="largest step from the approach's orbit to a leg's first point, m"
     )
     release_seconds: Time = Field(0.0, ge=0, le=60, description="gains at zero after the last point, s")
+    arclength_points: int = Field(
+        4, ge=0, le=50, description="points by pseudo-arclength in (A, drive) after a failed A-step"
+    )
     multipliers: bool = Field(True, description="measure each point's multipliers (a real-time loop only)")
 
     def gains(self) -> Gains:
@@ -126,6 +130,7 @@ class CBCPoint:
     # the measurement's window in the recording point: s from the point's start, and samples
     record_start: float | None = None
     record_samples: int = 0
+    arclength: bool = False  # placed by pseudo-arclength (past a turn in A), not at a target A
 
     def multiplier_fields(self) -> dict[str, Any]:
         """``multipliers`` (moduli, largest first), their angles (deg) and the fit's details;
@@ -182,10 +187,18 @@ class CBCPoint:
 
 
 def cbc_point(
-    loop, params: CBCParameters, target: np.ndarray, feedforward: np.ndarray, secant: FeedforwardSecant
+    loop,
+    params: CBCParameters,
+    target: np.ndarray,
+    feedforward: np.ndarray,
+    secant: FeedforwardSecant,
+    arc: ArcStep | None = None,
 ) -> CBCPoint:
     """Iterate at one target fundamental until the control is non-invasive: the target's harmonics
-    2..H by Picard steps, the feedforward's fundamental by ``secant`` (see the module docstring)."""
+    2..H by Picard steps, the feedforward's fundamental by ``secant`` (see the module docstring).
+    With ``arc`` the target's amplitude moves too, onto the pseudo-arclength corrector's line
+    (:class:`~rigtools.procedures.cbc_arclength.ArcStep`; the measured A and drive), which a
+    converged point then meets."""
     fe, a_target = params.fe, abs(target[0])
     history: list[dict[str, float]] = []
     m: LoopMeasurement | None = None
@@ -201,12 +214,23 @@ def cbc_point(
         ratio = drive_harmonics_ratio(m.drive)
         error = float(abs(m.response[0] - target[0]) / a_target)
         history.append({"drive_harmonics_ratio": ratio, "amplitude_error": error})
+        on_arc = arc is None or arc.satisfied(float(abs(m.response[0])), float(abs(m.drive[0])))
         converged = bool(m.steady and ratio <= params.tolerance and error <= params.amplitude_tolerance)
+        converged = converged and on_arc
         if converged or it == params.max_iterations:
             break
+        if arc is not None and arc.by_drive:  # the drive on the corrector's line, the target follows
+            a_target = float(abs(m.response[0]))
+            u1 = arc.drive_for(a_target) * np.exp(1j * np.angle(feedforward[0]))
+            target, feedforward = np.array(m.response, complex), np.zeros_like(feedforward)
+            feedforward[0] = u1
+            continue
         new_ff = secant.step(complex(feedforward[0]), complex(m.response[0]), complex(target[0]))
         target, feedforward = picard_update(target, feedforward, m.response, m.drive)
         feedforward[0] = new_ff
+        if arc is not None:  # the target's amplitude onto the corrector's line
+            a_target = arc.next_amplitude(float(abs(m.response[0])), float(abs(m.drive[0])))
+            target[0] *= a_target / abs(target[0])
     assert m is not None
     x1, f1 = m.response[0], m.force[0]
     point = ControlledPoint(
@@ -357,25 +381,14 @@ class ControlBasedContinuation(SineProcedure):
             for j, amplitude in enumerate(leg):
                 done += 1
                 self.emit("point", point=done, n_points=n, text=f"A = {amplitude * 1e3:.4g} mm")
-                self.begin_point({"fe": p.fe, "amplitude_target": amplitude, "gap": gap})
                 target, ff = predicted(self._leg, first, amplitude)
                 secant = FeedforwardSecant(secant.jacobian)  # the slope learnt so far, a fresh history
-                pt = cbc_point(loop, p, target, ff, secant)
-                pt.channel_names = tuple(spec.name for spec in self.specs)
-                pt.record_start = (pt.measurement.start - loop.sink.point_start) / self.rate
-                pt.record_samples = pt.measurement.samples
-                self._stability(loop, pt)
-                self.points.append(pt)
-                self._leg.append(pt)
-                last = j == len(leg) - 1 or not pt.point.converged
-                release = {}
-                if last and leg_index == 0 and pt.point.converged and p.release_seconds > 0:
-                    release = self.release = self._release(loop, p)
-                attrs = {**pt.attrs(), **{f"release_{k}": v for k, v in release.items()}}
-                self.end_point({k: v for k, v in attrs.items() if not isinstance(v, list) or v})
-                self.result.points.append({"fe": p.fe, "gap": gap, "amplitude_target": amplitude, **attrs})
+                release = j == len(leg) - 1 and leg_index == 0 and p.release_seconds > 0
+                pt = self._measure(loop, gap, amplitude, target, ff, secant, release=release)
                 self.emit("point_done", point=done, n_points=n, text=_line(pt))
-                if not pt.point.converged:  # the orbit is lost: the rest of this leg is not measured
+                if not pt.point.converged:  # the A-step failed: past a turn in A, or the orbit is lost
+                    if p.arclength_points:  # past the turn: points on the branch, not at these A
+                        self._arclength(loop, gap, secant)
                     skipped.extend(leg[j + 1 :])
                     done += len(leg) - j - 1
                     break
@@ -383,6 +396,65 @@ class ControlBasedContinuation(SineProcedure):
         self.result.summary["points"] = [pt.point.to_dict() for pt in self.points]
         self.result.summary["skipped_amplitudes"] = skipped
         loop.finish()
+
+    def _measure(
+        self,
+        loop,
+        gap: float,
+        amplitude: float,
+        target: np.ndarray,
+        ff: np.ndarray,
+        secant: FeedforwardSecant,
+        *,
+        release: bool = False,
+        arc: ArcStep | None = None,
+    ) -> CBCPoint:
+        """One recorded point at ``amplitude`` (or on ``arc``'s corrector line); with ``release``
+        and converged, the gains at zero afterwards (:meth:`_release`)."""
+        p = self.params
+        kind = {"parameterisation": "arclength"} if arc is not None else {}
+        self.begin_point({"fe": p.fe, "amplitude_target": amplitude, "gap": gap, **kind})
+        pt = cbc_point(loop, p, target, ff, secant, arc=arc)
+        pt.arclength = arc is not None
+        pt.channel_names = tuple(spec.name for spec in self.specs)
+        pt.record_start = (pt.measurement.start - loop.sink.point_start) / self.rate
+        pt.record_samples = pt.measurement.samples
+        self._stability(loop, pt)
+        self.points.append(pt)
+        self._leg.append(pt)
+        released = self._release(loop, p) if release and pt.point.converged else {}
+        if released:
+            self.release = released
+        attrs = {**pt.attrs(), **kind, **{f"release_{k}": v for k, v in released.items()}}
+        self.end_point({k: v for k, v in attrs.items() if not isinstance(v, list) or v})
+        self.result.points.append({"fe": p.fe, "gap": gap, "amplitude_target": amplitude, **attrs})
+        return pt
+
+    def _arclength(self, loop, gap: float, secant: FeedforwardSecant) -> list[CBCPoint]:
+        """After a failed A-step: up to ``arclength_points`` points by pseudo-arclength in (A, U)
+        from the leg's last two converged points (:mod:`rigtools.procedures.cbc_arclength`),
+        recorded with ``parameterisation`` "arclength"; stops at the first not converged."""
+        done: list[CBCPoint] = []
+        for i in range(self.params.arclength_points):
+            good = [q for q in self._leg if q.point.converged][-2:]
+            if len(good) < 2:
+                break
+            points = [(abs(q.target[0]), abs(q.feedforward[0])) for q in good]
+            step = ArcStep.through(points[0], points[1])
+            state = extrapolate([np.concatenate([q.target, q.feedforward]) for q in good], points, step)
+            m = state.size // 2
+            target, ff = state[:m].copy(), state[m:].copy()
+            a_pred, u_pred = step.predictor()
+            target[0] = a_pred * np.exp(1j * np.angle(target[0]))
+            if step.by_drive:
+                ff[0] = u_pred * np.exp(1j * np.angle(ff[0]))
+            self.emit("message", text=f"arclength point {i + 1}: A = {a_pred * 1e3:.4g} mm predicted")
+            pt = self._measure(loop, gap, a_pred, target, ff, FeedforwardSecant(secant.jacobian), arc=step)
+            self.emit("point_done", text=_line(pt))
+            done.append(pt)
+            if not pt.point.converged:
+                break
+        return done
 
     def _walk(
         self, loop, p: CBCParameters, first: tuple[np.ndarray, np.ndarray], amplitude: float, secant
@@ -495,6 +567,8 @@ def json_document(proc: ControlBasedContinuation) -> dict[str, Any]:
                 **pt.point.to_dict(),
                 "control_effort": pt.control_effort,
                 "tip_amplitude_m": pt.tip_amplitude,
+                "drive_amplitude_v": float(abs(pt.measurement.drive[0])),
+                "parameterisation": "arclength" if pt.arclength else "amplitude",
                 **pt.multiplier_fields(),
             }
             for pt in proc.points
