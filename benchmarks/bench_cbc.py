@@ -38,6 +38,22 @@ def s_curve() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return a[keep], f, mu
 
 
+def branch_by_drive() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The impacting branch through the grazing hairpin as a function of the drive (V): A and F1.
+    Past the turn in A (0.3059 mm) the branch is no graph over A, it is one over the drive."""
+    pts = [
+        r
+        for r in json.loads(TABLE.read_text())["points"]
+        if r["impacts_per_period"] > 0 and r["drive_v"] > 0.42 and r["amplitude_m"] < 0.345e-3
+    ]
+    pts.sort(key=lambda r: r["drive_v"])
+    u = np.array([r["drive_v"] for r in pts])
+    keep = np.concatenate([[True], np.diff(u) > 0])
+    a = np.array([r["amplitude_m"] for r in pts])[keep]
+    f = np.array([r["force_n"] for r in pts])[keep]
+    return u[keep], a, f
+
+
 def verdict(ok: bool) -> str:
     return "met" if ok else "NOT met"
 
@@ -58,8 +74,11 @@ def main() -> None:
     a, f, mu = s_curve()
     print(f"{len(doc['points'])} points measured, skipped {doc.get('skipped_amplitudes', [])}")
     worst, conv_unstable = 0.0, []
+    bu, ba, bf = branch_by_drive()
     for p in doc["points"]:
         model = float(np.interp(p["amplitude_m"], a, f, left=math.nan, right=math.nan))
+        if p["parameterisation"] == "arclength":  # past the turn in A: the model at the same drive
+            model = float(np.interp(p["drive_amplitude_v"], bu, bf, left=math.nan, right=math.nan))
         err = p["force_fundamental_n"] / model - 1 if math.isfinite(model) else math.nan
         on = p["converged"] and math.isfinite(err) and abs(err) <= 0.02
         if on:
@@ -69,11 +88,29 @@ def main() -> None:
         print(
             f"  A {p['amplitude_m'] * 1e3:.4f} mm  F1 {p['force_fundamental_n']:.4f} N  model {model:.4f} N  "
             f"({err * 100:+.2f} %)  {'converged' if p['converged'] else 'NOT converged'} in {p['iterations']}  "
-            f"drive 2-10 {p['drive_harmonics_ratio'] * 100:.3f} %"
+            f"drive 2-10 {p['drive_harmonics_ratio'] * 100:.3f} %  drive {p['drive_amplitude_v']:.4f} V"
+            + ("  (arclength)" if p["parameterisation"] == "arclength" else "")
         )
     good = [p for p in doc["points"] if p["converged"]]
     print(f"F1 within 2 % of the model at every converged point on the S-curve: worst {worst * 100:.2f} %")
-    print(f"points measured on the S-curve: {len(good)} of 13 grid values -> {verdict(len(good) == 13)}")
+    grid = [p for p in good if p["parameterisation"] == "amplitude"]
+    arc = [p for p in good if p["parameterisation"] == "arclength"]
+    turn = float(ba.min())
+    beyond = [x for x in doc.get("skipped_amplitudes", []) if x < turn]
+    print(
+        f"grid values converged: {len(grid)} of 13; {len(beyond) + 1} lie beyond the branch's turn in A "
+        f"({turn * 1e3:.4f} mm, the model), where no orbit of it is (the first one's A-step fails, then arclength)"
+    )
+    if arc:
+        amps = [p["amplitude_m"] for p in arc]
+        i = int(np.argmin(amps))
+        passed = 0 < i < len(amps) - 1 or (i == 0 and amps[-1] > amps[0])
+        print(
+            f"arclength points past the grazing hairpin: {len(arc)} converged, A "
+            f"{' -> '.join(f'{x * 1e3:.4f}' for x in amps)} mm, smallest {min(amps) * 1e3:.4f} mm vs the "
+            f"model's turn {turn * 1e3:.4f} mm ({(min(amps) / turn - 1) * 100:+.2f} %); the turn passed -> "
+            f"{verdict(passed)}"
+        )
     if good:
         i = int(np.argmin([p["force_fundamental_n"] for p in good]))
         fm, am, tip = good[i]["force_fundamental_n"], good[i]["amplitude_m"], good[i]["tip_amplitude_m"]

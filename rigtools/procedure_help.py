@@ -236,10 +236,12 @@ holds the rig at a target amplitude A at --fe; an outer iteration on the target'
 feedforward makes the drive a pure sine (harmonics 2-10 below --tolerance of its fundamental), so
 each converged point is an orbit of the rig without control, stable or not; F1 is measured. The rig
 is brought onto the branch by a sweep up to --fe first. On the buffered path a correction is played
-50-65 ms after its data: orbits with |mu| up to about 1.15 can be held; the full unstable sheet
-needs a real-time inner loop (--backend nidaq says so and runs the buffered variant). --json lists
-each point: fe_hz, amplitude_m, force_fundamental_n, phase_deg, converged, iterations,
-drive_harmonics_ratio, control_effort.
+50-65 ms after its data: the default law on the fundamental, designed for that delay, holds orbits
+with |mu| up to about 1.17 (64 Hz; --gains selects the PD law); the full unstable sheet needs a
+real-time inner loop (--backend nidaq says so and runs the buffered variant). Where an A-step fails
+at a turn of the branch in A (the grazing hairpin), points go on by pseudo-arclength in (A, drive).
+--json lists each point: fe_hz, amplitude_m, force_fundamental_n, phase_deg, converged, iterations,
+drive_harmonics_ratio, control_effort, drive_amplitude_v, parameterisation.
 """,
     "dwell": """examples:
   rig acquire dwell --backend sim --fe 60 --force "15 N" --gap "0.5 mm" --out dwell.h5

@@ -16,7 +16,9 @@ resonance), then the feedback is switched on with the orbit it found as its firs
 
 The buffered path plays a correction 50-65 ms after the data it comes from (the device's output
 queue); the loop then holds an unstable orbit only while its growth rate times that delay stays
-well under 1 (abs(mu) up to about 1.15 at 64 Hz, see :mod:`rigtools.procedures.cbc_loop`). On the NI
+well under 1 (abs(mu) up to about 1.15-1.2 at 64 Hz, see :mod:`rigtools.procedures.cbc_loop`; the
+default law on the fundamental, ``law="delay"``, is designed for that delay,
+:mod:`rigtools.procedures.cbc_delay`; gains given by the caller select the PD law). On the NI
 backend the procedure says so in one line: the whole unstable sheet needs a real-time inner loop.
 Where the backend has one (``has_realtime_loop``: the simulated rig) the inner loop is, by
 default, that per-sample loop (:mod:`rigtools.procedures.cbc_realtime`, gains 2000 V/m and
@@ -34,7 +36,7 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
@@ -46,7 +48,9 @@ from rigtools.options import gap as gap_text
 from rigtools.options import quantity, value_list
 from rigtools.procedures import rig
 from rigtools.procedures.base import ProcedureResult, ProgressEvent, Status, validate
+from rigtools.procedures.cbc_arclength import ArcStep, extrapolate
 from rigtools.procedures.cbc_iteration import (
+    DELAY_GAINS,
     FeedforwardSecant,
     Gains,
     drive_harmonics_ratio,
@@ -67,6 +71,7 @@ from rigtools.units import MAX_GAP
 REAL_TIME_NOTE = NO_REALTIME_LOOP
 INNER_LOOPS = ("realtime", "buffered")
 RESPONSE_CHANNEL = "active_shroud_accel"  # the controlled response: the active shroud
+LINEAR_DEPARTURE = 0.05  # a released orbit's departure is fitted up to this share of A
 
 
 class CBCParameters(BaseModel):
@@ -80,6 +85,10 @@ class CBCParameters(BaseModel):
     kp: float = Field(300.0, ge=-1e6, le=1e6, description="proportional gain, V/m")
     kd: float = Field(0.0, ge=-1e4, le=1e4, description="derivative gain, V s/m")
     feedback_harmonics: int = Field(1, ge=0, le=10, description="harmonics 1..n of the error fed back")
+    law: Literal["delay", "pd"] = Field(
+        "delay",
+        description="the buffered loop's law on the fundamental: the delay-aware one (DELAY_GAINS) or PD",
+    )
     harmonics: int = Field(10, ge=2, le=20, description="harmonics of target, drive and analysis")
     tolerance: float = Field(0.01, gt=0, le=0.5, description="drive harmonics 2-10 over its fundamental")
     amplitude_tolerance: float = Field(0.005, gt=0, le=0.5, description="|X1 - X1*| / A at convergence")
@@ -95,10 +104,14 @@ class CBCParameters(BaseModel):
         0.005e-3, gt=0, description="largest step from the approach's orbit to a leg's first point, m"
     )
     release_seconds: Time = Field(0.0, ge=0, le=60, description="gains at zero after the last point, s")
+    arclength_points: int = Field(
+        4, ge=0, le=50, description="points by pseudo-arclength in (A, drive) after a failed A-step"
+    )
     multipliers: bool = Field(True, description="measure each point's multipliers (a real-time loop only)")
 
     def gains(self) -> Gains:
-        return Gains(self.kp, self.kd, self.feedback_harmonics)
+        envelope = DELAY_GAINS if self.law == "delay" else None
+        return Gains(self.kp, self.kd, self.feedback_harmonics, envelope)
 
 
 @dataclass
@@ -115,6 +128,10 @@ class CBCPoint:
     channel_names: tuple[str, ...] = ()  # the rows of ``measurement.channels``
     multipliers: np.ndarray | None = None  # measured Floquet multipliers (complex), largest first
     stability: dict[str, float] = field(default_factory=dict)  # how they were measured
+    # the measurement's window in the recording point: s from the point's start, and samples
+    record_start: float | None = None
+    record_samples: int = 0
+    arclength: bool = False  # placed by pseudo-arclength (past a turn in A), not at a target A
 
     def multiplier_fields(self) -> dict[str, Any]:
         """``multipliers`` (moduli, largest first), their angles (deg) and the fit's details;
@@ -159,14 +176,30 @@ class CBCPoint:
             "iteration_drive_ratio": [h["drive_harmonics_ratio"] for h in self.history],
             "iteration_amplitude_error": [h["amplitude_error"] for h in self.history],
             **self.multiplier_fields(),
+            **self.window_fields(),
         }
+
+    def window_fields(self) -> dict[str, Any]:
+        """``record_start`` (s from the point's start) and ``record_samples``: the window the
+        point's harmonics come from, as every point of a recording states it; empty if unknown."""
+        if self.record_start is None:
+            return {}
+        return {"record_start": self.record_start, "record_samples": self.record_samples}
 
 
 def cbc_point(
-    loop, params: CBCParameters, target: np.ndarray, feedforward: np.ndarray, secant: FeedforwardSecant
+    loop,
+    params: CBCParameters,
+    target: np.ndarray,
+    feedforward: np.ndarray,
+    secant: FeedforwardSecant,
+    arc: ArcStep | None = None,
 ) -> CBCPoint:
     """Iterate at one target fundamental until the control is non-invasive: the target's harmonics
-    2..H by Picard steps, the feedforward's fundamental by ``secant`` (see the module docstring)."""
+    2..H by Picard steps, the feedforward's fundamental by ``secant`` (see the module docstring).
+    With ``arc`` the target's amplitude moves too, onto the pseudo-arclength corrector's line
+    (:class:`~rigtools.procedures.cbc_arclength.ArcStep`; the measured A and drive), which a
+    converged point then meets."""
     fe, a_target = params.fe, abs(target[0])
     history: list[dict[str, float]] = []
     m: LoopMeasurement | None = None
@@ -182,12 +215,23 @@ def cbc_point(
         ratio = drive_harmonics_ratio(m.drive)
         error = float(abs(m.response[0] - target[0]) / a_target)
         history.append({"drive_harmonics_ratio": ratio, "amplitude_error": error})
+        on_arc = arc is None or arc.satisfied(float(abs(m.response[0])), float(abs(m.drive[0])))
         converged = bool(m.steady and ratio <= params.tolerance and error <= params.amplitude_tolerance)
+        converged = converged and on_arc
         if converged or it == params.max_iterations:
             break
+        if arc is not None and arc.by_drive:  # the drive on the corrector's line, the target follows
+            a_target = float(abs(m.response[0]))
+            u1 = arc.drive_for(a_target) * np.exp(1j * np.angle(feedforward[0]))
+            target, feedforward = np.array(m.response, complex), np.zeros_like(feedforward)
+            feedforward[0] = u1
+            continue
         new_ff = secant.step(complex(feedforward[0]), complex(m.response[0]), complex(target[0]))
         target, feedforward = picard_update(target, feedforward, m.response, m.drive)
         feedforward[0] = new_ff
+        if arc is not None:  # the target's amplitude onto the corrector's line
+            a_target = arc.next_amplitude(float(abs(m.response[0])), float(abs(m.drive[0])))
+            target[0] *= a_target / abs(target[0])
     assert m is not None
     x1, f1 = m.response[0], m.force[0]
     point = ControlledPoint(
@@ -258,10 +302,13 @@ class ControlBasedContinuation(SineProcedure):
         self.params = params if isinstance(params, CBCParameters) else validate(CBCParameters, **params)
         # the gains given by the caller, kept; else the chosen loop's own defaults
         self._gains_given = isinstance(params, CBCParameters) or "kp" in params or "kd" in params
+        if not isinstance(params, CBCParameters) and self._gains_given and "law" not in params:
+            self.params = self.params.model_copy(update={"law": "pd"})  # gains given: the PD law
         self.points: list[CBCPoint] = []
         self.release: dict[str, Any] = {}
         self.note = ""  # the line rig acquire prints first (the NI backend: REAL_TIME_NOTE)
         self._leg: list[CBCPoint] = []  # the points of the leg being measured
+        self.rate = 0.0  # samples per second, once the device is configured
 
     def first_frequency(self) -> float:
         return self.params.fe
@@ -272,7 +319,7 @@ class ControlBasedContinuation(SineProcedure):
     def startup(self) -> None:
         if self.device is None:
             self.device = rig.open_device(self.cfg, self.backend, **self._device_opts)
-        rate = rig.configure(self.device, self.cfg)
+        rate = self.rate = rig.configure(self.device, self.cfg)
         if self.params.harmonics * self.params.fe >= 0.45 * rate:
             raise UserError(
                 f"fe = {self.params.fe:g} Hz: harmonic {self.params.harmonics} is above 0.45 x the sample rate"
@@ -335,23 +382,14 @@ class ControlBasedContinuation(SineProcedure):
             for j, amplitude in enumerate(leg):
                 done += 1
                 self.emit("point", point=done, n_points=n, text=f"A = {amplitude * 1e3:.4g} mm")
-                self.begin_point({"fe": p.fe, "amplitude_target": amplitude, "gap": gap})
                 target, ff = predicted(self._leg, first, amplitude)
                 secant = FeedforwardSecant(secant.jacobian)  # the slope learnt so far, a fresh history
-                pt = cbc_point(loop, p, target, ff, secant)
-                pt.channel_names = tuple(spec.name for spec in self.specs)
-                self._stability(loop, pt)
-                self.points.append(pt)
-                self._leg.append(pt)
-                last = j == len(leg) - 1 or not pt.point.converged
-                release = {}
-                if last and leg_index == 0 and pt.point.converged and p.release_seconds > 0:
-                    release = self.release = self._release(loop, p)
-                attrs = {**pt.attrs(), **{f"release_{k}": v for k, v in release.items()}}
-                self.end_point({k: v for k, v in attrs.items() if not isinstance(v, list) or v})
-                self.result.points.append({"fe": p.fe, "gap": gap, "amplitude_target": amplitude, **attrs})
+                release = j == len(leg) - 1 and leg_index == 0 and p.release_seconds > 0
+                pt = self._measure(loop, gap, amplitude, target, ff, secant, release=release)
                 self.emit("point_done", point=done, n_points=n, text=_line(pt))
-                if not pt.point.converged:  # the orbit is lost: the rest of this leg is not measured
+                if not pt.point.converged:  # the A-step failed: past a turn in A, or the orbit is lost
+                    if p.arclength_points:  # past the turn: points on the branch, not at these A
+                        self._arclength(loop, gap, secant)
                     skipped.extend(leg[j + 1 :])
                     done += len(leg) - j - 1
                     break
@@ -359,6 +397,70 @@ class ControlBasedContinuation(SineProcedure):
         self.result.summary["points"] = [pt.point.to_dict() for pt in self.points]
         self.result.summary["skipped_amplitudes"] = skipped
         loop.finish()
+
+    def _measure(
+        self,
+        loop,
+        gap: float,
+        amplitude: float,
+        target: np.ndarray,
+        ff: np.ndarray,
+        secant: FeedforwardSecant,
+        *,
+        release: bool = False,
+        arc: ArcStep | None = None,
+    ) -> CBCPoint:
+        """One recorded point at ``amplitude`` (or on ``arc``'s corrector line); with ``release``
+        and converged, the gains at zero afterwards (:meth:`_release`)."""
+        p = self.params
+        kind = {"parameterisation": "arclength"} if arc is not None else {}
+        self.begin_point({"fe": p.fe, "amplitude_target": amplitude, "gap": gap, **kind})
+        pt = cbc_point(loop, p, target, ff, secant, arc=arc)
+        pt.arclength = arc is not None
+        pt.channel_names = tuple(spec.name for spec in self.specs)
+        pt.record_start = (pt.measurement.start - loop.sink.point_start) / self.rate
+        pt.record_samples = pt.measurement.samples
+        self._stability(loop, pt)
+        self.points.append(pt)
+        self._leg.append(pt)
+        released = self._release(loop, p) if release and pt.point.converged else {}
+        if released:
+            self.release = released
+        attrs = {**pt.attrs(), **kind, **{f"release_{k}": v for k, v in released.items()}}
+        self.end_point({k: v for k, v in attrs.items() if not isinstance(v, list) or v})
+        self.result.points.append({"fe": p.fe, "gap": gap, "amplitude_target": amplitude, **attrs})
+        return pt
+
+    def _arclength(self, loop, gap: float, secant: FeedforwardSecant) -> list[CBCPoint]:
+        """After a failed A-step near a turn in A (the last secant nearer the drive's axis than
+        A's: the drive changing faster than A, relative to each): up to ``arclength_points``
+        points by pseudo-arclength in (A, U) from the leg's last two converged points
+        (:mod:`rigtools.procedures.cbc_arclength`), recorded with ``parameterisation``
+        "arclength"; stops at the first not converged. Elsewhere (an orbit lost on a branch that
+        is a graph over A) nothing is tried."""
+        done: list[CBCPoint] = []
+        for i in range(self.params.arclength_points):
+            good = [q for q in self._leg if q.point.converged][-2:]
+            if len(good) < 2:
+                break
+            points = [(abs(q.target[0]), abs(q.feedforward[0])) for q in good]
+            step = ArcStep.through(points[0], points[1])
+            if i == 0 and not step.by_drive:  # the branch was no turn in A: the orbit is lost
+                break
+            state = extrapolate([np.concatenate([q.target, q.feedforward]) for q in good], points, step)
+            m = state.size // 2
+            target, ff = state[:m].copy(), state[m:].copy()
+            a_pred, u_pred = step.predictor()
+            target[0] = a_pred * np.exp(1j * np.angle(target[0]))
+            if step.by_drive:
+                ff[0] = u_pred * np.exp(1j * np.angle(ff[0]))
+            self.emit("message", text=f"arclength point {i + 1}: A = {a_pred * 1e3:.4g} mm predicted")
+            pt = self._measure(loop, gap, a_pred, target, ff, FeedforwardSecant(secant.jacobian), arc=step)
+            self.emit("point_done", text=_line(pt))
+            done.append(pt)
+            if not pt.point.converged:
+                break
+        return done
 
     def _walk(
         self, loop, p: CBCParameters, first: tuple[np.ndarray, np.ndarray], amplitude: float, secant
@@ -430,7 +532,10 @@ class ControlBasedContinuation(SineProcedure):
         times, x1 = loop.free_run(p.release_seconds)
         x0 = x1[0]
         deviation = np.abs(x1 - x0) / abs(x0)
-        rate, used = growth_rate(times, deviation, 0.005, 0.1)
+        # the linear range: from 0.5 % (above the first periods' ramp, the control term's step
+        # at the release) to 5 % of A (beyond it the departure slows: at A 0.360 mm the rate fitted
+        # up to 10 % was 13 % low, up to 5 % 4 %; at 0.350/0.355 mm 33/17 % high against 27/14 %)
+        rate, used = growth_rate(times, deviation, 0.005, LINEAR_DEPARTURE)
         return {
             "seconds": p.release_seconds,
             "growth_rate": rate,
@@ -471,6 +576,8 @@ def json_document(proc: ControlBasedContinuation) -> dict[str, Any]:
                 **pt.point.to_dict(),
                 "control_effort": pt.control_effort,
                 "tip_amplitude_m": pt.tip_amplitude,
+                "drive_amplitude_v": float(abs(pt.measurement.drive[0])),
+                "parameterisation": "arclength" if pt.arclength else "amplitude",
                 **pt.multiplier_fields(),
             }
             for pt in proc.points

@@ -33,6 +33,45 @@ RATIO_HARMONICS = 10
 
 
 @dataclass(frozen=True)
+class EnvelopeGains:
+    """The delay-aware law on the fundamental's complex amplitude, played once per block (the
+    buffered loop). In the orbit's own frame -- the error turned by the target's phase, the
+    correction by the feedforward's, so that the law does not depend on where the stream's phase
+    started -- with ``e`` the error ``X1 - X1*`` and ``d`` the change of ``X1`` since the previous
+    block as real 2-vectors (in phase, in quadrature) of the one-period estimate::
+
+        U1 = Uff1 + exp(i arg Uff1) (-K e - D d),   e = (X1 - X1*) exp(-i arg X1*)
+
+    ``K``, ``D`` real 2x2 (V/m, row-major tuples): a real matrix acts on amplitude and phase
+    separately (the orbit's slow flow is not complex-linear) and ``D`` is the phase lead the
+    output queue's two blocks of delay need; the gains come from
+    :func:`rigtools.procedures.cbc_delay.design_envelope_gains`.
+    """
+
+    k: tuple[float, float, float, float]
+    d: tuple[float, float, float, float]
+
+    def correction(self, error: complex, change: complex, target: complex, feedforward: complex) -> complex:
+        """``U1 - Uff1``, V, for the error and change of ``X1`` (m) at ``target`` and ``feedforward``."""
+        turn = np.exp(-1j * np.angle(target)) if target != 0 else 1.0
+        e, dx = error * turn, change * turn
+        v = -np.reshape(self.k, (2, 2)) @ [e.real, e.imag] - np.reshape(self.d, (2, 2)) @ [dx.real, dx.imag]
+        back = np.exp(1j * np.angle(feedforward)) if feedforward != 0 else 1.0
+        return complex(complex(float(v[0]), float(v[1])) * back)
+
+
+#: The simulated rig's delay-aware gains at 64 Hz, gap 0.5 mm (``benchmarks/cbc_delay_design.py``,
+#: :mod:`rigtools.procedures.cbc_delay`): models identified at A 0.315, 0.340 and 0.350 mm, the
+#: last moved to growths of 10 and 13 1/s, each with its drive gain x0.8/x1.25 and turned +-10 deg;
+#: the largest closed-loop spectral radius over those 25 models is 0.969 per 20 ms block (the
+#: design starts from the gains before it: a rerun refines these).
+DELAY_GAINS = EnvelopeGains(
+    k=(1043.04, 977.74, 220.83, -384.93),
+    d=(-934.25, 528.47, 405.17, 458.74),
+)
+
+
+@dataclass(frozen=True)
 class Gains:
     """PD gains of the feedback on the response (SI).
 
@@ -45,15 +84,19 @@ class Gains:
     harmonics
         Harmonics 1..``harmonics`` of the error are fed back (the buffered loop works on
         harmonic amplitudes and may leave the higher ones out; a per-sample loop feeds back all).
+    envelope
+        The buffered loop's delay-aware law on the fundamental (:class:`EnvelopeGains`), in
+        place of ``Kp + i w Kd`` there; a per-sample loop ignores it.
     """
 
     kp: float
     kd: float = 0.0
     harmonics: int = 1
+    envelope: EnvelopeGains | None = None  # the buffered loop's law on the fundamental, if set
 
     @property
     def zero(self) -> bool:
-        return self.kp == 0.0 and self.kd == 0.0
+        return self.kp == 0.0 and self.kd == 0.0 and self.envelope is None
 
     def law(self, fe: float, n: int) -> np.ndarray:
         """Complex gains ``Kp + i k w Kd`` of harmonics k = 1..n (zero above :attr:`harmonics`)."""

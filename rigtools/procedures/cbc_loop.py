@@ -8,8 +8,12 @@ harmonics by the PD law (:func:`rigtools.procedures.cbc_iteration.control_drive`
 block after the two already queued, so a correction reaches the shaker 50-65 ms after the middle
 of the data it comes from (two 20 ms pieces, the window's half, the converters). A delayed loop
 holds an orbit whose own growth rate is sigma only while sigma times that delay stays well under
-1: at 64 Hz, multipliers up to about 1.15 (sigma = fe lnabs(mu) = 9 1/s). The whole unstable sheet
-(abs(mu) up to 3.8) needs a per-sample loop at a few kHz with 1-2 ms of delay: a real-time target.
+1: at 64 Hz, multipliers up to about 1.15-1.2 (sigma = fe lnabs(mu) = 9-12 1/s). The PD law on
+a 5-period window held abs(mu) 1.04; the delay-aware law (``Gains.envelope``,
+:mod:`rigtools.procedures.cbc_delay`: real 2x2 gains on the fundamental's one-period estimate and
+its block-to-block change, designed for the queue's delay over identified models) holds 1.17.
+The whole unstable sheet (abs(mu) up to 3.8) needs a per-sample loop at a few kHz with 1-2 ms of
+delay: a real-time target.
 
 :class:`BufferedHarmonicLoop` is one inner loop; the outer iteration
 (:mod:`rigtools.procedures.cbc`) talks to any object with its :meth:`~BufferedHarmonicLoop.hold`,
@@ -251,6 +255,7 @@ class BufferedHarmonicLoop:
         self.rows = rows
         self.n_harmonics = n_harmonics
         self.window = max(1, round(window_periods * self.rate / fe))
+        self.period = max(1, round(self.rate / fe))
         self.drive = HarmonicDrive(self.rate, fe, n_harmonics, cfg.safety.max_drive, cfg.safety.ramp_time)
         n_rows = len(device.input_channels) + 1
         self.sink = PointSink(n_rows, int(ring_seconds * self.rate))
@@ -270,16 +275,30 @@ class BufferedHarmonicLoop:
         self.effort = 0.0  # RMS of the last control term, V
         self._fits: dict[int, np.ndarray] = {}
         self.active = True
+        self._last_x1: complex | None = None  # the previous block's one-period fundamental
+        # (stream sample, one-period X1 m, played U1 V) per block when a list: identification
+        self.block_log: list[tuple[int, complex, complex]] | None = None
 
     # -- the feedback, once per block ----------------------------------------------------------
     def _control(self) -> None:
-        if not self.active or self.sink.total < self.window:
+        if not self.active or self.sink.total < max(self.window, self.period, self.stream.n):
+            self._last_x1 = None
             return
         target, ff = self._ramped()
         x = self.response_now()
         u = control_drive(ff, target, x, self.gains, self.fe)
+        x1 = self.fundamental_now()
+        envelope = self.gains.envelope
+        if envelope is not None:  # the delay-aware law on the fundamental, from one period
+            last = x1 if self._last_x1 is None else self._last_x1
+            u[0] = ff[0] + envelope.correction(x1 - target[0], x1 - last, target[0], ff[0])
+        self._last_x1 = x1
         self.effort = float(np.sqrt(np.sum(np.abs(u - ff) ** 2) / 2))
         self.drive.set_harmonics(u)
+        if self.block_log is not None:
+            n = self.stream.n  # the drive's fundamental as played over the block just read
+            played = self.harmonics(self.sink.last(n)[-1:], self.sink.total - n)[0, 0]
+            self.block_log.append((self.sink.total, x1, complex(played)))
 
     def _ramped(self) -> tuple[np.ndarray, np.ndarray]:
         if self._ramp is None:
@@ -304,6 +323,13 @@ class BufferedHarmonicLoop:
         k = np.arange(1, self.n_harmonics + 1)
         return p * np.exp(-1j * k * float(self.drive.phase_at(start)))
 
+    def fundamental_now(self) -> complex:
+        """Displacement fundamental of the active shroud over the latest whole period (the
+        estimate the delay-aware law and its identified model use: the shortest leak-free one)."""
+        data = self.sink.last(self.period)[self.rows["accel"]]
+        h = self.harmonics(data[None, :], self.sink.total - data.size)[0]
+        return complex(displacement_from_acceleration(h, self.fe)[0])
+
     def response_now(self) -> np.ndarray:
         """Displacement harmonics of the active shroud over the latest control window."""
         data = self.sink.last(self.window)[self.rows["accel"]]
@@ -326,6 +352,7 @@ class BufferedHarmonicLoop:
 
     def set_gains(self, gains: Gains) -> None:
         self.gains = gains
+        self._last_x1 = None
 
     def sweep_from(self, f_start: float, seconds: float) -> None:
         """Sweep the drive's frequency from ``f_start`` up to fe over ``seconds`` (the approach)."""
@@ -387,11 +414,16 @@ class BufferedHarmonicLoop:
 
     def free_run(self, seconds: float, period_samples: int | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Gains at zero, the drive held at its present harmonics: the response's fundamental per
-        period over ``seconds`` s, ``(times s, complex X1)``, while the orbit is left alone."""
+        period over ``seconds`` s, ``(times s, complex X1)``, while the orbit is left alone.
+        Afterwards the loop runs on with the gains at zero (an approach follows)."""
         self.active = False
         n = period_samples or round(self.rate / self.fe)
         start = self.sink.total
-        self.wait(seconds)
+        try:
+            self.wait(seconds)
+        finally:  # the loop runs again, with the gains at zero (the drive: the feedforward)
+            self.set_gains(Gains(0.0))
+            self.active = True
         data = self.sink.last(self.sink.total - start)[self.rows["accel"]]
         count = data.size // n
         times, x1 = np.zeros(count), np.zeros(count, complex)
