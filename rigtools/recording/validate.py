@@ -15,6 +15,7 @@ import json
 import math
 import os
 import time
+import tomllib
 from dataclasses import asdict, dataclass, field
 from numbers import Real
 from typing import Any
@@ -23,7 +24,9 @@ import h5py
 import numpy as np
 
 import rigtools
-from rigtools.errors import one_line, option
+from rigtools.config import parse_rig
+from rigtools.errors import UserError, one_line, option
+from rigtools.recording.lock import writer_alive
 from rigtools.recording.opener import LIVE_RETRY_S, PAST_END, named, open_h5
 from rigtools.recording.schema import (
     CHANNEL_ATTRS,
@@ -46,12 +49,11 @@ from rigtools.recording.schema import (
     STATUS_RECORDING,
     STATUSES,
     RecordingError,
-    channel_name_legal,
     parse_utc,
     point_index,
     python_value,
 )
-from rigtools.vocabulary import MODEL_BACKENDS
+from rigtools.vocabulary import MODEL_BACKENDS, channel_name_legal
 
 ERROR = "error"
 #: The largest sample magnitude a reader takes: a square of 1e154 overflows float64; nothing the rig
@@ -309,11 +311,6 @@ def _end_status_problems(
 def rig_problems(text: str) -> list[Problem]:
     """The ``rig`` attribute must be a rig description (JSON or TOML) that validates: readers
     that simulate or compare build the FE model from it."""
-    import tomllib
-
-    from rigtools.config import parse_rig
-    from rigtools.errors import UserError
-
     try:
         data = json.loads(text)
     except ValueError:
@@ -541,8 +538,6 @@ def check_recording(path: str | os.PathLike, read_data: bool = True) -> CheckRes
         If the file cannot be opened as HDF5 at all (missing, truncated, not HDF5), or it has a
         newer ``schema_version`` than this rigtools reads (it cannot be checked; exit 2).
     """
-    from rigtools.recording.lock import writer_alive
-
     named(path)
     deadline = time.monotonic() + LIVE_RETRY_S
     while True:
