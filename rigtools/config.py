@@ -63,7 +63,7 @@ from rigtools.sim.params import (
 )
 from rigtools.sim.shaker_params import SHAKER_BOUNDS
 from rigtools.units import MAX_GAP, parse_quantity
-from rigtools.vocabulary import channel_name_legal
+from rigtools.vocabulary import ACTIVE_SHROUD, PASSIVE_SHROUD, channel_name_legal
 
 if TYPE_CHECKING:
     from pydantic_core import ErrorDetails
@@ -293,32 +293,25 @@ def channel_name_problem(name: str) -> str | None:
     return None
 
 
+# the default rig's inputs: name -> (terminal, kind, sensitivity, range in SI, location)
+_DEFAULT_INPUTS = {
+    "force": ("Dev1/ai0", "force", "11.24 mV/N", 200.0, "active blade, force sensor at mid-span"),
+    "active_shroud_accel": ("Dev1/ai1", "accel", "10 mV/g", 4900.0, ACTIVE_SHROUD),
+    "passive_shroud_accel": ("Dev1/ai2", "accel", "10 mV/g", 4900.0, PASSIVE_SHROUD),
+}
+
+
 def _default_daq_channels() -> dict[str, DaqChannelConfig]:
     return {
-        "force": DaqChannelConfig(
-            physical_channel="Dev1/ai0",
-            kind="force",
-            sensitivity="11.24 mV/N",
+        name: DaqChannelConfig(
+            physical_channel=terminal,
+            kind=kind,
+            sensitivity=sensitivity,
             excitation_current=IEPE_EXCITATION,
-            range=200.0,
-            location="active blade, force sensor at mid-span",
-        ),
-        "active_shroud_accel": DaqChannelConfig(
-            physical_channel="Dev1/ai1",
-            kind="accel",
-            sensitivity="10 mV/g",
-            excitation_current=IEPE_EXCITATION,
-            range=4900.0,
-            location="active blade shroud (tip)",
-        ),
-        "passive_shroud_accel": DaqChannelConfig(
-            physical_channel="Dev1/ai2",
-            kind="accel",
-            sensitivity="10 mV/g",
-            excitation_current=IEPE_EXCITATION,
-            range=4900.0,
-            location="passive blade shroud (tip)",
-        ),
+            range=span,
+            location=location,
+        )
+        for name, (terminal, kind, sensitivity, span, location) in _DEFAULT_INPUTS.items()
     }
 
 

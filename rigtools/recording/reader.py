@@ -81,6 +81,16 @@ def open_checked(
     return f, attrs
 
 
+def has_schema(path: str | os.PathLike, schema: str) -> bool:
+    """True if ``path`` is an HDF5 file whose root attribute ``schema`` is ``schema`` (which of
+    rigtools' own files it is, before :func:`open_checked`); False for anything else."""
+    try:
+        with h5py.File(path, "r") as f:
+            return bool(f.attrs.get("schema") == schema)
+    except (OSError, ValueError):
+        return False
+
+
 def _attrs(obj: h5py.HLObject, cache: AttrCache | None) -> dict[str, Any]:
     raw = (cache if cache is not None else AttrCache()).of(obj)
     return {key: python_value(value) for key, value in raw.items() if not isinstance(value, Unreadable)}

@@ -18,7 +18,7 @@ import time
 import tomllib
 from dataclasses import asdict, dataclass, field
 from numbers import Real
-from typing import Any
+from typing import Any, ClassVar
 
 import h5py
 import numpy as np
@@ -140,7 +140,7 @@ def _check_attr(
 
 
 #: rigtools' other HDF5 files, named when one is given where a recording is expected (the schema
-#: names of rigtools.branches.BRANCHES_SCHEMA and rigtools.frf_set.SCHEMA).
+#: names of rigtools.branches_file.BRANCHES_SCHEMA and rigtools.frf_set.SCHEMA).
 OTHER_RIGTOOLS_FILES = {
     "rigtools-branches": "a branches file of rig continuation (rig report --branches draws it)",
     "rigtools.frfset": "an FRF set of rig import uff (rig info, rig check and rig analyze read it)",
@@ -520,6 +520,51 @@ class CheckResult:
             "channels": self.n_channels,
             "opened_as": self.opened_as,
             "writer": self.writer,
+            "problems": [asdict(p) for p in self.problems],
+        }
+
+
+@dataclass
+class FileCheck:
+    """Outcome of the check of one of rigtools' own HDF5 files that are not recordings (a branches
+    file, an FRF set): its problems, ``valid`` when none is an error. A kind of file subclasses
+    it with its :attr:`KIND` (as ``rig check --json`` names it), :attr:`WHAT` (as a message does)
+    and its counts (:attr:`COUNTS`: field -> key in :meth:`to_dict`)."""
+
+    KIND: ClassVar[str] = ""
+    WHAT: ClassVar[str] = ""
+    COUNTS: ClassVar[dict[str, str]] = {}
+
+    path: str
+    problems: list[Problem] = field(default_factory=list)
+
+    @property
+    def valid(self) -> bool:
+        """True when no problem has severity error."""
+        return not any(p.severity == ERROR for p in self.problems)
+
+    def error(self, where: str, message: str) -> None:
+        """Add an error at ``where`` (an HDF5 path)."""
+        self.problems.append(Problem(where, message))
+
+    def refuse_damaged(self) -> None:
+        """Raise a one-line :class:`~rigtools.errors.UserError` naming the first error, if any:
+        a reader relies on exactly what the check verifies (``rig check`` lists them all)."""
+        errors = [p for p in self.problems if p.severity == ERROR]
+        if errors:
+            more = f" and {len(errors) - 1} more" if len(errors) > 1 else ""
+            raise UserError(
+                f"{self.path}: a damaged {self.WHAT}: {errors[0].line()}{more} "
+                f"(rig check {self.path} lists them)"
+            )
+
+    def to_dict(self) -> dict[str, Any]:
+        """``rig check --json`` of the file."""
+        return {
+            "path": self.path,
+            "kind": self.KIND,
+            "valid": self.valid,
+            **{key: getattr(self, name) for name, key in self.COUNTS.items()},
             "problems": [asdict(p) for p in self.problems],
         }
 
