@@ -17,7 +17,7 @@ from matplotlib.colors import LogNorm
 from matplotlib.figure import Figure
 from matplotlib.ticker import FuncFormatter, NullLocator
 
-from rigtools.analysis.harmonics import without_round_off
+from rigtools.analysis.harmonics import harmonic_amplitudes, without_round_off
 from rigtools.analysis.spectra import amplitude_spectrum
 from rigtools.sim.channel_names import FORCE
 
@@ -804,8 +804,6 @@ def trend_figure(
 def force_zero_crossing_time(force: np.ndarray, sample_rate: float, fe: float, t0: float = 0.0) -> float:
     """Time (s, on the record's clock starting at ``t0``) of the first upward zero crossing of the
     force's fundamental at or after ``t0``: the common time origin of waveform overlays."""
-    from rigtools.analysis.harmonics import harmonic_amplitudes
-
     fit = harmonic_amplitudes(np.asarray(force, dtype=float), sample_rate, fe, 1)
     # F1 cos(w (t - t0) + phi): upward zero crossing where w (t - t0) + phi = -pi/2 (mod 2 pi)
     return t0 + float(np.mod(-np.pi / 2 - fit.phase[0], 2 * np.pi)) / (2 * np.pi * fe)

@@ -19,6 +19,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from rigtools.analysis.harmonics import harmonic_amplitudes
+
 WINDOWS = ("flattop", "hann", "boxcar")
 
 
@@ -166,8 +168,6 @@ def response_spectra(
         Welch segment length (default: a power of two giving about 16 averages).
     """
     from scipy.signal import find_peaks, welch
-
-    from rigtools.analysis.harmonics import harmonic_amplitudes
 
     x = np.asarray(x, dtype=float)
     if nperseg is None:

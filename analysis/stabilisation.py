@@ -43,6 +43,7 @@ import numpy as np
 from scipy import signal
 
 from rigtools.analysis.frf import FRFKind
+from rigtools.sim.threads import single_blas_thread
 
 
 @dataclass(frozen=True)
@@ -173,8 +174,6 @@ def lscf_stabilisation(
     (20, [50.0, 120.0])
     """
     from sdypy import EMA  # imported here: it loads matplotlib.pyplot and tqdm
-
-    from rigtools.sim.threads import single_blas_thread
 
     f = np.asarray(frequency_hz, dtype=float)
     h = np.atleast_2d(np.asarray(h, dtype=complex))

@@ -39,10 +39,11 @@ from dataclasses import dataclass, field
 from types import TracebackType
 from typing import TYPE_CHECKING, Literal
 
-import numpy as np
-
 if TYPE_CHECKING:  # typing.Self is 3.11+; the annotations are strings (PEP 563), never evaluated
     from typing import Self
+
+    # numpy only in annotations: the rig file's [daq] builds these specs without loading numpy
+    import numpy as np
 
 STANDARD_GRAVITY = 9.80665  # m/s^2 per g, exactly (CGPM 1901)
 

@@ -1,7 +1,9 @@
 """What acquisition hardware this machine can see: NI-DAQmx devices and VISA resources, as plain
 data, each with the one-line reason when a backend cannot be listed (``rig devices``).
 
-nidaqmx and pyvisa are imported only when listing (``rig --help`` loads neither).
+Only ``rig devices`` imports this module (inside its ``run``), so ``rig --help`` loads neither
+pyvisa (a dependency, imported here at the head through :mod:`rigtools.drivers.visa_source`) nor
+nidaqmx (imported when listing: the package may be absent or lack its driver library).
 """
 
 from __future__ import annotations
@@ -9,7 +11,9 @@ from __future__ import annotations
 import contextlib
 from typing import Any
 
+from rigtools.drivers.contracts import DriverUnavailable
 from rigtools.drivers.errors import one_line
+from rigtools.drivers.visa_source import open_resource_manager, simulator_backend
 
 
 def list_ni_devices() -> dict[str, Any]:
@@ -69,16 +73,6 @@ def list_ni_devices() -> dict[str, Any]:
 
 def list_visa_resources(backend: str = "") -> dict[str, Any]:
     """VISA resources as plain data; ``reason`` says why there are none to list."""
-    try:  # here, not at the top: `rig --help` must not load pyvisa
-        from rigtools.drivers.contracts import DriverUnavailable
-        from rigtools.drivers.visa_source import open_resource_manager, simulator_backend
-    except ImportError as exc:
-        return {
-            "available": False,
-            "backend": backend or "default",
-            "resources": [],
-            "reason": f"the pyvisa Python package is not installed ({one_line(exc, first=True)})",
-        }
     if backend == "simulated":
         backend = simulator_backend()
     try:

@@ -17,7 +17,7 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
-from rigtools.sim.shaker_params import SHAKER_BOUNDS
+from rigtools.sim.shaker_params import SHAKER_BOUNDS, ShakerCoupling
 
 
 @dataclass(frozen=True)
@@ -54,11 +54,9 @@ class ShakerParams:
         for f in fields(self):
             SHAKER_BOUNDS[f.name].check(f.name, getattr(self, f.name))
 
-    def coupling(self):
-        """The shaker as :class:`rigtools.sim.vibro_impact.ShakerCoupling` (the amplifier gain is applied
-        to the drive before the stepper sees it)."""
-        from rigtools.sim.vibro_impact import ShakerCoupling
-
+    def coupling(self) -> ShakerCoupling:
+        """The shaker as :class:`rigtools.sim.shaker_params.ShakerCoupling` (the amplifier gain is
+        applied to the drive before the stepper sees it)."""
         return ShakerCoupling(
             armature_mass=self.armature_mass,
             suspension_stiffness=self.suspension_stiffness,

@@ -20,10 +20,10 @@ What happens to each block of drive samples (volts, as written by the procedure)
    ADC noise, IEPE high-pass, 24-bit quantisation over the channel range; the reading is scaled
    back to SI units as DAQmx does.
 
-The *test article* (:class:`TestArticle`) is not the nominal model: a bolted root (springs
-instead of the clamp, so the flexural frequencies come out 1-3 % low), its own damping ratio,
-small mass deviations of the shroud and the force sensor, all set in the rig file's
-``[test_article]`` section.
+The *test article* (:class:`rigtools.drivers.test_article.TestArticle`) is not the nominal
+model: a bolted root (springs instead of the clamp, so the flexural frequencies come out 1-3 %
+low), its own damping ratio, small mass deviations of the shroud and the force sensor, all set in
+the rig file's ``[test_article]`` section.
 
 Physics backends (``model=``), in :mod:`rigtools.sim.rig_physics` (this module is the device
 around them: delay line, amplifier, channels, noise, faults, timing, the hammer's schedule):
@@ -77,8 +77,9 @@ from rigtools.drivers.realtime_pll import PllCommand, RealTimePll
 from rigtools.drivers.safety import MAX_TIME_TO_ZERO, output_queue_limit
 from rigtools.drivers.sensor_chain import SensorChain, SensorModel
 from rigtools.drivers.shaker import ShakerParams
+from rigtools.drivers.test_article import TestArticle
 from rigtools.sim.delayed_feedback import DelayedFeedback
-from rigtools.sim.params import DampingParams, RigParams, RootParams, SimulationInputError
+from rigtools.sim.params import RigParams, SimulationInputError
 from rigtools.sim.realtime_pll import PllFeedback
 from rigtools.sim.rig_model import RigModel, build_rig_model
 from rigtools.sim.rig_physics import SIGNAL_INDEX, SIGNALS, LinearModalPhysics, VibroImpactPhysics
@@ -92,81 +93,6 @@ __all__ = [
     "TestArticle",
     "default_signal",
 ]
-
-
-# ------------------------------------------------------------------------------ test article
-
-
-@dataclass(frozen=True)
-class TestArticle:
-    """How the simulated rig's blades and sensors differ from the nominal rig (SI).
-
-    Parameters
-    ----------
-    root_rotational_stiffness, root_translational_stiffness
-        The bolted root of both blades, as springs on every root DOF (N*m/rad, N/m).
-    damping_ratio
-        Modal damping ratio of every mode of the test article.
-    shroud_mass_deviation, sensor_mass_deviation
-        Relative deviations of the shroud and force-sensor masses (and rotary inertias) from
-        nominal, e.g. 0.01 for +1 %.
-    force_noise, accel_noise
-        Sensor noise, rms over the full band, N and m/s^2.
-    adc_noise
-        ADC input noise, V rms.
-    iepe_highpass
-        Corner of the IEPE coupling high-pass, Hz (0: DC coupled).
-    input_to_output_delay
-        Delay of the simulated DAQ between drive and inputs, s: a delay line of whole samples
-        plus the integrating sampler's half sample, the line chosen so that the sum comes
-        nearest to this value (at least half a sample).
-    """
-
-    __test__ = False  # not a pytest class
-
-    root_rotational_stiffness: float = 1.2e4
-    root_translational_stiffness: float = 3e8
-    damping_ratio: float = 0.012
-    shroud_mass_deviation: float = 0.01
-    sensor_mass_deviation: float = -0.01
-    force_noise: float = 0.005
-    accel_noise: float = 0.02
-    adc_noise: float = 2e-5
-    iepe_highpass: float = 0.5
-    input_to_output_delay: float = 8e-4
-
-    def apply(self, nominal: RigParams) -> RigParams:
-        """The test article's parameters: ``nominal`` with this root, damping and masses."""
-        root = RootParams("springs", self.root_rotational_stiffness, self.root_translational_stiffness)
-        s, m = 1.0 + self.shroud_mass_deviation, 1.0 + self.sensor_mass_deviation
-        shroud = replace(
-            nominal.shroud, mass=nominal.shroud.mass * s, rotary_inertia=nominal.shroud.rotary_inertia * s
-        )
-        sensor = replace(
-            nominal.force_sensor,
-            mass=nominal.force_sensor.mass * m,
-            rotary_inertia=nominal.force_sensor.rotary_inertia * m,
-        )
-        return replace(
-            nominal,
-            root=root,
-            passive_root=None,
-            shroud=shroud,
-            force_sensor=sensor,
-            damping=DampingParams(ratio=self.damping_ratio),
-        )
-
-    def ideal(self) -> TestArticle:
-        """The same deviations with a noise-free, DC-coupled measurement chain without delay line
-        (the integrating sampler's half sample remains)."""
-        return replace(
-            self,
-            force_noise=0.0,
-            accel_noise=0.0,
-            adc_noise=0.0,
-            iepe_highpass=0.0,
-            input_to_output_delay=0.0,
-        )
 
 
 # ------------------------------------------------------------------------------------ faults

@@ -270,9 +270,11 @@ def _run(argv: list[str]) -> int:
             parser.print_help()
             return errors.EXIT_USAGE
         command = f"rig {args.command}"
+        if not getattr(args, "skip_damaged", False):  # the reader's default: a command that opens
+            return int(args.func(args) or 0)  # no recording does not load the recording package
         from rigtools.recording.reader import reading_damaged
 
-        with reading_damaged(bool(getattr(args, "skip_damaged", False))):
+        with reading_damaged():
             return int(args.func(args) or 0)
     except UserError as exc:
         _say(f"{command}: error: {errors.one_line(exc, None)}")

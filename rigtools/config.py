@@ -27,6 +27,9 @@ from pydantic import (
     model_validator,
 )
 
+from rigtools.drivers.contracts import STANDARD_GRAVITY, InputChannelSpec, OutputChannelSpec
+from rigtools.drivers.shaker import ShakerParams
+from rigtools.drivers.test_article import TestArticle
 from rigtools.errors import ConfigError
 from rigtools.quantity_fields import (
     Acceleration,
@@ -60,6 +63,7 @@ from rigtools.sim.params import (
 )
 from rigtools.sim.shaker_params import SHAKER_BOUNDS
 from rigtools.units import MAX_GAP, parse_quantity
+from rigtools.vocabulary import ACTIVE_SHROUD, PASSIVE_SHROUD, channel_name_legal
 
 if TYPE_CHECKING:
     from pydantic_core import ErrorDetails
@@ -280,44 +284,34 @@ RESERVED_CHANNEL_NAMES = frozenset({"drive"})
 
 def channel_name_problem(name: str) -> str | None:
     """Why ``name`` cannot be an input channel's name (``None`` if it can): the recording schema's
-    dataset-name rule (:mod:`rigtools.recording.schema`) and the reserved names (``drive``)."""
-    from rigtools.recording.schema import ChannelSpec
-
+    dataset-name rule (:func:`rigtools.vocabulary.channel_name_legal`) and the reserved names
+    (``drive``)."""
     if name.casefold() in RESERVED_CHANNEL_NAMES:
         return f"reserved ({', '.join(sorted(RESERVED_CHANNEL_NAMES))} is recorded by the toolkit itself)"
-    try:
-        ChannelSpec(name=name, units="V", quantity="voltage", sample_rate=1.0)
-    except ValueError:
+    if not channel_name_legal(name):
         return "a recording cannot store it: use letters, digits, '_', '.', '-', not starting with '.' or '-'"
     return None
 
 
+# the default rig's inputs: name -> (terminal, kind, sensitivity, range in SI, location)
+_DEFAULT_INPUTS = {
+    "force": ("Dev1/ai0", "force", "11.24 mV/N", 200.0, "active blade, force sensor at mid-span"),
+    "active_shroud_accel": ("Dev1/ai1", "accel", "10 mV/g", 4900.0, ACTIVE_SHROUD),
+    "passive_shroud_accel": ("Dev1/ai2", "accel", "10 mV/g", 4900.0, PASSIVE_SHROUD),
+}
+
+
 def _default_daq_channels() -> dict[str, DaqChannelConfig]:
     return {
-        "force": DaqChannelConfig(
-            physical_channel="Dev1/ai0",
-            kind="force",
-            sensitivity="11.24 mV/N",
+        name: DaqChannelConfig(
+            physical_channel=terminal,
+            kind=kind,
+            sensitivity=sensitivity,
             excitation_current=IEPE_EXCITATION,
-            range=200.0,
-            location="active blade, force sensor at mid-span",
-        ),
-        "active_shroud_accel": DaqChannelConfig(
-            physical_channel="Dev1/ai1",
-            kind="accel",
-            sensitivity="10 mV/g",
-            excitation_current=IEPE_EXCITATION,
-            range=4900.0,
-            location="active blade shroud (tip)",
-        ),
-        "passive_shroud_accel": DaqChannelConfig(
-            physical_channel="Dev1/ai2",
-            kind="accel",
-            sensitivity="10 mV/g",
-            excitation_current=IEPE_EXCITATION,
-            range=4900.0,
-            location="passive blade shroud (tip)",
-        ),
+            range=span,
+            location=location,
+        )
+        for name, (terminal, kind, sensitivity, span, location) in _DEFAULT_INPUTS.items()
     }
 
 
@@ -353,10 +347,8 @@ class DaqConfig(_Section):
             seen[terminal] = f"channels.{name}"
         return self
 
-    def input_specs(self) -> list:
+    def input_specs(self) -> list[InputChannelSpec]:
         """The inputs as :class:`rigtools.drivers.contracts.InputChannelSpec`, in file order."""
-        from rigtools.drivers.contracts import STANDARD_GRAVITY, InputChannelSpec
-
         specs = []
         for name, ch in self.channels.items():
             if ch.kind == "accel":
@@ -380,10 +372,8 @@ class DaqConfig(_Section):
             )
         return specs
 
-    def output_spec(self):
+    def output_spec(self) -> OutputChannelSpec:
         """The drive as :class:`rigtools.drivers.contracts.OutputChannelSpec`."""
-        from rigtools.drivers.contracts import OutputChannelSpec
-
         return OutputChannelSpec("drive", self.drive_channel, -self.drive_range, self.drive_range)
 
     def block_size(self) -> int:
@@ -475,10 +465,8 @@ class ShakerConfig(_Section):
     coil_inductance: Inductance = _shaker_field("coil_inductance")  # H
     amplifier_gain: float = _shaker_field("amplifier_gain")  # V/V
 
-    def to_params(self):
+    def to_params(self) -> ShakerParams:
         """As :class:`rigtools.drivers.shaker.ShakerParams`."""
-        from rigtools.drivers.shaker import ShakerParams
-
         return ShakerParams(**self.model_dump())
 
 
@@ -501,10 +489,8 @@ class TestArticleConfig(_Section):
     iepe_highpass: Frequency = Field(default=0.5, ge=0, le=100.0)  # Hz, 0 = DC
     input_to_output_delay: Time = Field(default=8e-4, ge=0, le=1.0)  # s
 
-    def to_params(self):
-        """As :class:`rigtools.drivers.simulated.TestArticle`."""
-        from rigtools.drivers.simulated import TestArticle
-
+    def to_params(self) -> TestArticle:
+        """As :class:`rigtools.drivers.test_article.TestArticle`."""
         return TestArticle(**self.model_dump())
 
 

@@ -27,12 +27,14 @@ from __future__ import annotations
 import inspect
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, TypeVar
+from typing import Any, TypeVar
 
+from rigtools import procedures
+from rigtools.config import RigConfig, load_rig
+from rigtools.errors import UserError, reword
+from rigtools.keywords import did_you_mean, in_front_door_words
+from rigtools.options import seed as seed_option
 from rigtools.procedures.result import PointResult, RunResult
-
-if TYPE_CHECKING:
-    from rigtools.config import RigConfig
 
 __all__ = [
     "PointResult",
@@ -53,8 +55,6 @@ NO_BACKEND = (
 
 
 def _config(rig: Any) -> RigConfig:
-    from rigtools.config import RigConfig, load_rig
-
     return rig if isinstance(rig, RigConfig) else load_rig(rig)
 
 
@@ -119,11 +119,6 @@ def _front_door(function: _Function) -> _Function:
 
 def _run(function: str, cls_name: str, params: dict[str, Any], out: str | Path, **kwargs: Any) -> RunResult:
     """Run a procedure: ``params`` holds its parameters and the :data:`SHARED_KEYWORDS` given."""
-    from rigtools import procedures
-    from rigtools.errors import UserError, reword
-    from rigtools.keywords import in_front_door_words
-    from rigtools.options import seed as seed_option
-
     params = dict(params)
     rig, backend, overwrite, progress, seed = (params.pop(k.name, k.default) for k in SHARED_KEYWORDS)
     cls = getattr(procedures, cls_name)
@@ -164,8 +159,6 @@ _MODELS = {
 
 
 def _did_you_mean(backend: object) -> str:
-    from rigtools.keywords import did_you_mean
-
     if not isinstance(backend, str):
         return ""
     for word in ("sim", "nidaq"):  # the recordings' names of the backends: "simulated", "nidaqmx"

@@ -25,12 +25,16 @@ import json
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
+from typing import ClassVar
 
+import h5py
 import numpy as np
 
+from rigtools.derived_files import atomic_write_hdf5
 from rigtools.errors import UserError, one_line, option
 from rigtools.interop.directions import direction_text
-from rigtools.recording.reader import open_checked
+from rigtools.recording.reader import has_schema, open_checked
+from rigtools.recording.validate import FileCheck
 
 SCHEMA = "rigtools.frfset"
 SCHEMA_VERSION = 1
@@ -86,9 +90,6 @@ def write_frf_set(path: str | Path, frf_set: FRFSet, *, overwrite: bool = False)
     FaultError
         The write failed (disk full, ...), in one line; nothing is left behind.
     """
-
-    from rigtools.derived_files import atomic_write_hdf5
-
     path = Path(path)
     if path.exists() and not overwrite:
         raise UserError(f"{path} exists (give {option('overwrite', True)} to replace it)")
@@ -122,26 +123,14 @@ def write_frf_set(path: str | Path, frf_set: FRFSet, *, overwrite: bool = False)
 
 def is_frf_set(path: str | Path) -> bool:
     """True if ``path`` is an HDF5 file with the FRF-set schema."""
-    import h5py
-
-    try:
-        with h5py.File(path, "r") as f:
-            return f.attrs.get("schema") == SCHEMA
-    except (OSError, ValueError):
-        return False
+    return has_schema(path, SCHEMA)
 
 
 def read_frf_set(path: str | Path) -> FRFSet:
     """Read an FRF set: one line :class:`UserError` if it is not one, or if :func:`check_frf_set`
     finds an error in it (the reader relies on exactly what ``rig check`` verifies, so a file
     ``check`` rejects is refused here with its first problem, and one it passes reads whole)."""
-    import h5py
-
-    check = check_frf_set(path)
-    errors = [p for p in check.problems if p.severity == "error"]
-    if errors:
-        more = f" and {len(errors) - 1} more" if len(errors) > 1 else ""
-        raise UserError(f"{path}: a damaged FRF set: {errors[0].line()}{more} (rig check {path} lists them)")
+    check_frf_set(path).refuse_damaged()
     try:
         with h5py.File(path, "r") as f:
             return FRFSet(
@@ -228,31 +217,15 @@ def summary(path: str | Path) -> dict:
 
 
 @dataclass
-class FRFSetCheck:
+class FRFSetCheck(FileCheck):
     """Outcome of :func:`check_frf_set`; ``valid`` when no problem is an error."""
 
-    path: str
-    problems: list = field(default_factory=list)
+    KIND: ClassVar[str] = "frf set"
+    WHAT: ClassVar[str] = "FRF set"
+    COUNTS: ClassVar[dict[str, str]] = {"n_frfs": "frfs", "lines": "lines"}
+
     n_frfs: int = 0
     lines: int = 0
-
-    @property
-    def valid(self) -> bool:
-        """True when no problem has severity error."""
-        return not any(p.severity == "error" for p in self.problems)
-
-    def to_dict(self) -> dict:
-        """``rig check --json`` of an FRF set."""
-        from dataclasses import asdict
-
-        return {
-            "path": self.path,
-            "kind": "frf set",
-            "valid": self.valid,
-            "frfs": self.n_frfs,
-            "lines": self.lines,
-            "problems": [asdict(p) for p in self.problems],
-        }
 
 
 def check_frf_set(path: str | Path, read_data: bool = True) -> FRFSetCheck:
@@ -266,15 +239,8 @@ def check_frf_set(path: str | Path, read_data: bool = True) -> FRFSetCheck:
         The file cannot be opened as HDF5, is not an FRF set, or was written by a newer
         rigtools (``schema_version`` above :data:`SCHEMA_VERSION`): ``rig check`` exits 2.
     """
-    import h5py
-
-    from rigtools.recording.validate import Problem
-
     out = FRFSetCheck(str(path))
-
-    def error(where: str, message: str) -> None:
-        out.problems.append(Problem(where, message))
-
+    error = out.error
     f, attrs = open_checked(path, SCHEMA, ("an FRF set", "FRF set"), SCHEMA_VERSION, out.problems)
     with f:
         if attrs.get("kind") not in KINDS:

@@ -11,7 +11,7 @@ import math
 from typing import Any
 
 from rigtools import readable
-from rigtools.branches import X_LABELS, X_UNITS
+from rigtools.branches_file import X_LABELS, X_UNITS
 from rigtools.recording.summary import format_value
 
 
@@ -359,7 +359,7 @@ def frf_set_tables(info: dict) -> list[Any]:
 
 
 def branches_tables(info: dict) -> list[Any]:
-    """``rig info`` of a branches file (:func:`rigtools.branches.branches_info`): what was
+    """``rig info`` of a branches file (:func:`rigtools.branches_file.branches_info`): what was
     continued, at which fixed quantities, and a row per branch."""
     from rich.table import Table
 

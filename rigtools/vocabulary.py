@@ -15,6 +15,7 @@ with :func:`current_parameters` (see :data:`V1_PARAMETER_RENAMES`).
 
 from __future__ import annotations
 
+import re
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -273,6 +274,15 @@ V1_PARAMETER_RENAMES: dict[str, str] = {"measured_force_amplitude": "force_ampli
 # Backends of model recordings: "fem" (one model's runs) and "model" (runs of several models,
 # each point naming its model, as the demo writes them).
 MODEL_BACKENDS = ("fem", "model")
+
+
+# what a channel may be called: a recording stores each channel as an HDF5 dataset of that name
+_CHANNEL_NAME = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_.\-]*$")
+
+
+def channel_name_legal(name: str) -> bool:
+    """True if ``name`` is a legal channel name: letters, digits, underscore, dot or hyphen, no leading dot."""
+    return isinstance(name, str) and bool(_CHANNEL_NAME.match(name))
 
 
 def source_of(backend: str) -> str:

@@ -10,7 +10,7 @@ harmonic runs are :mod:`rigtools.sim.vibro_impact`.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import dataclass, field, replace
 from typing import Protocol
 
 import numpy as np
@@ -19,7 +19,7 @@ from rigtools.sim.contact import contact_period, kernel_contact
 from rigtools.sim.impact_kernel import DIVERGED_DISPLACEMENT, N_OUT, OUT_COLUMNS, _kernel, _props
 from rigtools.sim.params import ContactParams, SimulationInputError
 from rigtools.sim.reduction import ReducedSystem
-from rigtools.sim.shaker_params import SHAKER_BOUNDS
+from rigtools.sim.shaker_params import ShakerCoupling
 
 MIN_STEPS_PER_CONTACT = 20
 # contact damping c over the step: c dt / m_eff above 2 makes the end-of-step damping force
@@ -34,26 +34,6 @@ FORCE_SLOT, CONTACT_SLOT, CURRENT_SLOT, VOLTAGE_SLOT, VELOCITY_SLOT = range(5)
 class SimulationDivergedError(SimulationInputError):
     """The integration produced a non-finite or absurd value; the message names the likely
     parameters."""
-
-
-@dataclass(frozen=True)
-class ShakerCoupling:
-    """Electrodynamic shaker rigidly attached at the force point, force sensor in between.
-
-    ``L di/dt + R i + Bl v = V``; the armature mass and suspension act at the force point; the
-    sensor reads ``Bl i - m_a a - k_s x - c_s v`` (the force passed into the blade).
-    """
-
-    armature_mass: float  # kg
-    suspension_stiffness: float  # N/m
-    suspension_damping: float  # N s/m
-    force_factor: float  # Bl, N/A
-    coil_resistance: float  # ohm
-    coil_inductance: float  # H
-
-    def __post_init__(self) -> None:
-        for f in fields(self):
-            SHAKER_BOUNDS[f.name].check(f.name, getattr(self, f.name), SimulationInputError)
 
 
 @dataclass

@@ -1,5 +1,5 @@
 """The shaker's parameters, defined once: default and allowed range of each (SI). The model
-(:class:`rigtools.sim.vibro_impact.ShakerCoupling`), the simulated rig
+(:class:`ShakerCoupling`, here), the simulated rig
 (:class:`rigtools.drivers.shaker.ShakerParams`) and the rig file's ``[shaker]`` all check against
 :data:`SHAKER_BOUNDS`, so a value one accepts the others accept (``force_factor = 0`` is refused
 by all: a shaker without Bl drives nothing)."""
@@ -7,14 +7,16 @@ by all: a shaker without Bl drives nothing)."""
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from numbers import Real
+
+from rigtools.sim.params import SimulationInputError
 
 
 @dataclass(frozen=True)
 class ParamBound:
     """Default and allowed range of one shaker parameter (SI), the one definition used by the
-    model's :class:`rigtools.sim.vibro_impact.ShakerCoupling`, the simulated rig's
+    model's :class:`ShakerCoupling`, the simulated rig's
     :class:`rigtools.drivers.shaker.ShakerParams` and the rig file's ``[shaker]``
     (:class:`rigtools.config.ShakerConfig`)."""
 
@@ -53,3 +55,23 @@ SHAKER_BOUNDS: dict[str, ParamBound] = {
     "coil_inductance": ParamBound(5e-4, 0.0, 1.0, False, "H", "inductance"),
     "amplifier_gain": ParamBound(4.0, 0.0, 1e3, True, "V/V", ""),
 }
+
+
+@dataclass(frozen=True)
+class ShakerCoupling:
+    """Electrodynamic shaker rigidly attached at the force point, force sensor in between.
+
+    ``L di/dt + R i + Bl v = V``; the armature mass and suspension act at the force point; the
+    sensor reads ``Bl i - m_a a - k_s x - c_s v`` (the force passed into the blade).
+    """
+
+    armature_mass: float  # kg
+    suspension_stiffness: float  # N/m
+    suspension_damping: float  # N s/m
+    force_factor: float  # Bl, N/A
+    coil_resistance: float  # ohm
+    coil_inductance: float  # H
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            SHAKER_BOUNDS[f.name].check(f.name, getattr(self, f.name), SimulationInputError)

@@ -69,7 +69,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from rigtools.branches import BranchesCheck, check_branches, is_branches_file
+    from rigtools.branches_file import BranchesCheck, check_branches, is_branches_file
     from rigtools.frf_set import FRFSetCheck, check_frf_set, is_frf_set
     from rigtools.recording import RecordingError, check_recording
 

@@ -77,15 +77,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from rigtools.branches import (
-        branches_figure,
-        continue_to_file,
-        located_lines,
-        measured_sweeps,
-        parse_inputs,
-        read_branches,
-        summary,
-    )
+    from rigtools.branches import continue_to_file, located_lines, parse_inputs, summary
+    from rigtools.branches_file import read_branches
     from rigtools.derived_files import plot_path
     from rigtools.figures import save_figure
     from rigtools.options import HDF5_SUFFIXES, check_out
@@ -94,7 +87,11 @@ def run(args: argparse.Namespace) -> int:
     start, stop, fixed = parse_inputs(
         args.param, args.start, args.stop, args.fe, args.force, args.gap, args.drive
     )
-    measured = measured_sweeps(args.measured, args.param, args.measure)  # bad files before the work
+    measured: list = []  # bad files before the work; without any, spare the procedures (scipy.signal)
+    if args.measured:
+        from rigtools.measured_sweeps import measured_sweeps
+
+        measured = measured_sweeps(args.measured, args.param, args.measure)
     drive = args.drive is not None
     found: list = []  # the branches as they grow: written if interrupted
     try:
@@ -119,6 +116,8 @@ def run(args: argparse.Namespace) -> int:
                 f"kept {sum(kept)} points of {len(kept)} branch(es) computed so far in {out}", file=sys.stderr
             )
         raise
+    from rigtools.branches_figure import branches_figure  # matplotlib: once there is a figure to draw
+
     _, stored = read_branches(out)
     fig = branches_figure(stored, args.measure, cfg.name, measured, drive=drive)
     png = save_figure(fig, plot_path(out), dpi=120)

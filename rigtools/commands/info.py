@@ -55,7 +55,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from rigtools.branches import is_branches_file
+    from rigtools.branches_file import is_branches_file
     from rigtools.frf_set import is_frf_set
     from rigtools.recording import open_recording
     from rigtools.recording.summary import summary
@@ -66,7 +66,7 @@ def run(args: argparse.Namespace) -> int:
 
         return print_info(args, frf_set_summary(args.file), frf_set_tables)
     if is_branches_file(args.file):
-        from rigtools.branches import branches_info
+        from rigtools.branches_file import branches_info
         from rigtools.tables import branches_tables
 
         return print_info(args, branches_info(args.file), branches_tables)

@@ -9,9 +9,10 @@ import numpy as np
 
 from rigtools.analysis.branches import explain_jumps, turning_points
 from rigtools.analysis.plots import log_bar_axis
-from rigtools.branches import branch_curves, measured_sweeps
+from rigtools.branches_figure import branch_curves
 from rigtools.demo.findings import Finding, em_to_fem_ratios, mark
 from rigtools.demo.steps import flexural
+from rigtools.measured_sweeps import measured_sweeps
 from rigtools.report import Report
 from rigtools.report.branches import add_branches, fixed_text
 from rigtools.sim.channel_names import FORCE, SHROUD_ACCELS

@@ -17,7 +17,7 @@ from pathlib import Path
 
 from rigtools import json_values
 from rigtools.analysis.branches import turning_points
-from rigtools.branches import branch_curves
+from rigtools.branches_figure import branch_curves
 from rigtools.config import load_rig
 from rigtools.demo import steps
 from rigtools.demo.findings import evaluate

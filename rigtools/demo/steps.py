@@ -19,7 +19,7 @@ import numpy as np
 from rigtools.analysis.harmonics import harmonic_amplitudes
 from rigtools.analysis.impacts import detect_impacts
 from rigtools.analysis.plots import force_zero_crossing_time
-from rigtools.branches import read_branches, write_branches
+from rigtools.branches_file import read_branches, write_branches
 from rigtools.config import ChannelLimitConfig
 from rigtools.demo.settings import (
     BRANCH_GAP_MAX,
@@ -452,7 +452,7 @@ GAP_BRANCH_STEP = 0.04
 
 def branches_step(cfg, out_dir: Path, settings: DemoSettings, point: OperatingPoint) -> dict:
     """The FEM's branches at ``point`` (:func:`rigtools.sim.continuation.trace`), each written as
-    a branch file (:func:`rigtools.branches.write_branches`, what ``rig continuation`` writes)
+    a branch file (:func:`rigtools.branches_file.write_branches`, what ``rig continuation`` writes)
     and read back: ``{"frequency": ..., "gap": ...}``, each ``{"file", "experiment",
     "branches"}``. In frequency over the frequency study's range at its gap (period 1: the fold
     where the impacting orbit ends, the grazing corner where it begins); in gap from the gap

@@ -23,6 +23,7 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 
 from rigtools.errors import UserError
+from rigtools.vocabulary import CHANNELS
 
 G = 9.80665
 LBF = 4.4482216152605
@@ -216,8 +217,6 @@ def resolve(
     mapping, units
         ``--map`` and ``--units``.
     """
-    from rigtools.vocabulary import CHANNELS
-
     keys = [k for k in (path, file_name) if k]
     name = next((mapping[k] for k in keys if k in mapping), storable_name(file_name))
     ch = ForeignChannel(source=source, name=name, declared=str(declared or "").strip())
@@ -266,8 +265,6 @@ def named_quantity(name: str) -> str | None:
     """The quantity a channel's name claims, or ``None``: the toolkit's own channel names by their
     definition, other names by a word of theirs (``force``, ``accel``, ...; words split at ``_``,
     spaces and case changes). A name claiming two quantities claims none."""
-    from rigtools.vocabulary import CHANNELS
-
     if name in CHANNELS:
         return CHANNELS[name].quantity
     words = {w.lower() for w in re.findall(r"[A-Z]?[a-z]+|[A-Z]+(?![a-z])", name)}

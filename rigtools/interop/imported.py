@@ -13,6 +13,8 @@ import numpy as np
 
 from rigtools.errors import UserError
 from rigtools.interop.channels import ForeignChannel, excitation, excitation_line
+from rigtools.recording import ChannelSpec, RecordingError, RecordingWriter
+from rigtools.recording.lock import LockBusy, WriterLock
 
 CHUNK = 1 << 20  # samples per channel copied at a time
 
@@ -84,8 +86,6 @@ def write_imported(
         (kept or skipped, :meth:`ForeignChannel.to_dict`), one per point written, and the lines
         the command prints (one per channel, one per point).
     """
-    from rigtools.recording import ChannelSpec, RecordingWriter
-
     if not points:
         lines = [c.line() for c in every]
         raise UserError(
@@ -163,12 +163,9 @@ def write_imported(
     }
 
 
-def _hold(target: Path) -> Any:
+def _hold(target: Path) -> WriterLock:
     """The writer lock of ``target`` taken (the one every writer takes), or the refusal every
     writer gives when another run writes it."""
-    from rigtools.recording import RecordingError
-    from rigtools.recording.lock import LockBusy, WriterLock
-
     lock = WriterLock(target)
     try:
         lock.acquire()

@@ -23,6 +23,8 @@ import sys
 import time
 from pathlib import Path
 
+from rigtools.recording.schema import utc_now
+
 ACQUIRE_WAIT_S = 0.25
 
 if sys.platform == "win32":  # pragma: no cover - exercised on Windows only
@@ -126,8 +128,6 @@ class WriterLock:
         return (st.st_dev, st.st_ino) == (fst.st_dev, fst.st_ino)
 
     def _write_holder(self, fd: int) -> None:
-        from rigtools.recording.schema import utc_now
-
         text = f"pid {os.getpid()} on {socket.gethostname()} since {utc_now()}\n".encode()
         try:
             if sys.platform == "win32":  # pragma: no cover - byte 0 is the locked byte

@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 import os
 import time
+import tomllib
 from collections.abc import Iterator
 from contextlib import contextmanager
 from contextvars import ContextVar
@@ -20,6 +21,7 @@ import h5py
 import numpy as np
 import numpy.typing as npt
 
+from rigtools.config import RigConfig, parse_rig
 from rigtools.options import switch
 from rigtools.recording.lock import writer_alive
 from rigtools.recording.opener import LIVE_RETRY_S, PAST_END, named, open_h5
@@ -77,6 +79,16 @@ def open_checked(
         f.close()
         raise RecordingError(f"{path}: damaged HDF5 structure ({_reason(exc)})") from None
     return f, attrs
+
+
+def has_schema(path: str | os.PathLike, schema: str) -> bool:
+    """True if ``path`` is an HDF5 file whose root attribute ``schema`` is ``schema`` (which of
+    rigtools' own files it is, before :func:`open_checked`); False for anything else."""
+    try:
+        with h5py.File(path, "r") as f:
+            return bool(f.attrs.get("schema") == schema)
+    except (OSError, ValueError):
+        return False
 
 
 def _attrs(obj: h5py.HLObject, cache: AttrCache | None) -> dict[str, Any]:
@@ -361,12 +373,8 @@ class Recording:
     def incomplete(self) -> bool:
         return not self.complete
 
-    def rig_config(self):
+    def rig_config(self) -> RigConfig:
         """The rig description validated into a :class:`rigtools.config.RigConfig`."""
-        import tomllib
-
-        from rigtools.config import parse_rig
-
         try:
             data = json.loads(self.rig)
         except ValueError:

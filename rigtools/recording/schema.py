@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from rigtools.errors import FaultError, UserError
-from rigtools.vocabulary import MODEL_BACKENDS
+from rigtools.vocabulary import MODEL_BACKENDS, channel_name_legal
 
 SCHEMA_NAME = "rigtools.recording"
 SCHEMA_VERSION = 1
@@ -121,7 +121,6 @@ DIRECTION_MAX = 6
 
 RESERVED_POINT_NAMES = frozenset(POINT_ATTRS)
 _POINT_NAME = re.compile(r"^\d{4,}$")
-_CHANNEL_NAME = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_.\-]*$")
 
 
 #: The SI units a channel's samples may be stored in (what every reader converts from): an
@@ -143,11 +142,6 @@ NUMERIC_POINT_PARAMS: dict[str, tuple[float, bool]] = {
     "band_high": (0.0, True),
     "study_value": (-math.inf, False),
 }
-
-
-def channel_name_legal(name: str) -> bool:
-    """True if ``name`` is a legal channel name: letters, digits, underscore, dot or hyphen, no leading dot."""
-    return isinstance(name, str) and bool(_CHANNEL_NAME.match(name))
 
 
 class RecordingError(UserError):
@@ -231,7 +225,7 @@ class ChannelSpec:
     description: str | None = None
 
     def __post_init__(self) -> None:
-        if not isinstance(self.name, str) or not _CHANNEL_NAME.match(self.name):
+        if not channel_name_legal(self.name):
             raise ValueError(f"channel name {self.name!r}: use letters, digits, '_', '.', '-'")
         for key in ("units", "quantity"):
             if not isinstance(getattr(self, key), str):  # every bad field: ValueError (config.py catches it)

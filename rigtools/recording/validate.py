@@ -15,15 +15,18 @@ import json
 import math
 import os
 import time
+import tomllib
 from dataclasses import asdict, dataclass, field
 from numbers import Real
-from typing import Any
+from typing import Any, ClassVar
 
 import h5py
 import numpy as np
 
 import rigtools
-from rigtools.errors import one_line, option
+from rigtools.config import parse_rig
+from rigtools.errors import UserError, one_line, option
+from rigtools.recording.lock import writer_alive
 from rigtools.recording.opener import LIVE_RETRY_S, PAST_END, named, open_h5
 from rigtools.recording.schema import (
     CHANNEL_ATTRS,
@@ -46,12 +49,11 @@ from rigtools.recording.schema import (
     STATUS_RECORDING,
     STATUSES,
     RecordingError,
-    channel_name_legal,
     parse_utc,
     point_index,
     python_value,
 )
-from rigtools.vocabulary import MODEL_BACKENDS
+from rigtools.vocabulary import MODEL_BACKENDS, channel_name_legal
 
 ERROR = "error"
 #: The largest sample magnitude a reader takes: a square of 1e154 overflows float64; nothing the rig
@@ -138,7 +140,7 @@ def _check_attr(
 
 
 #: rigtools' other HDF5 files, named when one is given where a recording is expected (the schema
-#: names of rigtools.branches.BRANCHES_SCHEMA and rigtools.frf_set.SCHEMA).
+#: names of rigtools.branches_file.BRANCHES_SCHEMA and rigtools.frf_set.SCHEMA).
 OTHER_RIGTOOLS_FILES = {
     "rigtools-branches": "a branches file of rig continuation (rig report --branches draws it)",
     "rigtools.frfset": "an FRF set of rig import uff (rig info, rig check and rig analyze read it)",
@@ -309,11 +311,6 @@ def _end_status_problems(
 def rig_problems(text: str) -> list[Problem]:
     """The ``rig`` attribute must be a rig description (JSON or TOML) that validates: readers
     that simulate or compare build the FE model from it."""
-    import tomllib
-
-    from rigtools.config import parse_rig
-    from rigtools.errors import UserError
-
     try:
         data = json.loads(text)
     except ValueError:
@@ -527,6 +524,51 @@ class CheckResult:
         }
 
 
+@dataclass
+class FileCheck:
+    """Outcome of the check of one of rigtools' own HDF5 files that are not recordings (a branches
+    file, an FRF set): its problems, ``valid`` when none is an error. A kind of file subclasses
+    it with its :attr:`KIND` (as ``rig check --json`` names it), :attr:`WHAT` (as a message does)
+    and its counts (:attr:`COUNTS`: field -> key in :meth:`to_dict`)."""
+
+    KIND: ClassVar[str] = ""
+    WHAT: ClassVar[str] = ""
+    COUNTS: ClassVar[dict[str, str]] = {}
+
+    path: str
+    problems: list[Problem] = field(default_factory=list)
+
+    @property
+    def valid(self) -> bool:
+        """True when no problem has severity error."""
+        return not any(p.severity == ERROR for p in self.problems)
+
+    def error(self, where: str, message: str) -> None:
+        """Add an error at ``where`` (an HDF5 path)."""
+        self.problems.append(Problem(where, message))
+
+    def refuse_damaged(self) -> None:
+        """Raise a one-line :class:`~rigtools.errors.UserError` naming the first error, if any:
+        a reader relies on exactly what the check verifies (``rig check`` lists them all)."""
+        errors = [p for p in self.problems if p.severity == ERROR]
+        if errors:
+            more = f" and {len(errors) - 1} more" if len(errors) > 1 else ""
+            raise UserError(
+                f"{self.path}: a damaged {self.WHAT}: {errors[0].line()}{more} "
+                f"(rig check {self.path} lists them)"
+            )
+
+    def to_dict(self) -> dict[str, Any]:
+        """``rig check --json`` of the file."""
+        return {
+            "path": self.path,
+            "kind": self.KIND,
+            "valid": self.valid,
+            **{key: getattr(self, name) for name, key in self.COUNTS.items()},
+            "problems": [asdict(p) for p in self.problems],
+        }
+
+
 def check_recording(path: str | os.PathLike, read_data: bool = True) -> CheckResult:
     """Validate a file: schema, version, attributes, channel lengths and rates, and (with
     ``read_data``) that every sample can be read.
@@ -541,8 +583,6 @@ def check_recording(path: str | os.PathLike, read_data: bool = True) -> CheckRes
         If the file cannot be opened as HDF5 at all (missing, truncated, not HDF5), or it has a
         newer ``schema_version`` than this rigtools reads (it cannot be checked; exit 2).
     """
-    from rigtools.recording.lock import writer_alive
-
     named(path)
     deadline = time.monotonic() + LIVE_RETRY_S
     while True:

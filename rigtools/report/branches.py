@@ -2,7 +2,7 @@
 
 :func:`add_branches` puts into a report section what a branch file says about a measured sweep:
 one or two sentences per measured jump (the mechanism by which the sweep leaves the branch it
-followed and how far from the jump; the nearest turning point), the figure (:func:`rigtools.branches.branches_figure`: stable solid, unstable dashed,
+followed and how far from the jump; the nearest turning point), the figure (:func:`rigtools.branches_figure.branches_figure`: stable solid, unstable dashed,
 bifurcations labelled, the measured up/down steps on the same axes, their jumps shaded), and two
 tables (the branches' bifurcations; the jumps against the turning points) holding the numbers
 the sentences quote. ``rig report --branches`` (:func:`load_branch_files`,
@@ -26,18 +26,11 @@ import h5py
 import numpy as np
 
 from rigtools.analysis.branches import SHORT, explain_jumps, turning_points
-from rigtools.branches import (
-    POINT_PARAM,
-    X_LABELS,
-    X_UNITS,
-    StoredBranch,
-    branch_curves,
-    branches_figure,
-    measured_sweeps,
-    read_branches,
-)
+from rigtools.branches_figure import branch_curves, branches_figure
+from rigtools.branches_file import POINT_PARAM, X_LABELS, X_UNITS, StoredBranch, read_branches
 from rigtools.config import parse_rig
 from rigtools.errors import UserError
+from rigtools.measured_sweeps import measured_sweeps
 from rigtools.recording import open_recording
 from rigtools.recording_analysis.dispatch import is_foreign
 from rigtools.recording_analysis.results import RecordingAnalysis
@@ -169,7 +162,7 @@ def jump_sentences(explanations: list, param: str) -> list[str]:
 
 
 def measured_jump_sentences(branches: list[StoredBranch], measured: list, measure: str) -> list[str]:
-    """:func:`jump_sentences` of ``measured`` (:func:`rigtools.branches.measured_sweeps`) against
+    """:func:`jump_sentences` of ``measured`` (:func:`rigtools.measured_sweeps.measured_sweeps`) against
     stored branches in ``measure``, or one line saying the sweeps show no jump."""
     if not branches or not measured:
         return []
@@ -320,7 +313,7 @@ def add_branches(
 
 
 def load_branch_files(paths) -> list[BranchFile]:
-    """Read every branch file (:func:`rigtools.branches.read_branches`; one-line
+    """Read every branch file (:func:`rigtools.branches_file.read_branches`; one-line
     :class:`rigtools.errors.UserError` on a file that is not one)."""
     out = []
     for p in paths:

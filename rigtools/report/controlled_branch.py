@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from rigtools.branches import StoredBranch
+from rigtools.branches_file import StoredBranch
 from rigtools.procedures.controlled_point import ControlledPoint
 from rigtools.recording import open_recording
 

@@ -156,7 +156,7 @@ def test_bad_input_is_one_line_exit_2(tmp_path, args, words):
 
 
 def test_measured_overlay_reads_the_sweep(sweep, tmp_path):
-    from rigtools.branches import measured_sweeps
+    from rigtools.measured_sweeps import measured_sweeps
     from rigtools.recording import open_recording
 
     got = measured_sweeps([sweep], "fe", "accel1")
@@ -200,7 +200,7 @@ def test_report_draws_branches_over_matching_recordings_only(no_contact, sweep, 
     from types import SimpleNamespace
 
     import rigtools
-    from rigtools.branches import write_branches
+    from rigtools.branches_file import write_branches
     from rigtools.config import load_rig
     from rigtools.report.branches import load_branch_files, why_not
 
@@ -297,7 +297,7 @@ def test_ctrl_c_keeps_the_points_computed(tmp_path, ctrl_c_after_30_steps):
     """Ctrl-C after 30 corrector steps (KeyboardInterrupt raised in the corrector, as the signal
     handler raises it): exit 130, and the file holds the branch's points so far, "interrupted",
     its last point where the message says; no .partial left."""
-    from rigtools.branches import read_branches
+    from rigtools.branches_file import read_branches
 
     out = tmp_path / "b.h5"
     code, _, err = run_cli(["continuation", *SHORT, "--out", out])

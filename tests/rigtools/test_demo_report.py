@@ -157,7 +157,8 @@ def test_demo_branches_explain_the_frequency_and_gap_findings(demo):
     settled runs): in fe the impacting orbit's fold and the grazing corner, each beside the jump
     of the simulated rig's stepped sine it explains; in gap the period doublings and the stable
     period-2 orbit; the report's text quotes the branch files' numbers."""
-    from rigtools.branches import point_contact, read_branches
+    from rigtools.branches_file import read_branches
+    from rigtools.measured_sweeps import point_contact
     from rigtools.procedures import detect_jumps
     from rigtools.recording import open_recording
 

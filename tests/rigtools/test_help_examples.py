@@ -22,7 +22,8 @@ import pytest
 from cli_helpers import run_cli
 from nptdms import ChannelObject, GroupObject, RootObject, TdmsWriter
 
-from rigtools.branches import DIMENSION, read_branches
+from rigtools.branches import DIMENSION
+from rigtools.branches_file import read_branches
 from rigtools.cli import build_parser
 from rigtools.config import default_rig_text
 from rigtools.drivers.nidaq import NO_DRIVER_MESSAGE, NOT_SUPPORTED_MESSAGE

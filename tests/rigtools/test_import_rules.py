@@ -113,23 +113,6 @@ def test_commands_stay_thin():
 # still have some (other helpers were splitting or rewriting them at the same time). The lists
 # must only shrink: an entry whose finding is gone fails test_allow_lists_only_shrink, so remove it.
 NOT_YET_AT_HEAD = {
-    # h-split (issue 32: splits of the big modules, Examples in analysis)
-    "rigtools.analysis.plots",
-    "rigtools.analysis.spectra",
-    "rigtools.analysis.stabilisation",
-    "rigtools.experiments",
-    # drivers (h-rt, merged): inventory loads visa_source (pyvisa) and shaker sim.vibro_impact
-    # (numba) lazily; to measure before hoisting (config loads shaker, rig devices inventory)
-    "rigtools.drivers.inventory",
-    "rigtools.drivers.shaker",
-    # h-30 (issue 30: recordings, importers, check preambles of branches/frf_set)
-    "rigtools.branches",
-    "rigtools.frf_set",
-    "rigtools.interop.channels",
-    "rigtools.interop.imported",
-    "rigtools.recording.lock",
-    "rigtools.recording.reader",
-    "rigtools.recording.validate",
     # h-pll / h-cbc / h-rt (issue 33: new procedures and the feedback loop beside these)
     "rigtools.procedures.base",
     "rigtools.procedures.frf",
@@ -141,9 +124,6 @@ NOT_YET_AT_HEAD = {
     "rigtools.procedures.sine",
     "rigtools.procedures.sweep",
     "rigtools.procedures.tap",
-    # its lazy imports of rigtools.drivers (shaker, simulated: numba) wait for h-rt's move of the
-    # simulated rig's physics to sim (issue 33); load_rig must not load numba
-    "rigtools.config",
     # the front door's names live here: hoisting the heavy imports (procedures, sim, comparison)
     # made the first use of rigtools.spectrum 0.6 -> 6-7 s on the loaded CI-like machine (scipy.signal,
     # numba, pydantic); to go once it is split by front-door name (each module importing at its head

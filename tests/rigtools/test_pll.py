@@ -191,7 +191,7 @@ def test_report_draws_points_over_stable_and_unstable_branches(tmp_path):
     two marker sets."""
     import numpy as np
 
-    from rigtools.branches import StoredBranch
+    from rigtools.branches_file import StoredBranch
     from rigtools.procedures.controlled_point import ControlledPoint
     from rigtools.report.controlled_branch import branch_amplitude, controlled_branch_figure
 

@@ -85,7 +85,7 @@ def branches_report(tmp_path_factory, fem_model, fem_frequency_branch):
     analysis figures left out: test_cli_report.py checks those)."""
     from cli_helpers import run_cli
 
-    from rigtools.branches import write_branches
+    from rigtools.branches_file import write_branches
     from rigtools.recording_analysis.dispatch import analyze_recording
     from rigtools.report.branches import add_recording_branches, load_branch_files
 
@@ -114,7 +114,8 @@ def test_branches_over_the_rigs_stepped_sine_in_chromium(branches_report, chromi
     file's bifurcations (6 digits) and the recording's jumps, and the fold the text names lies
     inside the up sweep's jump as the tables say."""
     from rigtools.analysis.branches import SHORT
-    from rigtools.branches import point_contact, read_branches
+    from rigtools.branches_file import read_branches
+    from rigtools.measured_sweeps import point_contact
     from rigtools.procedures import detect_jumps
     from rigtools.recording import open_recording
 

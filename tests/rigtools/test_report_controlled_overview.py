@@ -15,7 +15,7 @@ import pytest
 from headless_chromium import figure_is_drawn, screenshot_page
 
 import rigtools
-from rigtools.branches import StoredBranch
+from rigtools.branches_file import StoredBranch
 from rigtools.recording_analysis.dispatch import analyze_recording
 from rigtools.report import Report, write_report
 from rigtools.report.branches import BranchFile
