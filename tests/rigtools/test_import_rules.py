@@ -144,11 +144,6 @@ NOT_YET_AT_HEAD = {
     # its lazy imports of rigtools.drivers (shaker, simulated: numba) wait for h-rt's move of the
     # simulated rig's physics to sim (issue 33); load_rig must not load numba
     "rigtools.config",
-    # the front door's names live here: hoisting the heavy imports (procedures, sim, comparison)
-    # made the first use of rigtools.spectrum 0.6 -> 6-7 s on the loaded CI-like machine (scipy.signal,
-    # numba, pydantic); to go once it is split by front-door name (each module importing at its head
-    # only what its names need). The light ones (errors, options, model_*) are at its head.
-    "rigtools.workflows",
 }
 # circles (as sets of modules) still being broken by the helper named
 KNOWN_CIRCLES: set[frozenset[str]] = set()  # none left (issue 32); a circle being broken goes here
