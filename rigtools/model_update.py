@@ -1,5 +1,6 @@
 """``rig update`` behind the command line: recordings -> targets -> fits -> an updated rig file
-(:func:`update_rig_file`, :class:`UpdateOutcome`).
+(:func:`update_rig_file`, :class:`UpdateOutcome`), and the front door's :func:`update_model` (the
+same from a lab script, quantity strings or SI floats).
 
 The steps live in three modules:
 
@@ -30,6 +31,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
 
 from rigtools.errors import UserError
+from rigtools.options import RIG_FILE_SUFFIXES, band_option, output_path, quantity, switch
 
 if TYPE_CHECKING:
     from rigtools.update_contact import DwellData
@@ -303,8 +305,6 @@ def _checked_arguments(
 ) -> tuple[list[str], float | None, float | None, Path]:
     """``(parameter names, f_min, f_max, out path)`` of :func:`update_rig_file`'s arguments, each
     refused in one line when wrong (before any work)."""
-    from rigtools.options import RIG_FILE_SUFFIXES, band_option, output_path
-
     names = parse_names(parameters if isinstance(parameters, str) else ",".join(parameters), PARAMETER_NAMES)
     if isinstance(modes, bool) or not isinstance(modes, int) or not 1 <= modes <= MAX_TARGET_MODES:
         raise UserError(f"--modes = {modes!r}: use 1..{MAX_TARGET_MODES}")
@@ -386,3 +386,81 @@ def _warnings(res, unmeasured: list) -> list[str]:
     if unmeasured:
         warnings.append(summary_line(unmeasured))
     return warnings
+
+
+# ------------------------------------------------------------------------------ the front door
+
+
+def update_model(
+    recordings: str | Path | Sequence[str | Path],
+    out: str | Path,
+    *,
+    rig: str | Path | None = None,
+    parameters: str | Sequence[str] | None = None,
+    modes: int = 3,
+    band: tuple[float | str, float | str] | str | None = None,
+    damping: bool = True,
+    contact: Sequence[str | Path] = (),
+    law: str = "rig",
+    overwrite: bool = False,
+) -> UpdateOutcome:
+    """Fit the rig file's model to test recordings and write the updated rig file (``rig update``).
+
+    Parameters
+    ----------
+    recordings
+        FRF tests and tap tests: the modes identified in them are the targets.
+    out
+        The updated rig file to write (``.toml``).
+    rig
+        Rig file to update; ``None``: the calibrated default rig.
+    parameters
+        Rig-file keys fitted (:data:`rigtools.model_update.PARAMETER_NAMES`); ``None``: the default set.
+    modes
+        Flexural modes per blade used as targets, lowest first.
+    band
+        ``(low, high)`` searched for modes, e.g. ``("20 Hz", "2 kHz")`` or the CLI's
+        ``"20 Hz:2 kHz"``; ``None``: each test's band.
+    damping
+        Fit the identified damping ratios too.
+    contact
+        Force-controlled dwells with impacts: fit the contact stiffness and damping to them.
+    law
+        Contact law fitted: ``"rig"``, ``"linear"``, ``"hertz"`` or ``"compare"``.
+    overwrite
+        Replace ``out`` if it exists.
+
+    Returns
+    -------
+    UpdateOutcome
+        ``out`` (the file written), ``paired`` (targets with the nominal model's modes), ``fit``.
+
+    Examples
+    --------
+    >>> import rigtools, tempfile, pathlib
+    >>> folder = pathlib.Path(tempfile.mkdtemp())
+    >>> tap = rigtools.tap_test("85 mm", folder / "tap.h5", hits=2, gap="5 mm", backend="sim", seed=1)
+    >>> done = rigtools.update_model([tap.file], folder / "updated.toml", modes=2)
+    >>> done.out.name, rigtools.load_rig(done.out).name != ""
+    ('updated.toml', True)
+    """
+    files = [recordings] if isinstance(recordings, str | Path) else list(recordings)
+    if not files:
+        raise UserError("recordings = []: give at least one test recording (an FRF test or a dwell)")
+    span = None
+    if isinstance(band, str):
+        span = band_option(band, "band")
+    elif band is not None:
+        span = (quantity(band[0], "frequency", "band"), quantity(band[1], "frequency", "band"))
+    return update_rig_file(
+        files,
+        out,
+        rig=rig,
+        parameters=DEFAULT_PARAMETERS if parameters is None else parameters,
+        modes=modes,
+        band=span,
+        damping=switch(damping, "damping"),
+        contact=contact,
+        law=law,
+        overwrite=overwrite,
+    )

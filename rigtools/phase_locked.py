@@ -69,7 +69,7 @@ def phase_locked_loop(
     Returns
     -------
     RunResult
-        One point per target; ``point.extra`` holds the :class:`~rigtools.procedures.controlled_point.ControlledPoint` fields
+        One point per target; ``point.extra`` holds the :class:`~rigtools.controlled_point.ControlledPoint` fields
         (``fe_hz``, ``amplitude_m``, ``phase_deg``, ``converged``, ``iterations``, ...).
 
     Examples

@@ -5,7 +5,7 @@ measured live from the last whole periods (:func:`live_phase_deg`), and where th
 (locking, locked and recording, a point locked or not). A CBC by its control effort and
 iterations per point. Both by their points growing: A against fe (PLL, the backbone or the
 response curve it traces), F1 against A (CBC, its S-curve). The numbers of an ended point are the
-ones its procedure wrote (the :class:`rigtools.procedures.controlled_point.ControlledPoint`
+ones its procedure wrote (the :class:`rigtools.controlled_point.ControlledPoint`
 fields, ``control_effort``, ``phase_error_rms``), so the page shows what ``rig report`` tables.
 """
 

@@ -32,8 +32,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import h5py
+from pydantic import ValidationError
+
 from rigtools.errors import FaultError, Interrupted, UserError, one_line
 from rigtools.procedures.result import RunResult, Status
+from rigtools.quantity_fields import describe_error
+from rigtools.recording.lock import LockBusy, WriterLock
 
 __all__ = [
     "Procedure",
@@ -91,10 +96,6 @@ class ProcedureResult:
 def validate(model: type, **values: Any):
     """Build a pydantic parameter model; a bad value is one :class:`UserError` line naming the
     parameter, the value as written and what is allowed (in SI units)."""
-    from pydantic import ValidationError
-
-    from rigtools.quantity_fields import describe_error
-
     try:
         return model(**values)
     except ValidationError as exc:
@@ -244,10 +245,6 @@ def _interrupt_text(exc: BaseException) -> str:
 
 def mark_end_status(path: str | Path, status: Status, reason: str) -> None:
     """Set the root attributes ``end_status`` and ``end_reason`` of a closed recording."""
-    import h5py
-
-    from rigtools.recording.lock import LockBusy, WriterLock
-
     lock = WriterLock(path)  # a file another run writes now is not ours to change
     try:
         lock.acquire()

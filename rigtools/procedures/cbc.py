@@ -61,7 +61,7 @@ from rigtools.procedures.cbc_iteration import (
 )
 from rigtools.procedures.cbc_loop import BufferedHarmonicLoop, InnerLoop, LoopMeasurement
 from rigtools.procedures.cbc_realtime import REALTIME_GAINS, RealTimeHarmonicLoop
-from rigtools.procedures.controlled_point import ControlledPoint
+from rigtools.controlled_point import ControlledPoint
 from rigtools.procedures.sine import SineProcedure
 from rigtools.quantity_fields import Frequency, Length, Time, VoltageAmplitude
 from rigtools.units import MAX_GAP
@@ -643,7 +643,7 @@ def control_based_continuation(
     Returns
     -------
     RunResult
-        Its points carry the :class:`~rigtools.procedures.controlled_point.ControlledPoint`
+        Its points carry the :class:`~rigtools.controlled_point.ControlledPoint`
         fields and the control effort (``point.extra``).
 
     Examples

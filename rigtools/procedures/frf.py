@@ -15,13 +15,19 @@ from typing import Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+from scipy.signal import find_peaks
 
 from rigtools.acquisition import BlockStream
+from rigtools.drivers.drive_signals import PeriodicChirp, RandomDrive
 from rigtools.errors import UserError
+from rigtools.options import band_option
+from rigtools.procedures import rig
 from rigtools.procedures.base import StopRequested, validate
 from rigtools.procedures.session import PointSink
 from rigtools.procedures.sine import SineProcedure
 from rigtools.quantity_fields import Frequency, Length, Time, Voltage
+from rigtools.recording import open_recording
+from rigtools.recording_analysis.frf_estimate import point_frf_estimate
 from rigtools.units import MAX_GAP
 
 
@@ -47,8 +53,6 @@ class FrfParameters(BaseModel):
     def _band_string(cls, v):
         # the CLI's "20 Hz:500 Hz", read by its one band parser
         if isinstance(v, str):
-            from rigtools.options import band_option
-
             return band_option(v, "band", allow_zero=False)
         return v
 
@@ -73,9 +77,6 @@ class FrfTest(SineProcedure):
         return self.params.model_dump()
 
     def startup(self) -> None:
-        from rigtools.drivers.drive_signals import PeriodicChirp, RandomDrive
-        from rigtools.procedures import rig
-
         p = self.params
         if self.device is None:
             self.device = rig.open_device(self.cfg, self.backend, **self._device_opts)
@@ -195,11 +196,6 @@ def quick_check(path, response: str | None = None, n_peaks: int = 5) -> dict:
     """H1 (response / force) over the averaged frames of an FRF test recording, its peaks in the
     band and their coherence: the very estimate ``rig analyze`` reports
     (:func:`rigtools.recording_analysis.frf_estimate.point_frf_estimate`: whole frames, no window)."""
-    from scipy.signal import find_peaks
-
-    from rigtools.recording import open_recording
-    from rigtools.recording_analysis.frf_estimate import point_frf_estimate
-
     with open_recording(path) as rec:
         point = rec.points[0]
         prm = point.params

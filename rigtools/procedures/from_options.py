@@ -15,12 +15,21 @@ from pathlib import Path
 from typing import Any
 
 from rigtools.analysis.frf import MIN_FRAME_SAMPLES
+from rigtools.drivers.contracts import ConfigurationError
 from rigtools.drivers.realtime_pll import NO_REALTIME_PLL
+from rigtools.drivers.simulated import Fault
 from rigtools.errors import UserError
 from rigtools.options import band_option, quantity, value_list
 from rigtools.options import gap as _gap_text
+from rigtools.procedures.cbc import from_options as cbc_from_options
+from rigtools.procedures.cbc import json_document
+from rigtools.procedures.dwell import SineDwell
+from rigtools.procedures.frf import FrfTest, quick_check
 from rigtools.procedures.pll import PhaseLockedLoop
 from rigtools.procedures.pll_options import pll_document, pll_parameters
+from rigtools.procedures.rig_study import RigStudy
+from rigtools.procedures.sweep import SteppedSine
+from rigtools.procedures.tap import TapTest, analyze_tap_recording
 
 PROCEDURES = ("dwell", "sweep", "study", "frf", "tap", "pll", "cbc")
 TAP_F_MIN_HZ = 5.0
@@ -33,9 +42,6 @@ def parse_faults(texts: Sequence[str], backend: str) -> list[Any]:
         return []
     if backend != "sim":
         raise UserError("--fault injects faults into the simulated rig only; add --backend sim")
-    from rigtools.drivers.contracts import ConfigurationError
-    from rigtools.drivers.simulated import Fault
-
     faults = []
     for text in texts:
         try:
@@ -124,8 +130,6 @@ def build_procedure(
     **run_options
         ``backend``, ``overwrite``, ``pace``, ``faults``, ``seed`` of the procedure.
     """
-    from rigtools import procedures as P
-
     rate = float(cfg.daq.sample_rate)
 
     o = options
@@ -138,7 +142,7 @@ def build_procedure(
             "control": _control(o),
         }
         below_nyquist(params["fe"], rate, "--fe", o["fe"])
-        return P.SineDwell(cfg, _periods(params, o), out, **run_options)
+        return SineDwell(cfg, _periods(params, o), out, **run_options)
     if name == "sweep":
         params = {
             "frequencies": _grid(o["frequencies"], "frequency", "--frequencies", minimum=2),
@@ -149,7 +153,7 @@ def build_procedure(
             "control": _control(o),
         }
         below_nyquist(params["frequencies"], rate, "--frequencies", o["frequencies"])
-        return P.SteppedSine(cfg, _periods(params, o), out, **run_options)
+        return SteppedSine(cfg, _periods(params, o), out, **run_options)
     if name == "study":
         params = {
             "kind": o["kind"],
@@ -167,9 +171,7 @@ def build_procedure(
         resume = bool(o.get("resume", False))
         if resume:
             run_options = {**run_options, "overwrite": False}
-        return P.RigStudy(
-            cfg, _periods(params, o), out, resume=resume, confirm_gap=confirm_gap, **run_options
-        )
+        return RigStudy(cfg, _periods(params, o), out, resume=resume, confirm_gap=confirm_gap, **run_options)
     if name == "pll":
         params = pll_parameters(cfg, o)
         below_nyquist(params["fe_start"], rate, "--fe-start", o.get("fe_start"))
@@ -178,8 +180,6 @@ def build_procedure(
             pll.note = NO_REALTIME_PLL  # said before the device opens
         return pll
     if name == "tap":
-        from rigtools.procedures.tap import TapTest
-
         hits = o.get("hits", 5)
         if not 2 <= hits <= 1000:
             raise UserError(f"--hits = {hits}: use 2..1000 (averaging and coherence need two hits or more)")
@@ -206,14 +206,10 @@ def build_procedure(
         below_nyquist(f_max, rate, "--f-max", o.get("f_max"))
         return TapTest(cfg, params, out, **run_options)
     if name == "cbc":
-        from rigtools.procedures.cbc import from_options as cbc_from_options
-
         below_nyquist(quantity(o["fe"], "frequency", "--fe"), rate, "--fe", o["fe"])
         return cbc_from_options(cfg, out, o, **run_options)
     if name != "frf":
         raise UserError(f"unknown procedure {name!r} (known: {', '.join(PROCEDURES)})")
-    from rigtools.procedures.frf import FrfTest
-
     band = band_option(str(o["band"]), "--band", allow_zero=False)
     below_nyquist(list(band), rate, "--band", o["band"])
     params = {
@@ -291,19 +287,13 @@ def result_document(name: str, backend: str, proc: Any, result: Any, f_max: str 
         doc["points"] = pll_document(proc)
         doc.update({k: v for k, v in result.summary.items() if k != "points"})
     elif name == "cbc":
-        from rigtools.procedures.cbc import json_document
-
         doc.update(json_document(proc))
     elif name == "frf" and finished:
-        from rigtools.procedures.frf import quick_check
-
         doc["check"] = quick_check(proc.out, proc.params.response)
     elif name == "tap":
         doc.update(result.summary)
         doc["hits_detail"] = points
         if finished:
-            from rigtools.procedures.tap import analyze_tap_recording
-
             top = min(quantity(f_max, "frequency", "--f-max"), 0.45 * proc.rate)
             res = analyze_tap_recording(proc.out, proc.response, f_min=TAP_F_MIN_HZ, f_max=top)
             doc["modes"] = [

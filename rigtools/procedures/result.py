@@ -15,6 +15,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from rigtools.recording import RecordingError, open_recording
+
 if TYPE_CHECKING:
     import pandas as pd
 
@@ -236,8 +238,6 @@ class RunResult:
         file = Path(result.file or out)
         points = list(result.points)
         if not points and file.is_file():
-            from rigtools.recording import RecordingError, open_recording
-
             try:
                 with open_recording(file) as rec:
                     points = [dict(p.params) for p in rec.points if p.complete]
@@ -254,8 +254,6 @@ class RunResult:
 
     def open(self) -> Recording:
         """The recording (:func:`rigtools.open_recording`); use it in a ``with`` block."""
-        from rigtools.recording import open_recording
-
         return open_recording(self.file)
 
     def analyze(self, **options: Any) -> RecordingAnalysis:

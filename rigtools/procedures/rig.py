@@ -10,7 +10,11 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import asdict
 
+from rigtools.drivers.contracts import ConfigurationError, DriverUnavailable
+from rigtools.drivers.safety import ChannelLimit, SafetyMonitor
+from rigtools.drivers.simulated import SimulatedRig
 from rigtools.errors import UserError, option, reword
+from rigtools.recording import ChannelSpec
 
 BACKENDS = ("nidaq", "sim")
 
@@ -44,8 +48,6 @@ def open_device(
         (exit 3) When NI-DAQmx is not installed; raised by :func:`configure`.
     """
     if backend == "sim":
-        from rigtools.drivers.simulated import SimulatedRig
-
         seed = 0 if seed is None else seed
         return SimulatedRig.from_config(cfg, pace=pace, faults=list(faults), seed=seed, model=model)
     if backend != "nidaq":
@@ -60,11 +62,9 @@ def open_device(
         )
         given = [option(name, flag=flag) for name, flag, value in asked if value]
         raise UserError(f"{', '.join(given)}: for the simulated rig only; add {option('backend', 'sim')}")
-    try:
+    try:  # the NI-DAQmx package is for the hardware only (a heavy optional package)
         from rigtools.drivers.nidaq import NiDaqDevice
     except ImportError:
-        from rigtools.drivers.contracts import DriverUnavailable
-
         raise DriverUnavailable(
             "NI-DAQmx (the nidaqmx package) is not installed; "
             f"use {option('backend', 'sim')} to run on the simulated rig"
@@ -74,8 +74,6 @@ def open_device(
 
 def configure(device, cfg) -> float:
     """Channels and clock from ``[daq]``; returns the actual (coerced) sample rate."""
-    from rigtools.drivers.contracts import ConfigurationError, DriverUnavailable
-
     try:
         return device.configure(
             cfg.daq.input_specs(), cfg.daq.output_spec(), cfg.daq.sample_rate, cfg.daq.block_size()
@@ -89,16 +87,12 @@ def configure(device, cfg) -> float:
 
 def safety_monitor(cfg, device):
     """The ``[safety]`` limits on the device's inputs and the drive."""
-    from rigtools.drivers.safety import ChannelLimit, SafetyMonitor
-
     limits = [ChannelLimit(name, lim.warning, lim.abort) for name, lim in cfg.safety.limits.items()]
     return SafetyMonitor(limits, device.input_channels, max_drive=cfg.safety.max_drive)
 
 
 def channel_specs(device, cfg, rate: float) -> list:
     """Recording channels: every input (from its spec), then the drive as written."""
-    from rigtools.recording import ChannelSpec
-
     specs = [
         ChannelSpec(
             name=s.name,

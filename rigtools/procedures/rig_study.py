@@ -12,10 +12,15 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from rigtools.errors import UserError
+from rigtools.options import value_list
 from rigtools.procedures.base import validate
 from rigtools.procedures.session import SineSession, point_attrs
 from rigtools.procedures.sine import ControlParameters, SineProcedure, target_not_reached
 from rigtools.quantity_fields import Force, Frequency, Length
+from rigtools.recording import RecordingWriter, open_recording
+from rigtools.recording.lock import LockBusy, WriterLock
+from rigtools.sim.studies import StudyPlan
+from rigtools.sim.vibro_impact import SimulationInputError
 from rigtools.units import MAX_GAP, parse_quantity
 
 
@@ -46,8 +51,6 @@ class StudyParameters(BaseModel):
         if isinstance(data, dict) and data.get("kind") in dimension and "values" in data:
             values = data["values"]
             if isinstance(values, str):  # the CLI's "0.3 mm:0.9 mm:0.3 mm" or "a,b,c", its one parser
-                from rigtools.options import value_list
-
                 values = value_list(values, data["kind"], "values")
             if isinstance(values, (int, float)):
                 values = [values]
@@ -58,9 +61,6 @@ class StudyParameters(BaseModel):
         return data
 
     def plan(self):
-        from rigtools.sim.studies import StudyPlan
-        from rigtools.sim.vibro_impact import SimulationInputError
-
         try:
             return StudyPlan(
                 self.kind,
@@ -77,8 +77,6 @@ class StudyParameters(BaseModel):
 
 def complete_points(path: Path) -> int:
     """Leading points of a recording that ended complete (end_time set, point_complete)."""
-    from rigtools.recording import open_recording
-
     n = 0
     try:
         with open_recording(path) as rec:
@@ -122,9 +120,6 @@ class RigStudy(SineProcedure):
         return {**self.params.model_dump(), "plan": self.plan.to_dict()}
 
     def open_writer(self, experiment: dict) -> None:
-        from rigtools.recording import RecordingWriter
-        from rigtools.recording.lock import LockBusy, WriterLock
-
         if not self.resume:
             return super().open_writer(experiment)
         out = self.out
@@ -167,8 +162,6 @@ class RigStudy(SineProcedure):
         backup.unlink()
 
     def _check_same_study(self, path: Path, experiment: dict) -> None:
-        from rigtools.recording import open_recording
-
         try:
             with open_recording(path) as rec:
                 old = rec.experiment
@@ -181,8 +174,6 @@ class RigStudy(SineProcedure):
             )
 
     def _copy_points(self, path: Path, n: int) -> None:
-        from rigtools.recording import open_recording
-
         with open_recording(path) as rec:
             for i, point in enumerate(rec):
                 if i >= n:

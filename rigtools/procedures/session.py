@@ -25,6 +25,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from rigtools.acquisition import BlockStream
+from rigtools.analysis.harmonics import harmonic_amplitudes
+from rigtools.drivers.drive_signals import SineDrive
 from rigtools.procedures.base import StopRequested
 
 MEASURE_SECONDS = 0.1  # shortest measurement window (whole periods, at least 3)
@@ -89,8 +91,6 @@ def whole_periods(seconds: float, rate: float, fe: float, min_periods: int = 3) 
 
 def phasor(x: np.ndarray, rate: float, fe: float, k_max: int = 1):
     """Complex amplitudes of harmonics 1..k_max of ``x`` (peak, phase of cos), and the fit."""
-    from rigtools.analysis.harmonics import harmonic_amplitudes
-
     fit = harmonic_amplitudes(x, rate, fe, k_max)
     return fit.amplitude * np.exp(1j * fit.phase), fit
 
@@ -154,8 +154,6 @@ class SineSession:
     def __init__(
         self, device, cfg, monitor, fe: float, procedure, force_row: int, ring_seconds: float = 2.0
     ) -> None:
-        from rigtools.drivers.drive_signals import SineDrive
-
         self.device, self.cfg, self.proc = device, cfg, procedure
         self.rate = device.sample_rate
         self.force_row = force_row

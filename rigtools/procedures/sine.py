@@ -6,11 +6,11 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from rigtools.errors import TargetNotReached
+from rigtools.errors import TargetNotReached, UserError
+from rigtools.procedures import rig
 from rigtools.procedures.base import (
     Procedure,
     ProcedureResult,
@@ -20,9 +20,7 @@ from rigtools.procedures.base import (
 )
 from rigtools.procedures.session import SineSession
 from rigtools.quantity_fields import Time, VoltageAmplitude
-
-if TYPE_CHECKING:
-    from rigtools.recording import PointWriter, RecordingWriter
+from rigtools.recording import PointWriter, RecordingWriter
 
 
 class ControlParameters(BaseModel):
@@ -117,14 +115,10 @@ class SineProcedure(Procedure):
         return {}
 
     def startup(self) -> None:
-        from rigtools.procedures import rig
-
         if self.device is None:
             self.device = rig.open_device(self.cfg, self.backend, **self._device_opts)
         rate = rig.configure(self.device, self.cfg)
         if self.first_frequency() >= rate / 2:
-            from rigtools.errors import UserError
-
             raise UserError(
                 f"fe = {self.first_frequency():g} Hz must be below half the sample rate ({rate / 2:g} Hz)"
             )
@@ -142,8 +136,6 @@ class SineProcedure(Procedure):
         self.open_writer(rig.experiment_metadata(self.name, self.device, self.parameters_doc()))
 
     def open_writer(self, experiment: dict) -> None:
-        from rigtools.recording import RecordingWriter
-
         self.writer = RecordingWriter(
             self.out,
             backend=self.device.backend,

@@ -15,7 +15,9 @@ from typing import Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
+from rigtools.analysis.jumps import contact_seen, find_jumps
 from rigtools.errors import UserError
+from rigtools.options import value_list
 from rigtools.procedures.base import validate
 from rigtools.procedures.session import point_attrs
 from rigtools.procedures.sine import ControlParameters, SineProcedure, target_not_reached
@@ -50,8 +52,6 @@ class SweepParameters(BaseModel):
     def _range_string(cls, v):
         # the CLI's "62 Hz:72 Hz:2 Hz" or "62 Hz,65 Hz", read by its one parser
         if isinstance(v, str):
-            from rigtools.options import value_list
-
             return value_list(v, "frequency", "frequencies", minimum=2)
         return v
 
@@ -108,8 +108,6 @@ def detect_jumps(
     out from its neighbours (:func:`rigtools.analysis.jumps.find_jumps`). A step with no contact
     on either side is never a jump.
     """
-    from rigtools.analysis.jumps import find_jumps
-
     return [j.as_dict() for j in find_jumps(freqs, amps, threshold, contact=contact, other=other)]
 
 
@@ -197,8 +195,6 @@ class SteppedSine(SineProcedure):
 
 def _contact(res: dict, active: str, passive: str | None) -> bool | None:
     """Whether the shrouds touch at a step, from its harmonics (:func:`rigtools.analysis.jumps.contact_seen`)."""
-    from rigtools.analysis.jumps import contact_seen
-
     harmonics = res.get("harmonics", {})
     if active not in harmonics:
         return None

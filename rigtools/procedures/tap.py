@@ -35,26 +35,26 @@ pulse of ``pulse`` seconds and ``hit_force`` peak at ``position`` every
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Literal
+from typing import Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
+from rigtools.acquisition import BlockStream
+from rigtools.drivers.contracts import ConfigurationError, DriverUnavailable, InputChannelSpec
+from rigtools.drivers.simulated import SimulatedHammer
 from rigtools.errors import UserError
+from rigtools.procedures import rig
 from rigtools.procedures.base import StopRequested, validate
 from rigtools.procedures.sine import SineProcedure
 from rigtools.quantity_fields import Force, Length, Time
+from rigtools.recording import PointWriter, open_recording
+from rigtools.recording_analysis.tap_test import analyze_tap_test
 from rigtools.units import MAX_GAP
-
-if TYPE_CHECKING:
-    from rigtools.drivers.contracts import InputChannelSpec
-    from rigtools.recording import PointWriter
 
 
 def default_hammer(name: str) -> InputChannelSpec:
     """A PCB 086C03-class modal hammer: what the simulated rig fits when the rig file has none."""
-    from rigtools.drivers.contracts import InputChannelSpec
-
     return InputChannelSpec(
         name,
         physical_channel="Dev1/ai3",
@@ -205,10 +205,6 @@ class TapTest(SineProcedure):
         return mine[0]
 
     def startup(self) -> None:
-        from rigtools.acquisition import BlockStream
-        from rigtools.drivers.contracts import ConfigurationError, DriverUnavailable
-        from rigtools.procedures import rig
-
         p = self.params
         if self.device is None:
             self.device = rig.open_device(self.cfg, self.backend, **self._device_opts)
@@ -253,9 +249,6 @@ class TapTest(SineProcedure):
         )
 
     def _simulated_hammer(self) -> None:
-        from rigtools.drivers.contracts import ConfigurationError
-        from rigtools.drivers.simulated import SimulatedHammer
-
         p = self.params
         interval = p.frame + 0.5
         hammer = SimulatedHammer(
@@ -442,9 +435,6 @@ def analyze_tap_recording(
     rigtools.analysis.point.FRFTestAnalysis
         ``.modes[response].modes`` the identified modes; ``.estimate`` the FRF.
     """
-    from rigtools.recording import open_recording
-    from rigtools.recording_analysis.tap_test import analyze_tap_test
-
     with open_recording(path) as rec:
         exp = rec.experiment or {}
         if (response or exp.get("response")) is None:

@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from rigtools.branches_file import StoredBranch
-from rigtools.procedures.controlled_point import ControlledPoint
+from rigtools.controlled_point import ControlledPoint
 from rigtools.recording import open_recording
 
 #: The procedures whose points are controlled points.

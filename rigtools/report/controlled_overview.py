@@ -30,7 +30,7 @@ from typing import Any
 
 import numpy as np
 
-from rigtools.procedures.controlled_point import ControlledPoint
+from rigtools.controlled_point import ControlledPoint
 from rigtools.recording import open_recording
 from rigtools.report.branches import FIXED_TOLERANCE, BranchFile, fixed_text
 from rigtools.report.controlled_branch import (

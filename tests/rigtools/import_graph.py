@@ -275,7 +275,20 @@ def doors(modules: Mapping[str, Path]) -> set[str]:
 # heavy optional packages: imported inside a function anywhere, as is a rigtools module that
 # imports one of them at its head (rigtools.analysis.plots holds matplotlib: importing it lazily
 # is importing matplotlib lazily)
-HEAVY = ("matplotlib", "dask", "distributed", "bokeh", "tornado", "pyuff", "nptdms", "pyoma2", "sdypy")
+# nidaqmx: the NI hardware's driver (~140 modules), needed only with --backend nidaq; a machine
+# without it runs the simulated rig (rigtools.procedures.rig.open_device: DriverUnavailable)
+HEAVY = (
+    "matplotlib",
+    "dask",
+    "distributed",
+    "bokeh",
+    "tornado",
+    "pyuff",
+    "nptdms",
+    "pyoma2",
+    "sdypy",
+    "nidaqmx",
+)
 
 
 def heavy_wrappers(modules: Mapping[str, Path]) -> set[str]:

@@ -10,7 +10,7 @@ import pytest
 
 import rigtools
 from rigtools.errors import UserError
-from rigtools.workflows import Spectrum
+from rigtools.point_spectrum import Spectrum
 
 
 @pytest.fixture

@@ -192,7 +192,7 @@ def test_report_draws_points_over_stable_and_unstable_branches(tmp_path):
     import numpy as np
 
     from rigtools.branches_file import StoredBranch
-    from rigtools.procedures.controlled_point import ControlledPoint
+    from rigtools.controlled_point import ControlledPoint
     from rigtools.report.controlled_branch import branch_amplitude, controlled_branch_figure
 
     fe = np.linspace(60.0, 65.0, 6)
