@@ -42,6 +42,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 from rigtools.config import load_rig
+from rigtools.controlled_point import ControlledPoint
 from rigtools.drivers.realtime import NO_REALTIME_LOOP
 from rigtools.errors import UserError
 from rigtools.options import gap as gap_text
@@ -61,7 +62,6 @@ from rigtools.procedures.cbc_iteration import (
 )
 from rigtools.procedures.cbc_loop import BufferedHarmonicLoop, InnerLoop, LoopMeasurement
 from rigtools.procedures.cbc_realtime import REALTIME_GAINS, RealTimeHarmonicLoop
-from rigtools.controlled_point import ControlledPoint
 from rigtools.procedures.sine import SineProcedure
 from rigtools.quantity_fields import Frequency, Length, Time, VoltageAmplitude
 from rigtools.units import MAX_GAP

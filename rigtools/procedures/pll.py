@@ -30,9 +30,9 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
+from rigtools.controlled_point import ControlledPoint
 from rigtools.drivers.realtime_pll import NO_REALTIME_PLL
 from rigtools.procedures.base import validate
-from rigtools.controlled_point import ControlledPoint
 from rigtools.procedures.pll_realtime import RealTimePllRun
 from rigtools.procedures.pll_run import DETECT_PERIODS, PllRun
 from rigtools.procedures.sine import SineProcedure

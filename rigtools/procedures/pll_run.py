@@ -9,8 +9,8 @@ from typing import Any
 
 import numpy as np
 
-from rigtools.errors import UserError
 from rigtools.controlled_point import ControlledPoint
+from rigtools.errors import UserError
 from rigtools.procedures.pll_loop import Detection, PhaseController, PhaseLog, detect, wrap_deg
 from rigtools.sim.channel_names import ACTIVE_SHROUD_ACCEL
 
