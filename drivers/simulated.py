@@ -640,6 +640,21 @@ class SimulatedRig(AcquisitionDevice):
             )
         self._feedback.set_target(target, at)
 
+    def set_loop_gains(self, kp: float, kd: float) -> None:
+        """New gains of the running real-time loop (V/m, V s/m) from the next sample on, its
+        rate, delay and target kept: as a real-time target takes new gains between blocks (a
+        gain schedule along a continuation).
+
+        Raises
+        ------
+        ConfigurationError
+            No real-time loop set, or gains not finite (one line).
+        """
+        if self._feedback is None or self.realtime_loop is None:
+            raise ConfigurationError("no real-time loop: call set_realtime_loop() (and configure) first")
+        self.realtime_loop = replace(self.realtime_loop, kp=float(kp), kd=float(kd))  # validates
+        self._feedback.kp, self._feedback.kd = float(kp), float(kd)
+
     def _make_feedback(self) -> DelayedFeedback | None:
         loop = self.realtime_loop
         if loop is None or self._rate <= 0:
