@@ -570,6 +570,23 @@ class SimulatedRig(AcquisitionDevice):
             )
         self._feedback.set_target(target, at)
 
+    def set_loop_gains(self, kp: float, kd: float) -> None:
+        """New gains of the running real-time loop (V/m, V s/m) from the next sample on, its
+        rate, delay and target kept: as a real-time target takes new gains between blocks (a
+        gain schedule along a continuation).
+
+        Raises
+        ------
+        ConfigurationError
+            No real-time loop (:class:`~rigtools.drivers.realtime.RealTimeLoop`) set, or gains not
+            finite (one line).
+        """
+        loop = self.realtime_loop
+        if not isinstance(self._feedback, DelayedFeedback) or not isinstance(loop, RealTimeLoop):
+            raise ConfigurationError("no real-time loop: call set_realtime_loop() (and configure) first")
+        self.realtime_loop = replace(loop, kp=float(kp), kd=float(kd))  # validates
+        self._feedback.kp, self._feedback.kd = float(kp), float(kd)
+
     def set_pll_command(self, command: PllCommand) -> None:
         """The real-time PLL follows ``command`` (phase target, amplitude) from its next tick.
 

@@ -268,3 +268,26 @@ class DelayedFeedback:
         self._hv = np.concatenate([self._hv, data[:, _V]])[-self._keep :]
         self._k += data.shape[0]
         self._h0 = self._k + 1 - self._hx.size
+
+
+def loop_gain(kp: float, kd: float, delay_s: float, rate_hz: float, frequency_hz: float) -> complex:
+    """The loop's output per unit displacement error on a sinusoid of ``frequency_hz``: the
+    complex ``U / E`` of the delayed PD law held by a zero-order hold,
+
+        U / E = (Kp + i w Kd) exp(-i w D) (1 - exp(-i w / rate)) / (i w / rate),
+
+    (V/m; ``E`` the error ``x* - x``, ``w = 2 pi frequency_hz``). Its real part is the stiffness
+    the loop adds at that frequency, its imaginary part over ``w`` the damping (V s/m): the
+    delay turns part of ``Kp`` into negative damping, about ``-Kp sin(w D)``, which ``Kd`` must
+    beat (at 64 Hz, 10 kHz and 1.04 ms: Kp 2000 V/m with Kd 2 V s/m nets -121 V/m, no damping
+    left; with Kd 4 V s/m +608 V/m).
+
+    Examples
+    --------
+    >>> g = loop_gain(2000.0, 4.0, 1.04e-3, 10_000.0, 64.0)
+    >>> round(g.real), round(g.imag)
+    (2493, 608)
+    """
+    w = 2.0 * math.pi * frequency_hz
+    hold = 1.0 if w == 0 else (1.0 - np.exp(-1j * w / rate_hz)) / (1j * w / rate_hz)
+    return complex((kp + 1j * w * kd) * np.exp(-1j * w * delay_s) * hold)

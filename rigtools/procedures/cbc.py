@@ -22,7 +22,7 @@ default law on the fundamental, ``law="delay"``, is designed for that delay,
 backend the procedure says so in one line: the whole unstable sheet needs a real-time inner loop.
 Where the backend has one (``has_realtime_loop``: the simulated rig) the inner loop is, by
 default, that per-sample loop (:mod:`rigtools.procedures.cbc_realtime`, gains 2000 V/m and
-2 V s/m unless given), and each converged point's Floquet multipliers are measured by a probe
+2 V s/m, Kd scheduled to 3.5 V s/m up the sheet, unless given), and each converged point's Floquet multipliers are measured by a probe
 and a release of its target (``multipliers``); ``inner_loop="buffered"`` keeps the buffered one.
 
 With ``release_seconds`` the gains are set to zero after the last point (the drive held at its
@@ -634,7 +634,7 @@ def control_based_continuation(
     rig, backend, overwrite, progress, seed
         As :func:`rigtools.dwell` (``backend`` ``"nidaq"`` or ``"sim"``, no default).
     inner_loop
-        ``"realtime"`` (the backend's per-sample loop; gains 2000 V/m, 2 V s/m unless given;
+        ``"realtime"`` (the backend's per-sample loop; gains 2000 V/m, 2-3.5 V s/m unless given;
         each point's multipliers measured), ``"buffered"``, or ``None``: realtime where the
         backend has one, else buffered with the one-line note.
     **params

@@ -29,6 +29,7 @@ kept short enough (from the last point's multiplier) that the loop catches the o
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 
@@ -38,10 +39,19 @@ from rigtools.drivers.realtime import HarmonicTarget, RealTimeLoop
 from rigtools.procedures.cbc_iteration import Gains
 from rigtools.procedures.cbc_loop import BufferedHarmonicLoop, LoopMeasurement, fit_matrix
 
-#: The real-time loop's gains by default (V/m, V s/m): they hold the unstable orbit at 64 Hz
-#: to A 0.405 mm (abs(mu) 1.8; Kd 1 V s/m loses the orbit near 0.38 mm, abs(mu) 1.45: the controlled
-#: orbit stops being steady).
+#: The real-time loop's gains by default (V/m, V s/m), scheduled with the target's fundamental
+#: (:func:`scheduled_gains`). At 64 Hz, 10 kHz and 1.04 ms the delay turns Kp into negative
+#: damping at fe (:func:`rigtools.sim.delayed_feedback.loop_gain`: Kp 2000 with Kd 1 nets
+#: -485 V/m, with Kd 2 -121 V/m): the controlled orbit's slow mode (sidebands fe +- 8 Hz) is
+#: then barely damped, and as the sheet's growth rises the orbit stops being steady (Kd 1 near
+#: A 0.38 mm, Kd 2 near 0.42 mm). Kd 3.5 (+426 V/m) holds it further (the model's orbits held
+#: point after point, 1 s each: to 0.439 mm), but on the stable side and the F1 minimum's
+#: neighbourhood Kd above 3 pulls the controlled rig onto the impact-limited orbit (A ~0.306 mm,
+#: F1 rising) when the target moves: Kd 2 there. Kp other than ~2000 V/m loses the sheet's
+#: orbits sooner either way (1500 and 2500-4000 V/m, with Kd keeping +260..+670 V/m).
 REALTIME_GAINS = (2000.0, 2.0)
+SCHEDULE_KD = (2.0, 3.5)  # V s/m: Kd below and above the ramp
+SCHEDULE_A = (0.40e-3, 0.43e-3)  # m: the ramp of Kd in the target's fundamental
 ORBIT_HARMONICS = 40  # harmonics of the loop's target (above the CBC's H: the measured ones)
 PROBE = 2e-4  # the probe: the target this much larger, relative
 PROBE_PERIODS = 4
@@ -49,10 +59,21 @@ HOLD_PERIODS = 24  # the orbit held before the probe (its last 16 periods: the r
 LINEAR_LIMIT = 0.02  # the fit ends where the growth since the release passes this fraction of A
 
 
+def scheduled_gains(amplitude: float) -> tuple[float, float]:
+    """The default gains ``(Kp V/m, Kd V s/m)`` at a target fundamental ``amplitude`` (m): Kp
+    2000, Kd 2 up to 0.40 mm, rising linearly to 3.5 at 0.43 mm and held (see
+    :data:`REALTIME_GAINS`; tuned on the simulated rig at 64 Hz, gap 0.5 mm)."""
+    a0, a1 = SCHEDULE_A
+    s = min(1.0, max(0.0, (amplitude - a0) / (a1 - a0)))
+    return REALTIME_GAINS[0], SCHEDULE_KD[0] + s * (SCHEDULE_KD[1] - SCHEDULE_KD[0])
+
+
 class RealTimeHarmonicLoop(BufferedHarmonicLoop):
     """The CBC's inner loop on the backend's real-time loop (see the module docstring); the
     :class:`~rigtools.procedures.cbc_loop.InnerLoop` protocol, constructed as the buffered loop
-    is, with ``gains`` (V/m, V s/m) fixed for the run.
+    is. Its gains (V/m, V s/m) are the procedure's, fixed for the run, or, when they are the
+    defaults (:data:`REALTIME_GAINS`), scheduled with each hold's target fundamental
+    (:func:`scheduled_gains`; the device's ``set_loop_gains``).
 
     Raises
     ------
@@ -68,6 +89,8 @@ class RealTimeHarmonicLoop(BufferedHarmonicLoop):
         params = getattr(procedure, "params", None)
         kp, kd = (params.kp, params.kd) if params is not None else REALTIME_GAINS
         self.law = RealTimeLoop(kp=kp, kd=kd)
+        self.base_gains = (kp, kd)
+        self.scheduled = (kp, kd) == REALTIME_GAINS and hasattr(device, "set_loop_gains")
         device.set_realtime_loop(self.law)
         super().__init__(device, cfg, monitor, procedure, fe, rows, **kwargs)
         self.engaged = False
@@ -100,14 +123,23 @@ class RealTimeHarmonicLoop(BufferedHarmonicLoop):
         if gains.zero:
             self.engaged = False
             self.last_modulus = 1.0  # open loop (an approach): the next release's length afresh
-        elif (gains.kp, gains.kd) != (self.law.kp, self.law.kd):
+        elif (gains.kp, gains.kd) != self.base_gains:
             raise ConfigurationError(
-                f"the real-time loop runs with kp {self.law.kp:g} V/m, kd {self.law.kd:g} V s/m; "
+                f"the real-time loop runs with kp {self.base_gains[0]:g} V/m, kd {self.base_gains[1]:g} V s/m; "
                 f"its gains cannot change to {gains.kp:g}, {gains.kd:g} while it runs"
             )
         else:
             self.engaged = True
         self.gains = gains
+
+    def hold(self, target: np.ndarray, feedforward: np.ndarray, **kwargs) -> LoopMeasurement:
+        """As the buffered loop's; with scheduled gains, the loop's gains for this target first."""
+        if self.scheduled and self.engaged:
+            kp, kd = scheduled_gains(abs(complex(target[0])))
+            if (kp, kd) != (self.law.kp, self.law.kd):
+                self.law = replace(self.law, kp=kp, kd=kd)
+                self.device.set_loop_gains(kp, kd)
+        return super().hold(target, feedforward, **kwargs)
 
     # -- measurements ----------------------------------------------------------------------------
     def _loop_rows(self, start: int, n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -225,4 +257,4 @@ def _scaled(target: HarmonicTarget, factor: float) -> HarmonicTarget:
     )
 
 
-__all__ = ["REALTIME_GAINS", "RealTimeHarmonicLoop"]
+__all__ = ["REALTIME_GAINS", "RealTimeHarmonicLoop", "scheduled_gains"]

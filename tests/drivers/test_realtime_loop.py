@@ -96,6 +96,25 @@ def test_a_step_of_the_target_reaches_the_output_after_exactly_the_delay(cfg, bl
     rig.stop()
 
 
+def test_new_gains_act_from_the_next_sample_with_the_target_kept(cfg):
+    """set_loop_gains while the stream runs (a gain schedule between blocks): at rest, Kp only,
+    the target's mean 10 um; after the gains change from 100 to 300 V/m the output of the next
+    block is exactly 300 * 10 um minus what the shroud moved (the law's value with the new gain,
+    the target unchanged), and the loop's record says the new gains."""
+    fs, block = 50_000.0, 500
+    rig = _rig(cfg, RealTimeLoop(kp=100.0, target=HarmonicTarget(mo.FE, mean=1e-5)), fs, block)
+    k = _run(rig, 0.0, 2, block)
+    rig.set_loop_gains(300.0, 0.0)
+    _run(rig, 0.0, 1, block, start=k)
+    u, x = rig.loop_log[0, -block:], rig.loop_log[1, -block:]
+    assert rig.realtime_loop is not None and rig.realtime_loop.kp == 300.0
+    # the loop's measurement D before the tick: the shroud barely moves in 10 ms at 0.1 V, so
+    # the output lies within 1 % of 300 V/m * 10 um whatever it moved
+    assert np.all(np.abs(u[-100:] - 300.0 * 1e-5) <= 0.01 * 300.0 * 1e-5 + 300.0 * np.max(np.abs(x)))
+    assert np.max(np.abs(u[-100:])) > 200.0 * 1e-5  # not the old gain's 100 * 10 um
+    rig.stop()
+
+
 def _orbit_velocity(kind: str) -> np.ndarray:
     _, _, _, pmap = mo.model()
     point = mo.orbit(kind)

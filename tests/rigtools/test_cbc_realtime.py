@@ -3,7 +3,8 @@
 of the simulated rig's model at fe = 64 Hz, gap 0.5 mm (tests/rigtools/data/cbc_model_64hz.json:
 its S-curve, and ``sheet_to_grazing`` by ``benchmarks/cbc_model_reference.py --sheet``; the
 table's agreement with today's model is test_cbc.py's first test). A few points across the F1
-minimum onto the unstable part keep the CPU small; the 26-point sweep A 0.30-0.49 mm is
+minimum onto the unstable part, and six up the sheet (A 0.4064-0.4444 mm) where the gain
+schedule matters, keep the CPU small; the 26-point sweep A 0.30-0.49 mm is
 ``benchmarks/bench_cbc_realtime.py``."""
 
 from __future__ import annotations
@@ -116,28 +117,74 @@ def test_a_backend_without_a_realtime_loop_is_refused():
     assert "real-time" in NO_REALTIME_LOOP and "\n" not in NO_REALTIME_LOOP
 
 
+@pytest.fixture(scope="module")
+def upper(tmp_path_factory):
+    """Six targets A 0.4064-0.4444 mm up the sheet (the model's |mu| 1.86 to 2.8), the default
+    loop with its gains scheduled (Kd 2 to 3.5 V s/m over A 0.40-0.43 mm)."""
+    out = tmp_path_factory.mktemp("cbcrt_up") / "up.h5"
+    return control_based_continuation(
+        "64 Hz", "0.4064 mm:0.4444 mm:0.0076 mm", out, gap="0.5 mm", backend="sim"
+    )
+
+
+def test_the_sheet_is_held_past_mu_2(upper):
+    """The first three targets (A 0.4064-0.4216 mm, the model's |mu| 1.86 to 2.15, Kd scheduled
+    2.5 to 3.0 V s/m) converged within 8 iterations, the drive's harmonics 2-10 at most 1 % of
+    its fundamental and F1 within 2 % of the model at the measured A. (On this path the fourth,
+    0.4292 mm, is lost: the 26-point sweep of the benchmark holds it.)"""
+    a, f, _mu = s_curve()
+    assert len(upper.points) >= 3
+    for p in upper.points[:3]:
+        x = p.extra
+        state = (x.get("amplitude_target"), x["amplitude_m"], x["iterations"], x["drive_harmonics_ratio"])
+        assert x["converged"] and x["iterations"] <= 8 and x["drive_harmonics_ratio"] <= 0.01, state
+        assert abs(x["force_fundamental_n"] / float(np.interp(x["amplitude_m"], a, f)) - 1) <= F1_TOLERANCE
+
+
 @pytest.mark.xfail(
     strict=True,
-    reason="measured (benchmarks/bench_cbc_realtime.py): the real-time loop (Kp 2000 V/m, Kd 2 V s/m, "
-    "10 kHz, 1.04 ms) holds the sheet to A 0.4202 mm (|mu| 2.12) and loses it at the next target, "
-    "0.4278 mm (the point ends at 0.4146 mm, F1 +2.9 %, drive harmonics 3.8 %; the controlled orbit "
-    "stops being steady): 0.4278-0.49 mm not measured. Multipliers within 10 % up to A 0.3996 mm "
-    "(|mu| 1.74); from 0.408 mm (|mu| 1.88) the growth after the release passes 2 % of A within two "
-    "periods and no fit is made. Goal: converged and within 10 % to 0.49 mm where |mu| <= 2",
+    reason="measured: the probe-and-release fit is path-sensitive at |mu| 1.5-2 on the CBC's held "
+    "orbits (here A 0.4125 mm: 1.578 against the model's 1.969, -19.8 %; the 26-point sweep of "
+    "benchmarks/bench_cbc_realtime.py: within 8.2 % to |mu| 1.85 and no fit at 1.985, 2 periods "
+    "below the 2 % linear limit), while the model's own orbits probed and released by the same "
+    "loop (exact drive, 2 s hold) fit within 3.5 % to |mu| 2.03. What spoils the CBC's transient "
+    "is not settled: a 64-period hold, a 2x smaller probe, the drive re-measured on the held "
+    "orbit and damped gains for the hold each left a worst error of 19-87 % in A 0.37-0.41 "
+    "mm. Goal: within 10 % wherever |mu| <= 2",
 )
-def test_the_upper_sheet_to_049_mm(tmp_path):
-    """The issue's upper part of the sheet: every target A 0.4064-0.49 mm converged with F1 within
-    2 % of the model, and the largest measured multiplier within 10 % of the model's where
-    |mu| <= 2 (benchmarks/bench_cbc_realtime.py measures the whole 26-point sweep)."""
-    result = control_based_continuation(
-        "64 Hz", "0.4064 mm:0.49 mm:0.0076 mm", tmp_path / "up.h5", gap="0.5 mm", backend="sim"
-    )
-    a, f, mu = s_curve()
-    assert len(result.points) == 12
-    for p in result.points:
+def test_measured_multipliers_up_to_mu_2(upper):
+    """Where the model's |mu| <= 2 among these points (A 0.4064 and 0.414 mm targets, |mu| 1.86
+    and 1.99) the largest measured multiplier within 10 % of the model's."""
+    a, _f, mu = s_curve()
+    checked = 0
+    for p in upper.points[:3]:
+        x = p.extra
+        m = float(np.interp(x["amplitude_m"], a, mu))
+        if m <= 2.0:
+            assert abs(x.get("max_multiplier", np.nan) / m - 1) <= MU_TOLERANCE, (
+                x["amplitude_m"],
+                x.get("max_multiplier"),
+                m,
+            )
+            checked += 1
+    assert checked == 2
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="measured (benchmarks/bench_cbc_realtime.py): with the scheduled gains the loop holds the "
+    "sheet to A 0.4292 mm (|mu| 2.3) and loses the target 0.4368 mm (the point ends at 0.4472 mm, "
+    "F1 +3.7 %, drive harmonics 2.6 %; on this test's path it holds 0.4216 mm and loses 0.4292): the model's orbits held point after point by the loop "
+    "lose steadiness near 0.44 mm at every Kp, Kd tried (Kp 2000 with Kd 3.5 best; Kp 1500 or "
+    "2500-4000, Kd above 4 sooner): a fixed-structure delayed PD does not hold |mu| beyond ~2.6 "
+    "here. 16 of 26 targets of the sweep converge. Goal: every target to 0.49 mm (|mu| 5.4)",
+)
+def test_the_upper_sheet_to_049_mm(upper):
+    """Every target A 0.4064-0.4444 mm converged with F1 within 2 % of the model (the issue's
+    sheet to 0.49 mm; benchmarks/bench_cbc_realtime.py measures the whole 26-point sweep)."""
+    a, f, _mu = s_curve()
+    assert len(upper.points) == 6
+    for p in upper.points:
         x = p.extra
         assert x["converged"]
         assert abs(x["force_fundamental_n"] / float(np.interp(x["amplitude_m"], a, f)) - 1) <= F1_TOLERANCE
-        m = float(np.interp(x["amplitude_m"], a, mu))
-        if m <= 2.0:
-            assert abs(x.get("max_multiplier", np.nan) / m - 1) <= MU_TOLERANCE
