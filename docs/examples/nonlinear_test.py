@@ -13,8 +13,9 @@ continued in force. Stable solid, unstable dashed. On the NI rig, give ``backend
 """
 
 # %%
-# The measurements: a stepped sine up and down, three PLL points at 5 N (phase of A to F1) and
-# the CBC at 64 Hz over A from 0.320 to 0.350 mm.
+# The measurements: a stepped sine up and down, four PLL points at 5 N (phase of A to F1: at
+# -152 deg and beyond the orbits are unstable at a fixed drive; the simulated rig runs the PLL per
+# sample, as a real-time target would) and the CBC at 64 Hz over A from 0.320 to 0.350 mm.
 import tempfile
 from pathlib import Path
 
@@ -27,7 +28,7 @@ sweep = rigtools.stepped_sine(
     "56 Hz:67 Hz:1 Hz", "5 N", folder / "sweep.h5", gap="0.5 mm", direction="both", backend="sim"
 )
 pll = rigtools.phase_locked_loop(
-    "5 N", folder / "pll.h5", phases="-90 deg,-120 deg,-140 deg", gap="0.5 mm", backend="sim"
+    "5 N", folder / "pll.h5", phases="-90 deg,-140 deg,-152 deg,-165 deg", gap="0.5 mm", backend="sim"
 )
 cbc = rigtools.control_based_continuation(
     "64 Hz", "0.320 mm:0.350 mm:0.005 mm", folder / "cbc.h5", gap="0.5 mm", backend="sim"
