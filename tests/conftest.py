@@ -23,10 +23,10 @@ import os
 import shutil
 from collections.abc import Callable
 from pathlib import Path
-from typing import NoReturn
 
 import pytest  # pytest does not import numpy: the BLAS settings below still come first
 from hypothesis import settings as _hypothesis_settings
+from public_data import PUBLIC_DATA, missing
 
 # CI runs the property tests on hypothesis's derandomized examples (the same every run, so a red CI
 # is reproducible); a developer's run explores new ones (HYPOTHESIS_PROFILE unset). A case found
@@ -37,19 +37,6 @@ if os.environ.get("HYPOTHESIS_PROFILE"):
 
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
-
-PUBLIC_DATA = Path(
-    os.environ.get("RIGTOOLS_PUBLIC_DATA") or Path(__file__).resolve().parents[1].parent / "shared" / "data"
-)
-"""The public measured data sets: ``../shared/data`` next to the project root (README there), or
-the folder ``RIGTOOLS_PUBLIC_DATA`` names (a git worktree elsewhere)."""
-
-
-def missing(what: str, variable: str) -> NoReturn:
-    """Skip the test because ``what`` is missing, or fail it when ``variable`` is set to 1."""
-    if os.environ.get(variable) == "1":
-        pytest.fail(f"{what} ({variable}=1 asks for it)")
-    pytest.skip(f"{what}; set {variable}=1 to make this a failure")
 
 
 @pytest.fixture

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from cli_helpers import run_cli
-from conftest import PUBLIC_DATA, missing
+from public_data import PUBLIC_DATA, missing
 
 DATA = PUBLIC_DATA
 HAMMER = DATA / "ufffiles-hammer"

@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from cli_helpers import run_cli
-from conftest import PUBLIC_DATA, missing
+from public_data import PUBLIC_DATA, missing
 
 from rigtools.analysis.oma import operational_modes
 from rigtools.recording import open_recording

@@ -154,8 +154,8 @@ def test_a_writer_that_ends_while_a_reader_opens_is_looked_at_again(tmp_path, mo
         (validate, "_check_once", real_check, lambda: check_recording(path)),
     ):
         probes = iter(["pid 1 on labpc since now"])  # alive for the first probe, then gone
-        monkeypatch.setattr(reader, "writer_alive", lambda p, probes=probes: next(probes, None))
-        monkeypatch.setattr(lock_module, "writer_alive", lambda p, probes=probes: next(probes, None))
+        for where in (reader, validate, lock_module):  # each imports writer_alive at its head
+            monkeypatch.setattr(where, "writer_alive", lambda p, probes=probes: next(probes, None))
         calls = []
 
         def flaky(*args, real=real, calls=calls):
@@ -169,8 +169,8 @@ def test_a_writer_that_ends_while_a_reader_opens_is_looked_at_again(tmp_path, mo
         assert len(calls) == 2
         # no writer at all: the first answer stands
         calls.clear()
-        monkeypatch.setattr(reader, "writer_alive", lambda p: None)
-        monkeypatch.setattr(lock_module, "writer_alive", lambda p: None)
+        for where in (reader, validate, lock_module):
+            monkeypatch.setattr(where, "writer_alive", lambda p: None)
         with pytest.raises(RecordingError, match="end_time"):
             run()
         assert len(calls) == 1

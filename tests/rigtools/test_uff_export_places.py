@@ -24,10 +24,10 @@ import numpy as np
 import pytest
 import pyuff
 from cli_helpers import run_cli
-from conftest import PUBLIC_DATA, missing
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from nptdms import ChannelObject, GroupObject, TdmsWriter
+from public_data import PUBLIC_DATA, missing
 
 from rigtools.config import load_rig
 from rigtools.recording import ChannelSpec, RecordingWriter, open_recording
