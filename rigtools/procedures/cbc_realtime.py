@@ -51,7 +51,7 @@ from rigtools.procedures.cbc_loop import BufferedHarmonicLoop, LoopMeasurement, 
 #: orbits sooner either way (1500 and 2500-4000 V/m, with Kd keeping +260..+670 V/m).
 #: Past the ramp the law's output goes through the loop's second-order low-pass at
 #: :data:`SCHEDULE_LOWPASS` Hz with Kd 4 (the impacts' broadband content no longer fed back):
-#: the model's own orbits held point after point, 1 s each, to A 0.4951 mm (|mu| 6.0) within
+#: the model's own orbits held point after point, 1 s each, to A 0.4951 mm (largest multiplier 6.0) within
 #: 1e-3 of A, against 0.439 mm for the plain law at any Kp, Kd tried (corners 250-700 Hz, Kd
 #: 3-5: 350-400 Hz with Kd 4 best; the landscape is narrow).
 REALTIME_GAINS = (2000.0, 2.0)
