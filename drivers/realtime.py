@@ -68,6 +68,8 @@ class RealTimeLoop:
         Ticks spent computing and writing the output, on top of the converters.
     target
         The target to start with (``None``: output 0 until :meth:`rigtools.drivers.simulated.SimulatedRig.set_loop_target`).
+    lowpass_hz
+        The corner of the low-pass on the output, Hz (``None``: none), below half the rate.
     """
 
     kp: float = 0.0
@@ -76,8 +78,15 @@ class RealTimeLoop:
     converter_delay_s: float = CONVERTER_DELAY
     compute_samples: int = 2
     target: HarmonicTarget | None = None
+    lowpass_hz: float | None = None
 
     def __post_init__(self) -> None:
+        if self.lowpass_hz is not None and not (
+            math.isfinite(self.lowpass_hz) and 0 < self.lowpass_hz < 0.5 * self.rate_hz
+        ):
+            raise ConfigurationError(
+                f"real-time loop low-pass {self.lowpass_hz!r} Hz must lie between 0 and half its rate"
+            )
         if not (math.isfinite(self.rate_hz) and self.rate_hz > 0):
             raise ConfigurationError(f"real-time loop rate {self.rate_hz!r} Hz must be > 0")
         if not (math.isfinite(self.converter_delay_s) and self.converter_delay_s >= 0):

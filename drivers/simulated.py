@@ -570,10 +570,11 @@ class SimulatedRig(AcquisitionDevice):
             )
         self._feedback.set_target(target, at)
 
-    def set_loop_gains(self, kp: float, kd: float) -> None:
-        """New gains of the running real-time loop (V/m, V s/m) from the next sample on, its
-        rate, delay and target kept: as a real-time target takes new gains between blocks (a
-        gain schedule along a continuation).
+    def set_loop_gains(self, kp: float, kd: float, lowpass_hz: float | None = None) -> None:
+        """New gains of the running real-time loop (V/m, V s/m) and its output low-pass (Hz,
+        ``None``: none; :class:`~rigtools.drivers.realtime.RealTimeLoop`) from the next sample
+        on, its rate, delay and target kept: as a real-time target takes new gains between
+        blocks (a gain schedule along a continuation).
 
         Raises
         ------
@@ -584,8 +585,9 @@ class SimulatedRig(AcquisitionDevice):
         loop = self.realtime_loop
         if not isinstance(self._feedback, DelayedFeedback) or not isinstance(loop, RealTimeLoop):
             raise ConfigurationError("no real-time loop: call set_realtime_loop() (and configure) first")
-        self.realtime_loop = replace(loop, kp=float(kp), kd=float(kd))  # validates
+        self.realtime_loop = replace(loop, kp=float(kp), kd=float(kd), lowpass_hz=lowpass_hz)  # validates
         self._feedback.kp, self._feedback.kd = float(kp), float(kd)
+        self._feedback.set_lowpass(lowpass_hz)
 
     def set_pll_command(self, command: PllCommand) -> None:
         """The real-time PLL follows ``command`` (phase target, amplitude) from its next tick.
@@ -618,7 +620,13 @@ class SimulatedRig(AcquisitionDevice):
             return self._make_pll(loop)
         try:
             return DelayedFeedback(
-                loop.rate_hz, loop.delay_s, loop.kp, loop.kd, self.shaker.amplifier_gain, 1.0 / self._rate
+                loop.rate_hz,
+                loop.delay_s,
+                loop.kp,
+                loop.kd,
+                self.shaker.amplifier_gain,
+                1.0 / self._rate,
+                loop.lowpass_hz,
             )
         except SimulationInputError as exc:
             raise ConfigurationError(str(exc)) from None

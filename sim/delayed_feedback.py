@@ -28,6 +28,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.signal import butter, lfilter, lfilter_zi
 
 from rigtools.sim.params import SimulationInputError
 from rigtools.sim.rig_physics import VibroImpactPhysics
@@ -138,6 +139,11 @@ class DelayedFeedback:
         Coil volts per volt of control (the amplifier's gain).
     dt
         The integration step, s.
+    lowpass_hz
+        ``None``: the PD law as stated. Else its output, tick by tick, through a second-order
+        Butterworth low-pass at this corner (a biquad by the bilinear transform at the tick rate,
+        as a real-time target runs it): the impacts' broadband content is not fed back
+        (:func:`loop_gain` gives the law's gain with it).
 
     Raises
     ------
@@ -146,7 +152,14 @@ class DelayedFeedback:
     """
 
     def __init__(
-        self, rate_hz: float, delay_s: float, kp: float, kd: float, input_gain: float, dt: float
+        self,
+        rate_hz: float,
+        delay_s: float,
+        kp: float,
+        kd: float,
+        input_gain: float,
+        dt: float,
+        lowpass_hz: float | None = None,
     ) -> None:
         if not (math.isfinite(rate_hz) and rate_hz > 0):
             raise SimulationInputError(f"loop rate {rate_hz!r} Hz must be > 0")
@@ -161,10 +174,29 @@ class DelayedFeedback:
         # the step ends the next chunk's ticks can reach back to: D plus one tick
         self._keep = math.ceil((self.delay_s + 1.0 / self.rate_hz) / self.dt) + 4
         self._schedule = _Schedule()
+        self.lowpass_hz: float | None = None
+        self._biquad: tuple[np.ndarray, np.ndarray] | None = None
+        self._zi: np.ndarray | None = None
+        self.set_lowpass(lowpass_hz)
         self.reset()
+
+    def set_lowpass(self, lowpass_hz: float | None) -> None:
+        """The output low-pass's corner, Hz (``None``: none) from the next tick; switched on, its
+        state starts at rest at the law's next output (no step from the switch)."""
+        if lowpass_hz is not None and not (0 < lowpass_hz < 0.5 * self.rate_hz):
+            raise SimulationInputError(
+                f"loop low-pass {lowpass_hz!r} Hz must lie between 0 and half the loop rate"
+            )
+        if lowpass_hz != self.lowpass_hz:
+            self._biquad = None if lowpass_hz is None else _butterworth2(lowpass_hz, self.rate_hz)
+            self._zi = None
+        self.lowpass_hz = lowpass_hz
 
     def reset(self) -> None:
         """At rest at t = 0, no target (the loop's output 0)."""
+        self._zi = None
+        self._last_tick = -1
+        self._last_out = 0.0
         self._k = 0  # step ends known: 0 .. _k
         self._h0 = 0  # step index of the history's first entry
         self._hx = np.zeros(1)
@@ -207,6 +239,25 @@ class DelayedFeedback:
         target_x, target_v, on = self._schedule.evaluate(tm)
         x, v = self._measured(tm)
         return np.where(on, self.kp * (target_x - x) + self.kd * (target_v - v), 0.0)
+
+    def _output(self, ticks: np.ndarray) -> np.ndarray:
+        """The outputs at increasing ``ticks``: :meth:`control`, through the low-pass if set
+        (stateful: each tick filtered once, in order; a tick asked again returns its value)."""
+        if self._biquad is None:
+            return self.control(ticks)
+        out = np.empty(ticks.size)
+        old = ticks <= self._last_tick
+        out[old] = self._last_out
+        new = ticks[~old]
+        if new.size:
+            raw = self.control(new)
+            b, a = self._biquad
+            if self._zi is None:
+                self._zi = lfilter_zi(b, a) * raw[0]
+            y, self._zi = lfilter(b, a, raw, zi=self._zi)
+            out[~old] = y
+            self._last_tick, self._last_out = int(new[-1]), float(y[-1])
+        return out
 
     def step(
         self,
@@ -251,7 +302,7 @@ class DelayedFeedback:
             ms = np.arange(k + 1, m_max + 1)
             ticks = np.floor(ms * per_step + _EPS)
             first, inverse = np.unique(ticks, return_inverse=True)
-            c = self.control(first)[inverse]
+            c = self._output(first)[inverse]
             a, b = i, i + ms.size
             if envelope is not None:
                 c = c * envelope[a:b]
@@ -270,7 +321,19 @@ class DelayedFeedback:
         self._h0 = self._k + 1 - self._hx.size
 
 
-def loop_gain(kp: float, kd: float, delay_s: float, rate_hz: float, frequency_hz: float) -> complex:
+def _butterworth2(corner_hz: float, rate_hz: float) -> tuple[np.ndarray, np.ndarray]:
+    b, a = butter(2, corner_hz, fs=rate_hz)
+    return np.asarray(b, float), np.asarray(a, float)
+
+
+def loop_gain(
+    kp: float,
+    kd: float,
+    delay_s: float,
+    rate_hz: float,
+    frequency_hz: float,
+    lowpass_hz: float | None = None,
+) -> complex:
     """The loop's output per unit displacement error on a sinusoid of ``frequency_hz``: the
     complex ``U / E`` of the delayed PD law held by a zero-order hold,
 
@@ -280,7 +343,8 @@ def loop_gain(kp: float, kd: float, delay_s: float, rate_hz: float, frequency_hz
     the loop adds at that frequency, its imaginary part over ``w`` the damping (V s/m): the
     delay turns part of ``Kp`` into negative damping, about ``-Kp sin(w D)``, which ``Kd`` must
     beat (at 64 Hz, 10 kHz and 1.04 ms: Kp 2000 V/m with Kd 2 V s/m nets -121 V/m, no damping
-    left; with Kd 4 V s/m +608 V/m).
+    left; with Kd 4 V s/m +608 V/m). ``lowpass_hz``: the law's output through the loop's
+    second-order Butterworth low-pass (:class:`DelayedFeedback`), its ``H(exp(i w / rate))``.
 
     Examples
     --------
@@ -290,4 +354,9 @@ def loop_gain(kp: float, kd: float, delay_s: float, rate_hz: float, frequency_hz
     """
     w = 2.0 * math.pi * frequency_hz
     hold = 1.0 if w == 0 else (1.0 - np.exp(-1j * w / rate_hz)) / (1j * w / rate_hz)
-    return complex((kp + 1j * w * kd) * np.exp(-1j * w * delay_s) * hold)
+    g = (kp + 1j * w * kd) * np.exp(-1j * w * delay_s) * hold
+    if lowpass_hz is not None:
+        b, a = _butterworth2(lowpass_hz, rate_hz)
+        z = np.exp(-1j * w / rate_hz) ** np.arange(3)
+        g = g * (b @ z) / (a @ z)
+    return complex(g)

@@ -15,6 +15,7 @@ inside its integrator:
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 
 import model_orbits as mo
@@ -26,6 +27,7 @@ from rigtools.config import load_rig
 from rigtools.drivers.contracts import ConfigurationError
 from rigtools.drivers.realtime import CONVERTER_DELAY, NO_REALTIME_LOOP, HarmonicTarget, RealTimeLoop
 from rigtools.drivers.simulated import SimulatedRig
+from rigtools.sim.delayed_feedback import loop_gain
 from rigtools.sim.vibro_impact import OUT_COLUMNS
 
 LAW = {"kp": 2000.0, "kd": 1.0}  # V/m, V*s/m: holds the unstable orbit (kd = 0 does not)
@@ -254,3 +256,35 @@ def test_measured_multipliers_of_the_unstable_orbit_match_the_model(cfg):
     measured = floquet_multipliers((x - ref)[released:], mo.FS, mo.FE, first_period=1, limit=limit)
     _assert_leading_multipliers_within(measured.multipliers, point.multipliers, 3, 0.10)
     assert measured.max_modulus > 1.0
+
+
+def test_the_lowpass_filters_the_law_as_its_biquad(cfg):
+    """With the output low-pass (RealTimeLoop.lowpass_hz, 350 Hz) the step of the target's mean
+    (10 um, Kp 100 V/m, at rest) shows at the same tick as without it, scaled by the biquad's b0
+    (closed form of the bilinear second-order Butterworth with prewarping: K = tan(pi fc / rate),
+    b0 = K^2 / (1 + sqrt(2) K + K^2)), and the next tick by b0 (1 + 2 - a1) (b1 = 2 b0; the
+    shroud has not moved yet); loop_gain's factor at the corner is 1/sqrt(2) at -90 deg."""
+    fc, rate = 350.0, 10_000.0
+    kk = math.tan(math.pi * fc / rate)
+    norm = 1 + math.sqrt(2) * kk + kk * kk
+    b0, a1 = kk * kk / norm, 2 * (kk * kk - 1) / norm
+    fs, block = 50_000.0, 500
+    rig = _rig(cfg, RealTimeLoop(kp=100.0, lowpass_hz=fc), fs, block)
+    k = _run(rig, 0.0, 2, block)
+    rig.set_loop_target(HarmonicTarget(mo.FE, mean=1e-5))
+    _run(rig, 0.0, 2, block, start=k)
+    u = rig.loop_log[0]
+    first = int(np.flatnonzero(u)[0])
+    assert (first + 1) / fs == pytest.approx(21.1e-3, abs=1e-12)  # as the plain law's (block 500)
+    assert u[first] == pytest.approx(100.0 * 1e-5 * b0, rel=1e-9)
+    per_tick = round(fs / rate)
+    assert u[first + per_tick] == pytest.approx(100.0 * 1e-5 * b0 * (3 - a1), rel=1e-6)
+    rig.stop()
+    ratio = loop_gain(2000.0, 4.0, 1.04e-3, rate, fc, fc) / loop_gain(2000.0, 4.0, 1.04e-3, rate, fc)
+    assert abs(ratio) == pytest.approx(1 / math.sqrt(2), rel=1e-9)
+    assert np.angle(ratio, deg=True) == pytest.approx(-90.0, abs=1e-6)
+
+
+def test_a_lowpass_beyond_half_the_rate_is_one_line():
+    with pytest.raises(ConfigurationError, match="low-pass"):
+        RealTimeLoop(kp=1.0, lowpass_hz=6000.0)
