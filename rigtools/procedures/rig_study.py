@@ -125,7 +125,7 @@ class RigStudy(SineProcedure):
         out = self.out
         backup = out.with_name(out.name + ".resume-source")
         # the writer lock first: a study still writing `out` is never touched
-        lock = WriterLock(out)
+        lock = WriterLock(out, writing=False)  # read what is continued as a killed writer's file
         try:
             lock.acquire()
         except LockBusy as busy:

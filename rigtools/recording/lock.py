@@ -11,6 +11,12 @@ file holds the writer's process id, host and start time as one line of text, for
 
 Readers never take the lock for longer than a probe (:func:`writer_alive`), and the writer
 retries a busy lock for :data:`ACQUIRE_WAIT_S` so a probing reader cannot make it fail.
+
+A process may hold the lock before any writer exists, to read the file it is about to continue
+(``rig acquire study --resume``): such a lock is taken with ``writing=False`` and, until a
+:class:`~rigtools.recording.RecordingWriter` adopts it, :func:`writer_alive` in that process
+answers that nobody writes the file (so its readers treat a killed writer's file as one, not as
+a live writer's file in the middle of a change).
 """
 
 from __future__ import annotations
@@ -60,6 +66,10 @@ else:
         fcntl.flock(fd, fcntl.LOCK_UN)
 
 
+#: the locks this process holds, by lock file (absolute path)
+_HELD_HERE: dict[str, WriterLock] = {}
+
+
 class LockBusy(Exception):
     """Another live process (or another writer in this process) writes the recording."""
 
@@ -93,9 +103,11 @@ class WriterLock:
         If the lock file cannot be created (e.g. a read-only folder).
     """
 
-    def __init__(self, path: str | os.PathLike):
+    def __init__(self, path: str | os.PathLike, *, writing: bool = True):
         self.path = lock_path(path)
         self._fd: int | None = None
+        #: False while the holder only reads the recording (no writer has adopted the lock yet)
+        self.writing = writing
 
     def acquire(self) -> None:
         deadline = time.monotonic() + ACQUIRE_WAIT_S
@@ -108,6 +120,7 @@ class WriterLock:
                 if locked and self._same_file(fd):
                     self._fd = fd
                     self._write_holder(fd)
+                    _HELD_HERE[os.path.abspath(self.path)] = self
                     return
             except BaseException:
                 os.close(fd)
@@ -146,6 +159,8 @@ class WriterLock:
         fd, self._fd = self._fd, None
         if fd is None:
             return
+        if _HELD_HERE.get(os.path.abspath(self.path)) is self:
+            del _HELD_HERE[os.path.abspath(self.path)]
         if sys.platform != "win32":
             try:
                 self.path.unlink()  # while still locked: see acquire()
@@ -169,9 +184,13 @@ class WriterLock:
 def writer_alive(path: str | os.PathLike) -> str | None:
     """Who writes recording ``path`` now (e.g. ``"pid 4242 on labpc since ..."``), or None.
 
-    A brief shared-lock probe of the lock file; a missing or unlocked lock file means no writer.
+    A brief shared-lock probe of the lock file; a missing or unlocked lock file means no writer,
+    and so does a lock this process holds with ``writing=False`` (it only reads the file).
     """
     lock = lock_path(path)
+    own = _HELD_HERE.get(os.path.abspath(lock))
+    if own is not None and own.held and not own.writing:
+        return None
     try:
         fd = os.open(lock, os.O_RDONLY if sys.platform != "win32" else os.O_RDWR)
     except OSError:

@@ -400,6 +400,7 @@ class RecordingWriter:
         self._unflushed = 0  # bytes appended since the last flush (HDF5 may cache them)
         adopted = lock is not None and lock.held and lock.path == lock_path(self.path)
         self._lock = lock if lock is not None and adopted else WriterLock(self.path)
+        self._lock.writing = True
 
         if not self.path.parent.is_dir():
             raise RecordingError(f"cannot create {self.path}: directory {self.path.parent} does not exist")

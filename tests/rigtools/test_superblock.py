@@ -126,3 +126,56 @@ def test_objects_past_the_recorded_end_are_read_and_the_file_left_as_it_is(tmp_p
             np.testing.assert_array_equal(point.channels["force"][:], w)
     assert main(["check", str(stale)]) == 0
     assert stale.read_bytes() == before
+
+
+def test_resume_continues_a_study_whose_file_has_objects_past_its_recorded_end(tmp_path):
+    """``rig acquire study --resume`` of a killed study's file with a stale end of allocation (what
+    CI met: SIGKILL between writing point 3's objects and recording the new end). The resume holds
+    the file's writer lock while it reads the file it continues; its reads take the file for a
+    killed writer's (no live writer to wait for) and read it as ``h5clear --increment`` would: the
+    two complete points are kept bit for bit, the third is measured again, exit 0."""
+    from cli_helpers import acquire_gap_study, run_cli
+
+    from rigtools.recording import check_recording, open_recording
+
+    study = acquire_gap_study("0.5 mm:0.9 mm:0.2 mm", fe="60 Hz", periods=12)
+    whole = tmp_path / "whole.h5"
+    code, _, err = run_cli([*study, "--out", whole])
+    assert code == 0, err
+    with h5py.File(whole, "r+", libver=("v110", "v110"), locking=False) as f:
+        f["points/0002"].attrs["point_complete"] = False  # the point the kill cut short
+        f.attrs["status"] = "recording"
+    out = tmp_path / "study.h5"
+    _with_stale_end(whole, out, 2000)
+    with open_recording(whole) as rec:
+        kept = [np.asarray(p["force"]).copy() for p in rec.points[:2]]
+    code, _, err = run_cli([*study, "--out", out, "--resume"])
+    assert code == 0, err
+    assert check_recording(out).valid
+    with open_recording(out) as rec:
+        assert rec.status == "complete" and rec.experiment["resumed"] is True
+        assert [round(p.params["gap"] * 1e3, 6) for p in rec.points] == [0.5, 0.7, 0.9]
+        assert all(bool(p.params["point_complete"]) for p in rec.points)
+        for force, p in zip(kept, rec.points[:2], strict=True):
+            np.testing.assert_array_equal(np.asarray(p["force"]), force)
+
+
+def test_a_lock_held_only_to_read_is_no_live_writer(tmp_path):
+    """``WriterLock(path, writing=False)``: this process reads the file under its own lock and
+    ``writer_alive`` answers None here; once a writer adopts the lock it names the holder."""
+    from rigtools.recording import ChannelSpec, RecordingWriter, writer_alive
+    from rigtools.recording.lock import WriterLock
+
+    path = tmp_path / "r.h5"
+    lock = WriterLock(path, writing=False)
+    lock.acquire()
+    try:
+        assert writer_alive(path) is None
+        with RecordingWriter(path, backend="simulated", rig="{}", experiment={}, lock=lock) as rec:
+            assert writer_alive(path) is not None and "pid" in writer_alive(path)
+            point = rec.begin_point({"fe": 60.0}, [ChannelSpec("force", "N", "force", 1000.0)])
+            point.append(np.zeros((1, 10)))
+            point.end()
+    finally:
+        lock.release()
+    assert writer_alive(path) is None
