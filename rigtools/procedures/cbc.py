@@ -71,6 +71,7 @@ from rigtools.units import MAX_GAP
 REAL_TIME_NOTE = NO_REALTIME_LOOP
 INNER_LOOPS = ("realtime", "buffered")
 RESPONSE_CHANNEL = "active_shroud_accel"  # the controlled response: the active shroud
+WITHOUT_CONTACT_RAMP = 1.0  # s: up to the orbit without contact (the blade's free decay ~0.25 s)
 LINEAR_DEPARTURE = 0.05  # a released orbit's departure is fitted up to this share of A
 
 
@@ -132,6 +133,7 @@ class CBCPoint:
     record_start: float | None = None
     record_samples: int = 0
     arclength: bool = False  # placed by pseudo-arclength (past a turn in A), not at a target A
+    lost: str = ""  # why the inner loop let go of the target (the orbit lost), if it did
 
     def multiplier_fields(self) -> dict[str, Any]:
         """``multipliers`` (moduli, largest first), their angles (deg) and the fit's details;
@@ -177,6 +179,7 @@ class CBCPoint:
             "iteration_amplitude_error": [h["amplitude_error"] for h in self.history],
             **self.multiplier_fields(),
             **self.window_fields(),
+            **({"lost": self.lost} if self.lost else {}),
         }
 
     def window_fields(self) -> dict[str, Any]:
@@ -218,7 +221,10 @@ def cbc_point(
         on_arc = arc is None or arc.satisfied(float(abs(m.response[0])), float(abs(m.drive[0])))
         converged = bool(m.steady and ratio <= params.tolerance and error <= params.amplitude_tolerance)
         converged = converged and on_arc
-        if converged or it == params.max_iterations:
+        lost = getattr(loop, "lost", None)  # the inner loop let go of a lost target
+        if lost:
+            converged = False
+        if converged or lost or it == params.max_iterations:
             break
         if arc is not None and arc.by_drive:  # the drive on the corrector's line, the target follows
             a_target = float(abs(m.response[0]))
@@ -244,7 +250,9 @@ def cbc_point(
         drive_harmonics_ratio=history[-1]["drive_harmonics_ratio"],
     )
     effort = float(np.sqrt(np.sum(np.abs(m.drive - feedforward) ** 2) / 2))
-    return CBCPoint(point, effort, target, feedforward, m, half_peak_to_peak(m.response), history)
+    pt = CBCPoint(point, effort, target, feedforward, m, half_peak_to_peak(m.response), history)
+    pt.lost = getattr(loop, "lost", None) or ""
+    return pt
 
 
 def start_state(params: CBCParameters, m: LoopMeasurement) -> tuple[np.ndarray, np.ndarray]:
@@ -308,6 +316,7 @@ class ControlBasedContinuation(SineProcedure):
         self.release: dict[str, Any] = {}
         self.note = ""  # the line rig acquire prints first (the NI backend: REAL_TIME_NOTE)
         self._leg: list[CBCPoint] = []  # the points of the leg being measured
+        self.lost: list[str] = []  # one line per target the inner loop lost (each ended its leg)
         self.rate = 0.0  # samples per second, once the device is configured
 
     def first_frequency(self) -> float:
@@ -379,6 +388,11 @@ class ControlBasedContinuation(SineProcedure):
                 first = self._approach(loop, p)
             secant = self._probe(loop, p, *first)
             secant = self._walk(loop, p, first, leg[0], secant)
+            if getattr(loop, "lost", None):  # lost on the walk: the whole leg skipped
+                skipped.extend(leg)
+                done += len(leg)
+                self._leg = []
+                continue
             for j, amplitude in enumerate(leg):
                 done += 1
                 self.emit("point", point=done, n_points=n, text=f"A = {amplitude * 1e3:.4g} mm")
@@ -387,8 +401,15 @@ class ControlBasedContinuation(SineProcedure):
                 release = j == len(leg) - 1 and leg_index == 0 and p.release_seconds > 0
                 pt = self._measure(loop, gap, amplitude, target, ff, secant, release=release)
                 self.emit("point_done", point=done, n_points=n, text=_line(pt))
+                if not pt.point.converged and not pt.lost and self._beyond_turn(pt, amplitude):
+                    below = self._without_contact(loop, gap, amplitude, pt, secant)
+                    if below.point.converged:  # the leg goes on along the orbits without contact
+                        self._leg = [below]
+                        continue
                 if not pt.point.converged:  # the A-step failed: past a turn in A, or the orbit is lost
-                    if p.arclength_points:  # past the turn: points on the branch, not at these A
+                    if pt.lost:
+                        self._end_leg_lost(loop, pt, amplitude)
+                    elif p.arclength_points:  # past the turn: points on the branch, not at these A
                         self._arclength(loop, gap, secant)
                     skipped.extend(leg[j + 1 :])
                     done += len(leg) - j - 1
@@ -396,6 +417,7 @@ class ControlBasedContinuation(SineProcedure):
             self._leg = []
         self.result.summary["points"] = [pt.point.to_dict() for pt in self.points]
         self.result.summary["skipped_amplitudes"] = skipped
+        self.result.summary["lost"] = self.lost
         loop.finish()
 
     def _measure(
@@ -409,11 +431,14 @@ class ControlBasedContinuation(SineProcedure):
         *,
         release: bool = False,
         arc: ArcStep | None = None,
+        branch: str = "",
     ) -> CBCPoint:
         """One recorded point at ``amplitude`` (or on ``arc``'s corrector line); with ``release``
         and converged, the gains at zero afterwards (:meth:`_release`)."""
         p = self.params
-        kind = {"parameterisation": "arclength"} if arc is not None else {}
+        kind: dict[str, str] = {"parameterisation": "arclength"} if arc is not None else {}
+        if branch:
+            kind["branch"] = branch
         self.begin_point({"fe": p.fe, "amplitude_target": amplitude, "gap": gap, **kind})
         pt = cbc_point(loop, p, target, ff, secant, arc=arc)
         pt.arclength = arc is not None
@@ -458,9 +483,71 @@ class ControlBasedContinuation(SineProcedure):
             pt = self._measure(loop, gap, a_pred, target, ff, FeedforwardSecant(secant.jacobian), arc=step)
             self.emit("point_done", text=_line(pt))
             done.append(pt)
+            if pt.lost:
+                self._end_leg_lost(loop, pt, a_pred, "arclength point")
             if not pt.point.converged:
                 break
         return done
+
+    def _beyond_turn(self, pt: CBCPoint, amplitude: float) -> bool:
+        """A target below the leg's converged points that the loop held above it (the measured A
+        short of the target by more than the tolerance): past the impacting branch's turn in A,
+        where the orbit at that A is the one without contact (the loop can set it: the
+        inner loop's ``forget_shape``)."""
+        below = all(amplitude < abs(q.target[0]) for q in self._leg if q.point.converged)
+        held = pt.point.amplitude_m - amplitude > self.params.amplitude_tolerance * amplitude
+        return (
+            below
+            and held
+            and any(q.point.converged for q in self._leg)
+            and hasattr(self.loop, "forget_shape")
+        )
+
+    def _without_contact(
+        self, loop, gap: float, amplitude: float, pt: CBCPoint, secant: FeedforwardSecant
+    ) -> CBCPoint:
+        """The target at ``amplitude`` as a pure sine (the orbit without contact: no harmonics,
+        no mean), recorded with ``branch`` "no contact". The impacting orbit the loop held there
+        sustains itself (the passive blade rings between impacts) and needs a drive a third
+        larger, so the rig is brought to rest, open loop; half the drive that held ``pt`` (no
+        impacting orbit there) gives the orbit's linear response ``G = X1 / U1``; the drive
+        ``A / G`` and the target ramp up from it slowly with the loop on (the passive blade never
+        struck), the secant started from the closed loop's ``G / (1 + G K)`` (``K`` the loop's
+        gain at fe)."""
+        p = self.params
+        self.emit(
+            "message", text=f"A = {amplitude * 1e3:.4g} mm past the turn in A: the orbit without contact"
+        )
+        zero = np.zeros(p.harmonics, complex)
+        loop.forget_shape()
+        loop.set_gains(Gains(0.0))
+        loop.set_point(zero, zero, ramp_time=0.5)
+        loop.wait(1.5)
+        probe = zero.copy()
+        probe[0] = 0.5 * pt.measurement.drive[0]
+        m = loop.hold(zero, probe, ramp_time=1.0, settle_time=1.0, measure_periods=p.measure_periods)
+        g = complex(m.response[0] / m.drive[0])
+        target, ff = zero.copy(), zero.copy()
+        target[0] = amplitude * np.exp(1j * np.angle(m.response[0]))
+        ff[0] = target[0] / g
+        loop.set_gains(p.gains())
+        loop.set_point(target, ff, ramp_time=WITHOUT_CONTACT_RAMP)
+        loop.wait(WITHOUT_CONTACT_RAMP + 0.5)
+        gain = getattr(loop, "gain_at_fe", None)
+        k = complex(gain()) if callable(gain) else 0j
+        start = FeedforwardSecant.from_gain((1 + g * k) / g)
+        return self._measure(loop, gap, amplitude, target, ff, start, branch="no contact")
+
+    def _end_leg_lost(self, loop, pt: CBCPoint, amplitude: float, kind: str = "target") -> None:
+        """The inner loop let go of a lost target: one line saying which and why, the drive down
+        to rest; the leg ends there (the next leg starts with its own approach)."""
+        line = f"{kind} A = {amplitude * 1e3:.4g} mm lost ({pt.lost}): the leg ends there"
+        self.lost.append(line)
+        self.emit("message", text=line)
+        zero = np.zeros(self.params.harmonics, complex)
+        loop.set_gains(Gains(0.0))
+        loop.set_point(zero, zero, ramp_time=0.5)
+        loop.wait(1.0)
 
     def _walk(
         self, loop, p: CBCParameters, first: tuple[np.ndarray, np.ndarray], amplitude: float, secant
@@ -476,6 +563,9 @@ class ControlBasedContinuation(SineProcedure):
             pt = cbc_point(loop, p, target, ff, secant)
             if pt.point.converged:
                 self._leg.append(pt)
+            if pt.lost:  # the leg ends before its first point (execute reads loop.lost)
+                self._end_leg_lost(loop, pt, float(a), "walk point")
+                break
         return secant
 
     def _approach(self, loop, p: CBCParameters) -> tuple[np.ndarray, np.ndarray]:
@@ -584,6 +674,8 @@ def json_document(proc: ControlBasedContinuation) -> dict[str, Any]:
         ],
         "skipped_amplitudes": proc.result.summary.get("skipped_amplitudes", []),
     }
+    if proc.lost:
+        doc["lost"] = list(proc.lost)
     if proc.release:
         doc["release"] = {k: v for k, v in proc.release.items() if k != "deviation"}
     if getattr(proc, "note", ""):

@@ -38,6 +38,7 @@ from rigtools.drivers.contracts import ConfigurationError
 from rigtools.drivers.realtime import HarmonicTarget, RealTimeLoop
 from rigtools.procedures.cbc_iteration import Gains
 from rigtools.procedures.cbc_loop import BufferedHarmonicLoop, LoopMeasurement, fit_matrix
+from rigtools.sim.delayed_feedback import loop_gain
 
 #: The real-time loop's gains by default (V/m, V s/m), scheduled with the target's fundamental
 #: (:func:`scheduled_gains`). At 64 Hz, 10 kHz and 1.04 ms the delay turns Kp into negative
@@ -55,6 +56,8 @@ from rigtools.procedures.cbc_loop import BufferedHarmonicLoop, LoopMeasurement, 
 #: 1e-3 of A, against 0.439 mm for the plain law at any Kp, Kd tried (corners 250-700 Hz, Kd
 #: 3-5: 350-400 Hz with Kd 4 best; the landscape is narrow).
 REALTIME_GAINS = (2000.0, 2.0)
+SOFT_GAINS = (1000.0, 1.0)  # V/m, V s/m: at the turn in A (see SCHEDULE_SOFT_A)
+SCHEDULE_SOFT_A = (0.316e-3, 0.330e-3)  # m: soft gains below, REALTIME_GAINS above, linear between
 SCHEDULE_KD = (2.0, 3.5)  # V s/m: Kd below and above the ramp
 SCHEDULE_A = (0.40e-3, 0.43e-3)  # m: the ramp of Kd in the target's fundamental
 SCHEDULE_FILTERED_KD = 4.0  # V s/m: Kd with the low-pass, from SCHEDULE_A[1] on
@@ -64,6 +67,10 @@ PROBE = 2e-4  # the probe: the target this much larger, relative
 PROBE_PERIODS = 4
 HOLD_PERIODS = 24  # the orbit held before the probe (its last 16 periods: the reference)
 LINEAR_LIMIT = 0.02  # the fit ends where the growth since the release passes this fraction of A
+# a target lost (the loop no longer holds an orbit near it): the hold stops and lets go, the CBC
+# ends the leg (rather than the force's safety abort ending the run)
+LOST_FORCE = 0.75  # a block's force peak above this share of the force's abort limit, loop engaged
+LOST_ERROR = 0.10  # or the held response's fundamental this far from the target's, relative
 
 
 def scheduled_gains(amplitude: float) -> tuple[float, float, float | None]:
@@ -74,6 +81,11 @@ def scheduled_gains(amplitude: float) -> tuple[float, float, float | None]:
     a0, a1 = SCHEDULE_A
     if amplitude >= a1:
         return REALTIME_GAINS[0], SCHEDULE_FILTERED_KD, SCHEDULE_LOWPASS
+    s0, s1 = SCHEDULE_SOFT_A
+    if amplitude < s1:
+        s = min(1.0, max(0.0, (amplitude - s0) / (s1 - s0)))
+        kp, kd = (soft + s * (full - soft) for soft, full in zip(SOFT_GAINS, REALTIME_GAINS, strict=True))
+        return kp, kd, None
     s = min(1.0, max(0.0, (amplitude - a0) / (a1 - a0)))
     return REALTIME_GAINS[0], SCHEDULE_KD[0] + s * (SCHEDULE_KD[1] - SCHEDULE_KD[0]), None
 
@@ -112,6 +124,9 @@ class RealTimeHarmonicLoop(BufferedHarmonicLoop):
         rate = device.sample_rate
         self._upper_fits: dict[int, np.ndarray] = {}
         self._line = max(0, round(device.input_to_output_delay() * rate - 0.5))  # the delay line
+        self.lost: str | None = None  # why the last hold's target was lost, if it was
+        limit = getattr(getattr(cfg, "safety", None), "limits", {}).get("force")
+        self._force_guard = None if limit is None else LOST_FORCE * float(limit.abort)
 
     # -- per block: the host's drive and the loop's target ---------------------------------------
     def _control(self) -> None:
@@ -143,13 +158,62 @@ class RealTimeHarmonicLoop(BufferedHarmonicLoop):
         self.gains = gains
 
     def hold(self, target: np.ndarray, feedforward: np.ndarray, **kwargs) -> LoopMeasurement:
-        """As the buffered loop's; with scheduled gains, the loop's gains for this target first."""
+        """As the buffered loop's; with scheduled gains, the loop's gains for this target first.
+
+        A target lost (:attr:`lost` says why, else ``None``): a block's force peak past
+        :data:`LOST_FORCE` of the force's abort limit while the loop holds it (the hold stops
+        there), or the measured fundamental more than :data:`LOST_ERROR` from the target's. The
+        loop then lets go (its output 0, the host's drive held) and the measurement returned is
+        the latest window's."""
+        self.lost = None
         if self.scheduled and self.engaged:
             kp, kd, lowpass = scheduled_gains(abs(complex(target[0])))
             if (kp, kd, lowpass) != (self.law.kp, self.law.kd, self.law.lowpass_hz):
                 self.law = replace(self.law, kp=kp, kd=kd, lowpass_hz=lowpass)
                 self.device.set_loop_gains(kp, kd, lowpass)
-        return super().hold(target, feedforward, **kwargs)
+        try:
+            m = super().hold(target, feedforward, **kwargs)
+        except _ForcePeak as exc:
+            self.lost = str(exc)
+            self._let_go()
+            n = round(kwargs.get("measure_periods", 10) * self.rate / self.fe)
+            return self.measure(min(n, self.sink.total))
+        a = abs(complex(target[0]))
+        error = float(abs(m.response[0] - target[0]) / a) if a > 0 else 0.0
+        if self.engaged and error > LOST_ERROR:
+            self.lost = f"A {abs(m.response[0]) * 1e3:.4g} mm held, {error:.0%} from the target"
+            self._let_go()
+        return m
+
+    def read(self) -> np.ndarray:
+        """One block, as the buffered loop's; while the loop holds a target, a force peak past
+        the guard (:data:`LOST_FORCE`) stops the hold (see :meth:`hold`)."""
+        block = super().read()
+        if self.active and self.engaged and self._force_guard is not None:
+            peak = float(np.max(np.abs(block[self.rows["force"]])))
+            if peak >= self._force_guard:
+                raise _ForcePeak(
+                    f"force peak {peak:.3g} N past {LOST_FORCE:.0%} of its abort limit with the loop on"
+                )
+        return block
+
+    def forget_shape(self) -> None:
+        """The loop's target above the CBC's harmonics and its mean set to zero (a target that is
+        a pure sine: the orbit without contact, whose harmonics the next measurements supply)."""
+        self.upper[:] = 0.0
+        self.mean = 0.0
+
+    def gain_at_fe(self) -> complex:
+        """The law's gain at fe (:func:`rigtools.sim.delayed_feedback.loop_gain`, V/m): for the
+        slope ``d X1 / d U1 = 1 / K`` of a stiff loop."""
+        return loop_gain(
+            self.law.kp, self.law.kd, self.law.delay_s, self.law.rate_hz, self.fe, self.law.lowpass_hz
+        )
+
+    def _let_go(self) -> None:
+        """The loop's output 0 (not engaged), the host's drive as it is."""
+        self.set_gains(Gains(0.0))
+        self.device.set_loop_target(None)
 
     # -- measurements ----------------------------------------------------------------------------
     def _loop_rows(self, start: int, n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -249,6 +313,10 @@ class RealTimeHarmonicLoop(BufferedHarmonicLoop):
         )
         self.last_modulus = fit.max_modulus
         return fit, {"release_periods": float(periods), "probe": PROBE}
+
+
+class _ForcePeak(RuntimeError):
+    """A force peak past the guard while the loop holds a target (caught by ``hold``)."""
 
 
 def _release_periods(last_modulus: float) -> int:
