@@ -25,6 +25,14 @@ default, that per-sample loop (:mod:`rigtools.procedures.cbc_realtime`, gains 20
 2 V s/m, Kd scheduled to 3.5 V s/m up the sheet, unless given), and each converged point's Floquet multipliers are measured by a probe
 and a release of its target (``multipliers``); ``inner_loop="buffered"`` keeps the buffered one.
 
+A target the real-time loop loses (the held A 10 % from it, or a force peak past 75 % of the
+force's abort limit with the loop on) ends its leg with one line saying which and why
+(``lost``), the drive brought to rest, instead of the run ending on the safety abort. Below the
+impacting branch's turn in A (a target under the leg's points that the loop holds above it, at
+the turn) the orbit at that A is the one without contact: the rig is brought to rest and the
+target, a pure sine, is ramped up from the plant's measured linear response (``branch``
+"no contact").
+
 With ``release_seconds`` the gains are set to zero after the last point (the drive held at its
 converged harmonics) and the departure of the response from the orbit is recorded: its growth
 rate, s^-1, is ``fe lnabs(mu)`` of the orbit's largest Floquet multiplier.
@@ -401,7 +409,7 @@ class ControlBasedContinuation(SineProcedure):
                 release = j == len(leg) - 1 and leg_index == 0 and p.release_seconds > 0
                 pt = self._measure(loop, gap, amplitude, target, ff, secant, release=release)
                 self.emit("point_done", point=done, n_points=n, text=_line(pt))
-                if not pt.point.converged and not pt.lost and self._beyond_turn(pt, amplitude):
+                if not pt.point.converged and self._beyond_turn(pt, amplitude):  # lost or not
                     below = self._without_contact(loop, gap, amplitude, pt, secant)
                     if below.point.converged:  # the leg goes on along the orbits without contact
                         self._leg = [below]

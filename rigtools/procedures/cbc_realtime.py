@@ -55,9 +55,22 @@ from rigtools.sim.delayed_feedback import loop_gain
 #: the model's own orbits held point after point, 1 s each, to A 0.4951 mm (largest multiplier 6.0) within
 #: 1e-3 of A, against 0.439 mm for the plain law at any Kp, Kd tried (corners 250-700 Hz, Kd
 #: 3-5: 350-400 Hz with Kd 4 best; the landscape is narrow).
+#: Why narrow (benchmarks/cbc_realtime_margins.py: loop_gain times the rig's linear plant, drive
+#: to displacement through the shaker): the stiffness the loop adds moves the blade's first mode
+#: from 52 Hz to about 75 Hz, and there, with the delay, this law's gain margin is 1.13 (blades
+#: apart; 1.51 in contact): Kp 2200, a 300 Hz corner or Kd 3.75 bring it to 0.92-1.05. More
+#: phase lead buys margin (Kd 5 at 400 Hz: 1.56) but turns C(fe) from pure stiffness
+#: (2564 - 55i V/m) to +150..+700i, and every such law tried lost the sheet at 0.40-0.46 mm (the
+#: orbit slid to another A at the drive); less stiffness (Kp 1500-1800) too. Within this PD and
+#: low-pass the margin near pure stiffness at fe is at most ~1.35, and only with 3-6 times the
+#: gain at 0.5-1 kHz: a law with lead at ~75 Hz but none at fe needs another filter.
 REALTIME_GAINS = (2000.0, 2.0)
-SOFT_GAINS = (1000.0, 1.0)  # V/m, V s/m: at the turn in A (see SCHEDULE_SOFT_A)
-SCHEDULE_SOFT_A = (0.316e-3, 0.330e-3)  # m: soft gains below, REALTIME_GAINS above, linear between
+#: At the impacting branch's turn in A (0.3059 mm) the law's gain feeds the weak impacts' timing
+#: back as harmonics: Kp 2000, Kd 2 left 1.3 % of drive harmonics at 0.3076 mm in 8 iterations,
+#: Kp 1000, Kd 1 (gain margin 2.73) 0.61 %. Soft below SCHEDULE_SOFT_A[0], ramped to
+#: REALTIME_GAINS at SCHEDULE_SOFT_A[1] (below the approach's orbit: the up leg's path unchanged).
+SOFT_GAINS = (1000.0, 1.0)  # V/m, V s/m
+SCHEDULE_SOFT_A = (0.309e-3, 0.316e-3)  # m
 SCHEDULE_KD = (2.0, 3.5)  # V s/m: Kd below and above the ramp
 SCHEDULE_A = (0.40e-3, 0.43e-3)  # m: the ramp of Kd in the target's fundamental
 SCHEDULE_FILTERED_KD = 4.0  # V s/m: Kd with the low-pass, from SCHEDULE_A[1] on
@@ -75,9 +88,10 @@ LOST_ERROR = 0.10  # or the held response's fundamental this far from the target
 
 def scheduled_gains(amplitude: float) -> tuple[float, float, float | None]:
     """The default law ``(Kp V/m, Kd V s/m, low-pass Hz or None)`` at a target fundamental
-    ``amplitude`` (m): Kp 2000, Kd 2 up to 0.40 mm, rising linearly to 3.5 below 0.43 mm, no
-    low-pass; from 0.43 mm Kd 4 with the output low-pass at 350 Hz (see
-    :data:`REALTIME_GAINS`; tuned on the simulated rig at 64 Hz, gap 0.5 mm)."""
+    ``amplitude`` (m): Kp 1000, Kd 1 below 0.309 mm (:data:`SOFT_GAINS`), ramped to Kp 2000,
+    Kd 2 at 0.316 mm; Kd 2 up to 0.40 mm, rising linearly to 3.5 below 0.43 mm, no low-pass;
+    from 0.43 mm Kd 4 with the output low-pass at 350 Hz (see :data:`REALTIME_GAINS`; tuned on
+    the simulated rig at 64 Hz, gap 0.5 mm)."""
     a0, a1 = SCHEDULE_A
     if amplitude >= a1:
         return REALTIME_GAINS[0], SCHEDULE_FILTERED_KD, SCHEDULE_LOWPASS

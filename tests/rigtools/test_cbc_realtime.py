@@ -117,39 +117,42 @@ def test_a_backend_without_a_realtime_loop_is_refused():
     assert "real-time" in NO_REALTIME_LOOP and "\n" not in NO_REALTIME_LOOP
 
 
-UPPER_GRID = "0.3996 mm:0.49 mm:0.0076 mm"  # 12 targets to 0.4832 mm (|mu| 1.69 to 4.7)
+# 8 targets to 0.49 mm (the model's |mu| 1.69 to 5.6): the first three as fine as the sweep's
+# (the multipliers' test), then steps of 0.015 mm (the law needs no finer path)
+UPPER_GRID = "0.3996 mm,0.4072 mm,0.4148 mm,0.43 mm,0.445 mm,0.46 mm,0.475 mm,0.49 mm"
 
 
 @pytest.fixture(scope="module")
-def upper(tmp_path_factory) -> tuple[list[dict], str | None]:
+def upper(tmp_path_factory) -> tuple[list[dict], str | None, dict]:
     """The targets of UPPER_GRID up the sheet, the default loop with its law scheduled (the plain
     PD with Kd 2 to 3.5 V s/m over A 0.40-0.43 mm; from 0.43 mm Kd 4 with the loop's 350 Hz
-    output low-pass): the recorded points (each point's parameters) and the abort's line, if
-    the run aborted (the points before it are kept in the recording)."""
+    output low-pass): the recorded points (each point's parameters), the abort's line if the run
+    aborted (the points before it are kept in the recording), and the run's summary. One run
+    shared by the tests below."""
     out = tmp_path_factory.mktemp("cbcrt_up") / "up.h5"
-    aborted = None
+    aborted, summary = None, {}
     try:
-        control_based_continuation("64 Hz", UPPER_GRID, out, gap="0.5 mm", backend="sim")
+        summary = control_based_continuation("64 Hz", UPPER_GRID, out, gap="0.5 mm", backend="sim").summary
     except AcquisitionAborted as exc:
         aborted = str(exc)
     with open_recording(out) as rec:
         points = [dict(p.params) for p in rec.points if "converged" in p.params]
-    return points, aborted
+    return points, aborted, summary
 
 
 def test_the_sheet_is_held_past_mu_3(upper):
-    """The first nine targets (A 0.3996-0.4604 mm, the model's |mu| 1.69 to 3.4, across the
-    switch to the low-pass law at 0.43 mm; the plain PD alone lost the sheet's orbits near
-    0.44 mm, |mu| ~2.6) converged within 8 iterations, the drive's harmonics 2-10 at most 1 % of
-    its fundamental and F1 within 2 % of the model at the measured A."""
+    """The first six targets (A 0.3996-0.46 mm, the model's |mu| 1.69 to 3.3, across the switch
+    to the low-pass law at 0.43 mm; the plain PD alone lost the sheet's orbits near 0.44 mm,
+    |mu| ~2.6) converged within 8 iterations, the drive's harmonics 2-10 at most 1 % of its
+    fundamental and F1 within 2 % of the model at the measured A."""
     a, f, mu = s_curve()
-    points, _aborted = upper
-    assert len(points) >= 9
-    for x in points[:9]:
+    points, _aborted, _summary = upper
+    assert len(points) >= 6
+    for x in points[:6]:
         state = (x.get("amplitude_target"), x["amplitude_m"], x["iterations"], x["drive_harmonics_ratio"])
         assert x["converged"] and x["iterations"] <= 8 and x["drive_harmonics_ratio"] <= 0.01, state
         assert abs(x["force_fundamental_n"] / float(np.interp(x["amplitude_m"], a, f)) - 1) <= F1_TOLERANCE
-    assert float(np.interp(points[8]["amplitude_m"], a, mu)) > 3.0
+    assert float(np.interp(points[5]["amplitude_m"], a, mu)) > 3.0
 
 
 @pytest.mark.xfail(
@@ -178,25 +181,81 @@ def test_measured_multipliers_up_to_mu_2(upper):
     assert checked == 2
 
 
+def test_a_lost_target_ends_its_leg_not_the_run(upper):
+    """A target the loop loses high on the sheet (the orbit gone to another A, or the force
+    running away) ends its leg with one line naming it and why, not the run on the force's
+    safety abort (60 N): the recorded point says ``lost``, the summary has one line per loss
+    and no point of the leg follows it."""
+    points, aborted, summary = upper
+    assert aborted is None
+    lost = [i for i, x in enumerate(points) if x.get("lost")]
+    assert len(summary["lost"]) == len(lost)
+    for i, line in zip(lost, summary["lost"], strict=True):
+        assert f"A = {points[i]['amplitude_target'] * 1e3:.4g} mm lost (" in line and "\n" not in line
+        assert i == len(points) - 1  # the up leg is the only leg: nothing after the loss
+        assert not points[i]["converged"]
+
+
 @pytest.mark.xfail(
     strict=True,
-    reason="measured (benchmarks/bench_cbc_realtime.py): with the scheduled law (plain PD to 0.43 mm, "
-    "then Kd 4 with the 350 Hz output low-pass) 22 of 26 targets of A 0.30-0.49 mm converge, A "
-    "0.3158-0.4771 mm (|mu| to 4.3): 0.4827 mm not steady in 8 iterations, 0.49 mm not reached, "
-    "0.3084 mm (next to the branch's turn in A, 0.3059 mm) drive harmonics 1.3 %. On this test's "
-    "path nine converge to 0.4620 mm, the 0.4680 mm target is lost (0.433 mm, drive harmonics "
-    "4.4 %) and the run then ends on the force's safety abort (66 N). The low-pass law's working "
-    "range is narrow (the model's orbits held to 0.4951 mm only near Kp 2000, Kd 4, 350 Hz) and "
-    "the CBC's moving target upsets it path by path. Goal: every target to 0.49 mm",
+    reason="measured: with the scheduled law (plain PD to 0.43 mm, then Kd 4 with the 350 Hz output "
+    "low-pass) this path holds 0.40-0.475 mm (|mu| to 4.2) and not 0.49 mm (drive harmonics "
+    "1.4 % in 8 iterations, then its arclength point lost); the 26-point sweep of "
+    "benchmarks/bench_cbc_realtime.py loses 0.4827 and 0.49 mm alike. Why no robust law: the "
+    "sheet is held only with C(fe) = loop_gain(...) near pure stiffness (Re >~ 2550 V/m, Im <~ 0: "
+    "every law tried with Im C(fe) > 0 lost the sheet at 0.40-0.46 mm), and there, with the "
+    "1.04 ms delay, the linear loop on the blade's first mode (closed-loop mode ~75 Hz) has a "
+    "gain margin of 1.13 (at most ~1.35 for any Kp, Kd, corner of this PD and low-pass, and only "
+    "with 3-6x the gain at 0.5-1 kHz). Goal: every target to 0.49 mm",
 )
 def test_the_upper_sheet_to_049_mm(upper):
-    """Every target of UPPER_GRID (to 0.4832 mm, the issue's sheet to 0.49 mm) converged with F1
-    within 2 % of the model, the run not aborted (benchmarks/bench_cbc_realtime.py measures the
-    whole 26-point sweep)."""
+    """Every target of UPPER_GRID (to 0.49 mm) converged with F1 within 2 % of the model, the
+    run not aborted (benchmarks/bench_cbc_realtime.py measures the whole 26-point sweep)."""
     a, f, _mu = s_curve()
-    points, aborted = upper
+    points, aborted, _summary = upper
     assert aborted is None
-    assert len(points) == 12
+    assert len(points) == 8
     for x in points:
         assert x["converged"]
         assert abs(x["force_fundamental_n"] / float(np.interp(x["amplitude_m"], a, f)) - 1) <= F1_TOLERANCE
+
+
+@cache
+def linear_stiffness() -> float:
+    """F1 / A of the model's orbits without contact at 64 Hz (N/m): the model below the turn."""
+    doc = json.loads(TABLE.read_text())
+    return float(
+        np.median([r["force_n"] / r["amplitude_m"] for r in doc["points"] if r["impacts_per_period"] == 0])
+    )
+
+
+@pytest.fixture(scope="module")
+def low(tmp_path_factory) -> list[dict]:
+    """The down leg of the sweep's lowest targets: 0.3152 mm, 0.3076 mm (on the impacting
+    branch's stable side, next to its turn in A at 0.3059 mm: the soft gains) and 0.300 mm (past
+    the turn: the orbit without contact), without the multipliers (each point's parameters)."""
+    out = tmp_path_factory.mktemp("cbcrt_low") / "low.h5"
+    control_based_continuation(
+        "64 Hz", "0.3152 mm,0.3076 mm,0.300 mm", out, gap="0.5 mm", backend="sim", multipliers=False
+    )
+    with open_recording(out) as rec:
+        return [dict(p.params) for p in rec.points if "converged" in p.params]
+
+
+def test_the_low_end_past_the_turn_in_a(low):
+    """Each target converged within 8 iterations with the drive's harmonics 2-10 at most 1 %:
+    0.3152 and 0.3076 mm on the impacting branch (F1 within 2 % of the model's S-curve at the
+    measured A), 0.300 mm recorded as the orbit without contact with F1 within 2 % of the model's
+    there (F1 / A of its orbits without contact, 22.5 kN/m: 6.75 N). (At 0.300 mm the A-step
+    itself ends at the turn, A ~0.3065 mm, not converged: the point kept in the recording.)"""
+    a, f, _mu = s_curve()
+    good = {round(x["amplitude_target"] * 1e5): x for x in low if x["converged"]}
+    assert set(good) == {32, 31, 30}, [(x["amplitude_target"], x["converged"]) for x in low]
+    for x in good.values():
+        assert x["iterations"] <= 8 and x["drive_harmonics_ratio"] <= 0.01
+    for key in (32, 31):
+        x = good[key]
+        assert abs(x["force_fundamental_n"] / float(np.interp(x["amplitude_m"], a, f)) - 1) <= F1_TOLERANCE
+    x = good[30]
+    assert x["branch"] == "no contact"
+    assert abs(x["force_fundamental_n"] / (linear_stiffness() * x["amplitude_m"]) - 1) <= F1_TOLERANCE
