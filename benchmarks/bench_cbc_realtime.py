@@ -77,6 +77,8 @@ def main() -> None:
     print(
         f"inner loop {doc.get('inner_loop')}: {len(pts)} points, skipped {doc.get('skipped_amplitudes', [])}"
     )
+    for line in doc.get("lost", []):
+        print(f"  {line}")
     worst_f, worst_mu, n_mu, ok_points = 0.0, 0.0, 0, 0
     for p in pts:
         f_model, mu_model = model_at(p["amplitude_m"])
@@ -99,7 +101,7 @@ def main() -> None:
             f"  A {p['amplitude_m'] * 1e3:.4f} mm  F1 {p['force_fundamental_n']:.4f} N  model {f_model:.4f} N "
             f"({err * 100:+.2f} %)  {'converged' if p['converged'] else 'NOT converged'} in {p['iterations']}  "
             f"drive 2-10 {p['drive_harmonics_ratio'] * 100:.3f} %  |mu| {mu:.3f} model {mu_model:.3f} "
-            f"({mu_err * 100:+.1f} %)"
+            f"({mu_err * 100:+.1f} %)" + (" [no contact]" if p.get("branch") else "")
         )
     amps = [p["amplitude_m"] for p in pts if p["converged"]]
     span = (min(amps, default=math.nan) * 1e3, max(amps, default=math.nan) * 1e3)

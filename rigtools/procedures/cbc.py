@@ -142,6 +142,7 @@ class CBCPoint:
     record_samples: int = 0
     arclength: bool = False  # placed by pseudo-arclength (past a turn in A), not at a target A
     lost: str = ""  # why the inner loop let go of the target (the orbit lost), if it did
+    branch: str = ""  # "no contact": the orbit without contact, past the turn in A
 
     def multiplier_fields(self) -> dict[str, Any]:
         """``multipliers`` (moduli, largest first), their angles (deg) and the fit's details;
@@ -450,6 +451,7 @@ class ControlBasedContinuation(SineProcedure):
         self.begin_point({"fe": p.fe, "amplitude_target": amplitude, "gap": gap, **kind})
         pt = cbc_point(loop, p, target, ff, secant, arc=arc)
         pt.arclength = arc is not None
+        pt.branch = branch
         pt.channel_names = tuple(spec.name for spec in self.specs)
         pt.record_start = (pt.measurement.start - loop.sink.point_start) / self.rate
         pt.record_samples = pt.measurement.samples
@@ -676,6 +678,7 @@ def json_document(proc: ControlBasedContinuation) -> dict[str, Any]:
                 "tip_amplitude_m": pt.tip_amplitude,
                 "drive_amplitude_v": float(abs(pt.measurement.drive[0])),
                 "parameterisation": "arclength" if pt.arclength else "amplitude",
+                **({"branch": pt.branch} if pt.branch else {}),
                 **pt.multiplier_fields(),
             }
             for pt in proc.points

@@ -84,6 +84,10 @@ LINEAR_LIMIT = 0.02  # the fit ends where the growth since the release passes th
 # ends the leg (rather than the force's safety abort ending the run)
 LOST_FORCE = 0.75  # a block's force peak above this share of the force's abort limit, loop engaged
 LOST_ERROR = 0.10  # or the held response's fundamental this far from the target's, relative
+# at the top of the sheet the controlled orbit beats with the loop's ~72 Hz mode (sidebands at
+# fe +- 8 Hz): from here each measurement spans two beats (16 periods at 64 Hz), not 1.25
+WIDE_WINDOW_A = 0.475e-3  # m
+WIDE_WINDOW_PERIODS = 16
 
 
 def scheduled_gains(amplitude: float) -> tuple[float, float, float | None]:
@@ -180,6 +184,8 @@ class RealTimeHarmonicLoop(BufferedHarmonicLoop):
         loop then lets go (its output 0, the host's drive held) and the measurement returned is
         the latest window's."""
         self.lost = None
+        if abs(complex(target[0])) >= WIDE_WINDOW_A:
+            kwargs["measure_periods"] = max(kwargs.get("measure_periods", 10), WIDE_WINDOW_PERIODS)
         if self.scheduled and self.engaged:
             kp, kd, lowpass = scheduled_gains(abs(complex(target[0])))
             if (kp, kd, lowpass) != (self.law.kp, self.law.kd, self.law.lowpass_hz):
