@@ -90,8 +90,7 @@ def run(args: argparse.Namespace) -> int:
             result = proc.run()
     except KeyboardInterrupt as exc:
         _exit_interrupted(proc, getattr(exc, "exit_code", EXIT_SIGINT))
-    for line in getattr(proc, "lost", []):  # a CBC target lost: its leg ended (one line each)
-        print(f"rig acquire {args.procedure}: {line}", file=sys.stderr)
+    sys.stderr.write("".join(f"rig acquire {args.procedure}: {x}\n" for x in getattr(proc, "lost", [])))
     doc = result_document(args.procedure, args.backend, proc, result, getattr(args, "f_max", "2 kHz"))
     if args.json:
         print(json_values.dumps(doc))
