@@ -15,13 +15,15 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from rigtools.acquisition import AcquisitionAborted
 from rigtools.drivers.contracts import ConfigurationError
 from rigtools.drivers.realtime import NO_REALTIME_LOOP
 from rigtools.errors import UserError
 from rigtools.procedures.cbc import ControlBasedContinuation, control_based_continuation
-from rigtools.procedures.cbc_realtime import RealTimeHarmonicLoop
+from rigtools.procedures.cbc_realtime import MAX_RELEASE, OBSERVED, RealTimeHarmonicLoop, _release_periods
 from rigtools.recording import open_recording
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -200,3 +202,33 @@ def test_the_upper_sheet_to_049_mm(upper):
     for x in points:
         assert x["converged"]
         assert abs(x["force_fundamental_n"] / float(np.interp(x["amplitude_m"], a, f)) - 1) <= F1_TOLERANCE
+
+
+@settings(max_examples=80, deadline=None)
+@given(
+    growth=st.floats(0.5, 6.0),
+    first=st.floats(1e-9, 1e-6),
+    limit=st.floats(1e-6, 1e-4),
+    known=st.booleans(),
+)
+def test_a_release_stays_within_its_limit_at_the_growth_it_shows(growth, first, limit, known):
+    """A released transient whose period-to-period step (a fixed shape) grows by ``growth`` a
+    period: the extension ``_release_periods`` gives after the periods seen keeps the deviation
+    since the release within ``limit`` over the whole release (reference: the geometric sum
+    itself), the growth estimated from the periods seen (model-free) or given (an earlier fit of
+    the same orbit, here the true one); none once the periods seen are past a third of the
+    limit; at most MAX_RELEASE periods in all."""
+    shape = np.sin(2 * np.pi * np.arange(64) / 64) + 0.3 * np.cos(6 * np.pi * np.arange(64) / 64)
+
+    def free(periods: int) -> np.ndarray:
+        since = [first * sum(growth**i for i in range(k)) for k in range(periods)]
+        return np.outer(since, shape)
+
+    seen = free(OBSERVED)
+    more = _release_periods(seen, limit, growth if known else None)
+    assert OBSERVED + more <= MAX_RELEASE
+    if np.abs(seen[-1] - seen[0]).max() >= limit / 3:
+        assert more == 0
+    else:
+        whole = free(OBSERVED + more)
+        assert np.abs(whole[-1] - whole[0]).max() <= limit
