@@ -20,19 +20,21 @@ short releases, each: a 0.02 % larger target for 4 periods (the probe), the targ
 loop at the orbit's drive), the orbit's target again. A release is placed to begin 3 periods
 before the end of a block; from those 3 periods (model-free: the deviation's size and the growth
 of its period-to-period step; from the second release on, the fit of the earlier ones) the host
-computes how much longer the rig may run free before the deviation since the release passes 4 %
+computes how much longer the rig may run free before the deviation since the release passes 3 %
 of A, and moves the re-engagement there (``_release_periods``; at most 20 periods): the drift
 is bounded whatever the orbit's multiplier and whatever the previous point gave. The loop holds
 the orbit 24 periods between releases. Each release's displacement (the loop's own), minus the
 orbit averaged over the 16 periods before its probe, is differenced period to period (a small
 mismatch of the held drive moves the rig towards a neighbouring orbit: a constant step, which
 the difference removes and which would otherwise show as a multiplier 1), and the releases'
-pairs of periods within the 4 % are pooled in one fit
-(:func:`rigtools.analysis.floquet.pooled_floquet_multipliers`, each period as the deviation's
-mean and harmonics 1-3: the impacts' shifted instants, not linear, left out) until 12 pairs or
-5 releases. Afterwards the loop holds the orbit until its error is back within 1.5 times what it
-was before the first probe (or 0.3 % of A; at most 2 s): the measurement leaves the rig where it
-found it.
+pairs of periods within the 3 % are pooled in one fit
+(:func:`rigtools.analysis.floquet.pooled_floquet_multipliers`; long releases, 20 pairs or more,
+at 8 instants a period; shorter ones, as an unstable orbit's are, with each period as the
+deviation's mean and harmonics 1-3, the impacts' shifted instants left out, in three directions,
+the slowest real multiplier and a pair: the instants or more directions fitted to few pairs gave
+spurious multipliers, to +119 %) until 12 pairs or 5 releases. Afterwards the loop holds the
+orbit until its error is back within 1.5 times what it was before the first probe (or 0.3 % of
+A; at most 2 s): the measurement leaves the rig where it found it.
 """
 
 from __future__ import annotations
@@ -77,12 +79,14 @@ PROBE = 2e-4  # the probe: the target this much larger, relative
 PROBE_PERIODS = 4
 HOLD_PERIODS = 24  # the orbit held before the first probe
 REFERENCE_PERIODS = 16  # the orbit: the average of the periods held before each probe
-LINEAR_LIMIT = 0.04  # releases and fits end where the growth since the release passes this share of A
+LINEAR_LIMIT = 0.03  # releases and fits end where the growth since the release passes this share of A
 OBSERVED = 3  # periods of a release seen before it is extended (or not)
 RELEASES = 5  # release pieces at most per point, pooled in one fit
 ENOUGH_PAIRS = 12  # the pooled fit stops at this many pairs of periods
 RECAPTURE = 24  # periods the loop holds the orbit after a release, before the next piece
-FIT_HARMONICS = 3  # the fit's vector per period: the deviation's mean and harmonics 1..3 of fe
+LONG_PAIRS = 20  # releases with this many pairs in all: fitted at 8 instants a period, every direction
+FIT_HARMONICS = 3  # shorter ones: each period's deviation as its mean and harmonics 1..3 of fe,
+FIT_RANK = 3  # in three directions (the slowest real multiplier and a pair)
 SETTLED = 0.003  # after the pieces the orbit is held until its error is within this share of A
 SETTLE_SECONDS = 2.0  # (or within 1.5 times the error before the first probe), this long at most
 MAX_RELEASE = 20  # periods of a release at most
@@ -227,7 +231,7 @@ class RealTimeHarmonicLoop(BufferedHarmonicLoop):
             The pooled fit, and ``release_periods`` (the longest piece), ``releases`` (pieces),
             ``growth`` (the largest growth per period seen in a release, model-free),
             ``error_before``/``error_after`` (the loop's largest error from the orbit over
-            :data:`REFERENCE_PERIODS` before the first probe and over the last block after
+            16 periods before the first probe and over the last block after
             the measurement, shares of A), ``probe``.
         """
         _, x = self._loop_rows(m.start, m.samples)
@@ -256,7 +260,7 @@ class RealTimeHarmonicLoop(BufferedHarmonicLoop):
                 if piece is not None:
                     pieces.append(piece)
                 try:
-                    fit = pooled_floquet_multipliers(pieces, self.rate, self.fe, harmonics=FIT_HARMONICS)
+                    fit = self._fit(pieces)
                 except ValueError:
                     fit = None
                 if fit is not None and fit.periods[1] >= ENOUGH_PAIRS:
@@ -327,6 +331,20 @@ class RealTimeHarmonicLoop(BufferedHarmonicLoop):
         d = deviation[release - start :]
         step = d[p:] - d[:-p]
         return TransientPiece(step[: (periods - 1) * p + 1], 1, last), periods, seen
+
+    def _fit(self, pieces: list[TransientPiece]) -> MeasuredMultipliers:
+        """The pooled fit of the releases. Long releases (a stable or weakly unstable orbit: at
+        least :data:`LONG_PAIRS` pairs) are fitted at 8 instants a period in every direction above
+        the floor: a multiplier near 1 (the fold), weak in the differenced deviation, is kept. Short
+        ones (the deviation at the linear limit within a few periods) are fitted on each period's
+        mean and harmonics 1-3 in :data:`FIT_RANK` directions: more directions fitted to few pairs,
+        or instants at which an impact's shifted instant lands, gave spurious multipliers."""
+        fit = pooled_floquet_multipliers(pieces, self.rate, self.fe)
+        if fit.periods[1] < LONG_PAIRS:
+            fit = pooled_floquet_multipliers(
+                pieces, self.rate, self.fe, harmonics=FIT_HARMONICS, rank=FIT_RANK
+            )
+        return fit
 
     def _error(self, orbit: HarmonicTarget, periods: int) -> float:
         """The largest distance of the loop's displacement from ``orbit`` over the last ``periods``."""
