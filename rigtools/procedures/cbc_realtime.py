@@ -15,25 +15,40 @@ The split of the work, as on a rig with a real-time target next to it:
   response's harmonics (in the loop's clock, the one the target is in) and the total drive's.
 
 The measured multipliers of a converged point (:meth:`RealTimeHarmonicLoop.multipliers`): the
-target set to the orbit the loop measured (40 harmonics: the control is then zero), a 0.02 %
-larger target for a few periods (the probe), the target released for a few periods (open loop
-at the orbit's drive, the probe's transient free), the orbit's target again; the loop's
-displacement over the release, minus the orbit averaged over the periods before the probe, and
-differenced period to period (a small mismatch of the held drive moves the rig towards a
-neighbouring orbit: a constant step, which the difference removes and which would otherwise
-show as a multiplier 1), gives the multipliers by
-:func:`rigtools.analysis.floquet.floquet_multipliers`. The release is
-kept short enough (from the last point's multiplier) that the loop catches the orbit again.
+target set to the orbit the loop measured (40 harmonics: the control is then zero), then a few
+short releases, each: a 0.02 % larger target for 4 periods (the probe), the target released (open
+loop at the orbit's drive), the orbit's target again. A release is placed to begin 3 periods
+before the end of a block; from those 3 periods (model-free: the deviation's size and the growth
+of its period-to-period step; from the second release on, the fit of the earlier ones) the host
+computes how much longer the rig may run free before the deviation since the release passes 3 %
+of A, and moves the re-engagement there (``_release_periods``; at most 20 periods): the drift
+is bounded whatever the orbit's multiplier and whatever the previous point gave. The loop holds
+the orbit 24 periods between releases. Each release's displacement (the loop's own), minus the
+orbit averaged over the 16 periods before its probe, is differenced period to period (a small
+mismatch of the held drive moves the rig towards a neighbouring orbit: a constant step, which
+the difference removes and which would otherwise show as a multiplier 1), and the releases'
+pairs of periods within the 3 % are pooled in one fit
+(:func:`rigtools.analysis.floquet.pooled_floquet_multipliers`; long releases, 20 pairs or more,
+at 8 instants a period; shorter ones, as an unstable orbit's are, with each period as the
+deviation's mean and harmonics 1-3, the impacts' shifted instants left out, in three directions,
+the slowest real multiplier and a pair: the instants or more directions fitted to few pairs gave
+spurious multipliers, to +119 %) until 12 pairs or 5 releases. Afterwards the loop holds the
+orbit until its error is back within 1.5 times what it was before the first probe (or 0.3 % of
+A; at most 2 s): the measurement leaves the rig where it found it.
 """
 
 from __future__ import annotations
 
-import math
 from dataclasses import replace
 
 import numpy as np
 
-from rigtools.analysis.floquet import MeasuredMultipliers, floquet_multipliers, periodic_reference
+from rigtools.analysis.floquet import (
+    MeasuredMultipliers,
+    TransientPiece,
+    periodic_reference,
+    pooled_floquet_multipliers,
+)
 from rigtools.drivers.contracts import ConfigurationError
 from rigtools.drivers.realtime import HarmonicTarget, RealTimeLoop
 from rigtools.procedures.cbc_iteration import Gains
@@ -78,8 +93,21 @@ SCHEDULE_LOWPASS = 350.0  # Hz: the loop's output low-pass from SCHEDULE_A[1] on
 ORBIT_HARMONICS = 40  # harmonics of the loop's target (above the CBC's H: the measured ones)
 PROBE = 2e-4  # the probe: the target this much larger, relative
 PROBE_PERIODS = 4
-HOLD_PERIODS = 24  # the orbit held before the probe (its last 16 periods: the reference)
-LINEAR_LIMIT = 0.02  # the fit ends where the growth since the release passes this fraction of A
+HOLD_PERIODS = 24  # the orbit held before the first probe
+REFERENCE_PERIODS = 16  # the orbit: the average of the periods held before each probe
+LINEAR_LIMIT = 0.03  # releases and fits end where the growth since the release passes this share of A
+OBSERVED = 3  # periods of a release seen before it is extended (or not)
+RELEASES = 5  # release pieces at most per point, pooled in one fit
+ENOUGH_PAIRS = 12  # the pooled fit stops at this many pairs of periods
+RECAPTURE = 24  # periods the loop holds the orbit after a release, before the next piece
+LONG_PAIRS = 20  # releases with this many pairs in all: fitted at 8 instants a period, every direction
+FIT_HARMONICS = 3  # shorter ones: each period's deviation as its mean and harmonics 1..3 of fe,
+FIT_RANK = 3  # in three directions (the slowest real multiplier and a pair)
+SETTLED = 0.003  # after the pieces the orbit is held until its error is within this share of A
+SETTLE_SECONDS = 2.0  # (or within 1.5 times the error before the first probe), this long at most
+MAX_RELEASE = 20  # periods of a release at most
+GROWTH_FLOOR = 1.3  # the growth per period assumed at least when extending a release
+GROWTH_MARGIN = 1.2  # the margin on the growth estimate
 # a target lost (the loop no longer holds an orbit near it): the hold stops and lets go, the CBC
 # ends the leg (rather than the force's safety abort ending the run)
 LOST_FORCE = 0.75  # a block's force peak above this share of the force's abort limit, loop engaged
@@ -138,7 +166,7 @@ class RealTimeHarmonicLoop(BufferedHarmonicLoop):
         # per-sample loop feeds back every harmonic; a target truncated to H would push)
         self.upper = np.zeros(max(0, ORBIT_HARMONICS - self.n_harmonics), complex)
         self.mean = 0.0  # and the mean (impacts on one side shift it; a target without it pushes)
-        self.last_modulus = 1.0  # the last measured |mu|: sets the next release's length
+        self.last_modulus = 1.0  # the last measured |mu| (kept for callers; no release depends on it)
         rate = device.sample_rate
         self._upper_fits: dict[int, np.ndarray] = {}
         self._line = max(0, round(device.input_to_output_delay() * rate - 0.5))  # the delay line
@@ -278,17 +306,22 @@ class RealTimeHarmonicLoop(BufferedHarmonicLoop):
 
     # -- stability ---------------------------------------------------------------------------
     def multipliers(self, m: LoopMeasurement) -> tuple[MeasuredMultipliers, dict[str, float]]:
-        """Probe and release the converged orbit of ``m`` (see the module docstring).
+        """Probe and release the converged orbit of ``m`` in short pieces (see the module
+        docstring).
 
         Returns
         -------
         (MeasuredMultipliers, info)
-            The fit, and ``release_periods``, ``probe`` of the run.
+            The pooled fit, and ``release_periods`` (the longest piece), ``releases`` (pieces),
+            ``growth`` (the largest growth per period seen in a release, model-free),
+            ``error_before``/``error_after`` (the loop's largest error from the orbit over
+            16 periods before the first probe and over the last block after
+            the measurement, shares of A), ``probe``.
         """
-        p = round(self.rate / self.fe)
         _, x = self._loop_rows(m.start, m.samples)
         t = (m.start + 1 + np.arange(x.size)) / self.rate
         orbit = HarmonicTarget.fit(t, x, self.fe, ORBIT_HARMONICS)
+        amplitude = float(abs(m.response[0]))
         # hold the orbit itself (control zero) with the whole total drive from the host, so that
         # the release plays exactly the drive that held it (its harmonics, below the tolerance,
         # left out would move the rig to a neighbouring orbit: a multiplier of 1 in the fit)
@@ -296,54 +329,165 @@ class RealTimeHarmonicLoop(BufferedHarmonicLoop):
         self._ramp = None
         saved = (self.target, self.feedforward)
         self.active = False  # the targets below are scheduled here, not per block
+        pieces: list[TransientPiece] = []
+        lengths: list[int] = []
+        growth, fit = 1.0, None
         try:
             self.drive.set_harmonics(ff)
             self.device.set_loop_target(orbit)
             self.wait(HOLD_PERIODS / self.fe)
-            now = self.sink.total
-            periods = _release_periods(self.last_modulus)
-            t0 = now / self.rate
-            self.device.set_loop_target(_scaled(orbit, 1 + PROBE), at=t0)
-            self.device.set_loop_target(None, at=t0 + PROBE_PERIODS / self.fe)
-            self.device.set_loop_target(orbit, at=t0 + (PROBE_PERIODS + periods) / self.fe)
-            self.wait((PROBE_PERIODS + periods + 8) / self.fe)
-            n = self.sink.total - now + 16 * p
-            _, xs = self._loop_rows(self.sink.total - n, n)
+            before = self._error(orbit, REFERENCE_PERIODS)
+            for _ in range(RELEASES):
+                piece, periods, seen = self._release_piece(orbit, amplitude, fit)
+                growth = max(growth, seen)
+                lengths.append(periods)
+                if piece is None:  # growing past the linear range within the periods observed:
+                    break  # another piece fits no better and moves the rig off the orbit again
+                pieces.append(piece)
+                try:
+                    fit = self._fit(pieces)
+                except ValueError:
+                    fit = None
+                if fit is not None and fit.periods[1] >= ENOUGH_PAIRS:
+                    break
+            after = self._settle(orbit, amplitude, before)
         finally:
             self.active = True
             self.set_point(*saved, 0.0)
-        released = 16 * p + PROBE_PERIODS * p
-        deviation = xs - periodic_reference(xs, self.rate, self.fe, 0, 16 * p)
+        info = {
+            "release_periods": float(max(lengths)),
+            "releases": float(len(lengths)),
+            "growth": growth,
+            "error_before": before / amplitude,
+            "error_after": after / amplitude,
+        }
+        if fit is None:
+            raise ValueError(
+                f"{len(lengths)} releases of {'/'.join(map(str, lengths))} periods left too few periods "
+                f"in the linear range (deviation within {LINEAR_LIMIT:.0%} of A)"
+            )
+        self.last_modulus = fit.max_modulus
+        return fit, {**info, "probe": PROBE}
+
+    def _release_piece(
+        self, orbit: HarmonicTarget, amplitude: float, fit: MeasuredMultipliers | None
+    ) -> tuple[TransientPiece | None, int, float]:
+        """One probe and release of the held ``orbit``: the release begins :data:`OBSERVED`
+        periods before the end of a block, the orbit's target re-engaged at that end; from those
+        periods the deviation's size and its growth per period (model-free) decide how much
+        longer the release runs (:func:`_release_periods`; a previous piece's ``fit`` of the same
+        point a floor to the growth), then the loop holds the orbit again :data:`RECAPTURE`
+        periods. Returns the differenced deviation over the release with the periods in the
+        linear range (``None``: too few), the periods released and the growth seen."""
+        p = round(self.rate / self.fe)
+        block = self.stream.n
+        end = self.sink.total + block
+        while end - (OBSERVED + PROBE_PERIODS + 1) * p < self.sink.total:
+            end += block
+        release = end - OBSERVED * p
+        start = release - (PROBE_PERIODS + REFERENCE_PERIODS) * p
+        self.device.set_loop_target(_scaled(orbit, 1 + PROBE), at=(release - PROBE_PERIODS * p) / self.rate)
+        self.device.set_loop_target(None, at=release / self.rate)
+        self.device.set_loop_target(orbit, at=end / self.rate)
+        self.wait((end - self.sink.total) / self.rate)
+        _, xs = self._loop_rows(start, end - start)
+        free = self._free(self._deviation(xs), release - start, OBSERVED, p)
+        growth = None if fit is None else fit.max_modulus
+        more = _release_periods(free, LINEAR_LIMIT * amplitude, growth) if self.sink.total == end else 0
+        if more:  # the target stays released: the re-engagement moves later
+            self.device.set_loop_target(None, at=end / self.rate)
+            self.device.set_loop_target(orbit, at=(end + more * p) / self.rate)
+        periods = OBSERVED + more
+        stop = release + periods * p
+        self.wait((stop + RECAPTURE * p - self.sink.total) / self.rate)
+        _, xs = self._loop_rows(start, stop - start + 1)  # the sample at the re-engagement: still free
+        deviation = self._deviation(xs)
+        free = self._free(deviation, release - start, periods, p)
+        steps = np.abs(np.diff(free, axis=0)).max(axis=1)
+        seen = float(np.max(steps[1:] / np.maximum(steps[:-1], 1e-300))) if steps.size > 1 else 1.0
+        # the linear range: the periods before the growth since the release passes LINEAR_LIMIT
+        # of A (the step a held-drive mismatch leaves is not the transient's)
+        over = np.flatnonzero(np.abs(free - free[0]).max(axis=1) > LINEAR_LIMIT * amplitude)
+        last = (int(over[0]) if over.size else periods) - 2  # a difference spans two periods
+        if last < 2:
+            return None, periods, seen
         # period-to-period differences: z[p + 1] - z[p] follows the same map as z[p], without the
         # step to a neighbouring orbit that any mismatch of the held drive leaves (a multiplier 1)
-        step = deviation[p:] - deviation[:-p]
-        amplitude = float(abs(m.response[0]))
-        # the linear range: the periods before the deviation itself passes LINEAR_LIMIT of A
-        # (the growth since the release: the step a held-drive mismatch leaves is not the transient's)
-        free = deviation[released : released + periods * p].reshape(periods, p)
-        peaks = np.abs(free - free[0]).max(axis=1)
-        over = np.flatnonzero(peaks > LINEAR_LIMIT * amplitude)
-        last = (int(over[0]) if over.size else periods) - 2  # a difference spans two periods
-        fit = floquet_multipliers(
-            step[released : released + (periods - 1) * p + 1],
-            self.rate,
-            self.fe,
-            first_period=1,
-            last_period=last,
+        d = deviation[release - start :]
+        step = d[p:] - d[:-p]
+        return TransientPiece(step[: (periods - 1) * p + 1], 1, last), periods, seen
+
+    def _fit(self, pieces: list[TransientPiece]) -> MeasuredMultipliers:
+        """The pooled fit of the releases. Long releases (a stable or weakly unstable orbit: at
+        least :data:`LONG_PAIRS` pairs) are fitted at 8 instants a period in every direction above
+        the floor: a multiplier near 1 (the fold), weak in the differenced deviation, is kept. Short
+        ones (the deviation at the linear limit within a few periods) are fitted on each period's
+        mean and harmonics 1-3 in :data:`FIT_RANK` directions: more directions fitted to few pairs,
+        or instants at which an impact's shifted instant lands, gave spurious multipliers."""
+        fit = pooled_floquet_multipliers(pieces, self.rate, self.fe)
+        if fit.periods[1] < LONG_PAIRS:
+            fit = pooled_floquet_multipliers(
+                pieces, self.rate, self.fe, harmonics=FIT_HARMONICS, rank=FIT_RANK
+            )
+        return fit
+
+    def _error(self, orbit: HarmonicTarget, periods: int) -> float:
+        """The largest distance of the loop's displacement from ``orbit`` over the last ``periods``."""
+        n = periods * round(self.rate / self.fe)
+        _, xs = self._loop_rows(self.sink.total - n, n)
+        t = (self.sink.total - n + 1 + np.arange(n)) / self.rate
+        return float(np.max(np.abs(xs - orbit.evaluate(t)[0])))
+
+    def _settle(self, orbit: HarmonicTarget, amplitude: float, before: float) -> float:
+        """Hold ``orbit`` until the loop's error over the last block is within :data:`SETTLED` of
+        ``amplitude`` or 1.5 times ``before`` (at most :data:`SETTLE_SECONDS`): the measurement
+        leaves the rig where it found it. Returns that error."""
+        end = self.sink.total + SETTLE_SECONDS * self.rate
+        periods = max(1, self.stream.n // round(self.rate / self.fe))
+        error = self._error(orbit, periods)
+        while self.sink.total < end and error > max(SETTLED * amplitude, 1.5 * before):
+            self.read()
+            error = self._error(orbit, periods)
+        return error
+
+    def _deviation(self, xs: np.ndarray) -> np.ndarray:
+        """``xs`` minus the orbit: the average of its first :data:`REFERENCE_PERIODS` periods."""
+        return xs - periodic_reference(
+            xs, self.rate, self.fe, 0, REFERENCE_PERIODS * round(self.rate / self.fe)
         )
-        self.last_modulus = fit.max_modulus
-        return fit, {"release_periods": float(periods), "probe": PROBE}
+
+    @staticmethod
+    def _free(deviation: np.ndarray, at: int, periods: int, p: int) -> np.ndarray:
+        """``(periods, p)``: the deviation over the ``periods`` released from sample ``at``."""
+        return deviation[at : at + periods * p].reshape(periods, p)
 
 
 class _ForcePeak(RuntimeError):
     """A force peak past the guard while the loop holds a target (caught by ``hold``)."""
 
 
-def _release_periods(last_modulus: float) -> int:
-    """Periods released: the probe's deviation grows about 50 times (to the linear limit) at the
-    last measured multiplier (a margin of 10 % on it), 6 to 20 periods."""
-    grow = max(1.05, 1.1 * last_modulus)
-    return int(min(20, max(6, math.floor(math.log(50.0) / math.log(grow)))))
+def _release_periods(free: np.ndarray, limit: float, growth: float | None = None) -> int:
+    """Periods more to release after the observed ones ``free`` (``(periods, samples)``, the
+    deviation since the release): its growth since the release kept within ``limit``, the
+    period-to-period step growing by :data:`GROWTH_MARGIN` times ``growth`` a period (a fit of
+    the same orbit's earlier releases), or where none, times the largest growth of the step the
+    release itself shows (model-free), at least :data:`GROWTH_FLOOR`; 0 when the deviation is
+    already past a third of the limit; at most :data:`MAX_RELEASE` periods in all."""
+    steps = np.abs(np.diff(free, axis=0)).max(axis=1)
+    level = float(np.abs(free[-1] - free[0]).max())
+    if level >= limit / 3 or steps.size < 2:
+        return 0
+    if growth is None:
+        growth = max(GROWTH_FLOOR, float(np.max(steps[1:] / np.maximum(steps[:-1], 1e-300))))
+    grow = GROWTH_MARGIN * growth
+    size, step, more = level, float(steps[-1]), 0
+    while more + free.shape[0] < MAX_RELEASE:
+        step *= grow
+        if size + step > limit:
+            break
+        size += step
+        more += 1
+    return more
 
 
 def _scaled(target: HarmonicTarget, factor: float) -> HarmonicTarget:

@@ -15,6 +15,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from rigtools.acquisition import AcquisitionAborted
 from rigtools.drivers.contracts import ConfigurationError
@@ -28,7 +30,7 @@ from rigtools.procedures.cbc import (
 )
 from rigtools.procedures.cbc_iteration import FeedforwardSecant
 from rigtools.procedures.cbc_loop import LoopMeasurement
-from rigtools.procedures.cbc_realtime import RealTimeHarmonicLoop
+from rigtools.procedures.cbc_realtime import MAX_RELEASE, OBSERVED, RealTimeHarmonicLoop, _release_periods
 from rigtools.recording import open_recording
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -106,6 +108,19 @@ def test_multipliers_are_in_the_recording(run):
         assert len(np.atleast_1d(q["multipliers_phase_deg"])) == moduli.size
 
 
+def test_the_measurement_leaves_the_rig_on_the_orbit(run):
+    """Each point's releases (the drift bounded: 3 % of A since the release, the loop's target
+    re-engaged in time) end with the loop's largest error from the orbit over a block back within
+    1.5 times its level before the first probe, or 0.3 % of A (the measurement waits up to 2 s
+    for it): the next point starts where the CBC left this one. Every release at most 20 periods."""
+    _, out = run
+    with open_recording(out) as rec:
+        params = [p.params for p in rec.points]
+    for q in params:
+        assert q["multipliers_error_after"] <= max(1.5 * q["multipliers_error_before"], 0.003), q
+        assert 3 <= q["multipliers_release_periods"] <= MAX_RELEASE
+
+
 def test_unknown_inner_loop_is_one_line():
     with pytest.raises(UserError, match="inner loop 'fast'"):
         ControlBasedContinuation(None, {"fe": 64.0, "amplitudes": [3e-4]}, "x.h5", inner_loop="fast")
@@ -162,21 +177,15 @@ def test_the_sheet_is_held_past_mu_3(upper):
     assert float(np.interp(points[5]["amplitude_m"], a, mu)) > 3.0
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="measured: the probe-and-release fit is path-sensitive at |mu| 1.5-2 on the CBC's held "
-    "orbits (on this test's path A 0.4056 mm: 1.562 against the model's about 1.83, about -15 %; the 26-point "
-    "sweep of benchmarks/bench_cbc_realtime.py: within 8.2 % to |mu| 1.85 and no fit from 1.985, "
-    "the growth past the 2 % linear limit within 2 periods), while the model's own orbits probed "
-    "and released by the same loop (exact drive, 2 s hold) fit within 3.5 % to |mu| 2.03. What "
-    "spoils the CBC's transient is not settled. Goal: within 10 % wherever |mu| <= 2",
-)
 def test_measured_multipliers_up_to_mu_2(upper):
-    """Where the model's |mu| <= 2 among these points (the 0.3996 and 0.4072 mm targets, |mu|
-    1.69 and 1.83) the largest measured multiplier within 10 % of the model's."""
+    """Where the model's |mu| <= 2 among these points the largest measured multiplier within 10 %
+    of the model's at the measured A (the issue's tolerance), at least two such points (on this
+    path A 0.3983, 0.4055, 0.4135 mm, |mu| 1.69-1.99: measured +0.7, -1.2, -1.7 %). The releases
+    are short and pooled (cbc_realtime's module docstring): the fit no longer depends on the
+    previous point's multiplier, which put the fit at -15 % at 0.4056 mm on this path before."""
     a, _f, mu = s_curve()
     checked = 0
-    for x in upper[0][:3]:
+    for x in upper[0]:
         m = float(np.interp(x["amplitude_m"], a, mu))
         if m <= 2.0:
             assert abs(x.get("max_multiplier", np.nan) / m - 1) <= MU_TOLERANCE, (
@@ -185,7 +194,7 @@ def test_measured_multipliers_up_to_mu_2(upper):
                 m,
             )
             checked += 1
-    assert checked == 2
+    assert checked >= 2
 
 
 def test_a_lost_target_ends_its_leg_not_the_run(tmp_path):
@@ -288,3 +297,53 @@ def test_a_lost_hold_ends_the_point_at_once():
     assert (loop.holds, pt.point.iterations, pt.point.converged) == (2, 2, False)
     assert pt.lost == "A 0.4 mm held, 12% from the target"
     assert pt.attrs()["lost"] == pt.lost
+
+
+@settings(max_examples=80, deadline=None)
+@given(
+    growth=st.floats(0.5, 6.0),
+    first=st.floats(1e-9, 1e-6),
+    limit=st.floats(1e-6, 1e-4),
+    known=st.booleans(),
+)
+def test_a_release_stays_within_its_limit_at_the_growth_it_shows(growth, first, limit, known):
+    """A released transient whose period-to-period step (a fixed shape) grows by ``growth`` a
+    period: the extension ``_release_periods`` gives after the periods seen keeps the deviation
+    since the release within ``limit`` over the whole release (reference: the geometric sum
+    itself), the growth estimated from the periods seen (model-free) or given (an earlier fit of
+    the same orbit, here the true one); none once the periods seen are past a third of the
+    limit; at most MAX_RELEASE periods in all."""
+    shape = np.sin(2 * np.pi * np.arange(64) / 64) + 0.3 * np.cos(6 * np.pi * np.arange(64) / 64)
+
+    def free(periods: int) -> np.ndarray:
+        since = [first * sum(growth**i for i in range(k)) for k in range(periods)]
+        return np.outer(since, shape)
+
+    seen = free(OBSERVED)
+    more = _release_periods(seen, limit, growth if known else None)
+    assert OBSERVED + more <= MAX_RELEASE
+    if np.abs(seen[-1] - seen[0]).max() >= limit / 3:
+        assert more == 0
+    else:
+        whole = free(OBSERVED + more)
+        assert np.abs(whole[-1] - whole[0]).max() <= limit
+
+
+def test_the_models_multiplier_without_contact_is_the_passive_blades_free_mode():
+    """Why points without contact are not held against the model's largest multiplier (the
+    benchmark's note): the table's orbits without contact all have |mu| = exp(-zeta w / fe) of the
+    passive blade's (blade 1: the shaker drives blade 0) first mode, 53.69 Hz, zeta 1.2 %, to 1e-6
+    (the continuation's Floquet solve against the closed form of an uncoupled damped mode). Without
+    contact that mode is decoupled from the drive and from the active shroud's displacement, so no
+    measurement there can see it (the loop measures 0.70, the active blade's with the shaker)."""
+    from rigtools.branches import simulated_rig_model
+
+    _cfg, system, _shaker = simulated_rig_model(None)
+    passive = np.flatnonzero(np.asarray(system.blade) == 1)
+    first = passive[np.argmin(np.asarray(system.frequencies_hz)[passive])]
+    w, zeta = 2 * np.pi * float(system.frequencies_hz[first]), float(system.zeta[first])
+    closed_form = np.exp(-zeta * w / 64.0)
+    rows = [r for r in json.loads(TABLE.read_text())["points"] if r["impacts_per_period"] == 0]
+    assert rows
+    for r in rows:
+        assert r["max_multiplier"] == pytest.approx(closed_form, rel=1e-6)
