@@ -208,10 +208,9 @@ class PeriodMap:
         self._phi_f = shapes[2]
         c = system.contact
         self._law = (float(c.stiffness), float(c.damping), float(c.hertz_exponent), law_code(c))
-        # the steppers of the last few (fe, gap): a Jacobian's parameter column flows at a
-        # perturbed fe or gap between flows at the point's own, so one kept stepper was rebuilt
-        # twice per Jacobian (a tenth of a continuation's time; each stepper is the same object
-        # it was, so the results do not change)
+        # the steppers of the last few (fe, gap): a point's own flows are interleaved with the
+        # Jacobian's parameter column at a perturbed fe or gap (each stepper is the object it
+        # was, so the results do not change)
         self._steppers: dict[tuple[float, float], VibroImpactStepper] = {}
         k = np.arange(1, self.steps_per_period * self.periods + 1)
         gain = shaker.amplifier_gain if shaker is not None else 1.0
@@ -238,11 +237,14 @@ class PeriodMap:
         if stepper is None:
             validate_harmonic_input(p.fe, abs(p.force), p.gap)
             dt = 1.0 / (p.fe * self.steps_per_period)
+            coupling = self.shaker.coupling if self.shaker is not None else None
             stepper = VibroImpactStepper(
                 self.base.with_contact(gap=p.gap),
                 dt,
-                self.shaker.coupling if self.shaker is not None else None,
+                coupling,
                 self.force_scale,
+                # the armature attached once for the map (the attachment does not see the gap)
+                attached=None if coupling is None else self.system.with_contact(gap=p.gap),
             )
             if len(self._steppers) >= STEPPERS_KEPT:
                 del self._steppers[next(iter(self._steppers))]  # the oldest
