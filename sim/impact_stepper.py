@@ -149,6 +149,10 @@ class VibroImpactStepper:
         suspension are added at the force point; otherwise the input is the force (N).
     force_scale
         Force (N) at which a Hertz contact's tangent stiffness is taken for the step check.
+    attached
+        With ``shaker``: ``system`` with the armature already attached
+        (:meth:`rigtools.sim.reduction.ReducedSystem.with_attached`), if the caller holds it (a
+        periodic-orbit map builds a stepper per fe and gap, the attachment's eigen-solve once).
     """
 
     def __init__(
@@ -157,10 +161,15 @@ class VibroImpactStepper:
         dt: float,
         shaker: ShakerCoupling | None = None,
         force_scale: float = 100.0,
+        attached: ReducedSystem | None = None,
     ):
         self.contact_period = check_time_step(system, dt, force_scale)
         if shaker is not None:
-            system = system.with_attached(shaker.armature_mass, shaker.suspension_stiffness)
+            system = (
+                attached
+                if attached is not None
+                else system.with_attached(shaker.armature_mass, shaker.suspension_stiffness)
+            )
         self.system = system
         self.dt = float(dt)
         self.shaker = shaker

@@ -36,6 +36,7 @@ PARAMETERS = ("fe", "force", "gap")
 UNITS = {"fe": "Hz", "force": "N", "gap": "m"}
 FD_RELATIVE_STEP = 1e-6
 N_HARMONICS = 10
+STEPPERS_KEPT = 4  # steppers kept per map (PeriodMap._stepper_for)
 # column of each output of the kernel (rigtools.sim.vibro_impact.OUT_COLUMNS) by name
 COL = {name: i for i, name in enumerate(OUT_COLUMNS)}
 
@@ -207,8 +208,10 @@ class PeriodMap:
         self._phi_f = shapes[2]
         c = system.contact
         self._law = (float(c.stiffness), float(c.damping), float(c.hertz_exponent), law_code(c))
-        self._key: tuple[float, float] | None = None
-        self._stepper: VibroImpactStepper | None = None
+        # the steppers of the last few (fe, gap): a point's own flows are interleaved with the
+        # Jacobian's parameter column at a perturbed fe or gap (each stepper is the object it
+        # was, so the results do not change)
+        self._steppers: dict[tuple[float, float], VibroImpactStepper] = {}
         k = np.arange(1, self.steps_per_period * self.periods + 1)
         gain = shaker.amplifier_gain if shaker is not None else 1.0
         self._unit_drive = gain * np.sin(2.0 * np.pi * k / self.steps_per_period)
@@ -230,17 +233,23 @@ class PeriodMap:
 
     def _stepper_for(self, p: Forcing) -> VibroImpactStepper:
         key = (p.fe, p.gap)
-        if self._stepper is None or key != self._key:
+        stepper = self._steppers.get(key)
+        if stepper is None:
             validate_harmonic_input(p.fe, abs(p.force), p.gap)
             dt = 1.0 / (p.fe * self.steps_per_period)
-            self._stepper = VibroImpactStepper(
+            coupling = self.shaker.coupling if self.shaker is not None else None
+            stepper = VibroImpactStepper(
                 self.base.with_contact(gap=p.gap),
                 dt,
-                self.shaker.coupling if self.shaker is not None else None,
+                coupling,
                 self.force_scale,
+                # the armature attached once for the map (the attachment does not see the gap)
+                attached=None if coupling is None else self.system.with_contact(gap=p.gap),
             )
-            self._key = key
-        return self._stepper
+            if len(self._steppers) >= STEPPERS_KEPT:
+                del self._steppers[next(iter(self._steppers))]  # the oldest
+            self._steppers[key] = stepper
+        return stepper
 
     def carried_loads(self, x: np.ndarray, gap: float) -> np.ndarray:
         """The loads the kernel carries into the first step, from the state (force phase zero)."""
