@@ -4,7 +4,7 @@ NOT met against the model (tests/rigtools/data/cbc_model_64hz.json: its S-curve 
 
 Run: ``PYTHONPATH=. python benchmarks/bench_cbc_realtime.py`` -- the command's own sweep
 ``rig acquire cbc --backend sim --gap "0.5 mm" --fe "64 Hz" --amplitude "0.30 mm:0.49 mm:0.0076 mm"
---inner-loop realtime --json`` (26 points; a few minutes of CPU), then the figures: >= 25 points
+--inner-loop realtime --json`` (26 targets; about a minute of CPU), then the figures: >= 25 points
 over A 0.30-0.49 mm, F1 within 2 % of the model at each, the drive's harmonics 2-10 <= 1 %, <= 8
 iterations, the measured largest multiplier within 10 % of the model's where |mu| <= 2.
 """
