@@ -260,7 +260,7 @@ def cbc_point(
     )
     effort = float(np.sqrt(np.sum(np.abs(m.drive - feedforward) ** 2) / 2))
     pt = CBCPoint(point, effort, target, feedforward, m, half_peak_to_peak(m.response), history)
-    pt.lost = getattr(loop, "lost", None) or ""
+    pt.lost = lost or ""
     return pt
 
 
@@ -530,9 +530,7 @@ class ControlBasedContinuation(SineProcedure):
         )
         zero = np.zeros(p.harmonics, complex)
         loop.forget_shape()
-        loop.set_gains(Gains(0.0))
-        loop.set_point(zero, zero, ramp_time=0.5)
-        loop.wait(1.5)
+        self._to_rest(loop, 1.5)
         probe = zero.copy()
         probe[0] = 0.5 * pt.measurement.drive[0]
         m = loop.hold(zero, probe, ramp_time=1.0, settle_time=1.0, measure_periods=p.measure_periods)
@@ -554,10 +552,14 @@ class ControlBasedContinuation(SineProcedure):
         line = f"{kind} A = {amplitude * 1e3:.4g} mm lost ({pt.lost}): the leg ends there"
         self.lost.append(line)
         self.emit("message", text=line)
+        self._to_rest(loop, 1.0)
+
+    def _to_rest(self, loop, seconds: float) -> None:
+        """The gains zero, the target and drive ramped to zero over 0.5 s; ``seconds`` waited."""
         zero = np.zeros(self.params.harmonics, complex)
         loop.set_gains(Gains(0.0))
         loop.set_point(zero, zero, ramp_time=0.5)
-        loop.wait(1.0)
+        loop.wait(seconds)
 
     def _walk(
         self, loop, p: CBCParameters, first: tuple[np.ndarray, np.ndarray], amplitude: float, secant
@@ -585,8 +587,7 @@ class ControlBasedContinuation(SineProcedure):
         loop.set_gains(Gains(0.0))
         zero = np.zeros(p.harmonics, complex)
         if self.points:  # from the last orbit: down to rest first (a sweep's jump from it can impact hard)
-            loop.set_point(zero, zero, ramp_time=0.5)
-            loop.wait(1.5)
+            self._to_rest(loop, 1.5)
         loop.sweep_from(p.approach_from or max(1.0, p.fe - 8.0), p.approach_time)
         ff = np.zeros(p.harmonics, complex)
         ff[0] = p.approach_drive

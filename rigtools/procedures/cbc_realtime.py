@@ -166,7 +166,6 @@ class RealTimeHarmonicLoop(BufferedHarmonicLoop):
         # per-sample loop feeds back every harmonic; a target truncated to H would push)
         self.upper = np.zeros(max(0, ORBIT_HARMONICS - self.n_harmonics), complex)
         self.mean = 0.0  # and the mean (impacts on one side shift it; a target without it pushes)
-        self.last_modulus = 1.0  # the last measured |mu| (kept for callers; no release depends on it)
         rate = device.sample_rate
         self._upper_fits: dict[int, np.ndarray] = {}
         self._line = max(0, round(device.input_to_output_delay() * rate - 0.5))  # the delay line
@@ -193,7 +192,6 @@ class RealTimeHarmonicLoop(BufferedHarmonicLoop):
         """Zero: the loop's output 0 (no target); else the loop's own gains engage it."""
         if gains.zero:
             self.engaged = False
-            self.last_modulus = 1.0  # open loop (an approach): the next release's length afresh
         elif (gains.kp, gains.kd) != self.base_gains:
             raise ConfigurationError(
                 f"the real-time loop runs with kp {self.base_gains[0]:g} V/m, kd {self.base_gains[1]:g} V s/m; "
@@ -366,7 +364,6 @@ class RealTimeHarmonicLoop(BufferedHarmonicLoop):
                 f"{len(lengths)} releases of {'/'.join(map(str, lengths))} periods left too few periods "
                 f"in the linear range (deviation within {LINEAR_LIMIT:.0%} of A)"
             )
-        self.last_modulus = fit.max_modulus
         return fit, {**info, "probe": PROBE}
 
     def _release_piece(
