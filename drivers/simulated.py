@@ -75,6 +75,7 @@ from rigtools.drivers.errors import one_line
 from rigtools.drivers.realtime import HarmonicTarget, RealTimeLoop
 from rigtools.drivers.realtime_pll import PllCommand, RealTimePll
 from rigtools.drivers.safety import MAX_TIME_TO_ZERO, output_queue_limit
+from rigtools.drivers.sample_log import SampleLog
 from rigtools.drivers.sensor_chain import SensorChain, SensorModel
 from rigtools.drivers.shaker import ShakerParams
 from rigtools.drivers.test_article import TestArticle
@@ -352,10 +353,10 @@ class SimulatedRig(AcquisitionDevice):
         self._wall0 = 0.0
         self._chain: SensorChain | None = None
         self._rows = np.zeros(0, dtype=int)
-        self._drive_log: deque[np.ndarray] = deque()
+        self._drive_log = SampleLog()
         self.realtime_loop: RealTimeLoop | RealTimePll | None = None
         self._feedback: DelayedFeedback | PllFeedback | None = None
-        self._loop_log: deque[np.ndarray] = deque()
+        self._loop_log = SampleLog((2,))
         self.drive_samples = 0  # drive samples that reached the amplifier since configure
         self.truth_log: list[np.ndarray] = []
         self.fault_sample: int | None = None
@@ -477,9 +478,9 @@ class SimulatedRig(AcquisitionDevice):
         line = round(self.test_article.input_to_output_delay * self._rate - 0.5)
         self._delay_line = np.zeros(max(0, int(line)))
         self._last_drive = 0.0
-        self._drive_log, self.truth_log = deque(), []
+        self._drive_log, self.truth_log = SampleLog(), []
         self.drive_samples = 0
-        self._loop_log = deque()
+        self._loop_log = SampleLog((2,))
         if self._feedback is not None:
             self._feedback.reset()
             if isinstance(self.realtime_loop, RealTimeLoop):
@@ -516,7 +517,7 @@ class SimulatedRig(AcquisitionDevice):
         ramp to zero after a stop or a fault: the last :attr:`drive_log_seconds` of them (memory
         stays bounded over long runs; sample 0 of the array is amplifier sample
         ``drive_samples - drive_log.size``)."""
-        return np.concatenate(self._drive_log) if self._drive_log else np.zeros(0)
+        return self._drive_log.array()
 
     @property
     def loop_log(self) -> np.ndarray:
@@ -525,7 +526,22 @@ class SimulatedRig(AcquisitionDevice):
         ``(i + 1) / sample_rate``): row 0 its output ``u`` (V at the amplifier's
         input), row 1 the active shroud's displacement at the sample's end (m, the quantity the
         loop measures, noise-free). Empty without a loop."""
-        return np.concatenate(self._loop_log, axis=1) if self._loop_log else np.zeros((2, 0))
+        return self._loop_log.array()
+
+    def drive_log_tail(self, samples: int) -> np.ndarray:
+        """The latest ``samples`` of :attr:`drive_log` (the rest not copied: a loop reads its
+        record after every block).
+
+        Raises
+        ------
+        ValueError
+            More samples asked for than the log holds.
+        """
+        return self._drive_log.tail(samples)
+
+    def loop_log_tail(self, samples: int) -> np.ndarray:
+        """The latest ``samples`` columns of :attr:`loop_log` (as :meth:`drive_log_tail`)."""
+        return self._loop_log.tail(samples)
 
     # ------------------------------------------------------------------ real-time loop
 
@@ -743,7 +759,7 @@ class SimulatedRig(AcquisitionDevice):
         else:
             applied = drive
         keep = int(self.drive_log_seconds * self._rate)
-        _log(self._drive_log, applied, keep)
+        self._drive_log.append(applied, keep)
         self.drive_samples += applied.size
         if drive.size:
             self._last_drive = float(drive[-1])
@@ -755,7 +771,7 @@ class SimulatedRig(AcquisitionDevice):
         if self._feedback is None:
             return physics.step(coil, impulses)
         signals, u, x = self._feedback.step(physics, coil, impulses, loop_envelope)
-        _log(self._loop_log, np.vstack([u, x]), keep)
+        self._loop_log.append(np.vstack([u, x]), keep)
         return signals
 
     def read(self, n_samples: int | None = None, timeout: float = 10.0) -> np.ndarray:
@@ -872,12 +888,3 @@ class SimulatedRig(AcquisitionDevice):
     def close(self) -> None:
         self.stop()
         self._closed = True
-
-
-def _log(log: deque[np.ndarray], block: np.ndarray, keep: int) -> None:
-    """Append ``block`` (samples along its last axis) to ``log``, dropping the oldest blocks
-    while the rest hold at least ``keep`` samples."""
-    log.append(block)
-    held = sum(b.shape[-1] for b in log)
-    while log and held - log[0].shape[-1] >= keep:
-        held -= log.popleft().shape[-1]

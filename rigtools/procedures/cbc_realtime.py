@@ -264,13 +264,15 @@ class RealTimeHarmonicLoop(BufferedHarmonicLoop):
     # -- measurements ----------------------------------------------------------------------------
     def _loop_rows(self, start: int, n: int) -> tuple[np.ndarray, np.ndarray]:
         """``(total drive, loop's displacement)`` at amplifier samples ``start..start+n``."""
-        log = self.device.loop_log
-        drive = self.device.drive_log
-        first = self.device.drive_samples - log.shape[1]
-        i = start - first
-        if i < 0 or i + n > log.shape[1]:
-            raise RuntimeError(f"the loop's record holds samples {first}..{first + log.shape[1]}")
-        return drive[i : i + n] + log[0, i : i + n], log[1, i : i + n]
+        back = self.device.drive_samples - start  # samples from ``start`` to the latest
+        try:
+            log = self.device.loop_log_tail(back)[:, :n]
+            drive = self.device.drive_log_tail(back)[:n]
+        except ValueError as e:
+            raise RuntimeError(f"the loop's record: {e}") from None
+        if log.shape[1] < n:
+            raise RuntimeError(f"the loop's record ends {n - log.shape[1]} samples short of {start + n}")
+        return drive + log[0], log[1]
 
     def measure(self, n: int) -> LoopMeasurement:
         """As the buffered loop's, with ``response`` the loop's own displacement (its clock: the

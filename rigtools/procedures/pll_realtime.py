@@ -144,11 +144,13 @@ class LoopBlockStream(BlockStream):
 
     def _store(self, block: np.ndarray, played: np.ndarray) -> None:
         n = block.shape[1]
-        log = self.device.loop_log  # type: ignore[attr-defined]  # a backend with a real-time loop
-        first = int(self.device.drive_samples) - log.shape[1]  # type: ignore[attr-defined]
-        i = int(self.stats.samples) - first
-        if n and 0 <= i and i + n <= log.shape[1]:
-            played[:n] = log[0, i : i + n]
+        device: Any = self.device  # a backend with a real-time loop
+        back = int(device.drive_samples) - int(self.stats.samples)  # this block to the latest sample
+        if n and back >= n:
+            try:
+                played[:n] = device.loop_log_tail(back)[0, :n]
+            except ValueError:  # the record no longer holds the block
+                pass
         super()._store(block, played)
 
 
