@@ -23,7 +23,7 @@ prints the findings C1-C7 ticked or crossed from the data, and ends with the rep
 
 --out must be new, empty, or a folder a previous demo wrote (its files are then replaced).
 Duration, measured on a 2-core machine (numba kernels already compiled; a first run compiles
-them, seconds more): --quick (the same steps at reduced resolution) 60 s, the full demo 66 s
+them, seconds more): --quick (the same steps at reduced resolution) 50 s, the full demo 64 s
 (both trace the same FEM branches, most of either's time).
 The demo is deterministic: the simulated rig's noise and the FRF excitation come from --seed
 (default 0), so two demos write the same findings.json; another seed gives other noise.
@@ -38,8 +38,8 @@ The demo is deterministic: the simulated rig's noise and the FRF excitation come
     + """
 
 examples:
-  rig demo                                   # the full demo into rig-demo/ (66 s)
-  rig demo --quick --out demo-run --json     # reduced resolution (60 s), findings as JSON
+  rig demo                                   # the full demo into rig-demo/ (64 s)
+  rig demo --quick --out demo-run --json     # reduced resolution (50 s), findings as JSON
 """
 )
 
@@ -54,7 +54,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--out", default="rig-demo", metavar="DIR", help='output folder (default "rig-demo")')
     p.add_argument(
-        "--quick", action="store_true", help="reduced resolution (measured: 60 s; the full demo 66 s)"
+        "--quick", action="store_true", help="reduced resolution (measured: 50 s; the full demo 64 s)"
     )
     p.add_argument(
         "--seed",

@@ -53,13 +53,13 @@ class DemoSettings:
 
 
 def full() -> DemoSettings:
-    """The demo at full resolution (measured: 66 s of CPU on a 2-core machine, kernels compiled)."""
+    """The demo at full resolution (measured: 64 s of CPU on a 2-core machine, kernels compiled)."""
     return DemoSettings(name="full", frf_frame=1.0, frf_averages=10)
 
 
 def quick() -> DemoSettings:
-    """``--quick``: the same steps at reduced resolution (measured: 60 s of CPU on a 2-core machine,
-    kernels compiled; three quarters of it the FEM's branches, which the full demo traces alike)."""
+    """``--quick``: the same steps at reduced resolution (measured: 50 s of CPU on a 2-core machine,
+    kernels compiled; most of it the FEM's branches, which the full demo traces alike)."""
     return DemoSettings(
         name="quick",
         frf_frame=0.5,
