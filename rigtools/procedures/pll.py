@@ -162,7 +162,9 @@ class PhaseLockedLoop(SineProcedure):
         for i, (force, phase) in enumerate(targets):
             text = f"{force:g} N, {phase:g} deg"
             self.emit("point", point=i + 1, n_points=len(targets), text=text)
-            self.begin_point({"force_amplitude": force, "phase_target": phase, "gap": gap})
+            # fe where the point starts (the lock's replaces it): a point cut short by a stop
+            # stays a readable sine point
+            self.begin_point({"fe": run.fe, "force_amplitude": force, "phase_target": phase, "gap": gap})
             res = run.point(force, phase, i + 1, len(targets))
             res["gap"] = gap
             last = i == len(targets) - 1 or (not res["converged"] and p.on_lock_loss == "stop")

@@ -11,6 +11,8 @@ machinery against the closed form on the linear branch).
 from __future__ import annotations
 
 import json
+import os
+import signal
 
 import h5py
 import pytest
@@ -238,3 +240,46 @@ def test_amplitude_limit_is_a_lock_loss(tmp_path):
     assert x["iterations"] < 100  # given up early, not after max_periods
     with h5py.File(out, "r") as f:
         assert f["points/0000/drive"][-1] == 0.0
+
+
+def test_interrupted_mid_point_leaves_a_readable_recording(tmp_path):
+    """SIGINT (sent to this process by the progress callback) while the second target is still
+    locking: the drive ramps to zero, the locked first point is kept, and
+    the file is a valid recording ``rig info`` and ``rig check`` read (status aborted). Before the
+    fix the unfinished point had no ``fe`` and ``rig check`` called the file INVALID."""
+    out = tmp_path / "cut.h5"
+    seen: list[int] = []
+
+    def stop_in_point_two(event):
+        if event.kind == "control" and event.point == 2:
+            seen.append(1)
+            if len(seen) == 5:
+                os.kill(os.getpid(), signal.SIGINT)
+
+    with pytest.raises(KeyboardInterrupt):
+        rigtools.phase_locked_loop(
+            "0.2 N,0.3 N", out, gap="0.5 mm", backend="sim", progress=stop_in_point_two
+        )
+    code, stdout, err = run_cli(["check", out])
+    assert code == 0 and "valid rigtools recording" in stdout, (stdout, err)
+    code, stdout, err = run_cli(["info", out])
+    assert code == 0 and "status aborted" in stdout, (stdout, err)
+    with h5py.File(out, "r") as f:
+        assert bool(f["points/0000"].attrs["converged"])
+        cut = f["points/0001"]
+        assert not bool(cut.attrs["point_complete"])
+        assert cut["drive"][-1] == 0.0  # ramped to zero inside the point the signal cut
+
+
+@pytest.mark.parametrize("phase", ["", " ", ","])
+def test_empty_phase_list_is_refused(tmp_path, phase):
+    """An empty ``--phase`` (a script's unset variable) is refused in one line, never run at the
+    default -90 deg as if it had not been given."""
+    out = tmp_path / "x.h5"
+    code, _, err = run_cli(
+        ["acquire", "pll", "--backend", "sim", "--force", "1 N", "--phase", phase, "--out", out]
+    )
+    assert code == 2 and "give at least one phase" in err and len(err.strip().splitlines()) == 1
+    assert not out.exists()
+    with pytest.raises(rigtools.UserError, match="give at least one phase"):
+        rigtools.phase_locked_loop("1 N", out, phases=[], backend="sim")
