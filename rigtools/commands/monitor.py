@@ -82,12 +82,17 @@ def run(args: argparse.Namespace) -> int:
     import sys
 
     from rigtools.errors import EXIT_SIGINT, UserError
+    from rigtools.monitor.follow import unreadable_ended
     from rigtools.monitor.server import run_until_done, serve
     from rigtools.options import duration
     from rigtools.runtime import configure_process
 
     linger = None if args.linger is None else duration(args.linger, "--linger", allow_zero=True)
     configure_process()  # one BLAS thread: the fits are small, and the run needs the cores
+    if args.parent is None:  # a run's own monitor (rig acquire --monitor) waits for its file
+        why = unreadable_ended(args.file)
+        if why is not None:
+            raise UserError(why)
     try:
         served = serve(
             args.file, host=args.host, port=args.port, allow_stop=args.allow_stop, parent=args.parent
