@@ -129,6 +129,7 @@ class PhaseLockedLoop(SineProcedure):
         self.params = params if isinstance(params, PllParameters) else validate(PllParameters, **params)
         self.points: list[ControlledPoint] = []
         self.note = ""  # the line rig acquire prints first (a backend without a real-time loop)
+        self.lost: list[str] = []  # why each point not locked was not (rig acquire prints them)
 
     def first_frequency(self) -> float:
         return self.params.fe_start
@@ -175,6 +176,8 @@ class PhaseLockedLoop(SineProcedure):
             self.points.append(controlled_point(res))
             self.emit("point_done", point=i + 1, n_points=len(targets))
             if not res["converged"]:
+                self.lost.append(res["lock_message"])
+                self.result.summary["lost"] = self.lost
                 self.emit("message", point=i + 1, n_points=len(targets), text=res["lock_message"])
                 if p.on_lock_loss == "stop":
                     self.result.summary["stopped"] = res["lock_message"]
