@@ -15,6 +15,7 @@ import os
 import signal
 
 import h5py
+import numpy as np
 import pytest
 from cli_helpers import run_cli
 
@@ -311,3 +312,11 @@ def test_a_point_not_locked_is_said_in_one_line_and_in_the_json(tmp_path):
     doc = json.loads(stdout)
     assert doc["lost"] == [lines[0].removeprefix("rig acquire pll: ")]
     assert doc["points"][0]["converged"] is False
+
+
+def test_numpy_scalars_are_one_value():
+    """A script's numpy scalar (``np.int64(5)``, what indexing an array gives) is one force or one
+    phase, as a float is: it reaches the phase's check (one line), never a TypeError."""
+    for forces, phases in ((np.int64(5), "90 deg"), (np.float32(5), np.int64(90))):
+        with pytest.raises(rigtools.UserError, match="use -180 < phase < 0"):
+            rigtools.phase_locked_loop(forces, "unused.h5", phases=phases, backend="sim")
