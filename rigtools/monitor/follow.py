@@ -359,7 +359,7 @@ class Follower:
 
 def unreadable_ended(path: str | Path) -> str | None:
     """Why a recording no process writes cannot be shown, in one line naming it; ``None`` when it
-    is absent (a run not started yet), being written, or shows. ``rig monitor`` says this and
+    is not a file (absent: a run not started yet), being written, or shows. ``rig monitor`` says this and
     ends instead of serving a page that waits for a damaged file for ever.
 
     Parameters
@@ -370,7 +370,7 @@ def unreadable_ended(path: str | Path) -> str | None:
     from rigtools.recording import open_recording
 
     path = Path(path)
-    if not path.exists() or writer_alive(path) is not None:
+    if not path.is_file() or writer_alive(path) is not None:  # a folder: serve() says so
         return None
     try:
         with open_recording(path, wait=False, skip_damaged=True, check_samples=False) as rec:
