@@ -130,6 +130,17 @@ def test_monitor_of_an_unreadable_ended_recording_says_so(recordings, tmp_path, 
     assert done.stdout == ""  # no address printed: nothing is served
 
 
+def test_monitor_help_teaches_what_it_shows_of_pll_and_cbc(capsys):
+    """``rig monitor --help`` says what a PLL and a CBC recording add to the page."""
+    from rigtools.cli import main
+
+    with pytest.raises(SystemExit):
+        main(["monitor", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert "phase-locked loop (rig acquire pll) adds its phase and lock" in text
+    assert "control-based continuation (rig acquire cbc) its control effort and iterations" in text
+
+
 def test_pll_states_in_words():
     """While a point runs, the PLL's events say where the loop is; once written, its convergence."""
     assert controlled.state_text("pll", {}, {"kind": "control"}, [], 0) == "locking"
