@@ -97,6 +97,8 @@ class PllParameters(BaseModel):
             if not -180.0 < p < 0.0:
                 raise ValueError(f"phase {p:g} deg: use -180 < phase < 0 (the response lags the force)")
         lo, hi = self.frequency_range()
+        if not lo < hi:  # reversed or empty: say that, not that the start lies outside it
+            raise ValueError(f"f_min {lo:g} Hz must be below f_max {hi:g} Hz")
         if not lo < self.fe_start < hi:
             raise ValueError(
                 f"fe_start {self.fe_start:g} Hz must lie inside f_min..f_max ({lo:g}..{hi:g} Hz)"

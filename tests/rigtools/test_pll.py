@@ -320,3 +320,13 @@ def test_numpy_scalars_are_one_value():
     for forces, phases in ((np.int64(5), "90 deg"), (np.float32(5), np.int64(90))):
         with pytest.raises(rigtools.UserError, match="use -180 < phase < 0"):
             rigtools.phase_locked_loop(forces, "unused.h5", phases=phases, backend="sim")
+
+
+@pytest.mark.parametrize(("f_min", "f_max"), [("70 Hz", "60 Hz"), ("60 Hz", "60 Hz")])
+def test_a_reversed_frequency_range_is_named(tmp_path, f_min, f_max):
+    """``--f-min 70 Hz --f-max 60 Hz``: the one line says the range is reversed (or empty), not
+    that the start frequency lies outside it."""
+    argv = ["acquire", "pll", "--backend", "sim", "--force", "1 N", "--out", tmp_path / "x.h5"]
+    code, _, err = run_cli([*argv, "--f-min", f_min, "--f-max", f_max])
+    assert code == 2 and len(err.strip().splitlines()) == 1
+    assert f"f_min {f_min.split()[0]} Hz must be below f_max {f_max.split()[0]} Hz" in err, err
