@@ -67,6 +67,18 @@ class RigArgumentParser(argparse.ArgumentParser):
         except UserError as exc:
             raise argparse.ArgumentError(None, errors.one_line(exc, None)) from None
 
+    def _parse_optional(self, arg_string):
+        # "-90deg", "-90°", "-100,0": a negative value with its unit or a list is the value of the
+        # option before it (argparse takes it for an unknown option: "expected one argument")
+        if (
+            len(arg_string) > 1
+            and arg_string[0] == "-"
+            and (arg_string[1].isdigit() or arg_string[1] == ".")
+            and arg_string not in self._option_string_actions
+        ):
+            return None
+        return super()._parse_optional(arg_string)
+
     def error(self, message: str) -> NoReturn:
         text = errors.one_line(str(message), None)
         self.exit(errors.EXIT_USAGE, f"{self.prog}: error: {text}\n(see '{self.prog} --help')\n")

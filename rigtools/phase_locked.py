@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import numbers
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
@@ -21,7 +22,7 @@ _TEXT_WORDS = ("fe_start", "f_min", "f_max", "lock_tolerance", "phase_rate", "ma
 
 
 def _joined(values: Sequence[float | str] | float | str, unit: str) -> str:
-    if isinstance(values, (str, float, int)):
+    if isinstance(values, (str, float, int, numbers.Real)):  # numbers.Real: numpy scalars (np.int64(5))
         values = [values]
     return ",".join(v if isinstance(v, str) else f"{float(v)!r} {unit}" for v in values)
 

@@ -19,8 +19,8 @@ it can (--pace: in real time; --seed: the sensor noise, 0 by default, so runs re
 input-overflow, amplifier-timeout, sensor-overload, nan-samples; TIME is seconds from the start,
 "1.5", "1.5 s" or "250 ms", never a block: rigtools.drivers.simulated.Fault.parse).
 In Python: rigtools.dwell, rigtools.stepped_sine (sweep), rigtools.acquire_study (study),
-rigtools.frf_test (frf), rigtools.tap_test (tap) take the same words and range strings; there
-backend= has no default (a script names backend="nidaq" or backend="sim").
+rigtools.frf_test (frf), rigtools.tap_test (tap), rigtools.control_based_continuation (cbc),
+rigtools.phase_locked_loop (pll) take the same words and range strings; there backend= has no default (a script names backend="nidaq" or backend="sim").
 """
 FORCE_CONTROL = """\
 Force control: the force sensor's fundamental (least squares over whole periods) is held at
@@ -241,7 +241,9 @@ with |mu| up to about 1.17 (64 Hz; --gains selects the PD law); the full unstabl
 real-time inner loop (--backend nidaq says so and runs the buffered variant). Where an A-step fails
 at a turn of the branch in A (the grazing hairpin), points go on by pseudo-arclength in (A, drive).
 --json lists each point: fe_hz, amplitude_m, force_fundamental_n, phase_deg, converged, iterations,
-drive_harmonics_ratio, control_effort, drive_amplitude_v, parameterisation.
+drive_harmonics_ratio, control_effort, drive_amplitude_v, parameterisation; "lost" gives one line
+per target the loop let go of (also said on stderr), "skipped_amplitudes" the targets never tried.
+In Python: rigtools.control_based_continuation(fe, amplitudes, out, gap=..., backend="sim").
 """,
     "dwell": """examples:
   rig acquire dwell --backend sim --fe 60 --force "15 N" --gap "0.5 mm" --out dwell.h5

@@ -17,7 +17,7 @@ from rigtools.options import HDF5_SUFFIXES, check_out, seed
 from rigtools.procedure_help import COMMON_EPILOG, PROCEDURE_HELP, PROCEDURE_OPTIONS, epilog
 
 # literal here: `rig --help` reads each command's HELP from its source without importing it
-HELP = "lab procedures on the rig: force-controlled dwell, stepped sine, study, FRF test, tap test"
+HELP = "lab procedures on the rig: force-controlled dwell, stepped sine, study, FRF and tap tests, CBC, PLL"
 
 COMMON_OPTIONS: tuple[tuple[str, dict], ...] = (
     ("--gap", {"default": None, "help": 'shroud gap, e.g. "0.5 mm" (default: as set / the rig file)'}),

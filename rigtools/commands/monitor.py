@@ -14,7 +14,10 @@ envelopes: no impact disappears), the amplitude spectrum with the k·fe harmonic
 strongest named, the force-control state (target, measured F1, drive, error, updates, settled),
 impacts per period, each channel's peak against its safety limit, the points of a study or
 stepped sine with a trend plot, and the status (recording, finished, aborted or failed with the
-reason). It only reads the recording (SWMR, 4 looks a second, new samples only).
+reason). A phase-locked loop (rig acquire pll) adds its phase and lock, a control-based
+continuation (rig acquire cbc) its control effort and iterations, both their points growing
+(A against fe; the S-curve F1 against A). It only reads the recording (SWMR, 4 looks a second,
+new samples only). An ended recording it cannot read (truncated, damaged) is refused in one line.
 
 Served on 127.0.0.1 unless --host is given; any other address needs the random token of the
 printed address (every request without it is refused). --allow-stop shows a stop button: the
@@ -82,12 +85,17 @@ def run(args: argparse.Namespace) -> int:
     import sys
 
     from rigtools.errors import EXIT_SIGINT, UserError
+    from rigtools.monitor.follow import unreadable_ended
     from rigtools.monitor.server import run_until_done, serve
     from rigtools.options import duration
     from rigtools.runtime import configure_process
 
     linger = None if args.linger is None else duration(args.linger, "--linger", allow_zero=True)
     configure_process()  # one BLAS thread: the fits are small, and the run needs the cores
+    if args.parent is None:  # a run's own monitor (rig acquire --monitor) waits for its file
+        why = unreadable_ended(args.file)
+        if why is not None:
+            raise UserError(why)
     try:
         served = serve(
             args.file, host=args.host, port=args.port, allow_stop=args.allow_stop, parent=args.parent

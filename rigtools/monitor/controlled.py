@@ -53,13 +53,23 @@ def row_fields(params: Any) -> dict[str, Any]:
     """The controlled fields a point carries, as plain values (absent ones left out)."""
     out: dict[str, Any] = {}
     for name in ROW_FIELDS:
-        value = params.get(name)
-        if value is None:
-            continue
-        out[name] = (
-            bool(value) if name == "converged" else (int(value) if name == "iterations" else float(value))
-        )
+        value = _plain(name, params.get(name))
+        if value is not None:
+            out[name] = value
     return out
+
+
+def _plain(name: str, value: Any) -> bool | int | float | None:
+    """One field as a plain value; ``None`` when absent or not what the procedure writes (a
+    script's edit, "sixty" for fe_hz: the row leaves it out rather than the page failing)."""
+    if value is None or isinstance(value, (str, bytes)):
+        return None
+    try:
+        if name == "converged":
+            return bool(value) if int(value) in (0, 1) else None
+        return int(value) if name == "iterations" else float(value)
+    except (TypeError, ValueError, OverflowError):
+        return None
 
 
 def live_phase_deg(

@@ -23,9 +23,11 @@ from typing import Any
 
 import numpy as np
 
+from rigtools.errors import one_line
 from rigtools.monitor.control_files import live_path, read_json
 from rigtools.monitor.controlled import live_phase_deg, procedure_kind, row_fields, state_text
 from rigtools.monitor.envelope import max_envelope, min_max_envelope
+from rigtools.recording.lock import writer_alive
 from rigtools.recording.schema import RecordingError, parse_utc
 from rigtools.sim.channel_names import ACTIVE_SHROUD_ACCEL, DRIVE, FORCE, PASSIVE_SHROUD_ACCEL
 
@@ -353,6 +355,30 @@ class Follower:
         self.version += 1
         self.snapshot = Snapshot(self.version, time.time(), str(self.path), **fields)
         return self.snapshot
+
+
+def unreadable_ended(path: str | Path) -> str | None:
+    """Why a recording no process writes cannot be shown, in one line naming it; ``None`` when it
+    is not a file (absent: a run not started yet), being written, or shows. ``rig monitor`` says this and
+    ends instead of serving a page that waits for a damaged file for ever.
+
+    Parameters
+    ----------
+    path
+        The recording.
+    """
+    from rigtools.recording import open_recording
+
+    path = Path(path)
+    if not path.is_file() or writer_alive(path) is not None:  # a folder: serve() says so
+        return None
+    try:
+        with open_recording(path, wait=False, skip_damaged=True, check_samples=False) as rec:
+            Follower(path)._look(rec)
+    except Exception as exc:  # noqa: BLE001 - any failure to show it is said, in one line
+        text = one_line(exc)
+        return text if str(path) in text else f"{path}: {text}"
+    return None
 
 
 def _fields(s: Snapshot) -> dict[str, Any]:

@@ -97,6 +97,8 @@ class PllParameters(BaseModel):
             if not -180.0 < p < 0.0:
                 raise ValueError(f"phase {p:g} deg: use -180 < phase < 0 (the response lags the force)")
         lo, hi = self.frequency_range()
+        if not lo < hi:  # reversed or empty: say that, not that the start lies outside it
+            raise ValueError(f"f_min {lo:g} Hz must be below f_max {hi:g} Hz")
         if not lo < self.fe_start < hi:
             raise ValueError(
                 f"fe_start {self.fe_start:g} Hz must lie inside f_min..f_max ({lo:g}..{hi:g} Hz)"
@@ -129,6 +131,7 @@ class PhaseLockedLoop(SineProcedure):
         self.params = params if isinstance(params, PllParameters) else validate(PllParameters, **params)
         self.points: list[ControlledPoint] = []
         self.note = ""  # the line rig acquire prints first (a backend without a real-time loop)
+        self.lost: list[str] = []  # why each point not locked was not (rig acquire prints them)
 
     def first_frequency(self) -> float:
         return self.params.fe_start
@@ -162,7 +165,9 @@ class PhaseLockedLoop(SineProcedure):
         for i, (force, phase) in enumerate(targets):
             text = f"{force:g} N, {phase:g} deg"
             self.emit("point", point=i + 1, n_points=len(targets), text=text)
-            self.begin_point({"force_amplitude": force, "phase_target": phase, "gap": gap})
+            # fe where the point starts (the lock's replaces it): a point cut short by a stop
+            # stays a readable sine point
+            self.begin_point({"fe": run.fe, "force_amplitude": force, "phase_target": phase, "gap": gap})
             res = run.point(force, phase, i + 1, len(targets))
             res["gap"] = gap
             last = i == len(targets) - 1 or (not res["converged"] and p.on_lock_loss == "stop")
@@ -173,6 +178,8 @@ class PhaseLockedLoop(SineProcedure):
             self.points.append(controlled_point(res))
             self.emit("point_done", point=i + 1, n_points=len(targets))
             if not res["converged"]:
+                self.lost.append(res["lock_message"])
+                self.result.summary["lost"] = self.lost
                 self.emit("message", point=i + 1, n_points=len(targets), text=res["lock_message"])
                 if p.on_lock_loss == "stop":
                     self.result.summary["stopped"] = res["lock_message"]

@@ -62,7 +62,7 @@ def pll_parameters(cfg: Any, options: Mapping[str, Any]) -> dict:
     forces = value_list(str(o["force"]), "force", "--force")
     if not all(f > 0 for f in forces):
         raise UserError(f"--force = {o['force']!r}: every force must be > 0")
-    phases = phases_option(o.get("phase") or "-90 deg")
+    phases = phases_option("-90 deg" if o.get("phase") is None else o["phase"])  # "": an error
     params: dict[str, Any] = {"forces": forces, "phases": phases}
     if o.get("gap") is not None:
         params["gap"] = gap_option(o["gap"])

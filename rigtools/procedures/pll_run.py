@@ -146,6 +146,9 @@ class PllRun:
             return None
         det = self._detect(n)
         if not abs(det.force) > MIN_FORCE * force:
+            # too small a force to measure a phase: the drive still rises towards the target
+            # (a first point of 40 N from the initial drive's 0.44 N waited here for ever)
+            self._hold_force(det, force, dt)
             return None
         measured = det.phase_deg
         if self.target is None:  # the first point: no branch to follow yet, aim at once
@@ -199,8 +202,14 @@ class PllRun:
                 rms = rms_deg(
                     [e for t, e in history if t >= s.sink.total - p.lock_periods * self.rate / self.fe]
                 )
-                message = f"no lock within {p.max_periods} periods (phase error RMS {rms:.3g} deg"
-                message += f" over the last {p.lock_periods} periods{self._limit_text()})"
+                if math.isfinite(rms):
+                    message = f"no lock within {p.max_periods} periods (phase error RMS {rms:.3g} deg"
+                    message += f" over the last {p.lock_periods} periods{self._limit_text()})"
+                else:  # no phase measured over the lock periods: the force stayed too small
+                    message = (
+                        f"no lock within {p.max_periods} periods (the force stayed below {MIN_FORCE:.0%}"
+                        f" of {force:g} N, too small to measure the phase{self._limit_text()})"
+                    )
                 break
         iterations = round((s.sink.total - start) / self.rate * self.fe)
         return self._record(force, phase, index, n_points, locked, message, iterations, start, warnings0, dt)

@@ -204,6 +204,26 @@ def test_argparse_errors_are_one_line_and_a_hint(capsys, argv, prog):
     assert lines[1] == f"(see '{prog} --help')"
 
 
+@pytest.mark.parametrize(
+    "value, message",
+    [
+        # read as -90 deg: the run is then refused by --fe-start above the rig's band (no run starts)
+        ("-90deg", "--fe-start = '1 MHz'"),
+        ("-90°", "--fe-start = '1 MHz'"),
+        ("-90deg,-100 deg", "--fe-start = '1 MHz'"),
+        ("-90", "give an angle with its unit"),  # the value reaches --phase's own check
+    ],
+)
+def test_a_negative_value_with_its_unit_is_the_options_value(tmp_path, capsys, value, message):
+    """``--phase -90deg`` (no space, no quotes) is the value of --phase, never taken for an unknown
+    option (argparse's misleading "argument --phase: expected one argument")."""
+    argv = ["acquire", "pll", "--backend", "sim", "--force", "1 N", "--out", str(tmp_path / "x.h5")]
+    code = cli.main([*argv, "--phase", value, "--fe-start", "1 MHz"])
+    err = capsys.readouterr().err
+    _stderr_ok(err)
+    assert code == 2 and message in err and len(err.strip().splitlines()) == 1, err
+
+
 def test_no_command_prints_help_and_exits_2(capsys):
     assert cli.main([]) == 2
     assert "COMMAND" in capsys.readouterr().out

@@ -24,7 +24,7 @@ from nptdms import ChannelObject, GroupObject, RootObject, TdmsWriter
 
 from rigtools.branches import DIMENSION
 from rigtools.branches_file import read_branches
-from rigtools.cli import build_parser
+from rigtools.cli import build_parser, main
 from rigtools.config import default_rig_text
 from rigtools.drivers.nidaq import NO_DRIVER_MESSAGE, NOT_SUPPORTED_MESSAGE
 from rigtools.options import quantity
@@ -168,6 +168,27 @@ def test_every_command_shows_examples():
     assert commands == set(ORDER) and len(EXAMPLES) >= 50
     by_procedure = {line[1] for line in EXAMPLES if line[0] == "acquire"}
     assert by_procedure == {"dwell", "sweep", "study", "frf", "tap", "pll", "cbc"}
+
+
+def _help(argv: list[str], capsys) -> str:
+    with pytest.raises(SystemExit):
+        main([*argv, "--help"])
+    return capsys.readouterr().out
+
+
+def test_acquire_help_names_pll_and_cbc_and_their_python_doors(capsys):
+    """``rig acquire --help`` names the PLL and CBC; each procedure's help names its front-door
+    function (a script writer's way in) and CBC's lists its --json keys beyond the points."""
+    head = _help(["acquire"], capsys).splitlines()[2]
+    assert "CBC" in head and "PLL" in head
+    for procedure, door in (
+        ("cbc", "rigtools.control_based_continuation"),
+        ("pll", "rigtools.phase_locked_loop"),
+    ):
+        text = " ".join(_help(["acquire", procedure], capsys).split())
+        assert f"In Python: {door}(" in text and f"{door} ({procedure})" in text
+        if procedure == "cbc":
+            assert '"lost" gives one line per target' in text and '"skipped_amplitudes"' in text
 
 
 def _monitor(args: list[str], folder: Path) -> tuple[int, str, str]:

@@ -83,6 +83,64 @@ def test_ended_points_show_what_the_procedure_wrote(recordings):
     assert "control_effort" in s.points[-1] and s.points[-1]["control_effort"] == attrs[-1]["control_effort"]
 
 
+def test_a_damaged_field_is_left_out_not_fatal(recordings, tmp_path):
+    """A controlled point whose fields a script overwrote (fe_hz "sixty", converged "no",
+    amplitude_m a string) still shows: the unreadable values are left out of its row, the
+    others kept. Before the fix the follower raised ValueError on every look: a blank page, and
+    rig monitor never ended."""
+    path = tmp_path / "edited.h5"
+    path.write_bytes(recordings[0].read_bytes())
+    with h5py.File(path, "r+") as f:
+        point = f["points/0000"]
+        force = float(point.attrs["force_fundamental_n"])
+        point.attrs["fe_hz"] = "sixty"
+        point.attrs["converged"] = "no"
+        point.attrs["amplitude_m"] = "a lot"
+    s = Follower(path).poll()
+    row = s.points[0]
+    assert s.status == "finished" and len(s.points) == 1
+    assert "fe_hz" not in row and "converged" not in row and "amplitude_m" not in row
+    assert row["force_fundamental_n"] == force
+
+
+@pytest.mark.parametrize("damage", ["truncated", "flipped"])
+def test_monitor_of_an_unreadable_ended_recording_says_so(recordings, tmp_path, damage):
+    """``rig monitor`` on an ended recording that cannot be read (cut to half its size, or its
+    one byte in ~500 flipped past its first quarter) says so in one line naming the file and exits 2; before the fix it
+    served a page saying nothing ("waiting for the recording") and never ended, --linger or not.
+    The 120 s timeout guards against that hang (not a timing assertion)."""
+    data = bytearray(recordings[0].read_bytes())
+    if damage == "truncated":
+        data = data[: len(data) // 2]
+    else:
+        for i in range(len(data) // 4, len(data), len(data) // 4000):  # every chunk hit
+            data[i] ^= 0xFF
+    path = tmp_path / f"{damage}.h5"
+    path.write_bytes(bytes(data))
+    done = subprocess.run(
+        [sys.executable, "-m", "rigtools.cli", "monitor", str(path), "--linger", "1"],
+        check=False,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    lines = done.stderr.strip().splitlines()
+    assert done.returncode == 2 and len(lines) == 1, done.stderr
+    assert lines[0].startswith("rig monitor: error: ") and str(path) in lines[0]
+    assert done.stdout == ""  # no address printed: nothing is served
+
+
+def test_monitor_help_teaches_what_it_shows_of_pll_and_cbc(capsys):
+    """``rig monitor --help`` says what a PLL and a CBC recording add to the page."""
+    from rigtools.cli import main
+
+    with pytest.raises(SystemExit):
+        main(["monitor", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert "phase-locked loop (rig acquire pll) adds its phase and lock" in text
+    assert "control-based continuation (rig acquire cbc) its control effort and iterations" in text
+
+
 def test_pll_states_in_words():
     """While a point runs, the PLL's events say where the loop is; once written, its convergence."""
     assert controlled.state_text("pll", {}, {"kind": "control"}, [], 0) == "locking"

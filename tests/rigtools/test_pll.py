@@ -11,8 +11,11 @@ machinery against the closed form on the linear branch).
 from __future__ import annotations
 
 import json
+import os
+import signal
 
 import h5py
+import numpy as np
 import pytest
 from cli_helpers import run_cli
 
@@ -238,3 +241,92 @@ def test_amplitude_limit_is_a_lock_loss(tmp_path):
     assert x["iterations"] < 100  # given up early, not after max_periods
     with h5py.File(out, "r") as f:
         assert f["points/0000/drive"][-1] == 0.0
+
+
+def test_interrupted_mid_point_leaves_a_readable_recording(tmp_path):
+    """SIGINT (sent to this process by the progress callback) while the second target is still
+    locking: the drive ramps to zero, the locked first point is kept, and
+    the file is a valid recording ``rig info`` and ``rig check`` read (status aborted). Before the
+    fix the unfinished point had no ``fe`` and ``rig check`` called the file INVALID."""
+    out = tmp_path / "cut.h5"
+    seen: list[int] = []
+
+    def stop_in_point_two(event):
+        if event.kind == "control" and event.point == 2:
+            seen.append(1)
+            if len(seen) == 5:
+                os.kill(os.getpid(), signal.SIGINT)
+
+    with pytest.raises(KeyboardInterrupt):
+        rigtools.phase_locked_loop(
+            "0.2 N,0.3 N", out, gap="0.5 mm", backend="sim", progress=stop_in_point_two
+        )
+    code, stdout, err = run_cli(["check", out])
+    assert code == 0 and "valid rigtools recording" in stdout, (stdout, err)
+    code, stdout, err = run_cli(["info", out])
+    assert code == 0 and "status aborted" in stdout, (stdout, err)
+    with h5py.File(out, "r") as f:
+        assert bool(f["points/0000"].attrs["converged"])
+        cut = f["points/0001"]
+        assert not bool(cut.attrs["point_complete"])
+        assert cut["drive"][-1] == 0.0  # ramped to zero inside the point the signal cut
+
+
+@pytest.mark.parametrize("phase", ["", " ", ","])
+def test_empty_phase_list_is_refused(tmp_path, phase):
+    """An empty ``--phase`` (a script's unset variable) is refused in one line, never run at the
+    default -90 deg as if it had not been given."""
+    out = tmp_path / "x.h5"
+    code, _, err = run_cli(
+        ["acquire", "pll", "--backend", "sim", "--force", "1 N", "--phase", phase, "--out", out]
+    )
+    assert code == 2 and "give at least one phase" in err and len(err.strip().splitlines()) == 1
+    assert not out.exists()
+    with pytest.raises(rigtools.UserError, match="give at least one phase"):
+        rigtools.phase_locked_loop("1 N", out, phases=[], backend="sim")
+
+
+def test_a_first_point_far_above_the_initial_force_still_raises_the_drive(tmp_path):
+    """A first point of 40 N starts from the initial drive (0.2 V, about 0.44 N at the linear
+    resonance): below 2 % of the target no phase is measured, and before the fix the force loop
+    waited for that phase, so the drive never rose and the point ended "phase error RMS inf".
+    Now the force rises until the drive's warning limit holds it (about 17-19 N on the default
+    rig), and the lock message says that limit."""
+    run = rigtools.phase_locked_loop("40 N", tmp_path / "f.h5", gap="0.5 mm", backend="sim", max_periods=150)
+    x = run.points[0].extra
+    assert x["force_fundamental_n"] > 10.0  # 20x the deadlocked 0.44 N; the limit is ~17 N
+    assert not x["converged"] and "force held short by the drive warning limit" in x["lock_message"]
+    assert "inf" not in x["lock_message"]
+
+
+def test_a_point_not_locked_is_said_in_one_line_and_in_the_json(tmp_path):
+    """``--max-periods 10`` cannot lock (the lock test spans 20 periods): the point is written not
+    converged, one stderr line says why (also with --json and without a terminal, where the
+    progress bar is off), and the --json lists the same line under "lost"."""
+    out = tmp_path / "x.h5"
+    argv = ["acquire", "pll", "--backend", "sim", "--gap", "0.5 mm", "--force", "0.2 N"]
+    code, stdout, err = run_cli([*argv, "--max-periods", "10", "--out", out, "--json"])
+    assert code == 0, err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("rig acquire pll: point 1: no lock within 10 periods")
+    doc = json.loads(stdout)
+    assert doc["lost"] == [lines[0].removeprefix("rig acquire pll: ")]
+    assert doc["points"][0]["converged"] is False
+
+
+def test_numpy_scalars_are_one_value():
+    """A script's numpy scalar (``np.int64(5)``, what indexing an array gives) is one force or one
+    phase, as a float is: it reaches the phase's check (one line), never a TypeError."""
+    for forces, phases in ((np.int64(5), "90 deg"), (np.float32(5), np.int64(90))):
+        with pytest.raises(rigtools.UserError, match="use -180 < phase < 0"):
+            rigtools.phase_locked_loop(forces, "unused.h5", phases=phases, backend="sim")
+
+
+@pytest.mark.parametrize(("f_min", "f_max"), [("70 Hz", "60 Hz"), ("60 Hz", "60 Hz")])
+def test_a_reversed_frequency_range_is_named(tmp_path, f_min, f_max):
+    """``--f-min 70 Hz --f-max 60 Hz``: the one line says the range is reversed (or empty), not
+    that the start frequency lies outside it."""
+    argv = ["acquire", "pll", "--backend", "sim", "--force", "1 N", "--out", tmp_path / "x.h5"]
+    code, _, err = run_cli([*argv, "--f-min", f_min, "--f-max", f_max])
+    assert code == 2 and len(err.strip().splitlines()) == 1
+    assert f"f_min {f_min.split()[0]} Hz must be below f_max {f_max.split()[0]} Hz" in err, err
