@@ -37,13 +37,9 @@ STATUSES = (STATUS_RECORDING, STATUS_COMPLETE, STATUS_ABORTED)
 KNOWN_BACKENDS = ("nidaqmx", "simulated", *MODEL_BACKENDS)
 #: Procedures whose every point is a sine run at its parameter ``fe`` (as is every point of a
 #: model recording): ``rig check`` refuses such a point without ``fe > 0``.
-SINE_PROCEDURES = (
-    "sine dwell",
-    "stepped sine",
-    "rig study",
-    "phase-locked loop",
-    "control-based continuation",
-)
+#: The procedures whose points are controlled points (:class:`rigtools.controlled_point.ControlledPoint`).
+CONTROLLED_PROCEDURES = ("phase-locked loop", "control-based continuation")
+SINE_PROCEDURES = ("sine dwell", "stepped sine", "rig study", *CONTROLLED_PROCEDURES)
 #: The highest sample rate a channel may have (Hz): 1 GS/s is far above any DAQ that records
 #: vibration; a rate above it is a header error (an increment of 1e-300 s), never a record.
 MAX_SAMPLE_RATE = 1e9

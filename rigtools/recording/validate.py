@@ -25,12 +25,14 @@ import numpy as np
 
 import rigtools
 from rigtools.config import parse_rig
+from rigtools.controlled_point import ControlledPoint
 from rigtools.errors import UserError, one_line, option
 from rigtools.recording.lock import writer_alive
 from rigtools.recording.opener import LIVE_RETRY_S, PAST_END, named, open_h5
 from rigtools.recording.schema import (
     CHANNEL_ATTRS,
     CHANNEL_UNITS,
+    CONTROLLED_PROCEDURES,
     DIRECTION_MAX,
     END_FINISHED,
     END_STATUSES,
@@ -196,7 +198,7 @@ def find_problems(f: h5py.File, cache: AttrCache | None = None) -> list[Problem]
         if name not in ("schema", "schema_version")
     }
     status = root.get("status")
-    sine = False
+    sine = controlled = False
     if status is not None and status not in STATUSES:
         out.append(Problem("/", f"status '{status}' is not one of {', '.join(STATUSES)}", fatal=True))
     if status == STATUS_ABORTED and not root.get("abort_reason"):
@@ -224,6 +226,7 @@ def find_problems(f: h5py.File, cache: AttrCache | None = None) -> list[Problem]
             out.append(Problem("/", "attribute 'experiment' is not a JSON object", fatal=True))
         else:
             sine = experiment.get("procedure") in SINE_PROCEDURES or root.get("backend") in MODEL_BACKENDS
+            controlled = experiment.get("procedure") in CONTROLLED_PROCEDURES
 
     if POINTS_GROUP not in f:
         out.append(Problem("/", f"missing group '/{POINTS_GROUP}'", fatal=True))
@@ -250,7 +253,10 @@ def find_problems(f: h5py.File, cache: AttrCache | None = None) -> list[Problem]
             why = f"point group cannot be read ({one_line(exc, None)})"
             out.append(Problem(f"/{POINTS_GROUP}/{name}", why, fatal=True))
             continue
-        out.extend(_point_problems(group, f"/{POINTS_GROUP}/{name}", status, cache, sine=sine))
+        where = f"/{POINTS_GROUP}/{name}"
+        out.extend(_point_problems(group, where, status, cache, sine=sine))
+        if controlled and isinstance(group, h5py.Group):
+            out.extend(_controlled_problems(cache.of(group), where))
     indices.sort()
     if indices != list(range(len(indices))):
         out.append(
@@ -371,6 +377,45 @@ def _parameter_problems(attrs: dict[str, Any], where: str, rate: float | None) -
                     fatal=True,
                 )
             )
+    return out
+
+
+#: the fields every point of a controlled test carries (``rig report`` reads them)
+CONTROLLED_FIELDS = tuple(ControlledPoint.__dataclass_fields__)
+
+
+def _controlled_problems(attrs: dict[str, Any], where: str) -> list[Problem]:
+    """A controlled test's point (:class:`~rigtools.controlled_point.ControlledPoint`): its fields
+    numbers (``converged`` a bool, ``iterations`` a whole number >= 0), all of them or none (a
+    point cut short before its result carries none). Notes, not errors: the samples are intact
+    and every reader takes them, but ``rig report`` leaves such a point out of its figure."""
+    out: list[Problem] = []
+    missing = [key for key in CONTROLLED_FIELDS if key not in attrs]
+    if 0 < len(missing) < len(CONTROLLED_FIELDS):
+        out.append(
+            Problem(
+                where,
+                f"a controlled point without {', '.join(missing)}: rig report leaves it out",
+                severity=NOTE,
+            )
+        )
+    for key in CONTROLLED_FIELDS:
+        if key not in attrs or isinstance(attrs[key], Unreadable):
+            continue
+        value = _scalar(attrs[key])
+        if key == "converged":
+            ok = isinstance(value, (bool, np.bool_)) or (_is_number(value) and float(value) in (0.0, 1.0))
+            rule = "a bool"
+        elif key == "iterations":
+            ok = _is_number(value) and math.isfinite(float(value)) and float(value) == int(value) >= 0
+            rule = "a whole number >= 0"
+        else:
+            ok = _is_number(value)
+            rule = "a number"
+        if not ok:
+            shown = value.tolist() if isinstance(value, np.ndarray) else python_value(value)
+            why = f"controlled-point field '{key}' = {shown!r} is not {rule}: rig report leaves the point out"
+            out.append(Problem(where, why, severity=NOTE))
     return out
 
 

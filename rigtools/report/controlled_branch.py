@@ -22,30 +22,39 @@ from rigtools.branches_file import StoredBranch
 from rigtools.controlled_point import ControlledPoint
 from rigtools.recording import open_recording
 
-#: The procedures whose points are controlled points.
-CONTROLLED_PROCEDURES = ("phase-locked loop", "control-based continuation")
 _FIELDS = tuple(ControlledPoint.__dataclass_fields__)
 
 
 def controlled_points(path: str | Path) -> list[ControlledPoint]:
-    """The controlled points of a recording (its complete points that carry every field)."""
+    """The controlled points of a recording (its complete points that carry every field as a
+    number; ``rig check`` names the others)."""
     out = []
     with open_recording(path) as rec:
         for p in rec.points:
             params = dict(p.params)
-            if p.complete and all(name in params for name in _FIELDS):
-                out.append(
-                    ControlledPoint(
-                        fe_hz=float(params["fe_hz"]),
-                        amplitude_m=float(params["amplitude_m"]),
-                        force_fundamental_n=float(params["force_fundamental_n"]),
-                        phase_deg=float(params["phase_deg"]),
-                        converged=bool(params["converged"]),
-                        iterations=int(params["iterations"]),
-                        drive_harmonics_ratio=float(params["drive_harmonics_ratio"]),
-                    )
+            if not (p.complete and all(name in params for name in _FIELDS)):
+                continue
+            try:
+                point = ControlledPoint(
+                    fe_hz=float(params["fe_hz"]),
+                    amplitude_m=float(params["amplitude_m"]),
+                    force_fundamental_n=float(params["force_fundamental_n"]),
+                    phase_deg=float(params["phase_deg"]),
+                    converged=_flag(params["converged"]),
+                    iterations=int(params["iterations"]),
+                    drive_harmonics_ratio=float(params["drive_harmonics_ratio"]),
                 )
+            except (TypeError, ValueError):  # a field a script overwrote with text
+                continue
+            out.append(point)
     return out
+
+
+def _flag(value: Any) -> bool:
+    """A stored bool (numpy's or 0/1); text is not one (``bool("no")`` would be True)."""
+    if isinstance(value, (str, bytes)):
+        raise TypeError(f"{value!r} is not a bool")
+    return bool(value)
 
 
 def branch_amplitude(branch: StoredBranch) -> np.ndarray:

@@ -32,9 +32,9 @@ import numpy as np
 
 from rigtools.controlled_point import ControlledPoint
 from rigtools.recording import open_recording
+from rigtools.recording.schema import CONTROLLED_PROCEDURES
 from rigtools.report.branches import FIXED_TOLERANCE, BranchFile, fixed_text
 from rigtools.report.controlled_branch import (
-    CONTROLLED_PROCEDURES,
     branch_amplitude,
     controlled_points,
     draw_branch,

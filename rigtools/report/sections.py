@@ -23,10 +23,11 @@ from typing import Any
 import numpy as np
 
 from rigtools.readable import FREQUENCY_TABLE, shown
+from rigtools.recording.schema import CONTROLLED_PROCEDURES
 from rigtools.recording_analysis.results import TABLE_HARMONICS, RecordingAnalysis
 from rigtools.recording_analysis.samples import point_window
 from rigtools.report.branches import add_recording_branches, study_axis
-from rigtools.report.controlled_branch import CONTROLLED_PROCEDURES, add_controlled_points
+from rigtools.report.controlled_branch import add_controlled_points
 
 MAX_WAVEFORM_FIGURES = 4  # periodic points drawn as waveforms (first, last and between)
 WAVEFORM_CHANNELS = ("force", "active_shroud_accel", "passive_shroud_accel", "contact_force")

@@ -185,3 +185,35 @@ def test_page_shows_phase_lock_effort_and_iterations_in_chromium(recordings, chr
             server.kill()
             server.wait()
         assert figure_is_drawn(shot[60:560, 0:800])  # the traces
+
+
+def test_check_names_a_controlled_points_damaged_fields_and_the_report_leaves_it_out(recordings, tmp_path):
+    """``rig check`` of a PLL recording whose first point a script edited (fe_hz "sixty",
+    converged "yes", iterations 2.5, drive_harmonics_ratio deleted): one note per field naming it
+    (before: nothing; notes, not errors: the samples are intact, so every reader still takes the
+    file); the report's points are the untouched ones (before: float("sixty") raised)."""
+    from rigtools.recording import check_recording, open_recording
+    from rigtools.report.controlled_branch import controlled_points
+
+    path = tmp_path / "edited.h5"
+    path.write_bytes(recordings[0].read_bytes())
+    whole = controlled_points(recordings[0])
+    with h5py.File(path, "r+") as f:
+        point = f["points/0000"]
+        point.attrs["fe_hz"] = "sixty"
+        point.attrs["converged"] = "yes"
+        point.attrs["iterations"] = 2.5
+        del point.attrs["drive_harmonics_ratio"]
+    result = check_recording(path)
+    lines = [p.line() for p in result.problems if p.severity == "note"]
+    assert result.valid
+    end = ": rig report leaves the point out"
+    assert "/points/0000: controlled-point field 'fe_hz' = 'sixty' is not a number" + end in lines
+    assert "/points/0000: controlled-point field 'converged' = 'yes' is not a bool" + end in lines
+    assert "/points/0000: controlled-point field 'iterations' = 2.5 is not a whole number >= 0" + end in lines
+    assert "/points/0000: a controlled point without drive_harmonics_ratio: rig report leaves it out" in lines
+    assert not any("/points/0001" in line for line in lines)
+    assert not [p for p in check_recording(recordings[0]).problems if "controlled" in p.message]
+    with open_recording(path) as rec:
+        assert rec.points[0]["force"].size > 0  # the samples are kept and readable
+    assert controlled_points(path) == whole[1:]
