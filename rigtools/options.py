@@ -32,6 +32,26 @@ def quantity(text: str | float, dimension: str, option: str) -> float:
         raise UserError(f"{option} = {text!r}: {exc}") from None
 
 
+def ratio(text: str) -> float:
+    """An argparse type for a ratio: a plain number (``0.01``) or a percentage (``"1 %"``,
+    ``"1%"``: 0.01); else argparse's one line naming the option.
+
+    Examples
+    --------
+    >>> ratio("1 %"), ratio("0.02")
+    (0.01, 0.02)
+    """
+    number = text.strip().removesuffix("%")
+    scale = 0.01 if number != text.strip() else 1.0
+    try:
+        value = float(number) * scale
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"cannot read {text!r} as a ratio, e.g. 0.01 or '1 %'") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"{text!r} is not a finite ratio")
+    return value
+
+
 def switch(value: object, name: str) -> bool:
     """A yes/no argument of the front door: ``True``/``False`` (numpy's too), else a one-line
     :class:`UserError` naming ``name`` (a string such as ``'no'`` is truthy, so it is refused

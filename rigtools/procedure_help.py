@@ -9,6 +9,7 @@ from rigtools.errors import (
     EXIT_USAGE,
     exit_status_help,
 )
+from rigtools.options import ratio
 from rigtools.pll_help import PLL_EPILOG, PLL_HELP, PLL_OPTIONS
 
 HELP = "lab procedures on the rig: force-controlled dwell, stepped sine, study, FRF test, tap test"
@@ -112,7 +113,11 @@ PROCEDURE_OPTIONS: tuple[tuple[tuple[str, ...], tuple[str, ...], dict], ...] = (
     (
         ("cbc",),
         ("--tolerance",),
-        {"type": float, "default": None, "help": "drive harmonics 2-10 / fundamental (0.01)"},
+        {
+            "type": ratio,
+            "default": None,
+            "help": 'drive harmonics 2-10 / fundamental, e.g. 0.01 or "1 %%" (1 %%)',
+        },
     ),
     (
         ("cbc",),

@@ -237,6 +237,8 @@ def parse_quantity(value: float | str, dimension: str | None = None) -> float:
                 f"unknown unit {unit!r} in {value!r}: units are case-sensitive, write {candidates[0]!r}"
             )
         example = f" ({_name(dimension)}, e.g. {_EXAMPLES[dimension]})" if dimension in _EXAMPLES else ""
+        if "," in unit:
+            raise ValueError(f"one value here, not a list{example}")
         raise ValueError(f"unknown unit {unit!r} in {value!r}{example}")
     factor, dim = _UNITS[text]
     if dimension is not None and dim not in _ACCEPTS.get(dimension, (dimension,)):

@@ -381,3 +381,26 @@ def test_a_front_door_sweep_of_one_frequency_is_one_line(tmp_path):
             rigtools.stepped_sine(given, "15 N", gap="5 mm", out=tmp_path / "s.h5", backend="sim")
         assert words in str(info.value) and "\n" not in str(info.value)
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_list_where_one_value_is_asked_is_named():
+    """``--fe "64 Hz,65 Hz"`` (CBC holds one fe): said to be a list, not an unknown unit 'Hz,65 Hz'."""
+    from rigtools.options import quantity
+
+    with pytest.raises(UserError) as info:
+        quantity("64 Hz,65 Hz", "frequency", "--fe")
+    assert (
+        str(info.value)
+        == "--fe = '64 Hz,65 Hz': one value here, not a list (a frequency, e.g. '60 Hz', '5 kHz')"
+    )
+
+
+@pytest.mark.parametrize(("text", "value"), [("1 %", 0.01), ("0.5%", 0.005), ("0.02", 0.02)])
+def test_cbc_tolerance_reads_a_percentage(text, value):
+    """``--tolerance "1 %"`` is 0.01 (argparse's float refused it: 'invalid float value')."""
+    from rigtools.cli import build_parser
+
+    args = ["acquire", "cbc", "--fe", "64 Hz", "--amplitude", "0.33 mm", "--tolerance", text, "--out", "x.h5"]
+    assert build_parser().parse_args(args).tolerance == pytest.approx(
+        value, rel=1e-12
+    )  # exact up to rounding
