@@ -4,10 +4,11 @@ NOT met against the model (tests/rigtools/data/cbc_model_64hz.json: its S-curve 
 
 Run: ``PYTHONPATH=. python benchmarks/bench_cbc_realtime.py`` -- the command's own sweep
 ``rig acquire cbc --backend sim --gap "0.5 mm" --fe "64 Hz" --amplitude "0.30 mm:0.49 mm:0.0076 mm"
---inner-loop realtime --json`` (26 targets, and the cut steps of a failed one; about 100 s of
-CPU), then the figures: >= 25 points over A 0.30-0.49 mm (and whether the range's ends converged),
-F1 within 2 % of the model at each, the drive's harmonics 2-10 <= 1 %, <= 8 iterations, the
-measured largest multiplier within 10 % of the model's where |mu| <= 2.
+--inner-loop realtime --json`` (26 targets, and the cut steps of a failed one; 50-100 s of CPU,
+as far up the sheet as the path gets), then the figures: >= 25 points over A 0.30-0.49 mm (and
+whether the range's ends converged as targets), F1 within 2 % of the model at each, the drive's
+harmonics 2-10 <= 1 %, <= 8 iterations, the measured largest multiplier within 10 % of the
+model's where |mu| <= 2.
 """
 
 from __future__ import annotations
