@@ -4,7 +4,7 @@ NOT met against the model (tests/rigtools/data/cbc_model_64hz.json: its S-curve 
 
 Run: ``PYTHONPATH=. python benchmarks/bench_cbc_realtime.py [GRID]`` -- the command's own sweep
 ``rig acquire cbc --backend sim --gap "0.5 mm" --fe "64 Hz" --amplitude "0.30 mm:0.49 mm:0.0076 mm"
---inner-loop realtime --json`` (26 targets, and the cut steps of a failed one; 50-100 s of CPU,
+--inner-loop realtime --json`` (26 targets, and the cut steps of a failed one; 65-150 s of CPU,
 as far up the sheet as the path gets), then the figures: >= 25 points over A 0.30-0.49 mm (and
 whether the range's ends converged as targets), F1 within 2 % of the model at each, the drive's
 harmonics 2-10 <= 1 %, <= 8 iterations, the measured largest multiplier within 10 % of the

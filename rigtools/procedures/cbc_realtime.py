@@ -265,6 +265,17 @@ class RealTimeHarmonicLoop(BufferedHarmonicLoop):
         self.upper[:] = 0.0
         self.mean = 0.0
 
+    def orbit_shape(self) -> tuple[np.ndarray, float]:
+        """The loop's target above the CBC's harmonics and its mean (the last measured orbit's):
+        to go back to with :meth:`restore_shape`."""
+        return self.upper.copy(), self.mean
+
+    def restore_shape(self, shape: tuple[np.ndarray, float]) -> None:
+        """The loop's target above the CBC's harmonics and its mean as :meth:`orbit_shape` gave
+        them (an outer iterate not learnt from: see :func:`rigtools.procedures.cbc.cbc_point`)."""
+        self.upper[:] = shape[0]
+        self.mean = shape[1]
+
     def gain_at_fe(self) -> complex:
         """The law's gain at fe (:func:`rigtools.sim.delayed_feedback.loop_gain`, V/m): for the
         slope ``d X1 / d U1 = 1 / K`` of a stiff loop."""
