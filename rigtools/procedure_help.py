@@ -244,10 +244,12 @@ is brought onto the branch by a sweep up to --fe first. On the buffered path a c
 50-65 ms after its data: the default law on the fundamental, designed for that delay, holds orbits
 with |mu| up to about 1.17 (64 Hz; --gains selects the PD law); the full unstable sheet needs a
 real-time inner loop (--backend nidaq says so and runs the buffered variant). Where an A-step fails
-at a turn of the branch in A (the grazing hairpin), points go on by pseudo-arclength in (A, drive).
+at a turn of the branch in A (the grazing hairpin), points go on by pseudo-arclength in (A, drive);
+where A rises with the drive (no turn ahead) the failed step is cut in half, at most twice.
 --json lists each point: fe_hz, amplitude_m, force_fundamental_n, phase_deg, converged, iterations,
-drive_harmonics_ratio, control_effort, drive_amplitude_v, parameterisation; "lost" gives one line
-per target the loop let go of (also said on stderr), "skipped_amplitudes" the targets never tried.
+drive_harmonics_ratio, control_effort, drive_amplitude_v, parameterisation (and step_cut on the
+points of a cut step); "lost" gives one line per target the loop let go of (also said on stderr),
+"skipped_amplitudes" the targets never tried.
 In Python: rigtools.control_based_continuation(fe, amplitudes, out, gap=..., backend="sim").
 """,
     "dwell": """examples:

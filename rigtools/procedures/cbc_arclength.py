@@ -13,6 +13,13 @@ constraint's residual ``r = t . (P - P_pred)``: ``A <- A - a0 t_A r`` (the branc
 where the Jacobian of the response to the feedforward is singular) the drive is set instead:
 ``U`` on the corrector's line at the measured A, the target following the measured response (a
 Picard step on every harmonic), as at a fixed drive.
+
+Not every failed A-step is a turn. Where the last secant has A rising with the drive (at 64 Hz,
+gap 0.5 mm the unstable sheet from the F1 minimum up to grazing, a graph over A) the branch has no
+turn in A between the last point and the target (:func:`rises_with_drive`); the CBC then cuts the
+step in half instead (:data:`STEP_CUTS` at most) and goes on along the leg. The turn at the
+grazing hairpin is approached where A falls as the drive rises (the stable side below the F1
+minimum), and a failed A-step there goes on by pseudo-arclength.
 """
 
 from __future__ import annotations
@@ -23,6 +30,8 @@ import numpy as np
 
 #: The corrector is done when the constraint's residual is below this share of the step.
 ARC_TOLERANCE = 0.1
+#: Halvings of a failed A-step where the branch has no turn in A (:func:`rises_with_drive`).
+STEP_CUTS = 2
 
 
 @dataclass(frozen=True)
@@ -101,4 +110,13 @@ def extrapolate(states: list[np.ndarray], points: list[tuple[float, float]], ste
     return np.asarray(states[-1]) + s * (np.asarray(states[-1]) - np.asarray(states[-2]))
 
 
-__all__ = ["ARC_TOLERANCE", "ArcStep", "extrapolate"]
+def rises_with_drive(previous: tuple[float, float], last: tuple[float, float]) -> bool:
+    """Whether the secant through two converged points ``(A, U)`` has A and the drive's
+    fundamental moving the same way. On the rig's S-curve at a fixed fe the turn in A (the
+    impacting branch's grazing hairpin) is approached where A falls as the drive rises; where
+    both rise (the sheet from the F1 minimum up to grazing) a failed A-step is taken for a step
+    too long, not a turn (see the module docstring)."""
+    return (last[0] - previous[0]) * (last[1] - previous[1]) > 0
+
+
+__all__ = ["ARC_TOLERANCE", "STEP_CUTS", "ArcStep", "extrapolate", "rises_with_drive"]

@@ -162,6 +162,23 @@ def picard_update(
     return tgt, ff
 
 
+#: An outer iterate whose amplitude error is above this many times the best one's so far (and
+#: above the tolerance) has diverged: the next one goes back towards the best (:func:`backtrack`)
+ERROR_GROWTH = 2.0
+
+
+def backtrack(
+    best: tuple[np.ndarray, np.ndarray], tried: tuple[np.ndarray, np.ndarray]
+) -> tuple[np.ndarray, np.ndarray]:
+    """``(target, feedforward)`` half way from the best iterate's back to those of an iterate
+    that diverged (:data:`ERROR_GROWTH`): a backtracking line search on the outer iteration's
+    step; the target's fundamental (the continuation parameter) is the best's."""
+    target = 0.5 * (np.asarray(best[0], complex) + np.asarray(tried[0], complex))
+    ff = 0.5 * (np.asarray(best[1], complex) + np.asarray(tried[1], complex))
+    target[0] = best[0][0]
+    return target, ff
+
+
 def secant_predict(amplitudes: list[float], states: list[np.ndarray], amplitude: float) -> np.ndarray:
     """The predictor along the curve: the state (feedforward, target harmonics, ... as one vector)
     at ``amplitude`` extrapolated through the last two converged points (the last one alone: kept;

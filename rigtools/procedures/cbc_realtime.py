@@ -32,9 +32,16 @@ pairs of periods within the 3 % are pooled in one fit
 at 8 instants a period; shorter ones, as an unstable orbit's are, with each period as the
 deviation's mean and harmonics 1-3, the impacts' shifted instants left out, in three directions,
 the slowest real multiplier and a pair: the instants or more directions fitted to few pairs gave
-spurious multipliers, to +119 %) until 12 pairs or 5 releases. Afterwards the loop holds the
-orbit until its error is back within 1.5 times what it was before the first probe (or 0.3 % of
-A; at most 2 s): the measurement leaves the rig where it found it.
+spurious multipliers, to +119 %) until 12 pairs or 5 releases. Where the fit so far decays
+(largest abs(mu) < 1) the following releases also step the drive: the host's drive fundamental is
+0.1 % larger while the loop holds the orbit (:data:`DRIVE_PROBE`), so the release plays the
+step. The target's probe reaches the differenced transient weakened by abs(mu - 1), and next to the
+fold (a real multiplier 0.9-1, the orbits around the F1 minimum) that mode then lay under the held
+orbit's wobble (0.1-0.4 % of A, 5-20 times the probe): the fit took the 0.80 pair for the largest
+(-10.3 % and -16.8 % on two of five paths measured). A decaying fit is taken only with such a
+piece among its own. Afterwards the loop holds the orbit until its error is back within 1.5 times
+what it was before the first probe (or 0.3 % of A; at most 2 s): the measurement leaves the rig
+where it found it.
 """
 
 from __future__ import annotations
@@ -106,6 +113,15 @@ FIT_RANK = 3  # in three directions (the slowest real multiplier and a pair)
 SETTLED = 0.003  # after the pieces the orbit is held until its error is within this share of A
 SETTLE_SECONDS = 2.0  # (or within 1.5 times the error before the first probe), this long at most
 MAX_RELEASE = 20  # periods of a release at most
+# an orbit whose pieces' fit so far decays (largest |mu| < 1) is probed by its drive as well: the
+# host's drive fundamental this much larger while the loop holds the orbit (the loop takes up the
+# difference), so that each release steps the drive by it. The target's probe enters the
+# period-to-period difference weakened by |mu - 1|: next to the fold (a real multiplier 0.9-1) it
+# left that mode under the held orbit's wobble, and the fit took the 0.80 pair for the largest. A
+# drive step dU moves the released orbit towards its neighbour (1 - M)^-1 B dU, whose differenced
+# transient starts at -B dU: not weakened, however close the multiplier is to 1
+DRIVE_PROBE = 1e-3
+DRIVE_STEP_BLOCKS = 4  # waited after a change of the host's drive: two blocks queued, the fade, one
 GROWTH_FLOOR = 1.3  # the growth per period assumed at least when extending a release
 GROWTH_MARGIN = 1.2  # the margin on the growth estimate
 # a target lost (the loop no longer holds an orbit near it): the hold stops and lets go, the CBC
@@ -249,6 +265,17 @@ class RealTimeHarmonicLoop(BufferedHarmonicLoop):
         self.upper[:] = 0.0
         self.mean = 0.0
 
+    def orbit_shape(self) -> tuple[np.ndarray, float]:
+        """The loop's target above the CBC's harmonics and its mean (the last measured orbit's):
+        to go back to with :meth:`restore_shape`."""
+        return self.upper.copy(), self.mean
+
+    def restore_shape(self, shape: tuple[np.ndarray, float]) -> None:
+        """The loop's target above the CBC's harmonics and its mean as :meth:`orbit_shape` gave
+        them (an outer iterate not learnt from: see :func:`rigtools.procedures.cbc.cbc_point`)."""
+        self.upper[:] = shape[0]
+        self.mean = shape[1]
+
     def gain_at_fe(self) -> complex:
         """The law's gain at fe (:func:`rigtools.sim.delayed_feedback.loop_gain`, V/m): for the
         slope ``d X1 / d U1 = 1 / K`` of a stiff loop."""
@@ -316,7 +343,8 @@ class RealTimeHarmonicLoop(BufferedHarmonicLoop):
             ``growth`` (the largest growth per period seen in a release, model-free),
             ``error_before``/``error_after`` (the loop's largest error from the orbit over
             16 periods before the first probe and over the last block after
-            the measurement, shares of A), ``probe``.
+            the measurement, shares of A), ``probe`` (the target's, relative) and
+            ``drive_probe`` (the drive's step, relative; 0 where the fit never decayed).
         """
         _, x = self._loop_rows(m.start, m.samples)
         t = (m.start + 1 + np.arange(x.size)) / self.rate
@@ -331,13 +359,15 @@ class RealTimeHarmonicLoop(BufferedHarmonicLoop):
         self.active = False  # the targets below are scheduled here, not per block
         pieces: list[TransientPiece] = []
         lengths: list[int] = []
-        growth, fit = 1.0, None
+        growth, fit, stepped = 1.0, None, False
         try:
             self.drive.set_harmonics(ff)
             self.device.set_loop_target(orbit)
             self.wait(HOLD_PERIODS / self.fe)
             before = self._error(orbit, REFERENCE_PERIODS)
             for _ in range(RELEASES):
+                if not stepped and fit is not None and fit.max_modulus < 1.0:
+                    stepped = self._drive_times(ff, 1 + DRIVE_PROBE)
                 piece, periods, seen = self._release_piece(orbit, amplitude, fit)
                 growth = max(growth, seen)
                 lengths.append(periods)
@@ -348,8 +378,11 @@ class RealTimeHarmonicLoop(BufferedHarmonicLoop):
                     fit = self._fit(pieces)
                 except ValueError:
                     fit = None
-                if fit is not None and fit.periods[1] >= ENOUGH_PAIRS:
-                    break
+                decaying = fit is not None and fit.max_modulus < 1.0
+                if fit is not None and fit.periods[1] >= ENOUGH_PAIRS and (stepped or not decaying):
+                    break  # a decaying fit only with a piece probed by the drive among its own
+            if stepped:
+                self._drive_times(ff, 1.0)
             after = self._settle(orbit, amplitude, before)
         finally:
             self.active = True
@@ -366,7 +399,7 @@ class RealTimeHarmonicLoop(BufferedHarmonicLoop):
                 f"{len(lengths)} releases of {'/'.join(map(str, lengths))} periods left too few periods "
                 f"in the linear range (deviation within {LINEAR_LIMIT:.0%} of A)"
             )
-        return fit, {**info, "probe": PROBE}
+        return fit, {**info, "probe": PROBE, "drive_probe": DRIVE_PROBE if stepped else 0.0}
 
     def _release_piece(
         self, orbit: HarmonicTarget, amplitude: float, fit: MeasuredMultipliers | None
@@ -429,6 +462,15 @@ class RealTimeHarmonicLoop(BufferedHarmonicLoop):
                 pieces, self.rate, self.fe, harmonics=FIT_HARMONICS, rank=FIT_RANK
             )
         return fit
+
+    def _drive_times(self, ff: np.ndarray, factor: float) -> bool:
+        """The host's drive: ``ff`` with its fundamental times ``factor``, waited for until it
+        reaches the amplifier (the loop holds the orbit meanwhile). Returns True."""
+        drive = np.array(ff, complex)
+        drive[0] *= factor
+        self.drive.set_harmonics(drive)
+        self.wait(DRIVE_STEP_BLOCKS * self.stream.n / self.rate)
+        return True
 
     def _error(self, orbit: HarmonicTarget, periods: int) -> float:
         """The largest distance of the loop's displacement from ``orbit`` over the last ``periods``."""
