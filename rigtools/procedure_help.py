@@ -54,7 +54,8 @@ Quantities take units ("60 Hz", "15 N", "0.5 mm", "2 s"); a plain number is SI.
             EXIT_HARDWARE: "NI-DAQmx not available (use --backend sim)",
             EXIT_NOT_REACHED: "the force target cannot be reached within the rig's limits (max drive, 80 % "
             "of a warning level): dwell, sweep and study stop at the first such point, drive ramped "
-            "to zero, status failed with the reason, every point written kept",
+            "to zero, status failed with the reason, every point written kept; cbc: no target "
+            "converged",
         },
         run=True,
     )

@@ -58,7 +58,7 @@ from pydantic import BaseModel, ConfigDict, Field
 from rigtools.config import load_rig
 from rigtools.controlled_point import ControlledPoint
 from rigtools.drivers.realtime import NO_REALTIME_LOOP
-from rigtools.errors import UserError
+from rigtools.errors import TargetNotReached, UserError
 from rigtools.options import gap as gap_text
 from rigtools.options import quantity, value_list
 from rigtools.procedures import rig
@@ -473,6 +473,12 @@ class ControlBasedContinuation(SineProcedure):
         self.result.summary["skipped_amplitudes"] = skipped
         self.result.summary["lost"] = self.lost
         loop.finish()
+        if not any(pt.point.converged for pt in self.points):  # nothing of the branch measured
+            why = self.lost[0] if self.lost else f"none within {p.max_iterations} iterations"
+            kept = (
+                f"the {len(self.points)} point(s) measured are kept" if self.points else "no point measured"
+            )
+            raise TargetNotReached(f"no target converged ({why}); {kept}")
 
     def _measure(
         self,
@@ -849,6 +855,12 @@ def control_based_continuation(
     RunResult
         Its points carry the :class:`~rigtools.controlled_point.ControlledPoint`
         fields and the control effort (``point.extra``).
+
+    Raises
+    ------
+    rigtools.errors.TargetNotReached
+        No target converged (e.g. every one past grazing): the drive at rest, the recording kept
+        with status failed and the reason (``rig acquire cbc``: exit 5).
 
     Examples
     --------

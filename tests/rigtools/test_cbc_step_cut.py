@@ -151,3 +151,18 @@ def test_where_a_falls_as_the_drive_rises_the_failed_step_goes_on_by_arclength()
 )
 def test_rises_with_drive(previous, last, expected):
     assert rises_with_drive(previous, last) is expected
+
+
+def test_a_sweep_without_a_converged_target_ends_failed():
+    """Every target out of reach (the stand-in's basin never holds the first one: a target past
+    grazing, as ``--amplitude "1 mm"`` at 64 Hz, gap 0.5 mm): the run ends with
+    TargetNotReached (exit 5, status failed, the file kept) naming why, after the drive came to
+    rest (``finish``), instead of ending 'finished' with exit 0 and no point."""
+    from rigtools.errors import EXIT_NOT_REACHED, TargetNotReached
+
+    with pytest.raises(TargetNotReached) as info:
+        _run([0.45e-3, 0.46e-3], _Rig(slope=800.0), 0.4e-3)
+    assert info.value.exit_code == EXIT_NOT_REACHED == 5
+    assert (
+        str(info.value) == "no target converged (none within 8 iterations); the 1 point(s) measured are kept"
+    )
