@@ -330,11 +330,13 @@ class BlockStream:
         t = self.stats.samples / self.stats.sample_rate
         # a failed write (disk full) keeps what was flushed before it, not every sample read: the
         # writer's own sentence says so; the count read would claim samples the file never got
-        kept = (
-            ""
-            if isinstance(exc, FaultError) and "everything flushed before is kept" in str(exc)
-            else f"; {self.stats.samples} samples per channel ({t:.3f} s) kept"
-        )
+        if isinstance(exc, FaultError) and "everything flushed before is kept" in str(exc):
+            kept = ""
+        elif not getattr(self.sink, "records_every_sample", True):
+            # a sink that records only some of what it reads (the CBC's points): no sample count
+            kept = "; the points recorded before are kept"
+        else:
+            kept = f"; {self.stats.samples} samples per channel ({t:.3f} s) kept"
         raise AcquisitionAborted(
             f"acquisition aborted at t = {t:.3f} s: {one_line(exc, first=True)}; drive brought to zero{kept}",
             fault=fault,

@@ -185,7 +185,10 @@ def _combine(coefficients: np.ndarray, wave: np.ndarray) -> np.ndarray:
 
 class _ControlSink:
     """The stream's sink: keeps blocks (:class:`PointSink`) and runs the control after each one,
-    before the stream writes its next drive block."""
+    before the stream writes its next drive block. The recording gets only the points' windows
+    (the approach and the holds between points are not recorded)."""
+
+    records_every_sample = False
 
     def __init__(self, sink: PointSink, control) -> None:
         self.sink, self.control = sink, control

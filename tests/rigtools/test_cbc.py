@@ -229,3 +229,33 @@ def test_bad_amplitude_is_one_line(tmp_path):
     )
     assert res.returncode == 2 and "Traceback" not in res.stderr
     assert "--amplitude" in res.stderr
+
+
+def test_a_fault_before_the_first_point_claims_no_samples_kept(tmp_path):
+    """A fault during the approach (before any point; the CBC records only its points' windows):
+    exit 4, the one line says the points recorded before are kept, not '102400 samples per channel
+    (2.000 s) kept' (the file holds no sample: the approach is not recorded), drive at rest."""
+    from cli_helpers import run_cli
+
+    from rigtools.recording import check_recording
+
+    out = tmp_path / "c.h5"
+    args = [
+        "acquire",
+        "cbc",
+        "--backend",
+        "sim",
+        "--gap",
+        "0.5 mm",
+        "--fe",
+        "64 Hz",
+        "--amplitude",
+        "0.32 mm",
+    ]
+    code, _, err = run_cli([*args, "--inner-loop", "buffered", "--fault", "nan-samples@1", "--out", out])
+    (line,) = err.strip().splitlines()
+    assert code == 4
+    assert line.endswith("drive brought to zero; the points recorded before are kept")
+    assert "samples per channel" not in line
+    checked = check_recording(out)
+    assert checked.valid and checked.n_points == 0 and checked.status == "aborted"
