@@ -247,6 +247,9 @@ with |mu| up to about 1.17 (64 Hz; --gains selects the PD law); the full unstabl
 real-time inner loop (--backend nidaq says so and runs the buffered variant). Where an A-step fails
 at a turn of the branch in A (the grazing hairpin), points go on by pseudo-arclength in (A, drive);
 where A rises with the drive (no turn ahead) the failed step is cut in half, at most twice.
+With the real-time loop, below the impacting branch's turn in A (about 0.306 mm at 64 Hz, gap
+0.5 mm) the orbit at a target A is the one without contact: the impacting point that did not converge there is kept, then the
+orbit without contact is measured and recorded with "branch": "no contact" (two points, one target).
 --json lists each point: fe_hz, amplitude_m, force_fundamental_n, phase_deg, converged, iterations,
 drive_harmonics_ratio, control_effort, drive_amplitude_v, parameterisation (and step_cut on the
 points of a cut step); "lost" gives one line per target the loop let go of (also said on stderr),
