@@ -53,7 +53,7 @@ from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from rigtools.config import load_rig
 from rigtools.controlled_point import ControlledPoint
@@ -125,6 +125,15 @@ class CBCParameters(BaseModel):
         4, ge=0, le=50, description="points by pseudo-arclength in (A, drive) after a failed A-step"
     )
     multipliers: bool = Field(True, description="measure each point's multipliers (a real-time loop only)")
+
+    @field_validator("amplitudes")
+    @classmethod
+    def _positive(cls, amplitudes: tuple[float, ...]) -> tuple[float, ...]:
+        # a displacement amplitude is > 0 (the command's --amplitude refuses the rest already)
+        bad = [a for a in amplitudes if not a > 0]
+        if bad:
+            raise ValueError(f"target amplitudes must be > 0 m (got {bad[0]:g})")
+        return amplitudes
 
     def gains(self) -> Gains:
         envelope = DELAY_GAINS if self.law == "delay" else None

@@ -82,3 +82,16 @@ def test_continuation_names_its_python_arguments(args, kwargs, said):
     """The script's words, not the command line's (--param, --from, --to)."""
     with pytest.raises(UserError, match=r"^" + re.escape(said)):
         rigtools.continuation(*args, gap="5 mm", **kwargs)
+
+
+@pytest.mark.parametrize("amplitudes", [[-1e-4], [0.33e-3, 0.0]])
+def test_cbc_refuses_a_target_amplitude_that_is_not_positive(tmp_path, amplitudes):
+    """``control_based_continuation(..., amplitudes=[-1e-4])`` ran (the approach, 0 points) where
+    ``rig acquire cbc --amplitude`` refuses (a text list goes through the command's parser, which
+    says so already): now one line naming amplitudes, nothing written."""
+    out = tmp_path / "c.h5"
+    with pytest.raises(
+        UserError, match=r"^amplitudes = .*: target amplitudes must be > 0 m \(got -?0"
+    ) as info:
+        rigtools.control_based_continuation("64 Hz", amplitudes, out, gap="0.5 mm", backend="sim")
+    assert "\n" not in str(info.value) and not out.exists()
