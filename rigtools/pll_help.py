@@ -82,7 +82,11 @@ PLL_OPTIONS: tuple[tuple[tuple[str, ...], tuple[str, ...], dict], ...] = (
     (
         _P,
         ("--max-periods",),
-        {"type": int, "default": None, "help": "periods a point may take (default 600)"},
+        {
+            "type": int,
+            "default": None,
+            "help": "periods a point may take to lock, at least --lock-periods (default 600)",
+        },
     ),
     (
         _P,

@@ -483,6 +483,9 @@ INFO_LEGEND = {
 #: table shows them.
 _INFO_HIDDEN = ("point_complete", "study_value")
 _HARMONIC_SUFFIX = "_harmonic_amplitude"
+# harmonics of a point that are no channel: the CBC's target and controlled response, the active
+# shroud's displacement (rigtools.procedures.cbc, CBCPoint.attrs)
+_HARMONIC_UNITS = {"target": "m", "response": "m"}
 
 
 def _info_cell(value: Any, factor: float, spec: str | None) -> str:
@@ -612,7 +615,7 @@ def _harmonics_table(info: dict, units: dict[str, str]) -> Any:
         table.add_row(
             f"{index:04d}" if index != last else "",
             channel,
-            units.get(channel, ""),
+            units.get(channel) or _HARMONIC_UNITS.get(channel, ""),
             readable.harmonic(amps[0], top),
             largest_k,
         )

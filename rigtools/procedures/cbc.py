@@ -99,8 +99,8 @@ class CBCParameters(BaseModel):
     fe: Frequency = Field(gt=0, le=25000, description="excitation frequency, Hz")
     amplitudes: tuple[Length, ...] = Field(min_length=1, description="target fundamental amplitudes A, m")
     gap: Length | None = Field(None, ge=0, le=MAX_GAP, description="shroud gap, m (None: as set)")
-    kp: float = Field(300.0, ge=-1e6, le=1e6, description="proportional gain, V/m")
-    kd: float = Field(0.0, ge=-1e4, le=1e4, description="derivative gain, V s/m")
+    kp: float = Field(300.0, ge=0, le=1e6, description="proportional gain, V/m")
+    kd: float = Field(0.0, ge=0, le=1e4, description="derivative gain, V s/m")
     feedback_harmonics: int = Field(1, ge=0, le=10, description="harmonics 1..n of the error fed back")
     law: Literal["delay", "pd"] = Field(
         "delay",
@@ -897,7 +897,7 @@ def control_based_continuation(
     }
     if gap is not None:
         p["gap"] = quantity(gap, "length", "gap") if isinstance(gap, str) else gap
-    p.update(parse_gains(gains))
+    p.update(parse_gains(gains, "gains"))
     p.update(params)
     proc = ControlBasedContinuation(
         cfg, p, out, backend=backend, overwrite=overwrite, progress=progress, seed=seed, inner_loop=inner_loop
@@ -905,8 +905,9 @@ def control_based_continuation(
     return proc.run()
 
 
-def parse_gains(gains: Any) -> dict[str, float]:
-    """``{"kp": ..., "kd": ...}`` of ``"KP[,KD]"`` (V/m, V s/m), a number or a pair; ``{}`` for ``None``."""
+def parse_gains(gains: Any, name: str = "--gains") -> dict[str, float]:
+    """``{"kp": ..., "kd": ...}`` of ``"KP[,KD]"`` (V/m, V s/m), a number or a pair; ``{}`` for ``None``.
+    ``name`` is what an error line calls the value (the option, or the front door's parameter)."""
 
     if gains is None:
         return {}
@@ -915,14 +916,18 @@ def parse_gains(gains: Any) -> dict[str, float]:
         if isinstance(gains, str)
         else (list(gains) if isinstance(gains, (list, tuple)) else [gains])
     )
+    how = f'{name} = {gains!r}: write KP[,KD] in V/m and V s/m, e.g. "300,0" (0: open loop)'
     try:
         values = [float(v) for v in parts]
     except (TypeError, ValueError):
-        raise UserError(
-            f'--gains = {gains!r}: write KP[,KD] in V/m and V s/m, e.g. "300,0" (0: open loop)'
-        ) from None
+        raise UserError(how) from None
     if not 1 <= len(values) <= 2 or not all(math.isfinite(v) for v in values):
-        raise UserError(f'--gains = {gains!r}: write KP[,KD] in V/m and V s/m, e.g. "300,0" (0: open loop)')
+        raise UserError(how)
+    if any(v < 0 for v in values):
+        raise UserError(
+            f"{name} = {gains!r}: gains are >= 0 (a negative gain feeds the error back with the wrong "
+            "sign and drives the orbit away from its target)"
+        )
     return {"kp": values[0], "kd": values[1] if len(values) > 1 else 0.0}
 
 

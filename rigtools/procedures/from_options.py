@@ -10,9 +10,10 @@ procedure's result as the ``rig acquire --json`` document.
 
 from __future__ import annotations
 
+import re
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 from rigtools.analysis.frf import MIN_FRAME_SAMPLES
 from rigtools.drivers.contracts import ConfigurationError
@@ -33,6 +34,38 @@ from rigtools.procedures.tap import TapTest, analyze_tap_recording
 
 PROCEDURES = ("dwell", "sweep", "study", "frf", "tap", "pll", "cbc")
 TAP_F_MIN_HZ = 5.0
+# the parameters whose one-line errors the command words with its option's name
+PLL_OPTIONS = {
+    name: "--" + name.replace("_", "-")
+    for name in (
+        *("fe_start", "f_min", "f_max", "kp", "ki", "lock_periods", "lock_tolerance", "max_periods"),
+        *("record_periods", "phase_rate", "max_amplitude", "on_lock_loss", "inner_loop"),
+    )
+}
+CBC_OPTIONS = {
+    "max_iterations": "--max-iterations",
+    "tolerance": "--tolerance",
+    "release_seconds": "--release",
+    "kp": "--gains",
+    "kd": "--gains",
+    "amplitudes": "--amplitude",
+    "inner_loop": "--inner-loop",
+}
+_Built = TypeVar("_Built")
+
+
+def with_option_names(build: Callable[[], _Built], names: Mapping[str, str]) -> _Built:
+    """``build()``; a :class:`UserError` naming a parameter (``max_periods``) names the command's
+    option instead (``--max-periods``): the command line's words, not the Python door's."""
+    try:
+        return build()
+    except UserError as exc:
+        text = str(exc)
+        for name, option in names.items():
+            text = re.sub(rf"(?<![\w-]){name}(?![\w-])", option, text)
+        if text == str(exc):
+            raise
+        raise type(exc)(text) from None
 
 
 def parse_faults(texts: Sequence[str], backend: str) -> list[Any]:
@@ -175,7 +208,7 @@ def build_procedure(
     if name == "pll":
         params = pll_parameters(cfg, o)
         below_nyquist(params["fe_start"], rate, "--fe-start", o.get("fe_start"))
-        pll = PhaseLockedLoop(cfg, params, out, **run_options)
+        pll = with_option_names(lambda: PhaseLockedLoop(cfg, params, out, **run_options), PLL_OPTIONS)
         if run_options.get("backend") == "nidaq" and params.get("inner_loop") != "buffered":
             pll.note = NO_REALTIME_PLL  # said before the device opens
         return pll
@@ -207,7 +240,7 @@ def build_procedure(
         return TapTest(cfg, params, out, **run_options)
     if name == "cbc":
         below_nyquist(quantity(o["fe"], "frequency", "--fe"), rate, "--fe", o["fe"])
-        return cbc_from_options(cfg, out, o, **run_options)
+        return with_option_names(lambda: cbc_from_options(cfg, out, o, **run_options), CBC_OPTIONS)
     if name != "frf":
         raise UserError(f"unknown procedure {name!r} (known: {', '.join(PROCEDURES)})")
     band = band_option(str(o["band"]), "--band", allow_zero=False)

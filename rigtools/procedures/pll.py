@@ -72,7 +72,9 @@ class PllParameters(BaseModel):
     lock_periods: int = Field(20, ge=3, le=10000, description="periods the lock criterion looks back over")
     lock_tolerance: float = Field(1.0, gt=0, le=45, description="phase error RMS at lock, deg")
     force_tolerance: float = Field(0.01, gt=0, le=0.2, description="force error at lock (fraction of F1)")
-    max_periods: int = Field(600, ge=10, le=1_000_000, description="periods a point may take to lock")
+    max_periods: int = Field(
+        600, ge=10, le=1_000_000, description="periods a point may take to lock (>= lock_periods)"
+    )
     record_periods: int = Field(20, ge=1, le=100_000, description="periods recorded after lock")
     k_max: int = Field(10, ge=1, le=50, description="harmonics fitted (the fundamental and 2..K rejected)")
     max_amplitude: Length | None = Field(
@@ -96,6 +98,11 @@ class PllParameters(BaseModel):
         for p in self.phases:
             if not -180.0 < p < 0.0:
                 raise ValueError(f"phase {p:g} deg: use -180 < phase < 0 (the response lags the force)")
+        if self.max_periods < self.lock_periods:
+            raise ValueError(
+                f"max_periods {self.max_periods} is below lock_periods {self.lock_periods}: no point could "
+                "lock (the lock test looks back over lock_periods)"
+            )
         lo, hi = self.frequency_range()
         if not lo < hi:  # reversed or empty: say that, not that the start lies outside it
             raise ValueError(f"f_min {lo:g} Hz must be below f_max {hi:g} Hz")

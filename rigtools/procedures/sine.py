@@ -171,8 +171,16 @@ class SineProcedure(Procedure):
 
     def shutdown(self, status: Status, reason: str) -> None:
         try:
-            if self.session is not None and not self.session.stream._finished and status is Status.FINISHED:
-                self.session.finish()
+            if self.session is not None and not self.session.stream._finished:
+                if status is Status.FINISHED:
+                    self.session.finish()
+                elif status is Status.ABORTED:
+                    # a KeyboardInterrupt from a script's own code (a signal already ramped, recorded):
+                    # the ramp to zero recorded as a signal's is; device.close() below zeroes it anyway
+                    try:
+                        self.session.finish()
+                    except BaseException:  # noqa: BLE001, S110 - the stream broke meanwhile: close() zeroes the drive
+                        pass
         finally:
             try:
                 if self.device is not None:

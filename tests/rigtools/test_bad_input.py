@@ -395,6 +395,19 @@ def _harm(*extra: str) -> list[str]:
 
 
 _DWELL = ["acquire", "dwell", "--backend", "sim", "--out", "{tmp}/a.h5"]
+_CBC = [
+    "acquire",
+    "cbc",
+    "--backend",
+    "sim",
+    "--fe",
+    "64 Hz",
+    "--amplitude",
+    "0.32 mm",
+    "--out",
+    "{tmp}/c.h5",
+]
+_PLL = ["acquire", "pll", "--backend", "sim", "--force", "0.2 N", "--out", "{tmp}/p.h5"]
 
 
 def _dwell(fe="60 Hz", force="15 N", *extra: str) -> list[str]:
@@ -626,6 +639,28 @@ OPTION_CASES = [
         ],
     ),
     Case("acquire:no-procedure", ["acquire"]),
+    # PLL/CBC: the line names the command's option, not the Python parameter behind it
+    *(
+        Case(f"cbc:{cid}", [*_CBC, *extra], expect=expect)
+        for cid, extra, expect in [
+            ("gains-negative", ["--gains=-5,0"], "--gains = '-5,0': gains are >= 0"),
+            ("kd-negative", ["--gains", "2000,-3"], "--gains = '2000,-3': gains are >= 0"),
+            ("iterations-zero", ["--max-iterations", "0"], "--max-iterations = 0: outside"),
+            ("release-long", ["--release", "100 s"], "--release = 100.0: outside"),
+        ]
+    ),
+    *(
+        Case(f"pll:{cid}", [*_PLL, *extra], expect=expect)
+        for cid, extra, expect in [
+            ("max-below-lock", ["--max-periods", "10"], "--max-periods 10 is below --lock-periods 20"),
+            (
+                "start-outside",
+                ["--fe-start", "30 Hz", "--f-min", "40 Hz"],
+                "--fe-start 30 Hz must lie inside",
+            ),
+            ("kp-large", ["--kp", "5"], "--kp = 5.0: outside"),
+        ]
+    ),
     # rig export / import / devices
     Case("export:what-unknown", ["export", "uff", "{lab}/run.h5", "{tmp}/o.uff", "--what", "movies"]),
     Case(

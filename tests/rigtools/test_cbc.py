@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from cli_helpers import run_cli
 
 ROOT = Path(__file__).resolve().parents[2]
 TABLE = ROOT / "tests" / "rigtools" / "data" / "cbc_model_64hz.json"
@@ -165,6 +166,23 @@ def test_cbc_recording_is_checked_and_read(sheet_run):
     for key in ("fe_hz", "amplitude_m", "force_fundamental_n", "phase_deg", "converged", "iterations"):
         assert key in attrs
     assert "control_effort" in attrs and "drive_harmonics_ratio" in attrs
+
+
+def test_rig_info_gives_the_target_and_response_harmonics_their_units(sheet_run, monkeypatch):
+    """The harmonics table's target and response rows (the active shroud's displacement) had an
+    empty units cell; the target's fundamental reads as the point's target amplitude in m."""
+    _, out = sheet_run
+    monkeypatch.setenv("COLUMNS", "200")
+    code, stdout, err = run_cli(["info", out])
+    assert code == 0, err
+    rows = {}  # channel -> (units, 1xfe) of the harmonics table's rows (the last point's win)
+    for line in stdout.splitlines():
+        cells = [c.strip() for c in line.split("│") if c.strip()]
+        for name in ("target", "response"):
+            if name in cells[:2] and len(cells) >= cells.index(name) + 3:
+                rows[name] = cells[cells.index(name) + 1 : cells.index(name) + 3]
+    assert rows["target"][0] == "m" and rows["response"][0] == "m", rows
+    assert float(rows["target"][1]) == pytest.approx(0.325e-3 + 0.005e-3 * 7, rel=1e-3)  # the last point's
 
 
 def test_cbc_points_state_their_record_window(sheet_run):

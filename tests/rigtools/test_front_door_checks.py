@@ -95,3 +95,14 @@ def test_cbc_refuses_a_target_amplitude_that_is_not_positive(tmp_path, amplitude
     ) as info:
         rigtools.control_based_continuation("64 Hz", amplitudes, out, gap="0.5 mm", backend="sim")
     assert "\n" not in str(info.value) and not out.exists()
+
+
+@pytest.mark.parametrize("gains", ["-5,0", (2000.0, -3.0), -1.0])
+def test_cbc_refuses_a_negative_gain_in_the_scripts_words(tmp_path, gains):
+    """A negative gain (positive feedback: it drives the orbit from its target) was accepted by
+    the Python door and the command alike; now one line naming ``gains`` (the command says
+    ``--gains``), nothing written."""
+    out = tmp_path / "c.h5"
+    with pytest.raises(UserError, match=r"^gains = .*: gains are >= 0") as info:
+        rigtools.control_based_continuation("64 Hz", "0.32 mm", out, gains=gains, gap="0.5 mm", backend="sim")
+    assert "\n" not in str(info.value) and not out.exists()

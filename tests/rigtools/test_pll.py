@@ -147,7 +147,7 @@ def test_without_a_realtime_loop_the_buffered_pll_runs(tmp_path, monkeypatch):
         tmp_path / "b.h5",
         gap="0.5 mm",
         backend="sim",
-        max_periods=10,
+        max_periods=20,
         progress=lambda e: said.append(e.text) if e.kind == "message" else None,
     )
     assert run.summary["inner_loop"] == "buffered"
@@ -160,17 +160,23 @@ def test_without_a_realtime_loop_the_buffered_pll_runs(tmp_path, monkeypatch):
 
 
 def test_lock_loss_stops_with_the_drive_at_zero(tmp_path):
-    """A point that cannot lock in its periods (10) is written marked not converged with one line
+    """A point that cannot lock in its periods (20, its tolerance 0.001 deg) is written marked not converged with one line
     saying why; on_lock_loss="stop" ends the run there, finished, the later point never started,
     and the drive as written ends at exactly 0 V (ramped down)."""
     out = tmp_path / "loss.h5"
     run = rigtools.phase_locked_loop(
-        "0.2 N,0.3 N", out, gap="0.5 mm", backend="sim", max_periods=10, on_lock_loss="stop"
+        "0.2 N,0.3 N",
+        out,
+        gap="0.5 mm",
+        backend="sim",
+        max_periods=20,
+        lock_tolerance=0.001,
+        on_lock_loss="stop",
     )
     assert run.status == "finished" and len(run.points) == 1
     x = run.points[0].extra
     assert not x["converged"]
-    assert "no lock within 10 periods" in x["lock_message"] and "the run stops" in x["lock_message"]
+    assert "no lock within 20 periods" in x["lock_message"] and "the run stops" in x["lock_message"]
     assert "\n" not in x["lock_message"]
     with h5py.File(out, "r") as f:
         point = f["points/0000"]
@@ -243,11 +249,14 @@ def test_amplitude_limit_is_a_lock_loss(tmp_path):
         assert f["points/0000/drive"][-1] == 0.0
 
 
-def test_interrupted_mid_point_leaves_a_readable_recording(tmp_path):
-    """SIGINT (sent to this process by the progress callback) while the second target is still
-    locking: the drive ramps to zero, the locked first point is kept, and
-    the file is a valid recording ``rig info`` and ``rig check`` read (status aborted). Before the
-    fix the unfinished point had no ``fe`` and ``rig check`` called the file INVALID."""
+@pytest.mark.parametrize("how", ["signal", "raised"])
+def test_interrupted_mid_point_leaves_a_readable_recording(tmp_path, how):
+    """SIGINT (sent to this process by the progress callback), or a KeyboardInterrupt the script's
+    own callback raises, while the second target is still locking: the drive ramps to zero,
+    recorded in the point it cut, the locked first point is kept, and the file is a valid
+    recording ``rig info`` and ``rig check`` read (status aborted). Before the fixes the unfinished
+    point had no ``fe`` and ``rig check`` called the file INVALID; a raised KeyboardInterrupt left
+    the point's recorded drive at its last value (-0.09 V; the device was zeroed, unrecorded)."""
     out = tmp_path / "cut.h5"
     seen: list[int] = []
 
@@ -255,6 +264,8 @@ def test_interrupted_mid_point_leaves_a_readable_recording(tmp_path):
         if event.kind == "control" and event.point == 2:
             seen.append(1)
             if len(seen) == 5:
+                if how == "raised":
+                    raise KeyboardInterrupt
                 os.kill(os.getpid(), signal.SIGINT)
 
     with pytest.raises(KeyboardInterrupt):
@@ -300,15 +311,17 @@ def test_a_first_point_far_above_the_initial_force_still_raises_the_drive(tmp_pa
 
 
 def test_a_point_not_locked_is_said_in_one_line_and_in_the_json(tmp_path):
-    """``--max-periods 10`` cannot lock (the lock test spans 20 periods): the point is written not
+    """``--max-periods 20 --lock-tolerance "0.001 deg"`` cannot lock: the point is written not
     converged, one stderr line says why (also with --json and without a terminal, where the
     progress bar is off), and the --json lists the same line under "lost"."""
     out = tmp_path / "x.h5"
     argv = ["acquire", "pll", "--backend", "sim", "--gap", "0.5 mm", "--force", "0.2 N"]
-    code, stdout, err = run_cli([*argv, "--max-periods", "10", "--out", out, "--json"])
+    code, stdout, err = run_cli(
+        [*argv, "--max-periods", "20", "--lock-tolerance", "0.001 deg", "--out", out, "--json"]
+    )
     assert code == 0, err
     lines = err.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith("rig acquire pll: point 1: no lock within 10 periods")
+    assert len(lines) == 1 and lines[0].startswith("rig acquire pll: point 1: no lock within 20 periods")
     doc = json.loads(stdout)
     assert doc["lost"] == [lines[0].removeprefix("rig acquire pll: ")]
     assert doc["points"][0]["converged"] is False
@@ -329,4 +342,4 @@ def test_a_reversed_frequency_range_is_named(tmp_path, f_min, f_max):
     argv = ["acquire", "pll", "--backend", "sim", "--force", "1 N", "--out", tmp_path / "x.h5"]
     code, _, err = run_cli([*argv, "--f-min", f_min, "--f-max", f_max])
     assert code == 2 and len(err.strip().splitlines()) == 1
-    assert f"f_min {f_min.split()[0]} Hz must be below f_max {f_max.split()[0]} Hz" in err, err
+    assert f"--f-min {f_min.split()[0]} Hz must be below --f-max {f_max.split()[0]} Hz" in err, err
