@@ -5,7 +5,7 @@ from __future__ import annotations
 import functools
 import re
 import signal as _signal
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
 from typing import ParamSpec, TypeVar
 
@@ -166,15 +166,17 @@ SCRIPT_KEYWORDS = {
 _FLAG = re.compile(r"(?<![\w-])--[a-z][a-z0-9-]*(?![\w-])")
 
 
-def in_callers_words(text: str) -> str:
+def in_callers_words(text: str, keywords: Mapping[str, str] | None = None) -> str:
     """``text`` with the command line's advice (``use --backend sim``, ``give --units X=UNIT``)
     in a script's words (``use backend="sim"``, ``give units X=UNIT``) when the caller is a
-    script; unchanged on the command line."""
+    script; unchanged on the command line. ``keywords``: one door's own options by its keyword
+    (``{"--force": "forces"}``), before :data:`SCRIPT_KEYWORDS`."""
     if _command_line:
         return text
     for cli, script in _SCRIPT_WORDS.items():
         text = text.replace(cli, script)
-    return _FLAG.sub(lambda m: SCRIPT_KEYWORDS.get(m.group(0), m.group(0)), text)
+    words = {**SCRIPT_KEYWORDS, **(keywords or {})}
+    return _FLAG.sub(lambda m: words.get(m.group(0), m.group(0)), text)
 
 
 def in_script_words(function: Callable[_P, _R]) -> Callable[_P, _R]:
@@ -193,11 +195,11 @@ def in_script_words(function: Callable[_P, _R]) -> Callable[_P, _R]:
     return door
 
 
-def reword(error: BaseException) -> BaseException:
-    """``error`` with its one-argument message in the caller's words (:func:`in_callers_words`),
-    for the doors of a script to re-raise."""
+def reword(error: BaseException, keywords: Mapping[str, str] | None = None) -> BaseException:
+    """``error`` with its one-argument message in the caller's words (:func:`in_callers_words`,
+    with the door's ``keywords``), for the doors of a script to re-raise."""
     if len(error.args) == 1 and isinstance(error.args[0], str):
-        error.args = (in_callers_words(error.args[0]),)
+        error.args = (in_callers_words(error.args[0], keywords),)
     return error
 
 

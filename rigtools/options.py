@@ -145,11 +145,13 @@ LIST_EXAMPLE = {
 _PLURAL = {"gap": "gaps", "force": "forces", "frequency": "frequencies", "amplitude": "amplitudes"}
 
 
-def value_list(text: str, kind: str, option: str = "--values", *, minimum: int = 1) -> list[float]:
+def value_list(
+    text: str, kind: str, option: str = "--values", *, minimum: int = 1, positive: bool = False
+) -> list[float]:
     """The one grammar of value lists: ``"a,b,c"`` or ``"start:stop:step"`` (stop included) with
     units, of a ``kind`` (``"gap"``, ``"force"``, ``"frequency"``) in SI units, each checked (a gap
-    by :func:`gap`; forces ``>= 0``; frequencies ``> 0``), at least ``minimum`` different values
-    (a stepped sine: 2) and at most :data:`MAX_POINTS`."""
+    by :func:`gap`; forces ``>= 0``, ``> 0`` with ``positive``; frequencies ``> 0``), at least
+    ``minimum`` different values (a stepped sine: 2) and at most :data:`MAX_POINTS`."""
     dimension = STUDY_DIMENSION[kind]
 
     def one(part: str) -> float:
@@ -173,11 +175,12 @@ def value_list(text: str, kind: str, option: str = "--values", *, minimum: int =
             raise UserError(f"{option}: give at least one value")
         if len(values) > MAX_POINTS:
             raise UserError(f"{option}: {len(values)} points is too many (at most {MAX_POINTS})")
-    bad = [v for v in values if (v <= 0 if kind in ("frequency", "amplitude") else v < 0)]
+    strict = positive or kind in ("frequency", "amplitude")
+    bad = [v for v in values if (v <= 0 if strict else v < 0)]
     if bad:
         what = {
             "gap": "gaps must be >= 0",
-            "force": "force amplitudes must be >= 0",
+            "force": f"force amplitudes must be {'>' if strict else '>='} 0",
             "frequency": "frequencies must be > 0",
             "amplitude": "displacement amplitudes must be > 0",
         }[kind]

@@ -14,11 +14,13 @@ from rigtools.keywords import unknown_keyword
 from rigtools.options import seed as seed_option
 from rigtools.procedures.base import ProgressEvent
 from rigtools.procedures.pll import PhaseLockedLoop, PllParameters
-from rigtools.procedures.pll_options import pll_parameters
+from rigtools.procedures.pll_options import OPTIONS, pll_parameters
 from rigtools.procedures.result import RunResult
 
 # the words the options parser reads from text (units), besides the force and phase lists
 _TEXT_WORDS = ("fe_start", "f_min", "f_max", "lock_tolerance", "phase_rate", "max_amplitude")
+# the options parser's words in this door's: its keywords
+_KEYWORDS = {"--force": "forces", "--phase": "phases", **{option: name for name, option in OPTIONS.items()}}
 
 
 def _joined(values: Sequence[float | str] | float | str, unit: str) -> str:
@@ -95,8 +97,8 @@ def phase_locked_loop(
     options = {"force": _joined(forces, "N"), "phase": _joined(phases, "deg"), "gap": gap, **text}
     if fe_start is not None:
         options["fe_start"] = fe_start if isinstance(fe_start, str) else f"{float(fe_start)!r} Hz"
-    values = {**pll_parameters(cfg, options), **plain}
     try:
+        values = {**pll_parameters(cfg, options), **plain}
         proc = PhaseLockedLoop(
             cfg,
             values,
@@ -108,5 +110,5 @@ def phase_locked_loop(
         )
         return proc.run()
     except Exception as exc:  # re-raised, its advice in a script's words
-        reword(exc)
+        reword(exc, _KEYWORDS)
         raise

@@ -88,6 +88,16 @@ REAL_TIME_NOTE = NO_REALTIME_LOOP
 INNER_LOOPS = ("realtime", "buffered")
 RESPONSE_CHANNEL = "active_shroud_accel"  # the controlled response: the active shroud
 WITHOUT_CONTACT_RAMP = 1.0  # s: up to the orbit without contact (the blade's free decay ~0.25 s)
+#: The command's option of each parameter its one-line errors may name (``rig acquire cbc``).
+OPTIONS = {
+    "max_iterations": "--max-iterations",
+    "tolerance": "--tolerance",
+    "release_seconds": "--release",
+    "kp": "--gains",
+    "kd": "--gains",
+    "amplitudes": "--amplitude",
+    "inner_loop": "--inner-loop",
+}
 LINEAR_DEPARTURE = 0.05  # a released orbit's departure is fitted up to this share of A
 
 
@@ -932,6 +942,7 @@ def parse_gains(gains: Any, name: str = "--gains") -> dict[str, float]:
 
 
 __all__ = [
+    "OPTIONS",
     "REAL_TIME_NOTE",
     "CBCParameters",
     "CBCPoint",

@@ -22,11 +22,13 @@ from rigtools.drivers.simulated import Fault
 from rigtools.errors import UserError
 from rigtools.options import band_option, quantity, value_list
 from rigtools.options import gap as _gap_text
+from rigtools.procedures.cbc import OPTIONS as CBC_OPTIONS
 from rigtools.procedures.cbc import from_options as cbc_from_options
 from rigtools.procedures.cbc import json_document
 from rigtools.procedures.dwell import SineDwell
 from rigtools.procedures.frf import FrfTest, quick_check
 from rigtools.procedures.pll import PhaseLockedLoop
+from rigtools.procedures.pll_options import OPTIONS as PLL_OPTIONS
 from rigtools.procedures.pll_options import pll_document, pll_parameters
 from rigtools.procedures.rig_study import RigStudy
 from rigtools.procedures.sweep import SteppedSine
@@ -34,23 +36,6 @@ from rigtools.procedures.tap import TapTest, analyze_tap_recording
 
 PROCEDURES = ("dwell", "sweep", "study", "frf", "tap", "pll", "cbc")
 TAP_F_MIN_HZ = 5.0
-# the parameters whose one-line errors the command words with its option's name
-PLL_OPTIONS = {
-    name: "--" + name.replace("_", "-")
-    for name in (
-        *("fe_start", "f_min", "f_max", "kp", "ki", "lock_periods", "lock_tolerance", "max_periods"),
-        *("record_periods", "phase_rate", "max_amplitude", "on_lock_loss", "inner_loop"),
-    )
-}
-CBC_OPTIONS = {
-    "max_iterations": "--max-iterations",
-    "tolerance": "--tolerance",
-    "release_seconds": "--release",
-    "kp": "--gains",
-    "kd": "--gains",
-    "amplitudes": "--amplitude",
-    "inner_loop": "--inner-loop",
-}
 _Built = TypeVar("_Built")
 
 

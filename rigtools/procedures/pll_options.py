@@ -18,6 +18,15 @@ from rigtools.options import quantity, value_list
 from rigtools.sim.phase_points import linear_phase_resonance
 from rigtools.sim.reduction import reduced_system
 
+#: The command's option of each parameter (its one-line errors name the option; the Python door,
+#: :func:`rigtools.phase_locked_loop`, the keyword).
+OPTIONS = {
+    name: "--" + name.replace("_", "-")
+    for name in (
+        *("fe_start", "f_min", "f_max", "kp", "ki", "lock_periods", "lock_tolerance", "max_periods"),
+        *("record_periods", "phase_rate", "max_amplitude", "on_lock_loss", "inner_loop"),
+    )
+}
 _ANGLE_UNITS = {"deg": 1.0, "degree": 1.0, "degrees": 1.0, "°": 1.0, "rad": 180.0 / math.pi}
 
 
@@ -59,9 +68,7 @@ def start_frequency(cfg: Any, phase_deg: float) -> float:
 def pll_parameters(cfg: Any, options: Mapping[str, Any]) -> dict:
     """The PLL's parameters (SI, degrees) from ``rig acquire pll`` options (text with units)."""
     o = options
-    forces = value_list(str(o["force"]), "force", "--force")
-    if not all(f > 0 for f in forces):
-        raise UserError(f"--force = {o['force']!r}: every force must be > 0")
+    forces = value_list(str(o["force"]), "force", "--force", positive=True)
     phases = phases_option("-90 deg" if o.get("phase") is None else o["phase"])  # "": an error
     params: dict[str, Any] = {"forces": forces, "phases": phases}
     if o.get("gap") is not None:

@@ -106,3 +106,22 @@ def test_cbc_refuses_a_negative_gain_in_the_scripts_words(tmp_path, gains):
     with pytest.raises(UserError, match=r"^gains = .*: gains are >= 0") as info:
         rigtools.control_based_continuation("64 Hz", "0.32 mm", out, gains=gains, gap="0.5 mm", backend="sim")
     assert "\n" not in str(info.value) and not out.exists()
+
+
+@pytest.mark.parametrize(
+    ("forces", "params", "said"),
+    [
+        ("-5 N", {}, "forces = '-5 N': force amplitudes must be > 0 (got -5)"),  # was ">= 0", and "--force"
+        ([0.0], {}, "forces = '0.0 N': force amplitudes must be > 0 (got 0)"),
+        ("1 N", {"lock_tolerance": "1 s"}, "lock_tolerance = '1 s': give an angle with its unit"),
+        ("1 N", {"max_periods": 30}, "max_periods 30 is below lock_periods 40"),
+    ],
+)
+def test_pll_names_its_python_arguments(tmp_path, forces, params, said):
+    """The PLL door words its options parser's errors in the script's keywords (forces, not
+    --force); the command says --force (tests/rigtools/test_bad_input.py)."""
+    out = tmp_path / "p.h5"
+    kwargs = {"lock_periods": 40, **params} if "max_periods" in params else params
+    with pytest.raises(UserError, match=r"^" + re.escape(said)):
+        rigtools.phase_locked_loop(forces, out, gap="0.5 mm", backend="sim", **kwargs)
+    assert not out.exists()
