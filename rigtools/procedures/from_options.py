@@ -39,15 +39,25 @@ TAP_F_MIN_HZ = 5.0
 _Built = TypeVar("_Built")
 
 
-def with_option_names(build: Callable[[], _Built], names: Mapping[str, str]) -> _Built:
-    """``build()``; a :class:`UserError` naming a parameter (``max_periods``) names the command's
-    option instead (``--max-periods``): the command line's words, not the Python door's."""
+def with_option_names(
+    build: Callable[[], _Built], names: Mapping[str, str], options: Mapping[str, Any] = {}
+) -> _Built:
+    """``build()``; a :class:`UserError` naming a parameter names the command's option instead:
+    each of ``names`` anywhere in the line (``max_periods`` -> ``--max-periods``), and a line
+    that starts ``name = `` with ``name`` one of the command's ``options`` (``force = -5.0``
+    -> ``--force = -5.0``; ``record_periods`` is ``--periods``): the command line's words, not
+    the Python door's."""
     try:
         return build()
     except UserError as exc:
         text = str(exc)
         for name, option in names.items():
             text = re.sub(rf"(?<![\w-]){name}(?![\w-])", option, text)
+        first = re.match(r"([a-z][a-z0-9_]*) = ", text)
+        if first is not None:
+            key = "periods" if first.group(1) == "record_periods" else first.group(1)
+            if key in options:
+                text = "--" + key.replace("_", "-") + text[first.end(1) :]
         if text == str(exc):
             raise
         raise type(exc)(text) from None
@@ -148,6 +158,20 @@ def build_procedure(
     **run_options
         ``backend``, ``overwrite``, ``pace``, ``faults``, ``seed`` of the procedure.
     """
+    names = {"pll": PLL_OPTIONS, "cbc": CBC_OPTIONS}.get(name, {})
+    return with_option_names(
+        lambda: _build(name, cfg, out, options, confirm_gap, run_options), names, options
+    )
+
+
+def _build(
+    name: str,
+    cfg: Any,
+    out: str | Path,
+    options: Mapping[str, Any],
+    confirm_gap: Callable[[float, int], None] | None,
+    run_options: dict[str, Any],
+) -> Any:
     rate = float(cfg.daq.sample_rate)
 
     o = options
@@ -193,7 +217,7 @@ def build_procedure(
     if name == "pll":
         params = pll_parameters(cfg, o)
         below_nyquist(params["fe_start"], rate, "--fe-start", o.get("fe_start"))
-        pll = with_option_names(lambda: PhaseLockedLoop(cfg, params, out, **run_options), PLL_OPTIONS)
+        pll = PhaseLockedLoop(cfg, params, out, **run_options)
         if run_options.get("backend") == "nidaq" and params.get("inner_loop") != "buffered":
             pll.note = NO_REALTIME_PLL  # said before the device opens
         return pll
@@ -225,7 +249,7 @@ def build_procedure(
         return TapTest(cfg, params, out, **run_options)
     if name == "cbc":
         below_nyquist(quantity(o["fe"], "frequency", "--fe"), rate, "--fe", o["fe"])
-        return with_option_names(lambda: cbc_from_options(cfg, out, o, **run_options), CBC_OPTIONS)
+        return cbc_from_options(cfg, out, o, **run_options)
     if name != "frf":
         raise UserError(f"unknown procedure {name!r} (known: {', '.join(PROCEDURES)})")
     band = band_option(str(o["band"]), "--band", allow_zero=False)

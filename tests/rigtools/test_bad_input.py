@@ -639,7 +639,17 @@ OPTION_CASES = [
         ],
     ),
     Case("acquire:no-procedure", ["acquire"]),
-    # PLL/CBC: the line names the command's option, not the Python parameter behind it
+    # the line names the command's option, not the Python parameter behind it
+    Case(
+        "dwell:force-negative",
+        [*_DWELL, "--fe", "60 Hz", "--force", "-5 N"],
+        expect="--force = -5.0: outside",
+    ),
+    Case(
+        "dwell:periods-zero",
+        [*_DWELL, "--fe", "60 Hz", "--force", "1 N", "--periods", "0"],
+        expect="--periods = 0",
+    ),
     *(
         Case(f"cbc:{cid}", [*_CBC, *extra], expect=expect)
         for cid, extra, expect in [
