@@ -585,8 +585,8 @@ def _rejection(fit: MeasuredMultipliers) -> str:
     :data:`RESIDUAL_LIMIT`, i.e. the pooled pairs follow no one linear map of a period."""
     if fit.residual > RESIDUAL_LIMIT:
         return (
-            f"the pooled fit's residual {fit.residual:.2g} is above {RESIDUAL_LIMIT:g}: "
-            "its pairs of periods follow no one linear map"
+            f"the pooled fit's residual {fit.residual:.2g} is above {RESIDUAL_LIMIT:g}: its pairs of "
+            f"periods follow no one linear map (its largest multiplier {fit.max_modulus:.3g} not taken)"
         )
     return ""
 
