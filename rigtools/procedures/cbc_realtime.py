@@ -121,10 +121,12 @@ SETTLED = 0.003  # after the pieces the orbit is held until its error is within 
 SETTLE_SECONDS = 2.0  # (or within 1.5 times the error before the first probe), this long at most
 MAX_RELEASE = 20  # periods of a release at most
 # a pooled fit whose one-period map leaves a larger relative residual is not taken (more releases,
-# then no multiplier): the pairs follow no one linear map. Fits within 5 % of the model's left at
-# most 0.036 (three grids, four short paths near the fold); the pieces cut at their releases' own
-# phases (before :func:`_section_shift`) 0.09-0.36, two fits on the upper sheet (0.79, 0.88) gave
-# 1.06 and 0.91 against the model's 2.37 and 3.33
+# then no multiplier): the pairs follow no one linear map. On the benchmark's three grids and four
+# short paths near the fold (benchmarks/bench_cbc_realtime.py, cbc_realtime_fold_paths.py) the fits
+# within 6 % of the model's left at most 0.084; over it: 0.12 at A 0.4125 mm (|mu| 1.97, the fit of
+# one release of 10 periods), 0.79 and 0.88 on the upper sheet (1.06 and 0.91 against the model's
+# 2.37 and 3.33: fits of 2 pairs). Pieces cut at their releases' own phases (before
+# :func:`_section_shift`) left up to 0.41
 RESIDUAL_LIMIT = 0.1
 SECTION_GUARD = 0.25  # periods: the fitted periods begin at the drive's phase 0 after the release + this
 # an orbit whose pieces' fit so far decays (largest |mu| < 1) is probed by its drive as well: the
