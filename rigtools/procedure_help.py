@@ -252,8 +252,10 @@ With the real-time loop, below the impacting branch's turn in A (about 0.306 mm 
 orbit without contact is measured and recorded with "branch": "no contact" (two points, one target).
 --json lists each point: fe_hz, amplitude_m, force_fundamental_n, phase_deg, converged, iterations,
 drive_harmonics_ratio, control_effort, drive_amplitude_v, parameterisation (and step_cut on the
-points of a cut step); "lost" gives one line per target the loop let go of (also said on stderr),
-"skipped_amplitudes" the targets never tried.
+points of a cut step; with the real-time loop the measured multipliers: multipliers, max_multiplier
+and the fit's multipliers_* details, or multipliers_not_measured saying why a point has none, e.g.
+a fit whose pairs of periods follow no one linear map); "lost" gives one line per target the loop
+let go of (also said on stderr), "skipped_amplitudes" the targets never tried.
 In Python: rigtools.control_based_continuation(fe, amplitudes, out, gap=..., backend="sim").
 """,
     "dwell": """examples:

@@ -163,7 +163,7 @@ class CBCPoint:
     history: list[dict[str, float]] = field(default_factory=list)
     channel_names: tuple[str, ...] = ()  # the rows of ``measurement.channels``
     multipliers: np.ndarray | None = None  # measured Floquet multipliers (complex), largest first
-    stability: dict[str, float] = field(default_factory=dict)  # how they were measured
+    stability: dict[str, float | str] = field(default_factory=dict)  # how they were measured (or why not)
     # the measurement's window in the recording point: s from the point's start, and samples
     record_start: float | None = None
     record_samples: int = 0
@@ -174,9 +174,9 @@ class CBCPoint:
 
     def multiplier_fields(self) -> dict[str, Any]:
         """``multipliers`` (moduli, largest first), their angles (deg) and the fit's details;
-        empty where none were measured."""
+        where none were measured, ``multipliers_not_measured`` (why) if they were tried."""
         if self.multipliers is None:
-            return {}
+            return {f"multipliers_{k}": v for k, v in self.stability.items()}
         mu = self.multipliers
         return {
             "multipliers": np.abs(mu).tolist(),
@@ -728,8 +728,9 @@ class ControlBasedContinuation(SineProcedure):
             return
         try:
             fit, info = measure(pt.measurement)
-        except ValueError as exc:  # too few periods in the linear range: said, not raised
+        except ValueError as exc:  # too few periods in the linear range, or no trusted fit: said, kept
             self.emit("message", text=f"multipliers not measured: {exc}")
+            pt.stability = {"not_measured": str(exc)}
             return
         pt.multipliers = fit.multipliers
         pt.stability = {**info, "residual": fit.residual}

@@ -26,8 +26,11 @@ is bounded whatever the orbit's multiplier and whatever the previous point gave.
 the orbit 24 periods between releases. Each release's displacement (the loop's own), minus the
 orbit averaged over the 16 periods before its probe, is differenced period to period (a small
 mismatch of the held drive moves the rig towards a neighbouring orbit: a constant step, which
-the difference removes and which would otherwise show as a multiplier 1), and the releases'
-pairs of periods within the 3 % are pooled in one fit
+the difference removes and which would otherwise show as a multiplier 1) from the first instant
+at the drive's phase 0 a quarter period or more after the release on (``_section_shift``: every
+piece's periods then begin at one phase of the orbit, and the pooled pairs follow one map; cut at
+each release's own phase they followed maps between different sections, which no one matrix fits:
++13.9 % at A 0.3843 mm), and the releases' pairs of periods within the 3 % are pooled in one fit
 (:func:`rigtools.analysis.floquet.pooled_floquet_multipliers`; long releases, 20 pairs or more,
 at 8 instants a period; shorter ones, as an unstable orbit's are, with each period as the
 deviation's mean and harmonics 1-3, the impacts' shifted instants left out, in three directions,
@@ -39,13 +42,17 @@ step. The target's probe reaches the differenced transient weakened by abs(mu - 
 fold (a real multiplier 0.9-1, the orbits around the F1 minimum) that mode then lay under the held
 orbit's wobble (0.1-0.4 % of A, 5-20 times the probe): the fit took the 0.80 pair for the largest
 (-10.3 % and -16.8 % on two of five paths measured). A decaying fit is taken only with such a
-piece among its own. Afterwards the loop holds the orbit until its error is back within 1.5 times
+piece among its own, and any fit only with its one-period map's residual within
+:data:`RESIDUAL_LIMIT`; a point whose fit is still not taken after the 5 releases carries no
+multiplier, and says why (``multipliers_not_measured``), rather than a wrong one. Afterwards the
+loop holds the orbit until its error is back within 1.5 times
 what it was before the first probe (or 0.3 % of A; at most 2 s): the measurement leaves the rig
 where it found it.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 
 import numpy as np
@@ -113,6 +120,15 @@ FIT_RANK = 3  # in three directions (the slowest real multiplier and a pair)
 SETTLED = 0.003  # after the pieces the orbit is held until its error is within this share of A
 SETTLE_SECONDS = 2.0  # (or within 1.5 times the error before the first probe), this long at most
 MAX_RELEASE = 20  # periods of a release at most
+# a pooled fit whose one-period map leaves a larger relative residual is not taken (more releases,
+# then no multiplier): the pairs follow no one linear map. On the benchmark's three grids and four
+# short paths near the fold (benchmarks/bench_cbc_realtime.py, cbc_realtime_fold_paths.py) the fits
+# within 6 % of the model's left at most 0.084; over it: 0.12 at A 0.4125 mm (|mu| 1.97, the fit of
+# one release of 10 periods), 0.79 and 0.88 on the upper sheet (1.06 and 0.91 against the model's
+# 2.37 and 3.33: fits of 2 pairs). Pieces cut at their releases' own phases (before
+# :func:`_section_shift`) left up to 0.41
+RESIDUAL_LIMIT = 0.1
+SECTION_GUARD = 0.25  # periods: the fitted periods begin at the drive's phase 0 after the release + this
 # an orbit whose pieces' fit so far decays (largest |mu| < 1) is probed by its drive as well: the
 # host's drive fundamental this much larger while the loop holds the orbit (the loop takes up the
 # difference), so that each release steps the drive by it. The target's probe enters the
@@ -375,11 +391,12 @@ class RealTimeHarmonicLoop(BufferedHarmonicLoop):
                     break  # another piece fits no better and moves the rig off the orbit again
                 pieces.append(piece)
                 try:
-                    fit = self._fit(pieces)
+                    fit = _pooled_fit(pieces, self.rate, self.fe)
                 except ValueError:
                     fit = None
                 decaying = fit is not None and fit.max_modulus < 1.0
-                if fit is not None and fit.periods[1] >= ENOUGH_PAIRS and (stepped or not decaying):
+                enough = fit is not None and fit.periods[1] >= ENOUGH_PAIRS and not _rejection(fit)
+                if enough and (stepped or not decaying):
                     break  # a decaying fit only with a piece probed by the drive among its own
             if stepped:
                 self._drive_times(ff, 1.0)
@@ -399,6 +416,9 @@ class RealTimeHarmonicLoop(BufferedHarmonicLoop):
                 f"{len(lengths)} releases of {'/'.join(map(str, lengths))} periods left too few periods "
                 f"in the linear range (deviation within {LINEAR_LIMIT:.0%} of A)"
             )
+        why = _rejection(fit)
+        if why:
+            raise ValueError(f"{len(lengths)} releases of {'/'.join(map(str, lengths))} periods: {why}")
         return fit, {**info, "probe": PROBE, "drive_probe": DRIVE_PROBE if stepped else 0.0}
 
     def _release_piece(
@@ -440,28 +460,12 @@ class RealTimeHarmonicLoop(BufferedHarmonicLoop):
         # the linear range: the periods before the growth since the release passes LINEAR_LIMIT
         # of A (the step a held-drive mismatch leaves is not the transient's)
         over = np.flatnonzero(np.abs(free - free[0]).max(axis=1) > LINEAR_LIMIT * amplitude)
-        last = (int(over[0]) if over.size else periods) - 2  # a difference spans two periods
-        if last < 2:
-            return None, periods, seen
-        # period-to-period differences: z[p + 1] - z[p] follows the same map as z[p], without the
-        # step to a neighbouring orbit that any mismatch of the held drive leaves (a multiplier 1)
-        d = deviation[release - start :]
-        step = d[p:] - d[:-p]
-        return TransientPiece(step[: (periods - 1) * p + 1], 1, last), periods, seen
-
-    def _fit(self, pieces: list[TransientPiece]) -> MeasuredMultipliers:
-        """The pooled fit of the releases. Long releases (a stable or weakly unstable orbit: at
-        least :data:`LONG_PAIRS` pairs) are fitted at 8 instants a period in every direction above
-        the floor: a multiplier near 1 (the fold), weak in the differenced deviation, is kept. Short
-        ones (the deviation at the linear limit within a few periods) are fitted on each period's
-        mean and harmonics 1-3 in :data:`FIT_RANK` directions: more directions fitted to few pairs,
-        or instants at which an impact's shifted instant lands, gave spurious multipliers."""
-        fit = pooled_floquet_multipliers(pieces, self.rate, self.fe)
-        if fit.periods[1] < LONG_PAIRS:
-            fit = pooled_floquet_multipliers(
-                pieces, self.rate, self.fe, harmonics=FIT_HARMONICS, rank=FIT_RANK
-            )
-        return fit
+        linear = int(over[0]) if over.size else periods
+        turns = float(self.drive.phase_at(release)) / (2 * math.pi)
+        piece = _differenced_piece(
+            deviation[release - start :], _section_shift(turns, self.rate / self.fe), periods, linear, p
+        )
+        return piece, periods, seen
 
     def _drive_times(self, ff: np.ndarray, factor: float) -> bool:
         """The host's drive: ``ff`` with its fundamental times ``factor``, waited for until it
@@ -529,6 +533,64 @@ def _release_periods(free: np.ndarray, limit: float, growth: float | None = None
         size += step
         more += 1
     return more
+
+
+def _section_shift(turns: float, per: float) -> int:
+    """Samples from a release at the drive's phase ``turns`` (in turns; ``per`` samples a period)
+    to the first instant at the drive's phase 0 at least :data:`SECTION_GUARD` of a period after
+    it (the loop's delayed output gone): where the piece's fitted periods begin.
+
+    Every piece of a point then starts at the same phase of the orbit (fe is held), so the
+    one-period map fitted to the pooled pairs is the map between sections at one phase. Pieces cut
+    at their releases' own phases (a release is placed against the end of a block: 1024 samples,
+    not a whole number of periods, 800 at 64 Hz) each follow the map between their own sections,
+    the same multipliers in another matrix, which no single matrix fits: at A 0.3843 mm (grid
+    0.2995:0.4895 mm) the pooled fit gave 1.703 against the model's 1.494, residual 0.26; the same
+    pieces cut at one phase 1.469, residual 0.006."""
+    guard = round(SECTION_GUARD * per)
+    return guard + round((-(turns + guard / per)) % 1.0 * per)
+
+
+def _differenced_piece(
+    deviation: np.ndarray, shift: int, periods: int, linear: int, p: int
+) -> TransientPiece | None:
+    """A release's piece of the pooled fit: ``deviation`` (from the orbit, from the release's
+    sample on, at least ``periods * p + 1`` samples; ``p`` samples a period) over the ``periods``
+    released, the first ``linear`` of them within the linear range, differenced period to period
+    from ``shift`` samples after the release (:func:`_section_shift`) on: z[k + 1] - z[k] follows
+    the same map as z[k], without the step to a neighbouring orbit that any mismatch of the held
+    drive leaves (a multiplier 1). Each pair spans three periods, all within the linear range.
+    ``None``: not one pair."""
+    last = math.floor(linear - 2 - shift / p)
+    if last < 1:
+        return None
+    d = deviation[shift:]
+    step = d[p:] - d[:-p]
+    return TransientPiece(step[: (periods - 1) * p - shift + 1], 0, last)
+
+
+def _pooled_fit(pieces: list[TransientPiece], rate: float, fe: float) -> MeasuredMultipliers:
+    """The pooled fit of the releases. Long releases (a stable or weakly unstable orbit: at least
+    :data:`LONG_PAIRS` pairs) are fitted at 8 instants a period in every direction above the floor:
+    a multiplier near 1 (the fold), weak in the differenced deviation, is kept. Short ones (the
+    deviation at the linear limit within a few periods) are fitted on each period's mean and
+    harmonics 1-3 in :data:`FIT_RANK` directions: more directions fitted to few pairs, or instants
+    at which an impact's shifted instant lands, gave spurious multipliers."""
+    fit = pooled_floquet_multipliers(pieces, rate, fe)
+    if fit.periods[1] < LONG_PAIRS:
+        fit = pooled_floquet_multipliers(pieces, rate, fe, harmonics=FIT_HARMONICS, rank=FIT_RANK)
+    return fit
+
+
+def _rejection(fit: MeasuredMultipliers) -> str:
+    """Why a pooled fit is not taken (``""``: it is): its one-period map's relative residual above
+    :data:`RESIDUAL_LIMIT`, i.e. the pooled pairs follow no one linear map of a period."""
+    if fit.residual > RESIDUAL_LIMIT:
+        return (
+            f"the pooled fit's residual {fit.residual:.2g} is above {RESIDUAL_LIMIT:g}: its pairs of "
+            f"periods follow no one linear map (its largest multiplier {fit.max_modulus:.3g} not taken)"
+        )
+    return ""
 
 
 def _scaled(target: HarmonicTarget, factor: float) -> HarmonicTarget:
