@@ -48,7 +48,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Literal
 
@@ -63,7 +63,8 @@ from rigtools.options import gap as gap_text
 from rigtools.options import quantity, value_list
 from rigtools.procedures import rig
 from rigtools.procedures.base import ProcedureResult, ProgressEvent, Status, validate
-from rigtools.procedures.cbc_arclength import STEP_CUTS, ArcStep, extrapolate, rises_with_drive
+from rigtools.procedures.cbc_arclength import STEP_CUTS, ArcStep, extrapolate, no_turn_ahead
+from rigtools.procedures.cbc_cut import CUT_ATTEMPTS, restore_orbit
 from rigtools.procedures.cbc_iteration import (
     DELAY_GAINS,
     ERROR_GROWTH,
@@ -161,6 +162,7 @@ class CBCPoint:
     lost: str = ""  # why the inner loop let go of the target (the orbit lost), if it did
     branch: str = ""  # "no contact": the orbit without contact, past the turn in A
     step_cut: int = 0  # halvings of a failed A-step this point's target comes from (0: none)
+    shape: Any = None  # the inner loop's orbit_shape() at the end (a real-time loop), to restore
 
     def multiplier_fields(self) -> dict[str, Any]:
         """``multipliers`` (moduli, largest first), their angles (deg) and the fit's details;
@@ -305,6 +307,7 @@ def cbc_point(
     effort = float(np.sqrt(np.sum(np.abs(m.drive - feedforward) ** 2) / 2))
     pt = CBCPoint(point, effort, target, feedforward, m, half_peak_to_peak(m.response), history)
     pt.lost = lost or ""
+    pt.shape = shape_of() if callable(shape_of) else None
     return pt
 
 
@@ -376,6 +379,7 @@ class ControlBasedContinuation(SineProcedure):
         self.release: dict[str, Any] = {}
         self.note = ""  # the line rig acquire prints first (the NI backend: REAL_TIME_NOTE)
         self._leg: list[CBCPoint] = []  # the points of the leg being measured
+        self._cuts_left = CUT_ATTEMPTS  # the leg's attempts beyond its targets still allowed
         self.lost: list[str] = []  # one line per target the inner loop lost (each ended its leg)
         self.rate = 0.0  # samples per second, once the device is configured
 
@@ -453,9 +457,14 @@ class ControlBasedContinuation(SineProcedure):
                 done += len(leg)
                 self._leg = []
                 continue
+            self._cuts_left = CUT_ATTEMPTS
             for j, amplitude in enumerate(leg):
                 done += 1
                 self.emit("point", point=done, n_points=n, text=f"A = {amplitude * 1e3:.4g} mm")
+                if self._leg and not self._leg[-1].point.converged and not self._restore(loop):
+                    skipped.extend(leg[j:])  # the last converged orbit not held again: lost
+                    done += len(leg) - j - 1
+                    break
                 target, ff = predicted(self._leg, first, amplitude)
                 secant = FeedforwardSecant(secant.jacobian)  # the slope learnt so far, a fresh history
                 release = j == len(leg) - 1 and leg_index == 0 and p.release_seconds > 0
@@ -467,11 +476,11 @@ class ControlBasedContinuation(SineProcedure):
                         self._leg = [below]
                         continue
                 if not pt.point.converged:  # the A-step failed: past a turn in A, or the orbit is lost
-                    if pt.lost:
-                        self._end_leg_lost(loop, pt, amplitude)
-                    elif self._no_turn():  # a step too long: cut it, the leg goes on if it is reached
-                        if self._cut_step(loop, gap, first, amplitude, secant, release=release):
+                    if self._no_turn():  # a step too long: cut it, the leg goes on if the cuts advance
+                        if self._cut_step(loop, gap, first, pt, amplitude, secant, release=release):
                             continue
+                    elif pt.lost:
+                        self._end_leg_lost(loop, pt, amplitude)
                     elif p.arclength_points:  # past the turn: points on the branch, not at these A
                         self._arclength(loop, gap, secant)
                     skipped.extend(leg[j + 1 :])
@@ -566,52 +575,81 @@ class ControlBasedContinuation(SineProcedure):
         return done
 
     def _no_turn(self) -> bool:
-        """Whether the leg's last two converged points have A rising with the drive
-        (:func:`~rigtools.procedures.cbc_arclength.rises_with_drive`): no turn in A ahead."""
+        """Whether the leg's last two converged points have no turn in A ahead
+        (:func:`~rigtools.procedures.cbc_arclength.no_turn_ahead`: A rising with the drive, or
+        rising as it falls)."""
         good = [q for q in self._leg if q.point.converged and not q.branch][-2:]
         if len(good) < 2:
             return False
         a_u = [(abs(q.target[0]), abs(q.feedforward[0])) for q in good]
-        return rises_with_drive(a_u[0], a_u[1])
+        return no_turn_ahead(a_u[0], a_u[1])
 
     def _cut_step(
         self,
         loop,
         gap: float,
         first: tuple[np.ndarray, np.ndarray],
+        failed: CBCPoint,
         amplitude: float,
         secant: FeedforwardSecant,
         *,
         release: bool = False,
     ) -> bool:
-        """A failed A-step where the branch has no turn in A (:meth:`_no_turn`): the step cut in
-        half (up to :data:`~rigtools.procedures.cbc_arclength.STEP_CUTS` times), each half's
-        target measured from the secant of the leg's converged points nearest it, then the failed
-        ``amplitude`` again from there; each point recorded with its target and ``step_cut`` (the
-        halvings so far). Returns whether ``amplitude`` converged (the leg goes on); a lost target
-        ends the leg (:meth:`_end_leg_lost`)."""
+        """A failed or lost A-step where the branch has no turn in A (:meth:`_no_turn`): the step
+        cut in half (up to :data:`~rigtools.procedures.cbc_arclength.STEP_CUTS` times), each
+        half's target measured from the secant of the leg's converged points nearest it, then the
+        failed ``amplitude`` again from there; each point recorded with its target and
+        ``step_cut`` (the halvings so far). Every attempt after a failed one starts from the leg's
+        last converged orbit, restored and held until steady (:meth:`_restore`). At most
+        :data:`~rigtools.procedures.cbc_cut.CUT_ATTEMPTS` such attempts per leg. Returns whether
+        the leg goes on: ``amplitude`` converged, or a cut step converged (the leg nearer it; its
+        next target again from the restored orbit). A target lost whose leg does not go on ends
+        it (:meth:`_end_leg_lost`)."""
         pending = [amplitude]  # the targets still to reach, the next last
+        advanced, last_failed = False, failed
         for cut in range(1, STEP_CUTS + 1):
+            if self._cuts_left <= 0:
+                break
             last = abs([q for q in self._leg if q.point.converged][-1].target[0])
             pending.append(0.5 * (last + pending[-1]))
             self.emit("message", text=f"A-step cut ({cut}): A = {pending[-1] * 1e3:.4g} mm first")
-            while pending:
+            while pending and self._cuts_left > 0:
+                if not self._leg[-1].point.converged and not self._restore(loop):
+                    return False  # lost on the way back (the line said, the drive at rest)
                 a = pending[-1]
                 target, ff = predicted(self._leg, first, a)
                 fresh = FeedforwardSecant(secant.jacobian)
+                self._cuts_left -= 1
                 pt = self._measure(
                     loop, gap, a, target, ff, fresh, cut=cut, release=release and a == amplitude
                 )
                 self.emit("point_done", text=_line(pt))
-                if pt.lost:
-                    self._end_leg_lost(loop, pt, a, "cut step")
-                    return False
                 if not pt.point.converged:
+                    last_failed = pt
                     break
                 pending.pop()
+                advanced = True
             if not pending:
                 return True
-        return False
+        if not advanced and last_failed.lost:  # the leg ends where the loop let go
+            kind = "cut step" if last_failed.step_cut else "target"
+            self._end_leg_lost(loop, last_failed, abs(last_failed.target[0]), kind)
+        return advanced
+
+    def _restore(self, loop) -> bool:
+        """The leg's last converged orbit held again after a failed attempt
+        (:func:`~rigtools.procedures.cbc_cut.restore_orbit`); ``False`` if the loop lost it on
+        the way (the leg ends: the line said, the drive at rest)."""
+        q = [q for q in self._leg if q.point.converged][-1]
+        a = abs(q.target[0])
+        self.emit("message", text=f"back to A = {a * 1e3:.4g} mm, the last converged orbit")
+        steady = restore_orbit(loop, q, self.params).steady
+        lost = getattr(loop, "lost", None)
+        if lost:
+            self._end_leg_lost(loop, replace(q, lost=str(lost)), a, "restored orbit")
+        elif not steady:
+            self.emit("message", text="the last converged orbit held again, not steady: the cut goes on")
+        return not lost
 
     def _beyond_turn(self, pt: CBCPoint, amplitude: float) -> bool:
         """A target below the leg's converged points that the loop held above it (the measured A
