@@ -4,7 +4,7 @@ Where the branch has no turn in A ahead (:func:`~rigtools.procedures.cbc_arcleng
 a target that failed (not converged within ``max_iterations``) or was lost (the real-time loop let
 go of it) is taken for a step too long, and the step is cut in half
 (:data:`~rigtools.procedures.cbc_arclength.STEP_CUTS` times at most, see
-:meth:`rigtools.procedures.cbc.ControlBasedContinuation._cut_step`). An attempt that failed leaves
+``ControlBasedContinuation._cut_step`` in :mod:`rigtools.procedures.cbc`). An attempt that failed leaves
 the rig on whatever orbit it slid to (on the sheet at the top, an orbit beating with the loop's
 ~72 Hz mode 1 % above its target; next to the F1 minimum, the impact-limited orbit 5 % below),
 and the real-time loop's target above H (its ``orbit_shape``) learnt from it. Each attempt after
