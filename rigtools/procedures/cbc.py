@@ -476,7 +476,7 @@ class ControlBasedContinuation(SineProcedure):
                         self._leg = [below]
                         continue
                 if not pt.point.converged:  # the A-step failed: past a turn in A, or the orbit is lost
-                    if self._no_turn():  # a step too long: cut it, the leg goes on if the cuts advance
+                    if self._no_turn(first):  # a step too long: cut it, the leg goes on if the cuts advance
                         if self._cut_step(loop, gap, first, pt, amplitude, secant, release=release):
                             continue
                     elif pt.lost:
@@ -574,15 +574,17 @@ class ControlBasedContinuation(SineProcedure):
                 break
         return done
 
-    def _no_turn(self) -> bool:
-        """Whether the leg's last two converged points have no turn in A ahead
-        (:func:`~rigtools.procedures.cbc_arclength.no_turn_ahead`: A rising with the drive, or
-        rising as it falls)."""
-        good = [q for q in self._leg if q.point.converged and not q.branch][-2:]
-        if len(good) < 2:
+    def _no_turn(self, first: tuple[np.ndarray, np.ndarray]) -> bool:
+        """Whether the leg's last two converged points (the approach's orbit ``first`` before
+        its first) have no turn in A ahead (:func:`~rigtools.procedures.cbc_arclength.no_turn_ahead`:
+        A rising with the drive, or rising as it falls)."""
+        good = [q for q in self._leg if q.point.converged and not q.branch]
+        if not good:
             return False
-        a_u = [(abs(q.target[0]), abs(q.feedforward[0])) for q in good]
-        return no_turn_ahead(a_u[0], a_u[1])
+        a_u = [(abs(first[0][0]), abs(first[1][0]))] + [
+            (abs(q.target[0]), abs(q.feedforward[0])) for q in good
+        ]
+        return no_turn_ahead(a_u[-2], a_u[-1])
 
     def _cut_step(
         self,
@@ -596,41 +598,46 @@ class ControlBasedContinuation(SineProcedure):
         release: bool = False,
     ) -> bool:
         """A failed or lost A-step where the branch has no turn in A (:meth:`_no_turn`): the step
-        cut in half (up to :data:`~rigtools.procedures.cbc_arclength.STEP_CUTS` times), each
-        half's target measured from the secant of the leg's converged points nearest it, then the
-        failed ``amplitude`` again from there; each point recorded with its target and
-        ``step_cut`` (the halvings so far). Every attempt after a failed one starts from the leg's
-        last converged orbit, restored and held until steady (:meth:`_restore`). At most
+        cut in half (up to :data:`~rigtools.procedures.cbc_arclength.STEP_CUTS` times a round),
+        each half's target measured from the secant of the leg's converged points nearest it,
+        then the failed ``amplitude`` again from there; each point recorded with its target and
+        ``step_cut`` (the halvings in its round). A round that came nearer (a cut converged)
+        is followed by another from there. Every attempt after a failed one starts from the
+        leg's last converged orbit, restored and held until steady (:meth:`_restore`). At most
         :data:`~rigtools.procedures.cbc_cut.CUT_ATTEMPTS` such attempts per leg. Returns whether
-        the leg goes on: ``amplitude`` converged, or a cut step converged (the leg nearer it; its
-        next target again from the restored orbit). A target lost whose leg does not go on ends
-        it (:meth:`_end_leg_lost`)."""
-        pending = [amplitude]  # the targets still to reach, the next last
+        the leg goes on: ``amplitude`` converged, or a cut converged (the leg nearer it; its next
+        target again from the restored orbit). A target lost whose leg does not go on ends it
+        (:meth:`_end_leg_lost`)."""
         advanced, last_failed = False, failed
-        for cut in range(1, STEP_CUTS + 1):
-            if self._cuts_left <= 0:
-                break
-            last = abs([q for q in self._leg if q.point.converged][-1].target[0])
-            pending.append(0.5 * (last + pending[-1]))
-            self.emit("message", text=f"A-step cut ({cut}): A = {pending[-1] * 1e3:.4g} mm first")
-            while pending and self._cuts_left > 0:
-                if not self._leg[-1].point.converged and not self._restore(loop):
-                    return False  # lost on the way back (the line said, the drive at rest)
-                a = pending[-1]
-                target, ff = predicted(self._leg, first, a)
-                fresh = FeedforwardSecant(secant.jacobian)
-                self._cuts_left -= 1
-                pt = self._measure(
-                    loop, gap, a, target, ff, fresh, cut=cut, release=release and a == amplitude
-                )
-                self.emit("point_done", text=_line(pt))
-                if not pt.point.converged:
-                    last_failed = pt
+        while self._cuts_left > 0:  # rounds of cuts, each from the last converged point
+            pending, moved = [amplitude], False  # the targets still to reach, the next last
+            for cut in range(1, STEP_CUTS + 1):
+                if self._cuts_left <= 0:
                     break
-                pending.pop()
-                advanced = True
-            if not pending:
-                return True
+                last = abs([q for q in self._leg if q.point.converged][-1].target[0])
+                pending.append(0.5 * (last + pending[-1]))
+                self.emit("message", text=f"A-step cut ({cut}): A = {pending[-1] * 1e3:.4g} mm first")
+                while pending and self._cuts_left > 0:
+                    if not self._leg[-1].point.converged and not self._restore(loop):
+                        return False  # lost on the way back (the line said, the drive at rest)
+                    a = pending[-1]
+                    target, ff = predicted(self._leg, first, a)
+                    fresh = FeedforwardSecant(secant.jacobian)
+                    self._cuts_left -= 1
+                    pt = self._measure(
+                        loop, gap, a, target, ff, fresh, cut=cut, release=release and a == amplitude
+                    )
+                    self.emit("point_done", text=_line(pt))
+                    if not pt.point.converged:
+                        last_failed = pt
+                        break
+                    pending.pop()
+                    moved = True
+                if not pending:
+                    return True
+            advanced = advanced or moved
+            if not moved:  # this round's cuts came no nearer
+                break
         if not advanced and last_failed.lost:  # the leg ends where the loop let go
             kind = "cut step" if last_failed.step_cut else "target"
             self._end_leg_lost(loop, last_failed, abs(last_failed.target[0]), kind)
