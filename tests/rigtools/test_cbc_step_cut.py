@@ -136,13 +136,13 @@ def test_a_step_too_long_is_cut_and_the_leg_goes_on():
     assert "arclength" not in calls
 
 
-def test_two_cuts_at_most_then_the_leg_goes_on_from_the_nearer_orbit():
+def test_two_cuts_a_round_then_another_round_from_the_nearer_orbit():
     """A step of four basins (0.404 -> 0.42 mm): the first cut (0.412 mm) fails too, the second
     (0.408 mm, halfway to it) converges, then 0.412 mm and 0.42 mm are tried again from there:
-    0.42 mm is still two basins away and fails; no third cut (STEP_CUTS). The cuts advanced the
-    leg (to 0.412 mm), so it goes on to its next target, 0.424 mm, from there (before this, the
-    leg ended at 0.42 mm and 0.424 mm was skipped): too far too (three basins), it is cut
-    (0.418 mm fails, 0.415 mm, 0.418 mm converge) and fails again at 0.424 mm; no arclength."""
+    0.42 mm is still two basins away and fails; no third cut in the round (STEP_CUTS). The round
+    came nearer (to 0.412 mm), so another starts from there: its cut 0.416 mm converges, then
+    0.42 mm; the leg goes on to 0.424 mm (before this change the leg ended at 0.42 mm, 0.424 mm
+    skipped); no arclength."""
     assert STEP_CUTS == 2
     measured, calls = _run([0.4e-3, 0.404e-3, 0.42e-3, 0.424e-3], _Rig(slope=800.0), 0.4e-3)
     assert measured == [
@@ -153,13 +153,21 @@ def test_two_cuts_at_most_then_the_leg_goes_on_from_the_nearer_orbit():
         (408.0, True, 2),
         (412.0, True, 2),
         (420.0, False, 2),
-        (424.0, False, 0),
-        (418.0, False, 1),
-        (415.0, True, 2),
-        (418.0, True, 2),
-        (424.0, False, 2),
+        (416.0, True, 1),
+        (420.0, True, 1),
+        (424.0, True, 0),
     ]
     assert "arclength" not in calls
+
+
+def test_a_leg_that_came_nearer_goes_on_to_its_next_targets():
+    """Steps of four basins: 0.424 mm takes two rounds (0.414 mm fails, 0.409, 0.414 converge,
+    0.424 fails; then 0.419, 0.424 converge: six attempts); 0.444 mm spends the last two
+    (0.434 mm fails, 0.429 mm converges) unreached. The cuts came nearer, so the leg goes on:
+    0.454 mm is measured (not skipped); it fails with no attempt left and ends the leg."""
+    measured, _calls = _run([0.4e-3, 0.404e-3, 0.424e-3, 0.444e-3, 0.454e-3], _Rig(slope=800.0), 0.4e-3)
+    assert sum(1 for m in measured if m[2]) == CUT_ATTEMPTS
+    assert measured[-4:] == [(444.0, False, 0), (434.0, False, 1), (429.0, True, 2), (454.0, False, 0)]
 
 
 def test_each_attempt_after_a_failed_one_starts_from_the_last_converged_orbit():
@@ -170,7 +178,7 @@ def test_each_attempt_after_a_failed_one_starts_from_the_last_converged_orbit():
     starts: list = []
     measured, _calls = _run([0.4e-3, 0.404e-3, 0.42e-3, 0.424e-3], _Rig(slope=800.0), 0.4e-3, starts=starts)
     after = [s for s in starts if s[3]]
-    assert len(after) == sum(1 for i in range(1, len(measured)) if not measured[i - 1][1]) == 5
+    assert len(after) == sum(1 for i in range(1, len(measured)) if not measured[i - 1][1]) == 3
     for held, shape, last, _ in after:
         assert held is not None and last is not None
         np.testing.assert_array_equal(held[0], last.target)
