@@ -25,19 +25,21 @@ default, that per-sample loop (:mod:`rigtools.procedures.cbc_realtime`, gains 20
 2 V s/m, Kd scheduled to 3.5 V s/m up the sheet, unless given), and each converged point's Floquet multipliers are measured by a probe
 and a release of its target (``multipliers``); ``inner_loop="buffered"`` keeps the buffered one.
 
-A failed A-step (not converged, not lost) where the leg's last two points have A rising with the
-drive (the sheet from the F1 minimum up to grazing: no turn in A ahead) is a step too long: it is
-cut in half (at most twice), the half's target measured first and then the failed one again from
-there, each recorded with ``step_cut``; the leg goes on if the failed target converges. Where A
-falls as the drive rises (towards the turn in A) a failed A-step goes on by pseudo-arclength.
+A failed or lost A-step where the leg's last two points (the approach's orbit before the first)
+have no turn in A ahead (A rising with the drive, or rising as it falls) is a step too long: it
+is cut in half (twice a round at most), each half measured first and then the failed target
+again, recorded with ``step_cut``; every attempt after a failed one starts from the leg's last
+converged orbit restored, and a leg whose cuts came nearer goes on, within ``CUT_ATTEMPTS``
+(:mod:`rigtools.procedures.cbc_cut`). Where A falls as the drive rises (towards the turn in A)
+a failed A-step goes on by pseudo-arclength.
 
 A target the real-time loop loses (the held A 10 % from it, or a force peak past 75 % of the
-force's abort limit with the loop on) ends its leg with one line saying which and why
-(``lost``), the drive brought to rest, instead of the run ending on the safety abort. Below the
-impacting branch's turn in A (a target under the leg's points that the loop holds above it, at
-the turn) the orbit at that A is the one without contact: the rig is brought to rest and the
-target, a pure sine, is ramped up from the plant's measured linear response (``branch``
-"no contact").
+force's abort limit with the loop on) and that no cut gets nearer to ends its leg with one line
+saying which and why (``lost``), the drive brought to rest, instead of the run ending on the
+safety abort. Below the impacting branch's turn in A (a target under the leg's points that the
+loop holds above it, at the turn) the orbit at that A is the one without contact: the rig is
+brought to rest and the target, a pure sine, is ramped up from the plant's measured linear
+response (``branch`` "no contact").
 
 With ``release_seconds`` the gains are set to zero after the last point (the drive held at its
 converged harmonics) and the departure of the response from the orbit is recorded: its growth
