@@ -165,6 +165,7 @@ class CBCPoint:
     branch: str = ""  # "no contact": the orbit without contact, past the turn in A
     step_cut: int = 0  # halvings of a failed A-step this point's target comes from (0: none)
     shape: Any = None  # the inner loop's orbit_shape() at the end (a real-time loop), to restore
+    slope: np.ndarray | None = None  # the feedforward secant's Jacobian at the end, to restore
 
     def multiplier_fields(self) -> dict[str, Any]:
         """``multipliers`` (moduli, largest first), their angles (deg) and the fit's details;
@@ -310,6 +311,7 @@ def cbc_point(
     pt = CBCPoint(point, effort, target, feedforward, m, half_peak_to_peak(m.response), history)
     pt.lost = lost or ""
     pt.shape = shape_of() if callable(shape_of) else None
+    pt.slope = np.array(secant.jacobian)
     return pt
 
 
@@ -463,12 +465,14 @@ class ControlBasedContinuation(SineProcedure):
             for j, amplitude in enumerate(leg):
                 done += 1
                 self.emit("point", point=done, n_points=n, text=f"A = {amplitude * 1e3:.4g} mm")
-                if self._leg and not self._leg[-1].point.converged and not self._restore(loop):
+                after_failure = bool(self._leg) and not self._leg[-1].point.converged
+                if after_failure and not self._restore(loop):
                     skipped.extend(leg[j:])  # the last converged orbit not held again: lost
                     done += len(leg) - j - 1
                     break
                 target, ff = predicted(self._leg, first, amplitude)
-                secant = FeedforwardSecant(secant.jacobian)  # the slope learnt so far, a fresh history
+                # the slope learnt so far (after a failed attempt, the last converged point's), a fresh history
+                secant = FeedforwardSecant(self._slope(secant) if after_failure else secant.jacobian)
                 release = j == len(leg) - 1 and leg_index == 0 and p.release_seconds > 0
                 pt = self._measure(loop, gap, amplitude, target, ff, secant, release=release)
                 self.emit("point_done", point=done, n_points=n, text=_line(pt))
@@ -480,6 +484,7 @@ class ControlBasedContinuation(SineProcedure):
                 if not pt.point.converged:  # the A-step failed: past a turn in A, or the orbit is lost
                     if self._no_turn(first):  # a step too long: cut it, the leg goes on if the cuts advance
                         if self._cut_step(loop, gap, first, pt, amplitude, secant, release=release):
+                            secant = FeedforwardSecant(self._slope(secant))
                             continue
                     elif pt.lost:
                         self._end_leg_lost(loop, pt, amplitude)
@@ -599,17 +604,13 @@ class ControlBasedContinuation(SineProcedure):
         *,
         release: bool = False,
     ) -> bool:
-        """A failed or lost A-step where the branch has no turn in A (:meth:`_no_turn`): the step
-        cut in half (up to :data:`~rigtools.procedures.cbc_arclength.STEP_CUTS` times a round),
-        each half's target measured from the secant of the leg's converged points nearest it,
-        then the failed ``amplitude`` again from there; each point recorded with its target and
-        ``step_cut`` (the halvings in its round). A round that came nearer (a cut converged)
-        is followed by another from there. Every attempt after a failed one starts from the
-        leg's last converged orbit, restored and held until steady (:meth:`_restore`). At most
-        :data:`~rigtools.procedures.cbc_cut.CUT_ATTEMPTS` such attempts per leg. Returns whether
-        the leg goes on: ``amplitude`` converged, or a cut converged (the leg nearer it; its next
-        target again from the restored orbit). A target lost whose leg does not go on ends it
-        (:meth:`_end_leg_lost`)."""
+        """A failed or lost A-step where the branch has no turn in A (:meth:`_no_turn`), cut in
+        half (:mod:`rigtools.procedures.cbc_cut`): rounds of up to ``STEP_CUTS`` halvings, each
+        half measured (from the secant of the converged points nearest it), then the target
+        again; a round that came nearer is followed by another; each attempt after a failed one
+        from the last converged orbit restored (:meth:`_restore`); ``CUT_ATTEMPTS`` per leg.
+        Returns whether the leg goes on (the target reached, or a cut converged); a lost target
+        whose leg does not go on ends it (:meth:`_end_leg_lost`)."""
         advanced, last_failed = False, failed
         while self._cuts_left > 0:  # rounds of cuts, each from the last converged point
             pending, moved = [amplitude], False  # the targets still to reach, the next last
@@ -624,7 +625,7 @@ class ControlBasedContinuation(SineProcedure):
                         return False  # lost on the way back (the line said, the drive at rest)
                     a = pending[-1]
                     target, ff = predicted(self._leg, first, a)
-                    fresh = FeedforwardSecant(secant.jacobian)
+                    fresh = FeedforwardSecant(self._slope(secant))
                     self._cuts_left -= 1
                     pt = self._measure(
                         loop, gap, a, target, ff, fresh, cut=cut, release=release and a == amplitude
@@ -644,6 +645,13 @@ class ControlBasedContinuation(SineProcedure):
             kind = "cut step" if last_failed.step_cut else "target"
             self._end_leg_lost(loop, last_failed, abs(last_failed.target[0]), kind)
         return advanced
+
+    def _slope(self, secant: FeedforwardSecant) -> np.ndarray:
+        """The feedforward secant's Jacobian at the leg's last converged point (``secant``'s
+        where none has one): a failed attempt's Broyden updates, from windows of an orbit that
+        slid, are not learnt from."""
+        good = [q.slope for q in self._leg if q.point.converged and q.slope is not None]
+        return good[-1] if good else secant.jacobian
 
     def _restore(self, loop) -> bool:
         """The leg's last converged orbit held again after a failed attempt
