@@ -249,6 +249,29 @@ def test_a_lost_target_ends_its_leg_not_the_run(tmp_path):
     assert not points[-1]["converged"] and points[-2]["converged"]
 
 
+def test_a_target_lost_next_to_the_f1_minimum_is_reached_after_a_cut(tmp_path):
+    """The breaker's case: targets 0.32, 0.33, 0.34 mm (the model's F1 minimum 4.656 N at
+    0.328 mm), multipliers off to keep the CPU small (~7 s). The held orbit at 0.33 mm slides to
+    the impact-limited one (0.3117 mm) and the loop lets go of it; the CBC brings the loop back
+    to 0.32 mm's orbit, cuts the step (0.325 mm) and reaches 0.33 mm from there (before: the leg
+    ended at 0.33 mm lost, 0.34 mm skipped). Each of the three targets converged as a target
+    within 8 iterations, F1 within 2 % of the model at the measured A, nothing lost or skipped."""
+    a, f, _mu = s_curve()
+    out = tmp_path / "fmin.h5"
+    run = control_based_continuation(
+        "64 Hz", "0.32 mm,0.33 mm,0.34 mm", out, gap="0.5 mm", backend="sim", multipliers=False
+    )
+    assert run.summary["lost"] == [] and run.summary["skipped_amplitudes"] == []
+    with open_recording(out) as rec:
+        points = [dict(p.params) for p in rec.points if "converged" in p.params]
+    for target in (0.32e-3, 0.33e-3, 0.34e-3):
+        hits = [x for x in points if x["converged"] and x["amplitude_target"] == pytest.approx(target)]
+        assert len(hits) == 1, (target, [(x["amplitude_target"], x["converged"]) for x in points])
+        x = hits[0]
+        assert x["iterations"] <= 8 and x["drive_harmonics_ratio"] <= 0.01
+        assert abs(x["force_fundamental_n"] / float(np.interp(x["amplitude_m"], a, f)) - 1) <= F1_TOLERANCE
+
+
 @pytest.mark.xfail(
     strict=True,
     reason="with the outer iteration's safeguard (cbc_point) this path's 0.49 mm no longer converges "
