@@ -160,13 +160,14 @@ def test_two_cuts_a_round_then_another_round_from_the_nearer_orbit():
     assert "arclength" not in calls
 
 
-def test_a_leg_that_came_nearer_goes_on_to_its_next_targets():
-    """Steps of four basins: 0.424 mm takes two rounds (0.414 mm fails, 0.409, 0.414 converge,
+def test_a_leg_that_came_nearer_goes_on_to_its_next_targets(monkeypatch):
+    """With a budget of 8 extra attempts (``CUT_ATTEMPTS`` set so), steps of four basins: 0.424 mm takes two rounds (0.414 mm fails, 0.409, 0.414 converge,
     0.424 fails; then 0.419, 0.424 converge: six attempts); 0.444 mm spends the last two
     (0.434 mm fails, 0.429 mm converges) unreached. The cuts came nearer, so the leg goes on:
     0.454 mm is measured (not skipped); it fails with no attempt left and ends the leg."""
+    monkeypatch.setattr("rigtools.procedures.cbc.CUT_ATTEMPTS", 8)
     measured, _calls = _run([0.4e-3, 0.404e-3, 0.424e-3, 0.444e-3, 0.454e-3], _Rig(slope=800.0), 0.4e-3)
-    assert sum(1 for m in measured if m[2]) == CUT_ATTEMPTS
+    assert sum(1 for m in measured if m[2]) == 8
     assert measured[-4:] == [(444.0, False, 0), (434.0, False, 1), (429.0, True, 2), (454.0, False, 0)]
 
 
@@ -220,14 +221,15 @@ def test_the_extra_attempts_per_leg_are_bounded(steps):
 
 def test_when_the_extra_attempts_are_spent_the_next_failed_target_ends_the_leg():
     """Steps of two basins from 0.404 mm: each target fails, its cut (one basin) converges and
-    it converges from there: two extra attempts each, so CUT_ATTEMPTS (8) carry the leg over
-    four such targets; the fifth fails with none left and the leg ends (the sixth skipped)."""
-    assert CUT_ATTEMPTS == 8
-    grid = [0.4e-3, 0.404e-3] + [0.404e-3 + k * 2 * BASIN for k in range(1, 7)]
+    it converges from there: two extra attempts each, so CUT_ATTEMPTS carry the leg over
+    CUT_ATTEMPTS / 2 such targets; the next fails with none left and the leg ends (the one after
+    it skipped)."""
+    n = CUT_ATTEMPTS // 2
+    grid = [0.4e-3, 0.404e-3] + [0.404e-3 + k * 2 * BASIN for k in range(1, n + 3)]
     measured, _calls = _run(grid, _Rig(slope=800.0), 0.4e-3)
-    assert sum(1 for m in measured if m[2]) == CUT_ATTEMPTS
-    assert measured[-1] == (454.0, False, 0)  # the fifth failed target, not cut
-    assert all(abs(m[0] - 464.0) > 1e-6 for m in measured)  # the sixth not measured
+    assert sum(1 for m in measured if m[2]) == 2 * n == CUT_ATTEMPTS
+    assert measured[-1] == (round(grid[-2] * 1e6, 3), False, 0)  # the failed target, not cut
+    assert all(abs(m[0] - grid[-1] * 1e6) > 1e-6 for m in measured)  # the last not measured
 
 
 def test_where_a_falls_as_the_drive_rises_the_failed_step_goes_on_by_arclength():
