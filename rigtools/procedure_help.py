@@ -249,7 +249,7 @@ at a turn of the branch in A (the grazing hairpin), points go on by pseudo-arcle
 where no turn is ahead (A rising with the drive, or rising as it falls) a failed or lost step is
 cut in half (twice a round; another round while the cuts come nearer), each attempt after a failed
 one from the last converged orbit brought back and held until steady; a leg whose cuts came
-nearer goes on to its remaining targets (at most 12 extra attempts per leg).
+nearer goes on to its remaining targets (at most 8 extra attempts per leg).
 With the real-time loop, below the impacting branch's turn in A (about 0.306 mm at 64 Hz, gap
 0.5 mm) the orbit at a target A is the one without contact: the impacting point that did not converge there is kept, then the
 orbit without contact is measured and recorded with "branch": "no contact" (two points, one target).

@@ -22,10 +22,12 @@ from rigtools.procedures.cbc_loop import LoopMeasurement
 
 #: Attempts per leg beyond its own targets: the cut steps' targets and the failed targets tried
 #: again after a cut (each at most ``max_iterations`` outer iterations, about 3-10 s of the rig).
-#: When they are spent, the leg's next failed target ends it. At the top of the sheet (|mu| 4-6)
-#: whether an attempt converges within 8 iterations depends on the path (the orbit beats with the
-#: loop's ~72 Hz mode): twelve give a failed target three rounds after a failed neighbour's two.
-CUT_ATTEMPTS = 12
+#: When they are spent, the leg's next failed target ends it. Eight give two failed targets a
+#: round of two cuts each (the half, the quarter, the half again, the target). At the top of the
+#: sheet (|mu| 4-6) whether an attempt converges within 8 iterations depends on the path (the
+#: orbit beats with the loop's ~72 Hz mode); twelve were tried: on the sweep from 0.2995 mm they
+#: added a third round at 0.4895 mm that failed too (24 s more CPU), on the other paths nothing.
+CUT_ATTEMPTS = 8
 #: The ramp from the failed attempt's target and feedforward back to the converged point's, s
 #: (0.3 s is the outer iteration's own; a lost target's orbit can be 10 % away).
 RESTORE_RAMP = 0.6
