@@ -641,9 +641,10 @@ class ControlBasedContinuation(SineProcedure):
             advanced = advanced or moved
             if not moved:  # this round's cuts came no nearer
                 break
-        if not advanced and last_failed.lost:  # the leg ends where the loop let go
-            kind = "cut step" if last_failed.step_cut else "target"
-            self._end_leg_lost(loop, last_failed, abs(last_failed.target[0]), kind)
+        if not advanced and (failed.lost or last_failed.lost):  # the leg ends: the target lost
+            lost = failed if failed.lost else last_failed  # (named), else the cut step lost
+            kind = "cut step" if lost.step_cut else "target"
+            self._end_leg_lost(loop, lost, amplitude if lost is failed else abs(lost.target[0]), kind)
         return advanced
 
     def _slope(self, secant: FeedforwardSecant) -> np.ndarray:

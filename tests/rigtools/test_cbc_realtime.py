@@ -236,7 +236,9 @@ def test_measured_multipliers_up_to_mu_2(upper):
 def test_a_lost_target_ends_its_leg_not_the_run(tmp_path):
     """A target past grazing (0.52 mm: no orbit of the sheet there, the loop loses it) ends its
     leg with one line naming it and why, not the run on the force's safety abort (60 N): the
-    recorded point says ``lost``, the summary has that line and no point follows it."""
+    recorded point says ``lost`` and the summary has that line. Since the cut after a loss
+    (rigtools.procedures.cbc_cut) its step is cut first, from 0.33 mm's orbit brought back (the
+    points after it carry ``step_cut``): no cut converges, so the leg ends there."""
     out = tmp_path / "lost.h5"
     run = control_based_continuation(
         "64 Hz", "0.33 mm,0.52 mm", out, gap="0.5 mm", backend="sim", multipliers=False
@@ -246,8 +248,11 @@ def test_a_lost_target_ends_its_leg_not_the_run(tmp_path):
     assert lines[0].startswith("target A = 0.52 mm lost (") and lines[0].endswith("): the leg ends there")
     with open_recording(out) as rec:
         points = [dict(p.params) for p in rec.points if "converged" in p.params]
-    assert points[-1]["amplitude_target"] == pytest.approx(0.52e-3) and points[-1]["lost"]
-    assert not points[-1]["converged"] and points[-2]["converged"]
+    at = [i for i, x in enumerate(points) if x["amplitude_target"] == pytest.approx(0.52e-3)]
+    assert len(at) == 1 and points[at[0]]["lost"] and not points[at[0]]["converged"]
+    assert points[at[0] - 1]["converged"]
+    cuts = points[at[0] + 1 :]
+    assert cuts and all(x.get("step_cut", 0) >= 1 and not x["converged"] for x in cuts)
 
 
 def test_a_target_lost_next_to_the_f1_minimum_is_reached_after_a_cut(tmp_path):
