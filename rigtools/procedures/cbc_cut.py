@@ -24,7 +24,7 @@ from rigtools.procedures.cbc_loop import LoopMeasurement
 #: again after a cut (each at most ``max_iterations`` outer iterations, about 3-10 s of the rig).
 #: When they are spent, the leg's next failed target ends it. Eight give two failed targets a
 #: round of two cuts each (the half, the quarter, the half again, the target). At the top of the
-#: sheet (|mu| 4-6) whether an attempt converges within 8 iterations depends on the path (the
+#: sheet (abs(mu) 4-6) whether an attempt converges within 8 iterations depends on the path (the
 #: orbit beats with the loop's ~72 Hz mode); twelve were tried: on the sweep from 0.2995 mm they
 #: added a third round at 0.4895 mm that failed too (24 s more CPU), on the other paths nothing.
 CUT_ATTEMPTS = 8
