@@ -246,7 +246,10 @@ is brought onto the branch by a sweep up to --fe first. On the buffered path a c
 with |mu| up to about 1.17 (64 Hz; --gains selects the PD law); the full unstable sheet needs a
 real-time inner loop (--backend nidaq says so and runs the buffered variant). Where an A-step fails
 at a turn of the branch in A (the grazing hairpin), points go on by pseudo-arclength in (A, drive);
-where A rises with the drive (no turn ahead) the failed step is cut in half, at most twice.
+where no turn is ahead (A rising with the drive, or rising as it falls) a failed or lost step is
+cut in half (twice a round; another round while the cuts come nearer), each attempt after a failed
+one from the last converged orbit brought back and held until steady; a leg whose cuts came
+nearer goes on to its remaining targets (at most 8 extra attempts per leg).
 With the real-time loop, below the impacting branch's turn in A (about 0.306 mm at 64 Hz, gap
 0.5 mm) the orbit at a target A is the one without contact: the impacting point that did not converge there is kept, then the
 orbit without contact is measured and recorded with "branch": "no contact" (two points, one target).

@@ -25,19 +25,21 @@ default, that per-sample loop (:mod:`rigtools.procedures.cbc_realtime`, gains 20
 2 V s/m, Kd scheduled to 3.5 V s/m up the sheet, unless given), and each converged point's Floquet multipliers are measured by a probe
 and a release of its target (``multipliers``); ``inner_loop="buffered"`` keeps the buffered one.
 
-A failed A-step (not converged, not lost) where the leg's last two points have A rising with the
-drive (the sheet from the F1 minimum up to grazing: no turn in A ahead) is a step too long: it is
-cut in half (at most twice), the half's target measured first and then the failed one again from
-there, each recorded with ``step_cut``; the leg goes on if the failed target converges. Where A
-falls as the drive rises (towards the turn in A) a failed A-step goes on by pseudo-arclength.
+A failed or lost A-step where the leg's last two points (the approach's orbit before the first)
+have no turn in A ahead (A rising with the drive, or rising as it falls) is a step too long: it
+is cut in half (twice a round at most), each half measured first and then the failed target
+again, recorded with ``step_cut``; every attempt after a failed one starts from the leg's last
+converged orbit restored, and a leg whose cuts came nearer goes on, within ``CUT_ATTEMPTS``
+(:mod:`rigtools.procedures.cbc_cut`). Where A falls as the drive rises (towards the turn in A)
+a failed A-step goes on by pseudo-arclength.
 
 A target the real-time loop loses (the held A 10 % from it, or a force peak past 75 % of the
-force's abort limit with the loop on) ends its leg with one line saying which and why
-(``lost``), the drive brought to rest, instead of the run ending on the safety abort. Below the
-impacting branch's turn in A (a target under the leg's points that the loop holds above it, at
-the turn) the orbit at that A is the one without contact: the rig is brought to rest and the
-target, a pure sine, is ramped up from the plant's measured linear response (``branch``
-"no contact").
+force's abort limit with the loop on) and that no cut gets nearer to ends its leg with one line
+saying which and why (``lost``), the drive brought to rest, instead of the run ending on the
+safety abort. Below the impacting branch's turn in A (a target under the leg's points that the
+loop holds above it, at the turn) the orbit at that A is the one without contact: the rig is
+brought to rest and the target, a pure sine, is ramped up from the plant's measured linear
+response (``branch`` "no contact").
 
 With ``release_seconds`` the gains are set to zero after the last point (the drive held at its
 converged harmonics) and the departure of the response from the orbit is recorded: its growth
@@ -48,7 +50,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Literal
 
@@ -63,7 +65,8 @@ from rigtools.options import gap as gap_text
 from rigtools.options import quantity, value_list
 from rigtools.procedures import rig
 from rigtools.procedures.base import ProcedureResult, ProgressEvent, Status, validate
-from rigtools.procedures.cbc_arclength import STEP_CUTS, ArcStep, extrapolate, rises_with_drive
+from rigtools.procedures.cbc_arclength import STEP_CUTS, ArcStep, extrapolate, no_turn_ahead
+from rigtools.procedures.cbc_cut import CUT_ATTEMPTS, restore_orbit
 from rigtools.procedures.cbc_iteration import (
     DELAY_GAINS,
     ERROR_GROWTH,
@@ -171,6 +174,8 @@ class CBCPoint:
     lost: str = ""  # why the inner loop let go of the target (the orbit lost), if it did
     branch: str = ""  # "no contact": the orbit without contact, past the turn in A
     step_cut: int = 0  # halvings of a failed A-step this point's target comes from (0: none)
+    shape: Any = None  # the inner loop's orbit_shape() at the end (a real-time loop), to restore
+    slope: np.ndarray | None = None  # the feedforward secant's Jacobian at the end, to restore
 
     def multiplier_fields(self) -> dict[str, Any]:
         """``multipliers`` (moduli, largest first), their angles (deg) and the fit's details;
@@ -315,6 +320,8 @@ def cbc_point(
     effort = float(np.sqrt(np.sum(np.abs(m.drive - feedforward) ** 2) / 2))
     pt = CBCPoint(point, effort, target, feedforward, m, half_peak_to_peak(m.response), history)
     pt.lost = lost or ""
+    pt.shape = shape_of() if callable(shape_of) else None
+    pt.slope = np.array(secant.jacobian)
     return pt
 
 
@@ -386,6 +393,7 @@ class ControlBasedContinuation(SineProcedure):
         self.release: dict[str, Any] = {}
         self.note = ""  # the line rig acquire prints first (the NI backend: REAL_TIME_NOTE)
         self._leg: list[CBCPoint] = []  # the points of the leg being measured
+        self._cuts_left = CUT_ATTEMPTS  # the leg's attempts beyond its targets still allowed
         self.lost: list[str] = []  # one line per target the inner loop lost (each ended its leg)
         self.rate = 0.0  # samples per second, once the device is configured
 
@@ -463,11 +471,18 @@ class ControlBasedContinuation(SineProcedure):
                 done += len(leg)
                 self._leg = []
                 continue
+            self._cuts_left = CUT_ATTEMPTS
             for j, amplitude in enumerate(leg):
                 done += 1
                 self.emit("point", point=done, n_points=n, text=f"A = {amplitude * 1e3:.4g} mm")
+                after_failure = bool(self._leg) and not self._leg[-1].point.converged
+                if after_failure and not self._restore(loop):
+                    skipped.extend(leg[j:])  # the last converged orbit not held again: lost
+                    done += len(leg) - j - 1
+                    break
                 target, ff = predicted(self._leg, first, amplitude)
-                secant = FeedforwardSecant(secant.jacobian)  # the slope learnt so far, a fresh history
+                # the slope learnt so far (after a failed attempt, the last converged point's), a fresh history
+                secant = FeedforwardSecant(self._slope(secant) if after_failure else secant.jacobian)
                 release = j == len(leg) - 1 and leg_index == 0 and p.release_seconds > 0
                 pt = self._measure(loop, gap, amplitude, target, ff, secant, release=release)
                 self.emit("point_done", point=done, n_points=n, text=_line(pt))
@@ -477,11 +492,12 @@ class ControlBasedContinuation(SineProcedure):
                         self._leg = [below]
                         continue
                 if not pt.point.converged:  # the A-step failed: past a turn in A, or the orbit is lost
-                    if pt.lost:
-                        self._end_leg_lost(loop, pt, amplitude)
-                    elif self._no_turn():  # a step too long: cut it, the leg goes on if it is reached
-                        if self._cut_step(loop, gap, first, amplitude, secant, release=release):
+                    if self._no_turn(first):  # a step too long: cut it, the leg goes on if the cuts advance
+                        if self._cut_step(loop, gap, first, pt, amplitude, secant, release=release):
+                            secant = FeedforwardSecant(self._slope(secant))
                             continue
+                    elif pt.lost:
+                        self._end_leg_lost(loop, pt, amplitude)
                     elif p.arclength_points:  # past the turn: points on the branch, not at these A
                         self._arclength(loop, gap, secant)
                     skipped.extend(leg[j + 1 :])
@@ -575,53 +591,93 @@ class ControlBasedContinuation(SineProcedure):
                 break
         return done
 
-    def _no_turn(self) -> bool:
-        """Whether the leg's last two converged points have A rising with the drive
-        (:func:`~rigtools.procedures.cbc_arclength.rises_with_drive`): no turn in A ahead."""
-        good = [q for q in self._leg if q.point.converged and not q.branch][-2:]
-        if len(good) < 2:
+    def _no_turn(self, first: tuple[np.ndarray, np.ndarray]) -> bool:
+        """Whether the leg's last two converged points (the approach's orbit ``first`` before
+        its first) have no turn in A ahead (:func:`~rigtools.procedures.cbc_arclength.no_turn_ahead`:
+        A rising with the drive, or rising as it falls)."""
+        good = [q for q in self._leg if q.point.converged and not q.branch]
+        if not good:
             return False
-        a_u = [(abs(q.target[0]), abs(q.feedforward[0])) for q in good]
-        return rises_with_drive(a_u[0], a_u[1])
+        a_u = [(abs(first[0][0]), abs(first[1][0]))] + [
+            (abs(q.target[0]), abs(q.feedforward[0])) for q in good
+        ]
+        return no_turn_ahead(a_u[-2], a_u[-1])
 
     def _cut_step(
         self,
         loop,
         gap: float,
         first: tuple[np.ndarray, np.ndarray],
+        failed: CBCPoint,
         amplitude: float,
         secant: FeedforwardSecant,
         *,
         release: bool = False,
     ) -> bool:
-        """A failed A-step where the branch has no turn in A (:meth:`_no_turn`): the step cut in
-        half (up to :data:`~rigtools.procedures.cbc_arclength.STEP_CUTS` times), each half's
-        target measured from the secant of the leg's converged points nearest it, then the failed
-        ``amplitude`` again from there; each point recorded with its target and ``step_cut`` (the
-        halvings so far). Returns whether ``amplitude`` converged (the leg goes on); a lost target
-        ends the leg (:meth:`_end_leg_lost`)."""
-        pending = [amplitude]  # the targets still to reach, the next last
-        for cut in range(1, STEP_CUTS + 1):
-            last = abs([q for q in self._leg if q.point.converged][-1].target[0])
-            pending.append(0.5 * (last + pending[-1]))
-            self.emit("message", text=f"A-step cut ({cut}): A = {pending[-1] * 1e3:.4g} mm first")
-            while pending:
-                a = pending[-1]
-                target, ff = predicted(self._leg, first, a)
-                fresh = FeedforwardSecant(secant.jacobian)
-                pt = self._measure(
-                    loop, gap, a, target, ff, fresh, cut=cut, release=release and a == amplitude
-                )
-                self.emit("point_done", text=_line(pt))
-                if pt.lost:
-                    self._end_leg_lost(loop, pt, a, "cut step")
-                    return False
-                if not pt.point.converged:
+        """A failed or lost A-step where the branch has no turn in A (:meth:`_no_turn`), cut in
+        half (:mod:`rigtools.procedures.cbc_cut`): rounds of up to ``STEP_CUTS`` halvings, each
+        half measured (from the secant of the converged points nearest it), then the target
+        again; a round that came nearer is followed by another; each attempt after a failed one
+        from the last converged orbit restored (:meth:`_restore`); ``CUT_ATTEMPTS`` per leg.
+        Returns whether the leg goes on (the target reached, or a cut converged); a lost target
+        whose leg does not go on ends it (:meth:`_end_leg_lost`)."""
+        advanced, last_failed = False, failed
+        while self._cuts_left > 0:  # rounds of cuts, each from the last converged point
+            pending, moved = [amplitude], False  # the targets still to reach, the next last
+            for cut in range(1, STEP_CUTS + 1):
+                if self._cuts_left <= 0:
                     break
-                pending.pop()
-            if not pending:
-                return True
-        return False
+                last = abs([q for q in self._leg if q.point.converged][-1].target[0])
+                pending.append(0.5 * (last + pending[-1]))
+                self.emit("message", text=f"A-step cut ({cut}): A = {pending[-1] * 1e3:.4g} mm first")
+                while pending and self._cuts_left > 0:
+                    if not self._leg[-1].point.converged and not self._restore(loop):
+                        return False  # lost on the way back (the line said, the drive at rest)
+                    a = pending[-1]
+                    target, ff = predicted(self._leg, first, a)
+                    fresh = FeedforwardSecant(self._slope(secant))
+                    self._cuts_left -= 1
+                    pt = self._measure(
+                        loop, gap, a, target, ff, fresh, cut=cut, release=release and a == amplitude
+                    )
+                    self.emit("point_done", text=_line(pt))
+                    if not pt.point.converged:
+                        last_failed = pt
+                        break
+                    pending.pop()
+                    moved = True
+                if not pending:
+                    return True
+            advanced = advanced or moved
+            if not moved:  # this round's cuts came no nearer
+                break
+        if not advanced and (failed.lost or last_failed.lost):  # the leg ends: the target lost
+            lost = failed if failed.lost else last_failed  # (named), else the cut step lost
+            kind = "cut step" if lost.step_cut else "target"
+            self._end_leg_lost(loop, lost, amplitude if lost is failed else abs(lost.target[0]), kind)
+        return advanced
+
+    def _slope(self, secant: FeedforwardSecant) -> np.ndarray:
+        """The feedforward secant's Jacobian at the leg's last converged point (``secant``'s
+        where none has one): a failed attempt's Broyden updates, from windows of an orbit that
+        slid, are not learnt from."""
+        good = [q.slope for q in self._leg if q.point.converged and q.slope is not None]
+        return good[-1] if good else secant.jacobian
+
+    def _restore(self, loop) -> bool:
+        """The leg's last converged orbit held again after a failed attempt
+        (:func:`~rigtools.procedures.cbc_cut.restore_orbit`); ``False`` if the loop lost it on
+        the way (the leg ends: the line said, the drive at rest)."""
+        q = [q for q in self._leg if q.point.converged][-1]
+        a = abs(q.target[0])
+        self.emit("message", text=f"back to A = {a * 1e3:.4g} mm, the last converged orbit")
+        steady = restore_orbit(loop, q, self.params).steady
+        lost = getattr(loop, "lost", None)
+        if lost:
+            self._end_leg_lost(loop, replace(q, lost=str(lost)), a, "restored orbit")
+        elif not steady:
+            self.emit("message", text="the last converged orbit held again, not steady: the cut goes on")
+        return not lost
 
     def _beyond_turn(self, pt: CBCPoint, amplitude: float) -> bool:
         """A target below the leg's converged points that the loop held above it (the measured A

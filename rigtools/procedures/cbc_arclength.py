@@ -17,9 +17,11 @@ Picard step on every harmonic), as at a fixed drive.
 Not every failed A-step is a turn. Where the last secant has A rising with the drive (at 64 Hz,
 gap 0.5 mm the unstable sheet from the F1 minimum up to grazing, a graph over A) the branch has no
 turn in A between the last point and the target (:func:`rises_with_drive`); the CBC then cuts the
-step in half instead (:data:`STEP_CUTS` at most) and goes on along the leg. The turn at the
-grazing hairpin is approached where A falls as the drive rises (the stable side below the F1
-minimum), and a failed A-step there goes on by pseudo-arclength.
+step in half instead (:data:`STEP_CUTS` at most) and goes on along the leg; so it does where A
+rises as the drive falls (up the stable side towards the F1 minimum, away from the turn:
+:func:`no_turn_ahead`). The turn at the grazing hairpin is approached where A falls as the drive
+rises (down the stable side below the F1 minimum), and a failed A-step there goes on by
+pseudo-arclength.
 """
 
 from __future__ import annotations
@@ -119,4 +121,13 @@ def rises_with_drive(previous: tuple[float, float], last: tuple[float, float]) -
     return (last[0] - previous[0]) * (last[1] - previous[1]) > 0
 
 
-__all__ = ["ARC_TOLERANCE", "STEP_CUTS", "ArcStep", "extrapolate", "rises_with_drive"]
+def no_turn_ahead(previous: tuple[float, float], last: tuple[float, float]) -> bool:
+    """Whether a failed A-step after the converged points ``previous`` then ``last`` (each
+    ``(A, U)``, in the order measured) is a step too long rather than a turn in A: A rising with
+    the drive (:func:`rises_with_drive`), or A rising as the drive falls (up the stable side
+    towards the F1 minimum: away from the grazing hairpin's turn, which is approached with A
+    falling as the drive rises). A that did not move: no secant, ``False``."""
+    return rises_with_drive(previous, last) or (last[0] > previous[0] and last[1] < previous[1])
+
+
+__all__ = ["ARC_TOLERANCE", "STEP_CUTS", "ArcStep", "extrapolate", "no_turn_ahead", "rises_with_drive"]
