@@ -20,7 +20,7 @@ from bench_cbc_realtime import model_at
 
 import rigtools.procedures.cbc_realtime as rt
 from rigtools.acquisition import AcquisitionAborted
-from rigtools.procedures.cbc import control_based_continuation
+from rigtools.procedures.cbc_door import control_based_continuation
 from rigtools.recording import open_recording
 
 

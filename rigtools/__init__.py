@@ -27,7 +27,7 @@ _API: dict[str, tuple[str, str]] = {
     "acquire_study": ("rigtools.experiments", "acquire_study"),
     "frf_test": ("rigtools.experiments", "frf_test"),
     "tap_test": ("rigtools.experiments", "tap_test"),
-    "control_based_continuation": ("rigtools.procedures.cbc", "control_based_continuation"),
+    "control_based_continuation": ("rigtools.procedures.cbc_door", "control_based_continuation"),
     "phase_locked_loop": ("rigtools.phase_locked", "phase_locked_loop"),
     "RunResult": ("rigtools.procedures.result", "RunResult"),
     "PointResult": ("rigtools.procedures.result", "PointResult"),

@@ -22,9 +22,9 @@ from rigtools.drivers.simulated import Fault
 from rigtools.errors import UserError
 from rigtools.options import band_option, quantity, value_list
 from rigtools.options import gap as _gap_text
-from rigtools.procedures.cbc import OPTIONS as CBC_OPTIONS
-from rigtools.procedures.cbc import from_options as cbc_from_options
-from rigtools.procedures.cbc import json_document
+from rigtools.procedures.cbc_door import OPTIONS as CBC_OPTIONS
+from rigtools.procedures.cbc_door import from_options as cbc_from_options
+from rigtools.procedures.cbc_door import json_document
 from rigtools.procedures.dwell import SineDwell
 from rigtools.procedures.frf import FrfTest, quick_check
 from rigtools.procedures.pll import PhaseLockedLoop

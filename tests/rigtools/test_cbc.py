@@ -77,7 +77,7 @@ def test_model_table_is_todays_model():
 def sheet_run(tmp_path_factory):
     """Eight points through the F1 minimum and over the unstable part (the delay-aware law), then
     the gains at zero for 2 s at the last one."""
-    from rigtools.procedures.cbc import control_based_continuation
+    from rigtools.procedures.cbc_door import control_based_continuation
 
     out = tmp_path_factory.mktemp("cbc") / "cbc.h5"
     run = control_based_continuation(

@@ -70,7 +70,7 @@ def _branch_by_drive() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 def hairpin_run(tmp_path_factory):
     """Down from the approach's orbit: 0.315 and 0.310 mm, 0.305 mm past the turn (its A-step
     fails), then four points by pseudo-arclength."""
-    from rigtools.procedures.cbc import control_based_continuation
+    from rigtools.procedures.cbc_door import control_based_continuation
 
     out = tmp_path_factory.mktemp("arc") / "arc.h5"
     run = control_based_continuation(

@@ -22,12 +22,8 @@ from rigtools.acquisition import AcquisitionAborted
 from rigtools.drivers.contracts import ConfigurationError
 from rigtools.drivers.realtime import NO_REALTIME_LOOP
 from rigtools.errors import UserError
-from rigtools.procedures.cbc import (
-    CBCParameters,
-    ControlBasedContinuation,
-    cbc_point,
-    control_based_continuation,
-)
+from rigtools.procedures.cbc import CBCParameters, ControlBasedContinuation, cbc_point
+from rigtools.procedures.cbc_door import control_based_continuation
 from rigtools.procedures.cbc_iteration import FeedforwardSecant
 from rigtools.procedures.cbc_loop import LoopMeasurement
 from rigtools.procedures.cbc_realtime import (
