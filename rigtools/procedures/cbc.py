@@ -261,7 +261,10 @@ def cbc_point(
         error = float(abs(m.response[0] - target[0]) / a_target)
         history.append({"drive_harmonics_ratio": ratio, "amplitude_error": error})
         on_arc = arc is None or arc.satisfied(float(abs(m.response[0])), float(abs(m.drive[0])))
-        converged = bool(m.steady and ratio <= params.tolerance and error <= params.amplitude_tolerance)
+        # settled: the last two windows within the amplitude tolerance of each other (steady, the
+        # stricter STEADY_TOLERANCE, is what the iteration learns from)
+        settled = m.steady or m.change <= params.amplitude_tolerance
+        converged = bool(settled and ratio <= params.tolerance and error <= params.amplitude_tolerance)
         converged = converged and on_arc
         lost = getattr(loop, "lost", None)  # the inner loop let go of a lost target
         if lost:

@@ -216,6 +216,7 @@ class LoopMeasurement:
     start: int
     samples: int
     channels: np.ndarray | None = None  # (rows, H): every row's harmonics, the drive last
+    change: float = math.inf  # the last two windows' fundamentals apart, over the latest's
 
 
 class BufferedHarmonicLoop:
@@ -395,6 +396,7 @@ class BufferedHarmonicLoop:
                 change = abs(m.response[0] - prev.response[0])
                 if change <= STEADY_TOLERANCE * abs(m.response[0]) or waited >= max_wait * self.rate:
                     m.steady = change <= STEADY_TOLERANCE * abs(m.response[0])
+                    m.change = float(change / abs(m.response[0])) if abs(m.response[0]) > 0 else math.inf
                     return m
             prev = m
 
