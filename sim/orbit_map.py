@@ -285,11 +285,10 @@ class PeriodMap:
             return 0.0
         return float(y[-1] / self.scale[-1]) if self.force_control else float(p.force)
 
-    def force_fundamental(self, data: np.ndarray, column: int = COL["excitation_force"]) -> float:
-        """Fundamental amplitude of the force into the blade over the outputs of one flow, N
-        (``column``: the force's column of ``data``)."""
+    def force_fundamental(self, data: np.ndarray) -> float:
+        """Fundamental amplitude of the force into the blade over the outputs of one flow, N."""
         n_total = data.shape[0]
-        return float(np.abs(np.fft.rfft(data[:, column])[self.periods]) * 2.0 / n_total)
+        return float(np.abs(np.fft.rfft(data[:, COL["excitation_force"]])[self.periods]) * 2.0 / n_total)
 
     def flow(self, y: np.ndarray, p: Forcing) -> tuple[np.ndarray, np.ndarray]:
         """``(y after the periods, outputs (steps, len(OUT_COLUMNS)))``; the outputs array is
@@ -338,13 +337,12 @@ class PeriodMap:
         if self.shaker is not None:
             end.append(scalars[:, 2:3])
         if self.force_control:
-            drive = np.empty((m, 1))
-            for r in range(m):
-                f1 = self.force_fundamental(excitation[r, :, None], column=0)
-                if not f1 > 0:
-                    raise SimulationInputError("no force into the blade: the drive amplitude is zero")
-                drive[r, 0] = a[r] * p.force / f1
-            end.append(drive)
+            # force_fundamental of each row (numpy's FFT of each row is its 1-D FFT, the same bits)
+            n_total = excitation.shape[1]
+            f1 = np.abs(np.fft.rfft(excitation, axis=1)[:, self.periods]) * 2.0 / n_total
+            if not np.all(f1 > 0):
+                raise SimulationInputError("no force into the blade: the drive amplitude is zero")
+            end.append((a * p.force / f1)[:, None])
         return np.concatenate(end, axis=1) * self.scale
 
     def jacobian(
