@@ -282,7 +282,7 @@ class VibroImpactStepper:
         """:meth:`advance` from each row of ``q, v, scalars`` (carried states at time zero,
         C-contiguous ``(m, n_modes)``, ``(m, n_modes)``, ``(m, 5)``, overwritten with the end
         states) in one compiled call, the same arithmetic per row as :meth:`advance` (the same
-        bits). The carried :attr:`state` is not used or changed.
+        bits). The carried ``state`` is not used or changed.
 
         Parameters
         ----------
