@@ -474,3 +474,51 @@ def _kernel(P, omega, zeta, phiA, phiP, phiF, q, v, s, u, out, dt, gap, kc, cc, 
         ):
             return i
     return -1
+
+
+@njit(cache=True)
+def _kernel_columns(
+    P, omega, zeta, phiA, phiP, phiF, Q, V, S, U, out, excitation, dt, gap, kc, cc, pexp, code, shaker, events
+):
+    """:func:`_kernel` once per row of ``Q, V, S`` (the carried states, each integrated in place
+    from its own start), in one compiled call: the columns of a finite-difference Jacobian
+    (:meth:`rigtools.sim.orbit_map.PeriodMap.jacobian`) without a Python round trip per column.
+
+    Each row calls the same compiled :func:`_kernel` as a single run (the same arithmetic; its
+    results equal that run's bit for bit, tests/sim/test_orbit_map_batched.py). ``U`` holds the input of each row, or one row
+    shared by all. ``out`` is reused by every row; the excitation-force column of each row is
+    kept in ``excitation`` (its rows, when it has as many as ``Q``).
+
+    Returns ``(row, step)`` of the first row that diverged (the rows after it are not
+    integrated; see :func:`_kernel`), or ``(-1, -1)``.
+    """
+    keep = excitation.shape[0] == Q.shape[0]
+    for r in range(Q.shape[0]):
+        u = U[r] if U.shape[0] > 1 else U[0]
+        bad = _kernel(
+            P,
+            omega,
+            zeta,
+            phiA,
+            phiP,
+            phiF,
+            Q[r],
+            V[r],
+            S[r],
+            u,
+            out,
+            dt,
+            gap,
+            kc,
+            cc,
+            pexp,
+            code,
+            shaker,
+            events,
+        )
+        if bad >= 0:
+            return r, bad
+        if keep:
+            for i in range(u.size):
+                excitation[r, i] = out[i, 10]
+    return -1, -1

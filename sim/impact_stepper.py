@@ -16,7 +16,14 @@ from typing import Protocol
 import numpy as np
 
 from rigtools.sim.contact import contact_period, kernel_contact
-from rigtools.sim.impact_kernel import DIVERGED_DISPLACEMENT, N_OUT, OUT_COLUMNS, _kernel, _props
+from rigtools.sim.impact_kernel import (
+    DIVERGED_DISPLACEMENT,
+    N_OUT,
+    OUT_COLUMNS,
+    _kernel,
+    _kernel_columns,
+    _props,
+)
 from rigtools.sim.params import ContactParams, SimulationInputError
 from rigtools.sim.reduction import ReducedSystem
 from rigtools.sim.shaker_params import ShakerCoupling
@@ -266,10 +273,71 @@ class VibroImpactStepper:
             self.events,
         )
         if bad >= 0:
-            # the values the kernel ran with (the same as system.contact unless overridden)
-            ran = _ContactSystem(self.system, replace(self.system.contact, gap=gap, stiffness=kc, damping=cc))
-            raise SimulationDivergedError(diverged_message(ran, self.dt, st.time + self.dt * (bad + 1)))
+            self._diverged(st.time + self.dt * (bad + 1))
         st.time = st.time + self.dt * u.size
+
+    def advance_rows(
+        self, q: np.ndarray, v: np.ndarray, scalars: np.ndarray, u: np.ndarray, excitation: np.ndarray
+    ) -> None:
+        """:meth:`advance` from each row of ``q, v, scalars`` (carried states at time zero,
+        C-contiguous ``(m, n_modes)``, ``(m, n_modes)``, ``(m, 5)``, overwritten with the end
+        states) in one compiled call, the same arithmetic per row as :meth:`advance` (the same
+        bits). The carried ``state`` is not used or changed.
+
+        Parameters
+        ----------
+        u
+            ``(m, steps)`` input of each row, or ``(1, steps)`` shared by all (C-contiguous).
+        excitation
+            ``(m, steps)``: written with each row's excitation-force output (the only output
+            kept); ``(0, steps)``: no output kept.
+
+        Raises
+        ------
+        SimulationInputError, SimulationDivergedError
+            As :meth:`advance` would for the first row that fails, rows taken in order.
+        """
+        gap, kc, cc, p, code = self._contact
+        finite = np.isfinite(u).all(axis=1)
+        # the rows before the first non-finite input are integrated (a divergence among them is
+        # reported first, as one advance per row reports it)
+        stop = q.shape[0] if finite.all() else (int(np.argmin(finite)) if u.shape[0] > 1 else 0)
+        out = np.empty((u.shape[1], N_OUT))
+        row, bad = _kernel_columns(
+            self._P,
+            self.system.omega,
+            self.system.zeta,
+            self._phi[0],
+            self._phi[1],
+            self._phi[2],
+            q[:stop],
+            v[:stop],
+            scalars[:stop],
+            u,
+            out,
+            excitation[:stop] if excitation.shape[0] else excitation,
+            self.dt,
+            gap,
+            kc,
+            cc,
+            p,
+            code,
+            self._shaker,
+            self.events,
+        )
+        if row >= 0:
+            self._diverged(0.0 + self.dt * (bad + 1))
+        if stop < q.shape[0]:
+            raise SimulationInputError(
+                f"the input ({'coil voltage' if self.shaker else 'force'}) holds a non-finite value"
+            )
+
+    def _diverged(self, time: float) -> None:
+        """Raise :class:`SimulationDivergedError` for a divergence at ``time``."""
+        gap, kc, cc, _, _ = self._contact
+        # the values the kernel ran with (the same as system.contact unless overridden)
+        ran = _ContactSystem(self.system, replace(self.system.contact, gap=gap, stiffness=kc, damping=cc))
+        raise SimulationDivergedError(diverged_message(ran, self.dt, time))
 
 
 class _ContactSystem:

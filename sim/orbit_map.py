@@ -7,8 +7,9 @@ velocities of the reduced system (plus the coil current when a shaker drives it,
 :class:`ShakerDrive`; under force control the drive amplitude too, corrected after the periods by
 ``F0 / |F1|``). Derivatives are forward finite differences of the map, relative perturbation
 :data:`FD_RELATIVE_STEP` of the orbit's size; at a converged orbit they are the monodromy matrix
-whose eigenvalues are the Floquet multipliers (:mod:`rigtools.sim.orbit_solver`). The continuation
-built on this map is :mod:`rigtools.sim.continuation`.
+whose eigenvalues are the Floquet multipliers (:mod:`rigtools.sim.orbit_solver`); the state
+columns are integrated in one compiled call (:meth:`PeriodMap.flows`, bit for bit the flows one
+by one). The continuation built on this map is :mod:`rigtools.sim.continuation`.
 """
 
 from __future__ import annotations
@@ -212,6 +213,7 @@ class PeriodMap:
         # Jacobian's parameter column at a perturbed fe or gap (each stepper is the object it
         # was, so the results do not change)
         self._steppers: dict[tuple[float, float], VibroImpactStepper] = {}
+        self._systems: dict[float, tuple[ReducedSystem, ReducedSystem | None]] = {}
         k = np.arange(1, self.steps_per_period * self.periods + 1)
         gain = shaker.amplifier_gain if shaker is not None else 1.0
         self._unit_drive = gain * np.sin(2.0 * np.pi * k / self.steps_per_period)
@@ -238,18 +240,28 @@ class PeriodMap:
             validate_harmonic_input(p.fe, abs(p.force), p.gap)
             dt = 1.0 / (p.fe * self.steps_per_period)
             coupling = self.shaker.coupling if self.shaker is not None else None
-            stepper = VibroImpactStepper(
-                self.base.with_contact(gap=p.gap),
-                dt,
-                coupling,
-                self.force_scale,
-                # the armature attached once for the map (the attachment does not see the gap)
-                attached=None if coupling is None else self.system.with_contact(gap=p.gap),
-            )
+            base, attached = self._systems_at(p.gap)
+            stepper = VibroImpactStepper(base, dt, coupling, self.force_scale, attached=attached)
             if len(self._steppers) >= STEPPERS_KEPT:
                 del self._steppers[next(iter(self._steppers))]  # the oldest
             self._steppers[key] = stepper
         return stepper
+
+    def _systems_at(self, gap: float) -> tuple[ReducedSystem, ReducedSystem | None]:
+        """The system at ``gap`` and, with a shaker, the one with the armature attached (once
+        for the map: the attachment does not see the gap), kept for the last few gaps (a branch
+        in fe or force has one gap, so the steppers at each new fe are built without them)."""
+        systems = self._systems.get(gap)
+        if systems is None:
+            coupling = self.shaker.coupling if self.shaker is not None else None
+            systems = (
+                self.base.with_contact(gap=gap),
+                None if coupling is None else self.system.with_contact(gap=gap),
+            )
+            if len(self._systems) >= STEPPERS_KEPT:
+                del self._systems[next(iter(self._systems))]  # the oldest
+            self._systems[gap] = systems
+        return systems
 
     def carried_loads(self, x: np.ndarray, gap: float) -> np.ndarray:
         """The loads the kernel carries into the first step, from the state (force phase zero)."""
@@ -286,33 +298,84 @@ class PeriodMap:
         n = self.n_modes
         st.state = StepperState(x[:n].copy(), x[n : 2 * n].copy(), self.carried_loads(x, p.gap), 0.0)
         a = x[-1] if self.force_control else p.force
-        o = st.step(a * self._unit_drive, self._out)
+        st.advance(a * self._unit_drive, self._out)  # step() without its time array
         self.evaluations += 1
         end = [st.state.q, st.state.v]
         if self.shaker is not None:
             end.append(st.state.scalars[2:3])
         if self.force_control:
             # the drive corrected towards the force: a fixed point holds |F1| = F0
-            f1 = self.force_fundamental(o.data)
+            f1 = self.force_fundamental(self._out)
             if not f1 > 0:
                 raise SimulationInputError("no force into the blade: the drive amplitude is zero")
             end.append(np.array([a * p.force / f1]))
-        return np.concatenate(end) * self.scale, o.data
+        return np.concatenate(end) * self.scale, self._out
+
+    def flows(self, ys: np.ndarray, p: Forcing) -> np.ndarray:
+        """``Phi`` of each row of ``ys`` (``(m, dim)`` scaled states) at ``p``: the rows of the
+        result are :meth:`flow`'s end states, computed in one compiled call with the same
+        arithmetic per row, so the same bits (the outputs are not kept)."""
+        st = self._stepper_for(p)
+        n = self.n_modes
+        m = ys.shape[0]
+        xs = np.asarray(ys, dtype=float) / self.scale
+        q = np.ascontiguousarray(xs[:, :n])
+        v = np.ascontiguousarray(xs[:, n : 2 * n])
+        scalars = np.empty((m, 5))
+        for r in range(m):
+            scalars[r] = self.carried_loads(xs[r].copy(), p.gap)
+        if self.force_control:
+            a = xs[:, -1]
+            u = a[:, None] * self._unit_drive
+            excitation = np.empty((m, self._unit_drive.size))
+        else:
+            u = (p.force * self._unit_drive)[None, :]
+            excitation = np.empty((0, self._unit_drive.size))
+        st.advance_rows(q, v, scalars, u, excitation)
+        self.evaluations += m
+        end = [q, v]
+        if self.shaker is not None:
+            end.append(scalars[:, 2:3])
+        if self.force_control:
+            # force_fundamental of each row (numpy's FFT of each row is its 1-D FFT, the same bits)
+            n_total = excitation.shape[1]
+            f1 = np.abs(np.fft.rfft(excitation, axis=1)[:, self.periods]) * 2.0 / n_total
+            if not np.all(f1 > 0):
+                raise SimulationInputError("no force into the blade: the drive amplitude is zero")
+            end.append((a * p.force / f1)[:, None])
+        return np.concatenate(end, axis=1) * self.scale
 
     def jacobian(
-        self, y: np.ndarray, p: Forcing, param: str | None = None, fy: np.ndarray | None = None
+        self,
+        y: np.ndarray,
+        p: Forcing,
+        param: str | None = None,
+        fy: np.ndarray | None = None,
+        batched: bool = True,
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
         """``(Phi(y), dPhi/dy, dPhi/dparam)`` by forward differences (``param`` None: no
-        parameter column). ``fy``: ``Phi(y)`` if already known."""
+        parameter column). ``fy``: ``Phi(y)`` if already known.
+
+        ``batched``: the state columns' flows in one compiled call (:meth:`flows`); ``False``
+        (or a subclass redefining :meth:`flow`): one :meth:`flow` per column, the reference the
+        batched path equals bit for bit
+        (``tests/sim/test_orbit_map_batched.py``, ``benchmarks/bench_continuation_speed.py``).
+        """
         y = np.asarray(y, dtype=float)
         f0 = self.flow(y, p)[0] if fy is None else fy
         size = max(float(np.linalg.norm(y)) / math.sqrt(y.size), 1e-300)
         jac = np.empty((y.size, y.size))
+        steps = np.empty(y.size)
+        perturbed = np.repeat(y[None, :], y.size, axis=0)
         for j in range(y.size):
-            h = FD_RELATIVE_STEP * max(abs(y[j]), size)
-            yp = y.copy()
-            yp[j] += h
-            jac[:, j] = (self.flow(yp, p)[0] - f0) / h
+            steps[j] = FD_RELATIVE_STEP * max(abs(y[j]), size)
+            perturbed[j, j] += steps[j]
+        # a map that redefines flow (a stand-in in a test) is differenced through its own flow
+        if batched and type(self).flow is PeriodMap.flow:
+            jac[:] = ((self.flows(perturbed, p) - f0) / steps[:, None]).T
+        else:
+            for j in range(y.size):
+                jac[:, j] = (self.flow(perturbed[j], p)[0] - f0) / steps[j]
         dpar = None
         if param is not None:
             lam = p.value(param)
