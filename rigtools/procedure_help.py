@@ -240,7 +240,9 @@ EPILOGS = {
 A harmonic-domain feedback on the active shroud's displacement (u = u_ff + Kp (x* - x) + Kd (x*' - x'))
 holds the rig at a target amplitude A at --fe; an outer iteration on the target's harmonics and the
 feedforward makes the drive a pure sine (harmonics 2-10 below --tolerance of its fundamental), so
-each converged point is an orbit of the rig without control, stable or not; F1 is measured. The rig
+each converged point is an orbit of the rig without control, stable or not; F1 is measured. A point
+converges when, besides, its fundamental is within 0.5 % of the target and its last two windows
+agree within that 0.5 % (the iteration learns only from windows steady to 0.2 %). The rig
 is brought onto the branch by a sweep up to --fe first. On the buffered path a correction is played
 50-65 ms after its data: the default law on the fundamental, designed for that delay, holds orbits
 with |mu| up to about 1.17 (64 Hz; --gains selects the PD law); the full unstable sheet needs a
