@@ -145,7 +145,8 @@ def main() -> None:
     grid = value_list(GRID, "amplitude", "--amplitude")
     for end in (min(grid), max(grid)):
         reached = any(abs(t - end) < 1e-9 for t in targets)
-        print(f"  the range's end {end * 1e3:.4g} mm converged as a target: {'yes' if reached else 'no'}")
+        # the range "A 0.30-0.49 mm": each end converged as a target
+        print(f"  the range's end {end * 1e3:.4g} mm converged as a target -> {verdict(reached)}")
     print(
         f"F1 within 2 % of the model at every converged point: worst {worst_f * 100:.2f} % -> {verdict(worst_f <= 0.02)}"
     )
