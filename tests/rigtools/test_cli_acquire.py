@@ -174,7 +174,7 @@ def test_without_the_ni_driver_exit_3_in_one_line(tmp_path):
         (["--fe", "0"], "fe"),
         (["--fe", "30 kHz"], "fe"),
         (["--gap", "5 m"], "gap"),
-        (["--periods", "0"], "record_periods"),
+        (["--periods", "0"], "--periods = 0"),  # was "record_periods": the Python name, not the option
         (["--max-updates", "0"], "--max-updates"),
         (["--fault", "melt@1"], "unknown kind 'melt'"),
     ],
