@@ -333,9 +333,11 @@ def start_state(params: CBCParameters, m: LoopMeasurement) -> tuple[np.ndarray, 
 
 def legs(amplitudes: tuple[float, ...], start: float) -> tuple[list[float], list[float]]:
     """The amplitudes in the order they are measured, as two legs from the approach's orbit
-    (amplitude ``start``) outwards: upwards first, then downwards."""
-    up = sorted(a for a in amplitudes if a >= start)
-    down = sorted((a for a in amplitudes if a < start), reverse=True)
+    (amplitude ``start``) outwards: upwards first, then downwards. A target given twice is
+    measured once (two converged points at one A give the step cut no secant)."""
+    once = set(amplitudes)
+    up = sorted(a for a in once if a >= start)
+    down = sorted((a for a in once if a < start), reverse=True)
     return up, down
 
 
