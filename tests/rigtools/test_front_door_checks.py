@@ -125,3 +125,31 @@ def test_pll_names_its_python_arguments(tmp_path, forces, params, said):
     with pytest.raises(UserError, match=r"^" + re.escape(said)):
         rigtools.phase_locked_loop(forces, out, gap="0.5 mm", backend="sim", **kwargs)
     assert not out.exists()
+
+
+@pytest.mark.parametrize(("word", "value"), [("release", "1 s"), ("max_iteration", 3)])
+def test_cbc_names_an_unknown_keyword_as_the_other_doors_do(tmp_path, word, value):
+    """A keyword the CBC door does not take (``release`` for ``release_seconds``, the option's
+    name) was refused as "unknown key 'release'", naming neither the door nor what it takes; now
+    the line of every door: the function, the keyword, a "did you mean" where one is close, and
+    the accepted keywords. Nothing written."""
+    out = tmp_path / "c.h5"
+    with pytest.raises(
+        UserError, match=rf"^rigtools.control_based_continuation: no keyword '{word}'"
+    ) as info:
+        rigtools.control_based_continuation("64 Hz", "0.32 mm", out, backend="sim", **{word: value})
+    text = str(info.value)
+    assert "release_seconds" in text and "max_iterations" in text and "\n" not in text
+    assert not out.exists()
+
+
+def test_dwell_names_a_bad_max_updates_by_its_keyword(tmp_path):
+    """``rigtools.dwell(..., max_updates=0)`` was refused as ``control.max_updates = 0`` (the
+    model's nesting, a word the script never wrote); now ``max_updates = 0``. A ``control=``
+    dictionary keeps its path."""
+    out = tmp_path / "d.h5"
+    with pytest.raises(UserError, match=r"^max_updates = 0: outside the allowed range \[1, 100\]"):
+        rigtools.dwell("60 Hz", "15 N", out, backend="sim", max_updates=0)
+    with pytest.raises(UserError, match=r"^control.max_updates = 0: "):
+        rigtools.dwell("60 Hz", "15 N", out, backend="sim", control={"max_updates": 0})
+    assert not out.exists()
