@@ -55,7 +55,7 @@ def with_option_names(
             text = re.sub(rf"(?<![\w-]){name}(?![\w-])", option, text)
         first = re.match(r"([a-z][a-z0-9_]*) = ", text)
         if first is not None:
-            key = "periods" if first.group(1) == "record_periods" else first.group(1)
+            key = {"record_periods": "periods", "phases": "phase"}.get(first.group(1), first.group(1))
             if key in options:
                 text = "--" + key.replace("_", "-") + text[first.end(1) :]
         if text == str(exc):

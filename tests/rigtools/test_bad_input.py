@@ -669,6 +669,7 @@ OPTION_CASES = [
                 "--fe-start 30 Hz must lie inside",
             ),
             ("kp-large", ["--kp", "5"], "--kp = 5.0: outside"),
+            ("phase-positive", ["--phase", "200 deg"], "--phase = 200 deg: use -180 < phase < 0"),
         ]
     ),
     # rig export / import / devices

@@ -115,6 +115,7 @@ def test_cbc_refuses_a_negative_gain_in_the_scripts_words(tmp_path, gains):
         ([0.0], {}, "forces = '0.0 N': force amplitudes must be > 0 (got 0)"),
         ("1 N", {"lock_tolerance": "1 s"}, "lock_tolerance = '1 s': give an angle with its unit"),
         ("1 N", {"max_periods": 30}, "max_periods 30 is below lock_periods 40"),
+        ("1 N", {"phases": "200 deg"}, "phases = 200 deg: use -180 < phase < 0"),  # was "phase 200 deg"
     ],
 )
 def test_pll_names_its_python_arguments(tmp_path, forces, params, said):
