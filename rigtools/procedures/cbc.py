@@ -372,7 +372,7 @@ class ControlBasedContinuation(SineProcedure):
         # that the backend has) or a factory of the InnerLoop protocol
         choice = kwargs.pop("inner_loop", None)
         if isinstance(choice, str) and choice not in INNER_LOOPS:
-            raise UserError(f"inner loop {choice!r}: choose one of {', '.join(INNER_LOOPS)}")
+            raise UserError(f"inner_loop = {choice!r}: choose one of {', '.join(INNER_LOOPS)}")
         self.inner_loop_choice: str | Callable[..., InnerLoop] | None = choice
         self.loop: InnerLoop | None = None
         super().__init__(cfg, out, **kwargs)

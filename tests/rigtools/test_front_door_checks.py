@@ -154,3 +154,19 @@ def test_dwell_names_a_bad_max_updates_by_its_keyword(tmp_path):
     with pytest.raises(UserError, match=r"^control.max_updates = 0: "):
         rigtools.dwell("60 Hz", "15 N", out, backend="sim", control={"max_updates": 0})
     assert not out.exists()
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "said"),
+    [
+        ({"amplitudes": []}, "amplitudes = []: give at least one value"),  # was "at least 1 values"
+        ({"inner_loop": "fast"}, "inner_loop = 'fast': choose one of realtime, buffered"),  # was "inner loop"
+    ],
+)
+def test_cbc_door_lines_name_the_keyword(tmp_path, kwargs, said):
+    """The CBC door's lines start with the keyword as the script wrote it; nothing written."""
+    out = tmp_path / "c.h5"
+    args = {"fe": "64 Hz", "amplitudes": "0.32 mm", "out": out, "backend": "sim", **kwargs}
+    with pytest.raises(UserError, match=r"^" + re.escape(said)):
+        rigtools.control_based_continuation(**args)
+    assert not out.exists()
