@@ -133,6 +133,13 @@ class CBCParameters(BaseModel):
         bad = [a for a in amplitudes if not a > 0]
         if bad:
             raise ValueError(f"target amplitudes must be > 0 m (got {bad[0]:g})")
+        # a plain number is in m: "0.32" (meant mm) would be walked to in 5 um steps for minutes
+        big = [a for a in amplitudes if a > MAX_GAP]
+        if big:
+            raise ValueError(
+                f"a target must be at most {MAX_GAP * 1e3:g} mm (got {big[0]:g} m; a plain "
+                "number is in m: write units, e.g. '0.32 mm')"
+            )
         return amplitudes
 
     def gains(self) -> Gains:

@@ -657,6 +657,12 @@ OPTION_CASES = [
             ("kd-negative", ["--gains", "2000,-3"], "--gains = '2000,-3': gains are >= 0"),
             ("iterations-zero", ["--max-iterations", "0"], "--max-iterations = 0: outside"),
             ("release-long", ["--release", "100 s"], "--release = 100.0: outside"),
+            # a plain 0.32 is 0.32 m: it was walked to in 5 um steps (minutes) until lost
+            (
+                "amplitude-metres",
+                ["--amplitude", "0.32"],
+                "--amplitude = [0.32]: a target must be at most 50 mm",
+            ),
         ]
     ),
     *(

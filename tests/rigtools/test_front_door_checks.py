@@ -161,6 +161,10 @@ def test_dwell_names_a_bad_max_updates_by_its_keyword(tmp_path):
     [
         ({"amplitudes": []}, "amplitudes = []: give at least one value"),  # was "at least 1 values"
         ({"inner_loop": "fast"}, "inner_loop = 'fast': choose one of realtime, buffered"),  # was "inner loop"
+        (
+            {"amplitudes": [0.32]},
+            "amplitudes = [0.32]: a target must be at most 50 mm (got 0.32 m",
+        ),  # was run
     ],
 )
 def test_cbc_door_lines_name_the_keyword(tmp_path, kwargs, said):
