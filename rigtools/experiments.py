@@ -32,7 +32,7 @@ from typing import Any, TypeVar
 from rigtools import procedures
 from rigtools.config import RigConfig, load_rig
 from rigtools.errors import UserError, reword
-from rigtools.keywords import did_you_mean, in_front_door_words
+from rigtools.keywords import CONTROL_WORDS, did_you_mean, in_front_door_words
 from rigtools.options import seed as seed_option
 from rigtools.procedures.result import PointResult, RunResult
 
@@ -123,6 +123,7 @@ def _run(function: str, cls_name: str, params: dict[str, Any], out: str | Path, 
     rig, backend, overwrite, progress, seed = (params.pop(k.name, k.default) for k in SHARED_KEYWORDS)
     cls = getattr(procedures, cls_name)
     model = getattr(procedures, _MODELS[cls_name])
+    given = {name for name, value in params.items() if value is not None}
     params = in_front_door_words(f"rigtools.{function}", params, model.model_fields, (*_NAMED, *kwargs))
     if backend is None:
         raise UserError(NO_BACKEND)
@@ -146,7 +147,18 @@ def _run(function: str, cls_name: str, params: dict[str, Any], out: str | Path, 
         return proc.run()
     except Exception as exc:  # re-raised, its advice in a script's words
         reword(exc)
+        _control_word(exc, given)
         raise
+
+
+def _control_word(error: BaseException, given: set[str]) -> None:
+    """A bad ``max_updates=`` named as the script wrote it, not as the model nests it
+    (``control.max_updates``); a ``control={...}`` given as such keeps its path."""
+    if len(error.args) != 1 or not isinstance(error.args[0], str):
+        return
+    for word in CONTROL_WORDS:
+        if word in given and error.args[0].startswith(f"control.{word} = "):
+            error.args = (error.args[0].removeprefix("control."),)
 
 
 _MODELS = {

@@ -203,7 +203,8 @@ def describe_error(model: type[BaseModel], error: Any, value: Any) -> str:
         return f"missing key '{key}'"
     message = error["msg"].removeprefix("Value error, ")
     if error["type"] == "too_short":  # pydantic: "Tuple should have at least 2 items after validation, not 1"
-        message = f"give at least {error['ctx']['min_length']} values"
+        n = error["ctx"]["min_length"]
+        message = "give at least one value" if n == 1 else f"give at least {n} values"
     if error["type"] in _RANGE_ERRORS:
         found = allowed_range(model, error["loc"])
         if found:

@@ -133,6 +133,13 @@ class CBCParameters(BaseModel):
         bad = [a for a in amplitudes if not a > 0]
         if bad:
             raise ValueError(f"target amplitudes must be > 0 m (got {bad[0]:g})")
+        # a plain number is in m: "0.32" (meant mm) would be walked to in 5 um steps for minutes
+        big = [a for a in amplitudes if a > MAX_GAP]
+        if big:
+            raise ValueError(
+                f"a target must be at most {MAX_GAP * 1e3:g} mm (got {big[0]:g} m; a plain "
+                "number is in m: write units, e.g. '0.32 mm')"
+            )
         return amplitudes
 
     def gains(self) -> Gains:
@@ -333,9 +340,11 @@ def start_state(params: CBCParameters, m: LoopMeasurement) -> tuple[np.ndarray, 
 
 def legs(amplitudes: tuple[float, ...], start: float) -> tuple[list[float], list[float]]:
     """The amplitudes in the order they are measured, as two legs from the approach's orbit
-    (amplitude ``start``) outwards: upwards first, then downwards."""
-    up = sorted(a for a in amplitudes if a >= start)
-    down = sorted((a for a in amplitudes if a < start), reverse=True)
+    (amplitude ``start``) outwards: upwards first, then downwards. A target given twice is
+    measured once (two converged points at one A give the step cut no secant)."""
+    once = set(amplitudes)
+    up = sorted(a for a in once if a >= start)
+    down = sorted((a for a in once if a < start), reverse=True)
     return up, down
 
 
@@ -370,7 +379,7 @@ class ControlBasedContinuation(SineProcedure):
         # that the backend has) or a factory of the InnerLoop protocol
         choice = kwargs.pop("inner_loop", None)
         if isinstance(choice, str) and choice not in INNER_LOOPS:
-            raise UserError(f"inner loop {choice!r}: choose one of {', '.join(INNER_LOOPS)}")
+            raise UserError(f"inner_loop = {choice!r}: choose one of {', '.join(INNER_LOOPS)}")
         self.inner_loop_choice: str | Callable[..., InnerLoop] | None = choice
         self.loop: InnerLoop | None = None
         super().__init__(cfg, out, **kwargs)

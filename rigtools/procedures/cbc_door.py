@@ -13,10 +13,11 @@ from typing import Any
 from rigtools.config import load_rig
 from rigtools.drivers.realtime import NO_REALTIME_LOOP
 from rigtools.errors import UserError
+from rigtools.keywords import unknown_keyword
 from rigtools.options import gap as gap_text
 from rigtools.options import quantity, value_list
 from rigtools.procedures.base import ProgressEvent
-from rigtools.procedures.cbc import ControlBasedContinuation
+from rigtools.procedures.cbc import CBCParameters, ControlBasedContinuation
 
 #: The command's option of each parameter its one-line errors may name (``rig acquire cbc``).
 OPTIONS = {
@@ -96,6 +97,9 @@ def control_based_continuation(
     (True, 4.9, True)
     """
 
+    for name in params:  # else one line "unknown key", naming neither the door nor the keywords
+        if name not in CBCParameters.model_fields or name in ("fe", "amplitudes", "gap"):
+            raise unknown_keyword("rigtools.control_based_continuation", name, CBCParameters.model_fields)
     if backend not in ("nidaq", "sim"):
         raise UserError(f"backend = {backend!r}: name backend='nidaq' or backend='sim'")
     cfg = rig if hasattr(rig, "safety") else load_rig(rig)

@@ -22,7 +22,7 @@ from rigtools.drivers.drive_signals import PeriodicChirp, RandomDrive
 from rigtools.errors import UserError
 from rigtools.options import band_option
 from rigtools.procedures import rig
-from rigtools.procedures.base import StopRequested, validate
+from rigtools.procedures.base import Status, StopRequested, validate
 from rigtools.procedures.session import PointSink
 from rigtools.procedures.sine import SineProcedure
 from rigtools.quantity_fields import Frequency, Length, Time, Voltage
@@ -186,6 +186,14 @@ class FrfTest(SineProcedure):
 
     def shutdown(self, status, reason) -> None:
         self.session = None
+        stream = getattr(self, "stream", None)
+        if status is Status.ABORTED and stream is not None and not stream._finished:
+            # a KeyboardInterrupt from a script's own callback (a signal's stop already ramped,
+            # recorded): the ramp to zero recorded in the point it cut; close() zeroes it anyway
+            try:
+                stream.finish(ramp_time=self.cfg.safety.abort_ramp_time)
+            except BaseException:  # noqa: BLE001, S110 - the stream broke meanwhile: close() zeroes the drive
+                pass
         super().shutdown(status, reason)
 
 

@@ -30,6 +30,7 @@ from rigtools.procedures.frf import FrfTest, quick_check
 from rigtools.procedures.pll import PhaseLockedLoop
 from rigtools.procedures.pll_options import OPTIONS as PLL_OPTIONS
 from rigtools.procedures.pll_options import pll_document, pll_parameters
+from rigtools.procedures.rig import sim_only
 from rigtools.procedures.rig_study import RigStudy
 from rigtools.procedures.sweep import SteppedSine
 from rigtools.procedures.tap import TapTest, analyze_tap_recording
@@ -55,7 +56,7 @@ def with_option_names(
             text = re.sub(rf"(?<![\w-]){name}(?![\w-])", option, text)
         first = re.match(r"([a-z][a-z0-9_]*) = ", text)
         if first is not None:
-            key = "periods" if first.group(1) == "record_periods" else first.group(1)
+            key = {"record_periods": "periods", "phases": "phase"}.get(first.group(1), first.group(1))
             if key in options:
                 text = "--" + key.replace("_", "-") + text[first.end(1) :]
         if text == str(exc):
@@ -158,6 +159,13 @@ def build_procedure(
     **run_options
         ``backend``, ``overwrite``, ``pace``, ``faults``, ``seed`` of the procedure.
     """
+    # the simulated rig's options with another backend: refused before a backend's note is said
+    sim_only(
+        run_options.get("backend", "nidaq"),
+        pace=bool(run_options.get("pace")),
+        faults=run_options.get("faults") or (),
+        seed=run_options.get("seed"),
+    )
     names = {"pll": PLL_OPTIONS, "cbc": CBC_OPTIONS}.get(name, {})
     return with_option_names(
         lambda: _build(name, cfg, out, options, confirm_gap, run_options), names, options

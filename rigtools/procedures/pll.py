@@ -97,7 +97,7 @@ class PllParameters(BaseModel):
             raise ValueError("give one force or one phase, or as many forces as phases")
         for p in self.phases:
             if not -180.0 < p < 0.0:
-                raise ValueError(f"phase {p:g} deg: use -180 < phase < 0 (the response lags the force)")
+                raise ValueError(f"phases = {p:g} deg: use -180 < phase < 0 (the response lags the force)")
         if self.max_periods < self.lock_periods:
             raise ValueError(
                 f"max_periods {self.max_periods} is below lock_periods {self.lock_periods}: no point could "

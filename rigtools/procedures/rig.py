@@ -19,6 +19,16 @@ from rigtools.recording import ChannelSpec
 BACKENDS = ("nidaq", "sim")
 
 
+def sim_only(backend: str, *, pace: bool = False, faults: Sequence = (), seed: int | None = None) -> None:
+    """Refuse the simulated rig's options (``pace``, ``faults``, ``seed``) with another backend:
+    one line naming them (``rig acquire`` says it before any note of the backend)."""
+    if backend == "sim" or not (pace or faults or seed is not None):
+        return
+    asked = (("pace", "--pace", pace), ("faults", "--fault", faults), ("seed", "--seed", seed is not None))
+    given = [option(name, flag=flag) for name, flag, value in asked if value]
+    raise UserError(f"{', '.join(given)}: for the simulated rig only; add {option('backend', 'sim')}")
+
+
 def open_device(
     cfg,
     backend: str = "nidaq",
@@ -54,14 +64,7 @@ def open_device(
         raise UserError(
             f"backend = {backend!r}: use {option('backend', 'nidaq')} or {option('backend', 'sim')}"
         )
-    if pace or faults or seed is not None:
-        asked = (
-            ("pace", "--pace", pace),
-            ("faults", "--fault", faults),
-            ("seed", "--seed", seed is not None),
-        )
-        given = [option(name, flag=flag) for name, flag, value in asked if value]
-        raise UserError(f"{', '.join(given)}: for the simulated rig only; add {option('backend', 'sim')}")
+    sim_only(backend, pace=pace, faults=faults, seed=seed)
     try:  # the NI-DAQmx package is for the hardware only (a heavy optional package)
         from rigtools.drivers.nidaq import NiDaqDevice
     except ImportError:

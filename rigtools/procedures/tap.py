@@ -43,7 +43,7 @@ from pydantic import BaseModel, ConfigDict, Field
 from rigtools.acquisition import BlockStream
 from rigtools.drivers.contracts import ConfigurationError, DriverUnavailable, InputChannelSpec
 from rigtools.drivers.simulated import SimulatedHammer
-from rigtools.errors import UserError
+from rigtools.errors import UserError, option
 from rigtools.procedures import rig
 from rigtools.procedures.base import StopRequested, validate
 from rigtools.procedures.sine import SineProcedure
@@ -175,6 +175,13 @@ class TapTest(SineProcedure):
         inputs = list(self.cfg.daq.input_specs())
         names = [s.name for s in inputs]
         if p.hammer_channel not in names:
+            if self.backend == "sim" and "hammer" not in p.hammer_channel.lower():
+                # the simulated rig's hammer force is a channel whose name says hammer; any other
+                # name would be the shaker's force, hit never: the 60 s wait ends "no accepted hit"
+                raise UserError(
+                    f"{option('hammer_channel')} = {p.hammer_channel!r}: no such input (inputs: "
+                    f"{', '.join(names)}; the simulated rig adds one whose name says hammer, e.g. 'hammer')"
+                )
             if self.backend != "sim":
                 raise UserError(
                     f"the rig file has no [daq.channels.{p.hammer_channel}]: add the impact "
@@ -193,14 +200,16 @@ class TapTest(SineProcedure):
         p = self.params
         if p.response is not None:
             if p.response not in names:
-                raise UserError(f"--response = {p.response!r}: no such input (inputs: {', '.join(names)})")
+                raise UserError(
+                    f"{option('response')} = {p.response!r}: no such input (inputs: {', '.join(names)})"
+                )
             return p.response
         accel = [s.name for s in self.device.input_channels if s.kind == "accel"]
         mine = [n for n in accel if p.blade in n.lower()]
         if not mine:
             raise UserError(
                 f"no accelerometer named for the {p.blade} blade among {', '.join(accel) or 'the inputs'}; "
-                f"name one with --response"
+                f"name one with {option('response')}"
             )
         return mine[0]
 

@@ -81,9 +81,11 @@ def summary(rec: Recording) -> dict[str, Any]:
 
 
 def point_state(rec: Recording, point: Point) -> str:
-    """``complete``, ``in progress`` (the live writer's open point) or ``incomplete``."""
+    """``complete``, ``stopped`` (ended by its writer, but the procedure was stopped inside it:
+    ``point_complete`` false, as the monitor says), ``in progress`` (the live writer's open
+    point) or ``incomplete``."""
     if point.complete:
-        return "complete"
+        return "stopped" if point.params.get("point_complete", True) is False else "complete"
     if rec.writer is not None and rec.points and point is rec.points[-1]:
         return "in progress"
     return "incomplete"

@@ -657,6 +657,14 @@ OPTION_CASES = [
             ("kd-negative", ["--gains", "2000,-3"], "--gains = '2000,-3': gains are >= 0"),
             ("iterations-zero", ["--max-iterations", "0"], "--max-iterations = 0: outside"),
             ("release-long", ["--release", "100 s"], "--release = 100.0: outside"),
+            # was two lines: the NI backend's note on the buffered loop, then the error
+            ("pace-nidaq", ["--backend", "nidaq", "--pace"], "--pace: for the simulated rig only"),
+            # a plain 0.32 is 0.32 m: it was walked to in 5 um steps (minutes) until lost
+            (
+                "amplitude-metres",
+                ["--amplitude", "0.32"],
+                "--amplitude = [0.32]: a target must be at most 50 mm",
+            ),
         ]
     ),
     *(
@@ -669,6 +677,8 @@ OPTION_CASES = [
                 "--fe-start 30 Hz must lie inside",
             ),
             ("kp-large", ["--kp", "5"], "--kp = 5.0: outside"),
+            ("phase-positive", ["--phase", "200 deg"], "--phase = 200 deg: use -180 < phase < 0"),
+            ("seed-nidaq", ["--backend", "nidaq", "--seed", "3"], "--seed: for the simulated rig only"),
         ]
     ),
     # rig export / import / devices

@@ -153,7 +153,7 @@ def test_the_folds_multiplier_is_measured_with_a_drive_step(fold):
 
 
 def test_unknown_inner_loop_is_one_line():
-    with pytest.raises(UserError, match="inner loop 'fast'"):
+    with pytest.raises(UserError, match="inner_loop = 'fast'"):
         ControlBasedContinuation(None, {"fe": 64.0, "amplitudes": [3e-4]}, "x.h5", inner_loop="fast")
 
 

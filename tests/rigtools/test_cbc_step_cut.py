@@ -344,3 +344,21 @@ def test_a_loop_that_let_go_is_engaged_again_without_a_kick_then_restored(steady
     np.testing.assert_array_equal(f4, point.feedforward)
     assert ramp4 == RESTORE_RAMP
     assert m.steady is (steady_from <= RESTORE_HOLDS)
+
+
+def test_a_target_given_twice_is_measured_once_and_the_failed_step_after_it_is_cut():
+    """``--amplitude "0.33 mm,0.32 mm,0.32 mm"`` measured 0.32 mm twice, and the two converged
+    points at one A gave no secant (:func:`no_turn_ahead` is ``False`` for an A that did not
+    move), so the failed step to 0.33 mm was not cut: the leg ended, lost. A target given twice
+    is measured once; the grid then runs as without the repeat (the first test's targets)."""
+    grid = [0.4e-3, 0.404e-3, 0.404e-3, 0.412e-3, 0.416e-3]
+    measured, calls = _run(grid, _Rig(slope=800.0), 0.4e-3)
+    assert measured == [
+        (400.0, True, 0),
+        (404.0, True, 0),
+        (412.0, False, 0),
+        (408.0, True, 1),
+        (412.0, True, 1),
+        (416.0, True, 0),
+    ]
+    assert "arclength" not in calls

@@ -115,6 +115,7 @@ def test_cbc_refuses_a_negative_gain_in_the_scripts_words(tmp_path, gains):
         ([0.0], {}, "forces = '0.0 N': force amplitudes must be > 0 (got 0)"),
         ("1 N", {"lock_tolerance": "1 s"}, "lock_tolerance = '1 s': give an angle with its unit"),
         ("1 N", {"max_periods": 30}, "max_periods 30 is below lock_periods 40"),
+        ("1 N", {"phases": "200 deg"}, "phases = 200 deg: use -180 < phase < 0"),  # was "phase 200 deg"
     ],
 )
 def test_pll_names_its_python_arguments(tmp_path, forces, params, said):
@@ -124,4 +125,52 @@ def test_pll_names_its_python_arguments(tmp_path, forces, params, said):
     kwargs = {"lock_periods": 40, **params} if "max_periods" in params else params
     with pytest.raises(UserError, match=r"^" + re.escape(said)):
         rigtools.phase_locked_loop(forces, out, gap="0.5 mm", backend="sim", **kwargs)
+    assert not out.exists()
+
+
+@pytest.mark.parametrize(("word", "value"), [("release", "1 s"), ("max_iteration", 3)])
+def test_cbc_names_an_unknown_keyword_as_the_other_doors_do(tmp_path, word, value):
+    """A keyword the CBC door does not take (``release`` for ``release_seconds``, the option's
+    name) was refused as "unknown key 'release'", naming neither the door nor what it takes; now
+    the line of every door: the function, the keyword, a "did you mean" where one is close, and
+    the accepted keywords. Nothing written."""
+    out = tmp_path / "c.h5"
+    with pytest.raises(
+        UserError, match=rf"^rigtools.control_based_continuation: no keyword '{word}'"
+    ) as info:
+        rigtools.control_based_continuation("64 Hz", "0.32 mm", out, backend="sim", **{word: value})
+    text = str(info.value)
+    assert "release_seconds" in text and "max_iterations" in text and "\n" not in text
+    assert not out.exists()
+
+
+def test_dwell_names_a_bad_max_updates_by_its_keyword(tmp_path):
+    """``rigtools.dwell(..., max_updates=0)`` was refused as ``control.max_updates = 0`` (the
+    model's nesting, a word the script never wrote); now ``max_updates = 0``. A ``control=``
+    dictionary keeps its path."""
+    out = tmp_path / "d.h5"
+    with pytest.raises(UserError, match=r"^max_updates = 0: outside the allowed range \[1, 100\]"):
+        rigtools.dwell("60 Hz", "15 N", out, backend="sim", max_updates=0)
+    with pytest.raises(UserError, match=r"^control.max_updates = 0: "):
+        rigtools.dwell("60 Hz", "15 N", out, backend="sim", control={"max_updates": 0})
+    assert not out.exists()
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "said"),
+    [
+        ({"amplitudes": []}, "amplitudes = []: give at least one value"),  # was "at least 1 values"
+        ({"inner_loop": "fast"}, "inner_loop = 'fast': choose one of realtime, buffered"),  # was "inner loop"
+        (
+            {"amplitudes": [0.32]},
+            "amplitudes = [0.32]: a target must be at most 50 mm (got 0.32 m",
+        ),  # was run
+    ],
+)
+def test_cbc_door_lines_name_the_keyword(tmp_path, kwargs, said):
+    """The CBC door's lines start with the keyword as the script wrote it; nothing written."""
+    out = tmp_path / "c.h5"
+    args = {"fe": "64 Hz", "amplitudes": "0.32 mm", "out": out, "backend": "sim", **kwargs}
+    with pytest.raises(UserError, match=r"^" + re.escape(said)):
+        rigtools.control_based_continuation(**args)
     assert not out.exists()

@@ -13,6 +13,7 @@ from rigtools.errors import TargetNotReached
 from rigtools.procedures import RigStudy, SineDwell, Status, SteppedSine, detect_jumps
 from rigtools.procedures.frf import FrfTest, quick_check
 from rigtools.recording import check_recording, open_recording
+from rigtools.recording.summary import summary
 
 RATE = 51200.0
 WIDE = 5e-3  # a gap no response here closes below 2 N: no impacts
@@ -403,3 +404,36 @@ def test_simulation_diverging_mid_acquisition_is_a_fault(cfg, tmp_path):
     assert drive[-1] == 0.0 and not rig._running
     ramp = int(cfg.safety.abort_ramp_time * RATE)
     assert np.all(np.abs(np.diff(drive[-ramp - 50 :])) < 0.01)  # a ramp, not a step
+
+
+def test_frf_test_cut_by_a_scripts_keyboard_interrupt_records_the_ramp_to_zero(tmp_path):
+    """A KeyboardInterrupt raised by the script's own progress callback while the chirp plays
+    (the 12th settling block, the drive at about 0.2 V): the drive's ramp to zero is recorded in
+    the point it cut, as a signal's is (the file's last drive sample 0 V, exactly: the ramp ends
+    on zeros), the file valid with status aborted, and ``rig info`` calls the point ``stopped``
+    as the monitor does (it said ``complete``). Before the fix the point's drive stopped at
+    -0.2 V (the device was zeroed, unrecorded)."""
+    out = tmp_path / "frf.h5"
+    seen: list[str] = []
+
+    def stop(event) -> None:
+        seen.append(event.kind)
+        if len(seen) == 12:
+            raise KeyboardInterrupt
+
+    proc = FrfTest(
+        load_rig(),
+        {"signal": "chirp", "band": (20.0, 200.0), "level": 0.5, "frame": 1.0, "averages": 3},
+        out,
+        backend="sim",
+        progress=stop,
+    )
+    with pytest.raises(KeyboardInterrupt):
+        proc.run()
+    assert check_recording(out).valid
+    with open_recording(out) as rec:
+        assert rec.status == "aborted"
+        drive = rec.points[0]["drive"].read()
+        assert np.max(np.abs(drive[:-2048])) > 0.1  # the chirp was playing when it was cut
+        assert drive[-1] == 0.0
+        assert summary(rec)["points"][0]["state"] == "stopped"

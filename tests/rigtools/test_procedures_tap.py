@@ -207,3 +207,25 @@ def test_the_rig_files_hammer_channel_is_used_and_checked(cfg, tmp_path):
     assert "not decayed" in short.result.points[0]["reject_reason"]
     with open_recording(tmp_path / "s.h5") as rec:
         assert rec.attrs["end_status"] == "failed" and not rec.points[0].params["accepted"]
+
+
+def test_a_hammer_or_response_channel_that_is_no_input_is_named_in_the_callers_words(tmp_path):
+    """On the simulated rig ``--hammer-channel nosuch`` made up a channel measuring the shaker's
+    force, waited the whole timeout (60 s of the rig) and ended "no accepted hit over 5 N on
+    nosuch"; now it is refused at once in one line naming the option and the inputs. A script's
+    ``response="nosuch"`` was refused naming ``--response``, the command's word; now ``response``."""
+    import rigtools
+    from rigtools.errors import UserError
+
+    out = tmp_path / "t.h5"
+    r = _rig("--backend", "sim", "--position", "85 mm", "--hammer-channel", "nosuch", "--out", str(out))
+    said = (
+        "rig acquire: error: --hammer-channel = 'nosuch': no such input (inputs: force, "
+        "active_shroud_accel, passive_shroud_accel; the simulated rig adds one whose name says "
+        "hammer, e.g. 'hammer')"
+    )
+    assert r.returncode == 2 and r.stderr.strip().splitlines() == [said]
+    with pytest.raises(UserError, match=r"^hammer_channel = 'nosuch': no such input"):
+        rigtools.tap_test("85 mm", out, hammer_channel="nosuch", backend="sim")
+    with pytest.raises(UserError, match=r"^response = 'nosuch': no such input \(inputs: force, "):
+        rigtools.tap_test("85 mm", out, response="nosuch", backend="sim")
