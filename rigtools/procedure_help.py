@@ -255,6 +255,9 @@ nearer goes on to its remaining targets (at most 8 extra attempts per leg).
 With the real-time loop, below the impacting branch's turn in A (about 0.306 mm at 64 Hz, gap
 0.5 mm) the orbit at a target A is the one without contact: the impacting point that did not converge there is kept, then the
 orbit without contact is measured and recorded with "branch": "no contact" (two points, one target).
+That needs a target above the turn first: a list whose first target lies far below it (e.g. 0.25 mm)
+is walked to from the sweep's orbit, the walk loses the impacting orbit at the turn and the run
+ends with exit 5 and no point; start the list at or above the turn (e.g. "0.31 mm,0.25 mm").
 --json lists each point: fe_hz, amplitude_m, force_fundamental_n, phase_deg, converged, iterations,
 drive_harmonics_ratio, control_effort, drive_amplitude_v, parameterisation (and step_cut on the
 points of a cut step; with the real-time loop the measured multipliers: multipliers, max_multiplier
