@@ -283,11 +283,11 @@ def _run(argv: list[str]) -> int:
             return errors.EXIT_USAGE
         command = f"rig {args.command}"
         if not getattr(args, "skip_damaged", False):  # the reader's default: a command that opens
-            return int(args.func(args) or 0)  # no recording does not load the recording package
+            return _unless_stopped(command, int(args.func(args) or 0))  # no recording: no reader loaded
         from rigtools.recording.reader import reading_damaged
 
         with reading_damaged():
-            return int(args.func(args) or 0)
+            return _unless_stopped(command, int(args.func(args) or 0))
     except UserError as exc:
         _say(f"{command}: error: {errors.one_line(exc, None)}")
         return exc.exit_code
@@ -313,6 +313,17 @@ def _run(argv: list[str]) -> int:
         # A DriverError is a hardware fault that stopped the run; the driver ramped the drive to 0.
         _say(f"{command}: error: {errors.one_line(exc, None)}")
         return code
+
+
+def _unless_stopped(command: str, code: int) -> int:
+    """``code``, unless a stop signal came and a library swallowed its exception (a compiler's
+    callback, a broad ``except``) so that the command ended as if none had: then the signal's
+    line and status (128 + n), as a scheduler expects of a signalled job."""
+    stop = getattr(sys.modules.get("rigtools.runtime"), "last_stop", None)
+    if code == 0 and stop is not None:
+        _say(f"{command}: {stop}")
+        return int(stop.exit_code)
+    return code
 
 
 def main(argv: list[str] | None = None) -> int:

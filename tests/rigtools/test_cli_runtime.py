@@ -239,6 +239,29 @@ def test_interrupted_names_its_signal_and_exit_code():
     assert Interrupted(signal.SIGHUP).exit_code == EXIT_SIGHUP == 129
 
 
+def test_a_stop_a_library_swallowed_still_ends_the_command_with_its_status(monkeypatch, capsys):
+    """A stop signal whose exception a library swallowed entirely (seen once in CI: SIGHUP while
+    ``rig simulate`` compiled its kernels on a fresh install, and the command ran on to exit 0):
+    the command's 0 becomes the signal's status, with its one line; a command that ended with
+    another status keeps it."""
+    from rigtools.commands import info as info_command
+
+    def swallowed(args) -> int:
+        runtime.last_stop = Interrupted(signal.SIGHUP)  # the handler ran, its exception lost
+        return 0
+
+    monkeypatch.setattr(info_command, "run", swallowed)
+    assert cli.main(["info", "x.h5"]) == EXIT_SIGHUP
+    assert capsys.readouterr().err.strip() == "rig info: SIGHUP: hung up (terminal closed)"
+
+    def failed(args) -> int:
+        runtime.last_stop = Interrupted(signal.SIGHUP)
+        return 3
+
+    monkeypatch.setattr(info_command, "run", failed)
+    assert cli.main(["info", "x.h5"]) == 3
+
+
 def test_handler_raises_once_ignores_repeats_and_restores():
     before = signal.getsignal(signal.SIGTERM)
     with pytest.raises(Interrupted) as info, runtime.handle_stop_signals():
