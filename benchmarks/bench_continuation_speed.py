@@ -23,6 +23,7 @@ not change. CPU seconds (``time.process_time``): the machine is shared, wall tim
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import time
 from collections.abc import Iterator
@@ -105,27 +106,18 @@ def main() -> None:
     args = ap.parse_args()
     _, system, drive = simulated_rig_model(None)
     # warm-up: numba compilation and caches out of the timing, both paths
-    continue_orbits(
-        system,
-        "fe",
-        55.0,
-        56.0,
-        force=FORCE,
-        gap=GAP,
-        shaker=drive,
-        settings=ContinuationSettings(max_points=3),
-    )
-    with reference_jacobian():
-        continue_orbits(
-            system,
-            "fe",
-            55.0,
-            56.0,
-            force=FORCE,
-            gap=GAP,
-            shaker=drive,
-            settings=ContinuationSettings(max_points=3),
-        )
+    for path in (contextlib.nullcontext, reference_jacobian):
+        with path():
+            continue_orbits(
+                system,
+                "fe",
+                55.0,
+                56.0,
+                force=FORCE,
+                gap=GAP,
+                shaker=drive,
+                settings=ContinuationSettings(max_points=3),
+            )
 
     jac_fast, jac_ref = jacobian_cpu(system, drive)
     t_fast, fast = branch_cpu(system, drive, args.points)
