@@ -148,6 +148,12 @@ LOST_ERROR = 0.10  # or the held response's fundamental this far from the target
 # fe +- 8 Hz): from here each measurement spans two beats (16 periods at 64 Hz), not 1.25
 WIDE_WINDOW_A = 0.475e-3  # m
 WIDE_WINDOW_PERIODS = 16
+# and a hold there waits up to this long (s; 3 s below) for two windows that agree: the orbit 2 %
+# below grazing wanders by 1-5 % of A over tens of periods (the loop's slow mode and the beat)
+# between calm spells of 0.1-0.4 %; 3 s often ended inside a wander (the point then not learnt
+# from), 6 s gave 27 points to 0.4829 mm on the grid (26 to 0.4817 mm with 3 s) and 27 to
+# the end 0.491 mm on the second (25 to 0.4746 mm)
+WIDE_WINDOW_MAX_WAIT = 6.0
 
 
 def scheduled_gains(amplitude: float) -> tuple[float, float, float | None]:
@@ -244,6 +250,7 @@ class RealTimeHarmonicLoop(BufferedHarmonicLoop):
         self.lost = None
         if abs(complex(target[0])) >= WIDE_WINDOW_A:
             kwargs["measure_periods"] = max(kwargs.get("measure_periods", 10), WIDE_WINDOW_PERIODS)
+            kwargs["max_wait"] = max(kwargs.get("max_wait", 3.0), WIDE_WINDOW_MAX_WAIT)
         if self.scheduled and self.engaged:
             kp, kd, lowpass = scheduled_gains(abs(complex(target[0])))
             if (kp, kd, lowpass) != (self.law.kp, self.law.kd, self.law.lowpass_hz):
