@@ -46,6 +46,9 @@ if TYPE_CHECKING:
     from distributed import Client, LocalCluster
 
 Progress = Callable[[int, int, str], None]
+#: How long ``--scheduler ADDRESS`` is tried before the study is refused (distributed retries a
+#: refused connection until then).
+SCHEDULER_CONNECT_TIMEOUT = "10s"
 
 
 class StudyRunnerError(FaultError):
@@ -145,7 +148,7 @@ class StudyRunner:
         dask.config.set({"distributed.scheduler.allowed-failures": 0, "distributed.worker.daemon": False})
         try:
             if self.scheduler is not None:
-                client = Client(self.scheduler, timeout="10s")
+                client = Client(self.scheduler, timeout=SCHEDULER_CONNECT_TIMEOUT)
             else:
                 # the nanny reads its pre-spawn environment when created and writes it into
                 # os.environ before each spawn: keep the allocator variable out of both

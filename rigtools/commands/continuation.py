@@ -37,7 +37,7 @@ it followed and how far from the jump, and the nearest turning point.
 {exit_status_help(0, 2, 4, notes={0: "written (a branch that failed inside the tracer is kept, status failed)", 2: "bad input (options, a range beyond the model or the memory, --measured files)", 4: "the file cannot be written (disk full): nothing is left"})}
 
 examples:
-  rig continuation --param fe --from 55 --to 80 --force 15 --gap "0.7 mm" --out branches-fe.h5
+  rig continuation --param fe --from 62 --to 80 --force 15 --gap "0.7 mm" --out branches-fe.h5
   rig continuation --param gap --from "0.5 mm" --to "2 mm" --fe 60 --force 15 --out branches-gap.h5 --json
   rig continuation --param fe --from 60 --to 75 --measure accel1 --measured sweep.h5 --no-switch --out branches-sweep.h5
   rig continuation --param fe --from 60 --to 62 --model rig --gap "5 mm" --no-switch --out branches-rig.h5

@@ -38,8 +38,8 @@ The demo is deterministic: the simulated rig's noise and the FRF excitation come
     + """
 
 examples:
-  rig demo                                   # the full demo into rig-demo/ (64 s)
-  rig demo --quick --out demo-run --json     # reduced resolution (50 s), findings as JSON
+  rig demo --quick                           # reduced resolution (50 s) into rig-demo/, the findings table
+  rig demo --out demo-run --json             # the full demo (64 s) into demo-run/, findings as JSON
 """
 )
 

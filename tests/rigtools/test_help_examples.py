@@ -1,6 +1,7 @@
 """The example commands of `rig --help`, of every `rig COMMAND [PROCEDURE] --help` and of
 recordings/README.md run as written (on the simulated rig, in a temporary folder; README's tour
-is run by test_demo_report.py)."""
+is run by test_demo_report.py, and with it README's `rig demo --quick`, which is also the example
+of `rig demo --help`: run there once, checked there)."""
 
 import argparse
 import contextlib
@@ -21,6 +22,7 @@ import numpy as np
 import pytest
 from cli_helpers import run_cli
 from nptdms import ChannelObject, GroupObject, RootObject, TdmsWriter
+from test_demo_report import shell_commands
 
 from rigtools.branches import DIMENSION
 from rigtools.branches_file import read_branches
@@ -34,6 +36,13 @@ ROOT = Path(__file__).resolve().parents[2]
 
 
 def _rig(args: list[str], cwd: Path) -> subprocess.CompletedProcess:
+    """``rig ARGS`` in the folder ``cwd``: ``--help`` in a process of its own (argparse exits), a
+    command in this process as the command examples below (a process per command cost ~2 s of
+    CPU for the imports alone)."""
+    if "--help" not in args:
+        with contextlib.chdir(cwd):
+            code, out, err = run_cli(args)
+        return subprocess.CompletedProcess(args, code, out, err)
     return subprocess.run(
         [sys.executable, "-m", "rigtools.cli", *args],
         cwd=cwd,
@@ -141,6 +150,14 @@ def _full_demo(args: list[str]) -> bool:
     return args[0] == "demo" and not PARSER.parse_args(args).quick
 
 
+def _readme_demo(args: list[str]) -> bool:
+    """The example is README's ``rig demo --quick`` to the letter: test_demo_report.py runs it
+    (exit 0, its recordings, findings, report and branches checked); a demo costs ~40 s of CPU,
+    so it is not run a second time here."""
+    readme = [shlex.split(c) for c in shell_commands() if " demo " in f"{c} "]
+    return args[0] == "demo" and any(Path(c[0]).name == "rig" and c[1:] == args for c in readme)
+
+
 def _ni_installed() -> bool:
     from nidaqmx.errors import DaqNotFoundError, DaqNotSupportedError
     from nidaqmx.system import System
@@ -228,7 +245,7 @@ class _Runner:
     def result(self, i: int) -> tuple[int, str, str]:
         for j in range(i + 1):
             args, redirect, _ = _shell(EXAMPLES[j])
-            if j in self.done or _full_demo(args) or (self.ni and _on_hardware(args)):
+            if j in self.done or _full_demo(args) or _readme_demo(args) or (self.ni and _on_hardware(args)):
                 continue
             if args[0] == "monitor":
                 self.done[j] = _monitor(args, self.folder)
@@ -275,7 +292,13 @@ def test_command_help_example_runs(examples, index):
     line = EXAMPLES[index]
     args, _, pipe = _shell(line)
     if _full_demo(args):
-        pytest.skip("the full demo takes about a minute; `rig demo --quick` runs the same steps here")
+        pytest.skip(
+            "the full demo takes about a minute; `rig demo --quick` runs the same steps in "
+            "test_demo_report.py, --out and --json in test_demo_cli.py"
+        )
+    if args[0] == "demo":  # README's command, run and checked by test_demo_report.py
+        assert _readme_demo(args), f"rig {shlex.join(args)} is not README's demo command"
+        return
     if _on_hardware(args) and examples.ni:  # pragma: no cover - only on a machine with NI-DAQmx
         pytest.skip("NI-DAQmx is installed here: a test never drives the real shaker")
     code, out, err = examples.result(index)

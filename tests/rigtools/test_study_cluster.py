@@ -18,6 +18,7 @@ import cloudpickle
 import numpy as np
 import pytest
 
+from rigtools import study_runner
 from rigtools.cli import main
 from rigtools.recording import open_recording
 
@@ -148,7 +149,10 @@ def test_rig_study_on_scheduler_equals_in_process(cluster, tmp_path, capsys):
         assert worker["blas_threads"] == 1
 
 
-def test_unreachable_scheduler_is_one_line(tmp_path, capsys):
+def test_unreachable_scheduler_is_one_line(tmp_path, capsys, monkeypatch):
+    """Refused in one line once the connection timeout is over (shortened here from 10 s to 1 s:
+    waiting is not what is checked)."""
+    monkeypatch.setattr(study_runner, "SCHEDULER_CONNECT_TIMEOUT", "1s")
     code = main([*ARGV, "--scheduler", "tcp://127.0.0.1:9", "--out", str(tmp_path / "x.h5")])
     err = capsys.readouterr().err
     assert code != 0
