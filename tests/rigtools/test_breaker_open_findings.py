@@ -1,0 +1,61 @@
+"""The breaker's findings left open after session 11, each with the command that showed it:
+now one clear line, the record kept whole, or the right answer. Files are built here from
+known arrays (``test_bad_input._write_recording``: two points of 60/61 Hz sines)."""
+
+from __future__ import annotations
+
+import json
+
+import h5py
+import pytest
+from cli_helpers import run_cli
+from test_bad_input import _write_recording
+
+
+def _one_line(err: str) -> str:
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert len(lines) == 1 and "Traceback" not in err, err
+    return lines[0]
+
+
+# ------------------------------------------------------------ 1: export of a point a stop cut
+def _stopped_inside_point_1(path):
+    """Point 1 ended by its writer (end_time set, as ``RecordingWriter.abort`` does) but with
+    ``point_complete`` false: the procedure was stopped inside it, its samples a truncated record."""
+    _write_recording(path)
+    with h5py.File(path, "r+") as f:
+        f["points/0000"].attrs["point_complete"] = True
+        f["points/0001"].attrs["point_complete"] = False
+        f.attrs["status"] = "aborted"
+        f.attrs["abort_reason"] = "aborted: SIGINT"
+    return path
+
+
+@pytest.mark.parametrize("json_flag", [False, True])
+def test_export_uff_skips_a_point_a_stop_cut_and_names_it(tmp_path, json_flag):
+    import pyuff
+
+    src = _stopped_inside_point_1(tmp_path / "cut.h5")
+    out = tmp_path / "c.uff"
+    code, stdout, err = run_cli(["export", "uff", src, out] + (["--json"] if json_flag else []))
+    assert code == 0, err
+    line = _one_line(err)
+    assert line == (
+        "point 1 not exported: the run was stopped inside it (point_complete false), its record is cut short"
+    )
+    if json_flag:
+        doc = json.loads(stdout)
+        assert doc["skipped_incomplete_points"] == [1]
+        assert doc["datasets"] == {"time": 4, "spectra": 4}  # four channels of point 0 only
+    names = [s["id1"] for s in pyuff.UFF(str(out)).read_sets() if s["type"] == 58]
+    assert len(names) == 8 and all(n.startswith("point 0000") for n in names)
+
+
+def test_export_uff_of_only_stopped_points_is_one_line(tmp_path):
+    src = _stopped_inside_point_1(tmp_path / "cut.h5")
+    with h5py.File(src, "r+") as f:
+        f["points/0000"].attrs["point_complete"] = False
+    code, _, err = run_cli(["export", "uff", src, tmp_path / "c.uff"])
+    assert code == 2
+    assert _one_line(err) == f"rig export: error: {src}: the recording has no complete points to export"
+    assert not (tmp_path / "c.uff").exists()
