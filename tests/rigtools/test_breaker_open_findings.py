@@ -59,3 +59,29 @@ def test_export_uff_of_only_stopped_points_is_one_line(tmp_path):
     assert code == 2
     assert _one_line(err) == f"rig export: error: {src}: the recording has no complete points to export"
     assert not (tmp_path / "c.uff").exists()
+
+
+# --------------------------------------------------------------- 2: an empty item in a value list
+@pytest.mark.parametrize(
+    ("text", "line"),
+    [
+        ("0.32 mm,,0.33 mm", "--amplitude = '0.32 mm,,0.33 mm': item 2 is empty (two commas in a row)"),
+        ("0.32 mm,0.33 mm,", "--amplitude = '0.32 mm,0.33 mm,': item 3 is empty (a comma at an end)"),
+        (",0.32 mm", "--amplitude = ',0.32 mm': item 1 is empty (a comma at an end)"),
+    ],
+)
+def test_value_list_names_an_empty_item(text, line):
+    from rigtools.errors import UserError
+    from rigtools.options import value_list
+
+    with pytest.raises(UserError) as e:
+        value_list(text, "amplitude", "--amplitude")
+    assert str(e.value) == line
+    assert value_list("0.32 mm, 0.33 mm", "amplitude", "--amplitude") == pytest.approx([0.32e-3, 0.33e-3])
+
+
+def test_an_empty_item_on_the_command_line_is_one_line(tmp_path):
+    code, _, err = run_cli(["study", "force", "--values", "5 N,,10 N", "--out", tmp_path / "s.h5"])
+    assert code == 2
+    assert _one_line(err).endswith("--values = '5 N,,10 N': item 2 is empty (two commas in a row)")
+    assert not (tmp_path / "s.h5").exists()
