@@ -12,7 +12,7 @@ import sys
 from rigtools import json_values
 from rigtools.errors import EXIT_SIGINT, UserError
 from rigtools.monitor.beside import OPTIONS as MONITOR_OPTIONS
-from rigtools.monitor.beside import stopped_from_monitor
+from rigtools.monitor.beside import refuse_monitor_options_alone, stopped_from_monitor
 from rigtools.options import HDF5_SUFFIXES, check_out, seed
 from rigtools.procedure_help import COMMON_EPILOG, PROCEDURE_HELP, PROCEDURE_OPTIONS, epilog
 
@@ -70,6 +70,7 @@ def run(args: argparse.Namespace) -> int:
     from rigtools.procedures.from_options import build_procedure, parse_faults, result_document
     from rigtools.progress import ProcedureProgress
 
+    refuse_monitor_options_alone(args)
     resume = getattr(args, "resume", False)
     out = check_out(args, suffixes=HDF5_SUFFIXES) if not resume else _resume_out(args.out)
     cfg = load_rig(args.rig)

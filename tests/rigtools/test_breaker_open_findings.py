@@ -85,3 +85,28 @@ def test_an_empty_item_on_the_command_line_is_one_line(tmp_path):
     assert code == 2
     assert _one_line(err).endswith("--values = '5 N,,10 N': item 2 is empty (two commas in a row)")
     assert not (tmp_path / "s.h5").exists()
+
+
+# ------------------------------------------------- 3: the monitor's options without --monitor
+@pytest.mark.parametrize(
+    ("extra", "line"),
+    [
+        (["--allow-stop"], "--allow-stop needs --monitor"),
+        (["--monitor-linger", "5 s"], "--monitor-linger needs --monitor"),
+        (["--monitor-port", "5006"], "--monitor-port needs --monitor"),
+        (["--allow-stop", "--monitor-linger", "0"], "--allow-stop and --monitor-linger need --monitor"),
+    ],
+)
+@pytest.mark.parametrize(
+    "procedure",
+    [
+        ["dwell", "--fe", "60 Hz", "--force", "5 N"],
+        ["cbc", "--fe", "60 Hz", "--amplitude", "0.3 mm"],
+        ["pll", "--force", "5 N"],
+    ],
+)
+def test_monitor_options_without_monitor_are_one_line(tmp_path, procedure, extra, line):
+    code, _, err = run_cli(["acquire", *procedure, "--backend", "sim", "--out", tmp_path / "r.h5", *extra])
+    assert code == 2
+    assert f"error: {line} (no monitor is started without it" in _one_line(err)
+    assert not (tmp_path / "r.h5").exists()
