@@ -110,3 +110,33 @@ def test_monitor_options_without_monitor_are_one_line(tmp_path, procedure, extra
     assert code == 2
     assert f"error: {line} (no monitor is started without it" in _one_line(err)
     assert not (tmp_path / "r.h5").exists()
+
+
+# ------------------------------------- 4: a CBC point that did not converge says why no multipliers
+class _MeasuringLoop:
+    """A real-time loop's multiplier measurement, counting its calls."""
+
+    def __init__(self) -> None:
+        self.calls = 0
+
+    def multipliers(self, measurement):
+        self.calls += 1
+        raise AssertionError("a point that did not converge is never measured")
+
+
+@pytest.mark.parametrize("wanted", [True, False])
+def test_a_cbc_point_that_did_not_converge_says_why_it_has_no_multipliers(wanted):
+    """ControlBasedContinuation._stability decides per point: a converged point is measured, one
+    that did not converge records ``multipliers_not_measured`` (so every point of a real-time run
+    carries one or the other); with multipliers=False nothing is tried and nothing is said."""
+    from types import SimpleNamespace
+
+    from rigtools.procedures.cbc import CBCPoint, ControlBasedContinuation
+
+    run = SimpleNamespace(params=SimpleNamespace(multipliers=wanted), emit=lambda *a, **k: None)
+    pt = SimpleNamespace(point=SimpleNamespace(converged=False), multipliers=None, stability={})
+    loop = _MeasuringLoop()
+    ControlBasedContinuation._stability(run, loop, pt)
+    assert loop.calls == 0
+    fields = CBCPoint.multiplier_fields(pt)
+    assert fields == ({"multipliers_not_measured": "the point did not converge"} if wanted else {})
