@@ -140,3 +140,29 @@ def test_a_cbc_point_that_did_not_converge_says_why_it_has_no_multipliers(wanted
     assert loop.calls == 0
     fields = CBCPoint.multiplier_fields(pt)
     assert fields == ({"multipliers_not_measured": "the point did not converge"} if wanted else {})
+
+
+# ------------------------------------------------------ 5: rig monitor on a file that never appears
+def test_monitor_of_a_file_that_never_appears_ends_after_its_linger(tmp_path):
+    """``rig monitor`` waits for a FILE that does not exist yet (a run about to start); with
+    --linger it waits at most that long, then says so in one line and exits 2 (before the fix it
+    waited for ever, --linger or not). The 120 s timeout guards against that hang (not a timing
+    assertion)."""
+    import subprocess
+    import sys
+
+    path = tmp_path / "typo.h5"
+    done = subprocess.run(
+        [sys.executable, "-m", "rigtools.cli", "monitor", str(path), "--port", "0", "--linger", "0.5"],
+        check=False,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    lines = done.stderr.strip().splitlines()
+    assert done.returncode == 2, done.stderr
+    assert lines == [
+        f"rig monitor: waiting for {path} (at most 0.5 s: --linger); Ctrl-C ends the monitor (never the run)",
+        f"rig monitor: error: {path} does not exist, and did not appear within --linger 0.5 s",
+    ]
+    assert not path.exists()
