@@ -166,3 +166,81 @@ def test_monitor_of_a_file_that_never_appears_ends_after_its_linger(tmp_path):
         f"rig monitor: error: {path} does not exist, and did not appear within --linger 0.5 s",
     ]
     assert not path.exists()
+
+
+# ------------------------------------------- 6: --json of a run that stopped or failed
+def test_json_of_a_failed_dwell_is_printed_before_its_line(tmp_path):
+    """Exit 5 (the force target beyond the rig's limits): stdout still holds the run's JSON
+    document (status failed, the reason, the file, the point recorded), as read from the file."""
+    from rigtools.recording import open_recording
+
+    out = tmp_path / "f.h5"
+    argv = [
+        "acquire",
+        "dwell",
+        "--backend",
+        "sim",
+        "--fe",
+        "60 Hz",
+        "--force",
+        "1 kN",
+        "--out",
+        out,
+        "--json",
+    ]
+    code, stdout, err = run_cli(argv)
+    assert code == 5
+    assert "cannot be reached at 60 Hz" in _one_line(err)
+    doc = json.loads(stdout)
+    with open_recording(out) as rec:
+        assert rec.attrs["end_status"] == "failed"  # the file: status aborted, how it ended: failed
+        params = rec.points[0].params
+    assert doc["status"] == "failed" and doc["file"] == str(out) and doc["procedure"] == "dwell"
+    assert doc["reason"].startswith("--force 1000 N cannot be reached at 60 Hz")
+    assert doc["reason"] in _one_line(err)
+    assert doc["force_amplitude_measured"] == params["force_amplitude_measured"]
+    assert doc["settled"] is False
+
+
+def test_json_of_a_dwell_stopped_by_sigterm(tmp_path):
+    """SIGTERM mid-dwell: exit 143, and --json still prints the document (status aborted, the
+    recording's reason, the file) before the one line on stderr. The signal is sent once the
+    dwell has 1 s on disk (a wait with a 600 s safety net, not a timing)."""
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    from cli_helpers import acquire_dwell
+
+    from rigtools.recording import open_recording
+
+    out = tmp_path / "d.h5"
+    child = subprocess.Popen(
+        [sys.executable, "-m", "rigtools.cli", *acquire_dwell(periods=6000), "--out", str(out), "--json"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+
+    def samples() -> int:
+        try:
+            with open_recording(out) as rec:
+                return rec.points[0].n_samples if rec.points else 0
+        except Exception:  # noqa: BLE001 - the writer is between phases: look again
+            return 0
+
+    end = time.monotonic() + 600
+    while child.poll() is None and samples() < 51200 and time.monotonic() < end:
+        time.sleep(0.05)
+    assert child.poll() is None, child.communicate()
+    child.send_signal(signal.SIGTERM)
+    stdout, stderr = child.communicate(timeout=600)
+    assert child.returncode == 143, stderr
+    assert "interrupted" in _one_line(stderr)
+    doc = json.loads(stdout)
+    with open_recording(out) as rec:
+        assert rec.status == "aborted"
+        reason = rec.abort_reason
+    assert doc["status"] == "aborted" and doc["file"] == str(out) and doc["procedure"] == "dwell"
+    assert reason == f"aborted: {doc['reason']}" and doc["reason"].startswith("signal SIGTERM")
