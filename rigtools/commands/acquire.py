@@ -12,7 +12,7 @@ import sys
 from rigtools import json_values
 from rigtools.errors import EXIT_SIGINT, UserError
 from rigtools.monitor.beside import OPTIONS as MONITOR_OPTIONS
-from rigtools.monitor.beside import refuse_monitor_options_alone, stopped_from_monitor
+from rigtools.monitor.beside import stopped_from_monitor
 from rigtools.options import HDF5_SUFFIXES, check_out, seed
 from rigtools.procedure_help import COMMON_EPILOG, PROCEDURE_HELP, PROCEDURE_OPTIONS, epilog
 
@@ -66,41 +66,32 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     from rigtools.config import load_rig
     from rigtools.monitor.beside import monitor_beside
+    from rigtools.procedures import from_options as opts
     from rigtools.procedures.base import Status
-    from rigtools.procedures.from_options import build_procedure, parse_faults, result_document
     from rigtools.progress import ProcedureProgress
 
-    refuse_monitor_options_alone(args)
-    resume = getattr(args, "resume", False)
-    out = check_out(args, suffixes=HDF5_SUFFIXES) if not resume else _resume_out(args.out)
+    out = _resume_out(args.out) if getattr(args, "resume", False) else check_out(args, suffixes=HDF5_SUFFIXES)
     cfg = load_rig(args.rig)
-    faults = parse_faults(args.fault, args.backend)
+    faults = opts.parse_faults(args.fault, args.backend)
     run_options = {"backend": args.backend, "overwrite": args.overwrite, "pace": args.pace, "seed": args.seed}
     confirm = _confirm(args.yes) if args.procedure == "study" else None
-    proc = build_procedure(
+    proc = opts.build_procedure(
         args.procedure, cfg, out, vars(args), confirm_gap=confirm, faults=faults, **run_options
     )
     if getattr(proc, "note", ""):
         print(f"rig acquire {args.procedure}: {proc.note}", file=sys.stderr)
-    ran = False
     try:
         with (
             ProcedureProgress(args.procedure, enabled=not args.json) as display,
             monitor_beside(args, out, proc, display.event) as progress,
+            opts.document_if_ended(vars(args), proc),
         ):
             proc._progress = progress
-            ran = True
             result = proc.run()
     except KeyboardInterrupt as exc:
-        if args.json and _recorded(proc, ran):
-            _print_ended_document(args, proc)
         _exit_interrupted(proc, getattr(exc, "exit_code", EXIT_SIGINT))
-    except Exception:
-        if args.json and _recorded(proc, ran):  # failed (exit 4, 5): the document, then rig's line
-            _print_ended_document(args, proc)
-        raise
     sys.stderr.write("".join(f"rig acquire {args.procedure}: {x}\n" for x in getattr(proc, "lost", [])))
-    doc = result_document(args.procedure, args.backend, proc, result, getattr(args, "f_max", "2 kHz"))
+    doc = opts.result_document(args.procedure, args.backend, proc, result, getattr(args, "f_max", "2 kHz"))
     if args.json:
         print(json_values.dumps(doc))
     else:
@@ -114,27 +105,6 @@ def run(args: argparse.Namespace) -> int:
     if result.status is Status.FINISHED:
         return 0
     return stopped_from_monitor(result.reason, proc.out) or EXIT_SIGINT
-
-
-def _recorded(proc, ran: bool) -> bool:
-    """True when the run began its recording (a run refused before it, e.g. no NI-DAQmx, has
-    no document: its one line says it all)."""
-    return ran and getattr(proc, "writer", None) is not None
-
-
-def _print_ended_document(args: argparse.Namespace, proc) -> None:
-    """``--json`` of a run that ended by a signal or a failure: the document a finished run
-    prints (status ``aborted`` or ``failed``, its reason, the file, the points recorded so far)."""
-    from rigtools.procedures.from_options import result_document
-    from rigtools.procedures.result import RunResult
-
-    ended = RunResult.from_procedure(args.procedure, proc.result, proc.out)
-    try:
-        doc = result_document(args.procedure, args.backend, proc, ended, getattr(args, "f_max", "2 kHz"))
-    except Exception:  # noqa: BLE001 - a partial run's detail failed: the run's own error comes next
-        doc = {"file": str(proc.out), "status": ended.status.value, "reason": ended.reason}
-        doc.update({"backend": args.backend, "procedure": args.procedure})
-    print(json_values.dumps(doc), flush=True)
 
 
 def _exit_interrupted(proc, code: int) -> None:

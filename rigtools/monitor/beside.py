@@ -138,8 +138,10 @@ def monitor_beside(
 ) -> Iterator[Callable[[Any], None]]:
     """With ``args.monitor``: start the monitor, print its address, publish the run's control
     events and honour its stop requests; yields the progress callback to give the procedure.
-    Without it: yields ``progress`` and does nothing else."""
+    Without it: refuses the monitor's other options (:func:`refuse_monitor_options_alone`),
+    yields ``progress`` and does nothing else."""
     if not getattr(args, "monitor", False):
+        refuse_monitor_options_alone(args)
         yield progress
         return
     from rigtools.monitor.control_files import LiveStatus
