@@ -244,3 +244,34 @@ def test_json_of_a_dwell_stopped_by_sigterm(tmp_path):
         reason = rec.abort_reason
     assert doc["status"] == "aborted" and doc["file"] == str(out) and doc["procedure"] == "dwell"
     assert reason == f"aborted: {doc['reason']}" and doc["reason"].startswith("signal SIGTERM")
+
+
+# ---------------------------------------- 7: rig info's other parameters with their units
+def test_info_shows_the_units_of_the_other_parameters(tmp_path, monkeypatch):
+    """A CBC point's parameters that have no column of their own are shown with the SI units
+    the vocabulary gives them (amplitude_target in m, feedforward_amplitude in V, ...); ratios and
+    flags without any."""
+    path = _write_recording(tmp_path / "c.h5")
+    with h5py.File(path, "r+") as f:
+        attrs = f["points/0000"].attrs
+        attrs["amplitude_target"] = 0.00032
+        attrs["feedforward_amplitude"] = 1.25
+        attrs["control_effort"] = 0.0125
+        attrs["phase_target"] = -90.0
+        attrs["release_growth_rate"] = 3.5
+        attrs["drive_harmonics_ratio"] = 0.004
+        attrs["converged"] = True
+    monkeypatch.setenv("COLUMNS", "400")  # a wide table: each point's cell on one line
+    code, out, err = run_cli(["info", path])
+    assert code == 0, err
+    text = " ".join(out.split())
+    for shown in (
+        "amplitude_target=0.00032 m",
+        "feedforward_amplitude=1.25 V",
+        "control_effort=0.0125 V",
+        "phase_target=-90 deg",
+        "release_growth_rate=3.5 1/s",
+        "drive_harmonics_ratio=0.004,",
+        "converged=yes",
+    ):
+        assert shown in text, (shown, out)
