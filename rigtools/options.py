@@ -170,9 +170,14 @@ def value_list(
             raise UserError(f"{option} = {text!r}: {n} points is too many (at most {MAX_POINTS})")
         values = [start + i * step for i in range(n)]
     else:
-        values = [one(p) for p in text.split(",") if p.strip()]
-        if not values:
+        parts = text.split(",")
+        if not text:
             raise UserError(f"{option}: give at least one value")
+        empty = [i for i, p in enumerate(parts, 1) if not p.strip()]
+        if empty:  # "0.32 mm,,0.33 mm": a value left out, never a silent shorter list
+            where = "two commas in a row" if 1 < empty[0] < len(parts) else "a comma at an end"
+            raise UserError(f"{option} = {text!r}: item {empty[0]} is empty ({where})")
+        values = [one(p) for p in parts]
         if len(values) > MAX_POINTS:
             raise UserError(f"{option}: {len(values)} points is too many (at most {MAX_POINTS})")
     strict = positive or kind in ("frequency", "amplitude")

@@ -38,7 +38,9 @@ QUANTITIES_AND_EXIT = (
     """\
 The drive ramps up and down over [safety] ramp_time; on a stop, Ctrl-C, SIGTERM or SIGHUP it
 ramps to zero over abort_ramp_time while still recording (status aborted), on a fault or safety
-abort at once (status failed); everything recorded is kept.
+abort at once (status failed); everything recorded is kept. With --json a run that began its
+recording and then stopped (130, 143, 129, 6) or failed (4, 5) still prints its document (status
+aborted or failed, reason, file, the points recorded so far) before its one line on stderr.
 
 Quantities take units ("60 Hz", "15 N", "0.5 mm", "2 s"); a plain number is SI.
 """

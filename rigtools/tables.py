@@ -13,6 +13,7 @@ from typing import Any
 from rigtools import readable
 from rigtools.branches_file import X_LABELS, X_UNITS
 from rigtools.recording.summary import format_value
+from rigtools.vocabulary import parameter_units
 
 
 def _fmt(x, digits: int = readable.DIGITS) -> str:
@@ -556,7 +557,7 @@ def _points_table(info: dict, format_value) -> Any:
     points = info["points"]
     present = [k for k in INFO_COLUMNS if any(p["params"].get(k) not in (None, "") for p in points)]
     other = lambda params: ", ".join(
-        f"{k}={format_value(v)}"
+        f"{k}={_with_units(k, v, format_value)}"
         for k, v in params.items()
         if k not in INFO_COLUMNS and k not in _INFO_HIDDEN and "_harmonic_" not in k and v not in (None, "")
     )
@@ -582,6 +583,17 @@ def _points_table(info: dict, format_value) -> Any:
             state,
         )
     return table
+
+
+def _with_units(name: str, value: Any, format_value) -> str:
+    """A parameter's value with its SI units where the vocabulary defines them (a number or a
+    list of numbers: ``amplitude_target=0.00032 m``)."""
+    text = format_value(value)
+    plain = value.tolist() if hasattr(value, "tolist") else value  # numpy arrays and scalars
+    items = plain if isinstance(plain, (list, tuple)) else [plain]
+    numeric = bool(items) and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in items)
+    unit = parameter_units(name) if numeric else ""
+    return f"{text} {unit}" if unit else text
 
 
 def _harmonics_table(info: dict, units: dict[str, str]) -> Any:

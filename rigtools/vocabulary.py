@@ -263,6 +263,34 @@ PARAMETERS: dict[str, ParameterTerm] = _table(
     ),
 )
 
+#: SI units of the controlled tests' point parameters that :data:`PARAMETERS` does not hold
+#: (``rig acquire pll``: ``rigtools.procedures.pll.point_attrs``; ``rig acquire cbc``:
+#: ``rigtools.procedures.cbc.CBCPoint.attrs``). Names ending in their unit (``amplitude_m``,
+#: ``fe_hz``, ``force_fundamental_n``, ``phase_deg``) say it; ratios, counts and flags have none.
+CONTROLLED_PARAMETER_UNITS: dict[str, str] = {
+    "amplitude_target": "m",  # the target's fundamental, peak
+    "feedforward_amplitude": "V",
+    "control_effort": "V",  # RMS of the control term over the measurement
+    "tip_amplitude_active": "m",  # half the peak-to-peak of the displacement
+    "phase_target": "deg",
+    "phase_error_rms": "deg",
+    "release_seconds": "s",
+    "release_growth_rate": "1/s",
+}
+
+
+def parameter_units(name: str) -> str:
+    """SI units of point parameter ``name`` where the vocabulary defines them, else ``""``.
+
+    Examples
+    --------
+    >>> parameter_units("gap"), parameter_units("amplitude_target"), parameter_units("converged")
+    ('m', 'm', '')
+    """
+    term = PARAMETERS.get(name)
+    return term.units if term is not None else CONTROLLED_PARAMETER_UNITS.get(name, "")
+
+
 # Schema v1 files written before this vocabulary: old name -> current name. The old
 # ``measured_force_amplitude`` was the fundamental in EM files but max|F| over the record in FEM
 # files; the model's force is a pure sine F0 sin(2 pi fe t) sampled n >= 120 times per period

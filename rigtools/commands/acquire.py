@@ -66,17 +66,16 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     from rigtools.config import load_rig
     from rigtools.monitor.beside import monitor_beside
+    from rigtools.procedures import from_options as opts
     from rigtools.procedures.base import Status
-    from rigtools.procedures.from_options import build_procedure, parse_faults, result_document
     from rigtools.progress import ProcedureProgress
 
-    resume = getattr(args, "resume", False)
-    out = check_out(args, suffixes=HDF5_SUFFIXES) if not resume else _resume_out(args.out)
+    out = _resume_out(args.out) if getattr(args, "resume", False) else check_out(args, suffixes=HDF5_SUFFIXES)
     cfg = load_rig(args.rig)
-    faults = parse_faults(args.fault, args.backend)
+    faults = opts.parse_faults(args.fault, args.backend)
     run_options = {"backend": args.backend, "overwrite": args.overwrite, "pace": args.pace, "seed": args.seed}
     confirm = _confirm(args.yes) if args.procedure == "study" else None
-    proc = build_procedure(
+    proc = opts.build_procedure(
         args.procedure, cfg, out, vars(args), confirm_gap=confirm, faults=faults, **run_options
     )
     if getattr(proc, "note", ""):
@@ -85,13 +84,14 @@ def run(args: argparse.Namespace) -> int:
         with (
             ProcedureProgress(args.procedure, enabled=not args.json) as display,
             monitor_beside(args, out, proc, display.event) as progress,
+            opts.document_if_ended(vars(args), proc),
         ):
             proc._progress = progress
             result = proc.run()
     except KeyboardInterrupt as exc:
         _exit_interrupted(proc, getattr(exc, "exit_code", EXIT_SIGINT))
     sys.stderr.write("".join(f"rig acquire {args.procedure}: {x}\n" for x in getattr(proc, "lost", [])))
-    doc = result_document(args.procedure, args.backend, proc, result, getattr(args, "f_max", "2 kHz"))
+    doc = opts.result_document(args.procedure, args.backend, proc, result, getattr(args, "f_max", "2 kHz"))
     if args.json:
         print(json_values.dumps(doc))
     else:

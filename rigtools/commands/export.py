@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 
 from rigtools import json_values
 from rigtools.errors import UserError, exit_status_help
@@ -28,6 +29,11 @@ direction 2 (+Y, the blades' impact direction) for all. A channel rig import uff
 node, direction, entity name and ID line 1 of its record; other channels of an imported recording
 get nodes 101+ and direction 0 (none), said in one line. Binary, double precision values; the
 abscissa increment is stored in the format's E13.5 field (6 significant digits).
+
+Points a run did not finish are left out: cut off (the writer never ended them) or stopped
+inside (point_complete false: a stop cut the record short). A truncated record read by another
+tool would be silently wrong data; one line on stderr names them (--json: skipped_incomplete_points
+and skipped_why).
 
 A recording without a force channel (response-only, e.g. an imported ambient or operational
 record) gets its time records and spectra, and one line saying no FRF was written.
@@ -88,9 +94,12 @@ def run(args: argparse.Namespace) -> int:
     options = frf_options(args)
     out = output_path(args.out, args.overwrite, "OUT", suffixes=UFF_SUFFIXES, inputs=[args.file])
     notes: list[str] = []
+    left_out: list[str] = []
     functions, skipped = file_functions(
-        args.file, what, frf_options=options, reference=args.reference, notes=notes
+        args.file, what, frf_options=options, reference=args.reference, notes=notes, left_out=left_out
     )
+    for line in left_out:  # a cut or stopped point is a truncated record: never exported as data
+        print(line, file=sys.stderr)
     if not functions:
         why = notes[0] if notes else "FRFs need a broadband point with a force channel"
         raise UserError(f"{args.file}: nothing to export for --what {args.what!r}: {why}")
@@ -100,11 +109,16 @@ def run(args: argparse.Namespace) -> int:
         key = {1: "time", 2: "spectra", 4: "frf", 6: "coherence"}[f.func_type]
         counts[key] = counts.get(key, 0) + 1
     if args.json:
-        doc = {"file": str(out), "datasets": counts, "skipped_incomplete_points": skipped, "notes": notes}
+        doc = {
+            "file": str(out),
+            "datasets": counts,
+            "skipped_incomplete_points": skipped,
+            "skipped_why": left_out,
+            "notes": notes,
+        }
         print(json_values.dumps(doc))
     else:
         for line in notes:
             print(line)
-        note = f"; incomplete point(s) {skipped} not exported" if skipped else ""
-        print(f"wrote {out}: " + ", ".join(f"{v} {k}" for k, v in counts.items()) + f" (UFF 58, SI){note}")
+        print(f"wrote {out}: " + ", ".join(f"{v} {k}" for k, v in counts.items()) + " (UFF 58, SI)")
     return 0

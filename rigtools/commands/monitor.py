@@ -27,6 +27,10 @@ run (started with rig acquire ... --monitor) ramps the drive to zero and ends ab
 there; served beyond loopback only a holder of the printed address (with its token) can.
 Ctrl-C ends the monitor, never the run.
 
+FILE may not exist yet (a run about to start): the page waits for it, until Ctrl-C; with
+--linger SECONDS (and no --parent) at most SECONDS: a FILE that has not appeared by then is
+one line naming it and exit status 2 (a mistyped name ends instead of waiting for ever).
+
 --linger SECONDS: exit that long after the recording ended; with --parent PID (what
 rig acquire ... --monitor passes: its own process id) also that long after process PID ended,
 however it ended (a kill leaves the recording unfinished), so the monitor never outlives its
@@ -38,7 +42,7 @@ run by more than SECONDS.
         2,
         notes={
             0: "the recording ended and --linger passed",
-            2: "bad input (options, the address cannot be served)",
+            2: "bad input (options, the address cannot be served, FILE not there within --linger)",
         },
     )
     + """
@@ -58,7 +62,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         description=HELP,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("file", metavar="FILE", help="recording (.h5); it may not exist yet")
+    p.add_argument(
+        "file", metavar="FILE", help="recording (.h5); it may not exist yet (waited for: at most --linger)"
+    )
     p.add_argument(
         "--host", default="127.0.0.1", help="address to serve on (default 127.0.0.1; others need the token)"
     )
@@ -68,7 +74,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "--linger",
         default=None,
         metavar="SECONDS",
-        help="exit SECONDS after the recording ended (default: run until Ctrl-C)",
+        help="exit SECONDS after the recording ended, or (no --parent) if FILE has not appeared "
+        "after SECONDS (default: run until Ctrl-C)",
     )
     p.add_argument(
         "--parent",
@@ -84,7 +91,7 @@ def run(args: argparse.Namespace) -> int:
     import os
     import sys
 
-    from rigtools.errors import EXIT_SIGINT, UserError
+    from rigtools.errors import EXIT_SIGINT, EXIT_USAGE, UserError
     from rigtools.monitor.follow import unreadable_ended
     from rigtools.monitor.server import run_until_done, serve
     from rigtools.options import duration
@@ -103,14 +110,24 @@ def run(args: argparse.Namespace) -> int:
     except OSError as exc:
         raise UserError(f"cannot serve on {args.host}:{args.port} ({exc.strerror or exc})") from None
     print(served.url, flush=True)
+    absent = not os.path.exists(args.file)
+    bound = linger if absent and args.parent is None else None
+    what = "waiting for" if absent else "following"
+    within = f" (at most {bound:g} s: --linger)" if bound is not None else ""
     print(
-        f"rig monitor: following {args.file}; Ctrl-C ends the monitor (never the run)",
+        f"rig monitor: {what} {args.file}{within}; Ctrl-C ends the monitor (never the run)",
         file=sys.stderr,
         flush=True,
     )
     code = 0
     try:
-        run_until_done(served, linger)
+        if not run_until_done(served, linger, appear_within=bound):
+            code = EXIT_USAGE
+            print(
+                f"rig monitor: error: {args.file} does not exist, and did not appear within "
+                f"--linger {bound:g} s",
+                file=sys.stderr,
+            )
     except KeyboardInterrupt as exc:
         served.stop()
         code = getattr(exc, "exit_code", EXIT_SIGINT)  # 130 Ctrl-C, 143 SIGTERM: rig --help

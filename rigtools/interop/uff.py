@@ -72,6 +72,7 @@ from rigtools.interop.uff_places import (  # the rig's numbering (node_of, FIXED
     unplaced_line,
 )
 from rigtools.recording import open_recording
+from rigtools.recording.summary import left_out_lines
 from rigtools.recording_analysis.broadband import PROCEDURE_FRF
 from rigtools.recording_analysis.frf_estimate import point_frf_estimate
 from rigtools.recording_analysis.results import frf_kind_of_units
@@ -298,7 +299,8 @@ def recording_functions(
     reference
         The excitation channel of the FRFs (default: the recording's force channel).
     complete_only
-        Leave out points that did not end (a run cut off mid-point): never exported as data.
+        Leave out points that did not end (a run cut off mid-point) or that a stop cut short
+        (``point_complete`` false): never exported as data.
     notes
         Where given, the lines to print are appended: a response-only point (no force channel)
         gets time records and spectra but no FRF (:func:`no_frf_line`); channels of an imported
@@ -328,7 +330,7 @@ def recording_functions(
     unplaced: list[int] = []  # nodes given here to an imported recording's unplaced channels
     response_only: list[int] = []
     for point in recording.points:
-        if complete_only and not point.complete:
+        if complete_only and (not point.complete or point.stopped):
             continue
         n = point.n_samples
         if n < 2:
@@ -563,10 +565,12 @@ def file_functions(
     frf_options=None,
     reference: str | None = None,
     notes: list[str] | None = None,
+    left_out: list[str] | None = None,
 ) -> tuple[list[UffFunction], list[int]]:
     """``(functions, points left out)`` of what ``rig export uff`` writes of ``path``: a recording's
-    (:func:`recording_functions`, complete points only; the cut-off points' indices returned;
-    the lines to print appended to ``notes``) or an FRF set's (:func:`frf_set_functions`: its
+    (:func:`recording_functions`, whole points only; the indices of the points cut off or
+    stopped inside returned, the lines naming them appended to ``left_out``
+    (:func:`rigtools.recording.summary.left_out_lines`), the lines to print appended to ``notes``) or an FRF set's (:func:`frf_set_functions`: its
     FRFs are estimated already, so FRF options and ``reference`` are refused in one line).
 
     Raises
@@ -588,7 +592,10 @@ def file_functions(
     with open_recording(path) as rec:
         if notes is not None:
             notes.extend(rec.notes)  # what --skip-damaged left out of a damaged file
-        skipped = [p.index for p in rec.points if not p.complete]  # cut off: never passed on as data
+        # cut off or stopped inside: never passed on as data
+        skipped = [p.index for p in rec.points if not p.complete or p.stopped]
+        if left_out is not None:
+            left_out.extend(left_out_lines(rec.points))
         if len(skipped) == len(rec.points):
             raise UserError(f"{path}: the recording has no complete points to export")
         functions = recording_functions(

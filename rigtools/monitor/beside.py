@@ -35,14 +35,19 @@ OPTIONS: tuple[tuple[str, dict], ...] = (
     (
         "--monitor-host",
         {
-            "default": "127.0.0.1",
+            "default": None,
             "metavar": "HOST",
-            "help": "--monitor: address to serve on (not loopback: a token is needed)",
+            "help": "--monitor: address to serve on (default 127.0.0.1; not loopback: a token is needed)",
         },
     ),
     (
         "--monitor-port",
-        {"type": int, "default": 0, "metavar": "PORT", "help": "--monitor: TCP port (default: a free one)"},
+        {
+            "type": int,
+            "default": None,
+            "metavar": "PORT",
+            "help": "--monitor: TCP port (default: a free one)",
+        },
     ),
     (
         "--allow-stop",
@@ -61,6 +66,26 @@ OPTIONS: tuple[tuple[str, dict], ...] = (
         },
     ),
 )
+
+
+def refuse_monitor_options_alone(args: Any) -> None:
+    """An option of the monitor given without ``--monitor`` would be ignored: one line naming it.
+
+    Raises
+    ------
+    UserError
+        ``--allow-stop``, ``--monitor-linger``, ``--monitor-host`` or ``--monitor-port`` given
+        without ``--monitor``.
+    """
+    if getattr(args, "monitor", False):
+        return
+    values = {flag: getattr(args, flag[2:].replace("-", "_"), None) for flag, _ in OPTIONS[1:]}
+    given = [flag for flag, value in values.items() if value is not None and value is not False]
+    if given:
+        raise UserError(
+            f"{' and '.join(given)} {'needs' if len(given) == 1 else 'need'} --monitor "
+            f"(no monitor is started without it, so {'it' if len(given) == 1 else 'they'} would be ignored)"
+        )
 
 
 def start_monitor(
@@ -113,8 +138,10 @@ def monitor_beside(
 ) -> Iterator[Callable[[Any], None]]:
     """With ``args.monitor``: start the monitor, print its address, publish the run's control
     events and honour its stop requests; yields the progress callback to give the procedure.
-    Without it: yields ``progress`` and does nothing else."""
+    Without it: refuses the monitor's other options (:func:`refuse_monitor_options_alone`),
+    yields ``progress`` and does nothing else."""
     if not getattr(args, "monitor", False):
+        refuse_monitor_options_alone(args)
         yield progress
         return
     from rigtools.monitor.control_files import LiveStatus
@@ -124,7 +151,11 @@ def monitor_beside(
     linger = LINGER_S if given is None else duration(given, "--monitor-linger", allow_zero=True)
     with LiveStatus(out, proc.stop) as live:
         _child, url = start_monitor(
-            out, host=args.monitor_host, port=args.monitor_port, allow_stop=args.allow_stop, linger=linger
+            out,
+            host=args.monitor_host or "127.0.0.1",
+            port=args.monitor_port or 0,
+            allow_stop=args.allow_stop,
+            linger=linger,
         )
         print(f"rig acquire: monitor at {url}", file=sys.stderr, flush=True)
 

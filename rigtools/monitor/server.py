@@ -319,15 +319,26 @@ def serve(
     return Served(url, token, hub, server)
 
 
-def run_until_done(served: Served, linger: float | None) -> None:
+def run_until_done(served: Served, linger: float | None, appear_within: float | None = None) -> bool:
     """Serve until Ctrl-C, or until ``linger`` s after the recording ended or the run's process
-    (``parent``) was seen gone (None: until Ctrl-C)."""
+    (``parent``) was seen gone (None: until Ctrl-C). With ``appear_within`` (s), also until then
+    if the recording does not exist yet: returns False when it never appeared (True otherwise)."""
     from tornado.ioloop import PeriodicCallback
 
+    start = time.monotonic()
+    seen = [appear_within is None]  # the recording existed at one look (then no bound applies)
+    appeared = [True]
+
     def check() -> None:
+        now = time.monotonic()
         ended = served.hub.finished_at
-        if linger is not None and ended is not None and time.monotonic() - ended >= linger:
+        if linger is not None and ended is not None and now - ended >= linger:
             served.stop()
+        elif not seen[0]:
+            seen[0] = served.hub.follower.path.exists()
+            if not seen[0] and appear_within is not None and now - start >= appear_within:
+                appeared[0] = False
+                served.stop()
 
     watch = PeriodicCallback(check, 500)
     watch.start()
@@ -336,3 +347,4 @@ def run_until_done(served: Served, linger: float | None) -> None:
     finally:
         watch.stop()
         served.hub.stop()
+    return appeared[0]

@@ -147,6 +147,10 @@ class CBCParameters(BaseModel):
         return Gains(self.kp, self.kd, self.feedback_harmonics, envelope)
 
 
+#: ``multipliers_not_measured`` of a point that did not converge (its multipliers never tried).
+NOT_CONVERGED = "the point did not converge"
+
+
 @dataclass
 class CBCPoint:
     """One point of the continuation: the shared record and what CBC adds."""
@@ -777,9 +781,13 @@ class ControlBasedContinuation(SineProcedure):
         return first
 
     def _stability(self, loop, pt: CBCPoint) -> None:
-        """The point's multipliers where the inner loop measures them (a real-time loop)."""
+        """The point's multipliers where the inner loop measures them (a real-time loop); a point
+        that did not converge is not measured, and says so (``multipliers_not_measured``)."""
         measure = getattr(loop, "multipliers", None)
-        if not (self.params.multipliers and pt.point.converged and callable(measure)):
+        if not (self.params.multipliers and callable(measure)):
+            return
+        if not pt.point.converged:  # no orbit held at the target: its release would measure nothing
+            pt.stability = {"not_measured": NOT_CONVERGED}
             return
         try:
             fit, info = measure(pt.measurement)

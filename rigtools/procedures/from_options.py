@@ -5,16 +5,19 @@ procedure's result as the ``rig acquire --json`` document.
 * :func:`parse_faults`: ``KIND@TIME[:CHANNEL]`` texts -> :class:`rigtools.drivers.simulated.Fault`
   (the one fault grammar, :meth:`~rigtools.drivers.simulated.Fault.parse`);
 * :func:`build_procedure`: a :class:`rigtools.procedures.base.Procedure` of a name and options;
-* :func:`result_document`: what a run gave (harmonics, jumps, the FRF quick check, tap modes).
+* :func:`result_document`: what a run gave (harmonics, jumps, the FRF quick check, tap modes);
+  :func:`document_if_ended`: the same of a run stopped or failed after it began recording.
 """
 
 from __future__ import annotations
 
+import contextlib
 import re
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any, TypeVar
 
+from rigtools import json_values
 from rigtools.analysis.frf import MIN_FRAME_SAMPLES
 from rigtools.drivers.contracts import ConfigurationError
 from rigtools.drivers.realtime_pll import NO_REALTIME_PLL
@@ -30,6 +33,7 @@ from rigtools.procedures.frf import FrfTest, quick_check
 from rigtools.procedures.pll import PhaseLockedLoop
 from rigtools.procedures.pll_options import OPTIONS as PLL_OPTIONS
 from rigtools.procedures.pll_options import pll_document, pll_parameters
+from rigtools.procedures.result import RunResult
 from rigtools.procedures.rig import sim_only
 from rigtools.procedures.rig_study import RigStudy
 from rigtools.procedures.sweep import SteppedSine
@@ -351,3 +355,25 @@ def result_document(name: str, backend: str, proc: Any, result: Any, f_max: str 
                 for m in res.modes[proc.response].modes
             ]
     return doc
+
+
+@contextlib.contextmanager
+def document_if_ended(options: Mapping[str, Any], proc: Any) -> Iterator[None]:
+    """Around ``proc.run()`` of ``rig acquire`` (``options``: its arguments ``procedure``,
+    ``backend``, ``json``, ``f_max``): with ``json``, a run that began its recording and then
+    stopped (a signal, Ctrl-C) or failed prints its :func:`result_document` (status ``aborted`` or
+    ``failed``, the reason, the file, the points recorded so far) before the exception goes on to
+    its one line. A run refused before recording (no NI-DAQmx) prints none: its line says it all."""
+    try:
+        yield
+    except (KeyboardInterrupt, Exception):
+        if options.get("json") and getattr(proc, "writer", None) is not None and proc.result is not None:
+            name, backend = str(options["procedure"]), str(options["backend"])
+            ended = RunResult.from_procedure(name, proc.result, proc.out)
+            try:
+                doc = result_document(name, backend, proc, ended, options.get("f_max") or "2 kHz")
+            except Exception:  # noqa: BLE001 - a partial run's detail failed: the run's error goes on
+                doc = {"file": str(proc.out), "status": ended.status.value, "reason": ended.reason}
+                doc.update({"backend": backend, "procedure": name})
+            print(json_values.dumps(doc), flush=True)
+        raise

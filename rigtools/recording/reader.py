@@ -224,6 +224,12 @@ class Point:
         return bool(self.end_time)
 
     @property
+    def stopped(self) -> bool:
+        """True if the procedure was stopped inside this point (``point_complete`` false): the
+        writer may have ended it (:attr:`complete` true), but its record is cut short."""
+        return self.params.get("point_complete", True) is False
+
+    @property
     def n_samples(self) -> int:
         """Samples per channel (the shortest channel, if a killed writer left them uneven)."""
         return min((len(c) for c in self.channels.values()), default=0)

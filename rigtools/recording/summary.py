@@ -85,10 +85,27 @@ def point_state(rec: Recording, point: Point) -> str:
     ``point_complete`` false, as the monitor says), ``in progress`` (the live writer's open
     point) or ``incomplete``."""
     if point.complete:
-        return "stopped" if point.params.get("point_complete", True) is False else "complete"
+        return "stopped" if point.stopped else "complete"
     if rec.writer is not None and rec.points and point is rec.points[-1]:
         return "in progress"
     return "incomplete"
+
+
+def left_out_lines(points: list[Point]) -> list[str]:
+    """One line per reason naming the points an export leaves out, because their record is not
+    a whole measurement: cut off (their writer never ended them) or stopped inside
+    (:attr:`Point.stopped <rigtools.recording.reader.Point.stopped>`). Empty if none."""
+    cut = [p.index for p in points if not p.complete]
+    stopped = [p.index for p in points if p.complete and p.stopped]
+    lines = []
+    for indices, why in (
+        (cut, "its writer never ended it (the run was cut off), its record is incomplete"),
+        (stopped, "the run was stopped inside it (point_complete false), its record is cut short"),
+    ):
+        if indices:
+            names = ", ".join(str(i) for i in indices)
+            lines.append(f"point{'s' if len(indices) > 1 else ''} {names} not exported: {why}")
+    return lines
 
 
 def format_value(value: Any) -> str:
