@@ -145,6 +145,17 @@ LIST_EXAMPLE = {
 _PLURAL = {"gap": "gaps", "force": "forces", "frequency": "frequencies", "amplitude": "amplitudes"}
 
 
+def comma_items(text: str, option: str) -> list[str]:
+    """The items of a comma list ``"a,b,c"``, each stripped; an empty one (``"a,,b"``, a comma at
+    an end) is one line naming ``option``, the text and the item, never a silently shorter list."""
+    parts = text.split(",")
+    empty = [i for i, p in enumerate(parts, 1) if not p.strip()]
+    if empty:
+        where = "two commas in a row" if 1 < empty[0] < len(parts) else "a comma at an end"
+        raise UserError(f"{option} = {text!r}: item {empty[0]} is empty ({where})")
+    return [p.strip() for p in parts]
+
+
 def value_list(
     text: str, kind: str, option: str = "--values", *, minimum: int = 1, positive: bool = False
 ) -> list[float]:
@@ -170,14 +181,9 @@ def value_list(
             raise UserError(f"{option} = {text!r}: {n} points is too many (at most {MAX_POINTS})")
         values = [start + i * step for i in range(n)]
     else:
-        parts = text.split(",")
         if not text:
             raise UserError(f"{option}: give at least one value")
-        empty = [i for i, p in enumerate(parts, 1) if not p.strip()]
-        if empty:  # "0.32 mm,,0.33 mm": a value left out, never a silent shorter list
-            where = "two commas in a row" if 1 < empty[0] < len(parts) else "a comma at an end"
-            raise UserError(f"{option} = {text!r}: item {empty[0]} is empty ({where})")
-        values = [one(p) for p in parts]
+        values = [one(p) for p in comma_items(text, option)]
         if len(values) > MAX_POINTS:
             raise UserError(f"{option}: {len(values)} points is too many (at most {MAX_POINTS})")
     strict = positive or kind in ("frequency", "amplitude")

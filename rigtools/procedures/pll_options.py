@@ -13,8 +13,8 @@ from collections.abc import Mapping
 from typing import Any
 
 from rigtools.errors import UserError
+from rigtools.options import comma_items, quantity, value_list
 from rigtools.options import gap as gap_option
-from rigtools.options import quantity, value_list
 from rigtools.sim.phase_points import linear_phase_resonance
 from rigtools.sim.reduction import reduced_system
 
@@ -48,10 +48,9 @@ def angle_option(text: str, option: str) -> float:
 
 def phases_option(text: str, option: str = "--phase") -> list[float]:
     """A comma list of angles (:func:`angle_option`), degrees."""
-    parts = [p for p in str(text).split(",") if p.strip()]
-    if not parts:
+    if not str(text).replace(",", "").strip():
         raise UserError(f"{option} = {text!r}: give at least one phase")
-    return [angle_option(p, option) for p in parts]
+    return [angle_option(p, option) for p in comma_items(str(text), option)]
 
 
 def start_frequency(cfg: Any, phase_deg: float) -> float:

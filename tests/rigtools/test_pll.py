@@ -343,3 +343,22 @@ def test_a_reversed_frequency_range_is_named(tmp_path, f_min, f_max):
     code, _, err = run_cli([*argv, "--f-min", f_min, "--f-max", f_max])
     assert code == 2 and len(err.strip().splitlines()) == 1
     assert f"--f-min {f_min.split()[0]} Hz must be below --f-max {f_max.split()[0]} Hz" in err, err
+
+
+@pytest.mark.parametrize(
+    ("phase", "item"),
+    [
+        ("-90 deg,,-80 deg", "item 2 is empty (two commas in a row)"),
+        ("-90 deg,", "item 2 is empty (a comma at an end)"),
+    ],
+)
+def test_an_empty_phase_item_is_refused(tmp_path, phase, item):
+    """An empty item in ``--phase`` (``"-90 deg,,-80 deg"``) is one line naming it, as every value
+    list (rigtools.options.comma_items); was dropped silently and a shorter list run."""
+    out = tmp_path / "x.h5"
+    code, _, err = run_cli(
+        ["acquire", "pll", "--backend", "sim", "--force", "1 N", "--phase", phase, "--out", out]
+    )
+    assert code == 2 and len(err.strip().splitlines()) == 1
+    assert err.strip().endswith(f"--phase = {phase!r}: {item}")
+    assert not out.exists()
