@@ -173,6 +173,9 @@ def value_list(
         parts = text.split(":")
         if len(parts) != 3:
             raise UserError(f"{option} = {text!r}: write start:stop:step")
+        empty = [name for name, p in zip(("start", "stop", "step"), parts, strict=True) if not p.strip()]
+        if empty:  # "0.3 mm:0.9 mm:": else the line quotes '' alone, not the list it came from
+            raise UserError(f"{option} = {text!r}: the {empty[0]} is empty (write start:stop:step)")
         start, stop, step = (one(p) for p in parts)
         if not step > 0 or stop < start:
             raise UserError(f"{option} = {text!r}: need step > 0 and stop >= start")

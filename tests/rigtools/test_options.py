@@ -404,3 +404,20 @@ def test_cbc_tolerance_reads_a_percentage(text, value):
     assert build_parser().parse_args(args).tolerance == pytest.approx(
         value, rel=1e-12
     )  # exact up to rounding
+
+
+@pytest.mark.parametrize(
+    ("text", "empty"),
+    [
+        ("340 Hz:350 Hz:", "step"),
+        (":350 Hz:2 Hz", "start"),
+        ("340 Hz::2 Hz", "stop"),
+        ("340 Hz: :2 Hz", "stop"),
+    ],
+)
+def test_an_empty_part_of_a_range_names_the_range(text, empty):
+    """``"340 Hz:350 Hz:"`` (a step left out) is one line quoting the list given and naming the empty
+    part; was ``--frequencies = '': cannot read '' as a quantity`` (the list itself not quoted)."""
+    with pytest.raises(UserError) as info:
+        options.value_list(text, "frequency", "--frequencies", minimum=2)
+    assert str(info.value) == f"--frequencies = {text!r}: the {empty} is empty (write start:stop:step)"
