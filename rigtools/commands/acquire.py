@@ -7,6 +7,7 @@ Top-level imports stay light (``rig --help``).
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 
 from rigtools import json_values
@@ -91,7 +92,9 @@ def run(args: argparse.Namespace) -> int:
     except KeyboardInterrupt as exc:
         _exit_interrupted(proc, getattr(exc, "exit_code", EXIT_SIGINT))
     sys.stderr.write("".join(f"rig acquire {args.procedure}: {x}\n" for x in getattr(proc, "lost", [])))
-    doc = opts.result_document(args.procedure, args.backend, proc, result, getattr(args, "f_max", "2 kHz"))
+    f_max = getattr(args, "f_max", "2 kHz")
+    with opts.document_if_ended(vars(args), proc):  # a stop in the analysis: the document without it
+        doc = opts.result_document(args.procedure, args.backend, proc, result, f_max)
     if args.json:
         print(json_values.dumps(doc))
     else:
@@ -108,11 +111,8 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _exit_interrupted(proc, code: int) -> None:
-    """Ctrl-C or a signal: the drive is at zero and the recording closed with status aborted.
-    Say so in one line and leave at once (exit ``code``: 130 Ctrl-C, 143 SIGTERM, 129 SIGHUP): the
-    interpreter's own teardown of the numeric libraries takes about a second, and nothing is left to do."""
-    import os
-
+    """Ctrl-C or a signal: the drive is at zero, the recording closed with status aborted. Say so in one
+    line, leave at once (130 Ctrl-C, 143 SIGTERM, 129 SIGHUP): the interpreter's teardown takes a second."""
     reason = proc.result.reason if proc.result is not None else "interrupted"
     print(
         f"rig acquire: interrupted ({reason}); drive ramped to zero; {proc.out} kept with status aborted",

@@ -363,17 +363,20 @@ def document_if_ended(options: Mapping[str, Any], proc: Any) -> Iterator[None]:
     ``backend``, ``json``, ``f_max``): with ``json``, a run that began its recording and then
     stopped (a signal, Ctrl-C) or failed prints its :func:`result_document` (status ``aborted`` or
     ``failed``, the reason, the file, the points recorded so far) before the exception goes on to
-    its one line. A run refused before recording (no NI-DAQmx) prints none: its line says it all."""
+    its one line. A run refused before recording (no NI-DAQmx) prints none: its line says it all.
+    Around the analysis of a finished run (``result_document``): a stop there prints the document
+    without the analysis (status ``finished``: the recording is whole), not the analysis again."""
     try:
         yield
     except (KeyboardInterrupt, Exception):
         if options.get("json") and getattr(proc, "writer", None) is not None and proc.result is not None:
             name, backend = str(options["procedure"]), str(options["backend"])
             ended = RunResult.from_procedure(name, proc.result, proc.out)
-            try:
-                doc = result_document(name, backend, proc, ended, options.get("f_max") or "2 kHz")
-            except Exception:  # noqa: BLE001 - a partial run's detail failed: the run's error goes on
-                doc = {"file": str(proc.out), "status": ended.status.value, "reason": ended.reason}
-                doc.update({"backend": backend, "procedure": name})
+            doc = {"file": str(proc.out), "status": ended.status.value, "reason": ended.reason}
+            doc.update({"backend": backend, "procedure": name})
+            if ended.status != "finished":  # finished: stopped in its analysis, never run it again
+                # a partial run's detail that fails leaves the short document: the run's error goes on
+                with contextlib.suppress(Exception):
+                    doc = result_document(name, backend, proc, ended, options.get("f_max") or "2 kHz")
             print(json_values.dumps(doc), flush=True)
         raise

@@ -275,3 +275,39 @@ def test_info_shows_the_units_of_the_other_parameters(tmp_path, monkeypatch):
         "converged=yes",
     ):
         assert shown in text, (shown, out)
+
+
+def test_json_of_a_run_stopped_in_its_analysis_is_the_finished_document(tmp_path, monkeypatch):
+    """SIGTERM after the run finished, while its document is computed (a tap test's modal
+    analysis, an FRF check: seconds on lab data): exit 143 and one line as for any signal, and
+    stdout still one JSON document, status finished as the recording says, without the analysis
+    the signal cut (it is not run a second time); was nothing on stdout. The signal is raised
+    where the analysis runs (result_document), as the stop handler raises it."""
+    import signal
+
+    from cli_helpers import acquire_dwell
+
+    from rigtools.errors import Interrupted
+    from rigtools.procedures import from_options
+    from rigtools.recording import open_recording
+
+    calls = []
+
+    def stopped_in_analysis(*args, **kwargs):
+        calls.append(args[0])
+        raise Interrupted(signal.SIGTERM)
+
+    monkeypatch.setattr(from_options, "result_document", stopped_in_analysis)
+    out = tmp_path / "d.h5"
+    code, stdout, err = run_cli([*acquire_dwell(periods=20), "--out", out, "--json"])
+    assert code == 143 and "SIGTERM" in _one_line(err)
+    assert json.loads(stdout) == {
+        "file": str(out),
+        "status": "finished",
+        "reason": "",
+        "backend": "sim",
+        "procedure": "dwell",
+    }
+    assert calls == ["dwell"]
+    with open_recording(out) as rec:
+        assert rec.status == "complete"
