@@ -38,6 +38,7 @@ from rigtools.procedures.rig import sim_only
 from rigtools.procedures.rig_study import RigStudy
 from rigtools.procedures.sweep import SteppedSine
 from rigtools.procedures.tap import TapTest, analyze_tap_recording
+from rigtools.runtime import silence_stdout
 
 PROCEDURES = ("dwell", "sweep", "study", "frf", "tap", "pll", "cbc")
 TAP_F_MIN_HZ = 5.0
@@ -378,5 +379,8 @@ def document_if_ended(options: Mapping[str, Any], proc: Any) -> Iterator[None]:
                 # a partial run's detail that fails leaves the short document: the run's error goes on
                 with contextlib.suppress(Exception):
                     doc = result_document(name, backend, proc, ended, options.get("f_max") or "2 kHz")
-            print(json_values.dumps(doc), flush=True)
+            try:
+                print(json_values.dumps(doc), flush=True)
+            except BrokenPipeError:  # stdout's reader went away: the stop's own line and status go on
+                silence_stdout()
         raise

@@ -311,3 +311,26 @@ def test_json_of_a_run_stopped_in_its_analysis_is_the_finished_document(tmp_path
     assert calls == ["dwell"]
     with open_recording(out) as rec:
         assert rec.status == "complete"
+
+
+def test_a_failed_json_run_whose_reader_went_away_keeps_its_status_and_line(tmp_path):
+    """``rig acquire dwell ... --json | head`` with the reader gone: the run failed (exit 5), its
+    document cannot be written; the exit status is still 5 and the failure's one line is on
+    stderr (was 141 and no line: the closed pipe while printing the document hid the failure)."""
+    import contextlib
+    import io
+
+    from cli_helpers import acquire_dwell
+
+    from rigtools.cli import main
+
+    class ClosedPipe(io.StringIO):
+        def write(self, text: str) -> int:
+            raise BrokenPipeError(32, "Broken pipe")
+
+    err = io.StringIO()
+    argv = [*acquire_dwell(force="1 kN"), "--out", str(tmp_path / "f.h5"), "--json"]
+    with contextlib.redirect_stdout(ClosedPipe()), contextlib.redirect_stderr(err):
+        code = main([str(a) for a in argv])
+    assert code == 5
+    assert "cannot be reached at 60 Hz" in _one_line(err.getvalue())
