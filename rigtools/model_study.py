@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from rigtools.errors import Interrupted, UserError, exit_status_help, one_line
-from rigtools.options import MAX_POINTS, gap, quantity, value_list
+from rigtools.options import MAX_POINTS, gap, quantity, swept_not_fixed, value_list
 
 EPILOG = (
     """\
@@ -119,6 +119,7 @@ def study_plan(
         if values is None:
             raise UserError(f'rig study {kind} needs --values, e.g. --values "0.3 mm:0.9 mm:0.1 mm"')
         swept = value_list(values, kind, "--values")
+        swept_not_fixed(kind, {"--fe": fe, "--force": force, "--gap": gap_value})
         fixed: dict[str, float] = {}
         if fe is not None:
             fixed["fe"] = quantity(fe, "frequency", "--fe")

@@ -13,8 +13,9 @@ import argparse
 import math
 import os
 import re
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from pathlib import Path
+from typing import Any
 
 from rigtools.derived_files import is_derived_plot
 from rigtools.errors import UserError
@@ -143,6 +144,27 @@ LIST_EXAMPLE = {
     "amplitude": "0.300 mm:0.360 mm:0.005 mm",
 }
 _PLURAL = {"gap": "gaps", "force": "forces", "frequency": "frequencies", "amplitude": "amplitudes"}
+
+
+#: the option that holds each study kind's swept quantity fixed, where the study is not of it
+SWEPT_OPTION = {"gap": "--gap", "force": "--force", "frequency": "--fe"}
+
+
+def swept_not_fixed(kind: str, fixed: Mapping[str, Any]) -> None:
+    """A study's swept quantity also given as a fixed option (``--force "3 N"`` in a force study)
+    would be ignored: one line naming it. ``fixed``: option -> value given (``None``: not given).
+
+    Raises
+    ------
+    UserError
+        ``fixed[SWEPT_OPTION[kind]]`` is given.
+    """
+    option = SWEPT_OPTION.get(kind, "")
+    if fixed.get(option) is not None:
+        raise UserError(
+            f"{option} = {fixed[option]!r}: a {kind} study sweeps the {_PLURAL[kind]} given by --values; "
+            f"leave {option} out (it would be ignored)"
+        )
 
 
 def comma_items(text: str, option: str) -> list[str]:

@@ -23,7 +23,7 @@ from rigtools.drivers.contracts import ConfigurationError
 from rigtools.drivers.realtime_pll import NO_REALTIME_PLL
 from rigtools.drivers.simulated import Fault
 from rigtools.errors import UserError
-from rigtools.options import band_option, quantity, value_list
+from rigtools.options import band_option, quantity, swept_not_fixed, value_list
 from rigtools.options import gap as _gap_text
 from rigtools.procedures.cbc_door import OPTIONS as CBC_OPTIONS
 from rigtools.procedures.cbc_door import from_options as cbc_from_options
@@ -210,6 +210,7 @@ def _build(
         below_nyquist(params["frequencies"], rate, "--frequencies", o["frequencies"])
         return SteppedSine(cfg, _periods(params, o), out, **run_options)
     if name == "study":
+        swept_not_fixed(o["kind"], {"--fe": o.get("fe"), "--force": o.get("force"), "--gap": o.get("gap")})
         params = {
             "kind": o["kind"],
             "values": _grid(o["values"], o["kind"], "--values"),

@@ -421,3 +421,28 @@ def test_an_empty_part_of_a_range_names_the_range(text, empty):
     with pytest.raises(UserError) as info:
         options.value_list(text, "frequency", "--frequencies", minimum=2)
     assert str(info.value) == f"--frequencies = {text!r}: the {empty} is empty (write start:stop:step)"
+
+
+@pytest.mark.parametrize("command", [["acquire", "study"], ["study"]])
+@pytest.mark.parametrize(
+    ("kind", "values", "option", "value"),
+    [
+        ("force", "5 N,10 N", "--force", "3 N"),
+        ("gap", "0.3 mm,0.5 mm", "--gap", "0.9 mm"),
+        ("frequency", "50 Hz,60 Hz", "--fe", "3 Hz"),
+    ],
+)
+def test_a_studys_swept_quantity_given_fixed_is_refused(tmp_path, command, kind, values, option, value):
+    """``rig acquire study force --values "5 N,10 N" --force "3 N"``: the fixed --force of a
+    force study was ignored silently (the study ran 5 N and 10 N); now one line naming it, exit 2,
+    no file (options.swept_not_fixed), in the rig's study and the model's alike."""
+    from cli_helpers import run_cli
+
+    out = tmp_path / "s.h5"
+    backend = ["--backend", "sim", "--yes"] if command[0] == "acquire" else []
+    code, stdout, err = run_cli([*command, kind, "--values", values, option, value, *backend, "--out", out])
+    assert (code, stdout) == (2, "")
+    plural = {"force": "forces", "gap": "gaps", "frequency": "frequencies"}[kind]
+    line = f"rig {command[0]}: error: {option} = {value!r}: a {kind} study sweeps the {plural} given by --values; "
+    assert err.strip().splitlines() == [line + f"leave {option} out (it would be ignored)"]
+    assert list(tmp_path.iterdir()) == []
