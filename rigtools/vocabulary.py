@@ -279,6 +279,20 @@ CONTROLLED_PARAMETER_UNITS: dict[str, str] = {
 }
 
 
+#: SI units of the tap and FRF tests' point parameters (``rig acquire tap``:
+#: ``rigtools.procedures.tap.TapTest.begin_hit``/``end_hit``; ``rig acquire frf``:
+#: ``rigtools.procedures.frf``), which neither table above holds.
+TEST_PARAMETER_UNITS: dict[str, str] = {
+    "position": "m",  # the hit's distance from the blade root
+    "trigger_level": "N",  # on the hammer force
+    "trigger_time": "s",  # from the start of the acquisition
+    "hit_peak_force": "N",
+    "band_low": "Hz",
+    "band_high": "Hz",
+    "drive_level": "V",  # RMS within bursts, or the chirp's peak
+}
+
+
 def parameter_units(name: str) -> str:
     """SI units of point parameter ``name`` where the vocabulary defines them, else ``""``.
 
@@ -288,7 +302,9 @@ def parameter_units(name: str) -> str:
     ('m', 'm', '')
     """
     term = PARAMETERS.get(name)
-    return term.units if term is not None else CONTROLLED_PARAMETER_UNITS.get(name, "")
+    if term is not None:
+        return term.units
+    return CONTROLLED_PARAMETER_UNITS.get(name) or TEST_PARAMETER_UNITS.get(name, "")
 
 
 # Schema v1 files written before this vocabulary: old name -> current name. The old

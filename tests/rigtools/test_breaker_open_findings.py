@@ -5,6 +5,7 @@ known arrays (``test_bad_input._write_recording``: two points of 60/61 Hz sines)
 from __future__ import annotations
 
 import json
+import re
 
 import h5py
 import pytest
@@ -334,3 +335,38 @@ def test_a_failed_json_run_whose_reader_went_away_keeps_its_status_and_line(tmp_
         code = main([str(a) for a in argv])
     assert code == 5
     assert "cannot be reached at 60 Hz" in _one_line(err.getvalue())
+
+
+def test_info_shows_the_units_of_tap_and_frf_parameters(tmp_path, monkeypatch):
+    """The tap test's and FRF test's parameters without a column of their own also carry their
+    SI units (vocabulary.TEST_PARAMETER_UNITS; units from the procedures' fields: position m,
+    trigger N, level V, band Hz); were bare numbers (position=0.085, band_low=20) after the
+    CBC/PLL ones got theirs. Counts and flags stay bare."""
+    path = _write_recording(tmp_path / "t.h5")
+    with h5py.File(path, "r+") as f:
+        tap, frf = f["points/0000"].attrs, f["points/0001"].attrs
+        tap["position"] = 0.085
+        tap["trigger_level"] = 5.0
+        tap["trigger_time"] = 0.3
+        tap["hit_peak_force"] = 20.5
+        tap["pretrigger_samples"] = 512
+        frf["band_low"] = 20.0
+        frf["band_high"] = 500.0
+        frf["drive_level"] = 0.3
+        frf["averages"] = 10
+    monkeypatch.setenv("COLUMNS", "400")  # a wide table: each point's cell on one line
+    code, out, err = run_cli(["info", path])
+    assert code == 0, err
+    text = " ".join(out.split())
+    for shown in (
+        "position=0.085 m",
+        "trigger_level=5 N",
+        "trigger_time=0.3 s",
+        "hit_peak_force=20.5 N",
+        "band_low=20 Hz",
+        "band_high=500 Hz",
+        "drive_level=0.3 V",
+    ):
+        assert shown in text, (shown, out)
+    for bare in ("pretrigger_samples=512", "averages=10"):  # a count: no unit after it
+        assert re.search(re.escape(bare) + r"(,| │)", text), (bare, out)
