@@ -6,6 +6,8 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+from rigtools.runtime import silence_stdout
+
 
 def json_default(value: Any) -> Any:
     """``json.dumps(..., default=json_default)``: a numpy scalar as its Python value, an array as a
@@ -66,3 +68,13 @@ def dumps(doc: Any, **kwargs: Any) -> str:
         if more:
             clean["json_notes"].append(more.strip())
     return json.dumps(clean, default=json_default, allow_nan=False, **kwargs)
+
+
+def print_document(doc: Any) -> None:
+    """``doc`` as one line of JSON on stdout, flushed (a command's ``--json`` document); a reader
+    that went away (``rig ... --json | head``) leaves stdout pointed at the null device
+    (:func:`rigtools.runtime.silence_stdout`), so the command's own line and status still follow."""
+    try:
+        print(dumps(doc), flush=True)
+    except BrokenPipeError:
+        silence_stdout()

@@ -85,7 +85,7 @@ def run(args: argparse.Namespace) -> int:
         with (
             ProcedureProgress(args.procedure, enabled=not args.json) as display,
             monitor_beside(args, out, proc, display.event) as progress,
-            opts.document_if_ended(vars(args), proc),
+            opts.document_if_ended(vars(args), proc, json_values.print_document),
         ):
             proc._progress = progress
             result = proc.run()
@@ -93,10 +93,10 @@ def run(args: argparse.Namespace) -> int:
         _exit_interrupted(proc, getattr(exc, "exit_code", EXIT_SIGINT))
     sys.stderr.write("".join(f"rig acquire {args.procedure}: {x}\n" for x in getattr(proc, "lost", [])))
     f_max = getattr(args, "f_max", "2 kHz")
-    with opts.document_if_ended(vars(args), proc):  # a stop in the analysis: the document without it
+    with opts.document_if_ended(vars(args), proc, json_values.print_document):  # a stop in the analysis
         doc = opts.result_document(args.procedure, args.backend, proc, result, f_max)
     if args.json:
-        print(json_values.dumps(doc))
+        json_values.print_document(doc)
     else:
         from rich.console import Console
 

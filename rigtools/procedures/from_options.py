@@ -17,7 +17,6 @@ from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any, TypeVar
 
-from rigtools import json_values
 from rigtools.analysis.frf import MIN_FRAME_SAMPLES
 from rigtools.drivers.contracts import ConfigurationError
 from rigtools.drivers.realtime_pll import NO_REALTIME_PLL
@@ -38,7 +37,6 @@ from rigtools.procedures.rig import sim_only
 from rigtools.procedures.rig_study import RigStudy
 from rigtools.procedures.sweep import SteppedSine
 from rigtools.procedures.tap import TapTest, analyze_tap_recording
-from rigtools.runtime import silence_stdout
 
 PROCEDURES = ("dwell", "sweep", "study", "frf", "tap", "pll", "cbc")
 TAP_F_MIN_HZ = 5.0
@@ -360,10 +358,13 @@ def result_document(name: str, backend: str, proc: Any, result: Any, f_max: str 
 
 
 @contextlib.contextmanager
-def document_if_ended(options: Mapping[str, Any], proc: Any) -> Iterator[None]:
+def document_if_ended(
+    options: Mapping[str, Any], proc: Any, emit: Callable[[dict[str, Any]], None]
+) -> Iterator[None]:
     """Around ``proc.run()`` of ``rig acquire`` (``options``: its arguments ``procedure``,
     ``backend``, ``json``, ``f_max``): with ``json``, a run that began its recording and then
-    stopped (a signal, Ctrl-C) or failed prints its :func:`result_document` (status ``aborted`` or
+    stopped (a signal, Ctrl-C) or failed gives ``emit`` (the command's printer) its
+    :func:`result_document` (status ``aborted`` or
     ``failed``, the reason, the file, the points recorded so far) before the exception goes on to
     its one line. A run refused before recording (no NI-DAQmx) prints none: its line says it all.
     Around the analysis of a finished run (``result_document``): a stop there prints the document
@@ -380,8 +381,5 @@ def document_if_ended(options: Mapping[str, Any], proc: Any) -> Iterator[None]:
                 # a partial run's detail that fails leaves the short document: the run's error goes on
                 with contextlib.suppress(Exception):
                     doc = result_document(name, backend, proc, ended, options.get("f_max") or "2 kHz")
-            try:
-                print(json_values.dumps(doc), flush=True)
-            except BrokenPipeError:  # stdout's reader went away: the stop's own line and status go on
-                silence_stdout()
+            emit(doc)
         raise
