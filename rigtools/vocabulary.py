@@ -263,11 +263,13 @@ PARAMETERS: dict[str, ParameterTerm] = _table(
     ),
 )
 
-#: SI units of the controlled tests' point parameters that :data:`PARAMETERS` does not hold
+#: SI units of the point parameters that :data:`PARAMETERS` does not hold: the controlled tests'
 #: (``rig acquire pll``: ``rigtools.procedures.pll.point_attrs``; ``rig acquire cbc``:
-#: ``rigtools.procedures.cbc.CBCPoint.attrs``). Names ending in their unit (``amplitude_m``,
-#: ``fe_hz``, ``force_fundamental_n``, ``phase_deg``) say it; ratios, counts and flags have none.
-CONTROLLED_PARAMETER_UNITS: dict[str, str] = {
+#: ``rigtools.procedures.cbc.CBCPoint.attrs``) and the tap and FRF tests' (``rig acquire tap``:
+#: ``rigtools.procedures.tap.TapTest.begin_hit``/``end_hit``; ``rig acquire frf``:
+#: ``rigtools.procedures.frf``). Names ending in their unit (``amplitude_m``, ``fe_hz``,
+#: ``force_fundamental_n``, ``phase_deg``) say it; ratios, counts and flags have none.
+POINT_PARAMETER_UNITS: dict[str, str] = {
     "amplitude_target": "m",  # the target's fundamental, peak
     "feedforward_amplitude": "V",
     "control_effort": "V",  # RMS of the control term over the measurement
@@ -276,13 +278,6 @@ CONTROLLED_PARAMETER_UNITS: dict[str, str] = {
     "phase_error_rms": "deg",
     "release_seconds": "s",
     "release_growth_rate": "1/s",
-}
-
-
-#: SI units of the tap and FRF tests' point parameters (``rig acquire tap``:
-#: ``rigtools.procedures.tap.TapTest.begin_hit``/``end_hit``; ``rig acquire frf``:
-#: ``rigtools.procedures.frf``), which neither table above holds.
-TEST_PARAMETER_UNITS: dict[str, str] = {
     "position": "m",  # the hit's distance from the blade root
     "trigger_level": "N",  # on the hammer force
     "trigger_time": "s",  # from the start of the acquisition
@@ -304,7 +299,7 @@ def parameter_units(name: str) -> str:
     term = PARAMETERS.get(name)
     if term is not None:
         return term.units
-    return CONTROLLED_PARAMETER_UNITS.get(name) or TEST_PARAMETER_UNITS.get(name, "")
+    return POINT_PARAMETER_UNITS.get(name, "")
 
 
 # Schema v1 files written before this vocabulary: old name -> current name. The old

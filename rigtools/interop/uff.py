@@ -330,7 +330,7 @@ def recording_functions(
     unplaced: list[int] = []  # nodes given here to an imported recording's unplaced channels
     response_only: list[int] = []
     for point in recording.points:
-        if complete_only and (not point.complete or point.stopped):
+        if complete_only and not point.whole:
             continue
         n = point.n_samples
         if n < 2:
@@ -593,7 +593,7 @@ def file_functions(
         if notes is not None:
             notes.extend(rec.notes)  # what --skip-damaged left out of a damaged file
         # cut off or stopped inside: never passed on as data
-        skipped = [p.index for p in rec.points if not p.complete or p.stopped]
+        skipped = [p.index for p in rec.points if not p.whole]
         if left_out is not None:
             left_out.extend(left_out_lines(rec.points))
         if len(skipped) == len(rec.points):

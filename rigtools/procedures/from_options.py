@@ -364,9 +364,8 @@ def document_if_ended(
     """Around ``proc.run()`` of ``rig acquire`` (``options``: its arguments ``procedure``,
     ``backend``, ``json``, ``f_max``): with ``json``, a run that began its recording and then
     stopped (a signal, Ctrl-C) or failed gives ``emit`` (the command's printer) its
-    :func:`result_document` (status ``aborted`` or
-    ``failed``, the reason, the file, the points recorded so far) before the exception goes on to
-    its one line. A run refused before recording (no NI-DAQmx) prints none: its line says it all.
+    :func:`result_document` (status ``aborted`` or ``failed``, the reason, the file, the points
+    recorded so far) before the exception goes on to its one line. A run refused before recording (no NI-DAQmx) prints none: its line says it all.
     Around the analysis of a finished run (``result_document``): a stop there prints the document
     without the analysis (status ``finished``: the recording is whole), not the analysis again."""
     try:

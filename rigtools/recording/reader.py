@@ -230,6 +230,12 @@ class Point:
         return self.params.get("point_complete", True) is False
 
     @property
+    def whole(self) -> bool:
+        """True if the point's record is whole: ended by its writer (:attr:`complete`) and not
+        stopped inside (:attr:`stopped`); what is passed on as data (``rig export``)."""
+        return self.complete and not self.stopped
+
+    @property
     def n_samples(self) -> int:
         """Samples per channel (the shortest channel, if a killed writer left them uneven)."""
         return min((len(c) for c in self.channels.values()), default=0)

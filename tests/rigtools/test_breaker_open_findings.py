@@ -248,6 +248,17 @@ def test_json_of_a_dwell_stopped_by_sigterm(tmp_path):
 
 
 # ---------------------------------------- 7: rig info's other parameters with their units
+
+
+def _info_text(path, monkeypatch) -> str:
+    """``rig info path``'s output in a wide table (each point's cell on one line), whitespace
+    runs joined to one space; the command must succeed."""
+    monkeypatch.setenv("COLUMNS", "400")
+    code, out, err = run_cli(["info", path])
+    assert code == 0, err
+    return " ".join(out.split())
+
+
 def test_info_shows_the_units_of_the_other_parameters(tmp_path, monkeypatch):
     """A CBC point's parameters that have no column of their own are shown with the SI units
     the vocabulary gives them (amplitude_target in m, feedforward_amplitude in V, ...); ratios and
@@ -262,10 +273,7 @@ def test_info_shows_the_units_of_the_other_parameters(tmp_path, monkeypatch):
         attrs["release_growth_rate"] = 3.5
         attrs["drive_harmonics_ratio"] = 0.004
         attrs["converged"] = True
-    monkeypatch.setenv("COLUMNS", "400")  # a wide table: each point's cell on one line
-    code, out, err = run_cli(["info", path])
-    assert code == 0, err
-    text = " ".join(out.split())
+    text = _info_text(path, monkeypatch)
     for shown in (
         "amplitude_target=0.00032 m",
         "feedforward_amplitude=1.25 V",
@@ -275,7 +283,7 @@ def test_info_shows_the_units_of_the_other_parameters(tmp_path, monkeypatch):
         "drive_harmonics_ratio=0.004,",
         "converged=yes",
     ):
-        assert shown in text, (shown, out)
+        assert shown in text, (shown, text)
 
 
 def test_json_of_a_run_stopped_in_its_analysis_is_the_finished_document(tmp_path, monkeypatch):
@@ -339,7 +347,7 @@ def test_a_failed_json_run_whose_reader_went_away_keeps_its_status_and_line(tmp_
 
 def test_info_shows_the_units_of_tap_and_frf_parameters(tmp_path, monkeypatch):
     """The tap test's and FRF test's parameters without a column of their own also carry their
-    SI units (vocabulary.TEST_PARAMETER_UNITS; units from the procedures' fields: position m,
+    SI units (vocabulary.POINT_PARAMETER_UNITS; units from the procedures' fields: position m,
     trigger N, level V, band Hz); were bare numbers (position=0.085, band_low=20) after the
     CBC/PLL ones got theirs. Counts and flags stay bare."""
     path = _write_recording(tmp_path / "t.h5")
@@ -354,10 +362,7 @@ def test_info_shows_the_units_of_tap_and_frf_parameters(tmp_path, monkeypatch):
         frf["band_high"] = 500.0
         frf["drive_level"] = 0.3
         frf["averages"] = 10
-    monkeypatch.setenv("COLUMNS", "400")  # a wide table: each point's cell on one line
-    code, out, err = run_cli(["info", path])
-    assert code == 0, err
-    text = " ".join(out.split())
+    text = _info_text(path, monkeypatch)
     for shown in (
         "position=0.085 m",
         "trigger_level=5 N",
@@ -367,6 +372,6 @@ def test_info_shows_the_units_of_tap_and_frf_parameters(tmp_path, monkeypatch):
         "band_high=500 Hz",
         "drive_level=0.3 V",
     ):
-        assert shown in text, (shown, out)
+        assert shown in text, (shown, text)
     for bare in ("pretrigger_samples=512", "averages=10"):  # a count: no unit after it
-        assert re.search(re.escape(bare) + r"(,| │)", text), (bare, out)
+        assert re.search(re.escape(bare) + r"(,| │)", text), (bare, text)
